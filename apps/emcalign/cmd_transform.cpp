@@ -1,0 +1,131 @@
+// emcalign transform: the alignment transform of SPEC §4 on points read from stdin.
+//
+//   stdin:  x_cm,y_cm,z_cm            (header line required; '#' lines are comments)
+//   stdout: x_cm,y_cm,z_cm,hemisphere (17 significant digits)
+// Forward (nominal → actual): the hemisphere is --hemisphere, or the sign of x of the input.
+// Inverse (actual → nominal): the hemisphere is --hemisphere, or found (auto); points in the
+// gap or in an overlap of the hemispheres are written with empty coordinates and the word
+// "gap" or "overlap" in the hemisphere column.
+
+#include <iostream>
+#include <memory>
+#include <string>
+
+#include <fmt/format.h>
+
+#include "common.hpp"
+#include "emcalign/core/units.hpp"
+#include "emcalign/geometry/alignment_transform.hpp"
+#include "emcalign/io/csv.hpp"
+#include "emcalign/io/json_files.hpp"
+
+namespace emcalign::app {
+
+namespace {
+
+using namespace emcalign::geometry;
+using units::cm;
+
+struct TransformOptions {
+  std::string params;
+  std::string detector;
+  bool inverse = false;
+  std::string hemisphere = "auto";
+  int layer = 1;
+};
+
+int run(const TransformOptions& o) {
+  auto calo = loadCalorimeter(o.detector);
+  if (!calo) return reportError(calo.error());
+  auto eta = io::readAlignment(o.params, calo->description().r1());
+  if (!eta) return reportError(eta.error());
+  for (const auto& w : warnings(*eta)) reportWarning(w);
+  auto transform = AlignmentTransform::create(*eta, AlignmentRadii::of(calo->description()));
+  if (!transform) return reportError(transform.error());
+  const Support support = supportOfLayer(o.layer);
+  std::optional<Hemisphere> fixed;
+  if (o.hemisphere == "+1" || o.hemisphere == "1") fixed = Hemisphere::Plus;
+  if (o.hemisphere == "-1") fixed = Hemisphere::Minus;
+
+  std::string out = "x_cm,y_cm,z_cm,hemisphere\n";
+  std::string line;
+  long lineNo = 0, gaps = 0, overlaps = 0;
+  bool header = false;
+  static constexpr const char* kColumns[] = {"x_cm", "y_cm", "z_cm"};
+  while (std::getline(std::cin, line)) {
+    ++lineNo;
+    if (io::isBlankOrComment(line)) continue;
+    const auto fields = io::splitCsvLine(line);
+    if (!header) {
+      if (fields.size() != 3 || fields[0] != "x_cm" || fields[1] != "y_cm" || fields[2] != "z_cm") {
+        return reportError({fmt::format("stdin, line {}: expected the header x_cm,y_cm,z_cm, got '{}'",
+                                        lineNo, line)});
+      }
+      header = true;
+      continue;
+    }
+    if (fields.size() != 3) {
+      return reportError({fmt::format("stdin, line {}: expected 3 columns (x_cm,y_cm,z_cm), got {}",
+                                      lineNo, fields.size())});
+    }
+    Vec3 p;
+    for (int i = 0; i < 3; ++i) {
+      const auto v = io::parseFiniteDouble(fields[static_cast<std::size_t>(i)]);
+      if (!v) {
+        return reportError({fmt::format("stdin, line {}, column '{}': not a finite number: '{}'",
+                                        lineNo, kColumns[i], fields[static_cast<std::size_t>(i)])});
+      }
+      p[i] = *v * cm;
+    }
+    Vec3 q;
+    Hemisphere h = Hemisphere::Plus;
+    if (!o.inverse) {
+      h = fixed.value_or(hemisphereOf(p.x()));
+      q = transform->forward(p, h, support);
+    } else if (fixed) {
+      h = *fixed;
+      q = transform->inverse(p, h, support);
+    } else {
+      const InverseResult r = transform->inverseAuto(p, support);
+      if (r.kind != InverseKind::Unique) {
+        const bool gap = r.kind == InverseKind::Gap;
+        (gap ? gaps : overlaps) += 1;
+        out += gap ? ",,,gap\n" : ",,,overlap\n";
+        continue;
+      }
+      h = r.hemisphere;
+      q = r.point;
+    }
+    out += fmt::format("{:.17g},{:.17g},{:.17g},{}\n", q.x() / cm, q.y() / cm, q.z() / cm, sign(h));
+  }
+  if (!header) return reportError({"stdin: no header line x_cm,y_cm,z_cm"});
+  fmt::print("{}", out);
+  if (gaps > 0) reportWarning(fmt::format("{} point(s) lie in the gap between the hemispheres", gaps));
+  if (overlaps > 0) reportWarning(fmt::format("{} point(s) lie where the hemispheres overlap", overlaps));
+  return 0;
+}
+
+}  // namespace
+
+void addTransformCommand(CLI::App& app, int& exitCode) {
+  auto opts = std::make_shared<TransformOptions>();
+  auto* cmd = app.add_subcommand(
+      "transform",
+      "Apply the alignment transform to points read as CSV x_cm,y_cm,z_cm on stdin "
+      "(forward: nominal EMC -> actual position in the TS frame)");
+  addVersionFlag(*cmd);
+  cmd->add_option("--params", opts->params, "alignment parameter file (JSON, SPEC §3)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  addDetectorOption(*cmd, opts->detector);
+  cmd->add_flag("--inverse", opts->inverse, "actual (TS frame) -> nominal EMC frame");
+  cmd->add_option("--hemisphere", opts->hemisphere,
+                  "auto (default: forward takes the sign of x of the input point, inverse finds "
+                  "the hemisphere whose pre-image lies on its own side), +1 or -1")
+      ->check(CLI::IsMember({"auto", "+1", "1", "-1"}));
+  cmd->add_option("--layer", opts->layer, "1 or 2 (support sphere 1), 3 (support sphere 2, mu3 rule)")
+      ->check(CLI::Range(1, 3));
+  cmd->callback([opts, &exitCode] { exitCode = run(*opts); });
+}
+
+}  // namespace emcalign::app

@@ -1,0 +1,90 @@
+#pragma once
+// The 12 alignment (fit) parameters η, indexed by `Param`, in the order and with the names
+// of SPEC §3. Code indexes them through this enum, never through a bare number.
+
+#include <array>
+#include <cstddef>
+#include <optional>
+#include <string_view>
+
+namespace emcalign {
+
+enum class Param : std::size_t {
+  Alpha,    ///< rotation of the whole EMC about Z (rad)
+  Beta1,    ///< sinβ·cosψ, dimensionless (files: degrees, value·180/π)
+  Beta2,    ///< sinβ·sinψ, dimensionless (files: degrees, value·180/π)
+  Dx,       ///< common shift ξ (cm)
+  Dy,
+  Dz,
+  Dp1,      ///< gap between the hemispheres at R1·(0, cos γ, −sin γ), γ = 0° (cm)
+  Dp2,      ///< … γ = 120° (cm)
+  Dp3,      ///< … γ = 240° (cm)
+  DyRel,    ///< relative shift of the halves (cm), hemisphere s moves by s·dy_rel
+  DzRel,
+  BetaRel,  ///< relative rotation about X (rad), hemisphere s turns by s·β_rel
+};
+
+inline constexpr std::size_t kNumParams = 12;
+
+inline constexpr std::size_t index(Param p) { return static_cast<std::size_t>(p); }
+
+inline constexpr std::array<Param, kNumParams> kAllParams = {
+    Param::Alpha, Param::Beta1, Param::Beta2, Param::Dx,    Param::Dy,    Param::Dz,
+    Param::Dp1,   Param::Dp2,   Param::Dp3,   Param::DyRel, Param::DzRel, Param::BetaRel};
+
+/// The exact names of SPEC §3 (file keys, table rows).
+inline constexpr std::array<std::string_view, kNumParams> kParamNames = {
+    "alpha", "beta1", "beta2", "dx", "dy", "dz", "dp1", "dp2", "dp3", "dy_rel", "dz_rel", "beta_rel"};
+
+inline constexpr std::string_view name(Param p) { return kParamNames[index(p)]; }
+
+/// Whether a parameter is an angle (written in degrees in files) or a length (cm).
+/// beta1 and beta2 are dimensionless but written as degrees (SPEC §3).
+enum class Dimension { Angle, Length };
+
+inline constexpr Dimension dimension(Param p) {
+  switch (p) {
+    case Param::Alpha:
+    case Param::Beta1:
+    case Param::Beta2:
+    case Param::BetaRel:
+      return Dimension::Angle;
+    default:
+      return Dimension::Length;
+  }
+}
+
+inline std::optional<Param> paramFromName(std::string_view n) {
+  for (Param p : kAllParams) {
+    if (name(p) == n) return p;
+  }
+  return std::nullopt;
+}
+
+/// The physical parameter set of SPEC §3 (also accepted as input).
+enum class Physical : std::size_t {
+  Alpha, Beta, Psi, Dx, Dy, Dz, Mu, Tau, DxRel, DyRel, DzRel, BetaRel,
+};
+
+inline constexpr std::size_t index(Physical p) { return static_cast<std::size_t>(p); }
+
+inline constexpr std::array<std::string_view, kNumParams> kPhysicalNames = {
+    "alpha", "beta", "psi", "dx", "dy", "dz", "mu", "tau", "dx_rel", "dy_rel", "dz_rel", "beta_rel"};
+
+inline constexpr std::string_view name(Physical p) { return kPhysicalNames[index(p)]; }
+
+inline constexpr Dimension dimension(Physical p) {
+  switch (p) {
+    case Physical::Alpha:
+    case Physical::Beta:
+    case Physical::Psi:
+    case Physical::Mu:
+    case Physical::Tau:
+    case Physical::BetaRel:
+      return Dimension::Angle;
+    default:
+      return Dimension::Length;
+  }
+}
+
+}  // namespace emcalign

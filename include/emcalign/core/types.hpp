@@ -1,0 +1,17 @@
+#pragma once
+// Eigen aliases used across emcalign. The templated forms (`Vec3T<T>`) carry a scalar
+// that may be a Ceres Jet: the geometry is written once for both.
+
+#include <Eigen/Core>
+
+namespace emcalign {
+
+template <typename T>
+using Vec3T = Eigen::Matrix<T, 3, 1>;
+template <typename T>
+using Mat3T = Eigen::Matrix<T, 3, 3>;
+
+using Vec3 = Vec3T<double>;
+using Mat3 = Mat3T<double>;
+
+}  // namespace emcalign

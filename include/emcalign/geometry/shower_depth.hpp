@@ -1,0 +1,34 @@
+#pragma once
+// Effective shower depth (SPEC §5, the paper's formula):
+//
+//   R(E, θ) = R0 + X0·(ln(E/Ec) − 0.5 − x_pre/sinθ)
+//
+// ln(E/Ec) − 0.5 is the depth of the longitudinal shower maximum in radiation lengths
+// (Rossi/PDG for an electron-initiated shower); x_pre/sinθ is the material crossed before
+// the EMC at polar angle θ, which moves the maximum towards the inner surface. For 612.5 MeV
+// at θ = 90°: R = 32.8 + 2.56·(3.840 − 0.5 − 0.13) = 41.02 cm, inside layer 2.
+
+#include <cmath>
+
+#include "emcalign/geometry/detector.hpp"
+
+namespace emcalign::geometry {
+
+struct ShowerDepth {
+  double r0 = 0.0;  ///< EMC inner radius, cm
+  ShowerMaterial material;
+
+  static ShowerDepth of(const DetectorDescription& d) { return {d.r0(), d.material}; }
+
+  /// R(E, θ) in cm for a cluster energy E (MeV) and a polar angle θ (rad).
+  template <typename T>
+  T radius(const T& energy, const T& theta) const {
+    using std::log;
+    using std::sin;
+    const auto& m = material;
+    return r0 + m.radiationLength *
+                    (log(energy / m.criticalEnergy) - 0.5 - m.preshowerMaterial / sin(theta));
+  }
+};
+
+}  // namespace emcalign::geometry

@@ -1,0 +1,22 @@
+#pragma once
+// Small strict CSV helpers shared by every CSV reader: splitting a line into fields and
+// parsing a number that must be finite and must use the whole field.
+
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace emcalign::io {
+
+/// Splits on commas (no quoting: emcalign's CSV files hold numbers and plain names), trims
+/// spaces and a trailing '\r'.
+std::vector<std::string_view> splitCsvLine(std::string_view line);
+
+/// A finite double spelled by the whole field, or none.
+std::optional<double> parseFiniteDouble(std::string_view field);
+
+/// A line to skip: empty (after trimming) or a comment starting with '#'.
+bool isBlankOrComment(std::string_view line);
+
+}  // namespace emcalign::io

@@ -1,0 +1,112 @@
+#include "emcalign/geometry/alignment_parameters.hpp"
+
+#include <cmath>
+#include <numbers>
+
+#include <fmt/format.h>
+
+#include "emcalign/core/units.hpp"
+
+namespace emcalign::geometry {
+
+namespace {
+constexpr double kSqrt3 = std::numbers::sqrt3;
+// γ_k of the three gap points, SPEC §3.
+constexpr std::array<double, 3> kGapAngles = {0.0, 2.0 * std::numbers::pi / 3.0,
+                                              4.0 * std::numbers::pi / 3.0};
+}  // namespace
+
+double AlignmentParameters::fileUnit(Param p) {
+  return dimension(p) == Dimension::Angle ? units::deg : units::cm;
+}
+
+double PhysicalParameters::fileUnit(Physical p) {
+  return dimension(p) == Dimension::Angle ? units::deg : units::cm;
+}
+
+GapDecomposition decomposeGaps(const AlignmentParameters& eta) {
+  const double dp1 = eta[Param::Dp1], dp2 = eta[Param::Dp2], dp3 = eta[Param::Dp3];
+  GapDecomposition g;
+  g.dxRel = (dp1 + dp2 + dp3) / 6.0;
+  g.u = (2.0 * dp1 - dp2 - dp3) / 3.0;  // = dp1 − 2·dx_rel, exactly 0 for equal gaps
+  g.t = (dp3 - dp2) / (2.0 * kSqrt3);
+  return g;
+}
+
+Status validate(const AlignmentParameters& eta, double r1) {
+  for (Param p : kAllParams) {
+    if (!std::isfinite(eta[p])) return Error{fmt::format("parameter '{}' is not finite", name(p))};
+  }
+  const double b1 = eta[Param::Beta1], b2 = eta[Param::Beta2];
+  if (b1 * b1 + b2 * b2 > 1.0) {
+    return Error{fmt::format(
+        "beta1, beta2: sin(beta) = sqrt(beta1^2 + beta2^2) = {} exceeds 1 (values in files are "
+        "in degrees: sin(beta)*180/pi)",
+        std::hypot(b1, b2))};
+  }
+  const GapDecomposition g = decomposeGaps(eta);
+  const double sinMu = std::sqrt(4.0 * g.t * g.t + g.u * g.u) / (2.0 * r1);
+  if (sinMu > 1.0) {
+    return Error{fmt::format(
+        "dp1, dp2, dp3: the gaps need sin(mu) = {} > 1 at R1 = {} cm; they differ by more than "
+        "the sphere's diameter",
+        sinMu, r1)};
+  }
+  return {};
+}
+
+Result<PhysicalParameters> toPhysical(const AlignmentParameters& eta, double r1) {
+  if (Status s = validate(eta, r1); !s) return s.error();
+  const double b1 = eta[Param::Beta1], b2 = eta[Param::Beta2];
+  const GapDecomposition g = decomposeGaps(eta);
+  PhysicalParameters phys;
+  phys[Physical::Alpha] = eta[Param::Alpha];
+  phys[Physical::Beta] = std::asin(std::hypot(b1, b2));
+  phys[Physical::Psi] = std::atan2(b2, b1);
+  phys[Physical::Dx] = eta[Param::Dx];
+  phys[Physical::Dy] = eta[Param::Dy];
+  phys[Physical::Dz] = eta[Param::Dz];
+  phys[Physical::Mu] = std::asin(std::sqrt(4.0 * g.t * g.t + g.u * g.u) / (2.0 * r1));
+  phys[Physical::Tau] = std::atan2(2.0 * g.t, g.u);
+  phys[Physical::DxRel] = g.dxRel;
+  phys[Physical::DyRel] = eta[Param::DyRel];
+  phys[Physical::DzRel] = eta[Param::DzRel];
+  phys[Physical::BetaRel] = eta[Param::BetaRel];
+  return phys;
+}
+
+AlignmentParameters fromPhysical(const PhysicalParameters& phys, double r1) {
+  AlignmentParameters eta;
+  const double beta = phys[Physical::Beta], psi = phys[Physical::Psi];
+  const double mu = phys[Physical::Mu], tau = phys[Physical::Tau];
+  const double dxRel = phys[Physical::DxRel];
+  eta[Param::Alpha] = phys[Physical::Alpha];
+  eta[Param::Beta1] = std::sin(beta) * std::cos(psi);
+  eta[Param::Beta2] = std::sin(beta) * std::sin(psi);
+  eta[Param::Dx] = phys[Physical::Dx];
+  eta[Param::Dy] = phys[Physical::Dy];
+  eta[Param::Dz] = phys[Physical::Dz];
+  const std::array<Param, 3> gaps = {Param::Dp1, Param::Dp2, Param::Dp3};
+  for (std::size_t k = 0; k < 3; ++k) {
+    eta[gaps[k]] = 2.0 * dxRel + 2.0 * r1 * std::sin(mu) * std::cos(kGapAngles[k] + tau);
+  }
+  eta[Param::DyRel] = phys[Physical::DyRel];
+  eta[Param::DzRel] = phys[Physical::DzRel];
+  eta[Param::BetaRel] = phys[Physical::BetaRel];
+  return eta;
+}
+
+std::vector<std::string> warnings(const AlignmentParameters& eta) {
+  std::vector<std::string> out;
+  for (Param p : {Param::Dp1, Param::Dp2, Param::Dp3}) {
+    if (eta[p] < 0.0) {
+      out.push_back(fmt::format(
+          "{} = {:.4f} cm is negative: the hemispheres overlap there (a calibration or "
+          "reconstruction problem to deal with before using these parameters)",
+          name(p), eta[p] / units::cm));
+    }
+  }
+  return out;
+}
+
+}  // namespace emcalign::geometry

@@ -1,0 +1,48 @@
+#include "emcalign/io/csv.hpp"
+
+#include <charconv>
+#include <cmath>
+
+namespace emcalign::io {
+
+namespace {
+std::string_view trim(std::string_view s) {
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
+  return s;
+}
+}  // namespace
+
+std::vector<std::string_view> splitCsvLine(std::string_view line) {
+  std::vector<std::string_view> fields;
+  line = trim(line);
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t comma = line.find(',', start);
+    if (comma == std::string_view::npos) {
+      fields.push_back(trim(line.substr(start)));
+      break;
+    }
+    fields.push_back(trim(line.substr(start, comma - start)));
+    start = comma + 1;
+  }
+  return fields;
+}
+
+std::optional<double> parseFiniteDouble(std::string_view field) {
+  if (!field.empty() && field.front() == '+') field.remove_prefix(1);
+  if (field.empty()) return std::nullopt;
+  double value = 0.0;
+  const auto [ptr, ec] = std::from_chars(field.data(), field.data() + field.size(), value);
+  if (ec != std::errc() || ptr != field.data() + field.size() || !std::isfinite(value)) {
+    return std::nullopt;
+  }
+  return value;
+}
+
+bool isBlankOrComment(std::string_view line) {
+  line = trim(line);
+  return line.empty() || line.front() == '#';
+}
+
+}  // namespace emcalign::io

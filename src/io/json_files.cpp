@@ -1,0 +1,357 @@
+#include "emcalign/io/json_files.hpp"
+
+#include <unistd.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <system_error>
+#include <vector>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include "emcalign/core/units.hpp"
+
+namespace emcalign::io {
+
+using geometry::AlignmentParameters;
+using geometry::DetectorDescription;
+using geometry::PhysicalParameters;
+using json = Json;
+
+namespace {
+
+// Internal: the readers below throw this and the public functions turn it into an Error.
+struct BadInput {
+  std::string message;
+};
+
+std::string join(std::string_view path, std::string_view key) {
+  return path.empty() ? std::string(key) : fmt::format("{}.{}", path, key);
+}
+
+std::string typeName(const json& j) { return j.type_name(); }
+
+// A JSON object whose keys are checked against the allowed ones.
+class StrictObject {
+ public:
+  StrictObject(const json& j, std::string path, std::string_view source)
+      : j_(j), path_(std::move(path)), source_(source) {
+    if (!j.is_object()) {
+      fail(path_.empty() ? "the document" : path_, fmt::format("expected an object, got {}", typeName(j)));
+    }
+  }
+
+  void allowOnly(std::initializer_list<std::string_view> allowed) const {
+    for (const auto& [key, value] : j_.items()) {
+      bool known = false;
+      for (auto a : allowed) known = known || a == key;
+      if (!known) {
+        std::string list;
+        for (auto a : allowed) list += fmt::format("{}{}", list.empty() ? "" : ", ", a);
+        fail(join(path_, key), fmt::format("unknown key (allowed here: {})", list));
+      }
+    }
+  }
+
+  bool has(std::string_view key) const { return j_.contains(key); }
+  const json& at(std::string_view key) const {
+    if (!has(key)) fail(join(path_, key), "missing");
+    return j_.at(std::string(key));
+  }
+  std::string pathOf(std::string_view key) const { return join(path_, key); }
+
+  double number(std::string_view key) const { return numberValue(at(key), pathOf(key)); }
+  double number(std::string_view key, double fallback) const {
+    return has(key) ? number(key) : fallback;
+  }
+  std::string string(std::string_view key) const {
+    const json& v = at(key);
+    if (!v.is_string()) fail(pathOf(key), fmt::format("expected a string, got {}", typeName(v)));
+    return v.get<std::string>();
+  }
+
+  double numberValue(const json& v, const std::string& where) const {
+    if (!v.is_number()) fail(where, fmt::format("expected a number, got {}", typeName(v)));
+    const double x = v.get<double>();
+    if (!std::isfinite(x)) fail(where, "not a finite number");
+    return x;
+  }
+
+  [[noreturn]] void fail(std::string_view where, std::string_view what) const {
+    throw BadInput{fmt::format("{}: key '{}': {}", source_, where, what)};
+  }
+
+ private:
+  const json& j_;
+  std::string path_;
+  std::string_view source_;
+};
+
+template <typename F>
+auto guarded(F&& f) -> Result<decltype(f())> {
+  try {
+    return f();
+  } catch (const BadInput& e) {
+    return Error{e.message};
+  } catch (const json::exception& e) {
+    return Error{e.what()};
+  }
+}
+
+void checkUnits(const StrictObject& top) {
+  if (!top.has("units")) return;
+  StrictObject u(top.at("units"), "units", "");
+  u.allowOnly({"angle", "length"});
+  if (u.has("angle") && u.string("angle") != "deg") top.fail("units.angle", "only \"deg\" is supported");
+  if (u.has("length") && u.string("length") != "cm") top.fail("units.length", "only \"cm\" is supported");
+}
+
+}  // namespace
+
+Result<json> parseJson(std::string_view text, std::string_view source) {
+  // Duplicate keys are silently merged by JSON parsers; a calibration file with two
+  // "alpha" entries is a mistake, so a callback tracks the keys of every open object.
+  std::vector<std::set<std::string>> open;
+  std::string duplicate;
+  auto callback = [&](int /*depth*/, json::parse_event_t event, json& parsed) {
+    switch (event) {
+      case json::parse_event_t::object_start:
+        open.emplace_back();
+        break;
+      case json::parse_event_t::object_end:
+        if (!open.empty()) open.pop_back();
+        break;
+      case json::parse_event_t::key: {
+        const auto key = parsed.get<std::string>();
+        if (!open.empty() && !open.back().insert(key).second && duplicate.empty()) duplicate = key;
+        break;
+      }
+      default:
+        break;
+    }
+    return true;
+  };
+  try {
+    json j = json::parse(text.begin(), text.end(), callback);
+    if (!duplicate.empty()) return Error{fmt::format("{}: key '{}' appears twice", source, duplicate)};
+    return j;
+  } catch (const json::parse_error& e) {
+    return Error{fmt::format("{}: not valid JSON (at byte {}): {}", source, e.byte, e.what())};
+  } catch (const json::exception& e) {  // e.g. a number too large for a double
+    return Error{fmt::format("{}: a value is out of range: {}", source, e.what())};
+  }
+}
+
+Result<std::string> readTextFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return Error{fmt::format("{}: cannot open: {}", path, std::strerror(errno))};
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  if (in.bad()) return Error{fmt::format("{}: read error", path)};
+  return ss.str();
+}
+
+Status writeTextFileAtomically(const std::string& path, std::string_view content) {
+  namespace fs = std::filesystem;
+  const fs::path target(path);
+  fs::path tmp = target;
+  tmp += fmt::format(".tmp-{}", static_cast<long>(::getpid()));
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) return Error{fmt::format("{}: cannot write: {}", path, std::strerror(errno))};
+    out.write(content.data(), static_cast<std::streamsize>(content.size()));
+    out.flush();
+    if (!out) {
+      std::error_code ec;
+      fs::remove(tmp, ec);
+      return Error{fmt::format("{}: write failed", path)};
+    }
+  }
+  std::error_code ec;
+  fs::rename(tmp, target, ec);
+  if (ec) {
+    fs::remove(tmp, ec);
+    return Error{fmt::format("{}: cannot rename into place: {}", path, ec.message())};
+  }
+  return {};
+}
+
+// ---------------------------------------------------------------- detector description
+
+Result<DetectorDescription> parseDetectorDescription(const json& j, std::string_view source) {
+  return guarded([&]() -> DetectorDescription {
+    using units::deg;
+    StrictObject top(j, "", source);
+    top.allowOnly({"format", "name", "layers", "support_spheres", "theta_min_deg", "theta_max_deg",
+                   "counters_per_ring", "shower"});
+    if (top.string("format") != kDetectorFormat) {
+      top.fail("format", fmt::format("expected \"{}\"", kDetectorFormat));
+    }
+    DetectorDescription d = DetectorDescription::sndDefault();
+    if (top.has("name")) d.name = top.string("name");
+
+    auto readShells = [&](std::string_view key, auto& shells) {
+      if (!top.has(key)) return;
+      const json& arr = top.at(key);
+      if (!arr.is_array() || arr.size() != shells.size()) {
+        top.fail(key, fmt::format("expected a list of {} objects", shells.size()));
+      }
+      for (std::size_t i = 0; i < shells.size(); ++i) {
+        StrictObject s(arr[i], fmt::format("{}[{}]", key, i), source);
+        s.allowOnly({"r_inner_cm", "r_outer_cm"});
+        shells[i].rInner = s.number("r_inner_cm") * units::cm;
+        shells[i].rOuter = s.number("r_outer_cm") * units::cm;
+      }
+    };
+    readShells("layers", d.layers);
+    readShells("support_spheres", d.supports);
+    d.thetaMin = top.number("theta_min_deg", d.thetaMin / deg) * deg;
+    d.thetaMax = top.number("theta_max_deg", d.thetaMax / deg) * deg;
+    if (top.has("counters_per_ring")) {
+      const json& arr = top.at("counters_per_ring");
+      if (!arr.is_array()) top.fail("counters_per_ring", "expected a list of integers");
+      d.countersPerRing.clear();
+      for (std::size_t i = 0; i < arr.size(); ++i) {
+        if (!arr[i].is_number_integer()) {
+          top.fail(fmt::format("counters_per_ring[{}]", i), "expected an integer");
+        }
+        d.countersPerRing.push_back(arr[i].get<int>());
+      }
+    }
+    if (top.has("shower")) {
+      StrictObject s(top.at("shower"), "shower", source);
+      s.allowOnly({"x0_cm", "critical_energy_mev", "x_pre"});
+      d.material.radiationLength = s.number("x0_cm", d.material.radiationLength);
+      d.material.criticalEnergy = s.number("critical_energy_mev", d.material.criticalEnergy);
+      d.material.preshowerMaterial = s.number("x_pre", d.material.preshowerMaterial);
+    }
+    if (Status st = d.validate(); !st) throw BadInput{fmt::format("{}: {}", source, st.error().message)};
+    return d;
+  });
+}
+
+Result<DetectorDescription> readDetectorDescription(const std::string& path) {
+  auto text = readTextFile(path);
+  if (!text) return text.error();
+  auto j = parseJson(*text, path);
+  if (!j) return j.error();
+  return parseDetectorDescription(*j, path);
+}
+
+json toJson(const DetectorDescription& d) {
+  auto shells = [](const auto& list) {
+    json arr = json::array();
+    for (const auto& s : list) arr.push_back({{"r_inner_cm", s.rInner / units::cm}, {"r_outer_cm", s.rOuter / units::cm}});
+    return arr;
+  };
+  return json{{"format", kDetectorFormat},
+              {"name", d.name},
+              {"layers", shells(d.layers)},
+              {"support_spheres", shells(d.supports)},
+              {"theta_min_deg", d.thetaMin / units::deg},
+              {"theta_max_deg", d.thetaMax / units::deg},
+              {"counters_per_ring", d.countersPerRing},
+              {"shower",
+               {{"x0_cm", d.material.radiationLength / units::cm},
+                {"critical_energy_mev", d.material.criticalEnergy / units::MeV},
+                {"x_pre", d.material.preshowerMaterial}}}};
+}
+
+// ---------------------------------------------------------------- alignment parameters
+
+Result<AlignmentParameters> parseAlignment(const json& j, double r1, std::string_view source) {
+  return guarded([&]() -> AlignmentParameters {
+    StrictObject top(j, "", source);
+    // The parameter keys, plus what a fit result adds (SPEC §3), read elsewhere.
+    top.allowOnly({"format", "units", "parameters", "physical", "errors", "covariance", "derived",
+                   "chi2", "ndf", "p_value", "stages", "status", "warnings", "input", "software",
+                   "cut_flow", "bins"});
+    if (top.has("format") && top.string("format") != kAlignmentFormat) {
+      top.fail("format", fmt::format("expected \"{}\"", kAlignmentFormat));
+    }
+    checkUnits(top);
+    if (!top.has("parameters") && !top.has("physical")) {
+      top.fail("parameters", "missing (give \"parameters\" or \"physical\")");
+    }
+
+    std::optional<AlignmentParameters> fromFit;
+    if (top.has("parameters")) {
+      StrictObject p(top.at("parameters"), "parameters", source);
+      for (const auto& [key, value] : top.at("parameters").items()) {
+        if (!paramFromName(key)) p.fail(p.pathOf(key), fmt::format("unknown parameter (the 12 are: {})", fmt::join(kParamNames, ", ")));
+      }
+      AlignmentParameters eta;
+      for (Param q : kAllParams) eta[q] = p.number(name(q)) * AlignmentParameters::fileUnit(q);
+      fromFit = eta;
+    }
+    std::optional<AlignmentParameters> fromPhys;
+    if (top.has("physical")) {
+      StrictObject p(top.at("physical"), "physical", source);
+      for (const auto& [key, value] : top.at("physical").items()) {
+        bool known = false;
+        for (auto n : kPhysicalNames) known = known || n == key;
+        if (!known) p.fail(p.pathOf(key), fmt::format("unknown parameter (the 12 are: {})", fmt::join(kPhysicalNames, ", ")));
+      }
+      PhysicalParameters phys;
+      for (std::size_t i = 0; i < kNumParams; ++i) {
+        const auto q = static_cast<Physical>(i);
+        phys[q] = p.number(name(q)) * PhysicalParameters::fileUnit(q);
+      }
+      fromPhys = geometry::fromPhysical(phys, r1);
+    }
+    if (fromFit && fromPhys) {
+      for (Param q : kAllParams) {
+        const double a = (*fromFit)[q] / AlignmentParameters::fileUnit(q);
+        const double b = (*fromPhys)[q] / AlignmentParameters::fileUnit(q);
+        if (std::abs(a - b) > 1e-9 * std::max(1.0, std::abs(a))) {
+          top.fail("physical", fmt::format("disagrees with \"parameters\" on {} ({} vs {}); give one "
+                                           "of the two, or both consistent",
+                                           name(q), a, b));
+        }
+      }
+    }
+    AlignmentParameters eta = fromFit ? *fromFit : *fromPhys;
+    if (Status st = geometry::validate(eta, r1); !st) {
+      throw BadInput{fmt::format("{}: {}", source, st.error().message)};
+    }
+    return eta;
+  });
+}
+
+Result<AlignmentParameters> readAlignment(const std::string& path, double r1) {
+  auto text = readTextFile(path);
+  if (!text) return text.error();
+  auto j = parseJson(*text, path);
+  if (!j) return j.error();
+  return parseAlignment(*j, r1, path);
+}
+
+json alignmentToJson(const AlignmentParameters& eta) {
+  json params = json::object();
+  for (Param q : kAllParams) params[std::string(name(q))] = eta[q] / AlignmentParameters::fileUnit(q);
+  return json{{"format", kAlignmentFormat},
+              {"units", {{"angle", "deg"}, {"length", "cm"}}},
+              {"parameters", params}};
+}
+
+Result<json> alignmentToJsonWithPhysical(const AlignmentParameters& eta, double r1) {
+  auto phys = geometry::toPhysical(eta, r1);
+  if (!phys) return phys.error();
+  json j = alignmentToJson(eta);
+  json p = json::object();
+  for (std::size_t i = 0; i < kNumParams; ++i) {
+    const auto q = static_cast<Physical>(i);
+    p[std::string(name(q))] = (*phys)[q] / PhysicalParameters::fileUnit(q);
+  }
+  j["physical"] = p;
+  return j;
+}
+
+}  // namespace emcalign::io

@@ -33,5 +33,6 @@ void addVersionFlag(CLI::App& cmd);
 void addGeometryCommand(CLI::App& app, int& exitCode);
 void addParamsCommand(CLI::App& app, int& exitCode);
 void addTransformCommand(CLI::App& app, int& exitCode);
+void addSimulateCommand(CLI::App& app, int& exitCode);
 
 }  // namespace emcalign::app

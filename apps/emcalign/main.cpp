@@ -16,6 +16,7 @@ int main(int argc, char** argv) {
   emcalign::app::addGeometryCommand(app, exitCode);
   emcalign::app::addParamsCommand(app, exitCode);
   emcalign::app::addTransformCommand(app, exitCode);
+  emcalign::app::addSimulateCommand(app, exitCode);
   CLI11_PARSE(app, argc, argv);
   return exitCode;
 }

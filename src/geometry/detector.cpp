@@ -84,11 +84,6 @@ Status DetectorDescription::validate() const {
   return {};
 }
 
-Vec3 Counter::centre() const {
-  const double r = radius(), t = theta(), p = phi();
-  return {r * std::sin(t) * std::cos(p), r * std::sin(t) * std::sin(p), r * std::cos(t)};
-}
-
 Result<Calorimeter> Calorimeter::create(DetectorDescription description) {
   if (Status s = description.validate(); !s) return s.error();
   return Calorimeter(std::move(description));
@@ -102,6 +97,20 @@ Calorimeter::Calorimeter(DetectorDescription description) : description_(std::mo
     countersPerLayer_ += n;
   }
   const double dTheta = d.ringWidth();
+  for (int l = 0; l < 3; ++l) {
+    layerR2_[l][0] = d.layers[static_cast<std::size_t>(l)].rInner * d.layers[static_cast<std::size_t>(l)].rInner;
+    layerR2_[l][1] = d.layers[static_cast<std::size_t>(l)].rOuter * d.layers[static_cast<std::size_t>(l)].rOuter;
+  }
+  outerR2_ = d.supports[1].rOuter * d.supports[1].rOuter;
+  for (int ring = 0; ring <= d.ringCount(); ++ring) ringCosEdges_.push_back(std::cos(d.thetaMin + ring * dTheta));
+  for (int n : d.countersPerRing) {
+    std::vector<std::pair<double, double>> edges;
+    for (int j = 1; j < n / 4; ++j) {
+      const double a = j * 2.0 * std::numbers::pi / n;
+      edges.emplace_back(std::cos(a), std::sin(a));
+    }
+    quadrantEdges_.push_back(std::move(edges));
+  }
   counters_.reserve(static_cast<std::size_t>(3 * countersPerLayer_));
   for (int layer = 1; layer <= 3; ++layer) {
     const auto& shell = d.layers[static_cast<std::size_t>(layer - 1)];
@@ -121,10 +130,24 @@ Calorimeter::Calorimeter(DetectorDescription description) : description_(std::mo
         c.rInner = shell.rInner;
         c.rOuter = shell.rOuter;
         c.hemisphere = std::cos(c.phi()) > 0.0 ? Hemisphere::Plus : Hemisphere::Minus;
+        const double r = c.radius(), t = c.theta(), p = c.phi();
+        c.position = Vec3(r * std::sin(t) * std::cos(p), r * std::sin(t) * std::sin(p), r * std::cos(t));
         counters_.push_back(c);
+        bounds_.push_back({c.rInner * c.rInner, c.rOuter * c.rOuter, std::cos(c.thetaMin), std::cos(c.thetaMax),
+                           std::cos(c.phiMin), std::sin(c.phiMin), std::cos(c.phiMax), std::sin(c.phiMax)});
       }
     }
   }
+}
+
+bool Calorimeter::contains(int counter, const Vec3& p) const {
+  const Bounds& b = bounds_[static_cast<std::size_t>(counter)];
+  const double r2 = p.squaredNorm();
+  if (r2 < b.r2Min || r2 >= b.r2Max) return false;
+  const double r = std::sqrt(r2);
+  // cos θ in (cos θmax, cos θmin], φ in [φmin, φmax) by cross products with the edges.
+  return p.z() <= b.cosMax * r && p.z() > b.cosMin * r && p.x() * b.sPhiMin - p.y() * b.cPhiMin <= 0.0 &&
+         p.x() * b.sPhiMax - p.y() * b.cPhiMax > 0.0;
 }
 
 int Calorimeter::counterIndex(int layer, int ring, int iphi) const {
@@ -135,34 +158,53 @@ int Calorimeter::counterIndex(int layer, int ring, int iphi) const {
 }
 
 Location Calorimeter::locate(const Vec3& p) const {
+  // Called for every shower spot of the simulation: squared radii and cosines instead of
+  // angles where the comparison allows it.
   const auto& d = description_;
-  const double r = p.norm();
+  const double r2 = p.squaredNorm();
   int layer = 0;
-  for (int l = 1; l <= 3; ++l) {
-    if (d.layers[static_cast<std::size_t>(l - 1)].contains(r)) layer = l;
+  for (int l = 0; l < 3; ++l) {
+    if (r2 >= layerR2_[l][0] && r2 < layerR2_[l][1]) layer = l + 1;
   }
   if (layer == 0) {
-    if (r < d.r0()) return {Region::Inside, -1};
-    if (r >= d.supports[1].rInner) {
-      return {r < d.supports[1].rOuter ? Region::SupportSphere : Region::Outside, -1};
-    }
+    if (r2 < layerR2_[0][0]) return {Region::Inside, -1};
+    if (r2 >= outerR2_) return {Region::Outside, -1};
     return {Region::SupportSphere, -1};
   }
-  const double theta = std::atan2(std::hypot(p.x(), p.y()), p.z());
-  if (theta < d.thetaMin || theta >= d.thetaMax) return {Region::Uncovered, -1};
+  // θ ∈ [θ_i, θ_i+1) ⇔ cosθ ∈ (cos θ_i+1, cos θ_i]; the edges' cosines decrease.
+  const double cosTheta = p.z() / std::sqrt(r2);
   const int rings = d.ringCount();
-  int ring = static_cast<int>(std::floor((theta - d.thetaMin) / d.ringWidth()));
-  ring = std::clamp(ring, 0, rings - 1);
-  double phi = std::atan2(p.y(), p.x());
-  if (phi < 0.0) phi += 2.0 * std::numbers::pi;
+  if (cosTheta > ringCosEdges_.front() || cosTheta <= ringCosEdges_.back()) return {Region::Uncovered, -1};
+  int ringLo = 0, ringHi = rings;  // the ring with edges[ring] >= cos > edges[ring + 1]
+  while (ringHi - ringLo > 1) {
+    const int mid = (ringLo + ringHi) / 2;
+    if (cosTheta > ringCosEdges_[static_cast<std::size_t>(mid)]) ringHi = mid; else ringLo = mid;
+  }
+  const int ring = ringLo;
+  // φ cell without atan2: the quadrant from the signs of x, y (as atan2 folded into
+  // [0, 2π) would place it), then the in-quadrant angle of the point rotated by −q·90°
+  // against the cell edges, by cross products.
+  const double x = p.x(), y = p.y();
+  int quadrant;
+  double u, v;
+  if (y >= 0.0) {
+    if (x > 0.0) { quadrant = 0; u = x; v = y; } else { quadrant = 1; u = y; v = -x; }
+  } else {
+    if (x < 0.0) { quadrant = 2; u = -x; v = -y; } else { quadrant = 3; u = -y; v = x; }
+  }
+  const auto& edges = quadrantEdges_[static_cast<std::size_t>(ring)];
+  int lo = 0, hi = static_cast<int>(edges.size());  // count the edges at or below the angle
+  while (lo < hi) {
+    const int mid = (lo + hi) / 2;
+    const auto& [ce, se] = edges[static_cast<std::size_t>(mid)];
+    if (u * se - v * ce <= 0.0) lo = mid + 1; else hi = mid;
+  }
   const int n = d.countersPerRing[static_cast<std::size_t>(ring)];
-  int iphi = static_cast<int>(std::floor(phi / (2.0 * std::numbers::pi / n)));
-  iphi = std::clamp(iphi, 0, n - 1);
+  int iphi = quadrant * (n / 4) + lo;
   // Cells are split exactly at x = 0: keep a point on its own side of the parting plane
   // even when rounding puts φ on the other side of a 90°/270° edge.
-  const Hemisphere side = hemisphereOf(p.x());
-  const Counter* c = &counters_[static_cast<std::size_t>(counterIndex(layer, ring, iphi))];
-  if (c->hemisphere != side) {
+  const int base = countersPerLayer_ * (layer - 1) + ringOffsets_[static_cast<std::size_t>(ring)];
+  if (counters_[static_cast<std::size_t>(base + iphi)].hemisphere != hemisphereOf(x)) {
     const int quarter = n / 4;
     if (iphi == quarter - 1 || iphi == 3 * quarter - 1) {
       iphi += 1;
@@ -170,7 +212,7 @@ Location Calorimeter::locate(const Vec3& p) const {
       iphi -= 1;
     }
   }
-  return {Region::Counter, counterIndex(layer, ring, iphi)};
+  return {Region::Counter, base + iphi};
 }
 
 }  // namespace emcalign::geometry

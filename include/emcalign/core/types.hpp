@@ -3,6 +3,7 @@
 // that may be a Ceres Jet: the geometry is written once for both.
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 namespace emcalign {
 

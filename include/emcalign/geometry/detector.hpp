@@ -84,12 +84,13 @@ struct Counter {
   double thetaMin = 0.0, thetaMax = 0.0;  ///< rad
   double phiMin = 0.0, phiMax = 0.0;      ///< rad, within [0, 2π]
   double rInner = 0.0, rOuter = 0.0;      ///< cm
+  Vec3 position = Vec3::Zero();           ///< the nominal centre, see centre()
 
   double theta() const { return 0.5 * (thetaMin + thetaMax); }
   double phi() const { return 0.5 * (phiMin + phiMax); }
   double radius() const { return 0.5 * (rInner + rOuter); }
   /// Nominal centre: mid-angles at the layer's mid-radius, nominal EMC frame.
-  Vec3 centre() const;
+  const Vec3& centre() const { return position; }
 };
 
 /// Where a nominal-frame point lies.
@@ -123,13 +124,27 @@ class Calorimeter {
   /// The counter that contains a point of the nominal EMC frame, or why none does.
   Location locate(const Vec3& pointNominal) const;
 
+  /// Whether a nominal-frame point is inside a given counter: a few multiplications, for
+  /// the simulation's "same counter as the last spot" shortcut. Agrees with `locate` except
+  /// on the cell boundaries themselves.
+  bool contains(int counter, const Vec3& pointNominal) const;
+
  private:
   explicit Calorimeter(DetectorDescription description);
 
   DetectorDescription description_;
   std::vector<int> ringOffsets_;  ///< counters in the lower rings of a layer
+  std::vector<double> ringCosEdges_;  ///< cos of the ring edges, decreasing (locate)
+  double layerR2_[3][2] = {};         ///< squared inner and outer radii of the layers
+  double outerR2_ = 0.0;              ///< squared outer radius of support sphere 2
+  /// Per ring: (cos, sin) of the φ edges inside the first quadrant, 1..n/4−1 (locate).
+  std::vector<std::vector<std::pair<double, double>>> quadrantEdges_;
   int countersPerLayer_ = 0;
   std::vector<Counter> counters_;
+  struct Bounds {  // per counter, for contains()
+    double r2Min, r2Max, cosMax, cosMin, cPhiMin, sPhiMin, cPhiMax, sPhiMax;
+  };
+  std::vector<Bounds> bounds_;
 };
 
 }  // namespace emcalign::geometry

@@ -1,0 +1,42 @@
+#pragma once
+// A one-line progress report on stderr, only when stderr is a terminal.
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdint>
+#include <string>
+
+#include <fmt/format.h>
+
+namespace emcalign::app {
+
+class ProgressLine {
+ public:
+  ProgressLine(std::string what, std::int64_t total, std::string unit)
+      : what_(std::move(what)), unit_(std::move(unit)), total_(total), enabled_(::isatty(2) != 0),
+        start_(std::chrono::steady_clock::now()) {}
+
+  void update(std::int64_t done) {
+    if (!enabled_) return;
+    const double seconds = elapsed();
+    const double rate = seconds > 0.0 ? done / seconds : 0.0;
+    const double left = rate > 0.0 ? (total_ - done) / rate : 0.0;
+    fmt::print(stderr, "\r{}: {}/{} {} ({:.0f}%), {:.0f} {}/s, {:.0f} s left   ", what_, done, total_,
+               unit_, total_ > 0 ? 100.0 * done / total_ : 100.0, rate, unit_, left);
+  }
+  void finish() {
+    if (enabled_) fmt::print(stderr, "\n");
+  }
+  double elapsed() const {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  }
+
+ private:
+  std::string what_, unit_;
+  std::int64_t total_;
+  bool enabled_;
+  std::chrono::steady_clock::time_point start_;
+};
+
+}  // namespace emcalign::app

@@ -1,0 +1,44 @@
+#pragma once
+// The event data model of SPEC §6, shared by the producer (sim), the files (io) and the
+// consumer (calib): one row per reconstructed particle.
+
+#include <cmath>
+#include <cstdint>
+
+#include "emcalign/core/types.hpp"
+
+namespace emcalign {
+
+/// One reconstructed particle (native units: cm, MeV, rad; NaN = empty field).
+struct ParticleRow {
+  std::int32_t run = 0;
+  std::int64_t event = 0;
+  double beamEnergy = 0.0;  ///< MeV
+  std::int8_t muonVeto = 0;
+  std::int8_t charged = 0;
+  double z0 = 0.0;        ///< cm
+  double rho = 0.0;       ///< cm
+  double phiTs = 0.0;     ///< rad
+  double thetaTs = 0.0;   ///< rad
+  double energy = 0.0;    ///< MeV, EMC cluster
+  double phiEmc = 0.0;    ///< rad
+  double thetaEmc = 0.0;  ///< rad
+
+  /// Track fields are present (not NaN).
+  bool hasTrack() const { return !std::isnan(z0); }
+  /// Cluster fields are present (not NaN).
+  bool hasCluster() const { return !std::isnan(energy); }
+};
+
+/// Simulation truth for one row (HDF5 only).
+struct TruthRow {
+  std::int32_t pdg = 0;                ///< generated particle behind the row (0: background)
+  double energy = 0.0;                 ///< MeV, generated energy
+  double theta = 0.0;                  ///< rad, generated direction at the vertex
+  double phi = 0.0;                    ///< rad
+  Vec3 vertex = Vec3::Zero();          ///< cm, interaction point
+  Vec3 showerCentre = Vec3::Zero();    ///< cm, TS frame, energy-weighted centre of the
+                                       ///< deposited shower (NaN if none)
+};
+
+}  // namespace emcalign

@@ -1,0 +1,118 @@
+#pragma once
+// Event files (SPEC §6): one row per reconstructed particle, the rows of an event
+// contiguous, in CSV (interchange) or HDF5 (bulk, columnar, chunked, compressed, with
+// optional simulation truth). The format is chosen by the file name: ".csv" is CSV,
+// anything else HDF5.
+//
+// CSV columns, in this order, header line required, '#' lines are comments:
+//   run,event,beam_energy_mev,muon_veto,charged,z0_cm,rho_cm,phi_ts_rad,theta_ts_rad,
+//   energy_mev,phi_emc_rad,theta_emc_rad
+// charged = 1: a TS track and its matched EMC cluster (the cluster fields empty if none);
+// charged = 0: a photon (an EMC cluster; the track fields empty). In memory and in HDF5 an
+// empty field is NaN; a NaN (or "nan" text) where a value is required is an error.
+//
+// Readers are strict and streaming: memory does not grow with the file; every refused
+// input is reported with the file, the line (CSV) or record (HDF5) and the column.
+// Writers write to a temporary file next to the target and rename it on `close()`: a
+// writer destroyed without a successful close removes the temporary, so a failed or
+// interrupted job leaves no partial file.
+//
+// What a row must satisfy (readers refuse it, writers refuse to append it):
+//   run (int32), event (int64), muon_veto and charged (0 or 1) are integers, never empty;
+//   beam_energy_mev > 0; no infinities; phi_* in [0, 2π], theta_* in [0, π] (bounds
+//   included); energy_mev >= 0; charged = 1 has all four track fields; charged = 0 has no
+//   track field and a cluster; the three cluster fields are all filled or all empty; the
+//   rows of one event (consecutive rows with the same run and event) share beam_energy_mev
+//   and muon_veto. CSV numbers must spell the whole field: "nan"/"inf" text is refused
+//   (an empty field is the missing value) and "1.0" or "1e3" is not an integer. Not
+//   checked (it would need memory that grows with the file): that an event's rows are
+//   contiguous, i.e. that (run, event) does not come back later.
+//
+// CSV text: '# key: value' comment lines before the header are the attributes; other
+// comments and blank lines are skipped anywhere; CRLF and a last line without newline are
+// accepted, a cut last row is refused. Written numbers use 17 significant digits ({:.17g}),
+// so they read back bit for bit; NaN is written as an empty field.
+//
+// HDF5 layout (little-endian types, every dataset 1-D, chunked 16384 rows, unlimited,
+// shuffle + deflate 4):
+//   /events/run int32, event int64, beam_energy_mev double, muon_veto int8, charged int8,
+//           z0_cm, rho_cm, phi_ts_rad, theta_ts_rad, energy_mev, phi_emc_rad,
+//           theta_emc_rad double (NaN = empty field)
+//   /truth/pdg int32, energy_mev, theta_rad, phi_rad, vertex_{x,y,z}_cm,
+//          shower_{x,y,z}_cm double (optional; same length as /events; values unchecked)
+//   root attributes: scalar variable-length UTF-8 strings, in creation order.
+// The file holds no timestamps (object time tracking is off): the same rows and
+// attributes give the same file, byte for byte, however they were split into appends.
+// The reader accepts any layout (chunked or not, any byte order) but exactly these names
+// and types: a missing, extra, mistyped or shorter dataset is an error, and root
+// attributes that are not strings are skipped. HDF5's own error printing is switched off
+// during every call (and restored after); its reason is put into the returned message.
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "emcalign/core/event_record.hpp"
+#include "emcalign/core/result.hpp"
+
+namespace emcalign::io {
+
+/// The CSV header line (without newline).
+extern const char* const kCsvHeader;
+
+enum class EventFormat { Csv, Hdf5 };
+EventFormat formatOf(const std::string& path);
+
+struct WriterOptions {
+  bool withTruth = false;  ///< HDF5 only; ignored (no truth written) for CSV
+  /// Free-form metadata stored as HDF5 string attributes of the root group (e.g.
+  /// "truth_parameters" → alignment JSON, "generator" → settings JSON); for CSV, written as
+  /// '# key: value' comment lines before the header. Keys are made of letters, digits,
+  /// '_', '.' and '-' and given once; values hold no NUL and, for CSV, no line break
+  /// (compact JSON is fine). `open` refuses anything else.
+  std::vector<std::pair<std::string, std::string>> attributes;
+};
+
+/// Writes `path` through the temporary `<path>.tmp-<pid>` (so two writers of one path in
+/// one process collide). Memory is bounded: rows are buffered and written in blocks.
+class EventWriter {
+ public:
+  static Result<std::unique_ptr<EventWriter>> open(const std::string& path, WriterOptions options);
+  virtual ~EventWriter() = default;
+  /// Appends rows, checked by the rules above (an event may continue into the next append).
+  /// With withTruth (HDF5), `truth` must have one row per row; otherwise it is ignored.
+  /// A refused append writes none of its rows and fails the writer for good: every later
+  /// call fails and no file is produced, so a job that ignores the error cannot leave a
+  /// file with rows missing.
+  virtual Status append(std::span<const ParticleRow> rows, std::span<const TruthRow> truth) = 0;
+  /// Flushes and renames the temporary into place. Must be called for the file to exist.
+  virtual Status close() = 0;
+};
+
+struct ReaderOptions {
+  std::size_t blockRows = 65536;  ///< rows per read (memory bound); at least 1
+};
+
+/// Streams rows from one or several files in order. `open` checks that every file exists
+/// (a missing last file is reported at once, not after reading the others) and opens the
+/// first one (so its attributes are known and a bad header is reported by `open`).
+class EventReader {
+ public:
+  static Result<std::unique_ptr<EventReader>> open(std::vector<std::string> paths, ReaderOptions options = {});
+  virtual ~EventReader() = default;
+  /// Reads about blockRows rows into `rows` (cleared first), always whole events: a block
+  /// ends at an event boundary (it may hold more than blockRows rows when one event is
+  /// larger). Returns false at the end of the last file; an error for malformed input.
+  /// A block never spans two files (the last block of a file may be short), so an event
+  /// cut across two files comes out as two events. After an error every call returns it.
+  virtual Result<bool> next(std::vector<ParticleRow>& rows) = 0;
+  /// The truth rows matching the last block, when the current file has truth.
+  virtual const std::vector<TruthRow>* truth() const = 0;
+  /// Metadata attributes of the file currently read (HDF5 attributes or CSV '# key:' lines).
+  virtual const std::vector<std::pair<std::string, std::string>>& attributes() const = 0;
+};
+
+}  // namespace emcalign::io

@@ -1,0 +1,69 @@
+#pragma once
+// Event reconstruction as SND does it, on the simulated counter energies:
+// * clusters = connected groups of fired counters (neighbours in θ, φ and depth);
+// * energy = sum of the counters divided by the mean containment (a leakage correction);
+// * direction = angles of the log-weighted mean of the *nominal* counter centres,
+//   w_i = max(0, W0 + ln(E_i/E)), seen from the origin. The reconstruction does not know
+//   the misalignment; building the direction from counter centres is what makes the
+//   reconstructed angle non-uniform inside a counter (the paper's σ_sys).
+// * tracks and clusters are matched by angle; clusters left over are photons.
+
+#include <optional>
+#include <vector>
+
+#include "emcalign/core/types.hpp"
+#include "emcalign/geometry/detector.hpp"
+#include "emcalign/geometry/track.hpp"
+#include "emcalign/sim/calorimeter_response.hpp"
+
+namespace emcalign::sim {
+
+struct ReconstructionOptions {
+  double clusterThreshold = 10.0;    ///< MeV: lighter clusters are dropped (assumed)
+  double logWeightW0 = 3.5;          ///< W0 of the logarithmic weights (tuned: σ_θ ≈ 1.5°)
+  double containment = 0.958;        ///< median E_sum/E of 600 MeV e± and γ (measured, docs/simulation.md)
+  double matchRadius = 15.0 * 0.017453292519943295;  ///< rad, track–cluster angle
+  double matchSphereRadius = 45.0;   ///< cm, where the track direction is taken for matching
+  bool directionFromCounters = true; ///< false: the exact nominal-frame direction of the
+                                     ///< deposited energy, smeared (the idealised limit)
+  double idealDirectionSigma = 1.5 * 0.017453292519943295;  ///< rad, smearing per angle then
+  Status validate() const;
+};
+
+struct Cluster {
+  double energy = 0.0;  ///< MeV, leakage-corrected
+  double theta = 0.0;   ///< rad, nominal EMC frame
+  double phi = 0.0;     ///< rad
+  int mainSource = -1;  ///< source (generated particle or background) with most energy
+  int counters = 0;
+};
+
+/// Neighbours of every counter, computed once per calorimeter.
+class CounterNeighbours {
+ public:
+  explicit CounterNeighbours(const geometry::Calorimeter& calo);
+  const std::vector<int>& of(int counter) const { return lists_[static_cast<std::size_t>(counter)]; }
+
+ private:
+  std::vector<std::vector<int>> lists_;
+};
+
+/// Scratch space of the clustering, reused across events.
+struct ClusterScratch {
+  std::vector<int> label;  ///< per counter: cluster id, -1 unassigned (reset after use)
+  std::vector<int> stack;
+  std::vector<int> members;
+};
+
+/// Clusters of the fired counters.
+/// Clusters of the fired counters (`rng` smears the idealised directions only).
+void findClusters(const CounterHits& hits, const geometry::Calorimeter& calo,
+                  const CounterNeighbours& neighbours, const ReconstructionOptions& options,
+                  ClusterScratch& scratch, Rng& rng, std::vector<Cluster>& clusters);
+
+/// Matches tracks to clusters by the smallest angle within the match radius; returns, for
+/// each track, the index of its cluster or -1.
+std::vector<int> matchTracks(const std::vector<geometry::TrackLine>& tracks,
+                             const std::vector<Cluster>& clusters, const ReconstructionOptions& options);
+
+}  // namespace emcalign::sim

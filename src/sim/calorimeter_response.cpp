@@ -1,0 +1,349 @@
+#include "emcalign/sim/calorimeter_response.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include <fmt/format.h>
+
+namespace emcalign::sim {
+
+double regularizedGammaP(double a, double x, double logGammaA) {
+  // Series for x < a + 1, Lentz continued fraction for Q otherwise (Numerical Recipes §6.2).
+  if (x <= 0.0) return 0.0;
+  const double logPrefactor = a * std::log(x) - x - logGammaA;
+  if (x < a + 1.0) {
+    double term = 1.0 / a, sum = term;
+    for (int n = 1; n < 500; ++n) {
+      term *= x / (a + n);
+      sum += term;
+      if (std::abs(term) < std::abs(sum) * 1e-12) break;
+    }
+    return std::min(1.0, sum * std::exp(logPrefactor));
+  }
+  constexpr double kTiny = 1e-300;
+  double b = x + 1.0 - a, c = 1.0 / kTiny, d = 1.0 / b, h = d;
+  for (int i = 1; i < 500; ++i) {
+    const double an = -i * (i - a);
+    b += 2.0;
+    d = an * d + b;
+    if (std::abs(d) < kTiny) d = kTiny;
+    c = b + an / c;
+    if (std::abs(c) < kTiny) c = kTiny;
+    d = 1.0 / d;
+    const double delta = d * c;
+    h *= delta;
+    if (std::abs(delta - 1.0) < 1e-12) break;
+  }
+  return std::max(0.0, 1.0 - std::exp(logPrefactor) * h);
+}
+
+using geometry::Hemisphere;
+using geometry::Region;
+using geometry::Support;
+
+Status EmcOptions::validate(int counters) const {
+  if (!(moliereRadius > 0.0) || !(profileB > 0.0) || !(coreRadius > 0.0) || !(tailRadius > 0.0) ||
+      !(maxRadius > 0.0)) {
+    return Error{"emc: Moliere radius, profile b and lateral radii must be positive"};
+  }
+  if (!(coreFraction >= 0.0 && coreFraction <= 1.0)) return Error{"emc: coreFraction must be in [0, 1]"};
+  if (spotsLongitudinal < 1 || spotsLateral < 1) return Error{"emc: need at least one spot"};
+  if (!(resolutionAt1GeV >= 0.0) || !(smearingShare >= 0.0 && smearingShare <= 1.0)) {
+    return Error{"emc: resolution must be non-negative and its smearing share in [0, 1]"};
+  }
+  if (!(noiseSigma >= 0.0) || !(counterThreshold >= 0.0)) return Error{"emc: noise and threshold must be >= 0"};
+  if (!(mipDedx >= 0.0) || !(nuclearInteractionLength > 0.0)) return Error{"emc: bad ionisation constants"};
+  if (!(backgroundHitsPerEvent >= 0.0) || !(backgroundMeanEnergy > 0.0)) return Error{"emc: bad background"};
+  for (int c : deadCounters) {
+    if (c < 0 || c >= counters) {
+      return Error{fmt::format("dead counter {} does not exist (counters are 0..{})", c, counters - 1)};
+    }
+  }
+  if (!layer3Offset.allFinite()) return Error{"emc: layer-3 offset must be finite"};
+  return {};
+}
+
+ActualPlacement::ActualPlacement(const geometry::AlignmentTransform& truth, const Vec3& layer3Offset) {
+  for (Support s : {Support::Inner, Support::Outer}) {
+    for (Hemisphere h : {Hemisphere::Plus, Hemisphere::Minus}) {
+      geometry::RigidTransform t = truth.placement(h, s);
+      if (s == Support::Outer) t.translation += layer3Offset;
+      placements_[(h == Hemisphere::Plus ? 0 : 1) + (s == Support::Outer ? 2 : 0)] = t;
+    }
+  }
+}
+
+// ------------------------------------------------------------------- CounterHits
+
+CounterHits::CounterHits(int counters)
+    : energy_(static_cast<std::size_t>(counters), 0.0),
+      contrib_(static_cast<std::size_t>(counters), std::array<float, kMaxSources>{}),
+      nominalMoment_(static_cast<std::size_t>(counters), Vec3::Zero()) {
+  touched_.reserve(256);
+  fired_.reserve(256);
+  sourceSum_.fill(Vec3::Zero());
+}
+
+void CounterHits::clear() {
+  for (int c : touched_) {
+    energy_[static_cast<std::size_t>(c)] = 0.0;
+    contrib_[static_cast<std::size_t>(c)].fill(0.0f);
+    nominalMoment_[static_cast<std::size_t>(c)].setZero();
+  }
+  touched_.clear();
+  fired_.clear();
+  sourceSum_.fill(Vec3::Zero());
+  sourceEnergy_.fill(0.0);
+}
+
+void CounterHits::add(int counter, int source, double energy, const Vec3& where, const Vec3& nominal) {
+  const auto c = static_cast<std::size_t>(counter);
+  if (energy_[c] == 0.0) touched_.push_back(counter);
+  energy_[c] += energy;
+  nominalMoment_[c] += energy * nominal;
+  contrib_[c][static_cast<std::size_t>(source)] += static_cast<float>(energy);
+  sourceSum_[static_cast<std::size_t>(source)] += energy * where;
+  sourceEnergy_[static_cast<std::size_t>(source)] += energy;
+}
+
+void CounterHits::digitize(const EmcOptions& o, Rng& rng) {
+  // Only counters with a deposit get noise: with σ = 0.3 MeV and a 2 MeV threshold a
+  // noise-only counter fires with probability ~1e-11.
+  std::sort(touched_.begin(), touched_.end());
+  for (int c : touched_) {
+    double& e = energy_[static_cast<std::size_t>(c)];
+    if (o.noise) e += o.noiseSigma * rng.normal();
+    if (e >= o.counterThreshold) fired_.push_back(c);
+  }
+}
+
+Vec3 CounterHits::sourceCentre(int source) const {
+  const auto s = static_cast<std::size_t>(source);
+  if (sourceEnergy_[s] <= 0.0) return Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
+  return sourceSum_[s] / sourceEnergy_[s];
+}
+
+// ------------------------------------------------------------------- response
+
+CalorimeterResponse::CalorimeterResponse(const geometry::Calorimeter& calo,
+                                         const geometry::AlignmentTransform& truth, EmcOptions options)
+    : calo_(&calo),
+      actual_(truth, options.layer3OffsetOn ? options.layer3Offset : Vec3::Zero()),
+      options_(std::move(options)),
+      dead_(static_cast<std::size_t>(calo.size()), 0) {
+  if (options_.deadCountersOn) {
+    for (int c : options_.deadCounters) dead_[static_cast<std::size_t>(c)] = 1;
+  }
+  const double r1 = calo.description().supports[0].rOuter;
+  r1Squared_ = r1 * r1;
+  auto cdf = [&](double radius) {
+    const double x = options_.maxRadius / radius;
+    return x * x / (x * x + 1.0);
+  };
+  constexpr double kMargin = 12.0 * 0.017453292519943295;
+  cosCoverageMin_ = std::cos(std::max(0.0, calo.description().thetaMin - kMargin));
+  cosCoverageMax_ = std::cos(std::min(std::numbers::pi, calo.description().thetaMax + kMargin));
+  coreCdfMax_ = cdf(options_.coreRadius);
+  tailCdfMax_ = cdf(options_.tailRadius);
+}
+
+bool CalorimeterResponse::nearCoverage(const Vec3& p) const {
+  // Within 12° of the covered θ range: a shower further out cannot reach a counter (its
+  // spots stay within 2 Molière radii ≈ 8 cm, under 12° at the inner radius).
+  const double cosTheta = p.z() / p.norm();
+  return cosTheta < cosCoverageMin_ && cosTheta > cosCoverageMax_;
+}
+
+int CalorimeterResponse::counterAt(const Vec3& p, Hemisphere hint, Vec3* nominalOut, int* last) const {
+  const Hemisphere other = hint == Hemisphere::Plus ? Hemisphere::Minus : Hemisphere::Plus;
+  for (Hemisphere h : {hint, other}) {
+    const Vec3 q = actual_.placement(h, Support::Inner).applyInverse(p);
+    if (geometry::hemisphereOf(q.x()) != h) continue;
+    Vec3 nominal = q;
+    if (q.squaredNorm() >= r1Squared_) {  // beyond support sphere 1: layer 3's own placement
+      nominal = actual_.placement(h, Support::Outer).applyInverse(p);
+      if (geometry::hemisphereOf(nominal.x()) != h) continue;
+    }
+    // Spots of a shower come in runs in the same counter: try the last one first.
+    if (last != nullptr && *last >= 0 && calo_->contains(*last, nominal)) {
+      if (nominalOut != nullptr) *nominalOut = nominal;
+      return *last;
+    }
+    const geometry::Location loc = calo_->locate(nominal);
+    if (loc.region != Region::Counter || isDead(loc.counter)) return -1;
+    if (nominalOut != nullptr) *nominalOut = nominal;
+    if (last != nullptr) *last = loc.counter;
+    return loc.counter;
+  }
+  return -1;  // between the hemispheres
+}
+
+void CalorimeterResponse::deposit(CounterHits& hits, int source, double energy, const Vec3& where,
+                                  Hemisphere hint, int* last) const {
+  Vec3 nominal;
+  const int c = counterAt(where, hint, &nominal, last);
+  if (c >= 0) hits.add(c, source, energy, where, nominal);
+}
+
+double CalorimeterResponse::entry(const Vec3& p, const Vec3& d, Hemisphere& hemisphere) const {
+  // In a hemisphere's own frame its inner surface is the sphere |q| = R0; rigid motions keep
+  // the line parameter, so the entry is p + s·d with s found in that frame.
+  const double r0 = calo_->description().r0();
+  auto crossing = [r0](const Vec3& q, const Vec3& e) {
+    const double b = q.dot(e);
+    const double disc = b * b - q.squaredNorm() + r0 * r0;
+    return disc < 0.0 ? -1.0 : -b + std::sqrt(disc);
+  };
+  const Vec3 guess = p + crossing(p, d) * d;
+  const Hemisphere first = geometry::hemisphereOf(guess.x());
+  for (Hemisphere h : {first, first == Hemisphere::Plus ? Hemisphere::Minus : Hemisphere::Plus}) {
+    const auto& t = actual_.placement(h, Support::Inner);
+    const Vec3 q = t.applyInverse(p), e = t.rotation.transpose() * d;
+    const double s = crossing(q, e);
+    if (s >= 0.0 && geometry::hemisphereOf((q + s * e).x()) == h) {
+      hemisphere = h;
+      return s;
+    }
+  }
+  hemisphere = first;  // enters through the gap: the spots find their own hemisphere
+  return crossing(p, d);
+}
+
+void CalorimeterResponse::shower(CounterHits& hits, int source, double energy, bool photon,
+                                 const Vec3& point, const Vec3& direction, Rng& rng) const {
+  const auto& o = options_;
+  const auto& m = calo_->description().material;
+  Hemisphere h;
+  const double s = entry(point, direction, h);
+  if (s < 0.0) return;
+  const Vec3 start = point + s * direction;
+  if (!nearCoverage(start)) return;  // through the end-cap holes: nothing to deposit
+  const double sinTheta = std::max(1e-3, std::hypot(direction.x(), direction.y()));
+  const double preshower = m.preshowerMaterial / sinTheta;  // X0 before the EMC
+  const double lnY = std::log(std::max(energy / m.criticalEnergy, 1.01));
+
+  double gain = 1.0;
+  if (o.energyResolution && o.resolutionAt1GeV > 0.0) {
+    const double sigma = o.smearingShare * o.resolutionAt1GeV / std::pow(energy / 1000.0, 0.25);
+    gain = std::max(0.0, 1.0 + sigma * rng.normal());
+  }
+
+  if (o.pointShowers) {
+    // The fit model's idealisation: everything at t_max = ln(E/Ec) − 0.5 from the shower
+    // start, i.e. at R(E, θ) for a radial line from the origin.
+    const double depth = (lnY - 0.5 - preshower) * m.radiationLength;
+    deposit(hits, source, gain * energy, start + depth * direction, h);
+    return;
+  }
+
+  double tMax = std::max(0.3, lnY + (photon ? 0.5 : -0.5));
+  if (o.showerFluctuations) {
+    const double sigmaLn = std::clamp(1.0 / (1.26 * lnY - 1.4), 0.05, 0.5);
+    tMax = std::max(0.3, tMax * std::exp(sigmaLn * rng.normal() - 0.5 * sigmaLn * sigmaLn));
+  }
+  const double b = o.profileB, a = 1.0 + b * tMax;
+
+  // Depth along the axis is counted in radiation lengths of material (τ, from the shower
+  // start in the pre-material): pre-material [0, p), NaI up to support sphere 1, the
+  // support (aluminium, thin in X0), NaI of layer 3, exit. Energy falling in the
+  // pre-material, the support or beyond the exit is lost; the fractions come from the Gamma
+  // CDF and spot depths are drawn inside the NaI only, so that the losses follow t_max
+  // smoothly instead of jumping by whole spots.
+  const auto& d = calo_->description();
+  auto distanceTo = [&](double radius) {  // along the axis from the start, to |x| = radius
+    const double bb = start.dot(direction);
+    return -bb + std::sqrt(std::max(0.0, bb * bb - start.squaredNorm() + radius * radius));
+  };
+  const double sA = distanceTo(d.supports[0].rInner), sB = distanceTo(d.supports[0].rOuter);
+  const double sExit = distanceTo(d.supports[1].rInner);
+  const double x0 = m.radiationLength;
+  const double tauA = preshower + sA / x0;                         // support begins
+  const double tauB = tauA + (sB - sA) / o.supportRadiationLength;  // support ends
+  const double tauEnd = tauB + std::max(0.0, sExit - sB) / x0;      // layer 3 ends
+  const double logGammaA = std::log(std::tgamma(a));
+  const double pPre = regularizedGammaP(a, b * preshower, logGammaA);
+  const double pA = regularizedGammaP(a, b * tauA, logGammaA);
+  const double pB = regularizedGammaP(a, b * tauB, logGammaA);
+  const double pEnd = regularizedGammaP(a, b * tauEnd, logGammaA);
+  const double inside = (pA - pPre) + (pEnd - pB);
+  if (inside <= 0.0) return;
+  auto geometric = [&](double tau) {  // material depth → distance from the start
+    return tau < tauA ? (tau - preshower) * x0 : sB + (tau - tauB) * x0;
+  };
+
+  Vec3 e1 = (std::abs(direction.z()) < 0.9 ? Vec3::UnitZ() : Vec3::UnitX()).cross(direction).normalized();
+  const Vec3 e2 = direction.cross(e1);
+  const double spotEnergy = gain * energy * inside / (o.spotsLongitudinal * o.spotsLateral);
+  int last = -1;
+  for (int i = 0; i < o.spotsLongitudinal; ++i) {
+    double tau = 0.0;
+    for (int tries = 0; tries < 64; ++tries) {
+      tau = rng.gamma(a, 1.0 / b);
+      if ((tau >= preshower && tau < tauA) || (tau >= tauB && tau < tauEnd)) break;
+      tau = tau < tauA ? std::max(tau, preshower) : std::min(std::max(tau, tauB), tauEnd);  // after 64 tries
+    }
+    const double t = geometric(tau) / x0;
+    const Vec3 axis = start + (t * m.radiationLength) * direction;
+    for (int j = 0; j < o.spotsLateral; ++j) {
+      // f(r) ∝ r·R²/(r² + R²)² has F(r) = r²/(r² + R²): r = R·√(u/(1 − u)), with u drawn
+      // below F(r_max) so that no spot lands beyond r_max.
+      const bool core = rng.uniform() < o.coreFraction;
+      const double scale = (core ? o.coreRadius : o.tailRadius) * o.moliereRadius;
+      const double u = rng.uniform() * (core ? coreCdfMax_ : tailCdfMax_);
+      const double r = scale * std::sqrt(u / (1.0 - u));
+      double c, sn;
+      rng.unitCircle(c, sn);
+      deposit(hits, source, spotEnergy, axis + r * (c * e1 + sn * e2), h, &last);
+    }
+  }
+}
+
+void CalorimeterResponse::track(CounterHits& hits, int source, double kineticEnergy, bool hadron,
+                                const Vec3& point, const Vec3& direction, Rng& rng) const {
+  const auto& o = options_;
+  Hemisphere h;
+  const double s = entry(point, direction, h);
+  if (s < 0.0) return;
+  const Vec3 start = point + s * direction;
+  if (!nearCoverage(start)) return;
+  const double thickness = calo_->description().supports[1].rOuter - calo_->description().r0();
+  const double length = 1.5 * thickness;  // ample for any slant path through the EMC
+  const double interaction = hadron ? rng.exponential(o.nuclearInteractionLength) : 1e30;
+  const double step = 2.0;
+  double deposited = 0.0;
+  for (double l = 0.5 * step; l < std::min(length, interaction); l += step) {
+    const double e = o.mipDedx * step;
+    deposit(hits, source, e, start + l * direction, h);
+    deposited += e;
+  }
+  if (interaction < length) {
+    // A hadronic blob: a fraction of the remaining kinetic energy, spread over ~10 cm.
+    const double e = std::max(0.0, kineticEnergy - deposited) * rng.uniform(0.1, 0.7);
+    const Vec3 at = start + interaction * direction;
+    Vec3 e1 = (std::abs(direction.z()) < 0.9 ? Vec3::UnitZ() : Vec3::UnitX()).cross(direction).normalized();
+    const Vec3 e2 = direction.cross(e1);
+    constexpr int kSpots = 8;
+    for (int i = 0; i < kSpots; ++i) {
+      double c, sn;
+      rng.unitCircle(c, sn);
+      const Vec3 where = at + rng.exponential(8.0) * direction + rng.exponential(4.0) * (c * e1 + sn * e2);
+      deposit(hits, source, e / kSpots, where, h);
+    }
+  }
+}
+
+void CalorimeterResponse::background(CounterHits& hits, Rng& rng) const {
+  const auto& o = options_;
+  if (!o.beamBackground) return;
+  const int n = rng.poisson(o.backgroundHitsPerEvent);
+  for (int i = 0; i < n; ++i) {
+    const int c = static_cast<int>(rng.uniform() * calo_->size());
+    if (isDead(c)) continue;
+    const Vec3 centre = calo_->counter(c).centre();
+    hits.add(c, CounterHits::kBackground, rng.exponential(o.backgroundMeanEnergy), centre, centre);
+  }
+}
+
+}  // namespace emcalign::sim

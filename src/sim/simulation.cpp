@@ -1,0 +1,222 @@
+#include "emcalign/sim/simulation.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include <fmt/format.h>
+#include <oneapi/tbb/enumerable_thread_specific.h>
+#include <oneapi/tbb/global_control.h>
+#include <oneapi/tbb/parallel_for.h>
+#include <oneapi/tbb/task_arena.h>
+
+namespace emcalign::sim {
+
+namespace {
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+}
+
+void SimulationOptions::setIdealised() {
+  generator.radiation = false;
+  tracking.multipleScattering = false;
+  emc.showerFluctuations = false;
+  emc.pointShowers = true;
+  emc.energyResolution = false;
+  emc.noise = false;
+  emc.deadCountersOn = false;
+  emc.beamBackground = false;
+  emc.layer3OffsetOn = false;
+  reconstruction.directionFromCounters = false;
+  reconstruction.containment = 1.0;
+  cosmicFraction = 0.0;
+}
+
+Status SimulationOptions::validate(int counters) const {
+  if (Status s = generator.validate(); !s) return s;
+  if (Status s = tracking.validate(); !s) return s;
+  if (Status s = emc.validate(counters); !s) return s;
+  if (Status s = reconstruction.validate(); !s) return s;
+  if (!(cosmicFraction >= 0.0 && cosmicFraction <= 1.0)) return Error{"cosmic fraction must be in [0, 1]"};
+  if (!(muonVetoEfficiency >= 0.0 && muonVetoEfficiency <= 1.0)) {
+    return Error{"muon veto efficiency must be in [0, 1]"};
+  }
+  return {};
+}
+
+Result<Simulation> Simulation::create(const geometry::Calorimeter& calorimeter,
+                                      const geometry::AlignmentParameters& truth, SimulationOptions options) {
+  if (Status s = options.validate(calorimeter.size()); !s) return s.error();
+  auto transform = geometry::AlignmentTransform::create(truth, geometry::AlignmentRadii::of(calorimeter.description()));
+  if (!transform) return transform.error();
+  Simulation sim;
+  sim.calo_ = &calorimeter;
+  sim.options_ = std::move(options);
+  sim.response_ = std::make_shared<const CalorimeterResponse>(calorimeter, *transform, sim.options_.emc);
+  sim.neighbours_ = std::make_shared<const CounterNeighbours>(calorimeter);
+  sim.tracking_ = TrackingSystem(sim.options_.tracking);
+  return sim;
+}
+
+void Simulation::cosmic(Rng& rng, GeneratedEvent& event) const {
+  // A cosmic muon crossing the detector: zenith angle ∝ cos²ζ, passing within 10 cm of the
+  // centre. The TS sees it as two outgoing half-tracks from its closest approach.
+  const double cosZenith = std::cbrt(rng.uniformOpen());
+  const double sinZenith = std::sqrt(1.0 - cosZenith * cosZenith);
+  double c, s;
+  rng.unitCircle(c, s);
+  const Vec3 down(sinZenith * c, -cosZenith, sinZenith * s);
+  Vec3 point(rng.uniform(-10.0, 10.0), 0.0, rng.uniform(-15.0, 15.0));
+  point -= point.dot(down) * down;
+  constexpr double kEnergy = 2000.0;
+  const double p = std::sqrt(kEnergy * kEnergy - mass::Muon * mass::Muon);
+  event.vertex = point;
+  event.particles.clear();
+  event.particles.push_back({pdg::MuonPlus, -p * down, kEnergy});
+  event.particles.push_back({pdg::MuonMinus, p * down, kEnergy});
+}
+
+void Simulation::simulateEvent(std::int64_t index, EventScratch& scratch, std::vector<ParticleRow>& rows,
+                               std::vector<TruthRow>& truth) const {
+  const auto& o = options_;
+  Rng rng(o.seed, static_cast<std::uint64_t>(index));
+  const bool isCosmic = o.cosmicFraction > 0.0 && rng.uniform() < o.cosmicFraction;
+  GeneratedEvent& ev = scratch.event;
+  if (isCosmic) {
+    cosmic(rng, ev);
+  } else {
+    generate(o.generator, rng, ev);
+  }
+
+  CounterHits& hits = scratch.hits;
+  hits.clear();
+  scratch.tracks.clear();
+  scratch.trackSource.clear();
+  const int sources = std::min<int>(static_cast<int>(ev.particles.size()), CounterHits::kMaxSources - 1);
+  for (int k = 0; k < sources; ++k) {
+    const GeneratedParticle& particle = ev.particles[static_cast<std::size_t>(k)];
+    const double p = particle.momentum.norm();
+    if (!(p > 0.0)) continue;
+    const Vec3 d = particle.momentum / p;
+    if (particle.charge() != 0) {
+      const ChargedPath path = tracking_.scatter(ev.vertex, d, p, p / particle.energy, rng);
+      if (auto t = tracking_.measure(path, rng)) {
+        scratch.tracks.push_back(*t);
+        scratch.trackSource.push_back(k);
+      }
+      const int apdg = std::abs(particle.pdg);
+      if (apdg == pdg::Electron) {
+        response_->shower(hits, k, particle.energy, false, path.point, path.direction, rng);
+      } else {
+        response_->track(hits, k, particle.energy - particle.mass(), apdg == pdg::PiPlus, path.point,
+                         path.direction, rng);
+      }
+    } else if (particle.pdg == pdg::Photon) {
+      response_->shower(hits, k, particle.energy, true, ev.vertex, d, rng);
+    }
+  }
+  response_->background(hits, rng);
+  hits.digitize(o.emc, rng);
+  findClusters(hits, *calo_, *neighbours_, o.reconstruction, scratch.clusters, rng, scratch.clusterList);
+  const std::vector<int> match = matchTracks(scratch.tracks, scratch.clusterList, o.reconstruction);
+  const std::int8_t veto = isCosmic && rng.uniform() < o.muonVetoEfficiency ? 1 : 0;
+
+  auto truthOf = [&](int source) {  // source −1: beam background
+    TruthRow t;
+    t.vertex = ev.vertex;
+    t.showerCentre = hits.sourceCentre(source >= 0 ? source : CounterHits::kBackground);
+    if (source >= 0 && source < sources) {
+      const auto& gp = ev.particles[static_cast<std::size_t>(source)];
+      t.pdg = gp.pdg;
+      t.energy = gp.energy;
+      t.theta = geometry::polar(gp.momentum);
+      t.phi = geometry::azimuth(gp.momentum);
+    } else {
+      t.energy = t.theta = t.phi = kNaN;
+    }
+    return t;
+  };
+  ParticleRow base;
+  base.run = o.run;
+  base.event = index;
+  base.beamEnergy = o.generator.beamEnergy;
+  base.muonVeto = veto;
+  std::vector<char> used(scratch.clusterList.size(), 0);
+  for (std::size_t i = 0; i < scratch.tracks.size(); ++i) {
+    ParticleRow r = base;
+    const auto& t = scratch.tracks[i];
+    r.charged = 1;
+    r.z0 = t.z0;
+    r.rho = t.rho;
+    r.phiTs = t.phi;
+    r.thetaTs = t.theta;
+    if (match[i] >= 0) {
+      const Cluster& c = scratch.clusterList[static_cast<std::size_t>(match[i])];
+      used[static_cast<std::size_t>(match[i])] = 1;
+      r.energy = c.energy;
+      r.phiEmc = c.phi;
+      r.thetaEmc = c.theta;
+    } else {
+      r.energy = r.phiEmc = r.thetaEmc = kNaN;
+    }
+    rows.push_back(r);
+    truth.push_back(truthOf(scratch.trackSource[i]));
+  }
+  // Photons: the clusters no track claimed, most energetic first.
+  std::vector<std::size_t> photons;
+  for (std::size_t c = 0; c < scratch.clusterList.size(); ++c) {
+    if (!used[c]) photons.push_back(c);
+  }
+  std::stable_sort(photons.begin(), photons.end(), [&](std::size_t a, std::size_t b) {
+    return scratch.clusterList[a].energy > scratch.clusterList[b].energy;
+  });
+  for (std::size_t c : photons) {
+    const Cluster& cl = scratch.clusterList[c];
+    ParticleRow r = base;
+    r.charged = 0;
+    r.z0 = r.rho = r.phiTs = r.thetaTs = kNaN;
+    r.energy = cl.energy;
+    r.phiEmc = cl.phi;
+    r.thetaEmc = cl.theta;
+    rows.push_back(r);
+    truth.push_back(truthOf(cl.mainSource == CounterHits::kBackground ? -1 : cl.mainSource));
+  }
+}
+
+Status Simulation::run(std::int64_t events, int threads, const Sink& sink, const Progress& progress) const {
+  if (events < 0) return Error{"the number of events must not be negative"};
+  const int concurrency = threads > 0 ? threads : tbb::this_task_arena::max_concurrency();
+  tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(concurrency));
+  tbb::enumerable_thread_specific<EventScratch> scratch([this] { return EventScratch(calo_->size()); });
+
+  // Blocks of events are made in parallel, in chunks whose rows are kept apart and then
+  // handed over in event order: the output is the same on any number of threads.
+  constexpr std::int64_t kChunk = 512;
+  constexpr std::int64_t kBlock = 64 * kChunk;
+  struct Chunk {
+    std::vector<ParticleRow> rows;
+    std::vector<TruthRow> truth;
+  };
+  std::vector<Chunk> chunks;
+  for (std::int64_t first = 0; first < events; first += kBlock) {
+    const std::int64_t last = std::min(events, first + kBlock);
+    const auto nChunks = static_cast<std::size_t>((last - first + kChunk - 1) / kChunk);
+    chunks.resize(nChunks);
+    tbb::parallel_for(std::size_t{0}, nChunks, [&](std::size_t c) {
+      Chunk& chunk = chunks[c];
+      chunk.rows.clear();
+      chunk.truth.clear();
+      EventScratch& s = scratch.local();
+      const std::int64_t begin = first + static_cast<std::int64_t>(c) * kChunk;
+      const std::int64_t end = std::min(last, begin + kChunk);
+      for (std::int64_t i = begin; i < end; ++i) simulateEvent(i, s, chunk.rows, chunk.truth);
+    });
+    for (const Chunk& chunk : chunks) {
+      if (Status s = sink(chunk.rows, chunk.truth); !s) return s;
+    }
+    if (progress) progress(last);
+  }
+  return {};
+}
+
+}  // namespace emcalign::sim

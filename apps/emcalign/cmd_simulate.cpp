@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "common.hpp"
+#include "emcalign/core/units.hpp"
 #include "emcalign/core/version.hpp"
 #include "emcalign/io/event_file.hpp"
 #include "emcalign/io/json_files.hpp"
@@ -30,6 +31,8 @@ struct SimulateOptions {
   int run = 1;
   std::string output;
   std::vector<std::string> off;
+  double thetaMinDeg = 0.0;  // 0: the generator default
+  double thetaMaxDeg = 0.0;
   bool pointShowers = false;
   bool ideal = false;
 };
@@ -83,6 +86,7 @@ io::Json settingsJson(const SimulateOptions& cli, const sim::SimulationOptions& 
                   {"run", o.run},
                   {"beam_energy_mev", o.generator.beamEnergy},
                   {"beam_energy_spread_mev", o.generator.beamEnergySpread},
+                  {"theta_range_deg", {o.generator.thetaMin / units::deg, o.generator.thetaMax / units::deg}},
                   {"vertex_sigma_cm", {o.generator.vertexSigma.x(), o.generator.vertexSigma.y(), o.generator.vertexSigma.z()}},
                   {"ideal", cli.ideal},
                   {"point_showers", o.emc.pointShowers},
@@ -104,6 +108,8 @@ int run(const SimulateOptions& cli) {
   if (!process) return reportError({fmt::format("--process: unknown process '{}' (ee, gg, 3pi)", cli.process)});
   o.generator.process = *process;
   o.generator.beamEnergy = cli.beamEnergy > 0.0 ? cli.beamEnergy : sim::defaultBeamEnergy(*process);
+  if (cli.thetaMinDeg > 0.0) o.generator.thetaMin = cli.thetaMinDeg * units::deg;
+  if (cli.thetaMaxDeg > 0.0) o.generator.thetaMax = cli.thetaMaxDeg * units::deg;
   o.seed = cli.seed;
   o.run = cli.run;
   if (cli.ideal) o.setIdealised();
@@ -160,6 +166,12 @@ void addSimulateCommand(CLI::App& app, int& exitCode) {
   cmd->add_option("--params", o->params, "truth alignment parameters (JSON, SPEC §3)")->required()->check(CLI::ExistingFile);
   cmd->add_option("--beam-energy", o->beamEnergy, "beam energy in MeV (default 612.5 for ee and gg, 510 for 3pi)")
       ->check(CLI::PositiveNumber);
+  cmd->add_option("--theta-min", o->thetaMinDeg,
+                  "lower edge of the generated polar range of the final-state particles, deg (default 10; "
+                  "e+e- -> e+e- is forward-peaked: 40 keeps nearly every event inside the profiles)")
+      ->check(CLI::Range(0.0, 180.0));
+  cmd->add_option("--theta-max", o->thetaMaxDeg, "upper edge of the generated polar range, deg (default 170)")
+      ->check(CLI::Range(0.0, 180.0));
   addDetectorOption(*cmd, o->detector);
   cmd->add_option("--dead-counters", o->deadCounters,
                   "comma-separated dead counter indices, or 'none' (default: a few, docs/simulation.md)");

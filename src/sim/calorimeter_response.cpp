@@ -145,6 +145,8 @@ CalorimeterResponse::CalorimeterResponse(const geometry::Calorimeter& calo,
   constexpr double kMargin = 12.0 * 0.017453292519943295;
   cosCoverageMin_ = std::cos(std::max(0.0, calo.description().thetaMin - kMargin));
   cosCoverageMax_ = std::cos(std::min(std::numbers::pi, calo.description().thetaMax + kMargin));
+  lateralCos_ = std::cos(2.0 * std::numbers::pi / options_.spotsLateral);
+  lateralSin_ = std::sin(2.0 * std::numbers::pi / options_.spotsLateral);
   coreCdfMax_ = cdf(options_.coreRadius);
   tailCdfMax_ = cdf(options_.tailRadius);
 }
@@ -262,7 +264,7 @@ void CalorimeterResponse::shower(CounterHits& hits, int source, double energy, b
   const double tauA = preshower + sA / x0;                         // support begins
   const double tauB = tauA + (sB - sA) / o.supportRadiationLength;  // support ends
   const double tauEnd = tauB + std::max(0.0, sExit - sB) / x0;      // layer 3 ends
-  const double logGammaA = std::log(std::tgamma(a));
+  const double logGammaA = std::lgamma(a);
   const double pPre = regularizedGammaP(a, b * preshower, logGammaA);
   const double pA = regularizedGammaP(a, b * tauA, logGammaA);
   const double pB = regularizedGammaP(a, b * tauB, logGammaA);
@@ -286,6 +288,10 @@ void CalorimeterResponse::shower(CounterHits& hits, int source, double energy, b
     }
     const double t = geometric(tau) / x0;
     const Vec3 axis = start + (t * m.radiationLength) * direction;
+    // Lateral spots at azimuths spread evenly from a random start (stratified sampling:
+    // one random rotation per depth, then exact turns by 2π/n).
+    double c, sn;
+    rng.unitCircle(c, sn);
     for (int j = 0; j < o.spotsLateral; ++j) {
       // f(r) ∝ r·R²/(r² + R²)² has F(r) = r²/(r² + R²): r = R·√(u/(1 − u)), with u drawn
       // below F(r_max) so that no spot lands beyond r_max.
@@ -293,9 +299,10 @@ void CalorimeterResponse::shower(CounterHits& hits, int source, double energy, b
       const double scale = (core ? o.coreRadius : o.tailRadius) * o.moliereRadius;
       const double u = rng.uniform() * (core ? coreCdfMax_ : tailCdfMax_);
       const double r = scale * std::sqrt(u / (1.0 - u));
-      double c, sn;
-      rng.unitCircle(c, sn);
       deposit(hits, source, spotEnergy, axis + r * (c * e1 + sn * e2), h, &last);
+      const double turned = c * lateralCos_ - sn * lateralSin_;
+      sn = sn * lateralCos_ + c * lateralSin_;
+      c = turned;
     }
   }
 }

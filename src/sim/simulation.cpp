@@ -1,6 +1,7 @@
 #include "emcalign/sim/simulation.hpp"
 
 #include <algorithm>
+#include <future>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -190,17 +191,22 @@ Status Simulation::run(std::int64_t events, int threads, const Sink& sink, const
   tbb::enumerable_thread_specific<EventScratch> scratch([this] { return EventScratch(calo_->size()); });
 
   // Blocks of events are made in parallel, in chunks whose rows are kept apart and then
-  // handed over in event order: the output is the same on any number of threads.
+  // handed over in event order: the output is the same on any number of threads. The sink
+  // (writing, compressing) of a block runs on its own thread while the next block is made.
   constexpr std::int64_t kChunk = 512;
   constexpr std::int64_t kBlock = 64 * kChunk;
   struct Chunk {
     std::vector<ParticleRow> rows;
     std::vector<TruthRow> truth;
   };
-  std::vector<Chunk> chunks;
-  for (std::int64_t first = 0; first < events; first += kBlock) {
+  std::vector<Chunk> buffers[2];
+  std::future<Status> pending;
+  auto drain = [&pending]() -> Status { return pending.valid() ? pending.get() : Status{}; };
+  int which = 0;
+  for (std::int64_t first = 0; first < events; first += kBlock, which ^= 1) {
     const std::int64_t last = std::min(events, first + kBlock);
     const auto nChunks = static_cast<std::size_t>((last - first + kChunk - 1) / kChunk);
+    std::vector<Chunk>& chunks = buffers[which];
     chunks.resize(nChunks);
     tbb::parallel_for(std::size_t{0}, nChunks, [&](std::size_t c) {
       Chunk& chunk = chunks[c];
@@ -211,12 +217,16 @@ Status Simulation::run(std::int64_t events, int threads, const Sink& sink, const
       const std::int64_t end = std::min(last, begin + kChunk);
       for (std::int64_t i = begin; i < end; ++i) simulateEvent(i, s, chunk.rows, chunk.truth);
     });
-    for (const Chunk& chunk : chunks) {
-      if (Status s = sink(chunk.rows, chunk.truth); !s) return s;
-    }
+    if (Status s = drain(); !s) return s;
+    pending = std::async(std::launch::async, [&sink, &chunks]() -> Status {
+      for (const Chunk& chunk : chunks) {
+        if (Status s = sink(chunk.rows, chunk.truth); !s) return s;
+      }
+      return {};
+    });
     if (progress) progress(last);
   }
-  return {};
+  return drain();
 }
 
 }  // namespace emcalign::sim

@@ -163,6 +163,7 @@ class CalorimeterResponse {
   double r1Squared_ = 0.0;
   double coreCdfMax_ = 1.0, tailCdfMax_ = 1.0;  ///< F(r_max) of the lateral components
   double cosCoverageMin_ = 1.0, cosCoverageMax_ = -1.0;
+  double lateralCos_ = 1.0, lateralSin_ = 0.0;  ///< the turn between lateral spots
 };
 
 }  // namespace emcalign::sim

@@ -34,5 +34,6 @@ void addGeometryCommand(CLI::App& app, int& exitCode);
 void addParamsCommand(CLI::App& app, int& exitCode);
 void addTransformCommand(CLI::App& app, int& exitCode);
 void addSimulateCommand(CLI::App& app, int& exitCode);
+void addFitCommand(CLI::App& app, int& exitCode);
 
 }  // namespace emcalign::app

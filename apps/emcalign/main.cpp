@@ -17,6 +17,7 @@ int main(int argc, char** argv) {
   emcalign::app::addParamsCommand(app, exitCode);
   emcalign::app::addTransformCommand(app, exitCode);
   emcalign::app::addSimulateCommand(app, exitCode);
+  emcalign::app::addFitCommand(app, exitCode);
   CLI11_PARSE(app, argc, argv);
   return exitCode;
 }

@@ -272,7 +272,7 @@ Result<AlignmentParameters> parseAlignment(const json& j, double r1, std::string
     // The parameter keys, plus what a fit result adds (SPEC §3), read elsewhere.
     top.allowOnly({"format", "units", "parameters", "physical", "errors", "covariance", "derived",
                    "chi2", "ndf", "p_value", "stages", "status", "warnings", "input", "software",
-                   "cut_flow", "bins"});
+                   "correlation"});
     if (top.has("format") && top.string("format") != kAlignmentFormat) {
       top.fail("format", fmt::format("expected \"{}\"", kAlignmentFormat));
     }

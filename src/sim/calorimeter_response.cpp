@@ -7,37 +7,9 @@
 
 #include <fmt/format.h>
 
-namespace emcalign::sim {
+#include "emcalign/core/special_functions.hpp"
 
-double regularizedGammaP(double a, double x, double logGammaA) {
-  // Series for x < a + 1, Lentz continued fraction for Q otherwise (Numerical Recipes §6.2).
-  if (x <= 0.0) return 0.0;
-  const double logPrefactor = a * std::log(x) - x - logGammaA;
-  if (x < a + 1.0) {
-    double term = 1.0 / a, sum = term;
-    for (int n = 1; n < 500; ++n) {
-      term *= x / (a + n);
-      sum += term;
-      if (std::abs(term) < std::abs(sum) * 1e-12) break;
-    }
-    return std::min(1.0, sum * std::exp(logPrefactor));
-  }
-  constexpr double kTiny = 1e-300;
-  double b = x + 1.0 - a, c = 1.0 / kTiny, d = 1.0 / b, h = d;
-  for (int i = 1; i < 500; ++i) {
-    const double an = -i * (i - a);
-    b += 2.0;
-    d = an * d + b;
-    if (std::abs(d) < kTiny) d = kTiny;
-    c = b + an / c;
-    if (std::abs(c) < kTiny) c = kTiny;
-    d = 1.0 / d;
-    const double delta = d * c;
-    h *= delta;
-    if (std::abs(delta - 1.0) < 1e-12) break;
-  }
-  return std::max(0.0, 1.0 - std::exp(logPrefactor) * h);
-}
+namespace emcalign::sim {
 
 using geometry::Hemisphere;
 using geometry::Region;
@@ -264,7 +236,7 @@ void CalorimeterResponse::shower(CounterHits& hits, int source, double energy, b
   const double tauA = preshower + sA / x0;                         // support begins
   const double tauB = tauA + (sB - sA) / o.supportRadiationLength;  // support ends
   const double tauEnd = tauB + std::max(0.0, sExit - sB) / x0;      // layer 3 ends
-  const double logGammaA = std::lgamma(a);
+  const double logGammaA = std::log(std::tgamma(a));  // thread-safe, unlike std::lgamma
   const double pPre = regularizedGammaP(a, b * preshower, logGammaA);
   const double pA = regularizedGammaP(a, b * tauA, logGammaA);
   const double pB = regularizedGammaP(a, b * tauB, logGammaA);

@@ -29,6 +29,7 @@ void SimulationOptions::setIdealised() {
   emc.beamBackground = false;
   emc.layer3OffsetOn = false;
   reconstruction.directionFromCounters = false;
+  reconstruction.idealDirectionSigma = 0.0;  // a smeared direction can cross the parting plane
   reconstruction.containment = 1.0;
   cosmicFraction = 0.0;
 }

@@ -73,10 +73,6 @@ struct EmcOptions {
   Status validate(int counters) const;
 };
 
-/// The regularized lower incomplete gamma function P(a, x), the Gamma profile's CDF, given
-/// log Γ(a) (computed once per shower).
-double regularizedGammaP(double a, double x, double logGammaA);
-
 /// Where the hemispheres really are: the truth transform's four rigid placements, layer 3
 /// with its own offset.
 class ActualPlacement {

@@ -38,9 +38,10 @@ struct SimulationOptions {
 
   /// Switches every realism effect off: no radiation, background, dead counters, noise,
   /// energy smearing, shower fluctuations, layer-3 offset, cosmics, multiple scattering;
-  /// point showers at R(E, θ) and cluster directions from the deposit itself (smeared by
-  /// `reconstruction.idealDirectionSigma`). In this limit the SPEC §5 model is exact up to
-  /// the resolutions.
+  /// point showers at R(E, θ) and cluster directions from the deposit itself, unsmeared (a
+  /// smeared direction near x = 0 lands in the other hemisphere's bin, where the model
+  /// gives it the wrong sign of the relative terms). In this limit the SPEC §5 model is
+  /// exact up to the track resolution.
   void setIdealised();
 
   Status validate(int counters) const;

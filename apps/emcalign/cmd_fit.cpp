@@ -1,0 +1,129 @@
+// emcalign fit: e+e- → e+e- events (or a saved profile) → the 12 alignment parameters with
+// errors, a result file, and optionally the profile and the paper's plots.
+
+#include <cmath>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "common.hpp"
+#include "emcalign/calib/calibration.hpp"
+#include "emcalign/core/units.hpp"
+#include "emcalign/io/json_files.hpp"
+
+namespace emcalign::app {
+
+namespace {
+
+using geometry::AlignmentParameters;
+
+struct FitCliOptions {
+  std::vector<std::string> events;
+  std::string profileIn;
+  std::string profileOut;
+  std::string output;
+  std::string detector;
+  std::string plots;
+  double beamEnergy = 0.0;
+};
+
+void printCutFlow(const calib::ProfileFill& fill) {
+  fmt::print("Selection (SPEC §7), events:\n");
+  for (std::size_t k = 0; k < calib::CutFlow::kNames.size(); ++k) {
+    fmt::print("  {:<24} {:>10}\n", calib::CutFlow::kNames[k], fill.cutFlow.events[k]);
+  }
+  fmt::print("Particles: {} selected, {} in the profiles (45-135 deg), {} tracks missing the sphere R(E, theta)\n",
+             fill.particlesSelected, fill.particlesInRange, fill.trackMisses);
+}
+
+void printResult(const calib::FitResult& r) {
+  fmt::print("\n{:<10} {:>12}   {:<10} {}\n", "parameter", "value", "error", "unit");
+  for (Param p : kAllParams) {
+    const double unit = AlignmentParameters::fileUnit(p);
+    const double e = r.errors[static_cast<Eigen::Index>(index(p))];
+    fmt::print("{:<10} {:>12.5f} ± {:<10.5f} {}\n", name(p), r.parameters[p] / unit, e / unit,
+               dimension(p) == Dimension::Angle ? "deg" : "cm");
+  }
+  fmt::print("derived:\n");
+  for (const auto& [n, v] : r.derived) {
+    const bool length = n == "dx_rel";
+    const double unit = length ? units::cm : units::deg;
+    fmt::print("{:<10} {:>12.5f} ± {:<10.5f} {}\n", n, v.value / unit, v.error / unit, length ? "cm" : "deg");
+  }
+  fmt::print("\nchi2/ndf = {:.2f}/{} (p-value {:.3g}), {} bins used; stages chi2:", r.chi2, r.ndf, r.pValue,
+             r.binsUsed);
+  for (const auto& s : r.stages) fmt::print(" {:.1f}", s.chi2);
+  fmt::print("\nstatus: {}\n", r.status);
+  for (const auto& w : r.warnings) reportWarning(w);
+}
+
+int run(const FitCliOptions& o) {
+  auto calo = loadCalorimeter(o.detector);
+  if (!calo) return reportError(calo.error());
+  const auto geometry = calib::FitGeometry::of(calo->description());
+
+  std::vector<calib::ProfileBin> bins;
+  std::optional<calib::ProfileFill> fill;
+  calib::FitInput input;
+  input.detector = o.detector.empty() ? "embedded default" : o.detector;
+  if (!o.profileIn.empty()) {
+    auto read = calib::readProfileCsv(o.profileIn);
+    if (!read) return reportError(read.error());
+    bins = std::move(*read);
+    calib::markUsedBins(bins, calib::ProfileOptions{}.minEntries);
+    input.files = {o.profileIn};
+    input.fromProfile = true;
+  } else {
+    calib::SelectionOptions selection;
+    if (o.beamEnergy > 0.0) selection.beamEnergy = o.beamEnergy;
+    auto filled = calib::fillProfiles(o.events, geometry.depth, selection);
+    if (!filled) return reportError(filled.error());
+    fill = std::move(*filled);
+    printCutFlow(*fill);
+    bins = fill->profiles.bins();
+    input.files = o.events;
+    input.fill = &*fill;
+  }
+  if (!o.profileOut.empty()) {
+    if (Status s = io::writeTextFileAtomically(o.profileOut, calib::profileCsv(bins)); !s) return reportError(s.error());
+  }
+  auto result = calib::fitProfiles(bins, geometry);
+  if (!result) return reportError(result.error());
+  printResult(*result);
+  if (Status s = io::writeTextFileAtomically(o.output, calib::fitResultJson(*result, input).dump(2) + "\n"); !s) {
+    return reportError(s.error());
+  }
+  fmt::print("wrote {}\n", o.output);
+  return result->status == "converged" ? 0 : kExitFailure;
+}
+
+}  // namespace
+
+void addFitCommand(CLI::App& app, int& exitCode) {
+  auto o = std::make_shared<FitCliOptions>();
+  auto* cmd = app.add_subcommand("fit", "Fit the 12 alignment parameters to e+e- -> e+e- events or a saved profile");
+  addVersionFlag(*cmd);
+  auto* events = cmd->add_option("events", o->events, "event files (HDF5 or .csv, SPEC §6)")->check(CLI::ExistingFile);
+  auto* profileIn = cmd->add_option("--profile-in", o->profileIn, "fit a saved profile (CSV) instead of events")
+                        ->check(CLI::ExistingFile);
+  events->excludes(profileIn);
+  cmd->add_option("--profile-out", o->profileOut,
+                  "write the 160 bins: i_phi,i_theta,n,phi_mean_rad,theta_mean_rad,e_mean_mev,y_phi,sigma_phi,"
+                  "y_theta,sigma_theta");
+  cmd->add_option("-o,--output", o->output, "result file (JSON, SPEC §3)")->required();
+  cmd->add_option("--beam-energy", o->beamEnergy, "beam energy for the selection, MeV (default: from the file)")
+      ->check(CLI::PositiveNumber);
+  addDetectorOption(*cmd, o->detector);
+  cmd->callback([o, &exitCode, cmd] {
+    if (o->events.empty() && o->profileIn.empty()) {
+      exitCode = reportError({"give event files or --profile-in (see emcalign fit --help)"});
+      return;
+    }
+    (void)cmd;
+    exitCode = run(*o);
+  });
+}
+
+}  // namespace emcalign::app

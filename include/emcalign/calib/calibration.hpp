@@ -1,0 +1,76 @@
+#pragma once
+// From event files to profiles: stream the events, select e+e- → e+e- (SPEC §7), compute
+// each particle's residuals and fill the 160 bins. Memory does not grow with the number of
+// events. Also: the fit-result file (SPEC §3) and the correction of a particle's EMC
+// direction with fitted parameters (SPEC §9), used by the plots.
+
+#include <cstdint>
+#include <functional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "emcalign/calib/fit.hpp"
+#include "emcalign/calib/profiles.hpp"
+#include "emcalign/calib/selection.hpp"
+#include "emcalign/core/result.hpp"
+#include "emcalign/io/json_files.hpp"
+
+namespace emcalign::calib {
+
+struct ProfileFill {
+  CutFlow cutFlow;
+  Profiles profiles;
+  std::int64_t particlesSelected = 0;  ///< particles of selected events
+  std::int64_t particlesInRange = 0;   ///< of those, inside the profile range
+  std::int64_t trackMisses = 0;        ///< tracks that miss the sphere R(E, θ)
+  std::set<double> beamEnergies;       ///< MeV, of the selected events
+};
+
+/// Called for every particle of a selected event with its residuals (for histograms).
+using ParticleVisitor = std::function<void(const ParticleRow&, const ParticleResidual&)>;
+
+/// Selects events and fills the profiles from rows of whole events (from files, or straight
+/// from the simulation).
+class ProfileFiller {
+ public:
+  ProfileFiller(const geometry::ShowerDepth& depth, SelectionOptions selection, ProfileOptions profile = {},
+                ParticleVisitor visit = {});
+  /// Rows of whole events, the rows of an event contiguous.
+  void addEvents(std::span<const ParticleRow> rows);
+  const ProfileFill& fill() const { return fill_; }
+  ProfileFill& fill() { return fill_; }
+  /// Fails when no event passed the selection (the message gives the cut flow).
+  Status checkSelected() const;
+
+ private:
+  geometry::ShowerDepth depth_;
+  SelectionOptions selection_;
+  ParticleVisitor visit_;
+  ProfileFill fill_;
+};
+
+/// Streams `files`, selects, fills the profiles. Fails on unreadable or malformed input and
+/// when no event passes the selection.
+Result<ProfileFill> fillProfiles(const std::vector<std::string>& files, const geometry::ShowerDepth& depth,
+                                 const SelectionOptions& selection, const ProfileOptions& profile = {},
+                                 const ParticleVisitor& visit = {});
+
+/// Describes the input of a fit in the result file.
+struct FitInput {
+  std::vector<std::string> files;  ///< event files, or the profile file
+  bool fromProfile = false;
+  const ProfileFill* fill = nullptr;  ///< cut flow and counts when fitted from events
+  std::string detector;               ///< "embedded default" or a path
+};
+
+/// The fit-result file of SPEC §3 (file units: deg, cm).
+io::Json fitResultJson(const FitResult& result, const FitInput& input);
+
+/// A cluster direction (φ, θ) and energy E in the nominal EMC frame → the corrected
+/// direction in the TS frame (SPEC §9): point at R(E, θ), forward transform.
+std::pair<double, double> correctDirection(const geometry::AlignmentTransform& transform,
+                                           const geometry::ShowerDepth& depth, double phi, double theta,
+                                           double energy);
+
+}  // namespace emcalign::calib

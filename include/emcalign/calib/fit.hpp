@@ -1,0 +1,100 @@
+#pragma once
+// The χ² fit of SPEC §8:
+//
+//   χ²(η) = Σ_bins [(ȳ_φ − f_φ)²/σ_φ² + (ȳ_θ − f_θ)²/σ_θ²],   ndf = 2·(bins used) − 12,
+//
+// f from geometry/residual_model.hpp at each bin's mean (φ, θ, E), differentiated by Ceres'
+// automatic differentiation through the same templated transform the simulation uses.
+// Staged minimisation, each stage starting where the last ended, all parameters at 0:
+//   1 {alpha}; 2 +{dx, dy}; 3 +{dz, beta1, beta2}; 4 +{dp1, dp2, dp3}; 5 +{dy_rel, dz_rel};
+//   6 +{beta_rel}.
+// Errors: covariance = (JᵀJ)⁻¹ of the whitened residuals at the minimum (Δχ² = 1). A
+// singular covariance is reported (eigenvalues, the weak combination), never regularised.
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "emcalign/calib/profiles.hpp"
+#include "emcalign/core/parameters.hpp"
+#include "emcalign/geometry/alignment_parameters.hpp"
+#include "emcalign/geometry/alignment_transform.hpp"
+#include "emcalign/geometry/shower_depth.hpp"
+
+namespace emcalign::calib {
+
+using Covariance = Eigen::Matrix<double, static_cast<int>(kNumParams), static_cast<int>(kNumParams)>;
+
+struct FitOptions {
+  /// Parameters freed at each stage (SPEC §8); the union must be all 12.
+  std::vector<std::vector<Param>> stages = {
+      {Param::Alpha},
+      {Param::Dx, Param::Dy},
+      {Param::Dz, Param::Beta1, Param::Beta2},
+      {Param::Dp1, Param::Dp2, Param::Dp3},
+      {Param::DyRel, Param::DzRel},
+      {Param::BetaRel}};
+  int maxIterations = 200;                ///< per stage
+  double conditionWarning = 1e8;          ///< of the correlation-scaled JᵀJ
+  double singularEigenvalue = 1e-12;      ///< of the correlation-scaled JᵀJ, relative
+  Status validate() const;
+};
+
+struct StageResult {
+  std::vector<Param> free;  ///< all parameters free in this stage
+  double chi2 = 0.0;
+  int iterations = 0;
+  bool converged = false;
+  std::string termination;
+};
+
+/// A derived (physical) parameter with its propagated error, native units.
+struct DerivedValue {
+  double value = 0.0;
+  double error = 0.0;  ///< NaN where the linear propagation is undefined (β = 0 for ψ, …)
+};
+
+struct FitResult {
+  geometry::AlignmentParameters parameters;
+  geometry::ParamVector errors = geometry::ParamVector::Constant(std::numeric_limits<double>::quiet_NaN());
+  std::optional<Covariance> covariance;   ///< native units; none if singular
+  Covariance correlation = Covariance::Zero();
+  /// β, ψ, μ, τ, dx_rel (in this order)
+  std::vector<std::pair<std::string, DerivedValue>> derived;
+  double chi2 = 0.0;
+  int ndf = 0;
+  double pValue = 0.0;
+  int binsUsed = 0;
+  std::vector<std::pair<int, int>> binsLeftOut;  ///< (i_phi, i_theta)
+  std::vector<StageResult> stages;
+  /// Eigenvalues of the correlation-scaled JᵀJ (ascending) and the weakest combination.
+  std::vector<double> eigenvalues;
+  std::string weakCombination;
+  std::string status;  ///< "converged", "not converged", "covariance singular"
+  std::vector<std::string> warnings;
+};
+
+/// What the fit needs to know about the detector.
+struct FitGeometry {
+  geometry::AlignmentRadii radii;
+  geometry::ShowerDepth depth;
+  static FitGeometry of(const geometry::DetectorDescription& d) {
+    return {geometry::AlignmentRadii::of(d), geometry::ShowerDepth::of(d)};
+  }
+};
+
+/// Fits the bins marked `used`. Fails only on unusable input (too few bins); a fit that
+/// does not converge returns its result with status "not converged" and a warning.
+Result<FitResult> fitProfiles(const std::vector<ProfileBin>& bins, const FitGeometry& geometry,
+                              const FitOptions& options = {});
+
+/// χ² of the used bins at η (for tests and cross-checks).
+double chi2At(const std::vector<ProfileBin>& bins, const FitGeometry& geometry, const geometry::ParamVector& eta);
+
+/// The model f_φ, f_θ of a bin-like point (φ, θ, E) at η.
+geometry::AngularResidual modelAt(const FitGeometry& geometry, const geometry::ParamVector& eta, double phi,
+                                  double theta, double energy);
+
+}  // namespace emcalign::calib

@@ -1,0 +1,69 @@
+#pragma once
+// The 160-bin profiles of SPEC §7: 16 bins in φ_EMC over [0°, 360°) × 10 bins in θ_EMC over
+// [45°, 135°). Per bin: N and the means of y_φ, y_θ, φ_EMC, θ_EMC, E;
+// σ_stat = sample standard deviation (N−1)/√N, σ² = σ_stat² + σ_sys², σ_sys = 0.2°.
+// A bin with N < 10 is left out of the χ². The model of a bin is evaluated at its means.
+//
+// Filling is streaming (Welford's running mean and variance), so memory does not grow with
+// the number of events, and two profiles can be merged.
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "emcalign/calib/selection.hpp"
+#include "emcalign/core/result.hpp"
+
+namespace emcalign::calib {
+
+struct ProfileOptions {
+  int phiBins = 16;
+  int thetaBins = 10;
+  double thetaMin = 45.0 * 0.017453292519943295;  ///< rad
+  double thetaMax = 135.0 * 0.017453292519943295; ///< rad
+  double sigmaSys = 0.2 * 0.017453292519943295;   ///< rad, for y_φ and y_θ
+  int minEntries = 10;
+};
+
+/// One bin, as the fit sees it.
+struct ProfileBin {
+  int iPhi = 0, iTheta = 0;
+  std::int64_t n = 0;
+  double phiMean = 0.0, thetaMean = 0.0, energyMean = 0.0;  ///< rad, rad, MeV
+  double yPhi = 0.0, sigmaPhi = 0.0;      ///< mean and total σ (stat ⊕ sys)
+  double yTheta = 0.0, sigmaTheta = 0.0;
+  bool used = false;                      ///< n ≥ minEntries and σ finite
+};
+
+class Profiles {
+ public:
+  explicit Profiles(ProfileOptions options = {});
+  const ProfileOptions& options() const { return options_; }
+
+  /// Adds a particle; false if it is outside the profile range.
+  bool fill(const ParticleResidual& p);
+  /// The bins with their means and σ (all phiBins × thetaBins, i_phi-major).
+  std::vector<ProfileBin> bins() const;
+  std::int64_t entries() const { return entries_; }
+
+ private:
+  struct Accumulator {
+    std::int64_t n = 0;
+    double mean[5] = {};  // y_φ, y_θ, φ, θ, E
+    double m2Phi = 0.0, m2Theta = 0.0;
+  };
+  ProfileOptions options_;
+  std::vector<Accumulator> acc_;
+  std::int64_t entries_ = 0;
+};
+
+/// Marks the bins the χ² uses (n ≥ minEntries, finite σ > 0) and returns how many.
+int markUsedBins(std::vector<ProfileBin>& bins, int minEntries);
+
+/// Profile CSV: i_phi,i_theta,n,phi_mean_rad,theta_mean_rad,e_mean_mev,y_phi,sigma_phi,y_theta,sigma_theta
+/// (σ are the totals the χ² uses; empty fields for bins with too few entries).
+std::string profileCsv(const std::vector<ProfileBin>& bins);
+Result<std::vector<ProfileBin>> readProfileCsv(const std::string& path);
+
+}  // namespace emcalign::calib

@@ -1,0 +1,147 @@
+#include "emcalign/calib/calibration.hpp"
+
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "emcalign/core/units.hpp"
+#include "emcalign/core/version.hpp"
+#include "emcalign/io/event_file.hpp"
+
+namespace emcalign::calib {
+
+ProfileFiller::ProfileFiller(const geometry::ShowerDepth& depth, SelectionOptions selection, ProfileOptions profile,
+                             ParticleVisitor visit)
+    : depth_(depth), selection_(std::move(selection)), visit_(std::move(visit)) {
+  fill_.profiles = Profiles(profile);
+}
+
+void ProfileFiller::addEvents(std::span<const ParticleRow> rows) {
+  fill_.cutFlow.rows += static_cast<std::int64_t>(rows.size());
+  for (std::size_t i = 0; i < rows.size();) {
+    std::size_t j = i + 1;
+    while (j < rows.size() && rows[j].event == rows[i].event && rows[j].run == rows[i].run) ++j;
+    const std::span<const ParticleRow> event = rows.subspan(i, j - i);
+    const int failed = selectEvent(event, selection_);
+    const int passed = failed == 0 ? static_cast<int>(CutFlow::kNames.size()) : failed;
+    for (int k = 0; k < passed; ++k) fill_.cutFlow.events[static_cast<std::size_t>(k)] += 1;
+    if (failed == 0) {
+      fill_.beamEnergies.insert(selection_.beamEnergy.value_or(event[0].beamEnergy));
+      for (const auto& r : event) {
+        ++fill_.particlesSelected;
+        const auto y = residualOf(r, depth_);
+        if (!y) {
+          ++fill_.trackMisses;
+          continue;
+        }
+        if (fill_.profiles.fill(*y)) ++fill_.particlesInRange;
+        if (visit_) visit_(r, *y);
+      }
+    }
+    i = j;
+  }
+}
+
+Status ProfileFiller::checkSelected() const {
+  if (fill_.cutFlow.events.back() > 0) return {};
+  std::string flow;
+  for (std::size_t k = 0; k < CutFlow::kNames.size(); ++k) {
+    flow += fmt::format("{}{} {}", k ? ", " : "", CutFlow::kNames[k], fill_.cutFlow.events[k]);
+  }
+  return Error{fmt::format("no event passes the e+e- -> e+e- selection ({})", flow)};
+}
+
+Result<ProfileFill> fillProfiles(const std::vector<std::string>& files, const geometry::ShowerDepth& depth,
+                                 const SelectionOptions& selection, const ProfileOptions& profile,
+                                 const ParticleVisitor& visit) {
+  auto reader = io::EventReader::open(files);
+  if (!reader) return reader.error();
+  ProfileFiller filler(depth, selection, profile, visit);
+  std::vector<ParticleRow> rows;
+  while (true) {
+    auto more = (*reader)->next(rows);
+    if (!more) return more.error();
+    if (!*more) break;
+    filler.addEvents(rows);  // blocks hold whole events
+  }
+  if (Status s = filler.checkSelected(); !s) return s.error();
+  return std::move(filler.fill());
+}
+
+io::Json fitResultJson(const FitResult& r, const FitInput& input) {
+  using io::Json;
+  using geometry::AlignmentParameters;
+  Json j = io::alignmentToJson(r.parameters);
+  Json errors = Json::object();
+  for (Param p : kAllParams) {
+    const double e = r.errors[static_cast<Eigen::Index>(index(p))];
+    errors[std::string(name(p))] = std::isfinite(e) ? Json(e / AlignmentParameters::fileUnit(p)) : Json(nullptr);
+  }
+  j["errors"] = errors;
+  if (r.covariance) {
+    Json cov = Json::array(), corr = Json::array();
+    for (Param p : kAllParams) {
+      Json row = Json::array(), crow = Json::array();
+      for (Param q : kAllParams) {
+        const auto i = static_cast<Eigen::Index>(index(p)), k = static_cast<Eigen::Index>(index(q));
+        row.push_back((*r.covariance)(i, k) / (AlignmentParameters::fileUnit(p) * AlignmentParameters::fileUnit(q)));
+        crow.push_back(r.correlation(i, k));
+      }
+      cov.push_back(row);
+      corr.push_back(crow);
+    }
+    j["covariance"] = cov;
+    j["correlation"] = corr;
+  } else {
+    j["covariance"] = nullptr;
+  }
+  Json derived = Json::object();
+  for (const auto& [n, v] : r.derived) {
+    const double unit = n == "dx_rel" ? units::cm : units::deg;
+    derived[n] = {{"value", v.value / unit}, {"error", std::isfinite(v.error) ? Json(v.error / unit) : Json(nullptr)},
+                  {"unit", n == "dx_rel" ? "cm" : "deg"}};
+  }
+  j["derived"] = derived;
+  j["chi2"] = r.chi2;
+  j["ndf"] = r.ndf;
+  j["p_value"] = r.pValue;
+  Json stages = Json::array();
+  for (std::size_t k = 0; k < r.stages.size(); ++k) {
+    Json free = Json::array();
+    for (Param p : r.stages[k].free) free.push_back(std::string(name(p)));
+    stages.push_back({{"stage", k + 1},
+                      {"free", free},
+                      {"chi2", r.stages[k].chi2},
+                      {"iterations", r.stages[k].iterations},
+                      {"converged", r.stages[k].converged}});
+  }
+  j["stages"] = stages;
+  j["status"] = r.status;
+  j["warnings"] = r.warnings;
+  Json in = {{"files", input.files}, {"from_profile", input.fromProfile}, {"detector", input.detector},
+             {"bins_used", r.binsUsed}, {"bins_left_out", r.binsLeftOut.size()}};
+  if (input.fill != nullptr) {
+    Json flow = Json::object();
+    for (std::size_t k = 0; k < CutFlow::kNames.size(); ++k) flow[CutFlow::kNames[k]] = input.fill->cutFlow.events[k];
+    in["cut_flow"] = flow;
+    in["particles_selected"] = input.fill->particlesSelected;
+    in["particles_in_profiles"] = input.fill->particlesInRange;
+    in["beam_energies_mev"] = std::vector<double>(input.fill->beamEnergies.begin(), input.fill->beamEnergies.end());
+  }
+  Json eig = Json::array();
+  for (double e : r.eigenvalues) eig.push_back(e);
+  in["correlation_eigenvalues"] = eig;
+  j["input"] = in;
+  j["software"] = fmt::format("emcalign {}", kVersion);
+  return j;
+}
+
+std::pair<double, double> correctDirection(const geometry::AlignmentTransform& transform,
+                                           const geometry::ShowerDepth& depth, double phi, double theta,
+                                           double energy) {
+  const Vec3 p0 = geometry::pointAt(depth.radius(energy, theta), theta, phi);
+  const Vec3 p1 = transform.forward(p0, geometry::hemisphereOf(std::cos(phi)));
+  return {geometry::azimuth(p1), geometry::polar(p1)};
+}
+
+}  // namespace emcalign::calib

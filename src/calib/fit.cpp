@@ -1,0 +1,255 @@
+#include "emcalign/calib/fit.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <set>
+
+#include <ceres/ceres.h>
+#include <fmt/format.h>
+
+#include <Eigen/Eigenvalues>
+
+#include "emcalign/core/special_functions.hpp"
+#include "emcalign/core/units.hpp"
+#include "emcalign/geometry/residual_model.hpp"
+
+namespace emcalign::calib {
+
+namespace {
+
+constexpr int kN = static_cast<int>(kNumParams);
+
+struct BinPoint {
+  double phi, theta, radius, yPhi, yTheta, wPhi, wTheta;  // w = 1/σ
+};
+
+// All whitened residuals in one functor: the two hemispheres' placements are built once
+// per evaluation and shared by the 2·bins residuals.
+struct ProfileResiduals {
+  const std::vector<BinPoint>* points;
+  geometry::AlignmentRadii radii;
+
+  template <typename T>
+  bool operator()(const T* const eta, T* residuals) const {
+    const geometry::ParamVectorT<T> p = Eigen::Map<const geometry::ParamVectorT<T>>(eta);
+    const auto plus = geometry::hemisphereTransform<T>(p, geometry::Hemisphere::Plus, radii);
+    const auto minus = geometry::hemisphereTransform<T>(p, geometry::Hemisphere::Minus, radii);
+    for (std::size_t i = 0; i < points->size(); ++i) {
+      const BinPoint& b = (*points)[i];
+      const auto f = geometry::modelResidual<T>(plus, minus, b.phi, b.theta, b.radius);
+      residuals[2 * i] = (b.yPhi - f.phi) * b.wPhi;
+      residuals[2 * i + 1] = (b.yTheta - f.theta) * b.wTheta;
+    }
+    return true;
+  }
+};
+
+std::vector<BinPoint> pointsOf(const std::vector<ProfileBin>& bins, const FitGeometry& g) {
+  std::vector<BinPoint> out;
+  for (const auto& b : bins) {
+    if (!b.used) continue;
+    out.push_back({b.phiMean, b.thetaMean, g.depth.radius(b.energyMean, b.thetaMean), b.yPhi, b.yTheta,
+                   1.0 / b.sigmaPhi, 1.0 / b.sigmaTheta});
+  }
+  return out;
+}
+
+// The derived parameters as functions of η, templated for their Jacobian.
+template <typename T>
+std::array<T, 5> derivedOf(const T* eta, double r1) {
+  using std::asin;
+  using std::atan2;
+  using std::sqrt;
+  const T b1 = eta[index(Param::Beta1)], b2 = eta[index(Param::Beta2)];
+  const T dp1 = eta[index(Param::Dp1)], dp2 = eta[index(Param::Dp2)], dp3 = eta[index(Param::Dp3)];
+  const T dxRel = (dp1 + dp2 + dp3) / 6.0;
+  const T u = (2.0 * dp1 - dp2 - dp3) / 3.0;
+  const T t = (dp3 - dp2) / (2.0 * std::numbers::sqrt3);
+  return {asin(sqrt(b1 * b1 + b2 * b2)), atan2(b2, b1), asin(sqrt(4.0 * t * t + u * u) / (2.0 * r1)),
+          atan2(2.0 * t, u), dxRel};
+}
+
+std::string paramList(const std::vector<Param>& ps) {
+  std::string s;
+  for (Param p : ps) s += fmt::format("{}{}", s.empty() ? "" : ", ", name(p));
+  return s;
+}
+
+}  // namespace
+
+Status FitOptions::validate() const {
+  std::set<Param> all;
+  for (const auto& stage : stages) all.insert(stage.begin(), stage.end());
+  if (all.size() != kNumParams) return Error{"fit: the stages must free all 12 parameters"};
+  if (maxIterations < 1) return Error{"fit: maxIterations must be positive"};
+  return {};
+}
+
+geometry::AngularResidual modelAt(const FitGeometry& g, const geometry::ParamVector& eta, double phi, double theta,
+                                  double energy) {
+  return geometry::modelResidual<double>(eta, g.radii, g.depth, phi, theta, energy);
+}
+
+double chi2At(const std::vector<ProfileBin>& bins, const FitGeometry& g, const geometry::ParamVector& eta) {
+  const auto points = pointsOf(bins, g);
+  ProfileResiduals f{&points, g.radii};
+  std::vector<double> r(2 * points.size());
+  f(eta.data(), r.data());
+  double chi2 = 0.0;
+  for (double x : r) chi2 += x * x;
+  return chi2;
+}
+
+Result<FitResult> fitProfiles(const std::vector<ProfileBin>& bins, const FitGeometry& g, const FitOptions& options) {
+  if (Status s = options.validate(); !s) return s.error();
+  FitResult result;
+  for (const auto& b : bins) {
+    if (!b.used) result.binsLeftOut.emplace_back(b.iPhi, b.iTheta);
+  }
+  const std::vector<BinPoint> points = pointsOf(bins, g);
+  result.binsUsed = static_cast<int>(points.size());
+  if (2 * result.binsUsed <= kN) {
+    return Error{fmt::format("only {} profile bins have at least 10 entries: the 12 parameters need at least 7 "
+                             "(are there selected e+e- -> e+e- events at 45-135 deg?)",
+                             result.binsUsed)};
+  }
+
+  geometry::ParamVector eta = geometry::ParamVector::Zero();
+  auto* cost = new ceres::AutoDiffCostFunction<ProfileResiduals, ceres::DYNAMIC, kN>(
+      new ProfileResiduals{&points, g.radii}, 2 * result.binsUsed);
+  ceres::Problem problem;
+  problem.AddResidualBlock(cost, nullptr, eta.data());
+
+  std::vector<Param> free;
+  bool allConverged = true;
+  for (const auto& stage : options.stages) {
+    free.insert(free.end(), stage.begin(), stage.end());
+    std::vector<int> constant;
+    for (Param p : kAllParams) {
+      if (std::find(free.begin(), free.end(), p) == free.end()) constant.push_back(static_cast<int>(index(p)));
+    }
+    if (constant.empty()) {
+      if (problem.HasManifold(eta.data())) problem.SetManifold(eta.data(), nullptr);
+    } else {
+      problem.SetManifold(eta.data(), new ceres::SubsetManifold(kN, constant));
+    }
+    ceres::Solver::Options so;
+    so.linear_solver_type = ceres::DENSE_QR;
+    so.max_num_iterations = options.maxIterations;
+    so.function_tolerance = 1e-14;
+    so.gradient_tolerance = 1e-14;
+    so.parameter_tolerance = 1e-14;
+    so.logging_type = ceres::SILENT;
+    so.num_threads = 1;
+    ceres::Solver::Summary summary;
+    ceres::Solve(so, &problem, &summary);
+    StageResult sr;
+    sr.free = free;
+    sr.chi2 = 2.0 * summary.final_cost;
+    sr.iterations = static_cast<int>(summary.iterations.size()) - 1;
+    sr.converged = summary.termination_type == ceres::CONVERGENCE;
+    sr.termination = summary.message;
+    allConverged = allConverged && sr.converged;
+    result.stages.push_back(sr);
+  }
+
+  result.parameters.values = eta;
+  result.chi2 = result.stages.back().chi2;
+  result.ndf = 2 * result.binsUsed - kN;
+  result.pValue = chi2PValue(result.chi2, result.ndf);
+  result.status = allConverged ? "converged" : "not converged";
+  if (!allConverged) {
+    for (std::size_t k = 0; k < result.stages.size(); ++k) {
+      if (!result.stages[k].converged) {
+        result.warnings.push_back(fmt::format("stage {} ({}) did not converge: {}", k + 1,
+                                              paramList(options.stages[k]), result.stages[k].termination));
+      }
+    }
+  }
+
+  // Covariance (JᵀJ)⁻¹ of the whitened residuals at the minimum, through the correlation-
+  // scaled matrix D·JᵀJ·D (D = diag(JᵀJ)^(−1/2)), whose eigenvalues are unit-free.
+  std::vector<double> residuals(2 * points.size());
+  Eigen::Matrix<double, Eigen::Dynamic, kN, Eigen::RowMajor> jacobian(2 * points.size(), kN);
+  double* jac[1] = {jacobian.data()};
+  const double* params[1] = {eta.data()};
+  cost->Evaluate(params, residuals.data(), jac);
+  const Covariance jtj = jacobian.transpose() * jacobian;
+  const Eigen::Matrix<double, kN, 1> diag = jtj.diagonal();
+  bool singular = (diag.array() <= 0.0).any();
+  Covariance covariance = Covariance::Constant(std::numeric_limits<double>::quiet_NaN());
+  if (!singular) {
+    const Eigen::Matrix<double, kN, 1> d = diag.array().rsqrt();
+    const Covariance scaled = d.asDiagonal() * jtj * d.asDiagonal();
+    Eigen::SelfAdjointEigenSolver<Covariance> eig(scaled);
+    const auto& ev = eig.eigenvalues();
+    result.eigenvalues.assign(ev.data(), ev.data() + kN);
+    const Eigen::Matrix<double, kN, 1> weak = eig.eigenvectors().col(0);
+    std::string combo;
+    for (int k = 0; k < kN; ++k) {
+      if (std::abs(weak[k]) > 0.1) combo += fmt::format("{}{:+.2f}·{}", combo.empty() ? "" : " ", weak[k], kParamNames[static_cast<std::size_t>(k)]);
+    }
+    result.weakCombination = combo;
+    singular = ev[0] < options.singularEigenvalue * ev[kN - 1];
+    if (!singular) {
+      const Covariance inverseScaled = eig.eigenvectors() * ev.cwiseInverse().asDiagonal() * eig.eigenvectors().transpose();
+      covariance = d.asDiagonal() * inverseScaled * d.asDiagonal();
+      if (ev[kN - 1] / ev[0] > options.conditionWarning) {
+        result.warnings.push_back(fmt::format(
+            "the covariance is ill-conditioned (condition number {:.3g} of the correlation-scaled matrix); the weak "
+            "combination is {}", ev[kN - 1] / ev[0], combo));
+      }
+    }
+  }
+  if (singular) {
+    result.status = "covariance singular";
+    std::string evs;
+    for (double e : result.eigenvalues) evs += fmt::format("{}{:.3g}", evs.empty() ? "" : ", ", e);
+    result.warnings.push_back(fmt::format(
+        "the covariance is singular: the data do not constrain {} (eigenvalues of the correlation-scaled JᵀJ: {}); "
+        "no errors are given",
+        result.weakCombination.empty() ? "some parameter" : result.weakCombination, evs));
+  } else {
+    result.covariance = covariance;
+    for (int k = 0; k < kN; ++k) result.errors[k] = std::sqrt(covariance(k, k));
+    for (int i = 0; i < kN; ++i) {
+      for (int j = 0; j < kN; ++j) result.correlation(i, j) = covariance(i, j) / (result.errors[i] * result.errors[j]);
+    }
+  }
+
+  // Derived parameters, errors by their Jacobian (automatic differentiation).
+  using Jet = ceres::Jet<double, kN>;
+  std::array<Jet, kN> etaJet;
+  for (int k = 0; k < kN; ++k) etaJet[static_cast<std::size_t>(k)] = Jet(eta[k], k);
+  const auto derived = derivedOf<Jet>(etaJet.data(), g.radii.r1);
+  const char* names[] = {"beta", "psi", "mu", "tau", "dx_rel"};
+  for (int i = 0; i < 5; ++i) {
+    DerivedValue v;
+    v.value = derived[static_cast<std::size_t>(i)].a;
+    const Eigen::Matrix<double, kN, 1> grad = derived[static_cast<std::size_t>(i)].v;
+    v.error = result.covariance && grad.allFinite() ? std::sqrt(grad.dot(*result.covariance * grad))
+                                                    : std::numeric_limits<double>::quiet_NaN();
+    result.derived.emplace_back(names[i], v);
+  }
+
+  // Warnings a calibration physicist acts on.
+  for (Param p : {Param::Dp1, Param::Dp2, Param::Dp3}) {
+    const double v = result.parameters[p], e = result.errors[static_cast<Eigen::Index>(index(p))];
+    if (v < 0.0 && (!std::isfinite(e) || v < -e)) {
+      result.warnings.push_back(fmt::format(
+          "{} = {:.4f} ± {:.4f} cm is negative beyond its error: the hemispheres overlap (a calibration or "
+          "reconstruction problem to deal with before using these parameters)",
+          name(p), v, e));
+    }
+  }
+  if (!result.binsLeftOut.empty()) {
+    std::string list;
+    for (const auto& [i, j] : result.binsLeftOut) list += fmt::format("{}({},{})", list.empty() ? "" : " ", i, j);
+    result.warnings.push_back(fmt::format("{} of {} profile bins have fewer than 10 entries and are left out: {}",
+                                          result.binsLeftOut.size(), bins.size(), list));
+  }
+  return result;
+}
+
+}  // namespace emcalign::calib

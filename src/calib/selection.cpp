@@ -1,0 +1,35 @@
+#include "emcalign/calib/selection.hpp"
+
+#include <cmath>
+#include <numbers>
+
+namespace emcalign::calib {
+
+int selectEvent(std::span<const ParticleRow> event, const SelectionOptions& o) {
+  if (event.empty()) return 2;
+  if (event.front().muonVeto != 0) return 1;
+  int charged = 0, photons = 0;
+  for (const auto& r : event) (r.charged ? charged : photons) += 1;
+  if (charged != 2 || photons != 0) return 2;
+  for (const auto& r : event) {
+    if (!r.hasTrack() || !(std::abs(r.z0) < o.maxAbsZ0) || !(std::abs(r.rho) < o.maxAbsRho)) return 3;
+  }
+  for (const auto& r : event) {
+    const double beam = o.beamEnergy.value_or(r.beamEnergy);
+    if (!r.hasCluster() || !(r.energy > o.minEnergyFraction * beam) || !(r.energy < o.maxEnergyFraction * beam)) {
+      return 4;
+    }
+  }
+  const double acol = std::abs(std::numbers::pi - std::abs(event[0].phiTs - event[1].phiTs));
+  if (!(acol < o.maxAcollinearity)) return 5;
+  return 0;
+}
+
+std::optional<ParticleResidual> residualOf(const ParticleRow& row, const geometry::ShowerDepth& depth) {
+  const geometry::TrackLine track{row.z0, row.rho, row.phiTs, row.thetaTs};
+  const auto y = geometry::measuredResidual(track, row.energy, row.phiEmc, row.thetaEmc, depth);
+  if (!y) return std::nullopt;
+  return ParticleResidual{row.phiEmc, row.thetaEmc, row.energy, y->phi, y->theta};
+}
+
+}  // namespace emcalign::calib

@@ -1,0 +1,123 @@
+// emcalign fit from the command line: a simulated file fitted back, the profile round
+// trip, and refused inputs (nothing selected, empty profiles, NaN, truncated file) that
+// exit non-zero with a message naming the cause and write no result.
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+class FitCli : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = fs::temp_directory_path() / "emcalign_fit_cli";
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    const std::string truth = std::string(EMCALIGN_SOURCE_DIR) + "/data/examples/paper-like.json";
+    const std::string sim = std::string(EMCALIGN_BINARY) + " simulate --events 20000 --seed 3 --theta-min 40 "
+                            "--theta-max 140 --params " + truth + " -o ";
+    ASSERT_EQ(std::system((sim + (dir_ / "ee.h5").string() + " 2>/dev/null").c_str()), 0);
+    ASSERT_EQ(std::system((sim + (dir_ / "ee.csv").string() + " 2>/dev/null").c_str()), 0);
+    ASSERT_EQ(std::system((std::string(EMCALIGN_BINARY) + " simulate --process gg --events 2000 --params " + truth +
+                           " -o " + (dir_ / "gg.h5").string() + " 2>/dev/null").c_str()), 0);
+  }
+  static void TearDownTestSuite() { fs::remove_all(dir_); }
+
+  int run(const std::string& args, std::string* out = nullptr, std::string* err = nullptr) const {
+    const std::string o = (dir_ / "out.txt").string(), e = (dir_ / "err.txt").string();
+    const int status = std::system((std::string(EMCALIGN_BINARY) + " " + args + " >" + o + " 2>" + e).c_str());
+    if (out != nullptr) *out = slurp(o);
+    if (err != nullptr) *err = slurp(e);
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  }
+  static std::string slurp(const fs::path& p) {
+    std::ifstream in(p);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  }
+  static std::string path(const std::string& name) { return (dir_ / name).string(); }
+  static void write(const std::string& name, const std::string& text) { std::ofstream(path(name)) << text; }
+
+  static fs::path dir_;
+};
+fs::path FitCli::dir_;
+
+TEST_F(FitCli, FitsASimulatedFileAndRefitsItsProfile) {
+  std::string out;
+  ASSERT_EQ(run("fit " + path("ee.h5") + " -o " + path("r.json") + " --profile-out " + path("p.csv"), &out), 0) << out;
+  for (const char* s : {"events read", "acollinearity", "alpha", "beta_rel", "dx_rel", "chi2/ndf", "converged"}) {
+    EXPECT_NE(out.find(s), std::string::npos) << s;
+  }
+  const auto r = nlohmann::json::parse(slurp(path("r.json")));
+  EXPECT_NEAR(r["parameters"]["alpha"].get<double>(), 3.0, 0.15);
+  EXPECT_EQ(r["covariance"].size(), 12u);
+  EXPECT_EQ(r["ndf"], 2 * r["input"]["bins_used"].get<int>() - 12);
+  EXPECT_EQ(r["stages"].size(), 6u);
+  for (const char* k : {"errors", "derived", "chi2", "p_value", "status", "warnings", "software"}) {
+    EXPECT_TRUE(r.contains(k)) << k;
+  }
+  // The result is itself a parameter file.
+  ASSERT_EQ(run("params show " + path("r.json")), 0);
+  // The saved profile fits to the same minimum.
+  ASSERT_EQ(run("fit --profile-in " + path("p.csv") + " -o " + path("r2.json")), 0);
+  const auto r2 = nlohmann::json::parse(slurp(path("r2.json")));
+  EXPECT_NEAR(r2["chi2"].get<double>(), r["chi2"].get<double>(), 1e-9 * r["chi2"].get<double>());
+  for (const auto& [k, v] : r["parameters"].items()) {
+    EXPECT_NEAR(r2["parameters"][k].get<double>(), v.get<double>(), 1e-6 * r["errors"][k].get<double>()) << k;
+  }
+  // CSV and HDF5 of the same events give the same fit.
+  ASSERT_EQ(run("fit " + path("ee.csv") + " -o " + path("r3.json")), 0);
+  const auto r3 = nlohmann::json::parse(slurp(path("r3.json")));
+  EXPECT_NEAR(r3["chi2"].get<double>(), r["chi2"].get<double>(), 1e-9 * r["chi2"].get<double>());
+}
+
+std::string fmt(int event, double phiTs, double thetaTs, double phiEmc, double thetaEmc) {
+  std::ostringstream ss;
+  ss << "1," << event << ",612.5,0,1,0.1,0.01," << phiTs << "," << thetaTs << ",600," << phiEmc << "," << thetaEmc
+     << "\n";
+  return ss.str();
+}
+
+TEST_F(FitCli, RefusesInputsWithoutWritingAResult) {
+  const std::string header =
+      "run,event,beam_energy_mev,muon_veto,charged,z0_cm,rho_cm,phi_ts_rad,theta_ts_rad,energy_mev,phi_emc_rad,"
+      "theta_emc_rad\n";
+  // Selected events, but all at θ = 20°/160°: every profile bin is empty.
+  std::string forward = header;
+  for (int e = 0; e < 50; ++e) {
+    forward += fmt(e, 0.3, 0.349, 0.31, 0.35) + fmt(e, 3.44, 2.792, 3.45, 2.79);
+  }
+  write("forward.csv", forward);
+  write("nan.csv", header + "1,1,612.5,0,1,0,0,nan,1.5,600,1.0,1.5\n");
+  const std::string h5 = slurp(path("ee.h5"));
+  std::ofstream(path("truncated.h5"), std::ios::binary) << h5.substr(0, h5.size() / 2);
+
+  struct Case {
+    std::string file, expected;
+  } cases[] = {{path("gg.h5"), "no event passes"},
+               {path("forward.csv"), "profile bins"},
+               {path("nan.csv"), "phi_ts_rad"},
+               {path("truncated.h5"), "truncated.h5"},
+               {path("missing.h5"), "missing.h5"}};
+  for (const auto& c : cases) {
+    std::string err;
+    const std::string result = path("never.json");
+    EXPECT_NE(run("fit " + c.file + " -o " + result, nullptr, &err), 0) << c.file;
+    EXPECT_NE(err.find(c.expected), std::string::npos) << c.file << ": " << err;
+    EXPECT_FALSE(fs::exists(result)) << c.file;
+  }
+  std::string err;
+  EXPECT_NE(run("fit -o " + path("never.json"), nullptr, &err), 0);
+  EXPECT_NE(err.find("--profile-in"), std::string::npos) << err;
+}
+
+}  // namespace

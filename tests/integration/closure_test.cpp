@@ -1,0 +1,126 @@
+// Closure: events from the project's simulation with a known misalignment are selected,
+// profiled and fitted back.
+//
+// * In the idealised limit of the simulation (SimulationOptions::setIdealised: point
+//   showers at R(E, θ), cluster directions from the deposit, no radiation, noise, dead
+//   counters, background, layer-3 offset, cosmics, multiple scattering) the SPEC §5 model is
+//   exact up to the track resolution: every parameter must be within 3σ of the truth.
+// * With full realism the fit must converge, and the differences are the biases of what
+//   the model leaves out. The largest, measured with this simulation: the hemisphere gaps
+//   come out low (dp_k by ~0.15 cm, dx_rel by ~0.07 cm). Its cause is the smearing of the
+//   reconstructed direction across the parting plane: a particle of one hemisphere
+//   reconstructed on the other side of φ = 90° or 270° enters a bin whose model has the
+//   other sign of the relative terms (the idealised simulation with a 1.5° direction
+//   smearing shows the same effect; without smearing it is gone). The paper's Table 1 has
+//   the same sign (dp −0.03…−0.05 cm, dx_rel −0.021 cm). The tolerances below are about
+//   twice the differences measured on several seeds; the validation campaign measures the
+//   biases properly.
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "emcalign/calib/calibration.hpp"
+#include "emcalign/calib/fit.hpp"
+#include "emcalign/core/units.hpp"
+#include "emcalign/sim/simulation.hpp"
+
+namespace emcalign {
+namespace {
+
+using geometry::AlignmentParameters;
+using units::deg;
+
+const geometry::Calorimeter& calorimeter() {
+  static const auto calo = *geometry::Calorimeter::create(geometry::DetectorDescription::sndDefault());
+  return calo;
+}
+
+calib::FitResult simulateAndFit(const AlignmentParameters& truth, sim::SimulationOptions o, std::int64_t events) {
+  o.generator.thetaMin = 40.0 * deg;  // e+e- -> e+e- is forward-peaked: keep the events useful
+  o.generator.thetaMax = 140.0 * deg;
+  auto simulation = sim::Simulation::create(calorimeter(), truth, o);
+  EXPECT_TRUE(simulation.ok()) << simulation.error().message;
+  const auto geometry = calib::FitGeometry::of(calorimeter().description());
+  calib::ProfileFiller filler(geometry.depth, calib::SelectionOptions{});
+  const Status run = simulation->run(events, 0, [&](std::span<const ParticleRow> rows, std::span<const TruthRow>) {
+    filler.addEvents(rows);
+    return Status{};
+  });
+  EXPECT_TRUE(run.ok());
+  EXPECT_TRUE(filler.checkSelected().ok());
+  auto fit = calib::fitProfiles(filler.fill().profiles.bins(), geometry);
+  EXPECT_TRUE(fit.ok()) << fit.error().message;
+  return *fit;
+}
+
+AlignmentParameters paperLike() {
+  AlignmentParameters eta;
+  eta[Param::Alpha] = 3.0 * deg;
+  eta[Param::Beta1] = 0.2 * deg;
+  eta[Param::Beta2] = -0.1 * deg;
+  eta[Param::Dx] = 0.3;
+  eta[Param::Dy] = -0.1;
+  eta[Param::Dz] = 0.2;
+  eta[Param::Dp1] = 0.6;
+  eta[Param::Dp2] = 0.2;
+  eta[Param::Dp3] = 0.4;
+  eta[Param::DyRel] = 0.05;
+  eta[Param::DzRel] = -0.05;
+  eta[Param::BetaRel] = 0.1 * deg;
+  return eta;
+}
+
+AlignmentParameters large() {
+  AlignmentParameters eta;
+  eta[Param::Alpha] = 5.0 * deg;
+  eta[Param::Beta1] = -0.4 * deg;
+  eta[Param::Beta2] = 0.3 * deg;
+  eta[Param::Dx] = -0.5;
+  eta[Param::Dy] = 0.4;
+  eta[Param::Dz] = -0.5;
+  eta[Param::Dp1] = 0.8;
+  eta[Param::Dp2] = 0.1;
+  eta[Param::Dp3] = 0.5;
+  eta[Param::DyRel] = -0.2;
+  eta[Param::DzRel] = 0.2;
+  eta[Param::BetaRel] = -0.2 * deg;
+  return eta;
+}
+
+TEST(Closure, IdealisedSimulationIsFittedBackWithin3Sigma) {
+  sim::SimulationOptions o;
+  o.setIdealised();
+  int seed = 10;
+  for (const AlignmentParameters& truth : {AlignmentParameters{}, paperLike(), large()}) {
+    o.seed = static_cast<std::uint64_t>(++seed);
+    const auto r = simulateAndFit(truth, o, 20000);
+    EXPECT_EQ(r.status, "converged");
+    for (Param p : kAllParams) {
+      const double e = r.errors[static_cast<Eigen::Index>(index(p))];
+      EXPECT_NEAR(r.parameters[p], truth[p], 3.0 * e) << name(p) << ", truth set " << seed;
+    }
+  }
+}
+
+TEST(Closure, FullRealismConvergesWithTheKnownBiases) {
+  sim::SimulationOptions o;  // every realism effect on
+  o.seed = 21;
+  const AlignmentParameters truth = paperLike();
+  const auto r = simulateAndFit(truth, o, 30000);
+  EXPECT_EQ(r.status, "converged");
+  auto diff = [&](Param p) { return r.parameters[p] - truth[p]; };
+  EXPECT_LT(std::abs(diff(Param::Alpha)), 0.15 * deg);
+  for (Param p : {Param::Beta1, Param::Beta2, Param::BetaRel}) EXPECT_LT(std::abs(diff(p)), 0.12 * deg) << name(p);
+  for (Param p : {Param::Dx, Param::Dy, Param::Dz, Param::DyRel, Param::DzRel}) {
+    EXPECT_LT(std::abs(diff(p)), 0.08) << name(p);
+  }
+  for (Param p : {Param::Dp1, Param::Dp2, Param::Dp3}) EXPECT_LT(std::abs(diff(p)), 0.35) << name(p);
+  // dx_rel: low, as explained above.
+  const double dxRel = r.derived[4].second.value;
+  EXPECT_LT(dxRel - 0.2, 0.0);
+  EXPECT_GT(dxRel - 0.2, -0.15);
+}
+
+}  // namespace
+}  // namespace emcalign

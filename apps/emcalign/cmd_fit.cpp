@@ -2,6 +2,7 @@
 // errors, a result file, and optionally the profile and the paper's plots.
 
 #include <cmath>
+#include <numbers>
 #include <memory>
 #include <string>
 #include <vector>
@@ -12,6 +13,7 @@
 #include "emcalign/calib/calibration.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/io/json_files.hpp"
+#include "emcalign/report/plots.hpp"
 
 namespace emcalign::app {
 
@@ -59,6 +61,30 @@ void printResult(const calib::FitResult& r) {
   for (const auto& w : r.warnings) reportWarning(w);
 }
 
+// The figures; with event input, a second pass corrects each selected particle's EMC
+// direction with the fitted parameters for the after-correction distributions.
+Status drawPlots(const FitCliOptions& o, const calib::FitGeometry& geometry, const std::vector<calib::ProfileBin>& bins,
+                 const calib::FitResult& result, report::ResidualHistograms* histograms) {
+  if (histograms != nullptr) {
+    auto transform = geometry::AlignmentTransform::create(result.parameters, geometry.radii);
+    if (!transform) return transform.error();
+    calib::SelectionOptions selection;
+    if (o.beamEnergy > 0.0) selection.beamEnergy = o.beamEnergy;
+    auto after = [&](const ParticleRow& row, const calib::ParticleResidual& y) {
+      const auto [phi, theta] = calib::correctDirection(*transform, geometry.depth, row.phiEmc, row.thetaEmc, row.energy);
+      const double phiR = row.phiEmc + std::asin(y.yPhi), thetaR = row.thetaEmc + y.yTheta;
+      histograms->dPhiAfter.fill(std::remainder(phiR - phi, 2.0 * std::numbers::pi) / units::deg);
+      histograms->dThetaAfter.fill((thetaR - theta) / units::deg);
+    };
+    auto second = calib::fillProfiles(o.events, geometry.depth, selection, {}, after);
+    if (!second) return second.error();
+  }
+  auto written = report::writeFitPlots(o.plots, bins, geometry, result, histograms);
+  if (!written) return written.error();
+  for (const auto& png : *written) fmt::print("wrote {}\n", png);
+  return {};
+}
+
 int run(const FitCliOptions& o) {
   auto calo = loadCalorimeter(o.detector);
   if (!calo) return reportError(calo.error());
@@ -66,6 +92,13 @@ int run(const FitCliOptions& o) {
 
   std::vector<calib::ProfileBin> bins;
   std::optional<calib::ProfileFill> fill;
+  std::optional<report::ResidualHistograms> histograms;
+  if (!o.plots.empty() && o.profileIn.empty()) histograms.emplace();
+  // Δφ = φ_TS,R − φ_EMC and Δθ = θ_TS,R − θ_EMC of a selected particle, in degrees.
+  auto before = [&](const ParticleRow&, const calib::ParticleResidual& y) {
+    histograms->dPhiBefore.fill(std::asin(y.yPhi) / units::deg);
+    histograms->dThetaBefore.fill(y.yTheta / units::deg);
+  };
   calib::FitInput input;
   input.detector = o.detector.empty() ? "embedded default" : o.detector;
   if (!o.profileIn.empty()) {
@@ -78,7 +111,8 @@ int run(const FitCliOptions& o) {
   } else {
     calib::SelectionOptions selection;
     if (o.beamEnergy > 0.0) selection.beamEnergy = o.beamEnergy;
-    auto filled = calib::fillProfiles(o.events, geometry.depth, selection);
+    auto filled = calib::fillProfiles(o.events, geometry.depth, selection, {},
+                                      histograms ? calib::ParticleVisitor(before) : calib::ParticleVisitor());
     if (!filled) return reportError(filled.error());
     fill = std::move(*filled);
     printCutFlow(*fill);
@@ -96,6 +130,11 @@ int run(const FitCliOptions& o) {
     return reportError(s.error());
   }
   fmt::print("wrote {}\n", o.output);
+  if (!o.plots.empty()) {
+    if (Status s = drawPlots(o, geometry, bins, *result, histograms ? &*histograms : nullptr); !s) {
+      return reportError(s.error());
+    }
+  }
   return result->status == "converged" ? 0 : kExitFailure;
 }
 
@@ -113,16 +152,16 @@ void addFitCommand(CLI::App& app, int& exitCode) {
                   "write the 160 bins: i_phi,i_theta,n,phi_mean_rad,theta_mean_rad,e_mean_mev,y_phi,sigma_phi,"
                   "y_theta,sigma_theta");
   cmd->add_option("-o,--output", o->output, "result file (JSON, SPEC §3)")->required();
+  cmd->add_option("--plots", o->plots,
+                  "draw the paper's figures (PNG, gnuplot) into this directory: profiles with the fitted "
+                  "curves, and the residual distributions before and after the correction");
   cmd->add_option("--beam-energy", o->beamEnergy, "beam energy for the selection, MeV (default: from the file)")
       ->check(CLI::PositiveNumber);
   addDetectorOption(*cmd, o->detector);
-  cmd->callback([o, &exitCode, cmd] {
-    if (o->events.empty() && o->profileIn.empty()) {
-      exitCode = reportError({"give event files or --profile-in (see emcalign fit --help)"});
-      return;
-    }
-    (void)cmd;
-    exitCode = run(*o);
+  cmd->callback([o, &exitCode] {
+    exitCode = o->events.empty() && o->profileIn.empty()
+                   ? reportError({"give event files or --profile-in (see emcalign fit --help)"})
+                   : run(*o);
   });
 }
 

@@ -2,6 +2,8 @@
 // trip, and refused inputs (nothing selected, empty profiles, NaN, truncated file) that
 // exit non-zero with a message naming the cause and write no result.
 
+#include <unistd.h>
+
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -18,7 +20,8 @@ namespace fs = std::filesystem;
 class FitCli : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    dir_ = fs::temp_directory_path() / "emcalign_fit_cli";
+    // ctest runs each test in its own process, possibly at the same time: one directory each.
+    dir_ = fs::temp_directory_path() / ("emcalign_fit_cli_" + std::to_string(::getpid()));
     fs::remove_all(dir_);
     fs::create_directories(dir_);
     const std::string truth = std::string(EMCALIGN_SOURCE_DIR) + "/data/examples/paper-like.json";

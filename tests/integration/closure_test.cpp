@@ -24,12 +24,14 @@
 #include "emcalign/calib/fit.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/sim/simulation.hpp"
+#include "test_support.hpp"
 
 namespace emcalign {
 namespace {
 
 using geometry::AlignmentParameters;
 using units::deg;
+using geometry::testing::paperLike;
 
 const geometry::Calorimeter& calorimeter() {
   static const auto calo = *geometry::Calorimeter::create(geometry::DetectorDescription::sndDefault());
@@ -55,22 +57,6 @@ calib::FitResult simulateAndFit(const AlignmentParameters& truth, sim::Simulatio
   return *fit;
 }
 
-AlignmentParameters paperLike() {
-  AlignmentParameters eta;
-  eta[Param::Alpha] = 3.0 * deg;
-  eta[Param::Beta1] = 0.2 * deg;
-  eta[Param::Beta2] = -0.1 * deg;
-  eta[Param::Dx] = 0.3;
-  eta[Param::Dy] = -0.1;
-  eta[Param::Dz] = 0.2;
-  eta[Param::Dp1] = 0.6;
-  eta[Param::Dp2] = 0.2;
-  eta[Param::Dp3] = 0.4;
-  eta[Param::DyRel] = 0.05;
-  eta[Param::DzRel] = -0.05;
-  eta[Param::BetaRel] = 0.1 * deg;
-  return eta;
-}
 
 AlignmentParameters large() {
   AlignmentParameters eta;

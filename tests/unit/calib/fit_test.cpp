@@ -11,31 +11,17 @@
 
 #include "emcalign/core/random.hpp"
 #include "emcalign/core/units.hpp"
+#include "test_support.hpp"
 
 namespace emcalign::calib {
 namespace {
 
 using geometry::AlignmentParameters;
 using units::deg;
+using geometry::testing::paperLike;
 
 const FitGeometry kGeometry = FitGeometry::of(geometry::DetectorDescription::sndDefault());
 
-AlignmentParameters paperLike() {
-  AlignmentParameters eta;
-  eta[Param::Alpha] = 3.0 * deg;
-  eta[Param::Beta1] = 0.2 * deg;
-  eta[Param::Beta2] = -0.1 * deg;
-  eta[Param::Dx] = 0.3;
-  eta[Param::Dy] = -0.1;
-  eta[Param::Dz] = 0.2;
-  eta[Param::Dp1] = 0.6;
-  eta[Param::Dp2] = 0.2;
-  eta[Param::Dp3] = 0.4;
-  eta[Param::DyRel] = 0.05;
-  eta[Param::DzRel] = -0.05;
-  eta[Param::BetaRel] = 0.1 * deg;
-  return eta;
-}
 
 // 160 bins whose means follow the model at η, plus Gaussian noise of σ (rad).
 std::vector<ProfileBin> syntheticBins(const AlignmentParameters& eta, double sigma, Rng* rng) {

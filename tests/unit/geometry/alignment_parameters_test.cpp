@@ -123,7 +123,7 @@ TEST(AlignmentParameters, NegativeGapIsAWarning) {
   ASSERT_EQ(w.size(), 1u);
   EXPECT_NE(w[0].find("dp2"), std::string::npos);
   EXPECT_NE(w[0].find("overlap"), std::string::npos);
-  EXPECT_TRUE(warnings(testing::exampleMisalignment()).empty());
+  EXPECT_TRUE(warnings(testing::paperLike()).empty());
 }
 
 }  // namespace

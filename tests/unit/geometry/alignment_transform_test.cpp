@@ -195,7 +195,7 @@ TEST(AlignmentTransform, ThirdLayerRuleMakesOuterHalvesTouch) {
 }
 
 TEST(AlignmentTransform, ThirdLayerFollowsTheInnerSphereWhenNoOverlap) {
-  AlignmentParameters eta = testing::exampleMisalignment();  // dx_rel = 0.2 > R_p3·sinμ
+  AlignmentParameters eta = testing::paperLike();  // dx_rel = 0.2 > R_p3·sinμ
   const auto t = make(eta);
   ASSERT_FALSE(t.layer3RuleActive());
   for (Hemisphere h : {Hemisphere::Plus, Hemisphere::Minus}) {

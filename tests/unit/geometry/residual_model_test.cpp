@@ -120,7 +120,7 @@ TEST(ResidualModel, DerivativesAtZeroAreFiniteAndMatchFiniteDifferences) {
 }
 
 TEST(ResidualModel, DerivativesAtAGenericPointMatchFiniteDifferences) {
-  const ParamVector eta = testing::exampleMisalignment().values;
+  const ParamVector eta = testing::paperLike().values;
   for (double phi : {0.3, 2.5, 4.0, 6.0}) {
     for (double theta : {60.0 * deg, 100.0 * deg}) checkDerivatives(eta, phi, theta);
   }

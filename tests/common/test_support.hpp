@@ -1,5 +1,6 @@
 #pragma once
-// Helpers shared by the geometry tests: seeded random parameter sets and points.
+// Helpers shared by the tests: the paper-like misalignment, seeded random parameter sets
+// and points.
 
 #include <random>
 
@@ -35,7 +36,7 @@ inline AlignmentParameters randomParameters(std::mt19937_64& rng) {
 
 /// The paper-like misalignment of data/examples/paper-like.json: α = 3°, dx = 0.3 cm,
 /// gaps of 2–6 mm, a small tilt and small relative shifts.
-inline AlignmentParameters exampleMisalignment() {
+inline AlignmentParameters paperLike() {
   using units::deg;
   AlignmentParameters eta;
   eta[Param::Alpha] = 3.0 * deg;

@@ -35,5 +35,6 @@ void addParamsCommand(CLI::App& app, int& exitCode);
 void addTransformCommand(CLI::App& app, int& exitCode);
 void addSimulateCommand(CLI::App& app, int& exitCode);
 void addFitCommand(CLI::App& app, int& exitCode);
+void addValidateCommand(CLI::App& app, int& exitCode);
 
 }  // namespace emcalign::app

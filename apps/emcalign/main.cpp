@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
   emcalign::app::addTransformCommand(app, exitCode);
   emcalign::app::addSimulateCommand(app, exitCode);
   emcalign::app::addFitCommand(app, exitCode);
+  emcalign::app::addValidateCommand(app, exitCode);
   CLI11_PARSE(app, argc, argv);
   return exitCode;
 }

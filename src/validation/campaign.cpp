@@ -1,0 +1,385 @@
+#include "emcalign/validation/campaign.hpp"
+
+#include <cmath>
+#include <filesystem>
+#include <numbers>
+
+#include <fmt/format.h>
+
+#include "emcalign/calib/calibration.hpp"
+#include "emcalign/core/units.hpp"
+
+namespace emcalign::validation {
+
+namespace fs = std::filesystem;
+using geometry::AlignmentParameters;
+using geometry::PhysicalParameters;
+using io::Json;
+using units::deg;
+
+namespace {
+
+constexpr std::string_view kRangesFormat = "emcalign-validation-ranges/1";
+constexpr std::string_view kSampleFormat = "emcalign-validation-sample/1";
+
+double fileUnitOf(Physical p) { return PhysicalParameters::fileUnit(p); }
+
+// The derived quantities the table reports besides the 12 fit parameters, in the order of
+// calib::FitResult::derived: β, ψ, μ, τ, dx_rel.
+constexpr std::array<std::string_view, 5> kDerived = {"beta", "psi", "mu", "tau", "dx_rel"};
+
+std::uint64_t sampleSeed(std::uint64_t seed, int index) {
+  Rng rng(seed ^ 0x5EEDULL, static_cast<std::uint64_t>(index) + (1ULL << 40));
+  return rng.next();
+}
+
+}  // namespace
+
+Ranges Ranges::defaults() {
+  Ranges r;
+  auto set = [&](Physical p, double lo, double hi) { r.physical[index(p)] = {lo, hi}; };
+  set(Physical::Alpha, 0.0, 5.0 * deg);
+  set(Physical::Beta, 0.0, 0.5 * deg);
+  set(Physical::Psi, 0.0, 180.0 * deg);
+  set(Physical::Dx, -0.5, 0.5);
+  set(Physical::Dy, -0.5, 0.5);
+  set(Physical::Dz, -0.5, 0.5);
+  set(Physical::Mu, 0.0, 10.0 * deg);  // capped by asin(dx_rel/R1) ≈ 0.53° at most
+  set(Physical::Tau, -180.0 * deg, 180.0 * deg);
+  set(Physical::DxRel, 0.0, 0.5);
+  set(Physical::DyRel, -0.2, 0.2);
+  set(Physical::DzRel, -0.2, 0.2);
+  set(Physical::BetaRel, -0.2 * deg, 0.2 * deg);
+  return r;
+}
+
+Status Ranges::validate() const {
+  for (std::size_t k = 0; k < kNumParams; ++k) {
+    const auto [lo, hi] = physical[k];
+    const auto p = static_cast<Physical>(k);
+    if (!std::isfinite(lo) || !std::isfinite(hi) || lo > hi) {
+      return Error{fmt::format("range of '{}': need finite low <= high, got [{}, {}]", name(p), lo / fileUnitOf(p),
+                               hi / fileUnitOf(p))};
+    }
+  }
+  const auto beta = physical[index(Physical::Beta)], mu = physical[index(Physical::Mu)];
+  if (beta.first < 0.0 || beta.second >= 90.0 * deg) return Error{"range of 'beta' must lie in [0, 90) deg"};
+  if (mu.first < 0.0 || mu.second >= 90.0 * deg) return Error{"range of 'mu' must lie in [0, 90) deg"};
+  return {};
+}
+
+Result<Ranges> readRanges(const std::string& path) {
+  auto text = io::readTextFile(path);
+  if (!text) return text.error();
+  auto j = io::parseJson(*text, path);
+  if (!j) return j.error();
+  Ranges r = Ranges::defaults();
+  if (!j->is_object()) return Error{fmt::format("{}: expected a JSON object", path)};
+  for (const auto& [key, value] : j->items()) {
+    if (key != "format" && key != "ranges" && key != "mu_below_gapless") {
+      return Error{fmt::format("{}: key '{}': unknown key (allowed: format, ranges, mu_below_gapless)", path, key)};
+    }
+  }
+  if (!j->contains("format") || (*j)["format"] != kRangesFormat) {
+    return Error{fmt::format("{}: key 'format': expected \"{}\"", path, kRangesFormat)};
+  }
+  if (j->contains("mu_below_gapless")) {
+    if (!(*j)["mu_below_gapless"].is_boolean()) return Error{fmt::format("{}: key 'mu_below_gapless': expected true or false", path)};
+    r.muBelowGapless = (*j)["mu_below_gapless"].get<bool>();
+  }
+  if (j->contains("ranges")) {
+    const Json& ranges = (*j)["ranges"];
+    if (!ranges.is_object()) return Error{fmt::format("{}: key 'ranges': expected an object", path)};
+    for (const auto& [key, value] : ranges.items()) {
+      std::optional<Physical> p;
+      for (std::size_t k = 0; k < kNumParams; ++k) {
+        if (kPhysicalNames[k] == key) p = static_cast<Physical>(k);
+      }
+      if (!p) {
+        return Error{fmt::format("{}: key 'ranges.{}': unknown parameter (the physical set: {})", path, key,
+                                 fmt::join(kPhysicalNames, ", "))};
+      }
+      if (!value.is_array() || value.size() != 2 || !value[0].is_number() || !value[1].is_number()) {
+        return Error{fmt::format("{}: key 'ranges.{}': expected [low, high] in deg or cm", path, key)};
+      }
+      r.physical[index(*p)] = {value[0].get<double>() * fileUnitOf(*p), value[1].get<double>() * fileUnitOf(*p)};
+    }
+  }
+  if (Status s = r.validate(); !s) return Error{fmt::format("{}: {}", path, s.error().message)};
+  return r;
+}
+
+AlignmentParameters drawTruth(const Ranges& ranges, double r1, Rng& rng) {
+  PhysicalParameters phys;
+  for (std::size_t k = 0; k < kNumParams; ++k) {
+    const auto [lo, hi] = ranges.physical[k];
+    phys.values[k] = rng.uniform(lo, hi);
+  }
+  if (ranges.muBelowGapless) {
+    // μ ≤ asin(dx_rel/R1) keeps every dp_k = 2·dx_rel + 2·R1·sinμ·cos(γ_k + τ) ≥ 0.
+    const double dxRel = phys[Physical::DxRel];
+    const double cap = dxRel > 0.0 ? std::asin(std::min(1.0, dxRel / r1)) : 0.0;
+    const auto [lo, hi] = ranges.physical[index(Physical::Mu)];
+    const double top = std::min(hi, cap), bottom = std::min(lo, top);
+    phys[Physical::Mu] = bottom + (top - bottom) * rng.uniform();
+  }
+  return geometry::fromPhysical(phys, r1);
+}
+
+Status CampaignOptions::validate() const {
+  if (samples < 1) return Error{"--samples must be at least 1"};
+  if (events < 1) return Error{"--events must be at least 1"};
+  return ranges.validate();
+}
+
+namespace {
+
+Json sampleJson(const SampleResult& s, const CampaignOptions& o) {
+  Json fit = calib::fitResultJson(s.fit, calib::FitInput{});
+  fit.erase("input");
+  return Json{{"format", kSampleFormat},
+              {"index", s.index},
+              {"campaign", {{"seed", o.seed}, {"events", o.events}}},
+              {"selected_events", s.selectedEvents},
+              {"truth", io::alignmentToJson(s.truth)},
+              {"fit", fit}};
+}
+
+// Reads back what the table needs from a sample file; none if it is not a finished sample
+// of this campaign.
+std::optional<SampleResult> readSample(const std::string& path, const CampaignOptions& o, double r1) {
+  auto text = io::readTextFile(path);
+  if (!text) return std::nullopt;
+  auto j = io::parseJson(*text, path);
+  if (!j || !j->is_object() || !j->contains("format") || (*j)["format"] != kSampleFormat) return std::nullopt;
+  try {
+    if ((*j)["campaign"]["seed"].get<std::uint64_t>() != o.seed || (*j)["campaign"]["events"].get<std::int64_t>() != o.events) {
+      return std::nullopt;
+    }
+    SampleResult s;
+    s.index = (*j)["index"].get<int>();
+    s.selectedEvents = (*j)["selected_events"].get<std::int64_t>();
+    auto truth = io::parseAlignment((*j)["truth"], r1, path);
+    auto fit = io::parseAlignment((*j)["fit"], r1, path);
+    if (!truth || !fit) return std::nullopt;
+    s.truth = *truth;
+    s.fit.parameters = *fit;
+    const Json& f = (*j)["fit"];
+    s.fit.status = f["status"].get<std::string>();
+    s.fit.chi2 = f["chi2"].get<double>();
+    s.fit.ndf = f["ndf"].get<int>();
+    for (Param p : kAllParams) {
+      const Json& e = f["errors"][std::string(name(p))];
+      s.fit.errors[static_cast<Eigen::Index>(index(p))] =
+          e.is_null() ? std::nan("") : e.get<double>() * AlignmentParameters::fileUnit(p);
+    }
+    for (auto n : kDerived) {
+      const Json& d = f["derived"][std::string(n)];
+      const double unit = n == "dx_rel" ? units::cm : units::deg;
+      calib::DerivedValue v;
+      v.value = d["value"].get<double>() * unit;
+      v.error = d["error"].is_null() ? std::nan("") : d["error"].get<double>() * unit;
+      s.fit.derived.emplace_back(std::string(n), v);
+    }
+    if (f.contains("correlation")) {
+      for (int r = 0; r < static_cast<int>(kNumParams); ++r) {
+        for (int c = 0; c < static_cast<int>(kNumParams); ++c) s.fit.correlation(r, c) = f["correlation"][r][c].get<double>();
+      }
+    }
+    return s;
+  } catch (const Json::exception&) {
+    return std::nullopt;
+  }
+}
+
+}  // namespace
+
+Result<Table> runCampaign(const geometry::Calorimeter& calo, const CampaignOptions& o, const std::string& dir,
+                          const CampaignProgress& progress) {
+  if (Status s = o.validate(); !s) return s.error();
+  std::error_code ec;
+  fs::create_directories(fs::path(dir) / "samples", ec);
+  if (ec) return Error{fmt::format("{}: cannot create the directory: {}", dir, ec.message())};
+  const double r1 = calo.description().r1();
+  const auto geometry = calib::FitGeometry::of(calo.description());
+
+  std::vector<SampleResult> samples;
+  for (int i = 0; i < o.samples; ++i) {
+    const std::string path = (fs::path(dir) / "samples" / fmt::format("sample_{:04d}.json", i)).string();
+    if (fs::exists(path)) {
+      if (auto done = readSample(path, o, r1)) {
+        samples.push_back(std::move(*done));
+        if (progress) progress(i + 1, o.samples);
+        continue;
+      }
+      return Error{fmt::format("{} is not a finished sample of this campaign (another seed or number of events?): "
+                               "use another directory, or remove it",
+                               path)};
+    }
+    Rng truthRng(o.seed, static_cast<std::uint64_t>(i));
+    SampleResult s;
+    s.index = i;
+    s.truth = drawTruth(o.ranges, r1, truthRng);
+    sim::SimulationOptions so = o.simulation;
+    so.seed = sampleSeed(o.seed, i);
+    auto simulation = sim::Simulation::create(calo, s.truth, so);
+    if (!simulation) return simulation.error();
+    calib::ProfileFiller filler(geometry.depth, calib::SelectionOptions{});
+    const Status run = simulation->run(o.events, o.threads, [&](std::span<const ParticleRow> rows, std::span<const TruthRow>) {
+      filler.addEvents(rows);
+      return Status{};
+    });
+    if (!run) return run.error();
+    if (Status sel = filler.checkSelected(); !sel) return Error{fmt::format("sample {}: {}", i, sel.error().message)};
+    auto fit = calib::fitProfiles(filler.fill().profiles.bins(), geometry);
+    if (!fit) return Error{fmt::format("sample {}: {}", i, fit.error().message)};
+    s.fit = std::move(*fit);
+    s.selectedEvents = filler.fill().cutFlow.events.back();
+    if (Status w = io::writeTextFileAtomically(path, sampleJson(s, o).dump(1) + "\n"); !w) return w.error();
+    // Tabulate what the file holds (file units), so that a resumed campaign, which reads
+    // its finished samples back, gives the same table to the last digit.
+    auto stored = readSample(path, o, r1);
+    if (!stored) return Error{fmt::format("{}: written but not readable back", path)};
+    samples.push_back(std::move(*stored));
+    if (progress) progress(i + 1, o.samples);
+  }
+  Table table = tabulate(samples, o.events, r1);
+  if (Status w = io::writeTextFileAtomically((fs::path(dir) / "table.json").string(), tableJson(table).dump(2) + "\n"); !w) {
+    return w.error();
+  }
+  if (Status w = io::writeTextFileAtomically((fs::path(dir) / "table.md").string(), tableMarkdown(table)); !w) {
+    return w.error();
+  }
+  return table;
+}
+
+Table tabulate(const std::vector<SampleResult>& samples, std::int64_t events, double r1) {
+  Table t;
+  t.samples = static_cast<int>(samples.size());
+  t.events = events;
+  struct Acc {
+    std::string name, unit;
+    double unitValue;
+    bool angle;  // wraps: shortest angular difference
+    std::vector<double> diff, pull;
+  };
+  std::vector<Acc> acc;
+  for (Param p : kAllParams) {
+    const bool isAngle = dimension(p) == Dimension::Angle;
+    acc.push_back({std::string(name(p)), isAngle ? "deg" : "cm", AlignmentParameters::fileUnit(p), false, {}, {}});
+  }
+  for (auto n : kDerived) {
+    const bool length = n == "dx_rel";
+    acc.push_back({std::string(n), length ? "cm" : "deg", length ? units::cm : units::deg, n == "psi" || n == "tau", {}, {}});
+  }
+  int correlations = 0;
+  for (const auto& s : samples) {
+    auto truthPhys = geometry::toPhysical(s.truth, r1);
+    const std::array<double, 5> truthDerived = {(*truthPhys)[Physical::Beta], (*truthPhys)[Physical::Psi],
+                                                (*truthPhys)[Physical::Mu], (*truthPhys)[Physical::Tau],
+                                                (*truthPhys)[Physical::DxRel]};
+    for (std::size_t k = 0; k < kNumParams; ++k) {
+      const auto i = static_cast<Eigen::Index>(k);
+      const double d = s.fit.parameters.values[i] - s.truth.values[i];
+      acc[k].diff.push_back(d);
+      acc[k].pull.push_back(d / s.fit.errors[i]);
+    }
+    for (std::size_t k = 0; k < kDerived.size() && k < s.fit.derived.size(); ++k) {
+      double d = s.fit.derived[k].second.value - truthDerived[k];
+      if (acc[kNumParams + k].angle) d = std::remainder(d, 2.0 * std::numbers::pi);
+      acc[kNumParams + k].diff.push_back(d);
+      acc[kNumParams + k].pull.push_back(d / s.fit.derived[k].second.error);
+    }
+    if (s.fit.correlation.allFinite() && s.fit.correlation.diagonal().sum() > 0.0) {
+      t.meanCorrelation += s.fit.correlation;
+      ++correlations;
+    }
+  }
+  if (correlations > 0) t.meanCorrelation /= correlations;
+  auto meanAndWidth = [](const std::vector<double>& v) {
+    double sum = 0.0, sum2 = 0.0;
+    int n = 0;
+    for (double x : v) {
+      if (!std::isfinite(x)) continue;
+      sum += x;
+      sum2 += x * x;
+      ++n;
+    }
+    if (n == 0) return std::array<double, 3>{std::nan(""), std::nan(""), 0.0};
+    const double mean = sum / n;
+    const double var = n > 1 ? (sum2 - n * mean * mean) / (n - 1) : std::nan("");
+    return std::array<double, 3>{mean, std::sqrt(std::max(0.0, var)), static_cast<double>(n)};
+  };
+  for (const auto& a : acc) {
+    const auto d = meanAndWidth(a.diff), p = meanAndWidth(a.pull);
+    TableRow row;
+    row.name = a.name;
+    row.unit = a.unit;
+    row.bias = d[0] / a.unitValue;
+    row.spread = d[1] / a.unitValue;
+    row.biasError = d[2] > 0 ? row.spread / std::sqrt(d[2]) : std::nan("");
+    row.pullMean = p[0];
+    row.pullWidth = p[1];
+    row.samples = static_cast<int>(d[2]);
+    t.rows.push_back(row);
+  }
+  return t;
+}
+
+Json tableJson(const Table& t) {
+  Json params = Json::object();
+  for (const auto& r : t.rows) {
+    params[r.name] = {{"unit", r.unit},          {"bias", r.bias},           {"spread", r.spread},
+                      {"bias_error", r.biasError}, {"pull_mean", r.pullMean}, {"pull_width", r.pullWidth}};
+  }
+  Json corr = Json::array();
+  for (int i = 0; i < static_cast<int>(kNumParams); ++i) {
+    Json row = Json::array();
+    for (int j = 0; j < static_cast<int>(kNumParams); ++j) row.push_back(t.meanCorrelation(i, j));
+    corr.push_back(row);
+  }
+  return Json{{"samples", t.samples},
+              {"events", t.events},
+              {"parameters", params},
+              {"mean_correlation", {{"order", kParamNames}, {"matrix", corr}}}};
+}
+
+std::string tableMarkdown(const Table& t) {
+  // SPEC §10 (the paper's Table 1): bias, spread.
+  const std::vector<std::tuple<std::string, double, double>> paper = {
+      {"alpha", -0.13, 0.02},   {"beta1", -0.007, 0.023}, {"beta2", -0.006, 0.017}, {"dx", -0.005, 0.006},
+      {"dy", -0.005, 0.012},    {"dz", 0.012, 0.021},     {"mu", -1e-4, 3e-4},      {"dx_rel", -0.021, 0.008},
+      {"dp1", -0.045, 0.031},   {"dp2", -0.030, 0.030},   {"dp3", -0.053, 0.036},   {"beta_rel", -1e-4, 5e-4},
+      {"dy_rel", 0.052, 0.018}, {"dz_rel", -0.005, 0.018}};
+  std::string md = fmt::format(
+      "# Validation: {} samples × {} events\n\n"
+      "bias = mean of (fit − truth), spread = its standard deviation, ± = spread/√samples; pulls = (fit − "
+      "truth)/error. Paper: Korol & Melnikova, Table 1 (SPEC §10).\n\n"
+      "| parameter | unit | bias | ± | spread | pull mean | pull width | paper bias | paper spread |\n"
+      "|---|---|---|---|---|---|---|---|---|\n",
+      t.samples, t.events);
+  for (const auto& r : t.rows) {
+    std::string pb = "", ps = "";
+    for (const auto& [n, b, s] : paper) {
+      if (n == r.name) {
+        pb = fmt::format("{:.3g}", b);
+        ps = fmt::format("{:.3g}", s);
+      }
+    }
+    md += fmt::format("| {} | {} | {:.4g} | {:.2g} | {:.4g} | {:.3f} | {:.3f} | {} | {} |\n", r.name, r.unit, r.bias,
+                      r.biasError, r.spread, r.pullMean, r.pullWidth, pb, ps);
+  }
+  md += "\nMean correlation matrix (rows and columns in SPEC order):\n\n|   |";
+  for (auto n : kParamNames) md += fmt::format(" {} |", n);
+  md += "\n|---|";
+  for (std::size_t k = 0; k < kNumParams; ++k) md += "---|";
+  md += "\n";
+  for (int i = 0; i < static_cast<int>(kNumParams); ++i) {
+    md += fmt::format("| {} |", kParamNames[static_cast<std::size_t>(i)]);
+    for (int j = 0; j < static_cast<int>(kNumParams); ++j) md += fmt::format(" {:+.2f} |", t.meanCorrelation(i, j));
+    md += "\n";
+  }
+  return md;
+}
+
+}  // namespace emcalign::validation

@@ -1,0 +1,107 @@
+// emcalign validate: a small campaign writes its table, pulls are finite, a resumed run
+// gives the same table, and bad range files are refused.
+
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+class ValidateCli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("emcalign_validate_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  int run(const std::string& args, std::string* err = nullptr) const {
+    const std::string e = (dir_ / "err.txt").string();
+    const int status = std::system((std::string(EMCALIGN_BINARY) + " " + args + " >/dev/null 2>" + e).c_str());
+    if (err != nullptr) *err = slurp(e);
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  }
+  static std::string slurp(const fs::path& p) {
+    std::ifstream in(p);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  }
+  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+
+  fs::path dir_;
+};
+
+TEST_F(ValidateCli, SmallCampaignWritesATableAndResumes) {
+  const std::string out = path("campaign");
+  ASSERT_EQ(run("validate --samples 8 --events 5000 --seed 3 -o " + out), 0);
+  const std::string first = slurp(fs::path(out) / "table.json");
+  const auto table = nlohmann::json::parse(first);
+  EXPECT_EQ(table["samples"], 8);
+  EXPECT_EQ(table["events"], 5000);
+  for (const char* name : {"alpha", "beta1", "beta2", "dx", "dy", "dz", "dp1", "dp2", "dp3", "dy_rel", "dz_rel",
+                           "beta_rel", "mu", "dx_rel", "beta", "psi"}) {
+    ASSERT_TRUE(table["parameters"].contains(name)) << name;
+    const auto& row = table["parameters"][name];
+    EXPECT_TRUE(std::isfinite(row["bias"].get<double>())) << name;
+    EXPECT_TRUE(std::isfinite(row["spread"].get<double>())) << name;
+    EXPECT_TRUE(std::isfinite(row["pull_width"].get<double>())) << name;
+    EXPECT_GT(row["pull_width"].get<double>(), 0.0) << name;
+  }
+  EXPECT_EQ(table["mean_correlation"]["matrix"].size(), 12u);
+  EXPECT_NE(slurp(fs::path(out) / "table.md").find("paper bias"), std::string::npos);
+  int samples = 0;
+  for ([[maybe_unused]] const auto& e : fs::directory_iterator(fs::path(out) / "samples")) ++samples;
+  EXPECT_EQ(samples, 8);
+
+  // Resuming: remove the table and two samples; the rerun remakes exactly the same table.
+  fs::remove(fs::path(out) / "table.json");
+  fs::remove(fs::path(out) / "samples" / "sample_0002.json");
+  fs::remove(fs::path(out) / "samples" / "sample_0005.json");
+  ASSERT_EQ(run("validate --samples 8 --events 5000 --seed 3 -o " + out), 0);
+  EXPECT_EQ(slurp(fs::path(out) / "table.json"), first);
+
+  // Another campaign (seed) in the same directory is refused rather than mixed.
+  std::string err;
+  EXPECT_NE(run("validate --samples 8 --events 5000 --seed 4 -o " + out, &err), 0);
+  EXPECT_NE(err.find("another directory"), std::string::npos) << err;
+}
+
+TEST_F(ValidateCli, BadRangeFilesAreRefused) {
+  struct Case {
+    std::string text, expected;
+  } cases[] = {
+      {R"({"format": "emcalign-validation-ranges/1", "ranges": {"alpha": [5, 1]}})", "alpha"},
+      {R"({"format": "emcalign-validation-ranges/1", "ranges": {"gamma": [0, 1]}})", "gamma"},
+      {R"({"format": "emcalign-validation-ranges/1", "ranges": {"dx": [0]}})", "dx"},
+      {R"({"format": "emcalign-validation-ranges/1", "extra": 1})", "extra"},
+      {R"({"ranges": {}})", "format"},
+      {R"({"format": "emcalign-validation-ranges/1", "ranges": {"beta": [-1, 1]}})", "beta"},
+      {"{not json", "JSON"},
+  };
+  for (const auto& c : cases) {
+    std::ofstream(path("r.json")) << c.text;
+    std::string err;
+    EXPECT_NE(run("validate --samples 2 --events 100 --ranges " + path("r.json") + " -o " + path("out"), &err), 0)
+        << c.text;
+    EXPECT_NE(err.find(c.expected), std::string::npos) << c.text << ": " << err;
+    EXPECT_FALSE(fs::exists(fs::path(path("out")) / "table.json"));
+  }
+  std::ofstream(path("ok.json")) << R"({"format": "emcalign-validation-ranges/1", "ranges": {"alpha": [1, 2]}})";
+  EXPECT_EQ(run("validate --samples 2 --events 3000 --ranges " + path("ok.json") + " -o " + path("out")), 0);
+}
+
+}  // namespace

@@ -37,26 +37,6 @@ struct SimulateOptions {
   bool ideal = false;
 };
 
-// The realism switches of `--off`, each one effect of docs/simulation.md.
-const std::vector<std::string> kEffects = {
-    "radiation", "background", "dead-counters", "noise", "energy-resolution", "shower-fluctuations",
-    "layer3-offset", "cosmics", "multiple-scattering", "counter-directions"};
-
-Status applyOff(const std::string& effect, sim::SimulationOptions& o) {
-  if (effect == "radiation") o.generator.radiation = false;
-  else if (effect == "background") o.emc.beamBackground = false;
-  else if (effect == "dead-counters") o.emc.deadCountersOn = false;
-  else if (effect == "noise") o.emc.noise = false;
-  else if (effect == "energy-resolution") o.emc.energyResolution = false;
-  else if (effect == "shower-fluctuations") o.emc.showerFluctuations = false;
-  else if (effect == "layer3-offset") o.emc.layer3OffsetOn = false;
-  else if (effect == "cosmics") o.cosmicFraction = 0.0;
-  else if (effect == "multiple-scattering") o.tracking.multipleScattering = false;
-  else if (effect == "counter-directions") o.reconstruction.directionFromCounters = false;
-  else return Error{fmt::format("--off: unknown effect '{}' (known: {})", effect, fmt::join(kEffects, ", "))};
-  return {};
-}
-
 Result<std::vector<int>> parseCounterList(const std::string& text) {
   std::vector<int> out;
   std::stringstream ss(text);
@@ -114,7 +94,7 @@ int run(const SimulateOptions& cli) {
   o.run = cli.run;
   if (cli.ideal) o.setIdealised();
   for (const auto& e : cli.off) {
-    if (Status s = applyOff(e, o); !s) return reportError(s.error());
+    if (Status s = o.switchOff(e); !s) return reportError({fmt::format("--off: {}", s.error().message)});
   }
   if (cli.pointShowers) o.emc.pointShowers = true;
   if (!cli.deadCounters.empty()) {

@@ -25,6 +25,8 @@ struct ValidateOptions {
   double thetaMinDeg = 40.0;
   double thetaMaxDeg = 140.0;
   bool ideal = false;
+  bool pointShowers = false;
+  std::vector<std::string> off;
   std::string output;
 };
 
@@ -42,8 +44,25 @@ int run(const ValidateOptions& cli) {
     o.ranges = *r;
   }
   if (cli.ideal) o.simulation.setIdealised();
+  for (const auto& e : cli.off) {
+    if (Status s = o.simulation.switchOff(e); !s) return reportError({fmt::format("--off: {}", s.error().message)});
+  }
+  if (cli.pointShowers) o.simulation.emc.pointShowers = true;
   o.simulation.generator.thetaMin = cli.thetaMinDeg * units::deg;
   o.simulation.generator.thetaMax = cli.thetaMaxDeg * units::deg;
+  io::Json ranges = io::Json::object();
+  for (std::size_t k = 0; k < kNumParams; ++k) {
+    const auto p = static_cast<Physical>(k);
+    const double unit = geometry::PhysicalParameters::fileUnit(p);
+    ranges[std::string(name(p))] = {o.ranges.physical[k].first / unit, o.ranges.physical[k].second / unit};
+  }
+  o.settings = {{"ideal", cli.ideal},
+                {"off", cli.off},
+                {"point_showers", cli.pointShowers},
+                {"theta_range_deg", {cli.thetaMinDeg, cli.thetaMaxDeg}},
+                {"ranges", ranges},
+                {"mu_below_gapless", o.ranges.muBelowGapless},
+                {"detector", cli.detector.empty() ? "embedded default" : cli.detector}};
   ProgressLine progress("validate", cli.samples, "samples");
   auto table = validation::runCampaign(*calo, o, cli.output, [&](int done, int) { progress.update(done); });
   progress.finish();
@@ -75,6 +94,10 @@ void addValidateCommand(CLI::App& app, int& exitCode) {
       ->check(CLI::Range(0.0, 180.0));
   cmd->add_option("--theta-max", o->thetaMaxDeg, "(default 140)")->check(CLI::Range(0.0, 180.0));
   cmd->add_flag("--ideal", o->ideal, "use the idealised simulation (the fit model is exact)");
+  cmd->add_option("--off", o->off,
+                  "switch realism effects off (as emcalign simulate --off), to trace a bias to its cause")
+      ->delimiter(',');
+  cmd->add_flag("--point-showers", o->pointShowers, "deposit each shower in one spot at the model depth R(E, theta)");
   cmd->add_option("-o,--output", o->output, "campaign directory (a rerun resumes it)")->required();
   cmd->callback([o, &exitCode] { exitCode = run(*o); });
 }

@@ -7,6 +7,7 @@
 #include <numbers>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <oneapi/tbb/enumerable_thread_specific.h>
 #include <oneapi/tbb/global_control.h>
 #include <oneapi/tbb/parallel_for.h>
@@ -32,6 +33,29 @@ void SimulationOptions::setIdealised() {
   reconstruction.idealDirectionSigma = 0.0;  // a smeared direction can cross the parting plane
   reconstruction.containment = 1.0;
   cosmicFraction = 0.0;
+}
+
+const std::vector<std::string>& SimulationOptions::effectNames() {
+  static const std::vector<std::string> names = {
+      "radiation",           "background",    "dead-counters", "noise",
+      "energy-resolution",   "shower-fluctuations", "layer3-offset", "cosmics",
+      "multiple-scattering", "counter-directions"};
+  return names;
+}
+
+Status SimulationOptions::switchOff(std::string_view effect) {
+  if (effect == "radiation") generator.radiation = false;
+  else if (effect == "background") emc.beamBackground = false;
+  else if (effect == "dead-counters") emc.deadCountersOn = false;
+  else if (effect == "noise") emc.noise = false;
+  else if (effect == "energy-resolution") emc.energyResolution = false;
+  else if (effect == "shower-fluctuations") emc.showerFluctuations = false;
+  else if (effect == "layer3-offset") emc.layer3OffsetOn = false;
+  else if (effect == "cosmics") cosmicFraction = 0.0;
+  else if (effect == "multiple-scattering") tracking.multipleScattering = false;
+  else if (effect == "counter-directions") reconstruction.directionFromCounters = false;
+  else return Error{fmt::format("unknown effect '{}' (known: {})", effect, fmt::join(effectNames(), ", "))};
+  return {};
 }
 
 Status SimulationOptions::validate(int counters) const {

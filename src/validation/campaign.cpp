@@ -139,7 +139,7 @@ Json sampleJson(const SampleResult& s, const CampaignOptions& o) {
   fit.erase("input");
   return Json{{"format", kSampleFormat},
               {"index", s.index},
-              {"campaign", {{"seed", o.seed}, {"events", o.events}}},
+              {"campaign", {{"seed", o.seed}, {"events", o.events}, {"settings", o.settings}}},
               {"selected_events", s.selectedEvents},
               {"truth", io::alignmentToJson(s.truth)},
               {"fit", fit}};
@@ -153,7 +153,9 @@ std::optional<SampleResult> readSample(const std::string& path, const CampaignOp
   auto j = io::parseJson(*text, path);
   if (!j || !j->is_object() || !j->contains("format") || (*j)["format"] != kSampleFormat) return std::nullopt;
   try {
-    if ((*j)["campaign"]["seed"].get<std::uint64_t>() != o.seed || (*j)["campaign"]["events"].get<std::int64_t>() != o.events) {
+    const Json& c = (*j)["campaign"];
+    if (c["seed"].get<std::uint64_t>() != o.seed || c["events"].get<std::int64_t>() != o.events ||
+        c["settings"] != o.settings) {
       return std::nullopt;
     }
     SampleResult s;
@@ -212,8 +214,8 @@ Result<Table> runCampaign(const geometry::Calorimeter& calo, const CampaignOptio
         if (progress) progress(i + 1, o.samples);
         continue;
       }
-      return Error{fmt::format("{} is not a finished sample of this campaign (another seed or number of events?): "
-                               "use another directory, or remove it",
+      return Error{fmt::format("{} is not a finished sample of this campaign (another seed, number of events or "
+                               "simulation setting?): use another directory, or remove it",
                                path)};
     }
     Rng truthRng(o.seed, static_cast<std::uint64_t>(i));

@@ -11,6 +11,8 @@
 #include <functional>
 #include <memory>
 #include <span>
+#include <string>
+#include <string_view>
 #include <vector>
 
 #include "emcalign/core/event_record.hpp"
@@ -43,6 +45,12 @@ struct SimulationOptions {
   /// gives it the wrong sign of the relative terms). In this limit the SPEC §5 model is
   /// exact up to the track resolution.
   void setIdealised();
+
+  /// Switches one realism effect off by its name (docs/simulation.md): radiation,
+  /// background, dead-counters, noise, energy-resolution, shower-fluctuations,
+  /// layer3-offset, cosmics, multiple-scattering, counter-directions.
+  Status switchOff(std::string_view effect);
+  static const std::vector<std::string>& effectNames();
 
   Status validate(int counters) const;
 };

@@ -50,7 +50,10 @@ struct CampaignOptions {
   std::uint64_t seed = 1;
   int threads = 0;
   Ranges ranges = Ranges::defaults();
-  sim::SimulationOptions simulation;  ///< seed and generator range are set per sample
+  sim::SimulationOptions simulation;  ///< the seed is set per sample
+  /// Describes the settings (simulation switches, ranges, detector): stored in every sample
+  /// so that a rerun resumes only a campaign made with the same settings.
+  io::Json settings = io::Json::object();
   Status validate() const;
 };
 

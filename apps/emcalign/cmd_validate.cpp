@@ -73,7 +73,7 @@ int run(const ValidateOptions& cli) {
     fmt::print("{:<10} {:>4} {:>11.4g} {:>9.2g} {:>10.4g} {:>9.3f} {:>9.3f}\n", r.name, r.unit, r.bias, r.biasError,
                r.spread, r.pullMean, r.pullWidth);
   }
-  fmt::print("{} samples × {} events in {:.1f} s; wrote {}/table.json, table.md, samples/\n", table->samples,
+  fmt::print("{} samples × {} events in {:.1f} s; wrote {}/table.json, table.md, plots/, samples/\n", table->samples,
              table->events, progress.elapsed(), cli.output);
   return 0;
 }

@@ -8,6 +8,7 @@
 
 #include "emcalign/calib/calibration.hpp"
 #include "emcalign/core/units.hpp"
+#include "emcalign/report/plots.hpp"
 
 namespace emcalign::validation {
 
@@ -27,6 +28,15 @@ double fileUnitOf(Physical p) { return PhysicalParameters::fileUnit(p); }
 // The derived quantities the table reports besides the 12 fit parameters, in the order of
 // calib::FitResult::derived: β, ψ, μ, τ, dx_rel.
 constexpr std::array<std::string_view, 5> kDerived = {"beta", "psi", "mu", "tau", "dx_rel"};
+
+// The truths of the derived quantities (order of kDerived), native units; NaN when the
+// truth has no physical form.
+std::array<double, 5> derivedTruth(const AlignmentParameters& truth, double r1) {
+  const auto phys = geometry::toPhysical(truth, r1);
+  if (!phys) return {std::nan(""), std::nan(""), std::nan(""), std::nan(""), std::nan("")};
+  return {(*phys)[Physical::Beta], (*phys)[Physical::Psi], (*phys)[Physical::Mu], (*phys)[Physical::Tau],
+          (*phys)[Physical::DxRel]};
+}
 
 std::uint64_t sampleSeed(std::uint64_t seed, int index) {
   Rng rng(seed ^ 0x5EEDULL, static_cast<std::uint64_t>(index) + (1ULL << 40));
@@ -194,6 +204,41 @@ std::optional<SampleResult> readSample(const std::string& path, const CampaignOp
   }
 }
 
+// The figures' input: the quantities of the table, in its order and with its definitions
+// (the 12 fit parameters, then β, ψ, μ, τ, dx_rel), per sample in file units. Six panels to
+// a row, so the fit parameters fill two rows and the derived quantities the third.
+std::vector<report::CampaignSeries> campaignSeries(const std::vector<SampleResult>& samples, double r1) {
+  std::vector<report::CampaignSeries> series;
+  for (Param p : kAllParams) {
+    const double unit = AlignmentParameters::fileUnit(p);
+    report::CampaignSeries q{std::string(name(p)), dimension(p) == Dimension::Angle ? "deg" : "cm", {}, {}, {}, false};
+    for (const auto& s : samples) {
+      q.truth.push_back(s.truth[p] / unit);
+      q.fit.push_back(s.fit.parameters[p] / unit);
+      q.error.push_back(s.fit.errors[static_cast<Eigen::Index>(index(p))] / unit);
+    }
+    series.push_back(std::move(q));
+  }
+  std::vector<std::array<double, 5>> truths;
+  for (const auto& s : samples) truths.push_back(derivedTruth(s.truth, r1));
+  for (std::size_t k = 0; k < kDerived.size(); ++k) {
+    const bool length = kDerived[k] == "dx_rel";
+    const double unit = length ? units::cm : units::deg;
+    report::CampaignSeries q{std::string(kDerived[k]), length ? "cm" : "deg", {}, {}, {}, kDerived[k] == "psi" || kDerived[k] == "tau"};
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+      calib::DerivedValue fit{std::nan(""), std::nan("")};
+      for (const auto& [n, v] : samples[i].fit.derived) {
+        if (n == kDerived[k]) fit = v;
+      }
+      q.truth.push_back(truths[i][k] / unit);
+      q.fit.push_back(fit.value / unit);
+      q.error.push_back(fit.error / unit);
+    }
+    series.push_back(std::move(q));
+  }
+  return series;
+}
+
 }  // namespace
 
 Result<Table> runCampaign(const geometry::Calorimeter& calo, const CampaignOptions& o, const std::string& dir,
@@ -252,6 +297,9 @@ Result<Table> runCampaign(const geometry::Calorimeter& calo, const CampaignOptio
   if (Status w = io::writeTextFileAtomically((fs::path(dir) / "table.md").string(), tableMarkdown(table)); !w) {
     return w.error();
   }
+  if (auto plots = report::writeCampaignPlots((fs::path(dir) / "plots").string(), campaignSeries(samples, r1)); !plots) {
+    return plots.error();
+  }
   return table;
 }
 
@@ -276,10 +324,7 @@ Table tabulate(const std::vector<SampleResult>& samples, std::int64_t events, do
   }
   int correlations = 0;
   for (const auto& s : samples) {
-    auto truthPhys = geometry::toPhysical(s.truth, r1);
-    const std::array<double, 5> truthDerived = {(*truthPhys)[Physical::Beta], (*truthPhys)[Physical::Psi],
-                                                (*truthPhys)[Physical::Mu], (*truthPhys)[Physical::Tau],
-                                                (*truthPhys)[Physical::DxRel]};
+    const std::array<double, 5> truthDerived = derivedTruth(s.truth, r1);
     for (std::size_t k = 0; k < kNumParams; ++k) {
       const auto i = static_cast<Eigen::Index>(k);
       const double d = s.fit.parameters.values[i] - s.truth.values[i];

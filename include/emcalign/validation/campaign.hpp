@@ -86,7 +86,8 @@ struct Table {
 using CampaignProgress = std::function<void(int done, int total)>;
 
 /// Runs (or resumes) the campaign into `dir`: dir/samples/sample_NNN.json per sample,
-/// then dir/table.json and dir/table.md. Returns the table.
+/// then dir/table.json, dir/table.md and the figures dir/plots/{pulls,residuals_vs_truth}.png.
+/// Returns the table.
 Result<Table> runCampaign(const geometry::Calorimeter& calo, const CampaignOptions& options, const std::string& dir,
                           const CampaignProgress& progress = {});
 

@@ -4,6 +4,7 @@
 
 #include "emcalign/report/plots.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -343,6 +344,117 @@ TEST_F(PlotTest, MissingGnuplotSaysHowToInstallIt) {
   ASSERT_FALSE(r.ok());
   EXPECT_THAT(r.error().message, HasSubstr("gnuplot was not found"));
   EXPECT_THAT(r.error().message, HasSubstr("apt-get install gnuplot-nox"));
+}
+
+// ---- writeCampaignPlots
+
+// 17 quantities (12 "deg"/"cm" parameters, then 5 derived, two of them wrapping angles) over
+// 40 samples: truth uniform, fit = truth + bias + Gaussian noise of the stated error.
+std::vector<CampaignSeries> syntheticCampaign() {
+  const char* names[] = {"alpha",  "beta1",  "beta2",    "dx",   "dy",  "dz", "dp1", "dp2",   "dp3",
+                         "dy_rel", "dz_rel", "beta_rel", "beta", "psi", "mu", "tau", "dx_rel"};
+  Rng rng(23, 0);
+  std::vector<CampaignSeries> series;
+  for (int k = 0; k < 17; ++k) {
+    CampaignSeries s;
+    s.name = names[k];
+    s.angleWraps = s.name == "psi" || s.name == "tau";
+    s.unit = (s.name[0] == 'd') ? "cm" : "deg";
+    const double sigma = 0.01 * (1 + k % 4), bias = 0.3 * sigma * (k % 3 - 1);
+    for (int i = 0; i < 40; ++i) {
+      const double truth = s.angleWraps ? rng.uniform(-180.0, 180.0) : rng.uniform(-0.5, 0.5);
+      double fit = truth + bias + sigma * rng.normal();
+      if (s.angleWraps && fit > 180.0) fit -= 360.0;  // as a fit reports it
+      s.truth.push_back(truth);
+      s.fit.push_back(fit);
+      s.error.push_back(sigma);
+    }
+    series.push_back(std::move(s));
+  }
+  series[16].error[3] = std::numeric_limits<double>::quiet_NaN();  // no pull, still a point
+  return series;
+}
+
+TEST_F(PlotTest, CampaignWritesPullAndResidualFigures) {
+  auto series = syntheticCampaign();
+  // A truth just below +180° fitted just above it: fit − truth is the short way round.
+  series[15].truth[0] = 179.99;
+  series[15].fit[0] = -179.99;
+  auto r = writeCampaignPlots((dir_ / "campaign").string(), series);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ASSERT_EQ(r->size(), 2u);
+  const std::string names[] = {"pulls", "residuals_vs_truth"};
+  for (int k = 0; k < 2; ++k) {
+    const fs::path png = dir_ / "campaign" / (names[k] + ".png");
+    EXPECT_EQ(fs::path((*r)[static_cast<std::size_t>(k)]), png);
+    ASSERT_TRUE(fs::exists(png)) << png;
+    EXPECT_EQ(readBytes(png, 8), std::string("\x89PNG\r\n\x1a\n", 8)) << png;
+    EXPECT_GT(fs::file_size(png), 50000u) << png;  // 17 drawn panels, not an empty canvas
+    EXPECT_TRUE(fs::exists(dir_ / "campaign" / (names[k] + ".gp"))) << names[k];
+  }
+
+  // The samples file: one block per quantity, fit − truth and the pull per sample.
+  std::ifstream in(dir_ / "campaign" / "campaign_samples.dat");
+  int block = 0, rows = 0, blankRun = 0;
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty()) {
+      if (++blankRun == 2) ++block;
+      continue;
+    }
+    blankRun = 0;
+    if (line[0] == '#') continue;
+    std::istringstream row(line);
+    std::string cols[5];
+    for (auto& c : cols) row >> c;
+    ASSERT_LT(block, 17);
+    const auto& s = series[static_cast<std::size_t>(block)];
+    const std::size_t i = static_cast<std::size_t>(rows % 40);
+    const double diff = std::stod(cols[3]);
+    EXPECT_NEAR(std::stod(cols[0]), s.truth[i], 1e-8 * std::max(1.0, std::abs(s.truth[i])));
+    if (block == 15 && i == 0) {
+      EXPECT_NEAR(diff, 0.02, 1e-7);  // not −359.98
+    } else if (block == 16 && i == 3) {
+      EXPECT_EQ(cols[4], "NaN");  // no error, no pull
+    } else {
+      const double d = s.fit[i] - s.truth[i];
+      EXPECT_NEAR(diff, s.angleWraps ? std::remainder(d, 360.0) : d, 1e-7);
+      EXPECT_NEAR(std::stod(cols[4]), diff / s.error[i], 1e-5);
+    }
+    ++rows;
+  }
+  EXPECT_EQ(block, 16);
+  EXPECT_EQ(rows, 17 * 40);
+  EXPECT_TRUE(fs::exists(dir_ / "campaign" / "pulls.dat"));
+}
+
+TEST_F(PlotTest, CampaignWithoutQuantitiesIsAnError) {
+  auto r = writeCampaignPlots(dir_.string(), {});
+  ASSERT_FALSE(r.ok());
+  EXPECT_THAT(r.error().message, HasSubstr("no quantities"));
+}
+
+TEST_F(PlotTest, CampaignSeriesOfUnequalLengthsIsAnErrorNamingTheQuantity) {
+  auto series = syntheticCampaign();
+  series[7].fit.pop_back();
+  auto r = writeCampaignPlots(dir_.string(), series);
+  ASSERT_FALSE(r.ok());
+  EXPECT_THAT(r.error().message, HasSubstr("'dp2'"));
+  EXPECT_THAT(r.error().message, HasSubstr("40, 39 and 40"));
+
+  series = syntheticCampaign();
+  series[2].truth.clear();
+  series[2].fit.clear();
+  series[2].error.clear();
+  r = writeCampaignPlots(dir_.string(), series);
+  ASSERT_FALSE(r.ok());
+  EXPECT_THAT(r.error().message, HasSubstr("'beta2': no samples"));
+
+  series = syntheticCampaign();
+  series[13].unit = "cm";  // psi wraps: degrees only
+  r = writeCampaignPlots(dir_.string(), series);
+  ASSERT_FALSE(r.ok());
+  EXPECT_THAT(r.error().message, HasSubstr("'psi'"));
+  EXPECT_FALSE(fs::exists(dir_ / "pulls.png"));  // nothing drawn from bad input
 }
 
 }  // namespace

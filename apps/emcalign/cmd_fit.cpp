@@ -29,6 +29,7 @@ struct FitCliOptions {
   std::string detector;
   std::string plots;
   double beamEnergy = 0.0;
+  double depthOffset = 0.0;
 };
 
 void printCutFlow(const calib::ProfileFill& fill) {
@@ -88,7 +89,8 @@ Status drawPlots(const FitCliOptions& o, const calib::FitGeometry& geometry, con
 int run(const FitCliOptions& o) {
   auto calo = loadCalorimeter(o.detector);
   if (!calo) return reportError(calo.error());
-  const auto geometry = calib::FitGeometry::of(calo->description());
+  auto geometry = calib::FitGeometry::of(calo->description());
+  geometry.depth.offset = o.depthOffset;
 
   std::vector<calib::ProfileBin> bins;
   std::optional<calib::ProfileFill> fill;
@@ -157,6 +159,9 @@ void addFitCommand(CLI::App& app, int& exitCode) {
                   "curves, and the residual distributions before and after the correction");
   cmd->add_option("--beam-energy", o->beamEnergy, "beam energy for the selection, MeV (default: from the file)")
       ->check(CLI::PositiveNumber);
+  cmd->add_option("--depth-offset", o->depthOffset,
+                  "cm added to the shower depth R(E, theta) in the residuals and the model (default 0: the "
+                  "paper's formula; see docs/validation.md)");
   addDetectorOption(*cmd, o->detector);
   cmd->callback([o, &exitCode] {
     exitCode = o->events.empty() && o->profileIn.empty()

@@ -26,6 +26,7 @@ struct ValidateOptions {
   double thetaMaxDeg = 140.0;
   bool ideal = false;
   bool pointShowers = false;
+  double depthOffset = 0.0;
   std::vector<std::string> off;
   std::string output;
 };
@@ -48,6 +49,7 @@ int run(const ValidateOptions& cli) {
     if (Status s = o.simulation.switchOff(e); !s) return reportError({fmt::format("--off: {}", s.error().message)});
   }
   if (cli.pointShowers) o.simulation.emc.pointShowers = true;
+  o.depthOffset = cli.depthOffset;
   o.simulation.generator.thetaMin = cli.thetaMinDeg * units::deg;
   o.simulation.generator.thetaMax = cli.thetaMaxDeg * units::deg;
   io::Json ranges = io::Json::object();
@@ -59,6 +61,7 @@ int run(const ValidateOptions& cli) {
   o.settings = {{"ideal", cli.ideal},
                 {"off", cli.off},
                 {"point_showers", cli.pointShowers},
+                {"depth_offset_cm", cli.depthOffset},
                 {"theta_range_deg", {cli.thetaMinDeg, cli.thetaMaxDeg}},
                 {"ranges", ranges},
                 {"mu_below_gapless", o.ranges.muBelowGapless},
@@ -98,6 +101,7 @@ void addValidateCommand(CLI::App& app, int& exitCode) {
                   "switch realism effects off (as emcalign simulate --off), to trace a bias to its cause")
       ->delimiter(',');
   cmd->add_flag("--point-showers", o->pointShowers, "deposit each shower in one spot at the model depth R(E, theta)");
+  cmd->add_option("--depth-offset", o->depthOffset, "cm added to R(E, theta) in the fits (as emcalign fit)");
   cmd->add_option("-o,--output", o->output, "campaign directory (a rerun resumes it)")->required();
   cmd->callback([o, &exitCode] { exitCode = run(*o); });
 }

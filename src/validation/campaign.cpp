@@ -248,7 +248,8 @@ Result<Table> runCampaign(const geometry::Calorimeter& calo, const CampaignOptio
   fs::create_directories(fs::path(dir) / "samples", ec);
   if (ec) return Error{fmt::format("{}: cannot create the directory: {}", dir, ec.message())};
   const double r1 = calo.description().r1();
-  const auto geometry = calib::FitGeometry::of(calo.description());
+  auto geometry = calib::FitGeometry::of(calo.description());
+  geometry.depth.offset = o.depthOffset;
 
   std::vector<SampleResult> samples;
   for (int i = 0; i < o.samples; ++i) {

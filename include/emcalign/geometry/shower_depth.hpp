@@ -17,8 +17,12 @@ namespace emcalign::geometry {
 struct ShowerDepth {
   double r0 = 0.0;  ///< EMC inner radius, cm
   ShowerMaterial material;
+  /// A correction added to R (cm): 0 is the paper's formula. The reconstructed direction of
+  /// a real shower corresponds to a point deeper than its maximum (docs/validation.md);
+  /// `emcalign fit --depth-offset` sets this from a simulation.
+  double offset = 0.0;
 
-  static ShowerDepth of(const DetectorDescription& d) { return {d.r0(), d.material}; }
+  static ShowerDepth of(const DetectorDescription& d) { return {d.r0(), d.material, 0.0}; }
 
   /// R(E, θ) in cm for a cluster energy E (MeV) and a polar angle θ (rad).
   template <typename T>
@@ -26,8 +30,8 @@ struct ShowerDepth {
     using std::log;
     using std::sin;
     const auto& m = material;
-    return r0 + m.radiationLength *
-                    (log(energy / m.criticalEnergy) - 0.5 - m.preshowerMaterial / sin(theta));
+    return r0 + offset +
+           m.radiationLength * (log(energy / m.criticalEnergy) - 0.5 - m.preshowerMaterial / sin(theta));
   }
 };
 

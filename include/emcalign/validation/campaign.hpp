@@ -51,6 +51,7 @@ struct CampaignOptions {
   int threads = 0;
   Ranges ranges = Ranges::defaults();
   sim::SimulationOptions simulation;  ///< the seed is set per sample
+  double depthOffset = 0.0;           ///< cm, added to R(E, θ) in the fit (ShowerDepth::offset)
   /// Describes the settings (simulation switches, ranges, detector): stored in every sample
   /// so that a rerun resumes only a campaign made with the same settings.
   io::Json settings = io::Json::object();

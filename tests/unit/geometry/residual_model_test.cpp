@@ -25,6 +25,19 @@ TEST(ShowerDepth, PaperFormulaByHand) {
   EXPECT_GT(kDepth.radius(800.0, 1.0), kDepth.radius(400.0, 1.0));
 }
 
+TEST(ShowerDepth, OffsetMovesTheModelPointOutward) {
+  ShowerDepth deeper = kDepth;
+  deeper.offset = 5.0;
+  EXPECT_NEAR(deeper.radius(612.5, 90.0 * deg), 41.01853956229558 + 5.0, 1e-12);
+  // A pure shift turns the angles less at a larger radius: f_φ scales as 1/R.
+  AlignmentParameters eta;
+  eta[Param::Dx] = 0.3;
+  const auto near = modelResidual<double>(eta.values, kRadii, kDepth, 1.2, 1.4, 612.5);
+  const auto far = modelResidual<double>(eta.values, kRadii, deeper, 1.2, 1.4, 612.5);
+  const double ratio = kDepth.radius(612.5, 1.4) / deeper.radius(612.5, 1.4);
+  EXPECT_NEAR(far.phi / near.phi, ratio, 1e-3);
+}
+
 TEST(TrackLine, SphereIntersectionWorkedByHand) {
   // Along +x from (0, 0, 3): x² + 9 = 25 → (4, 0, 3).
   TrackLine a{3.0, 0.0, 0.0, 90.0 * deg};

@@ -12,24 +12,18 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "cli_support.hpp"
+
 namespace {
 
 namespace fs = std::filesystem;
 
-struct CmdResult {
-  int exitCode = -1;
-  std::string out;
-  std::string err;
-};
+using CmdResult = emcalign::testing::CommandResult;
+using emcalign::testing::slurp;
 
 class Cli : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("emcalign_cli_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
+  void SetUp() override { dir_ = emcalign::testing::freshTestDirectory("emcalign_cli"); }
   void TearDown() override { fs::remove_all(dir_); }
 
   std::string path(const std::string& name) const { return (dir_ / name).string(); }
@@ -39,23 +33,8 @@ class Cli : public ::testing::Test {
     return path(name);
   }
 
-  static std::string slurp(const std::string& p) {
-    std::ifstream in(p);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-  }
-
   CmdResult run(const std::string& args, const std::string& stdinText = "") const {
-    const std::string in = write("stdin.txt", stdinText);
-    const std::string cmd = std::string(EMCALIGN_BINARY) + " " + args + " <" + in + " >" +
-                            path("stdout.txt") + " 2>" + path("stderr.txt");
-    const int status = std::system(cmd.c_str());
-    CmdResult r;
-    r.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.out = slurp(path("stdout.txt"));
-    r.err = slurp(path("stderr.txt"));
-    return r;
+    return emcalign::testing::runEmcalign(dir_, args, stdinText);
   }
 
   std::string paramsFile(const std::string& body) const {

@@ -13,6 +13,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "cli_support.hpp"
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -21,9 +23,7 @@ class FitCli : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     // ctest runs each test in its own process, possibly at the same time: one directory each.
-    dir_ = fs::temp_directory_path() / ("emcalign_fit_cli_" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    dir_ = emcalign::testing::freshTestDirectory("emcalign_fit_cli");
     const std::string truth = std::string(EMCALIGN_SOURCE_DIR) + "/data/examples/paper-like.json";
     const std::string sim = std::string(EMCALIGN_BINARY) + " simulate --events 20000 --seed 3 --theta-min 40 "
                             "--theta-max 140 --params " + truth + " -o ";
@@ -35,18 +35,12 @@ class FitCli : public ::testing::Test {
   static void TearDownTestSuite() { fs::remove_all(dir_); }
 
   int run(const std::string& args, std::string* out = nullptr, std::string* err = nullptr) const {
-    const std::string o = (dir_ / "out.txt").string(), e = (dir_ / "err.txt").string();
-    const int status = std::system((std::string(EMCALIGN_BINARY) + " " + args + " >" + o + " 2>" + e).c_str());
-    if (out != nullptr) *out = slurp(o);
-    if (err != nullptr) *err = slurp(e);
-    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    auto r = emcalign::testing::runEmcalign(dir_, args);
+    if (out != nullptr) *out = r.out;
+    if (err != nullptr) *err = r.err;
+    return r.exitCode;
   }
-  static std::string slurp(const fs::path& p) {
-    std::ifstream in(p);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-  }
+  static std::string slurp(const fs::path& p) { return emcalign::testing::slurp(p); }
   static std::string path(const std::string& name) { return (dir_ / name).string(); }
   static void write(const std::string& name, const std::string& text) { std::ofstream(path(name)) << text; }
 

@@ -13,33 +13,23 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "cli_support.hpp"
+
 namespace {
 
 namespace fs = std::filesystem;
 
 class ValidateCli : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("emcalign_validate_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
+  void SetUp() override { dir_ = emcalign::testing::freshTestDirectory("emcalign_validate"); }
   void TearDown() override { fs::remove_all(dir_); }
 
   int run(const std::string& args, std::string* err = nullptr) const {
-    const std::string e = (dir_ / "err.txt").string();
-    const int status = std::system((std::string(EMCALIGN_BINARY) + " " + args + " >/dev/null 2>" + e).c_str());
-    if (err != nullptr) *err = slurp(e);
-    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    auto r = emcalign::testing::runEmcalign(dir_, args);
+    if (err != nullptr) *err = r.err;
+    return r.exitCode;
   }
-  static std::string slurp(const fs::path& p) {
-    std::ifstream in(p);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-  }
+  static std::string slurp(const fs::path& p) { return emcalign::testing::slurp(p); }
   std::string path(const std::string& name) const { return (dir_ / name).string(); }
 
   fs::path dir_;

@@ -345,8 +345,8 @@ def staged_fit(chi2):
     return m, stages, t_migrad, t_total
 
 
-def gauss_newton_cov(chi2, x):
-    """(J^T J)^-1 of the whitened residuals (SPEC §8 definition), central differences."""
+def whitened_jacobian(chi2, x):
+    """d(whitened residuals)/d(parameters) at x, by central differences."""
     h = 1e-5
     cols = []
     for j in range(len(x)):
@@ -354,7 +354,12 @@ def gauss_newton_cov(chi2, x):
         xp[j] += h
         xm[j] -= h
         cols.append((chi2.residuals(xp) - chi2.residuals(xm)) / (2 * h))
-    jac = -np.column_stack(cols)
+    return np.column_stack(cols)
+
+
+def gauss_newton_cov(chi2, x):
+    """(J^T J)^-1 of the whitened residuals (SPEC §8 definition)."""
+    jac = whitened_jacobian(chi2, x)
     return np.linalg.inv(jac.T @ jac)
 
 

@@ -252,14 +252,7 @@ def run_case(exe, case, tmp, n_events):
 
 def stat_errors(chi2, prof, x):
     """Statistical (sandwich) errors of the sigma-weighted least-squares estimate at x."""
-    h = 1e-5
-    cols = []
-    for j in range(len(x)):
-        xp, xm = np.array(x, float), np.array(x, float)
-        xp[j] += h
-        xm[j] -= h
-        cols.append((chi2.residuals(xp) - chi2.residuals(xm)) / (2 * h))
-    jac = np.column_stack(cols)
+    jac = mc.whitened_jacobian(chi2, x)
     use = prof["n"] >= mc.MIN_N
     sig = np.concatenate((prof["sigma_phi"][use], prof["sigma_theta"][use]))
     d = np.maximum(sig ** 2 - mc.SIGMA_SYS ** 2, 0.0) / sig ** 2      # sigma_stat^2 / sigma^2

@@ -1,6 +1,7 @@
 // emcalign fit: e+e- → e+e- events (or a saved profile) → the 12 alignment parameters with
 // errors, a result file, and optionally the profile and the paper's plots.
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <memory>
@@ -30,6 +31,7 @@ struct FitCliOptions {
   std::string plots;
   double beamEnergy = 0.0;
   double depthOffset = 0.0;
+  std::string corrections;
 };
 
 void printCutFlow(const calib::ProfileFill& fill) {
@@ -91,6 +93,21 @@ int run(const FitCliOptions& o) {
   if (!calo) return reportError(calo.error());
   auto geometry = calib::FitGeometry::of(calo->description());
   geometry.depth.offset = o.depthOffset;
+  calib::ProfileOptions profileOptions;
+  calib::FitInput input;
+  input.depthOffset = o.depthOffset;
+  if (!o.corrections.empty()) {
+    auto c = calib::readCorrections(o.corrections);
+    if (!c) return reportError(c.error());
+    geometry.depth.offset = input.depthOffset = c->depthOffset;
+    profileOptions.partingPlane = c->partingPlane;
+    profileOptions.nominalProfile = c->nominalProfile;
+    if (c->partingPlane) input.partingPlane = o.corrections;
+    if (c->nominalProfile) input.nominalProfile = o.corrections;
+    fmt::print("Model corrections from {}: depth offset {:+.2f} cm, parting-plane response {}, nominal profile {}\n",
+               o.corrections, c->depthOffset / units::cm, c->partingPlane ? "on" : "off",
+               c->nominalProfile ? "subtracted" : "off");
+  }
 
   std::vector<calib::ProfileBin> bins;
   std::optional<calib::ProfileFill> fill;
@@ -101,19 +118,32 @@ int run(const FitCliOptions& o) {
     histograms->dPhiBefore.fill(std::asin(y.yPhi) / units::deg);
     histograms->dThetaBefore.fill(y.yTheta / units::deg);
   };
-  calib::FitInput input;
   input.detector = o.detector.empty() ? "embedded default" : o.detector;
   if (!o.profileIn.empty()) {
     auto read = calib::readProfileCsv(o.profileIn);
     if (!read) return reportError(read.error());
     bins = std::move(*read);
+    const bool weighted = std::any_of(bins.begin(), bins.end(), [](const auto& b) { return !std::isnan(b.plusWeight); });
+    // A profile written by a fit with --corrections carries them (the plus_weight column,
+    // the nominal profile subtracted); only the model's depth offset must come again.
+    if (!o.corrections.empty() && !weighted) {
+      return reportError({fmt::format("{}: this profile was written without --corrections and cannot take them now "
+                                      "(its residuals were built at another depth): fit the events with --corrections",
+                                      o.profileIn)});
+    }
+    if (weighted && o.corrections.empty()) {
+      return reportError({fmt::format("{}: this profile was written with --corrections (it has a plus_weight column): "
+                                      "give the same --corrections file, for the model's depth offset",
+                                      o.profileIn)});
+    }
+    if (weighted) input.partingPlane = input.nominalProfile = o.profileIn + " (written with " + o.corrections + ")";
     calib::markUsedBins(bins, calib::ProfileOptions{}.minEntries);
     input.files = {o.profileIn};
     input.fromProfile = true;
   } else {
     calib::SelectionOptions selection;
     if (o.beamEnergy > 0.0) selection.beamEnergy = o.beamEnergy;
-    auto filled = calib::fillProfiles(o.events, geometry.depth, selection, {},
+    auto filled = calib::fillProfiles(o.events, geometry.depth, selection, profileOptions,
                                       histograms ? calib::ParticleVisitor(before) : calib::ParticleVisitor());
     if (!filled) return reportError(filled.error());
     fill = std::move(*filled);
@@ -159,9 +189,14 @@ void addFitCommand(CLI::App& app, int& exitCode) {
                   "curves, and the residual distributions before and after the correction");
   cmd->add_option("--beam-energy", o->beamEnergy, "beam energy for the selection, MeV (default: from the file)")
       ->check(CLI::PositiveNumber);
-  cmd->add_option("--depth-offset", o->depthOffset,
+  auto* depthOffset = cmd->add_option("--depth-offset", o->depthOffset,
                   "cm added to the shower depth R(E, theta) in the residuals and the model (default 0: the "
                   "paper's formula; see docs/validation.md)");
+  auto* corrections = cmd->add_option("--corrections", o->corrections,
+                                      "model corrections derived from the simulation (emcalign derive-corrections): "
+                                      "the shower-depth offset and the parting-plane response")
+                          ->check(CLI::ExistingFile);
+  corrections->excludes(depthOffset);
   addDetectorOption(*cmd, o->detector);
   cmd->callback([o, &exitCode] {
     exitCode = o->events.empty() && o->profileIn.empty()

@@ -27,6 +27,7 @@ struct ValidateOptions {
   bool ideal = false;
   bool pointShowers = false;
   double depthOffset = 0.0;
+  std::string corrections;
   std::vector<std::string> off;
   std::string output;
 };
@@ -49,7 +50,18 @@ int run(const ValidateOptions& cli) {
     if (Status s = o.simulation.switchOff(e); !s) return reportError({fmt::format("--off: {}", s.error().message)});
   }
   if (cli.pointShowers) o.simulation.emc.pointShowers = true;
-  o.depthOffset = cli.depthOffset;
+  o.corrections.depthOffset = cli.depthOffset;
+  io::Json correctionsSetting = nullptr;
+  if (!cli.corrections.empty()) {
+    auto c = calib::readCorrections(cli.corrections);
+    if (!c) return reportError(c.error());
+    o.corrections = *c;
+    // The samples record what the corrections were, so that a rerun with another file is refused.
+    const std::string text = calib::correctionsJson(*c).dump();
+    std::uint64_t digest = 0xcbf29ce484222325ULL;  // FNV-1a
+    for (unsigned char ch : text) digest = (digest ^ ch) * 0x100000001b3ULL;
+    correctionsSetting = {{"file", cli.corrections}, {"fnv1a", fmt::format("{:016x}", digest)}};
+  }
   o.simulation.generator.thetaMin = cli.thetaMinDeg * units::deg;
   o.simulation.generator.thetaMax = cli.thetaMaxDeg * units::deg;
   io::Json ranges = io::Json::object();
@@ -62,6 +74,7 @@ int run(const ValidateOptions& cli) {
                 {"off", cli.off},
                 {"point_showers", cli.pointShowers},
                 {"depth_offset_cm", cli.depthOffset},
+                {"corrections", correctionsSetting},
                 {"theta_range_deg", {cli.thetaMinDeg, cli.thetaMaxDeg}},
                 {"ranges", ranges},
                 {"mu_below_gapless", o.ranges.muBelowGapless},
@@ -101,7 +114,12 @@ void addValidateCommand(CLI::App& app, int& exitCode) {
                   "switch realism effects off (as emcalign simulate --off), to trace a bias to its cause")
       ->delimiter(',');
   cmd->add_flag("--point-showers", o->pointShowers, "deposit each shower in one spot at the model depth R(E, theta)");
-  cmd->add_option("--depth-offset", o->depthOffset, "cm added to R(E, theta) in the fits (as emcalign fit)");
+  auto* depthOffset =
+      cmd->add_option("--depth-offset", o->depthOffset, "cm added to R(E, theta) in the fits (as emcalign fit)");
+  cmd->add_option("--corrections", o->corrections,
+                  "fit with the model corrections of this file (emcalign derive-corrections; as emcalign fit)")
+      ->check(CLI::ExistingFile)
+      ->excludes(depthOffset);
   cmd->add_option("-o,--output", o->output, "campaign directory (a rerun resumes it)")->required();
   cmd->callback([o, &exitCode] { exitCode = run(*o); });
 }

@@ -36,5 +36,6 @@ void addTransformCommand(CLI::App& app, int& exitCode);
 void addSimulateCommand(CLI::App& app, int& exitCode);
 void addFitCommand(CLI::App& app, int& exitCode);
 void addValidateCommand(CLI::App& app, int& exitCode);
+void addDeriveCorrectionsCommand(CLI::App& app, int& exitCode);
 
 }  // namespace emcalign::app

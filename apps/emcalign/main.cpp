@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
   emcalign::app::addSimulateCommand(app, exitCode);
   emcalign::app::addFitCommand(app, exitCode);
   emcalign::app::addValidateCommand(app, exitCode);
+  emcalign::app::addDeriveCorrectionsCommand(app, exitCode);
   CLI11_PARSE(app, argc, argv);
   return exitCode;
 }

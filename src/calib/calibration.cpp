@@ -120,6 +120,9 @@ io::Json fitResultJson(const FitResult& r, const FitInput& input) {
   j["warnings"] = r.warnings;
   Json in = {{"files", input.files}, {"from_profile", input.fromProfile}, {"detector", input.detector},
              {"bins_used", r.binsUsed}, {"bins_left_out", r.binsLeftOut.size()}};
+  in["model_corrections"] = {{"depth_offset_cm", input.depthOffset / units::cm},
+                             {"parting_plane_response", input.partingPlane.empty() ? Json(nullptr) : Json(input.partingPlane)},
+                             {"nominal_profile", input.nominalProfile.empty() ? Json(nullptr) : Json(input.nominalProfile)}};
   if (input.fill != nullptr) {
     Json flow = Json::object();
     for (std::size_t k = 0; k < CutFlow::kNames.size(); ++k) flow[CutFlow::kNames[k]] = input.fill->cutFlow.events[k];

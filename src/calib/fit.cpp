@@ -22,6 +22,7 @@ constexpr int kN = static_cast<int>(kNumParams);
 
 struct BinPoint {
   double phi, theta, radius, yPhi, yTheta, wPhi, wTheta;  // w = 1/σ
+  double plusWeight;  // 1 or 0 (SPEC: s = sign(cos φ)), or the mixture of a parting-plane response
 };
 
 // All whitened residuals in one functor: the two hemispheres' placements are built once
@@ -37,7 +38,7 @@ struct ProfileResiduals {
     const auto minus = geometry::hemisphereTransform<T>(p, geometry::Hemisphere::Minus, radii);
     for (std::size_t i = 0; i < points->size(); ++i) {
       const BinPoint& b = (*points)[i];
-      const auto f = geometry::modelResidual<T>(plus, minus, b.phi, b.theta, b.radius);
+      const auto f = geometry::mixedModelResidual<T>(plus, minus, b.phi, b.theta, b.radius, b.plusWeight);
       residuals[2 * i] = (b.yPhi - f.phi) * b.wPhi;
       residuals[2 * i + 1] = (b.yTheta - f.theta) * b.wTheta;
     }
@@ -49,8 +50,9 @@ std::vector<BinPoint> pointsOf(const std::vector<ProfileBin>& bins, const FitGeo
   std::vector<BinPoint> out;
   for (const auto& b : bins) {
     if (!b.used) continue;
+    const double plusWeight = std::isnan(b.plusWeight) ? (std::cos(b.phiMean) >= 0.0 ? 1.0 : 0.0) : b.plusWeight;
     out.push_back({b.phiMean, b.thetaMean, g.depth.radius(b.energyMean, b.thetaMean), b.yPhi, b.yTheta,
-                   1.0 / b.sigmaPhi, 1.0 / b.sigmaTheta});
+                   1.0 / b.sigmaPhi, 1.0 / b.sigmaTheta, plusWeight});
   }
   return out;
 }

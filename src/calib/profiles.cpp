@@ -1,9 +1,11 @@
 #include "emcalign/calib/profiles.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <limits>
 #include <numbers>
+#include <stdexcept>
 
 #include <fmt/format.h>
 
@@ -12,7 +14,16 @@
 namespace emcalign::calib {
 
 Profiles::Profiles(ProfileOptions options)
-    : options_(options), acc_(static_cast<std::size_t>(options.phiBins * options.thetaBins)) {}
+    : options_(options), acc_(static_cast<std::size_t>(options.phiBins * options.thetaBins)) {
+  if (options_.partingPlane && options_.partingPlane->phiBins() != options_.phiBins) {
+    throw std::invalid_argument(fmt::format("profiles: the parting-plane response has {} phi columns, the profiles {}",
+                                            options_.partingPlane->phiBins(), options_.phiBins));
+  }
+  if (options_.nominalProfile &&
+      (options_.nominalProfile->phiBins != options_.phiBins || options_.nominalProfile->thetaBins != options_.thetaBins)) {
+    throw std::invalid_argument("profiles: the nominal profile has other bins than the profiles");
+  }
+}
 
 bool Profiles::fill(const ParticleResidual& p) {
   const auto& o = options_;
@@ -50,6 +61,7 @@ std::vector<ProfileBin> Profiles::bins() const {
         b.phiMean = a.mean[2];
         b.thetaMean = a.mean[3];
         b.energyMean = a.mean[4];
+        if (o.partingPlane) b.plusWeight = o.partingPlane->plusWeight(iPhi);
       } else {
         b.yPhi = b.yTheta = b.phiMean = b.thetaMean = b.energyMean = nan;
       }
@@ -60,6 +72,14 @@ std::vector<ProfileBin> Profiles::bins() const {
         b.sigmaTheta = std::sqrt(statTheta2 + o.sigmaSys * o.sigmaSys);
       } else {
         b.sigmaPhi = b.sigmaTheta = nan;
+      }
+      if (o.nominalProfile) {
+        const NominalProfile& t = *o.nominalProfile;
+        const auto k = static_cast<std::size_t>(iPhi * o.thetaBins + iTheta);
+        b.yPhi -= t.yPhi[k];  // NaN where the nominal sample lacks the bin: left out
+        b.yTheta -= t.yTheta[k];
+        b.sigmaPhi = std::hypot(b.sigmaPhi, t.sigmaPhi[k]);
+        b.sigmaTheta = std::hypot(b.sigmaTheta, t.sigmaTheta[k]);
       }
       out.push_back(b);
     }
@@ -87,11 +107,12 @@ std::string number(double v) { return std::isfinite(v) ? fmt::format("{:.17g}", 
 }  // namespace
 
 std::string profileCsv(const std::vector<ProfileBin>& bins) {
-  std::string out = std::string(kHeader) + "\n";
+  const bool weights = std::any_of(bins.begin(), bins.end(), [](const ProfileBin& b) { return !std::isnan(b.plusWeight); });
+  std::string out = std::string(kHeader) + (weights ? ",plus_weight\n" : "\n");
   for (const auto& b : bins) {
-    out += fmt::format("{},{},{},{},{},{},{},{},{},{}\n", b.iPhi, b.iTheta, b.n, number(b.phiMean),
-                       number(b.thetaMean), number(b.energyMean), number(b.yPhi), number(b.sigmaPhi),
-                       number(b.yTheta), number(b.sigmaTheta));
+    out += fmt::format("{},{},{},{},{},{},{},{},{},{}", b.iPhi, b.iTheta, b.n, number(b.phiMean), number(b.thetaMean),
+                       number(b.energyMean), number(b.yPhi), number(b.sigmaPhi), number(b.yTheta), number(b.sigmaTheta));
+    out += weights ? fmt::format(",{}\n", number(b.plusWeight)) : "\n";
   }
   return out;
 }
@@ -104,22 +125,31 @@ Result<std::vector<ProfileBin>> readProfileCsv(const std::string& path) {
   long lineNo = 0;
   bool header = false;
   static const char* kColumns[] = {"i_phi", "i_theta", "n", "phi_mean_rad", "theta_mean_rad", "e_mean_mev",
-                                   "y_phi", "sigma_phi", "y_theta", "sigma_theta"};
+                                   "y_phi", "sigma_phi", "y_theta", "sigma_theta", "plus_weight"};
+  std::size_t columns = 10;
   const double nan = std::numeric_limits<double>::quiet_NaN();
   while (std::getline(in, line)) {
     ++lineNo;
     if (io::isBlankOrComment(line)) continue;
     const auto f = io::splitCsvLine(line);
     if (!header) {
-      if (line.substr(0, std::string(kHeader).size()) != kHeader || f.size() != 10) {
-        return Error{fmt::format("{}: line {}: header: expected '{}'", path, lineNo, kHeader)};
+      bool names = f.size() == 10 || f.size() == 11;
+      for (std::size_t k = 0; names && k < f.size(); ++k) names = f[k] == kColumns[k];
+      if (names) {
+        columns = f.size();
+      } else {
+        return Error{fmt::format("{}: line {}: header: expected '{}' (optionally followed by ',plus_weight')", path,
+                                 lineNo, kHeader)};
       }
       header = true;
       continue;
     }
-    if (f.size() != 10) return Error{fmt::format("{}: line {}: expected 10 columns, got {}", path, lineNo, f.size())};
-    double v[10];
-    for (int k = 0; k < 10; ++k) {
+    if (f.size() != columns) {
+      return Error{fmt::format("{}: line {}: expected {} columns, got {}", path, lineNo, columns, f.size())};
+    }
+    double v[11];
+    v[10] = nan;
+    for (int k = 0; k < static_cast<int>(columns); ++k) {
       if (f[static_cast<std::size_t>(k)].empty() && k >= 3) {
         v[k] = nan;
         continue;
@@ -152,6 +182,12 @@ Result<std::vector<ProfileBin>> readProfileCsv(const std::string& path) {
     b.sigmaPhi = v[7];
     b.yTheta = v[8];
     b.sigmaTheta = v[9];
+    if (columns == 11) {
+      if (!std::isnan(v[10]) && !(v[10] >= 0.0 && v[10] <= 1.0)) {
+        return Error{fmt::format("{}: line {}: column 'plus_weight': expected a weight in [0, 1]", path, lineNo)};
+      }
+      b.plusWeight = v[10];
+    }
     bins.push_back(b);
   }
   if (!header) return Error{fmt::format("{}: no header line", path)};

@@ -249,7 +249,10 @@ Result<Table> runCampaign(const geometry::Calorimeter& calo, const CampaignOptio
   if (ec) return Error{fmt::format("{}: cannot create the directory: {}", dir, ec.message())};
   const double r1 = calo.description().r1();
   auto geometry = calib::FitGeometry::of(calo.description());
-  geometry.depth.offset = o.depthOffset;
+  geometry.depth.offset = o.corrections.depthOffset;
+  calib::ProfileOptions profileOptions;
+  profileOptions.partingPlane = o.corrections.partingPlane;
+  profileOptions.nominalProfile = o.corrections.nominalProfile;
 
   std::vector<SampleResult> samples;
   for (int i = 0; i < o.samples; ++i) {
@@ -272,7 +275,7 @@ Result<Table> runCampaign(const geometry::Calorimeter& calo, const CampaignOptio
     so.seed = sampleSeed(o.seed, i);
     auto simulation = sim::Simulation::create(calo, s.truth, so);
     if (!simulation) return simulation.error();
-    calib::ProfileFiller filler(geometry.depth, calib::SelectionOptions{});
+    calib::ProfileFiller filler(geometry.depth, calib::SelectionOptions{}, profileOptions);
     const Status run = simulation->run(o.events, o.threads, [&](std::span<const ParticleRow> rows, std::span<const TruthRow>) {
       filler.addEvents(rows);
       return Status{};

@@ -62,6 +62,11 @@ struct FitInput {
   bool fromProfile = false;
   const ProfileFill* fill = nullptr;  ///< cut flow and counts when fitted from events
   std::string detector;               ///< "embedded default" or a path
+  /// The model corrections of calib/corrections.hpp: the depth offset (cm) and where the
+  /// parting-plane response came from (empty: none, SPEC's hard hemisphere assignment).
+  double depthOffset = 0.0;
+  std::string partingPlane;
+  std::string nominalProfile;  ///< where the subtracted nominal profile came from (empty: none)
 };
 
 /// The fit-result file of SPEC §3 (file units: deg, cm).

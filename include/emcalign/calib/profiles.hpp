@@ -4,14 +4,20 @@
 // σ_stat = sample standard deviation (N−1)/√N, σ² = σ_stat² + σ_sys², σ_sys = 0.2°.
 // A bin with N < 10 is left out of the χ². The model of a bin is evaluated at its means.
 //
+// With a parting-plane response (calib/corrections.hpp) each bin carries the W₊ of its φ
+// column, and the fit models it as a mixture of the two hemispheres.
+//
 // Filling is streaming (Welford's running mean and variance), so memory does not grow with
 // the number of events, and two profiles can be merged.
 
 #include <array>
 #include <cstdint>
+#include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "emcalign/calib/corrections.hpp"
 #include "emcalign/calib/selection.hpp"
 #include "emcalign/core/result.hpp"
 
@@ -24,6 +30,11 @@ struct ProfileOptions {
   double thetaMax = 135.0 * 0.017453292519943295; ///< rad
   double sigmaSys = 0.2 * 0.017453292519943295;   ///< rad, for y_φ and y_θ
   int minEntries = 10;
+  /// When set (with phiBins columns), each bin carries its column's W₊ (ProfileBin::plusWeight).
+  std::shared_ptr<const PartingPlaneResponse> partingPlane;
+  /// When set (phiBins × thetaBins), its mean residuals are subtracted from every bin and
+  /// its σ added in quadrature; a bin it lacks is left out.
+  std::shared_ptr<const NominalProfile> nominalProfile;
 };
 
 /// One bin, as the fit sees it.
@@ -34,6 +45,8 @@ struct ProfileBin {
   double yPhi = 0.0, sigmaPhi = 0.0;      ///< mean and total σ (stat ⊕ sys)
   double yTheta = 0.0, sigmaTheta = 0.0;
   bool used = false;                      ///< n ≥ minEntries and σ finite
+  /// W₊ of the parting-plane response; NaN: SPEC's hemisphere s = sign(cos phiMean).
+  double plusWeight = std::numeric_limits<double>::quiet_NaN();
 };
 
 class Profiles {
@@ -62,7 +75,8 @@ class Profiles {
 int markUsedBins(std::vector<ProfileBin>& bins, int minEntries);
 
 /// Profile CSV: i_phi,i_theta,n,phi_mean_rad,theta_mean_rad,e_mean_mev,y_phi,sigma_phi,y_theta,sigma_theta
-/// (σ are the totals the χ² uses; empty fields for bins with too few entries).
+/// (σ are the totals the χ² uses; empty fields for bins with too few entries), and a last
+/// column plus_weight when the bins were filled with a parting-plane response.
 std::string profileCsv(const std::vector<ProfileBin>& bins);
 Result<std::vector<ProfileBin>> readProfileCsv(const std::string& path);
 

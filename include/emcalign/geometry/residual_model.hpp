@@ -48,6 +48,19 @@ AngularResidualT<T> modelResidual(const RigidTransformT<T>& plus, const RigidTra
   return r;
 }
 
+/// The bin model with a parting-plane mixture (calib/corrections.hpp):
+/// f = w₊·f₊ + (1 − w₊)·f₋, each hemisphere's placement applied at the same point (a rigid
+/// placement is defined everywhere). w₊ = 1 or 0 evaluates one hemisphere only.
+template <typename T>
+AngularResidualT<T> mixedModelResidual(const RigidTransformT<T>& plus, const RigidTransformT<T>& minus,
+                                       double phi0, double theta0, double radius, double plusWeight) {
+  if (plusWeight >= 1.0) return modelResidual<T>(plus, plus, phi0, theta0, radius);
+  if (plusWeight <= 0.0) return modelResidual<T>(minus, minus, phi0, theta0, radius);
+  const auto fp = modelResidual<T>(plus, plus, phi0, theta0, radius);
+  const auto fm = modelResidual<T>(minus, minus, phi0, theta0, radius);
+  return {plusWeight * fp.phi + (1.0 - plusWeight) * fm.phi, plusWeight * fp.theta + (1.0 - plusWeight) * fm.theta};
+}
+
 /// f_φ, f_θ from the parameters themselves (convenience; builds both placements).
 template <typename T>
 AngularResidualT<T> modelResidual(const ParamVectorT<T>& eta, const AlignmentRadii& radii,

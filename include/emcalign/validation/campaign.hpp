@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "emcalign/calib/corrections.hpp"
 #include "emcalign/calib/fit.hpp"
 #include "emcalign/core/random.hpp"
 #include "emcalign/core/result.hpp"
@@ -51,7 +52,9 @@ struct CampaignOptions {
   int threads = 0;
   Ranges ranges = Ranges::defaults();
   sim::SimulationOptions simulation;  ///< the seed is set per sample
-  double depthOffset = 0.0;           ///< cm, added to R(E, θ) in the fit (ShowerDepth::offset)
+  /// Model corrections of the fits (calib/corrections.hpp): depth offset, parting-plane
+  /// response, nominal profile; default none (the paper's model).
+  calib::ModelCorrections corrections;
   /// Describes the settings (simulation switches, ranges, detector): stored in every sample
   /// so that a rerun resumes only a campaign made with the same settings.
   io::Json settings = io::Json::object();

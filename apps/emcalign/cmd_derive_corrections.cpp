@@ -1,0 +1,126 @@
+// emcalign derive-corrections: measures, in the simulation, the model corrections that
+// `emcalign fit --corrections` applies (the shower-depth offset and the parting-plane
+// response; calib/corrections.hpp, validation/derive_corrections.hpp).
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "common.hpp"
+#include "emcalign/core/units.hpp"
+#include "emcalign/io/json_files.hpp"
+#include "emcalign/validation/derive_corrections.hpp"
+#include "progress.hpp"
+
+namespace emcalign::app {
+
+namespace {
+
+struct DeriveOptions {
+  std::int64_t events = 400000;
+  std::uint64_t seed = 1;
+  int threads = 0;
+  double beamEnergy = 0.0;
+  double thetaMinDeg = 40.0;
+  double thetaMaxDeg = 140.0;
+  double shift = 0.6;
+  double gap = 0.5;
+  bool ideal = false;
+  std::vector<std::string> off;
+  std::string detector;
+  std::string output;
+};
+
+int run(const DeriveOptions& cli) {
+  auto calo = loadCalorimeter(cli.detector);
+  if (!calo) return reportError(calo.error());
+  validation::DerivationOptions o;
+  o.events = cli.events;
+  o.seed = cli.seed;
+  o.threads = cli.threads;
+  o.shift = cli.shift;
+  o.gap = cli.gap;
+  if (cli.ideal) o.simulation.setIdealised();
+  for (const auto& e : cli.off) {
+    if (Status s = o.simulation.switchOff(e); !s) return reportError({fmt::format("--off: {}", s.error().message)});
+  }
+  if (cli.beamEnergy > 0.0) o.simulation.generator.beamEnergy = cli.beamEnergy * units::MeV;
+  o.simulation.generator.thetaMin = cli.thetaMinDeg * units::deg;
+  o.simulation.generator.thetaMax = cli.thetaMaxDeg * units::deg;
+  const io::Json settings = {{"events_per_sample", cli.events},
+                             {"seed", cli.seed},
+                             {"beam_energy_mev", o.simulation.generator.beamEnergy / units::MeV},
+                             {"theta_range_deg", {cli.thetaMinDeg, cli.thetaMaxDeg}},
+                             {"ideal", cli.ideal},
+                             {"off", cli.off},
+                             {"shift_cm", cli.shift},
+                             {"gap_cm", cli.gap},
+                             {"detector", cli.detector.empty() ? "embedded default" : cli.detector}};
+
+  ProgressLine progress("derive-corrections", 3 * cli.events, "events");
+  int stageIndex = -1;
+  std::string lastStage;
+  auto report = validation::deriveCorrections(*calo, o, [&](std::string_view stage, std::int64_t done, std::int64_t) {
+    if (stage.rfind("simulate", 0) != 0) return;
+    if (stage != lastStage) {
+      lastStage = std::string(stage);
+      ++stageIndex;
+    }
+    progress.update(stageIndex * cli.events + done);
+  });
+  progress.finish();
+  if (!report) return reportError(report.error());
+
+  const auto& c = report->corrections;
+  fmt::print("Selected events: nominal {}, shift {}, gap {}\n", report->selectedEvents[0], report->selectedEvents[1],
+             report->selectedEvents[2]);
+  fmt::print("Depth offset: {:+.3f} ± {:.3f} cm (chi2 {:.1f} over {} bins)\n", c.depthOffset / units::cm,
+             report->depthOffsetError / units::cm, report->depthChi2, report->depthBins);
+  fmt::print("Parting-plane response: W+ per phi column (measured; * = next to the plane, used in the model):\n");
+  const int columns = c.partingPlane->phiBins();
+  for (int k = 0; k < columns; ++k) {
+    const bool used = calib::PartingPlaneResponse::nextToPlane(k, columns);
+    fmt::print("  phi {:5.1f}-{:5.1f} deg   W+ = {:6.3f} ± {:.3f}{}\n", 360.0 * k / columns, 360.0 * (k + 1) / columns,
+               report->columnWeights[static_cast<std::size_t>(k)], report->columnWeightErrors[static_cast<std::size_t>(k)],
+               used ? "  *" : "");
+  }
+  fmt::print("Closure (the derivation samples fitted like data):\n");
+  for (const auto& f : report->closure) {
+    fmt::print("  {:<5} {:<6} truth {:.3f} cm: paper's model {:.4f} ± {:.4f}, corrected {:.4f} ± {:.4f} cm\n", f.sample,
+               f.parameter, f.truth, f.paperModel, f.paperError, f.corrected, f.correctedError);
+  }
+  if (Status s = io::writeTextFileAtomically(cli.output, validation::derivationJson(*report, settings).dump(2) + "\n"); !s) {
+    return reportError(s.error());
+  }
+  fmt::print("wrote {} in {:.1f} s (use: emcalign fit --corrections {})\n", cli.output, progress.elapsed(), cli.output);
+  return 0;
+}
+
+}  // namespace
+
+void addDeriveCorrectionsCommand(CLI::App& app, int& exitCode) {
+  auto o = std::make_shared<DeriveOptions>();
+  auto* cmd = app.add_subcommand("derive-corrections",
+                                 "Measure the model corrections (shower depth, parting-plane response) in the "
+                                 "simulation, for emcalign fit --corrections");
+  addVersionFlag(*cmd);
+  cmd->add_option("--events", o->events, "events per sample, three samples (default 400000)")
+      ->check(CLI::Range(1000, 1000000000));
+  cmd->add_option("--seed", o->seed, "seed");
+  cmd->add_option("--threads", o->threads, "worker threads (0: all cores)")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--beam-energy", o->beamEnergy, "beam energy, MeV (default 612.5)")->check(CLI::PositiveNumber);
+  cmd->add_option("--theta-min", o->thetaMinDeg, "generated polar range of the leptons, deg (default 40)")
+      ->check(CLI::Range(0.0, 180.0));
+  cmd->add_option("--theta-max", o->thetaMaxDeg, "(default 140)")->check(CLI::Range(0.0, 180.0));
+  cmd->add_option("--shift", o->shift, "dx = dy = dz of the depth sample, cm (default 0.6)")->check(CLI::PositiveNumber);
+  cmd->add_option("--gap", o->gap, "dx_rel of the parting-plane sample, cm (default 0.5)")->check(CLI::PositiveNumber);
+  cmd->add_flag("--ideal", o->ideal, "use the idealised simulation (the corrections should vanish)");
+  cmd->add_option("--off", o->off, "switch realism effects off (as emcalign simulate --off)")->delimiter(',');
+  addDetectorOption(*cmd, o->detector);
+  cmd->add_option("-o,--output", o->output, "corrections file (JSON, emcalign-corrections/1)")->required();
+  cmd->callback([o, &exitCode] { exitCode = run(*o); });
+}
+
+}  // namespace emcalign::app

@@ -1,0 +1,76 @@
+#pragma once
+// Derives the model corrections of calib/corrections.hpp from the simulation
+// (`emcalign derive-corrections`; docs/validation.md shows what they do to the fit).
+//
+// Three samples with the same simulation settings and known placements:
+//   N, nominal (η = 0): the reference; what the reconstruction does without misalignment
+//      (S-curves, layer-3 offset, …) is subtracted bin by bin, so only the response to a
+//      displacement is measured;
+//   S, a common shift dx = dy = dz = s: the depth. With the residuals and the model both
+//      built at R(E, θ) + δ, χ²(δ) = Σ_bins (ȳ_S − ȳ_N − f(η_S; δ))²/(σ_S² + σ_N²)
+//      (statistical σ only) is minimised over δ (golden section; error from Δχ² = 1);
+//   G, a gap between the hemispheres, dx_rel = g (dp_k = 2g): the parting-plane response.
+//      At the derived depth, per φ column, W₊ minimises
+//      Σ_bins (ȳ_G − ȳ_N − f₋ − W₊·(f₊ − f₋))²/(σ_G² + σ_N²) (both components; f_s the
+//      model with hemisphere s's placement at the bin's means). The columns next to the
+//      plane get this W₊; the others keep the hard value, and their measured W₊ (≈ 1 or 0)
+//      is reported as a check.
+// The nominal sample's profile at the derived depth (statistical σ) is the third correction.
+// Every sample draws its own seed from (seed, k), so the result does not depend on the
+// number of threads.
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "emcalign/calib/corrections.hpp"
+#include "emcalign/calib/fit.hpp"
+#include "emcalign/core/result.hpp"
+#include "emcalign/geometry/detector.hpp"
+#include "emcalign/sim/simulation.hpp"
+
+namespace emcalign::validation {
+
+struct DerivationOptions {
+  std::int64_t events = 400000;  ///< per sample (three samples)
+  std::uint64_t seed = 1;
+  int threads = 0;
+  sim::SimulationOptions simulation;  ///< the seed is set per sample
+  double shift = 0.6;                 ///< cm, dx = dy = dz of the depth sample
+  double gap = 0.5;                   ///< cm, dx_rel of the parting-plane sample
+  double depthLow = -10.0, depthHigh = 20.0;                ///< cm, search interval of δ
+  Status validate() const;
+};
+
+/// A fit of one derivation sample with the paper's model and with the derived corrections.
+struct ClosureFit {
+  std::string sample;     ///< "shift" or "gap"
+  std::string parameter;  ///< "dx" or "dx_rel"
+  double truth = 0.0;     ///< cm
+  double paperModel = 0.0, paperError = 0.0;  ///< cm
+  double corrected = 0.0, correctedError = 0.0;
+};
+
+struct DerivationReport {
+  calib::ModelCorrections corrections;
+  double depthOffsetError = 0.0;                    ///< cm (Δχ² = 1)
+  double depthChi2 = 0.0;                           ///< at the minimum
+  int depthBins = 0;                                ///< bins in χ²(δ)
+  std::vector<double> columnWeights;                ///< measured W₊ of every φ column
+  std::vector<double> columnWeightErrors;
+  std::vector<ClosureFit> closure;
+  std::int64_t selectedEvents[3] = {0, 0, 0};       ///< N, S, G
+};
+
+/// Progress: a stage name ("simulate N", …), done, total.
+using DerivationProgress = std::function<void(std::string_view stage, std::int64_t done, std::int64_t total)>;
+
+Result<DerivationReport> deriveCorrections(const geometry::Calorimeter& calo, const DerivationOptions& options,
+                                           const DerivationProgress& progress = {});
+
+/// The corrections file content, with the report (errors, closure) under "derived_from".
+io::Json derivationJson(const DerivationReport& report, const io::Json& settings);
+
+}  // namespace emcalign::validation

@@ -1,0 +1,170 @@
+#include "emcalign/calib/corrections.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include "emcalign/core/units.hpp"
+
+namespace emcalign::calib {
+
+using io::Json;
+
+Result<PartingPlaneResponse> PartingPlaneResponse::create(std::vector<double> plusWeight) {
+  const int n = static_cast<int>(plusWeight.size());
+  if (n < 4 || n % 4 != 0) {
+    return Error{fmt::format("parting-plane response: {} phi columns; need a multiple of 4 (SPEC: 16)", n)};
+  }
+  for (int k = 0; k < n; ++k) {
+    const double w = plusWeight[static_cast<std::size_t>(k)];
+    if (!(w >= 0.0 && w <= 1.0)) {
+      return Error{fmt::format("parting-plane response: column {}: a weight must lie in [0, 1], got {}", k, w)};
+    }
+    if (!nextToPlane(k, n) && w != hardWeight(k, n)) {
+      return Error{fmt::format("parting-plane response: column {} is away from the plane and must keep its hard "
+                               "weight {}, got {}",
+                               k, hardWeight(k, n), w)};
+    }
+  }
+  PartingPlaneResponse r;
+  r.weight_ = std::move(plusWeight);
+  return r;
+}
+
+bool PartingPlaneResponse::nextToPlane(int iPhi, int phiBins) {
+  const double lo = 360.0 * iPhi / phiBins, hi = 360.0 * (iPhi + 1) / phiBins;
+  return (lo <= 90.0 && 90.0 <= hi) || (lo <= 270.0 && 270.0 <= hi);
+}
+
+double PartingPlaneResponse::hardWeight(int iPhi, int phiBins) {
+  const double centre = (iPhi + 0.5) * 2.0 * std::numbers::pi / phiBins;
+  return std::cos(centre) >= 0.0 ? 1.0 : 0.0;
+}
+
+Status NominalProfile::validate() const {
+  const auto n = static_cast<std::size_t>(phiBins) * static_cast<std::size_t>(thetaBins);
+  if (phiBins < 1 || thetaBins < 1) return Error{"nominal profile: need at least one bin"};
+  if (yPhi.size() != n || sigmaPhi.size() != n || yTheta.size() != n || sigmaTheta.size() != n) {
+    return Error{fmt::format("nominal profile: every column needs phi_bins × theta_bins = {} values", n)};
+  }
+  for (std::size_t k = 0; k < n; ++k) {
+    const bool missing = std::isnan(yPhi[k]);
+    if (missing != std::isnan(yTheta[k]) || missing != std::isnan(sigmaPhi[k]) || missing != std::isnan(sigmaTheta[k])) {
+      return Error{fmt::format("nominal profile: bin {}: either all four values or none", k)};
+    }
+    if (!missing && (!std::isfinite(yPhi[k]) || !std::isfinite(yTheta[k]) || !(sigmaPhi[k] >= 0.0) ||
+                     !(sigmaTheta[k] >= 0.0) || !std::isfinite(sigmaPhi[k]) || !std::isfinite(sigmaTheta[k]))) {
+      return Error{fmt::format("nominal profile: bin {}: values must be finite and sigmas non-negative", k)};
+    }
+  }
+  return {};
+}
+
+Result<ModelCorrections> parseCorrections(const Json& j, std::string_view source) {
+  if (!j.is_object()) return Error{fmt::format("{}: expected a JSON object", source)};
+  for (const auto& [key, value] : j.items()) {
+    if (key != "format" && key != "depth_offset_cm" && key != "parting_plane" && key != "nominal_profile" &&
+        key != "derived_from") {
+      return Error{fmt::format("{}: key '{}': unknown key (allowed: format, depth_offset_cm, parting_plane, "
+                               "nominal_profile, derived_from)",
+                               source, key)};
+    }
+  }
+  if (!j.contains("format") || j["format"] != kCorrectionsFormat) {
+    return Error{fmt::format("{}: key 'format': expected \"{}\"", source, kCorrectionsFormat)};
+  }
+  ModelCorrections c;
+  if (!j.contains("depth_offset_cm") || !j["depth_offset_cm"].is_number() ||
+      !std::isfinite(j["depth_offset_cm"].get<double>())) {
+    return Error{fmt::format("{}: key 'depth_offset_cm': expected a finite number (cm)", source)};
+  }
+  c.depthOffset = j["depth_offset_cm"].get<double>() * units::cm;
+  if (j.contains("parting_plane")) {
+    const Json& p = j["parting_plane"];
+    if (!p.is_object() || p.size() != 2 || !p.contains("phi_bins") || !p.contains("plus_weight")) {
+      return Error{fmt::format("{}: key 'parting_plane': expected {{\"phi_bins\": 16, \"plus_weight\": [...]}}", source)};
+    }
+    if (!p["phi_bins"].is_number_integer() || !p["plus_weight"].is_array() ||
+        p["plus_weight"].size() != p["phi_bins"].get<std::size_t>()) {
+      return Error{fmt::format("{}: key 'parting_plane.plus_weight': expected phi_bins numbers", source)};
+    }
+    std::vector<double> w;
+    for (const auto& x : p["plus_weight"]) {
+      if (!x.is_number()) return Error{fmt::format("{}: key 'parting_plane.plus_weight': expected numbers", source)};
+      w.push_back(x.get<double>());
+    }
+    auto r = PartingPlaneResponse::create(std::move(w));
+    if (!r) return Error{fmt::format("{}: key 'parting_plane': {}", source, r.error().message)};
+    c.partingPlane = std::make_shared<const PartingPlaneResponse>(std::move(*r));
+  }
+  if (j.contains("nominal_profile")) {
+    const Json& p = j["nominal_profile"];
+    static constexpr const char* kKeys[] = {"phi_bins", "theta_bins", "y_phi", "sigma_phi", "y_theta", "sigma_theta"};
+    if (!p.is_object() || p.size() != 6) {
+      return Error{fmt::format("{}: key 'nominal_profile': expected an object with {}", source, fmt::join(kKeys, ", "))};
+    }
+    for (const char* key : kKeys) {
+      if (!p.contains(key)) return Error{fmt::format("{}: key 'nominal_profile.{}': missing", source, key)};
+    }
+    NominalProfile t;
+    if (!p["phi_bins"].is_number_integer() || !p["theta_bins"].is_number_integer()) {
+      return Error{fmt::format("{}: key 'nominal_profile': phi_bins and theta_bins must be integers", source)};
+    }
+    t.phiBins = p["phi_bins"].get<int>();
+    t.thetaBins = p["theta_bins"].get<int>();
+    for (const char* key : {"y_phi", "sigma_phi", "y_theta", "sigma_theta"}) {
+      if (!p[key].is_array()) return Error{fmt::format("{}: key 'nominal_profile.{}': expected an array", source, key)};
+      std::vector<double>& v = key == std::string_view("y_phi")       ? t.yPhi
+                               : key == std::string_view("sigma_phi") ? t.sigmaPhi
+                               : key == std::string_view("y_theta")   ? t.yTheta
+                                                                      : t.sigmaTheta;
+      for (const auto& x : p[key]) {
+        if (x.is_null()) {
+          v.push_back(std::numeric_limits<double>::quiet_NaN());
+        } else if (x.is_number()) {
+          v.push_back(x.get<double>());
+        } else {
+          return Error{fmt::format("{}: key 'nominal_profile.{}': expected numbers or null", source, key)};
+        }
+      }
+    }
+    if (Status st = t.validate(); !st) return Error{fmt::format("{}: key 'nominal_profile': {}", source, st.error().message)};
+    c.nominalProfile = std::make_shared<const NominalProfile>(std::move(t));
+  }
+  if (j.contains("derived_from")) c.derivedFrom = j["derived_from"];
+  return c;
+}
+
+Result<ModelCorrections> readCorrections(const std::string& path) {
+  auto text = io::readTextFile(path);
+  if (!text) return text.error();
+  auto j = io::parseJson(*text, path);
+  if (!j) return j.error();
+  return parseCorrections(*j, path);
+}
+
+Json correctionsJson(const ModelCorrections& c) {
+  Json j{{"format", kCorrectionsFormat}, {"depth_offset_cm", c.depthOffset / units::cm}};
+  if (c.partingPlane) {
+    j["parting_plane"] = {{"phi_bins", c.partingPlane->phiBins()}, {"plus_weight", c.partingPlane->weights()}};
+  }
+  if (c.nominalProfile) {
+    const NominalProfile& t = *c.nominalProfile;
+    auto array = [](const std::vector<double>& v) {
+      Json a = Json::array();
+      for (double x : v) a.push_back(std::isnan(x) ? Json(nullptr) : Json(x));
+      return a;
+    };
+    j["nominal_profile"] = {{"phi_bins", t.phiBins},         {"theta_bins", t.thetaBins},
+                            {"y_phi", array(t.yPhi)},        {"sigma_phi", array(t.sigmaPhi)},
+                            {"y_theta", array(t.yTheta)},    {"sigma_theta", array(t.sigmaTheta)}};
+  }
+  if (!c.derivedFrom.empty()) j["derived_from"] = c.derivedFrom;
+  return j;
+}
+
+}  // namespace emcalign::calib

@@ -1,0 +1,284 @@
+#include "emcalign/validation/derive_corrections.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <numbers>
+
+#include <fmt/format.h>
+
+#include "emcalign/calib/calibration.hpp"
+#include "emcalign/core/random.hpp"
+#include "emcalign/core/units.hpp"
+#include "emcalign/geometry/residual_model.hpp"
+
+namespace emcalign::validation {
+
+using geometry::AlignmentParameters;
+using io::Json;
+
+namespace {
+
+// The selected particles of one derivation sample, kept so that the residuals can be
+// rebuilt at any depth.
+struct Sample {
+  AlignmentParameters truth;
+  std::vector<ParticleRow> particles;
+  std::int64_t selectedEvents = 0;
+};
+
+Result<Sample> simulate(const geometry::Calorimeter& calo, const DerivationOptions& o, const AlignmentParameters& truth,
+                        int k, std::string_view stage, const DerivationProgress& progress) {
+  Sample s;
+  s.truth = truth;
+  sim::SimulationOptions so = o.simulation;
+  so.seed = Rng(o.seed ^ 0xC0EEC7ULL, static_cast<std::uint64_t>(k)).next();
+  auto simulation = sim::Simulation::create(calo, truth, so);
+  if (!simulation) return simulation.error();
+  // The residuals at the nominal depth only decide which tracks reach the EMC; the rows are
+  // kept and their residuals rebuilt at every depth tried.
+  calib::ProfileFiller filler(geometry::ShowerDepth::of(calo.description()), calib::SelectionOptions{}, {},
+                              [&](const ParticleRow& row, const calib::ParticleResidual&) { s.particles.push_back(row); });
+  const Status run = simulation->run(
+      o.events, o.threads,
+      [&](std::span<const ParticleRow> rows, std::span<const TruthRow>) {
+        filler.addEvents(rows);
+        return Status{};
+      },
+      [&](std::int64_t done) {
+        if (progress) progress(stage, done, o.events);
+      });
+  if (!run) return run.error();
+  if (Status sel = filler.checkSelected(); !sel) return Error{fmt::format("{}: {}", stage, sel.error().message)};
+  s.selectedEvents = filler.fill().cutFlow.events.back();
+  return s;
+}
+
+std::vector<calib::ProfileBin> profileOf(const Sample& s, const geometry::ShowerDepth& depth, calib::ProfileOptions po) {
+  calib::Profiles profiles(std::move(po));
+  for (const auto& row : s.particles) {
+    if (const auto y = calib::residualOf(row, depth)) profiles.fill(*y);
+  }
+  return profiles.bins();
+}
+
+// χ²(δ) of the shift sample against the model, the nominal sample subtracted bin by bin.
+struct DepthChi2 {
+  const Sample* shifted;
+  const Sample* nominal;
+  calib::FitGeometry geometry;
+  int bins = 0;
+
+  double operator()(double offset) {
+    geometry::ShowerDepth depth = geometry.depth;
+    depth.offset = offset;
+    calib::ProfileOptions po;
+    po.sigmaSys = 0.0;
+    const auto s = profileOf(*shifted, depth, po), n = profileOf(*nominal, depth, po);
+    calib::FitGeometry g = geometry;
+    g.depth = depth;
+    double chi2 = 0.0;
+    bins = 0;
+    for (std::size_t b = 0; b < s.size(); ++b) {
+      if (!s[b].used || !n[b].used) continue;
+      const auto f = calib::modelAt(g, shifted->truth.values, s[b].phiMean, s[b].thetaMean, s[b].energyMean);
+      const double rPhi = s[b].yPhi - n[b].yPhi - f.phi, rTheta = s[b].yTheta - n[b].yTheta - f.theta;
+      chi2 += rPhi * rPhi / (s[b].sigmaPhi * s[b].sigmaPhi + n[b].sigmaPhi * n[b].sigmaPhi) +
+              rTheta * rTheta / (s[b].sigmaTheta * s[b].sigmaTheta + n[b].sigmaTheta * n[b].sigmaTheta);
+      ++bins;
+    }
+    return chi2;
+  }
+};
+
+// Golden-section search for the minimum of a unimodal function on [a, b].
+template <typename F>
+double goldenMinimum(F&& f, double a, double b, double tolerance) {
+  const double g = (std::sqrt(5.0) - 1.0) / 2.0;
+  double c = b - g * (b - a), d = a + g * (b - a);
+  double fc = f(c), fd = f(d);
+  while (b - a > tolerance) {
+    if (fc < fd) {
+      b = d;
+      d = c;
+      fd = fc;
+      c = b - g * (b - a);
+      fc = f(c);
+    } else {
+      a = c;
+      c = d;
+      fc = fd;
+      d = a + g * (b - a);
+      fd = f(d);
+    }
+  }
+  return 0.5 * (a + b);
+}
+
+}  // namespace
+
+Status DerivationOptions::validate() const {
+  if (events < 1000) return Error{"--events must be at least 1000 per sample"};
+  if (!(shift > 0.0) || !(gap > 0.0)) return Error{"--shift and --gap must be positive"};
+  if (!(depthLow < depthHigh)) return Error{"the depth search interval is empty"};
+  return {};
+}
+
+Result<DerivationReport> deriveCorrections(const geometry::Calorimeter& calo, const DerivationOptions& o,
+                                           const DerivationProgress& progress) {
+  if (Status s = o.validate(); !s) return s.error();
+  const calib::FitGeometry nominalGeometry = calib::FitGeometry::of(calo.description());
+
+  AlignmentParameters zero, shift, gap;
+  shift[Param::Dx] = shift[Param::Dy] = shift[Param::Dz] = o.shift;
+  gap[Param::Dp1] = gap[Param::Dp2] = gap[Param::Dp3] = 2.0 * o.gap;
+  auto nominal = simulate(calo, o, zero, 0, "simulate nominal", progress);
+  if (!nominal) return nominal.error();
+  auto shifted = simulate(calo, o, shift, 1, "simulate shift", progress);
+  if (!shifted) return shifted.error();
+  auto gapped = simulate(calo, o, gap, 2, "simulate gap", progress);
+  if (!gapped) return gapped.error();
+
+  DerivationReport report;
+  report.selectedEvents[0] = nominal->selectedEvents;
+  report.selectedEvents[1] = shifted->selectedEvents;
+  report.selectedEvents[2] = gapped->selectedEvents;
+
+  // 1. Depth.
+  if (progress) progress("depth", 0, 1);
+  DepthChi2 chi2{&*shifted, &*nominal, nominalGeometry};
+  const double delta = goldenMinimum(chi2, o.depthLow, o.depthHigh, 0.005);
+  const double h = 0.25;
+  const double c0 = chi2(delta), cp = chi2(delta + h), cm = chi2(delta - h);
+  report.depthChi2 = c0;
+  report.depthBins = chi2.bins;
+  const double curvature = (cp - 2.0 * c0 + cm) / (h * h);
+  report.depthOffsetError = curvature > 0.0 ? std::sqrt(2.0 / curvature) : std::nan("");
+  if (delta - o.depthLow < 0.05 || o.depthHigh - delta < 0.05) {
+    return Error{fmt::format("the depth offset sits at the edge of the search interval [{}, {}] cm: {:.2f} cm",
+                             o.depthLow, o.depthHigh, delta)};
+  }
+  report.corrections.depthOffset = delta;
+  if (progress) progress("depth", 1, 1);
+
+  // 2. The parting-plane response, at the derived depth: per φ column next to the plane,
+  // the least-squares W₊ of Δy = f₋ + W₊·(f₊ − f₋) over the column's bins (Δy = gap sample −
+  // nominal sample, statistical σ), both components.
+  geometry::ShowerDepth depth = nominalGeometry.depth;
+  depth.offset = delta;
+  calib::ProfileOptions po;
+  po.sigmaSys = 0.0;
+  const auto gb = profileOf(*gapped, depth, po), nb = profileOf(*nominal, depth, po);
+  const auto plus = geometry::hemisphereTransform<double>(gap.values, geometry::Hemisphere::Plus, nominalGeometry.radii);
+  const auto minus = geometry::hemisphereTransform<double>(gap.values, geometry::Hemisphere::Minus, nominalGeometry.radii);
+  const int columns = po.phiBins;
+  std::vector<double> weights(static_cast<std::size_t>(columns));
+  report.columnWeights.assign(static_cast<std::size_t>(columns), std::nan(""));
+  report.columnWeightErrors.assign(static_cast<std::size_t>(columns), std::nan(""));
+  for (int c = 0; c < columns; ++c) {
+    double num = 0.0, den = 0.0;
+    for (std::size_t b = 0; b < gb.size(); ++b) {
+      if (gb[b].iPhi != c || !gb[b].used || !nb[b].used) continue;
+      const double radius = depth.radius(gb[b].energyMean, gb[b].thetaMean);
+      const auto fp = geometry::mixedModelResidual<double>(plus, minus, gb[b].phiMean, gb[b].thetaMean, radius, 1.0);
+      const auto fm = geometry::mixedModelResidual<double>(plus, minus, gb[b].phiMean, gb[b].thetaMean, radius, 0.0);
+      const double vPhi = 1.0 / (gb[b].sigmaPhi * gb[b].sigmaPhi + nb[b].sigmaPhi * nb[b].sigmaPhi);
+      const double vTheta = 1.0 / (gb[b].sigmaTheta * gb[b].sigmaTheta + nb[b].sigmaTheta * nb[b].sigmaTheta);
+      const double dPhi = fp.phi - fm.phi, dTheta = fp.theta - fm.theta;
+      num += (gb[b].yPhi - nb[b].yPhi - fm.phi) * dPhi * vPhi + (gb[b].yTheta - nb[b].yTheta - fm.theta) * dTheta * vTheta;
+      den += dPhi * dPhi * vPhi + dTheta * dTheta * vTheta;
+    }
+    if (!(den > 0.0)) return Error{fmt::format("parting-plane response: phi column {} has no usable bins (more --events?)", c)};
+    report.columnWeights[static_cast<std::size_t>(c)] = num / den;
+    report.columnWeightErrors[static_cast<std::size_t>(c)] = 1.0 / std::sqrt(den);
+    weights[static_cast<std::size_t>(c)] = calib::PartingPlaneResponse::nextToPlane(c, columns)
+                                               ? std::clamp(num / den, 0.0, 1.0)
+                                               : calib::PartingPlaneResponse::hardWeight(c, columns);
+  }
+  auto response = calib::PartingPlaneResponse::create(std::move(weights));
+  if (!response) return response.error();
+  report.corrections.partingPlane = std::make_shared<const calib::PartingPlaneResponse>(std::move(*response));
+
+  // 3. The nominal sample's profile at the derived depth, subtracted from every bin.
+  calib::NominalProfile nominalProfile;
+  nominalProfile.phiBins = po.phiBins;
+  nominalProfile.thetaBins = po.thetaBins;
+  for (const auto& b : nb) {
+    const double nan = std::nan("");
+    nominalProfile.yPhi.push_back(b.used ? b.yPhi : nan);
+    nominalProfile.yTheta.push_back(b.used ? b.yTheta : nan);
+    nominalProfile.sigmaPhi.push_back(b.used ? b.sigmaPhi : nan);
+    nominalProfile.sigmaTheta.push_back(b.used ? b.sigmaTheta : nan);
+  }
+  if (Status st = nominalProfile.validate(); !st) return st.error();
+  report.corrections.nominalProfile = std::make_shared<const calib::NominalProfile>(std::move(nominalProfile));
+
+  // 4. Closure: the shift and gap samples fitted with the paper's model and with all the
+  // corrections, as data would be fitted.
+  if (progress) progress("closure fits", 0, 1);
+  auto fitOne = [&](const Sample& s, bool corrected) -> Result<calib::FitResult> {
+    calib::FitGeometry g = nominalGeometry;
+    calib::ProfileOptions po;
+    if (corrected) {
+      g.depth.offset = delta;
+      po.partingPlane = report.corrections.partingPlane;
+      po.nominalProfile = report.corrections.nominalProfile;
+    }
+    return calib::fitProfiles(profileOf(s, g.depth, po), g);
+  };
+  for (const auto& [sample, name, param] :
+       {std::tuple{&*shifted, "shift", Param::Dx}, std::tuple{&*gapped, "gap", Param::Dp1}}) {
+    auto paper = fitOne(*sample, false);
+    if (!paper) return paper.error();
+    auto corrected = fitOne(*sample, true);
+    if (!corrected) return corrected.error();
+    ClosureFit c;
+    c.sample = name;
+    auto valueOf = [&](const calib::FitResult& r, double& value, double& error) {
+      if (param == Param::Dx) {
+        value = r.parameters[Param::Dx];
+        error = r.errors[static_cast<Eigen::Index>(index(Param::Dx))];
+      } else {
+        for (const auto& [n, v] : r.derived) {
+          if (n == "dx_rel") {
+            value = v.value;
+            error = v.error;
+          }
+        }
+      }
+    };
+    c.parameter = param == Param::Dx ? "dx" : "dx_rel";
+    c.truth = param == Param::Dx ? o.shift : o.gap;
+    valueOf(*paper, c.paperModel, c.paperError);
+    valueOf(*corrected, c.corrected, c.correctedError);
+    report.closure.push_back(c);
+  }
+  if (progress) progress("closure fits", 1, 1);
+  return report;
+}
+
+Json derivationJson(const DerivationReport& r, const Json& settings) {
+  calib::ModelCorrections c = r.corrections;
+  Json closure = Json::array();
+  for (const auto& f : r.closure) {
+    closure.push_back({{"sample", f.sample},
+                       {"parameter", f.parameter},
+                       {"truth_cm", f.truth},
+                       {"paper_model_cm", f.paperModel},
+                       {"paper_model_error_cm", f.paperError},
+                       {"corrected_cm", f.corrected},
+                       {"corrected_error_cm", f.correctedError}});
+  }
+  c.derivedFrom = {{"command", "emcalign derive-corrections"},
+                   {"settings", settings},
+                   {"selected_events", {{"nominal", r.selectedEvents[0]}, {"shift", r.selectedEvents[1]}, {"gap", r.selectedEvents[2]}}},
+                   {"depth_offset_error_cm", r.depthOffsetError},
+                   {"depth_chi2", r.depthChi2},
+                   {"depth_bins", r.depthBins},
+                   {"column_plus_weight_measured", r.columnWeights},
+                   {"column_plus_weight_error", r.columnWeightErrors},
+                   {"closure", closure}};
+  return calib::correctionsJson(c);
+}
+
+}  // namespace emcalign::validation

@@ -86,6 +86,12 @@ int run(const DeriveOptions& cli) {
                report->columnWeights[static_cast<std::size_t>(k)], report->columnWeightErrors[static_cast<std::size_t>(k)],
                used ? "  *" : "");
   }
+  fmt::print("Statistical error the nominal profile gives every fit using this file (file units):\n ");
+  for (Param p : kAllParams) {
+    fmt::print(" {} {:.2g}", name(p),
+               report->nominalProfileErrors[static_cast<Eigen::Index>(index(p))] / geometry::AlignmentParameters::fileUnit(p));
+  }
+  fmt::print("\n");
   fmt::print("Closure (the derivation samples fitted like data):\n");
   for (const auto& f : report->closure) {
     fmt::print("  {:<5} {:<6} truth {:.3f} cm: paper's model {:.4f} ± {:.4f}, corrected {:.4f} ± {:.4f} cm\n", f.sample,

@@ -211,6 +211,15 @@ Result<DerivationReport> deriveCorrections(const geometry::Calorimeter& calo, co
     nominalProfile.sigmaTheta.push_back(b.used ? b.sigmaTheta : nan);
   }
   if (Status st = nominalProfile.validate(); !st) return st.error();
+  // Its statistical noise is common to every fit that uses the file: the errors of a fit to
+  // the nominal profile alone (statistical σ) are that systematic error, per parameter.
+  {
+    calib::FitGeometry g = nominalGeometry;
+    g.depth = depth;
+    auto noise = calib::fitProfiles(nb, g);
+    if (!noise) return Error{fmt::format("fit of the nominal profile: {}", noise.error().message)};
+    report.nominalProfileErrors = noise->errors;
+  }
   report.corrections.nominalProfile = std::make_shared<const calib::NominalProfile>(std::move(nominalProfile));
 
   // 4. Closure: the shift and gap samples fitted with the paper's model and with all the
@@ -269,6 +278,11 @@ Json derivationJson(const DerivationReport& r, const Json& settings) {
                        {"corrected_cm", f.corrected},
                        {"corrected_error_cm", f.correctedError}});
   }
+  Json nominalErrors = Json::object();
+  for (Param p : kAllParams) {
+    nominalErrors[std::string(name(p))] =
+        r.nominalProfileErrors[static_cast<Eigen::Index>(index(p))] / AlignmentParameters::fileUnit(p);
+  }
   c.derivedFrom = {{"command", "emcalign derive-corrections"},
                    {"settings", settings},
                    {"selected_events", {{"nominal", r.selectedEvents[0]}, {"shift", r.selectedEvents[1]}, {"gap", r.selectedEvents[2]}}},
@@ -277,7 +291,8 @@ Json derivationJson(const DerivationReport& r, const Json& settings) {
                    {"depth_bins", r.depthBins},
                    {"column_plus_weight_measured", r.columnWeights},
                    {"column_plus_weight_error", r.columnWeightErrors},
-                   {"closure", closure}};
+                   {"closure", closure},
+                   {"nominal_profile_parameter_errors", nominalErrors}};
   return calib::correctionsJson(c);
 }
 

@@ -61,6 +61,9 @@ struct DerivationReport {
   std::vector<double> columnWeights;                ///< measured W₊ of every φ column
   std::vector<double> columnWeightErrors;
   std::vector<ClosureFit> closure;
+  /// Errors of a fit to the nominal profile alone (native units): the systematic error that
+  /// the nominal profile's statistics give every fit using the file.
+  geometry::ParamVector nominalProfileErrors = geometry::ParamVector::Zero();
   std::int64_t selectedEvents[3] = {0, 0, 0};       ///< N, S, G
 };
 

@@ -42,10 +42,7 @@ int run(const DeriveOptions& cli) {
   o.threads = cli.threads;
   o.shift = cli.shift;
   o.gap = cli.gap;
-  if (cli.ideal) o.simulation.setIdealised();
-  for (const auto& e : cli.off) {
-    if (Status s = o.simulation.switchOff(e); !s) return reportError({fmt::format("--off: {}", s.error().message)});
-  }
+  if (Status s = applyRealismSwitches(o.simulation, cli.ideal, cli.off); !s) return reportError(s.error());
   if (cli.beamEnergy > 0.0) o.simulation.generator.beamEnergy = cli.beamEnergy * units::MeV;
   o.simulation.generator.thetaMin = cli.thetaMinDeg * units::deg;
   o.simulation.generator.thetaMax = cli.thetaMaxDeg * units::deg;

@@ -92,10 +92,7 @@ int run(const SimulateOptions& cli) {
   if (cli.thetaMaxDeg > 0.0) o.generator.thetaMax = cli.thetaMaxDeg * units::deg;
   o.seed = cli.seed;
   o.run = cli.run;
-  if (cli.ideal) o.setIdealised();
-  for (const auto& e : cli.off) {
-    if (Status s = o.switchOff(e); !s) return reportError({fmt::format("--off: {}", s.error().message)});
-  }
+  if (Status s = applyRealismSwitches(o, cli.ideal, cli.off); !s) return reportError(s.error());
   if (cli.pointShowers) o.emc.pointShowers = true;
   if (!cli.deadCounters.empty()) {
     if (cli.deadCounters == "none") {

@@ -45,10 +45,7 @@ int run(const ValidateOptions& cli) {
     if (!r) return reportError(r.error());
     o.ranges = *r;
   }
-  if (cli.ideal) o.simulation.setIdealised();
-  for (const auto& e : cli.off) {
-    if (Status s = o.simulation.switchOff(e); !s) return reportError({fmt::format("--off: {}", s.error().message)});
-  }
+  if (Status s = applyRealismSwitches(o.simulation, cli.ideal, cli.off); !s) return reportError(s.error());
   if (cli.pointShowers) o.simulation.emc.pointShowers = true;
   o.corrections.depthOffset = cli.depthOffset;
   io::Json correctionsSetting = nullptr;

@@ -3,12 +3,14 @@
 // mapping library errors to messages and exit codes. No physics here.
 
 #include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 
 #include "emcalign/core/result.hpp"
 #include "emcalign/geometry/alignment_parameters.hpp"
 #include "emcalign/geometry/detector.hpp"
+#include "emcalign/sim/simulation.hpp"
 
 namespace emcalign::app {
 
@@ -22,6 +24,10 @@ void reportWarning(const std::string& message);
 
 /// The detector of `--detector FILE`, or the embedded default when the path is empty.
 Result<geometry::Calorimeter> loadCalorimeter(const std::string& detectorPath);
+
+/// `--ideal` and `--off EFFECT,...` of simulate, validate and derive-corrections, applied to
+/// the simulation options; the error names the unknown effect.
+Status applyRealismSwitches(sim::SimulationOptions& options, bool ideal, const std::vector<std::string>& off);
 
 /// Adds `--detector FILE` to a subcommand.
 void addDetectorOption(CLI::App& cmd, std::string& path);

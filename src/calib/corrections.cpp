@@ -1,6 +1,5 @@
 #include "emcalign/calib/corrections.hpp"
 
-#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numbers>

@@ -34,6 +34,11 @@ struct DeriveOptions {
 };
 
 int run(const DeriveOptions& cli) {
+  // The output is checked before hours of simulation, not after.
+  if (Status s = checkOutputs({{"-o", cli.output}}, {}, {{"--detector", cli.detector}}); !s) return reportError(s.error());
+  if (cli.thetaMinDeg >= cli.thetaMaxDeg) {
+    return reportError({fmt::format("--theta-min {} must be below --theta-max {}", cli.thetaMinDeg, cli.thetaMaxDeg)});
+  }
   auto calo = loadCalorimeter(cli.detector);
   if (!calo) return reportError(calo.error());
   validation::DerivationOptions o;
@@ -71,33 +76,33 @@ int run(const DeriveOptions& cli) {
   if (!report) return reportError(report.error());
 
   const auto& c = report->corrections;
-  fmt::print("Selected events: nominal {}, shift {}, gap {}\n", report->selectedEvents[0], report->selectedEvents[1],
+  fmt::print(reportStream(), "Selected events: nominal {}, shift {}, gap {}\n", report->selectedEvents[0], report->selectedEvents[1],
              report->selectedEvents[2]);
-  fmt::print("Depth offset: {:+.3f} ± {:.3f} cm (chi2 {:.1f} over {} bins)\n", c.depthOffset / units::cm,
+  fmt::print(reportStream(), "Depth offset: {:+.3f} ± {:.3f} cm (chi2 {:.1f} over {} bins)\n", c.depthOffset / units::cm,
              report->depthOffsetError / units::cm, report->depthChi2, report->depthBins);
-  fmt::print("Parting-plane response: W+ per phi column (measured; * = next to the plane, used in the model):\n");
+  fmt::print(reportStream(), "Parting-plane response: W+ per phi column (measured; * = next to the plane, used in the model):\n");
   const int columns = c.partingPlane->phiBins();
   for (int k = 0; k < columns; ++k) {
     const bool used = calib::PartingPlaneResponse::nextToPlane(k, columns);
-    fmt::print("  phi {:5.1f}-{:5.1f} deg   W+ = {:6.3f} ± {:.3f}{}\n", 360.0 * k / columns, 360.0 * (k + 1) / columns,
+    fmt::print(reportStream(), "  phi {:5.1f}-{:5.1f} deg   W+ = {:6.3f} ± {:.3f}{}\n", 360.0 * k / columns, 360.0 * (k + 1) / columns,
                report->columnWeights[static_cast<std::size_t>(k)], report->columnWeightErrors[static_cast<std::size_t>(k)],
                used ? "  *" : "");
   }
-  fmt::print("Statistical error the nominal profile gives every fit using this file (file units):\n ");
+  fmt::print(reportStream(), "Statistical error the nominal profile gives every fit using this file (file units):\n ");
   for (Param p : kAllParams) {
-    fmt::print(" {} {:.2g}", name(p),
+    fmt::print(reportStream(), " {} {:.2g}", name(p),
                report->nominalProfileErrors[static_cast<Eigen::Index>(index(p))] / geometry::AlignmentParameters::fileUnit(p));
   }
-  fmt::print("\n");
-  fmt::print("Closure (the derivation samples fitted like data):\n");
+  fmt::print(reportStream(), "\n");
+  fmt::print(reportStream(), "Closure (the derivation samples fitted like data):\n");
   for (const auto& f : report->closure) {
-    fmt::print("  {:<5} {:<6} truth {:.3f} cm: paper's model {:.4f} ± {:.4f}, corrected {:.4f} ± {:.4f} cm\n", f.sample,
+    fmt::print(reportStream(), "  {:<5} {:<6} truth {:.3f} cm: paper's model {:.4f} ± {:.4f}, corrected {:.4f} ± {:.4f} cm\n", f.sample,
                f.parameter, f.truth, f.paperModel, f.paperError, f.corrected, f.correctedError);
   }
-  if (Status s = io::writeTextFileAtomically(cli.output, validation::derivationJson(*report, settings).dump(2) + "\n"); !s) {
+  if (Status s = io::writeOutputFile(cli.output, validation::derivationJson(*report, settings).dump(2) + "\n"); !s) {
     return reportError(s.error());
   }
-  fmt::print("wrote {} in {:.1f} s (use: emcalign fit --corrections {})\n", cli.output, progress.elapsed(), cli.output);
+  fmt::print(reportStream(), "wrote {} in {:.1f} s (use: emcalign fit --corrections {})\n", cli.output, progress.elapsed(), cli.output);
   return 0;
 }
 
@@ -110,15 +115,16 @@ void addDeriveCorrectionsCommand(CLI::App& app, int& exitCode) {
                                  "simulation, for emcalign fit --corrections");
   addVersionFlag(*cmd);
   cmd->add_option("--events", o->events, "events per sample, three samples (default 400000)")
-      ->check(CLI::Range(1000, 1000000000));
-  cmd->add_option("--seed", o->seed, "seed");
-  cmd->add_option("--threads", o->threads, "worker threads (0: all cores)")->check(CLI::NonNegativeNumber);
-  cmd->add_option("--beam-energy", o->beamEnergy, "beam energy, MeV (default 612.5)")->check(CLI::PositiveNumber);
+      ->check(integerIn(1000, 1000000000));
+  cmd->add_option("--seed", o->seed, "seed, 0 to 2^64 - 1")->check(unsigned64());
+  cmd->add_option("--threads", o->threads, "worker threads (0: all cores)")->check(integerIn(0, kMaxThreads));
+  cmd->add_option("--beam-energy", o->beamEnergy, "beam energy, MeV (default 612.5)")
+      ->check(finiteIn(sim::kMinBeamEnergy / units::MeV, sim::kMaxBeamEnergy / units::MeV));
   cmd->add_option("--theta-min", o->thetaMinDeg, "generated polar range of the leptons, deg (default 40)")
-      ->check(CLI::Range(0.0, 180.0));
-  cmd->add_option("--theta-max", o->thetaMaxDeg, "(default 140)")->check(CLI::Range(0.0, 180.0));
-  cmd->add_option("--shift", o->shift, "dx = dy = dz of the depth sample, cm (default 0.6)")->check(CLI::PositiveNumber);
-  cmd->add_option("--gap", o->gap, "dx_rel of the parting-plane sample, cm (default 0.5)")->check(CLI::PositiveNumber);
+      ->check(finiteIn(0.0, 180.0));
+  cmd->add_option("--theta-max", o->thetaMaxDeg, "(default 140)")->check(finiteIn(0.0, 180.0));
+  cmd->add_option("--shift", o->shift, "dx = dy = dz of the depth sample, cm (default 0.6)")->check(finiteIn(0.01, 5.0));
+  cmd->add_option("--gap", o->gap, "dx_rel of the parting-plane sample, cm (default 0.5)")->check(finiteIn(0.01, 5.0));
   cmd->add_flag("--ideal", o->ideal, "use the idealised simulation (the corrections should vanish)");
   cmd->add_option("--off", o->off, "switch realism effects off (as emcalign simulate --off)")->delimiter(',');
   addDetectorOption(*cmd, o->detector);

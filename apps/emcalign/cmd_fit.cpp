@@ -35,32 +35,32 @@ struct FitCliOptions {
 };
 
 void printCutFlow(const calib::ProfileFill& fill) {
-  fmt::print("Selection (SPEC §7), events:\n");
+  fmt::print(reportStream(), "Selection (SPEC §7), events:\n");
   for (std::size_t k = 0; k < calib::CutFlow::kNames.size(); ++k) {
-    fmt::print("  {:<24} {:>10}\n", calib::CutFlow::kNames[k], fill.cutFlow.events[k]);
+    fmt::print(reportStream(), "  {:<24} {:>10}\n", calib::CutFlow::kNames[k], fill.cutFlow.events[k]);
   }
-  fmt::print("Particles: {} selected, {} in the profiles (45-135 deg), {} tracks missing the sphere R(E, theta)\n",
+  fmt::print(reportStream(), "Particles: {} selected, {} in the profiles (45-135 deg), {} tracks missing the sphere R(E, theta)\n",
              fill.particlesSelected, fill.particlesInRange, fill.trackMisses);
 }
 
 void printResult(const calib::FitResult& r) {
-  fmt::print("\n{:<10} {:>12}   {:<10} {}\n", "parameter", "value", "error", "unit");
+  fmt::print(reportStream(), "\n{:<10} {:>12}   {:<10} {}\n", "parameter", "value", "error", "unit");
   for (Param p : kAllParams) {
     const double unit = AlignmentParameters::fileUnit(p);
     const double e = r.errors[static_cast<Eigen::Index>(index(p))];
-    fmt::print("{:<10} {:>12.5f} ± {:<10.5f} {}\n", name(p), r.parameters[p] / unit, e / unit,
+    fmt::print(reportStream(), "{:<10} {:>12.5f} ± {:<10.5f} {}\n", name(p), r.parameters[p] / unit, e / unit,
                dimension(p) == Dimension::Angle ? "deg" : "cm");
   }
-  fmt::print("derived:\n");
+  fmt::print(reportStream(), "derived:\n");
   for (const auto& [n, v] : r.derived) {
     const bool length = n == "dx_rel";
     const double unit = length ? units::cm : units::deg;
-    fmt::print("{:<10} {:>12.5f} ± {:<10.5f} {}\n", n, v.value / unit, v.error / unit, length ? "cm" : "deg");
+    fmt::print(reportStream(), "{:<10} {:>12.5f} ± {:<10.5f} {}\n", n, v.value / unit, v.error / unit, length ? "cm" : "deg");
   }
-  fmt::print("\nchi2/ndf = {:.2f}/{} (p-value {:.3g}), {} bins used; stages chi2:", r.chi2, r.ndf, r.pValue,
+  fmt::print(reportStream(), "\nchi2/ndf = {:.2f}/{} (p-value {:.3g}), {} bins used; stages chi2:", r.chi2, r.ndf, r.pValue,
              r.binsUsed);
-  for (const auto& s : r.stages) fmt::print(" {:.1f}", s.chi2);
-  fmt::print("\nstatus: {}\n", r.status);
+  for (const auto& s : r.stages) fmt::print(reportStream(), " {:.1f}", s.chi2);
+  fmt::print(reportStream(), "\nstatus: {}\n", name(r.status));
   for (const auto& w : r.warnings) reportWarning(w);
 }
 
@@ -84,11 +84,19 @@ Status drawPlots(const FitCliOptions& o, const calib::FitGeometry& geometry, con
   }
   auto written = report::writeFitPlots(o.plots, bins, geometry, result, histograms);
   if (!written) return written.error();
-  for (const auto& png : *written) fmt::print("wrote {}\n", png);
+  for (const auto& png : *written) fmt::print(reportStream(), "wrote {}\n", png);
   return {};
 }
 
 int run(const FitCliOptions& o) {
+  std::vector<io::NamedPath> inputs;
+  for (const auto& e : o.events) inputs.push_back({"", e});
+  inputs.push_back({"--profile-in", o.profileIn});
+  inputs.push_back({"--corrections", o.corrections});
+  inputs.push_back({"--detector", o.detector});
+  if (Status s = checkOutputs({{"-o", o.output}, {"--profile-out", o.profileOut}}, {{"--plots", o.plots}}, inputs); !s) {
+    return reportError(s.error());
+  }
   auto calo = loadCalorimeter(o.detector);
   if (!calo) return reportError(calo.error());
   auto geometry = calib::FitGeometry::of(calo->description());
@@ -104,7 +112,7 @@ int run(const FitCliOptions& o) {
     profileOptions.nominalProfile = c->nominalProfile;
     if (c->partingPlane) input.partingPlane = o.corrections;
     if (c->nominalProfile) input.nominalProfile = o.corrections;
-    fmt::print("Model corrections from {}: depth offset {:+.2f} cm, parting-plane response {}, nominal profile {}\n",
+    fmt::print(reportStream(), "Model corrections from {}: depth offset {:+.2f} cm, parting-plane response {}, nominal profile {}\n",
                o.corrections, c->depthOffset / units::cm, c->partingPlane ? "on" : "off",
                c->nominalProfile ? "subtracted" : "off");
   }
@@ -152,22 +160,22 @@ int run(const FitCliOptions& o) {
     input.files = o.events;
     input.fill = &*fill;
   }
-  if (!o.profileOut.empty()) {
-    if (Status s = io::writeTextFileAtomically(o.profileOut, calib::profileCsv(bins)); !s) return reportError(s.error());
-  }
   auto result = calib::fitProfiles(bins, geometry);
   if (!result) return reportError(result.error());
   printResult(*result);
-  if (Status s = io::writeTextFileAtomically(o.output, calib::fitResultJson(*result, input).dump(2) + "\n"); !s) {
+  if (!o.profileOut.empty()) {
+    if (Status s = io::writeOutputFile(o.profileOut, calib::profileCsv(bins)); !s) return reportError(s.error());
+  }
+  if (Status s = io::writeOutputFile(o.output, calib::fitResultJson(*result, input).dump(2) + "\n"); !s) {
     return reportError(s.error());
   }
-  fmt::print("wrote {}\n", o.output);
+  fmt::print(reportStream(), "wrote {}\n", o.output);
   if (!o.plots.empty()) {
     if (Status s = drawPlots(o, geometry, bins, *result, histograms ? &*histograms : nullptr); !s) {
       return reportError(s.error());
     }
   }
-  return result->status == "converged" ? 0 : kExitFailure;
+  return result->status == FitStatus::Converged ? kExitOk : kExitUnusable;
 }
 
 }  // namespace
@@ -188,10 +196,11 @@ void addFitCommand(CLI::App& app, int& exitCode) {
                   "draw the paper's figures (PNG, gnuplot) into this directory: profiles with the fitted "
                   "curves, and the residual distributions before and after the correction");
   cmd->add_option("--beam-energy", o->beamEnergy, "beam energy for the selection, MeV (default: from the file)")
-      ->check(CLI::PositiveNumber);
+      ->check(finiteIn(10.0, 10000.0));
   auto* depthOffset = cmd->add_option("--depth-offset", o->depthOffset,
                   "cm added to the shower depth R(E, theta) in the residuals and the model (default 0: the "
-                  "paper's formula; see docs/validation.md)");
+                  "paper's formula; see docs/validation.md)")
+      ->check(finiteIn(-calib::kMaxDepthOffset, calib::kMaxDepthOffset));
   auto* corrections = cmd->add_option("--corrections", o->corrections,
                                       "model corrections derived from the simulation (emcalign derive-corrections): "
                                       "the shower-depth offset and the parting-plane response")

@@ -84,9 +84,10 @@ void printSummary(const Calorimeter& calo) {
 int printCounters(const Calorimeter& calo, const std::string& paramsPath) {
   std::optional<AlignmentTransform> transform;
   if (!paramsPath.empty()) {
-    auto eta = io::readAlignment(paramsPath, calo.description().r1());
-    if (!eta) return reportError(eta.error());
-    for (const auto& w : warnings(*eta)) reportWarning(w);
+    auto etaFile = io::readAlignmentFile(paramsPath, calo.description().r1());
+    if (!etaFile) return reportError(etaFile.error());
+    for (const auto& w : etaFile->warnings) reportWarning(w);
+    const geometry::AlignmentParameters* eta = &etaFile->parameters;
     auto t = AlignmentTransform::create(*eta, AlignmentRadii::of(calo.description()));
     if (!t) return reportError(t.error());
     transform = std::move(*t);

@@ -28,9 +28,10 @@ int runShow(const ShowOptions& o) {
   auto calo = loadCalorimeter(o.detector);
   if (!calo) return reportError(calo.error());
   const double r1 = calo->description().r1();
-  auto eta = io::readAlignment(o.file, r1);
-  if (!eta) return reportError(eta.error());
-  for (const auto& w : warnings(*eta)) reportWarning(w);
+  auto etaFile = io::readAlignmentFile(o.file, r1);
+  if (!etaFile) return reportError(etaFile.error());
+  for (const auto& w : etaFile->warnings) reportWarning(w);
+  const geometry::AlignmentParameters* eta = &etaFile->parameters;
   auto j = io::alignmentToJsonWithPhysical(*eta, r1);
   if (!j) return reportError(j.error());
   if (o.json) {

@@ -1,7 +1,9 @@
 // emcalign simulate: reconstructed events from the detector simulation with a known
 // (truth) misalignment, written as HDF5 (with truth) or CSV.
 
+#include <limits>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <string>
 
@@ -24,15 +26,15 @@ struct SimulateOptions {
   std::int64_t events = 0;
   std::uint64_t seed = 1;
   std::string params;
-  double beamEnergy = 0.0;  // 0: the process default
+  std::optional<double> beamEnergy;  // none: the process default
   std::string detector;
   std::string deadCounters;  // empty: default list; "none": no dead counters
   int threads = 0;
   int run = 1;
   std::string output;
   std::vector<std::string> off;
-  double thetaMinDeg = 0.0;  // 0: the generator default
-  double thetaMaxDeg = 0.0;
+  std::optional<double> thetaMinDeg;  // none: the generator default
+  std::optional<double> thetaMaxDeg;
   bool pointShowers = false;
   bool ideal = false;
 };
@@ -77,19 +79,23 @@ io::Json settingsJson(const SimulateOptions& cli, const sim::SimulationOptions& 
 }
 
 int run(const SimulateOptions& cli) {
+  if (Status s = checkOutputs({{"-o", cli.output}}, {}, {{"--params", cli.params}, {"--detector", cli.detector}}); !s) {
+    return reportError(s.error());
+  }
   auto calo = loadCalorimeter(cli.detector);
   if (!calo) return reportError(calo.error());
-  auto truth = io::readAlignment(cli.params, calo->description().r1());
-  if (!truth) return reportError(truth.error());
-  for (const auto& w : geometry::warnings(*truth)) reportWarning(w);
+  auto truthFile = io::readAlignmentFile(cli.params, calo->description().r1());
+  if (!truthFile) return reportError(truthFile.error());
+  for (const auto& w : truthFile->warnings) reportWarning(w);
+  const geometry::AlignmentParameters* truth = &truthFile->parameters;
 
   sim::SimulationOptions o;
   const auto process = sim::processFromName(cli.process);
   if (!process) return reportError({fmt::format("--process: unknown process '{}' (ee, gg, 3pi)", cli.process)});
   o.generator.process = *process;
-  o.generator.beamEnergy = cli.beamEnergy > 0.0 ? cli.beamEnergy : sim::defaultBeamEnergy(*process);
-  if (cli.thetaMinDeg > 0.0) o.generator.thetaMin = cli.thetaMinDeg * units::deg;
-  if (cli.thetaMaxDeg > 0.0) o.generator.thetaMax = cli.thetaMaxDeg * units::deg;
+  o.generator.beamEnergy = cli.beamEnergy ? *cli.beamEnergy * units::MeV : sim::defaultBeamEnergy(*process);
+  if (cli.thetaMinDeg) o.generator.thetaMin = *cli.thetaMinDeg * units::deg;
+  if (cli.thetaMaxDeg) o.generator.thetaMax = *cli.thetaMaxDeg * units::deg;
   o.seed = cli.seed;
   o.run = cli.run;
   if (Status s = applyRealismSwitches(o, cli.ideal, cli.off); !s) return reportError(s.error());
@@ -138,22 +144,24 @@ void addSimulateCommand(CLI::App& app, int& exitCode) {
   addVersionFlag(*cmd);
   cmd->add_option("--process", o->process, "ee (e+e- -> e+e-), gg (e+e- -> gamma gamma), 3pi (e+e- -> pi+pi-pi0)")
       ->check(CLI::IsMember({"ee", "gg", "3pi"}));
-  cmd->add_option("--events", o->events, "number of events")->required()->check(CLI::NonNegativeNumber);
-  cmd->add_option("--seed", o->seed, "random seed (the same seed gives the same file on any thread count)");
+  cmd->add_option("--events", o->events, "number of events (at most 1e10)")->required()->check(integerIn(0, kMaxEvents));
+  cmd->add_option("--seed", o->seed, "random seed, 0 to 2^64 - 1 (the same seed gives the same file on any thread count)")
+      ->check(unsigned64());
   cmd->add_option("--params", o->params, "truth alignment parameters (JSON, SPEC §3)")->required()->check(CLI::ExistingFile);
-  cmd->add_option("--beam-energy", o->beamEnergy, "beam energy in MeV (default 612.5 for ee and gg, 510 for 3pi)")
-      ->check(CLI::PositiveNumber);
-  cmd->add_option("--theta-min", o->thetaMinDeg,
+  cmd->add_option_function<double>("--beam-energy", [o](const double& v) { o->beamEnergy = v; }, "beam energy in MeV (default 612.5 for ee and gg, 510 for 3pi)")
+      ->check(finiteIn(sim::kMinBeamEnergy / units::MeV, sim::kMaxBeamEnergy / units::MeV));
+  cmd->add_option_function<double>("--theta-min", [o](const double& v) { o->thetaMinDeg = v; },
                   "lower edge of the generated polar range of the final-state particles, deg (default 10; "
                   "e+e- -> e+e- is forward-peaked: 40 keeps nearly every event inside the profiles)")
-      ->check(CLI::Range(0.0, 180.0));
-  cmd->add_option("--theta-max", o->thetaMaxDeg, "upper edge of the generated polar range, deg (default 170)")
-      ->check(CLI::Range(0.0, 180.0));
+      ->check(finiteIn(0.0, 180.0));
+  cmd->add_option_function<double>("--theta-max", [o](const double& v) { o->thetaMaxDeg = v; }, "upper edge of the generated polar range, deg (default 170)")
+      ->check(finiteIn(0.0, 180.0));
   addDetectorOption(*cmd, o->detector);
   cmd->add_option("--dead-counters", o->deadCounters,
                   "comma-separated dead counter indices, or 'none' (default: a few, docs/simulation.md)");
-  cmd->add_option("--threads", o->threads, "worker threads (0: all cores)")->check(CLI::NonNegativeNumber);
-  cmd->add_option("--run", o->run, "run number written in every row");
+  cmd->add_option("--threads", o->threads, "worker threads (0: all cores)")->check(integerIn(0, kMaxThreads));
+  cmd->add_option("--run", o->run, "run number written in every row")
+      ->check(integerIn(std::numeric_limits<std::int32_t>::min(), std::numeric_limits<std::int32_t>::max()));
   cmd->add_option("--off", o->off,
                   "switch realism effects off, comma-separated: radiation, background, dead-counters, noise, "
                   "energy-resolution, shower-fluctuations, layer3-offset, cosmics, multiple-scattering, "
@@ -163,7 +171,9 @@ void addSimulateCommand(CLI::App& app, int& exitCode) {
   cmd->add_flag("--ideal", o->ideal,
                 "the idealised limit where the fit model is exact: every effect off, point showers, "
                 "cluster directions from the deposit");
-  cmd->add_option("-o,--output", o->output, "output file: .csv for CSV, anything else HDF5 (with truth)")->required();
+  cmd->add_option("-o,--output", o->output,
+                  "output file: .csv for CSV, anything else HDF5 (with truth); '-' writes CSV to standard output")
+      ->required();
   cmd->callback([o, &exitCode] { exitCode = run(*o); });
 }
 

@@ -37,9 +37,10 @@ struct TransformOptions {
 int run(const TransformOptions& o) {
   auto calo = loadCalorimeter(o.detector);
   if (!calo) return reportError(calo.error());
-  auto eta = io::readAlignment(o.params, calo->description().r1());
-  if (!eta) return reportError(eta.error());
-  for (const auto& w : warnings(*eta)) reportWarning(w);
+  auto etaFile = io::readAlignmentFile(o.params, calo->description().r1());
+  if (!etaFile) return reportError(etaFile.error());
+  for (const auto& w : etaFile->warnings) reportWarning(w);
+  const geometry::AlignmentParameters* eta = &etaFile->parameters;
   auto transform = AlignmentTransform::create(*eta, AlignmentRadii::of(calo->description()));
   if (!transform) return reportError(transform.error());
   const Support support = supportOfLayer(o.layer);
@@ -58,8 +59,8 @@ int run(const TransformOptions& o) {
     const auto fields = io::splitCsvLine(line);
     if (!header) {
       if (fields.size() != 3 || fields[0] != "x_cm" || fields[1] != "y_cm" || fields[2] != "z_cm") {
-        return reportError({fmt::format("stdin, line {}: expected the header x_cm,y_cm,z_cm, got '{}'",
-                                        lineNo, line)});
+        return reportError({fmt::format("stdin, line {}: expected the header x_cm,y_cm,z_cm, got {}", lineNo,
+                                        io::quoted(line))});
       }
       header = true;
       continue;
@@ -72,8 +73,8 @@ int run(const TransformOptions& o) {
     for (int i = 0; i < 3; ++i) {
       const auto v = io::parseFiniteDouble(fields[static_cast<std::size_t>(i)]);
       if (!v) {
-        return reportError({fmt::format("stdin, line {}, column '{}': not a finite number: '{}'",
-                                        lineNo, kColumns[i], fields[static_cast<std::size_t>(i)])});
+        return reportError({fmt::format("stdin, line {}, column '{}': not a finite number: {}", lineNo,
+                                        kColumns[i], io::quoted(fields[static_cast<std::size_t>(i)]))});
       }
       p[i] = *v * cm;
     }

@@ -33,6 +33,14 @@ struct ValidateOptions {
 };
 
 int run(const ValidateOptions& cli) {
+  if (Status s = checkOutputs({}, {{"-o", cli.output}},
+                              {{"--ranges", cli.ranges}, {"--corrections", cli.corrections}, {"--detector", cli.detector}});
+      !s) {
+    return reportError(s.error());
+  }
+  if (cli.thetaMinDeg >= cli.thetaMaxDeg) {
+    return reportError({fmt::format("--theta-min {} must be below --theta-max {}", cli.thetaMinDeg, cli.thetaMaxDeg)});
+  }
   auto calo = loadCalorimeter(cli.detector);
   if (!calo) return reportError(calo.error());
   validation::CampaignOptions o;
@@ -80,13 +88,13 @@ int run(const ValidateOptions& cli) {
   auto table = validation::runCampaign(*calo, o, cli.output, [&](int done, int) { progress.update(done); });
   progress.finish();
   if (!table) return reportError(table.error());
-  fmt::print("{:<10} {:>4} {:>11} {:>9} {:>10} {:>9} {:>9}\n", "parameter", "unit", "bias", "±", "spread", "pull mean",
+  fmt::print(reportStream(), "{:<10} {:>4} {:>11} {:>9} {:>10} {:>9} {:>9}\n", "parameter", "unit", "bias", "±", "spread", "pull mean",
              "pull width");
   for (const auto& r : table->rows) {
-    fmt::print("{:<10} {:>4} {:>11.4g} {:>9.2g} {:>10.4g} {:>9.3f} {:>9.3f}\n", r.name, r.unit, r.bias, r.biasError,
+    fmt::print(reportStream(), "{:<10} {:>4} {:>11.4g} {:>9.2g} {:>10.4g} {:>9.3f} {:>9.3f}\n", r.name, r.unit, r.bias, r.biasError,
                r.spread, r.pullMean, r.pullWidth);
   }
-  fmt::print("{} samples × {} events in {:.1f} s; wrote {}/table.json, table.md, plots/, samples/\n", table->samples,
+  fmt::print(reportStream(), "{} samples × {} events in {:.1f} s; wrote {}/table.json, table.md, plots/, samples/\n", table->samples,
              table->events, progress.elapsed(), cli.output);
   return 0;
 }
@@ -97,22 +105,23 @@ void addValidateCommand(CLI::App& app, int& exitCode) {
   auto o = std::make_shared<ValidateOptions>();
   auto* cmd = app.add_subcommand("validate", "Validation campaign: bias, spread and pulls over simulated samples");
   addVersionFlag(*cmd);
-  cmd->add_option("--samples", o->samples, "number of samples (default 100)")->check(CLI::PositiveNumber);
-  cmd->add_option("--events", o->events, "events per sample (default 50000)")->check(CLI::PositiveNumber);
-  cmd->add_option("--seed", o->seed, "campaign seed");
+  cmd->add_option("--samples", o->samples, "number of samples (default 100)")->check(integerIn(1, 100000));
+  cmd->add_option("--events", o->events, "events per sample (default 50000)")->check(integerIn(1, kMaxEvents));
+  cmd->add_option("--seed", o->seed, "campaign seed, 0 to 2^64 - 1")->check(unsigned64());
   cmd->add_option("--ranges", o->ranges, "ranges of the truth (JSON, emcalign-validation-ranges/1)")->check(CLI::ExistingFile);
   addDetectorOption(*cmd, o->detector);
-  cmd->add_option("--threads", o->threads, "worker threads (0: all cores)")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--threads", o->threads, "worker threads (0: all cores)")->check(integerIn(0, kMaxThreads));
   cmd->add_option("--theta-min", o->thetaMinDeg, "generated polar range of the leptons, deg (default 40)")
-      ->check(CLI::Range(0.0, 180.0));
-  cmd->add_option("--theta-max", o->thetaMaxDeg, "(default 140)")->check(CLI::Range(0.0, 180.0));
+      ->check(finiteIn(0.0, 180.0));
+  cmd->add_option("--theta-max", o->thetaMaxDeg, "(default 140)")->check(finiteIn(0.0, 180.0));
   cmd->add_flag("--ideal", o->ideal, "use the idealised simulation (the fit model is exact)");
   cmd->add_option("--off", o->off,
                   "switch realism effects off (as emcalign simulate --off), to trace a bias to its cause")
       ->delimiter(',');
   cmd->add_flag("--point-showers", o->pointShowers, "deposit each shower in one spot at the model depth R(E, theta)");
   auto* depthOffset =
-      cmd->add_option("--depth-offset", o->depthOffset, "cm added to R(E, theta) in the fits (as emcalign fit)");
+      cmd->add_option("--depth-offset", o->depthOffset, "cm added to R(E, theta) in the fits (as emcalign fit)")
+          ->check(finiteIn(-calib::kMaxDepthOffset, calib::kMaxDepthOffset));
   cmd->add_option("--corrections", o->corrections,
                   "fit with the model corrections of this file (emcalign derive-corrections; as emcalign fit)")
       ->check(CLI::ExistingFile)

@@ -1,11 +1,19 @@
 #include "common.hpp"
 
+#include <charconv>
+#include <limits>
+
 #include <fmt/format.h>
 
 #include "emcalign/core/version.hpp"
+#include "emcalign/io/csv.hpp"
 #include "emcalign/io/json_files.hpp"
 
 namespace emcalign::app {
+
+namespace {
+std::FILE* gReport = stdout;
+}
 
 int reportError(const Error& error) {
   fmt::print(stderr, "emcalign: error: {}\n", error.message);
@@ -14,11 +22,31 @@ int reportError(const Error& error) {
 
 void reportWarning(const std::string& message) { fmt::print(stderr, "emcalign: warning: {}\n", message); }
 
+std::FILE* reportStream() { return gReport; }
+
+Status checkOutputs(const std::vector<io::NamedPath>& files, const std::vector<io::NamedPath>& directories,
+                    const std::vector<io::NamedPath>& inputs) {
+  std::vector<io::NamedPath> given;
+  for (const auto& f : files) {
+    if (f.path.empty()) continue;
+    if (auto t = io::resolveOutput(f.path); !t) return Error{fmt::format("{} {}", f.option, t.error().message)};
+    if (f.path == "-") gReport = stderr;
+    given.push_back(f);
+  }
+  for (const auto& d : directories) {
+    if (d.path.empty()) continue;
+    if (Status s = io::checkOutputDirectory(d.path); !s) return Error{fmt::format("{} {}", d.option, s.error().message)};
+  }
+  return io::checkDistinct(given, inputs);
+}
+
 Result<geometry::Calorimeter> loadCalorimeter(const std::string& detectorPath) {
   if (detectorPath.empty()) return geometry::Calorimeter::create(geometry::DetectorDescription::sndDefault());
   auto description = io::readDetectorDescription(detectorPath);
   if (!description) return description.error();
-  return geometry::Calorimeter::create(std::move(*description));
+  auto calo = geometry::Calorimeter::create(std::move(*description));
+  if (!calo) return Error{fmt::format("{}: {}", detectorPath, calo.error().message)};
+  return calo;
 }
 
 void addDetectorOption(CLI::App& cmd, std::string& path) {
@@ -36,6 +64,49 @@ Status applyRealismSwitches(sim::SimulationOptions& options, bool ideal, const s
     if (Status s = options.switchOff(e); !s) return Error{fmt::format("--off: {}", s.error().message)};
   }
   return {};
+}
+
+CLI::Validator finiteIn(double lo, double hi) {
+  return CLI::Validator(
+      [lo, hi](std::string& text) -> std::string {
+        const auto x = io::parseFiniteDouble(text);
+        if (!x) return fmt::format("{} is not a finite number", io::quoted(text));
+        if (*x < lo || *x > hi) return fmt::format("{} is outside [{}, {}]", io::quoted(text), lo, hi);
+        return {};
+      },
+      fmt::format("NUMBER in [{}, {}]", lo, hi));
+}
+
+CLI::Validator integerIn(std::int64_t lo, std::int64_t hi) {
+  return CLI::Validator(
+      [lo, hi](std::string& text) -> std::string {
+        std::string_view digits = text;
+        if (!digits.empty() && digits.front() == '+') digits.remove_prefix(1);
+        std::int64_t x = 0;
+        const auto [ptr, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), x);
+        if (digits.empty() || ec == std::errc::invalid_argument || ptr != digits.data() + digits.size()) {
+          return fmt::format("{} is not an integer", io::quoted(text));
+        }
+        if (ec == std::errc::result_out_of_range || x < lo || x > hi) {
+          return fmt::format("{} is outside [{}, {}]", io::quoted(text), lo, hi);
+        }
+        return {};
+      },
+      fmt::format("INTEGER in [{}, {}]", lo, hi));
+}
+
+CLI::Validator unsigned64() {
+  return CLI::Validator(
+      [](std::string& text) -> std::string {
+        std::uint64_t x = 0;
+        const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), x);
+        if (text.empty() || ec == std::errc::invalid_argument || ptr != text.data() + text.size()) {
+          return fmt::format("{} is not an unsigned integer (0 to 2^64 - 1)", io::quoted(text));
+        }
+        if (ec == std::errc::result_out_of_range) return fmt::format("{} is larger than 2^64 - 1", io::quoted(text));
+        return {};
+      },
+      "INTEGER in [0, 2^64 - 1]");
 }
 
 }  // namespace emcalign::app

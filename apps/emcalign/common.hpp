@@ -1,7 +1,10 @@
 #pragma once
-// Shared plumbing of the emcalign subcommands: loading the inputs every command takes and
-// mapping library errors to messages and exit codes. No physics here.
+// Shared plumbing of the emcalign subcommands: loading the inputs every command takes,
+// checking outputs and option values before any work, and mapping library errors to
+// messages and exit codes. No physics here.
 
+#include <cstdint>
+#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -10,17 +13,42 @@
 #include "emcalign/core/result.hpp"
 #include "emcalign/geometry/alignment_parameters.hpp"
 #include "emcalign/geometry/detector.hpp"
+#include "emcalign/io/output_file.hpp"
 #include "emcalign/sim/simulation.hpp"
 
 namespace emcalign::app {
 
-/// Exit codes: 0 success, 1 an input was refused or a step failed, 2 usage (CLI11).
+/// Exit codes, the table of docs/conventions.md ("Exit codes").
+inline constexpr int kExitOk = 0;
+/// An input or option value was refused, or a step failed: the message says which; the
+/// output concerned is not written (a temporary is removed, an existing file left as it was).
 inline constexpr int kExitFailure = 1;
+/// The command line is wrong (unknown option, missing or malformed value): CLI11's message.
+inline constexpr int kExitUsage = 2;
+/// A result was written, but its status is not "converged" (not converged, covariance
+/// singular, poor fit): read its warnings before using it.
+inline constexpr int kExitUnusable = 3;
+/// An internal error (an exception no code path expects): a bug, please report it.
+inline constexpr int kExitInternal = 4;
+
+/// Limits of counting options: more events than a machine makes in days, more threads
+/// than any machine has, are typing mistakes.
+inline constexpr std::int64_t kMaxEvents = 10'000'000'000;
+inline constexpr std::int64_t kMaxThreads = 1024;
 
 /// Prints "emcalign: error: <message>" on stderr and returns kExitFailure.
 int reportError(const Error& error);
 /// Prints "emcalign: warning: <message>" on stderr.
 void reportWarning(const std::string& message);
+
+/// Where a command's report goes: stdout, or stderr once an output is "-" (stdout is then
+/// the output's).
+std::FILE* reportStream();
+/// Checks a command's outputs before any work (io/output_file.hpp): every file output can
+/// be written, every directory output is a directory or absent, and no output is an input
+/// or another output. An output "-" sends the report to stderr.
+Status checkOutputs(const std::vector<io::NamedPath>& files, const std::vector<io::NamedPath>& directories,
+                    const std::vector<io::NamedPath>& inputs);
 
 /// The detector of `--detector FILE`, or the embedded default when the path is empty.
 Result<geometry::Calorimeter> loadCalorimeter(const std::string& detectorPath);
@@ -34,6 +62,14 @@ void addDetectorOption(CLI::App& cmd, std::string& path);
 
 /// Adds `--version` to a subcommand (the top level has it from CLI11).
 void addVersionFlag(CLI::App& cmd);
+
+/// Strict validators of option values (checked on the text, before CLI11 converts it): the
+/// whole value must spell one number ("nan", "inf", "1e3x", "-1" for an unsigned are
+/// refused) inside [lo, hi].
+CLI::Validator finiteIn(double lo, double hi);
+CLI::Validator integerIn(std::int64_t lo, std::int64_t hi);
+/// An unsigned 64-bit integer (a seed): 0 to 2^64 − 1, no sign.
+CLI::Validator unsigned64();
 
 /// Registration of each subcommand; `exitCode` receives the command's result.
 void addGeometryCommand(CLI::App& app, int& exitCode);

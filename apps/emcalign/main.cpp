@@ -1,17 +1,48 @@
 // emcalign: geometric calibration of a two-hemisphere EM calorimeter relative to a tracker.
-// This file only wires the subcommands; each lives in cmd_<name>.cpp.
+// This file only wires the subcommands (each lives in cmd_<name>.cpp), the signals and the
+// exit codes of docs/conventions.md.
+
+#include <csignal>
+#include <exception>
 
 #include <CLI/CLI.hpp>
+#include <fmt/format.h>
 
 #include "common.hpp"
 #include "emcalign/core/version.hpp"
+#include "emcalign/io/output_file.hpp"
+
+namespace {
+
+// Interrupted (Ctrl-C, kill, a closed terminal or pipe): remove the temporaries of the
+// outputs being written, then die of the same signal, so the shell sees 128 + N.
+extern "C" void onFatalSignal(int signal) {
+  emcalign::io::removeTemporaries();
+  std::raise(signal);  // the handler was reset to the default by SA_RESETHAND
+}
+
+void installSignalHandlers() {
+  struct sigaction action {};
+  action.sa_handler = onFatalSignal;
+  action.sa_flags = SA_RESETHAND;
+  sigemptyset(&action.sa_mask);
+  for (int s : {SIGINT, SIGTERM, SIGHUP, SIGPIPE}) sigaction(s, &action, nullptr);
+  // Over a file-size limit (ulimit -f) a write then fails with EFBIG and is reported like a
+  // full disk, instead of killing the process with its temporaries in place.
+  std::signal(SIGXFSZ, SIG_IGN);
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
+  installSignalHandlers();
   CLI::App app{
       "emcalign: geometric calibration of the electromagnetic calorimeter relative to the "
       "tracking system (SND-like, 12 alignment parameters)"};
   app.set_version_flag("--version", std::string(emcalign::kVersion));
   app.require_subcommand(1);
+  app.footer("Exit codes: 0 ok; 1 input refused or a step failed (nothing written); 2 usage error; 3 result written "
+             "but not converged; 4 internal error; 128+N killed by signal N. See docs/conventions.md.");
   int exitCode = 0;
   emcalign::app::addGeometryCommand(app, exitCode);
   emcalign::app::addParamsCommand(app, exitCode);
@@ -20,6 +51,15 @@ int main(int argc, char** argv) {
   emcalign::app::addFitCommand(app, exitCode);
   emcalign::app::addValidateCommand(app, exitCode);
   emcalign::app::addDeriveCorrectionsCommand(app, exitCode);
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // --help and --version end here with 0; every other parse error is a usage error.
+    const int code = app.exit(e);
+    return code == 0 ? 0 : emcalign::app::kExitUsage;
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "emcalign: internal error: {} (a bug: please report it with the command line)\n", e.what());
+    return emcalign::app::kExitInternal;
+  }
   return exitCode;
 }

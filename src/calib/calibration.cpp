@@ -54,6 +54,7 @@ Status ProfileFiller::checkSelected() const {
 Result<ProfileFill> fillProfiles(const std::vector<std::string>& files, const geometry::ShowerDepth& depth,
                                  const SelectionOptions& selection, const ProfileOptions& profile,
                                  const ParticleVisitor& visit) {
+  if (Status s = profile.validate(); !s) return s.error();
   auto reader = io::EventReader::open(files);
   if (!reader) return reader.error();
   ProfileFiller filler(depth, selection, profile, visit);
@@ -116,7 +117,7 @@ io::Json fitResultJson(const FitResult& r, const FitInput& input) {
                       {"converged", r.stages[k].converged}});
   }
   j["stages"] = stages;
-  j["status"] = r.status;
+  j["status"] = std::string(name(r.status));
   j["warnings"] = r.warnings;
   Json in = {{"files", input.files}, {"from_profile", input.fromProfile}, {"detector", input.detector},
              {"bins_used", r.binsUsed}, {"bins_left_out", r.binsLeftOut.size()}};

@@ -82,14 +82,20 @@ Result<ModelCorrections> parseCorrections(const Json& j, std::string_view source
     return Error{fmt::format("{}: key 'depth_offset_cm': expected a finite number (cm)", source)};
   }
   c.depthOffset = j["depth_offset_cm"].get<double>() * units::cm;
+  if (std::abs(c.depthOffset) > kMaxDepthOffset) {
+    return Error{fmt::format("{}: key 'depth_offset_cm': {:.6g} cm is beyond the plausible ±{} cm (the offset is in cm: "
+                             "given in mm?)",
+                             source, c.depthOffset / units::cm, kMaxDepthOffset / units::cm)};
+  }
   if (j.contains("parting_plane")) {
     const Json& p = j["parting_plane"];
     if (!p.is_object() || p.size() != 2 || !p.contains("phi_bins") || !p.contains("plus_weight")) {
       return Error{fmt::format("{}: key 'parting_plane': expected {{\"phi_bins\": 16, \"plus_weight\": [...]}}", source)};
     }
-    if (!p["phi_bins"].is_number_integer() || !p["plus_weight"].is_array() ||
-        p["plus_weight"].size() != p["phi_bins"].get<std::size_t>()) {
-      return Error{fmt::format("{}: key 'parting_plane.plus_weight': expected phi_bins numbers", source)};
+    auto bins = io::integerIn(p["phi_bins"], kProfilePhiBins, kProfilePhiBins, source, "parting_plane.phi_bins");
+    if (!bins) return Error{fmt::format("{} (the response belongs to the {} phi bins of the profiles)", bins.error().message, kProfilePhiBins)};
+    if (!p["plus_weight"].is_array() || p["plus_weight"].size() != static_cast<std::size_t>(*bins)) {
+      return Error{fmt::format("{}: key 'parting_plane.plus_weight': expected {} numbers", source, *bins)};
     }
     std::vector<double> w;
     for (const auto& x : p["plus_weight"]) {
@@ -110,11 +116,15 @@ Result<ModelCorrections> parseCorrections(const Json& j, std::string_view source
       if (!p.contains(key)) return Error{fmt::format("{}: key 'nominal_profile.{}': missing", source, key)};
     }
     NominalProfile t;
-    if (!p["phi_bins"].is_number_integer() || !p["theta_bins"].is_number_integer()) {
-      return Error{fmt::format("{}: key 'nominal_profile': phi_bins and theta_bins must be integers", source)};
+    auto phiBins = io::integerIn(p["phi_bins"], kProfilePhiBins, kProfilePhiBins, source, "nominal_profile.phi_bins");
+    auto thetaBins =
+        io::integerIn(p["theta_bins"], kProfileThetaBins, kProfileThetaBins, source, "nominal_profile.theta_bins");
+    if (!phiBins || !thetaBins) {
+      return Error{fmt::format("{} (the nominal profile belongs to the {} x {} bins of the profiles)",
+                               (!phiBins ? phiBins : thetaBins).error().message, kProfilePhiBins, kProfileThetaBins)};
     }
-    t.phiBins = p["phi_bins"].get<int>();
-    t.thetaBins = p["theta_bins"].get<int>();
+    t.phiBins = static_cast<int>(*phiBins);
+    t.thetaBins = static_cast<int>(*thetaBins);
     for (const char* key : {"y_phi", "sigma_phi", "y_theta", "sigma_theta"}) {
       if (!p[key].is_array()) return Error{fmt::format("{}: key 'nominal_profile.{}': expected an array", source, key)};
       std::vector<double>& v = key == std::string_view("y_phi")       ? t.yPhi

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <set>
 
@@ -110,6 +111,18 @@ Result<FitResult> fitProfiles(const std::vector<ProfileBin>& bins, const FitGeom
     if (!b.used) result.binsLeftOut.emplace_back(b.iPhi, b.iTheta);
   }
   const std::vector<BinPoint> points = pointsOf(bins, g);
+  for (std::size_t i = 0, k = 0; i < bins.size(); ++i) {
+    if (!bins[i].used) continue;
+    const BinPoint& p = points[k++];
+    // The model places a bin's showers at R(E, θ): outside the calorimeter it is meaningless
+    // (an energy of 1e-300 MeV, or a depth offset of metres).
+    if (!(p.radius > 0.0 && p.radius < 2.0 * g.radii.rp3) || !std::isfinite(p.phi) || !std::isfinite(p.theta)) {
+      return Error{fmt::format("profile bin ({}, {}): the shower depth R(E, theta) = {:.4g} cm at its mean energy "
+                               "{:.4g} MeV lies outside the calorimeter (0 to {:.4g} cm): not a plausible bin (energy "
+                               "in MeV? depth offset in cm?)",
+                               bins[i].iPhi, bins[i].iTheta, p.radius, bins[i].energyMean, 2.0 * g.radii.rp3)};
+    }
+  }
   result.binsUsed = static_cast<int>(points.size());
   if (2 * result.binsUsed <= kN) {
     return Error{fmt::format("only {} profile bins have at least 10 entries: the 12 parameters need at least 7 "
@@ -150,17 +163,20 @@ Result<FitResult> fitProfiles(const std::vector<ProfileBin>& bins, const FitGeom
     sr.free = free;
     sr.chi2 = 2.0 * summary.final_cost;
     sr.iterations = static_cast<int>(summary.iterations.size()) - 1;
-    sr.converged = summary.termination_type == ceres::CONVERGENCE;
-    sr.termination = summary.message;
+    sr.converged = summary.termination_type == ceres::CONVERGENCE && std::isfinite(summary.final_cost) &&
+                   summary.final_cost >= 0.0;
+    // Ceres' message can hold a dump of every residual: its first line is what a user reads.
+    sr.termination = summary.message.substr(0, summary.message.find('\n')).substr(0, 300);
     allConverged = allConverged && sr.converged;
     result.stages.push_back(sr);
   }
 
   result.parameters.values = eta;
   result.chi2 = result.stages.back().chi2;
+  if (!(result.chi2 >= 0.0)) result.chi2 = std::numeric_limits<double>::quiet_NaN();  // never evaluated
   result.ndf = 2 * result.binsUsed - kN;
-  result.pValue = chi2PValue(result.chi2, result.ndf);
-  result.status = allConverged ? "converged" : "not converged";
+  result.pValue = std::isfinite(result.chi2) ? chi2PValue(result.chi2, result.ndf) : std::numeric_limits<double>::quiet_NaN();
+  result.status = allConverged ? FitStatus::Converged : FitStatus::NotConverged;
   if (!allConverged) {
     for (std::size_t k = 0; k < result.stages.size(); ++k) {
       if (!result.stages[k].converged) {
@@ -205,7 +221,7 @@ Result<FitResult> fitProfiles(const std::vector<ProfileBin>& bins, const FitGeom
     }
   }
   if (singular) {
-    result.status = "covariance singular";
+    result.status = FitStatus::CovarianceSingular;
     std::string evs;
     for (double e : result.eigenvalues) evs += fmt::format("{}{:.3g}", evs.empty() ? "" : ", ", e);
     result.warnings.push_back(fmt::format(
@@ -233,6 +249,14 @@ Result<FitResult> fitProfiles(const std::vector<ProfileBin>& bins, const FitGeom
     v.error = result.covariance && grad.allFinite() ? std::sqrt(grad.dot(*result.covariance * grad))
                                                     : std::numeric_limits<double>::quiet_NaN();
     result.derived.emplace_back(names[i], v);
+  }
+
+  if (result.status == FitStatus::Converged && result.pValue < kPoorFitPValue) {
+    result.status = FitStatus::PoorFit;
+    result.warnings.push_back(fmt::format(
+        "chi2/ndf = {:.1f}/{} (p-value {:.2g}): the model does not describe the profiles (a detector or "
+        "reconstruction effect the model lacks, repeated events, or errors too small); use the result with care",
+        result.chi2, result.ndf, result.pValue));
   }
 
   // Warnings a calibration physicist acts on.

@@ -1,6 +1,10 @@
 #include "emcalign/calib/profiles.hpp"
 
 #include <algorithm>
+#include <cerrno>
+#include <charconv>
+#include <cstring>
+#include <optional>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -13,16 +17,29 @@
 
 namespace emcalign::calib {
 
-Profiles::Profiles(ProfileOptions options)
-    : options_(options), acc_(static_cast<std::size_t>(options.phiBins * options.thetaBins)) {
-  if (options_.partingPlane && options_.partingPlane->phiBins() != options_.phiBins) {
-    throw std::invalid_argument(fmt::format("profiles: the parting-plane response has {} phi columns, the profiles {}",
-                                            options_.partingPlane->phiBins(), options_.phiBins));
+Status ProfileOptions::validate() const {
+  if (phiBins < 1 || thetaBins < 1 || phiBins > 1000 || thetaBins > 1000) {
+    return Error{fmt::format("profiles: {} x {} bins; need 1 to 1000 each way", phiBins, thetaBins)};
   }
-  if (options_.nominalProfile &&
-      (options_.nominalProfile->phiBins != options_.phiBins || options_.nominalProfile->thetaBins != options_.thetaBins)) {
-    throw std::invalid_argument("profiles: the nominal profile has other bins than the profiles");
+  if (!(thetaMin >= 0.0 && thetaMin < thetaMax && thetaMax <= std::numbers::pi)) {
+    return Error{"profiles: the theta range must lie inside [0, 180] deg"};
   }
+  if (!(std::isfinite(sigmaSys) && sigmaSys >= 0.0)) return Error{"profiles: sigma_sys must be finite and >= 0"};
+  if (minEntries < 2) return Error{"profiles: a bin needs at least 2 entries for its sigma"};
+  if (partingPlane && partingPlane->phiBins() != phiBins) {
+    return Error{fmt::format("the parting-plane response has {} phi columns, the profiles {}", partingPlane->phiBins(),
+                             phiBins)};
+  }
+  if (nominalProfile && (nominalProfile->phiBins != phiBins || nominalProfile->thetaBins != thetaBins)) {
+    return Error{fmt::format("the nominal profile has {} x {} bins, the profiles {} x {}", nominalProfile->phiBins,
+                             nominalProfile->thetaBins, phiBins, thetaBins)};
+  }
+  return {};
+}
+
+Profiles::Profiles(ProfileOptions options) : options_(std::move(options)) {
+  if (Status s = options_.validate(); !s) throw std::invalid_argument(s.error().message);
+  acc_.resize(static_cast<std::size_t>(options_.phiBins * options_.thetaBins));
 }
 
 bool Profiles::fill(const ParticleResidual& p) {
@@ -117,82 +134,146 @@ std::string profileCsv(const std::vector<ProfileBin>& bins) {
   return out;
 }
 
-Result<std::vector<ProfileBin>> readProfileCsv(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) return Error{fmt::format("{}: cannot open", path)};
-  std::vector<ProfileBin> bins;
+namespace {
+
+// A profile-CSV integer: digits only (no sign, point or exponent), within [lo, hi].
+std::optional<std::int64_t> profileInteger(std::string_view field, std::int64_t lo, std::int64_t hi) {
+  std::int64_t x = 0;
+  const auto [ptr, ec] = std::from_chars(field.data(), field.data() + field.size(), x);
+  if (field.empty() || ec != std::errc() || ptr != field.data() + field.size() || x < lo || x > hi) return std::nullopt;
+  return x;
+}
+
+}  // namespace
+
+Result<std::vector<ProfileBin>> readProfileCsv(const std::string& path, const ProfileOptions& options) {
+  if (Status s = options.validate(); !s) return s.error();
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return Error{fmt::format("{}: cannot open: {}", path, std::strerror(errno))};
+  static const char* kColumns[] = {"i_phi", "i_theta", "n", "phi_mean_rad", "theta_mean_rad", "e_mean_mev",
+                                   "y_phi", "sigma_phi", "y_theta", "sigma_theta", "plus_weight"};
+  enum { kIPhi, kITheta, kN, kPhiMean, kThetaMean, kEMean, kYPhi, kSigmaPhi, kYTheta, kSigmaTheta, kPlusWeight };
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double pi = std::numbers::pi;
+  const int bins = options.phiBins * options.thetaBins;
+  std::vector<int> lineOfBin(static_cast<std::size_t>(bins), 0);
+  std::vector<ProfileBin> out;
   std::string line;
   long lineNo = 0;
   bool header = false;
-  static const char* kColumns[] = {"i_phi", "i_theta", "n", "phi_mean_rad", "theta_mean_rad", "e_mean_mev",
-                                   "y_phi", "sigma_phi", "y_theta", "sigma_theta", "plus_weight"};
   std::size_t columns = 10;
-  const double nan = std::numeric_limits<double>::quiet_NaN();
   while (std::getline(in, line)) {
     ++lineNo;
+    if (in.eof() && !line.empty()) {
+      return Error{fmt::format("{}: line {}: the file ends inside this line (no newline at its end): truncated?", path,
+                               lineNo)};
+    }
     if (io::isBlankOrComment(line)) continue;
     const auto f = io::splitCsvLine(line);
+    const auto where = [&](int k) { return fmt::format("{}: line {}: column '{}'", path, lineNo, kColumns[k]); };
     if (!header) {
       bool names = f.size() == 10 || f.size() == 11;
       for (std::size_t k = 0; names && k < f.size(); ++k) names = f[k] == kColumns[k];
-      if (names) {
-        columns = f.size();
-      } else {
-        return Error{fmt::format("{}: line {}: header: expected '{}' (optionally followed by ',plus_weight')", path,
-                                 lineNo, kHeader)};
+      if (!names) {
+        return Error{fmt::format("{}: line {}: header: expected '{}' (optionally followed by ',plus_weight'), got {}",
+                                 path, lineNo, kHeader, io::quoted(line))};
       }
+      columns = f.size();
       header = true;
       continue;
     }
     if (f.size() != columns) {
       return Error{fmt::format("{}: line {}: expected {} columns, got {}", path, lineNo, columns, f.size())};
     }
+    ProfileBin b;
+    const auto iPhi = profileInteger(f[kIPhi], 0, options.phiBins - 1);
+    if (!iPhi) return Error{fmt::format("{}: {} is not a bin index 0 to {}", where(kIPhi), io::quoted(f[kIPhi]), options.phiBins - 1)};
+    const auto iTheta = profileInteger(f[kITheta], 0, options.thetaBins - 1);
+    if (!iTheta) {
+      return Error{fmt::format("{}: {} is not a bin index 0 to {}", where(kITheta), io::quoted(f[kITheta]),
+                               options.thetaBins - 1)};
+    }
+    constexpr std::int64_t kMaxEntries = std::int64_t{1} << 53;
+    const auto n = profileInteger(f[kN], 0, kMaxEntries);
+    if (!n) return Error{fmt::format("{}: {} is not a count of entries (0 to 2^53)", where(kN), io::quoted(f[kN]))};
+    b.iPhi = static_cast<int>(*iPhi);
+    b.iTheta = static_cast<int>(*iTheta);
+    b.n = *n;
+    const auto k = static_cast<std::size_t>(b.iPhi * options.thetaBins + b.iTheta);
+    if (lineOfBin[k] != 0) {
+      return Error{fmt::format("{}: line {}: bin ({}, {}) is given again (first on line {})", path, lineNo, b.iPhi,
+                               b.iTheta, lineOfBin[k])};
+    }
+    lineOfBin[k] = static_cast<int>(lineNo);
     double v[11];
-    v[10] = nan;
-    for (int k = 0; k < static_cast<int>(columns); ++k) {
-      if (f[static_cast<std::size_t>(k)].empty() && k >= 3) {
-        v[k] = nan;
+    v[kPlusWeight] = nan;
+    for (int c = kPhiMean; c < static_cast<int>(columns); ++c) {
+      const auto field = f[static_cast<std::size_t>(c)];
+      if (field.empty()) {
+        v[c] = nan;
         continue;
       }
-      const auto x = io::parseFiniteDouble(f[static_cast<std::size_t>(k)]);
-      if (!x) {
-        return Error{fmt::format("{}: line {}: column '{}': not a finite number: '{}'", path, lineNo, kColumns[k],
-                                 f[static_cast<std::size_t>(k)])};
-      }
-      v[k] = *x;
+      const auto x = io::parseFiniteDouble(field);
+      if (!x) return Error{fmt::format("{}: not a finite number: {}", where(c), io::quoted(field))};
+      v[c] = *x;
     }
-    for (int k : {0, 1, 2}) {
-      if (v[k] != std::floor(v[k]) || v[k] < 0) {
-        return Error{fmt::format("{}: line {}: column '{}': expected a non-negative integer", path, lineNo, kColumns[k])};
+    // Plausibility: each value in the range its definition allows.
+    const double phiLo = 2.0 * pi * b.iPhi / options.phiBins, phiHi = 2.0 * pi * (b.iPhi + 1) / options.phiBins;
+    const double dTheta = (options.thetaMax - options.thetaMin) / options.thetaBins;
+    const double thetaLo = options.thetaMin + dTheta * b.iTheta, thetaHi = thetaLo + dTheta;
+    const double slack = 1e-9;
+    const auto bad = [&](int c, std::string_view what) {
+      return Error{fmt::format("{}: {} {}", where(c), io::quoted(f[static_cast<std::size_t>(c)]), what)};
+    };
+    if (b.n == 0) {
+      for (int c = kPhiMean; c <= kSigmaTheta; ++c) {
+        if (!std::isnan(v[c])) return bad(c, "is given for a bin without entries (n = 0)");
+      }
+    } else {
+      for (int c : {kPhiMean, kThetaMean, kEMean}) {
+        if (std::isnan(v[c])) return Error{fmt::format("{}: empty, but the bin has {} entries", where(c), b.n)};
       }
     }
-    for (int k : {7, 9}) {
-      if (!std::isnan(v[k]) && !(v[k] > 0.0)) {
-        return Error{fmt::format("{}: line {}: column '{}': a sigma must be positive", path, lineNo, kColumns[k])};
-      }
+    if (!std::isnan(v[kPhiMean]) && !(v[kPhiMean] >= phiLo - slack && v[kPhiMean] <= phiHi + slack)) {
+      return bad(kPhiMean, fmt::format("lies outside its bin i_phi = {} ({:.6g} to {:.6g} rad)", b.iPhi, phiLo, phiHi));
     }
-    ProfileBin b;
-    b.iPhi = static_cast<int>(v[0]);
-    b.iTheta = static_cast<int>(v[1]);
-    b.n = static_cast<std::int64_t>(v[2]);
-    b.phiMean = v[3];
-    b.thetaMean = v[4];
-    b.energyMean = v[5];
-    b.yPhi = v[6];
-    b.sigmaPhi = v[7];
-    b.yTheta = v[8];
-    b.sigmaTheta = v[9];
-    if (columns == 11) {
-      if (!std::isnan(v[10]) && !(v[10] >= 0.0 && v[10] <= 1.0)) {
-        return Error{fmt::format("{}: line {}: column 'plus_weight': expected a weight in [0, 1]", path, lineNo)};
-      }
-      b.plusWeight = v[10];
+    if (!std::isnan(v[kThetaMean]) && !(v[kThetaMean] >= thetaLo - slack && v[kThetaMean] <= thetaHi + slack)) {
+      return bad(kThetaMean,
+                 fmt::format("lies outside its bin i_theta = {} ({:.6g} to {:.6g} rad)", b.iTheta, thetaLo, thetaHi));
     }
-    bins.push_back(b);
+    if (!std::isnan(v[kEMean]) && !(v[kEMean] > 1.0 && v[kEMean] < 1e5)) {
+      return bad(kEMean, "is not a plausible cluster energy (1 to 100000 MeV; energies are in MeV)");
+    }
+    if (!std::isnan(v[kYPhi]) && !(std::abs(v[kYPhi]) <= 1.0)) return bad(kYPhi, "is not a sine (|y_phi| <= 1)");
+    if (!std::isnan(v[kYTheta]) && !(std::abs(v[kYTheta]) <= pi)) return bad(kYTheta, "is not an angle (|y_theta| <= pi)");
+    for (int c : {kSigmaPhi, kSigmaTheta}) {
+      if (!std::isnan(v[c]) && !(v[c] > 0.0 && v[c] <= pi)) return bad(c, "is not a plausible sigma (0 < sigma <= pi)");
+    }
+    if (!std::isnan(v[kPlusWeight]) && !(v[kPlusWeight] >= 0.0 && v[kPlusWeight] <= 1.0)) {
+      return bad(kPlusWeight, "is not a weight in [0, 1]");
+    }
+    b.phiMean = v[kPhiMean];
+    b.thetaMean = v[kThetaMean];
+    b.energyMean = v[kEMean];
+    b.yPhi = v[kYPhi];
+    b.sigmaPhi = v[kSigmaPhi];
+    b.yTheta = v[kYTheta];
+    b.sigmaTheta = v[kSigmaTheta];
+    b.plusWeight = v[kPlusWeight];
+    out.push_back(b);
   }
-  if (!header) return Error{fmt::format("{}: no header line", path)};
-  if (bins.empty()) return Error{fmt::format("{}: no bins", path)};
-  return bins;
+  if (in.bad()) return Error{fmt::format("{}: read error: {}", path, std::strerror(errno))};
+  if (!header) return Error{fmt::format("{}: no header line '{}'", path, kHeader)};
+  if (out.size() != static_cast<std::size_t>(bins)) {
+    for (int i = 0; i < bins; ++i) {
+      if (lineOfBin[static_cast<std::size_t>(i)] == 0) {
+        return Error{fmt::format("{}: {} of the {} bins are given; bin ({}, {}) is missing (a profile lists every bin, "
+                                 "also the empty ones)",
+                                 path, out.size(), bins, i / options.thetaBins, i % options.thetaBins)};
+      }
+    }
+  }
+  return out;
 }
 
 }  // namespace emcalign::calib

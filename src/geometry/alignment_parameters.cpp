@@ -55,6 +55,30 @@ Status validate(const AlignmentParameters& eta, double r1) {
   return {};
 }
 
+Status checkPlausible(const AlignmentParameters& eta) {
+  constexpr double kMaxAlphaDeg = 30.0, kMaxTiltDeg = 10.0, kMaxLengthCm = 10.0;
+  for (Param p : kAllParams) {
+    const double v = eta[p] / AlignmentParameters::fileUnit(p);
+    if (dimension(p) == Dimension::Length) {
+      if (!(std::abs(v) <= kMaxLengthCm)) {
+        return Error{fmt::format("{} = {:.6g} cm is beyond the plausible ±{} cm of an alignment: lengths are in cm "
+                                 "(given in mm?)",
+                                 name(p), v, kMaxLengthCm)};
+      }
+      continue;
+    }
+    const double limit = p == Param::Alpha ? kMaxAlphaDeg
+                         : p == Param::BetaRel ? kMaxTiltDeg
+                                               : std::sin(kMaxTiltDeg * units::deg) / units::deg;
+    if (!(std::abs(v) <= limit)) {
+      return Error{fmt::format("{} = {:.6g} deg is beyond the plausible ±{:.4g} deg of an alignment: angles are in "
+                               "degrees (given in radians, arcminutes or arcseconds?)",
+                               name(p), v, limit)};
+    }
+  }
+  return {};
+}
+
 Result<PhysicalParameters> toPhysical(const AlignmentParameters& eta, double r1) {
   if (Status s = validate(eta, r1); !s) return s.error();
   const double b1 = eta[Param::Beta1], b2 = eta[Param::Beta2];

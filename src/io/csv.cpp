@@ -3,6 +3,8 @@
 #include <charconv>
 #include <cmath>
 
+#include <fmt/format.h>
+
 namespace emcalign::io {
 
 namespace {
@@ -38,6 +40,14 @@ std::optional<double> parseFiniteDouble(std::string_view field) {
     return std::nullopt;
   }
   return value;
+}
+
+std::string quoted(std::string_view text, std::size_t keep) {
+  if (text.size() <= keep + 8) return fmt::format("'{}'", text);
+  // Cut on a UTF-8 character boundary.
+  std::size_t cut = keep;
+  while (cut > 0 && (static_cast<unsigned char>(text[cut]) & 0xC0) == 0x80) --cut;
+  return fmt::format("'{}…' ({} characters)", text.substr(0, cut), text.size());
 }
 
 bool isBlankOrComment(std::string_view line) {

@@ -8,6 +8,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <system_error>
@@ -115,7 +116,51 @@ void checkUnits(const StrictObject& top) {
 
 }  // namespace
 
+namespace {
+
+// Deeper nesting than any emcalign file has (they need 4 levels) is refused before parsing:
+// the parser, the digests and the printers recurse, and a hostile file must not overflow
+// the stack.
+constexpr int kMaxJsonDepth = 64;
+constexpr std::size_t kMaxJsonBytes = std::size_t{64} << 20;
+
+std::optional<std::size_t> tooDeep(std::string_view text) {
+  int depth = 0;
+  bool inString = false, escaped = false;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (inString) {
+      if (escaped) {
+        escaped = false;
+      } else if (c == '\\') {
+        escaped = true;
+      } else if (c == '"') {
+        inString = false;
+      }
+      continue;
+    }
+    if (c == '"') {
+      inString = true;
+    } else if (c == '[' || c == '{') {
+      if (++depth > kMaxJsonDepth) return i;
+    } else if (c == ']' || c == '}') {
+      --depth;
+    }
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
 Result<json> parseJson(std::string_view text, std::string_view source) {
+  if (text.size() > kMaxJsonBytes) {
+    return Error{fmt::format("{}: {} bytes is too large for an emcalign JSON file (at most {} MiB)", source, text.size(),
+                             kMaxJsonBytes >> 20)};
+  }
+  if (auto at = tooDeep(text)) {
+    return Error{fmt::format("{}: not an emcalign file: nested deeper than {} levels (at byte {})", source,
+                             kMaxJsonDepth, *at)};
+  }
   // Duplicate keys are silently merged by JSON parsers; a calibration file with two
   // "alpha" entries is a mistake, so a callback tracks the keys of every open object.
   std::vector<std::set<std::string>> open;
@@ -149,6 +194,26 @@ Result<json> parseJson(std::string_view text, std::string_view source) {
   }
 }
 
+Result<std::int64_t> integerIn(const json& v, std::int64_t lo, std::int64_t hi, std::string_view source,
+                               std::string_view key) {
+  if (!v.is_number_integer()) {
+    return Error{fmt::format("{}: key '{}': expected an integer, got {}", source, key,
+                             v.is_number() ? fmt::format("{}", v.get<double>()) : std::string(v.type_name()))};
+  }
+  std::int64_t x = 0;
+  bool inRange = false;
+  if (v.is_number_unsigned()) {
+    const auto u = v.get<std::uint64_t>();
+    inRange = hi >= 0 && u <= static_cast<std::uint64_t>(hi) && static_cast<std::int64_t>(u) >= lo;
+    x = inRange ? static_cast<std::int64_t>(u) : 0;
+  } else {
+    x = v.get<std::int64_t>();
+    inRange = x >= lo && x <= hi;
+  }
+  if (!inRange) return Error{fmt::format("{}: key '{}': {} is outside [{}, {}]", source, key, v.dump(), lo, hi)};
+  return x;
+}
+
 Result<std::string> readTextFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) return Error{fmt::format("{}: cannot open: {}", path, std::strerror(errno))};
@@ -156,31 +221,6 @@ Result<std::string> readTextFile(const std::string& path) {
   ss << in.rdbuf();
   if (in.bad()) return Error{fmt::format("{}: read error", path)};
   return ss.str();
-}
-
-Status writeTextFileAtomically(const std::string& path, std::string_view content) {
-  namespace fs = std::filesystem;
-  const fs::path target(path);
-  fs::path tmp = target;
-  tmp += fmt::format(".tmp-{}", static_cast<long>(::getpid()));
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) return Error{fmt::format("{}: cannot write: {}", path, std::strerror(errno))};
-    out.write(content.data(), static_cast<std::streamsize>(content.size()));
-    out.flush();
-    if (!out) {
-      std::error_code ec;
-      fs::remove(tmp, ec);
-      return Error{fmt::format("{}: write failed", path)};
-    }
-  }
-  std::error_code ec;
-  fs::rename(tmp, target, ec);
-  if (ec) {
-    fs::remove(tmp, ec);
-    return Error{fmt::format("{}: cannot rename into place: {}", path, ec.message())};
-  }
-  return {};
 }
 
 // ---------------------------------------------------------------- detector description
@@ -217,12 +257,15 @@ Result<DetectorDescription> parseDetectorDescription(const json& j, std::string_
     if (top.has("counters_per_ring")) {
       const json& arr = top.at("counters_per_ring");
       if (!arr.is_array()) top.fail("counters_per_ring", "expected a list of integers");
+      if (arr.size() > static_cast<std::size_t>(DetectorDescription::kMaxRings)) {
+        top.fail("counters_per_ring", fmt::format("{} rings: at most {}", arr.size(), DetectorDescription::kMaxRings));
+      }
       d.countersPerRing.clear();
       for (std::size_t i = 0; i < arr.size(); ++i) {
-        if (!arr[i].is_number_integer()) {
-          top.fail(fmt::format("counters_per_ring[{}]", i), "expected an integer");
-        }
-        d.countersPerRing.push_back(arr[i].get<int>());
+        auto n = integerIn(arr[i], 1, DetectorDescription::kMaxCountersPerRing, source,
+                           fmt::format("counters_per_ring[{}]", i));
+        if (!n) throw BadInput{n.error().message};
+        d.countersPerRing.push_back(static_cast<int>(*n));
       }
     }
     if (top.has("shower")) {
@@ -266,8 +309,8 @@ json toJson(const DetectorDescription& d) {
 
 // ---------------------------------------------------------------- alignment parameters
 
-Result<AlignmentParameters> parseAlignment(const json& j, double r1, std::string_view source) {
-  return guarded([&]() -> AlignmentParameters {
+Result<AlignmentFile> parseAlignmentFile(const json& j, double r1, std::string_view source, AlignmentUse use) {
+  return guarded([&]() -> AlignmentFile {
     StrictObject top(j, "", source);
     // The parameter keys, plus what a fit result adds (SPEC §3), read elsewhere.
     top.allowOnly({"format", "units", "parameters", "physical", "errors", "covariance", "derived",
@@ -317,20 +360,59 @@ Result<AlignmentParameters> parseAlignment(const json& j, double r1, std::string
         }
       }
     }
-    AlignmentParameters eta = fromFit ? *fromFit : *fromPhys;
-    if (Status st = geometry::validate(eta, r1); !st) {
+    AlignmentFile file;
+    file.parameters = fromFit ? *fromFit : *fromPhys;
+    if (Status st = geometry::validate(file.parameters, r1); !st) {
       throw BadInput{fmt::format("{}: {}", source, st.error().message)};
     }
-    return eta;
+    if (top.has("status")) {
+      const std::string status = top.string("status");
+      const auto s = fitStatusFromName(status);
+      if (!s) {
+        top.fail("status", fmt::format("unknown status '{}' (converged, poor fit, not converged, covariance singular)",
+                                       status));
+      }
+      file.status = *s;
+      if (use == AlignmentUse::Input && !usable(*s)) {
+        throw BadInput{fmt::format("{}: a fit result with status '{}': its parameters are not a calibration (read its "
+                                   "warnings and refit; to use them anyway, copy its \"parameters\" into a parameter "
+                                   "file)",
+                                   source, status)};
+      }
+      if (*s == FitStatus::PoorFit) {
+        file.warnings.push_back(fmt::format("{}: a fit result with status 'poor fit' (p-value below {:g}): the model does "
+                                            "not describe its profiles well; use it with care",
+                                            source, kPoorFitPValue));
+      }
+    }
+    if (use == AlignmentUse::Input) {
+      if (Status st = geometry::checkPlausible(file.parameters); !st) {
+        throw BadInput{fmt::format("{}: {}{}", source, fromFit ? "" : "(from \"physical\") ", st.error().message)};
+      }
+    }
+    for (auto& w : geometry::warnings(file.parameters)) file.warnings.push_back(fmt::format("{}: {}", source, w));
+    return file;
   });
 }
 
-Result<AlignmentParameters> readAlignment(const std::string& path, double r1) {
+Result<AlignmentParameters> parseAlignment(const json& j, double r1, std::string_view source, AlignmentUse use) {
+  auto file = parseAlignmentFile(j, r1, source, use);
+  if (!file) return file.error();
+  return file->parameters;
+}
+
+Result<AlignmentFile> readAlignmentFile(const std::string& path, double r1) {
   auto text = readTextFile(path);
   if (!text) return text.error();
   auto j = parseJson(*text, path);
   if (!j) return j.error();
-  return parseAlignment(*j, r1, path);
+  return parseAlignmentFile(*j, r1, path, AlignmentUse::Input);
+}
+
+Result<AlignmentParameters> readAlignment(const std::string& path, double r1) {
+  auto file = readAlignmentFile(path, r1);
+  if (!file) return file.error();
+  return file->parameters;
 }
 
 json alignmentToJson(const AlignmentParameters& eta) {

@@ -128,7 +128,7 @@ std::string plainText(const std::string& s) {
 
 std::string fitSummary(const calib::FitResult& fit) {
   std::string s = fmt::format("χ^2/ndf = {:.1f}/{}", fit.chi2, fit.ndf);
-  if (!fit.status.empty()) s += fmt::format(" ({})", plainText(fit.status));
+  s += fmt::format(" ({})", name(fit.status));
   return s;
 }
 
@@ -233,7 +233,7 @@ SliceChi2 sliceChi2(const std::vector<calib::ProfileBin>& bins, const ProfileDat
 }
 
 Status writeFile(const fs::path& dir, const std::string& name, const std::string& content) {
-  return io::writeTextFileAtomically((dir / name).string(), content);
+  return io::writeOutputFile((dir / name).string(), content);
 }
 
 // ---- data files

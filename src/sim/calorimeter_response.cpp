@@ -292,7 +292,10 @@ void CalorimeterResponse::track(CounterHits& hits, int source, double kineticEne
   const double interaction = hadron ? rng.exponential(o.nuclearInteractionLength) : 1e30;
   const double step = 2.0;
   double deposited = 0.0;
-  for (double l = 0.5 * step; l < std::min(length, interaction); l += step) {
+  // Counted, not accumulated: a step that no longer changes a huge length cannot hang.
+  const int steps = static_cast<int>(std::clamp(std::ceil(std::min(length, interaction) / step - 0.5), 0.0, 1e4));
+  for (int i = 0; i < steps; ++i) {
+    const double l = (i + 0.5) * step;
     const double e = o.mipDedx * step;
     deposit(hits, source, e, start + l * direction, h);
     deposited += e;

@@ -92,8 +92,14 @@ double radiatedFraction(double beta, double softProbability, Rng& rng) {
 
 /// The energies of the colliding e- and e+ after initial-state radiation.
 struct Beams {
-  double e1, e2;  ///< energies entering the hard process
+  double e1, e2;  ///< energies entering the hard process; NaN: no event within kMaxTrials
 };
+
+// Every accept-reject loop gives up after this many trials. With options that pass
+// validate() the acceptance is at least a few per cent, so this is never reached; it turns
+// a degenerate setting into an error instead of a hang.
+constexpr int kMaxTrials = 1 << 20;
+constexpr Beams kNoEvent{std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
 
 // ---------------------------------------------------------------------------------------
 // Lowest-order angular distributions (CM frame, c = cosθ in [cLo, cHi])
@@ -104,22 +110,24 @@ double bhabhaCos(double cLo, double cHi, Rng& rng) {
   const double wLo = 1.0 / (1.0 - cLo), wHi = 1.0 / (1.0 - cHi);
   const double t = 3.0 + std::max(cLo * cLo, cHi * cHi);
   const double bound = t * t;
-  while (true) {
+  for (int trial = 0; trial < kMaxTrials; ++trial) {
     const double w = wLo + (wHi - wLo) * rng.uniform();
     const double c = 1.0 - 1.0 / w;
     const double f = 3.0 + c * c;
     if (rng.uniform() * bound < f * f) return c;
   }
+  return std::numeric_limits<double>::quiet_NaN();
 }
 
 /// γγ: (1 + c²)/(1 − c²). Envelope ∝ 1/(1 − c²), drawn as c = tanh(u), u uniform; acceptance
 /// (1 + c²)/2 ≥ 1/2.
 double gammaGammaCos(double cLo, double cHi, Rng& rng) {
   const double uLo = std::atanh(cLo), uHi = std::atanh(cHi);
-  while (true) {
+  for (int trial = 0; trial < kMaxTrials; ++trial) {
     const double c = std::tanh(uLo + (uHi - uLo) * rng.uniform());
     if (2.0 * rng.uniform() < 1.0 + c * c) return c;
   }
+  return std::numeric_limits<double>::quiet_NaN();
 }
 
 // ---------------------------------------------------------------------------------------
@@ -184,14 +192,16 @@ Beams bhabha(const GeneratorOptions& o, double beam1, double beam2, Rng& rng,
     logSoftRatio = std::log(kMinPhotonEnergy / (o.beamEnergy * kMaxPhotonFraction));
     softIsr = std::exp(bIsr * logSoftRatio);
   }
-  while (true) {
+  for (int trial = 0; trial < kMaxTrials; ++trial) {
     event.particles.resize(first);
     const double x1 = o.radiation ? radiatedFraction(bIsr, softIsr, rng) : 0.0;
     const double x2 = o.radiation ? radiatedFraction(bIsr, softIsr, rng) : 0.0;
     const double e1 = beam1 * (1.0 - x1), e2 = beam2 * (1.0 - x2);
     const double sqrtS = 2.0 * std::sqrt(e1 * e2);
     const double eL = 0.5 * sqrtS;
-    const Vec3 d = directionAt(bhabhaCos(range.cmLo, range.cmHi, rng), rng);
+    const double cosTheta = bhabhaCos(range.cmLo, range.cmHi, rng);
+    if (std::isnan(cosTheta)) break;
+    const Vec3 d = directionAt(cosTheta, rng);
     const double pL = std::sqrt(eL * eL - kMe2);
 
     double y1 = 0.0, y2 = 0.0;
@@ -230,6 +240,8 @@ Beams bhabha(const GeneratorOptions& o, double beam1, double beam2, Rng& rng,
       return {e1, e2};
     }
   }
+  event.particles.resize(first);
+  return kNoEvent;
 }
 
 /// e+e- → γγ, drawn like bhabha() without final-state radiation.
@@ -242,13 +254,15 @@ Beams gammaGamma(const GeneratorOptions& o, double beam1, double beam2, Rng& rng
     bIsr = radiatorPerParticle(4.0 * beam1 * beam2);
     softIsr = std::exp(bIsr * std::log(kMinPhotonEnergy / (o.beamEnergy * kMaxPhotonFraction)));
   }
-  while (true) {
+  for (int trial = 0; trial < kMaxTrials; ++trial) {
     event.particles.resize(first);
     const double x1 = o.radiation ? radiatedFraction(bIsr, softIsr, rng) : 0.0;
     const double x2 = o.radiation ? radiatedFraction(bIsr, softIsr, rng) : 0.0;
     const double e1 = beam1 * (1.0 - x1), e2 = beam2 * (1.0 - x2);
     const double k = std::sqrt(e1 * e2);
-    const Vec3 d = directionAt(gammaGammaCos(range.cmLo, range.cmHi, rng), rng);
+    const double cosTheta = gammaGammaCos(range.cmLo, range.cmHi, rng);
+    if (std::isnan(cosTheta)) break;
+    const Vec3 d = directionAt(cosTheta, rng);
     event.particles.push_back({pdg::Photon, k * d, k});
     event.particles.push_back({pdg::Photon, -k * d, k});
     toLab(event, first, e1, e2);
@@ -258,6 +272,8 @@ Beams gammaGamma(const GeneratorOptions& o, double beam1, double beam2, Rng& rng
       return {e1, e2};
     }
   }
+  event.particles.resize(first);
+  return kNoEvent;
 }
 
 // ---------------------------------------------------------------------------------------
@@ -393,7 +409,8 @@ Beams threePion(const GeneratorOptions& o, double e1, double e2, Rng& rng, Gener
 
   // Dalitz point: uniform in (s+0, s−0) is uniform in phase space.
   DalitzPoint d;
-  while (true) {
+  bool found = false;
+  for (int trial = 0; trial < kMaxTrials && !found; ++trial) {
     const double a = box.lo + (box.hi - box.lo) * rng.uniform();
     const double b = box.lo + (box.hi - box.lo) * rng.uniform();
     d = dalitzPoint(sqrtS, a, b);
@@ -406,15 +423,17 @@ Beams threePion(const GeneratorOptions& o, double e1, double e2, Rng& rng, Gener
     const double ratio = w / bound;
     if (ratio > 1.0) ++tStats.overflows;
     tStats.maxWeightRatio = std::max(tStats.maxWeightRatio, ratio);
-    if (rng.uniform() < ratio) break;
+    found = rng.uniform() < ratio;
   }
+  if (!found) return kNoEvent;
   ++tStats.accepted;
 
   // Orientation: decay-plane normal n ∝ sin²θ_n (transverse φ), uniform rotation about n.
-  double cn;
-  do {
+  double cn = 0.0;
+  for (int trial = 0; trial < kMaxTrials; ++trial) {  // acceptance 2/3
     cn = 2.0 * rng.uniform() - 1.0;
-  } while (rng.uniform() >= 1.0 - cn * cn);
+    if (rng.uniform() < 1.0 - cn * cn) break;
+  }
   const Vec3 n = directionAt(cn, rng);
   Vec3 e1n, e2n;
   orthonormalBasis(n, e1n, e2n);
@@ -468,9 +487,12 @@ double defaultBeamEnergy(Process process) {
 }
 
 Status GeneratorOptions::validate() const {
-  if (!(std::isfinite(beamEnergy) && beamEnergy > 0.0)) {
-    return Error{
-        fmt::format("generator: the beam energy must be positive (got {} MeV)", beamEnergy)};
+  const double maxBeam = process == Process::ThreePion ? kMaxThreePionBeamEnergy : kMaxBeamEnergy;
+  if (!(std::isfinite(beamEnergy) && beamEnergy >= kMinBeamEnergy && beamEnergy <= maxBeam)) {
+    return Error{fmt::format(
+        "generator: the beam energy {:.6g} MeV is outside [{}, {}] MeV, the range the {} generator models (VEPP-2000: "
+        "150-1000 MeV per beam; energies are in MeV)",
+        beamEnergy / units::MeV, kMinBeamEnergy / units::MeV, maxBeam / units::MeV, name(process))};
   }
   if (!(std::isfinite(beamEnergySpread) && beamEnergySpread >= 0.0)) {
     return Error{fmt::format("generator: the beam energy spread must not be negative (got {} MeV)",
@@ -515,12 +537,18 @@ Collision generate(const GeneratorOptions& o, Rng& rng, GeneratedEvent& event) {
   event.vertex = Vec3(o.vertexSigma.x() * rng.normal(), o.vertexSigma.y() * rng.normal(),
                       o.vertexSigma.z() * rng.normal());
   Collision c;
-  do {
+  bool aboveThreshold = false;
+  for (int trial = 0; trial < kMaxTrials && !aboveThreshold; ++trial) {
     c.electronBeam = o.beamEnergy + o.beamEnergySpread * rng.normal();
     c.positronBeam = o.beamEnergy + o.beamEnergySpread * rng.normal();
     // Only 3π has a threshold; validate() keeps the other energies far from zero.
-  } while (o.process == Process::ThreePion &&
-           !(2.0 * std::sqrt(c.electronBeam * c.positronBeam) > kPiThreshold * (1.0 + 1e-9)));
+    aboveThreshold = o.process != Process::ThreePion ||
+                     2.0 * std::sqrt(c.electronBeam * c.positronBeam) > kPiThreshold * (1.0 + 1e-9);
+  }
+  if (!aboveThreshold) {
+    c.electronEnergy = c.positronEnergy = std::numeric_limits<double>::quiet_NaN();
+    return c;
+  }
 
   Beams b{};
   switch (o.process) {

@@ -110,8 +110,9 @@ void Simulation::simulateEvent(std::int64_t index, EventScratch& scratch, std::v
   GeneratedEvent& ev = scratch.event;
   if (isCosmic) {
     cosmic(rng, ev);
-  } else {
-    generate(o.generator, rng, ev);
+  } else if (!generate(o.generator, rng, ev).made()) {
+    if (scratch.failedEvent < 0 || index < scratch.failedEvent) scratch.failedEvent = index;
+    return;
   }
 
   CounterHits& hits = scratch.hits;
@@ -242,6 +243,13 @@ Status Simulation::run(std::int64_t events, int threads, const Sink& sink, const
       const std::int64_t end = std::min(last, begin + kChunk);
       for (std::int64_t i = begin; i < end; ++i) simulateEvent(i, s, chunk.rows, chunk.truth);
     });
+    for (EventScratch& s : scratch) {
+      if (s.failedEvent >= 0) {
+        return Error{fmt::format("event {}: the {} generator made no event in 2^20 trials: its options (beam energy {} "
+                                 "MeV, polar range) are at the edge of what it models",
+                                 s.failedEvent, name(options_.generator.process), options_.generator.beamEnergy)};
+      }
+    }
     if (Status s = drain(); !s) return s;
     pending = std::async(std::launch::async, [&sink, &chunks]() -> Status {
       for (const Chunk& chunk : chunks) {

@@ -139,6 +139,10 @@ AlignmentParameters drawTruth(const Ranges& ranges, double r1, Rng& rng) {
 Status CampaignOptions::validate() const {
   if (samples < 1) return Error{"--samples must be at least 1"};
   if (events < 1) return Error{"--events must be at least 1"};
+  if (!(std::abs(corrections.depthOffset) <= calib::kMaxDepthOffset)) {
+    return Error{fmt::format("the depth offset {:.6g} cm is beyond the plausible ±{} cm (in cm: given in mm?)",
+                             corrections.depthOffset, calib::kMaxDepthOffset)};
+  }
   return ranges.validate();
 }
 
@@ -171,13 +175,15 @@ std::optional<SampleResult> readSample(const std::string& path, const CampaignOp
     SampleResult s;
     s.index = (*j)["index"].get<int>();
     s.selectedEvents = (*j)["selected_events"].get<std::int64_t>();
-    auto truth = io::parseAlignment((*j)["truth"], r1, path);
-    auto fit = io::parseAlignment((*j)["fit"], r1, path);
+    auto truth = io::parseAlignment((*j)["truth"], r1, path, io::AlignmentUse::Record);
+    auto fit = io::parseAlignment((*j)["fit"], r1, path, io::AlignmentUse::Record);
     if (!truth || !fit) return std::nullopt;
     s.truth = *truth;
     s.fit.parameters = *fit;
     const Json& f = (*j)["fit"];
-    s.fit.status = f["status"].get<std::string>();
+    const auto status = fitStatusFromName(f["status"].get<std::string>());
+    if (!status) return std::nullopt;
+    s.fit.status = *status;
     s.fit.chi2 = f["chi2"].get<double>();
     s.fit.ndf = f["ndf"].get<int>();
     for (Param p : kAllParams) {
@@ -253,6 +259,7 @@ Result<Table> runCampaign(const geometry::Calorimeter& calo, const CampaignOptio
   calib::ProfileOptions profileOptions;
   profileOptions.partingPlane = o.corrections.partingPlane;
   profileOptions.nominalProfile = o.corrections.nominalProfile;
+  if (Status s = profileOptions.validate(); !s) return Error{fmt::format("the corrections: {}", s.error().message)};
 
   std::vector<SampleResult> samples;
   for (int i = 0; i < o.samples; ++i) {
@@ -286,7 +293,7 @@ Result<Table> runCampaign(const geometry::Calorimeter& calo, const CampaignOptio
     if (!fit) return Error{fmt::format("sample {}: {}", i, fit.error().message)};
     s.fit = std::move(*fit);
     s.selectedEvents = filler.fill().cutFlow.events.back();
-    if (Status w = io::writeTextFileAtomically(path, sampleJson(s, o).dump(1) + "\n"); !w) return w.error();
+    if (Status w = io::writeOutputFile(path, sampleJson(s, o).dump(1) + "\n"); !w) return w.error();
     // Tabulate what the file holds (file units), so that a resumed campaign, which reads
     // its finished samples back, gives the same table to the last digit.
     auto stored = readSample(path, o, r1);
@@ -295,10 +302,10 @@ Result<Table> runCampaign(const geometry::Calorimeter& calo, const CampaignOptio
     if (progress) progress(i + 1, o.samples);
   }
   Table table = tabulate(samples, o.events, r1);
-  if (Status w = io::writeTextFileAtomically((fs::path(dir) / "table.json").string(), tableJson(table).dump(2) + "\n"); !w) {
+  if (Status w = io::writeOutputFile((fs::path(dir) / "table.json").string(), tableJson(table).dump(2) + "\n"); !w) {
     return w.error();
   }
-  if (Status w = io::writeTextFileAtomically((fs::path(dir) / "table.md").string(), tableMarkdown(table)); !w) {
+  if (Status w = io::writeOutputFile((fs::path(dir) / "table.md").string(), tableMarkdown(table)); !w) {
     return w.error();
   }
   if (auto plots = report::writeCampaignPlots((fs::path(dir) / "plots").string(), campaignSeries(samples, r1)); !plots) {

@@ -188,7 +188,7 @@ TEST_F(Cli, ParamsRefusesBadFilesAndWarnsOnOverlap) {
   negative.replace(negative.find("\"dp2\": 0.2"), 10, "\"dp2\": -0.2");
   CmdResult warn = run("params show " + paramsFile(negative));
   EXPECT_EQ(warn.exitCode, 0);
-  EXPECT_NE(warn.err.find("warning: dp2"), std::string::npos) << warn.err;
+  EXPECT_NE(warn.err.find("warning: " + dir_.string() + "/p.json: dp2 = -0.2"), std::string::npos) << warn.err;
 }
 
 TEST_F(Cli, TransformRoundTripsThroughText) {

@@ -82,7 +82,7 @@ TEST(Closure, IdealisedSimulationIsFittedBackWithin3Sigma) {
   for (const AlignmentParameters& truth : {AlignmentParameters{}, paperLike(), large()}) {
     o.seed = static_cast<std::uint64_t>(++seed);
     const auto r = simulateAndFit(truth, o, 20000);
-    EXPECT_EQ(r.status, "converged");
+    EXPECT_EQ(r.status, emcalign::FitStatus::Converged);
     for (Param p : kAllParams) {
       const double e = r.errors[static_cast<Eigen::Index>(index(p))];
       EXPECT_NEAR(r.parameters[p], truth[p], 3.0 * e) << name(p) << ", truth set " << seed;
@@ -95,7 +95,7 @@ TEST(Closure, FullRealismConvergesWithTheKnownBiases) {
   o.seed = 21;
   const AlignmentParameters truth = paperLike();
   const auto r = simulateAndFit(truth, o, 30000);
-  EXPECT_EQ(r.status, "converged");
+  EXPECT_EQ(r.status, emcalign::FitStatus::Converged);
   auto diff = [&](Param p) { return r.parameters[p] - truth[p]; };
   EXPECT_LT(std::abs(diff(Param::Alpha)), 0.15 * deg);
   for (Param p : {Param::Beta1, Param::Beta2, Param::BetaRel}) EXPECT_LT(std::abs(diff(p)), 0.12 * deg) << name(p);
@@ -132,7 +132,7 @@ TEST(Closure, PullsOfSmallIdealisedSamplesHaveUnitWidth) {
   for (int s = 0; s < kSamples; ++s) {
     o.seed = 1000 + static_cast<std::uint64_t>(s);
     const auto r = simulateAndFit(paperLike(), o, 4000, noSys);
-    ASSERT_EQ(r.status, "converged");
+    ASSERT_EQ(r.status, emcalign::FitStatus::Converged);
     for (std::size_t k = 0; k < kNumParams; ++k) {
       const auto i = static_cast<Eigen::Index>(k);
       const double pull = (r.parameters.values[i] - paperLike().values[i]) / r.errors[i];

@@ -44,6 +44,12 @@ namespace emcalign::calib {
 
 inline constexpr std::string_view kCorrectionsFormat = "emcalign-corrections/1";
 
+/// The profile bins of SPEC §7 a corrections file belongs to (its tables have these sizes).
+inline constexpr int kProfilePhiBins = 16;
+inline constexpr int kProfileThetaBins = 10;
+/// A depth offset beyond this is a unit mistake (the derived one is ~4 cm; the EMC is 37 cm deep).
+inline constexpr double kMaxDepthOffset = 20.0;  // cm
+
 /// W₊ per φ column of the profiles.
 class PartingPlaneResponse {
  public:

@@ -18,6 +18,7 @@
 #include <Eigen/Core>
 
 #include "emcalign/calib/profiles.hpp"
+#include "emcalign/core/fit_status.hpp"
 #include "emcalign/core/parameters.hpp"
 #include "emcalign/geometry/alignment_parameters.hpp"
 #include "emcalign/geometry/alignment_transform.hpp"
@@ -72,7 +73,8 @@ struct FitResult {
   /// Eigenvalues of the correlation-scaled JᵀJ (ascending) and the weakest combination.
   std::vector<double> eigenvalues;
   std::string weakCombination;
-  std::string status;  ///< "converged", "not converged", "covariance singular"
+  /// How it ended (core/fit_status.hpp); the warnings say why when it is not Converged.
+  FitStatus status = FitStatus::NotConverged;
   std::vector<std::string> warnings;
 };
 
@@ -85,8 +87,10 @@ struct FitGeometry {
   }
 };
 
-/// Fits the bins marked `used`. Fails only on unusable input (too few bins); a fit that
-/// does not converge returns its result with status "not converged" and a warning.
+/// Fits the bins marked `used`. Fails only on unusable input (too few bins, a bin whose
+/// shower depth R(E, θ) is not inside the calorimeter); a fit that does not converge returns
+/// its result with status NotConverged and a warning, a converged one whose p-value is
+/// below kPoorFitPValue PoorFit.
 Result<FitResult> fitProfiles(const std::vector<ProfileBin>& bins, const FitGeometry& geometry,
                               const FitOptions& options = {});
 

@@ -35,6 +35,10 @@ struct ProfileOptions {
   /// When set (phiBins × thetaBins), its mean residuals are subtracted from every bin and
   /// its σ added in quadrature; a bin it lacks is left out.
   std::shared_ptr<const NominalProfile> nominalProfile;
+
+  /// At least one bin each way (at most 1000), a θ range inside [0, π], σ_sys finite and
+  /// ≥ 0, minEntries ≥ 2, and corrections made for these bins; the error says which.
+  Status validate() const;
 };
 
 /// One bin, as the fit sees it.
@@ -51,6 +55,7 @@ struct ProfileBin {
 
 class Profiles {
  public:
+  /// The options must pass validate() (std::invalid_argument otherwise: check first).
   explicit Profiles(ProfileOptions options = {});
   const ProfileOptions& options() const { return options_; }
 
@@ -78,6 +83,9 @@ int markUsedBins(std::vector<ProfileBin>& bins, int minEntries);
 /// (σ are the totals the χ² uses; empty fields for bins with too few entries), and a last
 /// column plus_weight when the bins were filled with a parting-plane response.
 std::string profileCsv(const std::vector<ProfileBin>& bins);
-Result<std::vector<ProfileBin>> readProfileCsv(const std::string& path);
+/// Reads a profile CSV strictly: the header, integer bin indices within the bins of
+/// `options`, each bin exactly once (all of them), every value in its plausible range (the
+/// means inside their bin, a positive energy in MeV, |y_φ| ≤ 1, σ > 0), a newline at the end.
+Result<std::vector<ProfileBin>> readProfileCsv(const std::string& path, const ProfileOptions& options = {});
 
 }  // namespace emcalign::calib

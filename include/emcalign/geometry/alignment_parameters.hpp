@@ -74,6 +74,11 @@ AlignmentParameters fromPhysical(const PhysicalParameters& phys, double r1);
 /// Checks η describes a real rigid placement (finite values, sinβ ≤ 1, sinμ ≤ 1).
 Status validate(const AlignmentParameters& eta, double r1);
 
+/// Plausibility of an alignment read from a file: |alpha| ≤ 30°, β ≤ 10° (|beta1|, |beta2|
+/// ≤ sin 10°), |beta_rel| ≤ 10°, every length within ±10 cm. Beyond, the likely mistake is
+/// a unit (radians or arcminutes for degrees, mm for cm), and the message says so.
+Status checkPlausible(const AlignmentParameters& eta);
+
 /// Human-readable notes on a parameter set that is valid but suspicious: negative gaps
 /// (the hemispheres overlap), for printing as warnings by the caller.
 std::vector<std::string> warnings(const AlignmentParameters& eta);

@@ -66,7 +66,16 @@ struct DetectorDescription {
   static DetectorDescription sndDefault();
 
   /// Checks the description is a usable calorimeter; the error names the file key at fault.
+  /// Beyond consistency, plausibility: a calorimeter of this kind is a few metres at most
+  /// (radii in [kMinRadius, kMaxRadius]), so radii given in mm are refused with that hint;
+  /// X0 in [0.1, 50] cm, Ec in [1, 100] MeV, x_pre in [0, 10] X0; at most kMaxRings rings of
+  /// at most kMaxCountersPerRing counters.
   Status validate() const;
+
+  static constexpr double kMinRadius = 1.0;    ///< cm
+  static constexpr double kMaxRadius = 500.0;  ///< cm
+  static constexpr int kMaxRings = 180;
+  static constexpr int kMaxCountersPerRing = 3600;
 
   double r0() const { return layers[0].rInner; }   ///< EMC inner radius
   double r1() const { return supports[0].rOuter; }  ///< outer radius of support sphere 1

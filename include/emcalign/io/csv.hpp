@@ -19,4 +19,8 @@ std::optional<double> parseFiniteDouble(std::string_view field);
 /// A line to skip: empty (after trimming) or a comment starting with '#'.
 bool isBlankOrComment(std::string_view line);
 
+/// Text from an input, quoted for a message and cut when long: 'abc', or
+/// '0.12345678901234567890…' (10485760 characters) — a message never echoes megabytes.
+std::string quoted(std::string_view text, std::size_t keep = 32);
+
 }  // namespace emcalign::io

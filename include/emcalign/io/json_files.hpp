@@ -16,14 +16,19 @@
 // Detector description: see docs/conventions.md; every key but "format" is optional and
 // defaults to the SND-like description of SPEC §2.
 
+#include <cstdint>
+#include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "emcalign/core/fit_status.hpp"
 #include "emcalign/core/result.hpp"
 #include "emcalign/geometry/alignment_parameters.hpp"
 #include "emcalign/geometry/detector.hpp"
+#include "emcalign/io/output_file.hpp"
 
 namespace emcalign::io {
 
@@ -33,25 +38,47 @@ using Json = nlohmann::ordered_json;
 inline constexpr std::string_view kAlignmentFormat = "emcalign-alignment/1";
 inline constexpr std::string_view kDetectorFormat = "emcalign-detector/1";
 
-/// Parses JSON text, rejecting duplicate keys; `source` names the input in messages.
+/// Parses JSON text, rejecting duplicate keys, nesting deeper than 64 levels and texts
+/// above 64 MiB; `source` names the input in messages.
 Result<Json> parseJson(std::string_view text, std::string_view source);
+
+/// An integer of a JSON document within [lo, hi] (never wrapped or truncated: 1e10, 2^32 + 16,
+/// 16.0 and "16" are errors naming the source and the key).
+Result<std::int64_t> integerIn(const Json& value, std::int64_t lo, std::int64_t hi, std::string_view source,
+                               std::string_view key);
 
 /// Reads a whole file; the error names the path and the system's reason.
 Result<std::string> readTextFile(const std::string& path);
-
-/// Writes a file through a temporary in the same directory and a rename, so that a reader
-/// (or a crash) never sees half a file.
-Status writeTextFileAtomically(const std::string& path, std::string_view content);
 
 Result<geometry::DetectorDescription> parseDetectorDescription(const Json& j,
                                                                std::string_view source);
 Result<geometry::DetectorDescription> readDetectorDescription(const std::string& path);
 Json toJson(const geometry::DetectorDescription& d);
 
+/// How strictly an alignment is read.
+enum class AlignmentUse {
+  /// A file a user gives a command: a fit result must be usable (status "converged", or
+  /// "poor fit" with a warning; "not converged" and "covariance singular" are refused), and
+  /// the values plausible (geometry::checkPlausible).
+  Input,
+  /// emcalign's own records read back (a campaign's samples): any rigid placement, any status.
+  Record,
+};
+
+struct AlignmentFile {
+  geometry::AlignmentParameters parameters;
+  std::optional<FitStatus> status;    ///< when the file is a fit result
+  std::vector<std::string> warnings;  ///< negative gaps, a poor fit: for the caller to print
+};
+
 /// Reads the fit set from an alignment file's JSON (either form). `r1` converts physical
 /// input to gaps.
-Result<geometry::AlignmentParameters> parseAlignment(const Json& j, double r1,
-                                                     std::string_view source);
+Result<AlignmentFile> parseAlignmentFile(const Json& j, double r1, std::string_view source,
+                                         AlignmentUse use = AlignmentUse::Input);
+Result<AlignmentFile> readAlignmentFile(const std::string& path, double r1);
+/// The same, parameters only (the warnings dropped).
+Result<geometry::AlignmentParameters> parseAlignment(const Json& j, double r1, std::string_view source,
+                                                     AlignmentUse use = AlignmentUse::Input);
 Result<geometry::AlignmentParameters> readAlignment(const std::string& path, double r1);
 
 /// {"format", "units", "parameters"} in file units.

@@ -31,6 +31,7 @@
 // the Born angle is drawn inside that range in the CM frame, and events that radiation or
 // the boost takes out of it are drawn again (the initial-state energy loss with them).
 
+#include <cmath>
 #include <cstdint>
 #include <optional>
 #include <string_view>
@@ -62,6 +63,13 @@ inline constexpr double kMinPhotonEnergy = 1.0 * units::MeV;
 /// Largest energy fraction a radiated photon may take from its beam or lepton (assumed).
 inline constexpr double kMaxPhotonFraction = 0.9;
 
+/// The beam energies the generators model, per beam: e+e- → e+e- and γγ in [20, 5000] MeV
+/// (lowest-order QED with leading-log radiation), π+π−π0 up to 1000 MeV (the ρπ model of the
+/// φ region; the VEPP-2000 top).
+inline constexpr double kMinBeamEnergy = 20.0 * units::MeV;
+inline constexpr double kMaxBeamEnergy = 5000.0 * units::MeV;
+inline constexpr double kMaxThreePionBeamEnergy = 1000.0 * units::MeV;
+
 struct GeneratorOptions {
   Process process = Process::Bhabha;
   double beamEnergy = 612.5 * units::MeV;  ///< per beam; see defaultBeamEnergy()
@@ -77,7 +85,7 @@ struct GeneratorOptions {
   /// lowest order. Ignored for 3π.
   bool radiation = true;
 
-  /// Refuses a non-positive or non-finite beam energy, a negative spread or one above 5 % of
+  /// Refuses a beam energy outside the modelled range above, a negative spread or one above 5 % of
   /// the beam energy, a negative vertex σ, a polar range that is empty, outside [0, π] or (for
   /// ee and γγ) not containing 90° or touching 0 or π, and a 3π beam energy below threshold.
   Status validate() const;
@@ -92,6 +100,9 @@ struct Collision {
   double positronEnergy = 0.0;  ///< MeV, entering the hard process (after ISR)
 
   double energy() const { return electronEnergy + positronEnergy; }
+  /// False when no event could be made (the accept-reject loops give up after 2^20 trials,
+  /// which options that pass validate() never reach): the event then has no particles.
+  bool made() const { return std::isfinite(electronEnergy) && std::isfinite(positronEnergy); }
   double momentumZ() const { return electronEnergy - positronEnergy; }
 };
 

@@ -65,6 +65,8 @@ class EventScratch {
   std::vector<geometry::TrackLine> tracks;
   std::vector<int> trackSource;
   GeneratedEvent event;
+  /// The first event the generator could not make (Collision::made() false), or −1.
+  std::int64_t failedEvent = -1;
 };
 
 class Simulation {
@@ -78,7 +80,8 @@ class Simulation {
   const CalorimeterResponse& response() const { return *response_; }
   const TrackingSystem& tracking() const { return tracking_; }
 
-  /// Appends the reconstructed rows of event `index` (and their truth).
+  /// Appends the reconstructed rows of event `index` (and their truth). An event the
+  /// generator could not make appends nothing and is noted in `scratch.failedEvent`.
   void simulateEvent(std::int64_t index, EventScratch& scratch, std::vector<ParticleRow>& rows,
                      std::vector<TruthRow>& truth) const;
 

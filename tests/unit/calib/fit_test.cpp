@@ -50,7 +50,7 @@ TEST(Fit, RecoversTheTruthExactlyWithoutNoise) {
   const AlignmentParameters truth = paperLike();
   auto r = fitProfiles(syntheticBins(truth, 0.2 * deg, nullptr), kGeometry);
   ASSERT_TRUE(r.ok()) << r.error().message;
-  EXPECT_EQ(r->status, "converged");
+  EXPECT_EQ(r->status, emcalign::FitStatus::Converged);
   EXPECT_LT(r->chi2, 1e-12);
   for (Param p : kAllParams) EXPECT_NEAR(r->parameters[p], truth[p], 1e-8) << name(p);
   EXPECT_EQ(r->ndf, 2 * 160 - 12);
@@ -156,7 +156,7 @@ TEST(Fit, SingularProblemIsReportedNotRegularised) {
   markUsedBins(bins, 10);
   auto r = fitProfiles(bins, kGeometry);
   ASSERT_TRUE(r.ok());
-  EXPECT_EQ(r->status, "covariance singular");
+  EXPECT_EQ(r->status, emcalign::FitStatus::CovarianceSingular);
   EXPECT_FALSE(r->covariance.has_value());
   EXPECT_NE(r->weakCombination.find("dy"), std::string::npos) << r->weakCombination;
   EXPECT_NE(r->weakCombination.find("dy_rel"), std::string::npos) << r->weakCombination;

@@ -149,14 +149,14 @@ TEST(AtomicWrite, WritesWholeFileAndLeavesNoTemporary) {
   const fs::path dir = fs::temp_directory_path() / "emcalign_atomic_test";
   fs::create_directories(dir);
   const fs::path file = dir / "out.json";
-  ASSERT_TRUE(writeTextFileAtomically(file.string(), "{\"a\": 1}\n").ok());
+  ASSERT_TRUE(writeOutputFile(file.string(), "{\"a\": 1}\n").ok());
   auto text = readTextFile(file.string());
   ASSERT_TRUE(text.ok());
   EXPECT_EQ(*text, "{\"a\": 1}\n");
   int entries = 0;
   for ([[maybe_unused]] const auto& e : fs::directory_iterator(dir)) ++entries;
   EXPECT_EQ(entries, 1);
-  EXPECT_FALSE(writeTextFileAtomically((dir / "missing" / "x.json").string(), "x").ok());
+  EXPECT_FALSE(writeOutputFile((dir / "missing" / "x.json").string(), "x").ok());
   fs::remove_all(dir);
 }
 

@@ -159,7 +159,7 @@ calib::FitResult fitAt(const AlignmentParameters& eta, const std::vector<calib::
   fit.binsUsed = 157;
   fit.chi2 = calib::chi2At(bins, kGeometry, eta.values);
   fit.ndf = 2 * fit.binsUsed - 12;
-  fit.status = "converged";
+  fit.status = emcalign::FitStatus::Converged;
   return fit;
 }
 

@@ -1,0 +1,114 @@
+#pragma once
+// Where an output goes and how it is written, so that no command ever destroys a file it
+// should not touch (docs/conventions.md, "Output files").
+//
+// The rules, for every output of every command:
+//  - "-" is the standard output, written directly.
+//  - A character device (/dev/null, a terminal) or a FIFO (a named pipe, /dev/stdout on a
+//    pipe) is written directly: it is never replaced by a regular file.
+//  - A regular file, or a name that does not exist yet, is written through the temporary
+//    `<path>.tmp-<pid>` in the same directory and renamed into place when complete: a
+//    reader never sees half a file, and a failed or interrupted job leaves the old file as
+//    it was. The new file keeps the permission bits of the file it replaces.
+//  - A symbolic link is followed: the file it points to is replaced and the link stays (as
+//    a shell's `>` would do). A link that points to nothing is refused.
+//  - Refused before any work: a directory, a block device, a socket, a name in a missing
+//    directory, a read-only file (no write permission bit, or not writable by this user:
+//    `chmod u+w` allows replacing it), and an output that is the same file (device and
+//    inode, through links) as an input of the command or as another of its outputs.
+//  - Temporaries are registered while they exist. `removeTemporaries()` deletes them and is
+//    async-signal-safe: the command-line tool calls it from its SIGINT/SIGTERM/SIGHUP/
+//    SIGPIPE handler. A temporary left by a process that no longer runs (kill -9, a crash)
+//    is removed the next time the same target is written.
+
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "emcalign/core/result.hpp"
+
+namespace emcalign::io {
+
+enum class OutputKind {
+  Stdout,  ///< "-"
+  Stream,  ///< a character device or a FIFO: written directly
+  File,    ///< a regular file or a new name: written through a temporary and a rename
+};
+
+struct OutputTarget {
+  std::string path;      ///< as given (used in messages)
+  std::string realPath;  ///< File: the file that is replaced (links resolved); else `path`
+  OutputKind kind = OutputKind::File;
+};
+
+/// Classifies an output path by the rules above; the error says why it is refused.
+Result<OutputTarget> resolveOutput(const std::string& path);
+
+/// An output directory (figures, a campaign): it must be a directory or not exist yet (it is
+/// then created with its parents when written); a file or a dangling link is refused.
+Status checkOutputDirectory(const std::string& path);
+
+/// A named path of a command, for messages: ("-o", "result.json").
+struct NamedPath {
+  std::string option;
+  std::string path;
+};
+
+/// Refuses an output that is the same file as one of the inputs or as another output
+/// (device and inode, through symbolic links). Outputs that do not exist yet, "-", devices
+/// and FIFOs never clash.
+Status checkDistinct(const std::vector<NamedPath>& outputs, const std::vector<NamedPath>& inputs);
+
+/// Writes `content` to `path` by the rules above.
+Status writeOutputFile(const std::string& path, std::string_view content);
+
+/// An output written in pieces (event files): a temporary for a File target (stale
+/// temporaries of the same target removed first), the target itself for a Stream, the
+/// standard output for "-". `commit()` renames the temporary into place; destroying an
+/// uncommitted output removes its temporary (a Stream keeps what was written).
+class OutputFile {
+ public:
+  /// Opens for writing with stdio (binary). For a File target the temporary is created
+  /// exclusively: an existing `<path>.tmp-<pid>` of this process is an error.
+  static Result<std::unique_ptr<OutputFile>> open(const std::string& path);
+  /// For writers that must create the file themselves (HDF5 needs a seekable file): only
+  /// reserves and registers the temporary name, which is in the target's directory for a
+  /// File target and in the system's temporary directory for a Stream or "-" (its content
+  /// is copied to the target by `commit()`).
+  static Result<std::unique_ptr<OutputFile>> reserve(const std::string& path);
+  ~OutputFile();
+  OutputFile(const OutputFile&) = delete;
+  OutputFile& operator=(const OutputFile&) = delete;
+
+  /// The stream to write (open() only; null after commit).
+  std::FILE* stream() const { return stream_; }
+  /// The file being written: the temporary, or the target itself for a direct write.
+  const std::string& writtenPath() const { return written_; }
+  const OutputTarget& target() const { return target_; }
+  /// Flushes, closes and puts the content in place; the error names the system's reason.
+  Status commit();
+
+ private:
+  OutputFile() = default;
+  Status closeStream();
+
+  OutputTarget target_;
+  std::string written_;
+  std::FILE* stream_ = nullptr;
+  bool temporary_ = false;  ///< written_ is a registered temporary
+  bool copyOnCommit_ = false;  ///< a temporary whose content goes to a Stream or stdout
+  bool committed_ = false;
+  int slot_ = -1;
+  int mode_ = -1;  ///< permission bits of the replaced file, or -1
+};
+
+/// Removes every registered temporary now. Async-signal-safe (only unlink(2)).
+void removeTemporaries() noexcept;
+
+/// The name of the temporary of a File target for this process: `<realPath>.tmp-<pid>`.
+std::string temporaryPathFor(const std::string& realPath);
+
+}  // namespace emcalign::io

@@ -1,0 +1,760 @@
+// The HDF5 event format (SPEC §6): the writer and the streaming row source.
+
+#include <hdf5.h>
+
+#include <algorithm>
+#include <cstring>
+
+#include <fmt/format.h>
+
+#include "emcalign/io/output_file.hpp"
+#include "event_file_internal.hpp"
+
+namespace emcalign::io::detail {
+
+namespace {
+
+// ==================================================================================== HDF5
+
+// HDF5 prints its error stack to stderr by default; the library must not print. This
+// silences it for the scope of one call into HDF5 and restores what the caller had.
+//
+// It also keeps HDF5 from closing what is left open when the process exits: after a failed
+// final write (a full disk), HDF5 1.10 keeps the file half-closed and its exit handler
+// crashes on it. emcalign closes every file it opens itself, so the handler has nothing to
+// do (H5dont_atexit must come before the first HDF5 call, which this is).
+class Hdf5Quiet {
+ public:
+  Hdf5Quiet() {
+    [[maybe_unused]] static const bool noExitHandler = (H5dont_atexit(), true);
+    H5Eget_auto2(H5E_DEFAULT, &func_, &data_);
+    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  }
+  ~Hdf5Quiet() { H5Eset_auto2(H5E_DEFAULT, func_, data_); }
+  Hdf5Quiet(const Hdf5Quiet&) = delete;
+  Hdf5Quiet& operator=(const Hdf5Quiet&) = delete;
+
+ private:
+  H5E_auto2_t func_ = nullptr;
+  void* data_ = nullptr;
+};
+
+// The most specific message of HDF5's error stack (then cleared), e.g. "file signature not
+// found" or "truncated file: eof = …"; of a failed system call, the system's words ("No
+// space left on device") rather than HDF5's dump of the call.
+std::string hdf5Reason() {
+  std::string reason;
+  H5Ewalk2(
+      H5E_DEFAULT, H5E_WALK_UPWARD,
+      [](unsigned n, const H5E_error2_t* e, void* data) -> herr_t {
+        if (n == 0 && e->desc != nullptr) *static_cast<std::string*>(data) = e->desc;
+        return 0;
+      },
+      &reason);
+  H5Eclear2(H5E_DEFAULT);
+  constexpr std::string_view kSystem = "error message = '";
+  if (const auto at = reason.find(kSystem); at != std::string::npos) {
+    const auto from = at + kSystem.size();
+    const auto to = reason.find('\'', from);
+    if (to != std::string::npos) return reason.substr(from, to - from);
+  }
+  if (reason.size() > 300) reason = reason.substr(0, 300) + "…";
+  return reason.empty() ? "HDF5 error" : reason;
+}
+
+// An owned HDF5 identifier.
+class Hid {
+ public:
+  using Closer = herr_t (*)(hid_t);
+  Hid() = default;
+  Hid(hid_t id, Closer closer) : id_(id), closer_(closer) {}
+  Hid(Hid&& o) noexcept : id_(std::exchange(o.id_, H5I_INVALID_HID)), closer_(o.closer_) {}
+  Hid& operator=(Hid&& o) noexcept {
+    if (this != &o) {
+      reset();
+      id_ = std::exchange(o.id_, H5I_INVALID_HID);
+      closer_ = o.closer_;
+    }
+    return *this;
+  }
+  Hid(const Hid&) = delete;
+  Hid& operator=(const Hid&) = delete;
+  ~Hid() { reset(); }
+
+  hid_t get() const { return id_; }
+  bool valid() const { return id_ >= 0; }
+  /// Closes now; false when HDF5 reports a failure (e.g. the final write of a file).
+  bool reset() {
+    bool ok = true;
+    if (id_ >= 0 && closer_ != nullptr) ok = closer_(id_) >= 0;
+    id_ = H5I_INVALID_HID;
+    return ok;
+  }
+
+ private:
+  hid_t id_ = H5I_INVALID_HID;
+  Closer closer_ = nullptr;
+};
+
+constexpr hsize_t kChunkRows = 16384;
+constexpr unsigned kDeflateLevel = 4;
+
+enum class Kind { I8, I32, I64, F64 };
+
+hid_t fileType(Kind k) {
+  switch (k) {
+    case Kind::I8:
+      return H5T_STD_I8LE;
+    case Kind::I32:
+      return H5T_STD_I32LE;
+    case Kind::I64:
+      return H5T_STD_I64LE;
+    case Kind::F64:
+      return H5T_IEEE_F64LE;
+  }
+  return H5T_IEEE_F64LE;
+}
+
+hid_t memoryType(Kind k) {
+  switch (k) {
+    case Kind::I8:
+      return H5T_NATIVE_INT8;
+    case Kind::I32:
+      return H5T_NATIVE_INT32;
+    case Kind::I64:
+      return H5T_NATIVE_INT64;
+    case Kind::F64:
+      return H5T_NATIVE_DOUBLE;
+  }
+  return H5T_NATIVE_DOUBLE;
+}
+
+const char* kindName(Kind k) {
+  switch (k) {
+    case Kind::I8:
+      return "8-bit signed integer";
+    case Kind::I32:
+      return "32-bit signed integer";
+    case Kind::I64:
+      return "64-bit signed integer";
+    case Kind::F64:
+      return "64-bit float";
+  }
+  return "?";
+}
+
+bool typeMatches(hid_t type, Kind k) {
+  const H5T_class_t cls = H5Tget_class(type);
+  const std::size_t size = H5Tget_size(type);
+  switch (k) {
+    case Kind::I8:
+      return cls == H5T_INTEGER && size == 1 && H5Tget_sign(type) == H5T_SGN_2;
+    case Kind::I32:
+      return cls == H5T_INTEGER && size == 4 && H5Tget_sign(type) == H5T_SGN_2;
+    case Kind::I64:
+      return cls == H5T_INTEGER && size == 8 && H5Tget_sign(type) == H5T_SGN_2;
+    case Kind::F64:
+      return cls == H5T_FLOAT && size == 8;
+  }
+  return false;
+}
+
+std::string describeType(hid_t type) {
+  const std::size_t bits = H5Tget_size(type) * 8;
+  switch (H5Tget_class(type)) {
+    case H5T_INTEGER:
+      return fmt::format("{}-bit {} integer", bits,
+                         H5Tget_sign(type) == H5T_SGN_2 ? "signed" : "unsigned");
+    case H5T_FLOAT:
+      return fmt::format("{}-bit float", bits);
+    case H5T_STRING:
+      return "string";
+    case H5T_COMPOUND:
+      return "compound";
+    default:
+      return "another type";
+  }
+}
+
+Kind eventKind(int column) {
+  switch (column) {
+    case kRun:
+      return Kind::I32;
+    case kEvent:
+      return Kind::I64;
+    case kVeto:
+    case kCharged:
+      return Kind::I8;
+    default:
+      return Kind::F64;
+  }
+}
+
+// --------------------------------------------------------------------------- HDF5 writer
+
+// A property list whose objects do not record times: the only thing that makes two files
+// of the same rows differ byte for byte.
+Hid creationList(hid_t cls) {
+  Hid plist(H5Pcreate(cls), H5Pclose);
+  if (plist.valid() && H5Pset_obj_track_times(plist.get(), 0) < 0) return {};
+  return plist;
+}
+
+class Hdf5Writer final : public EventWriter {
+ public:
+  static Result<std::unique_ptr<EventWriter>> create(const std::string& path,
+                                                     const WriterOptions& options) {
+    auto out = OutputFile::reserve(path);
+    if (!out) return out.error();
+    Hdf5Quiet quiet;
+    auto w = std::unique_ptr<Hdf5Writer>(new Hdf5Writer(path, std::move(*out), options.withTruth));
+    if (auto s = w->createFile(options.attributes); !s) return s.error();
+    return std::unique_ptr<EventWriter>(std::move(w));
+  }
+
+  ~Hdf5Writer() override {
+    if (!closed_) {
+      Hdf5Quiet quiet;
+      closeHandles();  // out_ then removes the temporary
+    }
+  }
+
+  Status append(std::span<const ParticleRow> rows, std::span<const TruthRow> truth) override {
+    if (auto s = usable(); !s) return s;
+    if (withTruth_ && truth.size() != rows.size()) {
+      return fail(
+          fmt::format("{}: append: {} truth rows for {} rows (a file with truth needs one per row)",
+                      path_, truth.size(), rows.size()));
+    }
+    if (auto s = checkAppend(path_, rows, appended_, consistency_); !s)
+      return fail(s.error().message);
+    Hdf5Quiet quiet;
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      rows_.push_back(rows[i]);
+      if (withTruth_) truth_.push_back(truth[i]);
+      // Always whole chunks, whatever the append sizes: the layout depends on the rows only.
+      if (rows_.size() == kChunkRows) {
+        if (auto s = flush(); !s) return s;
+      }
+    }
+    appended_ += rows.size();
+    return {};
+  }
+
+  Status close() override {
+    if (auto s = usable(); !s) return s;
+    Hdf5Quiet quiet;
+    if (auto s = flush(); !s) return s;
+    if (auto why = closeHandles()) return fail(fmt::format("{}: cannot close the HDF5 file: {}", path_, *why));
+    if (auto s = out_->commit(); !s) return fail(s.error().message);
+    closed_ = true;
+    return {};
+  }
+
+ private:
+  Hdf5Writer(std::string path, std::unique_ptr<OutputFile> out, bool withTruth)
+      : path_(std::move(path)), out_(std::move(out)), tmp_(out_->writtenPath()), withTruth_(withTruth) {
+    rows_.reserve(kChunkRows);
+    if (withTruth_) truth_.reserve(kChunkRows);
+  }
+
+  Status usable() const {
+    if (closed_) return Error{fmt::format("{}: the writer is already closed", path_)};
+    if (failed_) return Error{fmt::format("{}: the writer failed earlier: {}", path_, *failed_)};
+    return {};
+  }
+
+  Status fail(std::string message) {
+    failed_ = message;
+    return Error{std::move(message)};
+  }
+
+  Status hdf5Error(std::string_view what) {
+    return fail(fmt::format("{}: {}: {}", path_, what, hdf5Reason()));
+  }
+
+  Status createFile(const Attributes& attributes) {
+    if (H5Zfilter_avail(H5Z_FILTER_DEFLATE) <= 0) {
+      return Error{fmt::format("{}: the HDF5 library has no deflate filter", path_)};
+    }
+    // The file-creation list also creates the root group: no times there either, and the
+    // attributes keep the order they were given in.
+    Hid fcpl = creationList(H5P_FILE_CREATE);
+    if (!fcpl.valid() ||
+        H5Pset_attr_creation_order(fcpl.get(), H5P_CRT_ORDER_TRACKED | H5P_CRT_ORDER_INDEXED) < 0) {
+      return hdf5Error("cannot set up the file-creation properties");
+    }
+    Hid fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
+    if (!fapl.valid() || H5Pset_fclose_degree(fapl.get(), H5F_CLOSE_STRONG) < 0) {
+      return hdf5Error("cannot set up the file-access properties");
+    }
+    // Exclusive: another writer of the same target in this process has the same temporary.
+    file_ = Hid(H5Fcreate(tmp_.c_str(), H5F_ACC_EXCL, fcpl.get(), fapl.get()), H5Fclose);
+    if (!file_.valid()) {
+      return Error{
+          fmt::format("{}: cannot create the temporary file '{}': {}", path_, tmp_, hdf5Reason())};
+    }
+    if (auto s = writeAttributes(attributes); !s) return s;
+
+    Hid gcpl = creationList(H5P_GROUP_CREATE);
+    Hid dcpl = creationList(H5P_DATASET_CREATE);
+    const hsize_t chunk = kChunkRows;
+    if (!gcpl.valid() || !dcpl.valid() || H5Pset_chunk(dcpl.get(), 1, &chunk) < 0 ||
+        H5Pset_shuffle(dcpl.get()) < 0 || H5Pset_deflate(dcpl.get(), kDeflateLevel) < 0) {
+      return hdf5Error("cannot set up the dataset-creation properties");
+    }
+    events_ =
+        Hid(H5Gcreate2(file_.get(), kEventsGroup, H5P_DEFAULT, gcpl.get(), H5P_DEFAULT), H5Gclose);
+    if (!events_.valid()) return hdf5Error("cannot create the group '/events'");
+    for (int c = 0; c < kNumCols; ++c) {
+      const std::string name(kColumnNames[static_cast<std::size_t>(c)]);
+      auto ds = createDataset(events_.get(), name, eventKind(c), dcpl.get());
+      if (!ds.valid())
+        return hdf5Error(fmt::format("cannot create the dataset '/events/{}'", name));
+      eventSets_[static_cast<std::size_t>(c)] = std::move(ds);
+    }
+    if (withTruth_) {
+      truthGroup_ =
+          Hid(H5Gcreate2(file_.get(), kTruthGroup, H5P_DEFAULT, gcpl.get(), H5P_DEFAULT), H5Gclose);
+      if (!truthGroup_.valid()) return hdf5Error("cannot create the group '/truth'");
+      truthSets_[0] = createDataset(truthGroup_.get(), kTruthPdg, Kind::I32, dcpl.get());
+      for (std::size_t i = 0; i < kTruthDoubles.size(); ++i) {
+        truthSets_[i + 1] =
+            createDataset(truthGroup_.get(), kTruthDoubles[i].name, Kind::F64, dcpl.get());
+      }
+      for (const Hid& ds : truthSets_) {
+        if (!ds.valid()) return hdf5Error("cannot create the datasets of '/truth'");
+      }
+    }
+    return {};
+  }
+
+  static Hid createDataset(hid_t group, const std::string& name, Kind kind, hid_t dcpl) {
+    const hsize_t dims = 0;
+    const hsize_t maxDims = H5S_UNLIMITED;
+    Hid space(H5Screate_simple(1, &dims, &maxDims), H5Sclose);
+    if (!space.valid()) return {};
+    return Hid(H5Dcreate2(group, name.c_str(), fileType(kind), space.get(), H5P_DEFAULT, dcpl,
+                          H5P_DEFAULT),
+               H5Dclose);
+  }
+
+  // Variable-length UTF-8 strings, scalar, on the root group.
+  Status writeAttributes(const Attributes& attributes) {
+    if (attributes.empty()) return {};
+    Hid type(H5Tcopy(H5T_C_S1), H5Tclose);
+    Hid space(H5Screate(H5S_SCALAR), H5Sclose);
+    if (!type.valid() || !space.valid() || H5Tset_size(type.get(), H5T_VARIABLE) < 0 ||
+        H5Tset_cset(type.get(), H5T_CSET_UTF8) < 0) {
+      return hdf5Error("cannot set up the string type of the attributes");
+    }
+    for (const auto& [key, value] : attributes) {
+      Hid attr(
+          H5Acreate2(file_.get(), key.c_str(), type.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT),
+          H5Aclose);
+      const char* text = value.c_str();
+      if (!attr.valid() || H5Awrite(attr.get(), type.get(), &text) < 0) {
+        return hdf5Error(fmt::format("cannot write the attribute '{}'", key));
+      }
+    }
+    return {};
+  }
+
+  // Writes one column piece; on failure, HDF5's reason (taken before any other HDF5 call
+  // clears the error stack, as closing the dataspaces below would).
+  static std::optional<std::string> writeColumn(hid_t dataset, hsize_t offset, hsize_t count, Kind kind,
+                                                const void* data) {
+    const hsize_t size = offset + count;
+    if (H5Dset_extent(dataset, &size) < 0) return hdf5Reason();
+    Hid fileSpace(H5Dget_space(dataset), H5Sclose);
+    Hid memSpace(H5Screate_simple(1, &count, nullptr), H5Sclose);
+    if (!fileSpace.valid() || !memSpace.valid()) return hdf5Reason();
+    if (H5Sselect_hyperslab(fileSpace.get(), H5S_SELECT_SET, &offset, nullptr, &count, nullptr) < 0) {
+      return hdf5Reason();
+    }
+    if (H5Dwrite(dataset, memoryType(kind), memSpace.get(), fileSpace.get(), H5P_DEFAULT, data) < 0) {
+      return hdf5Reason();
+    }
+    return std::nullopt;
+  }
+
+  Status flush() {
+    if (rows_.empty()) return {};
+    const hsize_t count = rows_.size();
+    const auto write = [&](const Hid& ds, std::string_view group, std::string_view name, Kind kind,
+                           const void* data) -> Status {
+      if (auto why = writeColumn(ds.get(), written_, count, kind, data)) {
+        return fail(fmt::format("{}: cannot write the dataset '/{}/{}': {}", path_, group, name, *why));
+      }
+      return {};
+    };
+    const auto gather = [&](auto&& get, auto& out) {
+      out.clear();
+      for (const ParticleRow& r : rows_) out.push_back(get(r));
+    };
+    std::vector<std::int32_t> i32;
+    std::vector<std::int64_t> i64;
+    std::vector<std::int8_t> i8;
+    std::vector<double> f64;
+    gather([](const ParticleRow& r) { return r.run; }, i32);
+    if (auto s = write(eventSets_[kRun], kEventsGroup, kColumnNames[kRun], Kind::I32, i32.data());
+        !s)
+      return s;
+    gather([](const ParticleRow& r) { return r.event; }, i64);
+    if (auto s =
+            write(eventSets_[kEvent], kEventsGroup, kColumnNames[kEvent], Kind::I64, i64.data());
+        !s) {
+      return s;
+    }
+    gather([](const ParticleRow& r) { return r.muonVeto; }, i8);
+    if (auto s = write(eventSets_[kVeto], kEventsGroup, kColumnNames[kVeto], Kind::I8, i8.data());
+        !s)
+      return s;
+    gather([](const ParticleRow& r) { return r.charged; }, i8);
+    if (auto s =
+            write(eventSets_[kCharged], kEventsGroup, kColumnNames[kCharged], Kind::I8, i8.data());
+        !s) {
+      return s;
+    }
+    for (const auto& column : kEventDoubles) {
+      const auto index = static_cast<std::size_t>(
+          std::find(kColumnNames.begin(), kColumnNames.end(), column.name) - kColumnNames.begin());
+      gather(column.get, f64);
+      if (auto s = write(eventSets_[index], kEventsGroup, column.name, Kind::F64, f64.data()); !s)
+        return s;
+    }
+    if (withTruth_) {
+      i32.clear();
+      for (const TruthRow& t : truth_) i32.push_back(t.pdg);
+      if (auto s = write(truthSets_[0], kTruthGroup, kTruthPdg, Kind::I32, i32.data()); !s)
+        return s;
+      for (std::size_t i = 0; i < kTruthDoubles.size(); ++i) {
+        f64.clear();
+        for (const TruthRow& t : truth_) f64.push_back(kTruthDoubles[i].get(t));
+        if (auto s =
+                write(truthSets_[i + 1], kTruthGroup, kTruthDoubles[i].name, Kind::F64, f64.data());
+            !s) {
+          return s;
+        }
+      }
+    }
+    written_ += count;
+    rows_.clear();
+    truth_.clear();
+    return {};
+  }
+
+  // Closes every handle (each once, whatever fails); HDF5's reason for the first failure.
+  std::optional<std::string> closeHandles() {
+    std::optional<std::string> why;
+    const auto close = [&](Hid& h) {
+      if (!h.reset() && !why) why = hdf5Reason();
+    };
+    for (Hid& ds : eventSets_) close(ds);
+    for (Hid& ds : truthSets_) close(ds);
+    close(events_);
+    close(truthGroup_);
+    close(file_);
+    return why;
+  }
+
+  std::string path_;
+  std::unique_ptr<OutputFile> out_;  // destroyed uncommitted: its temporary is removed
+  std::string tmp_;
+  bool withTruth_;
+  Hid file_;
+  Hid events_;
+  Hid truthGroup_;
+  std::array<Hid, kNumCols> eventSets_;
+  std::array<Hid, 1 + kTruthDoubles.size()> truthSets_;
+  std::vector<ParticleRow> rows_;  // at most one chunk
+  std::vector<TruthRow> truth_;
+  hsize_t written_ = 0;
+  std::uint64_t appended_ = 0;
+  EventConsistency consistency_;
+  std::optional<std::string> failed_;
+  bool closed_ = false;
+};
+
+// --------------------------------------------------------------------------- HDF5 reader
+
+// One 1-D dataset of a group, checked for type; reads ranges into a typed buffer.
+struct Hdf5Column {
+  Hid dataset;
+  Kind kind = Kind::F64;
+  std::string name;  // "/events/run"
+};
+
+class Hdf5Source final : public RowSource {
+ public:
+  static Result<std::unique_ptr<RowSource>> open(const std::string& path, std::size_t readRows) {
+    Hdf5Quiet quiet;
+    auto s = std::unique_ptr<Hdf5Source>(new Hdf5Source(path, readRows));
+    if (auto st = s->openFile(); !st) return st.error();
+    return std::unique_ptr<RowSource>(std::move(s));
+  }
+
+  Result<bool> next(ParticleRow& row, TruthRow& truth) override {
+    if (pos_ == loaded_) {
+      if (first_ + loaded_ == rows_) return false;
+      Hdf5Quiet quiet;
+      if (auto s = load(first_ + loaded_); !s) return s.error();
+    }
+    const std::size_t i = pos_++;
+    row.run = run_[i];
+    row.event = event_[i];
+    row.muonVeto = veto_[i];
+    row.charged = charged_[i];
+    for (std::size_t c = 0; c < kEventDoubles.size(); ++c)
+      kEventDoubles[c].set(row, doubles_[c][i]);
+    if (hasTruth_) {
+      truth.pdg = pdg_[i];
+      for (std::size_t c = 0; c < kTruthDoubles.size(); ++c)
+        kTruthDoubles[c].set(truth, truthDoubles_[c][i]);
+    }
+    return true;
+  }
+
+  bool hasTruth() const override { return hasTruth_; }
+  const Attributes& attributes() const override { return attributes_; }
+  std::string location() const override {
+    return fmt::format("{}: record {}", path_, first_ + pos_ - (pos_ > 0 ? 1 : 0));
+  }
+
+ private:
+  Hdf5Source(std::string path, std::size_t readRows)
+      : path_(std::move(path)), readRows_(readRows) {}
+
+  Error error(std::string_view what) const { return Error{fmt::format("{}: {}", path_, what)}; }
+
+  Status openFile() {
+    const htri_t isHdf5 = H5Fis_hdf5(path_.c_str());
+    if (isHdf5 <= 0) {
+      H5Eclear2(H5E_DEFAULT);
+      return error(
+          "not an HDF5 file (no HDF5 signature; event files are HDF5 unless the name ends with "
+          "\".csv\")");
+    }
+    file_ = Hid(H5Fopen(path_.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+    if (!file_.valid()) return error(fmt::format("cannot open the HDF5 file: {}", hdf5Reason()));
+    if (auto s = readAttributes(); !s) return s;
+
+    std::vector<std::pair<std::string, Kind>> eventColumns;
+    for (int c = 0; c < kNumCols; ++c) {
+      eventColumns.emplace_back(kColumnNames[static_cast<std::size_t>(c)], eventKind(c));
+    }
+    auto events = openColumns(kEventsGroup, eventColumns, true);
+    if (!events) return events.error();
+    eventCols_ = std::move(*events);
+    rows_ = rowsOf_;
+
+    std::vector<std::pair<std::string, Kind>> truthColumns{{kTruthPdg, Kind::I32}};
+    for (const auto& column : kTruthDoubles) truthColumns.emplace_back(column.name, Kind::F64);
+    auto truth = openColumns(kTruthGroup, truthColumns, false);
+    if (!truth) return truth.error();
+    truthCols_ = std::move(*truth);
+    hasTruth_ = !truthCols_.empty();
+    if (hasTruth_ && rowsOf_ != rows_) {
+      return error(fmt::format("the datasets of '/truth' have {} records, those of '/events' {}",
+                               rowsOf_, rows_));
+    }
+    return {};
+  }
+
+  // Opens every listed dataset of a group (all required), checking names, types, rank and
+  // equal lengths; an absent optional group gives no columns. Sets rowsOf_.
+  Result<std::vector<Hdf5Column>> openColumns(
+      const char* groupName, const std::vector<std::pair<std::string, Kind>>& columns,
+      bool required) {
+    const htri_t exists = H5Lexists(file_.get(), groupName, H5P_DEFAULT);
+    if (exists <= 0) {
+      H5Eclear2(H5E_DEFAULT);
+      if (!required) return std::vector<Hdf5Column>{};
+      return error(fmt::format("missing group '/{}' (not an emcalign event file?)", groupName));
+    }
+    Hid group(H5Gopen2(file_.get(), groupName, H5P_DEFAULT), H5Gclose);
+    if (!group.valid())
+      return error(fmt::format("'/{}' is not a group: {}", groupName, hdf5Reason()));
+
+    // Every link of the group must be a known column.
+    std::vector<std::string> links;
+    hsize_t index = 0;
+    const herr_t iterated = H5Literate(
+        group.get(), H5_INDEX_NAME, H5_ITER_INC, &index,
+        [](hid_t, const char* name, const H5L_info_t*, void* data) -> herr_t {
+          static_cast<std::vector<std::string>*>(data)->emplace_back(name);
+          return 0;
+        },
+        &links);
+    if (iterated < 0) return error(fmt::format("cannot list '/{}': {}", groupName, hdf5Reason()));
+    for (const std::string& link : links) {
+      bool known = false;
+      for (const auto& column : columns) known = known || column.first == link;
+      if (!known) return error(fmt::format("unexpected dataset '/{}/{}'", groupName, link));
+    }
+
+    std::vector<Hdf5Column> out;
+    for (const auto& [name, kind] : columns) {
+      Hdf5Column column{{}, kind, fmt::format("/{}/{}", groupName, name)};
+      if (H5Lexists(group.get(), name.c_str(), H5P_DEFAULT) <= 0) {
+        H5Eclear2(H5E_DEFAULT);
+        return error(fmt::format("missing dataset '{}' (column '{}')", column.name, name));
+      }
+      column.dataset = Hid(H5Dopen2(group.get(), name.c_str(), H5P_DEFAULT), H5Dclose);
+      if (!column.dataset.valid()) {
+        return error(fmt::format("'{}' is not a dataset: {}", column.name, hdf5Reason()));
+      }
+      Hid type(H5Dget_type(column.dataset.get()), H5Tclose);
+      if (!type.valid()) return error(fmt::format("dataset '{}': {}", column.name, hdf5Reason()));
+      if (!typeMatches(type.get(), kind)) {
+        return error(fmt::format("dataset '{}' (column '{}'): type is {}, expected {}", column.name,
+                                 name, describeType(type.get()), kindName(kind)));
+      }
+      Hid space(H5Dget_space(column.dataset.get()), H5Sclose);
+      hsize_t dims = 0;
+      if (!space.valid() || H5Sget_simple_extent_ndims(space.get()) != 1 ||
+          H5Sget_simple_extent_dims(space.get(), &dims, nullptr) != 1) {
+        H5Eclear2(H5E_DEFAULT);
+        return error(
+            fmt::format("dataset '{}' (column '{}'): not one-dimensional", column.name, name));
+      }
+      if (!out.empty() && dims != rowsOf_) {
+        return error(
+            fmt::format("dataset '{}' (column '{}') has {} records, '{}' has {} (datasets of "
+                        "unequal length: truncated or inconsistent file)",
+                        column.name, name, dims, out.front().name, rowsOf_));
+      }
+      rowsOf_ = dims;
+      out.push_back(std::move(column));
+    }
+    return out;
+  }
+
+  // String attributes of the root group, in creation order when the file tracks it;
+  // attributes of other types are skipped.
+  Status readAttributes() {
+    Hid root(H5Gopen2(file_.get(), "/", H5P_DEFAULT), H5Gclose);
+    if (!root.valid()) return error(fmt::format("cannot open the root group: {}", hdf5Reason()));
+    std::vector<std::string> names;
+    const auto collect = [](hid_t, const char* name, const H5A_info_t*, void* data) -> herr_t {
+      static_cast<std::vector<std::string>*>(data)->emplace_back(name);
+      return 0;
+    };
+    hsize_t index = 0;
+    if (H5Aiterate2(root.get(), H5_INDEX_CRT_ORDER, H5_ITER_INC, &index, collect, &names) < 0) {
+      H5Eclear2(H5E_DEFAULT);
+      names.clear();
+      index = 0;
+      if (H5Aiterate2(root.get(), H5_INDEX_NAME, H5_ITER_INC, &index, collect, &names) < 0) {
+        return error(fmt::format("cannot list the attributes: {}", hdf5Reason()));
+      }
+    }
+    for (const std::string& name : names) {
+      Hid attr(H5Aopen(root.get(), name.c_str(), H5P_DEFAULT), H5Aclose);
+      Hid type(attr.valid() ? H5Aget_type(attr.get()) : H5I_INVALID_HID, H5Tclose);
+      Hid space(attr.valid() ? H5Aget_space(attr.get()) : H5I_INVALID_HID, H5Sclose);
+      if (!attr.valid() || !type.valid() || !space.valid()) {
+        return error(fmt::format("cannot open the attribute '{}': {}", name, hdf5Reason()));
+      }
+      if (H5Tget_class(type.get()) != H5T_STRING || H5Sget_simple_extent_npoints(space.get()) != 1)
+        continue;
+      Hid memType(H5Tcopy(H5T_C_S1), H5Tclose);
+      std::string value;
+      bool ok = memType.valid() && H5Tset_cset(memType.get(), H5Tget_cset(type.get())) >= 0;
+      if (ok && H5Tis_variable_str(type.get()) > 0) {
+        char* text = nullptr;
+        ok = H5Tset_size(memType.get(), H5T_VARIABLE) >= 0 &&
+             H5Aread(attr.get(), memType.get(), &text) >= 0;
+        if (ok && text != nullptr) value = text;
+        if (text != nullptr) H5free_memory(text);
+      } else if (ok) {
+        const std::size_t size = H5Tget_size(type.get());
+        std::string buffer(size, '\0');
+        ok = H5Tset_size(memType.get(), size) >= 0 &&
+             H5Tset_strpad(memType.get(), H5T_STR_NULLPAD) >= 0 &&
+             H5Aread(attr.get(), memType.get(), buffer.data()) >= 0;
+        value = buffer.substr(0, buffer.find('\0'));
+      }
+      if (!ok) return error(fmt::format("cannot read the attribute '{}': {}", name, hdf5Reason()));
+      attributes_.emplace_back(name, std::move(value));
+    }
+    return {};
+  }
+
+  static bool readRange(const Hdf5Column& column, hsize_t offset, hsize_t count, void* out) {
+    Hid fileSpace(H5Dget_space(column.dataset.get()), H5Sclose);
+    Hid memSpace(H5Screate_simple(1, &count, nullptr), H5Sclose);
+    if (!fileSpace.valid() || !memSpace.valid()) return false;
+    if (H5Sselect_hyperslab(fileSpace.get(), H5S_SELECT_SET, &offset, nullptr, &count, nullptr) <
+        0) {
+      return false;
+    }
+    return H5Dread(column.dataset.get(), memoryType(column.kind), memSpace.get(), fileSpace.get(),
+                   H5P_DEFAULT, out) >= 0;
+  }
+
+  Status load(hsize_t offset) {
+    const hsize_t count = std::min<hsize_t>(readRows_, rows_ - offset);
+    const auto read = [&](const Hdf5Column& column, auto& buffer) -> Status {
+      buffer.resize(count);
+      if (!readRange(column, offset, count, buffer.data())) {
+        return error(fmt::format("records {}..{}: cannot read dataset '{}': {}", offset,
+                                 offset + count - 1, column.name, hdf5Reason()));
+      }
+      return {};
+    };
+    if (auto s = read(eventCols_[kRun], run_); !s) return s;
+    if (auto s = read(eventCols_[kEvent], event_); !s) return s;
+    if (auto s = read(eventCols_[kVeto], veto_); !s) return s;
+    if (auto s = read(eventCols_[kCharged], charged_); !s) return s;
+    for (std::size_t c = 0; c < kEventDoubles.size(); ++c) {
+      const auto index = static_cast<std::size_t>(
+          std::find(kColumnNames.begin(), kColumnNames.end(), kEventDoubles[c].name) -
+          kColumnNames.begin());
+      if (auto s = read(eventCols_[index], doubles_[c]); !s) return s;
+    }
+    if (hasTruth_) {
+      if (auto s = read(truthCols_[0], pdg_); !s) return s;
+      for (std::size_t c = 0; c < kTruthDoubles.size(); ++c) {
+        if (auto s = read(truthCols_[c + 1], truthDoubles_[c]); !s) return s;
+      }
+    }
+    first_ = offset;
+    loaded_ = count;
+    pos_ = 0;
+    return {};
+  }
+
+  std::string path_;
+  hsize_t readRows_;
+  Hid file_;
+  Attributes attributes_;
+  std::vector<Hdf5Column> eventCols_;
+  std::vector<Hdf5Column> truthCols_;
+  bool hasTruth_ = false;
+  hsize_t rowsOf_ = 0;  // length found by the last openColumns
+  hsize_t rows_ = 0;
+  // The loaded range [first_, first_ + loaded_) and the next row in it.
+  hsize_t first_ = 0;
+  hsize_t loaded_ = 0;
+  hsize_t pos_ = 0;
+  std::vector<std::int32_t> run_;
+  std::vector<std::int64_t> event_;
+  std::vector<std::int8_t> veto_;
+  std::vector<std::int8_t> charged_;
+  std::array<std::vector<double>, kEventDoubles.size()> doubles_;
+  std::vector<std::int32_t> pdg_;
+  std::array<std::vector<double>, kTruthDoubles.size()> truthDoubles_;
+};
+
+}  // namespace
+
+Result<std::unique_ptr<EventWriter>> openHdf5Writer(const std::string& path, const WriterOptions& options) {
+  return Hdf5Writer::create(path, options);
+}
+
+Result<std::unique_ptr<RowSource>> openHdf5Source(const std::string& path, std::size_t readRows) {
+  return Hdf5Source::open(path, readRows);
+}
+
+}  // namespace emcalign::io::detail

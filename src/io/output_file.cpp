@@ -1,0 +1,375 @@
+#include "emcalign/io/output_file.hpp"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <array>
+#include <atomic>
+#include <cerrno>
+#include <charconv>
+#include <cstring>
+#include <filesystem>
+
+#include <fmt/format.h>
+
+namespace emcalign::io {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+// ------------------------------------------------------------- the registry of temporaries
+
+// Fixed storage that a signal handler can read without locks or allocation: a slot is
+// free (0), being filled (1) or holds a path (2).
+constexpr std::size_t kSlots = 64;
+constexpr std::size_t kMaxPath = 4096;
+struct Slot {
+  std::atomic<int> state{0};
+  char path[kMaxPath];
+};
+std::array<Slot, kSlots> gSlots;
+static_assert(std::atomic<int>::is_always_lock_free);
+
+int registerTemporary(const std::string& path) {
+  if (path.size() >= kMaxPath) return -1;  // still removed on failure and as a stale file
+  for (std::size_t i = 0; i < kSlots; ++i) {
+    int expected = 0;
+    if (gSlots[i].state.compare_exchange_strong(expected, 1, std::memory_order_acquire)) {
+      std::memcpy(gSlots[i].path, path.c_str(), path.size() + 1);
+      gSlots[i].state.store(2, std::memory_order_release);
+      return static_cast<int>(i);
+    }
+  }
+  return -1;
+}
+
+void unregisterTemporary(int slot) {
+  if (slot >= 0) gSlots[static_cast<std::size_t>(slot)].state.store(0, std::memory_order_release);
+}
+
+// ------------------------------------------------------------------------------- helpers
+
+std::string reason(int error) { return std::strerror(error); }
+
+std::string parentOf(const std::string& path) {
+  const fs::path parent = fs::path(path).parent_path();
+  return parent.empty() ? std::string(".") : parent.string();
+}
+
+// Removes `<realPath>.tmp-<pid>` files whose process no longer exists.
+void removeStaleTemporaries(const std::string& realPath) {
+  const std::string prefix = fs::path(realPath).filename().string() + ".tmp-";
+  std::error_code ec;
+  fs::directory_iterator it(parentOf(realPath), ec);
+  if (ec) return;
+  for (; it != fs::directory_iterator(); it.increment(ec)) {
+    if (ec) return;
+    const std::string name = it->path().filename().string();
+    if (!name.starts_with(prefix) || name.size() == prefix.size()) continue;
+    long pid = 0;
+    const char* first = name.data() + prefix.size();
+    const char* last = name.data() + name.size();
+    const auto [ptr, err] = std::from_chars(first, last, pid);
+    if (err != std::errc() || ptr != last || pid <= 0 || pid == static_cast<long>(::getpid())) continue;
+    if (::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH) continue;  // alive, or not ours to judge
+    std::error_code kind;
+    if (!fs::is_regular_file(it->symlink_status(kind))) continue;
+    fs::remove(it->path(), kind);
+  }
+}
+
+// Writes all of [data, data + size) to `fd`.
+bool writeAll(int fd, const char* data, std::size_t size) {
+  while (size > 0) {
+    const ssize_t n = ::write(fd, data, size);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      return false;
+    }
+    data += n;
+    size -= static_cast<std::size_t>(n);
+  }
+  return true;
+}
+
+std::atomic<unsigned> gStreamTemporaries{0};
+
+}  // namespace
+
+void removeTemporaries() noexcept {
+  for (auto& slot : gSlots) {
+    if (slot.state.load(std::memory_order_acquire) == 2) ::unlink(slot.path);
+  }
+}
+
+std::string temporaryPathFor(const std::string& realPath) {
+  return fmt::format("{}.tmp-{}", realPath, static_cast<long>(::getpid()));
+}
+
+Result<OutputTarget> resolveOutput(const std::string& path) {
+  if (path.empty()) return Error{"an output name is empty"};
+  if (path == "-") return OutputTarget{path, path, OutputKind::Stdout};
+  struct stat link {};
+  if (::lstat(path.c_str(), &link) != 0) {
+    const int error = errno;
+    if (error != ENOENT) return Error{fmt::format("{}: cannot use as an output: {}", path, reason(error))};
+    const std::string dir = parentOf(path);
+    struct stat d {};
+    if (::stat(dir.c_str(), &d) != 0) {
+      return Error{fmt::format("{}: cannot write here: the directory '{}' does not exist", path, dir)};
+    }
+    if (!S_ISDIR(d.st_mode)) return Error{fmt::format("{}: cannot write here: '{}' is not a directory", path, dir)};
+    if (::access(dir.c_str(), W_OK) != 0) {
+      return Error{fmt::format("{}: cannot create a file in '{}': {}", path, dir, reason(errno))};
+    }
+    return OutputTarget{path, path, OutputKind::File};
+  }
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) {
+    const int error = errno;
+    if (S_ISLNK(link.st_mode) && error == ENOENT) {
+      std::error_code ec;
+      const auto to = fs::read_symlink(path, ec);
+      return Error{fmt::format("{}: is a symbolic link to '{}', which does not exist: refusing to write through it "
+                               "(remove the link, or create its target)",
+                               path, ec ? std::string("?") : to.string())};
+    }
+    return Error{fmt::format("{}: cannot use as an output: {}", path, reason(error))};
+  }
+  if (S_ISDIR(st.st_mode)) return Error{fmt::format("{}: is a directory (an output file name is expected)", path)};
+  if (S_ISCHR(st.st_mode) || S_ISFIFO(st.st_mode)) return OutputTarget{path, path, OutputKind::Stream};
+  if (S_ISBLK(st.st_mode)) return Error{fmt::format("{}: is a block device: refusing to write to it", path)};
+  if (!S_ISREG(st.st_mode)) return Error{fmt::format("{}: is not a regular file, a device or a pipe: refusing to write to it", path)};
+  if ((st.st_mode & (S_IWUSR | S_IWGRP | S_IWOTH)) == 0) {
+    return Error{fmt::format("{}: is read-only: refusing to replace it (chmod u+w {} to allow it, or remove it)", path,
+                             path)};
+  }
+  if (::access(path.c_str(), W_OK) != 0) {
+    return Error{fmt::format("{}: cannot replace it: {}", path, reason(errno))};
+  }
+  std::string real = path;
+  if (S_ISLNK(link.st_mode)) {
+    std::error_code ec;
+    real = fs::canonical(path, ec).string();
+    if (ec) return Error{fmt::format("{}: cannot follow the symbolic link: {}", path, ec.message())};
+  }
+  const std::string dir = parentOf(real);
+  if (::access(dir.c_str(), W_OK) != 0) {
+    return Error{fmt::format("{}: cannot create the temporary file in '{}': {}", path, dir, reason(errno))};
+  }
+  return OutputTarget{path, real, OutputKind::File};
+}
+
+Status checkOutputDirectory(const std::string& path) {
+  if (path.empty()) return Error{"an output directory name is empty"};
+  struct stat link {};
+  if (::lstat(path.c_str(), &link) != 0) {
+    if (errno == ENOENT) return {};
+    return Error{fmt::format("{}: cannot use as an output directory: {}", path, reason(errno))};
+  }
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) {
+    return Error{fmt::format("{}: is a symbolic link to nothing: refusing to write through it", path)};
+  }
+  if (!S_ISDIR(st.st_mode)) return Error{fmt::format("{}: exists and is not a directory (an output directory is expected)", path)};
+  if (::access(path.c_str(), W_OK | X_OK) != 0) {
+    return Error{fmt::format("{}: cannot write into this directory: {}", path, reason(errno))};
+  }
+  return {};
+}
+
+Status checkDistinct(const std::vector<NamedPath>& outputs, const std::vector<NamedPath>& inputs) {
+  struct Seen {
+    const NamedPath* path;
+    dev_t dev;
+    ino_t ino;
+  };
+  auto regularFile = [](const std::string& p, struct stat& st) {
+    return p != "-" && ::stat(p.c_str(), &st) == 0 && S_ISREG(st.st_mode);
+  };
+  std::vector<Seen> in;
+  for (const auto& i : inputs) {
+    struct stat st {};
+    if (!i.path.empty() && regularFile(i.path, st)) in.push_back({&i, st.st_dev, st.st_ino});
+  }
+  std::vector<Seen> out;
+  for (const auto& o : outputs) {
+    struct stat st {};
+    if (o.path.empty() || !regularFile(o.path, st)) continue;
+    for (const auto& s : in) {
+      if (s.dev == st.st_dev && s.ino == st.st_ino) {
+        return Error{fmt::format("{} {}: is the same file as the input {}{}: refusing to overwrite an input", o.option,
+                                 o.path, s.path->option.empty() ? "" : s.path->option + " ", s.path->path)};
+      }
+    }
+    for (const auto& s : out) {
+      if (s.dev == st.st_dev && s.ino == st.st_ino) {
+        return Error{fmt::format("{} {}: is the same file as the output {} {}: give each output its own file",
+                                 o.option, o.path, s.path->option, s.path->path)};
+      }
+    }
+    out.push_back({&o, st.st_dev, st.st_ino});
+  }
+  return {};
+}
+
+// ------------------------------------------------------------------------------ OutputFile
+
+Result<std::unique_ptr<OutputFile>> OutputFile::reserve(const std::string& path) {
+  auto target = resolveOutput(path);
+  if (!target) return target.error();
+  auto out = std::unique_ptr<OutputFile>(new OutputFile());
+  out->target_ = *target;
+  if (target->kind == OutputKind::File) {
+    removeStaleTemporaries(target->realPath);
+    out->written_ = temporaryPathFor(target->realPath);
+    struct stat existing {};
+    if (::lstat(out->written_.c_str(), &existing) == 0) {
+      return Error{fmt::format("{}: the temporary file '{}' exists: is this file being written by this process already?",
+                               path, out->written_)};
+    }
+    struct stat st {};
+    if (::stat(target->realPath.c_str(), &st) == 0) out->mode_ = static_cast<int>(st.st_mode & 07777);
+  } else {
+    std::error_code ec;
+    const fs::path dir = fs::temp_directory_path(ec);
+    if (ec) return Error{fmt::format("{}: no temporary directory to build the file in: {}", path, ec.message())};
+    out->written_ = (dir / fmt::format("emcalign-{}-{}.tmp", static_cast<long>(::getpid()),
+                                       gStreamTemporaries.fetch_add(1)))
+                        .string();
+    out->copyOnCommit_ = true;
+  }
+  out->temporary_ = true;
+  out->slot_ = registerTemporary(out->written_);
+  return out;
+}
+
+Result<std::unique_ptr<OutputFile>> OutputFile::open(const std::string& path) {
+  auto target = resolveOutput(path);
+  if (!target) return target.error();
+  if (target->kind == OutputKind::Stdout) {
+    auto out = std::unique_ptr<OutputFile>(new OutputFile());
+    out->target_ = *target;
+    out->written_ = target->path;  // "-"
+    out->stream_ = stdout;
+    return out;
+  }
+  if (target->kind == OutputKind::Stream) {
+    auto out = std::unique_ptr<OutputFile>(new OutputFile());
+    out->target_ = *target;
+    out->written_ = path;
+    out->stream_ = std::fopen(path.c_str(), "wb");
+    if (out->stream_ == nullptr) return Error{fmt::format("{}: cannot open for writing: {}", path, reason(errno))};
+    return out;
+  }
+  auto out = reserve(path);
+  if (!out) return out.error();
+  const int fd = ::open((*out)->written_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+  if (fd < 0) {
+    const int error = errno;
+    (*out)->temporary_ = false;  // not ours to remove (it may be another writer's)
+    unregisterTemporary(std::exchange((*out)->slot_, -1));
+    return Error{fmt::format("{}: cannot create the temporary file '{}': {}", path, (*out)->written_, reason(error))};
+  }
+  (*out)->stream_ = ::fdopen(fd, "wb");
+  if ((*out)->stream_ == nullptr) {
+    const int error = errno;
+    ::close(fd);
+    return Error{fmt::format("{}: cannot open the temporary file: {}", path, reason(error))};
+  }
+  return out;
+}
+
+Status OutputFile::closeStream() {
+  if (stream_ == nullptr) return {};
+  std::FILE* s = std::exchange(stream_, nullptr);
+  if (s == stdout) {
+    if (std::fflush(s) != 0 || std::ferror(s)) return Error{fmt::format("standard output: write failed: {}", reason(errno))};
+    return {};
+  }
+  const bool flushed = std::fflush(s) == 0 && !std::ferror(s);
+  const int flushError = errno;
+  const bool closed = std::fclose(s) == 0;
+  const int closeError = errno;
+  if (!flushed || !closed) {
+    return Error{fmt::format("{}: write failed: {}", target_.path, reason(!flushed ? flushError : closeError))};
+  }
+  return {};
+}
+
+Status OutputFile::commit() {
+  if (committed_) return Error{fmt::format("{}: already written", target_.path)};
+  if (Status s = closeStream(); !s) return s;
+  committed_ = true;
+  if (!temporary_) return {};
+  const auto removeTemporary = [&] {
+    ::unlink(written_.c_str());
+    unregisterTemporary(slot_);
+    temporary_ = false;
+  };
+  if (copyOnCommit_) {
+    const int in = ::open(written_.c_str(), O_RDONLY | O_CLOEXEC);
+    if (in < 0) {
+      const int error = errno;
+      removeTemporary();
+      return Error{fmt::format("{}: cannot read back the temporary file: {}", target_.path, reason(error))};
+    }
+    const bool toStdout = target_.kind == OutputKind::Stdout;
+    const int out = toStdout ? STDOUT_FILENO : ::open(target_.path.c_str(), O_WRONLY | O_CLOEXEC);
+    int error = out < 0 ? errno : 0;
+    if (out >= 0) {
+      if (toStdout) std::fflush(stdout);
+      std::vector<char> buffer(std::size_t{1} << 20);
+      while (true) {
+        const ssize_t n = ::read(in, buffer.data(), buffer.size());
+        if (n < 0 && errno == EINTR) continue;
+        if (n < 0) {
+          error = errno;
+          break;
+        }
+        if (n == 0) break;
+        if (!writeAll(out, buffer.data(), static_cast<std::size_t>(n))) {
+          error = errno;
+          break;
+        }
+      }
+      if (!toStdout && ::close(out) != 0 && error == 0) error = errno;
+    }
+    ::close(in);
+    removeTemporary();
+    if (error != 0) return Error{fmt::format("{}: write failed: {}", target_.path, reason(error))};
+    return {};
+  }
+  if (mode_ >= 0) ::chmod(written_.c_str(), static_cast<mode_t>(mode_));
+  if (::rename(written_.c_str(), target_.realPath.c_str()) != 0) {
+    const int error = errno;
+    removeTemporary();
+    return Error{fmt::format("{}: cannot rename the temporary file into place: {}", target_.path, reason(error))};
+  }
+  unregisterTemporary(slot_);
+  temporary_ = false;
+  return {};
+}
+
+OutputFile::~OutputFile() {
+  if (stream_ != nullptr && stream_ != stdout) std::fclose(stream_);
+  if (stream_ == stdout) std::fflush(stdout);
+  if (temporary_) {
+    ::unlink(written_.c_str());
+    unregisterTemporary(slot_);
+  }
+}
+
+Status writeOutputFile(const std::string& path, std::string_view content) {
+  auto out = OutputFile::open(path);
+  if (!out) return out.error();
+  if (!content.empty() && std::fwrite(content.data(), 1, content.size(), (*out)->stream()) != content.size()) {
+    return Error{fmt::format("{}: write failed: {}", path, reason(errno))};
+  }
+  return (*out)->commit();
+}
+
+}  // namespace emcalign::io

@@ -43,19 +43,24 @@ void printCutFlow(const calib::ProfileFill& fill) {
              fill.particlesSelected, fill.particlesInRange, fill.trackMisses);
 }
 
+// Five decimals, or five significant digits for a value a diverged fit made huge (never 300
+// digits of fixed notation).
+std::string fixed5(double v) { return std::abs(v) < 1e6 ? fmt::format("{:.5f}", v) : fmt::format("{:.5g}", v); }
+
 void printResult(const calib::FitResult& r) {
   fmt::print(reportStream(), "\n{:<10} {:>12}   {:<10} {}\n", "parameter", "value", "error", "unit");
   for (Param p : kAllParams) {
     const double unit = AlignmentParameters::fileUnit(p);
     const double e = r.errors[static_cast<Eigen::Index>(index(p))];
-    fmt::print(reportStream(), "{:<10} {:>12.5f} ± {:<10.5f} {}\n", name(p), r.parameters[p] / unit, e / unit,
+    fmt::print(reportStream(), "{:<10} {:>12} ± {:<10} {}\n", name(p), fixed5(r.parameters[p] / unit), fixed5(e / unit),
                dimension(p) == Dimension::Angle ? "deg" : "cm");
   }
   fmt::print(reportStream(), "derived:\n");
   for (const auto& [n, v] : r.derived) {
     const bool length = n == "dx_rel";
     const double unit = length ? units::cm : units::deg;
-    fmt::print(reportStream(), "{:<10} {:>12.5f} ± {:<10.5f} {}\n", n, v.value / unit, v.error / unit, length ? "cm" : "deg");
+    fmt::print(reportStream(), "{:<10} {:>12} ± {:<10} {}\n", n, fixed5(v.value / unit), fixed5(v.error / unit),
+               length ? "cm" : "deg");
   }
   fmt::print(reportStream(), "\nchi2/ndf = {:.2f}/{} (p-value {:.3g}), {} bins used; stages chi2:", r.chi2, r.ndf, r.pValue,
              r.binsUsed);
@@ -169,7 +174,7 @@ int run(const FitCliOptions& o) {
   if (Status s = io::writeOutputFile(o.output, calib::fitResultJson(*result, input).dump(2) + "\n"); !s) {
     return reportError(s.error());
   }
-  fmt::print(reportStream(), "wrote {}\n", o.output);
+  fmt::print(reportStream(), "wrote {}\n", o.output == "-" ? "the result to standard output" : o.output);
   if (!o.plots.empty()) {
     if (Status s = drawPlots(o, geometry, bins, *result, histograms ? &*histograms : nullptr); !s) {
       return reportError(s.error());

@@ -43,6 +43,9 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.footer("Exit codes: 0 ok; 1 input refused or a step failed (nothing written); 2 usage error; 3 result written "
              "but not converged; 4 internal error; 128+N killed by signal N. See docs/conventions.md.");
+  app.failure_message([](const CLI::App*, const CLI::Error& e) {
+    return fmt::format("emcalign: usage error: {}\nRun with --help for more information.\n", e.what());
+  });
   int exitCode = 0;
   emcalign::app::addGeometryCommand(app, exitCode);
   emcalign::app::addParamsCommand(app, exitCode);

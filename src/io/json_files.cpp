@@ -210,6 +210,7 @@ Result<std::int64_t> integerIn(const json& v, std::int64_t lo, std::int64_t hi, 
     x = v.get<std::int64_t>();
     inRange = x >= lo && x <= hi;
   }
+  if (!inRange && lo == hi) return Error{fmt::format("{}: key '{}': {} must be {}", source, key, v.dump(), lo)};
   if (!inRange) return Error{fmt::format("{}: key '{}': {} is outside [{}, {}]", source, key, v.dump(), lo, hi)};
   return x;
 }

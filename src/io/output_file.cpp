@@ -195,6 +195,21 @@ Status checkDistinct(const std::vector<NamedPath>& outputs, const std::vector<Na
     struct stat st {};
     if (!i.path.empty() && regularFile(i.path, st)) in.push_back({&i, st.st_dev, st.st_ino});
   }
+  // Outputs that do not exist yet are compared by their normalised absolute name.
+  std::vector<std::pair<const NamedPath*, std::string>> absent;
+  for (const auto& o : outputs) {
+    struct stat st {};
+    if (o.path.empty() || o.path == "-" || ::lstat(o.path.c_str(), &st) == 0) continue;
+    std::error_code ec;
+    const std::string name = fs::weakly_canonical(fs::absolute(o.path, ec), ec).string();
+    for (const auto& [other, otherName] : absent) {
+      if (otherName == name) {
+        return Error{fmt::format("{} {}: is the same file as the output {} {}: give each output its own file",
+                                 o.option, o.path, other->option, other->path)};
+      }
+    }
+    absent.emplace_back(&o, name);
+  }
   std::vector<Seen> out;
   for (const auto& o : outputs) {
     struct stat st {};

@@ -242,8 +242,9 @@ Result<DerivationReport> deriveCorrections(const geometry::Calorimeter& calo, co
     if (!corrected) return corrected.error();
     ClosureFit c;
     c.sample = name;
+    const Param measured = param;  // a structured binding cannot be captured (C++20; clang refuses it)
     auto valueOf = [&](const calib::FitResult& r, double& value, double& error) {
-      if (param == Param::Dx) {
+      if (measured == Param::Dx) {
         value = r.parameters[Param::Dx];
         error = r.errors[static_cast<Eigen::Index>(index(Param::Dx))];
       } else {

@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include "emcalign/calib/calibration.hpp"
 #include "emcalign/calib/fit.hpp"
 #include "emcalign/calib/profiles.hpp"
 #include "emcalign/core/units.hpp"
@@ -132,6 +133,38 @@ TEST(ModelCorrections, RefusesMalformedFiles) {
   j = good;
   j["parting_plane"] = {{"phi_bins", 16}, {"plus_weight", {1, 1}}};
   EXPECT_TRUE(refused(j, "parting_plane"));
+  // Tables for other bins than the profiles' 16 x 10 (once an abort in the fit), a depth
+  // offset in mm, a bin count that wraps.
+  j = good;
+  j["parting_plane"] = {{"phi_bins", 8}, {"plus_weight", {1, 1, 0.5, 0, 0, 0, 0.5, 1}}};
+  EXPECT_TRUE(refused(j, "parting_plane.phi_bins': 8 must be 16"));
+  j = good;
+  j["nominal_profile"]["phi_bins"] = 1;
+  j["nominal_profile"]["theta_bins"] = 1;
+  EXPECT_TRUE(refused(j, "nominal_profile.phi_bins': 1 must be 16"));
+  j = good;
+  j["nominal_profile"]["theta_bins"] = 4294967306ULL;  // 2^32 + 10
+  EXPECT_TRUE(refused(j, "nominal_profile.theta_bins"));
+  j = good;
+  j["depth_offset_cm"] = 1e6;
+  EXPECT_TRUE(refused(j, "given in mm?"));
+}
+
+TEST(ProfileOptions, ValidateNamesTheMismatch) {
+  EXPECT_TRUE(ProfileOptions{}.validate().ok());
+  ProfileOptions o;
+  o.partingPlane = std::make_shared<const PartingPlaneResponse>(*PartingPlaneResponse::create(hardWeights(8)));
+  EXPECT_NE(o.validate().error().message.find("8 phi columns, the profiles 16"), std::string::npos);
+  ProfileOptions t;
+  NominalProfile small;
+  small.phiBins = small.thetaBins = 1;
+  small.yPhi = small.sigmaPhi = small.yTheta = small.sigmaTheta = {0.0};
+  t.nominalProfile = std::make_shared<const NominalProfile>(small);
+  EXPECT_NE(t.validate().error().message.find("1 x 1 bins, the profiles 16 x 10"), std::string::npos);
+  EXPECT_THROW(Profiles{t}, std::invalid_argument) << "the constructor's precondition";
+  auto filled = fillProfiles({"/nonexistent.csv"}, geometry::ShowerDepth{}, SelectionOptions{}, t);
+  ASSERT_FALSE(filled.ok());
+  EXPECT_NE(filled.error().message.find("nominal profile"), std::string::npos) << "checked before any file";
 }
 
 TEST(MixedModel, IsTheSpecModelAtHardWeightsAndLinearInBetween) {

@@ -162,5 +162,29 @@ TEST(Fit, SingularProblemIsReportedNotRegularised) {
   EXPECT_NE(r->weakCombination.find("dy_rel"), std::string::npos) << r->weakCombination;
 }
 
+TEST(Fit, AModelThatDoesNotDescribeTheProfilesIsAPoorFit) {
+  // A φ pattern of ±0.05 rad the model cannot make: it converges, with χ²/ndf in the thousands.
+  auto bins = syntheticBins(paperLike(), 0.2 * deg, nullptr);
+  for (auto& b : bins) b.yPhi += b.iPhi % 2 ? 0.05 : -0.05;
+  auto r = fitProfiles(bins, kGeometry);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_EQ(r->status, emcalign::FitStatus::PoorFit);
+  EXPECT_LT(r->pValue, emcalign::kPoorFitPValue);
+  ASSERT_FALSE(r->warnings.empty());
+  EXPECT_NE(r->warnings[0].find("does not describe"), std::string::npos) << r->warnings[0];
+}
+
+TEST(Fit, ABinWhoseShowersLieOutsideTheCalorimeterIsRefused) {
+  for (double energy : {1e-300, 1e300}) {
+    auto bins = syntheticBins(paperLike(), 0.2 * deg, nullptr);
+    bins[37].energyMean = energy;  // R(E, θ) = −1700 cm, or +1800 cm
+    markUsedBins(bins, 10);
+    auto r = fitProfiles(bins, kGeometry);
+    ASSERT_FALSE(r.ok()) << energy;
+    EXPECT_NE(r.error().message.find("profile bin (3, 7)"), std::string::npos) << r.error().message;
+    EXPECT_NE(r.error().message.find("outside the calorimeter"), std::string::npos) << r.error().message;
+  }
+}
+
 }  // namespace
 }  // namespace emcalign::calib

@@ -941,3 +941,84 @@ TEST_F(EventFile, ReaderErrorIsSticky) {
 
 }  // namespace
 }  // namespace emcalign::io
+
+// ------------------------------------------------------------- repeated and absurd events
+
+namespace emcalign::io {
+namespace {
+
+TEST(EventFileFormat, DashIsCsv) { EXPECT_EQ(formatOf("-"), EventFormat::Csv); }
+
+TEST_F(EventFile, TheSameFileTwiceIsRefused) {
+  ASSERT_TRUE(writeFile(path("a.csv"), sampleRows(3)).ok());
+  fs::create_symlink(path("a.csv"), path("b.csv"));
+  auto r = readAll({path("a.csv"), path("b.csv")});
+  ASSERT_FALSE(r.ok());
+  EXPECT_THAT(r.error().message, HasSubstr("b.csv: is the same file as " + path("a.csv")));
+}
+
+TEST_F(EventFile, RepeatedEventsAreRefusedNamingBothPlaces) {
+  for (const char* ext : {".csv", ".h5"}) {
+    SCOPED_TRACE(ext);
+    const auto rows = sampleRows(5);
+    ASSERT_TRUE(writeFile(path(std::string("a") + ext), rows).ok());
+    ASSERT_TRUE(writeFile(path(std::string("copy") + ext), rows).ok());
+    auto r = readAll({path(std::string("a") + ext), path(std::string("copy") + ext)}, 3);
+    ASSERT_FALSE(r.ok()) << "a copy of a file counted twice";
+    const std::string first = std::string(ext) == ".csv" ? "a.csv: line 2" : "a.h5: record 0";
+    const std::string again = std::string(ext) == ".csv" ? "copy.csv: line 2" : "copy.h5: record 0";
+    EXPECT_THAT(r.error().message, HasSubstr(again + ": run 1 event 0 appears again"));
+    EXPECT_THAT(r.error().message, HasSubstr("its rows start at " + path("") + first));
+  }
+}
+
+TEST_F(EventFile, RowsOfAnEventApartAreRefused) {
+  // Event 7's rows are split by event 8: the selection would see two broken events.
+  const std::string text = kHeader + "1,7,508,0,0,,,,,200,3.0,2.0\n" + "1,8,508,0,0,,,,,200,3.0,2.0\n" +
+                           "1,7,508,0,0,,,,,210,3.1,2.1\n";
+  const std::string message = csvError(text);
+  EXPECT_THAT(message, HasSubstr("bad.csv: line 4: run 1 event 7 appears again (its rows start at "));
+  EXPECT_THAT(message, HasSubstr("bad.csv: line 2)"));
+  EXPECT_THAT(message, HasSubstr("contiguous"));
+}
+
+TEST_F(EventFile, AnEventOfMoreThanAThousandRowsIsRefused) {
+  std::string text = kHeader;
+  for (int i = 0; i < 1001; ++i) text += "1,7,508,0,0,,,,,200,3.0,2.0\n";
+  EXPECT_THAT(csvError(text), HasSubstr("bad.csv: line 1002: run 1 event 7 has more than 1000 rows"));
+  std::string thousand = kHeader;
+  for (int i = 0; i < 1000; ++i) thousand += "1,7,508,0,0,,,,,200,3.0,2.0\n";
+  writeBytes(path("ok.csv"), thousand);
+  EXPECT_TRUE(readAll({path("ok.csv")}).ok());
+}
+
+// A billion records that are all one event, stored as fill values (the file is a few kB):
+// once this was read into one block until memory ran out.
+TEST_F(EventFile, Hdf5BillionRowEventIsRefusedAtOnce) {
+  const hsize_t n = 1'000'000'000, chunk = 1 << 16;
+  const hid_t file = H5Fcreate(path("huge.h5").c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  ASSERT_GE(file, 0);
+  const hid_t group = H5Gcreate2(file, "events", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  const double nan = kNaN;
+  for (const RawColumn& c : rawColumns({photonRow(1, 7, 508, 200, 3.0, 2.0)})) {
+    const hid_t space = H5Screate_simple(1, &n, nullptr);
+    const hid_t dcpl = H5Pcreate(H5P_DATASET_CREATE);
+    H5Pset_chunk(dcpl, 1, &chunk);
+    const double value = c.values[0];
+    H5Pset_fill_value(dcpl, H5T_NATIVE_DOUBLE, std::isnan(value) ? &nan : &value);
+    const hid_t ds = H5Dcreate2(group, c.name.c_str(), c.type, space, H5P_DEFAULT, dcpl, H5P_DEFAULT);
+    ASSERT_GE(ds, 0) << c.name;
+    H5Dclose(ds);
+    H5Pclose(dcpl);
+    H5Sclose(space);
+  }
+  H5Gclose(group);
+  H5Fclose(file);
+  EXPECT_LT(fs::file_size(path("huge.h5")), 100'000u);
+  auto r = readAll({path("huge.h5")});
+  ASSERT_FALSE(r.ok());
+  EXPECT_THAT(r.error().message, HasSubstr("huge.h5: record 1000: run 1 event 7 has more than 1000 rows"));
+}
+
+}  // namespace
+}  // namespace emcalign::io

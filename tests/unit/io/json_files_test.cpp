@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <limits>
 
 #include <gtest/gtest.h>
 
@@ -142,6 +143,105 @@ TEST(DetectorFile, BadFilesNameTheKey) {
   check(R"({"format": "emcalign-detector/1", "shower": {"x0_cm": -2}})", "shower.x0_cm");
   check(R"({"format": "emcalign-detector/1", "shower": {"X0": 2}})", "shower.X0");
   check(R"({"format": "emcalign-detector/1", "theta_min_deg": 170})", "theta_min_deg");
+}
+
+TEST(DetectorFile, IntegersAreRangeCheckedNeverWrapped) {
+  auto check = [](const std::string& ring, const std::string& words) {
+    const std::string text = R"({"format": "emcalign-detector/1", "counters_per_ring": [16, )" + ring + "]}";
+    auto j = parseJson(text, "d.json");
+    ASSERT_TRUE(j.ok()) << j.error().message;
+    auto d = parseDetectorDescription(*j, "d.json");
+    ASSERT_FALSE(d.ok()) << ring;
+    EXPECT_NE(d.error().message.find("counters_per_ring[1]"), std::string::npos) << d.error().message;
+    EXPECT_NE(d.error().message.find(words), std::string::npos) << d.error().message;
+  };
+  check("10000000000", "outside");  // 1e10 once wrapped through get<int>
+  check("4294967312", "outside");   // 2^32 + 16 was read as 16
+  check("-16", "outside");
+  check("18446744073709551615", "outside");
+  check("16.0", "expected an integer");
+  check("\"16\"", "expected an integer");
+}
+
+TEST(DetectorFile, UnitMistakesAreNamed) {
+  auto error = [](const std::string& body) {
+    auto j = parseJson(R"({"format": "emcalign-detector/1", )" + body + "}", "d.json");
+    EXPECT_TRUE(j.ok());
+    auto d = parseDetectorDescription(*j, "d.json");
+    EXPECT_FALSE(d.ok()) << body;
+    return d.ok() ? std::string() : d.error().message;
+  };
+  // The SND radii in mm.
+  EXPECT_NE(error(R"("layers": [{"r_inner_cm": 328, "r_outer_cm": 403}, {"r_inner_cm": 403, "r_outer_cm": 527},
+                                {"r_inner_cm": 537, "r_outer_cm": 685}],
+                     "support_spheres": [{"r_inner_cm": 527, "r_outer_cm": 537}, {"r_inner_cm": 685, "r_outer_cm": 695}])")
+                .find("given in mm?"),
+            std::string::npos);
+  // A radius of 1e300 cm (the tracking loop of the simulation once walked it in 2 cm steps).
+  EXPECT_NE(error(R"("support_spheres": [{"r_inner_cm": 52.7, "r_outer_cm": 53.7}, {"r_inner_cm": 68.5, "r_outer_cm": 1e300}])")
+                .find("support_spheres[1].r_outer_cm"),
+            std::string::npos);
+  EXPECT_NE(error(R"("shower": {"x0_cm": 25.6e3})").find("shower.x0_cm"), std::string::npos);
+  EXPECT_NE(error(R"("shower": {"critical_energy_mev": 0.01316})").find("shower.critical_energy_mev"), std::string::npos);
+}
+
+TEST(Json, DeepNestingIsRefusedBeforeParsing) {
+  std::string deep = R"({"derived_from": )";
+  for (int i = 0; i < 100000; ++i) deep += R"({"a": )";
+  deep += "1";
+  for (int i = 0; i < 100000; ++i) deep += "}";
+  deep += "}";
+  auto j = parseJson(deep, "c.json");
+  ASSERT_FALSE(j.ok());
+  EXPECT_NE(j.error().message.find("nested deeper than 64 levels"), std::string::npos) << j.error().message;
+  // Brackets inside strings do not count; 60 levels are fine.
+  std::string text = R"({"s": "[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[\"{{{{", "a": )";
+  for (int i = 0; i < 60; ++i) text += "[";
+  for (int i = 0; i < 60; ++i) text += "]";
+  text += "}";
+  EXPECT_TRUE(parseJson(text, "ok.json").ok()) << parseJson(text, "ok.json").error().message;
+}
+
+TEST(Json, IntegerInNamesSourceAndKey) {
+  auto j = parseJson(R"({"a": 16, "b": 1e10, "c": 16.5, "d": -3, "e": 12345678901234567890})", "x.json");
+  ASSERT_TRUE(j.ok());
+  EXPECT_EQ(*integerIn((*j)["a"], 16, 16, "x.json", "a"), 16);
+  EXPECT_NE(integerIn((*j)["a"], 8, 8, "x.json", "a").error().message.find("x.json: key 'a': 16 must be 8"),
+            std::string::npos);
+  EXPECT_FALSE(integerIn((*j)["b"], 0, 100, "x.json", "b").ok());
+  EXPECT_FALSE(integerIn((*j)["c"], 0, 100, "x.json", "c").ok());
+  EXPECT_EQ(*integerIn((*j)["d"], -5, 5, "x.json", "d"), -3);
+  EXPECT_FALSE(integerIn((*j)["d"], 0, 5, "x.json", "d").ok());
+  EXPECT_FALSE(integerIn((*j)["e"], 0, std::numeric_limits<std::int64_t>::max(), "x.json", "e").ok());
+}
+
+TEST(AlignmentFile, ImplausibleValuesNameTheLikelyUnitMistake) {
+  EXPECT_NE(errorOf(replace(kGood, "\"alpha\": 3.0", "\"alpha\": 1e6")).find("alpha = 1e+06 deg"), std::string::npos);
+  EXPECT_NE(errorOf(replace(kGood, "\"alpha\": 3.0", "\"alpha\": 1e6")).find("degrees"), std::string::npos);
+  EXPECT_NE(errorOf(replace(kGood, "\"dx\": 0.3", "\"dx\": 1e300")).find("given in mm?"), std::string::npos);
+  EXPECT_NE(errorOf(replace(kGood, "\"dx\": 0.3", "\"dx\": 30")).find("dx = 30 cm"), std::string::npos) << "3 mm given in mm";
+  EXPECT_NE(errorOf(replace(kGood, "\"beta_rel\": 0.02", "\"beta_rel\": 45")).find("beta_rel"), std::string::npos);
+  EXPECT_TRUE(parse(replace(kGood, "\"dx\": 0.3", "\"dx\": 0.9")).ok()) << "9 mm is a plausible shift";
+}
+
+TEST(AlignmentFile, FitResultStatusDecidesWhetherItIsUsable) {
+  auto withStatus = [](const std::string& status) {
+    return replace(kGood, "\"units\"", "\"status\": \"" + status + "\", \"units\"");
+  };
+  EXPECT_NE(errorOf(withStatus("not converged")).find("status 'not converged'"), std::string::npos);
+  EXPECT_NE(errorOf(withStatus("covariance singular")).find("not a calibration"), std::string::npos);
+  EXPECT_NE(errorOf(withStatus("fine")).find("unknown status"), std::string::npos);
+  auto j = parseJson(withStatus("poor fit"), "r.json");
+  ASSERT_TRUE(j.ok());
+  auto file = parseAlignmentFile(*j, kR1, "r.json");
+  ASSERT_TRUE(file.ok()) << file.error().message;
+  EXPECT_EQ(file->status, FitStatus::PoorFit);
+  ASSERT_EQ(file->warnings.size(), 1u);
+  EXPECT_NE(file->warnings[0].find("poor fit"), std::string::npos);
+  // emcalign's own records (a campaign's samples) read back whatever the status.
+  auto record = parseJson(withStatus("not converged"), "sample.json");
+  ASSERT_TRUE(record.ok());
+  EXPECT_TRUE(parseAlignment(*record, kR1, "sample.json", AlignmentUse::Record).ok());
 }
 
 TEST(AtomicWrite, WritesWholeFileAndLeavesNoTemporary) {

@@ -131,6 +131,13 @@ TEST(GeneratorOptions, ValidateRefusesBadInputNamingIt) {
   o.beamEnergy = std::nan("");
   refused(o, "beam energy");
 
+  o.beamEnergy = 1e308;  // once an endless loop of the Bhabha generator (√s overflows)
+  refused(o, "outside [20, 5000] MeV");
+  o.beamEnergy = 0.6125;  // GeV for MeV
+  refused(o, "energies are in MeV");
+  o.beamEnergy = 5000.0;
+  EXPECT_TRUE(o.validate().ok());
+
   o = GeneratorOptions{};
   o.beamEnergySpread = -0.1;
   refused(o, "spread");
@@ -159,6 +166,27 @@ TEST(GeneratorOptions, ValidateRefusesBadInputNamingIt) {
   refused(o, "threshold");
   o.beamEnergy = 208.0;
   EXPECT_TRUE(o.validate().ok());
+  o.beamEnergy = 1500.0;  // beyond the φ-region ρπ model
+  refused(o, "outside [20, 1000] MeV");
+}
+
+TEST(GeneratorOptions, EveryProcessMakesEventsAtTheEdgesOfItsRange) {
+  for (Process p : {Process::Bhabha, Process::GammaGamma, Process::ThreePion}) {
+    for (double e : {p == Process::ThreePion ? 208.0 : kMinBeamEnergy,
+                     p == Process::ThreePion ? kMaxThreePionBeamEnergy : kMaxBeamEnergy}) {
+      GeneratorOptions o = optionsFor(p);
+      o.beamEnergy = e;
+      o.beamEnergySpread = 0.0;
+      ASSERT_TRUE(o.validate().ok()) << name(p) << " " << e;
+      Rng rng(7, 0);
+      GeneratedEvent ev;
+      for (int i = 0; i < 200; ++i) {
+        const Collision c = generate(o, rng, ev);
+        ASSERT_TRUE(c.made()) << name(p) << " at " << e << " MeV";
+        for (const auto& particle : ev.particles) ASSERT_TRUE(particle.momentum.allFinite());
+      }
+    }
+  }
 }
 
 // ---- e+e- → e+e-

@@ -1,0 +1,230 @@
+// The output rules of io/output_file.hpp: what is written directly, through a temporary,
+// or refused, and that temporaries never outlive their writer.
+
+#include "emcalign/io/output_file.hpp"
+
+#include <fcntl.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <thread>
+
+#include <fmt/format.h>
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+namespace emcalign::io {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+class OutputFileTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           fmt::format("emcalign_output_{}_{}", ::getpid(),
+                       ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override {
+    std::error_code ec;
+    fs::permissions(dir_, fs::perms::owner_all, fs::perm_options::add, ec);
+    fs::remove_all(dir_, ec);
+  }
+  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+  static std::string slurp(const std::string& p) {
+    std::ifstream in(p, std::ios::binary);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  }
+  std::vector<std::string> entries() const {
+    std::vector<std::string> out;
+    for (const auto& e : fs::directory_iterator(dir_)) out.push_back(e.path().filename().string());
+    std::sort(out.begin(), out.end());
+    return out;
+  }
+  // A process id that no longer runs: a child that has exited and been waited for.
+  static pid_t deadPid() {
+    const pid_t child = ::fork();
+    if (child == 0) ::_exit(0);
+    ::waitpid(child, nullptr, 0);
+    return child;
+  }
+
+  fs::path dir_;
+};
+
+TEST_F(OutputFileTest, KindsOfTargets) {
+  auto dash = resolveOutput("-");
+  ASSERT_TRUE(dash.ok());
+  EXPECT_EQ(dash->kind, OutputKind::Stdout);
+  auto null = resolveOutput("/dev/null");
+  ASSERT_TRUE(null.ok()) << null.error().message;
+  EXPECT_EQ(null->kind, OutputKind::Stream);
+  ASSERT_EQ(::mkfifo(path("fifo").c_str(), 0600), 0);
+  auto fifo = resolveOutput(path("fifo"));
+  ASSERT_TRUE(fifo.ok());
+  EXPECT_EQ(fifo->kind, OutputKind::Stream);
+  auto fresh = resolveOutput(path("new.json"));
+  ASSERT_TRUE(fresh.ok());
+  EXPECT_EQ(fresh->kind, OutputKind::File);
+}
+
+TEST_F(OutputFileTest, RefusedTargetsSayWhy) {
+  fs::create_directories(path("d"));
+  EXPECT_THAT(resolveOutput(path("d")).error().message, HasSubstr("is a directory"));
+  EXPECT_THAT(resolveOutput(path("no/such/x.json")).error().message, HasSubstr("does not exist"));
+  EXPECT_THAT(resolveOutput("").error().message, HasSubstr("empty"));
+  // Read-only: refused even for root, who could write it (the mode says "keep").
+  std::ofstream(path("ro.json")) << "keep";
+  fs::permissions(path("ro.json"), fs::perms::owner_read | fs::perms::group_read);
+  auto ro = resolveOutput(path("ro.json"));
+  ASSERT_FALSE(ro.ok());
+  EXPECT_THAT(ro.error().message, HasSubstr("read-only"));
+  EXPECT_FALSE(writeOutputFile(path("ro.json"), "new").ok());
+  EXPECT_EQ(slurp(path("ro.json")), "keep");
+  // A link to nothing.
+  fs::create_symlink(path("nothing.json"), path("dangling.json"));
+  EXPECT_THAT(resolveOutput(path("dangling.json")).error().message, HasSubstr("which does not exist"));
+  // A socket.
+  const int fd = ::socket(AF_UNIX, SOCK_STREAM, 0);
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  const std::string sock = path("s");
+  ASSERT_LT(sock.size(), sizeof(addr.sun_path));
+  std::strcpy(addr.sun_path, sock.c_str());
+  ASSERT_EQ(::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)), 0);
+  EXPECT_THAT(resolveOutput(sock).error().message, HasSubstr("refusing to write"));
+  ::close(fd);
+}
+
+TEST_F(OutputFileTest, DevNullStaysADevice) {
+  ASSERT_TRUE(writeOutputFile("/dev/null", "a result\n").ok());
+  struct stat st {};
+  ASSERT_EQ(::stat("/dev/null", &st), 0);
+  EXPECT_TRUE(S_ISCHR(st.st_mode));
+  // Written in pieces through a temporary elsewhere (as HDF5 needs): still a device.
+  auto out = OutputFile::reserve("/dev/null");
+  ASSERT_TRUE(out.ok());
+  std::ofstream((*out)->writtenPath()) << "binary";
+  EXPECT_THAT((*out)->writtenPath(), ::testing::Not(HasSubstr("/dev/")));
+  ASSERT_TRUE((*out)->commit().ok());
+  EXPECT_FALSE(fs::exists((*out)->writtenPath()));
+  ASSERT_EQ(::stat("/dev/null", &st), 0);
+  EXPECT_TRUE(S_ISCHR(st.st_mode));
+}
+
+TEST_F(OutputFileTest, FifoIsWrittenDirectly) {
+  ASSERT_EQ(::mkfifo(path("fifo").c_str(), 0600), 0);
+  std::string received;
+  std::thread reader([&] { received = slurp(path("fifo")); });
+  const Status s = writeOutputFile(path("fifo"), "through the pipe\n");
+  reader.join();
+  ASSERT_TRUE(s.ok()) << s.error().message;
+  EXPECT_EQ(received, "through the pipe\n");
+  struct stat st {};
+  ASSERT_EQ(::stat(path("fifo").c_str(), &st), 0);
+  EXPECT_TRUE(S_ISFIFO(st.st_mode));
+}
+
+TEST_F(OutputFileTest, SymbolicLinkIsFollowedAndKept) {
+  std::ofstream(path("target.json")) << "old";
+  fs::create_symlink("target.json", path("link.json"));
+  ASSERT_TRUE(writeOutputFile(path("link.json"), "new").ok());
+  EXPECT_TRUE(fs::is_symlink(path("link.json")));
+  EXPECT_EQ(slurp(path("target.json")), "new");
+  EXPECT_EQ(entries(), (std::vector<std::string>{"link.json", "target.json"}));
+}
+
+TEST_F(OutputFileTest, ReplacedFileKeepsItsPermissions) {
+  std::ofstream(path("r.json")) << "old";
+  fs::permissions(path("r.json"), fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read);
+  ASSERT_TRUE(writeOutputFile(path("r.json"), "new").ok());
+  EXPECT_EQ(fs::status(path("r.json")).permissions() & fs::perms::all,
+            fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read);
+  EXPECT_EQ(slurp(path("r.json")), "new");
+}
+
+TEST_F(OutputFileTest, StaleTemporariesOfDeadProcessesAreRemoved) {
+  const std::string stale = path(fmt::format("r.json.tmp-{}", deadPid()));
+  const std::string alive = path("r.json.tmp-1");  // init never exits
+  const std::string other = path(fmt::format("other.json.tmp-{}", deadPid()));
+  for (const auto& p : {stale, alive, other}) std::ofstream(p) << "half a file";
+  ASSERT_TRUE(writeOutputFile(path("r.json"), "whole").ok());
+  EXPECT_FALSE(fs::exists(stale));
+  EXPECT_TRUE(fs::exists(alive)) << "a running process may still be writing it";
+  EXPECT_TRUE(fs::exists(other)) << "another target's temporary is not touched";
+}
+
+TEST_F(OutputFileTest, RegisteredTemporariesAreRemovedOnDemand) {
+  auto out = OutputFile::open(path("r.csv"));
+  ASSERT_TRUE(out.ok());
+  const std::string tmp = (*out)->writtenPath();
+  EXPECT_EQ(tmp, temporaryPathFor(path("r.csv")));
+  EXPECT_TRUE(fs::exists(tmp));
+  removeTemporaries();  // what the signal handler does
+  EXPECT_FALSE(fs::exists(tmp));
+  const Status s = (*out)->commit();
+  ASSERT_FALSE(s.ok());
+  EXPECT_THAT(s.error().message, HasSubstr("r.csv"));
+  EXPECT_FALSE(fs::exists(path("r.csv")));
+}
+
+TEST_F(OutputFileTest, UncommittedOutputLeavesNothing) {
+  std::ofstream(path("r.json")) << "previous";
+  {
+    auto out = OutputFile::open(path("r.json"));
+    ASSERT_TRUE(out.ok());
+    std::fputs("half", (*out)->stream());
+  }
+  EXPECT_EQ(entries(), std::vector<std::string>{"r.json"});
+  EXPECT_EQ(slurp(path("r.json")), "previous");
+}
+
+TEST_F(OutputFileTest, SecondWriterOfTheSameTargetIsRefused) {
+  auto first = OutputFile::open(path("r.json"));
+  ASSERT_TRUE(first.ok());
+  auto second = OutputFile::open(path("r.json"));
+  ASSERT_FALSE(second.ok());
+  EXPECT_THAT(second.error().message, HasSubstr("exists"));
+  EXPECT_TRUE(fs::exists((*first)->writtenPath())) << "the refused writer must not remove the first one's file";
+}
+
+TEST_F(OutputFileTest, OutputsMustDifferFromInputsAndEachOther) {
+  std::ofstream(path("ev.csv")) << "events";
+  fs::create_symlink("ev.csv", path("link.csv"));
+  fs::create_hard_link(path("ev.csv"), path("hard.csv"));
+  const std::vector<NamedPath> inputs = {{"", path("ev.csv")}, {"--corrections", ""}};
+  EXPECT_THAT(checkDistinct({{"-o", path("ev.csv")}}, inputs).error().message, HasSubstr("same file as the input"));
+  EXPECT_THAT(checkDistinct({{"-o", path("link.csv")}}, inputs).error().message, HasSubstr("same file as the input"));
+  EXPECT_THAT(checkDistinct({{"-o", path("hard.csv")}}, inputs).error().message, HasSubstr("same file as the input"));
+  EXPECT_THAT(checkDistinct({{"-o", path("a.json")}, {"--profile-out", dir_.string() + "/./a.json"}}, inputs)
+                  .error()
+                  .message,
+              HasSubstr("same file as the output -o"));
+  EXPECT_TRUE(checkDistinct({{"-o", path("a.json")}, {"--profile-out", path("p.csv")}}, inputs).ok());
+  EXPECT_TRUE(checkDistinct({{"-o", "/dev/null"}, {"--profile-out", "/dev/null"}}, inputs).ok());
+}
+
+TEST_F(OutputFileTest, OutputDirectories) {
+  EXPECT_TRUE(checkOutputDirectory(path("new/dir")).ok());
+  fs::create_directories(path("d"));
+  EXPECT_TRUE(checkOutputDirectory(path("d")).ok());
+  std::ofstream(path("f")) << "x";
+  EXPECT_THAT(checkOutputDirectory(path("f")).error().message, HasSubstr("not a directory"));
+}
+
+}  // namespace
+}  // namespace emcalign::io

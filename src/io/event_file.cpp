@@ -77,8 +77,9 @@ class EventFingerprints {
   std::size_t size_ = 0;
 };
 
-Result<std::unique_ptr<RowSource>> openSource(const std::string& path, std::size_t readRows) {
-  return formatOf(path) == EventFormat::Csv ? openCsvSource(path) : openHdf5Source(path, readRows);
+Result<std::unique_ptr<RowSource>> openSource(const std::string& path, std::size_t readRows, double hdf5Timeout) {
+  if (formatOf(path) == EventFormat::Csv) return openCsvSource(path);
+  return openIsolated(path, [&] { return openHdf5Source(path, readRows); }, hdf5Timeout);
 }
 
 // ============================================================================ the reader
@@ -147,7 +148,7 @@ class EventReaderImpl final : public EventReader {
   std::size_t readRows() const { return std::max<std::size_t>(options_.blockRows, 256); }
 
   Status openFile(std::size_t index) {
-    auto source = openSource(paths_[index], readRows());
+    auto source = openSource(paths_[index], readRows(), options_.hdf5TimeoutSeconds);
     if (!source) return source.error();
     source_ = std::move(*source);
     index_ = index;
@@ -184,7 +185,7 @@ class EventReaderImpl final : public EventReader {
   // Where the event of `row` started before the current row, or "" if it did not.
   Result<std::string> locateEarlier(const ParticleRow& row) const {
     for (std::size_t f = 0; f <= index_; ++f) {
-      auto source = openSource(paths_[f], readRows());
+      auto source = openSource(paths_[f], readRows(), options_.hdf5TimeoutSeconds);
       if (!source) return source.error();
       const std::uint64_t limit = f == index_ ? rowInFile_ - 1 : UINT64_MAX;
       ParticleRow r;
@@ -239,6 +240,7 @@ Result<std::unique_ptr<EventReader>> EventReader::open(std::vector<std::string> 
                                                        ReaderOptions options) {
   if (paths.empty()) return Error{"no event files given"};
   if (options.blockRows == 0) return Error{"event reader: blockRows must be at least 1"};
+  if (!(options.hdf5TimeoutSeconds > 0.0)) return Error{"event reader: the HDF5 timeout must be positive"};
   // Every file is checked before any is read: a missing or unreadable file is found at
   // once, not after hours of reading the ones before it, and so is a file given twice.
   std::vector<std::pair<dev_t, ino_t>> ids;

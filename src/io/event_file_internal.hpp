@@ -6,6 +6,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <numbers>
@@ -171,7 +172,15 @@ class RowSource {
 Result<std::unique_ptr<EventWriter>> openCsvWriter(const std::string& path, const WriterOptions& options);
 Result<std::unique_ptr<EventWriter>> openHdf5Writer(const std::string& path, const WriterOptions& options);
 Result<std::unique_ptr<RowSource>> openCsvSource(const std::string& path);
-/// `readRows`: rows read from each dataset at a time.
+/// In this process (see openIsolated); `readRows`: rows read from each dataset at a time.
 Result<std::unique_ptr<RowSource>> openHdf5Source(const std::string& path, std::size_t readRows);
+
+/// The source `open` makes, run in a child process that streams its rows back
+/// (isolated_source.cpp): a crash of the child is an error naming `path`, and a child silent
+/// for `timeoutSeconds` is killed and reported. For HDF5, whose library is not safe on
+/// corrupted files.
+Result<std::unique_ptr<RowSource>> openIsolated(const std::string& path,
+                                                const std::function<Result<std::unique_ptr<RowSource>>()>& open,
+                                                double timeoutSeconds);
 
 }  // namespace emcalign::io::detail

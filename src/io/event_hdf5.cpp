@@ -97,6 +97,8 @@ class Hid {
 };
 
 constexpr hsize_t kChunkRows = 16384;
+// Root attributes are metadata (settings, truth parameters): a longer one is skipped.
+constexpr std::size_t kMaxAttributeBytes = std::size_t{1} << 20;
 constexpr unsigned kDeflateLevel = 4;
 
 enum class Kind { I8, I32, I64, F64 };
@@ -669,6 +671,7 @@ class Hdf5Source final : public RowSource {
         if (text != nullptr) H5free_memory(text);
       } else if (ok) {
         const std::size_t size = H5Tget_size(type.get());
+        if (size == 0 || size > kMaxAttributeBytes) continue;  // not metadata emcalign writes
         std::string buffer(size, '\0');
         ok = H5Tset_size(memType.get(), size) >= 0 &&
              H5Tset_strpad(memType.get(), H5T_STR_NULLPAD) >= 0 &&
@@ -676,6 +679,7 @@ class Hdf5Source final : public RowSource {
         value = buffer.substr(0, buffer.find('\0'));
       }
       if (!ok) return error(fmt::format("cannot read the attribute '{}': {}", name, hdf5Reason()));
+      if (value.size() > kMaxAttributeBytes) continue;
       attributes_.emplace_back(name, std::move(value));
     }
     return {};

@@ -94,6 +94,9 @@ class EventWriter {
 
 struct ReaderOptions {
   std::size_t blockRows = 65536;  ///< rows per read (memory bound); at least 1
+  /// HDF5 files are read in a child process (libhdf5 crashes or loops on some corrupted
+  /// files): one silent for this long is killed and the file reported as unreadable.
+  double hdf5TimeoutSeconds = 60.0;
 };
 
 /// Streams rows from one or several files in order. `open` checks that every file exists

@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <bit>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
@@ -1018,6 +1019,57 @@ TEST_F(EventFile, Hdf5BillionRowEventIsRefusedAtOnce) {
   auto r = readAll({path("huge.h5")});
   ASSERT_FALSE(r.ok());
   EXPECT_THAT(r.error().message, HasSubstr("huge.h5: record 1000: run 1 event 7 has more than 1000 rows"));
+}
+
+}  // namespace
+}  // namespace emcalign::io
+
+// ------------------------------------------------- files that crash or hang libhdf5 itself
+
+namespace emcalign::io {
+namespace {
+
+// Found by fuzzing (tests/fuzz/regressions/): inside libhdf5 1.10 they end in SIGFPE, an
+// endless loop and an exabyte allocation. The reader runs HDF5 in a child process, so each
+// becomes an error naming the file.
+std::string regression(const char* name) { return std::string(EMCALIGN_SOURCE_DIR) + "/tests/fuzz/regressions/" + name; }
+
+TEST(EventFileIsolation, ACrashOfTheHdf5LibraryIsAnError) {
+  auto r = readAll({regression("hdf5-chunk-dimension-zero.h5")});
+  ASSERT_FALSE(r.ok());
+  EXPECT_THAT(r.error().message, HasSubstr("hdf5-chunk-dimension-zero.h5: the HDF5 library crashed reading this file"));
+  EXPECT_THAT(r.error().message, HasSubstr("signal 8"));
+}
+
+TEST(EventFileIsolation, AnHdf5LibraryThatLoopsIsStoppedAfterTheTimeout) {
+  ReaderOptions o;
+  o.hdf5TimeoutSeconds = 1.0;
+  const auto start = std::chrono::steady_clock::now();
+  auto reader = EventReader::open({regression("hdf5-global-heap-loop.h5")}, o);
+  ASSERT_FALSE(reader.ok());
+  EXPECT_THAT(reader.error().message, HasSubstr("did not answer within 1 s"));
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 10.0);
+}
+
+TEST(EventFileIsolation, AHugeAllocationIsAnError) {
+  auto r = readAll({regression("hdf5-huge-allocation.h5")});
+  ASSERT_FALSE(r.ok());
+  EXPECT_THAT(r.error().message, HasSubstr("hdf5-huge-allocation.h5"));
+}
+
+TEST(EventFileIsolation, AttributesAndTruthCrossTheProcessBoundaryExactly) {
+  const auto rows = sampleRows(3000);  // more than one message of rows
+  const auto truth = sampleTruth(rows.size());
+  const auto dir = fs::temp_directory_path() / fmt::format("emcalign-isolation-{}", ::getpid());
+  fs::create_directories(dir);
+  const std::string file = (dir / "e.h5").string();
+  ASSERT_TRUE(writeFile(file, rows, {true, kAttributes}, truth).ok());
+  auto back = readAll({file}, 1000);
+  fs::remove_all(dir);
+  ASSERT_TRUE(back.ok()) << back.error().message;
+  expectSameRows(back->rows, rows);
+  expectSameTruth(back->truth, truth);
+  EXPECT_EQ(back->attributes, kAttributes);
 }
 
 }  // namespace

@@ -2,7 +2,9 @@
 
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <numbers>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -161,38 +163,46 @@ Json sampleJson(const SampleResult& s, const CampaignOptions& o) {
 
 // Reads back what the table needs from a sample file; none if it is not a finished sample
 // of this campaign.
-std::optional<SampleResult> readSample(const std::string& path, const CampaignOptions& o, double r1) {
+std::optional<SampleResult> readSample(const std::string& path, int sampleIndex, const CampaignOptions& o, double r1) {
   auto text = io::readTextFile(path);
   if (!text) return std::nullopt;
   auto j = io::parseJson(*text, path);
   if (!j || !j->is_object() || !j->contains("format") || (*j)["format"] != kSampleFormat) return std::nullopt;
   try {
-    const Json& c = (*j)["campaign"];
-    if (c["seed"].get<std::uint64_t>() != o.seed || c["events"].get<std::int64_t>() != o.events ||
-        c["settings"] != o.settings) {
+    Json& c = (*j)["campaign"];  // not const: a missing key reads as null, never undefined behaviour
+    // Integers exactly as written (a wrapped or truncated number is not this campaign's).
+    const bool sameSeed = c["seed"].is_number_unsigned() && c["seed"].get<std::uint64_t>() == o.seed;
+    const auto events = io::integerIn(c["events"], 1, std::numeric_limits<std::int64_t>::max(), path, "campaign.events");
+    const auto stored = io::integerIn((*j)["index"], 0, std::numeric_limits<int>::max(), path, "index");
+    const auto selected =
+        io::integerIn((*j)["selected_events"], 0, std::numeric_limits<std::int64_t>::max(), path, "selected_events");
+    if (!sameSeed || !events || *events != o.events || c["settings"] != o.settings || !stored ||
+        *stored != sampleIndex || !selected) {
       return std::nullopt;
     }
     SampleResult s;
-    s.index = (*j)["index"].get<int>();
-    s.selectedEvents = (*j)["selected_events"].get<std::int64_t>();
+    s.index = sampleIndex;
+    s.selectedEvents = *selected;
     auto truth = io::parseAlignment((*j)["truth"], r1, path, io::AlignmentUse::Record);
     auto fit = io::parseAlignment((*j)["fit"], r1, path, io::AlignmentUse::Record);
     if (!truth || !fit) return std::nullopt;
     s.truth = *truth;
     s.fit.parameters = *fit;
-    const Json& f = (*j)["fit"];
+    Json& f = (*j)["fit"];
     const auto status = fitStatusFromName(f["status"].get<std::string>());
     if (!status) return std::nullopt;
     s.fit.status = *status;
-    s.fit.chi2 = f["chi2"].get<double>();
-    s.fit.ndf = f["ndf"].get<int>();
+    s.fit.chi2 = f["chi2"].is_null() ? std::nan("") : f["chi2"].get<double>();
+    const auto ndf = io::integerIn(f["ndf"], -1000000, 1000000, path, "fit.ndf");
+    if (!ndf) return std::nullopt;
+    s.fit.ndf = static_cast<int>(*ndf);
     for (Param p : kAllParams) {
       const Json& e = f["errors"][std::string(name(p))];
       s.fit.errors[static_cast<Eigen::Index>(index(p))] =
           e.is_null() ? std::nan("") : e.get<double>() * AlignmentParameters::fileUnit(p);
     }
     for (auto n : kDerived) {
-      const Json& d = f["derived"][std::string(n)];
+      Json& d = f["derived"][std::string(n)];
       const double unit = n == "dx_rel" ? units::cm : units::deg;
       calib::DerivedValue v;
       v.value = d["value"].get<double>() * unit;
@@ -265,7 +275,7 @@ Result<Table> runCampaign(const geometry::Calorimeter& calo, const CampaignOptio
   for (int i = 0; i < o.samples; ++i) {
     const std::string path = (fs::path(dir) / "samples" / fmt::format("sample_{:04d}.json", i)).string();
     if (fs::exists(path)) {
-      if (auto done = readSample(path, o, r1)) {
+      if (auto done = readSample(path, i, o, r1)) {
         samples.push_back(std::move(*done));
         if (progress) progress(i + 1, o.samples);
         continue;
@@ -296,7 +306,7 @@ Result<Table> runCampaign(const geometry::Calorimeter& calo, const CampaignOptio
     if (Status w = io::writeOutputFile(path, sampleJson(s, o).dump(1) + "\n"); !w) return w.error();
     // Tabulate what the file holds (file units), so that a resumed campaign, which reads
     // its finished samples back, gives the same table to the last digit.
-    auto stored = readSample(path, o, r1);
+    auto stored = readSample(path, i, o, r1);
     if (!stored) return Error{fmt::format("{}: written but not readable back", path)};
     samples.push_back(std::move(*stored));
     if (progress) progress(i + 1, o.samples);

@@ -11,11 +11,14 @@
 // charged = 0: a photon (an EMC cluster; the track fields empty). In memory and in HDF5 an
 // empty field is NaN; a NaN (or "nan" text) where a value is required is an error.
 //
-// Readers are strict and streaming: memory does not grow with the file; every refused
-// input is reported with the file, the line (CSV) or record (HDF5) and the column.
-// Writers write to a temporary file next to the target and rename it on `close()`: a
-// writer destroyed without a successful close removes the temporary, so a failed or
-// interrupted job leaves no partial file.
+// Readers are strict and streaming: memory does not grow with the rows (only 16 bytes per
+// event for the check below); every refused input is reported with the file, the line
+// (CSV) or record (HDF5) and the column. HDF5 files are read in a child process (libhdf5
+// crashes and loops on some corrupted files; io/isolated_source.cpp).
+// Writers follow io/output_file.hpp: a temporary next to the target renamed on `close()`
+// (a writer destroyed without a successful close removes it, so a failed or interrupted
+// job leaves no partial file); a device, a FIFO or "-" (standard output, CSV) is written
+// directly.
 //
 // What a row must satisfy (readers refuse it, writers refuse to append it):
 //   run (int32), event (int64), muon_veto and charged (0 or 1) are integers, never empty;
@@ -24,13 +27,15 @@
 //   track field and a cluster; the three cluster fields are all filled or all empty; the
 //   rows of one event (consecutive rows with the same run and event) share beam_energy_mev
 //   and muon_veto. CSV numbers must spell the whole field: "nan"/"inf" text is refused
-//   (an empty field is the missing value) and "1.0" or "1e3" is not an integer. Not
-//   checked (it would need memory that grows with the file): that an event's rows are
-//   contiguous, i.e. that (run, event) does not come back later.
+//   (an empty field is the missing value) and "1.0" or "1e3" is not an integer.
+// Across rows (readers only): an event — a (run, event) pair — appears once, its rows
+//   contiguous, in all the files of one reader together (a file given twice, a copy, a
+//   repeated event or an event's rows apart are refused, naming both places; the same file
+//   twice is refused by name before reading), and has at most 1000 rows.
 //
 // CSV text: '# key: value' comment lines before the header are the attributes; other
-// comments and blank lines are skipped anywhere; CRLF and a last line without newline are
-// accepted, a cut last row is refused. Written numbers use 17 significant digits ({:.17g}),
+// comments and blank lines are skipped anywhere; CRLF is accepted; a row must end with a
+// newline (a file cut inside its last field would otherwise read as a valid number). Written numbers use 17 significant digits ({:.17g}),
 // so they read back bit for bit; NaN is written as an empty field.
 //
 // HDF5 layout (little-endian types, every dataset 1-D, chunked 16384 rows, unlimited,
@@ -76,8 +81,9 @@ struct WriterOptions {
   std::vector<std::pair<std::string, std::string>> attributes;
 };
 
-/// Writes `path` through the temporary `<path>.tmp-<pid>` (so two writers of one path in
-/// one process collide). Memory is bounded: rows are buffered and written in blocks.
+/// Writes `path` by the rules of io/output_file.hpp: through the temporary `<path>.tmp-<pid>`
+/// (so a second writer of one path in one process is refused), or directly to a device,
+/// a FIFO or "-". Memory is bounded: rows are buffered and written in blocks.
 class EventWriter {
  public:
   static Result<std::unique_ptr<EventWriter>> open(const std::string& path, WriterOptions options);

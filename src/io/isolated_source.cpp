@@ -310,8 +310,9 @@ class IsolatedSource final : public RowSource {
       return Error{fmt::format("{}: the HDF5 library crashed reading this file (signal {}, {}): the file is corrupted",
                                path_, sig, ::strsignal(sig))};
     }
-    return Error{fmt::format("{}: the HDF5 reader process ended without an answer (exit status {})", path_,
-                             status >= 0 && WIFEXITED(status) ? WEXITSTATUS(status) : -1)};
+    return Error{fmt::format("{}: the HDF5 reader process ended without an answer (exit status {}): the file is "
+                             "probably corrupted",
+                             path_, status >= 0 && WIFEXITED(status) ? WEXITSTATUS(status) : -1)};
   }
 
   // Waits for the child (killing it first when asked); its wait status, or −1.
@@ -360,7 +361,9 @@ Result<std::unique_ptr<RowSource>> openIsolated(const std::string& path,
   if (child == 0) {
     ::close(fds[0]);
     ::signal(SIGPIPE, SIG_DFL);  // the parent gave up: just end
-    for (int s : {SIGINT, SIGTERM, SIGHUP}) ::signal(s, SIG_DFL);
+    // A crash is reported by the parent from the wait status: no handler of the parent's
+    // (the app's cleanup, a sanitizer's report) runs in the child.
+    for (int s : {SIGINT, SIGTERM, SIGHUP, SIGFPE, SIGSEGV, SIGBUS, SIGILL, SIGABRT}) ::signal(s, SIG_DFL);
     runChild(fds[1], open);
   }
   ::close(fds[1]);

@@ -36,7 +36,7 @@ TIMEOUT = 60  # seconds: a case that takes longer hangs
 
 
 class Case:
-    def __init__(self, family, what, command, exit_code, expect=None, setup=None, check=None, run=None):
+    def __init__(self, family, what, command, exit_code, expect=None, setup=None, check=None, run=None, checked=None):
         self.family = family      # section of the table
         self.what = what          # the bad input, in words
         self.command = command    # shell command, "emcalign" stands for the binary
@@ -45,6 +45,7 @@ class Case:
         self.setup = setup        # callable(dir) run before the command
         self.check = check        # callable(dir, result) -> error text or None, after it
         self.run = run            # a custom runner(dir, argv) -> result, e.g. for signals
+        self.checked = checked    # what `check` verifies, in words (shown in the table)
 
 
 class Result:
@@ -170,9 +171,10 @@ def cases():
     # ---- Destroys files -------------------------------------------------------------------
     F = "Destroys files"
     add(Case(F, "the result to /dev/null (as root)", "emcalign fit ev.csv -o /dev/null", 0,
-             check=is_char_device("/dev/null")))
+             check=is_char_device("/dev/null"), checked="/dev/null is still a character device"))
     add(Case(F, "HDF5 events to /dev/null (built in $TMPDIR, copied)",
-             "emcalign simulate --events 100 --params p.json -o /dev/null", 0, check=is_char_device("/dev/null")))
+             "emcalign simulate --events 100 --params p.json -o /dev/null", 0, check=is_char_device("/dev/null"),
+             checked="/dev/null is still a character device"))
     s, c = unchanged("ev.csv")
     add(Case(F, "output = input", "emcalign fit ev.csv -o ev.csv", 1, "same file as the input", setup=s, check=c))
     s, c = unchanged("ev.csv")
@@ -205,7 +207,7 @@ def cases():
         with open(os.path.join(d, "kept.json")) as f:
             return None if "emcalign-alignment/1" in f.read() else "the target was not written"
     add(Case(F, "a symbolic link to a file: written through, the link kept", "emcalign fit ev.csv -o latest.json", 0,
-             setup=link_to_file, check=link_kept))
+             setup=link_to_file, check=link_kept, checked="latest.json is still the link, kept.json holds the result"))
 
     def dangling(d):
         os.symlink("nowhere.json", os.path.join(d, "dangling.json"))
@@ -233,9 +235,11 @@ def cases():
             return runner.until_temporary_then(command, sig, "big.h5.tmp-")
         return run
     add(Case(F, "simulate interrupted (SIGINT)", "emcalign simulate --events 50000000 --params p.json -o big.h5",
-             128 + signal.SIGINT, check=no_temporaries, run=interrupted(signal.SIGINT)))
+             128 + signal.SIGINT, check=no_temporaries, run=interrupted(signal.SIGINT),
+             checked="no big.h5.tmp-PID left"))
     add(Case(F, "simulate terminated (SIGTERM)", "emcalign simulate --events 50000000 --params p.json -o big.h5",
-             128 + signal.SIGTERM, check=no_temporaries, run=interrupted(signal.SIGTERM)))
+             128 + signal.SIGTERM, check=no_temporaries, run=interrupted(signal.SIGTERM),
+             checked="no big.h5.tmp-PID left"))
 
     def killed_then_rerun(runner, command):
         runner.until_temporary_then(command, signal.SIGKILL, "big.h5.tmp-")
@@ -244,7 +248,7 @@ def cases():
         return runner.shell("emcalign simulate --events 100 --params p.json -o big.h5")
     add(Case(F, "simulate killed (kill -9), then run again: the stale temporary is removed",
              "emcalign simulate --events 50000000 --params p.json -o big.h5", 0, check=no_temporaries,
-             run=killed_then_rerun))
+             run=killed_then_rerun, checked="the rerun removed the big.h5.tmp-PID of the killed process"))
 
     # ---- Crashes ---------------------------------------------------------------------------
     C = "Crashes"
@@ -288,6 +292,16 @@ def cases():
                 g.create_dataset(name, shape=(n,), dtype="<" + dtype, chunks=(65536,), fillvalue=value)
     add(Case(C, "an HDF5 file whose 10^9 rows are one event (a few kB of fill values)",
              "emcalign fit billion.h5 -o r.json", 1, "has more than 1000 rows", setup=billion))
+
+    regressions = os.path.join(SOURCE, "tests", "fuzz", "regressions")
+
+    def damaged(name):
+        return lambda d: shutil.copy(os.path.join(regressions, name), os.path.join(d, name))
+    add(Case(C, "a damaged HDF5 file on which libhdf5 divides by zero (found by fuzzing)",
+             "emcalign fit hdf5-chunk-dimension-zero.h5 -o r.json", 1, "crashed reading this file",
+             setup=damaged("hdf5-chunk-dimension-zero.h5")))
+    add(Case(C, "a damaged HDF5 file on which libhdf5 asks for exabytes", "emcalign fit hdf5-huge-allocation.h5 -o r.json",
+             1, "memory allocation failed", setup=damaged("hdf5-huge-allocation.h5")))
 
     def rings(name, value):
         return lambda d: edit_json(d, "d.json", name, lambda j: j["counters_per_ring"].__setitem__(0, value))
@@ -442,7 +456,7 @@ def cases():
 def shown_line(case, result, directory):
     """The stderr line that names the problem, in the form the table shows."""
     if case.expect is None:
-        return "—"
+        return f"— (checked: {case.checked})" if case.checked else "—"
     for line in result.err.splitlines():
         if case.expect in line:
             line = line.replace(directory + "/", "").replace(directory, ".")
@@ -472,7 +486,7 @@ def run_case(case, runner):
         p = case.check(runner.dir, result)
         if p:
             problems.append(p)
-    if "internal error" in result.err or "AddressSanitizer" in result.err or "runtime error:" in result.err:
+    if "internal error" in result.err or "ERROR: AddressSanitizer" in result.err or "runtime error:" in result.err:
         problems.append("a crash or sanitizer report")
     if problems:
         problems.append("stderr: " + result.err[-2000:])

@@ -1,6 +1,8 @@
 // emcalign geometry: the detector summary, the counter table (nominal or actual centres) and
 // the detector description file.
 
+#include <cmath>
+#include <iostream>
 #include <memory>
 #include <string>
 
@@ -10,7 +12,9 @@
 #include "common.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/geometry/alignment_transform.hpp"
+#include "emcalign/geometry/counter_geometry.hpp"
 #include "emcalign/geometry/track.hpp"
+#include "emcalign/io/csv.hpp"
 #include "emcalign/io/json_files.hpp"
 
 namespace emcalign::app {
@@ -28,6 +32,8 @@ struct GeometryOptions {
   bool json = false;
   bool counters = false;
   bool description = false;
+  bool locate = false;
+  std::string coordinates;  // empty: the historic columns
 };
 
 Json summaryJson(const Calorimeter& calo) {
@@ -81,37 +87,113 @@ void printSummary(const Calorimeter& calo) {
              d.material.criticalEnergy, d.material.preshowerMaterial);
 }
 
-int printCounters(const Calorimeter& calo, const std::string& paramsPath) {
-  std::optional<AlignmentTransform> transform;
-  if (!paramsPath.empty()) {
-    auto etaFile = io::readAlignmentFile(paramsPath, calo.description().r1());
-    if (!etaFile) return reportError(etaFile.error());
-    for (const auto& w : etaFile->warnings) reportWarning(w);
-    const geometry::AlignmentParameters* eta = &etaFile->parameters;
-    auto t = AlignmentTransform::create(*eta, AlignmentRadii::of(calo.description()));
-    if (!t) return reportError(t.error());
-    transform = std::move(*t);
+// The geometry of --params (or the nominal one).
+Result<CounterGeometry> geometryFor(const Calorimeter& calo, const std::string& paramsPath) {
+  if (paramsPath.empty()) return CounterGeometry::nominal(calo);
+  auto file = io::readAlignmentFile(paramsPath, calo.description().r1());
+  if (!file) return file.error();
+  for (const auto& w : file->warnings) reportWarning(w);
+  auto t = AlignmentTransform::create(file->parameters, AlignmentRadii::of(calo.description()));
+  if (!t) return t.error();
+  return CounterGeometry::aligned(calo, *t);
+}
+
+// The three coordinate columns of a point: header and values.
+std::string coordinateHeader(const std::string& system) {
+  if (system == "cylindrical") return "rho_cm,phi_deg,z_cm";
+  if (system == "spherical") return "r_cm,theta_deg,phi_deg";
+  return "x_cm,y_cm,z_cm";
+}
+
+std::string coordinates(const Vec3& p, const std::string& system) {
+  if (system == "cylindrical") {
+    return fmt::format("{:.17g},{:.17g},{:.17g}", std::hypot(p.x(), p.y()) / cm, azimuth(p) / deg, p.z() / cm);
   }
-  std::string out = "index,layer,ring,iphi,hemisphere,theta_deg,phi_deg,x_cm,y_cm,z_cm\n";
+  if (system == "spherical") return fmt::format("{:.17g},{:.17g},{:.17g}", p.norm() / cm, polar(p) / deg, azimuth(p) / deg);
+  return fmt::format("{:.17g},{:.17g},{:.17g}", p.x() / cm, p.y() / cm, p.z() / cm);
+}
+
+int printCounters(const Calorimeter& calo, const std::string& paramsPath, const std::string& system) {
+  auto geometry = geometryFor(calo, paramsPath);
+  if (!geometry) return reportError(geometry.error());
+  // Without --coordinates: the historic columns (angles, then Cartesian).
+  const bool both = system.empty();
+  std::string out = fmt::format("index,layer,ring,iphi,hemisphere,{}\n",
+                                both ? "theta_deg,phi_deg,x_cm,y_cm,z_cm" : coordinateHeader(system));
   for (const Counter& c : calo.counters()) {
-    Vec3 p = c.centre();
-    if (transform) p = transform->forward(p, c.hemisphere, supportOfLayer(c.layer));
-    out += fmt::format("{},{},{},{},{},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g}\n", c.index, c.layer,
-                       c.ring, c.iphi, sign(c.hemisphere), polar(p) / deg, azimuth(p) / deg,
-                       p.x() / cm, p.y() / cm, p.z() / cm);
+    const Vec3& p = geometry->centre(c.index);
+    out += fmt::format("{},{},{},{},{},", c.index, c.layer, c.ring, c.iphi, sign(c.hemisphere));
+    out += both ? fmt::format("{:.17g},{:.17g},{}\n", polar(p) / deg, azimuth(p) / deg, coordinates(p, "cartesian"))
+                : coordinates(p, system) + "\n";
   }
   fmt::print("{}", out);
   return 0;
 }
 
+// --locate: x_cm,y_cm,z_cm rows on stdin (TS frame) → the counter that contains each.
+int locatePoints(const Calorimeter& calo, const std::string& paramsPath) {
+  auto geometry = geometryFor(calo, paramsPath);
+  if (!geometry) return reportError(geometry.error());
+  std::string out = "x_cm,y_cm,z_cm,region,counter,layer,ring,iphi,hemisphere,other_counter,nominal_x_cm,nominal_y_cm,"
+                    "nominal_z_cm\n";
+  std::string line;
+  long lineNo = 0;
+  bool header = false;
+  static constexpr const char* kColumns[] = {"x_cm", "y_cm", "z_cm"};
+  while (std::getline(std::cin, line)) {
+    ++lineNo;
+    if (io::isBlankOrComment(line)) continue;
+    const auto fields = io::splitCsvLine(line);
+    if (!header) {
+      if (fields.size() != 3 || fields[0] != "x_cm" || fields[1] != "y_cm" || fields[2] != "z_cm") {
+        return reportError({fmt::format("stdin, line {}: expected the header x_cm,y_cm,z_cm, got {}", lineNo,
+                                        io::quoted(line))});
+      }
+      header = true;
+      continue;
+    }
+    if (fields.size() != 3) {
+      return reportError({fmt::format("stdin, line {}: expected 3 columns (x_cm,y_cm,z_cm), got {}", lineNo,
+                                      fields.size())});
+    }
+    Vec3 p;
+    for (int i = 0; i < 3; ++i) {
+      const auto v = io::parseFiniteDouble(fields[static_cast<std::size_t>(i)]);
+      if (!v) {
+        return reportError({fmt::format("stdin, line {}, column '{}': not a finite number: {}", lineNo, kColumns[i],
+                                        io::quoted(fields[static_cast<std::size_t>(i)]))});
+      }
+      p[i] = *v * cm;
+    }
+    const PointLocation loc = geometry->locate(p);
+    out += fmt::format("{},{},", coordinates(p, "cartesian"), name(loc.region));
+    if (loc.counter >= 0) {
+      const Counter& c = calo.counter(loc.counter);
+      out += fmt::format("{},{},{},{},{},", c.index, c.layer, c.ring, c.iphi, sign(c.hemisphere));
+    } else {
+      out += loc.region == PointRegion::Gap ? ",,,,," : fmt::format(",,,,{},", sign(loc.hemisphere));
+    }
+    out += loc.otherCounter >= 0 ? fmt::format("{},", loc.otherCounter) : ",";
+    out += loc.region == PointRegion::Gap ? ",,\n" : coordinates(loc.nominal, "cartesian") + "\n";
+  }
+  if (!header) return reportError({"stdin: no header line x_cm,y_cm,z_cm"});
+  fmt::print("{}", out);
+  return 0;
+}
+
 int run(const GeometryOptions& o) {
+  if (!o.params.empty() && !o.counters && !o.locate) {
+    fmt::print(stderr, "emcalign: usage error: --params goes with --counters or --locate\n");
+    return kExitUsage;
+  }
   auto calo = loadCalorimeter(o.detector);
   if (!calo) return reportError(calo.error());
   if (o.description) {
     fmt::print("{}\n", io::toJson(calo->description()).dump(2));
     return 0;
   }
-  if (o.counters) return printCounters(*calo, o.params);
+  if (o.counters) return printCounters(*calo, o.params, o.coordinates);
+  if (o.locate) return locatePoints(*calo, o.params);
   if (o.json) {
     fmt::print("{}\n", summaryJson(*calo).dump(2));
   } else {
@@ -131,15 +213,25 @@ void addGeometryCommand(CLI::App& app, int& exitCode) {
   auto* counters = cmd->add_flag(
       "--counters", opts->counters,
       "print every counter as CSV: index,layer,ring,iphi,hemisphere,theta_deg,phi_deg,x_cm,y_cm,z_cm");
-  cmd->add_option("--params", opts->params,
-                  "with --counters: actual centres in the TS frame for these alignment parameters "
-                  "(layer 3 with the mu3 rule)")
-      ->check(CLI::ExistingFile)
-      ->needs(counters);
+  auto* locate = cmd->add_flag("--locate", opts->locate,
+                               "read x_cm,y_cm,z_cm rows (TS frame) on stdin and print the counter that contains each "
+                               "(or the region: gap, overlap, inside, support, outside, uncovered) and the point in the "
+                               "nominal EMC frame");
+  auto* params = cmd->add_option("--params", opts->params,
+                                 "with --counters or --locate: the detector placed by these alignment parameters (a "
+                                 "parameter file or a fit result; layer 3 with the mu3 rule)")
+                     ->check(CLI::ExistingFile);
+  cmd->add_option("--coordinates", opts->coordinates,
+                                 "with --counters: cartesian (x_cm,y_cm,z_cm), cylindrical (rho_cm,phi_deg,z_cm) or "
+                                 "spherical (r_cm,theta_deg,phi_deg) instead of theta_deg,phi_deg,x_cm,y_cm,z_cm")
+                     ->check(CLI::IsMember({"cartesian", "cylindrical", "spherical"}))
+                     ->needs(counters);
   auto* description = cmd->add_flag("--description", opts->description,
                                     "print the detector description JSON (the format --detector reads)");
-  json->excludes(counters)->excludes(description);
-  counters->excludes(description);
+  json->excludes(counters)->excludes(description)->excludes(locate);
+  counters->excludes(description)->excludes(locate);
+  locate->excludes(description);
+  params->excludes(description)->excludes(json);
   cmd->callback([opts, &exitCode] { exitCode = run(*opts); });
 }
 

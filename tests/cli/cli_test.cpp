@@ -1,6 +1,7 @@
 // Smoke and contract tests of the emcalign command line: exit codes, stdout formats and the
 // messages of refused inputs. The binary is the one built beside these tests.
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -100,6 +101,43 @@ TEST_F(Cli, GeometryJsonReportsTheSpecDetector) {
   CmdResult text = run("geometry");
   EXPECT_EQ(text.exitCode, 0);
   EXPECT_NE(text.out.find("1632"), std::string::npos);
+}
+
+TEST_F(Cli, GeometryDatabaseLocatesEveryAlignedCounterCentre) {
+  const std::string p = paramsFile(kParams);
+  CmdResult xyz = run("geometry --counters --coordinates cartesian --params " + p);
+  ASSERT_EQ(xyz.exitCode, 0) << xyz.err;
+  auto rows = csvRows(xyz.out);
+  ASSERT_EQ(rows.size(), 1633u);
+  EXPECT_EQ(rows[0], (std::vector<std::string>{"index", "layer", "ring", "iphi", "hemisphere", "x_cm", "y_cm", "z_cm"}));
+  std::string points = "x_cm,y_cm,z_cm\n";
+  for (std::size_t i = 1; i < rows.size(); ++i) points += rows[i][5] + "," + rows[i][6] + "," + rows[i][7] + "\n";
+  CmdResult located = run("geometry --locate --params " + p, points);
+  ASSERT_EQ(located.exitCode, 0) << located.err;
+  auto back = csvRows(located.out);
+  ASSERT_EQ(back.size(), rows.size());
+  EXPECT_EQ(back[0][3], "region");
+  for (std::size_t i = 1; i < back.size(); ++i) {
+    ASSERT_EQ(back[i][3], "counter") << "line " << i;
+    ASSERT_EQ(back[i][4], rows[i][0]) << "line " << i;  // the same index
+  }
+  // The same centres in the other coordinate systems.
+  CmdResult sph = run("geometry --counters --coordinates spherical --params " + p);
+  CmdResult cyl = run("geometry --counters --coordinates cylindrical --params " + p);
+  auto s = csvRows(sph.out), c = csvRows(cyl.out);
+  ASSERT_EQ(s.size(), rows.size());
+  ASSERT_EQ(c.size(), rows.size());
+  const double deg = M_PI / 180.0;
+  for (std::size_t i = 1; i < rows.size(); i += 97) {
+    const double x = std::stod(rows[i][5]), y = std::stod(rows[i][6]), z = std::stod(rows[i][7]);
+    const double r = std::stod(s[i][5]), theta = std::stod(s[i][6]) * deg, phi = std::stod(s[i][7]) * deg;
+    EXPECT_NEAR(r * std::sin(theta) * std::cos(phi), x, 1e-9);
+    EXPECT_NEAR(r * std::cos(theta), z, 1e-9);
+    EXPECT_NEAR(std::stod(c[i][5]) * std::sin(std::stod(c[i][6]) * deg), y, 1e-9);
+    EXPECT_NEAR(std::stod(c[i][7]), z, 1e-9);
+  }
+  CmdResult alone = run("geometry --params " + p);
+  EXPECT_EQ(alone.exitCode, 2) << "--params without --counters or --locate";
 }
 
 TEST_F(Cli, DetectorOverrideAndRefusal) {

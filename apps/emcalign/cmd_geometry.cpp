@@ -90,7 +90,7 @@ void printSummary(const Calorimeter& calo) {
 // The geometry of --params (or the nominal one).
 Result<CounterGeometry> geometryFor(const Calorimeter& calo, const std::string& paramsPath) {
   if (paramsPath.empty()) return CounterGeometry::nominal(calo);
-  auto file = io::readAlignmentFile(paramsPath, calo.description().r1());
+  auto file = loadAlignment(paramsPath, calo);
   if (!file) return file.error();
   for (const auto& w : file->warnings) reportWarning(w);
   auto t = AlignmentTransform::create(file->parameters, AlignmentRadii::of(calo.description()));

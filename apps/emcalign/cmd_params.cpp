@@ -28,7 +28,7 @@ int runShow(const ShowOptions& o) {
   auto calo = loadCalorimeter(o.detector);
   if (!calo) return reportError(calo.error());
   const double r1 = calo->description().r1();
-  auto etaFile = io::readAlignmentFile(o.file, r1);
+  auto etaFile = loadAlignment(o.file, *calo);
   if (!etaFile) return reportError(etaFile.error());
   for (const auto& w : etaFile->warnings) reportWarning(w);
   const geometry::AlignmentParameters* eta = &etaFile->parameters;

@@ -84,7 +84,7 @@ int run(const SimulateOptions& cli) {
   }
   auto calo = loadCalorimeter(cli.detector);
   if (!calo) return reportError(calo.error());
-  auto truthFile = io::readAlignmentFile(cli.params, calo->description().r1());
+  auto truthFile = loadAlignment(cli.params, *calo);
   if (!truthFile) return reportError(truthFile.error());
   for (const auto& w : truthFile->warnings) reportWarning(w);
   const geometry::AlignmentParameters* truth = &truthFile->parameters;
@@ -147,7 +147,7 @@ void addSimulateCommand(CLI::App& app, int& exitCode) {
   cmd->add_option("--events", o->events, "number of events (at most 1e10)")->required()->check(integerIn(0, kMaxEvents));
   cmd->add_option("--seed", o->seed, "random seed, 0 to 2^64 - 1 (the same seed gives the same file on any thread count)")
       ->check(unsigned64());
-  cmd->add_option("--params", o->params, "truth alignment parameters (JSON, SPEC §3)")->required()->check(CLI::ExistingFile);
+  cmd->add_option("--params", o->params, "truth alignment: a parameter file (JSON, SPEC §3), a fit result or a placements file (emcalign export)")->required()->check(CLI::ExistingFile);
   cmd->add_option_function<double>("--beam-energy", [o](const double& v) { o->beamEnergy = v; }, "beam energy in MeV (default 612.5 for ee and gg, 510 for 3pi)")
       ->check(finiteIn(sim::kMinBeamEnergy / units::MeV, sim::kMaxBeamEnergy / units::MeV));
   cmd->add_option_function<double>("--theta-min", [o](const double& v) { o->thetaMinDeg = v; },

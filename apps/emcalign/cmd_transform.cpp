@@ -37,7 +37,7 @@ struct TransformOptions {
 int run(const TransformOptions& o) {
   auto calo = loadCalorimeter(o.detector);
   if (!calo) return reportError(calo.error());
-  auto etaFile = io::readAlignmentFile(o.params, calo->description().r1());
+  auto etaFile = loadAlignment(o.params, *calo);
   if (!etaFile) return reportError(etaFile.error());
   for (const auto& w : etaFile->warnings) reportWarning(w);
   const geometry::AlignmentParameters* eta = &etaFile->parameters;

@@ -5,6 +5,7 @@
 
 #include <fmt/format.h>
 
+#include "emcalign/apply/placements.hpp"
 #include "emcalign/core/version.hpp"
 #include "emcalign/io/csv.hpp"
 #include "emcalign/io/json_files.hpp"
@@ -47,6 +48,22 @@ Result<geometry::Calorimeter> loadCalorimeter(const std::string& detectorPath) {
   auto calo = geometry::Calorimeter::create(std::move(*description));
   if (!calo) return Error{fmt::format("{}: {}", detectorPath, calo.error().message)};
   return calo;
+}
+
+Result<io::AlignmentFile> loadAlignment(const std::string& path, const geometry::Calorimeter& calo) {
+  auto text = io::readTextFile(path);
+  if (!text) return text.error();
+  auto j = io::parseJson(*text, path);
+  if (!j) return j.error();
+  if (apply::isPlacementsJson(*j)) {
+    auto placements = apply::readPlacements(path, calo);
+    if (!placements) return placements.error();
+    io::AlignmentFile file;
+    file.parameters = placements->alignment;
+    for (const auto& w : geometry::warnings(file.parameters)) file.warnings.push_back(fmt::format("{}: {}", path, w));
+    return file;
+  }
+  return io::parseAlignmentFile(*j, calo.description().r1(), path);
 }
 
 void addDetectorOption(CLI::App& cmd, std::string& path) {

@@ -13,6 +13,7 @@
 #include "emcalign/core/result.hpp"
 #include "emcalign/geometry/alignment_parameters.hpp"
 #include "emcalign/geometry/detector.hpp"
+#include "emcalign/io/json_files.hpp"
 #include "emcalign/io/output_file.hpp"
 #include "emcalign/sim/simulation.hpp"
 
@@ -53,6 +54,11 @@ Status checkOutputs(const std::vector<io::NamedPath>& files, const std::vector<i
 /// The detector of `--detector FILE`, or the embedded default when the path is empty.
 Result<geometry::Calorimeter> loadCalorimeter(const std::string& detectorPath);
 
+/// An alignment from any of the files that hold one: a parameter file, a fit result (a
+/// usable one: io/json_files.hpp), or a placements file (apply/placements.hpp, checked
+/// against its own alignment). The warnings are for the caller to print.
+Result<io::AlignmentFile> loadAlignment(const std::string& path, const geometry::Calorimeter& calo);
+
 /// `--ideal` and `--off EFFECT,...` of simulate, validate and derive-corrections, applied to
 /// the simulation options; the error names the unknown effect.
 Status applyRealismSwitches(sim::SimulationOptions& options, bool ideal, const std::vector<std::string>& off);
@@ -79,5 +85,6 @@ void addSimulateCommand(CLI::App& app, int& exitCode);
 void addFitCommand(CLI::App& app, int& exitCode);
 void addValidateCommand(CLI::App& app, int& exitCode);
 void addDeriveCorrectionsCommand(CLI::App& app, int& exitCode);
+void addExportCommand(CLI::App& app, int& exitCode);
 
 }  // namespace emcalign::app

@@ -8,6 +8,7 @@
 #include <string>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "cli_support.hpp"
 #include "emcalign/io/event_file.hpp"
@@ -96,6 +97,28 @@ TEST_F(Simulate, RefusedInputLeavesNoFile) {
     EXPECT_EQ(name.find("bad.h5"), std::string::npos) << name;  // nor its temporary
     EXPECT_EQ(name.find(".tmp-"), std::string::npos) << name;
   }
+}
+
+}  // namespace
+
+namespace {
+
+// The placement a user exports is the one the simulation uses: the same events, byte for
+// byte, whether the truth comes from the parameter file or from its exported placements.
+TEST_F(Simulate, ExportedPlacementsAreTheTruthTheyCameFrom) {
+  const std::string placements = out("placements.json");
+  ASSERT_EQ(run("export --alignment " + params_ + " --format json -o " + placements), 0);
+  ASSERT_EQ(run("simulate --events 2000 --params " + params_ + " -o " + out("a.csv")), 0);
+  ASSERT_EQ(run("simulate --events 2000 --params " + placements + " -o " + out("b.csv")), 0);
+  EXPECT_TRUE(bytes(out("a.csv")) == bytes(out("b.csv")));
+  // An edited placement is not what any alignment gives: refused.
+  auto j = nlohmann::json::parse(bytes(placements));
+  j["placements"][0]["translation_cm"][0] = j["placements"][0]["translation_cm"][0].get<double>() + 0.0015;
+  std::ofstream(placements, std::ios::trunc) << j.dump();
+  std::string err;
+  EXPECT_EQ(run("simulate --events 10 --params " + placements + " -o " + out("c.csv"), &err), 1);
+  EXPECT_NE(err.find("placements[0]: the placement differs"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(out("c.csv")));
 }
 
 }  // namespace

@@ -1,0 +1,67 @@
+// emcalign export: the four hemisphere placements of an alignment, for a simulation (JSON or
+// Geant4 GDML; apply/placements.hpp, docs/apply.md).
+
+#include <memory>
+#include <string>
+
+#include <fmt/format.h>
+
+#include "common.hpp"
+#include "emcalign/apply/placements.hpp"
+#include "emcalign/io/output_file.hpp"
+
+namespace emcalign::app {
+
+namespace {
+
+struct ExportOptions {
+  std::string alignment;
+  std::string format = "json";
+  std::string detector;
+  std::string output;
+};
+
+int run(const ExportOptions& o) {
+  if (Status s = checkOutputs({{"-o", o.output}}, {}, {{"--alignment", o.alignment}, {"--detector", o.detector}}); !s) {
+    return reportError(s.error());
+  }
+  auto calo = loadCalorimeter(o.detector);
+  if (!calo) return reportError(calo.error());
+  auto alignment = loadAlignment(o.alignment, *calo);
+  if (!alignment) return reportError(alignment.error());
+  for (const auto& w : alignment->warnings) reportWarning(w);
+  auto transform = geometry::AlignmentTransform::create(alignment->parameters,
+                                                        geometry::AlignmentRadii::of(calo->description()));
+  if (!transform) return reportError(transform.error());
+  const apply::Placements placements = apply::placementsOf(*transform);
+  const std::string text = o.format == "gdml" ? apply::placementsGdml(placements, calo->description())
+                                              : apply::placementsJson(placements).dump(2) + "\n";
+  if (Status s = io::writeOutputFile(o.output, text); !s) return reportError(s.error());
+  if (o.output != "-") {
+    fmt::print(reportStream(), "wrote {} ({} placements: sphere1_plus, sphere1_minus, sphere2_plus, sphere2_minus{})\n",
+               o.output, o.format, transform->layer3RuleActive() ? "; layer 3 with the mu3 rule" : "");
+  }
+  return kExitOk;
+}
+
+}  // namespace
+
+void addExportCommand(CLI::App& app, int& exitCode) {
+  auto o = std::make_shared<ExportOptions>();
+  auto* cmd = app.add_subcommand("export",
+                                 "Export the four hemisphere placements of an alignment for a simulation (JSON or "
+                                 "Geant4 GDML)");
+  addVersionFlag(*cmd);
+  cmd->add_option("--alignment", o->alignment, "alignment: a parameter file, a fit result or a placements file")
+      ->required()
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--format", o->format,
+                  "json (emcalign-placements/1: rotation and translation_cm of p1 = R p0 + t) or gdml (physvols "
+                  "sphere1_plus ... sphere2_minus in Geant4's frame-rotation convention, mm and deg)")
+      ->check(CLI::IsMember({"json", "gdml"}));
+  addDetectorOption(*cmd, o->detector);
+  cmd->add_option("-o,--output", o->output, "output file ('-': standard output)")->required();
+  cmd->callback([o, &exitCode] { exitCode = run(*o); });
+}
+
+}  // namespace emcalign::app

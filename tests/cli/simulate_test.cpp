@@ -117,7 +117,7 @@ TEST_F(Simulate, ExportedPlacementsAreTheTruthTheyCameFrom) {
   std::ofstream(placements, std::ios::trunc) << j.dump();
   std::string err;
   EXPECT_EQ(run("simulate --events 10 --params " + placements + " -o " + out("c.csv"), &err), 1);
-  EXPECT_NE(err.find("placements[0]: the placement differs"), std::string::npos) << err;
+  EXPECT_NE(err.find("placements[0]': the placement differs"), std::string::npos) << err;
   EXPECT_FALSE(fs::exists(out("c.csv")));
 }
 

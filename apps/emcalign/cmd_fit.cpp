@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 
 #include "common.hpp"
+#include "emcalign/apply/cluster_correction.hpp"
 #include "emcalign/calib/calibration.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/io/json_files.hpp"
@@ -79,7 +80,7 @@ Status drawPlots(const FitCliOptions& o, const calib::FitGeometry& geometry, con
     calib::SelectionOptions selection;
     if (o.beamEnergy > 0.0) selection.beamEnergy = o.beamEnergy;
     auto after = [&](const ParticleRow& row, const calib::ParticleResidual& y) {
-      const auto [phi, theta] = calib::correctDirection(*transform, geometry.depth, row.phiEmc, row.thetaEmc, row.energy);
+      const auto [phi, theta] = apply::correctDirection(*transform, geometry.depth, row.phiEmc, row.thetaEmc, row.energy);
       const double phiR = row.phiEmc + std::asin(y.yPhi), thetaR = row.thetaEmc + y.yTheta;
       histograms->dPhiAfter.fill(std::remainder(phiR - phi, 2.0 * std::numbers::pi) / units::deg);
       histograms->dThetaAfter.fill((thetaR - theta) / units::deg);

@@ -86,5 +86,6 @@ void addFitCommand(CLI::App& app, int& exitCode);
 void addValidateCommand(CLI::App& app, int& exitCode);
 void addDeriveCorrectionsCommand(CLI::App& app, int& exitCode);
 void addExportCommand(CLI::App& app, int& exitCode);
+void addCorrectCommand(CLI::App& app, int& exitCode);
 
 }  // namespace emcalign::app

@@ -54,6 +54,7 @@ int main(int argc, char** argv) {
   emcalign::app::addFitCommand(app, exitCode);
   emcalign::app::addValidateCommand(app, exitCode);
   emcalign::app::addDeriveCorrectionsCommand(app, exitCode);
+  emcalign::app::addCorrectCommand(app, exitCode);
   emcalign::app::addExportCommand(app, exitCode);
   try {
     app.parse(argc, argv);

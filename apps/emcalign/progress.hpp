@@ -1,5 +1,5 @@
 #pragma once
-// A one-line progress report on stderr, only when stderr is a terminal.
+// A one-line progress report on stderr, only when stderr is a terminal (a total of 0: unknown).
 
 #include <unistd.h>
 
@@ -21,6 +21,10 @@ class ProgressLine {
     if (!enabled_) return;
     const double seconds = elapsed();
     const double rate = seconds > 0.0 ? done / seconds : 0.0;
+    if (total_ <= 0) {  // an unknown total: what is done, and how fast
+      fmt::print(stderr, "\r{}: {} {}, {:.0f} {}/s   ", what_, done, unit_, rate, unit_);
+      return;
+    }
     const double left = rate > 0.0 ? (total_ - done) / rate : 0.0;
     fmt::print(stderr, "\r{}: {}/{} {} ({:.0f}%), {:.0f} {}/s, {:.0f} s left   ", what_, done, total_,
                unit_, total_ > 0 ? 100.0 * done / total_ : 100.0, rate, unit_, left);

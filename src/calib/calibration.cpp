@@ -140,12 +140,4 @@ io::Json fitResultJson(const FitResult& r, const FitInput& input) {
   return j;
 }
 
-std::pair<double, double> correctDirection(const geometry::AlignmentTransform& transform,
-                                           const geometry::ShowerDepth& depth, double phi, double theta,
-                                           double energy) {
-  const Vec3 p0 = geometry::pointAt(depth.radius(energy, theta), theta, phi);
-  const Vec3 p1 = transform.forward(p0, geometry::hemisphereOf(std::cos(phi)));
-  return {geometry::azimuth(p1), geometry::polar(p1)};
-}
-
 }  // namespace emcalign::calib

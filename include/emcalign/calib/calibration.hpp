@@ -1,8 +1,7 @@
 #pragma once
 // From event files to profiles: stream the events, select e+e- → e+e- (SPEC §7), compute
 // each particle's residuals and fill the 160 bins. Memory does not grow with the number of
-// events. Also: the fit-result file (SPEC §3) and the correction of a particle's EMC
-// direction with fitted parameters (SPEC §9), used by the plots.
+// events. Also: the fit-result file (SPEC §3).
 
 #include <cstdint>
 #include <functional>
@@ -71,11 +70,5 @@ struct FitInput {
 
 /// The fit-result file of SPEC §3 (file units: deg, cm).
 io::Json fitResultJson(const FitResult& result, const FitInput& input);
-
-/// A cluster direction (φ, θ) and energy E in the nominal EMC frame → the corrected
-/// direction in the TS frame (SPEC §9): point at R(E, θ), forward transform.
-std::pair<double, double> correctDirection(const geometry::AlignmentTransform& transform,
-                                           const geometry::ShowerDepth& depth, double phi, double theta,
-                                           double energy);
 
 }  // namespace emcalign::calib

@@ -1,0 +1,26 @@
+#pragma once
+// The cluster correction of SPEC §9 (the paper's section 4): a cluster's direction (φ, θ)
+// and energy E, reconstructed in the nominal EMC frame, become the direction of the point
+// where that shower really is in the TS frame:
+//
+//   p0 = R(E, θ)·(sinθ cosφ, sinθ sinφ, cosθ)      the shower point, nominal frame
+//   p1 = forward(p0), hemisphere s = sign(cos φ)   (layers 1–2: support sphere 1)
+//   (φ', θ') = angles of p1 seen from the TS origin
+//
+// R is the shower depth of SPEC §5 (geometry/shower_depth.hpp), with its offset when the
+// caller sets one (the model corrections of the fit). A cluster so soft that R(E, θ) ≤ 0
+// (E below ~1e-4 MeV; never a reconstructed cluster) is placed at the inner radius R0.
+
+#include <utility>
+
+#include "emcalign/geometry/alignment_transform.hpp"
+#include "emcalign/geometry/shower_depth.hpp"
+
+namespace emcalign::apply {
+
+/// The corrected (φ', θ') of a cluster, rad; φ' in [0, 2π), θ' in [0, π].
+std::pair<double, double> correctDirection(const geometry::AlignmentTransform& transform,
+                                           const geometry::ShowerDepth& depth, double phi, double theta,
+                                           double energy);
+
+}  // namespace emcalign::apply

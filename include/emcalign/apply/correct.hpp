@@ -1,0 +1,60 @@
+#pragma once
+// Correcting event files with an alignment (SPEC §9, §11; docs/apply.md): the same rows and
+// columns out as in, only the EMC directions (phi_emc_rad, theta_emc_rad) of the clusters
+// changed, in the nominal frame → TS frame sense of the alignment.
+//
+// Methods:
+//   clusters  SPEC §9's cluster correction (apply/cluster_correction.hpp): from the
+//             reconstructed (φ, θ, E) alone.
+//   hits      each cluster rebuilt from its counters with the aligned counter centres, by
+//             the reconstruction the simulation uses (needs files with hits).
+//   auto      hits when the input has them, clusters otherwise.
+// The output records what corrected it (the "correction" attribute: alignment, method,
+// software, inputs) besides the first input's attributes; truth is copied when every input
+// has it and the output is HDF5.
+
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "emcalign/core/result.hpp"
+#include "emcalign/geometry/alignment_transform.hpp"
+#include "emcalign/geometry/detector.hpp"
+#include "emcalign/geometry/shower_depth.hpp"
+#include "emcalign/io/event_file.hpp"
+
+namespace emcalign::apply {
+
+enum class CorrectionMethod { Auto, Hits, Clusters };
+std::string_view name(CorrectionMethod m);
+std::optional<CorrectionMethod> correctionMethodFromName(std::string_view name);
+
+struct CorrectOptions {
+  CorrectionMethod method = CorrectionMethod::Auto;
+  /// R(E, θ) of the cluster method (its offset from a corrections file, or 0: SPEC).
+  geometry::ShowerDepth depth;
+  /// Recorded as the output's "correction" attribute (compact JSON, made by the caller).
+  std::string description;
+  io::ReaderOptions reader;
+  /// Called after each block with the rows done so far.
+  std::function<void(std::int64_t rows)> progress;
+};
+
+struct CorrectReport {
+  CorrectionMethod method = CorrectionMethod::Clusters;  ///< the one used
+  std::int64_t events = 0;
+  std::int64_t rows = 0;
+  std::int64_t clusters = 0;  ///< rows whose EMC direction was corrected
+  bool truth = false;         ///< truth copied
+};
+
+/// Reads `inputs`, corrects every cluster, writes `output` (io/output_file.hpp rules: no
+/// partial file on failure).
+Result<CorrectReport> correctFiles(const std::vector<std::string>& inputs, const std::string& output,
+                                   const geometry::Calorimeter& calo, const geometry::AlignmentTransform& transform,
+                                   const CorrectOptions& options);
+
+}  // namespace emcalign::apply

@@ -59,6 +59,7 @@ int run(const CorrectCliOptions& o) {
                {"alignment", o.alignment},
                {"parameters", io::alignmentToJson(alignment->parameters)["parameters"]},
                {"method", o.method},
+               {"log_weight_w0", options.logWeightW0},
                {"depth_offset_cm", options.depth.offset / units::cm},
                {"inputs", inputsJson}}
           .dump();
@@ -67,9 +68,9 @@ int run(const CorrectCliOptions& o) {
   auto report = apply::correctFiles(o.events, o.output, *calo, *transform, options);
   progress.finish();
   if (!report) return reportError(report.error());
-  fmt::print(reportStream(), "correct ({}): {} events, {} rows, {} clusters corrected{} in {:.1f} s -> {}\n",
+  fmt::print(reportStream(), "correct ({}): {} events, {} rows, {} clusters corrected{}{} in {:.1f} s -> {}\n",
              name(report->method), report->events, report->rows, report->clusters,
-             report->truth ? ", truth copied" : "", progress.elapsed(), o.output);
+             report->truth ? ", truth copied" : "", report->hits ? ", hits copied" : "", progress.elapsed(), o.output);
   return kExitOk;
 }
 

@@ -37,6 +37,7 @@ struct SimulateOptions {
   std::optional<double> thetaMaxDeg;
   bool pointShowers = false;
   bool ideal = false;
+  bool noHits = false;
 };
 
 Result<std::vector<int>> parseCounterList(const std::string& text) {
@@ -114,6 +115,7 @@ int run(const SimulateOptions& cli) {
 
   io::WriterOptions wo;
   wo.withTruth = true;
+  wo.withHits = !cli.noHits;
   wo.attributes = {{"truth_parameters", io::alignmentToJson(*truth).dump()},
                    {"simulation", settingsJson(cli, o).dump()}};
   auto writer = io::EventWriter::open(cli.output, wo);
@@ -123,9 +125,9 @@ int run(const SimulateOptions& cli) {
   std::int64_t rows = 0;
   const Status done = simulation->run(
       cli.events, cli.threads,
-      [&](std::span<const ParticleRow> r, std::span<const TruthRow> t) {
+      [&](std::span<const ParticleRow> r, std::span<const TruthRow> t, std::span<const Hit> h) {
         rows += static_cast<std::int64_t>(r.size());
-        return (*writer)->append(r, t);
+        return (*writer)->append(r, t, h);
       },
       [&](std::int64_t n) { progress.update(n); });
   progress.finish();
@@ -171,6 +173,9 @@ void addSimulateCommand(CLI::App& app, int& exitCode) {
   cmd->add_flag("--ideal", o->ideal,
                 "the idealised limit where the fit model is exact: every effect off, point showers, "
                 "cluster directions from the deposit");
+  cmd->add_flag("--no-hits", o->noHits,
+                "leave out the counters of each cluster (HDF5 writes them by default, for emcalign correct --method "
+                "hits; CSV never has them)");
   cmd->add_option("-o,--output", o->output,
                   "output file: .csv for CSV, anything else HDF5 (with truth); '-' writes CSV to standard output")
       ->required();

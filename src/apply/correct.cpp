@@ -1,10 +1,14 @@
 #include "emcalign/apply/correct.hpp"
 
 #include <cmath>
+#include <span>
+#include <tuple>
 
 #include <fmt/format.h>
 
 #include "emcalign/apply/cluster_correction.hpp"
+#include "emcalign/geometry/counter_geometry.hpp"
+#include "emcalign/sim/reconstruction.hpp"
 
 namespace emcalign::apply {
 
@@ -27,53 +31,94 @@ std::optional<CorrectionMethod> correctionMethodFromName(std::string_view n) {
   return std::nullopt;
 }
 
+namespace {
+
+// The hits method on one block: each cluster row rebuilt from its counters at their aligned
+// centres, by the reconstruction the simulation uses (sim/reconstruction.hpp).
+Status correctByHits(std::vector<ParticleRow>& rows, const std::vector<Hit>& hits,
+                     const geometry::CounterGeometry& aligned, double w0, const std::string& source) {
+  std::size_t at = 0;
+  const int counters = aligned.calorimeter().size();
+  for (ParticleRow& r : rows) {
+    const std::span<const Hit> own(hits.data() + at, static_cast<std::size_t>(r.hitCount));
+    at += own.size();
+    if (std::isnan(r.energy)) continue;
+    for (const Hit& h : own) {
+      if (h.counter >= counters) {
+        return Error{fmt::format("{}: run {} event {}: counter {} of a hit is not one of this detector's {} counters "
+                                 "(another --detector?)",
+                                 source, r.run, r.event, h.counter, counters)};
+      }
+    }
+    const auto direction = sim::clusterDirection(own, aligned, w0);
+    if (!direction) {
+      return Error{fmt::format("{}: run {} event {}: the cluster's counters give no direction (all weights are 0 "
+                               "with W0 = {})",
+                               source, r.run, r.event, w0)};
+    }
+    r.thetaEmc = direction->first;
+    r.phiEmc = direction->second;
+  }
+  return {};
+}
+
+}  // namespace
+
 Result<CorrectReport> correctFiles(const std::vector<std::string>& inputs, const std::string& output,
-                                   const geometry::Calorimeter& /*calo*/, const geometry::AlignmentTransform& transform,
+                                   const geometry::Calorimeter& calo, const geometry::AlignmentTransform& transform,
                                    const CorrectOptions& o) {
   auto reader = io::EventReader::open(inputs, o.reader);
   if (!reader) return reader.error();
   CorrectReport report;
+  std::vector<ParticleRow> rows;
+  auto first = (*reader)->next(rows);
+  if (!first) return first.error();
   // The input's hits decide the method of `auto` (files without hits: clusters).
-  const bool hits = false;
+  const bool hits = (*reader)->hits() != nullptr;
   if (o.method == CorrectionMethod::Hits && !hits) {
     return Error{fmt::format("{}: --method hits needs event files with counter hits (emcalign simulate writes them to "
                              "HDF5); this one has none: use --method clusters",
                              inputs.front())};
   }
-  report.method = CorrectionMethod::Clusters;
+  report.method = o.method == CorrectionMethod::Auto ? (hits ? CorrectionMethod::Hits : CorrectionMethod::Clusters)
+                                                      : o.method;
+  const geometry::CounterGeometry aligned = geometry::CounterGeometry::aligned(calo, transform);
 
-  std::vector<ParticleRow> rows;
-  auto first = (*reader)->next(rows);
-  if (!first) return first.error();
   io::WriterOptions wo;
-  wo.withTruth = *first && (*reader)->truth() != nullptr && io::formatOf(output) == io::EventFormat::Hdf5;
+  const bool hdf5 = io::formatOf(output) == io::EventFormat::Hdf5;
+  wo.withTruth = *first && (*reader)->truth() != nullptr && hdf5;
+  wo.withHits = hits && hdf5;
   wo.attributes = (*reader)->attributes();
   std::erase_if(wo.attributes, [](const auto& a) { return a.first == "correction"; });
   wo.attributes.emplace_back("correction", o.description);
   auto writer = io::EventWriter::open(output, wo);
   if (!writer) return writer.error();
   report.truth = wo.withTruth;
+  report.hits = wo.withHits;
 
   for (bool more = *first; more;) {
+    const auto* truth = (*reader)->truth();
+    const auto* blockHits = (*reader)->hits();
+    if ((wo.withTruth && truth == nullptr) || (hits && blockHits == nullptr)) {
+      return Error{fmt::format("{}: the inputs of one output have {} all or none: a later file has none (correct "
+                               "the files one by one)",
+                               output, truth == nullptr ? "truth" : "hits")};
+    }
     for (std::size_t i = 0; i < rows.size(); ++i) {
       if (i == 0 || rows[i].event != rows[i - 1].event || rows[i].run != rows[i - 1].run) ++report.events;
-      ParticleRow& r = rows[i];
-      if (std::isnan(r.energy)) continue;
-      const auto [phi, theta] = correctDirection(transform, o.depth, r.phiEmc, r.thetaEmc, r.energy);
-      r.phiEmc = phi;
-      r.thetaEmc = theta;
-      ++report.clusters;
+      if (!std::isnan(rows[i].energy)) ++report.clusters;
     }
-    const auto* truth = (*reader)->truth();
-    if (wo.withTruth && truth == nullptr) {
-      return Error{fmt::format("{}: the inputs of one output have truth all or none: a later file has none (write "
-                               "CSV, which holds no truth, or correct the files one by one)",
-                               output)};
+    if (report.method == CorrectionMethod::Hits) {
+      if (Status s = correctByHits(rows, *blockHits, aligned, o.logWeightW0, inputs.front()); !s) return s.error();
+    } else {
+      for (ParticleRow& r : rows) {
+        if (std::isnan(r.energy)) continue;
+        std::tie(r.phiEmc, r.thetaEmc) = correctDirection(transform, o.depth, r.phiEmc, r.thetaEmc, r.energy);
+      }
     }
-    if (Status s = (*writer)->append(rows, wo.withTruth ? std::span<const TruthRow>(*truth) : std::span<const TruthRow>());
-        !s) {
-      return s.error();
-    }
+    const std::span<const TruthRow> t = wo.withTruth ? std::span<const TruthRow>(*truth) : std::span<const TruthRow>();
+    const std::span<const Hit> h = wo.withHits ? std::span<const Hit>(*blockHits) : std::span<const Hit>();
+    if (Status s = (*writer)->append(rows, t, h); !s) return s.error();
     report.rows += static_cast<std::int64_t>(rows.size());
     if (o.progress) o.progress(report.rows);
     auto next = (*reader)->next(rows);

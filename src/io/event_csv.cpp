@@ -35,9 +35,10 @@ class CsvWriter final : public EventWriter {
     return std::unique_ptr<EventWriter>(std::move(w));
   }
 
-  Status append(std::span<const ParticleRow> rows, std::span<const TruthRow> /*truth*/) override {
+  Status append(std::span<const ParticleRow> rows, std::span<const TruthRow> /*truth*/,
+                std::span<const Hit> /*hits*/) override {
     if (auto s = usable(); !s) return s;
-    if (auto s = checkAppend(path_, rows, appended_, consistency_); !s)
+    if (auto s = checkAppend(path_, rows, {}, false, appended_, consistency_); !s)
       return fail(s.error().message);
     auto out = std::back_inserter(buffer_);
     const auto number = [&](double x) {
@@ -303,7 +304,8 @@ class CsvSource final : public RowSource {
     return std::unique_ptr<RowSource>(std::move(s));
   }
 
-  Result<bool> next(ParticleRow& row, TruthRow& /*truth*/) override {
+  Result<bool> next(ParticleRow& row, TruthRow& /*truth*/, std::vector<Hit>& /*hits*/) override {
+    row.hitCount = 0;
     std::string_view line;
     bool terminated = true;
     while (true) {

@@ -94,6 +94,7 @@ class EventReaderImpl final : public EventReader {
   Result<bool> next(std::vector<ParticleRow>& rows) override {
     rows.clear();
     truth_.clear();
+    hits_.clear();
     if (failed_) return *failed_;
     while (true) {
       if (exhausted_) {
@@ -103,12 +104,15 @@ class EventReaderImpl final : public EventReader {
       if (carry_) {
         rows.push_back(*carry_);
         if (source_->hasTruth()) truth_.push_back(carryTruth_);
+        hits_.insert(hits_.end(), carryHits_.begin(), carryHits_.end());
         carry_.reset();
+        carryHits_.clear();
       }
       ParticleRow row;
       TruthRow truth;
       while (true) {
-        auto got = source_->next(row, truth);
+        rowHits_.clear();
+        auto got = source_->next(row, truth, rowHits_);
         if (!got) return fail(got.error());
         if (!*got) {
           exhausted_ = true;
@@ -117,6 +121,7 @@ class EventReaderImpl final : public EventReader {
         ++rowInFile_;
         auto issue = checkRow(row);
         if (!issue) issue = consistency_.check(row);
+        if (!issue && source_->hasHits()) issue = checkHits(row, rowHits_);
         if (issue) {
           return fail(Error{fmt::format("{}: column '{}': {}", source_->location(), issue->column, issue->what)});
         }
@@ -124,10 +129,12 @@ class EventReaderImpl final : public EventReader {
         if (rows.size() >= options_.blockRows && !sameEvent(row, rows.back())) {
           carry_ = row;
           carryTruth_ = truth;
+          carryHits_ = rowHits_;
           break;
         }
         rows.push_back(row);
         if (source_->hasTruth()) truth_.push_back(truth);
+        hits_.insert(hits_.end(), rowHits_.begin(), rowHits_.end());
       }
       if (!rows.empty()) return true;
     }
@@ -136,6 +143,8 @@ class EventReaderImpl final : public EventReader {
   const std::vector<TruthRow>* truth() const override {
     return source_ && source_->hasTruth() ? &truth_ : nullptr;
   }
+
+  const std::vector<Hit>* hits() const override { return source_ && source_->hasHits() ? &hits_ : nullptr; }
 
   const Attributes& attributes() const override {
     static const Attributes kNone;
@@ -155,6 +164,7 @@ class EventReaderImpl final : public EventReader {
     rowInFile_ = 0;
     exhausted_ = false;
     carry_.reset();
+    carryHits_.clear();
     consistency_.reset();
     inEvent_ = false;
     return {};
@@ -190,8 +200,10 @@ class EventReaderImpl final : public EventReader {
       const std::uint64_t limit = f == index_ ? rowInFile_ - 1 : UINT64_MAX;
       ParticleRow r;
       TruthRow t;
+      std::vector<Hit> h;
       for (std::uint64_t k = 0; k < limit; ++k) {
-        auto got = (*source)->next(r, t);
+        h.clear();
+        auto got = (*source)->next(r, t, h);
         if (!got) return got.error();
         if (!*got) break;
         if (sameEvent(r, row)) return (*source)->location();
@@ -216,6 +228,9 @@ class EventReaderImpl final : public EventReader {
   std::optional<ParticleRow> carry_;
   TruthRow carryTruth_;
   std::vector<TruthRow> truth_;
+  std::vector<Hit> hits_;       // of the block
+  std::vector<Hit> rowHits_;    // of the row just read
+  std::vector<Hit> carryHits_;  // of the carried row
   EventConsistency consistency_;
   bool inEvent_ = false;
   ParticleRow current_;

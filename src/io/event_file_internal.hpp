@@ -94,6 +94,11 @@ constexpr std::array<DoubleColumn<TruthRow>, 9> kTruthDoubles = {
 constexpr const char* kTruthPdg = "pdg";
 constexpr const char* kEventsGroup = "events";
 constexpr const char* kTruthGroup = "truth";
+constexpr const char* kHitsGroup = "hits";
+constexpr const char* kHitOffset = "hit_offset";  // in /events
+constexpr const char* kHitCount = "hit_count";    // in /events
+constexpr const char* kHitCounter = "counter";    // in /hits
+constexpr const char* kHitEnergy = "energy_mev";  // in /hits
 
 // ------------------------------------------------------------------------ row validation
 
@@ -147,10 +152,14 @@ bool isAttributeKey(std::string_view key);
 /// Keys, duplicates and values of a writer's attributes.
 Status checkAttributes(const std::string& path, const Attributes& attributes, EventFormat format);
 
+/// What is wrong with a row's hits (`hits`: its hitCount hits), or none.
+std::optional<Issue> checkHits(const ParticleRow& r, std::span<const Hit> hits);
+
 /// Checks a whole append before any row is buffered: a refused append writes none of its
-/// rows (and the caller then fails the writer for good, see EventWriter::append).
-Status checkAppend(const std::string& path, std::span<const ParticleRow> rows, std::uint64_t firstIndex,
-                   EventConsistency& consistency);
+/// rows (and the caller then fails the writer for good, see EventWriter::append). With
+/// `withHits`, `hits` are the rows' hits in row order.
+Status checkAppend(const std::string& path, std::span<const ParticleRow> rows, std::span<const Hit> hits,
+                   bool withHits, std::uint64_t firstIndex, EventConsistency& consistency);
 
 // ------------------------------------------------------------------------- reader sources
 
@@ -159,9 +168,11 @@ Status checkAppend(const std::string& path, std::span<const ParticleRow> rows, s
 class RowSource {
  public:
   virtual ~RowSource() = default;
-  /// The next row (and its truth when hasTruth()); false at the end of the file.
-  virtual Result<bool> next(ParticleRow& row, TruthRow& truth) = 0;
+  /// The next row (and its truth when hasTruth(), and its row.hitCount hits appended to
+  /// `hits` when hasHits()); false at the end of the file.
+  virtual Result<bool> next(ParticleRow& row, TruthRow& truth, std::vector<Hit>& hits) = 0;
   virtual bool hasTruth() const = 0;
+  virtual bool hasHits() const { return false; }
   virtual const Attributes& attributes() const = 0;
   /// Where the row last returned is, for messages: "file: line N" or "file: record N".
   virtual std::string location() const = 0;

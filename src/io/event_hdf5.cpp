@@ -209,7 +209,7 @@ class Hdf5Writer final : public EventWriter {
     auto out = OutputFile::reserve(path);
     if (!out) return out.error();
     Hdf5Quiet quiet;
-    auto w = std::unique_ptr<Hdf5Writer>(new Hdf5Writer(path, std::move(*out), options.withTruth));
+    auto w = std::unique_ptr<Hdf5Writer>(new Hdf5Writer(path, std::move(*out), options.withTruth, options.withHits));
     if (auto s = w->createFile(options.attributes); !s) return s.error();
     return std::unique_ptr<EventWriter>(std::move(w));
   }
@@ -221,19 +221,27 @@ class Hdf5Writer final : public EventWriter {
     }
   }
 
-  Status append(std::span<const ParticleRow> rows, std::span<const TruthRow> truth) override {
+  Status append(std::span<const ParticleRow> rows, std::span<const TruthRow> truth,
+                std::span<const Hit> hits) override {
     if (auto s = usable(); !s) return s;
     if (withTruth_ && truth.size() != rows.size()) {
       return fail(
           fmt::format("{}: append: {} truth rows for {} rows (a file with truth needs one per row)",
                       path_, truth.size(), rows.size()));
     }
-    if (auto s = checkAppend(path_, rows, appended_, consistency_); !s)
+    if (auto s = checkAppend(path_, rows, hits, withHits_, appended_, consistency_); !s)
       return fail(s.error().message);
     Hdf5Quiet quiet;
+    std::size_t hit = 0;
     for (std::size_t i = 0; i < rows.size(); ++i) {
       rows_.push_back(rows[i]);
       if (withTruth_) truth_.push_back(truth[i]);
+      if (withHits_) {
+        const auto n = static_cast<std::size_t>(rows[i].hitCount);
+        hits_.insert(hits_.end(), hits.begin() + static_cast<std::ptrdiff_t>(hit),
+                     hits.begin() + static_cast<std::ptrdiff_t>(hit + n));
+        hit += n;
+      }
       // Always whole chunks, whatever the append sizes: the layout depends on the rows only.
       if (rows_.size() == kChunkRows) {
         if (auto s = flush(); !s) return s;
@@ -254,8 +262,12 @@ class Hdf5Writer final : public EventWriter {
   }
 
  private:
-  Hdf5Writer(std::string path, std::unique_ptr<OutputFile> out, bool withTruth)
-      : path_(std::move(path)), out_(std::move(out)), tmp_(out_->writtenPath()), withTruth_(withTruth) {
+  Hdf5Writer(std::string path, std::unique_ptr<OutputFile> out, bool withTruth, bool withHits)
+      : path_(std::move(path)),
+        out_(std::move(out)),
+        tmp_(out_->writtenPath()),
+        withTruth_(withTruth),
+        withHits_(withHits) {
     rows_.reserve(kChunkRows);
     if (withTruth_) truth_.reserve(kChunkRows);
   }
@@ -327,6 +339,17 @@ class Hdf5Writer final : public EventWriter {
       for (const Hid& ds : truthSets_) {
         if (!ds.valid()) return hdf5Error("cannot create the datasets of '/truth'");
       }
+    }
+    if (withHits_) {
+      hitOffsetSet_ = createDataset(events_.get(), kHitOffset, Kind::I64, dcpl.get());
+      hitCountSet_ = createDataset(events_.get(), kHitCount, Kind::I32, dcpl.get());
+      hitsGroup_ = Hid(H5Gcreate2(file_.get(), kHitsGroup, H5P_DEFAULT, gcpl.get(), H5P_DEFAULT), H5Gclose);
+      if (!hitOffsetSet_.valid() || !hitCountSet_.valid() || !hitsGroup_.valid()) {
+        return hdf5Error("cannot create the hit datasets");
+      }
+      hitCounterSet_ = createDataset(hitsGroup_.get(), kHitCounter, Kind::I32, dcpl.get());
+      hitEnergySet_ = createDataset(hitsGroup_.get(), kHitEnergy, Kind::F64, dcpl.get());
+      if (!hitCounterSet_.valid() || !hitEnergySet_.valid()) return hdf5Error("cannot create the datasets of '/hits'");
     }
     return {};
   }
@@ -440,9 +463,44 @@ class Hdf5Writer final : public EventWriter {
         }
       }
     }
+    if (withHits_) {
+      i64.clear();
+      i32.clear();
+      std::uint64_t hitsInRows = 0;
+      for (const ParticleRow& r : rows_) {
+        i64.push_back(static_cast<std::int64_t>(hitsWritten_ + hitsInRows));
+        i32.push_back(r.hitCount);
+        hitsInRows += static_cast<std::uint64_t>(r.hitCount);
+      }
+      if (auto s = write(hitOffsetSet_, kEventsGroup, kHitOffset, Kind::I64, i64.data()); !s) return s;
+      if (auto s = write(hitCountSet_, kEventsGroup, kHitCount, Kind::I32, i32.data()); !s) return s;
+      if (auto s = flushHits(); !s) return s;
+    }
     written_ += count;
     rows_.clear();
     truth_.clear();
+    return {};
+  }
+
+  // The buffered hits, appended to /hits in pieces of the chunk size.
+  Status flushHits() {
+    for (std::size_t first = 0; first < hits_.size(); first += kChunkRows) {
+      const hsize_t n = std::min<hsize_t>(kChunkRows, hits_.size() - first);
+      std::vector<std::int32_t> counters(n);
+      std::vector<double> energies(n);
+      for (hsize_t k = 0; k < n; ++k) {
+        counters[k] = hits_[first + k].counter;
+        energies[k] = hits_[first + k].energy;
+      }
+      if (auto why = writeColumn(hitCounterSet_.get(), hitsWritten_, n, Kind::I32, counters.data())) {
+        return fail(fmt::format("{}: cannot write the dataset '/{}/{}': {}", path_, kHitsGroup, kHitCounter, *why));
+      }
+      if (auto why = writeColumn(hitEnergySet_.get(), hitsWritten_, n, Kind::F64, energies.data())) {
+        return fail(fmt::format("{}: cannot write the dataset '/{}/{}': {}", path_, kHitsGroup, kHitEnergy, *why));
+      }
+      hitsWritten_ += n;
+    }
+    hits_.clear();
     return {};
   }
 
@@ -454,8 +512,10 @@ class Hdf5Writer final : public EventWriter {
     };
     for (Hid& ds : eventSets_) close(ds);
     for (Hid& ds : truthSets_) close(ds);
+    for (Hid* ds : {&hitOffsetSet_, &hitCountSet_, &hitCounterSet_, &hitEnergySet_}) close(*ds);
     close(events_);
     close(truthGroup_);
+    close(hitsGroup_);
     close(file_);
     return why;
   }
@@ -469,6 +529,10 @@ class Hdf5Writer final : public EventWriter {
   Hid truthGroup_;
   std::array<Hid, kNumCols> eventSets_;
   std::array<Hid, 1 + kTruthDoubles.size()> truthSets_;
+  bool withHits_;
+  Hid hitsGroup_, hitOffsetSet_, hitCountSet_, hitCounterSet_, hitEnergySet_;
+  std::vector<Hit> hits_;         // of the buffered rows
+  std::uint64_t hitsWritten_ = 0;
   std::vector<ParticleRow> rows_;  // at most one chunk
   std::vector<TruthRow> truth_;
   hsize_t written_ = 0;
@@ -496,9 +560,16 @@ class Hdf5Source final : public RowSource {
     return std::unique_ptr<RowSource>(std::move(s));
   }
 
-  Result<bool> next(ParticleRow& row, TruthRow& truth) override {
+  Result<bool> next(ParticleRow& row, TruthRow& truth, std::vector<Hit>& hits) override {
     if (pos_ == loaded_) {
-      if (first_ + loaded_ == rows_) return false;
+      if (first_ + loaded_ == rows_) {
+        if (hasHits_ && nextHit_ != hitsTotal_) {
+          return error(fmt::format("the rows use {} of the {} records of '/hits' (hit_offset and hit_count must "
+                                   "cover them all)",
+                                   nextHit_, hitsTotal_));
+        }
+        return false;
+      }
       Hdf5Quiet quiet;
       if (auto s = load(first_ + loaded_); !s) return s.error();
     }
@@ -514,10 +585,15 @@ class Hdf5Source final : public RowSource {
       for (std::size_t c = 0; c < kTruthDoubles.size(); ++c)
         kTruthDoubles[c].set(truth, truthDoubles_[c][i]);
     }
+    row.hitCount = 0;
+    if (hasHits_) {
+      if (auto s = takeHits(i, row, hits); !s) return s.error();
+    }
     return true;
   }
 
   bool hasTruth() const override { return hasTruth_; }
+  bool hasHits() const override { return hasHits_; }
   const Attributes& attributes() const override { return attributes_; }
   std::string location() const override {
     return fmt::format("{}: record {}", path_, first_ + pos_ - (pos_ > 0 ? 1 : 0));
@@ -545,10 +621,29 @@ class Hdf5Source final : public RowSource {
     for (int c = 0; c < kNumCols; ++c) {
       eventColumns.emplace_back(kColumnNames[static_cast<std::size_t>(c)], eventKind(c));
     }
+    // Hits: /events/hit_offset, /events/hit_count and the group /hits, all or none.
+    const bool hitOffset = linkExists(fmt::format("/{}/{}", kEventsGroup, kHitOffset));
+    const bool hitCount = linkExists(fmt::format("/{}/{}", kEventsGroup, kHitCount));
+    const bool hitGroup = linkExists(fmt::format("/{}", kHitsGroup));
+    if (hitOffset || hitCount || hitGroup) {
+      if (!(hitOffset && hitCount && hitGroup)) {
+        return error(fmt::format("the hits are incomplete: '/{0}/{1}', '/{0}/{2}' and the group '/{3}' come together",
+                                 kEventsGroup, kHitOffset, kHitCount, kHitsGroup));
+      }
+      eventColumns.emplace_back(kHitOffset, Kind::I64);
+      eventColumns.emplace_back(kHitCount, Kind::I32);
+    }
     auto events = openColumns(kEventsGroup, eventColumns, true);
     if (!events) return events.error();
     eventCols_ = std::move(*events);
     rows_ = rowsOf_;
+    if (hitOffset) {
+      auto hits = openColumns(kHitsGroup, {{kHitCounter, Kind::I32}, {kHitEnergy, Kind::F64}}, true);
+      if (!hits) return hits.error();
+      hitCols_ = std::move(*hits);
+      hitsTotal_ = rowsOf_;
+      hasHits_ = true;
+    }
 
     std::vector<std::pair<std::string, Kind>> truthColumns{{kTruthPdg, Kind::I32}};
     for (const auto& column : kTruthDoubles) truthColumns.emplace_back(column.name, Kind::F64);
@@ -560,6 +655,47 @@ class Hdf5Source final : public RowSource {
       return error(fmt::format("the datasets of '/truth' have {} records, those of '/events' {}",
                                rowsOf_, rows_));
     }
+    return {};
+  }
+
+  bool linkExists(const std::string& path) const {
+    const htri_t e = H5Lexists(file_.get(), path.c_str(), H5P_DEFAULT);
+    if (e < 0) H5Eclear2(H5E_DEFAULT);
+    return e > 0;
+  }
+
+  // Appends the hits of loaded row i (checked to follow the previous row's) to `out`.
+  Status takeHits(std::size_t i, ParticleRow& row, std::vector<Hit>& out) {
+    const std::int64_t offset = hitOffset_[i];
+    const std::int32_t count = hitCount_[i];
+    if (offset < 0 || static_cast<hsize_t>(offset) != nextHit_) {
+      return error(fmt::format("record {}: column '{}': {}, expected {} (the rows' hits follow each other from 0)",
+                               first_ + i, kHitOffset, offset, nextHit_));
+    }
+    if (count < 0 || count > kMaxHitsPerRow || static_cast<hsize_t>(count) > hitsTotal_ - nextHit_) {
+      return error(fmt::format("record {}: column '{}': {} is outside [0, {}] or beyond the {} records of '/hits'",
+                               first_ + i, kHitCount, count, kMaxHitsPerRow, hitsTotal_));
+    }
+    const hsize_t begin = nextHit_, end = nextHit_ + static_cast<hsize_t>(count);
+    if (begin < windowFirst_ || end > windowFirst_ + windowCounter_.size()) {
+      // A window of /hits from `begin`: bounded memory whatever the block size.
+      constexpr hsize_t kWindow = hsize_t{1} << 18;
+      const hsize_t n = std::min<hsize_t>(std::max<hsize_t>(kWindow, end - begin), hitsTotal_ - begin);
+      windowCounter_.resize(n);
+      windowEnergy_.resize(n);
+      Hdf5Quiet quiet;
+      if (!readRange(hitCols_[0], begin, n, windowCounter_.data()) ||
+          !readRange(hitCols_[1], begin, n, windowEnergy_.data())) {
+        return error(fmt::format("records {}..{} of '/{}': cannot read: {}", begin, begin + n - 1, kHitsGroup,
+                                 hdf5Reason()));
+      }
+      windowFirst_ = begin;
+    }
+    for (hsize_t k = begin; k < end; ++k) {
+      out.push_back({windowCounter_[k - windowFirst_], windowEnergy_[k - windowFirst_]});
+    }
+    row.hitCount = count;
+    nextHit_ = end;
     return {};
   }
 
@@ -723,6 +859,10 @@ class Hdf5Source final : public RowSource {
         if (auto s = read(truthCols_[c + 1], truthDoubles_[c]); !s) return s;
       }
     }
+    if (hasHits_) {
+      if (auto s = read(eventCols_[kNumCols], hitOffset_); !s) return s;
+      if (auto s = read(eventCols_[kNumCols + 1], hitCount_); !s) return s;
+    }
     first_ = offset;
     loaded_ = count;
     pos_ = 0;
@@ -749,6 +889,16 @@ class Hdf5Source final : public RowSource {
   std::array<std::vector<double>, kEventDoubles.size()> doubles_;
   std::vector<std::int32_t> pdg_;
   std::array<std::vector<double>, kTruthDoubles.size()> truthDoubles_;
+  // Hits: the per-row offsets and counts of the loaded rows, and a window of /hits.
+  bool hasHits_ = false;
+  std::vector<Hdf5Column> hitCols_;
+  hsize_t hitsTotal_ = 0;
+  hsize_t nextHit_ = 0;  // where the next row's hits must start
+  std::vector<std::int64_t> hitOffset_;
+  std::vector<std::int32_t> hitCount_;
+  hsize_t windowFirst_ = 0;
+  std::vector<std::int32_t> windowCounter_;
+  std::vector<double> windowEnergy_;
 };
 
 }  // namespace

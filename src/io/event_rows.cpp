@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -72,6 +73,25 @@ std::optional<Issue> checkRow(const ParticleRow& r) {
   return std::nullopt;
 }
 
+std::optional<Issue> checkHits(const ParticleRow& r, std::span<const Hit> hits) {
+  if (r.hitCount < 0 || r.hitCount > kMaxHitsPerRow) {
+    return Issue{"hit_count", fmt::format("{} is outside [0, {}]", r.hitCount, kMaxHitsPerRow)};
+  }
+  if (std::isnan(r.energy) && r.hitCount != 0) {
+    return Issue{"hit_count", fmt::format("{} hits for a row without an EMC cluster", r.hitCount)};
+  }
+  if (!std::isnan(r.energy) && r.hitCount == 0) {
+    return Issue{"hit_count", "0 hits for a row with an EMC cluster (a file with hits stores every cluster's counters)"};
+  }
+  for (const Hit& h : hits) {
+    if (h.counter < 0) return Issue{"/hits/counter", fmt::format("{} is not a counter index", h.counter)};
+    if (!(std::isfinite(h.energy) && h.energy >= 0.0)) {
+      return Issue{"/hits/energy_mev", fmt::format("{} is not a finite energy >= 0", h.energy)};
+    }
+  }
+  return std::nullopt;
+}
+
 bool isAttributeKey(std::string_view key) {
   if (key.empty()) return false;
   for (char ch : key) {
@@ -108,17 +128,29 @@ Status checkAttributes(const std::string& path, const Attributes& attributes, Ev
   return {};
 }
 
-Status checkAppend(const std::string& path, std::span<const ParticleRow> rows,
-                   std::uint64_t firstIndex, EventConsistency& consistency) {
+Status checkAppend(const std::string& path, std::span<const ParticleRow> rows, std::span<const Hit> hits,
+                   bool withHits, std::uint64_t firstIndex, EventConsistency& consistency) {
   EventConsistency trial = consistency;
+  std::size_t hit = 0;
   for (std::size_t i = 0; i < rows.size(); ++i) {
     auto issue = checkRow(rows[i]);
     if (!issue) issue = trial.check(rows[i]);
+    if (!issue && withHits) {
+      const auto n = static_cast<std::size_t>(std::max(0, rows[i].hitCount));
+      if (hit + n > hits.size()) {
+        return Error{fmt::format("{}: append: the rows have more hits than the {} given", path, hits.size())};
+      }
+      issue = checkHits(rows[i], hits.subspan(hit, n));
+      hit += n;
+    }
     if (issue) {
       return Error{fmt::format("{}: appended row {} (0-based, run {} event {}): column '{}': {}",
                                path, firstIndex + i, rows[i].run, rows[i].event, issue->column,
                                issue->what)};
     }
+  }
+  if (withHits && hit != hits.size()) {
+    return Error{fmt::format("{}: append: {} hits given for rows that have {}", path, hits.size(), hit)};
   }
   consistency = trial;
   return {};

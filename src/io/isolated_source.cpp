@@ -10,10 +10,11 @@
 // decompresses while the parent selects.
 //
 // Protocol, child → parent, each message `kind (1 byte) | payload size (8 bytes) | payload`:
-//   'H' header: has-truth (1 byte), the number of attributes, then each as (key size, key,
+//   'H' header: has-truth (1 byte), has-hits (1 byte), the number of attributes, then each as (key size, key,
 //       value size, value), sizes in 8 bytes
 //   'R' rows: their count (4 bytes), the rows, then (with truth) their truth rows, each in
-//       the fixed layout of encodeRow and encodeTruth
+//       the fixed layout of encodeRow and encodeTruth, then the number of hits (8 bytes) and
+//       the hits of these rows in row order
 //   'E' an error message (the source's own text); the child then exits
 //   'Z' the end of the file
 // The child never returns into the caller's code: it leaves with _exit (no atexit handlers,
@@ -45,10 +46,12 @@ constexpr std::uint64_t kMaxMessage = std::uint64_t{1} << 30;
 // ------------------------------------------------------------------------------ encoding
 
 // Rows travel in a fixed layout, field by field (no padding, no struct copies):
-// run i32, event i64, beam f64, veto i8, charged i8, then the seven doubles of the row;
-// truth: pdg i32, then its nine doubles.
-constexpr std::size_t kRowBytes = 4 + 8 + 8 + 1 + 1 + 7 * 8;
+// run i32, event i64, beam f64, veto i8, charged i8, the seven doubles of the row, its
+// hit count i32; truth: pdg i32, then its nine doubles; a hit: counter i32, energy f64.
+constexpr std::size_t kRowBytes = 4 + 8 + 8 + 1 + 1 + 7 * 8 + 4;
 constexpr std::size_t kTruthBytes = 4 + 9 * 8;
+constexpr std::size_t kHitBytes = 4 + 8;
+constexpr std::size_t kHitsPerMessage = std::size_t{1} << 20;
 
 template <typename T>
 char* put(char* p, T v) {
@@ -68,6 +71,7 @@ void encodeRow(char* p, const ParticleRow& r) {
   p = put(p, r.muonVeto);
   p = put(p, r.charged);
   for (double x : {r.z0, r.rho, r.phiTs, r.thetaTs, r.energy, r.phiEmc, r.thetaEmc}) p = put(p, x);
+  put(p, r.hitCount);
 }
 
 void decodeRow(const char* p, ParticleRow& r) {
@@ -77,6 +81,7 @@ void decodeRow(const char* p, ParticleRow& r) {
   p = take(p, r.muonVeto);
   p = take(p, r.charged);
   for (double* x : {&r.z0, &r.rho, &r.phiTs, &r.thetaTs, &r.energy, &r.phiEmc, &r.thetaEmc}) p = take(p, *x);
+  take(p, r.hitCount);
 }
 
 void encodeTruth(char* p, const TruthRow& t) {
@@ -93,9 +98,10 @@ void decodeTruth(const char* p, TruthRow& t) {
   for (int k = 0; k < 3; ++k) p = take(p, t.showerCentre[k]);
 }
 
-// The header: has-truth, then the attributes as (size, text) pairs.
-std::string encodeHeader(bool hasTruth, const Attributes& attributes) {
+// The header: has-truth, has-hits, then the attributes as (size, text) pairs.
+std::string encodeHeader(bool hasTruth, bool hasHits, const Attributes& attributes) {
   std::string out(1, hasTruth ? '\1' : '\0');
+  out += hasHits ? '\1' : '\0';
   const auto text = [&](const std::string& s) {
     const std::uint64_t n = s.size();
     out.append(reinterpret_cast<const char*>(&n), 8);
@@ -110,7 +116,7 @@ std::string encodeHeader(bool hasTruth, const Attributes& attributes) {
   return out;
 }
 
-bool decodeHeader(const std::string& in, bool& hasTruth, Attributes& attributes) {
+bool decodeHeader(const std::string& in, bool& hasTruth, bool& hasHits, Attributes& attributes) {
   const char* p = in.data();
   const char* end = p + in.size();
   const auto u64 = [&](std::uint64_t& v) {
@@ -118,8 +124,9 @@ bool decodeHeader(const std::string& in, bool& hasTruth, Attributes& attributes)
     p = take(p, v);
     return true;
   };
-  if (p == end) return false;
+  if (end - p < 2) return false;
   hasTruth = *p++ != 0;
+  hasHits = *p++ != 0;
   std::uint64_t n = 0;
   if (!u64(n)) return false;
   for (std::uint64_t k = 0; k < n; ++k) {
@@ -164,26 +171,35 @@ bool send(int fd, char kind, std::string_view payload) {
   }
   RowSource& s = **source;
   const bool truth = s.hasTruth();
-  if (!send(fd, 'H', encodeHeader(truth, s.attributes()))) ::_exit(0);
+  if (!send(fd, 'H', encodeHeader(truth, s.hasHits(), s.attributes()))) ::_exit(0);
   const std::size_t perRow = kRowBytes + (truth ? kTruthBytes : 0);
   std::string message(4 + kRowsPerMessage * perRow, '\0');
+  std::string hitBytes;
+  std::vector<Hit> hits;
   std::uint32_t count = 0;
   const auto flush = [&] {
     if (count == 0) return true;
     std::memcpy(message.data(), &count, 4);
-    // Rows first, then their truth: the layout the parent decodes.
+    // Rows first, then their truth, then the number of hits and the hits: the layout the
+    // parent decodes.
     if (truth) {
       std::memmove(message.data() + 4 + count * kRowBytes, message.data() + 4 + kRowsPerMessage * kRowBytes,
                    count * kTruthBytes);
     }
-    const bool ok = send(fd, 'R', std::string_view(message.data(), 4 + count * perRow));
+    hitBytes.assign(8 + hits.size() * kHitBytes, '\0');
+    char* p = put(hitBytes.data(), static_cast<std::uint64_t>(hits.size()));
+    for (const Hit& h : hits) p = put(put(p, h.counter), h.energy);
+    std::string whole(message.data(), 4 + count * perRow);
+    whole += hitBytes;
+    const bool ok = send(fd, 'R', whole);
     count = 0;
+    hits.clear();
     return ok;
   };
   ParticleRow row;
   TruthRow t;
   while (true) {
-    auto got = s.next(row, t);
+    auto got = s.next(row, t, hits);
     if (!got) {
       if (flush()) send(fd, 'E', got.error().message);
       ::_exit(0);
@@ -191,7 +207,7 @@ bool send(int fd, char kind, std::string_view payload) {
     if (!*got) break;
     encodeRow(message.data() + 4 + count * kRowBytes, row);
     if (truth) encodeTruth(message.data() + 4 + kRowsPerMessage * kRowBytes + count * kTruthBytes, t);
-    if (++count == kRowsPerMessage && !flush()) ::_exit(0);  // the parent went away
+    if ((++count == kRowsPerMessage || hits.size() >= kHitsPerMessage) && !flush()) ::_exit(0);  // the parent went away
   }
   if (flush()) send(fd, 'Z', {});
   ::_exit(0);
@@ -214,11 +230,11 @@ class IsolatedSource final : public RowSource {
     char kind = 0;
     if (Status s = receive(kind, payload); !s) return s;
     if (kind == 'E') return Error{payload};
-    if (kind != 'H' || !decodeHeader(payload, hasTruth_, attributes_)) return protocolError();
+    if (kind != 'H' || !decodeHeader(payload, hasTruth_, hasHits_, attributes_)) return protocolError();
     return {};
   }
 
-  Result<bool> next(ParticleRow& row, TruthRow& truth) override {
+  Result<bool> next(ParticleRow& row, TruthRow& truth, std::vector<Hit>& hits) override {
     while (pos_ == count_) {
       if (ended_) return false;
       if (failed_) return *failed_;
@@ -237,18 +253,33 @@ class IsolatedSource final : public RowSource {
       const std::size_t perRow = kRowBytes + (hasTruth_ ? kTruthBytes : 0);
       if (kind != 'R' || payload_.size() < 4) return fail(protocolError().error());
       std::memcpy(&n, payload_.data(), 4);
-      if (n == 0 || payload_.size() != 4 + n * perRow) return fail(protocolError().error());
+      std::uint64_t nHits = 0;
+      if (n == 0 || payload_.size() < 4 + n * perRow + 8) return fail(protocolError().error());
+      std::memcpy(&nHits, payload_.data() + 4 + n * perRow, 8);
+      if (payload_.size() != 4 + n * perRow + 8 + nHits * kHitBytes) return fail(protocolError().error());
       count_ = n;
       pos_ = 0;
+      hitsAt_ = payload_.data() + 4 + n * perRow + 8;
+      hitsLeft_ = nHits;
     }
     decodeRow(payload_.data() + 4 + pos_ * kRowBytes, row);
     if (hasTruth_) decodeTruth(payload_.data() + 4 + count_ * kRowBytes + pos_ * kTruthBytes, truth);
+    if (row.hitCount < 0 || static_cast<std::uint64_t>(row.hitCount) > hitsLeft_) {
+      return fail(protocolError().error());
+    }
+    for (std::int32_t k = 0; k < row.hitCount; ++k) {
+      Hit h;
+      hitsAt_ = take(take(hitsAt_, h.counter), h.energy);
+      hits.push_back(h);
+    }
+    hitsLeft_ -= static_cast<std::uint64_t>(row.hitCount);
     ++pos_;
     ++delivered_;
     return true;
   }
 
   bool hasTruth() const override { return hasTruth_; }
+  bool hasHits() const override { return hasHits_; }
   const Attributes& attributes() const override { return attributes_; }
   std::string location() const override {
     return fmt::format("{}: record {}", path_, delivered_ > 0 ? delivered_ - 1 : 0);
@@ -336,6 +367,9 @@ class IsolatedSource final : public RowSource {
   Attributes attributes_;
   std::string payload_;  // the last rows message
   std::size_t count_ = 0, pos_ = 0;
+  bool hasHits_ = false;
+  const char* hitsAt_ = nullptr;  // the next hit of payload_
+  std::uint64_t hitsLeft_ = 0;
   std::uint64_t delivered_ = 0;
   bool ended_ = false;
   std::optional<Error> failed_;

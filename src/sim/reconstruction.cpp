@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <tuple>
 
 namespace emcalign::sim {
 
@@ -40,10 +41,27 @@ CounterNeighbours::CounterNeighbours(const geometry::Calorimeter& calo) : lists_
   }
 }
 
-void findClusters(const CounterHits& hits, const geometry::Calorimeter& calo,
+std::optional<std::pair<double, double>> clusterDirection(std::span<const Hit> hits,
+                                                          const geometry::CounterGeometry& geometry, double w0) {
+  double sum = 0.0;
+  for (const Hit& h : hits) sum += h.energy;
+  Vec3 centre = Vec3::Zero();
+  double weights = 0.0;
+  for (const Hit& h : hits) {
+    const double w = std::max(0.0, w0 + std::log(std::max(h.energy, 1e-9) / sum));
+    centre += w * geometry.centre(h.counter);
+    weights += w;
+  }
+  if (!(weights > 0.0)) return std::nullopt;
+  return std::pair{geometry::polar(centre), geometry::azimuth(centre)};
+}
+
+void findClusters(const CounterHits& hits, const geometry::CounterGeometry& geometry,
                   const CounterNeighbours& neighbours, const ReconstructionOptions& options,
                   ClusterScratch& scratch, Rng& rng, std::vector<Cluster>& clusters) {
+  const geometry::Calorimeter& calo = geometry.calorimeter();
   clusters.clear();
+  scratch.hits.clear();
   if (scratch.label.size() != static_cast<std::size_t>(calo.size())) {
     scratch.label.assign(static_cast<std::size_t>(calo.size()), -1);
   }
@@ -77,17 +95,16 @@ void findClusters(const CounterHits& hits, const geometry::Calorimeter& calo,
     if (sum <= 0.0 || sum / options.containment < options.clusterThreshold) continue;
     Cluster cl;
     cl.energy = sum / options.containment;
+    cl.firstHit = static_cast<int>(scratch.hits.size());
+    for (int c : members) scratch.hits.push_back({c, hits.energy(c)});
+    const std::span<const Hit> own(scratch.hits.data() + cl.firstHit, members.size());
     if (options.directionFromCounters) {
-      Vec3 centre = Vec3::Zero();
-      double weights = 0.0;
-      for (int c : members) {
-        const double w = std::max(0.0, options.logWeightW0 + std::log(std::max(hits.energy(c), 1e-9) / sum));
-        centre += w * calo.counter(c).centre();
-        weights += w;
+      const auto direction = clusterDirection(own, geometry, options.logWeightW0);
+      if (!direction) {
+        scratch.hits.resize(static_cast<std::size_t>(cl.firstHit));
+        continue;
       }
-      if (weights <= 0.0) continue;
-      cl.theta = geometry::polar(centre);
-      cl.phi = geometry::azimuth(centre);
+      std::tie(cl.theta, cl.phi) = *direction;
     } else {
       Vec3 centre = Vec3::Zero();
       for (int c : members) centre += hits.nominalMoment(c);

@@ -80,6 +80,7 @@ Result<Simulation> Simulation::create(const geometry::Calorimeter& calorimeter,
   sim.options_ = std::move(options);
   sim.response_ = std::make_shared<const CalorimeterResponse>(calorimeter, *transform, sim.options_.emc);
   sim.neighbours_ = std::make_shared<const CounterNeighbours>(calorimeter);
+  sim.nominal_ = std::make_shared<const geometry::CounterGeometry>(geometry::CounterGeometry::nominal(calorimeter));
   sim.tracking_ = TrackingSystem(sim.options_.tracking);
   return sim;
 }
@@ -103,7 +104,7 @@ void Simulation::cosmic(Rng& rng, GeneratedEvent& event) const {
 }
 
 void Simulation::simulateEvent(std::int64_t index, EventScratch& scratch, std::vector<ParticleRow>& rows,
-                               std::vector<TruthRow>& truth) const {
+                               std::vector<TruthRow>& truth, std::vector<Hit>* hitsOut) const {
   const auto& o = options_;
   Rng rng(o.seed, static_cast<std::uint64_t>(index));
   const bool isCosmic = o.cosmicFraction > 0.0 && rng.uniform() < o.cosmicFraction;
@@ -144,7 +145,14 @@ void Simulation::simulateEvent(std::int64_t index, EventScratch& scratch, std::v
   }
   response_->background(hits, rng);
   hits.digitize(o.emc, rng);
-  findClusters(hits, *calo_, *neighbours_, o.reconstruction, scratch.clusters, rng, scratch.clusterList);
+  findClusters(hits, *nominal_, *neighbours_, o.reconstruction, scratch.clusters, rng, scratch.clusterList);
+  // A cluster row carries the cluster's counters (when the caller keeps hits).
+  const auto keepHits = [&](ParticleRow& r, const Cluster& c) {
+    if (hitsOut == nullptr) return;
+    r.hitCount = c.counters;
+    const auto first = scratch.clusters.hits.begin() + c.firstHit;
+    hitsOut->insert(hitsOut->end(), first, first + c.counters);
+  };
   const std::vector<int> match = matchTracks(scratch.tracks, scratch.clusterList, o.reconstruction);
   const std::int8_t veto = isCosmic && rng.uniform() < o.muonVetoEfficiency ? 1 : 0;
 
@@ -183,6 +191,7 @@ void Simulation::simulateEvent(std::int64_t index, EventScratch& scratch, std::v
       r.energy = c.energy;
       r.phiEmc = c.phi;
       r.thetaEmc = c.theta;
+      keepHits(r, c);
     } else {
       r.energy = r.phiEmc = r.thetaEmc = kNaN;
     }
@@ -205,6 +214,7 @@ void Simulation::simulateEvent(std::int64_t index, EventScratch& scratch, std::v
     r.energy = cl.energy;
     r.phiEmc = cl.phi;
     r.thetaEmc = cl.theta;
+    keepHits(r, cl);
     rows.push_back(r);
     truth.push_back(truthOf(cl.mainSource == CounterHits::kBackground ? -1 : cl.mainSource));
   }
@@ -224,6 +234,7 @@ Status Simulation::run(std::int64_t events, int threads, const Sink& sink, const
   struct Chunk {
     std::vector<ParticleRow> rows;
     std::vector<TruthRow> truth;
+    std::vector<Hit> hits;
   };
   std::vector<Chunk> buffers[2];
   std::future<Status> pending;
@@ -238,10 +249,11 @@ Status Simulation::run(std::int64_t events, int threads, const Sink& sink, const
       Chunk& chunk = chunks[c];
       chunk.rows.clear();
       chunk.truth.clear();
+      chunk.hits.clear();
       EventScratch& s = scratch.local();
       const std::int64_t begin = first + static_cast<std::int64_t>(c) * kChunk;
       const std::int64_t end = std::min(last, begin + kChunk);
-      for (std::int64_t i = begin; i < end; ++i) simulateEvent(i, s, chunk.rows, chunk.truth);
+      for (std::int64_t i = begin; i < end; ++i) simulateEvent(i, s, chunk.rows, chunk.truth, &chunk.hits);
     });
     for (EventScratch& s : scratch) {
       if (s.failedEvent >= 0) {
@@ -253,7 +265,7 @@ Status Simulation::run(std::int64_t events, int threads, const Sink& sink, const
     if (Status s = drain(); !s) return s;
     pending = std::async(std::launch::async, [&sink, &chunks]() -> Status {
       for (const Chunk& chunk : chunks) {
-        if (Status s = sink(chunk.rows, chunk.truth); !s) return s;
+        if (Status s = sink(chunk.rows, chunk.truth, chunk.hits); !s) return s;
       }
       return {};
     });

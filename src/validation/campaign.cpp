@@ -293,7 +293,7 @@ Result<Table> runCampaign(const geometry::Calorimeter& calo, const CampaignOptio
     auto simulation = sim::Simulation::create(calo, s.truth, so);
     if (!simulation) return simulation.error();
     calib::ProfileFiller filler(geometry.depth, calib::SelectionOptions{}, profileOptions);
-    const Status run = simulation->run(o.events, o.threads, [&](std::span<const ParticleRow> rows, std::span<const TruthRow>) {
+    const Status run = simulation->run(o.events, o.threads, [&](std::span<const ParticleRow> rows, std::span<const TruthRow>, std::span<const Hit>) {
       filler.addEvents(rows);
       return Status{};
     });

@@ -40,7 +40,7 @@ Result<Sample> simulate(const geometry::Calorimeter& calo, const DerivationOptio
                               [&](const ParticleRow& row, const calib::ParticleResidual&) { s.particles.push_back(row); });
   const Status run = simulation->run(
       o.events, o.threads,
-      [&](std::span<const ParticleRow> rows, std::span<const TruthRow>) {
+      [&](std::span<const ParticleRow> rows, std::span<const TruthRow>, std::span<const Hit>) {
         filler.addEvents(rows);
         return Status{};
       },

@@ -46,7 +46,7 @@ calib::FitResult simulateAndFit(const AlignmentParameters& truth, sim::Simulatio
   EXPECT_TRUE(simulation.ok()) << simulation.error().message;
   const auto geometry = calib::FitGeometry::of(calorimeter().description());
   calib::ProfileFiller filler(geometry.depth, calib::SelectionOptions{}, profile);
-  const Status run = simulation->run(events, 0, [&](std::span<const ParticleRow> rows, std::span<const TruthRow>) {
+  const Status run = simulation->run(events, 0, [&](std::span<const ParticleRow> rows, std::span<const TruthRow>, std::span<const Hit>) {
     filler.addEvents(rows);
     return Status{};
   });

@@ -36,6 +36,9 @@ struct CorrectOptions {
   CorrectionMethod method = CorrectionMethod::Auto;
   /// R(E, θ) of the cluster method (its offset from a corrections file, or 0: SPEC).
   geometry::ShowerDepth depth;
+  /// W0 of the logarithmic weights of the hits method: the reconstruction's (sim's default,
+  /// SND-like).
+  double logWeightW0 = 3.5;
   /// Recorded as the output's "correction" attribute (compact JSON, made by the caller).
   std::string description;
   io::ReaderOptions reader;
@@ -49,6 +52,7 @@ struct CorrectReport {
   std::int64_t rows = 0;
   std::int64_t clusters = 0;  ///< rows whose EMC direction was corrected
   bool truth = false;         ///< truth copied
+  bool hits = false;          ///< hits copied
 };
 
 /// Reads `inputs`, corrects every cluster, writes `output` (io/output_file.hpp rules: no

@@ -23,11 +23,20 @@ struct ParticleRow {
   double energy = 0.0;    ///< MeV, EMC cluster
   double phiEmc = 0.0;    ///< rad
   double thetaEmc = 0.0;  ///< rad
+  /// Counters of the EMC cluster stored with the row (event files with hits; 0 otherwise).
+  /// A block of rows comes with its hits in row order: the row's are the next hitCount.
+  std::int32_t hitCount = 0;
 
   /// Track fields are present (not NaN).
   bool hasTrack() const { return !std::isnan(z0); }
   /// Cluster fields are present (not NaN).
   bool hasCluster() const { return !std::isnan(energy); }
+};
+
+/// One counter of a cluster: its index (SPEC §2 numbering) and the energy it measured.
+struct Hit {
+  std::int32_t counter = 0;
+  double energy = 0.0;  ///< MeV
 };
 
 /// Simulation truth for one row (HDF5 only).

@@ -28,6 +28,10 @@
 //   rows of one event (consecutive rows with the same run and event) share beam_energy_mev
 //   and muon_veto. CSV numbers must spell the whole field: "nan"/"inf" text is refused
 //   (an empty field is the missing value) and "1.0" or "1e3" is not an integer.
+// Hits (HDF5 only; CSV has none and reads as hitCount 0): a row without a cluster has none,
+//   a row with a cluster at least one and at most kMaxHitsPerRow; offsets follow each other
+//   from 0 without holes; counters are ≥ 0 and energies finite and ≥ 0 (the counter's range
+//   is the detector's to check).
 // Across rows (readers only): an event — a (run, event) pair — appears once, its rows
 //   contiguous, in all the files of one reader together (a file given twice, a copy, a
 //   repeated event or an event's rows apart are refused, naming both places; the same file
@@ -45,6 +49,9 @@
 //           theta_emc_rad double (NaN = empty field)
 //   /truth/pdg int32, energy_mev, theta_rad, phi_rad, vertex_{x,y,z}_cm,
 //          shower_{x,y,z}_cm double (optional; same length as /events; values unchecked)
+//   Hits (optional, both or neither): /events/hit_offset int64 and /events/hit_count int32
+//          per row, /hits/counter int32 and /hits/energy_mev double, flat in row order;
+//          a row's hits are /hits[hit_offset, hit_offset + hit_count).
 //   root attributes: scalar variable-length UTF-8 strings, in creation order.
 // The file holds no timestamps (object time tracking is off): the same rows and
 // attributes give the same file, byte for byte, however they were split into appends.
@@ -68,6 +75,9 @@ namespace emcalign::io {
 /// The CSV header line (without newline).
 extern const char* const kCsvHeader;
 
+/// The most counters one cluster row may have (a shower fires a few dozen).
+inline constexpr int kMaxHitsPerRow = 2000;
+
 enum class EventFormat { Csv, Hdf5 };
 EventFormat formatOf(const std::string& path);
 
@@ -79,6 +89,7 @@ struct WriterOptions {
   /// '_', '.' and '-' and given once; values hold no NUL and, for CSV, no line break
   /// (compact JSON is fine). `open` refuses anything else.
   std::vector<std::pair<std::string, std::string>> attributes;
+  bool withHits = false;  ///< HDF5 only; ignored (no hits written) for CSV
 };
 
 /// Writes `path` by the rules of io/output_file.hpp: through the temporary `<path>.tmp-<pid>`
@@ -90,10 +101,13 @@ class EventWriter {
   virtual ~EventWriter() = default;
   /// Appends rows, checked by the rules above (an event may continue into the next append).
   /// With withTruth (HDF5), `truth` must have one row per row; otherwise it is ignored.
+  /// With withHits (HDF5), `hits` holds the rows' hits in row order (Σ hitCount of them);
+  /// otherwise hits and hitCount are ignored (written as none).
   /// A refused append writes none of its rows and fails the writer for good: every later
   /// call fails and no file is produced, so a job that ignores the error cannot leave a
   /// file with rows missing.
-  virtual Status append(std::span<const ParticleRow> rows, std::span<const TruthRow> truth) = 0;
+  virtual Status append(std::span<const ParticleRow> rows, std::span<const TruthRow> truth,
+                        std::span<const Hit> hits = {}) = 0;
   /// Flushes and renames the temporary into place. Must be called for the file to exist.
   virtual Status close() = 0;
 };
@@ -120,6 +134,9 @@ class EventReader {
   virtual Result<bool> next(std::vector<ParticleRow>& rows) = 0;
   /// The truth rows matching the last block, when the current file has truth.
   virtual const std::vector<TruthRow>* truth() const = 0;
+  /// The hits of the last block in row order (row i's are the next rows[i].hitCount), when
+  /// the current file has hits.
+  virtual const std::vector<Hit>* hits() const = 0;
   /// Metadata attributes of the file currently read (HDF5 attributes or CSV '# key:' lines).
   virtual const std::vector<std::pair<std::string, std::string>>& attributes() const = 0;
 };

@@ -2,16 +2,24 @@
 // Event reconstruction as SND does it, on the simulated counter energies:
 // * clusters = connected groups of fired counters (neighbours in θ, φ and depth);
 // * energy = sum of the counters divided by the mean containment (a leakage correction);
-// * direction = angles of the log-weighted mean of the *nominal* counter centres,
-//   w_i = max(0, W0 + ln(E_i/E)), seen from the origin. The reconstruction does not know
-//   the misalignment; building the direction from counter centres is what makes the
-//   reconstructed angle non-uniform inside a counter (the paper's σ_sys).
+// * direction = angles of the log-weighted mean of the counter centres,
+//   w_i = max(0, W0 + ln(E_i/E)), seen from the origin (`clusterDirection`). The simulation
+//   reconstructs with the *nominal* centres (it does not know the misalignment); building
+//   the direction from counter centres is what makes the reconstructed angle non-uniform
+//   inside a counter (the paper's σ_sys). `emcalign correct --method hits` calls the same
+//   function with the *aligned* centres (geometry/counter_geometry.hpp): with a zero
+//   alignment it gives the simulation's direction to the last bit.
 // * tracks and clusters are matched by angle; clusters left over are photons.
 
 #include <optional>
 #include <vector>
 
+#include <span>
+#include <utility>
+
+#include "emcalign/core/event_record.hpp"
 #include "emcalign/core/types.hpp"
+#include "emcalign/geometry/counter_geometry.hpp"
 #include "emcalign/geometry/detector.hpp"
 #include "emcalign/geometry/track.hpp"
 #include "emcalign/sim/calorimeter_response.hpp"
@@ -36,7 +44,14 @@ struct Cluster {
   double phi = 0.0;     ///< rad
   int mainSource = -1;  ///< source (generated particle or background) with most energy
   int counters = 0;
+  int firstHit = 0;     ///< its counters: ClusterScratch::hits[firstHit, firstHit + counters)
 };
+
+/// The direction (θ, φ) of a cluster from its counters (index, energy), in their order:
+/// the angles of Σ w_i·c_i with w_i = max(0, W0 + ln(E_i/E)), E = Σ E_i, c_i the counter
+/// centres of `geometry` (nominal or aligned). None when no weight is positive.
+std::optional<std::pair<double, double>> clusterDirection(std::span<const Hit> hits,
+                                                          const geometry::CounterGeometry& geometry, double w0);
 
 /// Neighbours of every counter, computed once per calorimeter.
 class CounterNeighbours {
@@ -53,11 +68,13 @@ struct ClusterScratch {
   std::vector<int> label;  ///< per counter: cluster id, -1 unassigned (reset after use)
   std::vector<int> stack;
   std::vector<int> members;
+  std::vector<Hit> hits;   ///< the counters of the clusters found, cluster by cluster
 };
 
-/// Clusters of the fired counters.
-/// Clusters of the fired counters (`rng` smears the idealised directions only).
-void findClusters(const CounterHits& hits, const geometry::Calorimeter& calo,
+/// Clusters of the fired counters, directions from the centres of `geometry` (the nominal
+/// one in the simulation); each keeps its counters in `scratch.hits` (`rng` smears the
+/// idealised directions only).
+void findClusters(const CounterHits& hits, const geometry::CounterGeometry& geometry,
                   const CounterNeighbours& neighbours, const ReconstructionOptions& options,
                   ClusterScratch& scratch, Rng& rng, std::vector<Cluster>& clusters);
 

@@ -80,13 +80,15 @@ class Simulation {
   const CalorimeterResponse& response() const { return *response_; }
   const TrackingSystem& tracking() const { return tracking_; }
 
-  /// Appends the reconstructed rows of event `index` (and their truth). An event the
+  /// Appends the reconstructed rows of event `index` (and their truth, and — when `hits` is
+  /// given — each cluster row's counters, ParticleRow::hitCount of them). An event the
   /// generator could not make appends nothing and is noted in `scratch.failedEvent`.
   void simulateEvent(std::int64_t index, EventScratch& scratch, std::vector<ParticleRow>& rows,
-                     std::vector<TruthRow>& truth) const;
+                     std::vector<TruthRow>& truth, std::vector<Hit>* hits = nullptr) const;
 
-  /// Rows of consecutive events, handed to the sink in event order.
-  using Sink = std::function<Status(std::span<const ParticleRow>, std::span<const TruthRow>)>;
+  /// Rows of consecutive events, handed to the sink in event order, with their truth and
+  /// their hits (in row order).
+  using Sink = std::function<Status(std::span<const ParticleRow>, std::span<const TruthRow>, std::span<const Hit>)>;
   /// Called after each block with the number of events done.
   using Progress = std::function<void(std::int64_t done)>;
 
@@ -101,6 +103,7 @@ class Simulation {
   SimulationOptions options_;
   std::shared_ptr<const CalorimeterResponse> response_;
   std::shared_ptr<const CounterNeighbours> neighbours_;
+  std::shared_ptr<const geometry::CounterGeometry> nominal_;  ///< what the reconstruction knows
   TrackingSystem tracking_{TrackingOptions{}};
 };
 

@@ -177,10 +177,11 @@ Result<ReadBack> readAll(const std::vector<std::string>& paths, std::size_t bloc
 }
 
 Status writeFile(const std::string& path, const std::vector<ParticleRow>& rows,
-                 WriterOptions options = {}, const std::vector<TruthRow>& truth = {}) {
+                 WriterOptions options = {}, const std::vector<TruthRow>& truth = {},
+                 const std::vector<Hit>& hits = {}) {
   auto writer = EventWriter::open(path, std::move(options));
   if (!writer) return writer.error();
-  if (auto s = (*writer)->append(rows, truth); !s) return s;
+  if (auto s = (*writer)->append(rows, truth, hits); !s) return s;
   return (*writer)->close();
 }
 
@@ -1070,6 +1071,162 @@ TEST(EventFileIsolation, AttributesAndTruthCrossTheProcessBoundaryExactly) {
   expectSameRows(back->rows, rows);
   expectSameTruth(back->truth, truth);
   EXPECT_EQ(back->attributes, kAttributes);
+}
+
+}  // namespace
+}  // namespace emcalign::io
+
+// -------------------------------------------------------------------------------- hits
+
+namespace emcalign::io {
+namespace {
+
+// Rows of sampleRows() with hits on their clusters: 1 + (i % 4) counters each.
+std::vector<Hit> attachHits(std::vector<ParticleRow>& rows) {
+  std::vector<Hit> hits;
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    rows[i].hitCount = std::isnan(rows[i].energy) ? 0 : 1 + static_cast<int>(i % 4);
+    for (int k = 0; k < rows[i].hitCount; ++k) {
+      hits.push_back({static_cast<std::int32_t>(100 * k + i % 1632), 1.0 / 3.0 + static_cast<double>(i) + k});
+    }
+  }
+  return hits;
+}
+
+Result<std::vector<Hit>> readHits(const std::vector<std::string>& paths, std::size_t blockRows,
+                                  std::vector<ParticleRow>* rowsOut = nullptr) {
+  auto reader = EventReader::open(paths, ReaderOptions{blockRows});
+  if (!reader) return reader.error();
+  std::vector<Hit> all;
+  std::vector<ParticleRow> rows;
+  while (true) {
+    auto more = (*reader)->next(rows);
+    if (!more) return more.error();
+    if (!*more) break;
+    const auto* hits = (*reader)->hits();
+    if (hits == nullptr) return Error{"no hits"};
+    std::size_t sum = 0;
+    for (const auto& r : rows) sum += static_cast<std::size_t>(r.hitCount);
+    EXPECT_EQ(sum, hits->size()) << "a block's hits are its rows'";
+    all.insert(all.end(), hits->begin(), hits->end());
+    if (rowsOut) rowsOut->insert(rowsOut->end(), rows.begin(), rows.end());
+  }
+  return all;
+}
+
+TEST_F(EventFile, HitsRoundTripThroughHdf5InAnyBlocks) {
+  auto rows = sampleRows(3000);
+  const auto hits = attachHits(rows);
+  WriterOptions o{true, kAttributes};
+  o.withHits = true;
+  ASSERT_TRUE(writeFile(path("h.h5"), rows, o, sampleTruth(rows.size()), hits).ok());
+  for (std::size_t block : {std::size_t{1}, std::size_t{7}, std::size_t{65536}}) {
+    std::vector<ParticleRow> back;
+    auto got = readHits({path("h.h5")}, block, &back);
+    ASSERT_TRUE(got.ok()) << got.error().message;
+    ASSERT_EQ(got->size(), hits.size());
+    for (std::size_t k = 0; k < hits.size(); ++k) {
+      ASSERT_EQ((*got)[k].counter, hits[k].counter);
+      ASSERT_TRUE(sameDouble((*got)[k].energy, hits[k].energy));
+    }
+    for (std::size_t i = 0; i < rows.size(); ++i) ASSERT_EQ(back[i].hitCount, rows[i].hitCount);
+  }
+  // CSV has no hits: written without them, read as none.
+  ASSERT_TRUE(writeFile(path("h.csv"), rows, o, {}, hits).ok());
+  auto reader = EventReader::open({path("h.csv")});
+  ASSERT_TRUE(reader.ok());
+  std::vector<ParticleRow> block;
+  ASSERT_TRUE(*(*reader)->next(block));
+  EXPECT_EQ((*reader)->hits(), nullptr);
+  EXPECT_EQ(block[0].hitCount, 0);
+}
+
+TEST_F(EventFile, WriterRefusesHitsThatDoNotMatchTheRows) {
+  auto rows = sampleRows(4);
+  auto hits = attachHits(rows);
+  WriterOptions o;
+  o.withHits = true;
+  auto w = EventWriter::open(path("h.h5"), o);
+  ASSERT_TRUE(w.ok());
+  hits.pop_back();
+  EXPECT_THAT((*w)->append(rows, {}, hits).error().message, HasSubstr("more hits than the"));
+  auto noCluster = sampleRows(4);
+  const auto hits2 = attachHits(noCluster);
+  noCluster[8].hitCount = 2;  // row 8 has no cluster (sampleRows: the fourth row of event 2)
+  auto w2 = EventWriter::open(path("h2.h5"), o);
+  ASSERT_TRUE(std::isnan(noCluster[8].energy));
+  EXPECT_THAT((*w2)->append(noCluster, {}, hits2).error().message, HasSubstr("row 8"));
+}
+
+// Broken hit columns, written with the C API: each is refused naming the record.
+TEST_F(EventFile, Hdf5HitsAreCheckedForConsistency) {
+  auto rows = sampleRows(4);
+  const auto hits = attachHits(rows);
+  const auto write = [&](const std::string& file, std::vector<std::int64_t> offset, std::vector<std::int32_t> count,
+                         std::vector<std::int32_t> counter) {
+    writeRawHdf5(file, rawColumns(rows));
+    const hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    const hid_t events = H5Gopen2(f, "events", H5P_DEFAULT);
+    const hid_t g = H5Gcreate2(f, "hits", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+    const auto put = [](hid_t group, const char* name, hid_t type, hid_t memType, const void* data, hsize_t n) {
+      const hid_t space = H5Screate_simple(1, &n, nullptr);
+      const hid_t ds = H5Dcreate2(group, name, type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+      H5Dwrite(ds, memType, H5S_ALL, H5S_ALL, H5P_DEFAULT, data);
+      H5Dclose(ds);
+      H5Sclose(space);
+    };
+    std::vector<double> energy(counter.size(), 5.0);
+    put(events, "hit_offset", H5T_STD_I64LE, H5T_NATIVE_INT64, offset.data(), offset.size());
+    put(events, "hit_count", H5T_STD_I32LE, H5T_NATIVE_INT32, count.data(), count.size());
+    put(g, "counter", H5T_STD_I32LE, H5T_NATIVE_INT32, counter.data(), counter.size());
+    put(g, "energy_mev", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, energy.data(), energy.size());
+    H5Gclose(g);
+    H5Gclose(events);
+    H5Fclose(f);
+  };
+  std::vector<std::int64_t> offset;
+  std::vector<std::int32_t> count;
+  std::int64_t at = 0;
+  for (const auto& r : rows) {
+    offset.push_back(at);
+    count.push_back(r.hitCount);
+    at += r.hitCount;
+  }
+  std::vector<std::int32_t> counter(static_cast<std::size_t>(at), 7);
+  write(path("good.h5"), offset, count, counter);
+  auto good = readHits({path("good.h5")}, 3);
+  ASSERT_TRUE(good.ok()) << good.error().message;
+  EXPECT_EQ(good->size(), hits.size());
+
+  auto hole = offset;
+  hole[3] += 1;
+  write(path("hole.h5"), hole, count, counter);
+  EXPECT_THAT(readHits({path("hole.h5")}, 3).error().message, HasSubstr("record 3: column 'hit_offset'"));
+  auto tooMany = count;
+  tooMany[2] = 5000;
+  write(path("many.h5"), offset, tooMany, counter);
+  EXPECT_THAT(readHits({path("many.h5")}, 3).error().message, HasSubstr("record 2: column 'hit_count'"));
+  auto extra = counter;
+  extra.push_back(1);
+  write(path("extra.h5"), offset, count, extra);
+  EXPECT_THAT(readHits({path("extra.h5")}, 3).error().message, HasSubstr("the rows use"));
+  auto negative = counter;
+  negative[4] = -3;
+  write(path("negative.h5"), offset, count, negative);
+  EXPECT_THAT(readHits({path("negative.h5")}, 3).error().message, HasSubstr("'/hits/counter': -3 is not a counter"));
+  // Half the hit columns: refused by name.
+  writeRawHdf5(path("half.h5"), rawColumns(rows));
+  {
+    const hid_t f = H5Fopen(path("half.h5").c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    const hsize_t n = rows.size();
+    const hid_t space = H5Screate_simple(1, &n, nullptr);
+    const hid_t ds = H5Dcreate2(f, "/events/hit_count", H5T_STD_I32LE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+    H5Dwrite(ds, H5T_NATIVE_INT32, H5S_ALL, H5S_ALL, H5P_DEFAULT, count.data());
+    H5Dclose(ds);
+    H5Sclose(space);
+    H5Fclose(f);
+  }
+  EXPECT_THAT(readHits({path("half.h5")}, 3).error().message, HasSubstr("the hits are incomplete"));
 }
 
 }  // namespace

@@ -279,3 +279,50 @@ TEST(Simulation, SameSeedSameEventsAndIdealisedLimitIsClean) {
 
 }  // namespace
 }  // namespace emcalign::sim
+
+namespace emcalign::sim {
+namespace {
+
+// Every cluster row keeps its counters, and the one reconstruction function gives, from
+// them and the nominal centres, the row's direction to the last bit (what correct --method
+// hits relies on).
+TEST(Reconstruction, ClusterRowsKeepTheirCountersAndTheirDirection) {
+  SimulationOptions o;
+  o.generator.process = Process::ThreePion;
+  o.generator.beamEnergy = defaultBeamEnergy(Process::ThreePion);
+  auto sim = Simulation::create(calorimeter(), AlignmentParameters{}, o);
+  ASSERT_TRUE(sim.ok());
+  EventScratch scratch(calorimeter().size());
+  std::vector<ParticleRow> rows;
+  std::vector<TruthRow> truth;
+  std::vector<Hit> hits;
+  for (std::int64_t i = 0; i < 300; ++i) sim->simulateEvent(i, scratch, rows, truth, &hits);
+  const auto nominal = geometry::CounterGeometry::nominal(calorimeter());
+  std::size_t at = 0, clusters = 0;
+  for (const ParticleRow& r : rows) {
+    const std::span<const Hit> own(hits.data() + at, static_cast<std::size_t>(r.hitCount));
+    at += own.size();
+    if (std::isnan(r.energy)) {
+      EXPECT_EQ(r.hitCount, 0);
+      continue;
+    }
+    ++clusters;
+    ASSERT_GT(r.hitCount, 0);
+    double sum = 0.0;
+    for (const Hit& h : own) {
+      ASSERT_GE(h.counter, 0);
+      ASSERT_LT(h.counter, calorimeter().size());
+      sum += h.energy;
+    }
+    EXPECT_EQ(sum / o.reconstruction.containment, r.energy);
+    const auto d = clusterDirection(own, nominal, o.reconstruction.logWeightW0);
+    ASSERT_TRUE(d);
+    EXPECT_EQ(d->first, r.thetaEmc);
+    EXPECT_EQ(d->second, r.phiEmc);
+  }
+  EXPECT_EQ(at, hits.size());
+  EXPECT_GT(clusters, 600u);
+}
+
+}  // namespace
+}  // namespace emcalign::sim

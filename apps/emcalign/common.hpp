@@ -87,5 +87,6 @@ void addValidateCommand(CLI::App& app, int& exitCode);
 void addDeriveCorrectionsCommand(CLI::App& app, int& exitCode);
 void addExportCommand(CLI::App& app, int& exitCode);
 void addCorrectCommand(CLI::App& app, int& exitCode);
+void addResidualsCommand(CLI::App& app, int& exitCode);
 
 }  // namespace emcalign::app

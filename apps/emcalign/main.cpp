@@ -55,6 +55,7 @@ int main(int argc, char** argv) {
   emcalign::app::addValidateCommand(app, exitCode);
   emcalign::app::addDeriveCorrectionsCommand(app, exitCode);
   emcalign::app::addCorrectCommand(app, exitCode);
+  emcalign::app::addResidualsCommand(app, exitCode);
   emcalign::app::addExportCommand(app, exitCode);
   try {
     app.parse(argc, argv);

@@ -41,7 +41,8 @@ struct CorrectOptions {
   double logWeightW0 = 3.5;
   /// Recorded as the output's "correction" attribute (compact JSON, made by the caller).
   std::string description;
-  io::ReaderOptions reader;
+  /// Small blocks: the reader process prepares the next while this one is written.
+  io::ReaderOptions reader{4096};
   /// Called after each block with the rows done so far.
   std::function<void(std::int64_t rows)> progress;
 };

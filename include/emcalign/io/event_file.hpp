@@ -11,8 +11,8 @@
 // charged = 0: a photon (an EMC cluster; the track fields empty). In memory and in HDF5 an
 // empty field is NaN; a NaN (or "nan" text) where a value is required is an error.
 //
-// Readers are strict and streaming: memory does not grow with the rows (only 16 bytes per
-// event for the check below); every refused input is reported with the file, the line
+// Readers are strict and streaming: memory does not grow with the rows (only 12 bytes per
+// event for the check below, 16–32 when the events come in no order); every refused input is reported with the file, the line
 // (CSV) or record (HDF5) and the column. HDF5 files are read in a child process (libhdf5
 // crashes and loops on some corrupted files; io/isolated_source.cpp).
 // Writers follow io/output_file.hpp: a temporary next to the target renamed on `close()`
@@ -39,11 +39,13 @@
 //
 // CSV text: '# key: value' comment lines before the header are the attributes; other
 // comments and blank lines are skipped anywhere; CRLF is accepted; a row must end with a
-// newline (a file cut inside its last field would otherwise read as a valid number). Written numbers use 17 significant digits ({:.17g}),
-// so they read back bit for bit; NaN is written as an empty field.
+// newline (a file cut inside its last field would otherwise read as a valid number).
+// Written numbers use 17 significant digits ({:.17g}), so they read back bit for bit; NaN
+// is written as an empty field.
 //
 // HDF5 layout (little-endian types, every dataset 1-D, chunked 16384 rows, unlimited,
-// shuffle + deflate 4):
+// shuffle + LZ4, the HDF5 filter 32004 of Debian's hdf5-filter-plugin; any other layout and
+// filter HDF5 can read is read too, e.g. deflate):
 //   /events/run int32, event int64, beam_energy_mev double, muon_veto int8, charged int8,
 //           z0_cm, rho_cm, phi_ts_rad, theta_ts_rad, energy_mev, phi_emc_rad,
 //           theta_emc_rad double (NaN = empty field)

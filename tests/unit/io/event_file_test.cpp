@@ -350,9 +350,8 @@ TEST_F(EventFile, Hdf5Layout) {
     EXPECT_EQ(H5Pget_filter2(dcpl, 0, &flags, &nElements, &level, 0, nullptr, nullptr),
               H5Z_FILTER_SHUFFLE);
     nElements = 1;
-    EXPECT_EQ(H5Pget_filter2(dcpl, 1, &flags, &nElements, &level, 0, nullptr, nullptr),
-              H5Z_FILTER_DEFLATE);
-    EXPECT_EQ(level, 4u);
+    EXPECT_EQ(H5Pget_filter2(dcpl, 1, &flags, &nElements, &level, 0, nullptr, nullptr), 32004)
+        << "LZ4, the filter of Debian's hdf5-filter-plugin";
     // No modification time recorded (H5Pget_obj_track_times of a reopened v1 object
     // header always says true; the stored time is what matters).
     H5O_info_t info;

@@ -1,0 +1,149 @@
+// emcalign residuals: how well the EMC directions of event samples agree with their tracks —
+// the bias (mean sin Δφ, mean Δθ), the φ irregularity and the distributions, side by side
+// (apply/residual_summary.hpp, report/residual_plots.hpp; docs/apply.md).
+
+#include <filesystem>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "common.hpp"
+#include "emcalign/apply/residual_summary.hpp"
+#include "emcalign/calib/corrections.hpp"
+#include "emcalign/core/units.hpp"
+#include "emcalign/io/csv.hpp"
+#include "emcalign/core/version.hpp"
+#include "emcalign/report/residual_plots.hpp"
+
+namespace emcalign::app {
+
+namespace {
+
+struct ResidualsOptions {
+  std::vector<std::string> samples;  // NAME=FILE[,FILE...]
+  double beamEnergy = 0.0;
+  double depthOffset = 0.0;
+  std::string corrections;
+  std::string detector;
+  std::string output;
+};
+
+struct Sample {
+  std::string name;
+  std::vector<std::string> files;
+};
+
+Result<Sample> parseSample(const std::string& text) {
+  const auto eq = text.find('=');
+  if (eq == std::string::npos || eq == 0 || eq + 1 == text.size()) {
+    return Error{fmt::format("--sample {}: expected NAME=FILE[,FILE...]", io::quoted(text))};
+  }
+  Sample s{text.substr(0, eq), {}};
+  std::stringstream files(text.substr(eq + 1));
+  for (std::string f; std::getline(files, f, ',');) {
+    if (!f.empty()) s.files.push_back(f);
+  }
+  if (s.files.empty()) return Error{fmt::format("--sample {}: no file", io::quoted(text))};
+  return s;
+}
+
+int run(const ResidualsOptions& o) {
+  std::vector<Sample> samples;
+  std::vector<io::NamedPath> inputs = {{"--corrections", o.corrections}, {"--detector", o.detector}};
+  for (const auto& text : o.samples) {
+    auto s = parseSample(text);
+    if (!s) return reportError(s.error());
+    for (const auto& other : samples) {
+      if (other.name == s->name) return reportError({fmt::format("--sample {}: the name is given twice", s->name)});
+    }
+    for (const auto& f : s->files) inputs.push_back({"--sample " + s->name, f});
+    samples.push_back(std::move(*s));
+  }
+  if (Status s = checkOutputs({}, {{"-o", o.output}}, inputs); !s) return reportError(s.error());
+  auto calo = loadCalorimeter(o.detector);
+  if (!calo) return reportError(calo.error());
+  auto depth = geometry::ShowerDepth::of(calo->description());
+  depth.offset = o.depthOffset * units::cm;
+  if (!o.corrections.empty()) {
+    auto c = calib::readCorrections(o.corrections);
+    if (!c) return reportError(c.error());
+    depth.offset = c->depthOffset;
+  }
+  calib::SelectionOptions selection;
+  if (o.beamEnergy > 0.0) selection.beamEnergy = o.beamEnergy * units::MeV;
+
+  std::vector<report::LabelledSummary> summaries;
+  io::Json json = io::Json::array();
+  std::string table =
+      "| sample | events | particles | mean sin Δφ (deg) | mean Δθ (deg) | rms Δφ (deg) | rms Δθ (deg) | "
+      "φ irregularity (deg) |\n|---|---|---|---|---|---|---|---|\n";
+  for (const auto& s : samples) {
+    auto summary = apply::summarizeResiduals(s.files, depth, selection);
+    if (!summary) return reportError({fmt::format("--sample {}: {}", s.name, summary.error().message)});
+    const auto& r = *summary;
+    table += fmt::format("| {} | {} | {} | {:+.4f} ± {:.4f} | {:+.4f} ± {:.4f} | {:.3f} | {:.3f} | {:.4f} |\n", s.name,
+                         r.events, r.particles, r.meanSinDphiDeg, r.meanSinDphiErrorDeg, r.meanDthetaDeg,
+                         r.meanDthetaErrorDeg, r.rmsDphiDeg, r.rmsDthetaDeg, r.irregularityDeg);
+    io::Json columns = io::Json::array();
+    for (double m : r.columnMeanDeg) columns.push_back(std::isfinite(m) ? io::Json(m) : io::Json(nullptr));
+    json.push_back({{"name", s.name},
+                    {"files", s.files},
+                    {"events", r.events},
+                    {"particles", r.particles},
+                    {"mean_sin_dphi_deg", r.meanSinDphiDeg},
+                    {"mean_sin_dphi_error_deg", r.meanSinDphiErrorDeg},
+                    {"mean_dtheta_deg", r.meanDthetaDeg},
+                    {"mean_dtheta_error_deg", r.meanDthetaErrorDeg},
+                    {"rms_dphi_deg", r.rmsDphiDeg},
+                    {"rms_dtheta_deg", r.rmsDthetaDeg},
+                    {"phi_column_mean_sin_dphi_deg", columns},
+                    {"phi_irregularity_deg", r.irregularityDeg}});
+    summaries.push_back({s.name, r});
+  }
+  std::error_code ec;
+  std::filesystem::create_directories(o.output, ec);
+  if (ec) return reportError({fmt::format("{}: cannot create the directory: {}", o.output, ec.message())});
+  const io::Json doc = {{"software", fmt::format("emcalign {}", kVersion)},
+                        {"depth_offset_cm", depth.offset / units::cm},
+                        {"samples", json}};
+  const auto dir = std::filesystem::path(o.output);
+  if (Status s = io::writeOutputFile((dir / "residuals.json").string(), doc.dump(2) + "\n"); !s) return reportError(s.error());
+  const std::string md = "# Residuals of the selected e+e- → e+e- particles (θ_EMC 45°–135°)\n\n" + table +
+                         "\nsin Δφ and its means are shown as sin Δφ · 180/π; the φ irregularity is max − min of the "
+                         "mean sin Δφ of the 16 φ columns.\n";
+  if (Status s = io::writeOutputFile((dir / "residuals.md").string(), md); !s) return reportError(s.error());
+  fmt::print(reportStream(), "{}", table);
+  auto pngs = report::writeResidualPlots(o.output, summaries);
+  if (!pngs) return reportError(pngs.error());
+  fmt::print(reportStream(), "wrote {}/residuals.json, residuals.md", o.output);
+  for (const auto& p : *pngs) fmt::print(reportStream(), ", {}", std::filesystem::path(p).filename().string());
+  fmt::print(reportStream(), "\n");
+  return kExitOk;
+}
+
+}  // namespace
+
+void addResidualsCommand(CLI::App& app, int& exitCode) {
+  auto o = std::make_shared<ResidualsOptions>();
+  auto* cmd = app.add_subcommand("residuals",
+                                 "Compare how well the EMC directions of event samples agree with their tracks: bias, "
+                                 "phi irregularity and distributions (before/after a correction)");
+  addVersionFlag(*cmd);
+  cmd->add_option("--sample", o->samples, "a sample as NAME=FILE[,FILE...] (repeat for several)")->required();
+  cmd->add_option("--beam-energy", o->beamEnergy, "beam energy for the selection, MeV (default: from the files)")
+      ->check(finiteIn(10.0, 10000.0));
+  auto* offset = cmd->add_option("--depth-offset", o->depthOffset, "cm added to R(E, theta) (default 0)")
+                     ->check(finiteIn(-calib::kMaxDepthOffset, calib::kMaxDepthOffset));
+  cmd->add_option("--corrections", o->corrections, "take the depth offset from a corrections file")
+      ->check(CLI::ExistingFile)
+      ->excludes(offset);
+  addDetectorOption(*cmd, o->detector);
+  cmd->add_option("-o,--output", o->output, "output directory: residuals.json, residuals.md and the figures")
+      ->required();
+  cmd->callback([o, &exitCode] { exitCode = run(*o); });
+}
+
+}  // namespace emcalign::app

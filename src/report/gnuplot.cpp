@@ -1,0 +1,116 @@
+#include "gnuplot.hpp"
+
+#include <sys/wait.h>
+
+#include <cctype>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <system_error>
+
+#include <fmt/format.h>
+
+#include "emcalign/io/output_file.hpp"
+
+namespace emcalign::report::detail {
+
+namespace fs = std::filesystem;
+
+std::string shellQuote(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) {
+    if (c == '\'')
+      out += "'\\''";
+    else
+      out += c;
+  }
+  return out + "'";
+}
+
+// Keeps text that is safe inside a double-quoted gnuplot string in enhanced mode.
+std::string plainText(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    if (std::isalnum(static_cast<unsigned char>(c)) || c == ' ' || c == '.' || c == ',' || c == '-')
+      out += c;
+  }
+  return out;
+}
+
+// Terminal and output of a script drawing NAME.png.
+std::string terminalHeader(const std::string& pngName, int width, int height) {
+  return fmt::format(
+      "# Written by emcalign (its report module). Restyle freely; run in this directory:\n"
+      "#   gnuplot {}.gp\n"
+      "set encoding utf8\n"
+      "set terminal pngcairo size {},{} enhanced font 'DejaVu Sans,12' linewidth 1\n"
+      "set output '{}.png'\n",
+      pngName, width, height, pngName);
+}
+
+Status writeFile(const fs::path& dir, const std::string& name, const std::string& content) {
+  return io::writeOutputFile((dir / name).string(), content);
+}
+
+// Runs `gnuplot -d NAME.gp` in `dir`; gnuplot's messages go into the error.
+Status runGnuplot(const fs::path& dir, const std::string& name) {
+  const std::string script = name + ".gp";
+  const std::string command =
+      fmt::format("cd {} && gnuplot -d {} 2>&1", shellQuote(dir.string()), shellQuote(script));
+  std::FILE* pipe = popen(command.c_str(), "r");
+  if (pipe == nullptr)
+    return Error{
+        fmt::format("{}: cannot start gnuplot: {}", (dir / script).string(), std::strerror(errno))};
+  std::string output;
+  char buffer[4096];
+  std::size_t got = 0;
+  while ((got = std::fread(buffer, 1, sizeof buffer, pipe)) > 0) output.append(buffer, got);
+  const int status = pclose(pipe);
+  while (!output.empty() && (output.back() == '\n' || output.back() == ' ')) output.pop_back();
+  if (output.size() > 2000) output = output.substr(0, 2000) + " …";
+  if (status == -1)
+    return Error{fmt::format("{}: running gnuplot failed: {}", (dir / script).string(),
+                             std::strerror(errno))};
+  if (WIFEXITED(status) && WEXITSTATUS(status) == 127)
+    return Error{fmt::format("gnuplot was not found (needed to draw {}): {}; the shell said: {}",
+                             (dir / (name + ".png")).string(), kInstallHint, output)};
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+    std::error_code ec;
+    fs::remove(dir / (name + ".png"), ec);  // no half-drawn figure
+    return Error{fmt::format(
+        "gnuplot failed on {} ({}): {}\n(gnuplot with the pngcairo terminal is needed; {})",
+        (dir / script).string(),
+        WIFEXITED(status) ? fmt::format("exit status {}", WEXITSTATUS(status))
+                          : std::string("killed by a signal"),
+        output, kInstallHint)};
+  }
+  std::error_code ec;
+  const auto size = fs::file_size(dir / (name + ".png"), ec);
+  if (ec || size == 0)
+    return Error{fmt::format("gnuplot ran {} but wrote no {}.png{}", (dir / script).string(), name,
+                             output.empty() ? "" : ": " + output)};
+  return {};
+}
+
+Status createPlotDirectory(const fs::path& dir) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec)
+    return Error{
+        fmt::format("cannot create the plot directory '{}': {}", dir.string(), ec.message())};
+  return {};
+}
+
+// Writes each figure's script and runs it; the paths of the PNGs, in order.
+Result<std::vector<std::string>> drawFigures(const fs::path& out,
+                                             const std::vector<Figure>& figures) {
+  std::vector<std::string> written;
+  for (const auto& f : figures) {
+    if (auto st = writeFile(out, f.name + ".gp", f.script); !st) return st.error();
+    if (auto st = runGnuplot(out, f.name); !st) return st.error();
+    written.push_back((out / (f.name + ".png")).string());
+  }
+  return written;
+}
+
+}  // namespace emcalign::report::detail

@@ -1,0 +1,35 @@
+#pragma once
+// Internal to the report module (src/report/): what every figure needs to be drawn by
+// gnuplot — the terminal header of a script, text safe in a gnuplot string, writing the data
+// files and scripts, and running gnuplot with its messages turned into errors.
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "emcalign/core/result.hpp"
+
+namespace emcalign::report::detail {
+
+inline constexpr const char* kInstallHint =
+    "install it with `apt-get install gnuplot-nox` (scripts/install-deps does)";
+
+/// A shell word: the text in single quotes.
+std::string shellQuote(const std::string& s);
+/// Keeps text that is safe inside a double-quoted gnuplot string in enhanced mode.
+std::string plainText(const std::string& s);
+/// Terminal and output of a script drawing NAME.png (pngcairo, UTF-8).
+std::string terminalHeader(const std::string& pngName, int width, int height);
+/// Writes dir/name (io/output_file.hpp rules).
+Status writeFile(const std::filesystem::path& dir, const std::string& name, const std::string& content);
+/// Runs `gnuplot -d NAME.gp` in `dir`; gnuplot's messages go into the error.
+Status runGnuplot(const std::filesystem::path& dir, const std::string& name);
+Status createPlotDirectory(const std::filesystem::path& dir);
+
+struct Figure {
+  std::string name, script;
+};
+/// Writes each figure's script and runs it; the paths of the PNGs, in order.
+Result<std::vector<std::string>> drawFigures(const std::filesystem::path& out, const std::vector<Figure>& figures);
+
+}  // namespace emcalign::report::detail

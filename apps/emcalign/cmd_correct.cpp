@@ -2,12 +2,14 @@
 // an alignment (SPEC §9, §11; apply/correct.hpp, docs/apply.md).
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <fmt/format.h>
 
 #include "common.hpp"
+#include "conditions_support.hpp"
 #include "emcalign/apply/correct.hpp"
 #include "emcalign/calib/corrections.hpp"
 #include "emcalign/core/units.hpp"
@@ -21,6 +23,7 @@ namespace {
 struct CorrectCliOptions {
   std::vector<std::string> events;
   std::string alignment;
+  std::string conditions, tag;
   std::string method = "auto";
   std::string corrections;
   double depthOffset = 0.0;
@@ -37,12 +40,31 @@ int run(const CorrectCliOptions& o) {
   if (Status s = checkOutputs({{"-o", o.output}}, {}, inputs); !s) return reportError(s.error());
   auto calo = loadCalorimeter(o.detector);
   if (!calo) return reportError(calo.error());
-  auto alignment = loadAlignment(o.alignment, *calo);
-  if (!alignment) return reportError(alignment.error());
-  for (const auto& w : alignment->warnings) reportWarning(w);
-  auto transform = geometry::AlignmentTransform::create(alignment->parameters,
-                                                        geometry::AlignmentRadii::of(calo->description()));
-  if (!transform) return reportError(transform.error());
+  // One alignment for every event, or each run's own from a conditions tag.
+  std::shared_ptr<const geometry::AlignmentTransform> one;
+  std::optional<ConditionsAlignments> byRun;
+  io::Json alignmentJson;
+  if (!o.conditions.empty()) {
+    auto c = ConditionsAlignments::open(o.conditions, o.tag, *calo);
+    if (!c) return reportError(c.error());
+    byRun.emplace(std::move(*c));
+    alignmentJson = {{"conditions", byRun->uri()}, {"tag", o.tag}};
+  } else {
+    auto alignment = loadAlignment(o.alignment, *calo);
+    if (!alignment) return reportError(alignment.error());
+    for (const auto& w : alignment->warnings) reportWarning(w);
+    auto transform = geometry::AlignmentTransform::create(alignment->parameters,
+                                                          geometry::AlignmentRadii::of(calo->description()));
+    if (!transform) return reportError(transform.error());
+    one = std::make_shared<const geometry::AlignmentTransform>(std::move(*transform));
+    alignmentJson = {{"file", o.alignment},
+                     {"parameters", io::alignmentToJson(alignment->parameters)["parameters"]}};
+  }
+  const apply::AlignmentOfRun alignmentOf =
+      [&](std::int64_t run) -> Result<std::shared_ptr<const geometry::AlignmentTransform>> {
+    if (byRun) return byRun->transformOf(run);
+    return one;
+  };
 
   apply::CorrectOptions options;
   options.method = *apply::correctionMethodFromName(o.method);
@@ -56,8 +78,7 @@ int run(const CorrectCliOptions& o) {
   io::Json inputsJson = o.events;
   options.description =
       io::Json{{"software", fmt::format("emcalign {}", kVersion)},
-               {"alignment", o.alignment},
-               {"parameters", io::alignmentToJson(alignment->parameters)["parameters"]},
+               {"alignment", alignmentJson},
                {"method", o.method},
                {"log_weight_w0", options.logWeightW0},
                {"depth_offset_cm", options.depth.offset / units::cm},
@@ -65,11 +86,14 @@ int run(const CorrectCliOptions& o) {
           .dump();
   ProgressLine progress("correct", 0, "rows");
   options.progress = [&](std::int64_t rows) { progress.update(rows); };
-  auto report = apply::correctFiles(o.events, o.output, *calo, *transform, options);
+  auto report = apply::correctFiles(o.events, o.output, *calo, alignmentOf, options);
   progress.finish();
   if (!report) return reportError(report.error());
-  fmt::print(reportStream(), "correct ({}): {} events, {} rows, {} clusters corrected{}{} in {:.1f} s -> {}\n",
-             name(report->method), report->events, report->rows, report->clusters,
+  const std::string iovs =
+      byRun ? fmt::format(" with {} IOV{} of tag {}", report->alignments, report->alignments == 1 ? "" : "s", o.tag)
+            : "";
+  fmt::print(reportStream(), "correct ({}): {} events, {} rows, {} clusters corrected{}{}{} in {:.1f} s -> {}\n",
+             name(report->method), report->events, report->rows, report->clusters, iovs,
              report->truth ? ", truth copied" : "", report->hits ? ", hits copied" : "", progress.elapsed(), o.output);
   return kExitOk;
 }
@@ -83,9 +107,15 @@ void addCorrectCommand(CLI::App& app, int& exitCode) {
                                  "only phi_emc_rad and theta_emc_rad changed)");
   addVersionFlag(*cmd);
   cmd->add_option("events", o->events, "event files (HDF5 or .csv)")->required()->check(CLI::ExistingFile);
-  cmd->add_option("--alignment", o->alignment, "a parameter file, a fit result or a placements file")
-      ->required()
-      ->check(CLI::ExistingFile);
+  auto* alignment = cmd->add_option("--alignment", o->alignment, "a parameter file, a fit result or a placements file")
+                        ->check(CLI::ExistingFile);
+  auto* conditions = cmd->add_option("--conditions", o->conditions,
+                                     "instead of --alignment: a conditions database (sqlite:PATH, postgresql://...); "
+                                     "each run is corrected with the IOV of --tag that contains it")
+                         ->excludes(alignment);
+  cmd->add_option("--tag", o->tag, "the tag of --conditions")->needs(conditions);
+  conditions->needs(cmd->get_option("--tag"));
+
   cmd->add_option("--method", o->method,
                   "clusters (SPEC 9: the point at R(E, theta) moved by the alignment), hits (each cluster rebuilt "
                   "from its counters at their aligned centres; files with hits) or auto (hits when present)")
@@ -100,7 +130,12 @@ void addCorrectCommand(CLI::App& app, int& exitCode) {
   addDetectorOption(*cmd, o->detector);
   cmd->add_option("-o,--output", o->output, "output file: .csv for CSV, anything else HDF5; '-': CSV to standard output")
       ->required();
-  cmd->callback([o, &exitCode] { exitCode = run(*o); });
+  cmd->callback([o, &exitCode] {
+    if (o->alignment.empty() && o->conditions.empty()) {
+      throw CLI::RequiredError("--alignment FILE or --conditions URI --tag T");
+    }
+    exitCode = run(*o);
+  });
 }
 
 }  // namespace emcalign::app

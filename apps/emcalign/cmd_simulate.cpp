@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "common.hpp"
+#include "conditions_support.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/core/version.hpp"
 #include "emcalign/io/event_file.hpp"
@@ -26,6 +27,7 @@ struct SimulateOptions {
   std::int64_t events = 0;
   std::uint64_t seed = 1;
   std::string params;
+  std::string conditions, tag;  // instead of params: the IOV of --run in a conditions tag
   std::optional<double> beamEnergy;  // none: the process default
   std::string detector;
   std::string deadCounters;  // empty: default list; "none": no dead counters
@@ -85,10 +87,20 @@ int run(const SimulateOptions& cli) {
   }
   auto calo = loadCalorimeter(cli.detector);
   if (!calo) return reportError(calo.error());
-  auto truthFile = loadAlignment(cli.params, *calo);
-  if (!truthFile) return reportError(truthFile.error());
-  for (const auto& w : truthFile->warnings) reportWarning(w);
-  const geometry::AlignmentParameters* truth = &truthFile->parameters;
+  geometry::AlignmentParameters truthParameters;
+  if (!cli.conditions.empty()) {
+    auto c = ConditionsAlignments::open(cli.conditions, cli.tag, *calo);
+    if (!c) return reportError(c.error());
+    auto eta = c->parametersOf(cli.run);
+    if (!eta) return reportError(eta.error());
+    truthParameters = *eta;
+  } else {
+    auto truthFile = loadAlignment(cli.params, *calo);
+    if (!truthFile) return reportError(truthFile.error());
+    for (const auto& w : truthFile->warnings) reportWarning(w);
+    truthParameters = truthFile->parameters;
+  }
+  const geometry::AlignmentParameters* truth = &truthParameters;
 
   sim::SimulationOptions o;
   const auto process = sim::processFromName(cli.process);
@@ -149,7 +161,16 @@ void addSimulateCommand(CLI::App& app, int& exitCode) {
   cmd->add_option("--events", o->events, "number of events (at most 1e10)")->required()->check(integerIn(0, kMaxEvents));
   cmd->add_option("--seed", o->seed, "random seed, 0 to 2^64 - 1 (the same seed gives the same file on any thread count)")
       ->check(unsigned64());
-  cmd->add_option("--params", o->params, "truth alignment: a parameter file (JSON, SPEC §3), a fit result or a placements file (emcalign export)")->required()->check(CLI::ExistingFile);
+  auto* params = cmd->add_option("--params", o->params,
+                                 "truth alignment: a parameter file (JSON, SPEC §3), a fit result or a placements "
+                                 "file (emcalign export)")
+                     ->check(CLI::ExistingFile);
+  auto* conditions = cmd->add_option("--conditions", o->conditions,
+                                     "instead of --params: a conditions database; the truth is the IOV of --tag "
+                                     "that contains --run")
+                         ->excludes(params);
+  cmd->add_option("--tag", o->tag, "the tag of --conditions")->needs(conditions);
+  conditions->needs(cmd->get_option("--tag"));
   cmd->add_option_function<double>("--beam-energy", [o](const double& v) { o->beamEnergy = v; }, "beam energy in MeV (default 612.5 for ee and gg, 510 for 3pi)")
       ->check(finiteIn(sim::kMinBeamEnergy / units::MeV, sim::kMaxBeamEnergy / units::MeV));
   cmd->add_option_function<double>("--theta-min", [o](const double& v) { o->thetaMinDeg = v; },
@@ -179,7 +200,12 @@ void addSimulateCommand(CLI::App& app, int& exitCode) {
   cmd->add_option("-o,--output", o->output,
                   "output file: .csv for CSV, anything else HDF5 (with truth); '-' writes CSV to standard output")
       ->required();
-  cmd->callback([o, &exitCode] { exitCode = run(*o); });
+  cmd->callback([o, &exitCode] {
+    if (o->params.empty() && o->conditions.empty()) {
+      throw CLI::RequiredError("--params FILE or --conditions URI --tag T");
+    }
+    exitCode = run(*o);
+  });
 }
 
 }  // namespace emcalign::app

@@ -88,5 +88,6 @@ void addDeriveCorrectionsCommand(CLI::App& app, int& exitCode);
 void addExportCommand(CLI::App& app, int& exitCode);
 void addCorrectCommand(CLI::App& app, int& exitCode);
 void addResidualsCommand(CLI::App& app, int& exitCode);
+void addConditionsCommand(CLI::App& app, int& exitCode);
 
 }  // namespace emcalign::app

@@ -57,6 +57,7 @@ int main(int argc, char** argv) {
   emcalign::app::addCorrectCommand(app, exitCode);
   emcalign::app::addResidualsCommand(app, exitCode);
   emcalign::app::addExportCommand(app, exitCode);
+  emcalign::app::addConditionsCommand(app, exitCode);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,6 +1,9 @@
 #include "emcalign/apply/correct.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <map>
+#include <set>
 #include <span>
 #include <tuple>
 
@@ -35,7 +38,7 @@ namespace {
 
 // The hits method on one block: each cluster row rebuilt from its counters at their aligned
 // centres, by the reconstruction the simulation uses (sim/reconstruction.hpp).
-Status correctByHits(std::vector<ParticleRow>& rows, const std::vector<Hit>& hits,
+Status correctByHits(std::span<ParticleRow> rows, std::span<const Hit> hits,
                      const geometry::CounterGeometry& aligned, double w0, const std::string& source) {
   std::size_t at = 0;
   const int counters = aligned.calorimeter().size();
@@ -67,6 +70,15 @@ Status correctByHits(std::vector<ParticleRow>& rows, const std::vector<Hit>& hit
 Result<CorrectReport> correctFiles(const std::vector<std::string>& inputs, const std::string& output,
                                    const geometry::Calorimeter& calo, const geometry::AlignmentTransform& transform,
                                    const CorrectOptions& o) {
+  // One alignment for every run: shared without a copy, never freed through this pointer.
+  const std::shared_ptr<const geometry::AlignmentTransform> one(&transform,
+                                                                [](const geometry::AlignmentTransform*) {});
+  return correctFiles(inputs, output, calo, [&](std::int64_t) { return Result(one); }, o);
+}
+
+Result<CorrectReport> correctFiles(const std::vector<std::string>& inputs, const std::string& output,
+                                   const geometry::Calorimeter& calo, const AlignmentOfRun& alignmentOf,
+                                   const CorrectOptions& o) {
   auto reader = io::EventReader::open(inputs, o.reader);
   if (!reader) return reader.error();
   CorrectReport report;
@@ -82,7 +94,29 @@ Result<CorrectReport> correctFiles(const std::vector<std::string>& inputs, const
   }
   report.method = o.method == CorrectionMethod::Auto ? (hits ? CorrectionMethod::Hits : CorrectionMethod::Clusters)
                                                       : o.method;
-  const geometry::CounterGeometry aligned = geometry::CounterGeometry::aligned(calo, transform);
+  // The alignment of the current run, and its aligned counters (hits method), made once per
+  // alignment.
+  struct Current {
+    std::int64_t run = -1;
+    std::shared_ptr<const geometry::AlignmentTransform> transform;
+    const geometry::CounterGeometry* counters = nullptr;
+  } current;
+  std::map<const geometry::AlignmentTransform*, std::unique_ptr<geometry::CounterGeometry>> counters;
+  std::set<const geometry::AlignmentTransform*> used;
+  auto select = [&](std::int64_t run) -> Status {
+    if (current.transform && run == current.run) return {};
+    auto t = alignmentOf(run);
+    if (!t) return t.error();
+    current.run = run;
+    current.transform = *t;
+    used.insert(t->get());
+    if (report.method == CorrectionMethod::Hits) {
+      auto& c = counters[t->get()];
+      if (!c) c = std::make_unique<geometry::CounterGeometry>(geometry::CounterGeometry::aligned(calo, **t));
+      current.counters = c.get();
+    }
+    return {};
+  };
 
   io::WriterOptions wo;
   const bool hdf5 = io::formatOf(output) == io::EventFormat::Hdf5;
@@ -109,11 +143,30 @@ Result<CorrectReport> correctFiles(const std::vector<std::string>& inputs, const
       if (!std::isnan(rows[i].energy)) ++report.clusters;
     }
     if (report.method == CorrectionMethod::Hits) {
-      if (Status s = correctByHits(rows, *blockHits, aligned, o.logWeightW0, inputs.front()); !s) return s.error();
+      // Each stretch of one run with its alignment's counters.
+      std::size_t begin = 0, hitBegin = 0;
+      while (begin < rows.size()) {
+        std::size_t end = begin, hitEnd = hitBegin;
+        while (end < rows.size() && rows[end].run == rows[begin].run) hitEnd += rows[end++].hitCount;
+        if (hitEnd > blockHits->size()) {
+          return Error{fmt::format("{}: run {}: the rows count more hits than the file has", inputs.front(),
+                                   rows[begin].run)};
+        }
+        if (Status s = select(rows[begin].run); !s) return s.error();
+        const std::span<ParticleRow> stretch(rows.data() + begin, end - begin);
+        const std::span<const Hit> stretchHits(blockHits->data() + hitBegin, hitEnd - hitBegin);
+        if (Status s = correctByHits(stretch, stretchHits, *current.counters, o.logWeightW0, inputs.front()); !s) {
+          return s.error();
+        }
+        begin = end;
+        hitBegin = hitEnd;
+      }
     } else {
       for (ParticleRow& r : rows) {
         if (std::isnan(r.energy)) continue;
-        std::tie(r.phiEmc, r.thetaEmc) = correctDirection(transform, o.depth, r.phiEmc, r.thetaEmc, r.energy);
+        if (Status s = select(r.run); !s) return s.error();
+        std::tie(r.phiEmc, r.thetaEmc) =
+            correctDirection(*current.transform, o.depth, r.phiEmc, r.thetaEmc, r.energy);
       }
     }
     const std::span<const TruthRow> t = wo.withTruth ? std::span<const TruthRow>(*truth) : std::span<const TruthRow>();
@@ -126,6 +179,7 @@ Result<CorrectReport> correctFiles(const std::vector<std::string>& inputs, const
     more = *next;
   }
   if (Status s = (*writer)->close(); !s) return s.error();
+  report.alignments = static_cast<int>(used.size());
   return report;
 }
 

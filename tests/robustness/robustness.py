@@ -442,6 +442,69 @@ def cases():
     add(Case(A, "a residual sample without a name", "emcalign residuals --sample ev.h5 -o res", 1,
              "expected NAME=FILE"))
 
+    # ---- Conditions database ------------------------------------------------------------------
+    D = "Conditions database"
+
+    def conditions_db(d):
+        # c.db, new: tag t with runs 1-10; tag done, locked.
+        for suffix in ("", "-wal", "-shm"):
+            if os.path.exists(os.path.join(d, "c.db" + suffix)):
+                os.unlink(os.path.join(d, "c.db" + suffix))
+        for args in (["conditions", "init", "c.db"],
+                     ["conditions", "put", "c.db", "--tag", "t", "--runs", "1-10", "p.json"],
+                     ["conditions", "put", "c.db", "--tag", "done", "--runs", "1-10", "p.json"],
+                     ["conditions", "lock", "c.db", "--tag", "done"]):
+            subprocess.run([runner_binary[0]] + args, cwd=d, check=True, capture_output=True)
+
+    def other_application(d):
+        import sqlite3
+        c = sqlite3.connect(os.path.join(d, "other.db"))
+        c.execute("PRAGMA application_id = 1234")
+        c.execute("CREATE TABLE x (y)")
+        c.commit()
+        c.close()
+
+    def not_converged(d):
+        edit_json(d, "result.json", "nc.json", lambda j: j.update(status="not converged"))
+
+    unchanged_db = unchanged("c.db")
+
+    def db_setup(d):
+        conditions_db(d)
+        unchanged_db[0](d)
+    add(Case(D, "a database that does not exist", "emcalign conditions list missing.db", 1, "no such database",
+             check=lambda d, r: "missing.db was created" if os.path.exists(os.path.join(d, "missing.db")) else None,
+             checked="not created"))
+    add(Case(D, "a text file as the database", "echo hello > t.db && emcalign conditions list t.db", 1, "t.db"))
+    add(Case(D, "an SQLite file of another application", "emcalign conditions put other.db --tag t --runs 1-2 p.json",
+             1, "another application", setup=other_application))
+    add(Case(D, "an unknown URI scheme", "emcalign conditions list mysql://me@host/db", 1, "unknown database scheme"))
+    add(Case(D, "a PostgreSQL server that does not answer (password in the URI)",
+             "emcalign conditions list postgresql://me:secret@127.0.0.1:1/db", 1, "cannot connect",
+             check=lambda d, r: "the password is shown" if "secret" in r.err else None, checked="password not shown"))
+    add(Case(D, "an IOV overlapping one of the tag", "emcalign conditions put c.db --tag t --runs 5-20 p.json", 1,
+             "overlap its IOV 1-10", setup=db_setup, check=unchanged_db[1], checked="database unchanged"))
+    add(Case(D, "a write to a locked tag", "emcalign conditions put c.db --tag done --runs 11-20 p.json", 1,
+             "is locked", setup=db_setup, check=unchanged_db[1], checked="database unchanged"))
+    add(Case(D, "a run range backwards", "emcalign conditions put c.db --tag t --runs 20-11 p.json", 1,
+             "the first run is after the last", setup=conditions_db))
+    add(Case(D, "a tag name with a space", "emcalign conditions put c.db --tag 'my tag' --runs 1-2 p.json", 2,
+             "letters, digits", setup=conditions_db))
+    add(Case(D, "a fit result that did not converge", "emcalign conditions put c.db --tag u --runs 20-30 nc.json", 1,
+             "not converged", setup=lambda d: (conditions_db(d), not_converged(d))))
+    add(Case(D, "a run no IOV holds", "emcalign conditions get c.db --tag t --run 11 -o got.json", 1,
+             "no IOV contains run 11", setup=conditions_db,
+             check=lambda d, r: "got.json written" if os.path.exists(os.path.join(d, "got.json")) else None,
+             checked="nothing written"))
+    def late_tag(d):
+        conditions_db(d)
+        subprocess.run([runner_binary[0], "conditions", "put", "c.db", "--tag", "late", "--runs", "100-200", "p.json"],
+                       cwd=d, check=True, capture_output=True)
+    add(Case(D, "correct with a tag that does not cover a run", "emcalign correct ev.h5 --conditions c.db --tag late "
+             "-o out.h5", 1, "no IOV of tag 'late'", setup=late_tag,
+             check=lambda d, r: no_temporaries(d, r) or ("out.h5 written" if os.path.exists(os.path.join(d, "out.h5"))
+                                                         else None), checked="nothing written"))
+
     # ---- Messages and exit codes -------------------------------------------------------------
     M = "Messages and exit codes"
     add(Case(M, "an unknown option", "emcalign fit ev.csv -o r.json --bogus", 2, "usage error"))

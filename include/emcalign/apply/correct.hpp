@@ -15,6 +15,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -54,12 +55,22 @@ struct CorrectReport {
   std::int64_t clusters = 0;  ///< rows whose EMC direction was corrected
   bool truth = false;         ///< truth copied
   bool hits = false;          ///< hits copied
+  int alignments = 1;         ///< distinct alignments used (the IOVs of a conditions tag)
 };
+
+/// The alignment of each run: the IOVs of a conditions tag, or one alignment for every run.
+/// The same object is returned for every run of one alignment.
+using AlignmentOfRun =
+    std::function<Result<std::shared_ptr<const geometry::AlignmentTransform>>(std::int64_t run)>;
 
 /// Reads `inputs`, corrects every cluster, writes `output` (io/output_file.hpp rules: no
 /// partial file on failure).
 Result<CorrectReport> correctFiles(const std::vector<std::string>& inputs, const std::string& output,
                                    const geometry::Calorimeter& calo, const geometry::AlignmentTransform& transform,
+                                   const CorrectOptions& options);
+/// The same, each event corrected with the alignment of its run.
+Result<CorrectReport> correctFiles(const std::vector<std::string>& inputs, const std::string& output,
+                                   const geometry::Calorimeter& calo, const AlignmentOfRun& alignmentOf,
                                    const CorrectOptions& options);
 
 }  // namespace emcalign::apply

@@ -1,0 +1,320 @@
+// emcalign conditions: the conditions database — calibrations stored by run range in tags
+// (conddb/conditions.hpp, docs/campaign.md).
+//
+//   conditions init URI
+//   conditions put URI --tag T --runs FIRST-LAST RESULT.json
+//   conditions get URI --tag T --run R -o P.json
+//   conditions list URI [--tag T] [--json]
+//   conditions lock URI --tag T
+//   conditions copy FROM TO --tag T [--as T2]
+
+#include <unistd.h>
+
+#include <charconv>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "common.hpp"
+#include "conditions_support.hpp"
+#include "emcalign/conddb/conditions.hpp"
+#include "emcalign/core/sha256.hpp"
+#include "emcalign/core/version.hpp"
+
+namespace emcalign::app {
+
+namespace {
+
+namespace fs = std::filesystem;
+using io::Json;
+
+struct ConditionsOptions {
+  std::string uri, target, tag, as, runs, result, description, output;
+  std::int64_t run = 0;
+  bool json = false;
+};
+
+// "FIRST-LAST" or "RUN".
+Result<std::pair<std::int64_t, std::int64_t>> parseRuns(const std::string& text) {
+  auto number = [&](std::string_view s, std::int64_t& out) {
+    if (s.empty()) return false;
+    const auto [p, ec] = std::from_chars(s.data(), s.data() + s.size(), out);
+    return ec == std::errc() && p == s.data() + s.size() && out >= 0;
+  };
+  std::int64_t first = 0, last = 0;
+  const auto dash = text.find('-');
+  const bool ok = dash == std::string::npos
+                      ? number(text, first) && (last = first, true)
+                      : number(std::string_view(text).substr(0, dash), first) &&
+                            number(std::string_view(text).substr(dash + 1), last);
+  if (!ok) return Error{fmt::format("--runs '{}': expected FIRST-LAST (runs are integers >= 0), e.g. 1-40", text)};
+  if (first > last) return Error{fmt::format("--runs '{}': the first run is after the last", text)};
+  return std::pair{first, last};
+}
+
+// The digests of a fit's inputs: found as named, or next to the result file.
+Json inputDigests(const Json& result, const std::string& resultPath) {
+  Json digests = Json::object();
+  if (!result.contains("input") || !result["input"].is_object() || !result["input"].contains("files") ||
+      !result["input"]["files"].is_array()) {
+    return digests;
+  }
+  for (const Json& f : result["input"]["files"]) {
+    if (!f.is_string()) continue;
+    const std::string name = f.get<std::string>();
+    std::string path = name;
+    if (!fs::exists(path)) path = (fs::path(resultPath).parent_path() / name).string();
+    if (!fs::is_regular_file(path)) {
+      reportWarning(fmt::format("{}: input {} not found: its digest is not recorded", resultPath, name));
+      continue;
+    }
+    auto d = sha256OfFile(path);
+    if (!d) {
+      reportWarning(d.error().message);
+      continue;
+    }
+    digests[name] = *d;
+  }
+  return digests;
+}
+
+int runInit(const ConditionsOptions& o) {
+  auto db = conddb::Database::open(o.uri, true);
+  if (!db) return reportError(db.error());
+  auto tags = (*db)->tags();
+  if (!tags) return reportError(tags.error());
+  fmt::print("{}: conditions database, schema {} ({} tags)\n", (*db)->uri(), conddb::kSchemaVersion, tags->size());
+  return kExitOk;
+}
+
+int runPut(const ConditionsOptions& o) {
+  auto runs = parseRuns(o.runs);
+  if (!runs) return reportError(runs.error());
+  auto text = io::readTextFile(o.result);
+  if (!text) return reportError(text.error());
+  auto j = io::parseJson(*text, o.result);
+  if (!j) return reportError(j.error());
+  auto calo = loadCalorimeter("");
+  if (!calo) return reportError(calo.error());
+  Json provenance = {{"source_sha256", sha256(*text)}, {"put_software", fmt::format("emcalign {}", kVersion)}};
+  if (Json d = inputDigests(*j, o.result); !d.empty()) provenance["input_sha256"] = d;
+  auto payload = conddb::makePayload(*j, calo->description().r1(), o.result, provenance);
+  if (!payload) return reportError(payload.error());
+  auto db = conddb::Database::open(o.uri);
+  if (!db) return reportError(db.error());
+  auto existed = (*db)->tag(o.tag);
+  if (!existed) return reportError(existed.error());
+  if (Status s = (*db)->put(o.tag, runs->first, runs->second, *payload, true, o.description); !s) {
+    return reportError(s.error());
+  }
+  fmt::print("{}: tag {}{}: runs {}-{} <- {} (payload {})\n", (*db)->uri(), o.tag,
+             existed->has_value() ? "" : " (new)", runs->first, runs->second, o.result,
+             payload->hash().substr(0, 12));
+  return kExitOk;
+}
+
+int runGet(const ConditionsOptions& o) {
+  if (Status s = checkOutputs({{"-o", o.output}}, {}, {}); !s) return reportError(s.error());
+  auto db = conddb::Database::open(o.uri);
+  if (!db) return reportError(db.error());
+  auto got = (*db)->get(o.tag, o.run);
+  if (!got) return reportError(got.error());
+  if (!got->has_value()) {
+    auto tag = (*db)->tag(o.tag);
+    if (tag && !tag->has_value()) {
+      return reportError(Error{fmt::format("{}: no tag '{}' (the tags: emcalign conditions list {})", (*db)->uri(),
+                                           o.tag, (*db)->uri())});
+    }
+    return reportError(Error{fmt::format("{}: tag '{}': no IOV contains run {}", (*db)->uri(), o.tag, o.run)});
+  }
+  const auto& [iov, payload] = **got;
+  const Json file = parameterFileOf(iov, payload, (*db)->uri(), o.tag);
+  if (Status s = io::writeOutputFile(o.output, file.dump(2) + "\n"); !s) return reportError(s.error());
+  if (o.output != "-") {
+    fmt::print(reportStream(), "{}: tag {} run {}: IOV {}-{} (payload {}) -> {}\n", (*db)->uri(), o.tag, o.run,
+               iov.firstRun, iov.lastRun, iov.payload.substr(0, 12), o.output);
+  }
+  return kExitOk;
+}
+
+Json tagJson(conddb::Database& db, const conddb::Tag& tag) {
+  Json iovs = Json::array();
+  auto list = db.iovs(tag.name);
+  if (list) {
+    for (const auto& iov : *list) {
+      Json i = {{"first_run", iov.firstRun}, {"last_run", iov.lastRun}, {"payload", iov.payload},
+                {"inserted", iov.inserted}};
+      if (auto p = db.payload(iov.payload); p) {
+        const Json& a = p->content["alignment"];
+        for (const char* key : {"status", "chi2", "ndf"}) {
+          if (a.contains(key)) i[key] = a[key];
+        }
+        if (p->content.contains("selected_events")) i["selected_events"] = p->content["selected_events"];
+      }
+      iovs.push_back(std::move(i));
+    }
+  }
+  return {{"tag", tag.name}, {"state", conddb::name(tag.state)}, {"description", tag.description},
+          {"created", tag.created}, {"iovs", iovs}};
+}
+
+int runList(const ConditionsOptions& o) {
+  auto db = conddb::Database::open(o.uri);
+  if (!db) return reportError(db.error());
+  std::vector<conddb::Tag> tags;
+  if (!o.tag.empty()) {
+    auto t = (*db)->tag(o.tag);
+    if (!t) return reportError(t.error());
+    if (!t->has_value()) return reportError(Error{fmt::format("{}: no tag '{}'", (*db)->uri(), o.tag)});
+    tags.push_back(**t);
+  } else {
+    auto all = (*db)->tags();
+    if (!all) return reportError(all.error());
+    tags = std::move(*all);
+  }
+  std::vector<Json> listed;
+  for (const auto& t : tags) listed.push_back(tagJson(**db, t));
+  if (o.json) {
+    const Json out = o.tag.empty() ? Json(listed) : listed.front();
+    fmt::print("{}\n", out.dump(2));
+    return kExitOk;
+  }
+  if (o.tag.empty()) {
+    fmt::print("{:<24} {:<7} {:>6} {:>17}  {}\n", "tag", "state", "IOVs", "runs", "description");
+    for (const Json& t : listed) {
+      const Json& iovs = t["iovs"];
+      const std::string runs =
+          iovs.empty() ? "-"
+                       : fmt::format("{}-{}", iovs.front()["first_run"].get<std::int64_t>(),
+                                     iovs.back()["last_run"].get<std::int64_t>());
+      fmt::print("{:<24} {:<7} {:>6} {:>17}  {}\n", t["tag"].get<std::string>(), t["state"].get<std::string>(),
+                 iovs.size(), runs, t["description"].get<std::string>());
+    }
+    return kExitOk;
+  }
+  const Json& t = listed.front();
+  fmt::print("tag {} ({}), created {}{}\n", o.tag, t["state"].get<std::string>(), t["created"].get<std::string>(),
+             t["description"].get<std::string>().empty() ? "" : ": " + t["description"].get<std::string>());
+  fmt::print("{:>10} {:>10} {:>9} {:>12} {:<12} {:<12} {}\n", "first_run", "last_run", "events", "chi2/ndf", "status",
+             "payload", "inserted");
+  for (const Json& i : t["iovs"]) {
+    const std::string chi2 = i.contains("chi2") && i.contains("ndf") && i["chi2"].is_number() && i["ndf"].is_number()
+                                 ? fmt::format("{:.1f}/{}", i["chi2"].get<double>(), i["ndf"].get<std::int64_t>())
+                                 : "-";
+    const std::string events = i.contains("selected_events") ? i["selected_events"].dump() : "-";
+    const std::string status = i.contains("status") && i["status"].is_string() ? i["status"].get<std::string>() : "-";
+    fmt::print("{:>10} {:>10} {:>9} {:>12} {:<12} {:<12} {}\n", i["first_run"].get<std::int64_t>(),
+               i["last_run"].get<std::int64_t>(), events, chi2, status, i["payload"].get<std::string>().substr(0, 12),
+               i["inserted"].get<std::string>());
+  }
+  return kExitOk;
+}
+
+int runLock(const ConditionsOptions& o) {
+  auto db = conddb::Database::open(o.uri);
+  if (!db) return reportError(db.error());
+  if (Status s = (*db)->lock(o.tag); !s) return reportError(s.error());
+  fmt::print("{}: tag {} locked: its IOVs never change\n", (*db)->uri(), o.tag);
+  return kExitOk;
+}
+
+int runCopy(const ConditionsOptions& o) {
+  auto from = conddb::Database::open(o.uri);
+  if (!from) return reportError(from.error());
+  auto snapshot = conddb::TagSnapshot::load(**from, o.tag);
+  if (!snapshot) return reportError(snapshot.error());
+  std::vector<conddb::Database::NewIov> iovs;
+  for (const auto& iov : snapshot->iovs()) {
+    auto p = snapshot->payload(iov);
+    if (!p) return reportError(p.error());
+    iovs.push_back({iov.firstRun, iov.lastRun, **p});
+  }
+  auto to = conddb::Database::open(o.target, true);
+  if (!to) return reportError(to.error());
+  const std::string name = o.as.empty() ? o.tag : o.as;
+  if (auto existing = (*to)->tag(name); !existing || existing->has_value()) {
+    return reportError(existing ? Error{fmt::format("{}: tag '{}' exists already (copy to a new tag: --as NAME)",
+                                                    (*to)->uri(), name)}
+                                : existing.error());
+  }
+  const std::string description = snapshot->tag().description.empty()
+                                      ? fmt::format("copy of {} {}", (*from)->uri(), o.tag)
+                                      : snapshot->tag().description;
+  if (Status s = (*to)->put(name, iovs, true, description); !s) return reportError(s.error());
+  if (snapshot->tag().state == conddb::TagState::Locked) {
+    if (Status s = (*to)->lock(name); !s) return reportError(s.error());
+  }
+  fmt::print("{} {} -> {} {}: {} IOVs{}\n", (*from)->uri(), o.tag, (*to)->uri(), name, iovs.size(),
+             snapshot->tag().state == conddb::TagState::Locked ? " (locked, as the original)" : "");
+  return kExitOk;
+}
+
+CLI::Option* addUri(CLI::App& cmd, std::string& uri) {
+  return cmd.add_option("uri", uri, "database: sqlite:PATH, a path, or postgresql://user@host:port/db")->required();
+}
+
+CLI::Option* addTag(CLI::App& cmd, std::string& tag) {
+  return cmd.add_option("--tag", tag, "tag name (letters, digits, '_', '-', '.')")->check([](const std::string& t) {
+    Status s = conddb::checkTagName(t);
+    return s ? std::string() : s.error().message;
+  });
+}
+
+}  // namespace
+
+void addConditionsCommand(CLI::App& app, int& exitCode) {
+  auto o = std::make_shared<ConditionsOptions>();
+  auto* cmd = app.add_subcommand("conditions",
+                                 "The conditions database: calibrations stored by run range (tags, IOVs, payloads; "
+                                 "an SQLite file or a PostgreSQL server)");
+  addVersionFlag(*cmd);
+  cmd->require_subcommand(1);
+
+  auto* init = cmd->add_subcommand("init", "Create a database (an SQLite file) or its schema (PostgreSQL)");
+  addUri(*init, o->uri);
+  init->callback([o, &exitCode] { exitCode = runInit(*o); });
+
+  auto* put = cmd->add_subcommand("put", "Store a fit result or a parameter file for a run range of a tag "
+                                         "(the tag is created if new)");
+  addUri(*put, o->uri);
+  addTag(*put, o->tag)->required();
+  put->add_option("--runs", o->runs, "FIRST-LAST, inclusive (or one run)")->required();
+  put->add_option("result", o->result, "fit result or parameter file (JSON)")->required()->check(CLI::ExistingFile);
+  put->add_option("--description", o->description, "description of a new tag");
+  put->callback([o, &exitCode] { exitCode = runPut(*o); });
+
+  auto* get = cmd->add_subcommand("get", "Write the parameter file valid for a run (exit 1 if no IOV holds it)");
+  addUri(*get, o->uri);
+  addTag(*get, o->tag)->required();
+  get->add_option("--run", o->run, "run number")->required()->check(integerIn(0, INT64_MAX));
+  get->add_option("-o,--output", o->output, "parameter file ('-': standard output)")->required();
+  get->callback([o, &exitCode] { exitCode = runGet(*o); });
+
+  auto* list = cmd->add_subcommand("list", "List the tags, or the IOVs of one tag");
+  addUri(*list, o->uri);
+  addTag(*list, o->tag);
+  list->add_flag("--json", o->json, "JSON: {\"tag\", \"state\", \"iovs\": [{\"first_run\", \"last_run\", ...}]} "
+                                    "(an array of them without --tag)");
+  list->callback([o, &exitCode] { exitCode = runList(*o); });
+
+  auto* lock = cmd->add_subcommand("lock", "Lock a tag: its IOVs never change again");
+  addUri(*lock, o->uri);
+  addTag(*lock, o->tag)->required();
+  lock->callback([o, &exitCode] { exitCode = runLock(*o); });
+
+  auto* copy = cmd->add_subcommand("copy", "Copy a tag to another database (e.g. SQLite <-> PostgreSQL), in one "
+                                           "transaction");
+  addUri(*copy, o->uri);
+  copy->add_option("target", o->target, "destination database (created if an SQLite path)")->required();
+  addTag(*copy, o->tag)->required();
+  copy->add_option("--as", o->as, "name of the copy (default: the same)")->check([](const std::string& t) {
+    Status s = conddb::checkTagName(t);
+    return s ? std::string() : s.error().message;
+  });
+  copy->callback([o, &exitCode] { exitCode = runCopy(*o); });
+}
+
+}  // namespace emcalign::app

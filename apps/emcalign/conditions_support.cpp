@@ -1,0 +1,55 @@
+#include "conditions_support.hpp"
+
+#include <fmt/format.h>
+
+#include "emcalign/io/json_files.hpp"
+
+namespace emcalign::app {
+
+io::Json parameterFileOf(const conddb::Iov& iov, const conddb::Payload& payload, const std::string& uri,
+                         const std::string& tag) {
+  io::Json file = payload.parameterFile();
+  io::Json input = {{"conditions", uri},  {"tag", tag},           {"first_run", iov.firstRun},
+                    {"last_run", iov.lastRun}, {"payload", iov.payload}, {"inserted", iov.inserted}};
+  if (payload.content.contains("selected_events")) input["selected_events"] = payload.content["selected_events"];
+  if (payload.content.contains("provenance")) input["provenance"] = payload.content["provenance"];
+  file["input"] = std::move(input);
+  return file;
+}
+
+Result<ConditionsAlignments> ConditionsAlignments::open(const std::string& uri, const std::string& tag,
+                                                        const geometry::Calorimeter& calo) {
+  auto db = conddb::Database::open(uri);
+  if (!db) return db.error();
+  auto snapshot = conddb::TagSnapshot::load(**db, tag);
+  if (!snapshot) return snapshot.error();
+  ConditionsAlignments c;
+  c.db_ = std::move(*db);
+  c.snapshot_ = std::make_unique<conddb::TagSnapshot>(std::move(*snapshot));
+  c.calo_ = &calo;
+  return c;
+}
+
+Result<geometry::AlignmentParameters> ConditionsAlignments::parametersOf(std::int64_t run) {
+  auto at = snapshot_->at(run);
+  if (!at) return at.error();
+  const auto& [iov, payload] = *at;
+  return io::parseAlignment(payload->parameterFile(), calo_->description().r1(),
+                            fmt::format("{} tag {} IOV {}-{}", db_->uri(), tag(), iov->firstRun, iov->lastRun));
+}
+
+Result<std::shared_ptr<const geometry::AlignmentTransform>> ConditionsAlignments::transformOf(std::int64_t run) {
+  const conddb::Iov* iov = snapshot_->find(run);
+  if (iov != nullptr) {
+    if (auto it = transforms_.find(iov->firstRun); it != transforms_.end()) return it->second;
+  }
+  auto eta = parametersOf(run);
+  if (!eta) return eta.error();
+  auto t = geometry::AlignmentTransform::create(*eta, geometry::AlignmentRadii::of(calo_->description()));
+  if (!t) return t.error();
+  auto shared = std::make_shared<const geometry::AlignmentTransform>(std::move(*t));
+  transforms_[iov->firstRun] = shared;
+  return shared;
+}
+
+}  // namespace emcalign::app

@@ -1,0 +1,42 @@
+#pragma once
+// The conditions database as the commands use it: a tag's calibrations looked up run by run
+// (correct, simulate, trend), and a payload written out as a parameter file (get).
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+
+#include "emcalign/conddb/conditions.hpp"
+#include "emcalign/geometry/alignment_transform.hpp"
+#include "emcalign/geometry/detector.hpp"
+
+namespace emcalign::app {
+
+/// The parameter file of a payload (SPEC §3), with where it came from under "input":
+/// {"conditions": URI, "tag", "first_run", "last_run", "payload", "provenance"}.
+io::Json parameterFileOf(const conddb::Iov& iov, const conddb::Payload& payload, const std::string& uri,
+                         const std::string& tag);
+
+/// `--conditions URI --tag T`: each run's alignment, from the IOV that contains it.
+class ConditionsAlignments {
+ public:
+  static Result<ConditionsAlignments> open(const std::string& uri, const std::string& tag,
+                                           const geometry::Calorimeter& calo);
+  /// The alignment of `run` (the same object for every run of one IOV); the error names the
+  /// run and the tag.
+  Result<std::shared_ptr<const geometry::AlignmentTransform>> transformOf(std::int64_t run);
+  Result<geometry::AlignmentParameters> parametersOf(std::int64_t run);
+  /// The IOVs used so far.
+  int used() const { return static_cast<int>(transforms_.size()); }
+  const std::string& uri() const { return db_->uri(); }
+  const std::string& tag() const { return snapshot_->tag().name; }
+
+ private:
+  std::unique_ptr<conddb::Database> db_;
+  std::unique_ptr<conddb::TagSnapshot> snapshot_;
+  const geometry::Calorimeter* calo_ = nullptr;
+  std::map<std::int64_t, std::shared_ptr<const geometry::AlignmentTransform>> transforms_;  // by first run
+};
+
+}  // namespace emcalign::app

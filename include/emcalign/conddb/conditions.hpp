@@ -1,0 +1,136 @@
+#pragma once
+// The conditions database: calibrations stored by run range (docs/campaign.md).
+//
+// The model is a small, strict one, learnt from the systems physicists use — CMS CondDB
+// (tags, content-addressed payloads), Belle II (inclusive run-range IOVs, immutable
+// published tags, a local SQLite file marked with application_id/user_version) and ATLAS
+// COOL (a single-version folder refuses overlapping intervals):
+//   - a tag has a name, a description and a state, open or locked; a locked tag never
+//     changes again;
+//   - an IOV (interval of validity) is an inclusive run range [first_run, last_run] of a
+//     tag, holding one payload; the IOVs of a tag never overlap;
+//   - a payload is one calibration — the 12 parameters with their errors, covariance,
+//     derived parameters, χ²/ndf, status, the number of selected events and the provenance
+//     (inputs and their digests, software, corrections, time) — as canonical JSON, stored
+//     once under its SHA-256.
+//
+// Back ends, one schema and one semantics: an SQLite file (`sqlite:PATH`, or a plain path;
+// WAL, a busy timeout) and a PostgreSQL server through libpqxx
+// (`postgresql://user@host:port/db`; a tag's row is locked for the time of a write). Every
+// write is one transaction: concurrent writers lose nothing, and a writer killed in the
+// middle leaves the database as it was. The schema version is checked on open.
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "emcalign/core/result.hpp"
+#include "emcalign/geometry/alignment_parameters.hpp"
+#include "emcalign/io/json_files.hpp"
+
+namespace emcalign::conddb {
+
+/// The schema this emcalign reads and writes.
+inline constexpr int kSchemaVersion = 1;
+inline constexpr std::string_view kPayloadFormat = "emcalign-payload/1";
+
+enum class TagState { Open, Locked };
+std::string_view name(TagState s);
+
+struct Tag {
+  std::string name;
+  std::string description;
+  TagState state = TagState::Open;
+  std::string created;  ///< UTC, ISO 8601
+};
+
+struct Iov {
+  std::int64_t firstRun = 0;  ///< inclusive
+  std::int64_t lastRun = 0;   ///< inclusive
+  std::string payload;        ///< its SHA-256
+  std::string inserted;       ///< UTC, ISO 8601
+};
+
+/// A calibration as stored: canonical JSON (`emcalign-payload/1`), addressed by its hash.
+struct Payload {
+  io::Json content;
+  /// SHA-256 of the compact dump of `content`.
+  std::string hash() const;
+  /// The parameter file of this calibration (SPEC §3: parameters, errors, covariance, …).
+  io::Json parameterFile() const;
+};
+
+/// A payload from a fit result (SPEC §3) or a parameter file, with its provenance (free JSON
+/// added under "provenance"). A fit result must be usable (core/fit_status.hpp).
+Result<Payload> makePayload(const io::Json& resultOrParameters, double r1, std::string_view source,
+                            io::Json provenance = io::Json::object());
+
+/// Tag names: letters, digits, '_', '-', '.', 1 to 100 characters.
+Status checkTagName(std::string_view tag);
+
+class Database {
+ public:
+  /// Opens a database: `sqlite:PATH`, a plain path, or `postgresql://…` / `postgres://…`. An
+  /// existing database must have this schema version; `create` makes a new SQLite file (a
+  /// PostgreSQL database must exist) and `init()` its schema.
+  static Result<std::unique_ptr<Database>> open(const std::string& uri, bool create = false);
+  virtual ~Database() = default;
+
+  /// Creates the schema (idempotent: an existing one of this version is left as it is).
+  virtual Status init() = 0;
+
+  virtual Result<std::vector<Tag>> tags() = 0;
+  virtual Result<std::optional<Tag>> tag(const std::string& name) = 0;
+  /// Stores `payload` for runs [first, last] of `tag` (created, open, when it does not
+  /// exist and `createTag` says so), in one transaction; refused for a locked tag, an
+  /// overlap with an IOV of the tag, or first > last.
+  Status put(const std::string& tag, std::int64_t first, std::int64_t last, const Payload& payload, bool createTag,
+             const std::string& description = {}) {
+    return put(tag, {NewIov{first, last, payload}}, createTag, description);
+  }
+  /// Several IOVs in one transaction: all are stored or none.
+  struct NewIov {
+    std::int64_t firstRun;
+    std::int64_t lastRun;
+    Payload payload;
+  };
+  virtual Status put(const std::string& tag, const std::vector<NewIov>& iovs, bool createTag,
+                     const std::string& description = {}) = 0;
+  /// The IOV of `tag` that contains `run`, with its payload; none if no IOV does.
+  virtual Result<std::optional<std::pair<Iov, Payload>>> get(const std::string& tag, std::int64_t run) = 0;
+  /// The IOVs of a tag by first run.
+  virtual Result<std::vector<Iov>> iovs(const std::string& tag) = 0;
+  virtual Result<Payload> payload(const std::string& hash) = 0;
+  /// Locks a tag: no IOV is added to it afterwards.
+  virtual Status lock(const std::string& tag) = 0;
+
+  /// The URI it was opened with (for messages), without any password.
+  virtual const std::string& uri() const = 0;
+};
+
+/// The IOVs of one tag read once, with their payloads fetched on demand and kept: the lookups
+/// of a job that needs the calibration of many runs (correct, simulate, trend).
+class TagSnapshot {
+ public:
+  /// Fails when the tag does not exist.
+  static Result<TagSnapshot> load(Database& db, const std::string& tag);
+  const Tag& tag() const { return tag_; }
+  const std::vector<Iov>& iovs() const { return iovs_; }
+  /// The IOV containing `run`, or null.
+  const Iov* find(std::int64_t run) const;
+  /// The payload of an IOV of this tag.
+  Result<const Payload*> payload(const Iov& iov);
+  /// The IOV containing `run` with its payload; the error names the run, the tag and the database.
+  Result<std::pair<const Iov*, const Payload*>> at(std::int64_t run);
+
+ private:
+  Database* db_ = nullptr;
+  Tag tag_;
+  std::vector<Iov> iovs_;
+  std::vector<std::unique_ptr<Payload>> payloads_;  // parallel to iovs_ (shared hashes fetched once)
+};
+
+}  // namespace emcalign::conddb

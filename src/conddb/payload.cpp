@@ -1,0 +1,54 @@
+#include <fmt/format.h>
+
+#include "emcalign/conddb/conditions.hpp"
+#include "emcalign/core/fit_status.hpp"
+#include "emcalign/core/sha256.hpp"
+
+namespace emcalign::conddb {
+
+using io::Json;
+
+std::string_view name(TagState s) { return s == TagState::Open ? "open" : "locked"; }
+
+Status checkTagName(std::string_view tag) {
+  if (tag.empty() || tag.size() > 100) return Error{fmt::format("tag '{}': a name has 1 to 100 characters", tag)};
+  for (char c : tag) {
+    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
+                    c == '-' || c == '.';
+    if (!ok) return Error{fmt::format("tag '{}': a name is made of letters, digits, '_', '-' and '.'", tag)};
+  }
+  return {};
+}
+
+std::string Payload::hash() const { return sha256(content.dump()); }
+
+Json Payload::parameterFile() const {
+  Json out = content.contains("alignment") ? content["alignment"] : Json::object();
+  return out;
+}
+
+Result<Payload> makePayload(const Json& in, double r1, std::string_view source, Json provenance) {
+  // The parameters must read as an input (a usable fit result, plausible values).
+  auto file = io::parseAlignmentFile(in, r1, source);
+  if (!file) return file.error();
+  Json alignment = io::alignmentToJson(file->parameters);
+  // What a fit result says about its parameters travels with them.
+  for (const char* key : {"errors", "covariance", "correlation", "derived", "chi2", "ndf", "p_value", "status",
+                          "warnings"}) {
+    if (in.contains(key)) alignment[key] = in[key];
+  }
+  Json p = Json{{"format", kPayloadFormat}, {"alignment", alignment}};
+  if (in.contains("input") && in["input"].is_object()) {
+    const Json& input = in["input"];
+    if (input.contains("cut_flow") && input["cut_flow"].is_object() && !input["cut_flow"].empty()) {
+      p["selected_events"] = input["cut_flow"].back();
+    }
+    if (input.contains("files")) provenance["inputs"] = input["files"];
+    if (input.contains("model_corrections")) provenance["model_corrections"] = input["model_corrections"];
+  }
+  if (in.contains("software")) provenance["fit_software"] = in["software"];
+  p["provenance"] = std::move(provenance);
+  return Payload{std::move(p)};
+}
+
+}  // namespace emcalign::conddb

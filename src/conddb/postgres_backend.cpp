@@ -1,0 +1,150 @@
+// PostgreSQL back end of the conditions database, through libpqxx: a collaboration's shared
+// database. Each transaction is a pqxx::work (READ COMMITTED); a write locks its tag's row
+// (SELECT … FOR UPDATE) before it reads the tag's IOVs, so writers of one tag take turns and
+// writers of different tags do not wait for each other. A client killed mid-write loses its
+// connection, and the server rolls its transaction back.
+
+#include <memory>
+#include <optional>
+
+#include <fmt/format.h>
+#include <pqxx/pqxx>
+
+#include "sql_backend.hpp"
+
+namespace emcalign::conddb::detail {
+
+namespace {
+
+constexpr int kConnectTimeoutSeconds = 20;
+
+// The URI without a password, for messages: postgresql://user:secret@host → postgresql://user@host.
+std::string withoutPassword(const std::string& uri) {
+  const auto scheme = uri.find("://");
+  if (scheme == std::string::npos) return uri;
+  const auto at = uri.find('@', scheme + 3);
+  const auto slash = uri.find('/', scheme + 3);
+  if (at == std::string::npos || (slash != std::string::npos && slash < at)) return uri;
+  const auto colon = uri.find(':', scheme + 3);
+  if (colon == std::string::npos || colon > at) return uri;
+  return uri.substr(0, colon) + uri.substr(at);
+}
+
+// One line of a server message.
+std::string firstLine(std::string_view text) {
+  std::string s(text.substr(0, text.find('\n')));
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\r')) s.pop_back();
+  if (s.rfind("ERROR:", 0) == 0) s = s.substr(6);
+  while (!s.empty() && s.front() == ' ') s.erase(s.begin());
+  return s;
+}
+
+class Postgres final : public SqlBackend {
+ public:
+  Postgres(std::unique_ptr<pqxx::connection> c, std::string uri) : c_(std::move(c)), uri_(std::move(uri)) {}
+  ~Postgres() override { rollback(); }
+
+  Status beginWrite() override { return begin(); }
+  Status beginRead() override { return begin(); }
+
+  Status commit() override {
+    if (!tx_) return Error{fmt::format("{}: commit without a transaction", uri_)};
+    try {
+      tx_->commit();
+      tx_.reset();
+      return {};
+    } catch (const std::exception& e) {
+      tx_.reset();
+      return Error{fmt::format("{}: commit failed: {}", uri_, firstLine(e.what()))};
+    }
+  }
+
+  void rollback() noexcept override {
+    if (!tx_) return;
+    try {
+      tx_->abort();
+    } catch (...) {
+    }
+    tx_.reset();
+  }
+
+  Result<std::vector<Row>> query(std::string_view sql, const std::vector<Param>& params) override {
+    std::vector<std::string> values;
+    values.reserve(params.size());
+    for (const Param& p : params) {
+      values.push_back(std::holds_alternative<std::int64_t>(p) ? std::to_string(std::get<std::int64_t>(p))
+                                                               : std::get<std::string>(p));
+    }
+    try {
+      std::optional<pqxx::nontransaction> single;
+      pqxx::transaction_base* t = tx_.get();
+      if (t == nullptr) t = &single.emplace(*c_);
+      const pqxx::result r = t->exec_params(std::string(sql), pqxx::prepare::make_dynamic_params(values));
+      std::vector<Row> rows;
+      rows.reserve(r.size());
+      for (const auto& row : r) {
+        Row out;
+        for (const auto& field : row) {
+          out.push_back(field.is_null() ? std::nullopt : std::optional<std::string>(field.c_str()));
+        }
+        rows.push_back(std::move(out));
+      }
+      return rows;
+    } catch (const std::exception& e) {
+      return Error{fmt::format("{}: {}", uri_, firstLine(e.what()))};
+    }
+  }
+
+  std::string_view forUpdate() const override { return " FOR UPDATE"; }
+
+  Status serializeSchemaChanges() override {
+    // Two `init`s at once would both create the tables; one waits for the other instead.
+    auto r = query("SELECT pg_advisory_xact_lock(4542243441)", {});
+    if (!r) return r.error();
+    return {};
+  }
+
+  Result<bool> hasSchema() override {
+    auto rows = query("SELECT to_regclass('emcalign_meta') IS NOT NULL", {});
+    if (!rows) return rows.error();
+    return !rows->empty() && (*rows)[0][0] && *(*rows)[0][0] == "t";
+  }
+
+  Status afterInit() override { return {}; }
+  const std::string& uri() const override { return uri_; }
+
+ private:
+  Status begin() {
+    rollback();
+    try {
+      tx_ = std::make_unique<pqxx::work>(*c_);
+      return {};
+    } catch (const std::exception& e) {
+      return Error{fmt::format("{}: cannot begin a transaction: {}", uri_, firstLine(e.what()))};
+    }
+  }
+
+  std::unique_ptr<pqxx::connection> c_;
+  std::unique_ptr<pqxx::work> tx_;
+  std::string uri_;
+};
+
+}  // namespace
+
+Result<std::unique_ptr<SqlBackend>> openPostgres(const std::string& uri) {
+  const std::string shown = withoutPassword(uri);
+  // A server that does not answer is an error after a while, not a hang.
+  std::string conninfo = uri;
+  if (conninfo.find("connect_timeout=") == std::string::npos) {
+    conninfo += (conninfo.find('?') == std::string::npos ? "?" : "&");
+    conninfo += fmt::format("connect_timeout={}", kConnectTimeoutSeconds);
+  }
+  try {
+    auto c = std::make_unique<pqxx::connection>(conninfo);
+    return std::unique_ptr<SqlBackend>(std::make_unique<Postgres>(std::move(c), shown));
+  } catch (const std::exception& e) {
+    return Error{fmt::format("{}: cannot connect: {}", shown, firstLine(e.what()))};
+  }
+}
+
+}  // namespace emcalign::conddb::detail

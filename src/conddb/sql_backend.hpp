@@ -1,0 +1,52 @@
+#pragma once
+// Internal to the conddb module: the few SQL operations the database needs, for SQLite and
+// PostgreSQL alike, and the one implementation of the database's semantics on top of them
+// (sql_database.cpp). The SQL is written once, with $1, $2, … parameters (SQLite gets ?1,
+// ?2, …) and types both engines take (TEXT, BIGINT).
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <variant>
+#include <vector>
+
+#include "emcalign/conddb/conditions.hpp"
+
+namespace emcalign::conddb::detail {
+
+using Param = std::variant<std::int64_t, std::string>;
+using Row = std::vector<std::optional<std::string>>;
+
+class SqlBackend {
+ public:
+  virtual ~SqlBackend() = default;
+  /// A transaction that writes: it holds the write lock (SQLite) from its start.
+  virtual Status beginWrite() = 0;
+  virtual Status beginRead() = 0;
+  virtual Status commit() = 0;
+  virtual void rollback() noexcept = 0;
+  virtual Result<std::vector<Row>> query(std::string_view sql, const std::vector<Param>& params = {}) = 0;
+  /// " FOR UPDATE" where the engine locks selected rows (PostgreSQL); "" otherwise.
+  virtual std::string_view forUpdate() const = 0;
+  /// Called first in the transaction that creates the schema: two `init`s take turns.
+  virtual Status serializeSchemaChanges() = 0;
+  /// Whether the schema's tables exist.
+  virtual Result<bool> hasSchema() = 0;
+  /// Engine-specific setup after the tables are made (SQLite: application_id, user_version).
+  virtual Status afterInit() = 0;
+  virtual const std::string& uri() const = 0;
+};
+
+std::unique_ptr<Database> makeSqlDatabase(std::unique_ptr<SqlBackend> backend);
+Result<std::unique_ptr<SqlBackend>> openSqlite(const std::string& path, bool create);
+Result<std::unique_ptr<SqlBackend>> openPostgres(const std::string& uri);
+
+/// Checks, on open, that the database has the schema of this emcalign.
+Status checkSchemaOf(Database& db);
+
+/// The current time, UTC, ISO 8601 to the second.
+std::string utcNow();
+
+}  // namespace emcalign::conddb::detail

@@ -1,0 +1,245 @@
+// The semantics of the conditions database, once, for every SQL engine (sql_backend.hpp).
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <ctime>
+#include <thread>
+
+#include <fmt/format.h>
+
+#include "sql_backend.hpp"
+
+namespace emcalign::conddb::detail {
+
+namespace {
+
+constexpr const char* kSchema[] = {
+    "CREATE TABLE IF NOT EXISTS emcalign_meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)",
+    "CREATE TABLE IF NOT EXISTS emcalign_tags (name TEXT PRIMARY KEY, description TEXT NOT NULL, "
+    "state TEXT NOT NULL CHECK (state IN ('open', 'locked')), created TEXT NOT NULL)",
+    "CREATE TABLE IF NOT EXISTS emcalign_payloads (hash TEXT PRIMARY KEY, content TEXT NOT NULL)",
+    "CREATE TABLE IF NOT EXISTS emcalign_iovs (tag TEXT NOT NULL REFERENCES emcalign_tags (name), "
+    "first_run BIGINT NOT NULL, last_run BIGINT NOT NULL, payload TEXT NOT NULL REFERENCES emcalign_payloads (hash), "
+    "inserted TEXT NOT NULL, PRIMARY KEY (tag, first_run), CHECK (first_run <= last_run))",
+    "CREATE INDEX IF NOT EXISTS emcalign_iovs_last ON emcalign_iovs (tag, last_run)",
+};
+
+// Runs `body` in a transaction; any error rolls it back.
+template <typename F>
+auto inTransaction(SqlBackend& db, bool write, F&& body) -> decltype(body()) {
+  if (Status s = write ? db.beginWrite() : db.beginRead(); !s) return s.error();
+  auto result = body();
+  if (!result) {
+    db.rollback();
+    return result;
+  }
+  if (Status s = db.commit(); !s) {
+    db.rollback();
+    return s.error();
+  }
+  return result;
+}
+
+// Fault injection for the tests of a writer killed mid-write (tests/unit/conddb): with
+// EMCALIGN_FAULT_HOLD_WRITE=PATH, a write creates PATH once everything is written but not
+// yet committed, and waits there (up to a minute) to be killed.
+void holdWriteForTests() {
+  const char* path = std::getenv("EMCALIGN_FAULT_HOLD_WRITE");
+  if (path == nullptr || *path == '\0') return;
+  if (std::FILE* f = std::fopen(path, "w"); f != nullptr) std::fclose(f);
+  std::this_thread::sleep_for(std::chrono::seconds(60));
+}
+
+std::int64_t toInt(const std::optional<std::string>& s) { return s ? std::stoll(*s) : 0; }
+std::string toText(const std::optional<std::string>& s) { return s ? *s : std::string(); }
+
+class SqlDatabase final : public Database {
+ public:
+  explicit SqlDatabase(std::unique_ptr<SqlBackend> db) : db_(std::move(db)) {}
+  using Database::put;
+
+  Status init() override {
+    return inTransaction(*db_, true, [&]() -> Status {
+      if (Status s = db_->serializeSchemaChanges(); !s) return s;
+      for (const char* sql : kSchema) {
+        if (auto r = db_->query(sql); !r) return r.error();
+      }
+      auto version = db_->query("SELECT value FROM emcalign_meta WHERE key = 'schema_version'");
+      if (!version) return version.error();
+      if (version->empty()) {
+        auto r = db_->query("INSERT INTO emcalign_meta (key, value) VALUES ('schema_version', $1)",
+                            {std::to_string(kSchemaVersion)});
+        if (!r) return r.error();
+      } else if (toText((*version)[0][0]) != std::to_string(kSchemaVersion)) {
+        return Error{fmt::format("{}: schema version {}, this emcalign knows {}", db_->uri(), toText((*version)[0][0]),
+                                 kSchemaVersion)};
+      }
+      return db_->afterInit();
+    });
+  }
+
+  // On open: the schema must be this one.
+  Status checkSchema() {
+    auto has = db_->hasSchema();
+    if (!has) return has.error();
+    if (!*has) {
+      return Error{fmt::format("{}: not an emcalign conditions database (no emcalign tables; create one with: emcalign "
+                               "conditions init {})",
+                               db_->uri(), db_->uri())};
+    }
+    auto version = db_->query("SELECT value FROM emcalign_meta WHERE key = 'schema_version'");
+    if (!version) return version.error();
+    if (version->empty() || toText((*version)[0][0]) != std::to_string(kSchemaVersion)) {
+      return Error{fmt::format("{}: schema version {}, this emcalign reads version {}", db_->uri(),
+                               version->empty() ? "unknown" : toText((*version)[0][0]), kSchemaVersion)};
+    }
+    return {};
+  }
+
+  Result<std::vector<Tag>> tags() override {
+    auto rows = db_->query("SELECT name, description, state, created FROM emcalign_tags ORDER BY name");
+    if (!rows) return rows.error();
+    std::vector<Tag> out;
+    for (const Row& r : *rows) out.push_back(tagOf(r));
+    return out;
+  }
+
+  Result<std::optional<Tag>> tag(const std::string& name) override {
+    auto rows = db_->query("SELECT name, description, state, created FROM emcalign_tags WHERE name = $1", {name});
+    if (!rows) return rows.error();
+    if (rows->empty()) return std::optional<Tag>();
+    return std::optional<Tag>(tagOf((*rows)[0]));
+  }
+
+  Status put(const std::string& tag, const std::vector<NewIov>& iovs, bool createTag,
+             const std::string& description) override {
+    if (Status s = checkTagName(tag); !s) return s;
+    for (const NewIov& n : iovs) {
+      if (n.firstRun > n.lastRun) {
+        return Error{fmt::format("runs {}-{}: the first run is after the last", n.firstRun, n.lastRun)};
+      }
+    }
+    return inTransaction(*db_, true, [&]() -> Status {
+      const std::string lockTag =
+          fmt::format("SELECT state FROM emcalign_tags WHERE name = $1{}", db_->forUpdate());
+      auto state = db_->query(lockTag, {tag});
+      if (!state) return state.error();
+      if (state->empty()) {
+        if (!createTag) {
+          return Error{fmt::format("{}: no tag '{}' (conditions put creates it; list the tags with: emcalign "
+                                   "conditions list {})",
+                                   db_->uri(), tag, db_->uri())};
+        }
+        auto created = db_->query(
+            "INSERT INTO emcalign_tags (name, description, state, created) VALUES ($1, $2, 'open', $3) "
+            "ON CONFLICT (name) DO NOTHING",
+            {tag, description, utcNow()});
+        if (!created) return created.error();
+        state = db_->query(lockTag, {tag});
+        if (!state) return state.error();
+      }
+      if (state->empty()) return Error{fmt::format("{}: tag '{}' vanished while writing", db_->uri(), tag)};
+      if (toText((*state)[0][0]) == "locked") {
+        return Error{fmt::format("{}: tag '{}' is locked: its IOVs never change (write to a new tag)", db_->uri(), tag)};
+      }
+      const std::string now = utcNow();
+      for (const NewIov& n : iovs) {
+        // Checked against the IOVs stored before and those of this same write.
+        auto overlap = db_->query(
+            "SELECT first_run, last_run FROM emcalign_iovs WHERE tag = $1 AND first_run <= $2 AND last_run >= $3 "
+            "ORDER BY first_run LIMIT 1",
+            {tag, n.lastRun, n.firstRun});
+        if (!overlap) return overlap.error();
+        if (!overlap->empty()) {
+          return Error{fmt::format("{}: tag '{}': runs {}-{} overlap its IOV {}-{} (the IOVs of a tag never overlap)",
+                                   db_->uri(), tag, n.firstRun, n.lastRun, toInt((*overlap)[0][0]),
+                                   toInt((*overlap)[0][1]))};
+        }
+        auto stored = db_->query(
+            "INSERT INTO emcalign_payloads (hash, content) VALUES ($1, $2) ON CONFLICT (hash) DO NOTHING",
+            {n.payload.hash(), n.payload.content.dump()});
+        if (!stored) return stored.error();
+        auto iov = db_->query(
+            "INSERT INTO emcalign_iovs (tag, first_run, last_run, payload, inserted) VALUES ($1, $2, $3, $4, $5)",
+            {tag, n.firstRun, n.lastRun, n.payload.hash(), now});
+        if (!iov) return iov.error();
+      }
+      holdWriteForTests();
+      return {};
+    });
+  }
+
+  Result<std::optional<std::pair<Iov, Payload>>> get(const std::string& tag, std::int64_t run) override {
+    using Out = std::optional<std::pair<Iov, Payload>>;
+    return inTransaction(*db_, false, [&]() -> Result<Out> {
+      auto rows = db_->query(
+          "SELECT i.first_run, i.last_run, i.payload, i.inserted, p.content FROM emcalign_iovs i JOIN "
+          "emcalign_payloads p ON p.hash = i.payload WHERE i.tag = $1 AND i.first_run <= $2 AND i.last_run >= $2",
+          {tag, run});
+      if (!rows) return rows.error();
+      if (rows->empty()) return Out();
+      const Row& r = (*rows)[0];
+      auto content = io::parseJson(toText(r[4]), fmt::format("{}: payload {}", db_->uri(), toText(r[2])));
+      if (!content) return content.error();
+      return Out(std::pair{Iov{toInt(r[0]), toInt(r[1]), toText(r[2]), toText(r[3])}, Payload{std::move(*content)}});
+    });
+  }
+
+  Result<std::vector<Iov>> iovs(const std::string& tag) override {
+    auto rows = db_->query(
+        "SELECT first_run, last_run, payload, inserted FROM emcalign_iovs WHERE tag = $1 ORDER BY first_run", {tag});
+    if (!rows) return rows.error();
+    std::vector<Iov> out;
+    for (const Row& r : *rows) out.push_back({toInt(r[0]), toInt(r[1]), toText(r[2]), toText(r[3])});
+    return out;
+  }
+
+  Result<Payload> payload(const std::string& hash) override {
+    auto rows = db_->query("SELECT content FROM emcalign_payloads WHERE hash = $1", {hash});
+    if (!rows) return rows.error();
+    if (rows->empty()) return Error{fmt::format("{}: no payload {}", db_->uri(), hash)};
+    auto content = io::parseJson(toText((*rows)[0][0]), fmt::format("{}: payload {}", db_->uri(), hash));
+    if (!content) return content.error();
+    return Payload{std::move(*content)};
+  }
+
+  Status lock(const std::string& tag) override {
+    return inTransaction(*db_, true, [&]() -> Status {
+      auto rows = db_->query("UPDATE emcalign_tags SET state = 'locked' WHERE name = $1", {tag});
+      if (!rows) return rows.error();
+      auto exists = db_->query("SELECT state FROM emcalign_tags WHERE name = $1", {tag});
+      if (!exists) return exists.error();
+      if (exists->empty()) return Error{fmt::format("{}: no tag '{}'", db_->uri(), tag)};
+      return {};
+    });
+  }
+
+  const std::string& uri() const override { return db_->uri(); }
+
+ private:
+  static Tag tagOf(const Row& r) {
+    return {toText(r[0]), toText(r[1]), toText(r[2]) == "locked" ? TagState::Locked : TagState::Open, toText(r[3])};
+  }
+
+  std::unique_ptr<SqlBackend> db_;
+};
+
+}  // namespace
+
+std::string utcNow() {
+  const std::time_t now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return text;
+}
+
+std::unique_ptr<Database> makeSqlDatabase(std::unique_ptr<SqlBackend> backend) {
+  return std::make_unique<SqlDatabase>(std::move(backend));
+}
+
+Status checkSchemaOf(Database& db) { return static_cast<SqlDatabase&>(db).checkSchema(); }
+
+}  // namespace emcalign::conddb::detail

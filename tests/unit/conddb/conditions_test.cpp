@@ -1,0 +1,309 @@
+// The conditions database on both back ends: the same tests against an SQLite file and a
+// fresh database on the test suite's PostgreSQL server (tests/common/postgres_support.hpp).
+
+#include "emcalign/conddb/conditions.hpp"
+
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include "emcalign/core/sha256.hpp"
+#include "emcalign/geometry/detector.hpp"
+#include "postgres_support.hpp"
+#include "test_support.hpp"
+
+namespace emcalign::conddb {
+namespace {
+
+namespace fs = std::filesystem;
+using io::Json;
+
+double r1() { return geometry::DetectorDescription::sndDefault().r1(); }
+
+// A parameter file with α = `alpha` degrees and dx = `dx` cm.
+Payload payloadOf(double alpha, double dx = 0.3) {
+  auto eta = geometry::testing::paperLike();
+  eta[Param::Alpha] = alpha * units::deg;
+  eta[Param::Dx] = dx;
+  auto p = makePayload(io::alignmentToJson(eta), r1(), "test", Json{{"note", "unit test"}});
+  EXPECT_TRUE(p) << p.error().message;
+  return *p;
+}
+
+class Conditions : public ::testing::TestWithParam<std::string> {
+ protected:
+  void SetUp() override {
+    if (GetParam() == "sqlite") {
+      dir_ = fs::temp_directory_path() / fmt::format("emcalign-conddb-{}-{}", ::getpid(), counter_++);
+      fs::create_directories(dir_);
+      uri_ = "sqlite:" + (dir_ / "conditions.db").string();
+    } else {
+      uri_ = testing::freshPostgresDatabase();
+    }
+  }
+  void TearDown() override {
+    if (!dir_.empty()) fs::remove_all(dir_);
+  }
+  std::unique_ptr<Database> create() {
+    auto db = Database::open(uri_, true);
+    EXPECT_TRUE(db) << db.error().message;
+    return std::move(*db);
+  }
+  std::unique_ptr<Database> open() {
+    auto db = Database::open(uri_);
+    EXPECT_TRUE(db) << db.error().message;
+    return std::move(*db);
+  }
+
+  static inline int counter_ = 0;
+  fs::path dir_;
+  std::string uri_;
+};
+
+TEST_P(Conditions, StoresAndFindsByRun) {
+  auto db = create();
+  const Payload a = payloadOf(2.8), b = payloadOf(2.9);
+  ASSERT_TRUE(db->put("align", 1, 40, a, true, "test tag"));
+  ASSERT_TRUE(db->put("align", 41, 100, b, false));
+  // One payload stored once, however many IOVs hold it.
+  ASSERT_TRUE(db->put("align", 200, 210, a, false));
+
+  auto iovs = db->iovs("align");
+  ASSERT_TRUE(iovs);
+  ASSERT_EQ(iovs->size(), 3U);
+  EXPECT_EQ((*iovs)[0].firstRun, 1);
+  EXPECT_EQ((*iovs)[0].lastRun, 40);
+  EXPECT_EQ((*iovs)[0].payload, a.hash());
+  EXPECT_EQ((*iovs)[2].payload, a.hash());
+  EXPECT_EQ((*iovs)[1].firstRun, 41);
+
+  for (auto [run, expected] : {std::pair{1, 2.8}, {40, 2.8}, {41, 2.9}, {100, 2.9}, {205, 2.8}}) {
+    auto got = db->get("align", run);
+    ASSERT_TRUE(got) << got.error().message;
+    ASSERT_TRUE(got->has_value()) << "run " << run;
+    auto eta = io::parseAlignment((*got)->second.parameterFile(), r1(), "payload");
+    ASSERT_TRUE(eta) << eta.error().message;
+    EXPECT_NEAR((*eta)[Param::Alpha] / units::deg, expected, 1e-12) << "run " << run;
+    EXPECT_EQ((*got)->second.hash(), (*got)->first.payload);
+  }
+  for (int run : {0, 101, 199, 211, -5}) {
+    auto got = db->get("align", run);
+    ASSERT_TRUE(got);
+    EXPECT_FALSE(got->has_value()) << "run " << run;
+  }
+  auto none = db->get("other", 5);
+  ASSERT_TRUE(none);
+  EXPECT_FALSE(none->has_value());
+
+  auto tag = db->tag("align");
+  ASSERT_TRUE(tag);
+  ASSERT_TRUE(tag->has_value());
+  EXPECT_EQ((*tag)->description, "test tag");
+  EXPECT_EQ((*tag)->state, TagState::Open);
+  auto stored = db->payload(a.hash());
+  ASSERT_TRUE(stored);
+  EXPECT_EQ(stored->content, a.content);
+  EXPECT_FALSE(db->payload(std::string(64, '0')));
+}
+
+TEST_P(Conditions, RefusesOverlapsLockedTagsAndBadRanges) {
+  auto db = create();
+  const Payload a = payloadOf(2.8);
+  ASSERT_TRUE(db->put("t", 10, 20, a, true));
+  for (auto [first, last] : {std::pair{5, 10}, {20, 30}, {12, 15}, {1, 100}, {10, 20}}) {
+    Status s = db->put("t", first, last, a, false);
+    ASSERT_FALSE(s) << first << "-" << last;
+    EXPECT_NE(s.error().message.find("overlap its IOV 10-20"), std::string::npos) << s.error().message;
+  }
+  EXPECT_TRUE(db->put("t", 21, 21, a, false));
+  EXPECT_TRUE(db->put("t", 1, 9, a, false));
+  Status backwards = db->put("t", 30, 25, a, false);
+  ASSERT_FALSE(backwards);
+  EXPECT_NE(backwards.error().message.find("first run is after the last"), std::string::npos);
+  Status noTag = db->put("u", 1, 2, a, false);
+  ASSERT_FALSE(noTag);
+  EXPECT_NE(noTag.error().message.find("no tag 'u'"), std::string::npos);
+  EXPECT_FALSE(db->put("bad name", 1, 2, a, true));
+  EXPECT_FALSE(db->put("", 1, 2, a, true));
+
+  ASSERT_TRUE(db->lock("t"));
+  Status locked = db->put("t", 50, 60, a, false);
+  ASSERT_FALSE(locked);
+  EXPECT_NE(locked.error().message.find("is locked"), std::string::npos);
+  EXPECT_FALSE(db->lock("nope"));
+  auto tag = db->tag("t");
+  ASSERT_TRUE(tag && tag->has_value());
+  EXPECT_EQ((*tag)->state, TagState::Locked);
+  auto iovs = db->iovs("t");
+  ASSERT_TRUE(iovs);
+  EXPECT_EQ(iovs->size(), 3U);  // nothing refused was half-written
+}
+
+TEST_P(Conditions, OpenChecksTheSchema) {
+  auto fresh = Database::open(uri_);  // no emcalign tables yet (PostgreSQL) or no file (SQLite)
+  ASSERT_FALSE(fresh);
+  EXPECT_NE(fresh.error().message.find("conditions init"), std::string::npos) << fresh.error().message;
+  {
+    auto db = create();
+    ASSERT_TRUE(db->init());  // idempotent
+  }
+  auto again = Database::open(uri_);
+  ASSERT_TRUE(again) << again.error().message;
+  // A database of another schema version is refused, not misread.
+  auto db = create();
+  {
+    // Reach into the table the way a future emcalign would have changed it.
+    if (GetParam() == "sqlite") {
+      const std::string cmd = fmt::format("sqlite3 '{}' \"UPDATE emcalign_meta SET value = '99' WHERE key = "
+                                          "'schema_version'\"",
+                                          uri_.substr(7));
+      ASSERT_EQ(std::system(cmd.c_str()), 0);
+    } else {
+      pqxx::connection c(uri_);
+      pqxx::work w(c);
+      w.exec("UPDATE emcalign_meta SET value = '99' WHERE key = 'schema_version'");
+      w.commit();
+    }
+  }
+  auto future = Database::open(uri_);
+  ASSERT_FALSE(future);
+  EXPECT_NE(future.error().message.find("schema version 99"), std::string::npos) << future.error().message;
+}
+
+// Writers in parallel, each with its own connection: none is lost, and of writers racing for
+// the same runs exactly one wins.
+TEST_P(Conditions, ConcurrentWritersLoseNothing) {
+  create();
+  constexpr int kWriters = 6, kEach = 10;
+  std::vector<std::thread> threads;
+  std::atomic<int> failures{0}, raceWins{0};
+  for (int w = 0; w < kWriters; ++w) {
+    threads.emplace_back([&, w] {
+      auto db = Database::open(uri_);
+      if (!db) {
+        ++failures;
+        return;
+      }
+      for (int k = 0; k < kEach; ++k) {
+        const int first = 1000 * w + 10 * k;
+        // Each writer creates the tag if it is first; payloads shared between writers.
+        if (!(*db)->put("shared", first, first + 9, payloadOf(2.0 + 0.1 * k), true)) ++failures;
+        if ((*db)->put("race", k * 10, k * 10 + 5, payloadOf(3.0 + w), true)) ++raceWins;
+      }
+    });
+  }
+  for (auto& t : threads) t.join();
+  EXPECT_EQ(failures.load(), 0);
+  EXPECT_EQ(raceWins.load(), kEach);  // each contested range went to exactly one writer
+  auto db = open();
+  auto iovs = db->iovs("shared");
+  ASSERT_TRUE(iovs);
+  EXPECT_EQ(iovs->size(), static_cast<std::size_t>(kWriters * kEach));
+  auto race = db->iovs("race");
+  ASSERT_TRUE(race);
+  EXPECT_EQ(race->size(), static_cast<std::size_t>(kEach));
+}
+
+// A writer killed with SIGKILL in the middle of its transaction (everything written, nothing
+// committed): the database stays readable, the write is absent, the next writer gets through.
+TEST_P(Conditions, KillDuringWriteLeavesItConsistent) {
+  create();
+  {
+    auto db = open();
+    ASSERT_TRUE(db->put("k", 1, 10, payloadOf(2.8), true));
+  }
+  const fs::path marker = fs::temp_directory_path() / fmt::format("emcalign-hold-{}-{}", ::getpid(), counter_++);
+  fs::remove(marker);
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    ::setenv("EMCALIGN_FAULT_HOLD_WRITE", marker.c_str(), 1);
+    auto db = Database::open(uri_);
+    if (!db) ::_exit(10);
+    (void)(*db)->put("k", 11, 20, payloadOf(3.3), false);
+    ::_exit(11);  // not reached: killed while holding the write
+  }
+  const auto start = std::chrono::steady_clock::now();
+  while (!fs::exists(marker) && std::chrono::steady_clock::now() - start < std::chrono::seconds(30)) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  ASSERT_TRUE(fs::exists(marker)) << "the writer never reached its commit";
+  ::kill(child, SIGKILL);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  ASSERT_TRUE(WIFSIGNALED(status));
+  fs::remove(marker);
+
+  auto db = open();
+  auto iovs = db->iovs("k");
+  ASSERT_TRUE(iovs) << iovs.error().message;
+  ASSERT_EQ(iovs->size(), 1U);
+  EXPECT_FALSE(db->payload(payloadOf(3.3).hash()));  // its payload went with it
+  ASSERT_TRUE(db->put("k", 11, 20, payloadOf(3.4), false));  // no lock left behind
+  auto got = db->get("k", 15);
+  ASSERT_TRUE(got && got->has_value());
+}
+
+INSTANTIATE_TEST_SUITE_P(Backends, Conditions, ::testing::Values("sqlite", "postgres"),
+                         [](const auto& info) { return info.param; });
+
+TEST(ConditionsUri, RefusesWhatIsNotADatabase) {
+  const fs::path dir = fs::temp_directory_path() / fmt::format("emcalign-conddb-uri-{}", ::getpid());
+  fs::create_directories(dir);
+  {
+    std::ofstream(dir / "text.db") << "not a database at all, just text that is long enough to look like a file\n";
+  }
+  auto text = Database::open((dir / "text.db").string());
+  ASSERT_FALSE(text);
+  EXPECT_NE(text.error().message.find("text.db"), std::string::npos) << text.error().message;
+  auto missing = Database::open("sqlite:" + (dir / "missing.db").string());
+  ASSERT_FALSE(missing);
+  EXPECT_NE(missing.error().message.find("no such database"), std::string::npos);
+  EXPECT_FALSE(fs::exists(dir / "missing.db"));  // opening does not create
+  auto directory = Database::open(dir.string(), true);
+  ASSERT_FALSE(directory);
+  EXPECT_NE(directory.error().message.find("not a regular file"), std::string::npos);
+  auto scheme = Database::open("mysql://me@host/db");
+  ASSERT_FALSE(scheme);
+  EXPECT_NE(scheme.error().message.find("unknown database scheme"), std::string::npos);
+  auto nobody = Database::open("postgresql://nobody:secret@127.0.0.1:1/none");
+  ASSERT_FALSE(nobody);
+  EXPECT_NE(nobody.error().message.find("cannot connect"), std::string::npos);
+  EXPECT_EQ(nobody.error().message.find("secret"), std::string::npos) << "a password in a message";
+  fs::remove_all(dir);
+}
+
+TEST(ConditionsPayload, KeepsTheFitAndRefusesUnusableOnes) {
+  Json fit = io::alignmentToJson(geometry::testing::paperLike());
+  fit["status"] = "converged";
+  fit["chi2"] = 150.0;
+  fit["ndf"] = 148;
+  fit["input"] = {{"files", {"run1.h5"}}, {"cut_flow", {{"all", 1000}, {"selected", 800}}}};
+  auto p = makePayload(fit, r1(), "fit.json", Json{{"time", "now"}});
+  ASSERT_TRUE(p) << p.error().message;
+  EXPECT_EQ(p->content["format"], "emcalign-payload/1");
+  EXPECT_EQ(p->content["selected_events"], 800);
+  EXPECT_EQ(p->content["alignment"]["chi2"], 150.0);
+  EXPECT_EQ(p->content["provenance"]["inputs"][0], "run1.h5");
+  EXPECT_EQ(p->hash(), sha256(p->content.dump()));
+  // The same content is the same hash; any change is another.
+  auto q = makePayload(fit, r1(), "fit.json", Json{{"time", "now"}});
+  ASSERT_TRUE(q);
+  EXPECT_EQ(p->hash(), q->hash());
+  fit["chi2"] = 151.0;
+  EXPECT_NE(makePayload(fit, r1(), "fit.json", Json{{"time", "now"}})->hash(), p->hash());
+
+  fit["status"] = "not converged";
+  auto bad = makePayload(fit, r1(), "fit.json");
+  ASSERT_FALSE(bad);
+  EXPECT_NE(bad.error().message.find("fit.json"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace emcalign::conddb

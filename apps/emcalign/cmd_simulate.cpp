@@ -11,12 +11,13 @@
 
 #include "common.hpp"
 #include "conditions_support.hpp"
+#include "emcalign/validation/period.hpp"
+#include "progress.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/core/version.hpp"
 #include "emcalign/io/event_file.hpp"
 #include "emcalign/io/json_files.hpp"
 #include "emcalign/sim/simulation.hpp"
-#include "progress.hpp"
 
 namespace emcalign::app {
 
@@ -28,6 +29,7 @@ struct SimulateOptions {
   std::uint64_t seed = 1;
   std::string params;
   std::string conditions, tag;  // instead of params: the IOV of --run in a conditions tag
+  std::string period;           // a whole period (validation/period.hpp) into the directory -o
   std::optional<double> beamEnergy;  // none: the process default
   std::string detector;
   std::string deadCounters;  // empty: default list; "none": no dead counters
@@ -81,6 +83,52 @@ io::Json settingsJson(const SimulateOptions& cli, const sim::SimulationOptions& 
                   {"detector", cli.detector.empty() ? "embedded default" : cli.detector}};
 }
 
+// The realism switches and dead counters of the command line.
+Status realism(const SimulateOptions& cli, sim::SimulationOptions& o) {
+  if (Status s = applyRealismSwitches(o, cli.ideal, cli.off); !s) return s;
+  if (cli.pointShowers) o.emc.pointShowers = true;
+  if (!cli.deadCounters.empty()) {
+    if (cli.deadCounters == "none") {
+      o.emc.deadCounters.clear();
+    } else {
+      auto list = parseCounterList(cli.deadCounters);
+      if (!list) return list.error();
+      o.emc.deadCounters = *list;
+    }
+  }
+  return {};
+}
+
+// simulate --period: every run of a period into the directory -o (validation/period.hpp).
+int runPeriod(const SimulateOptions& cli) {
+  if (Status s = checkOutputs({}, {{"-o", cli.output}}, {{"--period", cli.period}, {"--detector", cli.detector}}); !s) {
+    return reportError(s.error());
+  }
+  auto calo = loadCalorimeter(cli.detector);
+  if (!calo) return reportError(calo.error());
+  auto scenario = validation::readPeriodScenario(cli.period, calo->description().r1());
+  if (!scenario) return reportError(scenario.error());
+  validation::PeriodOptions o;
+  if (Status s = realism(cli, o.simulation); !s) return reportError(s.error());
+  o.hits = !cli.noHits;
+  o.threads = cli.threads;
+  const auto runs = validation::planPeriod(*scenario);
+  std::int64_t total = 0;
+  for (const auto& r : runs) total += r.events;
+  fmt::print(stderr, "simulate --period {}: runs {}-{} ({} runs), {} events, {} beam energies, {} segments, {} drifts -> {}\n",
+             cli.period, scenario->firstRun, scenario->lastRun(), runs.size(), total, scenario->beamEnergy.size(),
+             scenario->segments.size(), scenario->drifts.size(), cli.output);
+  ProgressLine progress("simulate", static_cast<std::int64_t>(runs.size()), "runs");
+  o.progress = [&](std::int64_t done, std::int64_t, std::int64_t) { progress.update(done); };
+  auto report = validation::simulatePeriod(*scenario, *calo, cli.output, o);
+  progress.finish();
+  if (!report) return reportError(report.error());
+  fmt::print(stderr, "simulate: {} runs ({} there already), {} events, {} particle rows, {:.1f} s -> {}/run_*.h5, "
+             "{}/truth.json\n",
+             report->runs, report->resumed, report->events, report->rows, progress.elapsed(), cli.output, cli.output);
+  return kExitOk;
+}
+
 int run(const SimulateOptions& cli) {
   if (Status s = checkOutputs({{"-o", cli.output}}, {}, {{"--params", cli.params}, {"--detector", cli.detector}}); !s) {
     return reportError(s.error());
@@ -103,6 +151,7 @@ int run(const SimulateOptions& cli) {
   const geometry::AlignmentParameters* truth = &truthParameters;
 
   sim::SimulationOptions o;
+  if (Status st = realism(cli, o); !st) return reportError(st.error());
   const auto process = sim::processFromName(cli.process);
   if (!process) return reportError({fmt::format("--process: unknown process '{}' (ee, gg, 3pi)", cli.process)});
   o.generator.process = *process;
@@ -111,17 +160,6 @@ int run(const SimulateOptions& cli) {
   if (cli.thetaMaxDeg) o.generator.thetaMax = *cli.thetaMaxDeg * units::deg;
   o.seed = cli.seed;
   o.run = cli.run;
-  if (Status s = applyRealismSwitches(o, cli.ideal, cli.off); !s) return reportError(s.error());
-  if (cli.pointShowers) o.emc.pointShowers = true;
-  if (!cli.deadCounters.empty()) {
-    if (cli.deadCounters == "none") {
-      o.emc.deadCounters.clear();
-    } else {
-      auto list = parseCounterList(cli.deadCounters);
-      if (!list) return reportError(list.error());
-      o.emc.deadCounters = *list;
-    }
-  }
   auto simulation = sim::Simulation::create(*calo, *truth, o);
   if (!simulation) return reportError(simulation.error());
 
@@ -158,7 +196,12 @@ void addSimulateCommand(CLI::App& app, int& exitCode) {
   addVersionFlag(*cmd);
   cmd->add_option("--process", o->process, "ee (e+e- -> e+e-), gg (e+e- -> gamma gamma), 3pi (e+e- -> pi+pi-pi0)")
       ->check(CLI::IsMember({"ee", "gg", "3pi"}));
-  cmd->add_option("--events", o->events, "number of events (at most 1e10)")->required()->check(integerIn(0, kMaxEvents));
+  auto* events = cmd->add_option("--events", o->events, "number of events (at most 1e10)")->check(integerIn(0, kMaxEvents));
+  cmd->add_option("--period", o->period,
+                  "simulate a whole period instead: every run of a scenario (emcalign-period/1, docs/campaign.md) "
+                  "into the directory -o, with DIR/truth.json")
+      ->check(CLI::ExistingFile)
+      ->excludes(events);
   cmd->add_option("--seed", o->seed, "random seed, 0 to 2^64 - 1 (the same seed gives the same file on any thread count)")
       ->check(unsigned64());
   auto* params = cmd->add_option("--params", o->params,
@@ -200,10 +243,21 @@ void addSimulateCommand(CLI::App& app, int& exitCode) {
   cmd->add_option("-o,--output", o->output,
                   "output file: .csv for CSV, anything else HDF5 (with truth); '-' writes CSV to standard output")
       ->required();
-  cmd->callback([o, &exitCode] {
+  cmd->callback([o, cmd, &exitCode] {
+    if (!o->period.empty()) {
+      for (const char* single : {"--params", "--conditions", "--run", "--beam-energy", "--theta-min", "--theta-max",
+                                 "--seed", "--process"}) {
+        if (cmd->count(single) > 0) {
+          throw CLI::ExcludesError("--period", single);
+        }
+      }
+      exitCode = runPeriod(*o);
+      return;
+    }
     if (o->params.empty() && o->conditions.empty()) {
       throw CLI::RequiredError("--params FILE or --conditions URI --tag T");
     }
+    if (cmd->count("--events") == 0) throw CLI::RequiredError("--events");
     exitCode = run(*o);
   });
 }

@@ -58,6 +58,8 @@ int main(int argc, char** argv) {
   emcalign::app::addResidualsCommand(app, exitCode);
   emcalign::app::addExportCommand(app, exitCode);
   emcalign::app::addConditionsCommand(app, exitCode);
+  emcalign::app::addCampaignCommand(app, exitCode);
+  emcalign::app::addTrendCommand(app, exitCode);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -69,6 +69,44 @@ Result<ProfileFill> fillProfiles(const std::vector<std::string>& files, const ge
   return std::move(filler.fill());
 }
 
+void ProfileFill::merge(const ProfileFill& other) {
+  for (std::size_t k = 0; k < cutFlow.events.size(); ++k) cutFlow.events[k] += other.cutFlow.events[k];
+  cutFlow.rows += other.cutFlow.rows;
+  profiles.merge(other.profiles);
+  particlesSelected += other.particlesSelected;
+  particlesInRange += other.particlesInRange;
+  trackMisses += other.trackMisses;
+  beamEnergies.insert(other.beamEnergies.begin(), other.beamEnergies.end());
+}
+
+Result<std::map<std::int32_t, ProfileFill>> fillProfilesByRun(const std::string& file,
+                                                               const geometry::ShowerDepth& depth,
+                                                               const SelectionOptions& selection,
+                                                               const ProfileOptions& profile) {
+  if (Status s = profile.validate(); !s) return s.error();
+  auto reader = io::EventReader::open({file});
+  if (!reader) return reader.error();
+  std::map<std::int32_t, ProfileFiller> fillers;
+  std::vector<ParticleRow> rows;
+  while (true) {
+    auto more = (*reader)->next(rows);
+    if (!more) return more.error();
+    if (!*more) break;
+    // Blocks hold whole events; each stretch of one run goes to that run's filler.
+    for (std::size_t i = 0; i < rows.size();) {
+      std::size_t j = i + 1;
+      while (j < rows.size() && rows[j].run == rows[i].run) ++j;
+      auto it = fillers.find(rows[i].run);
+      if (it == fillers.end()) it = fillers.emplace(rows[i].run, ProfileFiller(depth, selection, profile)).first;
+      it->second.addEvents(std::span<const ParticleRow>(rows).subspan(i, j - i));
+      i = j;
+    }
+  }
+  std::map<std::int32_t, ProfileFill> out;
+  for (auto& [run, filler] : fillers) out.emplace(run, std::move(filler.fill()));
+  return out;
+}
+
 io::Json fitResultJson(const FitResult& r, const FitInput& input) {
   using io::Json;
   using geometry::AlignmentParameters;

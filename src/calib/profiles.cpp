@@ -60,6 +60,31 @@ bool Profiles::fill(const ParticleResidual& p) {
   return true;
 }
 
+void Profiles::merge(const Profiles& other) {
+  const auto& a = options_;
+  const auto& b = other.options_;
+  if (a.phiBins != b.phiBins || a.thetaBins != b.thetaBins || a.thetaMin != b.thetaMin || a.thetaMax != b.thetaMax) {
+    throw std::invalid_argument("Profiles::merge: profiles with other bins");
+  }
+  // Chan, Golub & LeVeque's pairwise update of means and squared deviations.
+  for (std::size_t k = 0; k < acc_.size(); ++k) {
+    Accumulator& x = acc_[k];
+    const Accumulator& y = other.acc_[k];
+    if (y.n == 0) continue;
+    if (x.n == 0) {
+      x = y;
+      continue;
+    }
+    const double nx = static_cast<double>(x.n), ny = static_cast<double>(y.n), n = nx + ny;
+    const double dPhi = y.mean[0] - x.mean[0], dTheta = y.mean[1] - x.mean[1];
+    for (int i = 0; i < 5; ++i) x.mean[i] += (y.mean[i] - x.mean[i]) * ny / n;
+    x.m2Phi += y.m2Phi + dPhi * dPhi * nx * ny / n;
+    x.m2Theta += y.m2Theta + dTheta * dTheta * nx * ny / n;
+    x.n += y.n;
+  }
+  entries_ += other.entries_;
+}
+
 std::vector<ProfileBin> Profiles::bins() const {
   const auto& o = options_;
   const double nan = std::numeric_limits<double>::quiet_NaN();

@@ -18,6 +18,7 @@
 #include <fmt/ranges.h>
 
 #include "emcalign/core/units.hpp"
+#include "emcalign/io/strict_json.hpp"
 
 namespace emcalign::io {
 
@@ -28,83 +29,9 @@ using json = Json;
 
 namespace {
 
-// Internal: the readers below throw this and the public functions turn it into an Error.
-struct BadInput {
-  std::string message;
-};
-
-std::string join(std::string_view path, std::string_view key) {
-  return path.empty() ? std::string(key) : fmt::format("{}.{}", path, key);
-}
-
-std::string typeName(const json& j) { return j.type_name(); }
-
-// A JSON object whose keys are checked against the allowed ones.
-class StrictObject {
- public:
-  StrictObject(const json& j, std::string path, std::string_view source)
-      : j_(j), path_(std::move(path)), source_(source) {
-    if (!j.is_object()) {
-      fail(path_.empty() ? "the document" : path_, fmt::format("expected an object, got {}", typeName(j)));
-    }
-  }
-
-  void allowOnly(std::initializer_list<std::string_view> allowed) const {
-    for (const auto& [key, value] : j_.items()) {
-      bool known = false;
-      for (auto a : allowed) known = known || a == key;
-      if (!known) {
-        std::string list;
-        for (auto a : allowed) list += fmt::format("{}{}", list.empty() ? "" : ", ", a);
-        fail(join(path_, key), fmt::format("unknown key (allowed here: {})", list));
-      }
-    }
-  }
-
-  bool has(std::string_view key) const { return j_.contains(key); }
-  const json& at(std::string_view key) const {
-    if (!has(key)) fail(join(path_, key), "missing");
-    return j_.at(std::string(key));
-  }
-  std::string pathOf(std::string_view key) const { return join(path_, key); }
-
-  double number(std::string_view key) const { return numberValue(at(key), pathOf(key)); }
-  double number(std::string_view key, double fallback) const {
-    return has(key) ? number(key) : fallback;
-  }
-  std::string string(std::string_view key) const {
-    const json& v = at(key);
-    if (!v.is_string()) fail(pathOf(key), fmt::format("expected a string, got {}", typeName(v)));
-    return v.get<std::string>();
-  }
-
-  double numberValue(const json& v, const std::string& where) const {
-    if (!v.is_number()) fail(where, fmt::format("expected a number, got {}", typeName(v)));
-    const double x = v.get<double>();
-    if (!std::isfinite(x)) fail(where, "not a finite number");
-    return x;
-  }
-
-  [[noreturn]] void fail(std::string_view where, std::string_view what) const {
-    throw BadInput{fmt::format("{}: key '{}': {}", source_, where, what)};
-  }
-
- private:
-  const json& j_;
-  std::string path_;
-  std::string_view source_;
-};
-
-template <typename F>
-auto guarded(F&& f) -> Result<decltype(f())> {
-  try {
-    return f();
-  } catch (const BadInput& e) {
-    return Error{e.message};
-  } catch (const json::exception& e) {
-    return Error{e.what()};
-  }
-}
+using strict::BadInput;
+using strict::StrictObject;
+using strict::guarded;
 
 void checkUnits(const StrictObject& top) {
   if (!top.has("units")) return;

@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <set>
 #include <string>
 #include <vector>
@@ -24,6 +25,9 @@ struct ProfileFill {
   std::int64_t particlesInRange = 0;   ///< of those, inside the profile range
   std::int64_t trackMisses = 0;        ///< tracks that miss the sphere R(E, θ)
   std::set<double> beamEnergies;       ///< MeV, of the selected events
+  /// Adds another fill with the same profile bins (the fills of several runs make their
+  /// group's).
+  void merge(const ProfileFill& other);
 };
 
 /// Called for every particle of a selected event with its residuals (for histograms).
@@ -54,6 +58,13 @@ class ProfileFiller {
 Result<ProfileFill> fillProfiles(const std::vector<std::string>& files, const geometry::ShowerDepth& depth,
                                  const SelectionOptions& selection, const ProfileOptions& profile = {},
                                  const ParticleVisitor& visit = {});
+
+/// The profiles of each run of a file (rows of one run contiguous or not), for a campaign
+/// that groups runs: run → its fill.
+Result<std::map<std::int32_t, ProfileFill>> fillProfilesByRun(const std::string& file,
+                                                               const geometry::ShowerDepth& depth,
+                                                               const SelectionOptions& selection,
+                                                               const ProfileOptions& profile = {});
 
 /// Describes the input of a fit in the result file.
 struct FitInput {

@@ -64,6 +64,10 @@ class Profiles {
   /// The bins with their means and σ (all phiBins × thetaBins, i_phi-major).
   std::vector<ProfileBin> bins() const;
   std::int64_t entries() const { return entries_; }
+  /// Adds the entries of profiles with the same bins (the profiles of several runs make the
+  /// profile of their group: the same means and σ as filling one from all the particles, to
+  /// rounding). Throws std::invalid_argument for other bins.
+  void merge(const Profiles& other);
 
  private:
   struct Accumulator {

@@ -1,0 +1,254 @@
+// emcalign campaign: a period calibrated group by group into a conditions tag
+// (validation/calibration_campaign.hpp, docs/campaign.md).
+//
+//   campaign DIR|FILES... --conditions URI --tag T [--min-events N] [--threads N] [--corrections C.json]
+//   campaign DIR|FILES... --plan PLAN.json [--min-events N]          the job list, nothing fitted
+//   campaign --plan PLAN.json --group K --conditions URI --tag T      one group of it (a batch job)
+
+#include <algorithm>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "common.hpp"
+#include "emcalign/calib/corrections.hpp"
+#include "emcalign/core/units.hpp"
+#include "emcalign/validation/calibration_campaign.hpp"
+#include "progress.hpp"
+
+namespace emcalign::app {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct CampaignCliOptions {
+  std::vector<std::string> inputs;
+  std::string conditions, tag, corrections, plan, detector, description;
+  std::int64_t minEvents = 50000;
+  int group = -1;
+  int threads = 0;
+};
+
+// The event files of the inputs: a directory gives its *.h5, *.hdf5 and *.csv (sorted).
+Result<std::vector<std::string>> eventFiles(const std::vector<std::string>& inputs) {
+  std::vector<std::string> files;
+  for (const auto& in : inputs) {
+    std::error_code ec;
+    if (fs::is_directory(in, ec)) {
+      std::vector<std::string> found;
+      for (const auto& e : fs::directory_iterator(in, ec)) {
+        const std::string ext = e.path().extension().string();
+        if (e.is_regular_file() && (ext == ".h5" || ext == ".hdf5" || ext == ".csv")) found.push_back(e.path().string());
+      }
+      if (ec) return Error{fmt::format("{}: cannot list the directory: {}", in, ec.message())};
+      if (found.empty()) return Error{fmt::format("{}: no event files (*.h5, *.hdf5, *.csv) in this directory", in)};
+      std::sort(found.begin(), found.end());
+      files.insert(files.end(), found.begin(), found.end());
+    } else {
+      files.push_back(in);
+    }
+  }
+  return files;
+}
+
+Result<validation::CampaignModel> modelOf(const std::string& corrections, const std::string& detector,
+                                          const geometry::Calorimeter& calo) {
+  validation::CampaignModel m;
+  m.geometry = calib::FitGeometry::of(calo.description());
+  m.detector = detector.empty() ? "embedded default" : detector;
+  if (!corrections.empty()) {
+    auto c = calib::readCorrections(corrections);
+    if (!c) return c.error();
+    m.geometry.depth.offset = c->depthOffset;
+    m.profile.partingPlane = c->partingPlane;
+    m.profile.nominalProfile = c->nominalProfile;
+    m.corrections = corrections;
+  }
+  if (Status s = m.profile.validate(); !s) return Error{fmt::format("{}: {}", corrections, s.error().message)};
+  return m;
+}
+
+void printGroups(const std::vector<validation::CampaignGroup>& groups, std::int64_t minEvents) {
+  std::int64_t selected = 0;
+  int shortGroups = 0;
+  for (const auto& g : groups) {
+    selected += g.selected;
+    shortGroups += g.isShort;
+  }
+  fmt::print(reportStream(), "plan: {} groups of at least {} selected events ({} selected in all){}\n", groups.size(),
+             minEvents, selected,
+             shortGroups > 0 ? fmt::format("; {} short (an energy point with fewer)", shortGroups) : "");
+}
+
+// One group of a plan (a batch job): read its files, keep its runs, fit, store.
+int runGroup(const CampaignCliOptions& o, const geometry::Calorimeter& calo) {
+  auto plan = validation::readCampaignPlan(o.plan);
+  if (!plan) return reportError(plan.error());
+  if (o.group >= static_cast<int>(plan->groups.size())) {
+    return reportError(Error{fmt::format("--group {}: the plan {} has groups 0 to {}", o.group, o.plan,
+                                         plan->groups.size() - 1)});
+  }
+  if (!o.corrections.empty() && o.corrections != plan->corrections) {
+    return reportError(Error{fmt::format("--corrections {}: the plan was made with '{}'", o.corrections,
+                                         plan->corrections)});
+  }
+  auto model = modelOf(plan->corrections, o.detector, calo);
+  if (!model) return reportError(model.error());
+  const validation::CampaignGroup& g = plan->groups[static_cast<std::size_t>(o.group)];
+  auto db = conddb::Database::open(o.conditions, true);
+  if (!db) return reportError(db.error());
+  auto done = validation::groupsInTag(**db, o.tag, plan->groups);
+  if (!done) return reportError(done.error());
+  if ((*done)[static_cast<std::size_t>(o.group)]) {
+    fmt::print(reportStream(), "group {} (runs {}-{}) is in tag {} already: nothing to do\n", g.index, g.iovFirst,
+               g.iovLast, o.tag);
+    return kExitOk;
+  }
+  calib::ProfileFill fill{calib::CutFlow{}, calib::Profiles(model->profile)};
+  for (const auto& file : g.files) {
+    auto byRun = calib::fillProfilesByRun(file, model->geometry.depth, model->selection, model->profile);
+    if (!byRun) return reportError(byRun.error());
+    for (std::int32_t run : g.runs) {
+      if (auto it = byRun->find(run); it != byRun->end()) fill.merge(it->second);
+    }
+  }
+  if (fill.cutFlow.events.back() != g.selected) {
+    return reportError(Error{fmt::format("group {}: {} selected events in its files, the plan counted {} (the files "
+                                         "changed since the plan was made?)",
+                                         g.index, fill.cutFlow.events.back(), g.selected)});
+  }
+  auto fit = validation::fitGroup(g, fill, *model, plan->digests, plan->minEvents,
+                                  static_cast<int>(plan->groups.size()));
+  if (!fit) return reportError(fit.error());
+  if (!usable(fit->result.status)) {
+    return reportError(Error{fmt::format("group {} (runs {}-{}): the fit's status is '{}': not stored", g.index,
+                                         g.iovFirst, g.iovLast, name(fit->result.status))});
+  }
+  if (Status s = (*db)->put(o.tag, g.iovFirst, g.iovLast, fit->payload, true, o.description); !s) {
+    return reportError(s.error());
+  }
+  fmt::print(reportStream(), "group {} (runs {}-{}, {} selected events): {}, chi2/ndf {:.1f}/{} -> {} tag {}\n",
+             g.index, g.iovFirst, g.iovLast, g.selected, name(fit->result.status), fit->result.chi2, fit->result.ndf,
+             (*db)->uri(), o.tag);
+  return kExitOk;
+}
+
+int run(const CampaignCliOptions& o) {
+  auto calo = loadCalorimeter(o.detector);
+  if (!calo) return reportError(calo.error());
+  if (o.group >= 0) return runGroup(o, *calo);
+
+  auto files = eventFiles(o.inputs);
+  if (!files) return reportError(files.error());
+  std::vector<io::NamedPath> inputs;
+  for (const auto& f : *files) inputs.push_back({"", f});
+  const bool planOnly = !o.plan.empty();
+  if (Status s = checkOutputs(planOnly ? std::vector<io::NamedPath>{{"--plan", o.plan}} : std::vector<io::NamedPath>{},
+                              {}, inputs);
+      !s) {
+    return reportError(s.error());
+  }
+  auto model = modelOf(o.corrections, o.detector, *calo);
+  if (!model) return reportError(model.error());
+  std::unique_ptr<conddb::Database> db;
+  if (!planOnly) {
+    auto opened = conddb::Database::open(o.conditions, true);
+    if (!opened) return reportError(opened.error());
+    db = std::move(*opened);
+  }
+
+  ProgressLine scanning("campaign: reading", static_cast<std::int64_t>(files->size()), "files");
+  validation::ScanOptions so;
+  so.threads = o.threads;
+  so.progress = [&](std::size_t done, std::size_t) { scanning.update(static_cast<std::int64_t>(done)); };
+  auto scan = validation::scanRuns(*files, *model, so);
+  scanning.finish();
+  if (!scan) return reportError(scan.error());
+  const auto groups = validation::planGroups(*scan, o.minEvents);
+  fmt::print(reportStream(), "read {} files, {} runs ({}-{}) in {:.1f} s\n", files->size(), scan->runs.size(),
+             scan->runs.front().run, scan->runs.back().run, scanning.elapsed());
+  printGroups(groups, o.minEvents);
+  if (planOnly) {
+    const io::Json plan = validation::planJson(*scan, groups, o.minEvents, *model);
+    if (Status s = io::writeOutputFile(o.plan, plan.dump(1) + "\n"); !s) return reportError(s.error());
+    fmt::print(reportStream(), "wrote the job list {}: run group K with\n  emcalign campaign --plan {} --group K "
+               "--conditions URI --tag T\n",
+               o.plan, o.plan);
+    return kExitOk;
+  }
+
+  ProgressLine fitting("campaign: fitting", static_cast<std::int64_t>(groups.size()), "groups");
+  validation::CalibrationCampaignOptions co;
+  co.minEvents = o.minEvents;
+  co.threads = o.threads;
+  co.description = o.description;
+  co.progress = [&](int done, int, const validation::CampaignGroup&, const std::string&) { fitting.update(done); };
+  auto report = validation::runCampaign(*scan, *model, *db, o.tag, co);
+  fitting.finish();
+  if (!report) return reportError(report.error());
+  for (const auto& w : report->warnings) reportWarning(w);
+  for (const auto& f : report->failures) reportWarning(f);
+  fmt::print(reportStream(), "campaign: {} groups: {} fitted and stored, {} in tag {} already, {} failed ({:.1f} s) -> {}\n",
+             report->groups, report->fitted, report->resumed, o.tag, report->failures.size(), fitting.elapsed(),
+             db->uri());
+  if (!report->failures.empty()) {
+    return reportError(Error{fmt::format("{} of {} groups were not stored: the IOVs do not tile the runs (see the "
+                                         "warnings; a rerun fits only the missing groups)",
+                                         report->failures.size(), report->groups)});
+  }
+  return kExitOk;
+}
+
+}  // namespace
+
+void addCampaignCommand(CLI::App& app, int& exitCode) {
+  auto o = std::make_shared<CampaignCliOptions>();
+  auto* cmd = app.add_subcommand("campaign",
+                                 "Calibrate a period: group runs until each group has --min-events selected events, "
+                                 "fit every group, store one IOV per group in a conditions tag");
+  addVersionFlag(*cmd);
+  cmd->add_option("inputs", o->inputs, "a directory of event files (*.h5, *.csv), or event files")
+      ->check(CLI::ExistingPath);
+  auto* conditions = cmd->add_option("--conditions", o->conditions,
+                                     "conditions database: sqlite:PATH (created if new), or postgresql://...");
+  cmd->add_option("--tag", o->tag, "the tag to write (created if new); a rerun skips its groups already there")
+      ->check([](const std::string& t) {
+        Status s = conddb::checkTagName(t);
+        return s ? std::string() : s.error().message;
+      });
+  cmd->add_option("--min-events", o->minEvents, "selected events per calibration (the paper: about 50 000)")
+      ->check(integerIn(1, kMaxEvents));
+  cmd->add_option("--threads", o->threads, "worker threads (0: all cores)")->check(integerIn(0, kMaxThreads));
+  cmd->add_option("--corrections", o->corrections, "model corrections for every fit (emcalign derive-corrections)")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--plan", o->plan,
+                  "with inputs: write the groups as a job list (JSON) and stop; with --group: the job list to run "
+                  "from");
+  cmd->add_option("--group", o->group, "run only this group of --plan (a batch array job)")
+      ->check(integerIn(0, 10'000'000));
+  cmd->add_option("--description", o->description, "description of a new tag");
+  addDetectorOption(*cmd, o->detector);
+  cmd->callback([o, cmd, conditions, &exitCode] {
+    const bool group = cmd->count("--group") > 0;
+    if (group) {
+      if (o->plan.empty()) throw CLI::RequiredError("--plan (with --group)");
+      if (!o->inputs.empty()) throw CLI::ExcludesError("--group", "inputs (the plan names the files)");
+    } else if (o->inputs.empty()) {
+      throw CLI::RequiredError("inputs (a directory or event files)");
+    }
+    const bool planOnly = !o->plan.empty() && !group;
+    if (!planOnly && (conditions->count() == 0 || o->tag.empty())) {
+      throw CLI::RequiredError("--conditions URI and --tag T");
+    }
+    if (!group && !o->plan.empty() && conditions->count() > 0) {
+      throw CLI::ExcludesError("--plan (writing the job list)", "--conditions");
+    }
+    exitCode = run(*o);
+  });
+}
+
+}  // namespace emcalign::app

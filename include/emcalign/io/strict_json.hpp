@@ -1,0 +1,98 @@
+#pragma once
+// Strict reading of JSON inputs (the readers of io/json_files.cpp, the period scenario, …):
+// an object whose keys are checked against the allowed ones, values of the expected type,
+// and an error that names the file and the key path ("s.json: key 'segments[1].from_run':
+// expected an integer"). The readers throw BadInput inside `guarded`, which returns it as an
+// Error.
+
+#include <cmath>
+#include <initializer_list>
+#include <string>
+#include <string_view>
+
+#include <fmt/format.h>
+
+#include "emcalign/core/result.hpp"
+#include "emcalign/io/json_files.hpp"
+
+namespace emcalign::io::strict {
+
+// Internal: the readers below throw this and the public functions turn it into an Error.
+struct BadInput {
+  std::string message;
+};
+
+inline std::string join(std::string_view path, std::string_view key) {
+  return path.empty() ? std::string(key) : fmt::format("{}.{}", path, key);
+}
+
+inline std::string typeName(const Json& j) { return j.type_name(); }
+
+// A JSON object whose keys are checked against the allowed ones.
+class StrictObject {
+ public:
+  StrictObject(const Json& j, std::string path, std::string_view source)
+      : j_(j), path_(std::move(path)), source_(source) {
+    if (!j.is_object()) {
+      fail(path_.empty() ? "the document" : path_, fmt::format("expected an object, got {}", typeName(j)));
+    }
+  }
+
+  void allowOnly(std::initializer_list<std::string_view> allowed) const {
+    for (const auto& [key, value] : j_.items()) {
+      bool known = false;
+      for (auto a : allowed) known = known || a == key;
+      if (!known) {
+        std::string list;
+        for (auto a : allowed) list += fmt::format("{}{}", list.empty() ? "" : ", ", a);
+        fail(join(path_, key), fmt::format("unknown key (allowed here: {})", list));
+      }
+    }
+  }
+
+  bool has(std::string_view key) const { return j_.contains(key); }
+  const Json& at(std::string_view key) const {
+    if (!has(key)) fail(join(path_, key), "missing");
+    return j_.at(std::string(key));
+  }
+  std::string pathOf(std::string_view key) const { return join(path_, key); }
+
+  double number(std::string_view key) const { return numberValue(at(key), pathOf(key)); }
+  double number(std::string_view key, double fallback) const {
+    return has(key) ? number(key) : fallback;
+  }
+  std::string string(std::string_view key) const {
+    const Json& v = at(key);
+    if (!v.is_string()) fail(pathOf(key), fmt::format("expected a string, got {}", typeName(v)));
+    return v.get<std::string>();
+  }
+
+  double numberValue(const Json& v, const std::string& where) const {
+    if (!v.is_number()) fail(where, fmt::format("expected a number, got {}", typeName(v)));
+    const double x = v.get<double>();
+    if (!std::isfinite(x)) fail(where, "not a finite number");
+    return x;
+  }
+
+  [[noreturn]] void fail(std::string_view where, std::string_view what) const {
+    throw BadInput{fmt::format("{}: key '{}': {}", source_, where, what)};
+  }
+
+ private:
+  const Json& j_;
+  std::string path_;
+  std::string_view source_;
+};
+
+template <typename F>
+auto guarded(F&& f) -> Result<decltype(f())> {
+  try {
+    return f();
+  } catch (const BadInput& e) {
+    return Error{e.message};
+  } catch (const Json::exception& e) {
+    return Error{e.what()};
+  }
+}
+
+}  // namespace emcalign::io::strict

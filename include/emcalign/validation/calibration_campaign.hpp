@@ -1,0 +1,135 @@
+#pragma once
+// The calibration of a period run by run (docs/campaign.md; the paper, section 5): the runs
+// grouped until each group has enough selected e+e- → e+e- events for one calibration, each
+// group fitted, and its result stored as one IOV of a conditions tag.
+//
+// 1. Scan: every file is read once (files in parallel); each run's selected events fill its
+//    own profiles, and the file's SHA-256 is taken for the provenance.
+// 2. Plan: consecutive runs of one beam energy are grouped until a group has min_events
+//    selected events; a group left short joins the previous group of its energy (or the
+//    next one); an energy point short as a whole stays one short group. The IOVs tile the
+//    runs: a group's IOV runs from its first run to the run before the next group's first
+//    (runs missing from the files are covered by the IOV around them).
+// 3. Fit: each group's profile is the merge of its runs' (the same as filling it from all
+//    their particles), fitted like `emcalign fit` (with the model corrections if given);
+//    groups in parallel. Each result goes into the tag in its own transaction, so an
+//    interrupted campaign keeps what it finished and a rerun skips the IOVs already there.
+// The plan can be written as a job list and one group run from it (a batch system's array
+// job against a shared PostgreSQL database).
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "emcalign/calib/calibration.hpp"
+#include "emcalign/calib/corrections.hpp"
+#include "emcalign/calib/fit.hpp"
+#include "emcalign/conddb/conditions.hpp"
+#include "emcalign/core/result.hpp"
+#include "emcalign/io/json_files.hpp"
+
+namespace emcalign::validation {
+
+inline constexpr std::string_view kCampaignPlanFormat = "emcalign-campaign-plan/1";
+
+/// One run as the scan found it.
+struct CampaignRun {
+  std::int32_t run = 0;
+  double beamEnergy = 0.0;  ///< MeV (of its selected events; NaN when none was selected)
+  std::int64_t selected = 0;
+  std::vector<std::size_t> files;  ///< indices into the scan's files
+  calib::ProfileFill fill;
+};
+
+struct CampaignScan {
+  std::vector<std::string> files;
+  std::vector<std::string> digests;  ///< SHA-256 of each file (empty when not taken)
+  std::vector<CampaignRun> runs;     ///< by run number
+};
+
+/// How the events are turned into profiles and fitted: the fit's geometry and corrections.
+struct CampaignModel {
+  calib::FitGeometry geometry;
+  calib::ProfileOptions profile;  ///< with the corrections' parting plane / nominal profile
+  calib::SelectionOptions selection;
+  std::string corrections;  ///< the corrections file (empty: none), for the provenance
+  std::string detector = "embedded default";
+};
+
+struct ScanOptions {
+  int threads = 0;  ///< 0: all cores
+  bool digests = true;
+  std::function<void(std::size_t filesDone, std::size_t files)> progress;
+};
+
+/// Reads every file once. A run with events of two beam energies is an error.
+Result<CampaignScan> scanRuns(const std::vector<std::string>& files, const CampaignModel& model,
+                              const ScanOptions& options);
+
+struct CampaignGroup {
+  int index = 0;
+  std::int64_t iovFirst = 0, iovLast = 0;  ///< the IOV it is stored under (inclusive)
+  std::vector<std::int32_t> runs;          ///< the runs whose events it holds
+  std::vector<std::string> files;          ///< the files holding them
+  double beamEnergy = 0.0;                 ///< MeV; NaN when the group has no selected event
+  std::int64_t selected = 0;
+  bool isShort = false;                    ///< fewer than min_events selected events
+};
+
+/// Groups the scanned runs (see the top of this file).
+std::vector<CampaignGroup> planGroups(const CampaignScan& scan, std::int64_t minEvents);
+
+/// The job list: {"format", "min_events", "inputs": [{"file", "sha256"}], "groups": [{"group",
+/// "iov": [first, last], "runs": [...], "files": [...], "beam_energy_mev", "selected_events",
+/// "short"}]}.
+io::Json planJson(const CampaignScan& scan, const std::vector<CampaignGroup>& groups, std::int64_t minEvents,
+                  const CampaignModel& model);
+struct CampaignPlan {
+  std::int64_t minEvents = 0;
+  std::map<std::string, std::string> digests;  ///< file → SHA-256
+  std::vector<CampaignGroup> groups;
+  std::string corrections, detector;
+};
+Result<CampaignPlan> readCampaignPlan(const std::string& path);
+
+/// One group fitted: its result file (SPEC §3) and the payload to store.
+struct GroupFit {
+  calib::FitResult result;
+  io::Json resultJson;
+  conddb::Payload payload;
+};
+
+/// Fits a group from the merged fills of its runs.
+Result<GroupFit> fitGroup(const CampaignGroup& group, const calib::ProfileFill& fill, const CampaignModel& model,
+                          const std::map<std::string, std::string>& digests, std::int64_t minEvents, int groups);
+
+struct CalibrationCampaignOptions {
+  std::int64_t minEvents = 50000;
+  int threads = 0;
+  std::string description;  ///< of a new tag
+  /// Called as groups finish: (done, to do, the group, its status or the reason it failed).
+  std::function<void(int done, int total, const CampaignGroup& group, const std::string& status)> progress;
+};
+
+struct CampaignReport {
+  int groups = 0, fitted = 0, resumed = 0;
+  std::vector<std::string> failures;  ///< groups that could not be stored, in words
+  std::vector<std::string> warnings;  ///< poor fits, short groups
+};
+
+/// Plans the scanned runs, fits every group not yet in the tag and stores it. The tag's IOVs
+/// must be a subset of the plan's (a rerun of the same campaign); anything else is refused
+/// before any fit.
+Result<CampaignReport> runCampaign(const CampaignScan& scan, const CampaignModel& model, conddb::Database& db,
+                                   const std::string& tag, const CalibrationCampaignOptions& options);
+
+/// The IOVs of `groups` already in the tag, by group index; an IOV of the tag that is not
+/// one of the groups' is an error (another plan was run into this tag).
+Result<std::vector<bool>> groupsInTag(conddb::Database& db, const std::string& tag,
+                                      const std::vector<CampaignGroup>& groups);
+
+}  // namespace emcalign::validation

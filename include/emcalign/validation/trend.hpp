@@ -1,0 +1,132 @@
+#pragma once
+// The time evolution of the calibration (docs/campaign.md; the paper's Fig. 8): each
+// parameter of a tag's IOVs against run, cut into stable segments where the data demand a
+// step, with a slope test inside each segment (the paper's quality control: "steady changes
+// indicate incorrect reconstruction").
+//
+// Steps. Each parameter's series (value ± error per IOV, at the IOV's middle run) is cut by
+// optimal partitioning (exact; Jackson et al. 2005, what PELT computes faster) with
+//   cost(segment) = min over a, b of Σ ((y_i − a − b·x_i) / (s·σ_i))²
+// — a Gaussian cost with known variance, each segment a straight line, so that a drift is one
+// sloped segment and not a staircase — and a penalty per change of (k + 2)·ln n with k = 2
+// parameters per segment: MBIC's 3·ln n for a change in one parameter (Zhang & Siegmund
+// 2007) with one ln n more for the slope. s ≥ 1 scales the errors up when the IOV-to-IOV
+// scatter is larger than they say (the median of |Δy|/√(σ_i² + σ_{i+1}²) over 0.6745, the
+// normal's median absolute value; robust to the steps themselves). A change is reported as a
+// step when the jump between the two segments' models at the boundary is at least 3 times
+// its error; a change without a jump (a drift starting) is left to the drift test.
+// Drifts. In every segment, the fitted slope against zero: flagged when its two-sided
+// p-value times the number of segments tested (all parameters) is below 0.01 (Bonferroni).
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "emcalign/conddb/conditions.hpp"
+#include "emcalign/core/result.hpp"
+#include "emcalign/io/json_files.hpp"
+
+namespace emcalign::validation {
+
+inline constexpr std::string_view kTrendFormat = "emcalign-trend/1";
+
+struct TrendPoint {
+  std::int64_t firstRun = 0, lastRun = 0;  ///< the IOV
+  double value = 0.0, error = 0.0;         ///< file units (deg, cm)
+  double x() const { return 0.5 * static_cast<double>(firstRun + lastRun); }
+};
+
+struct TrendSeries {
+  std::string parameter;  ///< the 12 fit names, then beta, psi, mu, tau, dx_rel
+  std::string unit;       ///< "deg" or "cm"
+  std::vector<TrendPoint> points;
+};
+
+/// The 17 series of a tag (the 12 parameters with their errors, and the derived β, ψ, μ, τ,
+/// dx_rel with theirs), from its payloads. IOVs whose payload has no errors are an error.
+Result<std::vector<TrendSeries>> seriesOfTag(conddb::TagSnapshot& tag);
+
+/// A straight line fitted to points [begin, end) of a series (errors scaled).
+struct LineFit {
+  std::size_t begin = 0, end = 0;
+  double xRef = 0.0;                 ///< the line is a + b·(x − xRef)
+  double a = 0.0, b = 0.0;           ///< with b = 0 for the constant model
+  double varA = 0.0, varB = 0.0, covAB = 0.0;
+  double chi2 = 0.0;
+  double value(double x) const { return a + b * (x - xRef); }
+  double error(double x) const;
+};
+
+struct SegmentTest {
+  std::size_t begin = 0, end = 0;  ///< points [begin, end)
+  LineFit constant, line;
+  double slopeZ = 0.0, pValue = 1.0;
+  bool drift = false;  ///< flagged (Bonferroni over every segment tested)
+  const LineFit& model() const { return drift ? line : constant; }
+};
+
+struct TrendStep {
+  std::string parameter, unit;
+  std::size_t index = 0;            ///< the first point after the step
+  std::int64_t firstRunAfter = 0;
+  double size = 0.0, error = 0.0;   ///< after − before, at the boundary
+  double z() const { return error > 0.0 ? size / error : 0.0; }
+};
+
+struct TrendDrift {
+  std::string parameter, unit;
+  std::int64_t firstRun = 0, lastRun = 0;
+  double slopePerRun = 0.0, error = 0.0, z = 0.0, pValue = 1.0;
+};
+
+struct SeriesAnalysis {
+  std::string parameter, unit;
+  double errorScale = 1.0;
+  std::vector<std::size_t> changes;  ///< every change found (points where a segment starts)
+  std::vector<SegmentTest> segments;
+};
+
+/// A stable period: between steps (steps of different parameters within one IOV of each
+/// other are one reassembly).
+struct TrendSegment {
+  std::size_t begin = 0, end = 0;  ///< IOVs [begin, end)
+  std::int64_t firstRun = 0, lastRun = 0;
+  std::vector<std::string> stepsAtStart;  ///< parameters that stepped where it starts
+  std::vector<std::string> drifting;      ///< parameters with a flagged drift inside it
+};
+
+struct TrendOptions {
+  std::size_t minSegment = 3;  ///< points per segment
+  double stepZ = 3.0;          ///< jump / error for a change to count as a step
+  double driftAlpha = 0.01;    ///< family-wise false-flag rate of the drift tests
+  std::optional<double> penalty;  ///< default (k + 2)·ln n
+};
+
+struct Trend {
+  std::vector<SeriesAnalysis> series;
+  std::vector<TrendStep> steps;
+  std::vector<TrendDrift> drifts;  ///< the flagged ones
+  std::vector<TrendSegment> segments;
+  std::size_t iovs = 0;
+  double penalty = 0.0;
+  int tests = 0;  ///< segments tested for a drift
+};
+
+/// The change points of one series (optimal partitioning, see above); `scale` multiplies
+/// the errors.
+std::vector<std::size_t> changePoints(const TrendSeries& s, double scale, double penalty, std::size_t minSegment);
+/// s of the top of this file (≥ 1).
+double errorScale(const TrendSeries& s);
+/// Weighted least squares of points [begin, end): a line, or a constant (`withSlope` false).
+LineFit fitLine(const TrendSeries& s, std::size_t begin, std::size_t end, double scale, bool withSlope);
+
+Trend analyseTrend(const std::vector<TrendSeries>& series, const TrendOptions& options = {});
+
+/// trend.json: {"format", "steps": [{"parameter", "first_run_after", "size", "error", "z",
+/// "unit"}], "drifts": [...], "segments": [...], "series": [...]}.
+io::Json trendJson(const Trend& t, const std::vector<TrendSeries>& series);
+/// trend.md: the same in words.
+std::string trendMarkdown(const Trend& t, const std::vector<TrendSeries>& series, const std::string& source);
+
+}  // namespace emcalign::validation

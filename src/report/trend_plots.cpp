@@ -1,0 +1,125 @@
+#include "emcalign/report/trend_plots.hpp"
+
+#include <algorithm>
+#include <iterator>
+
+#include <fmt/format.h>
+
+#include "gnuplot.hpp"
+
+namespace emcalign::report {
+
+namespace {
+
+using namespace detail;
+namespace fs = std::filesystem;
+
+// How a parameter is named on an axis.
+std::string axisName(const std::string& p) {
+  static const std::pair<const char*, const char*> names[] = {
+      {"alpha", "α"},   {"beta1", "β_1"}, {"beta2", "β_2"},  {"dx", "dx"},         {"dy", "dy"},
+      {"dz", "dz"},     {"dp1", "dp_1"},  {"dp2", "dp_2"},   {"dp3", "dp_3"},      {"dy_rel", "dy_{rel}"},
+      {"dz_rel", "dz_{rel}"}, {"beta_rel", "β_{rel}"}, {"beta", "β"}, {"psi", "ψ"}, {"mu", "μ"},
+      {"tau", "τ"},     {"dx_rel", "dx_{rel}"}};
+  for (const auto& [k, v] : names) {
+    if (p == k) return v;
+  }
+  return plainText(p);
+}
+
+std::string dataOf(const TrendFigure& f) {
+  fmt::memory_buffer out;
+  fmt::format_to(std::back_inserter(out),
+                 "# emcalign trend of {} ({}): index 0 the IOVs (columns: middle run, value, error, first run, last "
+                 "run), index 1 the segments' lines, index 2 the truth\n",
+                 plainText(f.parameter), f.unit);
+  for (const auto& p : f.points) {
+    fmt::format_to(std::back_inserter(out), "{:.1f} {:.8g} {:.6g} {:.0f} {:.0f}\n", p.x, p.y, p.error, p.firstRun,
+                   p.lastRun);
+  }
+  fmt::format_to(std::back_inserter(out), "\n\n");
+  for (const auto& l : f.segments) {
+    fmt::format_to(std::back_inserter(out), "{:.1f} {:.8g} {}\n{:.1f} {:.8g} {}\n\n", l.x0, l.y0, l.drift ? 1 : 0,
+                   l.x1, l.y1, l.drift ? 1 : 0);
+  }
+  fmt::format_to(std::back_inserter(out), "\n");
+  if (f.truth.empty()) fmt::format_to(std::back_inserter(out), "NaN NaN\n");
+  for (const auto& [x, y] : f.truth) fmt::format_to(std::back_inserter(out), "{:.1f} {:.8g}\n", x, y);
+  return fmt::to_string(out);
+}
+
+// The plot commands of one panel (its data file is trend_<parameter>.dat).
+std::string panel(const TrendFigure& f, bool key, int fontSize) {
+  std::string s;
+  s += fmt::format("set ylabel \"{} [{}]\" font ',{}'\n", axisName(f.parameter), f.unit, fontSize);
+  s += "unset arrow\n";
+  for (double x : f.steps) {
+    s += fmt::format("set arrow from {:.1f}, graph 0 to {:.1f}, graph 1 nohead lw 1.5 dt 2 lc rgb '#d62728'\n",
+                     x - 0.5, x - 0.5);
+  }
+  if (key) {
+    s += "set key top left Left reverse samplen 2 font ',10' opaque\n";
+  } else {
+    s += "unset key\n";
+  }
+  const std::string data = fmt::format("'trend_{}.dat'", f.parameter);
+  s += fmt::format(
+      "plot {0} index 2 using 1:2 with steps lw 1.2 lc rgb '#555555' title '{1}', \\\n"
+      "     {0} index 0 using 1:2:4:5:($2-$3):($2+$3) with xyerrorbars pt 7 ps 0.35 lc rgb '#1f77b4' title 'IOVs', \\\n"
+      "     {0} index 1 using 1:($3 == 0 ? $2 : NaN) with lines lw 2 lc rgb '#2ca02c' title 'stable segments', \\\n"
+      "     {0} index 1 using 1:($3 == 1 ? $2 : NaN) with lines lw 2.5 dt 2 lc rgb '#ff7f0e' title 'drift'\n",
+      data, f.truth.empty() ? "" : "truth");
+  return s;
+}
+
+std::string common() {
+  return "set grid lc rgb '#e0e0e0' lt 1\nset tics front\nset format x '%.0f'\nset xlabel 'run'\n"
+         "set mxtics 2\n";
+}
+
+}  // namespace
+
+Result<std::vector<std::string>> writeTrendPlots(const std::string& dir, const std::vector<TrendFigure>& figures,
+                                                 const std::string& title) {
+  if (figures.empty()) return Error{"trend figures: no parameter"};
+  const fs::path out(dir);
+  if (Status s = createPlotDirectory(out); !s) return s.error();
+  std::vector<Figure> scripts;
+  for (const auto& f : figures) {
+    if (Status s = writeFile(out, fmt::format("trend_{}.dat", f.parameter), dataOf(f)); !s) return s.error();
+    std::string s = terminalHeader("trend_" + f.parameter, 1400, 560) + common();
+    s += fmt::format("set title \"{}: {} against run ({} IOVs, {} steps)\" font ',13'\n", plainText(title),
+                     axisName(f.parameter), f.points.size(), f.steps.size());
+    s += panel(f, true, 12);
+    scripts.push_back({"trend_" + f.parameter, s});
+  }
+  // The paper's Fig. 8: α, dx, μ, ψ.
+  std::vector<const TrendFigure*> four;
+  for (const char* p : {"alpha", "dx", "mu", "psi"}) {
+    auto it = std::find_if(figures.begin(), figures.end(), [&](const TrendFigure& f) { return f.parameter == p; });
+    if (it != figures.end()) four.push_back(&*it);
+  }
+  if (!four.empty()) {
+    std::string s = terminalHeader("fig8", 1600, 1000) + common();
+    s += fmt::format("set multiplot layout 2,2 title \"{}: the time evolution of α, dx, μ, ψ (the paper's Fig. 8)\" "
+                     "font ',14'\n",
+                     plainText(title));
+    for (std::size_t k = 0; k < four.size(); ++k) s += panel(*four[k], k == 0, 11);
+    s += "unset multiplot\n";
+    scripts.push_back({"fig8", s});
+  }
+  {
+    const int columns = 3;
+    const int rows = static_cast<int>((figures.size() + columns - 1) / columns);
+    std::string s = terminalHeader("trend_all", 2100, 330 * rows) + common();
+    s += "set xlabel ''\nset format x '%.0f'\nset tics font ',8'\n";
+    s += fmt::format("set multiplot layout {},{} title \"{}: every parameter against run\" font ',15'\n", rows,
+                     columns, plainText(title));
+    for (std::size_t k = 0; k < figures.size(); ++k) s += panel(figures[k], false, 10);
+    s += "unset multiplot\n";
+    scripts.push_back({"trend_all", s});
+  }
+  return drawFigures(out, scripts);
+}
+
+}  // namespace emcalign::report

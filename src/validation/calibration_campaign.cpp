@@ -1,0 +1,383 @@
+#include "emcalign/validation/calibration_campaign.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <limits>
+#include <mutex>
+
+#include <fmt/format.h>
+#include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include "emcalign/core/sha256.hpp"
+#include "emcalign/core/version.hpp"
+#include "emcalign/io/strict_json.hpp"
+
+namespace emcalign::validation {
+
+using io::Json;
+
+namespace {
+
+constexpr double kNoEnergy = std::numeric_limits<double>::quiet_NaN();
+
+bool sameEnergy(double a, double b) { return std::isnan(a) || std::isnan(b) || a == b; }
+
+}  // namespace
+
+Result<CampaignScan> scanRuns(const std::vector<std::string>& files, const CampaignModel& model,
+                              const ScanOptions& o) {
+  if (files.empty()) return Error{"no event files to calibrate"};
+  CampaignScan scan;
+  scan.files = files;
+  scan.digests.assign(files.size(), "");
+  std::vector<std::optional<Result<std::map<std::int32_t, calib::ProfileFill>>>> perFile(files.size());
+  std::vector<std::string> digestErrors(files.size());
+  std::atomic<std::size_t> done{0};
+  std::mutex progressMutex;
+  const int threads = o.threads > 0 ? o.threads : tbb::this_task_arena::max_concurrency();
+  // Each file is read by a child process (io/event_file.hpp): twice as many readers as
+  // cores keep the cores busy while others wait for their child.
+  tbb::global_control readers(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(2 * threads));
+  tbb::task_arena arena(2 * threads);
+  arena.execute([&] {
+    tbb::parallel_for(std::size_t{0}, files.size(), [&](std::size_t k) {
+      perFile[k] = calib::fillProfilesByRun(files[k], model.geometry.depth, model.selection, model.profile);
+      if (o.digests) {
+        auto d = sha256OfFile(files[k]);
+        if (d) {
+          scan.digests[k] = *d;
+        } else {
+          digestErrors[k] = d.error().message;
+        }
+      }
+      const std::size_t n = ++done;
+      if (o.progress) {
+        std::lock_guard lock(progressMutex);
+        o.progress(n, files.size());
+      }
+    }, tbb::simple_partitioner());
+  });
+  // Merged in the order of the files: the same result on any number of threads.
+  std::map<std::int32_t, CampaignRun> runs;
+  for (std::size_t k = 0; k < files.size(); ++k) {
+    if (!perFile[k]->ok()) return perFile[k]->error();
+    if (!digestErrors[k].empty()) return Error{digestErrors[k]};
+    for (auto& [run, fill] : **perFile[k]) {
+      auto [it, fresh] = runs.try_emplace(run);
+      CampaignRun& r = it->second;
+      if (fresh) {
+        r.run = run;
+        r.fill = std::move(fill);
+      } else {
+        r.fill.merge(fill);
+      }
+      r.files.push_back(k);
+    }
+  }
+  for (auto& [run, r] : runs) {
+    if (r.fill.beamEnergies.size() > 1) {
+      return Error{fmt::format("run {}: selected events of {} beam energies ({:.3f} ... {:.3f} MeV): a run has one "
+                               "(files of two runs with one number?)",
+                               run, r.fill.beamEnergies.size(), *r.fill.beamEnergies.begin(),
+                               *r.fill.beamEnergies.rbegin())};
+    }
+    r.beamEnergy = r.fill.beamEnergies.empty() ? kNoEnergy : *r.fill.beamEnergies.begin();
+    r.selected = r.fill.cutFlow.events.back();
+    scan.runs.push_back(std::move(r));
+  }
+  return scan;
+}
+
+std::vector<CampaignGroup> planGroups(const CampaignScan& scan, std::int64_t minEvents) {
+  // Groups of consecutive runs of one energy, closed when they reach minEvents.
+  struct Draft {
+    std::size_t begin = 0, end = 0;  // runs [begin, end)
+    double energy = kNoEnergy;
+    std::int64_t selected = 0;
+  };
+  std::vector<Draft> drafts;
+  const auto& runs = scan.runs;
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    const CampaignRun& r = runs[i];
+    const bool open = !drafts.empty() && drafts.back().end == i && drafts.back().selected < minEvents &&
+                      sameEnergy(drafts.back().energy, r.beamEnergy);
+    if (!open) drafts.push_back({i, i, kNoEnergy, 0});
+    Draft& d = drafts.back();
+    d.end = i + 1;
+    d.selected += r.selected;
+    if (std::isnan(d.energy)) d.energy = r.beamEnergy;
+  }
+  // A short group joins a neighbour of its energy: the previous one, else the next one.
+  for (std::size_t k = 0; k < drafts.size();) {
+    if (drafts[k].selected >= minEvents || drafts.size() == 1) {
+      ++k;
+      continue;
+    }
+    const bool prev = k > 0 && sameEnergy(drafts[k - 1].energy, drafts[k].energy);
+    const bool next = k + 1 < drafts.size() && sameEnergy(drafts[k + 1].energy, drafts[k].energy);
+    if (!prev && !next) {
+      ++k;
+      continue;
+    }
+    const std::size_t into = prev ? k - 1 : k + 1;
+    Draft& d = drafts[into];
+    d.begin = std::min(d.begin, drafts[k].begin);
+    d.end = std::max(d.end, drafts[k].end);
+    d.selected += drafts[k].selected;
+    if (std::isnan(d.energy)) d.energy = drafts[k].energy;
+    drafts.erase(drafts.begin() + static_cast<std::ptrdiff_t>(k));
+    if (prev) continue;  // the merged group may now be long enough; look at the next
+  }
+  std::vector<CampaignGroup> groups;
+  for (std::size_t k = 0; k < drafts.size(); ++k) {
+    const Draft& d = drafts[k];
+    CampaignGroup g;
+    g.index = static_cast<int>(k);
+    g.iovFirst = k == 0 ? runs[d.begin].run : runs[d.begin].run;
+    g.iovLast = k + 1 < drafts.size() ? std::int64_t{runs[drafts[k + 1].begin].run} - 1 : runs[d.end - 1].run;
+    g.beamEnergy = d.energy;
+    g.selected = d.selected;
+    g.isShort = d.selected < minEvents;
+    std::vector<std::size_t> fileIndices;
+    for (std::size_t i = d.begin; i < d.end; ++i) {
+      g.runs.push_back(runs[i].run);
+      fileIndices.insert(fileIndices.end(), runs[i].files.begin(), runs[i].files.end());
+    }
+    std::sort(fileIndices.begin(), fileIndices.end());
+    fileIndices.erase(std::unique(fileIndices.begin(), fileIndices.end()), fileIndices.end());
+    for (std::size_t f : fileIndices) g.files.push_back(scan.files[f]);
+    groups.push_back(std::move(g));
+  }
+  return groups;
+}
+
+Json planJson(const CampaignScan& scan, const std::vector<CampaignGroup>& groups, std::int64_t minEvents,
+              const CampaignModel& model) {
+  Json inputs = Json::array();
+  for (std::size_t k = 0; k < scan.files.size(); ++k) {
+    inputs.push_back({{"file", scan.files[k]}, {"sha256", scan.digests[k]}});
+  }
+  Json list = Json::array();
+  for (const CampaignGroup& g : groups) {
+    list.push_back({{"group", g.index},
+                    {"iov", {g.iovFirst, g.iovLast}},
+                    {"runs", g.runs},
+                    {"files", g.files},
+                    {"beam_energy_mev", std::isnan(g.beamEnergy) ? Json(nullptr) : Json(g.beamEnergy)},
+                    {"selected_events", g.selected},
+                    {"short", g.isShort}});
+  }
+  return {{"format", kCampaignPlanFormat},
+          {"software", fmt::format("emcalign {}", kVersion)},
+          {"min_events", minEvents},
+          {"corrections", model.corrections},
+          {"detector", model.detector},
+          {"inputs", inputs},
+          {"groups", list}};
+}
+
+Result<CampaignPlan> readCampaignPlan(const std::string& path) {
+  auto text = io::readTextFile(path);
+  if (!text) return text.error();
+  auto j = io::parseJson(*text, path);
+  if (!j) return j.error();
+  try {
+    using io::strict::StrictObject;
+    StrictObject top(*j, "", path);
+    top.allowOnly({"format", "software", "min_events", "corrections", "detector", "inputs", "groups"});
+    if (top.string("format") != kCampaignPlanFormat) {
+      top.fail("format", fmt::format("expected \"{}\"", kCampaignPlanFormat));
+    }
+    CampaignPlan plan;
+    auto n = io::integerIn(top.at("min_events"), 1, std::numeric_limits<std::int64_t>::max(), path, "min_events");
+    if (!n) return n.error();
+    plan.minEvents = *n;
+    plan.corrections = top.string("corrections");
+    plan.detector = top.string("detector");
+    const Json& inputs = top.at("inputs");
+    if (!inputs.is_array()) top.fail("inputs", "expected a list");
+    for (std::size_t i = 0; i < inputs.size(); ++i) {
+      StrictObject in(inputs[i], fmt::format("inputs[{}]", i), path);
+      in.allowOnly({"file", "sha256"});
+      plan.digests[in.string("file")] = in.string("sha256");
+    }
+    const Json& groups = top.at("groups");
+    if (!groups.is_array() || groups.empty()) top.fail("groups", "expected a non-empty list");
+    for (std::size_t i = 0; i < groups.size(); ++i) {
+      const std::string where = fmt::format("groups[{}]", i);
+      StrictObject g(groups[i], where, path);
+      g.allowOnly({"group", "iov", "runs", "files", "beam_energy_mev", "selected_events", "short"});
+      CampaignGroup group;
+      auto index = io::integerIn(g.at("group"), 0, 10'000'000, path, where + ".group");
+      if (!index) return index.error();
+      if (*index != static_cast<std::int64_t>(i)) g.fail(g.pathOf("group"), fmt::format("expected {}", i));
+      group.index = static_cast<int>(*index);
+      const Json& iov = g.at("iov");
+      if (!iov.is_array() || iov.size() != 2) g.fail(g.pathOf("iov"), "expected [first_run, last_run]");
+      auto a = io::integerIn(iov[0], 0, std::numeric_limits<std::int32_t>::max(), path, where + ".iov[0]");
+      auto b = io::integerIn(iov[1], 0, std::numeric_limits<std::int32_t>::max(), path, where + ".iov[1]");
+      if (!a) return a.error();
+      if (!b) return b.error();
+      if (*a > *b) g.fail(g.pathOf("iov"), "the first run is after the last");
+      if (!plan.groups.empty() && *a != plan.groups.back().iovLast + 1) {
+        g.fail(g.pathOf("iov"), "the IOVs of a plan follow each other without a gap");
+      }
+      group.iovFirst = *a;
+      group.iovLast = *b;
+      const Json& runs = g.at("runs");
+      if (!runs.is_array() || runs.empty()) g.fail(g.pathOf("runs"), "expected a non-empty list of runs");
+      for (std::size_t r = 0; r < runs.size(); ++r) {
+        auto run = io::integerIn(runs[r], group.iovFirst, group.iovLast, path, fmt::format("{}.runs[{}]", where, r));
+        if (!run) return run.error();
+        group.runs.push_back(static_cast<std::int32_t>(*run));
+      }
+      const Json& files = g.at("files");
+      if (!files.is_array() || files.empty()) g.fail(g.pathOf("files"), "expected a non-empty list of files");
+      for (const Json& f : files) {
+        if (!f.is_string()) g.fail(g.pathOf("files"), "expected file names");
+        group.files.push_back(f.get<std::string>());
+      }
+      const Json& e = g.at("beam_energy_mev");
+      group.beamEnergy = e.is_null() ? kNoEnergy : g.number("beam_energy_mev");
+      auto selected = io::integerIn(g.at("selected_events"), 0, std::numeric_limits<std::int64_t>::max(), path,
+                                    where + ".selected_events");
+      if (!selected) return selected.error();
+      group.selected = *selected;
+      if (!g.at("short").is_boolean()) g.fail(g.pathOf("short"), "expected true or false");
+      group.isShort = g.at("short").get<bool>();
+      plan.groups.push_back(std::move(group));
+    }
+    return plan;
+  } catch (const io::strict::BadInput& e) {
+    return Error{e.message};
+  }
+}
+
+Result<GroupFit> fitGroup(const CampaignGroup& g, const calib::ProfileFill& fill, const CampaignModel& model,
+                          const std::map<std::string, std::string>& digests, std::int64_t minEvents, int groups) {
+  if (fill.cutFlow.events.back() == 0) {
+    return Error{fmt::format("group {} (runs {}-{}): no selected event", g.index, g.iovFirst, g.iovLast)};
+  }
+  auto result = calib::fitProfiles(fill.profiles.bins(), model.geometry);
+  if (!result) return Error{fmt::format("group {} (runs {}-{}): {}", g.index, g.iovFirst, g.iovLast, result.error().message)};
+  calib::FitInput input;
+  input.files = g.files;
+  input.fill = &fill;
+  input.detector = model.detector;
+  input.depthOffset = model.geometry.depth.offset;
+  if (model.profile.partingPlane) input.partingPlane = model.corrections;
+  if (model.profile.nominalProfile) input.nominalProfile = model.corrections;
+  Json resultJson = calib::fitResultJson(*result, input);
+  Json sha = Json::object();
+  for (const auto& f : g.files) {
+    if (auto it = digests.find(f); it != digests.end() && !it->second.empty()) sha[f] = it->second;
+  }
+  Json provenance = {{"campaign",
+                      {{"group", g.index},
+                       {"groups", groups},
+                       {"min_events", minEvents},
+                       {"runs", g.runs},
+                       {"beam_energy_mev", std::isnan(g.beamEnergy) ? Json(nullptr) : Json(g.beamEnergy)},
+                       {"short", g.isShort}}},
+                     {"input_sha256", sha}};
+  if (!model.corrections.empty()) provenance["corrections"] = model.corrections;
+  auto payload = conddb::makePayload(resultJson, model.geometry.radii.r1, fmt::format("group {}", g.index),
+                                     std::move(provenance));
+  if (!payload) return Error{fmt::format("group {} (runs {}-{}): {}", g.index, g.iovFirst, g.iovLast,
+                                         payload.error().message)};
+  return GroupFit{std::move(*result), std::move(resultJson), std::move(*payload)};
+}
+
+Result<std::vector<bool>> groupsInTag(conddb::Database& db, const std::string& tag,
+                                      const std::vector<CampaignGroup>& groups) {
+  std::vector<bool> done(groups.size(), false);
+  auto iovs = db.iovs(tag);
+  if (!iovs) return iovs.error();
+  for (const conddb::Iov& iov : *iovs) {
+    auto it = std::lower_bound(groups.begin(), groups.end(), iov.firstRun,
+                               [](const CampaignGroup& g, std::int64_t r) { return g.iovFirst < r; });
+    if (it == groups.end() || it->iovFirst != iov.firstRun || it->iovLast != iov.lastRun) {
+      return Error{fmt::format("{}: tag '{}' holds the IOV {}-{}, which is not one of this campaign's groups (another "
+                               "--min-events, other files, another plan): write to a new tag",
+                               db.uri(), tag, iov.firstRun, iov.lastRun)};
+    }
+    done[static_cast<std::size_t>(it - groups.begin())] = true;
+  }
+  return done;
+}
+
+Result<CampaignReport> runCampaign(const CampaignScan& scan, const CampaignModel& model, conddb::Database& db,
+                                   const std::string& tag, const CalibrationCampaignOptions& o) {
+  const std::vector<CampaignGroup> groups = planGroups(scan, o.minEvents);
+  CampaignReport report;
+  report.groups = static_cast<int>(groups.size());
+  if (auto t = db.tag(tag); !t) {
+    return t.error();
+  } else if (t->has_value() && (*t)->state == conddb::TagState::Locked) {
+    return Error{fmt::format("{}: tag '{}' is locked: its IOVs never change (write to a new tag)", db.uri(), tag)};
+  }
+  auto done = groupsInTag(db, tag, groups);
+  if (!done) return done.error();
+  std::vector<std::size_t> todo;
+  for (std::size_t k = 0; k < groups.size(); ++k) {
+    if ((*done)[k]) {
+      ++report.resumed;
+    } else {
+      todo.push_back(k);
+    }
+  }
+  std::map<std::string, std::string> digests;
+  for (std::size_t k = 0; k < scan.files.size(); ++k) digests[scan.files[k]] = scan.digests[k];
+  std::map<std::int32_t, const CampaignRun*> byRun;
+  for (const CampaignRun& r : scan.runs) byRun[r.run] = &r;
+
+  std::mutex dbMutex;  // one connection, one transaction at a time
+  int finished = 0;
+  const int threads = o.threads > 0 ? o.threads : tbb::this_task_arena::max_concurrency();
+  tbb::task_arena arena(threads);
+  arena.execute([&] {
+    tbb::parallel_for(std::size_t{0}, todo.size(), [&](std::size_t t) {
+      const CampaignGroup& g = groups[todo[t]];
+      calib::ProfileFill fill{calib::CutFlow{}, calib::Profiles(model.profile)};
+      for (std::int32_t run : g.runs) fill.merge(byRun.at(run)->fill);
+      auto fit = fitGroup(g, fill, model, digests, o.minEvents, static_cast<int>(groups.size()));
+      std::lock_guard lock(dbMutex);
+      std::string status;
+      if (!fit) {
+        report.failures.push_back(fit.error().message);
+        status = "failed";
+      } else if (!usable(fit->result.status)) {
+        report.failures.push_back(fmt::format("group {} (runs {}-{}): the fit's status is '{}': not stored",
+                                              g.index, g.iovFirst, g.iovLast, name(fit->result.status)));
+        status = std::string(name(fit->result.status));
+      } else if (Status s = db.put(tag, g.iovFirst, g.iovLast, fit->payload, true, o.description); !s) {
+        report.failures.push_back(fmt::format("group {} (runs {}-{}): {}", g.index, g.iovFirst, g.iovLast,
+                                              s.error().message));
+        status = "not stored";
+      } else {
+        ++report.fitted;
+        status = std::string(name(fit->result.status));
+        if (fit->result.status == FitStatus::PoorFit) {
+          report.warnings.push_back(fmt::format("group {} (runs {}-{}): poor fit (chi2/ndf {:.1f}/{})", g.index,
+                                                g.iovFirst, g.iovLast, fit->result.chi2, fit->result.ndf));
+        }
+      }
+      ++finished;
+      if (o.progress) o.progress(finished, static_cast<int>(todo.size()), g, status);
+    }, tbb::simple_partitioner());
+  });
+  for (const CampaignGroup& g : groups) {
+    if (g.isShort) {
+      report.warnings.push_back(fmt::format("group {} (runs {}-{}, {:.1f} MeV): {} selected events, fewer than {} "
+                                            "(its energy point has no more)",
+                                            g.index, g.iovFirst, g.iovLast, g.beamEnergy, g.selected, o.minEvents));
+    }
+  }
+  std::sort(report.failures.begin(), report.failures.end());
+  return report;
+}
+
+}  // namespace emcalign::validation

@@ -1,0 +1,453 @@
+#include "emcalign/validation/period.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <memory>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_pipeline.h>
+#include <tbb/task_arena.h>
+
+#include "emcalign/core/random.hpp"
+#include "emcalign/core/sha256.hpp"
+#include "emcalign/core/units.hpp"
+#include "emcalign/core/version.hpp"
+#include "emcalign/io/event_file.hpp"
+#include "emcalign/io/output_file.hpp"
+#include "emcalign/io/strict_json.hpp"
+
+namespace emcalign::validation {
+
+namespace fs = std::filesystem;
+using geometry::AlignmentParameters;
+using geometry::PhysicalParameters;
+using io::Json;
+using io::strict::BadInput;
+using io::strict::StrictObject;
+
+namespace {
+
+// An integer of the scenario within [lo, hi] (throws BadInput naming the key).
+std::int64_t integer(const Json& v, std::int64_t lo, std::int64_t hi, std::string_view source,
+                     const std::string& key) {
+  auto n = io::integerIn(v, lo, hi, source, key);
+  if (!n) throw BadInput{n.error().message};
+  return *n;
+}
+
+std::pair<std::int64_t, std::int64_t> eventsRange(const Json& v, std::string_view source, const std::string& key) {
+  if (v.is_array()) {
+    if (v.size() != 2) throw BadInput{fmt::format("{}: key '{}': expected a number or [min, max]", source, key)};
+    const auto lo = integer(v[0], 1, kMaxEventsPerRun, source, key + "[0]");
+    const auto hi = integer(v[1], 1, kMaxEventsPerRun, source, key + "[1]");
+    if (lo > hi) throw BadInput{fmt::format("{}: key '{}': min {} is above max {}", source, key, lo, hi)};
+    return {lo, hi};
+  }
+  const auto n = integer(v, 1, kMaxEventsPerRun, source, key);
+  return {n, n};
+}
+
+// Segment values over the previous segment's (parameters or physical, deg and cm).
+AlignmentParameters segmentParameters(const Json& seg, const std::string& path, const AlignmentParameters& previous,
+                                      double r1, std::string_view source) {
+  StrictObject s(seg, path, source);
+  s.allowOnly({"from_run", "parameters", "physical", "comment"});
+  if (s.has("parameters") == s.has("physical")) {
+    s.fail(path, "give \"parameters\" (the 12 fit names) or \"physical\" (the 12 physical names), one of them");
+  }
+  if (s.has("parameters")) {
+    AlignmentParameters eta = previous;
+    StrictObject p(s.at("parameters"), s.pathOf("parameters"), source);
+    for (const auto& [key, value] : s.at("parameters").items()) {
+      const auto q = paramFromName(key);
+      if (!q) p.fail(p.pathOf(key), fmt::format("unknown parameter (the 12 are: {})", fmt::join(kParamNames, ", ")));
+      eta[*q] = p.number(key) * AlignmentParameters::fileUnit(*q);
+    }
+    return eta;
+  }
+  auto phys = geometry::toPhysical(previous, r1);
+  if (!phys) s.fail(path, fmt::format("the previous segment has no physical form: {}", phys.error().message));
+  StrictObject p(s.at("physical"), s.pathOf("physical"), source);
+  for (const auto& [key, value] : s.at("physical").items()) {
+    std::optional<Physical> q;
+    for (std::size_t k = 0; k < kNumParams; ++k) {
+      if (kPhysicalNames[k] == key) q = static_cast<Physical>(k);
+    }
+    if (!q) p.fail(p.pathOf(key), fmt::format("unknown parameter (the 12 are: {})", fmt::join(kPhysicalNames, ", ")));
+    (*phys)[*q] = p.number(key) * PhysicalParameters::fileUnit(*q);
+  }
+  return geometry::fromPhysical(*phys, r1);
+}
+
+// The truth of `run`: its segment's parameters plus the drifts up to it.
+AlignmentParameters truthOf(const PeriodScenario& s, std::int64_t run) {
+  auto seg = std::upper_bound(s.segments.begin(), s.segments.end(), run,
+                              [](std::int64_t r, const PeriodScenario::Segment& g) { return r < g.fromRun; });
+  AlignmentParameters eta = std::prev(seg)->parameters;
+  for (const auto& d : s.drifts) {
+    if (run > d.fromRun) eta[d.parameter] += d.perRun * static_cast<double>(std::min(run, d.toRun) - d.fromRun);
+  }
+  return eta;
+}
+
+const PeriodScenario::EnergyPoint& energyOf(const PeriodScenario& s, std::int64_t run) {
+  auto it = std::upper_bound(s.beamEnergy.begin(), s.beamEnergy.end(), run,
+                             [](std::int64_t r, const PeriodScenario::EnergyPoint& e) { return r < e.fromRun; });
+  return *std::prev(it);
+}
+
+std::uint64_t runSeed(std::uint64_t seed, std::int64_t run) {
+  Rng rng(seed ^ 0x9E71D5EEDULL, static_cast<std::uint64_t>(run) + (1ULL << 41));
+  return rng.next();
+}
+
+}  // namespace
+
+Result<PeriodScenario> parsePeriodScenario(const Json& j, double r1, std::string_view source) {
+  try {
+    PeriodScenario s;
+    s.source = j;
+    StrictObject top(j, "", source);
+    top.allowOnly({"format", "name", "description", "first_run", "runs", "events_per_run", "seed", "theta_range_deg",
+                   "beam_energy_mev", "segments", "drift", "missing_runs", "comment"});
+    if (top.string("format") != kPeriodFormat) top.fail("format", fmt::format("expected \"{}\"", kPeriodFormat));
+    if (top.has("name")) s.name = top.string("name");
+    if (top.has("description")) s.description = top.string("description");
+    s.firstRun = integer(top.at("first_run"), 0, std::numeric_limits<std::int32_t>::max(), source, "first_run");
+    s.runs = integer(top.at("runs"), 1, kMaxPeriodRuns, source, "runs");
+    if (s.lastRun() > std::numeric_limits<std::int32_t>::max()) {
+      top.fail("runs", "the last run is beyond 2^31 - 1 (run numbers are 32-bit in event files)");
+    }
+    s.eventsPerRun = eventsRange(top.at("events_per_run"), source, "events_per_run");
+    if (top.has("seed")) {
+      const Json& seed = top.at("seed");
+      if (!seed.is_number_unsigned()) top.fail("seed", "expected an integer from 0 to 2^64 - 1");
+      s.seed = seed.get<std::uint64_t>();
+    }
+    const Json& theta = top.at("theta_range_deg");
+    if (!theta.is_array() || theta.size() != 2) top.fail("theta_range_deg", "expected [min, max] in degrees");
+    const double t0 = top.numberValue(theta[0], "theta_range_deg[0]");
+    const double t1 = top.numberValue(theta[1], "theta_range_deg[1]");
+    if (!(t0 >= 0.0 && t1 <= 180.0 && t0 < t1)) top.fail("theta_range_deg", "expected 0 <= min < max <= 180");
+    s.thetaMin = t0 * units::deg;
+    s.thetaMax = t1 * units::deg;
+
+    auto fromRuns = [&](const Json& list, const std::string& key) {
+      if (!list.is_array() || list.empty()) top.fail(key, "expected a non-empty list");
+      std::vector<std::int64_t> runs;
+      for (std::size_t i = 0; i < list.size(); ++i) {
+        const std::string path = fmt::format("{}[{}]", key, i);
+        StrictObject e(list[i], path, source);
+        const auto r = integer(e.at("from_run"), s.firstRun, s.lastRun(), source, path + ".from_run");
+        if (i == 0 && r != s.firstRun) e.fail(e.pathOf("from_run"), "the first one must start at first_run");
+        if (i > 0 && r <= runs.back()) e.fail(e.pathOf("from_run"), "expected runs in increasing order");
+        runs.push_back(r);
+      }
+      return runs;
+    };
+    const Json& energies = top.at("beam_energy_mev");
+    const auto energyRuns = fromRuns(energies, "beam_energy_mev");
+    for (std::size_t i = 0; i < energies.size(); ++i) {
+      const std::string path = fmt::format("beam_energy_mev[{}]", i);
+      StrictObject e(energies[i], path, source);
+      e.allowOnly({"from_run", "value", "events_per_run", "comment"});
+      PeriodScenario::EnergyPoint p;
+      p.fromRun = energyRuns[i];
+      p.value = e.number("value");
+      if (!(p.value * units::MeV >= sim::kMinBeamEnergy && p.value * units::MeV <= sim::kMaxBeamEnergy)) {
+        e.fail(e.pathOf("value"), fmt::format("a beam energy from {} to {} MeV", sim::kMinBeamEnergy / units::MeV,
+                                              sim::kMaxBeamEnergy / units::MeV));
+      }
+      if (e.has("events_per_run")) p.eventsPerRun = eventsRange(e.at("events_per_run"), source, path + ".events_per_run");
+      s.beamEnergy.push_back(p);
+    }
+    const Json& segments = top.at("segments");
+    const auto segmentRuns = fromRuns(segments, "segments");
+    AlignmentParameters previous;
+    for (std::size_t i = 0; i < segments.size(); ++i) {
+      previous = segmentParameters(segments[i], fmt::format("segments[{}]", i), previous, r1, source);
+      s.segments.push_back({segmentRuns[i], previous});
+    }
+    if (top.has("drift")) {
+      const Json& drifts = top.at("drift");
+      if (!drifts.is_array()) top.fail("drift", "expected a list");
+      for (std::size_t i = 0; i < drifts.size(); ++i) {
+        const std::string path = fmt::format("drift[{}]", i);
+        StrictObject d(drifts[i], path, source);
+        d.allowOnly({"parameter", "from_run", "to_run", "per_run", "comment"});
+        PeriodScenario::Drift drift;
+        const auto q = paramFromName(d.string("parameter"));
+        if (!q) {
+          d.fail(d.pathOf("parameter"), fmt::format("unknown parameter (the 12 fit names: {})", fmt::join(kParamNames, ", ")));
+        }
+        drift.parameter = *q;
+        drift.fromRun = integer(d.at("from_run"), s.firstRun, s.lastRun(), source, path + ".from_run");
+        drift.toRun = integer(d.at("to_run"), s.firstRun, s.lastRun(), source, path + ".to_run");
+        if (drift.toRun <= drift.fromRun) d.fail(d.pathOf("to_run"), "expected after from_run");
+        drift.perRun = d.number("per_run") * AlignmentParameters::fileUnit(*q);
+        s.drifts.push_back(drift);
+      }
+    }
+    if (top.has("missing_runs")) {
+      const Json& missing = top.at("missing_runs");
+      if (!missing.is_array()) top.fail("missing_runs", "expected a list of runs or [first, last] ranges");
+      for (std::size_t i = 0; i < missing.size(); ++i) {
+        const std::string path = fmt::format("missing_runs[{}]", i);
+        if (missing[i].is_array()) {
+          if (missing[i].size() != 2) top.fail(path, "expected a run or [first, last]");
+          const auto a = integer(missing[i][0], s.firstRun, s.lastRun(), source, path + "[0]");
+          const auto b = integer(missing[i][1], s.firstRun, s.lastRun(), source, path + "[1]");
+          if (a > b) top.fail(path, "the first run is after the last");
+          s.missingRuns.emplace_back(a, b);
+        } else {
+          const auto a = integer(missing[i], s.firstRun, s.lastRun(), source, path);
+          s.missingRuns.emplace_back(a, a);
+        }
+      }
+      std::sort(s.missingRuns.begin(), s.missingRuns.end());
+    }
+    // Every run's truth must be plausible (a unit mistake in a drift shows at its end).
+    for (std::int64_t run = s.firstRun; run <= s.lastRun(); ++run) {
+      if (Status p = geometry::checkPlausible(truthOf(s, run)); !p) {
+        return Error{fmt::format("{}: the truth of run {}: {}", source, run, p.error().message)};
+      }
+    }
+    if (planPeriod(s).empty()) return Error{fmt::format("{}: key 'missing_runs': no run is left", source)};
+    return s;
+  } catch (const BadInput& e) {
+    return Error{e.message};
+  }
+}
+
+Result<PeriodScenario> readPeriodScenario(const std::string& path, double r1) {
+  auto text = io::readTextFile(path);
+  if (!text) return text.error();
+  auto j = io::parseJson(*text, path);
+  if (!j) return j.error();
+  return parsePeriodScenario(*j, r1, path);
+}
+
+std::vector<PeriodRun> planPeriod(const PeriodScenario& s) {
+  std::vector<PeriodRun> out;
+  auto missing = s.missingRuns.begin();
+  for (std::int64_t run = s.firstRun; run <= s.lastRun(); ++run) {
+    while (missing != s.missingRuns.end() && missing->second < run) ++missing;
+    if (missing != s.missingRuns.end() && missing->first <= run) continue;
+    const auto& energy = energyOf(s, run);
+    const auto [lo, hi] = energy.eventsPerRun.value_or(s.eventsPerRun);
+    Rng rng(s.seed, static_cast<std::uint64_t>(run));
+    PeriodRun r;
+    r.run = run;
+    r.events = lo + static_cast<std::int64_t>(rng.uniform() * static_cast<double>(hi - lo + 1));
+    r.events = std::min(r.events, hi);
+    r.beamEnergy = energy.value;
+    r.seed = runSeed(s.seed, run);
+    r.truth = truthOf(s, run);
+    r.file = fmt::format("run_{:06d}.h5", run);
+    out.push_back(std::move(r));
+  }
+  return out;
+}
+
+Json periodTruthJson(const PeriodScenario& s, const std::vector<PeriodRun>& runs, double r1) {
+  Json list = Json::array();
+  for (const PeriodRun& r : runs) {
+    Json derived = Json::object();
+    if (auto phys = geometry::toPhysical(r.truth, r1); phys) {
+      for (Physical p : {Physical::Beta, Physical::Psi, Physical::Mu, Physical::Tau, Physical::DxRel}) {
+        derived[std::string(name(p))] = (*phys)[p] / PhysicalParameters::fileUnit(p);
+      }
+    }
+    list.push_back({{"run", r.run},
+                    {"file", r.file},
+                    {"events", r.events},
+                    {"beam_energy_mev", r.beamEnergy},
+                    {"seed", r.seed},
+                    {"parameters", io::alignmentToJson(r.truth)["parameters"]},
+                    {"derived", derived}});
+  }
+  return {{"format", kPeriodTruthFormat},
+          {"software", fmt::format("emcalign {}", kVersion)},
+          {"scenario", s.source},
+          {"runs", list}};
+}
+
+Result<PeriodReport> simulatePeriod(const PeriodScenario& s, const geometry::Calorimeter& calo,
+                                    const std::string& dir, const PeriodOptions& o) {
+  const std::vector<PeriodRun> runs = planPeriod(s);
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) return Error{fmt::format("{}: cannot create the directory: {}", dir, ec.message())};
+
+  // The directory's period: this one (resume) or none (start).
+  const Json state = {{"format", "emcalign-period-state/1"},
+                      {"scenario", s.source},
+                      {"hits", o.hits},
+                      {"software", fmt::format("emcalign {}", kVersion)}};
+  const std::string statePath = (fs::path(dir) / "period.json").string();
+  if (fs::exists(statePath)) {
+    auto text = io::readTextFile(statePath);
+    if (!text) return text.error();
+    auto old = io::parseJson(*text, statePath);
+    if (!old || !old->is_object() || (*old)["scenario"] != s.source || (*old)["hits"] != o.hits) {
+      return Error{fmt::format("{}: this directory holds another period (another scenario or --no-hits): choose "
+                               "another directory, or remove this one",
+                               dir)};
+    }
+  } else {
+    for (const auto& entry : fs::directory_iterator(dir)) {
+      if (entry.path().filename().string().rfind("run_", 0) == 0) {
+        return Error{fmt::format("{}: holds run files but no period.json: choose another directory", dir)};
+      }
+    }
+    if (Status w = io::writeOutputFile(statePath, state.dump(2) + "\n"); !w) return w.error();
+  }
+
+  PeriodReport report;
+  std::vector<std::size_t> todo;
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    if (fs::exists(fs::path(dir) / runs[k].file)) {
+      ++report.resumed;
+    } else {
+      todo.push_back(k);
+    }
+  }
+
+  // Pieces of at most kPiece events: simulated in parallel, written in order, one file per
+  // run (libhdf5 is used by one thread at a time).
+  constexpr std::int64_t kPiece = 16384;
+  struct Piece {
+    std::size_t run = 0;  // index in runs
+    std::int64_t first = 0, last = 0;
+    std::vector<ParticleRow> rows;
+    std::vector<TruthRow> truth;
+    std::vector<Hit> hits;
+    std::shared_ptr<const sim::Simulation> simulation;
+    Status status;
+  };
+  std::size_t nextRun = 0;
+  std::int64_t nextEvent = 0;
+  std::shared_ptr<const sim::Simulation> current;
+  Status failure;
+  std::unique_ptr<io::EventWriter> writer;
+  std::int64_t eventsDone = 0, runsDone = report.resumed;
+  tbb::enumerable_thread_specific<sim::EventScratch> scratch([&] { return sim::EventScratch(calo.size()); });
+
+  const int threads = o.threads > 0 ? o.threads : tbb::this_task_arena::max_concurrency();
+  tbb::task_arena arena(threads);
+  arena.execute([&] {
+    tbb::parallel_pipeline(
+        static_cast<std::size_t>(2 * threads),
+        tbb::make_filter<void, std::shared_ptr<Piece>>(
+            tbb::filter_mode::serial_in_order,
+            [&](tbb::flow_control& fc) -> std::shared_ptr<Piece> {
+              if (nextRun >= todo.size() || !failure.ok()) {
+                fc.stop();
+                return nullptr;
+              }
+              const PeriodRun& r = runs[todo[nextRun]];
+              if (nextEvent == 0) {
+                sim::SimulationOptions so = o.simulation;
+                so.generator.beamEnergy = r.beamEnergy * units::MeV;
+                so.generator.thetaMin = s.thetaMin;
+                so.generator.thetaMax = s.thetaMax;
+                so.run = static_cast<std::int32_t>(r.run);
+                so.seed = r.seed;
+                auto sim = sim::Simulation::create(calo, r.truth, so);
+                if (!sim) {
+                  failure = Error{fmt::format("run {}: {}", r.run, sim.error().message)};
+                  fc.stop();
+                  return nullptr;
+                }
+                current = std::make_shared<const sim::Simulation>(std::move(*sim));
+              }
+              auto piece = std::make_shared<Piece>();
+              piece->run = todo[nextRun];
+              piece->first = nextEvent;
+              piece->last = std::min(r.events, nextEvent + kPiece);
+              piece->simulation = current;
+              nextEvent = piece->last;
+              if (nextEvent >= r.events) {
+                ++nextRun;
+                nextEvent = 0;
+              }
+              return piece;
+            }) &
+            tbb::make_filter<std::shared_ptr<Piece>, std::shared_ptr<Piece>>(
+                tbb::filter_mode::parallel,
+                [&](std::shared_ptr<Piece> p) {
+                  sim::EventScratch& sc = scratch.local();
+                  sc.failedEvent = -1;
+                  for (std::int64_t i = p->first; i < p->last; ++i) {
+                    p->simulation->simulateEvent(i, sc, p->rows, p->truth, o.hits ? &p->hits : nullptr);
+                  }
+                  if (sc.failedEvent >= 0) {
+                    p->status = Error{fmt::format("run {} event {}: the generator made no event in 2^20 trials",
+                                                  runs[p->run].run, sc.failedEvent)};
+                  }
+                  return p;
+                }) &
+            tbb::make_filter<std::shared_ptr<Piece>, void>(
+                tbb::filter_mode::serial_in_order, [&](std::shared_ptr<Piece> p) {
+                  if (!failure.ok()) return;
+                  if (!p->status.ok()) {
+                    failure = p->status;
+                    return;
+                  }
+                  const PeriodRun& r = runs[p->run];
+                  if (p->first == 0) {
+                    io::WriterOptions wo;
+                    wo.withTruth = true;
+                    wo.withHits = o.hits;
+                    const Json settings = {{"software", fmt::format("emcalign {}", kVersion)},
+                                           {"period", s.name},
+                                           {"run", r.run},
+                                           {"events", r.events},
+                                           {"seed", r.seed},
+                                           {"beam_energy_mev", r.beamEnergy},
+                                           {"theta_range_deg", {s.thetaMin / units::deg, s.thetaMax / units::deg}}};
+                    wo.attributes = {{"truth_parameters", io::alignmentToJson(r.truth).dump()},
+                                     {"simulation", settings.dump()}};
+                    auto w = io::EventWriter::open((fs::path(dir) / r.file).string(), wo);
+                    if (!w) {
+                      failure = w.error();
+                      return;
+                    }
+                    writer = std::move(*w);
+                  }
+                  if (Status a = writer->append(p->rows, p->truth, p->hits); !a) {
+                    failure = a;
+                    return;
+                  }
+                  report.rows += static_cast<std::int64_t>(p->rows.size());
+                  eventsDone += p->last - p->first;
+                  if (p->last == r.events) {
+                    if (Status c = writer->close(); !c) {
+                      failure = c;
+                      return;
+                    }
+                    writer.reset();
+                    ++runsDone;
+                    if (o.progress) o.progress(runsDone, static_cast<std::int64_t>(runs.size()), eventsDone);
+                  }
+                }));
+  });
+  writer.reset();  // an unfinished file's temporary goes with it
+  if (!failure.ok()) return failure.error();
+
+  const double r1 = calo.description().r1();
+  if (Status w = io::writeOutputFile((fs::path(dir) / "truth.json").string(), periodTruthJson(s, runs, r1).dump(1) + "\n");
+      !w) {
+    return w.error();
+  }
+  report.runs = static_cast<std::int64_t>(runs.size());
+  report.events = eventsDone;
+  return report;
+}
+
+}  // namespace emcalign::validation

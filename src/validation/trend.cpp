@@ -1,0 +1,376 @@
+#include "emcalign/validation/trend.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <numeric>
+
+#include <fmt/format.h>
+
+#include "emcalign/core/parameters.hpp"
+
+namespace emcalign::validation {
+
+using io::Json;
+
+namespace {
+
+constexpr const char* kDerived[] = {"beta", "psi", "mu", "tau", "dx_rel"};
+
+// Weighted sums of a stretch of points, for the cost of a line in O(1).
+struct Sums {
+  std::vector<double> s0, sx, sxx, sy, sxy, syy;
+  double xRef = 0.0;
+  Sums(const TrendSeries& s, double scale) {
+    const std::size_t n = s.points.size();
+    for (const auto& p : s.points) xRef += p.x() / static_cast<double>(n);
+    for (auto* v : {&s0, &sx, &sxx, &sy, &sxy, &syy}) v->assign(n + 1, 0.0);
+    for (std::size_t i = 0; i < n; ++i) {
+      const double e = scale * s.points[i].error;
+      const double w = 1.0 / (e * e), x = s.points[i].x() - xRef, y = s.points[i].value;
+      s0[i + 1] = s0[i] + w;
+      sx[i + 1] = sx[i] + w * x;
+      sxx[i + 1] = sxx[i] + w * x * x;
+      sy[i + 1] = sy[i] + w * y;
+      sxy[i + 1] = sxy[i] + w * x * y;
+      syy[i + 1] = syy[i] + w * y * y;
+    }
+  }
+  // χ² of the best line through points [a, b).
+  double cost(std::size_t a, std::size_t b) const {
+    const double w = s0[b] - s0[a], x = sx[b] - sx[a], xx = sxx[b] - sxx[a];
+    const double y = sy[b] - sy[a], xy = sxy[b] - sxy[a], yy = syy[b] - syy[a];
+    const double d = w * xx - x * x;
+    double c = d > 1e-12 * w * xx ? yy - (y * y * xx - 2.0 * y * x * xy + w * xy * xy) / d : yy - y * y / w;
+    return std::max(c, 0.0);  // rounding below 0 is 0 (c is never NaN: w > 0)
+  }
+};
+
+double normalTwoSided(double z) { return std::erfc(std::abs(z) / std::sqrt(2.0)); }
+
+}  // namespace
+
+double LineFit::error(double x) const {
+  const double dx = x - xRef;
+  return std::sqrt(std::max(0.0, varA + 2.0 * dx * covAB + dx * dx * varB));
+}
+
+Result<std::vector<TrendSeries>> seriesOfTag(conddb::TagSnapshot& tag) {
+  std::vector<TrendSeries> out;
+  for (Param p : kAllParams) {
+    out.push_back({std::string(name(p)), dimension(p) == Dimension::Angle ? "deg" : "cm", {}});
+  }
+  for (const char* d : kDerived) out.push_back({d, std::string(d) == "dx_rel" ? "cm" : "deg", {}});
+  for (const conddb::Iov& iov : tag.iovs()) {
+    auto payload = tag.payload(iov);
+    if (!payload) return payload.error();
+    const Json& a = (*payload)->content["alignment"];
+    const std::string where = fmt::format("tag {} IOV {}-{}", tag.tag().name, iov.firstRun, iov.lastRun);
+    auto number = [&](const Json& j, const std::string& key) -> Result<double> {
+      if (!j.is_number() || !std::isfinite(j.get<double>())) {
+        return Error{fmt::format("{}: {} is missing or not a number (a parameter file without errors cannot be "
+                                 "tracked: store fit results)",
+                                 where, key)};
+      }
+      return j.get<double>();
+    };
+    for (std::size_t k = 0; k < kNumParams; ++k) {
+      const std::string n(kParamNames[k]);
+      auto v = number(a.value("parameters", Json::object()).value(n, Json()), "parameters." + n);
+      if (!v) return v.error();
+      auto e = number(a.value("errors", Json::object()).value(n, Json()), "errors." + n);
+      if (!e) return e.error();
+      if (!(*e > 0.0)) return Error{fmt::format("{}: errors.{} is not positive", where, n)};
+      out[k].points.push_back({iov.firstRun, iov.lastRun, *v, *e});
+    }
+    for (std::size_t k = 0; k < std::size(kDerived); ++k) {
+      const Json d = a.value("derived", Json::object()).value(kDerived[k], Json::object());
+      auto v = number(d.value("value", Json()), fmt::format("derived.{}.value", kDerived[k]));
+      auto e = number(d.value("error", Json()), fmt::format("derived.{}.error", kDerived[k]));
+      if (!v || !e || !(*e > 0.0)) continue;  // an undefined derived value (ψ at β = 0) leaves a hole
+      out[kNumParams + k].points.push_back({iov.firstRun, iov.lastRun, *v, *e});
+    }
+  }
+  return out;
+}
+
+double errorScale(const TrendSeries& s) {
+  std::vector<double> d;
+  for (std::size_t i = 1; i < s.points.size(); ++i) {
+    const auto& a = s.points[i - 1];
+    const auto& b = s.points[i];
+    d.push_back(std::abs(b.value - a.value) / std::hypot(a.error, b.error));
+  }
+  if (d.size() < 5) return 1.0;
+  std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2), d.end());
+  const double scale = d[d.size() / 2] / 0.6744897501960817;
+  return std::isfinite(scale) ? std::max(1.0, scale) : 1.0;
+}
+
+std::vector<std::size_t> changePoints(const TrendSeries& s, double scale, double penalty, std::size_t minSegment) {
+  const std::size_t n = s.points.size();
+  if (n < 2 * minSegment) return {};
+  const Sums sums(s, scale);
+  // F[t]: the least cost of points [0, t) cut into segments of at least minSegment points.
+  const double inf = std::numeric_limits<double>::infinity();
+  std::vector<double> f(n + 1, inf);
+  std::vector<std::size_t> from(n + 1, 0);
+  f[0] = -penalty;
+  for (std::size_t t = minSegment; t <= n; ++t) {
+    for (std::size_t u = 0; u + minSegment <= t; ++u) {
+      if (u != 0 && u < minSegment) continue;
+      if (f[u] == inf) continue;
+      const double v = f[u] + sums.cost(u, t) + penalty;
+      if (v < f[t]) {
+        f[t] = v;
+        from[t] = u;
+      }
+    }
+  }
+  std::vector<std::size_t> changes;
+  for (std::size_t t = n; t > 0; t = from[t]) {
+    if (from[t] > 0) changes.push_back(from[t]);
+  }
+  std::reverse(changes.begin(), changes.end());
+  return changes;
+}
+
+LineFit fitLine(const TrendSeries& s, std::size_t begin, std::size_t end, double scale, bool withSlope) {
+  LineFit f;
+  f.begin = begin;
+  f.end = end;
+  double w = 0.0, wx = 0.0;
+  for (std::size_t i = begin; i < end; ++i) {
+    const double e = scale * s.points[i].error;
+    w += 1.0 / (e * e);
+    wx += s.points[i].x() / (e * e);
+  }
+  f.xRef = wx / w;  // the weighted mean: a and b uncorrelated
+  double sxx = 0.0, sy = 0.0, sxy = 0.0;
+  for (std::size_t i = begin; i < end; ++i) {
+    const double e = scale * s.points[i].error, wi = 1.0 / (e * e), x = s.points[i].x() - f.xRef;
+    sxx += wi * x * x;
+    sy += wi * s.points[i].value;
+    sxy += wi * x * s.points[i].value;
+  }
+  f.a = sy / w;
+  f.varA = 1.0 / w;
+  if (withSlope && sxx > 0.0) {
+    f.b = sxy / sxx;
+    f.varB = 1.0 / sxx;
+  }
+  for (std::size_t i = begin; i < end; ++i) {
+    const double r = (s.points[i].value - f.value(s.points[i].x())) / (scale * s.points[i].error);
+    f.chi2 += r * r;
+  }
+  return f;
+}
+
+Trend analyseTrend(const std::vector<TrendSeries>& series, const TrendOptions& o) {
+  Trend t;
+  for (const auto& s : series) t.iovs = std::max(t.iovs, s.points.size());
+  // The change points and the segments' fits of every series.
+  for (const auto& s : series) {
+    SeriesAnalysis a;
+    a.parameter = s.parameter;
+    a.unit = s.unit;
+    const std::size_t n = s.points.size();
+    if (n == 0) {
+      t.series.push_back(std::move(a));
+      continue;
+    }
+    const double penalty = o.penalty.value_or(4.0 * std::log(static_cast<double>(std::max<std::size_t>(n, 2))));
+    t.penalty = std::max(t.penalty, penalty);
+    a.errorScale = errorScale(s);
+    a.changes = changePoints(s, a.errorScale, penalty, o.minSegment);
+    std::vector<std::size_t> bounds = {0};
+    bounds.insert(bounds.end(), a.changes.begin(), a.changes.end());
+    bounds.push_back(n);
+    for (std::size_t k = 0; k + 1 < bounds.size(); ++k) {
+      SegmentTest seg;
+      seg.begin = bounds[k];
+      seg.end = bounds[k + 1];
+      seg.constant = fitLine(s, seg.begin, seg.end, a.errorScale, false);
+      seg.line = fitLine(s, seg.begin, seg.end, a.errorScale, true);
+      if (seg.end - seg.begin >= 3 && seg.line.varB > 0.0) {
+        seg.slopeZ = seg.line.b / std::sqrt(seg.line.varB);
+        seg.pValue = normalTwoSided(seg.slopeZ);
+        ++t.tests;
+      }
+      a.segments.push_back(seg);
+    }
+    t.series.push_back(std::move(a));
+  }
+  // Drifts: Bonferroni over every segment tested.
+  for (std::size_t k = 0; k < series.size(); ++k) {
+    for (auto& seg : t.series[k].segments) {
+      if (seg.end - seg.begin < 3) continue;
+      seg.drift = seg.pValue * t.tests < o.driftAlpha;
+      if (!seg.drift) continue;
+      const auto& s = series[k];
+      t.drifts.push_back({s.parameter, s.unit, s.points[seg.begin].firstRun, s.points[seg.end - 1].lastRun, seg.line.b,
+                          std::sqrt(seg.line.varB), seg.slopeZ, seg.pValue});
+    }
+  }
+  // Steps: a jump between the models of neighbouring segments.
+  for (std::size_t k = 0; k < series.size(); ++k) {
+    const auto& s = series[k];
+    const auto& segs = t.series[k].segments;
+    for (std::size_t j = 1; j < segs.size(); ++j) {
+      const std::size_t i = segs[j].begin;
+      const double xb = static_cast<double>(s.points[i].firstRun) - 0.5;
+      const double before = segs[j - 1].model().value(xb), after = segs[j].model().value(xb);
+      const double error = std::hypot(segs[j - 1].model().error(xb), segs[j].model().error(xb));
+      TrendStep step{s.parameter, s.unit, i, s.points[i].firstRun, after - before, error};
+      if (std::abs(step.z()) >= o.stepZ) t.steps.push_back(step);
+    }
+  }
+  // Stable periods: steps within one IOV of each other are one change of the detector.
+  std::vector<std::size_t> cuts;
+  {
+    std::vector<const TrendStep*> sorted;
+    for (const auto& st : t.steps) sorted.push_back(&st);
+    std::sort(sorted.begin(), sorted.end(), [](auto* a, auto* b) { return a->index < b->index; });
+    std::vector<std::vector<const TrendStep*>> clusters;
+    for (const auto* st : sorted) {
+      if (!clusters.empty() && st->index <= clusters.back().back()->index + 1) {
+        clusters.back().push_back(st);
+      } else {
+        clusters.push_back({st});
+      }
+    }
+    for (const auto& c : clusters) {
+      const auto* strongest = *std::max_element(c.begin(), c.end(), [](auto* a, auto* b) {
+        return std::abs(a->z()) < std::abs(b->z());
+      });
+      cuts.push_back(strongest->index);
+    }
+  }
+  const TrendSeries* reference = nullptr;
+  for (const auto& s : series) {
+    if (s.points.size() == t.iovs) reference = &s;
+  }
+  if (reference != nullptr && t.iovs > 0) {
+    std::vector<std::size_t> bounds = {0};
+    bounds.insert(bounds.end(), cuts.begin(), cuts.end());
+    bounds.push_back(t.iovs);
+    for (std::size_t k = 0; k + 1 < bounds.size(); ++k) {
+      TrendSegment seg;
+      seg.begin = bounds[k];
+      seg.end = bounds[k + 1];
+      seg.firstRun = reference->points[seg.begin].firstRun;
+      seg.lastRun = reference->points[seg.end - 1].lastRun;
+      for (const auto& st : t.steps) {
+        const bool here = k > 0 && st.index + 1 >= seg.begin && st.index <= seg.begin + 1;
+        if (here && std::find(seg.stepsAtStart.begin(), seg.stepsAtStart.end(), st.parameter) == seg.stepsAtStart.end()) {
+          seg.stepsAtStart.push_back(st.parameter);
+        }
+      }
+      for (const auto& d : t.drifts) {
+        const bool overlaps = d.firstRun <= seg.lastRun && d.lastRun >= seg.firstRun;
+        if (overlaps && std::find(seg.drifting.begin(), seg.drifting.end(), d.parameter) == seg.drifting.end()) {
+          seg.drifting.push_back(d.parameter);
+        }
+      }
+      t.segments.push_back(std::move(seg));
+    }
+  }
+  std::sort(t.steps.begin(), t.steps.end(), [](const TrendStep& a, const TrendStep& b) {
+    return a.firstRunAfter != b.firstRunAfter ? a.firstRunAfter < b.firstRunAfter : a.parameter < b.parameter;
+  });
+  return t;
+}
+
+Json trendJson(const Trend& t, const std::vector<TrendSeries>& series) {
+  Json steps = Json::array(), drifts = Json::array(), segments = Json::array(), list = Json::array();
+  for (const auto& s : t.steps) {
+    steps.push_back({{"parameter", s.parameter}, {"first_run_after", s.firstRunAfter}, {"size", s.size},
+                     {"error", s.error}, {"z", s.z()}, {"unit", s.unit}});
+  }
+  for (const auto& d : t.drifts) {
+    drifts.push_back({{"parameter", d.parameter}, {"first_run", d.firstRun}, {"last_run", d.lastRun},
+                      {"slope_per_run", d.slopePerRun}, {"error", d.error}, {"z", d.z}, {"p_value", d.pValue},
+                      {"unit", d.unit + "/run"}});
+  }
+  for (const auto& s : t.segments) {
+    segments.push_back({{"first_run", s.firstRun}, {"last_run", s.lastRun}, {"iovs", s.end - s.begin},
+                        {"steps_at_start", s.stepsAtStart}, {"drifting", s.drifting}});
+  }
+  for (std::size_t k = 0; k < t.series.size(); ++k) {
+    const auto& a = t.series[k];
+    Json segs = Json::array();
+    for (const auto& g : a.segments) {
+      const auto& pts = series[k].points;
+      segs.push_back({{"first_run", pts[g.begin].firstRun}, {"last_run", pts[g.end - 1].lastRun},
+                      {"iovs", g.end - g.begin}, {"mean", g.constant.a}, {"mean_error", std::sqrt(g.constant.varA)},
+                      {"chi2", g.constant.chi2}, {"slope_per_run", g.line.b},
+                      {"slope_error", std::sqrt(g.line.varB)}, {"slope_z", g.slopeZ}, {"drift", g.drift}});
+    }
+    list.push_back({{"parameter", a.parameter}, {"unit", a.unit}, {"iovs", series[k].points.size()},
+                    {"error_scale", a.errorScale}, {"segments", segs}});
+  }
+  return {{"format", kTrendFormat},
+          {"method",
+           {{"changes", "optimal partitioning, Gaussian known-variance cost, a straight line per segment"},
+            {"penalty", t.penalty},
+            {"penalty_rule", "(k + 2) ln n, k = 2 (MBIC with a slope)"},
+            {"step_z", 3.0},
+            {"drift_test", "slope against 0 in each segment, Bonferroni over all segments, alpha 0.01"},
+            {"drift_tests", t.tests}}},
+          {"iovs", t.iovs},
+          {"steps", steps},
+          {"drifts", drifts},
+          {"segments", segments},
+          {"series", list}};
+}
+
+std::string trendMarkdown(const Trend& t, const std::vector<TrendSeries>& series, const std::string& source) {
+  std::string md = fmt::format("# Time evolution of {}\n\n", source);
+  std::int64_t first = 0, last = 0;
+  for (const auto& s : series) {
+    if (!s.points.empty()) {
+      first = s.points.front().firstRun;
+      last = s.points.back().lastRun;
+      break;
+    }
+  }
+  md += fmt::format("{} IOVs, runs {}-{}. Each parameter's series was cut where the data demand a step (optimal "
+                    "partitioning, a straight line per segment, penalty {:.1f} per change), and each segment's slope "
+                    "was tested against zero ({} tests, Bonferroni).\n\n",
+                    t.iovs, first, last, t.penalty, t.tests);
+  if (t.steps.empty()) {
+    md += "**No step**: no parameter changed between IOVs more than its errors allow.\n\n";
+  } else {
+    md += fmt::format("## {} steps\n\n| first run after | parameter | size | error | z |\n|---|---|---|---|---|\n",
+                      t.steps.size());
+    for (const auto& s : t.steps) {
+      md += fmt::format("| {} | {} | {:+.4f} {} | {:.4f} | {:.1f} |\n", s.firstRunAfter, s.parameter, s.size, s.unit,
+                        s.error, s.z());
+    }
+    md += "\n";
+  }
+  md += fmt::format("## {} stable periods\n\n", t.segments.size());
+  for (const auto& s : t.segments) {
+    md += fmt::format("- runs {}-{} ({} IOVs){}{}\n", s.firstRun, s.lastRun, s.end - s.begin,
+                      s.stepsAtStart.empty() ? ""
+                                             : fmt::format(", after a change of {}", fmt::join(s.stepsAtStart, ", ")),
+                      s.drifting.empty() ? ""
+                                         : fmt::format("; **drifting: {}**", fmt::join(s.drifting, ", ")));
+  }
+  md += "\n";
+  if (t.drifts.empty()) {
+    md += "**No drift**: within every stable period the parameters are constant within their errors.\n";
+  } else {
+    md += "## Drifts (steady changes: check the reconstruction, or the detector)\n\n"
+          "| parameter | runs | slope per run | per 100 runs | z | p-value |\n|---|---|---|---|---|---|\n";
+    for (const auto& d : t.drifts) {
+      md += fmt::format("| {} | {}-{} | {:+.3g} ± {:.2g} {}/run | {:+.4f} {} | {:.1f} | {:.2g} |\n", d.parameter,
+                        d.firstRun, d.lastRun, d.slopePerRun, d.error, d.unit, 100.0 * d.slopePerRun, d.unit, d.z,
+                        d.pValue);
+    }
+  }
+  return md;
+}
+
+}  // namespace emcalign::validation

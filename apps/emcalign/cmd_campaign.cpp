@@ -15,6 +15,7 @@
 
 #include "common.hpp"
 #include "emcalign/calib/corrections.hpp"
+#include "emcalign/core/sha256.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/validation/calibration_campaign.hpp"
 #include "progress.hpp"
@@ -32,45 +33,6 @@ struct CampaignCliOptions {
   int group = -1;
   int threads = 0;
 };
-
-// The event files of the inputs: a directory gives its *.h5, *.hdf5 and *.csv (sorted).
-Result<std::vector<std::string>> eventFiles(const std::vector<std::string>& inputs) {
-  std::vector<std::string> files;
-  for (const auto& in : inputs) {
-    std::error_code ec;
-    if (fs::is_directory(in, ec)) {
-      std::vector<std::string> found;
-      for (const auto& e : fs::directory_iterator(in, ec)) {
-        const std::string ext = e.path().extension().string();
-        if (e.is_regular_file() && (ext == ".h5" || ext == ".hdf5" || ext == ".csv")) found.push_back(e.path().string());
-      }
-      if (ec) return Error{fmt::format("{}: cannot list the directory: {}", in, ec.message())};
-      if (found.empty()) return Error{fmt::format("{}: no event files (*.h5, *.hdf5, *.csv) in this directory", in)};
-      std::sort(found.begin(), found.end());
-      files.insert(files.end(), found.begin(), found.end());
-    } else {
-      files.push_back(in);
-    }
-  }
-  return files;
-}
-
-Result<validation::CampaignModel> modelOf(const std::string& corrections, const std::string& detector,
-                                          const geometry::Calorimeter& calo) {
-  validation::CampaignModel m;
-  m.geometry = calib::FitGeometry::of(calo.description());
-  m.detector = detector.empty() ? "embedded default" : detector;
-  if (!corrections.empty()) {
-    auto c = calib::readCorrections(corrections);
-    if (!c) return c.error();
-    m.geometry.depth.offset = c->depthOffset;
-    m.profile.partingPlane = c->partingPlane;
-    m.profile.nominalProfile = c->nominalProfile;
-    m.corrections = corrections;
-  }
-  if (Status s = m.profile.validate(); !s) return Error{fmt::format("{}: {}", corrections, s.error().message)};
-  return m;
-}
 
 void printGroups(const std::vector<validation::CampaignGroup>& groups, std::int64_t minEvents) {
   std::int64_t selected = 0;
@@ -96,7 +58,7 @@ int runGroup(const CampaignCliOptions& o, const geometry::Calorimeter& calo) {
     return reportError(Error{fmt::format("--corrections {}: the plan was made with '{}'", o.corrections,
                                          plan->corrections)});
   }
-  auto model = modelOf(plan->corrections, o.detector, calo);
+  auto model = validation::campaignModel(plan->corrections, o.detector, calo);
   if (!model) return reportError(model.error());
   const validation::CampaignGroup& g = plan->groups[static_cast<std::size_t>(o.group)];
   auto db = conddb::Database::open(o.conditions, true);
@@ -108,7 +70,19 @@ int runGroup(const CampaignCliOptions& o, const geometry::Calorimeter& calo) {
                g.iovLast, o.tag);
     return kExitOk;
   }
-  calib::ProfileFill fill{calib::CutFlow{}, calib::Profiles(model->profile)};
+  // The files must be those the plan was made from.
+  for (const auto& file : g.files) {
+    auto it = plan->digests.find(file);
+    if (it == plan->digests.end() || it->second.empty()) continue;
+    auto digest = sha256OfFile(file);
+    if (!digest) return reportError(digest.error());
+    if (*digest != it->second) {
+      return reportError(Error{fmt::format("{}: its SHA-256 is not the plan's: the file changed since the plan {} was "
+                                           "made (make the plan again)",
+                                           file, o.plan)});
+    }
+  }
+  calib::ProfileFill fill = calib::ProfileFill::empty(model->profile);
   for (const auto& file : g.files) {
     auto byRun = calib::fillProfilesByRun(file, model->geometry.depth, model->selection, model->profile);
     if (!byRun) return reportError(byRun.error());
@@ -142,7 +116,7 @@ int run(const CampaignCliOptions& o) {
   if (!calo) return reportError(calo.error());
   if (o.group >= 0) return runGroup(o, *calo);
 
-  auto files = eventFiles(o.inputs);
+  auto files = validation::eventFilesIn(o.inputs);
   if (!files) return reportError(files.error());
   std::vector<io::NamedPath> inputs;
   for (const auto& f : *files) inputs.push_back({"", f});
@@ -152,7 +126,7 @@ int run(const CampaignCliOptions& o) {
       !s) {
     return reportError(s.error());
   }
-  auto model = modelOf(o.corrections, o.detector, *calo);
+  auto model = validation::campaignModel(o.corrections, o.detector, *calo);
   if (!model) return reportError(model.error());
   std::unique_ptr<conddb::Database> db;
   if (!planOnly) {

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -17,6 +18,8 @@
 #include "emcalign/calib/corrections.hpp"
 #include "emcalign/report/trend_plots.hpp"
 #include "emcalign/validation/calibration_campaign.hpp"
+#include "emcalign/validation/period.hpp"
+#include "emcalign/validation/segment_refit.hpp"
 #include "emcalign/validation/trend.hpp"
 #include "progress.hpp"
 
@@ -34,31 +37,8 @@ struct TrendCliOptions {
   int minSegment = 3;
 };
 
-// run → value of every parameter in a period's truth.json (validation/period.hpp).
-Result<std::map<std::string, std::vector<std::pair<double, double>>>> readTruth(const std::string& path) {
-  auto text = io::readTextFile(path);
-  if (!text) return text.error();
-  auto j = io::parseJson(*text, path);
-  if (!j) return j.error();
-  if (!j->is_object() || j->value("format", "") != "emcalign-period-truth/1" || !(*j)["runs"].is_array()) {
-    return Error{fmt::format("{}: not a period truth file (emcalign-period-truth/1, written by simulate --period)", path)};
-  }
-  std::map<std::string, std::vector<std::pair<double, double>>> out;
-  for (const Json& r : (*j)["runs"]) {
-    if (!r.is_object() || !r["run"].is_number_integer()) return Error{fmt::format("{}: a run without its number", path)};
-    const double run = r["run"].get<double>();
-    for (const char* group : {"parameters", "derived"}) {
-      if (!r.contains(group) || !r[group].is_object()) continue;
-      for (const auto& [k, v] : r[group].items()) {
-        if (v.is_number()) out[k].emplace_back(run, v.get<double>());
-      }
-    }
-  }
-  return out;
-}
-
 std::vector<report::TrendFigure> figuresOf(const validation::Trend& t, const std::vector<validation::TrendSeries>& series,
-                                           const std::map<std::string, std::vector<std::pair<double, double>>>& truth) {
+                                           const validation::PeriodTruth* truth) {
   std::vector<report::TrendFigure> figures;
   for (std::size_t k = 0; k < series.size(); ++k) {
     const auto& s = series[k];
@@ -77,33 +57,25 @@ std::vector<report::TrendFigure> figuresOf(const validation::Trend& t, const std
     for (const auto& st : t.steps) {
       if (st.parameter == s.parameter) f.steps.push_back(static_cast<double>(st.firstRunAfter));
     }
-    if (auto it = truth.find(s.parameter); it != truth.end()) f.truth = it->second;
+    if (truth != nullptr) {
+      if (auto it = truth->byParameter.find(s.parameter); it != truth->byParameter.end()) {
+        for (const auto& [run, value] : it->second) f.truth.emplace_back(static_cast<double>(run), value);
+      }
+    }
     figures.push_back(std::move(f));
   }
   return figures;
 }
 
-// --refit: one calibration per stable period from all its events; periods with a drift keep
-// their IOVs (a single value would average over the drift).
-int refit(const TrendCliOptions& o, const validation::Trend& trend, conddb::TagSnapshot& snapshot,
-          conddb::Database& db, const geometry::Calorimeter& calo, Json& summary, std::string& markdown) {
-  std::vector<std::string> files;
-  for (const auto& in : o.refit) {
-    if (fs::is_directory(in)) {
-      std::vector<std::string> found;
-      for (const auto& e : fs::directory_iterator(in)) {
-        const auto ext = e.path().extension().string();
-        if (e.is_regular_file() && (ext == ".h5" || ext == ".hdf5" || ext == ".csv")) found.push_back(e.path().string());
-      }
-      std::sort(found.begin(), found.end());
-      files.insert(files.end(), found.begin(), found.end());
-    } else {
-      files.push_back(in);
-    }
-  }
-  validation::CampaignModel model;
-  model.geometry = calib::FitGeometry::of(calo.description());
-  model.detector = o.detector.empty() ? "embedded default" : o.detector;
+// --refit: the campaign's model (its corrections), the events scanned, one calibration per
+// stable period (validation/segment_refit.hpp), written as the new tag in one transaction.
+int refit(const TrendCliOptions& o, const validation::Trend& trend, const std::vector<validation::TrendSeries>& series,
+          conddb::TagSnapshot& snapshot, conddb::Database& db, const geometry::Calorimeter& calo,
+          const validation::PeriodTruth* truth, Json& summary, std::string& markdown) {
+  auto files = validation::eventFilesIn(o.refit);
+  if (!files) return reportError(files.error());
+  auto model = validation::campaignModel(o.corrections, o.detector, calo);
+  if (!model) return reportError(model.error());
   // The refit uses the corrections the campaign used.
   std::string used;
   if (!snapshot.iovs().empty()) {
@@ -112,119 +84,39 @@ int refit(const TrendCliOptions& o, const validation::Trend& trend, conddb::TagS
     used = (*p)->content["provenance"].value("corrections", "");
   }
   if (used != o.corrections) {
-    return reportError(Error{fmt::format("--corrections '{}': the tag's calibrations were made with '{}' (give the "
-                                         "same, for a refit comparable with them)",
-                                         o.corrections, used)});
+    auto what = [](const std::string& c) { return c.empty() ? std::string("without corrections") : "with " + c; };
+    return reportError(Error{fmt::format("--refit {}: the tag's calibrations were made {} (give the same "
+                                         "--corrections, for a refit comparable with them)",
+                                         what(o.corrections), what(used))});
   }
-  if (!o.corrections.empty()) {
-    auto c = calib::readCorrections(o.corrections);
-    if (!c) return reportError(c.error());
-    model.geometry.depth.offset = c->depthOffset;
-    model.profile.partingPlane = c->partingPlane;
-    model.profile.nominalProfile = c->nominalProfile;
-    model.corrections = o.corrections;
-  }
-  ProgressLine reading("trend --refit: reading", static_cast<std::int64_t>(files.size()), "files");
+  ProgressLine reading("trend --refit: reading", static_cast<std::int64_t>(files->size()), "files");
   validation::ScanOptions so;
   so.threads = o.threads;
   so.progress = [&](std::size_t done, std::size_t) { reading.update(static_cast<std::int64_t>(done)); };
-  auto scan = validation::scanRuns(files, model, so);
+  auto scan = validation::scanRuns(*files, *model, so);
   reading.finish();
   if (!scan) return reportError(scan.error());
-  std::map<std::string, std::string> digests;
-  for (std::size_t k = 0; k < scan->files.size(); ++k) digests[scan->files[k]] = scan->digests[k];
 
-  std::vector<conddb::Database::NewIov> iovs;
-  Json segments = Json::array();
-  markdown += "\n## Refit: one calibration per stable period\n\n"
-              "| runs | IOVs before | selected events | error of dx: before (median) → after | of alpha | gain |\n"
-              "|---|---|---|---|---|---|\n";
-  std::vector<double> gains;
-  for (std::size_t k = 0; k < trend.segments.size(); ++k) {
-    const auto& seg = trend.segments[k];
-    if (!seg.drifting.empty()) {
-      for (std::size_t i = seg.begin; i < seg.end; ++i) {
-        const auto& iov = snapshot.iovs()[i];
-        auto p = snapshot.payload(iov);
-        if (!p) return reportError(p.error());
-        iovs.push_back({iov.firstRun, iov.lastRun, **p});
-      }
-      segments.push_back({{"first_run", seg.firstRun}, {"last_run", seg.lastRun}, {"kept_iovs", seg.end - seg.begin},
-                          {"drifting", seg.drifting}});
-      markdown += fmt::format("| {}-{} | {} | — | kept as they were: drifting ({}) | | |\n", seg.firstRun,
-                              seg.lastRun, seg.end - seg.begin, fmt::join(seg.drifting, ", "));
-      continue;
-    }
-    validation::CampaignGroup g;
-    g.index = static_cast<int>(k);
-    g.iovFirst = seg.firstRun;
-    g.iovLast = seg.lastRun;
-    calib::ProfileFill fill{calib::CutFlow{}, calib::Profiles(model.profile)};
-    std::vector<std::size_t> fileIndices;
-    for (const auto& r : scan->runs) {
-      if (r.run < seg.firstRun || r.run > seg.lastRun) continue;
-      g.runs.push_back(r.run);
-      fill.merge(r.fill);
-      fileIndices.insert(fileIndices.end(), r.files.begin(), r.files.end());
-      if (!std::isnan(r.beamEnergy)) g.beamEnergy = r.beamEnergy;
-    }
-    std::sort(fileIndices.begin(), fileIndices.end());
-    fileIndices.erase(std::unique(fileIndices.begin(), fileIndices.end()), fileIndices.end());
-    for (std::size_t f : fileIndices) g.files.push_back(scan->files[f]);
-    if (g.runs.empty()) {
-      return reportError(Error{fmt::format("--refit: no events of runs {}-{} in the files given", seg.firstRun,
-                                           seg.lastRun)});
-    }
-    g.beamEnergy = std::numeric_limits<double>::quiet_NaN();  // a period spans several energies
-    g.selected = fill.cutFlow.events.back();
-    auto fit = validation::fitGroup(g, fill, model, digests, g.selected, static_cast<int>(trend.segments.size()));
-    if (!fit) return reportError(fit.error());
-    if (!usable(fit->result.status)) {
-      return reportError(Error{fmt::format("--refit: runs {}-{}: the fit's status is '{}'", seg.firstRun, seg.lastRun,
-                                           name(fit->result.status))});
-    }
-    iovs.push_back({seg.firstRun, seg.lastRun, fit->payload});
-    // The precision gained: the refit's error against the median error of the IOVs it replaces.
-    Json gain = Json::object();
-    const Json& errors = fit->resultJson["errors"];
-    std::string dxText, alphaText;
-    double dxGain = 0.0;
-    for (Param p : kAllParams) {
-      const std::string n(name(p));
-      std::vector<double> before;
-      for (std::size_t i = seg.begin; i < seg.end; ++i) {
-        auto pl = snapshot.payload(snapshot.iovs()[i]);
-        if (pl && (*pl)->content["alignment"]["errors"][n].is_number()) {
-          before.push_back((*pl)->content["alignment"]["errors"][n].get<double>());
-        }
-      }
-      if (before.empty() || !errors[n].is_number()) continue;
-      std::nth_element(before.begin(), before.begin() + static_cast<std::ptrdiff_t>(before.size() / 2), before.end());
-      const double median = before[before.size() / 2], after = errors[n].get<double>();
-      gain[n] = {{"median_error_before", median}, {"error_after", after}, {"gain", median / after}};
-      if (n == "dx") {
-        dxText = fmt::format("{:.4f} → {:.4f} cm", median, after);
-        dxGain = median / after;
-      }
-      if (n == "alpha") alphaText = fmt::format("{:.4f} → {:.4f}°", median, after);
-    }
-    gains.push_back(dxGain);
-    segments.push_back({{"first_run", seg.firstRun}, {"last_run", seg.lastRun}, {"replaces_iovs", seg.end - seg.begin},
-                        {"selected_events", g.selected}, {"parameters", fit->resultJson["parameters"]},
-                        {"errors", fit->resultJson["errors"]}, {"precision", gain}});
-    markdown += fmt::format("| {}-{} | {} | {} | {} | {} | ×{:.1f} |\n", seg.firstRun, seg.lastRun, seg.end - seg.begin,
-                            g.selected, dxText, alphaText, dxGain);
-  }
-  if (Status s = db.put(o.tagOut, iovs, true,
-                        fmt::format("{} refitted by stable period (emcalign trend --refit)", o.tag));
+  auto r = validation::refitSegments(trend, series, snapshot, *scan, *model, truth);
+  if (!r) return reportError(r.error());
+  if (Status s = db.put(o.tagOut, r->iovs, true, fmt::format("{} refitted by stable period (emcalign trend --refit)", o.tag));
       !s) {
     return reportError(s.error());
   }
-  summary = {{"tag_out", o.tagOut}, {"iovs", iovs.size()}, {"iovs_before", snapshot.iovs().size()},
-             {"segments", segments}};
-  markdown += fmt::format("\nWritten as tag {}: {} IOVs instead of {}.\n", o.tagOut, iovs.size(), snapshot.iovs().size());
-  fmt::print(reportStream(), "refit: {} IOVs instead of {} -> {} tag {}\n", iovs.size(), snapshot.iovs().size(), db.uri(),
-             o.tagOut);
+  summary = validation::refitJson(*r, snapshot.iovs().size());
+  summary["tag_out"] = o.tagOut;
+  markdown += validation::refitMarkdown(*r, snapshot.iovs().size(), o.tagOut);
+  fmt::print(reportStream(), "refit: {} IOVs instead of {} -> {} tag {}\n", r->iovs.size(), snapshot.iovs().size(),
+             db.uri(), o.tagOut);
+  for (const auto& seg : r->segments) {
+    if (!seg.drifting.empty() || seg.transition) continue;
+    for (const auto& p : seg.precision) {
+      if (p.parameter != "dx") continue;
+      fmt::print(reportStream(),
+                 "  runs {}-{}: {} events; dx error quoted {:.4f} -> {:.4f} cm, statistical {:.4f} -> {:.4f} cm\n",
+                 seg.firstRun, seg.lastRun, seg.selected, p.quotedBefore, p.quotedAfter, p.statBefore, p.statAfter);
+    }
+  }
   return kExitOk;
 }
 
@@ -240,9 +132,9 @@ int run(const TrendCliOptions& o) {
   if (snapshot->iovs().empty()) return reportError(Error{fmt::format("tag {}: no IOV to follow", o.tag)});
   auto series = validation::seriesOfTag(*snapshot);
   if (!series) return reportError(series.error());
-  std::map<std::string, std::vector<std::pair<double, double>>> truth;
+  std::optional<validation::PeriodTruth> truth;
   if (!o.truth.empty()) {
-    auto t = readTruth(o.truth);
+    auto t = validation::readPeriodTruth(o.truth);
     if (!t) return reportError(t.error());
     truth = std::move(*t);
   }
@@ -256,7 +148,9 @@ int run(const TrendCliOptions& o) {
   std::string md = validation::trendMarkdown(trend, *series, fmt::format("tag {} of {}", o.tag, (*db)->uri()));
   if (!o.tagOut.empty()) {
     Json summary;
-    if (int rc = refit(o, trend, *snapshot, **db, *calo, summary, md); rc != kExitOk) return rc;
+    if (int rc = refit(o, trend, *series, *snapshot, **db, *calo, truth ? &*truth : nullptr, summary, md); rc != kExitOk) {
+      return rc;
+    }
     out["refit"] = summary;
   }
   std::error_code ec;
@@ -265,14 +159,18 @@ int run(const TrendCliOptions& o) {
   const fs::path dir(o.output);
   if (Status s = io::writeOutputFile((dir / "trend.json").string(), out.dump(1) + "\n"); !s) return reportError(s.error());
   if (Status s = io::writeOutputFile((dir / "trend.md").string(), md); !s) return reportError(s.error());
-  auto pngs = report::writeTrendPlots(o.output, figuresOf(trend, *series, truth), fmt::format("tag {}", o.tag));
+  auto pngs = report::writeTrendPlots(o.output, figuresOf(trend, *series, truth ? &*truth : nullptr), fmt::format("tag {}", o.tag));
   if (!pngs) return reportError(pngs.error());
 
-  fmt::print(reportStream(), "trend of tag {}: {} IOVs, {} steps, {} drifts flagged, {} stable periods\n", o.tag,
-             trend.iovs, trend.steps.size(), trend.drifts.size(), trend.segments.size());
+  const auto transitions = std::count_if(trend.segments.begin(), trend.segments.end(),
+                                         [](const validation::TrendSegment& s) { return s.transition; });
+  fmt::print(reportStream(), "trend of tag {}: {} IOVs, {} steps, {} drifts flagged, {} stable periods{}\n", o.tag,
+             trend.iovs, trend.steps.size(), trend.drifts.size(), trend.segments.size() - transitions,
+             transitions > 0 ? fmt::format(" and {} IOVs straddling a step", transitions) : std::string());
   for (const auto& s : trend.steps) {
-    fmt::print(reportStream(), "  step  {:<8} at run {:>6}: {:+.4f} ± {:.4f} {} (z {:.1f})\n", s.parameter,
-               s.firstRunAfter, s.size, s.error, s.unit, s.z());
+    fmt::print(reportStream(), "  step  {:<8} at run {:>6}: {:+.4f} ± {:.4f} {} (z {:.1f}){}\n", s.parameter,
+               s.firstRunAfter, s.size, s.error, s.unit, s.z(),
+               s.withinIov ? fmt::format(", inside IOV {}-{}", s.withinIov->first, s.withinIov->second) : std::string());
   }
   for (const auto& d : trend.drifts) {
     fmt::print(reportStream(), "  drift {:<8} runs {}-{}: {:+.3g} ± {:.2g} {}/run (z {:.1f})\n", d.parameter, d.firstRun,

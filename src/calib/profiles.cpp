@@ -85,7 +85,7 @@ void Profiles::merge(const Profiles& other) {
   entries_ += other.entries_;
 }
 
-std::vector<ProfileBin> Profiles::bins() const {
+std::vector<ProfileBin> Profiles::bins(double sigmaSys) const {
   const auto& o = options_;
   const double nan = std::numeric_limits<double>::quiet_NaN();
   std::vector<ProfileBin> out;
@@ -110,8 +110,8 @@ std::vector<ProfileBin> Profiles::bins() const {
       if (a.n > 1) {
         const double n = static_cast<double>(a.n);
         const double statPhi2 = a.m2Phi / (n - 1.0) / n, statTheta2 = a.m2Theta / (n - 1.0) / n;
-        b.sigmaPhi = std::sqrt(statPhi2 + o.sigmaSys * o.sigmaSys);
-        b.sigmaTheta = std::sqrt(statTheta2 + o.sigmaSys * o.sigmaSys);
+        b.sigmaPhi = std::sqrt(statPhi2 + sigmaSys * sigmaSys);
+        b.sigmaTheta = std::sqrt(statTheta2 + sigmaSys * sigmaSys);
       } else {
         b.sigmaPhi = b.sigmaTheta = nan;
       }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <filesystem>
 #include <limits>
 #include <mutex>
 
@@ -17,6 +18,7 @@
 
 namespace emcalign::validation {
 
+namespace fs = std::filesystem;
 using io::Json;
 
 namespace {
@@ -26,6 +28,44 @@ constexpr double kNoEnergy = std::numeric_limits<double>::quiet_NaN();
 bool sameEnergy(double a, double b) { return std::isnan(a) || std::isnan(b) || a == b; }
 
 }  // namespace
+
+Result<std::vector<std::string>> eventFilesIn(const std::vector<std::string>& inputs) {
+  std::vector<std::string> files;
+  for (const auto& in : inputs) {
+    std::error_code ec;
+    if (fs::is_directory(in, ec)) {
+      std::vector<std::string> found;
+      for (const auto& e : fs::directory_iterator(in, ec)) {
+        const std::string ext = e.path().extension().string();
+        if (e.is_regular_file() && (ext == ".h5" || ext == ".hdf5" || ext == ".csv")) found.push_back(e.path().string());
+      }
+      if (ec) return Error{fmt::format("{}: cannot list the directory: {}", in, ec.message())};
+      if (found.empty()) return Error{fmt::format("{}: no event files (*.h5, *.hdf5, *.csv) in this directory", in)};
+      std::sort(found.begin(), found.end());
+      files.insert(files.end(), found.begin(), found.end());
+    } else {
+      files.push_back(in);
+    }
+  }
+  return files;
+}
+
+Result<CampaignModel> campaignModel(const std::string& corrections, const std::string& detector,
+                                    const geometry::Calorimeter& calo) {
+  CampaignModel m;
+  m.geometry = calib::FitGeometry::of(calo.description());
+  m.detector = detector.empty() ? "embedded default" : detector;
+  if (!corrections.empty()) {
+    auto c = calib::readCorrections(corrections);
+    if (!c) return c.error();
+    m.geometry.depth.offset = c->depthOffset;
+    m.profile.partingPlane = c->partingPlane;
+    m.profile.nominalProfile = c->nominalProfile;
+    m.corrections = corrections;
+  }
+  if (Status s = m.profile.validate(); !s) return Error{fmt::format("{}: {}", corrections, s.error().message)};
+  return m;
+}
 
 Result<CampaignScan> scanRuns(const std::vector<std::string>& files, const CampaignModel& model,
                               const ScanOptions& o) {
@@ -136,7 +176,7 @@ std::vector<CampaignGroup> planGroups(const CampaignScan& scan, std::int64_t min
     const Draft& d = drafts[k];
     CampaignGroup g;
     g.index = static_cast<int>(k);
-    g.iovFirst = k == 0 ? runs[d.begin].run : runs[d.begin].run;
+    g.iovFirst = runs[d.begin].run;
     g.iovLast = k + 1 < drafts.size() ? std::int64_t{runs[drafts[k + 1].begin].run} - 1 : runs[d.end - 1].run;
     g.beamEnergy = d.energy;
     g.selected = d.selected;
@@ -341,7 +381,7 @@ Result<CampaignReport> runCampaign(const CampaignScan& scan, const CampaignModel
   arena.execute([&] {
     tbb::parallel_for(std::size_t{0}, todo.size(), [&](std::size_t t) {
       const CampaignGroup& g = groups[todo[t]];
-      calib::ProfileFill fill{calib::CutFlow{}, calib::Profiles(model.profile)};
+      calib::ProfileFill fill = calib::ProfileFill::empty(model.profile);
       for (std::int32_t run : g.runs) fill.merge(byRun.at(run)->fill);
       auto fit = fitGroup(g, fill, model, digests, o.minEvents, static_cast<int>(groups.size()));
       std::lock_guard lock(dbMutex);

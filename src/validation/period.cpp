@@ -4,6 +4,7 @@
 #include <atomic>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <memory>
 
@@ -275,6 +276,51 @@ Json periodTruthJson(const PeriodScenario& s, const std::vector<PeriodRun>& runs
           {"software", fmt::format("emcalign {}", kVersion)},
           {"scenario", s.source},
           {"runs", list}};
+}
+
+double PeriodTruth::mean(const std::string& parameter, std::int64_t first, std::int64_t last) const {
+  auto it = byParameter.find(parameter);
+  if (it == byParameter.end()) return std::numeric_limits<double>::quiet_NaN();
+  double sum = 0.0;
+  std::int64_t n = 0;
+  for (const auto& [run, value] : it->second) {
+    if (run >= first && run <= last) {
+      sum += value;
+      ++n;
+    }
+  }
+  return n > 0 ? sum / static_cast<double>(n) : std::numeric_limits<double>::quiet_NaN();
+}
+
+Result<PeriodTruth> readPeriodTruth(const std::string& path) {
+  auto text = io::readTextFile(path);
+  if (!text) return text.error();
+  auto j = io::parseJson(*text, path);
+  if (!j) return j.error();
+  if (!j->is_object() || j->value("format", "") != kPeriodTruthFormat || !j->contains("runs") ||
+      !(*j)["runs"].is_array()) {
+    return Error{fmt::format("{}: not a period truth file ({}, written by simulate --period)", path,
+                             kPeriodTruthFormat)};
+  }
+  PeriodTruth out;
+  std::size_t k = 0;
+  for (const Json& r : (*j)["runs"]) {
+    if (!r.is_object() || !r.contains("run") || !r["run"].is_number_integer()) {
+      return Error{fmt::format("{}: runs[{}]: no integer \"run\"", path, k)};
+    }
+    const auto run = r["run"].get<std::int64_t>();
+    for (const char* group : {"parameters", "derived"}) {
+      if (!r.contains(group) || !r[group].is_object()) {
+        return Error{fmt::format("{}: run {}: no \"{}\" object", path, run, group)};
+      }
+      for (const auto& [name, v] : r[group].items()) {
+        if (!v.is_number()) return Error{fmt::format("{}: run {}: {}.{} is not a number", path, run, group, name)};
+        out.byParameter[name].emplace_back(run, v.get<double>());
+      }
+    }
+    ++k;
+  }
+  return out;
 }
 
 Result<PeriodReport> simulatePeriod(const PeriodScenario& s, const geometry::Calorimeter& calo,

@@ -108,29 +108,40 @@ double errorScale(const TrendSeries& s) {
   return std::isfinite(scale) ? std::max(1.0, scale) : 1.0;
 }
 
-std::vector<std::size_t> changePoints(const TrendSeries& s, double scale, double penalty, std::size_t minSegment) {
+std::vector<Change> changePoints(const TrendSeries& s, double scale, double penalty, double transitionPenalty,
+                                 std::size_t minSegment) {
   const std::size_t n = s.points.size();
   if (n < 2 * minSegment) return {};
   const Sums sums(s, scale);
-  // F[t]: the least cost of points [0, t) cut into segments of at least minSegment points.
+  // f[t]: the least cost of points [0, t) cut into segments of at least minSegment points,
+  // the last one ending at t; a segment starting at u follows a segment ending at u, or one
+  // ending at u − 1 with point u − 1 a transition.
   const double inf = std::numeric_limits<double>::infinity();
   std::vector<double> f(n + 1, inf);
   std::vector<std::size_t> from(n + 1, 0);
+  std::vector<char> viaTransition(n + 1, 0);
   f[0] = -penalty;
   for (std::size_t t = minSegment; t <= n; ++t) {
     for (std::size_t u = 0; u + minSegment <= t; ++u) {
       if (u != 0 && u < minSegment) continue;
-      if (f[u] == inf) continue;
-      const double v = f[u] + sums.cost(u, t) + penalty;
-      if (v < f[t]) {
-        f[t] = v;
+      const double c = sums.cost(u, t) + penalty;
+      if (f[u] < inf && f[u] + c < f[t]) {
+        f[t] = f[u] + c;
         from[t] = u;
+        viaTransition[t] = 0;
+      }
+      if (u > minSegment && f[u - 1] < inf && f[u - 1] + transitionPenalty + c < f[t]) {
+        f[t] = f[u - 1] + transitionPenalty + c;
+        from[t] = u;
+        viaTransition[t] = 1;
       }
     }
   }
-  std::vector<std::size_t> changes;
-  for (std::size_t t = n; t > 0; t = from[t]) {
-    if (from[t] > 0) changes.push_back(from[t]);
+  std::vector<Change> changes;
+  for (std::size_t t = n; from[t] > 0;) {
+    const std::size_t u = from[t];
+    changes.push_back({u, viaTransition[t] != 0});
+    t = viaTransition[t] != 0 ? u - 1 : u;
   }
   std::reverse(changes.begin(), changes.end());
   return changes;
@@ -180,20 +191,20 @@ Trend analyseTrend(const std::vector<TrendSeries>& series, const TrendOptions& o
       t.series.push_back(std::move(a));
       continue;
     }
-    const double penalty = o.penalty.value_or(4.0 * std::log(static_cast<double>(std::max<std::size_t>(n, 2))));
+    const double logN = std::log(static_cast<double>(std::max<std::size_t>(n, 2)));
+    const double penalty = o.penalty.value_or(4.0 * logN);
     t.penalty = std::max(t.penalty, penalty);
+    t.transitionPenalty = o.transitionPenalty.value_or(logN);
     a.errorScale = errorScale(s);
-    a.changes = changePoints(s, a.errorScale, penalty, o.minSegment);
-    std::vector<std::size_t> bounds = {0};
-    bounds.insert(bounds.end(), a.changes.begin(), a.changes.end());
-    bounds.push_back(n);
-    for (std::size_t k = 0; k + 1 < bounds.size(); ++k) {
+    a.changes = changePoints(s, a.errorScale, penalty, o.transitionPenalty.value_or(logN), o.minSegment);
+    for (std::size_t k = 0; k <= a.changes.size(); ++k) {
       SegmentTest seg;
-      seg.begin = bounds[k];
-      seg.end = bounds[k + 1];
+      seg.begin = k == 0 ? 0 : a.changes[k - 1].start;
+      seg.end = k == a.changes.size() ? n : a.changes[k].start - (a.changes[k].transition ? 1 : 0);
       seg.constant = fitLine(s, seg.begin, seg.end, a.errorScale, false);
       seg.line = fitLine(s, seg.begin, seg.end, a.errorScale, true);
       if (seg.end - seg.begin >= 3 && seg.line.varB > 0.0) {
+        seg.sloped = seg.constant.chi2 - seg.line.chi2 > std::log(static_cast<double>(seg.end - seg.begin));
         seg.slopeZ = seg.line.b / std::sqrt(seg.line.varB);
         seg.pValue = normalTwoSided(seg.slopeZ);
         ++t.tests;
@@ -213,47 +224,87 @@ Trend analyseTrend(const std::vector<TrendSeries>& series, const TrendOptions& o
                           std::sqrt(seg.line.varB), seg.slopeZ, seg.pValue});
     }
   }
-  // Steps: a jump between the models of neighbouring segments.
+  // Steps: a jump between the models of neighbouring segments, at the boundary (or at the
+  // transition IOV's middle).
   for (std::size_t k = 0; k < series.size(); ++k) {
     const auto& s = series[k];
     const auto& segs = t.series[k].segments;
     for (std::size_t j = 1; j < segs.size(); ++j) {
       const std::size_t i = segs[j].begin;
-      const double xb = static_cast<double>(s.points[i].firstRun) - 0.5;
-      const double before = segs[j - 1].model().value(xb), after = segs[j].model().value(xb);
-      const double error = std::hypot(segs[j - 1].model().error(xb), segs[j].model().error(xb));
-      TrendStep step{s.parameter, s.unit, i, s.points[i].firstRun, after - before, error};
+      const bool transition = t.series[k].changes[j - 1].transition;
+      const TrendPoint& tp = s.points[i - 1];
+      const double xb = transition ? tp.x() : static_cast<double>(s.points[i].firstRun) - 0.5;
+      // The segments' lines (the cost's model): a constant would put a jump at the knee of
+      // a drift that starts inside a segment.
+      const LineFit &l0 = segs[j - 1].line, &l1 = segs[j].line;
+      const double before = l0.value(xb), after = l1.value(xb);
+      const double error = std::hypot(l0.error(xb), l1.error(xb));
+      TrendStep step{s.parameter, s.unit, i, s.points[i].firstRun, after - before, error, std::nullopt};
+      if (transition) {
+        // The IOV's value is before·f + after·(1 − f), f the share of its runs before the step.
+        const double fraction = std::clamp((tp.value - after) / (before - after), 0.0, 1.0);
+        const auto runs = static_cast<double>(tp.lastRun - tp.firstRun + 1);
+        step.firstRunAfter = tp.firstRun + static_cast<std::int64_t>(std::llround(fraction * runs));
+        step.withinIov = std::pair{tp.firstRun, tp.lastRun};
+      }
       if (std::abs(step.z()) >= o.stepZ) t.steps.push_back(step);
     }
   }
-  // Stable periods: steps within one IOV of each other are one change of the detector.
-  std::vector<std::size_t> cuts;
-  {
-    std::vector<const TrendStep*> sorted;
-    for (const auto& st : t.steps) sorted.push_back(&st);
-    std::sort(sorted.begin(), sorted.end(), [](auto* a, auto* b) { return a->index < b->index; });
-    std::vector<std::vector<const TrendStep*>> clusters;
-    for (const auto* st : sorted) {
-      if (!clusters.empty() && st->index <= clusters.back().back()->index + 1) {
-        clusters.back().push_back(st);
-      } else {
-        clusters.push_back({st});
-      }
-    }
-    for (const auto& c : clusters) {
-      const auto* strongest = *std::max_element(c.begin(), c.end(), [](auto* a, auto* b) {
-        return std::abs(a->z()) < std::abs(b->z());
-      });
-      cuts.push_back(strongest->index);
-    }
-  }
+  // Stable periods: steps within one IOV of each other are one change of the detector; a
+  // change whose strongest step lies inside an IOV makes that IOV a transition of its own.
   const TrendSeries* reference = nullptr;
   for (const auto& s : series) {
     if (s.points.size() == t.iovs) reference = &s;
   }
   if (reference != nullptr && t.iovs > 0) {
+    // A step's place among the tag's IOVs: the first IOV after it, or its transition IOV.
+    struct Place {
+      std::size_t iov;
+      bool transition;
+      const TrendStep* step;
+    };
+    auto iovOf = [&](std::int64_t firstRun) {
+      auto it = std::lower_bound(reference->points.begin(), reference->points.end(), firstRun,
+                                 [](const TrendPoint& p, std::int64_t r) { return p.firstRun < r; });
+      return static_cast<std::size_t>(it - reference->points.begin());
+    };
+    std::vector<Place> places;
+    for (const auto& st : t.steps) {
+      places.push_back(st.withinIov ? Place{iovOf(st.withinIov->first), true, &st}
+                                    : Place{iovOf(st.firstRunAfter), false, &st});
+    }
+    std::sort(places.begin(), places.end(), [](const Place& a, const Place& b) { return a.iov < b.iov; });
+    std::vector<std::vector<Place>> clusters;
+    for (const Place& p : places) {
+      if (!clusters.empty() && p.iov <= clusters.back().back().iov + 1) {
+        clusters.back().push_back(p);
+      } else {
+        clusters.push_back({p});
+      }
+    }
     std::vector<std::size_t> bounds = {0};
-    bounds.insert(bounds.end(), cuts.begin(), cuts.end());
+    std::vector<std::size_t> transitions;  // IOVs that are a transition
+    std::vector<std::vector<std::string>> clusterParameters;
+    std::vector<std::size_t> clusterStart;
+    for (const auto& c : clusters) {
+      const Place& strongest = *std::max_element(c.begin(), c.end(), [](const Place& a, const Place& b) {
+        return std::abs(a.step->z()) < std::abs(b.step->z());
+      });
+      std::vector<std::string> names;
+      for (const Place& p : c) {
+        if (std::find(names.begin(), names.end(), p.step->parameter) == names.end()) names.push_back(p.step->parameter);
+      }
+      if (strongest.iov == 0 || strongest.iov >= t.iovs || strongest.iov <= bounds.back()) continue;
+      bounds.push_back(strongest.iov);
+      clusterStart.push_back(strongest.iov);
+      clusterParameters.push_back(names);
+      if (strongest.transition && strongest.iov + 1 < t.iovs) {
+        transitions.push_back(strongest.iov);
+        bounds.push_back(strongest.iov + 1);
+        clusterStart.push_back(strongest.iov + 1);
+        clusterParameters.push_back(names);
+      }
+    }
     bounds.push_back(t.iovs);
     for (std::size_t k = 0; k + 1 < bounds.size(); ++k) {
       TrendSegment seg;
@@ -261,15 +312,14 @@ Trend analyseTrend(const std::vector<TrendSeries>& series, const TrendOptions& o
       seg.end = bounds[k + 1];
       seg.firstRun = reference->points[seg.begin].firstRun;
       seg.lastRun = reference->points[seg.end - 1].lastRun;
-      for (const auto& st : t.steps) {
-        const bool here = k > 0 && st.index + 1 >= seg.begin && st.index <= seg.begin + 1;
-        if (here && std::find(seg.stepsAtStart.begin(), seg.stepsAtStart.end(), st.parameter) == seg.stepsAtStart.end()) {
-          seg.stepsAtStart.push_back(st.parameter);
-        }
+      seg.transition = std::find(transitions.begin(), transitions.end(), seg.begin) != transitions.end();
+      if (auto it = std::find(clusterStart.begin(), clusterStart.end(), seg.begin); it != clusterStart.end()) {
+        seg.stepsAtStart = clusterParameters[static_cast<std::size_t>(it - clusterStart.begin())];
       }
       for (const auto& d : t.drifts) {
         const bool overlaps = d.firstRun <= seg.lastRun && d.lastRun >= seg.firstRun;
-        if (overlaps && std::find(seg.drifting.begin(), seg.drifting.end(), d.parameter) == seg.drifting.end()) {
+        if (!seg.transition && overlaps &&
+            std::find(seg.drifting.begin(), seg.drifting.end(), d.parameter) == seg.drifting.end()) {
           seg.drifting.push_back(d.parameter);
         }
       }
@@ -286,7 +336,8 @@ Json trendJson(const Trend& t, const std::vector<TrendSeries>& series) {
   Json steps = Json::array(), drifts = Json::array(), segments = Json::array(), list = Json::array();
   for (const auto& s : t.steps) {
     steps.push_back({{"parameter", s.parameter}, {"first_run_after", s.firstRunAfter}, {"size", s.size},
-                     {"error", s.error}, {"z", s.z()}, {"unit", s.unit}});
+                     {"error", s.error}, {"z", s.z()}, {"unit", s.unit},
+                     {"within_iov", s.withinIov ? Json::array({s.withinIov->first, s.withinIov->second}) : Json()}});
   }
   for (const auto& d : t.drifts) {
     drifts.push_back({{"parameter", d.parameter}, {"first_run", d.firstRun}, {"last_run", d.lastRun},
@@ -295,7 +346,7 @@ Json trendJson(const Trend& t, const std::vector<TrendSeries>& series) {
   }
   for (const auto& s : t.segments) {
     segments.push_back({{"first_run", s.firstRun}, {"last_run", s.lastRun}, {"iovs", s.end - s.begin},
-                        {"steps_at_start", s.stepsAtStart}, {"drifting", s.drifting}});
+                        {"transition", s.transition}, {"steps_at_start", s.stepsAtStart}, {"drifting", s.drifting}});
   }
   for (std::size_t k = 0; k < t.series.size(); ++k) {
     const auto& a = t.series[k];
@@ -307,14 +358,23 @@ Json trendJson(const Trend& t, const std::vector<TrendSeries>& series) {
                       {"chi2", g.constant.chi2}, {"slope_per_run", g.line.b},
                       {"slope_error", std::sqrt(g.line.varB)}, {"slope_z", g.slopeZ}, {"drift", g.drift}});
     }
+    Json transitions = Json::array();
+    for (const Change& c : a.changes) {
+      if (c.transition) {
+        const auto& p = series[k].points[c.start - 1];
+        transitions.push_back(Json::array({p.firstRun, p.lastRun}));
+      }
+    }
     list.push_back({{"parameter", a.parameter}, {"unit", a.unit}, {"iovs", series[k].points.size()},
-                    {"error_scale", a.errorScale}, {"segments", segs}});
+                    {"error_scale", a.errorScale}, {"segments", segs}, {"transition_iovs", transitions}});
   }
   return {{"format", kTrendFormat},
           {"method",
            {{"changes", "optimal partitioning, Gaussian known-variance cost, a straight line per segment"},
             {"penalty", t.penalty},
             {"penalty_rule", "(k + 2) ln n, k = 2 (MBIC with a slope)"},
+            {"transition_penalty", t.transitionPenalty},
+            {"transition_rule", "ln n more for an IOV left out between two segments (straddling a step)"},
             {"step_z", 3.0},
             {"drift_test", "slope against 0 in each segment, Bonferroni over all segments, alpha 0.01"},
             {"drift_tests", t.tests}}},
@@ -345,13 +405,23 @@ std::string trendMarkdown(const Trend& t, const std::vector<TrendSeries>& series
     md += fmt::format("## {} steps\n\n| first run after | parameter | size | error | z |\n|---|---|---|---|---|\n",
                       t.steps.size());
     for (const auto& s : t.steps) {
-      md += fmt::format("| {} | {} | {:+.4f} {} | {:.4f} | {:.1f} |\n", s.firstRunAfter, s.parameter, s.size, s.unit,
-                        s.error, s.z());
+      const std::string where =
+          s.withinIov ? fmt::format("≈ {} (inside IOV {}-{})", s.firstRunAfter, s.withinIov->first, s.withinIov->second)
+                      : fmt::format("{}", s.firstRunAfter);
+      md += fmt::format("| {} | {} | {:+.4f} {} | {:.4f} | {:.1f} |\n", where, s.parameter, s.size, s.unit, s.error,
+                        s.z());
     }
     md += "\n";
   }
-  md += fmt::format("## {} stable periods\n\n", t.segments.size());
+  md += fmt::format("## {} stable periods\n\n",
+                    std::count_if(t.segments.begin(), t.segments.end(), [](const TrendSegment& g) { return !g.transition; }));
   for (const auto& s : t.segments) {
+    if (s.transition) {
+      md += fmt::format("- runs {}-{} (1 IOV): **straddles the change of {}** — its calibration mixes the detector "
+                        "before and after; calibrate its runs again, split where the detector changed\n",
+                        s.firstRun, s.lastRun, fmt::join(s.stepsAtStart, ", "));
+      continue;
+    }
     md += fmt::format("- runs {}-{} ({} IOVs){}{}\n", s.firstRun, s.lastRun, s.end - s.begin,
                       s.stepsAtStart.empty() ? ""
                                              : fmt::format(", after a change of {}", fmt::join(s.stepsAtStart, ", ")),

@@ -130,7 +130,13 @@ def make_fixtures(runner):
         "emcalign simulate --events 2000 --params p.json --theta-min 40 --theta-max 140 -o ev.h5",
         "emcalign geometry --description > d.json",
         "emcalign fit ev.csv -o result.json --profile-out prof.csv",
+        "emcalign simulate --period period.json -o period --no-hits",
+        "emcalign campaign period --conditions camp.db --tag c --min-events 1500",
     ]
+    write(d, "period.json", json.dumps({
+        "format": "emcalign-period/1", "first_run": 1, "runs": 6, "events_per_run": 1000, "seed": 1,
+        "theta_range_deg": [40, 140], "beam_energy_mev": [{"from_run": 1, "value": 612.5}],
+        "segments": [{"from_run": 1, "parameters": {"alpha": 2.8, "dx": 0.3}}]}))
     for s in steps:
         r = runner.shell(s)
         if r.code != 0:
@@ -163,6 +169,10 @@ def is_char_device(path):
     def check(d, r):
         return None if stat.S_ISCHR(os.stat(path).st_mode) else f"{path} is no longer a device"
     return check
+
+
+def runner_binary_run(d, args):
+    subprocess.run([runner_binary[0]] + args, cwd=d, check=True, capture_output=True)
 
 
 def cases():
@@ -504,6 +514,78 @@ def cases():
              "-o out.h5", 1, "no IOV of tag 'late'", setup=late_tag,
              check=lambda d, r: no_temporaries(d, r) or ("out.h5 written" if os.path.exists(os.path.join(d, "out.h5"))
                                                          else None), checked="nothing written"))
+
+    # ---- Periods, campaigns and trends ---------------------------------------------------------
+    P = "Periods, campaigns and trends"
+
+    def scenario(name, change):
+        def setup(d):
+            edit_json(d, "period.json", name, change)
+        return setup
+
+    def nothing_at(name):
+        return lambda d, r: f"{name} was created" if os.path.exists(os.path.join(d, name)) else None
+    add(Case(P, "an unknown key in a period scenario", "emcalign simulate --period typo.json -o typo", 1,
+             "key 'runz'", setup=scenario("typo.json", lambda j: j.update(runz=6)), check=nothing_at("typo"),
+             checked="nothing created"))
+    add(Case(P, "a drift in mm instead of cm (an implausible truth at its end)",
+             "emcalign simulate --period drift.json -o drift", 1, "the truth of run",
+             setup=scenario("drift.json", lambda j: j.update(drift=[{"parameter": "dz", "from_run": 1, "to_run": 6,
+                                                                   "per_run": 3}])),
+             check=nothing_at("drift"), checked="nothing created"))
+    add(Case(P, "another scenario into a period's directory", "emcalign simulate --period other.json -o period", 1,
+             "holds another period", setup=scenario("other.json", lambda j: j.update(seed=2))))
+    add(Case(P, "a period with --events", "emcalign simulate --period period.json --events 10 -o x", 2, "excludes"))
+    add(Case(P, "a campaign on a directory without event files", "mkdir -p empty && emcalign campaign empty "
+             "--conditions camp.db --tag e", 1, "no event files"))
+    listed = {}
+
+    def list_tag(d):
+        listed["before"] = subprocess.run([runner_binary[0], "conditions", "list", "camp.db", "--tag", "c", "--json"],
+                                          cwd=d, check=True, capture_output=True, text=True).stdout
+
+    def same_tag(d, r):
+        after = subprocess.run([runner_binary[0], "conditions", "list", "camp.db", "--tag", "c", "--json"],
+                               cwd=d, check=True, capture_output=True, text=True).stdout
+        return None if after == listed["before"] else "tag c was changed"
+    add(Case(P, "a campaign into a tag of another grouping",
+             "emcalign campaign period --conditions camp.db --tag c --min-events 3000", 1,
+             "not one of this campaign's groups", setup=list_tag, check=same_tag, checked="tag unchanged"))
+    add(Case(P, "a campaign without --conditions", "emcalign campaign period --tag c", 2, "--conditions"))
+    add(Case(P, "a batch job without its plan", "emcalign campaign --group 3 --conditions camp.db --tag c", 2,
+             "--plan"))
+
+    def plan(d):
+        runner_binary_run(d, ["campaign", "period", "--plan", "plan.json", "--min-events", "1500"])
+    add(Case(P, "a batch job beyond the plan", "emcalign campaign --plan plan.json --group 99 --conditions camp.db "
+             "--tag c", 1, "has groups 0 to", setup=plan))
+
+    def gap_plan(d):
+        plan(d)
+        edit_json(d, "plan.json", "gap.json", lambda j: j["groups"][1]["iov"].__setitem__(0, j["groups"][1]["iov"][0] + 1))
+    add(Case(P, "a plan with a gap between two IOVs", "emcalign campaign --plan gap.json --group 0 --conditions "
+             "camp.db --tag g", 1, "without a gap", setup=gap_plan))
+
+    def shrunk(d):
+        plan(d)
+        shutil.copy(os.path.join(d, "period", "run_000002.h5"), os.path.join(d, "run2.h5"))
+        shutil.copy(os.path.join(d, "period", "run_000001.h5"), os.path.join(d, "period", "run_000002.h5"))
+
+    def restore(d, r):
+        shutil.move(os.path.join(d, "run2.h5"), os.path.join(d, "period", "run_000002.h5"))
+    add(Case(P, "a batch job whose files changed since the plan", "emcalign campaign --plan plan.json --group 0 "
+             "--conditions camp.db --tag changed", 1, "the file changed since the plan", setup=shrunk, check=restore))
+    add(Case(P, "the trend of a tag that does not exist", "emcalign trend --conditions camp.db --tag nope -o tr", 1,
+             "nope"))
+    add(Case(P, "a truth file that is not one", "emcalign trend --conditions camp.db --tag c --truth p.json -o tr", 1,
+             "not a period truth file"))
+
+    def params_tag(d):
+        runner_binary_run(d, ["conditions", "put", "camp.db", "--tag", "bare", "--runs", "1-10", "p.json"])
+    add(Case(P, "the trend of parameter files without errors", "emcalign trend --conditions camp.db --tag bare -o tr",
+             1, "cannot be tracked", setup=params_tag))
+    add(Case(P, "a refit with other corrections than the campaign's", "emcalign trend --conditions camp.db --tag c "
+             "-o tr --refit period --tag-out c2 --corrections c.json", 1, "the tag's calibrations were made without"))
 
     # ---- Messages and exit codes -------------------------------------------------------------
     M = "Messages and exit codes"

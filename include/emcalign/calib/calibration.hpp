@@ -25,6 +25,12 @@ struct ProfileFill {
   std::int64_t particlesInRange = 0;   ///< of those, inside the profile range
   std::int64_t trackMisses = 0;        ///< tracks that miss the sphere R(E, θ)
   std::set<double> beamEnergies;       ///< MeV, of the selected events
+  /// An empty fill with these profile bins.
+  static ProfileFill empty(const ProfileOptions& options) {
+    ProfileFill f;
+    f.profiles = Profiles(options);
+    return f;
+  }
   /// Adds another fill with the same profile bins (the fills of several runs make their
   /// group's).
   void merge(const ProfileFill& other);

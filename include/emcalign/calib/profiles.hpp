@@ -62,7 +62,9 @@ class Profiles {
   /// Adds a particle; false if it is outside the profile range.
   bool fill(const ParticleResidual& p);
   /// The bins with their means and σ (all phiBins × thetaBins, i_phi-major).
-  std::vector<ProfileBin> bins() const;
+  std::vector<ProfileBin> bins() const { return bins(options_.sigmaSys); }
+  /// The same with another σ_sys (0: the statistical errors alone).
+  std::vector<ProfileBin> bins(double sigmaSys) const;
   std::int64_t entries() const { return entries_; }
   /// Adds the entries of profiles with the same bins (the profiles of several runs make the
   /// profile of their group: the same means and σ as filling one from all the particles, to

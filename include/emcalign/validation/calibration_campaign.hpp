@@ -30,6 +30,7 @@
 #include "emcalign/calib/fit.hpp"
 #include "emcalign/conddb/conditions.hpp"
 #include "emcalign/core/result.hpp"
+#include "emcalign/geometry/detector.hpp"
 #include "emcalign/io/json_files.hpp"
 
 namespace emcalign::validation {
@@ -59,6 +60,15 @@ struct CampaignModel {
   std::string corrections;  ///< the corrections file (empty: none), for the provenance
   std::string detector = "embedded default";
 };
+
+/// The event files of the inputs: a directory gives its *.h5, *.hdf5 and *.csv (sorted; none
+/// is an error), a file itself.
+Result<std::vector<std::string>> eventFilesIn(const std::vector<std::string>& inputs);
+
+/// The model of a campaign on this detector, with the corrections file if one is given
+/// (empty: none).
+Result<CampaignModel> campaignModel(const std::string& corrections, const std::string& detector,
+                                    const geometry::Calorimeter& calo);
 
 struct ScanOptions {
   int threads = 0;  ///< 0: all cores

@@ -24,6 +24,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <optional>
 #include <string>
 #include <utility>
@@ -113,5 +114,15 @@ Result<PeriodReport> simulatePeriod(const PeriodScenario& s, const geometry::Cal
 /// The truth file of a period: {"format", "scenario", "runs": [{"run", "file", "events",
 /// "beam_energy_mev", "seed", "parameters", "derived"}]}.
 io::Json periodTruthJson(const PeriodScenario& s, const std::vector<PeriodRun>& runs, double r1);
+
+/// A period's truth read back: every parameter (the 12 and the derived β, ψ, μ, τ, dx_rel, in
+/// file units) against run.
+struct PeriodTruth {
+  std::map<std::string, std::vector<std::pair<std::int64_t, double>>> byParameter;  ///< by run
+  /// The mean over runs [first, last] that the truth lists (NaN: none, or no such parameter).
+  double mean(const std::string& parameter, std::int64_t first, std::int64_t last) const;
+};
+/// Reads DIR/truth.json (emcalign-period-truth/1); the error names the file and the run.
+Result<PeriodTruth> readPeriodTruth(const std::string& path);
 
 }  // namespace emcalign::validation

@@ -12,15 +12,21 @@
 // parameters per segment: MBIC's 3·ln n for a change in one parameter (Zhang & Siegmund
 // 2007) with one ln n more for the slope. s ≥ 1 scales the errors up when the IOV-to-IOV
 // scatter is larger than they say (the median of |Δy|/√(σ_i² + σ_{i+1}²) over 0.6745, the
-// normal's median absolute value; robust to the steps themselves). A change is reported as a
-// step when the jump between the two segments' models at the boundary is at least 3 times
-// its error; a change without a jump (a drift starting) is left to the drift test.
+// normal's median absolute value; robust to the steps themselves). Between two segments one
+// IOV may be a *transition*, left out of both, at ln n more: an IOV whose runs straddle the
+// step holds a mixture of the two values (its value between them), which no segment model
+// fits. A change is reported as a step when the jump between the two segments' models at the
+// boundary (the segments' lines, so that a drift starting inside a segment makes no jump) is
+// at least 3 times its error; a change without a jump (a drift starting, an
+// outlier set aside) is left to the drift test. A step inside a transition IOV is placed at
+// the run its mixture points to (the fraction of its runs before the step).
 // Drifts. In every segment, the fitted slope against zero: flagged when its two-sided
 // p-value times the number of segments tested (all parameters) is below 0.01 (Bonferroni).
 
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "emcalign/conddb/conditions.hpp"
@@ -62,15 +68,20 @@ struct SegmentTest {
   std::size_t begin = 0, end = 0;  ///< points [begin, end)
   LineFit constant, line;
   double slopeZ = 0.0, pValue = 1.0;
-  bool drift = false;  ///< flagged (Bonferroni over every segment tested)
-  const LineFit& model() const { return drift ? line : constant; }
+  bool drift = false;   ///< flagged (Bonferroni over every segment tested)
+  bool sloped = false;  ///< the line preferred by BIC (χ² lower by more than ln n): a slope too
+                        ///< weak to flag, but the better model of the segment's ends
+  /// The segment's model, as the figures draw it.
+  const LineFit& model() const { return drift || sloped ? line : constant; }
 };
 
 struct TrendStep {
   std::string parameter, unit;
   std::size_t index = 0;            ///< the first point after the step
-  std::int64_t firstRunAfter = 0;
+  std::int64_t firstRunAfter = 0;   ///< inside a transition IOV: the run its mixture points to
   double size = 0.0, error = 0.0;   ///< after − before, at the boundary
+  /// The IOV that straddles the step (a transition), if any.
+  std::optional<std::pair<std::int64_t, std::int64_t>> withinIov;
   double z() const { return error > 0.0 ? size / error : 0.0; }
 };
 
@@ -80,10 +91,18 @@ struct TrendDrift {
   double slopePerRun = 0.0, error = 0.0, z = 0.0, pValue = 1.0;
 };
 
+/// A change of a series: a new segment starts at point `start`; with `transition`, point
+/// start − 1 belongs to neither segment.
+struct Change {
+  std::size_t start = 0;
+  bool transition = false;
+  bool operator==(const Change&) const = default;
+};
+
 struct SeriesAnalysis {
   std::string parameter, unit;
   double errorScale = 1.0;
-  std::vector<std::size_t> changes;  ///< every change found (points where a segment starts)
+  std::vector<Change> changes;  ///< every change found
   std::vector<SegmentTest> segments;
 };
 
@@ -92,7 +111,10 @@ struct SeriesAnalysis {
 struct TrendSegment {
   std::size_t begin = 0, end = 0;  ///< IOVs [begin, end)
   std::int64_t firstRun = 0, lastRun = 0;
-  std::vector<std::string> stepsAtStart;  ///< parameters that stepped where it starts
+  /// One IOV straddling a step (its runs before and after the change mixed): not a stable
+  /// period; its runs should be calibrated again, split where the detector changed.
+  bool transition = false;
+  std::vector<std::string> stepsAtStart;  ///< parameters that stepped where it starts (or inside it)
   std::vector<std::string> drifting;      ///< parameters with a flagged drift inside it
 };
 
@@ -101,6 +123,7 @@ struct TrendOptions {
   double stepZ = 3.0;          ///< jump / error for a change to count as a step
   double driftAlpha = 0.01;    ///< family-wise false-flag rate of the drift tests
   std::optional<double> penalty;  ///< default (k + 2)·ln n
+  std::optional<double> transitionPenalty;  ///< default ln n (the mixture's fraction)
 };
 
 struct Trend {
@@ -109,13 +132,15 @@ struct Trend {
   std::vector<TrendDrift> drifts;  ///< the flagged ones
   std::vector<TrendSegment> segments;
   std::size_t iovs = 0;
-  double penalty = 0.0;
+  double penalty = 0.0;  ///< per change (the largest over the series)
+  double transitionPenalty = 0.0;  ///< more for a transition IOV
   int tests = 0;  ///< segments tested for a drift
 };
 
 /// The change points of one series (optimal partitioning, see above); `scale` multiplies
-/// the errors.
-std::vector<std::size_t> changePoints(const TrendSeries& s, double scale, double penalty, std::size_t minSegment);
+/// the errors; a transition costs `penalty` + `transitionPenalty`.
+std::vector<Change> changePoints(const TrendSeries& s, double scale, double penalty, double transitionPenalty,
+                                 std::size_t minSegment);
 /// s of the top of this file (≥ 1).
 double errorScale(const TrendSeries& s);
 /// Weighted least squares of points [begin, end): a line, or a constant (`withSlope` false).
@@ -124,7 +149,7 @@ LineFit fitLine(const TrendSeries& s, std::size_t begin, std::size_t end, double
 Trend analyseTrend(const std::vector<TrendSeries>& series, const TrendOptions& options = {});
 
 /// trend.json: {"format", "steps": [{"parameter", "first_run_after", "size", "error", "z",
-/// "unit"}], "drifts": [...], "segments": [...], "series": [...]}.
+/// "unit", "within_iov"}], "drifts": [...], "segments": [...], "series": [...]}.
 io::Json trendJson(const Trend& t, const std::vector<TrendSeries>& series);
 /// trend.md: the same in words.
 std::string trendMarkdown(const Trend& t, const std::vector<TrendSeries>& series, const std::string& source);

@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <random>
 #include <sstream>
 #include <fstream>
 #include <string>
@@ -138,6 +139,51 @@ TEST_F(ProfileCsv, LongFieldsAreNotEchoed) {
 
 TEST_F(ProfileCsv, ACutFileIsRefused) {
   EXPECT_THAT(errorOf(text_.substr(0, text_.size() - 5)), HasSubstr("no newline at its end"));
+}
+
+// The profiles of several runs merged are the profile of all their particles (a campaign
+// groups runs this way), and σ_sys can be taken out afterwards.
+TEST(ProfileMerge, EqualsOneFillOfAllParticles) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> phi(0.0, 2.0 * M_PI), theta(44.0 * deg, 136.0 * deg);
+  std::normal_distribution<double> y(0.001, 0.02);
+  Profiles all, a, b, c;
+  for (int i = 0; i < 30000; ++i) {
+    const ParticleResidual p{phi(rng), theta(rng), 600.0 + 10.0 * y(rng), y(rng), 0.5 * y(rng)};
+    all.fill(p);
+    (i % 7 == 0 ? a : i % 3 == 0 ? b : c).fill(p);
+  }
+  Profiles merged;
+  merged.merge(a);
+  merged.merge(b);
+  merged.merge(c);
+  ASSERT_EQ(merged.entries(), all.entries());
+  const auto m = merged.bins(), o = all.bins();
+  ASSERT_EQ(m.size(), o.size());
+  int used = 0;
+  for (std::size_t k = 0; k < m.size(); ++k) {
+    ASSERT_EQ(m[k].n, o[k].n) << k;
+    ASSERT_EQ(m[k].used, o[k].used) << k;
+    if (!o[k].used) continue;
+    ++used;
+    EXPECT_NEAR(m[k].yPhi, o[k].yPhi, 1e-15);
+    EXPECT_NEAR(m[k].yTheta, o[k].yTheta, 1e-15);
+    EXPECT_NEAR(m[k].phiMean, o[k].phiMean, 1e-13);
+    EXPECT_NEAR(m[k].energyMean, o[k].energyMean, 1e-10);
+    EXPECT_NEAR(m[k].sigmaPhi, o[k].sigmaPhi, 1e-14);
+    EXPECT_NEAR(m[k].sigmaTheta, o[k].sigmaTheta, 1e-14);
+  }
+  EXPECT_GT(used, 150);
+  // Without σ_sys the errors are the statistical ones, smaller than with it.
+  const auto stat = all.bins(0.0);
+  for (std::size_t k = 0; k < stat.size(); ++k) {
+    if (!o[k].used) continue;
+    EXPECT_LT(stat[k].sigmaPhi, o[k].sigmaPhi);
+    EXPECT_NEAR(std::hypot(stat[k].sigmaPhi, all.options().sigmaSys), o[k].sigmaPhi, 1e-15);
+  }
+  ProfileOptions other;
+  other.phiBins = 8;
+  EXPECT_THROW(merged.merge(Profiles(other)), std::invalid_argument);
 }
 
 }  // namespace

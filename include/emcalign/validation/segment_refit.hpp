@@ -1,0 +1,71 @@
+#pragma once
+// `trend --refit`: one calibration per stable period of a tag (validation/trend.hpp) from all
+// its events, in place of the run groups' calibrations it replaces; a period with a flagged
+// drift keeps its IOVs (one value would average over the drift).
+//
+// The precision gained, three ways (docs/campaign.md):
+//  - quoted: the fit's errors, which carry σ_sys = 0.2° per profile bin (SPEC §7). σ_sys does
+//    not shrink with events, and it dominates a bin already at ~50 000 events, so the quoted
+//    error of a period barely improves on a group's;
+//  - statistical: the same fits with σ_sys = 0, the part that does shrink, as 1/√N;
+//  - observed: the scatter of the replaced IOVs about the trend's model of the period, which
+//    is what they really fluctuate by; with a period's truth, the refit's distance from it.
+
+#include <cstdint>
+#include <limits>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "emcalign/conddb/conditions.hpp"
+#include "emcalign/core/result.hpp"
+#include "emcalign/io/json_files.hpp"
+#include "emcalign/validation/calibration_campaign.hpp"
+#include "emcalign/validation/period.hpp"
+#include "emcalign/validation/trend.hpp"
+
+namespace emcalign::validation {
+
+/// One parameter of a refitted period (file units). NaN where it does not apply.
+struct RefitPrecision {
+  static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  std::string parameter, unit;
+  double value = kNaN;          ///< the refit
+  double quotedBefore = kNaN;   ///< median quoted error of the replaced IOVs
+  double quotedAfter = kNaN;    ///< the refit's quoted error
+  double statBefore = kNaN;     ///< median statistical error (σ_sys = 0) of the replaced IOVs
+  double statAfter = kNaN;      ///< the refit's statistical error
+  double scatter = kNaN;        ///< RMS of the replaced IOVs about the trend's model of the period
+  double truth = kNaN;          ///< mean truth over the period's runs (with a truth)
+  double truthRmsBefore = kNaN; ///< RMS over the replaced IOVs of (value − truth over the IOV)
+};
+
+struct RefittedSegment {
+  std::int64_t firstRun = 0, lastRun = 0;
+  std::size_t begin = 0, end = 0;     ///< the tag's IOVs [begin, end) it covers
+  std::vector<std::string> drifting;  ///< not empty: not refitted, its IOVs kept
+  bool transition = false;            ///< an IOV straddling a step: kept
+  std::int64_t selected = 0;          ///< selected events of the refit
+  std::int64_t medianSelectedBefore = 0;
+  std::optional<GroupFit> fit;
+  std::vector<RefitPrecision> precision;  ///< the series of the trend, in their order
+};
+
+struct SegmentRefit {
+  std::vector<conddb::Database::NewIov> iovs;  ///< the new tag, tiling the old one's runs
+  std::vector<RefittedSegment> segments;
+};
+
+/// Refits every stable period of `trend` (of `series`, the tag's) from the scanned events.
+/// `model` must be the campaign's (the same corrections); `truth` may be null.
+Result<SegmentRefit> refitSegments(const Trend& trend, const std::vector<TrendSeries>& series,
+                                   conddb::TagSnapshot& tag, const CampaignScan& scan, const CampaignModel& model,
+                                   const PeriodTruth* truth);
+
+/// trend.json's "refit": {"iovs", "iovs_before", "segments": [{"first_run", "last_run",
+/// "replaces_iovs", "selected_events", "kept" | "parameters", "precision": {name: {...}}}]}.
+io::Json refitJson(const SegmentRefit& r, std::size_t iovsBefore);
+/// The section of trend.md: a table per refitted period and the gains over all of them.
+std::string refitMarkdown(const SegmentRefit& r, std::size_t iovsBefore, const std::string& tagOut);
+
+}  // namespace emcalign::validation

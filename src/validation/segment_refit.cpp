@@ -1,0 +1,276 @@
+#include "emcalign/validation/segment_refit.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include "emcalign/core/units.hpp"
+
+namespace emcalign::validation {
+
+using io::Json;
+
+namespace {
+
+double median(std::vector<double> v) {
+  v.erase(std::remove_if(v.begin(), v.end(), [](double x) { return !std::isfinite(x); }), v.end());
+  if (v.empty()) return RefitPrecision::kNaN;
+  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  if (v.size() % 2 == 1) return *mid;
+  return 0.5 * (*mid + *std::max_element(v.begin(), mid));
+}
+
+// The value and error of every series (the 12 parameters, then β, ψ, μ, τ, dx_rel) of a fit,
+// in file units, in the order of seriesOfTag.
+std::vector<std::pair<double, double>> valuesOf(const calib::FitResult& r) {
+  std::vector<std::pair<double, double>> out;
+  for (Param p : kAllParams) {
+    const double unit = geometry::AlignmentParameters::fileUnit(p);
+    out.emplace_back(r.parameters[p] / unit, r.errors[static_cast<Eigen::Index>(index(p))] / unit);
+  }
+  for (const auto& [n, v] : r.derived) {
+    const double unit = n == "dx_rel" ? units::cm : units::deg;
+    out.emplace_back(v.value / unit, v.error / unit);
+  }
+  return out;
+}
+
+// The merged fill of the scanned runs in [first, last].
+calib::ProfileFill fillOf(const CampaignScan& scan, const CampaignModel& model, std::int64_t first, std::int64_t last,
+                          std::vector<std::int32_t>* runs = nullptr, std::vector<std::size_t>* files = nullptr) {
+  calib::ProfileFill fill = calib::ProfileFill::empty(model.profile);
+  for (const CampaignRun& r : scan.runs) {
+    if (r.run < first || r.run > last) continue;
+    fill.merge(r.fill);
+    if (runs != nullptr) runs->push_back(r.run);
+    if (files != nullptr) files->insert(files->end(), r.files.begin(), r.files.end());
+  }
+  return fill;
+}
+
+// The statistical errors alone: the fit of the same profile with σ_sys = 0.
+Result<std::vector<std::pair<double, double>>> statisticalFit(const calib::ProfileFill& fill, const CampaignModel& model,
+                                                             std::int64_t first, std::int64_t last) {
+  auto r = calib::fitProfiles(fill.profiles.bins(0.0), model.geometry);
+  if (!r) return Error{fmt::format("runs {}-{}, statistical errors alone: {}", first, last, r.error().message)};
+  return valuesOf(*r);
+}
+
+std::string number(double v, int digits) {
+  return std::isfinite(v) ? fmt::format("{:.{}f}", v, digits) : std::string("—");
+}
+
+std::string ratio(double a, double b) {
+  return std::isfinite(a) && std::isfinite(b) && b > 0.0 ? fmt::format("×{:.1f}", a / b) : std::string("—");
+}
+
+int digitsOf(const std::string& unit) { return unit == "cm" ? 4 : 3; }
+
+}  // namespace
+
+Result<SegmentRefit> refitSegments(const Trend& trend, const std::vector<TrendSeries>& series,
+                                   conddb::TagSnapshot& tag, const CampaignScan& scan, const CampaignModel& model,
+                                   const PeriodTruth* truth) {
+  std::map<std::string, std::string> digests;
+  for (std::size_t k = 0; k < scan.files.size(); ++k) {
+    if (k < scan.digests.size()) digests[scan.files[k]] = scan.digests[k];
+  }
+  SegmentRefit out;
+  const auto& iovs = tag.iovs();
+  for (std::size_t k = 0; k < trend.segments.size(); ++k) {
+    const TrendSegment& seg = trend.segments[k];
+    RefittedSegment rs;
+    rs.firstRun = seg.firstRun;
+    rs.lastRun = seg.lastRun;
+    rs.begin = seg.begin;
+    rs.end = seg.end;
+    rs.drifting = seg.drifting;
+    rs.transition = seg.transition;
+    if (!seg.drifting.empty() || seg.transition) {
+      for (std::size_t i = seg.begin; i < seg.end; ++i) {
+        auto p = tag.payload(iovs[i]);
+        if (!p) return p.error();
+        out.iovs.push_back({iovs[i].firstRun, iovs[i].lastRun, **p});
+      }
+      out.segments.push_back(std::move(rs));
+      continue;
+    }
+
+    // The refit from all the period's events.
+    CampaignGroup g;
+    g.index = static_cast<int>(k);
+    g.iovFirst = seg.firstRun;
+    g.iovLast = seg.lastRun;
+    std::vector<std::size_t> fileIndices;
+    calib::ProfileFill fill = fillOf(scan, model, seg.firstRun, seg.lastRun, &g.runs, &fileIndices);
+    if (g.runs.empty()) {
+      return Error{fmt::format("--refit: no events of runs {}-{} in the files given", seg.firstRun, seg.lastRun)};
+    }
+    std::sort(fileIndices.begin(), fileIndices.end());
+    fileIndices.erase(std::unique(fileIndices.begin(), fileIndices.end()), fileIndices.end());
+    for (std::size_t f : fileIndices) g.files.push_back(scan.files[f]);
+    g.beamEnergy = std::numeric_limits<double>::quiet_NaN();  // a period spans several energies
+    g.selected = fill.cutFlow.events.back();
+    auto fit = fitGroup(g, fill, model, digests, g.selected, static_cast<int>(trend.segments.size()));
+    if (!fit) return Error{fmt::format("--refit: {}", fit.error().message)};
+    if (!usable(fit->result.status)) {
+      return Error{fmt::format("--refit: runs {}-{}: the fit's status is '{}'", seg.firstRun, seg.lastRun,
+                               name(fit->result.status))};
+    }
+    auto statAfter = statisticalFit(fill, model, seg.firstRun, seg.lastRun);
+    if (!statAfter) return Error{fmt::format("--refit: {}", statAfter.error().message)};
+    rs.selected = g.selected;
+
+    // The replaced IOVs: their events and statistical errors.
+    std::vector<double> selectedBefore;
+    std::vector<std::vector<double>> statBefore(series.size());
+    for (std::size_t i = seg.begin; i < seg.end; ++i) {
+      const calib::ProfileFill f = fillOf(scan, model, iovs[i].firstRun, iovs[i].lastRun);
+      selectedBefore.push_back(static_cast<double>(f.cutFlow.events.back()));
+      if (f.cutFlow.events.back() == 0) continue;
+      auto st = statisticalFit(f, model, iovs[i].firstRun, iovs[i].lastRun);
+      if (!st) continue;  // a group too poor for a fit without σ_sys counts as missing
+      for (std::size_t s = 0; s < series.size() && s < st->size(); ++s) statBefore[s].push_back((*st)[s].second);
+    }
+    rs.medianSelectedBefore = static_cast<std::int64_t>(std::llround(median(selectedBefore)));
+
+    const auto after = valuesOf(fit->result);
+    for (std::size_t s = 0; s < series.size(); ++s) {
+      RefitPrecision p;
+      p.parameter = series[s].parameter;
+      p.unit = series[s].unit;
+      if (s < after.size()) {
+        p.value = after[s].first;
+        p.quotedAfter = after[s].second;
+      }
+      if (s < statAfter->size()) p.statAfter = (*statAfter)[s].second;
+      p.statBefore = median(statBefore[s]);
+      std::vector<double> values, errors, offTruth;
+      for (const TrendPoint& pt : series[s].points) {
+        if (pt.firstRun < seg.firstRun || pt.lastRun > seg.lastRun) continue;
+        values.push_back(pt.value);
+        errors.push_back(pt.error);
+        if (truth != nullptr) offTruth.push_back(pt.value - truth->mean(p.parameter, pt.firstRun, pt.lastRun));
+      }
+      p.quotedBefore = median(errors);
+      if (values.size() >= 2) {
+        double mean = 0.0, ss = 0.0;
+        for (double v : values) mean += v / static_cast<double>(values.size());
+        for (double v : values) ss += (v - mean) * (v - mean);
+        p.scatter = std::sqrt(ss / static_cast<double>(values.size() - 1));
+      }
+      if (truth != nullptr) {
+        p.truth = truth->mean(p.parameter, seg.firstRun, seg.lastRun);
+        double ss = 0.0;
+        int n = 0;
+        for (double d : offTruth) {
+          if (std::isfinite(d)) {
+            ss += d * d;
+            ++n;
+          }
+        }
+        if (n > 0) p.truthRmsBefore = std::sqrt(ss / n);
+      }
+      rs.precision.push_back(std::move(p));
+    }
+    out.iovs.push_back({seg.firstRun, seg.lastRun, fit->payload});
+    rs.fit = std::move(*fit);
+    out.segments.push_back(std::move(rs));
+  }
+  return out;
+}
+
+Json refitJson(const SegmentRefit& r, std::size_t iovsBefore) {
+  auto num = [](double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); };
+  Json segments = Json::array();
+  for (const RefittedSegment& s : r.segments) {
+    Json j = {{"first_run", s.firstRun}, {"last_run", s.lastRun}, {"replaces_iovs", s.end - s.begin}};
+    if (!s.drifting.empty() || s.transition) {
+      j["kept"] = true;
+      j["drifting"] = s.drifting;
+      j["transition"] = s.transition;
+      segments.push_back(j);
+      continue;
+    }
+    j["kept"] = false;
+    j["selected_events"] = s.selected;
+    j["median_selected_events_before"] = s.medianSelectedBefore;
+    j["parameters"] = s.fit->resultJson["parameters"];
+    j["errors"] = s.fit->resultJson["errors"];
+    j["status"] = s.fit->resultJson["status"];
+    Json precision = Json::object();
+    for (const RefitPrecision& p : s.precision) {
+      Json q = {{"value", num(p.value)},
+                {"unit", p.unit},
+                {"quoted_error_before", num(p.quotedBefore)},
+                {"quoted_error_after", num(p.quotedAfter)},
+                {"statistical_error_before", num(p.statBefore)},
+                {"statistical_error_after", num(p.statAfter)},
+                {"scatter_before", num(p.scatter)}};
+      if (std::isfinite(p.truth)) {
+        q["truth"] = p.truth;
+        q["refit_minus_truth"] = num(p.value - p.truth);
+        q["rms_before_minus_truth"] = num(p.truthRmsBefore);
+      }
+      precision[p.parameter] = q;
+    }
+    j["precision"] = precision;
+    segments.push_back(j);
+  }
+  return {{"iovs", r.iovs.size()}, {"iovs_before", iovsBefore}, {"segments", segments}};
+}
+
+std::string refitMarkdown(const SegmentRefit& r, std::size_t iovsBefore, const std::string& tagOut) {
+  std::string md = fmt::format(
+      "\n## Refit: one calibration per stable period\n\n"
+      "Tag {}: {} IOVs instead of {}. Each stable period is fitted from all its events; a period with a "
+      "drift keeps its IOVs, and so does an IOV straddling a step.\n\n"
+      "The precision gained, three ways. *Quoted*: the fit's errors, which carry σ_sys = 0.2° per profile bin "
+      "(SPEC §7); σ_sys does not shrink with events and already dominates a group of ~50 000, so the quoted "
+      "error barely moves. *Statistical*: the same fits with σ_sys = 0, the part that shrinks as 1/√N. "
+      "*Observed*: the RMS of the replaced IOVs about their mean, what they really scatter by",
+      tagOut, r.iovs.size(), iovsBefore);
+  bool withTruth = false;
+  for (const auto& s : r.segments) {
+    for (const auto& p : s.precision) withTruth = withTruth || std::isfinite(p.truth);
+  }
+  md += withTruth ? "; and, against the simulation's truth, the RMS of (IOV − truth) before and |refit − truth| after.\n"
+                  : ".\n";
+  for (const RefittedSegment& s : r.segments) {
+    if (s.transition) {
+      md += fmt::format("\n### Runs {}-{}: kept, straddling a step (to be calibrated again, split where the detector "
+                        "changed)\n",
+                        s.firstRun, s.lastRun);
+      continue;
+    }
+    if (!s.drifting.empty()) {
+      md += fmt::format("\n### Runs {}-{}: {} IOVs kept (drifting: {})\n", s.firstRun, s.lastRun, s.end - s.begin,
+                        fmt::join(s.drifting, ", "));
+      continue;
+    }
+    md += fmt::format("\n### Runs {}-{}: {} IOVs → 1; {} selected events (median {} per IOV before)\n\n", s.firstRun,
+                      s.lastRun, s.end - s.begin, s.selected, s.medianSelectedBefore);
+    md += withTruth ? "| parameter | refit | truth | quoted error before → after | statistical error before → after | "
+                      "gain | observed scatter before | RMS(IOV − truth) → refit − truth |\n|---|---|---|---|---|---|---|---|\n"
+                    : "| parameter | refit | quoted error before → after | statistical error before → after | gain | "
+                      "observed scatter before |\n|---|---|---|---|---|---|\n";
+    for (const RefitPrecision& p : s.precision) {
+      const int d = digitsOf(p.unit);
+      const std::string u = p.unit == "deg" ? "°" : " cm";
+      std::string row = fmt::format("| {} | {}{} |", p.parameter, number(p.value, d), u);
+      if (withTruth) row += fmt::format(" {} |", number(p.truth, d));
+      row += fmt::format(" {} → {} | {} → {} | {} | {} |", number(p.quotedBefore, d), number(p.quotedAfter, d),
+                         number(p.statBefore, d), number(p.statAfter, d), ratio(p.statBefore, p.statAfter),
+                         number(p.scatter, d));
+      if (withTruth) row += fmt::format(" {} → {:+.{}f} |", number(p.truthRmsBefore, d), p.value - p.truth, d);
+      md += row + "\n";
+    }
+  }
+  return md;
+}
+
+}  // namespace emcalign::validation

@@ -1,0 +1,143 @@
+// The trend analysis on series made by hand: steps where they are (inside an IOV too),
+// drifts flagged, and nothing found in noise more often than the penalty promises.
+
+#include "emcalign/validation/trend.hpp"
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+namespace emcalign::validation {
+namespace {
+
+// n IOVs of 10 runs each (runs 1-10, 11-20, ...), values from `value(i)` plus N(0, sigma).
+template <class F>
+TrendSeries series(std::size_t n, double sigma, std::mt19937_64& rng, F value, const char* name = "dx") {
+  std::normal_distribution<double> noise(0.0, sigma);
+  TrendSeries s{name, "cm", {}};
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto first = static_cast<std::int64_t>(10 * i + 1);
+    s.points.push_back({first, first + 9, value(i) + noise(rng), sigma});
+  }
+  return s;
+}
+
+TEST(Trend, FindsAStepAtItsIov) {
+  std::mt19937_64 rng(1);
+  const auto s = series(60, 0.01, rng, [](std::size_t i) { return i < 25 ? 0.25 : 0.40; });
+  const Trend t = analyseTrend({s});
+  ASSERT_EQ(t.steps.size(), 1u);
+  EXPECT_EQ(t.steps[0].index, 25u);
+  EXPECT_EQ(t.steps[0].firstRunAfter, 251);
+  EXPECT_FALSE(t.steps[0].withinIov.has_value());
+  EXPECT_NEAR(t.steps[0].size, 0.15, 4.0 * t.steps[0].error);
+  EXPECT_GT(t.steps[0].z(), 10.0);
+  EXPECT_TRUE(t.drifts.empty());
+  ASSERT_EQ(t.segments.size(), 2u);
+  EXPECT_EQ(t.segments[0].lastRun, 250);
+  EXPECT_EQ(t.segments[1].firstRun, 251);
+  EXPECT_EQ(t.segments[1].stepsAtStart, std::vector<std::string>{"dx"});
+}
+
+TEST(Trend, AnIovStraddlingAStepIsATransition) {
+  std::mt19937_64 rng(2);
+  // IOV 30 (runs 301-310) holds 7 runs before the step and 3 after: its value is the mixture.
+  const auto s = series(60, 0.01, rng, [](std::size_t i) {
+    return i < 30 ? 0.25 : i == 30 ? 0.7 * 0.25 + 0.3 * 0.45 : 0.45;
+  });
+  const Trend t = analyseTrend({s});
+  ASSERT_EQ(t.steps.size(), 1u);
+  ASSERT_TRUE(t.steps[0].withinIov.has_value());
+  EXPECT_EQ(t.steps[0].withinIov->first, 301);
+  EXPECT_EQ(t.steps[0].withinIov->second, 310);
+  EXPECT_NEAR(static_cast<double>(t.steps[0].firstRunAfter), 308.0, 1.0);  // 7 runs before
+  ASSERT_EQ(t.segments.size(), 3u);
+  EXPECT_FALSE(t.segments[0].transition);
+  EXPECT_TRUE(t.segments[1].transition);
+  EXPECT_EQ(t.segments[1].firstRun, 301);
+  EXPECT_EQ(t.segments[1].lastRun, 310);
+  EXPECT_FALSE(t.segments[2].transition);
+  EXPECT_TRUE(t.drifts.empty()) << t.drifts[0].parameter;
+  const auto j = trendJson(t, {s});
+  EXPECT_EQ(j["steps"][0]["within_iov"][0], 301);
+  EXPECT_TRUE(j["segments"][1]["transition"].get<bool>());
+}
+
+TEST(Trend, FlagsADriftAndDoesNotCutIt) {
+  std::mt19937_64 rng(3);
+  // Constant for 40 IOVs, then 0.001 per IOV (0.0001 per run) for 40 more.
+  const auto s = series(80, 0.005, rng, [](std::size_t i) { return 0.15 + (i < 40 ? 0.0 : 0.001 * (i - 40.0)); });
+  const Trend t = analyseTrend({s});
+  EXPECT_TRUE(t.steps.empty()) << t.steps[0].z();
+  ASSERT_EQ(t.drifts.size(), 1u);
+  EXPECT_NEAR(t.drifts[0].slopePerRun, 1e-4, 4.0 * t.drifts[0].error);
+  EXPECT_GE(t.drifts[0].firstRun, 301);  // where the line starts is loosely determined
+  EXPECT_LE(t.drifts[0].firstRun, 551);
+  EXPECT_EQ(t.drifts[0].lastRun, 800);
+  ASSERT_FALSE(t.segments.empty());
+  EXPECT_EQ(t.segments.back().drifting, std::vector<std::string>{"dx"});
+}
+
+// The penalty 4 ln n keeps false steps and drifts rare in pure noise (docs/campaign.md).
+TEST(Trend, NoiseAloneRarelyMakesAStepOrADrift) {
+  std::mt19937_64 rng(4);
+  int falseSteps = 0, falseDrifts = 0;
+  const int trials = 300;
+  for (int k = 0; k < trials; ++k) {
+    const auto s = series(100, 0.01, rng, [](std::size_t) { return 0.3; });
+    const Trend t = analyseTrend({s});
+    falseSteps += t.steps.empty() ? 0 : 1;
+    falseDrifts += t.drifts.empty() ? 0 : 1;
+  }
+  EXPECT_LE(falseSteps, trials * 3 / 100) << falseSteps;
+  EXPECT_LE(falseDrifts, trials * 3 / 100) << falseDrifts;
+}
+
+TEST(Trend, ErrorScaleFollowsTheScatter) {
+  std::mt19937_64 rng(5);
+  auto s = series(400, 3.0, rng, [](std::size_t) { return 0.0; });
+  for (auto& p : s.points) p.error = 1.0;  // the errors say 1, the points scatter by 3
+  EXPECT_NEAR(errorScale(s), 3.0, 0.4);
+  auto t = series(400, 0.3, rng, [](std::size_t) { return 0.0; });
+  for (auto& p : t.points) p.error = 1.0;  // errors larger than the scatter: left as they are
+  EXPECT_EQ(errorScale(t), 1.0);
+}
+
+TEST(Trend, LineFitIsExactOnALine) {
+  TrendSeries s{"dz", "cm", {}};
+  for (int i = 0; i < 10; ++i) s.points.push_back({10 * i + 1, 10 * i + 10, 0.1 + 0.002 * (10 * i + 5.5), 0.01});
+  const LineFit f = fitLine(s, 0, 10, 1.0, true);
+  EXPECT_NEAR(f.b, 0.002, 1e-12);
+  EXPECT_NEAR(f.value(5.5), 0.1 + 0.002 * 5.5, 1e-12);
+  EXPECT_NEAR(f.chi2, 0.0, 1e-9);
+  const LineFit c = fitLine(s, 0, 10, 1.0, false);
+  EXPECT_EQ(c.b, 0.0);
+  EXPECT_GT(c.chi2, 100.0);
+}
+
+TEST(Trend, TooShortASeriesIsOneSegment) {
+  std::mt19937_64 rng(6);
+  const auto s = series(5, 0.01, rng, [](std::size_t i) { return i < 2 ? 0.0 : 1.0; });
+  EXPECT_TRUE(changePoints(s, 1.0, 10.0, 2.0, 3).empty());
+  const Trend t = analyseTrend({s});
+  EXPECT_TRUE(t.steps.empty());
+  ASSERT_EQ(t.segments.size(), 1u);
+}
+
+// Steps of several parameters at one change of the detector make one boundary.
+TEST(Trend, StepsOfSeveralParametersMakeOneBoundary) {
+  std::mt19937_64 rng(7);
+  const auto dx = series(50, 0.01, rng, [](std::size_t i) { return i < 20 ? 0.3 : 0.4; }, "dx");
+  const auto psi = series(50, 1.0, rng, [](std::size_t i) { return i < 20 ? 40.0 : 110.0; }, "psi");
+  const auto alpha = series(50, 0.01, rng, [](std::size_t) { return 2.9; }, "alpha");
+  const Trend t = analyseTrend({alpha, dx, psi});
+  ASSERT_EQ(t.steps.size(), 2u);
+  ASSERT_EQ(t.segments.size(), 2u);
+  EXPECT_EQ(t.segments[1].firstRun, 201);
+  EXPECT_EQ(t.segments[1].stepsAtStart.size(), 2u);
+}
+
+}  // namespace
+}  // namespace emcalign::validation

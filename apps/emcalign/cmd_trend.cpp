@@ -34,7 +34,7 @@ struct TrendCliOptions {
   std::string conditions, tag, output, truth, tagOut, corrections, detector;
   std::vector<std::string> refit;
   int threads = 0;
-  int minSegment = 3;
+  int minSegment = 2;
 };
 
 std::vector<report::TrendFigure> figuresOf(const validation::Trend& t, const std::vector<validation::TrendSeries>& series,
@@ -205,7 +205,7 @@ void addTrendCommand(CLI::App& app, int& exitCode) {
   tagOut->needs(refit);
   cmd->add_option("--corrections", o->corrections, "the model corrections the campaign used (for --refit)")
       ->check(CLI::ExistingFile);
-  cmd->add_option("--min-segment", o->minSegment, "IOVs per stable segment at least (default 3)")
+  cmd->add_option("--min-segment", o->minSegment, "IOVs per stable segment at least (default 2)")
       ->check(integerIn(2, 1000));
   cmd->add_option("--threads", o->threads, "worker threads for --refit (0: all cores)")->check(integerIn(0, kMaxThreads));
   addDetectorOption(*cmd, o->detector);

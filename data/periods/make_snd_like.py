@@ -10,7 +10,8 @@ How many e+e- -> e+e- events a run has:
   L_run     = 25.3 pb^-1 / 2000 runs = 12.65 nb^-1 on average, drawn uniformly in [6.0, 19.3]
               nb^-1 (runs of one to a few hours at VEPP-2000's 2010-2011 luminosity).
 So each energy point gets events_per_run = [6.0, 19.3] nb^-1 * sigma_vis(E), and the period
-has about 7.5 million events (6 million selected, about 120 calibrations of 50 000).
+has about 8.1 million events (6.5 million selected: 106 calibrations of at least 50 000 once the runs
+are grouped by energy).
 
 The energy scan: 2010 goes down from 1000 to 525 MeV per beam in 25 MeV steps (20 points),
 2011 comes back up from 537.5 to 987.5 MeV (19 points), about 51 runs each, with a few bad

@@ -6,6 +6,7 @@
 #include <map>
 #include <numeric>
 
+#include <Eigen/Dense>
 #include <fmt/format.h>
 
 #include "emcalign/core/parameters.hpp"
@@ -37,17 +38,49 @@ struct Sums {
       syy[i + 1] = syy[i] + w * y * y;
     }
   }
-  // χ² of the best line through points [a, b).
+  // χ² of the best line through points [a, b) (of a constant through fewer than
+  // kMinLinePoints: a line through three or four points fits almost anything).
   double cost(std::size_t a, std::size_t b) const {
     const double w = s0[b] - s0[a], x = sx[b] - sx[a], xx = sxx[b] - sxx[a];
     const double y = sy[b] - sy[a], xy = sxy[b] - sxy[a], yy = syy[b] - syy[a];
     const double d = w * xx - x * x;
-    double c = d > 1e-12 * w * xx ? yy - (y * y * xx - 2.0 * y * x * xy + w * xy * xy) / d : yy - y * y / w;
+    double c = b - a >= kMinLinePoints && d > 1e-12 * w * xx ? yy - (y * y * xx - 2.0 * y * x * xy + w * xy * xy) / d
+                                                : yy - y * y / w;
     return std::max(c, 0.0);  // rounding below 0 is 0 (c is never NaN: w > 0)
   }
 };
 
 double normalTwoSided(double z) { return std::erfc(std::abs(z) / std::sqrt(2.0)); }
+
+// The least χ² of a continuous broken line through points [a, c) (a drift starting, or
+// changing its slope, anywhere inside): y = p0 + p1·(x − k) + p2·max(0, x − k), over knees k
+// at the points and half-way between them, with at least two points on each side.
+double kneeChi2(const TrendSeries& s, std::size_t a, std::size_t c, double scale) {
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t i = a + 1; i + 2 < c; ++i) {
+    for (int half = 0; half < 2; ++half) {
+      const double k = half == 0 ? s.points[i].x() : 0.5 * (s.points[i].x() + s.points[i + 1].x());
+      Eigen::Matrix3d m = Eigen::Matrix3d::Zero();
+      Eigen::Vector3d v = Eigen::Vector3d::Zero();
+      for (std::size_t j = a; j < c; ++j) {
+        const double e = scale * s.points[j].error, w = 1.0 / (e * e), dx = s.points[j].x() - k;
+        const Eigen::Vector3d f(1.0, dx, std::max(0.0, dx));
+        m += w * f * f.transpose();
+        v += w * s.points[j].value * f;
+      }
+      const Eigen::Vector3d p = m.ldlt().solve(v);
+      if (!p.allFinite()) continue;
+      double chi2 = 0.0;
+      for (std::size_t j = a; j < c; ++j) {
+        const double dx = s.points[j].x() - k;
+        const double r = (s.points[j].value - p[0] - p[1] * dx - p[2] * std::max(0.0, dx)) / (scale * s.points[j].error);
+        chi2 += r * r;
+      }
+      best = std::min(best, chi2);
+    }
+  }
+  return best;
+}
 
 }  // namespace
 
@@ -84,12 +117,28 @@ Result<std::vector<TrendSeries>> seriesOfTag(conddb::TagSnapshot& tag) {
       if (!(*e > 0.0)) return Error{fmt::format("{}: errors.{} is not positive", where, n)};
       out[k].points.push_back({iov.firstRun, iov.lastRun, *v, *e});
     }
+    const Json derived = a.value("derived", Json::object());
+    // A direction is defined when its magnitude is: ψ (the tilt's) when β is 3σ from 0, τ
+    // (the gap's) when μ is.
+    auto significant = [&](const char* magnitude) {
+      const Json m = derived.value(magnitude, Json::object());
+      const Json v = m.value("value", Json()), e = m.value("error", Json());
+      return v.is_number() && e.is_number() && std::abs(v.get<double>()) >= 3.0 * e.get<double>();
+    };
     for (std::size_t k = 0; k < std::size(kDerived); ++k) {
-      const Json d = a.value("derived", Json::object()).value(kDerived[k], Json::object());
-      auto v = number(d.value("value", Json()), fmt::format("derived.{}.value", kDerived[k]));
-      auto e = number(d.value("error", Json()), fmt::format("derived.{}.error", kDerived[k]));
-      if (!v || !e || !(*e > 0.0)) continue;  // an undefined derived value (ψ at β = 0) leaves a hole
-      out[kNumParams + k].points.push_back({iov.firstRun, iov.lastRun, *v, *e});
+      const std::string n = kDerived[k];
+      const Json d = derived.value(n, Json::object());
+      auto v = number(d.value("value", Json()), fmt::format("derived.{}.value", n));
+      auto e = number(d.value("error", Json()), fmt::format("derived.{}.error", n));
+      if (!v || !e || !(*e > 0.0)) continue;  // an undefined derived value leaves a hole
+      if ((n == "psi" && !significant("beta")) || (n == "tau" && !significant("mu"))) continue;
+      auto& points = out[kNumParams + k].points;
+      double value = *v;
+      if ((n == "psi" || n == "tau") && !points.empty()) {
+        // An angle: the turn nearest the previous point, so that ±180° is no step.
+        value -= 360.0 * std::round((value - points.back().value) / 360.0);
+      }
+      points.push_back({iov.firstRun, iov.lastRun, value, *e});
     }
   }
   return out;
@@ -104,8 +153,12 @@ double errorScale(const TrendSeries& s) {
   }
   if (d.size() < 5) return 1.0;
   std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2), d.end());
-  const double scale = d[d.size() / 2] / 0.6744897501960817;
-  return std::isfinite(scale) ? std::max(1.0, scale) : 1.0;
+  // The median over 0.6745 estimates the scatter / error ratio with a relative standard error
+  // of about 1.15/√m (m differences); its upper bound at two standard errors is used, so that
+  // a low fluctuation of the estimate does not make steps out of noise.
+  const double m = static_cast<double>(d.size());
+  const double scale = d[d.size() / 2] / 0.6744897501960817 * (1.0 + 2.3 / std::sqrt(m));
+  return std::isfinite(scale) && scale > 0.0 ? std::max(0.05, scale) : 1.0;
 }
 
 std::vector<Change> changePoints(const TrendSeries& s, double scale, double penalty, double transitionPenalty,
@@ -203,7 +256,7 @@ Trend analyseTrend(const std::vector<TrendSeries>& series, const TrendOptions& o
       seg.end = k == a.changes.size() ? n : a.changes[k].start - (a.changes[k].transition ? 1 : 0);
       seg.constant = fitLine(s, seg.begin, seg.end, a.errorScale, false);
       seg.line = fitLine(s, seg.begin, seg.end, a.errorScale, true);
-      if (seg.end - seg.begin >= 3 && seg.line.varB > 0.0) {
+      if (seg.end - seg.begin >= kMinLinePoints && seg.line.varB > 0.0) {
         seg.sloped = seg.constant.chi2 - seg.line.chi2 > std::log(static_cast<double>(seg.end - seg.begin));
         seg.slopeZ = seg.line.b / std::sqrt(seg.line.varB);
         seg.pValue = normalTwoSided(seg.slopeZ);
@@ -216,7 +269,7 @@ Trend analyseTrend(const std::vector<TrendSeries>& series, const TrendOptions& o
   // Drifts: Bonferroni over every segment tested.
   for (std::size_t k = 0; k < series.size(); ++k) {
     for (auto& seg : t.series[k].segments) {
-      if (seg.end - seg.begin < 3) continue;
+      if (seg.end - seg.begin < kMinLinePoints) continue;
       seg.drift = seg.pValue * t.tests < o.driftAlpha;
       if (!seg.drift) continue;
       const auto& s = series[k];
@@ -236,7 +289,9 @@ Trend analyseTrend(const std::vector<TrendSeries>& series, const TrendOptions& o
       const double xb = transition ? tp.x() : static_cast<double>(s.points[i].firstRun) - 0.5;
       // The segments' lines (the cost's model): a constant would put a jump at the knee of
       // a drift that starts inside a segment.
-      const LineFit &l0 = segs[j - 1].line, &l1 = segs[j].line;
+      auto modelOf = [](const SegmentTest& g) -> const LineFit& { return g.end - g.begin >= kMinLinePoints ? g.line : g.constant;
+      };
+      const LineFit &l0 = modelOf(segs[j - 1]), &l1 = modelOf(segs[j]);
       const double before = l0.value(xb), after = l1.value(xb);
       const double error = std::hypot(l0.error(xb), l1.error(xb));
       TrendStep step{s.parameter, s.unit, i, s.points[i].firstRun, after - before, error, std::nullopt};
@@ -247,7 +302,17 @@ Trend analyseTrend(const std::vector<TrendSeries>& series, const TrendOptions& o
         step.firstRunAfter = tp.firstRun + static_cast<std::int64_t>(std::llround(fraction * runs));
         step.withinIov = std::pair{tp.firstRun, tp.lastRun};
       }
-      if (std::abs(step.z()) >= o.stepZ) t.steps.push_back(step);
+      if (std::abs(step.z()) < o.stepZ) continue;
+      // Between two segments long enough for lines, a step only when no continuous broken
+      // line (a drift's knee anywhere in them) does nearly as well: Δχ² ≥ stepZ² against the
+      // two lines (with the transition IOV free). Shorter segments are constants: their jump
+      // is the test.
+      if (o.kneeTest && segs[j - 1].end - segs[j - 1].begin >= kMinLinePoints &&
+          segs[j].end - segs[j].begin >= kMinLinePoints) {
+        const double knee = kneeChi2(s, segs[j - 1].begin, segs[j].end, t.series[k].errorScale);
+        if (knee - (l0.chi2 + l1.chi2) < o.stepZ * o.stepZ) continue;
+      }
+      t.steps.push_back(step);
     }
   }
   // Stable periods: steps within one IOV of each other are one change of the detector; a
@@ -373,6 +438,8 @@ Json trendJson(const Trend& t, const std::vector<TrendSeries>& series) {
            {{"changes", "optimal partitioning, Gaussian known-variance cost, a straight line per segment"},
             {"penalty", t.penalty},
             {"penalty_rule", "(k + 2) ln n, k = 2 (MBIC with a slope)"},
+            {"error_scale_rule", "IOV-to-IOV scatter / quoted error (median |dy|/0.6745), x(1 + 2.3/sqrt(m)), up or down"},
+            {"step_test", "jump between the segments' models >= 3 sigma, and no continuous broken line within chi2 9"},
             {"transition_penalty", t.transitionPenalty},
             {"transition_rule", "ln n more for an IOV left out between two segments (straddling a step)"},
             {"step_z", 3.0},

@@ -7,21 +7,28 @@
 // Steps. Each parameter's series (value ± error per IOV, at the IOV's middle run) is cut by
 // optimal partitioning (exact; Jackson et al. 2005, what PELT computes faster) with
 //   cost(segment) = min over a, b of Σ ((y_i − a − b·x_i) / (s·σ_i))²
-// — a Gaussian cost with known variance, each segment a straight line, so that a drift is one
-// sloped segment and not a staircase — and a penalty per change of (k + 2)·ln n with k = 2
-// parameters per segment: MBIC's 3·ln n for a change in one parameter (Zhang & Siegmund
-// 2007) with one ln n more for the slope. s ≥ 1 scales the errors up when the IOV-to-IOV
-// scatter is larger than they say (the median of |Δy|/√(σ_i² + σ_{i+1}²) over 0.6745, the
-// normal's median absolute value; robust to the steps themselves). Between two segments one
-// IOV may be a *transition*, left out of both, at ln n more: an IOV whose runs straddle the
-// step holds a mixture of the two values (its value between them), which no segment model
-// fits. A change is reported as a step when the jump between the two segments' models at the
-// boundary (the segments' lines, so that a drift starting inside a segment makes no jump) is
-// at least 3 times its error; a change without a jump (a drift starting, an
-// outlier set aside) is left to the drift test. A step inside a transition IOV is placed at
-// the run its mixture points to (the fraction of its runs before the step).
-// Drifts. In every segment, the fitted slope against zero: flagged when its two-sided
-// p-value times the number of segments tested (all parameters) is below 0.01 (Bonferroni).
+// — a Gaussian cost with known variance, each segment a straight line (a constant below
+// kMinLinePoints points), so that a drift is one sloped segment and not a staircase — and a
+// penalty per change of (k + 2)·ln n with k = 2 parameters per segment: MBIC's 3·ln n for a
+// change in one parameter (Zhang & Siegmund 2007) with one ln n more for the slope.
+// Error scale. s is the IOV-to-IOV scatter over the quoted errors: the median of
+// |Δy|/√(σ_i² + σ_{i+1}²) over 0.6745 (the normal's median absolute value; robust to the
+// steps themselves), taken at the upper end of its uncertainty, ×(1 + 2.3/√m) for m
+// differences. It scales up or down: what a change between IOVs is measured against is the
+// part of the error that differs from IOV to IOV; a systematic common to all of them (σ_sys
+// of SPEC §7, the same detector and model in every run) cancels in a difference.
+// Transitions. Between two segments one IOV may be left out of both, at ln n more: an IOV
+// whose runs straddle the step holds a mixture of the two values, which no segment model
+// fits. A step inside such an IOV is placed at the run its mixture points to (the fraction
+// of its runs before the step).
+// A change is reported as a step when the jump between the two segments' models at the
+// boundary is at least 3 times its error, and — between segments long enough for lines —
+// when no continuous broken line through both (a drift's knee anywhere in them) fits within
+// Δχ² < 9 of the two lines. A change without a jump (a drift starting, an outlier set aside)
+// is left to the drift test.
+// Drifts. In every segment of at least kMinLinePoints points, the fitted slope against zero:
+// flagged when its two-sided p-value times the number of segments tested (all parameters) is
+// below 0.01 (Bonferroni).
 
 #include <cstdint>
 #include <optional>
@@ -36,6 +43,8 @@
 namespace emcalign::validation {
 
 inline constexpr std::string_view kTrendFormat = "emcalign-trend/1";
+/// A segment is a line (and tested for a drift) from this many points; a shorter one is a constant.
+inline constexpr std::size_t kMinLinePoints = 5;
 
 struct TrendPoint {
   std::int64_t firstRun = 0, lastRun = 0;  ///< the IOV
@@ -50,7 +59,9 @@ struct TrendSeries {
 };
 
 /// The 17 series of a tag (the 12 parameters with their errors, and the derived β, ψ, μ, τ,
-/// dx_rel with theirs), from its payloads. IOVs whose payload has no errors are an error.
+/// dx_rel with theirs), from its payloads. IOVs whose payload has no errors are an error. The
+/// directions ψ and τ are left out where their magnitude (β, μ) is within 3σ of 0, and
+/// unwrapped (each within 180° of the one before).
 Result<std::vector<TrendSeries>> seriesOfTag(conddb::TagSnapshot& tag);
 
 /// A straight line fitted to points [begin, end) of a series (errors scaled).
@@ -119,11 +130,13 @@ struct TrendSegment {
 };
 
 struct TrendOptions {
-  std::size_t minSegment = 3;  ///< points per segment
+  std::size_t minSegment = 2;  ///< points per segment
   double stepZ = 3.0;          ///< jump / error for a change to count as a step
   double driftAlpha = 0.01;    ///< family-wise false-flag rate of the drift tests
   std::optional<double> penalty;  ///< default (k + 2)·ln n
   std::optional<double> transitionPenalty;  ///< default ln n (the mixture's fraction)
+  /// Require a step to beat a continuous broken line (off: only for comparisons).
+  bool kneeTest = true;
 };
 
 struct Trend {

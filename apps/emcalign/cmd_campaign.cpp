@@ -47,19 +47,37 @@ void printGroups(const std::vector<validation::CampaignGroup>& groups, std::int6
 }
 
 // One group of a plan (a batch job): read its files, keep its runs, fit, store.
-int runGroup(const CampaignCliOptions& o, const geometry::Calorimeter& calo) {
+// The job uses the plan's detector and corrections; given again, they must be the same.
+int runGroup(const CampaignCliOptions& o) {
   auto plan = validation::readCampaignPlan(o.plan);
   if (!plan) return reportError(plan.error());
   if (o.group >= static_cast<int>(plan->groups.size())) {
     return reportError(Error{fmt::format("--group {}: the plan {} has groups 0 to {}", o.group, o.plan,
                                          plan->groups.size() - 1)});
   }
-  if (!o.corrections.empty() && o.corrections != plan->corrections) {
-    return reportError(Error{fmt::format("--corrections {}: the plan was made with '{}'", o.corrections,
-                                         plan->corrections)});
+  const std::string planDetector = plan->detector == "embedded default" ? std::string() : plan->detector;
+  if (!o.detector.empty() && o.detector != planDetector) {
+    return reportError(Error{fmt::format("--detector {}: the plan {} was made with the {} detector", o.detector, o.plan,
+                                         plan->detector)});
   }
-  auto model = validation::campaignModel(plan->corrections, o.detector, calo);
+  auto calo = loadCalorimeter(planDetector);
+  if (!calo) return reportError(calo.error());
+  auto model = validation::campaignModel(plan->corrections, planDetector, *calo);
   if (!model) return reportError(model.error());
+  if (model->correctionsSha256 != plan->correctionsSha256) {
+    return reportError(Error{fmt::format("{}: its SHA-256 is not the plan's: the corrections changed since the plan {} "
+                                         "was made",
+                                         plan->corrections, o.plan)});
+  }
+  if (!o.corrections.empty()) {
+    auto given = sha256OfFile(o.corrections);
+    if (!given) return reportError(given.error());
+    if (*given != plan->correctionsSha256) {
+      return reportError(Error{fmt::format("--corrections {}: the plan {} was made {}", o.corrections, o.plan,
+                                           plan->corrections.empty() ? std::string("without corrections")
+                                                                     : "with other ones (" + plan->corrections + ")")});
+    }
+  }
   const validation::CampaignGroup& g = plan->groups[static_cast<std::size_t>(o.group)];
   auto db = conddb::Database::open(o.conditions, true);
   if (!db) return reportError(db.error());
@@ -95,8 +113,8 @@ int runGroup(const CampaignCliOptions& o, const geometry::Calorimeter& calo) {
                                          "changed since the plan was made?)",
                                          g.index, fill.cutFlow.events.back(), g.selected)});
   }
-  auto fit = validation::fitGroup(g, fill, *model, plan->digests, plan->minEvents,
-                                  static_cast<int>(plan->groups.size()));
+  auto fit = validation::fitGroup(g, fill, *model, plan->digests,
+                                  validation::campaignOrigin(g, plan->minEvents, static_cast<int>(plan->groups.size())));
   if (!fit) return reportError(fit.error());
   if (!usable(fit->result.status)) {
     return reportError(Error{fmt::format("group {} (runs {}-{}): the fit's status is '{}': not stored", g.index,
@@ -112,9 +130,9 @@ int runGroup(const CampaignCliOptions& o, const geometry::Calorimeter& calo) {
 }
 
 int run(const CampaignCliOptions& o) {
+  if (o.group >= 0) return runGroup(o);
   auto calo = loadCalorimeter(o.detector);
   if (!calo) return reportError(calo.error());
-  if (o.group >= 0) return runGroup(o, *calo);
 
   auto files = validation::eventFilesIn(o.inputs);
   if (!files) return reportError(files.error());

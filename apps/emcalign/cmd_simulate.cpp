@@ -11,6 +11,7 @@
 
 #include "common.hpp"
 #include "conditions_support.hpp"
+#include "emcalign/core/sha256.hpp"
 #include "emcalign/validation/period.hpp"
 #include "progress.hpp"
 #include "emcalign/core/units.hpp"
@@ -112,6 +113,11 @@ int runPeriod(const SimulateOptions& cli) {
   if (Status s = realism(cli, o.simulation); !s) return reportError(s.error());
   o.hits = !cli.noHits;
   o.threads = cli.threads;
+  o.settings = settingsJson(cli, o.simulation);
+  for (const char* perRun : {"process", "events", "seed", "run", "beam_energy_mev", "theta_range_deg", "software"}) {
+    o.settings.erase(perRun);  // set by the scenario for each run, or not a setting
+  }
+  o.settings["detector_sha256"] = sha256(io::toJson(calo->description()).dump());
   const auto runs = validation::planPeriod(*scenario);
   std::int64_t total = 0;
   for (const auto& r : runs) total += r.events;
@@ -123,9 +129,10 @@ int runPeriod(const SimulateOptions& cli) {
   auto report = validation::simulatePeriod(*scenario, *calo, cli.output, o);
   progress.finish();
   if (!report) return reportError(report.error());
-  fmt::print(stderr, "simulate: {} runs ({} there already), {} events, {} particle rows, {:.1f} s -> {}/run_*.h5, "
-             "{}/truth.json\n",
-             report->runs, report->resumed, report->events, report->rows, progress.elapsed(), cli.output, cli.output);
+  fmt::print(stderr, "simulate: {} runs ({} there already), {} events simulated ({} in the period), {} particle rows, "
+             "{:.1f} s -> {}/run_*.h5, {}/truth.json\n",
+             report->runs, report->resumed, report->simulated, report->events, report->rows, progress.elapsed(),
+             cli.output, cli.output);
   return kExitOk;
 }
 

@@ -76,18 +76,19 @@ int refit(const TrendCliOptions& o, const validation::Trend& trend, const std::v
   if (!files) return reportError(files.error());
   auto model = validation::campaignModel(o.corrections, o.detector, calo);
   if (!model) return reportError(model.error());
-  // The refit uses the corrections the campaign used.
-  std::string used;
-  if (!snapshot.iovs().empty()) {
-    auto p = snapshot.payload(snapshot.iovs().front());
+  // The refit uses the corrections the campaign used (every IOV's, by their digest).
+  for (const conddb::Iov& iov : snapshot.iovs()) {
+    auto p = snapshot.payload(iov);
     if (!p) return reportError(p.error());
-    used = (*p)->content["provenance"].value("corrections", "");
-  }
-  if (used != o.corrections) {
-    auto what = [](const std::string& c) { return c.empty() ? std::string("without corrections") : "with " + c; };
-    return reportError(Error{fmt::format("--refit {}: the tag's calibrations were made {} (give the same "
-                                         "--corrections, for a refit comparable with them)",
-                                         what(o.corrections), what(used))});
+    const io::Json& provenance = (*p)->content["provenance"];
+    const std::string used = provenance.value("corrections", ""), usedSha = provenance.value("corrections_sha256", "");
+    const bool same = usedSha.empty() ? used == o.corrections : usedSha == model->correctionsSha256;
+    if (!same) {
+      auto what = [](const std::string& c) { return c.empty() ? std::string("without corrections") : "with " + c; };
+      return reportError(Error{fmt::format("--refit {}: the calibration of runs {}-{} in tag {} was made {} (give the "
+                                           "same --corrections, for a refit comparable with them)",
+                                           what(o.corrections), iov.firstRun, iov.lastRun, o.tag, what(used))});
+    }
   }
   ProgressLine reading("trend --refit: reading", static_cast<std::int64_t>(files->size()), "files");
   validation::ScanOptions so;

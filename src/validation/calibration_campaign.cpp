@@ -8,6 +8,7 @@
 #include <mutex>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
@@ -47,6 +48,7 @@ Result<std::vector<std::string>> eventFilesIn(const std::vector<std::string>& in
       files.push_back(in);
     }
   }
+  for (auto& f : files) f = fs::absolute(f).lexically_normal().string();
   return files;
 }
 
@@ -62,8 +64,13 @@ Result<CampaignModel> campaignModel(const std::string& corrections, const std::s
     m.profile.partingPlane = c->partingPlane;
     m.profile.nominalProfile = c->nominalProfile;
     m.corrections = corrections;
+    auto digest = sha256OfFile(corrections);
+    if (!digest) return digest.error();
+    m.correctionsSha256 = *digest;
   }
-  if (Status s = m.profile.validate(); !s) return Error{fmt::format("{}: {}", corrections, s.error().message)};
+  if (Status s = m.profile.validate(); !s) {
+    return Error{corrections.empty() ? s.error().message : fmt::format("{}: {}", corrections, s.error().message)};
+  }
   return m;
 }
 
@@ -117,18 +124,36 @@ Result<CampaignScan> scanRuns(const std::vector<std::string>& files, const Campa
       r.files.push_back(k);
     }
   }
+  if (runs.empty()) {
+    return Error{files.size() == 1 ? fmt::format("{}: no events", files[0])
+                                   : fmt::format("no events in the {} files ({}, ...)", files.size(), files[0])};
+  }
   for (auto& [run, r] : runs) {
     if (r.fill.beamEnergies.size() > 1) {
-      return Error{fmt::format("run {}: selected events of {} beam energies ({:.3f} ... {:.3f} MeV): a run has one "
-                               "(files of two runs with one number?)",
+      std::vector<std::string> names;
+      for (std::size_t f : r.files) names.push_back(files[f]);
+      return Error{fmt::format("run {}: selected events of {} beam energies ({:.3f} ... {:.3f} MeV) in {}: a run has "
+                               "one (files of two runs with one number?)",
                                run, r.fill.beamEnergies.size(), *r.fill.beamEnergies.begin(),
-                               *r.fill.beamEnergies.rbegin())};
+                               *r.fill.beamEnergies.rbegin(), fmt::join(names, ", "))};
     }
     r.beamEnergy = r.fill.beamEnergies.empty() ? kNoEnergy : *r.fill.beamEnergies.begin();
     r.selected = r.fill.cutFlow.events.back();
     scan.runs.push_back(std::move(r));
   }
   return scan;
+}
+
+std::vector<std::string> CampaignScan::filesOf(std::int64_t first, std::int64_t last) const {
+  std::vector<std::size_t> indices;
+  for (const CampaignRun& r : runs) {
+    if (r.run >= first && r.run <= last) indices.insert(indices.end(), r.files.begin(), r.files.end());
+  }
+  std::sort(indices.begin(), indices.end());
+  indices.erase(std::unique(indices.begin(), indices.end()), indices.end());
+  std::vector<std::string> out;
+  for (std::size_t f : indices) out.push_back(files[f]);
+  return out;
 }
 
 std::vector<CampaignGroup> planGroups(const CampaignScan& scan, std::int64_t minEvents) {
@@ -181,14 +206,8 @@ std::vector<CampaignGroup> planGroups(const CampaignScan& scan, std::int64_t min
     g.beamEnergy = d.energy;
     g.selected = d.selected;
     g.isShort = d.selected < minEvents;
-    std::vector<std::size_t> fileIndices;
-    for (std::size_t i = d.begin; i < d.end; ++i) {
-      g.runs.push_back(runs[i].run);
-      fileIndices.insert(fileIndices.end(), runs[i].files.begin(), runs[i].files.end());
-    }
-    std::sort(fileIndices.begin(), fileIndices.end());
-    fileIndices.erase(std::unique(fileIndices.begin(), fileIndices.end()), fileIndices.end());
-    for (std::size_t f : fileIndices) g.files.push_back(scan.files[f]);
+    for (std::size_t i = d.begin; i < d.end; ++i) g.runs.push_back(runs[i].run);
+    g.files = scan.filesOf(runs[d.begin].run, runs[d.end - 1].run);
     groups.push_back(std::move(g));
   }
   return groups;
@@ -214,6 +233,7 @@ Json planJson(const CampaignScan& scan, const std::vector<CampaignGroup>& groups
           {"software", fmt::format("emcalign {}", kVersion)},
           {"min_events", minEvents},
           {"corrections", model.corrections},
+          {"corrections_sha256", model.correctionsSha256},
           {"detector", model.detector},
           {"inputs", inputs},
           {"groups", list}};
@@ -227,7 +247,8 @@ Result<CampaignPlan> readCampaignPlan(const std::string& path) {
   try {
     using io::strict::StrictObject;
     StrictObject top(*j, "", path);
-    top.allowOnly({"format", "software", "min_events", "corrections", "detector", "inputs", "groups"});
+    top.allowOnly({"format", "software", "min_events", "corrections", "corrections_sha256", "detector", "inputs",
+                   "groups"});
     if (top.string("format") != kCampaignPlanFormat) {
       top.fail("format", fmt::format("expected \"{}\"", kCampaignPlanFormat));
     }
@@ -236,6 +257,7 @@ Result<CampaignPlan> readCampaignPlan(const std::string& path) {
     if (!n) return n.error();
     plan.minEvents = *n;
     plan.corrections = top.string("corrections");
+    plan.correctionsSha256 = top.string("corrections_sha256");
     plan.detector = top.string("detector");
     const Json& inputs = top.at("inputs");
     if (!inputs.is_array()) top.fail("inputs", "expected a list");
@@ -257,8 +279,10 @@ Result<CampaignPlan> readCampaignPlan(const std::string& path) {
       group.index = static_cast<int>(*index);
       const Json& iov = g.at("iov");
       if (!iov.is_array() || iov.size() != 2) g.fail(g.pathOf("iov"), "expected [first_run, last_run]");
-      auto a = io::integerIn(iov[0], 0, std::numeric_limits<std::int32_t>::max(), path, where + ".iov[0]");
-      auto b = io::integerIn(iov[1], 0, std::numeric_limits<std::int32_t>::max(), path, where + ".iov[1]");
+      constexpr std::int64_t kMinRun = std::numeric_limits<std::int32_t>::min();
+      constexpr std::int64_t kMaxRun = std::numeric_limits<std::int32_t>::max();
+      auto a = io::integerIn(iov[0], kMinRun, kMaxRun, path, where + ".iov[0]");
+      auto b = io::integerIn(iov[1], kMinRun, kMaxRun, path, where + ".iov[1]");
       if (!a) return a.error();
       if (!b) return b.error();
       if (*a > *b) g.fail(g.pathOf("iov"), "the first run is after the last");
@@ -296,8 +320,18 @@ Result<CampaignPlan> readCampaignPlan(const std::string& path) {
   }
 }
 
+Json campaignOrigin(const CampaignGroup& g, std::int64_t minEvents, int groups) {
+  return {{"campaign",
+           {{"group", g.index},
+            {"groups", groups},
+            {"min_events", minEvents},
+            {"runs", g.runs},
+            {"beam_energy_mev", std::isnan(g.beamEnergy) ? Json(nullptr) : Json(g.beamEnergy)},
+            {"short", g.isShort}}}};
+}
+
 Result<GroupFit> fitGroup(const CampaignGroup& g, const calib::ProfileFill& fill, const CampaignModel& model,
-                          const std::map<std::string, std::string>& digests, std::int64_t minEvents, int groups) {
+                          const std::map<std::string, std::string>& digests, const Json& origin) {
   if (fill.cutFlow.events.back() == 0) {
     return Error{fmt::format("group {} (runs {}-{}): no selected event", g.index, g.iovFirst, g.iovLast)};
   }
@@ -315,15 +349,12 @@ Result<GroupFit> fitGroup(const CampaignGroup& g, const calib::ProfileFill& fill
   for (const auto& f : g.files) {
     if (auto it = digests.find(f); it != digests.end() && !it->second.empty()) sha[f] = it->second;
   }
-  Json provenance = {{"campaign",
-                      {{"group", g.index},
-                       {"groups", groups},
-                       {"min_events", minEvents},
-                       {"runs", g.runs},
-                       {"beam_energy_mev", std::isnan(g.beamEnergy) ? Json(nullptr) : Json(g.beamEnergy)},
-                       {"short", g.isShort}}},
-                     {"input_sha256", sha}};
-  if (!model.corrections.empty()) provenance["corrections"] = model.corrections;
+  Json provenance = origin;
+  provenance["input_sha256"] = sha;
+  if (!model.corrections.empty()) {
+    provenance["corrections"] = model.corrections;
+    provenance["corrections_sha256"] = model.correctionsSha256;
+  }
   auto payload = conddb::makePayload(resultJson, model.geometry.radii.r1, fmt::format("group {}", g.index),
                                      std::move(provenance));
   if (!payload) return Error{fmt::format("group {} (runs {}-{}): {}", g.index, g.iovFirst, g.iovLast,
@@ -383,7 +414,7 @@ Result<CampaignReport> runCampaign(const CampaignScan& scan, const CampaignModel
       const CampaignGroup& g = groups[todo[t]];
       calib::ProfileFill fill = calib::ProfileFill::empty(model.profile);
       for (std::int32_t run : g.runs) fill.merge(byRun.at(run)->fill);
-      auto fit = fitGroup(g, fill, model, digests, o.minEvents, static_cast<int>(groups.size()));
+      auto fit = fitGroup(g, fill, model, digests, campaignOrigin(g, o.minEvents, static_cast<int>(groups.size())));
       std::lock_guard lock(dbMutex);
       std::string status;
       if (!fit) {

@@ -334,15 +334,17 @@ Result<PeriodReport> simulatePeriod(const PeriodScenario& s, const geometry::Cal
   const Json state = {{"format", "emcalign-period-state/1"},
                       {"scenario", s.source},
                       {"hits", o.hits},
+                      {"settings", o.settings},
                       {"software", fmt::format("emcalign {}", kVersion)}};
   const std::string statePath = (fs::path(dir) / "period.json").string();
   if (fs::exists(statePath)) {
     auto text = io::readTextFile(statePath);
     if (!text) return text.error();
     auto old = io::parseJson(*text, statePath);
-    if (!old || !old->is_object() || (*old)["scenario"] != s.source || (*old)["hits"] != o.hits) {
-      return Error{fmt::format("{}: this directory holds another period (another scenario or --no-hits): choose "
-                               "another directory, or remove this one",
+    if (!old || !old->is_object() || old->value("scenario", Json()) != s.source ||
+        old->value("hits", Json()) != o.hits || old->value("settings", Json()) != o.settings) {
+      return Error{fmt::format("{}: this directory holds another period (another scenario, --no-hits, realism "
+                               "switches or detector): choose another directory, or remove this one",
                                dir)};
     }
   } else {
@@ -355,6 +357,8 @@ Result<PeriodReport> simulatePeriod(const PeriodScenario& s, const geometry::Cal
   }
 
   PeriodReport report;
+  report.runs = static_cast<std::int64_t>(runs.size());
+  for (const PeriodRun& r : runs) report.events += r.events;
   std::vector<std::size_t> todo;
   for (std::size_t k = 0; k < runs.size(); ++k) {
     if (fs::exists(fs::path(dir) / runs[k].file)) {
@@ -379,11 +383,18 @@ Result<PeriodReport> simulatePeriod(const PeriodScenario& s, const geometry::Cal
   std::size_t nextRun = 0;
   std::int64_t nextEvent = 0;
   std::shared_ptr<const sim::Simulation> current;
-  Status failure;
+  // Each serial filter keeps its own failure (they run at the same time); `stop` tells the
+  // input filter that the output filter failed.
+  Status inputFailure, outputFailure;
+  std::atomic<bool> stop{false};
   std::unique_ptr<io::EventWriter> writer;
   std::int64_t eventsDone = 0, runsDone = report.resumed;
   tbb::enumerable_thread_specific<sim::EventScratch> scratch([&] { return sim::EventScratch(calo.size()); });
 
+  auto fail = [&](Status s) {
+    outputFailure = std::move(s);
+    stop = true;
+  };
   const int threads = o.threads > 0 ? o.threads : tbb::this_task_arena::max_concurrency();
   tbb::task_arena arena(threads);
   arena.execute([&] {
@@ -392,7 +403,7 @@ Result<PeriodReport> simulatePeriod(const PeriodScenario& s, const geometry::Cal
         tbb::make_filter<void, std::shared_ptr<Piece>>(
             tbb::filter_mode::serial_in_order,
             [&](tbb::flow_control& fc) -> std::shared_ptr<Piece> {
-              if (nextRun >= todo.size() || !failure.ok()) {
+              if (nextRun >= todo.size() || stop.load()) {
                 fc.stop();
                 return nullptr;
               }
@@ -406,7 +417,7 @@ Result<PeriodReport> simulatePeriod(const PeriodScenario& s, const geometry::Cal
                 so.seed = r.seed;
                 auto sim = sim::Simulation::create(calo, r.truth, so);
                 if (!sim) {
-                  failure = Error{fmt::format("run {}: {}", r.run, sim.error().message)};
+                  inputFailure = Error{fmt::format("run {}: {}", r.run, sim.error().message)};
                   fc.stop();
                   return nullptr;
                 }
@@ -440,9 +451,9 @@ Result<PeriodReport> simulatePeriod(const PeriodScenario& s, const geometry::Cal
                 }) &
             tbb::make_filter<std::shared_ptr<Piece>, void>(
                 tbb::filter_mode::serial_in_order, [&](std::shared_ptr<Piece> p) {
-                  if (!failure.ok()) return;
+                  if (!outputFailure.ok()) return;
                   if (!p->status.ok()) {
-                    failure = p->status;
+                    fail(p->status);
                     return;
                   }
                   const PeriodRun& r = runs[p->run];
@@ -456,25 +467,26 @@ Result<PeriodReport> simulatePeriod(const PeriodScenario& s, const geometry::Cal
                                            {"events", r.events},
                                            {"seed", r.seed},
                                            {"beam_energy_mev", r.beamEnergy},
-                                           {"theta_range_deg", {s.thetaMin / units::deg, s.thetaMax / units::deg}}};
+                                           {"theta_range_deg", {s.thetaMin / units::deg, s.thetaMax / units::deg}},
+                                           {"settings", o.settings}};
                     wo.attributes = {{"truth_parameters", io::alignmentToJson(r.truth).dump()},
                                      {"simulation", settings.dump()}};
                     auto w = io::EventWriter::open((fs::path(dir) / r.file).string(), wo);
                     if (!w) {
-                      failure = w.error();
+                      fail(w.error());
                       return;
                     }
                     writer = std::move(*w);
                   }
                   if (Status a = writer->append(p->rows, p->truth, p->hits); !a) {
-                    failure = a;
+                    fail(a);
                     return;
                   }
                   report.rows += static_cast<std::int64_t>(p->rows.size());
                   eventsDone += p->last - p->first;
                   if (p->last == r.events) {
                     if (Status c = writer->close(); !c) {
-                      failure = c;
+                      fail(c);
                       return;
                     }
                     writer.reset();
@@ -484,15 +496,15 @@ Result<PeriodReport> simulatePeriod(const PeriodScenario& s, const geometry::Cal
                 }));
   });
   writer.reset();  // an unfinished file's temporary goes with it
-  if (!failure.ok()) return failure.error();
+  if (!inputFailure.ok()) return inputFailure.error();
+  if (!outputFailure.ok()) return outputFailure.error();
 
   const double r1 = calo.description().r1();
   if (Status w = io::writeOutputFile((fs::path(dir) / "truth.json").string(), periodTruthJson(s, runs, r1).dump(1) + "\n");
       !w) {
     return w.error();
   }
-  report.runs = static_cast<std::int64_t>(runs.size());
-  report.events = eventsDone;
+  report.simulated = eventsDone;
   return report;
 }
 

@@ -41,13 +41,12 @@ std::vector<std::pair<double, double>> valuesOf(const calib::FitResult& r) {
 
 // The merged fill of the scanned runs in [first, last].
 calib::ProfileFill fillOf(const CampaignScan& scan, const CampaignModel& model, std::int64_t first, std::int64_t last,
-                          std::vector<std::int32_t>* runs = nullptr, std::vector<std::size_t>* files = nullptr) {
+                          std::vector<std::int32_t>* runs = nullptr) {
   calib::ProfileFill fill = calib::ProfileFill::empty(model.profile);
   for (const CampaignRun& r : scan.runs) {
     if (r.run < first || r.run > last) continue;
     fill.merge(r.fill);
     if (runs != nullptr) runs->push_back(r.run);
-    if (files != nullptr) files->insert(files->end(), r.files.begin(), r.files.end());
   }
   return fill;
 }
@@ -70,116 +69,147 @@ std::string ratio(double a, double b) {
 
 int digitsOf(const std::string& unit) { return unit == "cm" ? 4 : 3; }
 
+// a − b, for a direction (ψ, τ) the nearest turn.
+double difference(const std::string& parameter, double a, double b) {
+  const double d = a - b;
+  return parameter == "psi" || parameter == "tau" ? d - 360.0 * std::round(d / 360.0) : d;
+}
+
+double rms(const std::vector<double>& v) {
+  double ss = 0.0;
+  int n = 0;
+  for (double d : v) {
+    if (std::isfinite(d)) {
+      ss += d * d;
+      ++n;
+    }
+  }
+  return n > 0 ? std::sqrt(ss / n) : RefitPrecision::kNaN;
+}
+
+// The precision of one series before (the replaced IOVs) and after (the refit).
+RefitPrecision precisionOf(const TrendSeries& series, std::int64_t first, std::int64_t last,
+                           std::pair<double, double> after, double statAfter, std::vector<double> statBefore,
+                           const PeriodTruth* truth) {
+  RefitPrecision p;
+  p.parameter = series.parameter;
+  p.unit = series.unit;
+  p.value = after.first;
+  p.quotedAfter = after.second;
+  p.statAfter = statAfter;
+  p.statBefore = median(std::move(statBefore));
+  std::vector<double> values, errors, offTruth;
+  for (const TrendPoint& pt : series.points) {
+    if (pt.firstRun < first || pt.lastRun > last) continue;
+    values.push_back(pt.value);
+    errors.push_back(pt.error);
+    if (truth != nullptr) offTruth.push_back(difference(p.parameter, pt.value, truth->mean(p.parameter, pt.firstRun, pt.lastRun)));
+  }
+  p.quotedBefore = median(errors);
+  if (values.size() >= 2) {
+    double mean = 0.0, ss = 0.0;
+    for (double v : values) mean += v / static_cast<double>(values.size());
+    for (double v : values) ss += (v - mean) * (v - mean);
+    p.scatter = std::sqrt(ss / static_cast<double>(values.size() - 1));
+  }
+  if (truth != nullptr) {
+    p.truth = truth->mean(p.parameter, first, last);
+    p.truthRmsBefore = rms(offTruth);
+  }
+  return p;
+}
+
+// One stable period refitted from all its events, beside the IOVs it replaces.
+Result<RefittedSegment> refitPeriod(const TrendSegment& seg, std::size_t k, std::size_t periods,
+                                    const std::vector<TrendSeries>& series, conddb::TagSnapshot& tag,
+                                    const CampaignScan& scan, const CampaignModel& model,
+                                    const std::map<std::string, std::string>& digests, const PeriodTruth* truth) {
+  RefittedSegment rs;
+  rs.firstRun = seg.firstRun;
+  rs.lastRun = seg.lastRun;
+  rs.begin = seg.begin;
+  rs.end = seg.end;
+  CampaignGroup g;
+  g.index = static_cast<int>(k);
+  g.iovFirst = seg.firstRun;
+  g.iovLast = seg.lastRun;
+  calib::ProfileFill fill = fillOf(scan, model, seg.firstRun, seg.lastRun, &g.runs);
+  if (g.runs.empty()) {
+    return Error{fmt::format("--refit: no events of runs {}-{} in the files given", seg.firstRun, seg.lastRun)};
+  }
+  g.files = scan.filesOf(seg.firstRun, seg.lastRun);
+  g.beamEnergy = std::numeric_limits<double>::quiet_NaN();  // a period spans several energies
+  g.selected = fill.cutFlow.events.back();
+  const Json origin = {{"refit",
+                        {{"tag", tag.tag().name},
+                         {"period", k},
+                         {"periods", periods},
+                         {"replaces_iovs", seg.end - seg.begin},
+                         {"runs", g.runs}}}};
+  auto fit = fitGroup(g, fill, model, digests, origin);
+  if (!fit) return Error{fmt::format("--refit: {}", fit.error().message)};
+  if (!usable(fit->result.status)) {
+    return Error{fmt::format("--refit: runs {}-{}: the fit's status is '{}'", seg.firstRun, seg.lastRun,
+                             name(fit->result.status))};
+  }
+  auto statAfter = statisticalFit(fill, model, seg.firstRun, seg.lastRun);
+  if (!statAfter) return Error{fmt::format("--refit: {}", statAfter.error().message)};
+  rs.selected = g.selected;
+
+  // The replaced IOVs: their events and statistical errors.
+  std::vector<double> selectedBefore;
+  std::vector<std::vector<double>> statBefore(series.size());
+  for (std::size_t i = seg.begin; i < seg.end; ++i) {
+    const conddb::Iov& iov = tag.iovs()[i];
+    const calib::ProfileFill f = fillOf(scan, model, iov.firstRun, iov.lastRun);
+    selectedBefore.push_back(static_cast<double>(f.cutFlow.events.back()));
+    if (f.cutFlow.events.back() == 0) continue;
+    auto st = statisticalFit(f, model, iov.firstRun, iov.lastRun);
+    if (!st) continue;  // a group too poor for a fit without σ_sys counts as missing
+    for (std::size_t s = 0; s < series.size() && s < st->size(); ++s) statBefore[s].push_back((*st)[s].second);
+  }
+  rs.medianSelectedBefore = static_cast<std::int64_t>(std::llround(median(selectedBefore)));
+  const auto after = valuesOf(fit->result);
+  for (std::size_t s = 0; s < series.size(); ++s) {
+    const auto value = s < after.size() ? after[s] : std::pair{RefitPrecision::kNaN, RefitPrecision::kNaN};
+    const double stat = s < statAfter->size() ? (*statAfter)[s].second : RefitPrecision::kNaN;
+    rs.precision.push_back(precisionOf(series[s], seg.firstRun, seg.lastRun, value, stat, statBefore[s], truth));
+  }
+  rs.fit = std::move(*fit);
+  return rs;
+}
+
 }  // namespace
 
 Result<SegmentRefit> refitSegments(const Trend& trend, const std::vector<TrendSeries>& series,
                                    conddb::TagSnapshot& tag, const CampaignScan& scan, const CampaignModel& model,
                                    const PeriodTruth* truth) {
   std::map<std::string, std::string> digests;
-  for (std::size_t k = 0; k < scan.files.size(); ++k) {
-    if (k < scan.digests.size()) digests[scan.files[k]] = scan.digests[k];
-  }
+  for (std::size_t k = 0; k < scan.files.size() && k < scan.digests.size(); ++k) digests[scan.files[k]] = scan.digests[k];
   SegmentRefit out;
-  const auto& iovs = tag.iovs();
   for (std::size_t k = 0; k < trend.segments.size(); ++k) {
     const TrendSegment& seg = trend.segments[k];
-    RefittedSegment rs;
-    rs.firstRun = seg.firstRun;
-    rs.lastRun = seg.lastRun;
-    rs.begin = seg.begin;
-    rs.end = seg.end;
-    rs.drifting = seg.drifting;
-    rs.transition = seg.transition;
     if (!seg.drifting.empty() || seg.transition) {
+      // Kept as they were.
+      RefittedSegment rs;
+      rs.firstRun = seg.firstRun;
+      rs.lastRun = seg.lastRun;
+      rs.begin = seg.begin;
+      rs.end = seg.end;
+      rs.drifting = seg.drifting;
+      rs.transition = seg.transition;
       for (std::size_t i = seg.begin; i < seg.end; ++i) {
-        auto p = tag.payload(iovs[i]);
+        auto p = tag.payload(tag.iovs()[i]);
         if (!p) return p.error();
-        out.iovs.push_back({iovs[i].firstRun, iovs[i].lastRun, **p});
+        out.iovs.push_back({tag.iovs()[i].firstRun, tag.iovs()[i].lastRun, **p});
       }
       out.segments.push_back(std::move(rs));
       continue;
     }
-
-    // The refit from all the period's events.
-    CampaignGroup g;
-    g.index = static_cast<int>(k);
-    g.iovFirst = seg.firstRun;
-    g.iovLast = seg.lastRun;
-    std::vector<std::size_t> fileIndices;
-    calib::ProfileFill fill = fillOf(scan, model, seg.firstRun, seg.lastRun, &g.runs, &fileIndices);
-    if (g.runs.empty()) {
-      return Error{fmt::format("--refit: no events of runs {}-{} in the files given", seg.firstRun, seg.lastRun)};
-    }
-    std::sort(fileIndices.begin(), fileIndices.end());
-    fileIndices.erase(std::unique(fileIndices.begin(), fileIndices.end()), fileIndices.end());
-    for (std::size_t f : fileIndices) g.files.push_back(scan.files[f]);
-    g.beamEnergy = std::numeric_limits<double>::quiet_NaN();  // a period spans several energies
-    g.selected = fill.cutFlow.events.back();
-    auto fit = fitGroup(g, fill, model, digests, g.selected, static_cast<int>(trend.segments.size()));
-    if (!fit) return Error{fmt::format("--refit: {}", fit.error().message)};
-    if (!usable(fit->result.status)) {
-      return Error{fmt::format("--refit: runs {}-{}: the fit's status is '{}'", seg.firstRun, seg.lastRun,
-                               name(fit->result.status))};
-    }
-    auto statAfter = statisticalFit(fill, model, seg.firstRun, seg.lastRun);
-    if (!statAfter) return Error{fmt::format("--refit: {}", statAfter.error().message)};
-    rs.selected = g.selected;
-
-    // The replaced IOVs: their events and statistical errors.
-    std::vector<double> selectedBefore;
-    std::vector<std::vector<double>> statBefore(series.size());
-    for (std::size_t i = seg.begin; i < seg.end; ++i) {
-      const calib::ProfileFill f = fillOf(scan, model, iovs[i].firstRun, iovs[i].lastRun);
-      selectedBefore.push_back(static_cast<double>(f.cutFlow.events.back()));
-      if (f.cutFlow.events.back() == 0) continue;
-      auto st = statisticalFit(f, model, iovs[i].firstRun, iovs[i].lastRun);
-      if (!st) continue;  // a group too poor for a fit without σ_sys counts as missing
-      for (std::size_t s = 0; s < series.size() && s < st->size(); ++s) statBefore[s].push_back((*st)[s].second);
-    }
-    rs.medianSelectedBefore = static_cast<std::int64_t>(std::llround(median(selectedBefore)));
-
-    const auto after = valuesOf(fit->result);
-    for (std::size_t s = 0; s < series.size(); ++s) {
-      RefitPrecision p;
-      p.parameter = series[s].parameter;
-      p.unit = series[s].unit;
-      if (s < after.size()) {
-        p.value = after[s].first;
-        p.quotedAfter = after[s].second;
-      }
-      if (s < statAfter->size()) p.statAfter = (*statAfter)[s].second;
-      p.statBefore = median(statBefore[s]);
-      std::vector<double> values, errors, offTruth;
-      for (const TrendPoint& pt : series[s].points) {
-        if (pt.firstRun < seg.firstRun || pt.lastRun > seg.lastRun) continue;
-        values.push_back(pt.value);
-        errors.push_back(pt.error);
-        if (truth != nullptr) offTruth.push_back(pt.value - truth->mean(p.parameter, pt.firstRun, pt.lastRun));
-      }
-      p.quotedBefore = median(errors);
-      if (values.size() >= 2) {
-        double mean = 0.0, ss = 0.0;
-        for (double v : values) mean += v / static_cast<double>(values.size());
-        for (double v : values) ss += (v - mean) * (v - mean);
-        p.scatter = std::sqrt(ss / static_cast<double>(values.size() - 1));
-      }
-      if (truth != nullptr) {
-        p.truth = truth->mean(p.parameter, seg.firstRun, seg.lastRun);
-        double ss = 0.0;
-        int n = 0;
-        for (double d : offTruth) {
-          if (std::isfinite(d)) {
-            ss += d * d;
-            ++n;
-          }
-        }
-        if (n > 0) p.truthRmsBefore = std::sqrt(ss / n);
-      }
-      rs.precision.push_back(std::move(p));
-    }
-    out.iovs.push_back({seg.firstRun, seg.lastRun, fit->payload});
-    rs.fit = std::move(*fit);
-    out.segments.push_back(std::move(rs));
+    auto rs = refitPeriod(seg, k, trend.segments.size(), series, tag, scan, model, digests, truth);
+    if (!rs) return rs.error();
+    out.iovs.push_back({seg.firstRun, seg.lastRun, rs->fit->payload});
+    out.segments.push_back(std::move(*rs));
   }
   return out;
 }
@@ -213,7 +243,7 @@ Json refitJson(const SegmentRefit& r, std::size_t iovsBefore) {
                 {"scatter_before", num(p.scatter)}};
       if (std::isfinite(p.truth)) {
         q["truth"] = p.truth;
-        q["refit_minus_truth"] = num(p.value - p.truth);
+        q["refit_minus_truth"] = num(difference(p.parameter, p.value, p.truth));
         q["rms_before_minus_truth"] = num(p.truthRmsBefore);
       }
       precision[p.parameter] = q;
@@ -266,7 +296,9 @@ std::string refitMarkdown(const SegmentRefit& r, std::size_t iovsBefore, const s
       row += fmt::format(" {} → {} | {} → {} | {} | {} |", number(p.quotedBefore, d), number(p.quotedAfter, d),
                          number(p.statBefore, d), number(p.statAfter, d), ratio(p.statBefore, p.statAfter),
                          number(p.scatter, d));
-      if (withTruth) row += fmt::format(" {} → {:+.{}f} |", number(p.truthRmsBefore, d), p.value - p.truth, d);
+      if (withTruth) {
+        row += fmt::format(" {} → {} |", number(p.truthRmsBefore, d), number(difference(p.parameter, p.value, p.truth), d));
+      }
       md += row + "\n";
     }
   }

@@ -55,7 +55,8 @@ double normalTwoSided(double z) { return std::erfc(std::abs(z) / std::sqrt(2.0))
 // The least χ² of a continuous broken line through points [a, c) (a drift starting, or
 // changing its slope, anywhere inside): y = p0 + p1·(x − k) + p2·max(0, x − k), over knees k
 // at the points and half-way between them, with at least two points on each side.
-double kneeChi2(const TrendSeries& s, std::size_t a, std::size_t c, double scale) {
+// Point `skip` (a transition IOV) is left out, as in the two segments' fits.
+double kneeChi2(const TrendSeries& s, std::size_t a, std::size_t c, std::size_t skip, double scale) {
   double best = std::numeric_limits<double>::infinity();
   for (std::size_t i = a + 1; i + 2 < c; ++i) {
     for (int half = 0; half < 2; ++half) {
@@ -63,6 +64,7 @@ double kneeChi2(const TrendSeries& s, std::size_t a, std::size_t c, double scale
       Eigen::Matrix3d m = Eigen::Matrix3d::Zero();
       Eigen::Vector3d v = Eigen::Vector3d::Zero();
       for (std::size_t j = a; j < c; ++j) {
+        if (j == skip) continue;
         const double e = scale * s.points[j].error, w = 1.0 / (e * e), dx = s.points[j].x() - k;
         const Eigen::Vector3d f(1.0, dx, std::max(0.0, dx));
         m += w * f * f.transpose();
@@ -72,6 +74,7 @@ double kneeChi2(const TrendSeries& s, std::size_t a, std::size_t c, double scale
       if (!p.allFinite()) continue;
       double chi2 = 0.0;
       for (std::size_t j = a; j < c; ++j) {
+        if (j == skip) continue;
         const double dx = s.points[j].x() - k;
         const double r = (s.points[j].value - p[0] - p[1] * dx - p[2] * std::max(0.0, dx)) / (scale * s.points[j].error);
         chi2 += r * r;
@@ -100,6 +103,12 @@ Result<std::vector<TrendSeries>> seriesOfTag(conddb::TagSnapshot& tag) {
     if (!payload) return payload.error();
     const Json& a = (*payload)->content["alignment"];
     const std::string where = fmt::format("tag {} IOV {}-{}", tag.tag().name, iov.firstRun, iov.lastRun);
+    constexpr std::int64_t kMaxRun = std::numeric_limits<std::int32_t>::max();
+    if (iov.firstRun < -kMaxRun || iov.lastRun > kMaxRun) {
+      return Error{fmt::format("{}: runs beyond ±(2^31 - 1), which no event file has: the trend places each IOV at its "
+                               "middle run, so give it closed IOVs",
+                               where)};
+    }
     auto number = [&](const Json& j, const std::string& key) -> Result<double> {
       if (!j.is_number() || !std::isfinite(j.get<double>())) {
         return Error{fmt::format("{}: {} is missing or not a number (a parameter file without errors cannot be "
@@ -164,6 +173,7 @@ double errorScale(const TrendSeries& s) {
 std::vector<Change> changePoints(const TrendSeries& s, double scale, double penalty, double transitionPenalty,
                                  std::size_t minSegment) {
   const std::size_t n = s.points.size();
+  minSegment = std::max<std::size_t>(minSegment, 1);
   if (n < 2 * minSegment) return {};
   const Sums sums(s, scale);
   // f[t]: the least cost of points [0, t) cut into segments of at least minSegment points,
@@ -231,166 +241,176 @@ LineFit fitLine(const TrendSeries& s, std::size_t begin, std::size_t end, double
   return f;
 }
 
-Trend analyseTrend(const std::vector<TrendSeries>& series, const TrendOptions& o) {
-  Trend t;
-  for (const auto& s : series) t.iovs = std::max(t.iovs, s.points.size());
-  // The change points and the segments' fits of every series.
-  for (const auto& s : series) {
-    SeriesAnalysis a;
-    a.parameter = s.parameter;
-    a.unit = s.unit;
-    const std::size_t n = s.points.size();
-    if (n == 0) {
-      t.series.push_back(std::move(a));
-      continue;
+namespace {
+
+// One series cut into segments, each fitted with a constant and (if long enough) a line.
+SeriesAnalysis analyseSeries(const TrendSeries& s, const TrendOptions& o, double penalty, double transitionPenalty) {
+  SeriesAnalysis a;
+  a.parameter = s.parameter;
+  a.unit = s.unit;
+  const std::size_t n = s.points.size();
+  if (n == 0) return a;
+  a.errorScale = errorScale(s);
+  a.changes = changePoints(s, a.errorScale, penalty, transitionPenalty, o.minSegment);
+  for (std::size_t k = 0; k <= a.changes.size(); ++k) {
+    SegmentTest seg;
+    seg.begin = k == 0 ? 0 : a.changes[k - 1].start;
+    seg.end = k == a.changes.size() ? n : a.changes[k].start - (a.changes[k].transition ? 1 : 0);
+    seg.constant = fitLine(s, seg.begin, seg.end, a.errorScale, false);
+    seg.line = fitLine(s, seg.begin, seg.end, a.errorScale, true);
+    if (seg.isLine() && seg.line.varB > 0.0) {
+      seg.sloped = seg.constant.chi2 - seg.line.chi2 > std::log(static_cast<double>(seg.end - seg.begin));
+      seg.slopeZ = seg.line.b / std::sqrt(seg.line.varB);
+      seg.pValue = normalTwoSided(seg.slopeZ);
     }
-    const double logN = std::log(static_cast<double>(std::max<std::size_t>(n, 2)));
-    const double penalty = o.penalty.value_or(4.0 * logN);
-    t.penalty = std::max(t.penalty, penalty);
-    t.transitionPenalty = o.transitionPenalty.value_or(logN);
-    a.errorScale = errorScale(s);
-    a.changes = changePoints(s, a.errorScale, penalty, o.transitionPenalty.value_or(logN), o.minSegment);
-    for (std::size_t k = 0; k <= a.changes.size(); ++k) {
-      SegmentTest seg;
-      seg.begin = k == 0 ? 0 : a.changes[k - 1].start;
-      seg.end = k == a.changes.size() ? n : a.changes[k].start - (a.changes[k].transition ? 1 : 0);
-      seg.constant = fitLine(s, seg.begin, seg.end, a.errorScale, false);
-      seg.line = fitLine(s, seg.begin, seg.end, a.errorScale, true);
-      if (seg.end - seg.begin >= kMinLinePoints && seg.line.varB > 0.0) {
-        seg.sloped = seg.constant.chi2 - seg.line.chi2 > std::log(static_cast<double>(seg.end - seg.begin));
-        seg.slopeZ = seg.line.b / std::sqrt(seg.line.varB);
-        seg.pValue = normalTwoSided(seg.slopeZ);
-        ++t.tests;
-      }
-      a.segments.push_back(seg);
-    }
-    t.series.push_back(std::move(a));
+    a.segments.push_back(seg);
   }
-  // Drifts: Bonferroni over every segment tested.
+  return a;
+}
+
+// Drifts: every segment's slope, Bonferroni over all segments tested.
+std::vector<TrendDrift> flagDrifts(const std::vector<TrendSeries>& series, std::vector<SeriesAnalysis>& analyses,
+                                   int tests, double alpha) {
+  std::vector<TrendDrift> drifts;
   for (std::size_t k = 0; k < series.size(); ++k) {
-    for (auto& seg : t.series[k].segments) {
-      if (seg.end - seg.begin < kMinLinePoints) continue;
-      seg.drift = seg.pValue * t.tests < o.driftAlpha;
+    for (auto& seg : analyses[k].segments) {
+      if (!seg.isLine() || !(seg.line.varB > 0.0)) continue;
+      seg.drift = seg.pValue * tests < alpha;
       if (!seg.drift) continue;
       const auto& s = series[k];
-      t.drifts.push_back({s.parameter, s.unit, s.points[seg.begin].firstRun, s.points[seg.end - 1].lastRun, seg.line.b,
-                          std::sqrt(seg.line.varB), seg.slopeZ, seg.pValue});
+      drifts.push_back({s.parameter, s.unit, s.points[seg.begin].firstRun, s.points[seg.end - 1].lastRun, seg.line.b,
+                        std::sqrt(seg.line.varB), seg.slopeZ, seg.pValue});
     }
   }
-  // Steps: a jump between the models of neighbouring segments, at the boundary (or at the
-  // transition IOV's middle).
-  for (std::size_t k = 0; k < series.size(); ++k) {
-    const auto& s = series[k];
-    const auto& segs = t.series[k].segments;
-    for (std::size_t j = 1; j < segs.size(); ++j) {
-      const std::size_t i = segs[j].begin;
-      const bool transition = t.series[k].changes[j - 1].transition;
-      const TrendPoint& tp = s.points[i - 1];
-      const double xb = transition ? tp.x() : static_cast<double>(s.points[i].firstRun) - 0.5;
-      // The segments' lines (the cost's model): a constant would put a jump at the knee of
-      // a drift that starts inside a segment.
-      auto modelOf = [](const SegmentTest& g) -> const LineFit& { return g.end - g.begin >= kMinLinePoints ? g.line : g.constant;
-      };
-      const LineFit &l0 = modelOf(segs[j - 1]), &l1 = modelOf(segs[j]);
-      const double before = l0.value(xb), after = l1.value(xb);
-      const double error = std::hypot(l0.error(xb), l1.error(xb));
-      TrendStep step{s.parameter, s.unit, i, s.points[i].firstRun, after - before, error, std::nullopt};
-      if (transition) {
-        // The IOV's value is before·f + after·(1 − f), f the share of its runs before the step.
-        const double fraction = std::clamp((tp.value - after) / (before - after), 0.0, 1.0);
-        const auto runs = static_cast<double>(tp.lastRun - tp.firstRun + 1);
-        step.firstRunAfter = tp.firstRun + static_cast<std::int64_t>(std::llround(fraction * runs));
-        step.withinIov = std::pair{tp.firstRun, tp.lastRun};
-      }
-      if (std::abs(step.z()) < o.stepZ) continue;
-      // Between two segments long enough for lines, a step only when no continuous broken
-      // line (a drift's knee anywhere in them) does nearly as well: Δχ² ≥ stepZ² against the
-      // two lines (with the transition IOV free). Shorter segments are constants: their jump
-      // is the test.
-      if (o.kneeTest && segs[j - 1].end - segs[j - 1].begin >= kMinLinePoints &&
-          segs[j].end - segs[j].begin >= kMinLinePoints) {
-        const double knee = kneeChi2(s, segs[j - 1].begin, segs[j].end, t.series[k].errorScale);
-        if (knee - (l0.chi2 + l1.chi2) < o.stepZ * o.stepZ) continue;
-      }
-      t.steps.push_back(step);
+  return drifts;
+}
+
+// Steps: the jump between neighbouring segments' models at their boundary (at a transition
+// IOV's middle), not explained by a drift's knee (see the header).
+std::vector<TrendStep> findSteps(const TrendSeries& s, const SeriesAnalysis& a, const TrendOptions& o) {
+  std::vector<TrendStep> steps;
+  const auto& segs = a.segments;
+  for (std::size_t j = 1; j < segs.size(); ++j) {
+    const std::size_t i = segs[j].begin;
+    const bool transition = a.changes[j - 1].transition;
+    const TrendPoint& tp = s.points[i - 1];
+    const double xb = transition ? tp.x() : static_cast<double>(s.points[i].firstRun) - 0.5;
+    const LineFit &l0 = segs[j - 1].stepModel(), &l1 = segs[j].stepModel();
+    const double before = l0.value(xb), after = l1.value(xb);
+    TrendStep step{s.parameter, s.unit, i, s.points[i].firstRun, after - before,
+                   std::hypot(l0.error(xb), l1.error(xb)), std::nullopt};
+    if (!(std::abs(step.z()) >= o.stepZ)) continue;
+    if (o.kneeTest && segs[j - 1].isLine() && segs[j].isLine()) {
+      const std::size_t skip = transition ? i - 1 : std::numeric_limits<std::size_t>::max();
+      const double knee = kneeChi2(s, segs[j - 1].begin, segs[j].end, skip, a.errorScale);
+      if (knee - (l0.chi2 + l1.chi2) < o.stepZ * o.stepZ) continue;
     }
+    if (transition) {
+      // The IOV's value is before·f + after·(1 − f), f the share of its runs before the step.
+      const double fraction = std::clamp((tp.value - after) / (before - after), 0.0, 1.0);
+      const double runs = static_cast<double>(tp.lastRun) - static_cast<double>(tp.firstRun) + 1.0;
+      step.firstRunAfter = tp.firstRun + static_cast<std::int64_t>(std::llround(fraction * runs));
+      step.withinIov = std::pair{tp.firstRun, tp.lastRun};
+    }
+    steps.push_back(step);
   }
-  // Stable periods: steps within one IOV of each other are one change of the detector; a
-  // change whose strongest step lies inside an IOV makes that IOV a transition of its own.
-  const TrendSeries* reference = nullptr;
+  return steps;
+}
+
+// Stable periods: steps at neighbouring IOVs (chained) are one change of the detector. A
+// change with a step inside an IOV makes that IOV a transition of its own (the strongest
+// such step's); otherwise the strongest step's IOV starts the next period.
+std::vector<TrendSegment> stablePeriods(const Trend& t, const std::vector<TrendSeries>& series) {
+  const TrendSeries* reference = nullptr;  // a series with every IOV (the 12 parameters have)
   for (const auto& s : series) {
     if (s.points.size() == t.iovs) reference = &s;
   }
-  if (reference != nullptr && t.iovs > 0) {
-    // A step's place among the tag's IOVs: the first IOV after it, or its transition IOV.
-    struct Place {
-      std::size_t iov;
-      bool transition;
-      const TrendStep* step;
-    };
-    auto iovOf = [&](std::int64_t firstRun) {
-      auto it = std::lower_bound(reference->points.begin(), reference->points.end(), firstRun,
-                                 [](const TrendPoint& p, std::int64_t r) { return p.firstRun < r; });
-      return static_cast<std::size_t>(it - reference->points.begin());
-    };
-    std::vector<Place> places;
-    for (const auto& st : t.steps) {
-      places.push_back(st.withinIov ? Place{iovOf(st.withinIov->first), true, &st}
-                                    : Place{iovOf(st.firstRunAfter), false, &st});
-    }
-    std::sort(places.begin(), places.end(), [](const Place& a, const Place& b) { return a.iov < b.iov; });
-    std::vector<std::vector<Place>> clusters;
-    for (const Place& p : places) {
-      if (!clusters.empty() && p.iov <= clusters.back().back().iov + 1) {
-        clusters.back().push_back(p);
-      } else {
-        clusters.push_back({p});
-      }
-    }
-    std::vector<std::size_t> bounds = {0};
-    std::vector<std::size_t> transitions;  // IOVs that are a transition
-    std::vector<std::vector<std::string>> clusterParameters;
-    std::vector<std::size_t> clusterStart;
-    for (const auto& c : clusters) {
-      const Place& strongest = *std::max_element(c.begin(), c.end(), [](const Place& a, const Place& b) {
-        return std::abs(a.step->z()) < std::abs(b.step->z());
-      });
-      std::vector<std::string> names;
-      for (const Place& p : c) {
-        if (std::find(names.begin(), names.end(), p.step->parameter) == names.end()) names.push_back(p.step->parameter);
-      }
-      if (strongest.iov == 0 || strongest.iov >= t.iovs || strongest.iov <= bounds.back()) continue;
-      bounds.push_back(strongest.iov);
-      clusterStart.push_back(strongest.iov);
-      clusterParameters.push_back(names);
-      if (strongest.transition && strongest.iov + 1 < t.iovs) {
-        transitions.push_back(strongest.iov);
-        bounds.push_back(strongest.iov + 1);
-        clusterStart.push_back(strongest.iov + 1);
-        clusterParameters.push_back(names);
-      }
-    }
-    bounds.push_back(t.iovs);
-    for (std::size_t k = 0; k + 1 < bounds.size(); ++k) {
-      TrendSegment seg;
-      seg.begin = bounds[k];
-      seg.end = bounds[k + 1];
-      seg.firstRun = reference->points[seg.begin].firstRun;
-      seg.lastRun = reference->points[seg.end - 1].lastRun;
-      seg.transition = std::find(transitions.begin(), transitions.end(), seg.begin) != transitions.end();
-      if (auto it = std::find(clusterStart.begin(), clusterStart.end(), seg.begin); it != clusterStart.end()) {
-        seg.stepsAtStart = clusterParameters[static_cast<std::size_t>(it - clusterStart.begin())];
-      }
-      for (const auto& d : t.drifts) {
-        const bool overlaps = d.firstRun <= seg.lastRun && d.lastRun >= seg.firstRun;
-        if (!seg.transition && overlaps &&
-            std::find(seg.drifting.begin(), seg.drifting.end(), d.parameter) == seg.drifting.end()) {
-          seg.drifting.push_back(d.parameter);
-        }
-      }
-      t.segments.push_back(std::move(seg));
+  if (reference == nullptr || t.iovs == 0) return {};
+  auto iovOf = [&](std::int64_t firstRun) {
+    auto it = std::lower_bound(reference->points.begin(), reference->points.end(), firstRun,
+                               [](const TrendPoint& p, std::int64_t r) { return p.firstRun < r; });
+    return static_cast<std::size_t>(it - reference->points.begin());
+  };
+  struct Place {
+    std::size_t iov;  // the transition IOV, or the first IOV after the step
+    const TrendStep* step;
+  };
+  std::vector<Place> places;
+  for (const auto& st : t.steps) places.push_back({iovOf(st.withinIov ? st.withinIov->first : st.firstRunAfter), &st});
+  std::sort(places.begin(), places.end(), [](const Place& a, const Place& b) { return a.iov < b.iov; });
+  std::vector<std::vector<Place>> clusters;
+  for (const Place& p : places) {
+    if (!clusters.empty() && p.iov <= clusters.back().back().iov + 1) {
+      clusters.back().push_back(p);
+    } else {
+      clusters.push_back({p});
     }
   }
+  std::vector<std::size_t> bounds = {0}, transitions;
+  std::map<std::size_t, std::vector<std::string>> stepsAt;  // by the IOV where a period starts
+  auto stronger = [](const Place& a, const Place& b) { return std::abs(a.step->z()) < std::abs(b.step->z()); };
+  for (const auto& c : clusters) {
+    std::vector<std::string> names;
+    const Place* cut = nullptr;  // the strongest transition, else the strongest step
+    for (const Place& p : c) {
+      if (std::find(names.begin(), names.end(), p.step->parameter) == names.end()) names.push_back(p.step->parameter);
+      if (p.step->withinIov && (cut == nullptr || !cut->step->withinIov || stronger(*cut, p))) cut = &p;
+    }
+    if (cut == nullptr) cut = &*std::max_element(c.begin(), c.end(), stronger);
+    if (cut->iov == 0 || cut->iov >= t.iovs || cut->iov <= bounds.back()) continue;
+    bounds.push_back(cut->iov);
+    stepsAt[cut->iov] = names;
+    if (cut->step->withinIov && cut->iov + 1 < t.iovs) {
+      transitions.push_back(cut->iov);
+      bounds.push_back(cut->iov + 1);
+      stepsAt[cut->iov + 1] = names;
+    }
+  }
+  bounds.push_back(t.iovs);
+  std::vector<TrendSegment> out;
+  for (std::size_t k = 0; k + 1 < bounds.size(); ++k) {
+    TrendSegment seg;
+    seg.begin = bounds[k];
+    seg.end = bounds[k + 1];
+    seg.firstRun = reference->points[seg.begin].firstRun;
+    seg.lastRun = reference->points[seg.end - 1].lastRun;
+    seg.transition = std::find(transitions.begin(), transitions.end(), seg.begin) != transitions.end();
+    if (auto it = stepsAt.find(seg.begin); it != stepsAt.end()) seg.stepsAtStart = it->second;
+    for (const auto& d : t.drifts) {
+      const bool overlaps = d.firstRun <= seg.lastRun && d.lastRun >= seg.firstRun;
+      if (!seg.transition && overlaps &&
+          std::find(seg.drifting.begin(), seg.drifting.end(), d.parameter) == seg.drifting.end()) {
+        seg.drifting.push_back(d.parameter);
+      }
+    }
+    out.push_back(std::move(seg));
+  }
+  return out;
+}
+
+}  // namespace
+
+Trend analyseTrend(const std::vector<TrendSeries>& series, const TrendOptions& options) {
+  Trend t;
+  t.options = options;
+  t.options.minSegment = std::max<std::size_t>(options.minSegment, 1);
+  const TrendOptions& o = t.options;
+  for (const auto& s : series) t.iovs = std::max(t.iovs, s.points.size());
+  for (const auto& s : series) {
+    const double logN = std::log(static_cast<double>(std::max<std::size_t>(s.points.size(), 2)));
+    const double penalty = o.penalty.value_or(4.0 * logN), transition = o.transitionPenalty.value_or(logN);
+    if (!s.points.empty()) {
+      t.penalty = std::max(t.penalty, penalty);
+      t.transitionPenalty = std::max(t.transitionPenalty, transition);
+    }
+    t.series.push_back(analyseSeries(s, o, penalty, transition));
+    for (const auto& seg : t.series.back().segments) t.tests += seg.isLine() && seg.line.varB > 0.0 ? 1 : 0;
+  }
+  t.drifts = flagDrifts(series, t.series, t.tests, o.driftAlpha);
+  for (std::size_t k = 0; k < series.size(); ++k) {
+    for (auto& step : findSteps(series[k], t.series[k], o)) t.steps.push_back(std::move(step));
+  }
+  t.segments = stablePeriods(t, series);
   std::sort(t.steps.begin(), t.steps.end(), [](const TrendStep& a, const TrendStep& b) {
     return a.firstRunAfter != b.firstRunAfter ? a.firstRunAfter < b.firstRunAfter : a.parameter < b.parameter;
   });
@@ -442,8 +462,12 @@ Json trendJson(const Trend& t, const std::vector<TrendSeries>& series) {
             {"step_test", "jump between the segments' models >= 3 sigma, and no continuous broken line within chi2 9"},
             {"transition_penalty", t.transitionPenalty},
             {"transition_rule", "ln n more for an IOV left out between two segments (straddling a step)"},
-            {"step_z", 3.0},
-            {"drift_test", "slope against 0 in each segment, Bonferroni over all segments, alpha 0.01"},
+            {"step_z", t.options.stepZ},
+            {"min_segment", t.options.minSegment},
+            {"min_line_points", kMinLinePoints},
+            {"knee_test", t.options.kneeTest},
+            {"drift_test", "slope against 0 in each segment of a line, Bonferroni over all segments tested"},
+            {"drift_alpha", t.options.driftAlpha},
             {"drift_tests", t.tests}}},
           {"iovs", t.iovs},
           {"steps", steps},

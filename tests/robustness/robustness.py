@@ -535,6 +535,8 @@ def cases():
              check=nothing_at("drift"), checked="nothing created"))
     add(Case(P, "another scenario into a period's directory", "emcalign simulate --period other.json -o period", 1,
              "holds another period", setup=scenario("other.json", lambda j: j.update(seed=2))))
+    add(Case(P, "a period resumed with other realism switches", "emcalign simulate --period period.json -o period "
+             "--no-hits --ideal", 1, "holds another period"))
     add(Case(P, "a period with --events", "emcalign simulate --period period.json --events 10 -o x", 2, "excludes"))
     add(Case(P, "a campaign on a directory without event files", "mkdir -p empty && emcalign campaign empty "
              "--conditions camp.db --tag e", 1, "no event files"))
@@ -551,6 +553,8 @@ def cases():
     add(Case(P, "a campaign into a tag of another grouping",
              "emcalign campaign period --conditions camp.db --tag c --min-events 3000", 1,
              "not one of this campaign's groups", setup=list_tag, check=same_tag, checked="tag unchanged"))
+    add(Case(P, "a campaign on a file without events", "grep -v '^#' ev.csv | head -n 1 > header.csv && emcalign campaign header.csv "
+             "--conditions camp.db --tag h", 1, "no events"))
     add(Case(P, "a campaign without --conditions", "emcalign campaign period --tag c", 2, "--conditions"))
     add(Case(P, "a batch job without its plan", "emcalign campaign --group 3 --conditions camp.db --tag c", 2,
              "--plan"))
@@ -559,6 +563,10 @@ def cases():
         runner_binary_run(d, ["campaign", "period", "--plan", "plan.json", "--min-events", "1500"])
     add(Case(P, "a batch job beyond the plan", "emcalign campaign --plan plan.json --group 99 --conditions camp.db "
              "--tag c", 1, "has groups 0 to", setup=plan))
+
+    add(Case(P, "a batch job with another detector than its plan's", "emcalign campaign --plan plan.json --group 0 "
+             "--detector d.json --conditions camp.db --tag c", 1, "was made with the embedded default detector",
+             setup=plan))
 
     def gap_plan(d):
         plan(d)
@@ -585,7 +593,7 @@ def cases():
     add(Case(P, "the trend of parameter files without errors", "emcalign trend --conditions camp.db --tag bare -o tr",
              1, "cannot be tracked", setup=params_tag))
     add(Case(P, "a refit with other corrections than the campaign's", "emcalign trend --conditions camp.db --tag c "
-             "-o tr --refit period --tag-out c2 --corrections c.json", 1, "the tag's calibrations were made without"))
+             "-o tr --refit period --tag-out c2 --corrections c.json", 1, "was made without corrections"))
 
     # ---- Messages and exit codes -------------------------------------------------------------
     M = "Messages and exit codes"

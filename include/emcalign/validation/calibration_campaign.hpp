@@ -50,6 +50,8 @@ struct CampaignScan {
   std::vector<std::string> files;
   std::vector<std::string> digests;  ///< SHA-256 of each file (empty when not taken)
   std::vector<CampaignRun> runs;     ///< by run number
+  /// The files holding runs [first, last], in the order of `files`.
+  std::vector<std::string> filesOf(std::int64_t first, std::int64_t last) const;
 };
 
 /// How the events are turned into profiles and fitted: the fit's geometry and corrections.
@@ -57,12 +59,13 @@ struct CampaignModel {
   calib::FitGeometry geometry;
   calib::ProfileOptions profile;  ///< with the corrections' parting plane / nominal profile
   calib::SelectionOptions selection;
-  std::string corrections;  ///< the corrections file (empty: none), for the provenance
+  std::string corrections;         ///< the corrections file (empty: none), for the provenance
+  std::string correctionsSha256;   ///< its SHA-256 (empty: none)
   std::string detector = "embedded default";
 };
 
-/// The event files of the inputs: a directory gives its *.h5, *.hdf5 and *.csv (sorted; none
-/// is an error), a file itself.
+/// The event files of the inputs, as absolute paths (a batch job may run elsewhere): a
+/// directory gives its *.h5, *.hdf5 and *.csv (sorted; none is an error), a file itself.
 Result<std::vector<std::string>> eventFilesIn(const std::vector<std::string>& inputs);
 
 /// The model of a campaign on this detector, with the corrections file if one is given
@@ -76,7 +79,8 @@ struct ScanOptions {
   std::function<void(std::size_t filesDone, std::size_t files)> progress;
 };
 
-/// Reads every file once. A run with events of two beam energies is an error.
+/// Reads every file once. Files without any event, and a run with events of two beam
+/// energies, are errors.
 Result<CampaignScan> scanRuns(const std::vector<std::string>& files, const CampaignModel& model,
                               const ScanOptions& options);
 
@@ -102,7 +106,7 @@ struct CampaignPlan {
   std::int64_t minEvents = 0;
   std::map<std::string, std::string> digests;  ///< file → SHA-256
   std::vector<CampaignGroup> groups;
-  std::string corrections, detector;
+  std::string corrections, correctionsSha256, detector;
 };
 Result<CampaignPlan> readCampaignPlan(const std::string& path);
 
@@ -113,9 +117,14 @@ struct GroupFit {
   conddb::Payload payload;
 };
 
-/// Fits a group from the merged fills of its runs.
+/// Where a group's calibration comes from, for its provenance: {"campaign": {"group",
+/// "groups", "min_events", "runs", "beam_energy_mev", "short"}}.
+io::Json campaignOrigin(const CampaignGroup& group, std::int64_t minEvents, int groups);
+
+/// Fits a group from the merged fills of its runs. The payload's provenance holds `origin`
+/// (an object merged in), the input files' digests and the corrections.
 Result<GroupFit> fitGroup(const CampaignGroup& group, const calib::ProfileFill& fill, const CampaignModel& model,
-                          const std::map<std::string, std::string>& digests, std::int64_t minEvents, int groups);
+                          const std::map<std::string, std::string>& digests, const io::Json& origin);
 
 struct CalibrationCampaignOptions {
   std::int64_t minEvents = 50000;

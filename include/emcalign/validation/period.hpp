@@ -94,20 +94,27 @@ std::vector<PeriodRun> planPeriod(const PeriodScenario& s);
 struct PeriodOptions {
   sim::SimulationOptions simulation;  ///< theta range, beam energy, run and seed set per run
   bool hits = true;                   ///< counter hits in the files
+  /// How the simulation was set (realism switches, the detector): kept in DIR/period.json
+  /// and each run file; resuming with other settings is refused.
+  io::Json settings = io::Json::object();
   int threads = 0;                    ///< 0: all cores
   /// Called as runs finish (done, total) and with the events made so far.
   std::function<void(std::int64_t runsDone, std::int64_t runs, std::int64_t events)> progress;
 };
 
 struct PeriodReport {
-  std::int64_t runs = 0, events = 0, rows = 0;
-  std::int64_t resumed = 0;  ///< runs whose file was there already (same scenario)
+  std::int64_t runs = 0;       ///< of the period
+  std::int64_t events = 0;     ///< of the period
+  std::int64_t simulated = 0;  ///< events simulated now (the others were there already)
+  std::int64_t rows = 0;       ///< particle rows written now
+  std::int64_t resumed = 0;    ///< runs whose file was there already (same period)
 };
 
 /// Simulates every run into DIR/run_NNNNNN.h5 and writes DIR/truth.json (each run's truth,
 /// events and beam energy) and DIR/period.json (the scenario). A directory holding another
-/// period is refused; one holding this period (an interrupted run) is resumed: a run whose
-/// file is there is kept (files are renamed into place only when complete).
+/// period (another scenario, --no-hits or settings) is refused; one holding this period (an
+/// interrupted run) is resumed: a run whose file is there is kept (files are renamed into
+/// place only when complete).
 Result<PeriodReport> simulatePeriod(const PeriodScenario& s, const geometry::Calorimeter& calo,
                                     const std::string& dir, const PeriodOptions& options);
 

@@ -8,8 +8,8 @@
 //    not shrink with events, and it dominates a bin already at ~50 000 events, so the quoted
 //    error of a period barely improves on a group's;
 //  - statistical: the same fits with σ_sys = 0, the part that does shrink, as 1/√N;
-//  - observed: the scatter of the replaced IOVs about the trend's model of the period, which
-//    is what they really fluctuate by; with a period's truth, the refit's distance from it.
+//  - observed: the scatter (RMS) of the replaced IOVs about their mean, which is what they
+//    really fluctuate by; with a period's truth, the refit's distance from it.
 
 #include <cstdint>
 #include <limits>
@@ -35,7 +35,7 @@ struct RefitPrecision {
   double quotedAfter = kNaN;    ///< the refit's quoted error
   double statBefore = kNaN;     ///< median statistical error (σ_sys = 0) of the replaced IOVs
   double statAfter = kNaN;      ///< the refit's statistical error
-  double scatter = kNaN;        ///< RMS of the replaced IOVs about the trend's model of the period
+  double scatter = kNaN;        ///< RMS of the replaced IOVs about their mean
   double truth = kNaN;          ///< mean truth over the period's runs (with a truth)
   double truthRmsBefore = kNaN; ///< RMS over the replaced IOVs of (value − truth over the IOV)
 };
@@ -57,7 +57,8 @@ struct SegmentRefit {
 };
 
 /// Refits every stable period of `trend` (of `series`, the tag's) from the scanned events.
-/// `model` must be the campaign's (the same corrections); `truth` may be null.
+/// `model` must be the campaign's (the same corrections); `truth` may be null. A payload's
+/// provenance says {"refit": {"tag", "period", "periods", "replaces_iovs", "runs"}}.
 Result<SegmentRefit> refitSegments(const Trend& trend, const std::vector<TrendSeries>& series,
                                    conddb::TagSnapshot& tag, const CampaignScan& scan, const CampaignModel& model,
                                    const PeriodTruth* truth);

@@ -49,7 +49,7 @@ inline constexpr std::size_t kMinLinePoints = 5;
 struct TrendPoint {
   std::int64_t firstRun = 0, lastRun = 0;  ///< the IOV
   double value = 0.0, error = 0.0;         ///< file units (deg, cm)
-  double x() const { return 0.5 * static_cast<double>(firstRun + lastRun); }
+  double x() const { return 0.5 * (static_cast<double>(firstRun) + static_cast<double>(lastRun)); }
 };
 
 struct TrendSeries {
@@ -84,6 +84,11 @@ struct SegmentTest {
                         ///< weak to flag, but the better model of the segment's ends
   /// The segment's model, as the figures draw it.
   const LineFit& model() const { return drift || sloped ? line : constant; }
+  /// Long enough for a line (and a drift test).
+  bool isLine() const { return end - begin >= kMinLinePoints; }
+  /// The model a step is measured on: the line of the cost where there is one, so that a
+  /// drift starting inside the segment makes no jump.
+  const LineFit& stepModel() const { return isLine() ? line : constant; }
 };
 
 struct TrendStep {
@@ -130,7 +135,7 @@ struct TrendSegment {
 };
 
 struct TrendOptions {
-  std::size_t minSegment = 2;  ///< points per segment
+  std::size_t minSegment = 2;  ///< points per segment (at least 1)
   double stepZ = 3.0;          ///< jump / error for a change to count as a step
   double driftAlpha = 0.01;    ///< family-wise false-flag rate of the drift tests
   std::optional<double> penalty;  ///< default (k + 2)·ln n
@@ -140,6 +145,7 @@ struct TrendOptions {
 };
 
 struct Trend {
+  TrendOptions options;  ///< as used
   std::vector<SeriesAnalysis> series;
   std::vector<TrendStep> steps;
   std::vector<TrendDrift> drifts;  ///< the flagged ones
@@ -154,7 +160,7 @@ struct Trend {
 /// the errors; a transition costs `penalty` + `transitionPenalty`.
 std::vector<Change> changePoints(const TrendSeries& s, double scale, double penalty, double transitionPenalty,
                                  std::size_t minSegment);
-/// s of the top of this file (≥ 1).
+/// s of the top of this file (1 with fewer than 6 points, or when it cannot be estimated).
 double errorScale(const TrendSeries& s);
 /// Weighted least squares of points [begin, end): a line, or a constant (`withSlope` false).
 LineFit fitLine(const TrendSeries& s, std::size_t begin, std::size_t end, double scale, bool withSlope);

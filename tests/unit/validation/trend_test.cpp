@@ -161,5 +161,20 @@ TEST(Trend, StepsOfSeveralParametersMakeOneBoundary) {
   EXPECT_EQ(t.segments[1].stepsAtStart.size(), 2u);
 }
 
+// A change seen inside IOV 30 by one parameter and as a plain step at IOV 31 by a stronger
+// one: IOV 30 is still the transition (its calibration mixes the two detectors).
+TEST(Trend, ATransitionSeenByOneParameterIsKept) {
+  std::mt19937_64 rng(9);
+  const auto dx = series(60, 0.01, rng, [](std::size_t i) { return i < 30 ? 0.25 : i == 30 ? 0.3 : 0.45; }, "dx");
+  const auto psi = series(60, 1.0, rng, [](std::size_t i) { return i <= 30 ? 40.0 : 115.0; }, "psi");
+  const Trend t = analyseTrend({dx, psi});
+  ASSERT_EQ(t.steps.size(), 2u);
+  ASSERT_EQ(t.segments.size(), 3u);
+  EXPECT_TRUE(t.segments[1].transition);
+  EXPECT_EQ(t.segments[1].firstRun, 301);
+  EXPECT_EQ(t.segments[2].firstRun, 311);
+  EXPECT_EQ(t.segments[2].stepsAtStart.size(), 2u);
+}
+
 }  // namespace
 }  // namespace emcalign::validation

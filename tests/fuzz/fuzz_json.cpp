@@ -1,8 +1,10 @@
 // libFuzzer target: the JSON readers — the parser (duplicate keys, depth, size), the
-// alignment file (both forms, fit results), the detector description and the corrections.
+// alignment file (both forms, fit results), the detector description, the corrections and
+// the period scenario.
 
 #include "emcalign/calib/corrections.hpp"
 #include "emcalign/io/json_files.hpp"
+#include "emcalign/validation/period.hpp"
 #include "fuzz_support.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
@@ -25,6 +27,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (!again) __builtin_trap();
   } else {
     fuzz::expectMessage(false, c.error().message);
+  }
+  if (auto p = validation::parsePeriodScenario(*j, 53.7, "fuzz.json")) {
+    if (validation::planPeriod(*p).empty()) __builtin_trap();  // a scenario read has runs
+  } else {
+    fuzz::expectMessage(false, p.error().message);
   }
   return 0;
 }

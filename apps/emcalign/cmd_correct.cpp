@@ -41,30 +41,10 @@ int run(const CorrectCliOptions& o) {
   auto calo = loadCalorimeter(o.detector);
   if (!calo) return reportError(calo.error());
   // One alignment for every event, or each run's own from a conditions tag.
-  std::shared_ptr<const geometry::AlignmentTransform> one;
-  std::optional<ConditionsAlignments> byRun;
-  io::Json alignmentJson;
-  if (!o.conditions.empty()) {
-    auto c = ConditionsAlignments::open(o.conditions, o.tag, *calo);
-    if (!c) return reportError(c.error());
-    byRun.emplace(std::move(*c));
-    alignmentJson = {{"conditions", byRun->uri()}, {"tag", o.tag}};
-  } else {
-    auto alignment = loadAlignment(o.alignment, *calo);
-    if (!alignment) return reportError(alignment.error());
-    for (const auto& w : alignment->warnings) reportWarning(w);
-    auto transform = geometry::AlignmentTransform::create(alignment->parameters,
-                                                          geometry::AlignmentRadii::of(calo->description()));
-    if (!transform) return reportError(transform.error());
-    one = std::make_shared<const geometry::AlignmentTransform>(std::move(*transform));
-    alignmentJson = {{"file", o.alignment},
-                     {"parameters", io::alignmentToJson(alignment->parameters)["parameters"]}};
-  }
-  const apply::AlignmentOfRun alignmentOf =
-      [&](std::int64_t run) -> Result<std::shared_ptr<const geometry::AlignmentTransform>> {
-    if (byRun) return byRun->transformOf(run);
-    return one;
-  };
+  auto source = AlignmentSource::open(o.alignment, o.conditions, o.tag, *calo);
+  if (!source) return reportError(source.error());
+  for (const auto& w : source->warnings) reportWarning(w);
+  const io::Json& alignmentJson = source->description;
 
   apply::CorrectOptions options;
   options.method = *apply::correctionMethodFromName(o.method);
@@ -86,11 +66,12 @@ int run(const CorrectCliOptions& o) {
           .dump();
   ProgressLine progress("correct", 0, "rows");
   options.progress = [&](std::int64_t rows) { progress.update(rows); };
-  auto report = apply::correctFiles(o.events, o.output, *calo, alignmentOf, options);
+  auto report = apply::correctFiles(o.events, o.output, *calo, source->alignmentOf(), options);
   progress.finish();
   if (!report) return reportError(report.error());
   const std::string iovs =
-      byRun ? fmt::format(" with {} IOV{} of tag {}", report->alignments, report->alignments == 1 ? "" : "s", o.tag)
+      source->byRun ? fmt::format(" with {} IOV{} of tag {}", report->alignments, report->alignments == 1 ? "" : "s",
+                                  o.tag)
             : "";
   fmt::print(reportStream(), "correct ({}): {} events, {} rows, {} clusters corrected{}{}{} in {:.1f} s -> {}\n",
              name(report->method), report->events, report->rows, report->clusters, iovs,

@@ -91,5 +91,6 @@ void addResidualsCommand(CLI::App& app, int& exitCode);
 void addConditionsCommand(CLI::App& app, int& exitCode);
 void addCampaignCommand(CLI::App& app, int& exitCode);
 void addTrendCommand(CLI::App& app, int& exitCode);
+void addCheckCommand(CLI::App& app, int& exitCode);
 
 }  // namespace emcalign::app

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include "common.hpp"
 #include "emcalign/io/json_files.hpp"
 
 namespace emcalign::app {
@@ -50,6 +51,35 @@ Result<std::shared_ptr<const geometry::AlignmentTransform>> ConditionsAlignments
   auto shared = std::make_shared<const geometry::AlignmentTransform>(std::move(*t));
   transforms_[iov->firstRun] = shared;
   return shared;
+}
+
+apply::AlignmentOfRun AlignmentSource::alignmentOf() const {
+  auto byRunAlignments = byRun;
+  auto single = one;
+  return [byRunAlignments, single](std::int64_t run) -> Result<std::shared_ptr<const geometry::AlignmentTransform>> {
+    if (byRunAlignments) return byRunAlignments->transformOf(run);
+    return single;
+  };
+}
+
+Result<AlignmentSource> AlignmentSource::open(const std::string& alignment, const std::string& conditions,
+                                              const std::string& tag, const geometry::Calorimeter& calo) {
+  AlignmentSource a;
+  if (!conditions.empty()) {
+    auto c = ConditionsAlignments::open(conditions, tag, calo);
+    if (!c) return c.error();
+    a.byRun = std::make_shared<ConditionsAlignments>(std::move(*c));
+    a.description = {{"conditions", a.byRun->uri()}, {"tag", tag}};
+    return a;
+  }
+  auto file = loadAlignment(alignment, calo);
+  if (!file) return file.error();
+  a.warnings = file->warnings;
+  auto transform = geometry::AlignmentTransform::create(file->parameters, geometry::AlignmentRadii::of(calo.description()));
+  if (!transform) return transform.error();
+  a.one = std::make_shared<const geometry::AlignmentTransform>(std::move(*transform));
+  a.description = {{"file", alignment}, {"parameters", io::alignmentToJson(file->parameters)["parameters"]}};
+  return a;
 }
 
 }  // namespace emcalign::app

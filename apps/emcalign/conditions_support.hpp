@@ -5,8 +5,11 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
+#include <vector>
 
+#include "emcalign/apply/correct.hpp"
 #include "emcalign/conddb/conditions.hpp"
 #include "emcalign/geometry/alignment_transform.hpp"
 #include "emcalign/geometry/detector.hpp"
@@ -37,6 +40,18 @@ class ConditionsAlignments {
   std::unique_ptr<conddb::TagSnapshot> snapshot_;
   const geometry::Calorimeter* calo_ = nullptr;
   std::map<std::int64_t, std::shared_ptr<const geometry::AlignmentTransform>> transforms_;  // by first run
+};
+
+/// The alignment a command corrects with: one file (`--alignment`) for every run, or each
+/// run's own IOV (`--conditions URI --tag T`). `description` says which, for the outputs.
+struct AlignmentSource {
+  std::shared_ptr<const geometry::AlignmentTransform> one;
+  std::shared_ptr<ConditionsAlignments> byRun;
+  io::Json description;
+  std::vector<std::string> warnings;  ///< of the alignment file
+  apply::AlignmentOfRun alignmentOf() const;
+  static Result<AlignmentSource> open(const std::string& alignment, const std::string& conditions,
+                                      const std::string& tag, const geometry::Calorimeter& calo);
 };
 
 }  // namespace emcalign::app

@@ -60,6 +60,7 @@ int main(int argc, char** argv) {
   emcalign::app::addConditionsCommand(app, exitCode);
   emcalign::app::addCampaignCommand(app, exitCode);
   emcalign::app::addTrendCommand(app, exitCode);
+  emcalign::app::addCheckCommand(app, exitCode);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -595,6 +595,22 @@ def cases():
     add(Case(P, "a refit with other corrections than the campaign's", "emcalign trend --conditions camp.db --tag c "
              "-o tr --refit period --tag-out c2 --corrections c.json", 1, "was made without corrections"))
 
+    # ---- Physics checks ------------------------------------------------------------------------
+    K = "Physics checks"
+
+    def nothing_left(out):
+        def check(d, r):
+            o = os.path.join(d, out)
+            left = [n for n in os.listdir(o) if n.startswith(".corrected")] if os.path.isdir(o) else []
+            return f"left in {out}: {left}" if left else None
+        return check
+    add(Case(K, "a check with a tag that does not cover the runs", "emcalign check gg ev.h5 --conditions c.db --tag late "
+             "-o chk", 1, "no IOV of tag 'late'", setup=late_tag, check=nothing_left("chk"),
+             checked="no temporary left"))
+    add(Case(K, "a check without a process", "emcalign check ev.h5 --alignment p.json -o chk", 2,
+             "subcommand is required"))
+    add(Case(K, "a check into a file", "emcalign check 3pi ev.h5 --alignment p.json -o ev.csv", 1, "ev.csv"))
+
     # ---- Messages and exit codes -------------------------------------------------------------
     M = "Messages and exit codes"
     add(Case(M, "an unknown option", "emcalign fit ev.csv -o r.json --bogus", 2, "usage error"))

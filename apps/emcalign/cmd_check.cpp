@@ -1,0 +1,189 @@
+// emcalign check gg|3pi: what the calibration does to physics (the paper, section 5;
+// apply/physics_checks.hpp, docs/checks.md). The events are corrected by `correct`'s own code
+// into a temporary file in the output directory, both versions are read in step, and the
+// temporary goes.
+//
+//   check gg EVENTS... (--alignment A.json | --conditions URI --tag T) -o DIR   → check.json, acollinearity.png
+//   check 3pi EVENTS... (--alignment A.json | --conditions URI --tag T) -o DIR  → check.json, chi2.png
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "common.hpp"
+#include "conditions_support.hpp"
+#include "emcalign/apply/correct.hpp"
+#include "emcalign/apply/physics_checks.hpp"
+#include "emcalign/calib/corrections.hpp"
+#include "emcalign/core/units.hpp"
+#include "emcalign/core/version.hpp"
+#include "emcalign/report/check_plots.hpp"
+#include "progress.hpp"
+
+namespace emcalign::app {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct CheckCliOptions {
+  std::string process;  // "gg" or "3pi"
+  std::vector<std::string> events;
+  std::string alignment, conditions, tag, method = "auto", corrections, detector, output;
+};
+
+// Removes the temporary corrected file however the check ends.
+struct TemporaryFile {
+  std::string path;
+  ~TemporaryFile() {
+    std::error_code ec;
+    if (!path.empty()) fs::remove(path, ec);
+  }
+};
+
+std::string fixed(double v, int digits) { return std::isfinite(v) ? fmt::format("{:.{}f}", v, digits) : "—"; }
+
+int run(const CheckCliOptions& o) {
+  std::vector<io::NamedPath> inputs;
+  for (const auto& e : o.events) inputs.push_back({"", e});
+  inputs.push_back({"--alignment", o.alignment});
+  inputs.push_back({"--corrections", o.corrections});
+  inputs.push_back({"--detector", o.detector});
+  if (Status s = checkOutputs({}, {{"-o", o.output}}, inputs); !s) return reportError(s.error());
+  auto calo = loadCalorimeter(o.detector);
+  if (!calo) return reportError(calo.error());
+  auto source = AlignmentSource::open(o.alignment, o.conditions, o.tag, *calo);
+  if (!source) return reportError(source.error());
+  for (const auto& w : source->warnings) reportWarning(w);
+  apply::CorrectOptions options;
+  options.method = *apply::correctionMethodFromName(o.method);
+  options.depth = geometry::ShowerDepth::of(calo->description());
+  if (!o.corrections.empty()) {
+    auto c = calib::readCorrections(o.corrections);
+    if (!c) return reportError(c.error());
+    options.depth.offset = c->depthOffset;
+  }
+  options.description = io::Json{{"software", fmt::format("emcalign {}", kVersion)},
+                                  {"alignment", source->description},
+                                  {"method", o.method},
+                                  {"purpose", "emcalign check " + o.process}}
+                            .dump();
+  std::error_code ec;
+  fs::create_directories(o.output, ec);
+  if (ec) return reportError(Error{fmt::format("{}: cannot create the directory: {}", o.output, ec.message())});
+  TemporaryFile corrected{(fs::path(o.output) / fmt::format(".corrected-{}.h5", ::getpid())).string()};
+  ProgressLine progress("check: correcting", 0, "rows");
+  options.progress = [&](std::int64_t rows) { progress.update(rows); };
+  auto report = apply::correctFiles(o.events, corrected.path, *calo, source->alignmentOf(), options);
+  progress.finish();
+  if (!report) return reportError(report.error());
+
+  io::Json json;
+  std::vector<report::BeforeAfterPanel> panels;
+  std::string figure, summary;
+  if (o.process == "gg") {
+    auto check = apply::checkGammaGamma(o.events, {corrected.path});
+    if (!check) return reportError(check.error());
+    json = apply::checkJson(*check);
+    const auto& b = json["before"];
+    const auto& a = json["after"];
+    auto label = [](const char* when, const io::Json& side, const char* what) {
+      const std::string w(what);
+      return fmt::format("{}: σ_{{core}} {}°, rms {}°", when, fixed(side.value(w + "_width_deg", NAN), 3),
+                         fixed(side.value(w + "_rms_deg", NAN), 3));
+    };
+    panels.push_back({"Δφ = |φ_1 − φ_2| − 180°  [deg]", -6.0, 6.0, 60, check->dphi[0], check->dphi[1],
+                      label("before", b, "dphi"), label("after", a, "dphi"), 0});
+    panels.push_back({"Δθ = θ_1 + θ_2 − 180°  [deg]", -15.0, 15.0, 60, check->dtheta[0], check->dtheta[1],
+                      label("before", b, "dtheta"), label("after", a, "dtheta"), 0});
+    figure = "acollinearity";
+    summary = fmt::format("check gg: {} of {} events selected; Δφ core width {}° -> {}° ({}% better), Δθ {}° -> {}°",
+                          json["selected"].get<std::int64_t>(), check->cutFlow.events.front(),
+                          fixed(b.value("dphi_width_deg", NAN), 3), fixed(a.value("dphi_width_deg", NAN), 3),
+                          fixed(json["improvement_percent"].value("dphi_width", NAN), 1),
+                          fixed(b.value("dtheta_width_deg", NAN), 3), fixed(a.value("dtheta_width_deg", NAN), 3));
+  } else {
+    auto check = apply::checkThreePion(o.events, {corrected.path}, options.depth);
+    if (!check) return reportError(check.error());
+    json = apply::checkJson(*check);
+    std::array<std::vector<double>, 2> chi2;
+    for (std::size_t k = 0; k < 2; ++k) {
+      for (const auto& f : check->fits[k]) {
+        if (f.converged) chi2[k].push_back(f.chi2);
+      }
+    }
+    const auto& b = json["before"];
+    const auto& a = json["after"];
+    panels.push_back({"χ^2 of the kinematic fit (ndf 2)", 0.0, 30.0, 60, chi2[0], chi2[1],
+                      fmt::format("before: mean {}", fixed(b.value("chi2_mean", NAN), 2)),
+                      fmt::format("after: mean {}", fixed(a.value("chi2_mean", NAN), 2)), 2});
+    figure = "chi2";
+    summary = fmt::format("check 3pi: {} of {} events selected; mean χ² {} -> {} ({}% lower); not converged {} / {}",
+                          json["selected"].get<std::int64_t>(), check->cutFlow.events.front(),
+                          fixed(b.value("chi2_mean", NAN), 3), fixed(a.value("chi2_mean", NAN), 3),
+                          fixed(json["improvement_percent"].value("chi2_mean", NAN), 1),
+                          b["not_converged"].get<std::int64_t>(), a["not_converged"].get<std::int64_t>());
+  }
+  json["alignment"] = source->description;
+  json["correction_method"] = std::string(name(report->method));
+  json["inputs"] = o.events;
+  json["software"] = fmt::format("emcalign {}", kVersion);
+  const fs::path dir(o.output);
+  if (Status s = io::writeOutputFile((dir / "check.json").string(), json.dump(1) + "\n"); !s) {
+    return reportError(s.error());
+  }
+  auto png = report::writeBeforeAfterPlot(o.output, figure,
+                                          o.process == "gg" ? "e+e- → γγ: acollinearity before and after the correction"
+                                                            : "e+e- → π+π−π0: kinematic fit before and after the correction",
+                                          panels);
+  if (!png) return reportError(png.error());
+  fmt::print(reportStream(), "{}\nwrote {}/check.json and {}\n", summary, o.output, *png);
+  return kExitOk;
+}
+
+void addProcess(CLI::App& parent, const std::string& process, const std::string& help, int& exitCode) {
+  auto o = std::make_shared<CheckCliOptions>();
+  o->process = process;
+  auto* cmd = parent.add_subcommand(process, help);
+  addVersionFlag(*cmd);
+  cmd->add_option("events", o->events, "event files (HDF5 or .csv)")->required()->check(CLI::ExistingFile);
+  auto* alignment = cmd->add_option("--alignment", o->alignment, "a parameter file, a fit result or a placements file")
+                        ->check(CLI::ExistingFile);
+  auto* conditions = cmd->add_option("--conditions", o->conditions,
+                                     "instead of --alignment: a conditions database; each run with its IOV of --tag")
+                         ->excludes(alignment);
+  cmd->add_option("--tag", o->tag, "the tag of --conditions")->needs(conditions);
+  conditions->needs(cmd->get_option("--tag"));
+  cmd->add_option("--method", o->method, "the correction's method: auto, hits or clusters (as emcalign correct)")
+      ->check(CLI::IsMember({"auto", "hits", "clusters"}));
+  cmd->add_option("--corrections", o->corrections, "the depth offset of the cluster method and of R(E, theta)")
+      ->check(CLI::ExistingFile);
+  addDetectorOption(*cmd, o->detector);
+  cmd->add_option("-o,--output", o->output, "output directory: check.json and the figure")->required();
+  cmd->callback([o, &exitCode] {
+    if (o->alignment.empty() && o->conditions.empty()) {
+      throw CLI::RequiredError("--alignment FILE or --conditions URI --tag T");
+    }
+    exitCode = run(*o);
+  });
+}
+
+}  // namespace
+
+void addCheckCommand(CLI::App& app, int& exitCode) {
+  auto* cmd = app.add_subcommand("check", "Physics checks of a calibration: the same events before and after the "
+                                          "correction (the paper, section 5)");
+  addVersionFlag(*cmd);
+  cmd->require_subcommand(1);
+  addProcess(*cmd, "gg", "e+e- → γγ: the acollinearity Δφ, Δθ of the paper's selection, its core width before and "
+                         "after", exitCode);
+  addProcess(*cmd, "3pi", "e+e- → π+π−π0: the 2C kinematic fit (energy and momentum, no π0 mass), its χ² before and "
+                          "after", exitCode);
+}
+
+}  // namespace emcalign::app

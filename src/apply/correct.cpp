@@ -11,6 +11,7 @@
 
 #include "emcalign/apply/cluster_correction.hpp"
 #include "emcalign/geometry/counter_geometry.hpp"
+#include "emcalign/io/json_files.hpp"
 #include "emcalign/sim/reconstruction.hpp"
 
 namespace emcalign::apply {
@@ -92,8 +93,28 @@ Result<CorrectReport> correctFiles(const std::vector<std::string>& inputs, const
                              "HDF5); this one has none: use --method clusters",
                              inputs.front())};
   }
-  report.method = o.method == CorrectionMethod::Auto ? (hits ? CorrectionMethod::Hits : CorrectionMethod::Clusters)
-                                                      : o.method;
+  // Rebuilding a cluster from its counters is the identity at zero alignment only when the
+  // file's clusters were made that way: not by `simulate --ideal` or `--off counter-directions`
+  // (directions from the deposit itself), as the file's "simulation" attribute says.
+  bool fromCounters = true;
+  for (const auto& [key, value] : (*reader)->attributes()) {
+    if (key != "simulation") continue;
+    auto j = io::Json::parse(value, nullptr, false);
+    if (j.is_discarded() || !j.is_object()) continue;
+    const io::Json off = j.value("off", io::Json::array());
+    if (j.value("ideal", false) ||
+        (off.is_array() && std::find(off.begin(), off.end(), io::Json("counter-directions")) != off.end())) {
+      fromCounters = false;
+    }
+  }
+  if (o.method == CorrectionMethod::Hits && !fromCounters) {
+    return Error{fmt::format("{}: its clusters were not reconstructed from counter centres (simulate --ideal or --off "
+                             "counter-directions), so the hits method cannot rebuild them: use --method clusters",
+                             inputs.front())};
+  }
+  report.method = o.method == CorrectionMethod::Auto
+                      ? (hits && fromCounters ? CorrectionMethod::Hits : CorrectionMethod::Clusters)
+                      : o.method;
   // The alignment of the current run, and its aligned counters (hits method), made once per
   // alignment.
   struct Current {

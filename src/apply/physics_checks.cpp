@@ -17,6 +17,7 @@ using io::Json;
 namespace {
 
 constexpr double kDeg = units::deg;
+constexpr double kChi2Tail = 20.0;  // χ²(2) > 20: p < 5e-5, the tail of non-Gaussian responses
 
 double median(std::vector<double> v) {
   if (v.empty()) return std::nan("");
@@ -308,8 +309,19 @@ Json checkJson(const ThreePionCheck& c) {
     means[k] = chi2.empty() ? std::nan("") : std::accumulate(chi2.begin(), chi2.end(), 0.0) / chi2.size();
     medians[k] = median(chi2);
     auto num = [](double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); };
+    double truncated = 0.0;
+    std::int64_t inCore = 0;
+    for (double x : chi2) {
+      if (x < kChi2Tail) {
+        truncated += x;
+        ++inCore;
+      }
+    }
     sides[k] = {{"chi2_mean", num(means[k])},
                 {"chi2_median", num(medians[k])},
+                {"chi2_mean_below_20", num(inCore > 0 ? truncated / static_cast<double>(inCore) : std::nan(""))},
+                {"fraction_above_20", num(chi2.empty() ? std::nan("")
+                                                       : 1.0 - static_cast<double>(inCore) / static_cast<double>(chi2.size()))},
                 {"p_value_mean", num(chi2.empty() ? std::nan("") : pSum / chi2.size())},
                 {"converged", chi2.size()},
                 {"not_converged", failed}};

@@ -607,6 +607,12 @@ def cases():
     add(Case(K, "a check with a tag that does not cover the runs", "emcalign check gg ev.h5 --conditions c.db --tag late "
              "-o chk", 1, "no IOV of tag 'late'", setup=late_tag, check=nothing_left("chk"),
              checked="no temporary left"))
+    def ideal_events(d):
+        runner_binary_run(d, ["simulate", "--events", "200", "--ideal", "--params", "p.json", "-o", "ideal.h5"])
+    add(Case(K, "the hits method on an idealised simulation", "emcalign correct ideal.h5 --alignment p.json --method hits "
+             "-o out.h5", 1, "cannot rebuild them", setup=ideal_events,
+             check=lambda d, r: "out.h5 written" if os.path.exists(os.path.join(d, "out.h5")) else None,
+             checked="nothing written"))
     add(Case(K, "a check without a process", "emcalign check ev.h5 --alignment p.json -o chk", 2,
              "subcommand is required"))
     add(Case(K, "a check into a file", "emcalign check 3pi ev.h5 --alignment p.json -o ev.csv", 1, "ev.csv"))

@@ -5,6 +5,7 @@
 #include "emcalign/apply/kinematic_fit.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <random>
 #include <vector>
 
@@ -90,6 +91,10 @@ TEST(KinematicFit, GaussianSmearingGivesChi2OfNdfAndFlatPValues) {
   }
   EXPECT_GE(converged, kEvents - 10);  // linearisation may fail only far in the tails
   const double mean = sum / converged;
+  std::printf("kinematic fit on %d Gaussian events: %d converged, mean chi2 %.4f, p-value tenths:", kEvents, converged,
+              mean);
+  for (int b : pBins) std::printf(" %d", b);
+  std::printf("\n");
   EXPECT_NEAR(mean, 2.0, 0.08) << mean;  // σ(⟨χ²⟩) = 2/√20000 = 0.014, plus the non-linearity
   // Flat p-values: each tenth holds 10 % ± 4σ of a binomial.
   const double expected = converged / 10.0, tolerance = 4.0 * std::sqrt(expected * 0.9);

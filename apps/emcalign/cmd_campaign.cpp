@@ -208,10 +208,7 @@ void addCampaignCommand(CLI::App& app, int& exitCode) {
   auto* conditions = cmd->add_option("--conditions", o->conditions,
                                      "conditions database: sqlite:PATH (created if new), or postgresql://...");
   cmd->add_option("--tag", o->tag, "the tag to write (created if new); a rerun skips its groups already there")
-      ->check([](const std::string& t) {
-        Status s = conddb::checkTagName(t);
-        return s ? std::string() : s.error().message;
-      });
+      ->check(tagName());
   cmd->add_option("--min-events", o->minEvents, "selected events per calibration (the paper: about 50 000)")
       ->check(integerIn(1, kMaxEvents));
   cmd->add_option("--threads", o->threads, "worker threads (0: all cores)")->check(integerIn(0, kMaxThreads));

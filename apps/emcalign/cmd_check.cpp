@@ -60,14 +60,9 @@ int run(const CheckCliOptions& o) {
   auto source = AlignmentSource::open(o.alignment, o.conditions, o.tag, *calo);
   if (!source) return reportError(source.error());
   for (const auto& w : source->warnings) reportWarning(w);
-  apply::CorrectOptions options;
-  options.method = *apply::correctionMethodFromName(o.method);
-  options.depth = geometry::ShowerDepth::of(calo->description());
-  if (!o.corrections.empty()) {
-    auto c = calib::readCorrections(o.corrections);
-    if (!c) return reportError(c.error());
-    options.depth.offset = c->depthOffset;
-  }
+  auto made = correctOptions(o.method, 0.0, o.corrections, *calo);
+  if (!made) return reportError(made.error());
+  apply::CorrectOptions& options = *made;
   options.description = io::Json{{"software", fmt::format("emcalign {}", kVersion)},
                                   {"alignment", source->description},
                                   {"method", o.method},

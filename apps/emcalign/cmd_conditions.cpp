@@ -257,10 +257,7 @@ CLI::Option* addUri(CLI::App& cmd, std::string& uri) {
 }
 
 CLI::Option* addTag(CLI::App& cmd, std::string& tag) {
-  return cmd.add_option("--tag", tag, "tag name (letters, digits, '_', '-', '.')")->check([](const std::string& t) {
-    Status s = conddb::checkTagName(t);
-    return s ? std::string() : s.error().message;
-  });
+  return cmd.add_option("--tag", tag, "tag name (letters, digits, '_', '-', '.')")->check(tagName());
 }
 
 }  // namespace
@@ -310,10 +307,7 @@ void addConditionsCommand(CLI::App& app, int& exitCode) {
   addUri(*copy, o->uri);
   copy->add_option("target", o->target, "destination database (created if an SQLite path)")->required();
   addTag(*copy, o->tag)->required();
-  copy->add_option("--as", o->as, "name of the copy (default: the same)")->check([](const std::string& t) {
-    Status s = conddb::checkTagName(t);
-    return s ? std::string() : s.error().message;
-  });
+  copy->add_option("--as", o->as, "name of the copy (default: the same)")->check(tagName());
   copy->callback([o, &exitCode] { exitCode = runCopy(*o); });
 }
 

@@ -46,15 +46,9 @@ int run(const CorrectCliOptions& o) {
   for (const auto& w : source->warnings) reportWarning(w);
   const io::Json& alignmentJson = source->description;
 
-  apply::CorrectOptions options;
-  options.method = *apply::correctionMethodFromName(o.method);
-  options.depth = geometry::ShowerDepth::of(calo->description());
-  options.depth.offset = o.depthOffset * units::cm;
-  if (!o.corrections.empty()) {
-    auto c = calib::readCorrections(o.corrections);
-    if (!c) return reportError(c.error());
-    options.depth.offset = c->depthOffset;
-  }
+  auto made = correctOptions(o.method, o.depthOffset, o.corrections, *calo);
+  if (!made) return reportError(made.error());
+  apply::CorrectOptions& options = *made;
   io::Json inputsJson = o.events;
   options.description =
       io::Json{{"software", fmt::format("emcalign {}", kVersion)},

@@ -2,7 +2,6 @@
 // the detector description file.
 
 #include <cmath>
-#include <iostream>
 #include <memory>
 #include <string>
 
@@ -136,35 +135,9 @@ int locatePoints(const Calorimeter& calo, const std::string& paramsPath) {
   if (!geometry) return reportError(geometry.error());
   std::string out = "x_cm,y_cm,z_cm,region,counter,layer,ring,iphi,hemisphere,other_counter,nominal_x_cm,nominal_y_cm,"
                     "nominal_z_cm\n";
-  std::string line;
-  long lineNo = 0;
-  bool header = false;
-  static constexpr const char* kColumns[] = {"x_cm", "y_cm", "z_cm"};
-  while (std::getline(std::cin, line)) {
-    ++lineNo;
-    if (io::isBlankOrComment(line)) continue;
-    const auto fields = io::splitCsvLine(line);
-    if (!header) {
-      if (fields.size() != 3 || fields[0] != "x_cm" || fields[1] != "y_cm" || fields[2] != "z_cm") {
-        return reportError({fmt::format("stdin, line {}: expected the header x_cm,y_cm,z_cm, got {}", lineNo,
-                                        io::quoted(line))});
-      }
-      header = true;
-      continue;
-    }
-    if (fields.size() != 3) {
-      return reportError({fmt::format("stdin, line {}: expected 3 columns (x_cm,y_cm,z_cm), got {}", lineNo,
-                                      fields.size())});
-    }
-    Vec3 p;
-    for (int i = 0; i < 3; ++i) {
-      const auto v = io::parseFiniteDouble(fields[static_cast<std::size_t>(i)]);
-      if (!v) {
-        return reportError({fmt::format("stdin, line {}, column '{}': not a finite number: {}", lineNo, kColumns[i],
-                                        io::quoted(fields[static_cast<std::size_t>(i)]))});
-      }
-      p[i] = *v * cm;
-    }
+  auto points = readPointsFromStdin();
+  if (!points) return reportError(points.error());
+  for (const Vec3& p : *points) {
     const PointLocation loc = geometry->locate(p);
     out += fmt::format("{},{},", coordinates(p, "cartesian"), name(loc.region));
     if (loc.counter >= 0) {
@@ -176,7 +149,6 @@ int locatePoints(const Calorimeter& calo, const std::string& paramsPath) {
     out += loc.otherCounter >= 0 ? fmt::format("{},", loc.otherCounter) : ",";
     out += loc.region == PointRegion::Gap ? ",,\n" : coordinates(loc.nominal, "cartesian") + "\n";
   }
-  if (!header) return reportError({"stdin: no header line x_cm,y_cm,z_cm"});
   fmt::print("{}", out);
   return 0;
 }

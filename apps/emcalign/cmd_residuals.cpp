@@ -88,7 +88,7 @@ int run(const ResidualsOptions& o) {
                          r.events, r.particles, r.meanSinDphiDeg, r.meanSinDphiErrorDeg, r.meanDthetaDeg,
                          r.meanDthetaErrorDeg, r.rmsDphiDeg, r.rmsDthetaDeg, r.irregularityDeg);
     io::Json columns = io::Json::array();
-    for (double m : r.columnMeanDeg) columns.push_back(std::isfinite(m) ? io::Json(m) : io::Json(nullptr));
+    for (double m : r.columnMeanDeg) columns.push_back(io::numberOrNull(m));
     json.push_back({{"name", s.name},
                     {"files", s.files},
                     {"events", r.events},

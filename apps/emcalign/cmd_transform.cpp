@@ -7,7 +7,6 @@
 // gap or in an overlap of the hemispheres are written with empty coordinates and the word
 // "gap" or "overlap" in the hemisphere column.
 
-#include <iostream>
 #include <memory>
 #include <string>
 
@@ -16,7 +15,6 @@
 #include "common.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/geometry/alignment_transform.hpp"
-#include "emcalign/io/csv.hpp"
 #include "emcalign/io/json_files.hpp"
 
 namespace emcalign::app {
@@ -49,35 +47,10 @@ int run(const TransformOptions& o) {
   if (o.hemisphere == "-1") fixed = Hemisphere::Minus;
 
   std::string out = "x_cm,y_cm,z_cm,hemisphere\n";
-  std::string line;
-  long lineNo = 0, gaps = 0, overlaps = 0;
-  bool header = false;
-  static constexpr const char* kColumns[] = {"x_cm", "y_cm", "z_cm"};
-  while (std::getline(std::cin, line)) {
-    ++lineNo;
-    if (io::isBlankOrComment(line)) continue;
-    const auto fields = io::splitCsvLine(line);
-    if (!header) {
-      if (fields.size() != 3 || fields[0] != "x_cm" || fields[1] != "y_cm" || fields[2] != "z_cm") {
-        return reportError({fmt::format("stdin, line {}: expected the header x_cm,y_cm,z_cm, got {}", lineNo,
-                                        io::quoted(line))});
-      }
-      header = true;
-      continue;
-    }
-    if (fields.size() != 3) {
-      return reportError({fmt::format("stdin, line {}: expected 3 columns (x_cm,y_cm,z_cm), got {}",
-                                      lineNo, fields.size())});
-    }
-    Vec3 p;
-    for (int i = 0; i < 3; ++i) {
-      const auto v = io::parseFiniteDouble(fields[static_cast<std::size_t>(i)]);
-      if (!v) {
-        return reportError({fmt::format("stdin, line {}, column '{}': not a finite number: {}", lineNo,
-                                        kColumns[i], io::quoted(fields[static_cast<std::size_t>(i)]))});
-      }
-      p[i] = *v * cm;
-    }
+  auto points = readPointsFromStdin();
+  if (!points) return reportError(points.error());
+  long gaps = 0, overlaps = 0;
+  for (const Vec3& p : *points) {
     Vec3 q;
     Hemisphere h = Hemisphere::Plus;
     if (!o.inverse) {
@@ -99,7 +72,6 @@ int run(const TransformOptions& o) {
     }
     out += fmt::format("{:.17g},{:.17g},{:.17g},{}\n", q.x() / cm, q.y() / cm, q.z() / cm, sign(h));
   }
-  if (!header) return reportError({"stdin: no header line x_cm,y_cm,z_cm"});
   fmt::print("{}", out);
   if (gaps > 0) reportWarning(fmt::format("{} point(s) lie in the gap between the hemispheres", gaps));
   if (overlaps > 0) reportWarning(fmt::format("{} point(s) lie where the hemispheres overlap", overlaps));

@@ -198,10 +198,7 @@ void addTrendCommand(CLI::App& app, int& exitCode) {
                                 "the events (a directory or files): refit each stable period with all of them and "
                                 "write the result as --tag-out")
                     ->check(CLI::ExistingPath);
-  auto* tagOut = cmd->add_option("--tag-out", o->tagOut, "the new tag of --refit")->check([](const std::string& t) {
-    Status s = conddb::checkTagName(t);
-    return s ? std::string() : s.error().message;
-  });
+  auto* tagOut = cmd->add_option("--tag-out", o->tagOut, "the new tag of --refit")->check(tagName());
   refit->needs(tagOut);
   tagOut->needs(refit);
   cmd->add_option("--corrections", o->corrections, "the model corrections the campaign used (for --refit)")

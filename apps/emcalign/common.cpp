@@ -1,11 +1,14 @@
 #include "common.hpp"
 
 #include <charconv>
+#include <iostream>
 #include <limits>
 
 #include <fmt/format.h>
 
 #include "emcalign/apply/placements.hpp"
+#include "emcalign/conddb/conditions.hpp"
+#include "emcalign/core/units.hpp"
 #include "emcalign/core/version.hpp"
 #include "emcalign/io/csv.hpp"
 #include "emcalign/io/json_files.hpp"
@@ -92,6 +95,51 @@ CLI::Validator finiteIn(double lo, double hi) {
         return {};
       },
       fmt::format("NUMBER in [{}, {}]", lo, hi));
+}
+
+Result<std::vector<Vec3>> readPointsFromStdin() {
+  static constexpr const char* kColumns[] = {"x_cm", "y_cm", "z_cm"};
+  std::vector<Vec3> points;
+  std::string line;
+  long lineNo = 0;
+  bool header = false;
+  while (std::getline(std::cin, line)) {
+    ++lineNo;
+    if (io::isBlankOrComment(line)) continue;
+    const auto fields = io::splitCsvLine(line);
+    if (!header) {
+      if (fields.size() != 3 || fields[0] != "x_cm" || fields[1] != "y_cm" || fields[2] != "z_cm") {
+        return Error{fmt::format("stdin, line {}: expected the header x_cm,y_cm,z_cm, got {}", lineNo,
+                                 io::quoted(line))};
+      }
+      header = true;
+      continue;
+    }
+    if (fields.size() != 3) {
+      return Error{fmt::format("stdin, line {}: expected 3 columns (x_cm,y_cm,z_cm), got {}", lineNo, fields.size())};
+    }
+    Vec3 p;
+    for (int i = 0; i < 3; ++i) {
+      const auto v = io::parseFiniteDouble(fields[static_cast<std::size_t>(i)]);
+      if (!v) {
+        return Error{fmt::format("stdin, line {}, column '{}': not a finite number: {}", lineNo, kColumns[i],
+                                 io::quoted(fields[static_cast<std::size_t>(i)]))};
+      }
+      p[i] = *v * units::cm;
+    }
+    points.push_back(p);
+  }
+  if (!header) return Error{"stdin: no header line x_cm,y_cm,z_cm"};
+  return points;
+}
+
+CLI::Validator tagName() {
+  return CLI::Validator(
+      [](std::string& t) -> std::string {
+        Status s = conddb::checkTagName(t);
+        return s ? std::string() : s.error().message;
+      },
+      "");
 }
 
 CLI::Validator integerIn(std::int64_t lo, std::int64_t hi) {

@@ -74,6 +74,12 @@ void addVersionFlag(CLI::App& cmd);
 /// refused) inside [lo, hi].
 CLI::Validator finiteIn(double lo, double hi);
 CLI::Validator integerIn(std::int64_t lo, std::int64_t hi);
+/// The points of a CSV on standard input: the header x_cm,y_cm,z_cm, then one point per row
+/// (blank and # lines skipped), in native units; the error names the line and the column.
+Result<std::vector<Vec3>> readPointsFromStdin();
+
+/// A conditions tag name (conddb::checkTagName).
+CLI::Validator tagName();
 /// An unsigned 64-bit integer (a seed): 0 to 2^64 − 1, no sign.
 CLI::Validator unsigned64();
 

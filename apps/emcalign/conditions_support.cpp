@@ -3,6 +3,8 @@
 #include <fmt/format.h>
 
 #include "common.hpp"
+#include "emcalign/calib/corrections.hpp"
+#include "emcalign/core/units.hpp"
 #include "emcalign/io/json_files.hpp"
 
 namespace emcalign::app {
@@ -80,6 +82,20 @@ Result<AlignmentSource> AlignmentSource::open(const std::string& alignment, cons
   a.one = std::make_shared<const geometry::AlignmentTransform>(std::move(*transform));
   a.description = {{"file", alignment}, {"parameters", io::alignmentToJson(file->parameters)["parameters"]}};
   return a;
+}
+
+Result<apply::CorrectOptions> correctOptions(const std::string& method, double depthOffsetCm,
+                                             const std::string& corrections, const geometry::Calorimeter& calo) {
+  apply::CorrectOptions options;
+  options.method = *apply::correctionMethodFromName(method);
+  options.depth = geometry::ShowerDepth::of(calo.description());
+  options.depth.offset = depthOffsetCm * units::cm;
+  if (!corrections.empty()) {
+    auto c = calib::readCorrections(corrections);
+    if (!c) return c.error();
+    options.depth.offset = c->depthOffset;
+  }
+  return options;
 }
 
 }  // namespace emcalign::app

@@ -54,4 +54,10 @@ struct AlignmentSource {
                                       const std::string& tag, const geometry::Calorimeter& calo);
 };
 
+/// The options of a correction from the command line: the method by name (auto, hits,
+/// clusters), the cluster method's R(E, θ) with its depth offset (cm), or the offset of a
+/// corrections file when one is given.
+Result<apply::CorrectOptions> correctOptions(const std::string& method, double depthOffsetCm,
+                                             const std::string& corrections, const geometry::Calorimeter& calo);
+
 }  // namespace emcalign::app

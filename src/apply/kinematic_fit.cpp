@@ -6,6 +6,8 @@
 
 #include <Eigen/Dense>
 
+#include "emcalign/geometry/track.hpp"
+
 namespace emcalign::apply {
 
 namespace {
@@ -15,9 +17,7 @@ using Constraints = Eigen::Matrix<double, 4, 1>;
 using DerivM = Eigen::Matrix<double, 4, 10>;
 using DerivU = Eigen::Matrix<double, 4, 2>;
 
-Vec3 direction(double theta, double phi) {
-  return {std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)};
-}
+Vec3 direction(double theta, double phi) { return geometry::pointAt(1.0, theta, phi); }
 Vec3 dTheta(double theta, double phi) {
   return {std::cos(theta) * std::cos(phi), std::cos(theta) * std::sin(phi), -std::sin(theta)};
 }

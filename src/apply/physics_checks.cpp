@@ -8,6 +8,8 @@
 #include <Eigen/Dense>
 #include <fmt/format.h>
 
+#include "emcalign/core/statistics.hpp"
+#include "emcalign/geometry/track.hpp"
 #include "emcalign/io/event_file.hpp"
 
 namespace emcalign::apply {
@@ -18,14 +20,6 @@ namespace {
 
 constexpr double kDeg = units::deg;
 constexpr double kChi2Tail = 20.0;  // χ²(2) > 20: p < 5e-5, the tail of non-Gaussian responses
-
-double median(std::vector<double> v) {
-  if (v.empty()) return std::nan("");
-  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  if (v.size() % 2 == 1) return *mid;
-  return 0.5 * (*mid + *std::max_element(v.begin(), mid));
-}
 
 // One event's rows: [begin, end) of a block.
 using EventVisitor = std::function<Status(std::span<const ParticleRow> before, std::span<const ParticleRow> after)>;
@@ -63,10 +57,6 @@ Status forEachEventPair(const std::vector<std::string>& before, const std::vecto
   }
 }
 
-Vec3 direction(double theta, double phi) {
-  return {std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)};
-}
-
 // The two photons' values of a γγ event, in degrees.
 void acollinearity(const ParticleRow& g1, const ParticleRow& g2, double& dphi, double& dtheta) {
   dphi = std::abs(g1.phiEmc - g2.phiEmc) / kDeg - 180.0;
@@ -81,9 +71,8 @@ ThreePionEvent threePionEvent(std::span<const ParticleRow> rows, const std::arra
   const double z = 0.5 * (rows[tracks[0]].z0 + rows[tracks[1]].z0);
   for (std::size_t i = 0; i < 2; ++i) {
     const ParticleRow& g = rows[photons[i]];
-    const Vec3 point = depth.radius(g.energy, g.thetaEmc) * direction(g.thetaEmc, g.phiEmc) - Vec3(0.0, 0.0, z);
-    const double theta = std::acos(std::clamp(point.z() / point.norm(), -1.0, 1.0));
-    const double phi = std::atan2(point.y(), point.x());
+    const Vec3 point = geometry::pointAt(depth.radius(g.energy, g.thetaEmc), g.thetaEmc, g.phiEmc) - Vec3(0.0, 0.0, z);
+    const double theta = geometry::polar(point), phi = geometry::azimuth(point);
     e.photons[i] = {g.energy,
                     theta,
                     phi,
@@ -100,12 +89,11 @@ ThreePionEvent threePionEvent(std::span<const ParticleRow> rows, const std::arra
 }
 
 Json widthJson(const CoreWidth& w, const char* name) {
-  auto num = [](double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); };
   const std::string n(name);
-  return {{n + "_width_deg", w.fitted ? num(w.width) : Json(nullptr)},
-          {n + "_width_error_deg", w.fitted ? num(w.widthError) : Json(nullptr)},
-          {n + "_mean_deg", w.fitted ? num(w.mean) : Json(nullptr)},
-          {n + "_rms_deg", num(w.rms)}};
+  return {{n + "_width_deg", w.fitted ? io::numberOrNull(w.width) : Json(nullptr)},
+          {n + "_width_error_deg", w.fitted ? io::numberOrNull(w.widthError) : Json(nullptr)},
+          {n + "_mean_deg", w.fitted ? io::numberOrNull(w.mean) : Json(nullptr)},
+          {n + "_rms_deg", io::numberOrNull(w.rms)}};
 }
 
 double improvement(double before, double after) {
@@ -251,7 +239,7 @@ Result<ThreePionCheck> checkThreePion(const std::vector<std::string>& before, co
     ++flow[2];
     if (!(std::abs(180.0 - std::abs(t1.phiTs - t2.phiTs) / kDeg) > 10.0)) return Status{};
     ++flow[3];
-    const double cosAngle = direction(t1.thetaTs, t1.phiTs).dot(direction(t2.thetaTs, t2.phiTs));
+    const double cosAngle = geometry::pointAt(1.0, t1.thetaTs, t1.phiTs).dot(geometry::pointAt(1.0, t2.thetaTs, t2.phiTs));
     if (!(std::acos(std::clamp(cosAngle, -1.0, 1.0)) < 147.0 * kDeg)) return Status{};
     ++flow[4];
     if (!(rows[photons[0]].energy + rows[photons[1]].energy > 100.0 * units::MeV)) return Status{};
@@ -276,7 +264,6 @@ Json checkJson(const GammaGammaCheck& c) {
     sides[k] = widthJson(phi[k], "dphi");
     sides[k].update(widthJson(theta[k], "dtheta"));
   }
-  auto num = [](double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); };
   return {{"process", "gg"},
           {"selected", c.dphi[0].size()},
           {"cut_flow", c.cutFlow.json()},
@@ -285,10 +272,10 @@ Json checkJson(const GammaGammaCheck& c) {
           {"before", sides[0]},
           {"after", sides[1]},
           {"improvement_percent",
-           {{"dphi_width", num(improvement(phi[0].width, phi[1].width))},
-            {"dphi_rms", num(improvement(phi[0].rms, phi[1].rms))},
-            {"dtheta_width", num(improvement(theta[0].width, theta[1].width))},
-            {"dtheta_rms", num(improvement(theta[0].rms, theta[1].rms))}}}};
+           {{"dphi_width", io::numberOrNull(improvement(phi[0].width, phi[1].width))},
+            {"dphi_rms", io::numberOrNull(improvement(phi[0].rms, phi[1].rms))},
+            {"dtheta_width", io::numberOrNull(improvement(theta[0].width, theta[1].width))},
+            {"dtheta_rms", io::numberOrNull(improvement(theta[0].rms, theta[1].rms))}}}};
 }
 
 Json checkJson(const ThreePionCheck& c) {
@@ -308,8 +295,7 @@ Json checkJson(const ThreePionCheck& c) {
     }
     means[k] = chi2.empty() ? std::nan("") : std::accumulate(chi2.begin(), chi2.end(), 0.0) / chi2.size();
     medians[k] = median(chi2);
-    auto num = [](double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); };
-    double truncated = 0.0;
+      double truncated = 0.0;
     std::int64_t inCore = 0;
     for (double x : chi2) {
       if (x < kChi2Tail) {
@@ -317,16 +303,15 @@ Json checkJson(const ThreePionCheck& c) {
         ++inCore;
       }
     }
-    sides[k] = {{"chi2_mean", num(means[k])},
-                {"chi2_median", num(medians[k])},
-                {"chi2_mean_below_20", num(inCore > 0 ? truncated / static_cast<double>(inCore) : std::nan(""))},
-                {"fraction_above_20", num(chi2.empty() ? std::nan("")
+    sides[k] = {{"chi2_mean", io::numberOrNull(means[k])},
+                {"chi2_median", io::numberOrNull(medians[k])},
+                {"chi2_mean_below_20", io::numberOrNull(inCore > 0 ? truncated / static_cast<double>(inCore) : std::nan(""))},
+                {"fraction_above_20", io::numberOrNull(chi2.empty() ? std::nan("")
                                                        : 1.0 - static_cast<double>(inCore) / static_cast<double>(chi2.size()))},
-                {"p_value_mean", num(chi2.empty() ? std::nan("") : pSum / chi2.size())},
+                {"p_value_mean", io::numberOrNull(chi2.empty() ? std::nan("") : pSum / chi2.size())},
                 {"converged", chi2.size()},
                 {"not_converged", failed}};
   }
-  auto num = [](double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); };
   return {{"process", "3pi"},
           {"selected", c.fits[0].size()},
           {"ndf", KinematicFitResult::kNdf},
@@ -336,7 +321,7 @@ Json checkJson(const ThreePionCheck& c) {
           {"before", sides[0]},
           {"after", sides[1]},
           {"improvement_percent",
-           {{"chi2_mean", num(improvement(means[0], means[1]))}, {"chi2_median", num(improvement(medians[0], medians[1]))}}}};
+           {{"chi2_mean", io::numberOrNull(improvement(means[0], means[1]))}, {"chi2_median", io::numberOrNull(improvement(medians[0], medians[1]))}}}};
 }
 
 }  // namespace emcalign::apply

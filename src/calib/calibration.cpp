@@ -114,7 +114,7 @@ io::Json fitResultJson(const FitResult& r, const FitInput& input) {
   Json errors = Json::object();
   for (Param p : kAllParams) {
     const double e = r.errors[static_cast<Eigen::Index>(index(p))];
-    errors[std::string(name(p))] = std::isfinite(e) ? Json(e / AlignmentParameters::fileUnit(p)) : Json(nullptr);
+    errors[std::string(name(p))] = io::numberOrNull(e / AlignmentParameters::fileUnit(p));
   }
   j["errors"] = errors;
   if (r.covariance) {
@@ -137,7 +137,7 @@ io::Json fitResultJson(const FitResult& r, const FitInput& input) {
   Json derived = Json::object();
   for (const auto& [n, v] : r.derived) {
     const double unit = n == "dx_rel" ? units::cm : units::deg;
-    derived[n] = {{"value", v.value / unit}, {"error", std::isfinite(v.error) ? Json(v.error / unit) : Json(nullptr)},
+    derived[n] = {{"value", v.value / unit}, {"error", io::numberOrNull(v.error / unit)},
                   {"unit", n == "dx_rel" ? "cm" : "deg"}};
   }
   j["derived"] = derived;

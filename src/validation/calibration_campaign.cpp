@@ -178,6 +178,17 @@ std::vector<std::string> CampaignScan::filesOf(std::int64_t first, std::int64_t 
   return out;
 }
 
+calib::ProfileFill CampaignScan::fillOf(std::int64_t first, std::int64_t last, const calib::ProfileOptions& options,
+                                       std::vector<std::int32_t>* runsFound) const {
+  calib::ProfileFill fill = calib::ProfileFill::empty(options);
+  for (const CampaignRun& r : runs) {
+    if (r.run < first || r.run > last) continue;
+    fill.merge(r.fill);
+    if (runsFound != nullptr) runsFound->push_back(r.run);
+  }
+  return fill;
+}
+
 std::vector<CampaignGroup> planGroups(const CampaignScan& scan, std::int64_t minEvents) {
   // Groups of consecutive runs of one energy, closed when they reach minEvents.
   struct Draft {
@@ -424,8 +435,6 @@ Result<CampaignReport> runCampaign(const CampaignScan& scan, const CampaignModel
   }
   std::map<std::string, std::string> digests;
   for (std::size_t k = 0; k < scan.files.size(); ++k) digests[scan.files[k]] = scan.digests[k];
-  std::map<std::int32_t, const CampaignRun*> byRun;
-  for (const CampaignRun& r : scan.runs) byRun[r.run] = &r;
 
   std::mutex dbMutex;  // one connection, one transaction at a time
   int finished = 0;
@@ -434,8 +443,8 @@ Result<CampaignReport> runCampaign(const CampaignScan& scan, const CampaignModel
   arena.execute([&] {
     tbb::parallel_for(std::size_t{0}, todo.size(), [&](std::size_t t) {
       const CampaignGroup& g = groups[todo[t]];
-      calib::ProfileFill fill = calib::ProfileFill::empty(model.profile);
-      for (std::int32_t run : g.runs) fill.merge(byRun.at(run)->fill);
+      // The group's IOV holds exactly its runs (the IOVs tile the scanned runs).
+      const calib::ProfileFill fill = scan.fillOf(g.iovFirst, g.iovLast, model.profile);
       auto fit = fitGroup(g, fill, model, digests, campaignOrigin(g, o.minEvents, static_cast<int>(groups.size())));
       std::lock_guard lock(dbMutex);
       std::string status;

@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "emcalign/core/statistics.hpp"
 #include "emcalign/core/units.hpp"
 
 namespace emcalign::validation {
@@ -14,15 +15,6 @@ namespace emcalign::validation {
 using io::Json;
 
 namespace {
-
-double median(std::vector<double> v) {
-  v.erase(std::remove_if(v.begin(), v.end(), [](double x) { return !std::isfinite(x); }), v.end());
-  if (v.empty()) return RefitPrecision::kNaN;
-  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  if (v.size() % 2 == 1) return *mid;
-  return 0.5 * (*mid + *std::max_element(v.begin(), mid));
-}
 
 // The value and error of every series (the 12 parameters, then β, ψ, μ, τ, dx_rel) of a fit,
 // in file units, in the order of seriesOfTag.
@@ -37,18 +29,6 @@ std::vector<std::pair<double, double>> valuesOf(const calib::FitResult& r) {
     out.emplace_back(v.value / unit, v.error / unit);
   }
   return out;
-}
-
-// The merged fill of the scanned runs in [first, last].
-calib::ProfileFill fillOf(const CampaignScan& scan, const CampaignModel& model, std::int64_t first, std::int64_t last,
-                          std::vector<std::int32_t>* runs = nullptr) {
-  calib::ProfileFill fill = calib::ProfileFill::empty(model.profile);
-  for (const CampaignRun& r : scan.runs) {
-    if (r.run < first || r.run > last) continue;
-    fill.merge(r.fill);
-    if (runs != nullptr) runs->push_back(r.run);
-  }
-  return fill;
 }
 
 // The statistical errors alone: the fit of the same profile with σ_sys = 0.
@@ -133,7 +113,7 @@ Result<RefittedSegment> refitPeriod(const TrendSegment& seg, std::size_t k, std:
   g.index = static_cast<int>(k);
   g.iovFirst = seg.firstRun;
   g.iovLast = seg.lastRun;
-  calib::ProfileFill fill = fillOf(scan, model, seg.firstRun, seg.lastRun, &g.runs);
+  calib::ProfileFill fill = scan.fillOf(seg.firstRun, seg.lastRun, model.profile, &g.runs);
   if (g.runs.empty()) {
     return Error{fmt::format("--refit: no events of runs {}-{} in the files given", seg.firstRun, seg.lastRun)};
   }
@@ -161,7 +141,7 @@ Result<RefittedSegment> refitPeriod(const TrendSegment& seg, std::size_t k, std:
   std::vector<std::vector<double>> statBefore(series.size());
   for (std::size_t i = seg.begin; i < seg.end; ++i) {
     const conddb::Iov& iov = tag.iovs()[i];
-    const calib::ProfileFill f = fillOf(scan, model, iov.firstRun, iov.lastRun);
+    const calib::ProfileFill f = scan.fillOf(iov.firstRun, iov.lastRun, model.profile);
     selectedBefore.push_back(static_cast<double>(f.cutFlow.events.back()));
     if (f.cutFlow.events.back() == 0) continue;
     auto st = statisticalFit(f, model, iov.firstRun, iov.lastRun);
@@ -215,7 +195,6 @@ Result<SegmentRefit> refitSegments(const Trend& trend, const std::vector<TrendSe
 }
 
 Json refitJson(const SegmentRefit& r, std::size_t iovsBefore) {
-  auto num = [](double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); };
   Json segments = Json::array();
   for (const RefittedSegment& s : r.segments) {
     Json j = {{"first_run", s.firstRun}, {"last_run", s.lastRun}, {"replaces_iovs", s.end - s.begin}};
@@ -234,17 +213,17 @@ Json refitJson(const SegmentRefit& r, std::size_t iovsBefore) {
     j["status"] = s.fit->resultJson["status"];
     Json precision = Json::object();
     for (const RefitPrecision& p : s.precision) {
-      Json q = {{"value", num(p.value)},
+      Json q = {{"value", io::numberOrNull(p.value)},
                 {"unit", p.unit},
-                {"quoted_error_before", num(p.quotedBefore)},
-                {"quoted_error_after", num(p.quotedAfter)},
-                {"statistical_error_before", num(p.statBefore)},
-                {"statistical_error_after", num(p.statAfter)},
-                {"scatter_before", num(p.scatter)}};
+                {"quoted_error_before", io::numberOrNull(p.quotedBefore)},
+                {"quoted_error_after", io::numberOrNull(p.quotedAfter)},
+                {"statistical_error_before", io::numberOrNull(p.statBefore)},
+                {"statistical_error_after", io::numberOrNull(p.statAfter)},
+                {"scatter_before", io::numberOrNull(p.scatter)}};
       if (std::isfinite(p.truth)) {
         q["truth"] = p.truth;
-        q["refit_minus_truth"] = num(difference(p.parameter, p.value, p.truth));
-        q["rms_before_minus_truth"] = num(p.truthRmsBefore);
+        q["refit_minus_truth"] = io::numberOrNull(difference(p.parameter, p.value, p.truth));
+        q["rms_before_minus_truth"] = io::numberOrNull(p.truthRmsBefore);
       }
       precision[p.parameter] = q;
     }

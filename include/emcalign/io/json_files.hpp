@@ -16,6 +16,7 @@
 // Detector description: see docs/conventions.md; every key but "format" is optional and
 // defaults to the SND-like description of SPEC §2.
 
+#include <cmath>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -46,6 +47,9 @@ Result<Json> parseJson(std::string_view text, std::string_view source);
 /// 16.0 and "16" are errors naming the source and the key).
 Result<std::int64_t> integerIn(const Json& value, std::int64_t lo, std::int64_t hi, std::string_view source,
                                std::string_view key);
+
+/// A number, or null when it is not finite (JSON has no NaN or infinity).
+inline Json numberOrNull(double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); }
 
 /// Reads a whole file; the error names the path and the system's reason.
 Result<std::string> readTextFile(const std::string& path);

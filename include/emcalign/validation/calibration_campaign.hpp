@@ -52,6 +52,9 @@ struct CampaignScan {
   std::vector<CampaignRun> runs;     ///< by run number
   /// The files holding runs [first, last], in the order of `files`.
   std::vector<std::string> filesOf(std::int64_t first, std::int64_t last) const;
+  /// The merged fill of runs [first, last] (profiles with `options`), and those runs.
+  calib::ProfileFill fillOf(std::int64_t first, std::int64_t last, const calib::ProfileOptions& options,
+                            std::vector<std::int32_t>* runsFound = nullptr) const;
 };
 
 /// How the events are turned into profiles and fitted: the fit's geometry and corrections.

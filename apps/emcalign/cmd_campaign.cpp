@@ -28,7 +28,7 @@ namespace fs = std::filesystem;
 
 struct CampaignCliOptions {
   std::vector<std::string> inputs;
-  std::string conditions, tag, corrections, plan, detector, description;
+  std::string conditions, tag, corrections, plan, detector, description, sigmaSys;
   std::int64_t minEvents = 50000;
   int group = -1;
   int threads = 0;
@@ -78,6 +78,12 @@ int runGroup(const CampaignCliOptions& o) {
                                                                      : "with other ones (" + plan->corrections + ")")});
     }
   }
+  if (!o.sigmaSys.empty() &&
+      validation::sigmaSysChoiceJson(sigmaSysChoice(o.sigmaSys)) != validation::sigmaSysChoiceJson(plan->sigmaSys)) {
+    return reportError(Error{fmt::format("--sigma-sys {}: the plan {} was made with sigma_sys {}", o.sigmaSys, o.plan,
+                                         validation::sigmaSysChoiceJson(plan->sigmaSys).dump())});
+  }
+  model->sigmaSys = plan->sigmaSys;
   const validation::CampaignGroup& g = plan->groups[static_cast<std::size_t>(o.group)];
   auto db = conddb::Database::open(o.conditions, true);
   if (!db) return reportError(db.error());
@@ -146,6 +152,7 @@ int run(const CampaignCliOptions& o) {
   }
   auto model = validation::campaignModel(o.corrections, o.detector, *calo);
   if (!model) return reportError(model.error());
+  model->sigmaSys = sigmaSysChoice(o.sigmaSys);
   std::unique_ptr<conddb::Database> db;
   if (!planOnly) {
     auto opened = conddb::Database::open(o.conditions, true);
@@ -214,6 +221,7 @@ void addCampaignCommand(CLI::App& app, int& exitCode) {
   cmd->add_option("--threads", o->threads, "worker threads (0: all cores)")->check(integerIn(0, kMaxThreads));
   cmd->add_option("--corrections", o->corrections, "model corrections for every fit (emcalign derive-corrections)")
       ->check(CLI::ExistingFile);
+  addSigmaSysOption(*cmd, o->sigmaSys);
   cmd->add_option("--plan", o->plan,
                   "with inputs: write the groups as a job list (JSON) and stop; with --group: the job list to run "
                   "from");

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <memory>
 #include <string>
@@ -33,6 +34,7 @@ struct FitCliOptions {
   double beamEnergy = 0.0;
   double depthOffset = 0.0;
   std::string corrections;
+  std::string sigmaSys;
 };
 
 void printCutFlow(const calib::ProfileFill& fill) {
@@ -66,6 +68,20 @@ void printResult(const calib::FitResult& r) {
   fmt::print(reportStream(), "\nchi2/ndf = {:.2f}/{} (p-value {:.3g}), {} bins used; stages chi2:", r.chi2, r.ndf, r.pValue,
              r.binsUsed);
   for (const auto& s : r.stages) fmt::print(reportStream(), " {:.1f}", s.chi2);
+  const auto& s = r.sigmaSys;
+  if (s.method == calib::SigmaSysMethod::Auto) {
+    fmt::print(reportStream(),
+               "\nsigma_sys = {:.4f} deg (auto: chi2/ndf = 1; 68% interval {:.4f}-{}; chi2/ndf = {:.1f}/{} with the "
+               "statistical errors alone, p-value {:.3g}; {} fits)",
+               s.value / units::deg, s.lower / units::deg,
+               std::isfinite(s.upper) ? fmt::format("{:.4f}", s.upper / units::deg) : std::string("unbounded"),
+               s.chi2Stat, r.ndf, s.pValueStat, s.fits);
+  } else if (s.method == calib::SigmaSysMethod::Saved) {
+    fmt::print(reportStream(), "\nsigma_sys: as in the saved profile's errors");
+  } else {
+    fmt::print(reportStream(), "\nsigma_sys = {:.4f} deg ({})", s.value / units::deg,
+               s.method == calib::SigmaSysMethod::Spec ? "SPEC's default" : "set by hand");
+  }
   fmt::print(reportStream(), "\nstatus: {}\n", name(r.status));
   for (const auto& w : r.warnings) reportWarning(w);
 }
@@ -151,6 +167,11 @@ int run(const FitCliOptions& o) {
                                       o.profileIn)});
     }
     if (weighted) input.partingPlane = input.nominalProfile = o.profileIn + " (written with " + o.corrections + ")";
+    if (!o.sigmaSys.empty()) {
+      return reportError({fmt::format("{}: a saved profile holds the total errors it was written with (statistical and "
+                                      "sigma_sys): --sigma-sys needs the events (fit them with --sigma-sys {})",
+                                      o.profileIn, o.sigmaSys)});
+    }
     calib::markUsedBins(bins, calib::ProfileOptions{}.minEntries);
     input.files = {o.profileIn};
     input.fromProfile = true;
@@ -162,12 +183,17 @@ int run(const FitCliOptions& o) {
     if (!filled) return reportError(filled.error());
     fill = std::move(*filled);
     printCutFlow(*fill);
-    bins = fill->profiles.bins();
     input.files = o.events;
     input.fill = &*fill;
   }
-  auto result = calib::fitProfiles(bins, geometry);
+  auto result = fill ? calib::fitProfiles(fill->profiles, geometry, sigmaSysChoice(o.sigmaSys))
+                     : calib::fitProfiles(bins, geometry);
   if (!result) return reportError(result.error());
+  if (fill) {
+    bins = calib::fittedBins(fill->profiles, result->sigmaSys);
+  } else {
+    result->sigmaSys = {.method = calib::SigmaSysMethod::Saved, .value = std::numeric_limits<double>::quiet_NaN()};
+  }
   printResult(*result);
   if (!o.profileOut.empty()) {
     if (Status s = io::writeOutputFile(o.profileOut, calib::profileCsv(bins)); !s) return reportError(s.error());
@@ -212,6 +238,7 @@ void addFitCommand(CLI::App& app, int& exitCode) {
                                       "the shower-depth offset and the parting-plane response")
                           ->check(CLI::ExistingFile);
   corrections->excludes(depthOffset);
+  addSigmaSysOption(*cmd, o->sigmaSys);
   addDetectorOption(*cmd, o->detector);
   cmd->callback([o, &exitCode] {
     exitCode = o->events.empty() && o->profileIn.empty()

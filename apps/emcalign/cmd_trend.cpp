@@ -76,10 +76,35 @@ int refit(const TrendCliOptions& o, const validation::Trend& trend, const std::v
   if (!files) return reportError(files.error());
   auto model = validation::campaignModel(o.corrections, o.detector, calo);
   if (!model) return reportError(model.error());
-  // The refit uses the corrections the campaign used (every IOV's, by their digest).
+  // The refit uses the corrections and the sigma_sys the campaign used (every IOV's, the
+  // corrections by their digest).
+  std::optional<io::Json> sigmaSys;
   for (const conddb::Iov& iov : snapshot.iovs()) {
     auto p = snapshot.payload(iov);
     if (!p) return reportError(p.error());
+    const io::Json& alignment = (*p)->content["alignment"];
+    io::Json usedSigma = io::Json{{"method", "spec"}};
+    if (alignment.contains("sigma_sys") && alignment["sigma_sys"].is_object()) {
+      const io::Json& s = alignment["sigma_sys"];
+      usedSigma = {{"method", s.value("method", "")}};
+      if (usedSigma["method"] == "fixed") usedSigma["value_deg"] = s.value("value_deg", 0.0);
+    }
+    if (!sigmaSys) {
+      sigmaSys = usedSigma;
+      if (usedSigma["method"] == "auto") {
+        model->sigmaSys = calib::SigmaSysChoice::automatic();
+      } else if (usedSigma["method"] == "fixed") {
+        model->sigmaSys = calib::SigmaSysChoice::fixed(usedSigma["value_deg"].get<double>() * units::deg);
+      } else if (usedSigma["method"] != "spec") {
+        return reportError(Error{fmt::format("tag {}: the calibration of runs {}-{} has sigma_sys {}: not one a "
+                                             "campaign makes",
+                                             o.tag, iov.firstRun, iov.lastRun, usedSigma.dump())});
+      }
+    } else if (*sigmaSys != usedSigma) {
+      return reportError(Error{fmt::format("tag {}: its IOVs were fitted with different sigma_sys ({} and {}): no "
+                                           "refit comparable with all of them",
+                                           o.tag, sigmaSys->dump(), usedSigma.dump())});
+    }
     const io::Json& provenance = (*p)->content["provenance"];
     const std::string used = provenance.value("corrections", ""), usedSha = provenance.value("corrections_sha256", "");
     const bool same = usedSha.empty() ? used == o.corrections : usedSha == model->correctionsSha256;

@@ -29,6 +29,7 @@ struct ValidateOptions {
   double depthOffset = 0.0;
   std::string corrections;
   std::vector<std::string> off;
+  std::string sigmaSys;
   std::string output;
 };
 
@@ -84,16 +85,22 @@ int run(const ValidateOptions& cli) {
                 {"ranges", ranges},
                 {"mu_below_gapless", o.ranges.muBelowGapless},
                 {"detector", cli.detector.empty() ? "embedded default" : cli.detector}};
+  // Only when given, so that a campaign directory of SPEC's σ_sys made before the option resumes.
+  if (!cli.sigmaSys.empty()) o.settings["sigma_sys"] = cli.sigmaSys;
+  o.sigmaSys = sigmaSysChoice(cli.sigmaSys);
   ProgressLine progress("validate", cli.samples, "samples");
   auto table = validation::runCampaign(*calo, o, cli.output, [&](int done, int) { progress.update(done); });
   progress.finish();
   if (!table) return reportError(table.error());
-  fmt::print(reportStream(), "{:<10} {:>4} {:>11} {:>9} {:>10} {:>9} {:>9}\n", "parameter", "unit", "bias", "±", "spread", "pull mean",
-             "pull width");
+  fmt::print(reportStream(), "{:<10} {:>4} {:>11} {:>9} {:>10} {:>9} {:>15} {:>18}\n", "parameter", "unit", "bias", "±",
+             "spread", "pull mean", "pull width", "slope");
   for (const auto& r : table->rows) {
-    fmt::print(reportStream(), "{:<10} {:>4} {:>11.4g} {:>9.2g} {:>10.4g} {:>9.3f} {:>9.3f}\n", r.name, r.unit, r.bias, r.biasError,
-               r.spread, r.pullMean, r.pullWidth);
+    fmt::print(reportStream(), "{:<10} {:>4} {:>11.4g} {:>9.2g} {:>10.4g} {:>9.3f} {:>7.3f} ± {:.3f} {:>+9.4f} ± {:.4f}\n",
+               r.name, r.unit, r.bias, r.biasError, r.spread, r.pullMean, r.pullWidth, r.pullWidthError, r.slope,
+               r.slopeError);
   }
+  fmt::print(reportStream(), "sigma_sys of the fits: median {:.4f} deg ({:.4f} to {:.4f})\n", table->sigmaSysMedian,
+             table->sigmaSysMin, table->sigmaSysMax);
   fmt::print(reportStream(), "{} samples × {} events in {:.1f} s; wrote {}/table.json, table.md, plots/, samples/\n", table->samples,
              table->events, progress.elapsed(), cli.output);
   return 0;
@@ -126,6 +133,7 @@ void addValidateCommand(CLI::App& app, int& exitCode) {
                   "fit with the model corrections of this file (emcalign derive-corrections; as emcalign fit)")
       ->check(CLI::ExistingFile)
       ->excludes(depthOffset);
+  addSigmaSysOption(*cmd, o->sigmaSys);
   cmd->add_option("-o,--output", o->output, "campaign directory (a rerun resumes it)")->required();
   cmd->callback([o, &exitCode] { exitCode = run(*o); });
 }

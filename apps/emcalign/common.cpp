@@ -97,6 +97,34 @@ CLI::Validator finiteIn(double lo, double hi) {
       fmt::format("NUMBER in [{}, {}]", lo, hi));
 }
 
+namespace {
+constexpr double kMaxSigmaSysDeg = 10.0;
+}
+
+CLI::Option* addSigmaSysOption(CLI::App& cmd, std::string& text) {
+  const CLI::Validator autoOrDegrees(
+      [](std::string& t) -> std::string {
+        if (t == "auto") return {};
+        const auto x = io::parseFiniteDouble(t);
+        if (!x || *x < 0.0 || *x > kMaxSigmaSysDeg) {
+          return fmt::format("{} is neither 'auto' nor a number of degrees in [0, {}]", io::quoted(t), kMaxSigmaSysDeg);
+        }
+        return {};
+      },
+      "auto|DEG");
+  return cmd
+      .add_option("--sigma-sys", text,
+                  "systematic error added in quadrature to every profile bin: DEG, or 'auto' to estimate it from the "
+                  "profiles (chi2/ndf = 1 after the fit; docs/fit.md). Default 0.2 (SPEC, the paper's data)")
+      ->check(autoOrDegrees);
+}
+
+calib::SigmaSysChoice sigmaSysChoice(const std::string& text) {
+  if (text.empty()) return calib::SigmaSysChoice::spec();
+  if (text == "auto") return calib::SigmaSysChoice::automatic();
+  return calib::SigmaSysChoice::fixed(*io::parseFiniteDouble(text) * units::deg);
+}
+
 Result<std::vector<Vec3>> readPointsFromStdin() {
   static constexpr const char* kColumns[] = {"x_cm", "y_cm", "z_cm"};
   std::vector<Vec3> points;

@@ -10,6 +10,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "emcalign/calib/sigma_sys.hpp"
 #include "emcalign/core/result.hpp"
 #include "emcalign/geometry/alignment_parameters.hpp"
 #include "emcalign/geometry/detector.hpp"
@@ -74,6 +75,10 @@ void addVersionFlag(CLI::App& cmd);
 /// refused) inside [lo, hi].
 CLI::Validator finiteIn(double lo, double hi);
 CLI::Validator integerIn(std::int64_t lo, std::int64_t hi);
+/// --sigma-sys auto|DEG (calib/sigma_sys.hpp): the option, and the choice it makes (not
+/// given: SPEC's 0.2°).
+CLI::Option* addSigmaSysOption(CLI::App& cmd, std::string& text);
+calib::SigmaSysChoice sigmaSysChoice(const std::string& text);
 /// The points of a CSV on standard input: the header x_cm,y_cm,z_cm, then one point per row
 /// (blank and # lines skipped), in native units; the error names the line and the column.
 Result<std::vector<Vec3>> readPointsFromStdin();

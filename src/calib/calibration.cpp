@@ -107,6 +107,18 @@ Result<std::map<std::int32_t, ProfileFill>> fillProfilesByRun(const std::string&
   return out;
 }
 
+io::Json sigmaSysJson(const SigmaSysUsed& s) {
+  using io::Json;
+  Json j = {{"method", std::string(name(s.method))}, {"value_deg", io::numberOrNull(s.value / units::deg)}};
+  if (s.method == SigmaSysMethod::Auto) {
+    j["interval_deg"] = {io::numberOrNull(s.lower / units::deg), io::numberOrNull(s.upper / units::deg)};
+    j["chi2_statistical_errors"] = s.chi2Stat;
+    j["p_value_statistical_errors"] = s.pValueStat;
+    j["fits"] = s.fits;
+  }
+  return j;
+}
+
 io::Json fitResultJson(const FitResult& r, const FitInput& input) {
   using io::Json;
   using geometry::AlignmentParameters;
@@ -157,6 +169,7 @@ io::Json fitResultJson(const FitResult& r, const FitInput& input) {
   j["stages"] = stages;
   j["status"] = std::string(name(r.status));
   j["warnings"] = r.warnings;
+  j["sigma_sys"] = sigmaSysJson(r.sigmaSys);
   Json in = {{"files", input.files}, {"from_profile", input.fromProfile}, {"detector", input.detector},
              {"bins_used", r.binsUsed}, {"bins_left_out", r.binsLeftOut.size()}};
   in["model_corrections"] = {{"depth_offset_cm", input.depthOffset / units::cm},

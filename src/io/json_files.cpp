@@ -243,7 +243,7 @@ Result<AlignmentFile> parseAlignmentFile(const json& j, double r1, std::string_v
     // The parameter keys, plus what a fit result adds (SPEC §3), read elsewhere.
     top.allowOnly({"format", "units", "parameters", "physical", "errors", "covariance", "derived",
                    "chi2", "ndf", "p_value", "stages", "status", "warnings", "input", "software",
-                   "correlation"});
+                   "correlation", "sigma_sys"});
     if (top.has("format") && top.string("format") != kAlignmentFormat) {
       top.fail("format", fmt::format("expected \"{}\"", kAlignmentFormat));
     }

@@ -13,6 +13,7 @@
 #include <tbb/task_arena.h>
 
 #include "emcalign/core/sha256.hpp"
+#include "emcalign/core/units.hpp"
 #include "emcalign/core/version.hpp"
 #include "emcalign/io/strict_json.hpp"
 
@@ -268,6 +269,7 @@ Json planJson(const CampaignScan& scan, const std::vector<CampaignGroup>& groups
           {"corrections", model.corrections},
           {"corrections_sha256", model.correctionsSha256},
           {"detector", model.detector},
+          {"sigma_sys", sigmaSysChoiceJson(model.sigmaSys)},
           {"inputs", inputs},
           {"groups", list}};
 }
@@ -280,8 +282,8 @@ Result<CampaignPlan> readCampaignPlan(const std::string& path) {
   try {
     using io::strict::StrictObject;
     StrictObject top(*j, "", path);
-    top.allowOnly({"format", "software", "min_events", "corrections", "corrections_sha256", "detector", "inputs",
-                   "groups"});
+    top.allowOnly({"format", "software", "min_events", "corrections", "corrections_sha256", "detector", "sigma_sys",
+                   "inputs", "groups"});
     if (top.string("format") != kCampaignPlanFormat) {
       top.fail("format", fmt::format("expected \"{}\"", kCampaignPlanFormat));
     }
@@ -292,6 +294,21 @@ Result<CampaignPlan> readCampaignPlan(const std::string& path) {
     plan.corrections = top.string("corrections");
     plan.correctionsSha256 = top.string("corrections_sha256");
     plan.detector = top.string("detector");
+    if (top.has("sigma_sys")) {
+      StrictObject s(top.at("sigma_sys"), "sigma_sys", path);
+      s.allowOnly({"method", "value_deg"});
+      const std::string method = s.string("method");
+      if (method == "spec") {
+        plan.sigmaSys = calib::SigmaSysChoice::spec();
+      } else if (method == "auto") {
+        plan.sigmaSys = calib::SigmaSysChoice::automatic();
+      } else if (method == "fixed") {
+        plan.sigmaSys = calib::SigmaSysChoice::fixed(s.number("value_deg") * units::deg);
+        if (Status v = plan.sigmaSys.validate(); !v) s.fail(s.pathOf("value_deg"), v.error().message);
+      } else {
+        s.fail(s.pathOf("method"), "expected \"spec\", \"fixed\" or \"auto\"");
+      }
+    }
     const Json& inputs = top.at("inputs");
     if (!inputs.is_array()) top.fail("inputs", "expected a list");
     for (std::size_t i = 0; i < inputs.size(); ++i) {
@@ -353,6 +370,12 @@ Result<CampaignPlan> readCampaignPlan(const std::string& path) {
   }
 }
 
+Json sigmaSysChoiceJson(const calib::SigmaSysChoice& c) {
+  Json j = {{"method", std::string(calib::name(c.method))}};
+  if (c.method == calib::SigmaSysMethod::Fixed) j["value_deg"] = c.value / units::deg;
+  return j;
+}
+
 Json campaignOrigin(const CampaignGroup& g, std::int64_t minEvents, int groups) {
   return {{"campaign",
            {{"group", g.index},
@@ -368,7 +391,7 @@ Result<GroupFit> fitGroup(const CampaignGroup& g, const calib::ProfileFill& fill
   if (fill.cutFlow.events.back() == 0) {
     return Error{fmt::format("group {} (runs {}-{}): no selected event", g.index, g.iovFirst, g.iovLast)};
   }
-  auto result = calib::fitProfiles(fill.profiles.bins(), model.geometry);
+  auto result = calib::fitProfiles(fill.profiles, model.geometry, model.sigmaSys);
   if (!result) return Error{fmt::format("group {} (runs {}-{}): {}", g.index, g.iovFirst, g.iovLast, result.error().message)};
   calib::FitInput input;
   input.files = g.files;

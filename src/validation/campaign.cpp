@@ -1,5 +1,6 @@
 #include "emcalign/validation/campaign.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <limits>
@@ -9,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "emcalign/calib/calibration.hpp"
+#include "emcalign/core/statistics.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/report/plots.hpp"
 
@@ -209,6 +211,7 @@ std::optional<SampleResult> readSample(const std::string& path, int sampleIndex,
       v.error = d["error"].is_null() ? std::nan("") : d["error"].get<double>() * unit;
       s.fit.derived.emplace_back(std::string(n), v);
     }
+    if (f.contains("sigma_sys")) s.fit.sigmaSys.value = f["sigma_sys"]["value_deg"].get<double>() * units::deg;
     if (f.contains("correlation")) {
       for (int r = 0; r < static_cast<int>(kNumParams); ++r) {
         for (int c = 0; c < static_cast<int>(kNumParams); ++c) s.fit.correlation(r, c) = f["correlation"][r][c].get<double>();
@@ -299,7 +302,7 @@ Result<Table> runCampaign(const geometry::Calorimeter& calo, const CampaignOptio
     });
     if (!run) return run.error();
     if (Status sel = filler.checkSelected(); !sel) return Error{fmt::format("sample {}: {}", i, sel.error().message)};
-    auto fit = calib::fitProfiles(filler.fill().profiles.bins(), geometry);
+    auto fit = calib::fitProfiles(filler.fill().profiles, geometry, o.sigmaSys);
     if (!fit) return Error{fmt::format("sample {}: {}", i, fit.error().message)};
     s.fit = std::move(*fit);
     s.selectedEvents = filler.fill().cutFlow.events.back();
@@ -324,6 +327,41 @@ Result<Table> runCampaign(const geometry::Calorimeter& calo, const CampaignOptio
   return table;
 }
 
+namespace {
+
+// The least-squares slope of y against x and its error (from the residual scatter); NaN
+// when x does not vary or fewer than three finite pairs.
+std::pair<double, double> slopeOf(const std::vector<double>& x, const std::vector<double>& y) {
+  double sx = 0.0, sy = 0.0;
+  int n = 0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    if (!std::isfinite(x[i]) || !std::isfinite(y[i])) continue;
+    sx += x[i];
+    sy += y[i];
+    ++n;
+  }
+  const double nan = std::nan("");
+  if (n < 3) return {nan, nan};
+  const double mx = sx / n, my = sy / n;
+  double sxx = 0.0, sxy = 0.0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    if (!std::isfinite(x[i]) || !std::isfinite(y[i])) continue;
+    sxx += (x[i] - mx) * (x[i] - mx);
+    sxy += (x[i] - mx) * (y[i] - my);
+  }
+  if (!(sxx > 0.0)) return {nan, nan};
+  const double b = sxy / sxx;
+  double ss = 0.0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    if (!std::isfinite(x[i]) || !std::isfinite(y[i])) continue;
+    const double r = y[i] - my - b * (x[i] - mx);
+    ss += r * r;
+  }
+  return {b, std::sqrt(ss / (n - 2) / sxx)};
+}
+
+}  // namespace
+
 Table tabulate(const std::vector<SampleResult>& samples, std::int64_t events, double r1) {
   Table t;
   t.samples = static_cast<int>(samples.size());
@@ -332,16 +370,16 @@ Table tabulate(const std::vector<SampleResult>& samples, std::int64_t events, do
     std::string name, unit;
     double unitValue;
     bool angle;  // wraps: shortest angular difference
-    std::vector<double> diff, pull;
+    std::vector<double> diff, pull, truth;
   };
   std::vector<Acc> acc;
   for (Param p : kAllParams) {
     const bool isAngle = dimension(p) == Dimension::Angle;
-    acc.push_back({std::string(name(p)), isAngle ? "deg" : "cm", AlignmentParameters::fileUnit(p), false, {}, {}});
+    acc.push_back({std::string(name(p)), isAngle ? "deg" : "cm", AlignmentParameters::fileUnit(p), false, {}, {}, {}});
   }
   for (auto n : kDerived) {
     const bool length = n == "dx_rel";
-    acc.push_back({std::string(n), length ? "cm" : "deg", length ? units::cm : units::deg, n == "psi" || n == "tau", {}, {}});
+    acc.push_back({std::string(n), length ? "cm" : "deg", length ? units::cm : units::deg, n == "psi" || n == "tau", {}, {}, {}});
   }
   int correlations = 0;
   for (const auto& s : samples) {
@@ -351,12 +389,14 @@ Table tabulate(const std::vector<SampleResult>& samples, std::int64_t events, do
       const double d = s.fit.parameters.values[i] - s.truth.values[i];
       acc[k].diff.push_back(d);
       acc[k].pull.push_back(d / s.fit.errors[i]);
+      acc[k].truth.push_back(s.truth.values[i]);
     }
     for (std::size_t k = 0; k < kDerived.size() && k < s.fit.derived.size(); ++k) {
       double d = s.fit.derived[k].second.value - truthDerived[k];
       if (acc[kNumParams + k].angle) d = std::remainder(d, 2.0 * std::numbers::pi);
       acc[kNumParams + k].diff.push_back(d);
       acc[kNumParams + k].pull.push_back(d / s.fit.derived[k].second.error);
+      acc[kNumParams + k].truth.push_back(acc[kNumParams + k].angle ? std::nan("") : truthDerived[k]);
     }
     if (s.fit.correlation.allFinite() && s.fit.correlation.diagonal().sum() > 0.0) {
       t.meanCorrelation += s.fit.correlation;
@@ -364,6 +404,13 @@ Table tabulate(const std::vector<SampleResult>& samples, std::int64_t events, do
     }
   }
   if (correlations > 0) t.meanCorrelation /= correlations;
+  std::vector<double> sigmaSys;
+  for (const auto& s : samples) sigmaSys.push_back(s.fit.sigmaSys.value / units::deg);
+  if (!sigmaSys.empty()) {
+    t.sigmaSysMedian = median(sigmaSys);
+    t.sigmaSysMin = *std::min_element(sigmaSys.begin(), sigmaSys.end());
+    t.sigmaSysMax = *std::max_element(sigmaSys.begin(), sigmaSys.end());
+  }
   auto meanAndWidth = [](const std::vector<double>& v) {
     double sum = 0.0, sum2 = 0.0;
     int n = 0;
@@ -388,6 +435,10 @@ Table tabulate(const std::vector<SampleResult>& samples, std::int64_t events, do
     row.biasError = d[2] > 0 ? row.spread / std::sqrt(d[2]) : std::nan("");
     row.pullMean = p[0];
     row.pullWidth = p[1];
+    row.pullWidthError = p[2] > 1 ? p[1] / std::sqrt(2.0 * (p[2] - 1.0)) : std::nan("");
+    const auto [slope, slopeError] = slopeOf(a.truth, a.diff);
+    row.slope = slope;
+    row.slopeError = slopeError;
     row.samples = static_cast<int>(d[2]);
     t.rows.push_back(row);
   }
@@ -397,8 +448,15 @@ Table tabulate(const std::vector<SampleResult>& samples, std::int64_t events, do
 Json tableJson(const Table& t) {
   Json params = Json::object();
   for (const auto& r : t.rows) {
-    params[r.name] = {{"unit", r.unit},          {"bias", r.bias},           {"spread", r.spread},
-                      {"bias_error", r.biasError}, {"pull_mean", r.pullMean}, {"pull_width", r.pullWidth}};
+    params[r.name] = {{"unit", r.unit},
+                      {"bias", r.bias},
+                      {"spread", r.spread},
+                      {"bias_error", r.biasError},
+                      {"pull_mean", r.pullMean},
+                      {"pull_width", r.pullWidth},
+                      {"pull_width_error", io::numberOrNull(r.pullWidthError)},
+                      {"slope", io::numberOrNull(r.slope)},
+                      {"slope_error", io::numberOrNull(r.slopeError)}};
   }
   Json corr = Json::array();
   for (int i = 0; i < static_cast<int>(kNumParams); ++i) {
@@ -409,6 +467,7 @@ Json tableJson(const Table& t) {
   return Json{{"samples", t.samples},
               {"events", t.events},
               {"parameters", params},
+              {"sigma_sys_deg", {{"median", t.sigmaSysMedian}, {"min", t.sigmaSysMin}, {"max", t.sigmaSysMax}}},
               {"mean_correlation", {{"order", kParamNames}, {"matrix", corr}}}};
 }
 
@@ -422,10 +481,14 @@ std::string tableMarkdown(const Table& t) {
   std::string md = fmt::format(
       "# Validation: {} samples × {} events\n\n"
       "bias = mean of (fit − truth), spread = its standard deviation, ± = spread/√samples; pulls = (fit − "
-      "truth)/error. Paper: Korol & Melnikova, Table 1 (SPEC §10).\n\n"
-      "| parameter | unit | bias | ± | spread | pull mean | pull width | paper bias | paper spread |\n"
-      "|---|---|---|---|---|---|---|---|---|\n",
-      t.samples, t.events);
+      "truth)/error; slope = of (fit − truth) against truth. sigma_sys of the fits: {}. Paper: Korol & Melnikova, "
+      "Table 1 (SPEC §10).\n\n"
+      "| parameter | unit | bias | ± | spread | pull mean | pull width | slope | paper bias | paper spread |\n"
+      "|---|---|---|---|---|---|---|---|---|---|\n",
+      t.samples, t.events,
+      t.sigmaSysMin == t.sigmaSysMax ? fmt::format("{:.4g} deg", t.sigmaSysMedian)
+                                     : fmt::format("median {:.4g} deg ({:.4g} to {:.4g})", t.sigmaSysMedian,
+                                                   t.sigmaSysMin, t.sigmaSysMax));
   for (const auto& r : t.rows) {
     std::string pb = "", ps = "";
     for (const auto& [n, b, s] : paper) {
@@ -434,8 +497,10 @@ std::string tableMarkdown(const Table& t) {
         ps = fmt::format("{:.3g}", s);
       }
     }
-    md += fmt::format("| {} | {} | {:.4g} | {:.2g} | {:.4g} | {:.3f} | {:.3f} | {} | {} |\n", r.name, r.unit, r.bias,
-                      r.biasError, r.spread, r.pullMean, r.pullWidth, pb, ps);
+    const std::string slope =
+        std::isfinite(r.slope) ? fmt::format("{:+.4f} ± {:.4f}", r.slope, r.slopeError) : std::string("—");
+    md += fmt::format("| {} | {} | {:.4g} | {:.2g} | {:.4g} | {:.3f} | {:.3f} ± {:.3f} | {} | {} | {} |\n", r.name,
+                      r.unit, r.bias, r.biasError, r.spread, r.pullMean, r.pullWidth, r.pullWidthError, slope, pb, ps);
   }
   md += "\nMean correlation matrix (rows and columns in SPEC order):\n\n|   |";
   for (auto n : kParamNames) md += fmt::format(" {} |", n);

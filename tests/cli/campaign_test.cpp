@@ -143,6 +143,40 @@ TEST_F(CampaignCli, PlanFannedOutToParallelProcessesAgainstPostgres) {
   }
 }
 
+TEST_F(CampaignCli, SigmaSysIsEveryGroupsAndThePlansAndTheRefitsToo) {
+  const std::string uri = "sqlite:" + path("c.db");
+  auto r = run(fmt::format("campaign {} --conditions {} --tag a --min-events 4000 --sigma-sys auto", events(), uri));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  r = run(fmt::format("conditions get {} --tag a --run 20 -o {}", uri, path("p20.json")));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const json p20 = json::parse(emcalign::testing::slurp(path("p20.json")));
+  EXPECT_EQ(p20["sigma_sys"]["method"], "auto");
+  EXPECT_LT(p20["sigma_sys"]["value_deg"].get<double>(), 0.2);
+  EXPECT_NEAR(p20["chi2"].get<double>(), p20["ndf"].get<double>(), 1e-6 * p20["ndf"].get<double>());
+  // The refit fits its periods the same way.
+  r = run(fmt::format("trend --conditions {} --tag a -o {} --refit {} --tag-out a.seg", uri, path("tr"), events()));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  r = run(fmt::format("conditions get {} --tag a.seg --run 20 -o {}", uri, path("s20.json")));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_EQ(json::parse(emcalign::testing::slurp(path("s20.json")))["sigma_sys"]["method"], "auto");
+
+  // A plan records it, and its jobs keep to it.
+  r = run(fmt::format("campaign {} --plan {} --min-events 4000 --sigma-sys 0.1", events(), path("plan.json")));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const json plan = json::parse(emcalign::testing::slurp(path("plan.json")));
+  EXPECT_EQ(plan["sigma_sys"], json::parse(R"({"method": "fixed", "value_deg": 0.1})"));
+  r = run(fmt::format("campaign --plan {} --group 0 --conditions {} --tag f --sigma-sys auto", path("plan.json"), uri));
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_THAT(r.err, HasSubstr("the plan"));
+  r = run(fmt::format("campaign --plan {} --group 0 --conditions {} --tag f", path("plan.json"), uri));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  r = run(fmt::format("conditions get {} --tag f --run 1 -o {}", uri, path("f1.json")));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const json f1 = json::parse(emcalign::testing::slurp(path("f1.json")));
+  EXPECT_EQ(f1["sigma_sys"]["method"], "fixed");
+  EXPECT_DOUBLE_EQ(f1["sigma_sys"]["value_deg"].get<double>(), 0.1);
+}
+
 TEST_F(CampaignCli, TrendFindsTheStepAndRefitsTheStablePeriods) {
   const std::string uri = "sqlite:" + path("c.db");
   auto r = run(fmt::format("campaign {} --conditions {} --tag t --min-events 4000", events(), uri));

@@ -363,6 +363,10 @@ def cases():
             lines[row] = ",".join(fields)
             write(d, name, "\n".join(lines) + "\n")
         return setup
+    add(Case(S, "--sigma-sys with a saved profile", "emcalign fit --profile-in prof.csv --sigma-sys auto -o r.json", 1,
+             "--sigma-sys needs the events"))
+    add(Case(S, "--sigma-sys that is neither auto nor degrees", "emcalign fit ev.csv --sigma-sys 0.2deg -o r.json", 2,
+             "neither 'auto' nor a number of degrees"))
     add(Case(S, "a profile bin with e_mean = 1e-300", "emcalign fit --profile-in pe.csv -o r.json", 1,
              "not a plausible cluster energy", setup=profile("pe.csv", 50, 5, "1e-300")))
 
@@ -566,6 +570,15 @@ def cases():
 
     add(Case(P, "a batch job with another detector than its plan's", "emcalign campaign --plan plan.json --group 0 "
              "--detector d.json --conditions camp.db --tag c", 1, "was made with the embedded default detector",
+             setup=plan))
+
+    def sigma_plan(d):
+        plan(d)
+        edit_json(d, "plan.json", "sigma.json", lambda j: j.__setitem__("sigma_sys", {"method": "fixed", "value_deg": -1}))
+    add(Case(P, "a plan with a negative sigma_sys", "emcalign campaign --plan sigma.json --group 0 --conditions "
+             "camp.db --tag s", 1, "sigma.json: key 'sigma_sys.value_deg'", setup=sigma_plan))
+    add(Case(P, "a batch job with another --sigma-sys than its plan's", "emcalign campaign --plan plan.json --group 0 "
+             "--sigma-sys auto --conditions camp.db --tag s", 1, "the plan plan.json was made with sigma_sys",
              setup=plan))
 
     def gap_plan(d):

@@ -85,6 +85,11 @@ struct FitInput {
   std::string nominalProfile;  ///< where the subtracted nominal profile came from (empty: none)
 };
 
+/// How σ_sys was chosen, as the result file says it: {"method": "spec"|"fixed"|"auto",
+/// "value_deg"} and, for auto, "interval_deg" [lower, upper] (68 %; upper null when
+/// unbounded), "chi2_statistical_errors", "p_value_statistical_errors", "fits".
+io::Json sigmaSysJson(const SigmaSysUsed& sigmaSys);
+
 /// The fit-result file of SPEC §3 (file units: deg, cm).
 io::Json fitResultJson(const FitResult& result, const FitInput& input);
 

@@ -11,8 +11,10 @@
 // Errors: covariance = (JᵀJ)⁻¹ of the whitened residuals at the minimum (Δχ² = 1). A
 // singular covariance is reported (eigenvalues, the weak combination), never regularised.
 
+#include <limits>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <Eigen/Core>
@@ -57,6 +59,29 @@ struct DerivedValue {
   double error = 0.0;  ///< NaN where the linear propagation is undefined (β = 0 for ψ, …)
 };
 
+/// The systematic error σ_sys added in quadrature to the statistical σ of every bin (for y_φ
+/// and y_θ alike), and how it was chosen (calib/sigma_sys.hpp).
+enum class SigmaSysMethod {
+  Spec,   ///< SPEC §7's 0.2°, the paper's number for its data
+  Fixed,  ///< set by hand
+  Auto,   ///< estimated from the profiles: the σ_sys for which χ²/ndf = 1 after the fit
+  Saved   ///< unknown here: a saved profile's bins carry their total σ (value NaN)
+};
+std::string_view name(SigmaSysMethod m);
+
+struct SigmaSysUsed {
+  SigmaSysMethod method = SigmaSysMethod::Spec;
+  double value = 0.2 * 0.017453292519943295;  ///< rad
+  /// Auto only: the 68 % interval of the estimate (the σ_sys for which the χ² is ndf ± √(2 ndf);
+  /// the lower end 0 when the statistical errors alone already give χ² ≤ ndf + √(2 ndf)), the χ²
+  /// of the fit with the statistical errors alone, and its p-value (the model's own test).
+  double lower = std::numeric_limits<double>::quiet_NaN();
+  double upper = std::numeric_limits<double>::quiet_NaN();
+  double chi2Stat = std::numeric_limits<double>::quiet_NaN();
+  double pValueStat = std::numeric_limits<double>::quiet_NaN();
+  int fits = 0;  ///< staged fits the estimate took
+};
+
 struct FitResult {
   geometry::AlignmentParameters parameters;
   geometry::ParamVector errors = geometry::ParamVector::Constant(std::numeric_limits<double>::quiet_NaN());
@@ -76,6 +101,8 @@ struct FitResult {
   /// How it ended (core/fit_status.hpp); the warnings say why when it is not Converged.
   FitStatus status = FitStatus::NotConverged;
   std::vector<std::string> warnings;
+  /// The σ_sys of the bins fitted (the caller's choice: fitProfiles sees only the totals).
+  SigmaSysUsed sigmaSys;
 };
 
 /// What the fit needs to know about the detector.

@@ -28,6 +28,7 @@
 #include "emcalign/calib/calibration.hpp"
 #include "emcalign/calib/corrections.hpp"
 #include "emcalign/calib/fit.hpp"
+#include "emcalign/calib/sigma_sys.hpp"
 #include "emcalign/conddb/conditions.hpp"
 #include "emcalign/core/result.hpp"
 #include "emcalign/geometry/detector.hpp"
@@ -65,6 +66,7 @@ struct CampaignModel {
   std::string corrections;         ///< the corrections file (empty: none), for the provenance
   std::string correctionsSha256;   ///< its SHA-256 (empty: none)
   std::string detector = "embedded default";
+  calib::SigmaSysChoice sigmaSys;  ///< of every group's fit (calib/sigma_sys.hpp)
 };
 
 /// The event files of the inputs, as absolute paths (a batch job may run elsewhere): a
@@ -100,7 +102,8 @@ struct CampaignGroup {
 /// Groups the scanned runs (see the top of this file).
 std::vector<CampaignGroup> planGroups(const CampaignScan& scan, std::int64_t minEvents);
 
-/// The job list: {"format", "min_events", "inputs": [{"file", "sha256"}], "groups": [{"group",
+/// The job list: {"format", "min_events", "sigma_sys": {"method", "value_deg"}, "inputs":
+/// [{"file", "sha256"}], "groups": [{"group",
 /// "iov": [first, last], "runs": [...], "files": [...], "beam_energy_mev", "selected_events",
 /// "short"}]}.
 io::Json planJson(const CampaignScan& scan, const std::vector<CampaignGroup>& groups, std::int64_t minEvents,
@@ -110,8 +113,11 @@ struct CampaignPlan {
   std::map<std::string, std::string> digests;  ///< file → SHA-256
   std::vector<CampaignGroup> groups;
   std::string corrections, correctionsSha256, detector;
+  calib::SigmaSysChoice sigmaSys;  ///< SPEC's when the plan does not say (plans made before)
 };
 Result<CampaignPlan> readCampaignPlan(const std::string& path);
+/// A σ_sys choice as a plan records it: {"method"} and, when fixed, "value_deg".
+io::Json sigmaSysChoiceJson(const calib::SigmaSysChoice& choice);
 
 /// One group fitted: its result file (SPEC §3) and the payload to store.
 struct GroupFit {

@@ -16,6 +16,7 @@
 
 #include "emcalign/calib/corrections.hpp"
 #include "emcalign/calib/fit.hpp"
+#include "emcalign/calib/sigma_sys.hpp"
 #include "emcalign/core/random.hpp"
 #include "emcalign/core/result.hpp"
 #include "emcalign/geometry/alignment_parameters.hpp"
@@ -55,6 +56,8 @@ struct CampaignOptions {
   /// Model corrections of the fits (calib/corrections.hpp): depth offset, parting-plane
   /// response, nominal profile; default none (the paper's model).
   calib::ModelCorrections corrections;
+  /// σ_sys of the fits (calib/sigma_sys.hpp): SPEC's 0.2°, a fixed value, or auto.
+  calib::SigmaSysChoice sigmaSys;
   /// Describes the settings (simulation switches, ranges, detector): stored in every sample
   /// so that a rerun resumes only a campaign made with the same settings.
   io::Json settings = io::Json::object();
@@ -76,6 +79,10 @@ struct TableRow {
   std::string unit;  ///< "deg" or "cm"
   double bias = 0.0, spread = 0.0, biasError = 0.0;  ///< file units
   double pullMean = 0.0, pullWidth = 0.0;
+  double pullWidthError = 0.0;  ///< width/√(2(n − 1)), its standard error for normal pulls
+  /// Least-squares slope of (fit − truth) against truth, a scale error of the fit (NaN for
+  /// ψ and τ, directions, and where the truth does not vary).
+  double slope = 0.0, slopeError = 0.0;
   int samples = 0;
 };
 
@@ -84,6 +91,8 @@ struct Table {
   std::int64_t events = 0;
   std::vector<TableRow> rows;
   calib::Covariance meanCorrelation = calib::Covariance::Zero();
+  /// The σ_sys of the fits, deg: their median, lowest and highest (one value unless auto).
+  double sigmaSysMedian = 0.0, sigmaSysMin = 0.0, sigmaSysMax = 0.0;
 };
 
 /// Progress: samples done (including resumed ones), total.

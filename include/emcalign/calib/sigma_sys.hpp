@@ -1,0 +1,59 @@
+#pragma once
+// The systematic error of a profile bin, σ_sys, chosen three ways (docs/fit.md):
+//
+//   spec   SPEC §7's 0.2°: the paper's number for the non-uniformity of its data.
+//   fixed  a value set by hand (`fit --sigma-sys DEG`).
+//   auto   estimated from the profiles themselves (`fit --sigma-sys auto`): the σ_sys for
+//          which the χ² of the refitted profiles equals its number of degrees of freedom.
+//
+// Auto is the method of moments for an error added in quadrature (the PDG's scale factor
+// with the excess put into every bin alike, not into the errors in proportion): with
+// σ_i² = σ_stat,i² + s², the minimum χ²_min(s) over the 12 parameters falls monotonically
+// with s, and ŝ solves χ²_min(ŝ) = ndf. Each evaluation is a whole staged fit (the minimum
+// moves with the weights), solved by bracketing and the Illinois false-position method on
+// u = s². The 68 % interval takes the χ²'s own fluctuation, ±√(2·ndf): the lower end
+// solves χ²_min = ndf + √(2ndf) (0 when the statistical errors alone are already
+// compatible), the upper χ²_min = ndf − √(2ndf). With σ_stat alone already giving
+// χ² ≤ ndf the estimate is 0.
+//
+// Since the χ²/ndf is 1 by construction, the auto fit cannot itself be a "poor fit": the
+// model's test is the χ² with the statistical errors alone (SigmaSysUsed::chi2Stat), and a
+// σ_sys far above SPEC's is reported as a warning.
+
+#include "emcalign/calib/fit.hpp"
+#include "emcalign/calib/profiles.hpp"
+#include "emcalign/core/result.hpp"
+
+namespace emcalign::calib {
+
+/// SPEC §7's σ_sys, rad.
+inline constexpr double kSpecSigmaSys = 0.2 * 0.017453292519943295;
+/// An auto estimate above this is reported (rad): the profiles scatter about the model far
+/// more than the paper's data did about its.
+inline constexpr double kLargeSigmaSys = 3.0 * kSpecSigmaSys;
+
+struct SigmaSysChoice {
+  SigmaSysMethod method = SigmaSysMethod::Spec;
+  double value = kSpecSigmaSys;  ///< rad; Fixed only (Spec: kSpecSigmaSys; Auto: estimated)
+  static SigmaSysChoice spec() { return {}; }
+  static SigmaSysChoice fixed(double rad) { return {SigmaSysMethod::Fixed, rad}; }
+  static SigmaSysChoice automatic() { return {SigmaSysMethod::Auto, 0.0}; }
+  /// A fixed value finite, ≥ 0 and below 90°.
+  Status validate() const;
+};
+
+/// The profiles' bins with this σ_sys, fitted; the result records the σ_sys used
+/// (FitResult::sigmaSys). Spec and Fixed fit once; Auto fits until χ²/ndf = 1 (see above),
+/// and fails only as fitProfiles does.
+Result<FitResult> fitProfiles(const Profiles& profiles, const FitGeometry& geometry, const SigmaSysChoice& choice,
+                              const FitOptions& options = {});
+
+/// The bins exactly as the fit that chose `used` saw them (for the profile file and the
+/// figures).
+std::vector<ProfileBin> fittedBins(const Profiles& profiles, const SigmaSysUsed& used);
+
+/// The bins with σ_sys `s` (rad) added in quadrature to their σ (bins with σ_sys = 0, as
+/// Profiles::bins(0.0) gives them).
+std::vector<ProfileBin> withSigmaSys(std::vector<ProfileBin> statisticalBins, double s);
+
+}  // namespace emcalign::calib

@@ -27,6 +27,8 @@ struct DeriveOptions {
   double thetaMaxDeg = 140.0;
   double shift = 0.6;
   double gap = 0.5;
+  int responseSamples = 200;
+  std::int64_t responseEvents = 100000;
   bool ideal = false;
   std::vector<std::string> off;
   std::string detector;
@@ -47,6 +49,8 @@ int run(const DeriveOptions& cli) {
   o.threads = cli.threads;
   o.shift = cli.shift;
   o.gap = cli.gap;
+  o.responseEvents = cli.responseEvents;
+  o.responseSamples = cli.responseSamples;
   if (Status s = applyRealismSwitches(o.simulation, cli.ideal, cli.off); !s) return reportError(s.error());
   if (cli.beamEnergy > 0.0) o.simulation.generator.beamEnergy = cli.beamEnergy * units::MeV;
   o.simulation.generator.thetaMin = cli.thetaMinDeg * units::deg;
@@ -59,18 +63,21 @@ int run(const DeriveOptions& cli) {
                              {"off", cli.off},
                              {"shift_cm", cli.shift},
                              {"gap_cm", cli.gap},
+                             {"response_samples", cli.responseSamples},
+                             {"response_events_per_sample", cli.responseEvents},
                              {"detector", cli.detector.empty() ? "embedded default" : cli.detector}};
 
-  ProgressLine progress("derive-corrections", 3 * cli.events, "events");
-  int stageIndex = -1;
+  ProgressLine progress("derive-corrections", 3 * cli.events + cli.responseSamples * cli.responseEvents, "events");
+  std::int64_t before = 0, lastTotal = 0;  // events of the finished samples, of the current one
   std::string lastStage;
-  auto report = validation::deriveCorrections(*calo, o, [&](std::string_view stage, std::int64_t done, std::int64_t) {
+  auto report = validation::deriveCorrections(*calo, o, [&](std::string_view stage, std::int64_t done, std::int64_t total) {
     if (stage.rfind("simulate", 0) != 0) return;
     if (stage != lastStage) {
       lastStage = std::string(stage);
-      ++stageIndex;
+      before += lastTotal;
+      lastTotal = total;
     }
-    progress.update(stageIndex * cli.events + done);
+    progress.update(before + done);
   });
   progress.finish();
   if (!report) return reportError(report.error());
@@ -87,6 +94,20 @@ int run(const DeriveOptions& cli) {
     fmt::print(reportStream(), "  phi {:5.1f}-{:5.1f} deg   W+ = {:6.3f} ± {:.3f}{}\n", 360.0 * k / columns, 360.0 * (k + 1) / columns,
                report->columnWeights[static_cast<std::size_t>(k)], report->columnWeightErrors[static_cast<std::size_t>(k)],
                used ? "  *" : "");
+  }
+  if (c.response) {
+    fmt::print(reportStream(), "Fit response over the validation ranges, diagonal of R (fitted against true):\n ");
+    for (Param p : kAllParams) {
+      const auto k = static_cast<Eigen::Index>(index(p));
+      fmt::print(reportStream(), " {} {:.4f}±{:.4f}", name(p), c.response->matrix(k, k), report->responseErrors(k, k));
+    }
+    fmt::print(reportStream(), "\nStatistical error the response gives every fit using this file (file units):\n ");
+    for (Param p : kAllParams) {
+      fmt::print(reportStream(), " {} {:.2g}", name(p),
+                 report->responseParameterErrors[static_cast<Eigen::Index>(index(p))] /
+                     geometry::AlignmentParameters::fileUnit(p));
+    }
+    fmt::print(reportStream(), "\n");
   }
   fmt::print(reportStream(), "Statistical error the nominal profile gives every fit using this file (file units):\n ");
   for (Param p : kAllParams) {
@@ -125,6 +146,12 @@ void addDeriveCorrectionsCommand(CLI::App& app, int& exitCode) {
   cmd->add_option("--theta-max", o->thetaMaxDeg, "(default 140)")->check(finiteIn(0.0, 180.0));
   cmd->add_option("--shift", o->shift, "dx = dy = dz of the depth sample, cm (default 0.6)")->check(finiteIn(0.01, 5.0));
   cmd->add_option("--gap", o->gap, "dx_rel of the parting-plane sample, cm (default 0.5)")->check(finiteIn(0.01, 5.0));
+  cmd->add_option("--response-samples", o->responseSamples,
+                  "samples over the validation ranges that measure the fit's response (default 200; 0: no "
+                  "response correction)")
+      ->check(integerIn(0, 100000));
+  cmd->add_option("--response-events", o->responseEvents, "events per response sample (default 100000)")
+      ->check(integerIn(1000, kMaxEvents));
   cmd->add_flag("--ideal", o->ideal, "use the idealised simulation (the corrections should vanish)");
   cmd->add_option("--off", o->off, "switch realism effects off (as emcalign simulate --off)")->delimiter(',');
   addDetectorOption(*cmd, o->detector);

@@ -129,14 +129,18 @@ int run(const FitCliOptions& o) {
   if (!o.corrections.empty()) {
     auto c = calib::readCorrections(o.corrections);
     if (!c) return reportError(c.error());
-    geometry.depth.offset = input.depthOffset = c->depthOffset;
+    geometry.apply(*c);
+    input.depthOffset = c->depthOffset;
+    if (c->response) input.response = o.corrections;
     profileOptions.partingPlane = c->partingPlane;
     profileOptions.nominalProfile = c->nominalProfile;
     if (c->partingPlane) input.partingPlane = o.corrections;
     if (c->nominalProfile) input.nominalProfile = o.corrections;
-    fmt::print(reportStream(), "Model corrections from {}: depth offset {:+.2f} cm, parting-plane response {}, nominal profile {}\n",
+    fmt::print(reportStream(),
+               "Model corrections from {}: depth offset {:+.2f} cm, parting-plane response {}, nominal profile {}, "
+               "fit response {}\n",
                o.corrections, c->depthOffset / units::cm, c->partingPlane ? "on" : "off",
-               c->nominalProfile ? "subtracted" : "off");
+               c->nominalProfile ? "subtracted" : "off", c->response ? "on" : "off");
   }
 
   std::vector<calib::ProfileBin> bins;
@@ -235,7 +239,8 @@ void addFitCommand(CLI::App& app, int& exitCode) {
       ->check(finiteIn(-calib::kMaxDepthOffset, calib::kMaxDepthOffset));
   auto* corrections = cmd->add_option("--corrections", o->corrections,
                                       "model corrections derived from the simulation (emcalign derive-corrections): "
-                                      "the shower-depth offset and the parting-plane response")
+                                      "the shower-depth offset, the parting-plane response, the nominal profile and "
+                                      "the fit's response")
                           ->check(CLI::ExistingFile);
   corrections->excludes(depthOffset);
   addSigmaSysOption(*cmd, o->sigmaSys);

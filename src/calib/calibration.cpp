@@ -174,7 +174,8 @@ io::Json fitResultJson(const FitResult& r, const FitInput& input) {
              {"bins_used", r.binsUsed}, {"bins_left_out", r.binsLeftOut.size()}};
   in["model_corrections"] = {{"depth_offset_cm", input.depthOffset / units::cm},
                              {"parting_plane_response", input.partingPlane.empty() ? Json(nullptr) : Json(input.partingPlane)},
-                             {"nominal_profile", input.nominalProfile.empty() ? Json(nullptr) : Json(input.nominalProfile)}};
+                             {"nominal_profile", input.nominalProfile.empty() ? Json(nullptr) : Json(input.nominalProfile)},
+                             {"response", input.response.empty() ? Json(nullptr) : Json(input.response)}};
   if (input.fill != nullptr) {
     Json flow = Json::object();
     for (std::size_t k = 0; k < CutFlow::kNames.size(); ++k) flow[CutFlow::kNames[k]] = input.fill->cutFlow.events[k];

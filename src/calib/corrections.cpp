@@ -7,7 +7,10 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include <Eigen/SVD>
+
 #include "emcalign/core/units.hpp"
+#include "emcalign/geometry/alignment_parameters.hpp"
 
 namespace emcalign::calib {
 
@@ -63,13 +66,104 @@ Status NominalProfile::validate() const {
   return {};
 }
 
+namespace {
+
+// R in file units: row j, column k scaled by fileUnit(k)/fileUnit(j).
+double fileScale(std::size_t j, std::size_t k) {
+  return geometry::AlignmentParameters::fileUnit(kAllParams[k]) / geometry::AlignmentParameters::fileUnit(kAllParams[j]);
+}
+
+Result<FitResponse> parseResponse(const Json& p, std::string_view source) {
+  const auto fail = [&](const std::string& what) {
+    return Error{fmt::format("{}: key 'response': {}", source, what)};
+  };
+  if (!p.is_object() || p.size() != 3 || !p.contains("parameters") || !p.contains("matrix") || !p.contains("offset")) {
+    return fail("expected {\"parameters\": [the 12 names], \"matrix\": 12 rows of 12 numbers, \"offset\": 12 numbers}");
+  }
+  Json names = Json::array();
+  for (auto n : kParamNames) names.push_back(std::string(n));
+  if (p["parameters"] != names) return fail(fmt::format("'parameters' must be [{}]", fmt::join(kParamNames, ", ")));
+  const Json& m = p["matrix"];
+  if (!m.is_array() || m.size() != kNumParams) return fail("'matrix' must have 12 rows");
+  const Json& c = p["offset"];
+  if (!c.is_array() || c.size() != kNumParams) return fail("'offset' must have 12 numbers");
+  FitResponse response;
+  ResponseMatrix& r = response.matrix;
+  for (std::size_t j = 0; j < kNumParams; ++j) {
+    if (!m[j].is_array() || m[j].size() != kNumParams) return fail(fmt::format("'matrix' row {} must have 12 numbers", j));
+    for (std::size_t k = 0; k < kNumParams; ++k) {
+      if (!m[j][k].is_number()) return fail(fmt::format("'matrix' row {} column {}: expected a number", j, k));
+      r(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k)) = m[j][k].get<double>() / fileScale(j, k);
+    }
+    if (!c[j].is_number()) return fail(fmt::format("'offset' {}: expected a number", j));
+    response.offset[static_cast<Eigen::Index>(j)] =
+        c[j].get<double>() * geometry::AlignmentParameters::fileUnit(kAllParams[j]);
+  }
+  if (Status s = response.validate(); !s) return fail(s.error().message);
+  return response;
+}
+
+Json responseJson(const FitResponse& response) {
+  const ResponseMatrix& r = response.matrix;
+  Json rows = Json::array();
+  for (std::size_t j = 0; j < kNumParams; ++j) {
+    Json row = Json::array();
+    for (std::size_t k = 0; k < kNumParams; ++k) {
+      row.push_back(r(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k)) * fileScale(j, k));
+    }
+    rows.push_back(row);
+  }
+  Json names = Json::array(), offset = Json::array();
+  for (auto n : kParamNames) names.push_back(std::string(n));
+  for (std::size_t j = 0; j < kNumParams; ++j) {
+    offset.push_back(response.offset[static_cast<Eigen::Index>(j)] / geometry::AlignmentParameters::fileUnit(kAllParams[j]));
+  }
+  return {{"parameters", names}, {"matrix", rows}, {"offset", offset}};
+}
+
+}  // namespace
+
+Status FitResponse::validate() const {
+  const ResponseMatrix& r = matrix;
+  if (!r.allFinite() || !offset.allFinite()) return Error{"the response has a value that is not finite"};
+  for (std::size_t j = 0; j < kNumParams; ++j) {
+    const double unit = geometry::AlignmentParameters::fileUnit(kAllParams[j]);
+    if (std::abs(offset[static_cast<Eigen::Index>(j)] / unit) > 0.5) {
+      return Error{fmt::format("the response's offset of {} is {:.4g} (deg or cm): beyond the plausible 0.5",
+                               kParamNames[j], offset[static_cast<Eigen::Index>(j)] / unit)};
+    }
+  }
+  ResponseMatrix file;
+  for (std::size_t j = 0; j < kNumParams; ++j) {
+    for (std::size_t k = 0; k < kNumParams; ++k) {
+      const auto jj = static_cast<Eigen::Index>(j), kk = static_cast<Eigen::Index>(k);
+      file(jj, kk) = r(jj, kk) * fileScale(j, k);
+    }
+  }
+  for (std::size_t k = 0; k < kNumParams; ++k) {
+    const double d = file(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(k));
+    if (!(d >= 0.5 && d <= 1.5)) {
+      return Error{fmt::format("the response of {} to itself is {:.4g}: a fit that far from its truth is not a "
+                               "correction (0.5 to 1.5 expected)",
+                               kParamNames[k], d)};
+    }
+  }
+  const Eigen::JacobiSVD<ResponseMatrix> svd(file);
+  const double condition = svd.singularValues()(0) / svd.singularValues()(kNumParams - 1);
+  if (!(condition < 100.0)) {
+    return Error{fmt::format("the response matrix is nearly singular (condition number {:.3g} in deg and cm)",
+                             condition)};
+  }
+  return {};
+}
+
 Result<ModelCorrections> parseCorrections(const Json& j, std::string_view source) {
   if (!j.is_object()) return Error{fmt::format("{}: expected a JSON object", source)};
   for (const auto& [key, value] : j.items()) {
     if (key != "format" && key != "depth_offset_cm" && key != "parting_plane" && key != "nominal_profile" &&
-        key != "derived_from") {
+        key != "response" && key != "derived_from") {
       return Error{fmt::format("{}: key '{}': unknown key (allowed: format, depth_offset_cm, parting_plane, "
-                               "nominal_profile, derived_from)",
+                               "nominal_profile, response, derived_from)",
                                source, key)};
     }
   }
@@ -144,6 +238,11 @@ Result<ModelCorrections> parseCorrections(const Json& j, std::string_view source
     if (Status st = t.validate(); !st) return Error{fmt::format("{}: key 'nominal_profile': {}", source, st.error().message)};
     c.nominalProfile = std::make_shared<const NominalProfile>(std::move(t));
   }
+  if (j.contains("response")) {
+    auto r = parseResponse(j["response"], source);
+    if (!r) return r.error();
+    c.response = std::make_shared<const FitResponse>(*r);
+  }
   if (j.contains("derived_from")) c.derivedFrom = j["derived_from"];
   return c;
 }
@@ -172,6 +271,7 @@ Json correctionsJson(const ModelCorrections& c) {
                             {"y_phi", array(t.yPhi)},        {"sigma_phi", array(t.sigmaPhi)},
                             {"y_theta", array(t.yTheta)},    {"sigma_theta", array(t.sigmaTheta)}};
   }
+  if (c.response) j["response"] = responseJson(*c.response);
   if (!c.derivedFrom.empty()) j["derived_from"] = c.derivedFrom;
   return j;
 }

@@ -31,10 +31,18 @@ struct BinPoint {
 struct ProfileResiduals {
   const std::vector<BinPoint>* points;
   geometry::AlignmentRadii radii;
+  std::shared_ptr<const FitResponse> response;  // the model at c + R·η when set
 
   template <typename T>
   bool operator()(const T* const eta, T* residuals) const {
-    const geometry::ParamVectorT<T> p = Eigen::Map<const geometry::ParamVectorT<T>>(eta);
+    geometry::ParamVectorT<T> p = Eigen::Map<const geometry::ParamVectorT<T>>(eta);
+    if (response) {
+      const geometry::ParamVectorT<T> q = p;
+      for (int j = 0; j < kN; ++j) {
+        p[j] = T(response->offset[j]);
+        for (int k = 0; k < kN; ++k) p[j] += response->matrix(j, k) * q[k];
+      }
+    }
     const auto plus = geometry::hemisphereTransform<T>(p, geometry::Hemisphere::Plus, radii);
     const auto minus = geometry::hemisphereTransform<T>(p, geometry::Hemisphere::Minus, radii);
     for (std::size_t i = 0; i < points->size(); ++i) {
@@ -91,12 +99,12 @@ Status FitOptions::validate() const {
 
 geometry::AngularResidual modelAt(const FitGeometry& g, const geometry::ParamVector& eta, double phi, double theta,
                                   double energy) {
-  return geometry::modelResidual<double>(eta, g.radii, g.depth, phi, theta, energy);
+  return geometry::modelResidual<double>(g.modelParameters(eta), g.radii, g.depth, phi, theta, energy);
 }
 
 double chi2At(const std::vector<ProfileBin>& bins, const FitGeometry& g, const geometry::ParamVector& eta) {
   const auto points = pointsOf(bins, g);
-  ProfileResiduals f{&points, g.radii};
+  ProfileResiduals f{&points, g.radii, g.response};
   std::vector<double> r(2 * points.size());
   f(eta.data(), r.data());
   double chi2 = 0.0;
@@ -132,7 +140,7 @@ Result<FitResult> fitProfiles(const std::vector<ProfileBin>& bins, const FitGeom
 
   geometry::ParamVector eta = geometry::ParamVector::Zero();
   auto* cost = new ceres::AutoDiffCostFunction<ProfileResiduals, ceres::DYNAMIC, kN>(
-      new ProfileResiduals{&points, g.radii}, 2 * result.binsUsed);
+      new ProfileResiduals{&points, g.radii, g.response}, 2 * result.binsUsed);
   ceres::Problem problem;
   problem.AddResidualBlock(cost, nullptr, eta.data());
 

@@ -72,7 +72,7 @@ Result<CampaignModel> campaignModel(const std::string& corrections, const std::s
   if (!corrections.empty()) {
     auto c = calib::readCorrections(corrections);
     if (!c) return c.error();
-    m.geometry.depth.offset = c->depthOffset;
+    m.geometry.apply(*c);
     m.profile.partingPlane = c->partingPlane;
     m.profile.nominalProfile = c->nominalProfile;
     m.corrections = corrections;
@@ -400,6 +400,7 @@ Result<GroupFit> fitGroup(const CampaignGroup& g, const calib::ProfileFill& fill
   input.depthOffset = model.geometry.depth.offset;
   if (model.profile.partingPlane) input.partingPlane = model.corrections;
   if (model.profile.nominalProfile) input.nominalProfile = model.corrections;
+  if (model.geometry.response) input.response = model.corrections;
   Json resultJson = calib::fitResultJson(*result, input);
   Json sha = Json::object();
   for (const auto& f : g.files) {

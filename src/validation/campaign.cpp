@@ -268,7 +268,7 @@ Result<Table> runCampaign(const geometry::Calorimeter& calo, const CampaignOptio
   if (ec) return Error{fmt::format("{}: cannot create the directory: {}", dir, ec.message())};
   const double r1 = calo.description().r1();
   auto geometry = calib::FitGeometry::of(calo.description());
-  geometry.depth.offset = o.corrections.depthOffset;
+  geometry.apply(o.corrections);
   calib::ProfileOptions profileOptions;
   profileOptions.partingPlane = o.corrections.partingPlane;
   profileOptions.nominalProfile = o.corrections.nominalProfile;

@@ -4,12 +4,14 @@
 #include <cmath>
 #include <numbers>
 
+#include <Eigen/Cholesky>
 #include <fmt/format.h>
 
 #include "emcalign/calib/calibration.hpp"
 #include "emcalign/core/random.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/geometry/residual_model.hpp"
+#include "emcalign/validation/campaign.hpp"
 
 namespace emcalign::validation {
 
@@ -90,6 +92,45 @@ struct DepthChi2 {
   }
 };
 
+// W₊ per φ column from a gap sample: the least-squares W₊ of Δy = f₋ + W₊·(f₊ − f₋) over
+// the column's bins (Δy = gap sample − nominal sample, statistical σ), both components.
+struct ColumnWeights {
+  std::vector<double> measured, errors;  // every column, as measured
+  std::vector<double> weights;           // clamped to [0, 1] next to the plane, hard elsewhere
+};
+
+Status measureColumnWeights(const std::vector<calib::ProfileBin>& gb, const std::vector<calib::ProfileBin>& nb,
+                            const AlignmentParameters& gap, const geometry::ShowerDepth& depth,
+                            const geometry::AlignmentRadii& radii, ColumnWeights& out) {
+  const auto plus = geometry::hemisphereTransform<double>(gap.values, geometry::Hemisphere::Plus, radii);
+  const auto minus = geometry::hemisphereTransform<double>(gap.values, geometry::Hemisphere::Minus, radii);
+  const int columns = calib::kProfilePhiBins;
+  out.measured.assign(static_cast<std::size_t>(columns), std::nan(""));
+  out.errors.assign(static_cast<std::size_t>(columns), std::nan(""));
+  out.weights.assign(static_cast<std::size_t>(columns), 0.0);
+  for (int c = 0; c < columns; ++c) {
+    double num = 0.0, den = 0.0;
+    for (std::size_t b = 0; b < gb.size(); ++b) {
+      if (gb[b].iPhi != c || !gb[b].used || !nb[b].used) continue;
+      const double radius = depth.radius(gb[b].energyMean, gb[b].thetaMean);
+      const auto fp = geometry::mixedModelResidual<double>(plus, minus, gb[b].phiMean, gb[b].thetaMean, radius, 1.0);
+      const auto fm = geometry::mixedModelResidual<double>(plus, minus, gb[b].phiMean, gb[b].thetaMean, radius, 0.0);
+      const double vPhi = 1.0 / (gb[b].sigmaPhi * gb[b].sigmaPhi + nb[b].sigmaPhi * nb[b].sigmaPhi);
+      const double vTheta = 1.0 / (gb[b].sigmaTheta * gb[b].sigmaTheta + nb[b].sigmaTheta * nb[b].sigmaTheta);
+      const double dPhi = fp.phi - fm.phi, dTheta = fp.theta - fm.theta;
+      num += (gb[b].yPhi - nb[b].yPhi - fm.phi) * dPhi * vPhi + (gb[b].yTheta - nb[b].yTheta - fm.theta) * dTheta * vTheta;
+      den += dPhi * dPhi * vPhi + dTheta * dTheta * vTheta;
+    }
+    if (!(den > 0.0)) return Error{fmt::format("parting-plane response: phi column {} has no usable bins (more --events?)", c)};
+    const auto k = static_cast<std::size_t>(c);
+    out.measured[k] = num / den;
+    out.errors[k] = 1.0 / std::sqrt(den);
+    out.weights[k] = calib::PartingPlaneResponse::nextToPlane(c, columns) ? std::clamp(num / den, 0.0, 1.0)
+                                                                          : calib::PartingPlaneResponse::hardWeight(c, columns);
+  }
+  return {};
+}
+
 // Golden-section search for the minimum of a unimodal function on [a, b].
 template <typename F>
 double goldenMinimum(F&& f, double a, double b, double tolerance) {
@@ -116,7 +157,80 @@ double goldenMinimum(F&& f, double a, double b, double tolerance) {
 
 }  // namespace
 
+namespace {
+
+// The response over the validation ranges: `responseSamples` samples with truths drawn as
+// `emcalign validate` draws them, each fitted with the corrections of the report so far
+// (statistical errors), and η̂ regressed on η with a constant.
+Result<calib::FitResponse> measureResponse(const geometry::Calorimeter& calo, const DerivationOptions& o,
+                                           DerivationReport& report, const DerivationProgress& progress) {
+  calib::FitGeometry g = calib::FitGeometry::of(calo.description());
+  g.apply(report.corrections);
+  calib::ProfileOptions po;
+  po.partingPlane = report.corrections.partingPlane;
+  po.nominalProfile = report.corrections.nominalProfile;
+  const int n = o.responseSamples;
+  constexpr int kCols = static_cast<int>(kNumParams) + 1;
+  Eigen::MatrixXd x(n, kCols), y(n, static_cast<int>(kNumParams));
+  for (int i = 0; i < n; ++i) {
+    const std::string stage = fmt::format("simulate response sample {}", i);
+    Rng truthRng(o.seed ^ 0x2E5905EULL, static_cast<std::uint64_t>(i));
+    const AlignmentParameters truth = drawTruth(o.responseRanges, calo.description().r1(), truthRng);
+    sim::SimulationOptions so = o.simulation;
+    so.seed = truthRng.next();
+    auto simulation = sim::Simulation::create(calo, truth, so);
+    if (!simulation) return simulation.error();
+    calib::ProfileFiller filler(g.depth, calib::SelectionOptions{}, po);
+    const Status run = simulation->run(
+        o.responseEvents, o.threads,
+        [&](std::span<const ParticleRow> rows, std::span<const TruthRow>, std::span<const Hit>) {
+          filler.addEvents(rows);
+          return Status{};
+        },
+        [&](std::int64_t done) {
+          if (progress) progress(stage, done, o.responseEvents);
+        });
+    if (!run) return run.error();
+    if (Status sel = filler.checkSelected(); !sel) return Error{fmt::format("{}: {}", stage, sel.error().message)};
+    auto fit = calib::fitProfiles(filler.fill().profiles.bins(0.0), g);
+    if (!fit) return Error{fmt::format("{}: {}", stage, fit.error().message)};
+    if (!usable(fit->status)) {
+      return Error{fmt::format("{}: the fit's status is '{}'", stage, emcalign::name(fit->status))};
+    }
+    x(i, 0) = 1.0;
+    x.row(i).tail(kNumParams) = truth.values.transpose();
+    y.row(i) = fit->parameters.values.transpose();
+  }
+  // Least squares: y = x·B, B = (xᵀx)⁻¹xᵀy; row 0 of B is c, the rest Rᵀ. Errors from the
+  // residual scatter of each fitted parameter.
+  const Eigen::MatrixXd xtx = x.transpose() * x;
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(xtx);
+  const Eigen::MatrixXd b = ldlt.solve(x.transpose() * y);
+  const Eigen::MatrixXd inverse = ldlt.solve(Eigen::MatrixXd::Identity(kCols, kCols));
+  const Eigen::MatrixXd residual = y - x * b;
+  calib::FitResponse response;
+  for (int j = 0; j < static_cast<int>(kNumParams); ++j) {
+    const double variance = residual.col(j).squaredNorm() / (n - kCols);
+    response.offset[j] = b(0, j);
+    report.responseOffsetErrors[j] = std::sqrt(variance * inverse(0, 0));
+    // The error of the response's prediction, averaged over the samples' truths (the mean
+    // leverage of a least-squares fit with kCols coefficients is kCols/n): what it adds,
+    // common to every fit using the file, for a truth inside the ranges.
+    report.responseParameterErrors[j] = std::sqrt(variance * kCols / n);
+    for (int k = 0; k < static_cast<int>(kNumParams); ++k) {
+      response.matrix(j, k) = b(k + 1, j);
+      report.responseErrors(j, k) = std::sqrt(variance * inverse(k + 1, k + 1));
+    }
+  }
+  if (Status s = response.validate(); !s) return Error{fmt::format("the measured response: {}", s.error().message)};
+  return response;
+}
+
+}  // namespace
+
 Status DerivationOptions::validate() const {
+  if (responseSamples != 0 && responseSamples < 30) return Error{"--response-samples must be 0 or at least 30"};
+  if (responseSamples != 0 && responseEvents < 1000) return Error{"--response-events must be at least 1000"};
   if (events < 1000) return Error{"--events must be at least 1000 per sample"};
   if (!(shift > 0.0) || !(gap > 0.0)) return Error{"--shift and --gap must be positive"};
   if (!(depthLow < depthHigh)) return Error{"the depth search interval is empty"};
@@ -168,33 +282,11 @@ Result<DerivationReport> deriveCorrections(const geometry::Calorimeter& calo, co
   calib::ProfileOptions po;
   po.sigmaSys = 0.0;
   const auto gb = profileOf(*gapped, depth, po), nb = profileOf(*nominal, depth, po);
-  const auto plus = geometry::hemisphereTransform<double>(gap.values, geometry::Hemisphere::Plus, nominalGeometry.radii);
-  const auto minus = geometry::hemisphereTransform<double>(gap.values, geometry::Hemisphere::Minus, nominalGeometry.radii);
-  const int columns = po.phiBins;
-  std::vector<double> weights(static_cast<std::size_t>(columns));
-  report.columnWeights.assign(static_cast<std::size_t>(columns), std::nan(""));
-  report.columnWeightErrors.assign(static_cast<std::size_t>(columns), std::nan(""));
-  for (int c = 0; c < columns; ++c) {
-    double num = 0.0, den = 0.0;
-    for (std::size_t b = 0; b < gb.size(); ++b) {
-      if (gb[b].iPhi != c || !gb[b].used || !nb[b].used) continue;
-      const double radius = depth.radius(gb[b].energyMean, gb[b].thetaMean);
-      const auto fp = geometry::mixedModelResidual<double>(plus, minus, gb[b].phiMean, gb[b].thetaMean, radius, 1.0);
-      const auto fm = geometry::mixedModelResidual<double>(plus, minus, gb[b].phiMean, gb[b].thetaMean, radius, 0.0);
-      const double vPhi = 1.0 / (gb[b].sigmaPhi * gb[b].sigmaPhi + nb[b].sigmaPhi * nb[b].sigmaPhi);
-      const double vTheta = 1.0 / (gb[b].sigmaTheta * gb[b].sigmaTheta + nb[b].sigmaTheta * nb[b].sigmaTheta);
-      const double dPhi = fp.phi - fm.phi, dTheta = fp.theta - fm.theta;
-      num += (gb[b].yPhi - nb[b].yPhi - fm.phi) * dPhi * vPhi + (gb[b].yTheta - nb[b].yTheta - fm.theta) * dTheta * vTheta;
-      den += dPhi * dPhi * vPhi + dTheta * dTheta * vTheta;
-    }
-    if (!(den > 0.0)) return Error{fmt::format("parting-plane response: phi column {} has no usable bins (more --events?)", c)};
-    report.columnWeights[static_cast<std::size_t>(c)] = num / den;
-    report.columnWeightErrors[static_cast<std::size_t>(c)] = 1.0 / std::sqrt(den);
-    weights[static_cast<std::size_t>(c)] = calib::PartingPlaneResponse::nextToPlane(c, columns)
-                                               ? std::clamp(num / den, 0.0, 1.0)
-                                               : calib::PartingPlaneResponse::hardWeight(c, columns);
-  }
-  auto response = calib::PartingPlaneResponse::create(std::move(weights));
+  ColumnWeights largest;
+  if (Status s = measureColumnWeights(gb, nb, gap, depth, nominalGeometry.radii, largest); !s) return s.error();
+  report.columnWeights = largest.measured;
+  report.columnWeightErrors = largest.errors;
+  auto response = calib::PartingPlaneResponse::create(largest.weights);
   if (!response) return response.error();
   report.corrections.partingPlane = std::make_shared<const calib::PartingPlaneResponse>(std::move(*response));
 
@@ -210,25 +302,34 @@ Result<DerivationReport> deriveCorrections(const geometry::Calorimeter& calo, co
     nominalProfile.sigmaTheta.push_back(b.used ? b.sigmaTheta : nan);
   }
   if (Status st = nominalProfile.validate(); !st) return st.error();
-  // Its statistical noise is common to every fit that uses the file: the errors of a fit to
-  // the nominal profile alone (statistical σ) are that systematic error, per parameter.
+  report.corrections.nominalProfile = std::make_shared<const calib::NominalProfile>(std::move(nominalProfile));
+
+  // 4. The fit's response, with the corrections so far.
+  if (o.responseSamples > 0) {
+    auto response = measureResponse(calo, o, report, progress);
+    if (!response) return response.error();
+    report.corrections.response = std::make_shared<const calib::FitResponse>(*response);
+  }
+
+  // The nominal profile's statistical noise is common to every fit that uses the file: the
+  // errors of a fit to it alone (statistical σ), with the model the file makes, are that
+  // systematic error, per parameter.
   {
     calib::FitGeometry g = nominalGeometry;
-    g.depth = depth;
+    g.apply(report.corrections);
     auto noise = calib::fitProfiles(nb, g);
     if (!noise) return Error{fmt::format("fit of the nominal profile: {}", noise.error().message)};
     report.nominalProfileErrors = noise->errors;
   }
-  report.corrections.nominalProfile = std::make_shared<const calib::NominalProfile>(std::move(nominalProfile));
 
-  // 4. Closure: the shift and gap samples fitted with the paper's model and with all the
+  // Closure: the shift and gap samples fitted with the paper's model and with all the
   // corrections, as data would be fitted.
   if (progress) progress("closure fits", 0, 1);
   auto fitOne = [&](const Sample& s, bool corrected) -> Result<calib::FitResult> {
     calib::FitGeometry g = nominalGeometry;
     calib::ProfileOptions po;
     if (corrected) {
-      g.depth.offset = delta;
+      g.apply(report.corrections);
       po.partingPlane = report.corrections.partingPlane;
       po.nominalProfile = report.corrections.nominalProfile;
     }
@@ -266,6 +367,36 @@ Result<DerivationReport> deriveCorrections(const geometry::Calorimeter& calo, co
   return report;
 }
 
+namespace {
+
+Json parameterErrorsJson(const geometry::ParamVector& errors) {
+  Json out = Json::object();
+  for (Param p : kAllParams) {
+    out[std::string(name(p))] = errors[static_cast<Eigen::Index>(index(p))] / AlignmentParameters::fileUnit(p);
+  }
+  return out;
+}
+
+// The statistical errors of R in file units (as the file's "response" matrix).
+Json responseErrorJson(const DerivationReport& r) {
+  Json rows = Json::array();
+  for (Param pj : kAllParams) {
+    Json row = Json::array();
+    for (Param pk : kAllParams) {
+      row.push_back(r.responseErrors(static_cast<Eigen::Index>(index(pj)), static_cast<Eigen::Index>(index(pk))) *
+                    AlignmentParameters::fileUnit(pk) / AlignmentParameters::fileUnit(pj));
+    }
+    rows.push_back(row);
+  }
+  Json offset = Json::array();
+  for (Param p : kAllParams) {
+    offset.push_back(r.responseOffsetErrors[static_cast<Eigen::Index>(index(p))] / AlignmentParameters::fileUnit(p));
+  }
+  return {{"matrix", rows}, {"offset", offset}};
+}
+
+}  // namespace
+
 Json derivationJson(const DerivationReport& r, const Json& settings) {
   calib::ModelCorrections c = r.corrections;
   Json closure = Json::array();
@@ -278,11 +409,7 @@ Json derivationJson(const DerivationReport& r, const Json& settings) {
                        {"corrected_cm", f.corrected},
                        {"corrected_error_cm", f.correctedError}});
   }
-  Json nominalErrors = Json::object();
-  for (Param p : kAllParams) {
-    nominalErrors[std::string(name(p))] =
-        r.nominalProfileErrors[static_cast<Eigen::Index>(index(p))] / AlignmentParameters::fileUnit(p);
-  }
+  const Json nominalErrors = parameterErrorsJson(r.nominalProfileErrors);
   c.derivedFrom = {{"command", "emcalign derive-corrections"},
                    {"settings", settings},
                    {"selected_events", {{"nominal", r.selectedEvents[0]}, {"shift", r.selectedEvents[1]}, {"gap", r.selectedEvents[2]}}},
@@ -292,6 +419,9 @@ Json derivationJson(const DerivationReport& r, const Json& settings) {
                    {"column_plus_weight_measured", r.columnWeights},
                    {"column_plus_weight_error", r.columnWeightErrors},
                    {"closure", closure},
+                   {"response_error", r.corrections.response ? responseErrorJson(r) : Json(nullptr)},
+                   {"response_parameter_errors", r.corrections.response ? parameterErrorsJson(r.responseParameterErrors)
+                                                                         : Json(nullptr)},
                    {"nominal_profile_parameter_errors", nominalErrors}};
   return calib::correctionsJson(c);
 }

@@ -21,7 +21,7 @@ class CorrectionsCli : public ::testing::Test {
   static void SetUpTestSuite() {
     // One small idealised derivation and one event file for the whole suite.
     dir_ = new fs::path(emcalign::testing::freshTestDirectory("emcalign_corrections"));
-    const auto r = emcalign::testing::runEmcalign(*dir_, "derive-corrections --ideal --events 20000 --seed 4 -o " +
+    const auto r = emcalign::testing::runEmcalign(*dir_, "derive-corrections --ideal --events 20000 --response-samples 30 --response-events 5000 --seed 4 -o " +
                                                              (*dir_ / "corr.json").string());
     derived_ = new emcalign::testing::CommandResult(r);
     emcalign::testing::runEmcalign(*dir_, "simulate --params " + std::string(EMCALIGN_SOURCE_DIR) +
@@ -60,6 +60,11 @@ TEST_F(CorrectionsCli, DeriveWritesTheFileAndReportsTheClosure) {
   EXPECT_EQ(c["nominal_profile"]["y_phi"].size(), 160u);
   EXPECT_EQ(c["derived_from"]["settings"]["events_per_sample"], 20000);
   EXPECT_EQ(c["derived_from"]["closure"].size(), 2u);
+  EXPECT_NE(derived_->out.find("Fit response over the validation ranges"), std::string::npos);
+  EXPECT_EQ(c["response"]["matrix"].size(), 12u);
+  EXPECT_EQ(c["response"]["offset"].size(), 12u);
+  EXPECT_EQ(c["derived_from"]["settings"]["response_samples"], 30);
+  EXPECT_TRUE(c["derived_from"]["response_parameter_errors"]["dx"].is_number());
 }
 
 TEST_F(CorrectionsCli, FitRecordsTheCorrectionsItUsed) {
@@ -75,6 +80,7 @@ TEST_F(CorrectionsCli, FitRecordsTheCorrectionsItUsed) {
   const auto& m = r["input"]["model_corrections"];
   EXPECT_DOUBLE_EQ(m["depth_offset_cm"].get<double>(), c["depth_offset_cm"].get<double>());
   EXPECT_EQ(m["nominal_profile"], path("corr.json"));
+  EXPECT_EQ(m["response"], path("corr.json"));
   EXPECT_NE(emcalign::testing::slurp(path("p.csv")).find(",plus_weight"), std::string::npos);
   // The saved profile refits with the same corrections file, to the same parameters.
   ASSERT_EQ(run("fit --profile-in " + path("p.csv") + " --corrections " + path("corr.json") + " -o " + path("fit2.json")), 0);

@@ -22,6 +22,8 @@ DerivationOptions smallDerivation(std::int64_t events) {
   o.threads = 2;
   o.simulation.generator.thetaMin = 40.0 * deg;
   o.simulation.generator.thetaMax = 140.0 * deg;
+  o.responseSamples = 40;
+  o.responseEvents = 10000;
   return o;
 }
 
@@ -40,6 +42,30 @@ TEST(DeriveCorrections, IdealisedSimulationNeedsNone) {
     EXPECT_NEAR(c.corrected, c.truth, 3.0 * c.correctedError) << c.sample;
     EXPECT_NEAR(c.paperModel, c.truth, 3.0 * c.paperError) << c.sample;
   }
+  // The exact model's fit returns its truth: the response is the identity, to the few per
+  // mille of the bin-mean approximation.
+  ASSERT_TRUE(r->corrections.response);
+  const auto& response = *r->corrections.response;
+  for (std::size_t j = 0; j < kNumParams; ++j) {
+    const auto jj = static_cast<Eigen::Index>(j);
+    EXPECT_NEAR(response.matrix(jj, jj), 1.0, 0.02) << kParamNames[j];
+    EXPECT_GT(r->responseErrors(jj, jj), 0.0) << kParamNames[j];
+    EXPECT_LT(r->responseErrors(jj, jj), 0.01) << kParamNames[j];
+  }
+  EXPECT_NEAR(response.matrix(static_cast<Eigen::Index>(index(Param::Dx)), static_cast<Eigen::Index>(index(Param::Dy))),
+              0.0, 0.01);
+}
+
+TEST(DeriveCorrections, WithoutResponseSamplesThereIsNoResponse) {
+  const auto calo = *geometry::Calorimeter::create(geometry::DetectorDescription::sndDefault());
+  DerivationOptions o = smallDerivation(20000);
+  o.simulation.setIdealised();
+  o.responseSamples = 0;
+  auto r = deriveCorrections(calo, o);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_FALSE(r->corrections.response);
+  o.responseSamples = 10;  // too few for 13 coefficients each
+  EXPECT_FALSE(deriveCorrections(calo, o).ok());
 }
 
 TEST(DeriveCorrections, FullRealismDepthAndClosure) {
@@ -60,6 +86,11 @@ TEST(DeriveCorrections, FullRealismDepthAndClosure) {
     // The paper's model is low on both: the scale of shifts and the gap.
     EXPECT_LT(c.paperModel, c.truth) << c.sample;
   }
+  // The response over the validation ranges exists, is plausible, and its own statistical
+  // error on a fit is reported.
+  ASSERT_TRUE(r->corrections.response);
+  EXPECT_TRUE(r->corrections.response->validate().ok());
+  for (std::size_t j = 0; j < kNumParams; ++j) EXPECT_GT(r->responseParameterErrors[static_cast<Eigen::Index>(j)], 0.0);
   const auto& t = *r->corrections.nominalProfile;
   int filled = 0;
   for (double y : t.yPhi) filled += std::isfinite(y) ? 1 : 0;

@@ -275,6 +275,13 @@ def cases():
                  "phi_bins": 1, "theta_bins": 1, "y_phi": [0], "sigma_phi": [0], "y_theta": [0],
                  "sigma_theta": [0]}))))
 
+    names = ["alpha", "beta1", "beta2", "dx", "dy", "dz", "dp1", "dp2", "dp3", "dy_rel", "dz_rel", "beta_rel"]
+    flat = [[1.0 if r == c else 0.0 for c in range(12)] for r in range(12)]
+    flat[3][3] = 0.0
+    add(Case(C, "corrections whose fit response loses dx", "emcalign fit ev.csv --corrections c0.json -o r.json", 1,
+             "the response of dx to itself is 0", setup=corrections("c0.json", lambda j: j.update(
+                 response={"parameters": names, "matrix": flat, "offset": [0.0] * 12}))))
+
     def deep(d):
         with open(os.path.join(d, "c.json")) as f:
             j = json.load(f)

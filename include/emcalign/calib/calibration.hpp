@@ -83,6 +83,7 @@ struct FitInput {
   double depthOffset = 0.0;
   std::string partingPlane;
   std::string nominalProfile;  ///< where the subtracted nominal profile came from (empty: none)
+  std::string response;        ///< where the fit's response R came from (empty: none)
 };
 
 /// How σ_sys was chosen, as the result file says it: {"method": "spec"|"fixed"|"auto",

@@ -12,6 +12,7 @@
 // singular covariance is reported (eigenvalues, the weak combination), never regularised.
 
 #include <limits>
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -105,12 +106,25 @@ struct FitResult {
   SigmaSysUsed sigmaSys;
 };
 
-/// What the fit needs to know about the detector.
+/// What the fit needs to know about the detector, and the model corrections that act on the
+/// model itself (calib/corrections.hpp): the depth offset, and the response R (the model is
+/// evaluated at c + R·η).
 struct FitGeometry {
   geometry::AlignmentRadii radii;
   geometry::ShowerDepth depth;
+  std::shared_ptr<const FitResponse> response;  ///< none: the model at η
   static FitGeometry of(const geometry::DetectorDescription& d) {
-    return {geometry::AlignmentRadii::of(d), geometry::ShowerDepth::of(d)};
+    return {geometry::AlignmentRadii::of(d), geometry::ShowerDepth::of(d), nullptr};
+  }
+  /// The depth offset and the response of `c` (the parting plane and the nominal profile
+  /// act on the profiles: ProfileOptions).
+  void apply(const ModelCorrections& c) {
+    depth.offset = c.depthOffset;
+    response = c.response;
+  }
+  /// The parameters the model sees: c + R·η, or η.
+  geometry::ParamVector modelParameters(const geometry::ParamVector& eta) const {
+    return response ? geometry::ParamVector(response->offset + response->matrix * eta) : eta;
   }
 };
 

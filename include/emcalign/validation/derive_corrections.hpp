@@ -30,6 +30,7 @@
 #include "emcalign/core/result.hpp"
 #include "emcalign/geometry/detector.hpp"
 #include "emcalign/sim/simulation.hpp"
+#include "emcalign/validation/campaign.hpp"
 
 namespace emcalign::validation {
 
@@ -41,6 +42,11 @@ struct DerivationOptions {
   double shift = 0.6;                 ///< cm, dx = dy = dz of the depth sample
   double gap = 0.5;                   ///< cm, dx_rel of the parting-plane sample
   double depthLow = -10.0, depthHigh = 20.0;                ///< cm, search interval of δ
+  /// The fit's response (calib/corrections.hpp, 4.): samples (0: none) of responseEvents
+  /// each, truths drawn over these ranges.
+  int responseSamples = 200;
+  std::int64_t responseEvents = 100000;
+  Ranges responseRanges = Ranges::defaults();
   Status validate() const;
 };
 
@@ -65,6 +71,12 @@ struct DerivationReport {
   /// the nominal profile's statistics give every fit using the file.
   geometry::ParamVector nominalProfileErrors = geometry::ParamVector::Zero();
   std::int64_t selectedEvents[3] = {0, 0, 0};       ///< N, S, G
+  /// The statistical errors of the response's matrix and offset (native units, as they).
+  calib::ResponseMatrix responseErrors = calib::ResponseMatrix::Zero();
+  geometry::ParamVector responseOffsetErrors = geometry::ParamVector::Zero();
+  /// The error the response's statistics add to a fit whose truth lies inside the ranges
+  /// (native units): common to every fit using the file, like nominalProfileErrors.
+  geometry::ParamVector responseParameterErrors = geometry::ParamVector::Zero();
 };
 
 /// Progress: a stage name ("simulate N", …), done, total.

@@ -5,6 +5,7 @@
 #include "emcalign/calib/corrections.hpp"
 
 #include <cmath>
+#include <functional>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -12,6 +13,7 @@
 #include "emcalign/calib/calibration.hpp"
 #include "emcalign/calib/fit.hpp"
 #include "emcalign/calib/profiles.hpp"
+#include "emcalign/core/random.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/geometry/residual_model.hpp"
 #include "test_support.hpp"
@@ -270,6 +272,111 @@ TEST(Fit, WithTheCorrectionsRecoversWhatThePapersModelGetsWrong) {
   ASSERT_TRUE(fixed.ok());
   EXPECT_LT(fixed->chi2, 1e-12);
   for (Param p : kAllParams) EXPECT_NEAR(fixed->parameters[p], truth[p], 1e-8) << name(p);
+}
+
+// A response with a scale on the gaps, cross terms and an offset, in native units.
+FitResponse someResponse() {
+  FitResponse r;
+  const auto i = [](Param p) { return static_cast<Eigen::Index>(index(p)); };
+  for (Param p : {Param::Dp1, Param::Dp2, Param::Dp3}) r.matrix(i(p), i(p)) = 0.93;
+  r.matrix(i(Param::Dp1), i(Param::Dp2)) = 0.05;
+  r.matrix(i(Param::Dx), i(Param::Dx)) = 0.985;
+  r.matrix(i(Param::Alpha), i(Param::DyRel)) = 0.01 * units::deg / units::cm;
+  r.matrix(i(Param::BetaRel), i(Param::BetaRel)) = 1.02;
+  r.offset[i(Param::Dz)] = 0.002;
+  r.offset[i(Param::Beta1)] = 0.001 * units::deg;
+  return r;
+}
+
+TEST(FitResponse, RoundTripsInFileUnitsAndRefusesImplausibleOnes) {
+  ModelCorrections c;
+  c.depthOffset = 4.0;
+  c.response = std::make_shared<const FitResponse>(someResponse());
+  const Json j = correctionsJson(c);
+  // File units: the α row of the dy_rel column is 0.01 deg per cm.
+  EXPECT_NEAR(j["response"]["matrix"][0][9].get<double>(), 0.01, 1e-12);
+  EXPECT_NEAR(j["response"]["offset"][1].get<double>(), 0.001, 1e-12);
+  EXPECT_EQ(j["response"]["parameters"][11], "beta_rel");
+  auto back = parseCorrections(Json::parse(j.dump()), "r.json");
+  ASSERT_TRUE(back.ok()) << back.error().message;
+  EXPECT_TRUE(back->response->matrix.isApprox(c.response->matrix, 1e-12));
+  EXPECT_TRUE(back->response->offset.isApprox(c.response->offset, 1e-12));
+
+  auto refused = [&](const std::function<void(Json&)>& change, const std::string& expected) {
+    Json bad = j;
+    change(bad);
+    auto r = parseCorrections(bad, "r.json");
+    if (r.ok()) return ::testing::AssertionFailure() << "accepted";
+    if (r.error().message.find(expected) == std::string::npos) return ::testing::AssertionFailure() << r.error().message;
+    return ::testing::AssertionSuccess();
+  };
+  EXPECT_TRUE(refused([](Json& x) { x["response"]["matrix"][3][3] = 0.3; }, "response of dx to itself is 0.3"));
+  EXPECT_TRUE(refused([](Json& x) { x["response"]["matrix"][2].erase(0); }, "row 2 must have 12 numbers"));
+  EXPECT_TRUE(refused([](Json& x) { x["response"]["offset"][5] = 2.0; }, "offset of dz"));
+  EXPECT_TRUE(refused([](Json& x) { x["response"]["parameters"][0] = "a"; }, "'parameters' must be"));
+  EXPECT_TRUE(refused([](Json& x) { x["response"].erase("offset"); }, "key 'response'"));
+  EXPECT_TRUE(refused(
+      [](Json& x) {
+        for (int k = 0; k < 12; ++k) x["response"]["matrix"][4][k] = x["response"]["matrix"][3][k];
+        x["response"]["matrix"][4][4] = 1.0;  // dy's row a copy of dx's but for its diagonal
+        x["response"]["matrix"][4][3] = 1.0;
+        x["response"]["matrix"][3][4] = 1.0;
+      },
+      "nearly singular"));
+}
+
+TEST(FitResponse, TheFitReturnsTheTruthTheResponseHides) {
+  // Profiles that the model describes at c + R·η_true: with the response the fit returns
+  // η_true, its covariance is R⁻¹·C·R⁻ᵀ, and the χ² is the fit's without the response.
+  const AlignmentParameters truth = geometry::testing::paperLike();
+  FitGeometry g = kGeometry;
+  g.response = std::make_shared<const FitResponse>(someResponse());
+  AlignmentParameters seen;
+  seen.values = g.modelParameters(truth.values);
+  std::vector<ProfileBin> bins;
+  Rng rng(5, 0);
+  for (int i = 0; i < 16; ++i) {
+    for (int k = 0; k < 10; ++k) {
+      ProfileBin b;
+      b.iPhi = i;
+      b.iTheta = k;
+      b.n = 500;
+      b.phiMean = (i + 0.4) * 22.5 * units::deg;
+      b.thetaMean = (45.0 + (k + 0.5) * 9.0) * units::deg;
+      b.energyMean = 590.0;
+      const auto f = modelAt(kGeometry, seen.values, b.phiMean, b.thetaMean, b.energyMean);
+      b.yPhi = f.phi + 0.05 * units::deg * rng.normal();
+      b.yTheta = f.theta + 0.05 * units::deg * rng.normal();
+      b.sigmaPhi = b.sigmaTheta = 0.05 * units::deg;
+      bins.push_back(b);
+    }
+  }
+  markUsedBins(bins, 10);
+  auto plain = fitProfiles(bins, kGeometry);
+  auto withResponse = fitProfiles(bins, g);
+  ASSERT_TRUE(plain.ok() && withResponse.ok());
+  EXPECT_NEAR(withResponse->chi2, plain->chi2, 1e-6 * plain->chi2);
+  const geometry::ParamVector back =
+      g.response->matrix.inverse() * (plain->parameters.values - g.response->offset);
+  for (Param p : kAllParams) {
+    const auto k = static_cast<Eigen::Index>(index(p));
+    EXPECT_NEAR(withResponse->parameters.values[k], back[k], 1e-3 * withResponse->errors[k]) << name(p);
+    EXPECT_NEAR(withResponse->parameters.values[k], truth.values[k], 4.0 * withResponse->errors[k]) << name(p);
+  }
+  const ResponseMatrix inverse = g.response->matrix.inverse();
+  const ResponseMatrix expected = inverse * *plain->covariance * inverse.transpose();
+  for (int a = 0; a < 12; ++a) {
+    for (int b = 0; b < 12; ++b) {
+      EXPECT_NEAR((*withResponse->covariance)(a, b), expected(a, b),
+                  1e-4 * std::sqrt(expected(a, a) * expected(b, b)))
+          << a << "," << b;
+    }
+  }
+  // The fitted curve is the same.
+  const auto f1 = modelAt(g, withResponse->parameters.values, 1.0, 1.2, 600.0);
+  const auto f0 = modelAt(kGeometry, plain->parameters.values, 1.0, 1.2, 600.0);
+  EXPECT_NEAR(f1.phi, f0.phi, 1e-9);
+  EXPECT_NEAR(f1.theta, f0.theta, 1e-9);
 }
 
 }  // namespace

@@ -124,6 +124,8 @@ int run(const FitCliOptions& o) {
   auto geometry = calib::FitGeometry::of(calo->description());
   geometry.depth.offset = o.depthOffset;
   calib::ProfileOptions profileOptions;
+  // The honest errors take the correlation of an event's two particles along (profiles.hpp).
+  profileOptions.eventPairs = sigmaSysChoice(o.sigmaSys).method == calib::SigmaSysMethod::Auto;
   calib::FitInput input;
   input.depthOffset = o.depthOffset;
   if (!o.corrections.empty()) {

@@ -93,6 +93,7 @@ int refit(const TrendCliOptions& o, const validation::Trend& trend, const std::v
       sigmaSys = usedSigma;
       if (usedSigma["method"] == "auto") {
         model->sigmaSys = calib::SigmaSysChoice::automatic();
+        model->profile.eventPairs = true;
       } else if (usedSigma["method"] == "fixed") {
         model->sigmaSys = calib::SigmaSysChoice::fixed(usedSigma["value_deg"].get<double>() * units::deg);
       } else if (usedSigma["method"] != "spec") {

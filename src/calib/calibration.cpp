@@ -1,5 +1,7 @@
 #include "emcalign/calib/calibration.hpp"
 
+#include <optional>
+
 #include <cmath>
 
 #include <fmt/format.h>
@@ -27,6 +29,7 @@ void ProfileFiller::addEvents(std::span<const ParticleRow> rows) {
     for (int k = 0; k < passed; ++k) fill_.cutFlow.events[static_cast<std::size_t>(k)] += 1;
     if (failed == 0) {
       fill_.beamEnergies.insert(selection_.beamEnergy.value_or(event[0].beamEnergy));
+      std::optional<ParticleResidual> first;
       for (const auto& r : event) {
         ++fill_.particlesSelected;
         const auto y = residualOf(r, depth_);
@@ -36,6 +39,12 @@ void ProfileFiller::addEvents(std::span<const ParticleRow> rows) {
         }
         if (fill_.profiles.fill(*y)) ++fill_.particlesInRange;
         if (visit_) visit_(r, *y);
+        // A selected event has two particles: their correlation, for the errors (profiles.hpp).
+        if (first) {
+          fill_.profiles.fillPair(*first, *y);
+        } else {
+          first = y;
+        }
       }
     }
     i = j;
@@ -109,7 +118,8 @@ Result<std::map<std::int32_t, ProfileFill>> fillProfilesByRun(const std::string&
 
 io::Json sigmaSysJson(const SigmaSysUsed& s) {
   using io::Json;
-  Json j = {{"method", std::string(name(s.method))}, {"value_deg", io::numberOrNull(s.value / units::deg)}};
+  Json j = {{"method", std::string(name(s.method))}, {"value_deg", io::numberOrNull(s.value / units::deg)},
+            {"event_pair_correlations", s.eventPairs}};
   if (s.method == SigmaSysMethod::Auto) {
     j["interval_deg"] = {io::numberOrNull(s.lower / units::deg), io::numberOrNull(s.upper / units::deg)};
     j["chi2_statistical_errors"] = s.chi2Stat;

@@ -112,6 +112,86 @@ double chi2At(const std::vector<ProfileBin>& bins, const FitGeometry& g, const g
   return chi2;
 }
 
+namespace {
+
+void setCovariance(FitResult& result, const Covariance& covariance) {
+  result.covariance = covariance;
+  for (int k = 0; k < kN; ++k) result.errors[k] = std::sqrt(covariance(k, k));
+  for (int i = 0; i < kN; ++i) {
+    for (int j = 0; j < kN; ++j) result.correlation(i, j) = covariance(i, j) / (result.errors[i] * result.errors[j]);
+  }
+}
+
+// Derived parameters, errors by their Jacobian (automatic differentiation).
+void setDerived(FitResult& result, double r1) {
+  using Jet = ceres::Jet<double, kN>;
+  std::array<Jet, kN> etaJet;
+  for (int k = 0; k < kN; ++k) etaJet[static_cast<std::size_t>(k)] = Jet(result.parameters.values[k], k);
+  const auto derived = derivedOf<Jet>(etaJet.data(), r1);
+  const char* names[] = {"beta", "psi", "mu", "tau", "dx_rel"};
+  result.derived.clear();
+  for (int i = 0; i < 5; ++i) {
+    DerivedValue v;
+    v.value = derived[static_cast<std::size_t>(i)].a;
+    const Eigen::Matrix<double, kN, 1> grad = derived[static_cast<std::size_t>(i)].v;
+    v.error = result.covariance && grad.allFinite() ? std::sqrt(grad.dot(*result.covariance * grad))
+                                                    : std::numeric_limits<double>::quiet_NaN();
+    result.derived.emplace_back(names[i], v);
+  }
+}
+
+}  // namespace
+
+Status applyBinCovariances(FitResult& result, const std::vector<ProfileBin>& bins, const FitGeometry& g,
+                           const std::vector<BinCovariance>& covariances) {
+  if (covariances.empty()) return {};
+  if (!result.covariance) return Error{"the fit's covariance is singular: no errors to correct"};
+  const std::vector<BinPoint> points = pointsOf(bins, g);
+  std::vector<int> row(bins.size(), -1);  // bins' index → used bin's index
+  for (std::size_t i = 0, k = 0; i < bins.size(); ++i) {
+    if (bins[i].used) row[i] = static_cast<int>(k++);
+  }
+  // The whitened Jacobian at the minimum.
+  ceres::AutoDiffCostFunction<ProfileResiduals, ceres::DYNAMIC, kN> cost(
+      new ProfileResiduals{&points, g.radii, g.response}, static_cast<int>(2 * points.size()));
+  std::vector<double> residuals(2 * points.size());
+  Eigen::Matrix<double, Eigen::Dynamic, kN, Eigen::RowMajor> jacobian(2 * points.size(), kN);
+  double* jac[1] = {jacobian.data()};
+  const double* params[1] = {result.parameters.values.data()};
+  if (!cost.Evaluate(params, residuals.data(), jac)) return Error{"the fit's Jacobian could not be evaluated"};
+  // Jᵀ·C·J with C the correlation of the whitened residuals: JᵀJ plus the off-diagonal terms.
+  Covariance middle = jacobian.transpose() * jacobian;
+  const auto weight = [&](int used, int component) {
+    const BinPoint& p = points[static_cast<std::size_t>(used)];
+    return component == 0 ? p.wPhi : p.wTheta;
+  };
+  for (const BinCovariance& c : covariances) {
+    if (c.binA < 0 || c.binB < 0 || static_cast<std::size_t>(c.binA) >= bins.size() ||
+        static_cast<std::size_t>(c.binB) >= bins.size()) {
+      return Error{fmt::format("a bin covariance names bin {} or {}, beyond the {} bins", c.binA, c.binB, bins.size())};
+    }
+    const int ua = row[static_cast<std::size_t>(c.binA)], ub = row[static_cast<std::size_t>(c.binB)];
+    if (ua < 0 || ub < 0 || !std::isfinite(c.value)) continue;
+    const int i = 2 * ua + c.componentA, j = 2 * ub + c.componentB;
+    const double rho = c.value * weight(ua, c.componentA) * weight(ub, c.componentB);
+    if (i == j) {
+      middle += rho * jacobian.row(i).transpose() * jacobian.row(i);
+    } else {
+      const Covariance term = jacobian.row(i).transpose() * jacobian.row(j);
+      middle += rho * (term + term.transpose());
+    }
+  }
+  const Covariance h = *result.covariance;
+  Covariance sandwich = h * middle * h;
+  sandwich = 0.5 * (sandwich + sandwich.transpose());
+  if (!(sandwich.diagonal().array() > 0.0).all() || !sandwich.allFinite()) {
+    return Error{"the covariance with the bins' correlations is not positive: the correlations are implausible"};
+  }
+  setCovariance(result, sandwich);
+  setDerived(result, g.radii.r1);
+  return {};
+}
+
 Result<FitResult> fitProfiles(const std::vector<ProfileBin>& bins, const FitGeometry& g, const FitOptions& options) {
   if (Status s = options.validate(); !s) return s.error();
   FitResult result;
@@ -237,27 +317,9 @@ Result<FitResult> fitProfiles(const std::vector<ProfileBin>& bins, const FitGeom
         "no errors are given",
         result.weakCombination.empty() ? "some parameter" : result.weakCombination, evs));
   } else {
-    result.covariance = covariance;
-    for (int k = 0; k < kN; ++k) result.errors[k] = std::sqrt(covariance(k, k));
-    for (int i = 0; i < kN; ++i) {
-      for (int j = 0; j < kN; ++j) result.correlation(i, j) = covariance(i, j) / (result.errors[i] * result.errors[j]);
-    }
+    setCovariance(result, covariance);
   }
-
-  // Derived parameters, errors by their Jacobian (automatic differentiation).
-  using Jet = ceres::Jet<double, kN>;
-  std::array<Jet, kN> etaJet;
-  for (int k = 0; k < kN; ++k) etaJet[static_cast<std::size_t>(k)] = Jet(eta[k], k);
-  const auto derived = derivedOf<Jet>(etaJet.data(), g.radii.r1);
-  const char* names[] = {"beta", "psi", "mu", "tau", "dx_rel"};
-  for (int i = 0; i < 5; ++i) {
-    DerivedValue v;
-    v.value = derived[static_cast<std::size_t>(i)].a;
-    const Eigen::Matrix<double, kN, 1> grad = derived[static_cast<std::size_t>(i)].v;
-    v.error = result.covariance && grad.allFinite() ? std::sqrt(grad.dot(*result.covariance * grad))
-                                                    : std::numeric_limits<double>::quiet_NaN();
-    result.derived.emplace_back(names[i], v);
-  }
+  setDerived(result, g.radii.r1);
 
   if (result.status == FitStatus::Converged && result.pValue < kPoorFitPValue) {
     result.status = FitStatus::PoorFit;

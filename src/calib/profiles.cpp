@@ -42,20 +42,84 @@ Profiles::Profiles(ProfileOptions options) : options_(std::move(options)) {
   acc_.resize(static_cast<std::size_t>(options_.phiBins * options_.thetaBins));
 }
 
-bool Profiles::fill(const ParticleResidual& p) {
+int Profiles::binOf(const ParticleResidual& p) const {
   const auto& o = options_;
-  if (!(p.phiEmc >= 0.0 && p.phiEmc < 2.0 * std::numbers::pi)) return false;
-  if (!(p.thetaEmc >= o.thetaMin && p.thetaEmc < o.thetaMax)) return false;
+  if (!(p.phiEmc >= 0.0 && p.phiEmc < 2.0 * std::numbers::pi)) return -1;
+  if (!(p.thetaEmc >= o.thetaMin && p.thetaEmc < o.thetaMax)) return -1;
   const int iPhi = std::min(o.phiBins - 1, static_cast<int>(p.phiEmc / (2.0 * std::numbers::pi) * o.phiBins));
   const int iTheta = std::min(o.thetaBins - 1,
                               static_cast<int>((p.thetaEmc - o.thetaMin) / (o.thetaMax - o.thetaMin) * o.thetaBins));
-  Accumulator& a = acc_[static_cast<std::size_t>(iPhi * o.thetaBins + iTheta)];
+  return iPhi * o.thetaBins + iTheta;
+}
+
+void Profiles::fillPair(const ParticleResidual& a, const ParticleResidual& b) {
+  if (!options_.eventPairs) return;
+  int ka = binOf(a), kb = binOf(b);
+  if (ka < 0 || kb < 0) return;
+  const ParticleResidual* pa = &a;
+  const ParticleResidual* pb = &b;
+  if (ka > kb) {
+    std::swap(ka, kb);
+    std::swap(pa, pb);
+  }
+  PairSums& s = pairs_[{ka, kb}];
+  const double ya[2] = {pa->yPhi, pa->yTheta}, yb[2] = {pb->yPhi, pb->yTheta};
+  s.n += 1;
+  for (int c = 0; c < 2; ++c) {
+    s.a[c] += ya[c];
+    s.b[c] += yb[c];
+    for (int d = 0; d < 2; ++d) s.ab[c][d] += ya[c] * yb[d];
+  }
+}
+
+std::vector<BinCovariance> Profiles::binCovariances() const {
+  std::vector<BinCovariance> out;
+  if (!options_.eventPairs) return out;
+  for (std::size_t k = 0; k < acc_.size(); ++k) {
+    const Accumulator& a = acc_[k];
+    if (a.n < 2) continue;
+    const double n = static_cast<double>(a.n);
+    const int bin = static_cast<int>(k);
+    out.push_back({bin, 0, bin, 1, a.m2PhiTheta / (n - 1.0) / n});
+  }
+  // Σ over pairs of (y_a − ȳ_a)(y_b − ȳ_b), from the sums and the bins' own means, over N_a·N_b.
+  for (const auto& [key, s] : pairs_) {
+    const auto [ka, kb] = key;
+    const Accumulator& a = acc_[static_cast<std::size_t>(ka)];
+    const Accumulator& b = acc_[static_cast<std::size_t>(kb)];
+    const double n = static_cast<double>(s.n);
+    double sum[2][2];
+    for (int c = 0; c < 2; ++c) {
+      for (int d = 0; d < 2; ++d) {
+        sum[c][d] = s.ab[c][d] - b.mean[d] * s.a[c] - a.mean[c] * s.b[d] + n * a.mean[c] * b.mean[d];
+      }
+    }
+    const double scale = 1.0 / (static_cast<double>(a.n) * static_cast<double>(b.n));
+    if (ka == kb) {
+      // Both particles in one bin: the pair adds to the variance of its mean (both orders).
+      out.push_back({ka, 0, ka, 0, 2.0 * sum[0][0] * scale});
+      out.push_back({ka, 1, ka, 1, 2.0 * sum[1][1] * scale});
+      out.push_back({ka, 0, ka, 1, (sum[0][1] + sum[1][0]) * scale});
+      continue;
+    }
+    for (int c = 0; c < 2; ++c) {
+      for (int d = 0; d < 2; ++d) out.push_back({ka, c, kb, d, sum[c][d] * scale});
+    }
+  }
+  return out;
+}
+
+bool Profiles::fill(const ParticleResidual& p) {
+  const int k = binOf(p);
+  if (k < 0) return false;
+  Accumulator& a = acc_[static_cast<std::size_t>(k)];
   a.n += 1;
   const double x[5] = {p.yPhi, p.yTheta, p.phiEmc, p.thetaEmc, p.energy};
   const double dPhi = x[0] - a.mean[0], dTheta = x[1] - a.mean[1];
-  for (int k = 0; k < 5; ++k) a.mean[k] += (x[k] - a.mean[k]) / static_cast<double>(a.n);
+  for (int i = 0; i < 5; ++i) a.mean[i] += (x[i] - a.mean[i]) / static_cast<double>(a.n);
   a.m2Phi += dPhi * (x[0] - a.mean[0]);
   a.m2Theta += dTheta * (x[1] - a.mean[1]);
+  a.m2PhiTheta += dPhi * (x[1] - a.mean[1]);
   ++entries_;
   return true;
 }
@@ -80,7 +144,17 @@ void Profiles::merge(const Profiles& other) {
     for (int i = 0; i < 5; ++i) x.mean[i] += (y.mean[i] - x.mean[i]) * ny / n;
     x.m2Phi += y.m2Phi + dPhi * dPhi * nx * ny / n;
     x.m2Theta += y.m2Theta + dTheta * dTheta * nx * ny / n;
+    x.m2PhiTheta += y.m2PhiTheta + dPhi * dTheta * nx * ny / n;
     x.n += y.n;
+  }
+  for (const auto& [key, s] : other.pairs_) {
+    PairSums& t = pairs_[key];
+    t.n += s.n;
+    for (int c = 0; c < 2; ++c) {
+      t.a[c] += s.a[c];
+      t.b[c] += s.b[c];
+      for (int d = 0; d < 2; ++d) t.ab[c][d] += s.ab[c][d];
+    }
   }
   entries_ += other.entries_;
 }

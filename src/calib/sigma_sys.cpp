@@ -50,6 +50,15 @@ std::vector<ProfileBin> fittedBins(const Profiles& profiles, const SigmaSysUsed&
 
 namespace {
 
+// The errors with the event pairs' correlations, when the profiles kept them.
+Status withEventPairs(FitResult& result, const Profiles& profiles, const std::vector<ProfileBin>& bins,
+                      const FitGeometry& geometry) {
+  if (!profiles.options().eventPairs || !result.covariance) return {};
+  if (Status s = applyBinCovariances(result, bins, geometry, profiles.binCovariances()); !s) return s;
+  result.sigmaSys.eventPairs = true;
+  return {};
+}
+
 // χ²_min(u = s²), each value one staged fit, remembered.
 class Chi2OfSigma {
  public:
@@ -126,8 +135,11 @@ Result<FitResult> fitProfiles(const Profiles& profiles, const FitGeometry& geome
   if (Status s = choice.validate(); !s) return s.error();
   if (choice.method != SigmaSysMethod::Auto) {
     const double value = choice.method == SigmaSysMethod::Spec ? kSpecSigmaSys : choice.value;
-    auto fit = fitProfiles(profiles.bins(value), geometry, options);
-    if (fit) fit->sigmaSys = SigmaSysUsed{.method = choice.method, .value = value};
+    const auto bins = profiles.bins(value);
+    auto fit = fitProfiles(bins, geometry, options);
+    if (!fit) return fit;
+    fit->sigmaSys = SigmaSysUsed{.method = choice.method, .value = value};
+    if (Status s = withEventPairs(*fit, profiles, bins, geometry); !s) return s.error();
     return fit;
   }
   const std::vector<ProfileBin> stat = profiles.bins(0.0);
@@ -159,6 +171,9 @@ Result<FitResult> fitProfiles(const Profiles& profiles, const FitGeometry& geome
                                  .chi2Stat = *chi2Stat,
                                  .pValueStat = chi2PValue(*chi2Stat, ndf),
                                  .fits = chi2.fits()};
+  if (Status s = withEventPairs(result, profiles, fittedBins(profiles, result.sigmaSys), geometry); !s) {
+    return s.error();
+  }
   if (result.sigmaSys.value > kLargeSigmaSys) {
     result.warnings.push_back(fmt::format(
         "sigma_sys auto = {:.3f} deg: the profiles scatter about the model far beyond their statistics (chi2/ndf = "

@@ -93,11 +93,13 @@ TEST_F(FitCli, SigmaSysAutoAndByHandAreRecordedInTheResult) {
   EXPECT_GE(s["interval_deg"][1].get<double>(), value);
   EXPECT_NEAR(a["chi2"].get<double>(), a["ndf"].get<double>(), 1e-6 * a["ndf"].get<double>());
   EXPECT_GT(s["chi2_statistical_errors"].get<double>(), a["chi2"].get<double>());
+  EXPECT_EQ(s["event_pair_correlations"], true);  // the errors carry the two particles' correlation
   // Smaller errors than with SPEC's 0.2°.
   ASSERT_EQ(run("fit " + path("ee.h5") + " -o " + path("spec.json")), 0);
   const auto spec = nlohmann::json::parse(slurp(path("spec.json")));
   EXPECT_EQ(spec["sigma_sys"]["method"], "spec");
   EXPECT_DOUBLE_EQ(spec["sigma_sys"]["value_deg"].get<double>(), 0.2);
+  EXPECT_EQ(spec["sigma_sys"]["event_pair_correlations"], false);
   EXPECT_LT(a["errors"]["dx"].get<double>(), 0.8 * spec["errors"]["dx"].get<double>());
   // By hand: the value given; the profile written with it refits to the same minimum.
   ASSERT_EQ(run("fit " + path("ee.h5") + " --sigma-sys 0.15 -o " + path("fixed.json")), 0);

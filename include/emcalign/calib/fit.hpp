@@ -81,6 +81,9 @@ struct SigmaSysUsed {
   double chi2Stat = std::numeric_limits<double>::quiet_NaN();
   double pValueStat = std::numeric_limits<double>::quiet_NaN();
   int fits = 0;  ///< staged fits the estimate took
+  /// The errors include the correlations between the bin means that the two particles of an
+  /// event make (applyBinCovariances), not only the independent bins of SPEC §8.
+  bool eventPairs = false;
 };
 
 struct FitResult {
@@ -134,6 +137,14 @@ struct FitGeometry {
 /// below kPoorFitPValue PoorFit.
 Result<FitResult> fitProfiles(const std::vector<ProfileBin>& bins, const FitGeometry& geometry,
                               const FitOptions& options = {});
+
+/// The covariance of a fit's parameters when the bin means are correlated (BinCovariance,
+/// Profiles::binCovariances): the sandwich H⁻¹·(Jᵀ·C·J)·H⁻¹ of the whitened residuals, C
+/// their correlation matrix and H = JᵀJ at the minimum, which stays where the independent
+/// bins' χ² put it. Replaces the covariance, errors, correlation and derived errors of
+/// `result` (the fit of `bins`); nothing to do without covariances.
+Status applyBinCovariances(FitResult& result, const std::vector<ProfileBin>& bins, const FitGeometry& geometry,
+                           const std::vector<BinCovariance>& covariances);
 
 /// χ² of the used bins at η (for tests and cross-checks).
 double chi2At(const std::vector<ProfileBin>& bins, const FitGeometry& geometry, const geometry::ParamVector& eta);

@@ -13,6 +13,7 @@
 #include <array>
 #include <cstdint>
 #include <limits>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -35,10 +36,21 @@ struct ProfileOptions {
   /// When set (phiBins × thetaBins), its mean residuals are subtracted from every bin and
   /// its σ added in quadrature; a bin it lacks is left out.
   std::shared_ptr<const NominalProfile> nominalProfile;
+  /// Keep the cross moments of the two particles of each event (Profiles::fillPair), for
+  /// the covariance between bin means (Profiles::binCovariances). Off: SPEC's independent
+  /// bins, and no memory spent.
+  bool eventPairs = false;
 
   /// At least one bin each way (at most 1000), a θ range inside [0, π], σ_sys finite and
   /// ≥ 0, minEntries ≥ 2, and corrections made for these bins; the error says which.
   Status validate() const;
+};
+
+/// A covariance between two bin means (or between y_φ and y_θ of one bin), rad²: bins are
+/// indices into Profiles::bins() (i_phi-major), components 0 = y_φ, 1 = y_θ.
+struct BinCovariance {
+  int binA = 0, componentA = 0, binB = 0, componentB = 0;
+  double value = 0.0;
 };
 
 /// One bin, as the fit sees it.
@@ -66,6 +78,16 @@ class Profiles {
   /// The same with another σ_sys (0: the statistical errors alone).
   std::vector<ProfileBin> bins(double sigmaSys) const;
   std::int64_t entries() const { return entries_; }
+  /// The two particles of one event, each already given to fill(): with eventPairs, their
+  /// residuals' cross moments are kept per pair of bins (the two particles of an e+e- → e+e-
+  /// event are back to back, hit the same place inside their counters, and their y_φ
+  /// correlate by ~0.5 in the simulation). Nothing without eventPairs or when either is out
+  /// of range.
+  void fillPair(const ParticleResidual& a, const ParticleResidual& b);
+  /// The covariances of the bin means beyond SPEC's independent particles: those the event
+  /// pairs make between two bins (and inside one), and the y_φ–y_θ covariance of each bin's
+  /// mean. Empty without eventPairs.
+  std::vector<BinCovariance> binCovariances() const;
   /// Adds the entries of profiles with the same bins (the profiles of several runs make the
   /// profile of their group: the same means and σ as filling one from all the particles, to
   /// rounding). Throws std::invalid_argument for other bins.
@@ -75,10 +97,18 @@ class Profiles {
   struct Accumulator {
     std::int64_t n = 0;
     double mean[5] = {};  // y_φ, y_θ, φ, θ, E
-    double m2Phi = 0.0, m2Theta = 0.0;
+    double m2Phi = 0.0, m2Theta = 0.0, m2PhiTheta = 0.0;
   };
+  // Sums over the events with a particle in bin a and one in bin b (a ≤ b): of y_a, y_b and
+  // y_a·y_b per component (φ, θ).
+  struct PairSums {
+    std::int64_t n = 0;
+    double a[2] = {}, b[2] = {}, ab[2][2] = {};
+  };
+  int binOf(const ParticleResidual& p) const;  // -1 when out of range
   ProfileOptions options_;
   std::vector<Accumulator> acc_;
+  std::map<std::pair<int, int>, PairSums> pairs_;
   std::int64_t entries_ = 0;
 };
 

@@ -77,8 +77,11 @@ Result<FitResponse> parseResponse(const Json& p, std::string_view source) {
   const auto fail = [&](const std::string& what) {
     return Error{fmt::format("{}: key 'response': {}", source, what)};
   };
-  if (!p.is_object() || p.size() != 3 || !p.contains("parameters") || !p.contains("matrix") || !p.contains("offset")) {
-    return fail("expected {\"parameters\": [the 12 names], \"matrix\": 12 rows of 12 numbers, \"offset\": 12 numbers}");
+  const bool gap = p.is_object() && p.contains("gap_matrix");
+  if (!p.is_object() || p.size() != (gap ? 4u : 3u) || !p.contains("parameters") || !p.contains("matrix") ||
+      !p.contains("offset")) {
+    return fail("expected {\"parameters\": [the 12 names], \"matrix\": 12 rows of 12 numbers, \"offset\": 12 numbers, "
+                "optionally \"gap_matrix\": 12 rows of 12 numbers}");
   }
   Json names = Json::array();
   for (auto n : kParamNames) names.push_back(std::string(n));
@@ -96,6 +99,17 @@ Result<FitResponse> parseResponse(const Json& p, std::string_view source) {
       r(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k)) = m[j][k].get<double>() / fileScale(j, k);
     }
     if (!c[j].is_number()) return fail(fmt::format("'offset' {}: expected a number", j));
+    if (gap) {
+      const Json& g = p["gap_matrix"];
+      if (!g.is_array() || g.size() != kNumParams || !g[j].is_array() || g[j].size() != kNumParams) {
+        return fail(fmt::format("'gap_matrix' row {} must have 12 numbers (and the matrix 12 rows)", j));
+      }
+      for (std::size_t k = 0; k < kNumParams; ++k) {
+        if (!g[j][k].is_number()) return fail(fmt::format("'gap_matrix' row {} column {}: expected a number", j, k));
+        response.gapMatrix(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k)) =
+            g[j][k].get<double>() / fileScale(j, k);
+      }
+    }
     response.offset[static_cast<Eigen::Index>(j)] =
         c[j].get<double>() * geometry::AlignmentParameters::fileUnit(kAllParams[j]);
   }
@@ -105,27 +119,43 @@ Result<FitResponse> parseResponse(const Json& p, std::string_view source) {
 
 Json responseJson(const FitResponse& response) {
   const ResponseMatrix& r = response.matrix;
-  Json rows = Json::array();
+  Json rows = Json::array(), gapRows = Json::array();
   for (std::size_t j = 0; j < kNumParams; ++j) {
-    Json row = Json::array();
+    Json row = Json::array(), gapRow = Json::array();
     for (std::size_t k = 0; k < kNumParams; ++k) {
-      row.push_back(r(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k)) * fileScale(j, k));
+      const auto jj = static_cast<Eigen::Index>(j), kk = static_cast<Eigen::Index>(k);
+      row.push_back(r(jj, kk) * fileScale(j, k));
+      gapRow.push_back(response.gapMatrix(jj, kk) * fileScale(j, k));
     }
     rows.push_back(row);
+    gapRows.push_back(gapRow);
   }
   Json names = Json::array(), offset = Json::array();
   for (auto n : kParamNames) names.push_back(std::string(n));
   for (std::size_t j = 0; j < kNumParams; ++j) {
     offset.push_back(response.offset[static_cast<Eigen::Index>(j)] / geometry::AlignmentParameters::fileUnit(kAllParams[j]));
   }
-  return {{"parameters", names}, {"matrix", rows}, {"offset", offset}};
+  Json out = {{"parameters", names}, {"matrix", rows}, {"offset", offset}};
+  if (!response.gapMatrix.isZero(0.0)) out["gap_matrix"] = gapRows;
+  return out;
 }
 
 }  // namespace
 
 Status FitResponse::validate() const {
   const ResponseMatrix& r = matrix;
-  if (!r.allFinite() || !offset.allFinite()) return Error{"the response has a value that is not finite"};
+  if (!r.allFinite() || !offset.allFinite() || !gapMatrix.allFinite()) {
+    return Error{"the response has a value that is not finite"};
+  }
+  for (std::size_t j = 0; j < kNumParams; ++j) {
+    for (std::size_t k = 0; k < kNumParams; ++k) {
+      const double g = gapMatrix(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k)) * fileScale(j, k);
+      if (std::abs(g) > 1.0) {
+        return Error{fmt::format("the response's gap term of {} in {} is {:.4g} per cm of dx_rel: beyond the plausible 1",
+                                 kParamNames[j], kParamNames[k], g)};
+      }
+    }
+  }
   for (std::size_t j = 0; j < kNumParams; ++j) {
     const double unit = geometry::AlignmentParameters::fileUnit(kAllParams[j]);
     if (std::abs(offset[static_cast<Eigen::Index>(j)] / unit) > 0.5) {

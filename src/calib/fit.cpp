@@ -38,10 +38,7 @@ struct ProfileResiduals {
     geometry::ParamVectorT<T> p = Eigen::Map<const geometry::ParamVectorT<T>>(eta);
     if (response) {
       const geometry::ParamVectorT<T> q = p;
-      for (int j = 0; j < kN; ++j) {
-        p[j] = T(response->offset[j]);
-        for (int k = 0; k < kN; ++k) p[j] += response->matrix(j, k) * q[k];
-      }
+      response->apply(q.data(), p.data());
     }
     const auto plus = geometry::hemisphereTransform<T>(p, geometry::Hemisphere::Plus, radii);
     const auto minus = geometry::hemisphereTransform<T>(p, geometry::Hemisphere::Minus, radii);

@@ -170,7 +170,7 @@ Result<calib::FitResponse> measureResponse(const geometry::Calorimeter& calo, co
   po.partingPlane = report.corrections.partingPlane;
   po.nominalProfile = report.corrections.nominalProfile;
   const int n = o.responseSamples;
-  constexpr int kCols = static_cast<int>(kNumParams) + 1;
+  constexpr int kCols = 2 * static_cast<int>(kNumParams) + 1;  // 1, η, η·dx_rel
   Eigen::MatrixXd x(n, kCols), y(n, static_cast<int>(kNumParams));
   for (int i = 0; i < n; ++i) {
     const std::string stage = fmt::format("simulate response sample {}", i);
@@ -197,12 +197,14 @@ Result<calib::FitResponse> measureResponse(const geometry::Calorimeter& calo, co
     if (!usable(fit->status)) {
       return Error{fmt::format("{}: the fit's status is '{}'", stage, emcalign::name(fit->status))};
     }
+    const double dxRel = (truth[Param::Dp1] + truth[Param::Dp2] + truth[Param::Dp3]) / 6.0;
     x(i, 0) = 1.0;
-    x.row(i).tail(kNumParams) = truth.values.transpose();
+    x.row(i).segment(1, kNumParams) = truth.values.transpose();
+    x.row(i).tail(kNumParams) = dxRel * truth.values.transpose();
     y.row(i) = fit->parameters.values.transpose();
   }
-  // Least squares: y = x·B, B = (xᵀx)⁻¹xᵀy; row 0 of B is c, the rest Rᵀ. Errors from the
-  // residual scatter of each fitted parameter.
+  // Least squares: y = x·B, B = (xᵀx)⁻¹xᵀy; row 0 of B is c, then Rᵀ, then Gᵀ. Errors from
+  // the residual scatter of each fitted parameter.
   const Eigen::MatrixXd xtx = x.transpose() * x;
   const Eigen::LDLT<Eigen::MatrixXd> ldlt(xtx);
   const Eigen::MatrixXd b = ldlt.solve(x.transpose() * y);
@@ -219,6 +221,7 @@ Result<calib::FitResponse> measureResponse(const geometry::Calorimeter& calo, co
     report.responseParameterErrors[j] = std::sqrt(variance * kCols / n);
     for (int k = 0; k < static_cast<int>(kNumParams); ++k) {
       response.matrix(j, k) = b(k + 1, j);
+      response.gapMatrix(j, k) = b(k + 1 + static_cast<int>(kNumParams), j);
       report.responseErrors(j, k) = std::sqrt(variance * inverse(k + 1, k + 1));
     }
   }
@@ -229,7 +232,7 @@ Result<calib::FitResponse> measureResponse(const geometry::Calorimeter& calo, co
 }  // namespace
 
 Status DerivationOptions::validate() const {
-  if (responseSamples != 0 && responseSamples < 30) return Error{"--response-samples must be 0 or at least 30"};
+  if (responseSamples != 0 && responseSamples < 50) return Error{"--response-samples must be 0 or at least 50"};
   if (responseSamples != 0 && responseEvents < 1000) return Error{"--response-events must be at least 1000"};
   if (events < 1000) return Error{"--events must be at least 1000 per sample"};
   if (!(shift > 0.0) || !(gap > 0.0)) return Error{"--shift and --gap must be positive"};

@@ -21,7 +21,7 @@ class CorrectionsCli : public ::testing::Test {
   static void SetUpTestSuite() {
     // One small idealised derivation and one event file for the whole suite.
     dir_ = new fs::path(emcalign::testing::freshTestDirectory("emcalign_corrections"));
-    const auto r = emcalign::testing::runEmcalign(*dir_, "derive-corrections --ideal --events 20000 --response-samples 30 --response-events 5000 --seed 4 -o " +
+    const auto r = emcalign::testing::runEmcalign(*dir_, "derive-corrections --ideal --events 20000 --response-samples 50 --response-events 5000 --seed 4 -o " +
                                                              (*dir_ / "corr.json").string());
     derived_ = new emcalign::testing::CommandResult(r);
     emcalign::testing::runEmcalign(*dir_, "simulate --params " + std::string(EMCALIGN_SOURCE_DIR) +
@@ -63,7 +63,7 @@ TEST_F(CorrectionsCli, DeriveWritesTheFileAndReportsTheClosure) {
   EXPECT_NE(derived_->out.find("Fit response over the validation ranges"), std::string::npos);
   EXPECT_EQ(c["response"]["matrix"].size(), 12u);
   EXPECT_EQ(c["response"]["offset"].size(), 12u);
-  EXPECT_EQ(c["derived_from"]["settings"]["response_samples"], 30);
+  EXPECT_EQ(c["derived_from"]["settings"]["response_samples"], 50);
   EXPECT_TRUE(c["derived_from"]["response_parameter_errors"]["dx"].is_number());
 }
 

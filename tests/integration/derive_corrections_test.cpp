@@ -22,7 +22,7 @@ DerivationOptions smallDerivation(std::int64_t events) {
   o.threads = 2;
   o.simulation.generator.thetaMin = 40.0 * deg;
   o.simulation.generator.thetaMax = 140.0 * deg;
-  o.responseSamples = 40;
+  o.responseSamples = 50;
   o.responseEvents = 10000;
   return o;
 }
@@ -50,7 +50,7 @@ TEST(DeriveCorrections, IdealisedSimulationNeedsNone) {
     const auto jj = static_cast<Eigen::Index>(j);
     EXPECT_NEAR(response.matrix(jj, jj), 1.0, 0.02) << kParamNames[j];
     EXPECT_GT(r->responseErrors(jj, jj), 0.0) << kParamNames[j];
-    EXPECT_LT(r->responseErrors(jj, jj), 0.01) << kParamNames[j];
+    EXPECT_LT(r->responseErrors(jj, jj), 0.05) << kParamNames[j];  // the gaps': collinear with their gap term
   }
   EXPECT_NEAR(response.matrix(static_cast<Eigen::Index>(index(Param::Dx)), static_cast<Eigen::Index>(index(Param::Dy))),
               0.0, 0.01);
@@ -64,7 +64,7 @@ TEST(DeriveCorrections, WithoutResponseSamplesThereIsNoResponse) {
   auto r = deriveCorrections(calo, o);
   ASSERT_TRUE(r.ok()) << r.error().message;
   EXPECT_FALSE(r->corrections.response);
-  o.responseSamples = 10;  // too few for 13 coefficients each
+  o.responseSamples = 20;  // too few for 25 coefficients each
   EXPECT_FALSE(deriveCorrections(calo, o).ok());
 }
 

@@ -29,13 +29,14 @@
 //
 // 4. The fit's response. With 1–3 the fit of a simulated sample still does not return its
 //    truth exactly: a relative tilt μ comes out ~7 % small, a shift ~1 % when other
-//    parameters are set too (docs/validation.md). The response E[η̂ | η] = c + R·η is
-//    measured in the simulation over the validation ranges: many samples with truths drawn
-//    as `emcalign validate` draws them, each fitted with 1–3, and η̂ regressed on η (least
-//    squares with a constant: R is 12 × 12, c 12 values). The model is then evaluated at
-//    c + R·η instead of η — f(c + R·η) — so that the fit returns R⁻¹·(η̂ − c), the truth to
-//    first order over the ranges, with the covariance R⁻¹·C·R⁻ᵀ through the same Jacobian.
-//    The χ² and the fitted curves are those of the fit without the response.
+//    parameters are set too (docs/validation.md). The response E[η̂ | η] = c + R·η + G·η·dx_rel
+//    is measured in the simulation over the validation ranges: many samples with truths
+//    drawn as `emcalign validate` draws them, each fitted with 1–3, and η̂ regressed on η and
+//    η·dx_rel (least squares with a constant: R and G 12 × 12, c 12 values). The model is
+//    then evaluated at those parameters instead of η, so that the fit returns the η whose
+//    response is η̂: the truth to second order in the gap over the ranges, with the
+//    covariance through the same Jacobian. The χ² and the fitted curves are those of the
+//    fit without the response.
 //
 // File (`emcalign derive-corrections` writes it, `emcalign fit --corrections` reads it):
 //   {"format": "emcalign-corrections/1", "depth_offset_cm": 4.1,
@@ -43,8 +44,10 @@
 //    "nominal_profile": {"phi_bins": 16, "theta_bins": 10, "y_phi": [...], "sigma_phi": [...],
 //                        "y_theta": [...], "sigma_theta": [...]},   (rad, i_phi-major, null
 //                        for a bin the nominal sample did not fill)
-//    "response": {"parameters": [the 12 names], "matrix": 12 rows of 12, "offset": 12},
-//                        (row j: fitted parameter, column k: true one; file units, deg and cm)
+//    "response": {"parameters": [the 12 names], "matrix": 12 rows of 12, "offset": 12,
+//                 "gap_matrix": 12 rows of 12 (optional)},
+//                        (row j: fitted parameter, column k: true one; file units, deg and
+//                         cm, the gap matrix per cm of dx_rel)
 //    "derived_from": {…}}     (every key but "format" and "depth_offset_cm" optional)
 
 #include <memory>
@@ -97,15 +100,30 @@ struct NominalProfile {
 
 using ResponseMatrix = Eigen::Matrix<double, static_cast<int>(kNumParams), static_cast<int>(kNumParams)>;
 
-/// The fit's response: E[η̂ | η] = offset + matrix·η (native units: rad, cm).
+/// The fit's response: E[η̂ | η] = offset + matrix·η + gapMatrix·η·dx_rel(η) (native units:
+/// rad, cm; dx_rel = (dp1 + dp2 + dp3)/6 in cm). The last term is the interaction of every
+/// parameter with the gap between the hemispheres (a shift's response falls 2 % per 2.5 mm
+/// of dx_rel in the simulation), which a linear response cannot hold.
 struct FitResponse {
   ResponseMatrix matrix = ResponseMatrix::Identity();
+  ResponseMatrix gapMatrix = ResponseMatrix::Zero();
   Eigen::Matrix<double, static_cast<int>(kNumParams), 1> offset =
       Eigen::Matrix<double, static_cast<int>(kNumParams), 1>::Zero();
   /// Plausible when finite, the diagonal of the matrix in [0.5, 1.5] and its condition
   /// number in file units below 100 (a fit that returns its truth within tens of per cent),
-  /// the offset below 0.5° and 0.5 cm.
+  /// the offset below 0.5° and 0.5 cm, the gap matrix below 1 per cm (file units).
   Status validate() const;
+  /// The parameters the model sees for η (templated: the fit differentiates through it).
+  template <typename T>
+  void apply(const T* eta, T* seen) const {
+    using std::size_t;
+    constexpr int n = static_cast<int>(kNumParams);
+    const T dxRel = (eta[index(Param::Dp1)] + eta[index(Param::Dp2)] + eta[index(Param::Dp3)]) / 6.0;
+    for (int j = 0; j < n; ++j) {
+      seen[j] = T(offset[j]);
+      for (int k = 0; k < n; ++k) seen[j] += (matrix(j, k) + gapMatrix(j, k) * dxRel) * eta[k];
+    }
+  }
 };
 
 struct ModelCorrections {

@@ -111,7 +111,7 @@ struct FitResult {
 
 /// What the fit needs to know about the detector, and the model corrections that act on the
 /// model itself (calib/corrections.hpp): the depth offset, and the response R (the model is
-/// evaluated at c + R·η).
+/// evaluated at the parameters the response gives).
 struct FitGeometry {
   geometry::AlignmentRadii radii;
   geometry::ShowerDepth depth;
@@ -125,9 +125,12 @@ struct FitGeometry {
     depth.offset = c.depthOffset;
     response = c.response;
   }
-  /// The parameters the model sees: c + R·η, or η.
+  /// The parameters the model sees: the response's (calib/corrections.hpp), or η.
   geometry::ParamVector modelParameters(const geometry::ParamVector& eta) const {
-    return response ? geometry::ParamVector(response->offset + response->matrix * eta) : eta;
+    if (!response) return eta;
+    geometry::ParamVector seen;
+    response->apply(eta.data(), seen.data());
+    return seen;
   }
 };
 

@@ -291,8 +291,18 @@ FitResponse someResponse() {
 TEST(FitResponse, RoundTripsInFileUnitsAndRefusesImplausibleOnes) {
   ModelCorrections c;
   c.depthOffset = 4.0;
-  c.response = std::make_shared<const FitResponse>(someResponse());
+  FitResponse withGap = someResponse();
+  withGap.gapMatrix(static_cast<Eigen::Index>(index(Param::Dx)), static_cast<Eigen::Index>(index(Param::Dx))) = -0.084;
+  c.response = std::make_shared<const FitResponse>(withGap);
   const Json j = correctionsJson(c);
+  EXPECT_NEAR(j["response"]["gap_matrix"][3][3].get<double>(), -0.084, 1e-12);
+  // The model sees dx·(R + G·dx_rel): at dx_rel = 0.25 cm, 0.985 − 0.021.
+  geometry::ParamVector eta = geometry::ParamVector::Zero();
+  eta[static_cast<Eigen::Index>(index(Param::Dx))] = 0.4;
+  for (Param p : {Param::Dp1, Param::Dp2, Param::Dp3}) eta[static_cast<Eigen::Index>(index(p))] = 0.5;
+  geometry::ParamVector seen;
+  withGap.apply(eta.data(), seen.data());
+  EXPECT_NEAR(seen[static_cast<Eigen::Index>(index(Param::Dx))], 0.4 * (0.985 - 0.084 * 0.25), 1e-12);
   // File units: the α row of the dy_rel column is 0.01 deg per cm.
   EXPECT_NEAR(j["response"]["matrix"][0][9].get<double>(), 0.01, 1e-12);
   EXPECT_NEAR(j["response"]["offset"][1].get<double>(), 0.001, 1e-12);
@@ -301,6 +311,7 @@ TEST(FitResponse, RoundTripsInFileUnitsAndRefusesImplausibleOnes) {
   ASSERT_TRUE(back.ok()) << back.error().message;
   EXPECT_TRUE(back->response->matrix.isApprox(c.response->matrix, 1e-12));
   EXPECT_TRUE(back->response->offset.isApprox(c.response->offset, 1e-12));
+  EXPECT_TRUE(back->response->gapMatrix.isApprox(c.response->gapMatrix, 1e-12));
 
   auto refused = [&](const std::function<void(Json&)>& change, const std::string& expected) {
     Json bad = j;
@@ -313,6 +324,7 @@ TEST(FitResponse, RoundTripsInFileUnitsAndRefusesImplausibleOnes) {
   EXPECT_TRUE(refused([](Json& x) { x["response"]["matrix"][3][3] = 0.3; }, "response of dx to itself is 0.3"));
   EXPECT_TRUE(refused([](Json& x) { x["response"]["matrix"][2].erase(0); }, "row 2 must have 12 numbers"));
   EXPECT_TRUE(refused([](Json& x) { x["response"]["offset"][5] = 2.0; }, "offset of dz"));
+  EXPECT_TRUE(refused([](Json& x) { x["response"]["gap_matrix"][3][3] = 3.0; }, "gap term of dx in dx"));
   EXPECT_TRUE(refused([](Json& x) { x["response"]["parameters"][0] = "a"; }, "'parameters' must be"));
   EXPECT_TRUE(refused([](Json& x) { x["response"].erase("offset"); }, "key 'response'"));
   EXPECT_TRUE(refused(

@@ -24,6 +24,7 @@
 #include "emcalign/core/units.hpp"
 #include "emcalign/geometry/residual_model.hpp"
 #include "emcalign/sim/simulation.hpp"
+#include "emcalign/validation/derive_corrections.hpp"
 
 using namespace emcalign;
 
@@ -189,26 +190,19 @@ int main(int argc, char** argv) {
   const auto nb = profileOf(nominal, g.depth, raw).bins(0.0);
   for (const Sample& s : samples) {
     const auto sb = profileOf(s, g.depth, raw).bins(0.0);
-    const auto plus = geometry::hemisphereTransform<double>(s.truth.values, geometry::Hemisphere::Plus, g.radii);
-    const auto minus = geometry::hemisphereTransform<double>(s.truth.values, geometry::Hemisphere::Minus, g.radii);
     fmt::print("\n{}: W+ per bin (rows: theta bins 0-9; columns: phi bins 3, 4, 11, 12), file's column W+: {:.3f} "
                "{:.3f} {:.3f} {:.3f}\n",
                s.name, corrections->partingPlane->plusWeight(3), corrections->partingPlane->plusWeight(4),
                corrections->partingPlane->plusWeight(11), corrections->partingPlane->plusWeight(12));
+    auto terms = [&](int ip, int it) {
+      const auto k = static_cast<std::size_t>(ip * 10 + it);
+      return validation::plusWeightTerms(sb[k], nb[k], s.truth, g.depth, g.radii);
+    };
     for (int it = 0; it < 10; ++it) {
       fmt::print("  theta {:2d}:", it);
       for (int ip : {3, 4, 11, 12}) {
-        const auto& b = sb[static_cast<std::size_t>(ip * 10 + it)];
-        const auto& n = nb[static_cast<std::size_t>(ip * 10 + it)];
-        const double radius = g.depth.radius(b.energyMean, b.thetaMean);
-        const auto fp = geometry::mixedModelResidual<double>(plus, minus, b.phiMean, b.thetaMean, radius, 1.0);
-        const auto fm = geometry::mixedModelResidual<double>(plus, minus, b.phiMean, b.thetaMean, radius, 0.0);
-        const double vPhi = 1.0 / (b.sigmaPhi * b.sigmaPhi + n.sigmaPhi * n.sigmaPhi);
-        const double vTheta = 1.0 / (b.sigmaTheta * b.sigmaTheta + n.sigmaTheta * n.sigmaTheta);
-        const double dPhi = fp.phi - fm.phi, dTheta = fp.theta - fm.theta;
-        const double num = (b.yPhi - n.yPhi - fm.phi) * dPhi * vPhi + (b.yTheta - n.yTheta - fm.theta) * dTheta * vTheta;
-        const double den = dPhi * dPhi * vPhi + dTheta * dTheta * vTheta;
-        fmt::print("  {:6.3f}±{:.3f}", num / den, 1.0 / std::sqrt(den));
+        const auto t = terms(ip, it);
+        fmt::print("  {:6.3f}±{:.3f}", t.num / t.den, 1.0 / std::sqrt(t.den));
       }
       fmt::print("\n");
     }
@@ -216,16 +210,9 @@ int main(int argc, char** argv) {
     for (int ip : {3, 4, 11, 12}) {
       double num = 0.0, den = 0.0;
       for (int it = 0; it < 10; ++it) {
-        const auto& b = sb[static_cast<std::size_t>(ip * 10 + it)];
-        const auto& n = nb[static_cast<std::size_t>(ip * 10 + it)];
-        const double radius = g.depth.radius(b.energyMean, b.thetaMean);
-        const auto fp = geometry::mixedModelResidual<double>(plus, minus, b.phiMean, b.thetaMean, radius, 1.0);
-        const auto fm = geometry::mixedModelResidual<double>(plus, minus, b.phiMean, b.thetaMean, radius, 0.0);
-        const double vPhi = 1.0 / (b.sigmaPhi * b.sigmaPhi + n.sigmaPhi * n.sigmaPhi);
-        const double vTheta = 1.0 / (b.sigmaTheta * b.sigmaTheta + n.sigmaTheta * n.sigmaTheta);
-        const double dPhi = fp.phi - fm.phi, dTheta = fp.theta - fm.theta;
-        num += (b.yPhi - n.yPhi - fm.phi) * dPhi * vPhi + (b.yTheta - n.yTheta - fm.theta) * dTheta * vTheta;
-        den += dPhi * dPhi * vPhi + dTheta * dTheta * vTheta;
+        const auto t = terms(ip, it);
+        num += t.num;
+        den += t.den;
       }
       fmt::print("  {:6.3f}±{:.3f}", num / den, 1.0 / std::sqrt(den));
     }

@@ -18,6 +18,21 @@ namespace emcalign::validation {
 using geometry::AlignmentParameters;
 using io::Json;
 
+PlusWeightTerms plusWeightTerms(const calib::ProfileBin& sample, const calib::ProfileBin& nominal,
+                                const AlignmentParameters& truth, const geometry::ShowerDepth& depth,
+                                const geometry::AlignmentRadii& radii) {
+  const auto plus = geometry::hemisphereTransform<double>(truth.values, geometry::Hemisphere::Plus, radii);
+  const auto minus = geometry::hemisphereTransform<double>(truth.values, geometry::Hemisphere::Minus, radii);
+  const double radius = depth.radius(sample.energyMean, sample.thetaMean);
+  const auto fp = geometry::mixedModelResidual<double>(plus, minus, sample.phiMean, sample.thetaMean, radius, 1.0);
+  const auto fm = geometry::mixedModelResidual<double>(plus, minus, sample.phiMean, sample.thetaMean, radius, 0.0);
+  const double vPhi = 1.0 / (sample.sigmaPhi * sample.sigmaPhi + nominal.sigmaPhi * nominal.sigmaPhi);
+  const double vTheta = 1.0 / (sample.sigmaTheta * sample.sigmaTheta + nominal.sigmaTheta * nominal.sigmaTheta);
+  const double dPhi = fp.phi - fm.phi, dTheta = fp.theta - fm.theta;
+  return {(sample.yPhi - nominal.yPhi - fm.phi) * dPhi * vPhi + (sample.yTheta - nominal.yTheta - fm.theta) * dTheta * vTheta,
+          dPhi * dPhi * vPhi + dTheta * dTheta * vTheta};
+}
+
 namespace {
 
 // The selected particles of one derivation sample, kept so that the residuals can be
@@ -102,8 +117,6 @@ struct ColumnWeights {
 Status measureColumnWeights(const std::vector<calib::ProfileBin>& gb, const std::vector<calib::ProfileBin>& nb,
                             const AlignmentParameters& gap, const geometry::ShowerDepth& depth,
                             const geometry::AlignmentRadii& radii, ColumnWeights& out) {
-  const auto plus = geometry::hemisphereTransform<double>(gap.values, geometry::Hemisphere::Plus, radii);
-  const auto minus = geometry::hemisphereTransform<double>(gap.values, geometry::Hemisphere::Minus, radii);
   const int columns = calib::kProfilePhiBins;
   out.measured.assign(static_cast<std::size_t>(columns), std::nan(""));
   out.errors.assign(static_cast<std::size_t>(columns), std::nan(""));
@@ -112,14 +125,9 @@ Status measureColumnWeights(const std::vector<calib::ProfileBin>& gb, const std:
     double num = 0.0, den = 0.0;
     for (std::size_t b = 0; b < gb.size(); ++b) {
       if (gb[b].iPhi != c || !gb[b].used || !nb[b].used) continue;
-      const double radius = depth.radius(gb[b].energyMean, gb[b].thetaMean);
-      const auto fp = geometry::mixedModelResidual<double>(plus, minus, gb[b].phiMean, gb[b].thetaMean, radius, 1.0);
-      const auto fm = geometry::mixedModelResidual<double>(plus, minus, gb[b].phiMean, gb[b].thetaMean, radius, 0.0);
-      const double vPhi = 1.0 / (gb[b].sigmaPhi * gb[b].sigmaPhi + nb[b].sigmaPhi * nb[b].sigmaPhi);
-      const double vTheta = 1.0 / (gb[b].sigmaTheta * gb[b].sigmaTheta + nb[b].sigmaTheta * nb[b].sigmaTheta);
-      const double dPhi = fp.phi - fm.phi, dTheta = fp.theta - fm.theta;
-      num += (gb[b].yPhi - nb[b].yPhi - fm.phi) * dPhi * vPhi + (gb[b].yTheta - nb[b].yTheta - fm.theta) * dTheta * vTheta;
-      den += dPhi * dPhi * vPhi + dTheta * dTheta * vTheta;
+      const PlusWeightTerms t = plusWeightTerms(gb[b], nb[b], gap, depth, radii);
+      num += t.num;
+      den += t.den;
     }
     if (!(den > 0.0)) return Error{fmt::format("parting-plane response: phi column {} has no usable bins (more --events?)", c)};
     const auto k = static_cast<std::size_t>(c);

@@ -79,6 +79,18 @@ struct DerivationReport {
   geometry::ParamVector responseParameterErrors = geometry::ParamVector::Zero();
 };
 
+/// The least-squares terms of the parting-plane share W₊ from one bin of a sample with a
+/// known placement: Σ over y_φ and y_θ of (Δy − f₋)(f₊ − f₋)/σ² and (f₊ − f₋)²/σ², Δy the
+/// sample's mean residual minus the nominal sample's, σ² both their variances, f± the model
+/// with each hemisphere's placement. W₊ = Σnum/Σden over any set of bins, its error
+/// 1/√Σden.
+struct PlusWeightTerms {
+  double num = 0.0, den = 0.0;
+};
+PlusWeightTerms plusWeightTerms(const calib::ProfileBin& sample, const calib::ProfileBin& nominal,
+                                const geometry::AlignmentParameters& truth, const geometry::ShowerDepth& depth,
+                                const geometry::AlignmentRadii& radii);
+
 /// Progress: a stage name ("simulate N", …), done, total.
 using DerivationProgress = std::function<void(std::string_view stage, std::int64_t done, std::int64_t total)>;
 

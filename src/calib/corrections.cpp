@@ -68,9 +68,47 @@ Status NominalProfile::validate() const {
 
 namespace {
 
-// R in file units: row j, column k scaled by fileUnit(k)/fileUnit(j).
-double fileScale(std::size_t j, std::size_t k) {
-  return geometry::AlignmentParameters::fileUnit(kAllParams[k]) / geometry::AlignmentParameters::fileUnit(kAllParams[j]);
+// A response matrix in file units (deg and cm; row j fitted, column k true): element (j, k)
+// scaled by fileUnit(k)/fileUnit(j). `toFile` false converts back.
+ResponseMatrix inUnits(const ResponseMatrix& m, bool toFile) {
+  ResponseMatrix out;
+  for (std::size_t j = 0; j < kNumParams; ++j) {
+    for (std::size_t k = 0; k < kNumParams; ++k) {
+      const double scale = geometry::AlignmentParameters::fileUnit(kAllParams[k]) /
+                           geometry::AlignmentParameters::fileUnit(kAllParams[j]);
+      const auto jj = static_cast<Eigen::Index>(j), kk = static_cast<Eigen::Index>(k);
+      out(jj, kk) = toFile ? m(jj, kk) * scale : m(jj, kk) / scale;
+    }
+  }
+  return out;
+}
+
+Json parameterNamesJson() {
+  Json names = Json::array();
+  for (auto n : kParamNames) names.push_back(std::string(n));
+  return names;
+}
+
+Json matrixJson(const ResponseMatrix& m) {
+  Json rows = Json::array();
+  for (Eigen::Index j = 0; j < m.rows(); ++j) rows.push_back(std::vector<double>(m.row(j).begin(), m.row(j).end()));
+  return rows;
+}
+
+// 12 rows of 12 numbers, as written (file units).
+Result<ResponseMatrix> readMatrix(const Json& m, std::string_view key) {
+  ResponseMatrix out;
+  if (!m.is_array() || m.size() != kNumParams) return Error{fmt::format("'{}' must have 12 rows", key)};
+  for (std::size_t j = 0; j < kNumParams; ++j) {
+    if (!m[j].is_array() || m[j].size() != kNumParams) {
+      return Error{fmt::format("'{}' row {} must have 12 numbers", key, j)};
+    }
+    for (std::size_t k = 0; k < kNumParams; ++k) {
+      if (!m[j][k].is_number()) return Error{fmt::format("'{}' row {} column {}: expected a number", key, j, k)};
+      out(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k)) = m[j][k].get<double>();
+    }
+  }
+  return out;
 }
 
 Result<FitResponse> parseResponse(const Json& p, std::string_view source) {
@@ -83,33 +121,22 @@ Result<FitResponse> parseResponse(const Json& p, std::string_view source) {
     return fail("expected {\"parameters\": [the 12 names], \"matrix\": 12 rows of 12 numbers, \"offset\": 12 numbers, "
                 "optionally \"gap_matrix\": 12 rows of 12 numbers}");
   }
-  Json names = Json::array();
-  for (auto n : kParamNames) names.push_back(std::string(n));
-  if (p["parameters"] != names) return fail(fmt::format("'parameters' must be [{}]", fmt::join(kParamNames, ", ")));
-  const Json& m = p["matrix"];
-  if (!m.is_array() || m.size() != kNumParams) return fail("'matrix' must have 12 rows");
+  if (p["parameters"] != parameterNamesJson()) {
+    return fail(fmt::format("'parameters' must be [{}]", fmt::join(kParamNames, ", ")));
+  }
+  FitResponse response;
+  auto matrix = readMatrix(p["matrix"], "matrix");
+  if (!matrix) return fail(matrix.error().message);
+  response.matrix = inUnits(*matrix, false);
+  if (gap) {
+    auto g = readMatrix(p["gap_matrix"], "gap_matrix");
+    if (!g) return fail(g.error().message);
+    response.gapMatrix = inUnits(*g, false);
+  }
   const Json& c = p["offset"];
   if (!c.is_array() || c.size() != kNumParams) return fail("'offset' must have 12 numbers");
-  FitResponse response;
-  ResponseMatrix& r = response.matrix;
   for (std::size_t j = 0; j < kNumParams; ++j) {
-    if (!m[j].is_array() || m[j].size() != kNumParams) return fail(fmt::format("'matrix' row {} must have 12 numbers", j));
-    for (std::size_t k = 0; k < kNumParams; ++k) {
-      if (!m[j][k].is_number()) return fail(fmt::format("'matrix' row {} column {}: expected a number", j, k));
-      r(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k)) = m[j][k].get<double>() / fileScale(j, k);
-    }
     if (!c[j].is_number()) return fail(fmt::format("'offset' {}: expected a number", j));
-    if (gap) {
-      const Json& g = p["gap_matrix"];
-      if (!g.is_array() || g.size() != kNumParams || !g[j].is_array() || g[j].size() != kNumParams) {
-        return fail(fmt::format("'gap_matrix' row {} must have 12 numbers (and the matrix 12 rows)", j));
-      }
-      for (std::size_t k = 0; k < kNumParams; ++k) {
-        if (!g[j][k].is_number()) return fail(fmt::format("'gap_matrix' row {} column {}: expected a number", j, k));
-        response.gapMatrix(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k)) =
-            g[j][k].get<double>() / fileScale(j, k);
-      }
-    }
     response.offset[static_cast<Eigen::Index>(j)] =
         c[j].get<double>() * geometry::AlignmentParameters::fileUnit(kAllParams[j]);
   }
@@ -118,38 +145,26 @@ Result<FitResponse> parseResponse(const Json& p, std::string_view source) {
 }
 
 Json responseJson(const FitResponse& response) {
-  const ResponseMatrix& r = response.matrix;
-  Json rows = Json::array(), gapRows = Json::array();
-  for (std::size_t j = 0; j < kNumParams; ++j) {
-    Json row = Json::array(), gapRow = Json::array();
-    for (std::size_t k = 0; k < kNumParams; ++k) {
-      const auto jj = static_cast<Eigen::Index>(j), kk = static_cast<Eigen::Index>(k);
-      row.push_back(r(jj, kk) * fileScale(j, k));
-      gapRow.push_back(response.gapMatrix(jj, kk) * fileScale(j, k));
-    }
-    rows.push_back(row);
-    gapRows.push_back(gapRow);
-  }
-  Json names = Json::array(), offset = Json::array();
-  for (auto n : kParamNames) names.push_back(std::string(n));
+  Json offset = Json::array();
   for (std::size_t j = 0; j < kNumParams; ++j) {
     offset.push_back(response.offset[static_cast<Eigen::Index>(j)] / geometry::AlignmentParameters::fileUnit(kAllParams[j]));
   }
-  Json out = {{"parameters", names}, {"matrix", rows}, {"offset", offset}};
-  if (!response.gapMatrix.isZero(0.0)) out["gap_matrix"] = gapRows;
+  Json out = {{"parameters", parameterNamesJson()}, {"matrix", matrixJson(inUnits(response.matrix, true))},
+              {"offset", offset}};
+  if (!response.gapMatrix.isZero(0.0)) out["gap_matrix"] = matrixJson(inUnits(response.gapMatrix, true));
   return out;
 }
 
 }  // namespace
 
 Status FitResponse::validate() const {
-  const ResponseMatrix& r = matrix;
-  if (!r.allFinite() || !offset.allFinite() || !gapMatrix.allFinite()) {
+  if (!matrix.allFinite() || !offset.allFinite() || !gapMatrix.allFinite()) {
     return Error{"the response has a value that is not finite"};
   }
+  const ResponseMatrix gapFile = inUnits(gapMatrix, true);
   for (std::size_t j = 0; j < kNumParams; ++j) {
     for (std::size_t k = 0; k < kNumParams; ++k) {
-      const double g = gapMatrix(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k)) * fileScale(j, k);
+      const double g = gapFile(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k));
       if (std::abs(g) > 1.0) {
         return Error{fmt::format("the response's gap term of {} in {} is {:.4g} per cm of dx_rel: beyond the plausible 1",
                                  kParamNames[j], kParamNames[k], g)};
@@ -163,13 +178,7 @@ Status FitResponse::validate() const {
                                kParamNames[j], offset[static_cast<Eigen::Index>(j)] / unit)};
     }
   }
-  ResponseMatrix file;
-  for (std::size_t j = 0; j < kNumParams; ++j) {
-    for (std::size_t k = 0; k < kNumParams; ++k) {
-      const auto jj = static_cast<Eigen::Index>(j), kk = static_cast<Eigen::Index>(k);
-      file(jj, kk) = r(jj, kk) * fileScale(j, k);
-    }
-  }
+  const ResponseMatrix file = inUnits(matrix, true);
   for (std::size_t k = 0; k < kNumParams; ++k) {
     const double d = file(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(k));
     if (!(d >= 0.5 && d <= 1.5)) {

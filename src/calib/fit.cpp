@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <optional>
 #include <set>
 
 #include <ceres/ceres.h>
@@ -111,6 +112,19 @@ double chi2At(const std::vector<ProfileBin>& bins, const FitGeometry& g, const g
 
 namespace {
 
+using Jacobian = Eigen::Matrix<double, Eigen::Dynamic, kN, Eigen::RowMajor>;
+
+// The Jacobian of the whitened residuals at η; none when the cost cannot be evaluated.
+std::optional<Jacobian> jacobianAt(const ceres::CostFunction& cost, const geometry::ParamVector& eta) {
+  const auto rows = static_cast<std::size_t>(cost.num_residuals());
+  std::vector<double> residuals(rows);
+  Jacobian jacobian(static_cast<Eigen::Index>(rows), kN);
+  double* jac[1] = {jacobian.data()};
+  const double* params[1] = {eta.data()};
+  if (!cost.Evaluate(params, residuals.data(), jac)) return std::nullopt;
+  return jacobian;
+}
+
 void setCovariance(FitResult& result, const Covariance& covariance) {
   result.covariance = covariance;
   for (int k = 0; k < kN; ++k) result.errors[k] = std::sqrt(covariance(k, k));
@@ -151,13 +165,10 @@ Status applyBinCovariances(FitResult& result, const std::vector<ProfileBin>& bin
   // The whitened Jacobian at the minimum.
   ceres::AutoDiffCostFunction<ProfileResiduals, ceres::DYNAMIC, kN> cost(
       new ProfileResiduals{&points, g.radii, g.response}, static_cast<int>(2 * points.size()));
-  std::vector<double> residuals(2 * points.size());
-  Eigen::Matrix<double, Eigen::Dynamic, kN, Eigen::RowMajor> jacobian(2 * points.size(), kN);
-  double* jac[1] = {jacobian.data()};
-  const double* params[1] = {result.parameters.values.data()};
-  if (!cost.Evaluate(params, residuals.data(), jac)) return Error{"the fit's Jacobian could not be evaluated"};
+  const auto jacobian = jacobianAt(cost, result.parameters.values);
+  if (!jacobian) return Error{"the fit's Jacobian could not be evaluated"};
   // Jᵀ·C·J with C the correlation of the whitened residuals: JᵀJ plus the off-diagonal terms.
-  Covariance middle = jacobian.transpose() * jacobian;
+  Covariance middle = jacobian->transpose() * *jacobian;
   const auto weight = [&](int used, int component) {
     const BinPoint& p = points[static_cast<std::size_t>(used)];
     return component == 0 ? p.wPhi : p.wTheta;
@@ -172,9 +183,9 @@ Status applyBinCovariances(FitResult& result, const std::vector<ProfileBin>& bin
     const int i = 2 * ua + c.componentA, j = 2 * ub + c.componentB;
     const double rho = c.value * weight(ua, c.componentA) * weight(ub, c.componentB);
     if (i == j) {
-      middle += rho * jacobian.row(i).transpose() * jacobian.row(i);
+      middle += rho * jacobian->row(i).transpose() * jacobian->row(i);
     } else {
-      const Covariance term = jacobian.row(i).transpose() * jacobian.row(j);
+      const Covariance term = jacobian->row(i).transpose() * jacobian->row(j);
       middle += rho * (term + term.transpose());
     }
   }
@@ -273,11 +284,8 @@ Result<FitResult> fitProfiles(const std::vector<ProfileBin>& bins, const FitGeom
 
   // Covariance (JᵀJ)⁻¹ of the whitened residuals at the minimum, through the correlation-
   // scaled matrix D·JᵀJ·D (D = diag(JᵀJ)^(−1/2)), whose eigenvalues are unit-free.
-  std::vector<double> residuals(2 * points.size());
-  Eigen::Matrix<double, Eigen::Dynamic, kN, Eigen::RowMajor> jacobian(2 * points.size(), kN);
-  double* jac[1] = {jacobian.data()};
-  const double* params[1] = {eta.data()};
-  cost->Evaluate(params, residuals.data(), jac);
+  // (The residuals always evaluate; were they not to, a zero Jacobian reads as singular.)
+  const Jacobian jacobian = jacobianAt(*cost, eta).value_or(Jacobian::Zero(cost->num_residuals(), kN));
   const Covariance jtj = jacobian.transpose() * jacobian;
   const Eigen::Matrix<double, kN, 1> diag = jtj.diagonal();
   bool singular = (diag.array() <= 0.0).any();

@@ -83,8 +83,7 @@ int runGroup(const CampaignCliOptions& o) {
     return reportError(Error{fmt::format("--sigma-sys {}: the plan {} was made with sigma_sys {}", o.sigmaSys, o.plan,
                                          validation::sigmaSysChoiceJson(plan->sigmaSys).dump())});
   }
-  model->sigmaSys = plan->sigmaSys;
-  model->profile.eventPairs = model->sigmaSys.method == calib::SigmaSysMethod::Auto;
+  model->setSigmaSys(plan->sigmaSys);
   const validation::CampaignGroup& g = plan->groups[static_cast<std::size_t>(o.group)];
   auto db = conddb::Database::open(o.conditions, true);
   if (!db) return reportError(db.error());
@@ -153,8 +152,7 @@ int run(const CampaignCliOptions& o) {
   }
   auto model = validation::campaignModel(o.corrections, o.detector, *calo);
   if (!model) return reportError(model.error());
-  model->sigmaSys = sigmaSysChoice(o.sigmaSys);
-  model->profile.eventPairs = model->sigmaSys.method == calib::SigmaSysMethod::Auto;
+  model->setSigmaSys(sigmaSysChoice(o.sigmaSys));
   std::unique_ptr<conddb::Database> db;
   if (!planOnly) {
     auto opened = conddb::Database::open(o.conditions, true);

@@ -125,7 +125,7 @@ int run(const FitCliOptions& o) {
   geometry.depth.offset = o.depthOffset;
   calib::ProfileOptions profileOptions;
   // The honest errors take the correlation of an event's two particles along (profiles.hpp).
-  profileOptions.eventPairs = sigmaSysChoice(o.sigmaSys).method == calib::SigmaSysMethod::Auto;
+  profileOptions.eventPairs = sigmaSysChoice(o.sigmaSys).keepsEventPairs();
   calib::FitInput input;
   input.depthOffset = o.depthOffset;
   if (!o.corrections.empty()) {

@@ -83,24 +83,23 @@ int refit(const TrendCliOptions& o, const validation::Trend& trend, const std::v
     auto p = snapshot.payload(iov);
     if (!p) return reportError(p.error());
     const io::Json& alignment = (*p)->content["alignment"];
-    io::Json usedSigma = io::Json{{"method", "spec"}};
-    if (alignment.contains("sigma_sys") && alignment["sigma_sys"].is_object()) {
-      const io::Json& s = alignment["sigma_sys"];
-      usedSigma = {{"method", s.value("method", "")}};
-      if (usedSigma["method"] == "fixed") usedSigma["value_deg"] = s.value("value_deg", 0.0);
+    const io::Json recorded = alignment.contains("sigma_sys") && alignment["sigma_sys"].is_object()
+                                  ? alignment["sigma_sys"]
+                                  : io::Json{{"method", "spec"}};  // payloads made before the choice existed
+    const std::string method = recorded.contains("method") && recorded.at("method").is_string()
+                                   ? recorded.at("method").get<std::string>()
+                                   : std::string();
+    const bool value = recorded.contains("value_deg") && recorded.at("value_deg").is_number();
+    auto choice = calib::recordedSigmaSysChoice(method, value ? recorded.at("value_deg").get<double>() : std::nan(""));
+    if (!choice) {
+      return reportError(Error{fmt::format("tag {}: the calibration of runs {}-{} has sigma_sys {}: not one a campaign "
+                                           "makes ({})",
+                                           o.tag, iov.firstRun, iov.lastRun, recorded.dump(), choice.error().message)});
     }
+    const io::Json usedSigma = validation::sigmaSysChoiceJson(*choice);
     if (!sigmaSys) {
       sigmaSys = usedSigma;
-      if (usedSigma["method"] == "auto") {
-        model->sigmaSys = calib::SigmaSysChoice::automatic();
-        model->profile.eventPairs = true;
-      } else if (usedSigma["method"] == "fixed") {
-        model->sigmaSys = calib::SigmaSysChoice::fixed(usedSigma["value_deg"].get<double>() * units::deg);
-      } else if (usedSigma["method"] != "spec") {
-        return reportError(Error{fmt::format("tag {}: the calibration of runs {}-{} has sigma_sys {}: not one a "
-                                             "campaign makes",
-                                             o.tag, iov.firstRun, iov.lastRun, usedSigma.dump())});
-      }
+      model->setSigmaSys(*choice);
     } else if (*sigmaSys != usedSigma) {
       return reportError(Error{fmt::format("tag {}: its IOVs were fitted with different sigma_sys ({} and {}): no "
                                            "refit comparable with all of them",

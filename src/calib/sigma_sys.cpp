@@ -36,6 +36,21 @@ Status SigmaSysChoice::validate() const {
   return {};
 }
 
+Result<SigmaSysChoice> recordedSigmaSysChoice(std::string_view method, double valueDeg) {
+  SigmaSysChoice c;
+  if (method == "spec") {
+    c = SigmaSysChoice::spec();
+  } else if (method == "auto") {
+    c = SigmaSysChoice::automatic();
+  } else if (method == "fixed") {
+    c = SigmaSysChoice::fixed(valueDeg * units::deg);
+  } else {
+    return Error{"expected \"spec\", \"fixed\" or \"auto\""};
+  }
+  if (Status s = c.validate(); !s) return s.error();
+  return c;
+}
+
 std::vector<ProfileBin> withSigmaSys(std::vector<ProfileBin> bins, double s) {
   for (auto& b : bins) {
     b.sigmaPhi = std::hypot(b.sigmaPhi, s);

@@ -298,16 +298,10 @@ Result<CampaignPlan> readCampaignPlan(const std::string& path) {
       StrictObject s(top.at("sigma_sys"), "sigma_sys", path);
       s.allowOnly({"method", "value_deg"});
       const std::string method = s.string("method");
-      if (method == "spec") {
-        plan.sigmaSys = calib::SigmaSysChoice::spec();
-      } else if (method == "auto") {
-        plan.sigmaSys = calib::SigmaSysChoice::automatic();
-      } else if (method == "fixed") {
-        plan.sigmaSys = calib::SigmaSysChoice::fixed(s.number("value_deg") * units::deg);
-        if (Status v = plan.sigmaSys.validate(); !v) s.fail(s.pathOf("value_deg"), v.error().message);
-      } else {
-        s.fail(s.pathOf("method"), "expected \"spec\", \"fixed\" or \"auto\"");
-      }
+      const bool fixed = method == "fixed";
+      auto choice = calib::recordedSigmaSysChoice(method, fixed ? s.number("value_deg") : 0.0);
+      if (!choice) s.fail(s.pathOf(fixed ? "value_deg" : "method"), choice.error().message);
+      plan.sigmaSys = *choice;
     }
     const Json& inputs = top.at("inputs");
     if (!inputs.is_array()) top.fail("inputs", "expected a list");

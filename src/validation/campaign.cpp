@@ -272,7 +272,7 @@ Result<Table> runCampaign(const geometry::Calorimeter& calo, const CampaignOptio
   calib::ProfileOptions profileOptions;
   profileOptions.partingPlane = o.corrections.partingPlane;
   profileOptions.nominalProfile = o.corrections.nominalProfile;
-  profileOptions.eventPairs = o.sigmaSys.method == calib::SigmaSysMethod::Auto;
+  profileOptions.eventPairs = o.sigmaSys.keepsEventPairs();
   if (Status s = profileOptions.validate(); !s) return Error{fmt::format("the corrections: {}", s.error().message)};
 
   std::vector<SampleResult> samples;

@@ -40,7 +40,15 @@ struct SigmaSysChoice {
   static SigmaSysChoice automatic() { return {SigmaSysMethod::Auto, 0.0}; }
   /// A fixed value finite, ≥ 0 and below 90°.
   Status validate() const;
+  /// Whether the profiles must keep the event pairs (ProfileOptions::eventPairs): the
+  /// honest errors of `auto` carry their correlation.
+  bool keepsEventPairs() const { return method == SigmaSysMethod::Auto; }
 };
+
+/// The choice a plan or a result records: its method's name ("spec", "fixed", "auto") and,
+/// for "fixed", the value in degrees. Another name ("saved profile" included: not a choice)
+/// or a bad value is an error saying which.
+Result<SigmaSysChoice> recordedSigmaSysChoice(std::string_view method, double valueDeg);
 
 /// The profiles' bins with this σ_sys, fitted; the result records the σ_sys used
 /// (FitResult::sigmaSys). Spec and Fixed fit once; Auto fits until χ²/ndf = 1 (see above),

@@ -67,6 +67,11 @@ struct CampaignModel {
   std::string correctionsSha256;   ///< its SHA-256 (empty: none)
   std::string detector = "embedded default";
   calib::SigmaSysChoice sigmaSys;  ///< of every group's fit (calib/sigma_sys.hpp)
+  /// Sets σ_sys and whether the profiles keep the event pairs it needs.
+  void setSigmaSys(const calib::SigmaSysChoice& choice) {
+    sigmaSys = choice;
+    profile.eventPairs = choice.keepsEventPairs();
+  }
 };
 
 /// The event files of the inputs, as absolute paths (a batch job may run elsewhere): a

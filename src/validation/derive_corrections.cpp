@@ -43,29 +43,39 @@ struct Sample {
   std::int64_t selectedEvents = 0;
 };
 
-Result<Sample> simulate(const geometry::Calorimeter& calo, const DerivationOptions& o, const AlignmentParameters& truth,
-                        int k, std::string_view stage, const DerivationProgress& progress) {
-  Sample s;
-  s.truth = truth;
+// Simulates `events` events of the placement `truth` with the derivation's settings and this
+// seed into the filler (selection, profiles); fails when none is selected.
+Status simulateInto(const geometry::Calorimeter& calo, const DerivationOptions& o, const AlignmentParameters& truth,
+                    std::uint64_t seed, std::int64_t events, calib::ProfileFiller& filler, std::string_view stage,
+                    const DerivationProgress& progress) {
   sim::SimulationOptions so = o.simulation;
-  so.seed = Rng(o.seed ^ 0xC0EEC7ULL, static_cast<std::uint64_t>(k)).next();
+  so.seed = seed;
   auto simulation = sim::Simulation::create(calo, truth, so);
   if (!simulation) return simulation.error();
-  // The residuals at the nominal depth only decide which tracks reach the EMC; the rows are
-  // kept and their residuals rebuilt at every depth tried.
-  calib::ProfileFiller filler(geometry::ShowerDepth::of(calo.description()), calib::SelectionOptions{}, {},
-                              [&](const ParticleRow& row, const calib::ParticleResidual&) { s.particles.push_back(row); });
   const Status run = simulation->run(
-      o.events, o.threads,
+      events, o.threads,
       [&](std::span<const ParticleRow> rows, std::span<const TruthRow>, std::span<const Hit>) {
         filler.addEvents(rows);
         return Status{};
       },
       [&](std::int64_t done) {
-        if (progress) progress(stage, done, o.events);
+        if (progress) progress(stage, done, events);
       });
-  if (!run) return run.error();
+  if (!run) return run;
   if (Status sel = filler.checkSelected(); !sel) return Error{fmt::format("{}: {}", stage, sel.error().message)};
+  return {};
+}
+
+Result<Sample> simulate(const geometry::Calorimeter& calo, const DerivationOptions& o, const AlignmentParameters& truth,
+                        int k, std::string_view stage, const DerivationProgress& progress) {
+  Sample s;
+  s.truth = truth;
+  // The residuals at the nominal depth only decide which tracks reach the EMC; the rows are
+  // kept and their residuals rebuilt at every depth tried.
+  calib::ProfileFiller filler(geometry::ShowerDepth::of(calo.description()), calib::SelectionOptions{}, {},
+                              [&](const ParticleRow& row, const calib::ParticleResidual&) { s.particles.push_back(row); });
+  const std::uint64_t seed = Rng(o.seed ^ 0xC0EEC7ULL, static_cast<std::uint64_t>(k)).next();
+  if (Status st = simulateInto(calo, o, truth, seed, o.events, filler, stage, progress); !st) return st.error();
   s.selectedEvents = filler.fill().cutFlow.events.back();
   return s;
 }
@@ -184,22 +194,10 @@ Result<calib::FitResponse> measureResponse(const geometry::Calorimeter& calo, co
     const std::string stage = fmt::format("simulate response sample {}", i);
     Rng truthRng(o.seed ^ 0x2E5905EULL, static_cast<std::uint64_t>(i));
     const AlignmentParameters truth = drawTruth(o.responseRanges, calo.description().r1(), truthRng);
-    sim::SimulationOptions so = o.simulation;
-    so.seed = truthRng.next();
-    auto simulation = sim::Simulation::create(calo, truth, so);
-    if (!simulation) return simulation.error();
     calib::ProfileFiller filler(g.depth, calib::SelectionOptions{}, po);
-    const Status run = simulation->run(
-        o.responseEvents, o.threads,
-        [&](std::span<const ParticleRow> rows, std::span<const TruthRow>, std::span<const Hit>) {
-          filler.addEvents(rows);
-          return Status{};
-        },
-        [&](std::int64_t done) {
-          if (progress) progress(stage, done, o.responseEvents);
-        });
-    if (!run) return run.error();
-    if (Status sel = filler.checkSelected(); !sel) return Error{fmt::format("{}: {}", stage, sel.error().message)};
+    if (Status st = simulateInto(calo, o, truth, truthRng.next(), o.responseEvents, filler, stage, progress); !st) {
+      return st.error();
+    }
     auto fit = calib::fitProfiles(filler.fill().profiles.bins(0.0), g);
     if (!fit) return Error{fmt::format("{}: {}", stage, fit.error().message)};
     if (!usable(fit->status)) {
@@ -233,7 +231,11 @@ Result<calib::FitResponse> measureResponse(const geometry::Calorimeter& calo, co
       report.responseErrors(j, k) = std::sqrt(variance * inverse(k + 1, k + 1));
     }
   }
-  if (Status s = response.validate(); !s) return Error{fmt::format("the measured response: {}", s.error().message)};
+  if (Status s = response.validate(); !s) {
+    return Error{fmt::format("the measured response: {} (too few response events for {} coefficients per parameter? "
+                             "more --response-samples or --response-events)",
+                             s.error().message, kCols)};
+  }
   return response;
 }
 

@@ -15,6 +15,7 @@
 
 #include "common.hpp"
 #include "emcalign/calib/corrections.hpp"
+#include "emcalign/calib/corrections_grid.hpp"
 #include "emcalign/core/sha256.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/validation/calibration_campaign.hpp"
@@ -70,7 +71,7 @@ int runGroup(const CampaignCliOptions& o) {
                                          plan->corrections, o.plan)});
   }
   if (!o.corrections.empty()) {
-    auto given = sha256OfFile(o.corrections);
+    auto given = calib::correctionsDigest(o.corrections);
     if (!given) return reportError(given.error());
     if (*given != plan->correctionsSha256) {
       return reportError(Error{fmt::format("--corrections {}: the plan {} was made {}", o.corrections, o.plan,
@@ -106,9 +107,14 @@ int runGroup(const CampaignCliOptions& o) {
                                            file, o.plan)});
     }
   }
-  calib::ProfileFill fill = calib::ProfileFill::empty(model->profile);
+  auto groupModel = model->at(g.beamEnergy);
+  if (!groupModel) return reportError(Error{fmt::format("group {} (runs {}-{}): {}", g.index, g.iovFirst, g.iovLast,
+                                                        groupModel.error().message)});
+  if (!groupModel->correctionsWarning.empty()) reportWarning(groupModel->correctionsWarning);
+  calib::ProfileFill fill = calib::ProfileFill::empty(groupModel->profile);
   for (const auto& file : g.files) {
-    auto byRun = calib::fillProfilesByRun(file, model->geometry.depth, model->selection, model->profile);
+    auto byRun = calib::fillProfilesByRun(file, [&](double e) { return groupModel->depthAt(e); },
+                                          groupModel->selection, groupModel->profile);
     if (!byRun) return reportError(byRun.error());
     for (std::int32_t run : g.runs) {
       if (auto it = byRun->find(run); it != byRun->end()) fill.merge(it->second);
@@ -119,7 +125,7 @@ int runGroup(const CampaignCliOptions& o) {
                                          "changed since the plan was made?)",
                                          g.index, fill.cutFlow.events.back(), g.selected)});
   }
-  auto fit = validation::fitGroup(g, fill, *model, plan->digests,
+  auto fit = validation::fitGroup(g, fill, *groupModel, plan->digests,
                                   validation::campaignOrigin(g, plan->minEvents, static_cast<int>(plan->groups.size())));
   if (!fit) return reportError(fit.error());
   if (!usable(fit->result.status)) {
@@ -219,8 +225,10 @@ void addCampaignCommand(CLI::App& app, int& exitCode) {
   cmd->add_option("--min-events", o->minEvents, "selected events per calibration (the paper: about 50 000)")
       ->check(integerIn(1, kMaxEvents));
   cmd->add_option("--threads", o->threads, "worker threads (0: all cores)")->check(integerIn(0, kMaxThreads));
-  cmd->add_option("--corrections", o->corrections, "model corrections for every fit (emcalign derive-corrections)")
-      ->check(CLI::ExistingFile);
+  cmd->add_option("--corrections", o->corrections,
+                  "model corrections for every fit (emcalign derive-corrections): a file, or a directory of them "
+                  "over the beam energies (each group fitted with the corrections of its energy)")
+      ->check(CLI::ExistingPath);
   addSigmaSysOption(*cmd, o->sigmaSys);
   cmd->add_option("--plan", o->plan,
                   "with inputs: write the groups as a job list (JSON) and stop; with --group: the job list to run "

@@ -103,7 +103,16 @@ int run(const CheckCliOptions& o) {
                           fixed(json["improvement_percent"].value("dphi_width", NAN), 1),
                           fixed(b.value("dtheta_width_deg", NAN), 3), fixed(a.value("dtheta_width_deg", NAN), 3));
   } else {
-    auto check = apply::checkThreePion(o.events, {corrected.path}, options.depth);
+    // The kinematic fit's R(E, θ): a grid's at the sample's beam energy (its first event's).
+    geometry::ShowerDepth depth = options.depth;
+    if (options.depthAt) {
+      auto energy = io::firstBeamEnergy(o.events);
+      if (!energy) return reportError(energy.error());
+      auto d = options.depthAt(*energy);
+      if (!d) return reportError(d.error());
+      depth = *d;
+    }
+    auto check = apply::checkThreePion(o.events, {corrected.path}, depth);
     if (!check) return reportError(check.error());
     json = apply::checkJson(*check);
     std::array<std::vector<double>, 2> chi2;
@@ -156,8 +165,10 @@ void addProcess(CLI::App& parent, const std::string& process, const std::string&
   conditions->needs(cmd->get_option("--tag"));
   cmd->add_option("--method", o->method, "the correction's method: auto, hits or clusters (as emcalign correct)")
       ->check(CLI::IsMember({"auto", "hits", "clusters"}));
-  cmd->add_option("--corrections", o->corrections, "the depth offset of the cluster method and of R(E, theta)")
-      ->check(CLI::ExistingFile);
+  cmd->add_option("--corrections", o->corrections,
+                  "the depth offset of the cluster method and of R(E, theta): a corrections file, or a grid "
+                  "directory (at each event's beam energy)")
+      ->check(CLI::ExistingPath);
   addDetectorOption(*cmd, o->detector);
   cmd->add_option("-o,--output", o->output, "output directory: check.json and the figure")->required();
   cmd->callback([o, &exitCode] {

@@ -50,14 +50,17 @@ int run(const CorrectCliOptions& o) {
   if (!made) return reportError(made.error());
   apply::CorrectOptions& options = *made;
   io::Json inputsJson = o.events;
-  options.description =
-      io::Json{{"software", fmt::format("emcalign {}", kVersion)},
-               {"alignment", alignmentJson},
-               {"method", o.method},
-               {"log_weight_w0", options.logWeightW0},
-               {"depth_offset_cm", options.depth.offset / units::cm},
-               {"inputs", inputsJson}}
-          .dump();
+  io::Json description = {{"software", fmt::format("emcalign {}", kVersion)},
+                          {"alignment", alignmentJson},
+                          {"method", o.method},
+                          {"log_weight_w0", options.logWeightW0},
+                          {"depth_offset_cm", options.depth.offset / units::cm},
+                          {"inputs", inputsJson}};
+  if (options.depthAt) {  // a grid: the offset of each event's beam energy
+    description["depth_offset_cm"] = nullptr;
+    description["corrections_grid"] = o.corrections;
+  }
+  options.description = description.dump();
   ProgressLine progress("correct", 0, "rows");
   options.progress = [&](std::int64_t rows) { progress.update(rows); };
   auto report = apply::correctFiles(o.events, o.output, *calo, source->alignmentOf(), options);
@@ -99,8 +102,9 @@ void addCorrectCommand(CLI::App& app, int& exitCode) {
                                  "cm added to R(E, theta) by the cluster method (default 0, SPEC)")
                      ->check(finiteIn(-calib::kMaxDepthOffset, calib::kMaxDepthOffset));
   cmd->add_option("--corrections", o->corrections,
-                  "take the depth offset of the cluster method from a corrections file (emcalign derive-corrections)")
-      ->check(CLI::ExistingFile)
+                  "take the depth offset of the cluster method from a corrections file (emcalign derive-corrections), "
+                  "or from a grid directory at each event's beam energy")
+      ->check(CLI::ExistingPath)
       ->excludes(offset);
   addDetectorOption(*cmd, o->detector);
   cmd->add_option("-o,--output", o->output, "output file: .csv for CSV, anything else HDF5; '-': CSV to standard output")

@@ -1,7 +1,10 @@
 // emcalign derive-corrections: measures, in the simulation, the model corrections that
 // `emcalign fit --corrections` applies (the shower-depth offset and the parting-plane
-// response; calib/corrections.hpp, validation/derive_corrections.hpp).
+// response; calib/corrections.hpp, validation/derive_corrections.hpp), at one beam energy
+// or over a grid of them (calib/corrections_grid.hpp).
 
+#include <algorithm>
+#include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
@@ -22,7 +25,7 @@ struct DeriveOptions {
   std::int64_t events = 400000;
   std::uint64_t seed = 1;
   int threads = 0;
-  double beamEnergy = 0.0;
+  std::vector<double> beamEnergies;  ///< MeV; several: a grid written into the -o directory
   double thetaMinDeg = 40.0;
   double thetaMaxDeg = 140.0;
   double shift = 0.6;
@@ -35,15 +38,98 @@ struct DeriveOptions {
   std::string output;
 };
 
+// What the file records under derived_from.settings: a rerun into a grid keeps a point
+// derived with the same.
+io::Json settingsOf(const DeriveOptions& cli, double beamEnergy) {
+  return {{"events_per_sample", cli.events},
+          {"seed", cli.seed},
+          {"beam_energy_mev", beamEnergy / units::MeV},
+          {"theta_range_deg", {cli.thetaMinDeg, cli.thetaMaxDeg}},
+          {"ideal", cli.ideal},
+          {"off", cli.off},
+          {"shift_cm", cli.shift},
+          {"gap_cm", cli.gap},
+          {"response_samples", cli.responseSamples},
+          {"response_events_per_sample", cli.responseEvents},
+          {"detector", cli.detector.empty() ? "embedded default" : cli.detector}};
+}
+
+// A grid point's file: DIR/ee-<E>MeV.json.
+std::string pointFile(const std::string& dir, double beamEnergy) {
+  return (std::filesystem::path(dir) / fmt::format("ee-{}MeV.json", beamEnergy / units::MeV)).string();
+}
+
+// Whether `path` holds corrections derived with these settings (an interrupted grid resumes).
+bool derivedWith(const std::string& path, const io::Json& settings) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return false;
+  auto c = calib::readCorrections(path);
+  return c && c->derivedFrom.is_object() && c->derivedFrom.value("settings", io::Json()) == settings;
+}
+
+void printReport(const validation::DerivationReport& report) {
+  const auto& c = report.corrections;
+  fmt::print(reportStream(), "Selected events: nominal {}, shift {}, gap {}\n", report.selectedEvents[0], report.selectedEvents[1],
+             report.selectedEvents[2]);
+  fmt::print(reportStream(), "Depth offset: {:+.3f} ± {:.3f} cm (chi2 {:.1f} over {} bins)\n", c.depthOffset / units::cm,
+             report.depthOffsetError / units::cm, report.depthChi2, report.depthBins);
+  fmt::print(reportStream(), "Parting-plane response: W+ per phi column (measured; * = next to the plane, used in the model):\n");
+  const int columns = c.partingPlane->phiBins();
+  for (int k = 0; k < columns; ++k) {
+    const bool used = calib::PartingPlaneResponse::nextToPlane(k, columns);
+    fmt::print(reportStream(), "  phi {:5.1f}-{:5.1f} deg   W+ = {:6.3f} ± {:.3f}{}\n", 360.0 * k / columns, 360.0 * (k + 1) / columns,
+               report.columnWeights[static_cast<std::size_t>(k)], report.columnWeightErrors[static_cast<std::size_t>(k)],
+               used ? "  *" : "");
+  }
+  if (c.response) {
+    fmt::print(reportStream(), "Fit response over the validation ranges, diagonal of R (fitted against true):\n ");
+    for (Param p : kAllParams) {
+      const auto k = static_cast<Eigen::Index>(index(p));
+      fmt::print(reportStream(), " {} {:.4f}±{:.4f}", name(p), c.response->matrix(k, k), report.responseErrors(k, k));
+    }
+    fmt::print(reportStream(), "\nStatistical error the response gives every fit using this file (file units):\n ");
+    for (Param p : kAllParams) {
+      fmt::print(reportStream(), " {} {:.2g}", name(p),
+                 report.responseParameterErrors[static_cast<Eigen::Index>(index(p))] /
+                     geometry::AlignmentParameters::fileUnit(p));
+    }
+    fmt::print(reportStream(), "\n");
+  }
+  fmt::print(reportStream(), "Statistical error the nominal profile gives every fit using this file (file units):\n ");
+  for (Param p : kAllParams) {
+    fmt::print(reportStream(), " {} {:.2g}", name(p),
+               report.nominalProfileErrors[static_cast<Eigen::Index>(index(p))] / geometry::AlignmentParameters::fileUnit(p));
+  }
+  fmt::print(reportStream(), "\n");
+  fmt::print(reportStream(), "Closure (the derivation samples fitted like data):\n");
+  for (const auto& f : report.closure) {
+    fmt::print(reportStream(), "  {:<5} {:<6} truth {:.3f} cm: paper's model {:.4f} ± {:.4f}, corrected {:.4f} ± {:.4f} cm\n", f.sample,
+               f.parameter, f.truth, f.paperModel, f.paperError, f.corrected, f.correctedError);
+  }
+}
+
 int run(const DeriveOptions& cli) {
+  validation::DerivationOptions o;
+  std::vector<double> energies;
+  for (double e : cli.beamEnergies) energies.push_back(e * units::MeV);
+  if (energies.empty()) energies.push_back(o.simulation.generator.beamEnergy);
+  std::sort(energies.begin(), energies.end());
+  if (std::adjacent_find(energies.begin(), energies.end()) != energies.end()) {
+    return reportError({"--beam-energy: an energy is given twice"});
+  }
+  const bool grid = energies.size() > 1;
   // The output is checked before hours of simulation, not after.
-  if (Status s = checkOutputs({{"-o", cli.output}}, {}, {{"--detector", cli.detector}}); !s) return reportError(s.error());
+  const std::vector<io::NamedPath> output = {{"-o", cli.output}};
+  if (Status s = checkOutputs(grid ? std::vector<io::NamedPath>{} : output, grid ? output : std::vector<io::NamedPath>{},
+                              {{"--detector", cli.detector}});
+      !s) {
+    return reportError(s.error());
+  }
   if (cli.thetaMinDeg >= cli.thetaMaxDeg) {
     return reportError({fmt::format("--theta-min {} must be below --theta-max {}", cli.thetaMinDeg, cli.thetaMaxDeg)});
   }
   auto calo = loadCalorimeter(cli.detector);
   if (!calo) return reportError(calo.error());
-  validation::DerivationOptions o;
   o.events = cli.events;
   o.seed = cli.seed;
   o.threads = cli.threads;
@@ -52,78 +138,60 @@ int run(const DeriveOptions& cli) {
   o.responseEvents = cli.responseEvents;
   o.responseSamples = cli.responseSamples;
   if (Status s = applyRealismSwitches(o.simulation, cli.ideal, cli.off); !s) return reportError(s.error());
-  if (cli.beamEnergy > 0.0) o.simulation.generator.beamEnergy = cli.beamEnergy * units::MeV;
   o.simulation.generator.thetaMin = cli.thetaMinDeg * units::deg;
   o.simulation.generator.thetaMax = cli.thetaMaxDeg * units::deg;
-  const io::Json settings = {{"events_per_sample", cli.events},
-                             {"seed", cli.seed},
-                             {"beam_energy_mev", o.simulation.generator.beamEnergy / units::MeV},
-                             {"theta_range_deg", {cli.thetaMinDeg, cli.thetaMaxDeg}},
-                             {"ideal", cli.ideal},
-                             {"off", cli.off},
-                             {"shift_cm", cli.shift},
-                             {"gap_cm", cli.gap},
-                             {"response_samples", cli.responseSamples},
-                             {"response_events_per_sample", cli.responseEvents},
-                             {"detector", cli.detector.empty() ? "embedded default" : cli.detector}};
 
-  ProgressLine progress("derive-corrections", 3 * cli.events + cli.responseSamples * cli.responseEvents, "events");
-  std::int64_t before = 0, lastTotal = 0;  // events of the finished samples, of the current one
-  std::string lastStage;
-  auto report = validation::deriveCorrections(*calo, o, [&](std::string_view stage, std::int64_t done, std::int64_t total) {
-    if (stage.rfind("simulate", 0) != 0) return;
-    if (stage != lastStage) {
-      lastStage = std::string(stage);
-      before += lastTotal;
-      lastTotal = total;
+  // A grid's points not yet derived with these settings (an interrupted grid resumes).
+  std::vector<std::pair<double, std::string>> todo;
+  for (double e : energies) {
+    const std::string file = grid ? pointFile(cli.output, e) : cli.output;
+    if (grid && derivedWith(file, settingsOf(cli, e))) {
+      fmt::print(reportStream(), "kept {} (derived with the same settings)\n", file);
+    } else {
+      todo.emplace_back(e, file);
     }
-    progress.update(before + done);
-  });
+  }
+  if (grid) {
+    std::error_code ec;
+    std::filesystem::create_directories(cli.output, ec);
+    if (ec) return reportError({fmt::format("-o {}: cannot create the directory: {}", cli.output, ec.message())});
+  }
+  const std::int64_t perPoint = 3 * cli.events + cli.responseSamples * cli.responseEvents;
+  ProgressLine progress("derive-corrections", static_cast<std::int64_t>(todo.size()) * perPoint, "events");
+  for (std::size_t k = 0; k < todo.size(); ++k) {
+    const auto& [energy, file] = todo[k];
+    o.simulation.generator.beamEnergy = energy;
+    std::int64_t before = static_cast<std::int64_t>(k) * perPoint, lastTotal = 0;  // events of the finished samples
+    std::string lastStage;
+    auto report = validation::deriveCorrections(*calo, o, [&](std::string_view stage, std::int64_t done, std::int64_t total) {
+      if (stage.rfind("simulate", 0) != 0) return;
+      if (stage != lastStage) {
+        lastStage = std::string(stage);
+        before += lastTotal;
+        lastTotal = total;
+      }
+      progress.update(before + done);
+    });
+    if (!report) {
+      progress.finish();
+      return reportError(grid ? Error{fmt::format("at {} MeV: {}", energy / units::MeV, report.error().message)}
+                              : report.error());
+    }
+    if (grid) fmt::print(reportStream(), "{}Beam energy {} MeV:\n", k == 0 ? "" : "\n", energy / units::MeV);
+    printReport(*report);
+    const std::string text = validation::derivationJson(*report, settingsOf(cli, energy)).dump(2) + "\n";
+    if (Status s = io::writeOutputFile(file, text); !s) return reportError(s.error());
+    fmt::print(reportStream(), "wrote {} after {:.1f} s\n", file, progress.elapsed());
+  }
   progress.finish();
-  if (!report) return reportError(report.error());
-
-  const auto& c = report->corrections;
-  fmt::print(reportStream(), "Selected events: nominal {}, shift {}, gap {}\n", report->selectedEvents[0], report->selectedEvents[1],
-             report->selectedEvents[2]);
-  fmt::print(reportStream(), "Depth offset: {:+.3f} ± {:.3f} cm (chi2 {:.1f} over {} bins)\n", c.depthOffset / units::cm,
-             report->depthOffsetError / units::cm, report->depthChi2, report->depthBins);
-  fmt::print(reportStream(), "Parting-plane response: W+ per phi column (measured; * = next to the plane, used in the model):\n");
-  const int columns = c.partingPlane->phiBins();
-  for (int k = 0; k < columns; ++k) {
-    const bool used = calib::PartingPlaneResponse::nextToPlane(k, columns);
-    fmt::print(reportStream(), "  phi {:5.1f}-{:5.1f} deg   W+ = {:6.3f} ± {:.3f}{}\n", 360.0 * k / columns, 360.0 * (k + 1) / columns,
-               report->columnWeights[static_cast<std::size_t>(k)], report->columnWeightErrors[static_cast<std::size_t>(k)],
-               used ? "  *" : "");
+  if (grid) {
+    fmt::print(reportStream(), "grid {}: {} beam energies, {} to {} MeV, {} derived in {:.1f} s (use: emcalign fit "
+               "--corrections {})\n",
+               cli.output, energies.size(), energies.front() / units::MeV, energies.back() / units::MeV, todo.size(),
+               progress.elapsed(), cli.output);
+  } else {
+    fmt::print(reportStream(), "use: emcalign fit --corrections {}\n", cli.output);
   }
-  if (c.response) {
-    fmt::print(reportStream(), "Fit response over the validation ranges, diagonal of R (fitted against true):\n ");
-    for (Param p : kAllParams) {
-      const auto k = static_cast<Eigen::Index>(index(p));
-      fmt::print(reportStream(), " {} {:.4f}±{:.4f}", name(p), c.response->matrix(k, k), report->responseErrors(k, k));
-    }
-    fmt::print(reportStream(), "\nStatistical error the response gives every fit using this file (file units):\n ");
-    for (Param p : kAllParams) {
-      fmt::print(reportStream(), " {} {:.2g}", name(p),
-                 report->responseParameterErrors[static_cast<Eigen::Index>(index(p))] /
-                     geometry::AlignmentParameters::fileUnit(p));
-    }
-    fmt::print(reportStream(), "\n");
-  }
-  fmt::print(reportStream(), "Statistical error the nominal profile gives every fit using this file (file units):\n ");
-  for (Param p : kAllParams) {
-    fmt::print(reportStream(), " {} {:.2g}", name(p),
-               report->nominalProfileErrors[static_cast<Eigen::Index>(index(p))] / geometry::AlignmentParameters::fileUnit(p));
-  }
-  fmt::print(reportStream(), "\n");
-  fmt::print(reportStream(), "Closure (the derivation samples fitted like data):\n");
-  for (const auto& f : report->closure) {
-    fmt::print(reportStream(), "  {:<5} {:<6} truth {:.3f} cm: paper's model {:.4f} ± {:.4f}, corrected {:.4f} ± {:.4f} cm\n", f.sample,
-               f.parameter, f.truth, f.paperModel, f.paperError, f.corrected, f.correctedError);
-  }
-  if (Status s = io::writeOutputFile(cli.output, validation::derivationJson(*report, settings).dump(2) + "\n"); !s) {
-    return reportError(s.error());
-  }
-  fmt::print(reportStream(), "wrote {} in {:.1f} s (use: emcalign fit --corrections {})\n", cli.output, progress.elapsed(), cli.output);
   return 0;
 }
 
@@ -139,7 +207,11 @@ void addDeriveCorrectionsCommand(CLI::App& app, int& exitCode) {
       ->check(integerIn(1000, 1000000000));
   cmd->add_option("--seed", o->seed, "seed, 0 to 2^64 - 1")->check(unsigned64());
   cmd->add_option("--threads", o->threads, "worker threads (0: all cores)")->check(integerIn(0, kMaxThreads));
-  cmd->add_option("--beam-energy", o->beamEnergy, "beam energy, MeV (default 612.5)")
+  cmd->add_option("--beam-energy", o->beamEnergies,
+                  "beam energy, MeV (default 612.5); several (E1,E2,...) derive a grid for a beam-energy scan, "
+                  "one file per energy in the -o directory (ee-<E>MeV.json; a rerun keeps the points already "
+                  "derived with the same settings)")
+      ->delimiter(',')
       ->check(finiteIn(sim::kMinBeamEnergy / units::MeV, sim::kMaxBeamEnergy / units::MeV));
   cmd->add_option("--theta-min", o->thetaMinDeg, "generated polar range of the leptons, deg (default 40)")
       ->check(finiteIn(0.0, 180.0));
@@ -155,7 +227,9 @@ void addDeriveCorrectionsCommand(CLI::App& app, int& exitCode) {
   cmd->add_flag("--ideal", o->ideal, "use the idealised simulation (the corrections should vanish)");
   cmd->add_option("--off", o->off, "switch realism effects off (as emcalign simulate --off)")->delimiter(',');
   addDetectorOption(*cmd, o->detector);
-  cmd->add_option("-o,--output", o->output, "corrections file (JSON, emcalign-corrections/1)")->required();
+  cmd->add_option("-o,--output", o->output,
+                  "corrections file (JSON, emcalign-corrections/1), or the grid's directory with several energies")
+      ->required();
   cmd->callback([o, &exitCode] { exitCode = run(*o); });
 }
 

@@ -4,16 +4,19 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <numbers>
 #include <memory>
+#include <numbers>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "common.hpp"
 #include "emcalign/apply/cluster_correction.hpp"
 #include "emcalign/calib/calibration.hpp"
+#include "emcalign/calib/corrections_grid.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/io/json_files.hpp"
 #include "emcalign/report/plots.hpp"
@@ -110,6 +113,34 @@ Status drawPlots(const FitCliOptions& o, const calib::FitGeometry& geometry, con
   return {};
 }
 
+// The corrections of --corrections at the sample's beam energy: --beam-energy, else the
+// first event's (a saved profile does not say it: a grid needs --beam-energy).
+Result<calib::CorrectionsAt> correctionsOf(const FitCliOptions& o) {
+  auto grid = calib::CorrectionsGrid::read(o.corrections);
+  if (!grid) return grid.error();
+  std::optional<double> energy;
+  if (o.beamEnergy > 0.0) energy = o.beamEnergy * units::MeV;
+  if (!o.profileIn.empty()) {
+    if (grid->isGrid() && !energy) {
+      return Error{fmt::format("--corrections {} is a grid over beam energies and the profile {} does not say its "
+                               "energy: give --beam-energy",
+                               o.corrections, o.profileIn)};
+    }
+    return grid->at(energy.value_or(std::numeric_limits<double>::quiet_NaN()));
+  }
+  return calib::correctionsForSample(*grid, o.events, energy);
+}
+
+// " at E MeV (a.json × 0.6, b.json × 0.4)" for a grid's interpolation, else nothing.
+std::string interpolationText(const io::Json& interpolation) {
+  if (interpolation.is_null()) return {};
+  std::vector<std::string> points;
+  for (const auto& p : interpolation.at("points")) {
+    points.push_back(fmt::format("{} MeV × {:.3f}", p.at("beam_energy_mev").get<double>(), p.at("weight").get<double>()));
+  }
+  return fmt::format(" at {} MeV ({})", interpolation.at("beam_energy_mev").get<double>(), fmt::join(points, ", "));
+}
+
 int run(const FitCliOptions& o) {
   std::vector<io::NamedPath> inputs;
   for (const auto& e : o.events) inputs.push_back({"", e});
@@ -128,9 +159,14 @@ int run(const FitCliOptions& o) {
   profileOptions.eventPairs = sigmaSysChoice(o.sigmaSys).keepsEventPairs();
   calib::FitInput input;
   input.depthOffset = o.depthOffset;
+  std::optional<calib::CorrectionsAt> corrections;
   if (!o.corrections.empty()) {
-    auto c = calib::readCorrections(o.corrections);
-    if (!c) return reportError(c.error());
+    auto at = correctionsOf(o);
+    if (!at) return reportError(at.error());
+    corrections = std::move(*at);
+    if (!corrections->warning.empty()) reportWarning(corrections->warning);
+    const calib::ModelCorrections* c = &corrections->corrections;
+    input.correctionsInterpolation = corrections->interpolation;
     geometry.apply(*c);
     input.depthOffset = c->depthOffset;
     if (c->response) input.response = o.corrections;
@@ -139,9 +175,9 @@ int run(const FitCliOptions& o) {
     if (c->partingPlane) input.partingPlane = o.corrections;
     if (c->nominalProfile) input.nominalProfile = o.corrections;
     fmt::print(reportStream(),
-               "Model corrections from {}: depth offset {:+.2f} cm, parting-plane response {}, nominal profile {}, "
+               "Model corrections from {}{}: depth offset {:+.2f} cm, parting-plane response {}, nominal profile {}, "
                "fit response {}\n",
-               o.corrections, c->depthOffset / units::cm, c->partingPlane ? "on" : "off",
+               o.corrections, interpolationText(corrections->interpolation), c->depthOffset / units::cm, c->partingPlane ? "on" : "off",
                c->nominalProfile ? "subtracted" : "off", c->response ? "on" : "off");
   }
 
@@ -189,6 +225,9 @@ int run(const FitCliOptions& o) {
     if (!filled) return reportError(filled.error());
     fill = std::move(*filled);
     printCutFlow(*fill);
+    if (corrections) {
+      if (Status st = calib::checkSampleEnergies(*corrections, fill->beamEnergies); !st) return reportError(st.error());
+    }
     input.files = o.events;
     input.fill = &*fill;
   }
@@ -233,7 +272,7 @@ void addFitCommand(CLI::App& app, int& exitCode) {
   cmd->add_option("--plots", o->plots,
                   "draw the paper's figures (PNG, gnuplot) into this directory: profiles with the fitted "
                   "curves, and the residual distributions before and after the correction");
-  cmd->add_option("--beam-energy", o->beamEnergy, "beam energy for the selection, MeV (default: from the file)")
+  cmd->add_option("--beam-energy", o->beamEnergy, "beam energy for the selection and a corrections grid, MeV (default: from the file)")
       ->check(finiteIn(10.0, 10000.0));
   auto* depthOffset = cmd->add_option("--depth-offset", o->depthOffset,
                   "cm added to the shower depth R(E, theta) in the residuals and the model (default 0: the "
@@ -242,8 +281,9 @@ void addFitCommand(CLI::App& app, int& exitCode) {
   auto* corrections = cmd->add_option("--corrections", o->corrections,
                                       "model corrections derived from the simulation (emcalign derive-corrections): "
                                       "the shower-depth offset, the parting-plane response, the nominal profile and "
-                                      "the fit's response")
-                          ->check(CLI::ExistingFile);
+                                      "the fit's response; a directory of them over the beam energies is a grid, "
+                                      "interpolated to the sample's energy (docs/validation.md)")
+                          ->check(CLI::ExistingPath);
   corrections->excludes(depthOffset);
   addSigmaSysOption(*cmd, o->sigmaSys);
   addDetectorOption(*cmd, o->detector);

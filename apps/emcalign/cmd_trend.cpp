@@ -226,8 +226,9 @@ void addTrendCommand(CLI::App& app, int& exitCode) {
   auto* tagOut = cmd->add_option("--tag-out", o->tagOut, "the new tag of --refit")->check(tagName());
   refit->needs(tagOut);
   tagOut->needs(refit);
-  cmd->add_option("--corrections", o->corrections, "the model corrections the campaign used (for --refit)")
-      ->check(CLI::ExistingFile);
+  cmd->add_option("--corrections", o->corrections,
+                  "the model corrections the campaign used, a file or a grid directory (for --refit)")
+      ->check(CLI::ExistingPath);
   cmd->add_option("--min-segment", o->minSegment, "IOVs per stable segment at least (default 2)")
       ->check(integerIn(2, 1000));
   cmd->add_option("--threads", o->threads, "worker threads for --refit (0: all cores)")->check(integerIn(0, kMaxThreads));

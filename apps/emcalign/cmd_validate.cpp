@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "common.hpp"
+#include "emcalign/calib/corrections_grid.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/validation/campaign.hpp"
 #include "progress.hpp"
@@ -22,6 +23,7 @@ struct ValidateOptions {
   std::string ranges;
   std::string detector;
   int threads = 0;
+  double beamEnergy = 0.0;  ///< MeV; 0: the simulation's default
   double thetaMinDeg = 40.0;
   double thetaMaxDeg = 140.0;
   bool ideal = false;
@@ -58,12 +60,16 @@ int run(const ValidateOptions& cli) {
   if (cli.pointShowers) o.simulation.emc.pointShowers = true;
   o.corrections.depthOffset = cli.depthOffset;
   io::Json correctionsSetting = nullptr;
+  if (cli.beamEnergy > 0.0) o.simulation.generator.beamEnergy = cli.beamEnergy * units::MeV;
   if (!cli.corrections.empty()) {
-    auto c = calib::readCorrections(cli.corrections);
+    auto grid = calib::CorrectionsGrid::read(cli.corrections);
+    if (!grid) return reportError(grid.error());
+    auto c = grid->at(o.simulation.generator.beamEnergy);
     if (!c) return reportError(c.error());
-    o.corrections = *c;
+    if (!c->warning.empty()) reportWarning(c->warning);
+    o.corrections = c->corrections;
     // The samples record what the corrections were, so that a rerun with another file is refused.
-    const std::string text = calib::correctionsJson(*c).dump();
+    const std::string text = calib::correctionsJson(o.corrections).dump();
     std::uint64_t digest = 0xcbf29ce484222325ULL;  // FNV-1a
     for (unsigned char ch : text) digest = (digest ^ ch) * 0x100000001b3ULL;
     correctionsSetting = {{"file", cli.corrections}, {"fnv1a", fmt::format("{:016x}", digest)}};
@@ -85,8 +91,9 @@ int run(const ValidateOptions& cli) {
                 {"ranges", ranges},
                 {"mu_below_gapless", o.ranges.muBelowGapless},
                 {"detector", cli.detector.empty() ? "embedded default" : cli.detector}};
-  // Only when given, so that a campaign directory of SPEC's σ_sys made before the option resumes.
+  // Only when given, so that a campaign directory made before the option resumes.
   if (!cli.sigmaSys.empty()) o.settings["sigma_sys"] = cli.sigmaSys;
+  if (cli.beamEnergy > 0.0) o.settings["beam_energy_mev"] = cli.beamEnergy;
   o.sigmaSys = sigmaSysChoice(cli.sigmaSys);
   ProgressLine progress("validate", cli.samples, "samples");
   auto table = validation::runCampaign(*calo, o, cli.output, [&](int done, int) { progress.update(done); });
@@ -118,6 +125,8 @@ void addValidateCommand(CLI::App& app, int& exitCode) {
   cmd->add_option("--ranges", o->ranges, "ranges of the truth (JSON, emcalign-validation-ranges/1)")->check(CLI::ExistingFile);
   addDetectorOption(*cmd, o->detector);
   cmd->add_option("--threads", o->threads, "worker threads (0: all cores)")->check(integerIn(0, kMaxThreads));
+  cmd->add_option("--beam-energy", o->beamEnergy, "beam energy of the samples, MeV (default 612.5)")
+      ->check(finiteIn(sim::kMinBeamEnergy / units::MeV, sim::kMaxBeamEnergy / units::MeV));
   cmd->add_option("--theta-min", o->thetaMinDeg, "generated polar range of the leptons, deg (default 40)")
       ->check(finiteIn(0.0, 180.0));
   cmd->add_option("--theta-max", o->thetaMaxDeg, "(default 140)")->check(finiteIn(0.0, 180.0));
@@ -130,8 +139,9 @@ void addValidateCommand(CLI::App& app, int& exitCode) {
       cmd->add_option("--depth-offset", o->depthOffset, "cm added to R(E, theta) in the fits (as emcalign fit)")
           ->check(finiteIn(-calib::kMaxDepthOffset, calib::kMaxDepthOffset));
   cmd->add_option("--corrections", o->corrections,
-                  "fit with the model corrections of this file (emcalign derive-corrections; as emcalign fit)")
-      ->check(CLI::ExistingFile)
+                  "fit with the model corrections of this file, or of a grid directory at the samples' beam "
+                  "energy (emcalign derive-corrections; as emcalign fit)")
+      ->check(CLI::ExistingPath)
       ->excludes(depthOffset);
   addSigmaSysOption(*cmd, o->sigmaSys);
   cmd->add_option("-o,--output", o->output, "campaign directory (a rerun resumes it)")->required();

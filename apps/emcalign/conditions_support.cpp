@@ -4,6 +4,7 @@
 
 #include "common.hpp"
 #include "emcalign/calib/corrections.hpp"
+#include "emcalign/calib/corrections_grid.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/io/json_files.hpp"
 
@@ -91,9 +92,20 @@ Result<apply::CorrectOptions> correctOptions(const std::string& method, double d
   options.depth = geometry::ShowerDepth::of(calo.description());
   options.depth.offset = depthOffsetCm * units::cm;
   if (!corrections.empty()) {
-    auto c = calib::readCorrections(corrections);
-    if (!c) return c.error();
-    options.depth.offset = c->depthOffset;
+    auto grid = calib::CorrectionsGrid::read(corrections);
+    if (!grid) return grid.error();
+    const auto shared = std::make_shared<const calib::CorrectionsGrid>(std::move(*grid));
+    if (shared->isGrid()) {
+      options.depthAt = [shared, depth = options.depth](double beamEnergy) -> Result<geometry::ShowerDepth> {
+        auto at = shared->at(beamEnergy);
+        if (!at) return at.error();
+        geometry::ShowerDepth d = depth;
+        d.offset = at->corrections.depthOffset;
+        return d;
+      };
+    } else {
+      options.depth.offset = shared->points().front().corrections.depthOffset;
+    }
   }
   return options;
 }

@@ -56,7 +56,7 @@ struct AlignmentSource {
 
 /// The options of a correction from the command line: the method by name (auto, hits,
 /// clusters), the cluster method's R(E, θ) with its depth offset (cm), or the offset of a
-/// corrections file when one is given.
+/// corrections file when one is given (of a grid directory: at each event's beam energy).
 Result<apply::CorrectOptions> correctOptions(const std::string& method, double depthOffsetCm,
                                              const std::string& corrections, const geometry::Calorimeter& calo);
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <set>
 #include <span>
@@ -151,6 +152,8 @@ Result<CorrectReport> correctFiles(const std::vector<std::string>& inputs, const
   report.truth = wo.withTruth;
   report.hits = wo.withHits;
 
+  geometry::ShowerDepth depth = o.depth;  // at depthEnergy, with depthAt
+  double depthEnergy = std::numeric_limits<double>::quiet_NaN();
   for (bool more = *first; more;) {
     const auto* truth = (*reader)->truth();
     const auto* blockHits = (*reader)->hits();
@@ -186,8 +189,13 @@ Result<CorrectReport> correctFiles(const std::vector<std::string>& inputs, const
       for (ParticleRow& r : rows) {
         if (std::isnan(r.energy)) continue;
         if (Status s = select(r.run); !s) return s.error();
-        std::tie(r.phiEmc, r.thetaEmc) =
-            correctDirection(*current.transform, o.depth, r.phiEmc, r.thetaEmc, r.energy);
+        if (o.depthAt && r.beamEnergy != depthEnergy) {
+          auto d = o.depthAt(r.beamEnergy);
+          if (!d) return Error{fmt::format("{}: run {} ({} MeV): {}", inputs.front(), r.run, r.beamEnergy, d.error().message)};
+          depth = *d;
+          depthEnergy = r.beamEnergy;
+        }
+        std::tie(r.phiEmc, r.thetaEmc) = correctDirection(*current.transform, depth, r.phiEmc, r.thetaEmc, r.energy);
       }
     }
     const std::span<const TruthRow> t = wo.withTruth ? std::span<const TruthRow>(*truth) : std::span<const TruthRow>();

@@ -88,8 +88,7 @@ void ProfileFill::merge(const ProfileFill& other) {
   beamEnergies.insert(other.beamEnergies.begin(), other.beamEnergies.end());
 }
 
-Result<std::map<std::int32_t, ProfileFill>> fillProfilesByRun(const std::string& file,
-                                                               const geometry::ShowerDepth& depth,
+Result<std::map<std::int32_t, ProfileFill>> fillProfilesByRun(const std::string& file, const DepthAtEnergy& depthAt,
                                                                const SelectionOptions& selection,
                                                                const ProfileOptions& profile) {
   if (Status s = profile.validate(); !s) return s.error();
@@ -106,7 +105,12 @@ Result<std::map<std::int32_t, ProfileFill>> fillProfilesByRun(const std::string&
       std::size_t j = i + 1;
       while (j < rows.size() && rows[j].run == rows[i].run) ++j;
       auto it = fillers.find(rows[i].run);
-      if (it == fillers.end()) it = fillers.emplace(rows[i].run, ProfileFiller(depth, selection, profile)).first;
+      if (it == fillers.end()) {
+        const double energy = selection.beamEnergy.value_or(rows[i].beamEnergy);
+        auto depth = depthAt(energy);
+        if (!depth) return Error{fmt::format("{}: run {} ({} MeV): {}", file, rows[i].run, energy, depth.error().message)};
+        it = fillers.emplace(rows[i].run, ProfileFiller(*depth, selection, profile)).first;
+      }
       it->second.addEvents(std::span<const ParticleRow>(rows).subspan(i, j - i));
       i = j;
     }
@@ -186,6 +190,7 @@ io::Json fitResultJson(const FitResult& r, const FitInput& input) {
                              {"parting_plane_response", input.partingPlane.empty() ? Json(nullptr) : Json(input.partingPlane)},
                              {"nominal_profile", input.nominalProfile.empty() ? Json(nullptr) : Json(input.nominalProfile)},
                              {"response", input.response.empty() ? Json(nullptr) : Json(input.response)}};
+  if (!input.correctionsInterpolation.is_null()) in["model_corrections"]["interpolation"] = input.correctionsInterpolation;
   if (input.fill != nullptr) {
     Json flow = Json::object();
     for (std::size_t k = 0; k < CutFlow::kNames.size(); ++k) flow[CutFlow::kNames[k]] = input.fill->cutFlow.events[k];

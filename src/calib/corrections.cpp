@@ -199,10 +199,10 @@ Status FitResponse::validate() const {
 Result<ModelCorrections> parseCorrections(const Json& j, std::string_view source) {
   if (!j.is_object()) return Error{fmt::format("{}: expected a JSON object", source)};
   for (const auto& [key, value] : j.items()) {
-    if (key != "format" && key != "depth_offset_cm" && key != "parting_plane" && key != "nominal_profile" &&
-        key != "response" && key != "derived_from") {
-      return Error{fmt::format("{}: key '{}': unknown key (allowed: format, depth_offset_cm, parting_plane, "
-                               "nominal_profile, response, derived_from)",
+    if (key != "format" && key != "beam_energy_mev" && key != "depth_offset_cm" && key != "parting_plane" &&
+        key != "nominal_profile" && key != "response" && key != "derived_from") {
+      return Error{fmt::format("{}: key '{}': unknown key (allowed: format, beam_energy_mev, depth_offset_cm, "
+                               "parting_plane, nominal_profile, response, derived_from)",
                                source, key)};
     }
   }
@@ -210,6 +210,14 @@ Result<ModelCorrections> parseCorrections(const Json& j, std::string_view source
     return Error{fmt::format("{}: key 'format': expected \"{}\"", source, kCorrectionsFormat)};
   }
   ModelCorrections c;
+  if (j.contains("beam_energy_mev")) {
+    const Json& e = j["beam_energy_mev"];
+    if (!e.is_number() || !(e.get<double>() >= kMinCorrectionsEnergy && e.get<double>() <= kMaxCorrectionsEnergy)) {
+      return Error{fmt::format("{}: key 'beam_energy_mev': expected the beam energy in MeV, {} to {}", source,
+                               kMinCorrectionsEnergy / units::MeV, kMaxCorrectionsEnergy / units::MeV)};
+    }
+    c.beamEnergy = e.get<double>() * units::MeV;
+  }
   if (!j.contains("depth_offset_cm") || !j["depth_offset_cm"].is_number() ||
       !std::isfinite(j["depth_offset_cm"].get<double>())) {
     return Error{fmt::format("{}: key 'depth_offset_cm': expected a finite number (cm)", source)};
@@ -295,7 +303,9 @@ Result<ModelCorrections> readCorrections(const std::string& path) {
 }
 
 Json correctionsJson(const ModelCorrections& c) {
-  Json j{{"format", kCorrectionsFormat}, {"depth_offset_cm", c.depthOffset / units::cm}};
+  Json j{{"format", kCorrectionsFormat}};
+  if (!std::isnan(c.beamEnergy)) j["beam_energy_mev"] = c.beamEnergy / units::MeV;
+  j["depth_offset_cm"] = c.depthOffset / units::cm;
   if (c.partingPlane) {
     j["parting_plane"] = {{"phi_bins", c.partingPlane->phiBins()}, {"plus_weight", c.partingPlane->weights()}};
   }

@@ -324,4 +324,17 @@ Result<std::unique_ptr<EventReader>> EventReader::open(std::vector<std::string> 
   return std::unique_ptr<EventReader>(std::move(reader));
 }
 
+Result<double> firstBeamEnergy(const std::vector<std::string>& paths) {
+  auto reader = EventReader::open(paths, ReaderOptions{.blockRows = 1});
+  if (!reader) return reader.error();
+  std::vector<ParticleRow> rows;
+  auto more = (*reader)->next(rows);
+  if (!more) return more.error();
+  if (!*more || rows.empty()) {
+    return Error{paths.size() == 1 ? fmt::format("{}: no events", paths[0])
+                                   : fmt::format("no events in the {} files ({}, ...)", paths.size(), paths[0])};
+  }
+  return rows.front().beamEnergy;
+}
+
 }  // namespace emcalign::io

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <limits>
 #include <mutex>
+#include <set>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -70,20 +71,43 @@ Result<CampaignModel> campaignModel(const std::string& corrections, const std::s
   m.geometry = calib::FitGeometry::of(calo.description());
   m.detector = detector.empty() ? "embedded default" : detector;
   if (!corrections.empty()) {
-    auto c = calib::readCorrections(corrections);
-    if (!c) return c.error();
-    m.geometry.apply(*c);
-    m.profile.partingPlane = c->partingPlane;
-    m.profile.nominalProfile = c->nominalProfile;
+    auto grid = calib::CorrectionsGrid::read(corrections);
+    if (!grid) return grid.error();
+    m.grid = std::make_shared<const calib::CorrectionsGrid>(std::move(*grid));
+    if (!m.grid->isGrid()) {
+      const calib::ModelCorrections& c = m.grid->points().front().corrections;
+      m.geometry.apply(c);
+      m.profile.partingPlane = c.partingPlane;
+      m.profile.nominalProfile = c.nominalProfile;
+    }
     m.corrections = corrections;
-    auto digest = sha256OfFile(corrections);
-    if (!digest) return digest.error();
-    m.correctionsSha256 = *digest;
+    m.correctionsSha256 = m.grid->sha256();
   }
   if (Status s = m.profile.validate(); !s) {
     return Error{corrections.empty() ? s.error().message : fmt::format("{}: {}", corrections, s.error().message)};
   }
   return m;
+}
+
+Result<CampaignModel> CampaignModel::at(double beamEnergy) const {
+  if (!grid || std::isnan(beamEnergy)) return *this;
+  auto c = grid->at(beamEnergy);
+  if (!c) return c.error();
+  CampaignModel m = *this;
+  m.correctionsWarning = c->warning;
+  if (!grid->isGrid()) return m;
+  m.geometry.apply(c->corrections);
+  m.profile.partingPlane = c->corrections.partingPlane;
+  m.profile.nominalProfile = c->corrections.nominalProfile;
+  m.interpolation = c->interpolation;
+  return m;
+}
+
+Result<geometry::ShowerDepth> CampaignModel::depthAt(double beamEnergy) const {
+  if (!grid || !grid->isGrid()) return geometry.depth;
+  auto m = at(beamEnergy);
+  if (!m) return m.error();
+  return m->geometry.depth;
 }
 
 Result<CampaignScan> scanRuns(const std::vector<std::string>& files, const CampaignModel& model,
@@ -105,7 +129,8 @@ Result<CampaignScan> scanRuns(const std::vector<std::string>& files, const Campa
   tbb::task_arena arena(kSanitized ? 1 : threads);
   arena.execute([&] {
     tbb::parallel_for(std::size_t{0}, files.size(), [&](std::size_t k) {
-      perFile[k] = calib::fillProfilesByRun(files[k], model.geometry.depth, model.selection, model.profile);
+      perFile[k] = calib::fillProfilesByRun(files[k], [&](double e) { return model.depthAt(e); }, model.selection,
+                                            model.profile);
       const std::size_t n = ++done;
       if (o.progress) {
         std::lock_guard lock(progressMutex);
@@ -177,6 +202,17 @@ std::vector<std::string> CampaignScan::filesOf(std::int64_t first, std::int64_t 
   std::vector<std::string> out;
   for (std::size_t f : indices) out.push_back(files[f]);
   return out;
+}
+
+double CampaignScan::meanBeamEnergy(std::int64_t first, std::int64_t last) const {
+  double sum = 0.0;
+  std::int64_t n = 0;
+  for (const CampaignRun& r : runs) {
+    if (r.run < first || r.run > last || r.selected == 0) continue;
+    sum += r.beamEnergy * static_cast<double>(r.selected);
+    n += r.selected;
+  }
+  return n > 0 ? sum / static_cast<double>(n) : kNoEnergy;
 }
 
 calib::ProfileFill CampaignScan::fillOf(std::int64_t first, std::int64_t last, const calib::ProfileOptions& options,
@@ -395,6 +431,7 @@ Result<GroupFit> fitGroup(const CampaignGroup& g, const calib::ProfileFill& fill
   if (model.profile.partingPlane) input.partingPlane = model.corrections;
   if (model.profile.nominalProfile) input.nominalProfile = model.corrections;
   if (model.geometry.response) input.response = model.corrections;
+  input.correctionsInterpolation = model.interpolation;
   Json resultJson = calib::fitResultJson(*result, input);
   Json sha = Json::object();
   for (const auto& f : g.files) {
@@ -455,16 +492,25 @@ Result<CampaignReport> runCampaign(const CampaignScan& scan, const CampaignModel
   for (std::size_t k = 0; k < scan.files.size(); ++k) digests[scan.files[k]] = scan.digests[k];
 
   std::mutex dbMutex;  // one connection, one transaction at a time
+  std::set<std::string> corrWarnings;  // a single corrections file away from its energy
   int finished = 0;
   const int threads = o.threads > 0 ? o.threads : tbb::this_task_arena::max_concurrency();
   tbb::task_arena arena(threads);
   arena.execute([&] {
     tbb::parallel_for(std::size_t{0}, todo.size(), [&](std::size_t t) {
       const CampaignGroup& g = groups[todo[t]];
-      // The group's IOV holds exactly its runs (the IOVs tile the scanned runs).
-      const calib::ProfileFill fill = scan.fillOf(g.iovFirst, g.iovLast, model.profile);
-      auto fit = fitGroup(g, fill, model, digests, campaignOrigin(g, o.minEvents, static_cast<int>(groups.size())));
+      // The group's IOV holds exactly its runs (the IOVs tile the scanned runs), of one energy.
+      std::string warning;
+      auto fit = [&]() -> Result<GroupFit> {
+        auto groupModel = model.at(g.beamEnergy);
+        if (!groupModel) return Error{fmt::format("group {} (runs {}-{}): {}", g.index, g.iovFirst, g.iovLast,
+                                                  groupModel.error().message)};
+        warning = groupModel->correctionsWarning;
+        const calib::ProfileFill fill = scan.fillOf(g.iovFirst, g.iovLast, groupModel->profile);
+        return fitGroup(g, fill, *groupModel, digests, campaignOrigin(g, o.minEvents, static_cast<int>(groups.size())));
+      }();
       std::lock_guard lock(dbMutex);
+      if (!warning.empty()) corrWarnings.insert(warning);
       std::string status;
       if (!fit) {
         report.failures.push_back(fit.error().message);
@@ -489,6 +535,7 @@ Result<CampaignReport> runCampaign(const CampaignScan& scan, const CampaignModel
       if (o.progress) o.progress(finished, static_cast<int>(todo.size()), g, status);
     }, tbb::simple_partitioner());
   });
+  report.warnings.insert(report.warnings.end(), corrWarnings.begin(), corrWarnings.end());
   for (const CampaignGroup& g : groups) {
     if (g.isShort) {
       report.warnings.push_back(fmt::format("group {} (runs {}-{}, {:.1f} MeV): {} selected events, fewer than {} "

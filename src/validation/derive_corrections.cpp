@@ -285,6 +285,7 @@ Result<DerivationReport> deriveCorrections(const geometry::Calorimeter& calo, co
                              o.depthLow, o.depthHigh, delta)};
   }
   report.corrections.depthOffset = delta;
+  report.corrections.beamEnergy = o.simulation.generator.beamEnergy;
   if (progress) progress("depth", 1, 1);
 
   // 2. The parting-plane response, at the derived depth: per φ column next to the plane,

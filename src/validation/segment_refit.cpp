@@ -113,7 +113,11 @@ Result<RefittedSegment> refitPeriod(const TrendSegment& seg, std::size_t k, std:
   g.index = static_cast<int>(k);
   g.iovFirst = seg.firstRun;
   g.iovLast = seg.lastRun;
-  calib::ProfileFill fill = scan.fillOf(seg.firstRun, seg.lastRun, model.profile, &g.runs);
+  // A period spans several beam energies: each run was filled at its own energy's depth, and
+  // the period is fitted with the corrections at its events' mean energy (a grid's).
+  auto periodModel = model.at(scan.meanBeamEnergy(seg.firstRun, seg.lastRun));
+  if (!periodModel) return Error{fmt::format("--refit: runs {}-{}: {}", seg.firstRun, seg.lastRun, periodModel.error().message)};
+  calib::ProfileFill fill = scan.fillOf(seg.firstRun, seg.lastRun, periodModel->profile, &g.runs);
   if (g.runs.empty()) {
     return Error{fmt::format("--refit: no events of runs {}-{} in the files given", seg.firstRun, seg.lastRun)};
   }
@@ -126,13 +130,13 @@ Result<RefittedSegment> refitPeriod(const TrendSegment& seg, std::size_t k, std:
                          {"periods", periods},
                          {"replaces_iovs", seg.end - seg.begin},
                          {"runs", g.runs}}}};
-  auto fit = fitGroup(g, fill, model, digests, origin);
+  auto fit = fitGroup(g, fill, *periodModel, digests, origin);
   if (!fit) return Error{fmt::format("--refit: {}", fit.error().message)};
   if (!usable(fit->result.status)) {
     return Error{fmt::format("--refit: runs {}-{}: the fit's status is '{}'", seg.firstRun, seg.lastRun,
                              name(fit->result.status))};
   }
-  auto statAfter = statisticalFit(fill, model, seg.firstRun, seg.lastRun);
+  auto statAfter = statisticalFit(fill, *periodModel, seg.firstRun, seg.lastRun);
   if (!statAfter) return Error{fmt::format("--refit: {}", statAfter.error().message)};
   rs.selected = g.selected;
 
@@ -141,10 +145,12 @@ Result<RefittedSegment> refitPeriod(const TrendSegment& seg, std::size_t k, std:
   std::vector<std::vector<double>> statBefore(series.size());
   for (std::size_t i = seg.begin; i < seg.end; ++i) {
     const conddb::Iov& iov = tag.iovs()[i];
-    const calib::ProfileFill f = scan.fillOf(iov.firstRun, iov.lastRun, model.profile);
+    auto iovModel = model.at(scan.meanBeamEnergy(iov.firstRun, iov.lastRun));
+    if (!iovModel) return Error{fmt::format("--refit: runs {}-{}: {}", iov.firstRun, iov.lastRun, iovModel.error().message)};
+    const calib::ProfileFill f = scan.fillOf(iov.firstRun, iov.lastRun, iovModel->profile);
     selectedBefore.push_back(static_cast<double>(f.cutFlow.events.back()));
     if (f.cutFlow.events.back() == 0) continue;
-    auto st = statisticalFit(f, model, iov.firstRun, iov.lastRun);
+    auto st = statisticalFit(f, *iovModel, iov.firstRun, iov.lastRun);
     if (!st) continue;  // a group too poor for a fit without σ_sys counts as missing
     for (std::size_t s = 0; s < series.size() && s < st->size(); ++s) statBefore[s].push_back((*st)[s].second);
   }

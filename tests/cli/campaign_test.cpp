@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <tuple>
 
 #include <fmt/format.h>
 #include <gmock/gmock.h>
@@ -175,6 +176,55 @@ TEST_F(CampaignCli, SigmaSysIsEveryGroupsAndThePlansAndTheRefitsToo) {
   const json f1 = json::parse(emcalign::testing::slurp(path("f1.json")));
   EXPECT_EQ(f1["sigma_sys"]["method"], "fixed");
   EXPECT_DOUBLE_EQ(f1["sigma_sys"]["value_deg"].get<double>(), 0.1);
+}
+
+TEST_F(CampaignCli, ACorrectionsGridFitsEveryGroupAtItsOwnEnergy) {
+  // A small idealised grid over 500-750 MeV: the period's runs are at 612.5 and 700 MeV.
+  auto r = run("derive-corrections --ideal --events 20000 --response-samples 50 --response-events 5000 --seed 4 "
+               "--beam-energy 500,750 -o " + path("grid"));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const std::string uri = "sqlite:" + path("c.db");
+  r = run(fmt::format("campaign {} --conditions {} --tag g --min-events 4000 --corrections {}", events(), uri,
+                      path("grid")));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  for (const auto& [run_, energy, w750] : {std::tuple{1, 612.5, 0.45}, std::tuple{20, 700.0, 0.8}}) {
+    r = run(fmt::format("conditions get {} --tag g --run {} -o {}", uri, run_, path("p.json")));
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const json p = json::parse(emcalign::testing::slurp(path("p.json")));
+    const json& interpolation = p["input"]["provenance"]["model_corrections"]["interpolation"];
+    EXPECT_EQ(interpolation["beam_energy_mev"], energy) << run_;
+    EXPECT_EQ(interpolation["directory"], path("grid"));
+    EXPECT_NEAR(interpolation["points"][1]["weight"].get<double>(), w750, 1e-12) << run_;
+    EXPECT_EQ(p["input"]["provenance"]["campaign"]["beam_energy_mev"], energy) << run_;
+  }
+  // The refit takes the same grid (the tag's by its digest), and refuses the campaign without it.
+  r = run(fmt::format("trend --conditions {} --tag g -o {} --refit {} --tag-out g.seg --corrections {}", uri,
+                      path("tr"), events(), path("grid")));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  r = run(fmt::format("trend --conditions {} --tag g -o {} --refit {} --tag-out g.seg2", uri, path("tr2"), events()));
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_THAT(r.err, HasSubstr("give the same --corrections"));
+  // A plan's job checks the grid by its digest.
+  r = run(fmt::format("campaign {} --plan {} --min-events 4000 --corrections {}", events(), path("plan.json"),
+                      path("grid")));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  r = run(fmt::format("campaign --plan {} --group 0 --conditions {} --tag j --corrections {}", path("plan.json"), uri,
+                      path("grid")));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  r = run(fmt::format("campaign --plan {} --group 1 --conditions {} --tag j --corrections {}", path("plan.json"), uri,
+                      path("grid/ee-500MeV.json")));
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_THAT(r.err, HasSubstr("with other ones"));
+  // A grid that does not reach the first runs' energy is refused before any fit.
+  fs::create_directories(path("high"));
+  fs::copy_file(path("grid/ee-750MeV.json"), path("high/ee-750MeV.json"));
+  json moved = json::parse(emcalign::testing::slurp(path("grid/ee-750MeV.json")));
+  moved["beam_energy_mev"] = 650.0;
+  std::ofstream(path("high/ee-650MeV.json")) << moved.dump();
+  r = run(fmt::format("campaign {} --conditions {} --tag h --min-events 4000 --corrections {}", events(), uri,
+                      path("high")));
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_THAT(r.err, HasSubstr("run 1 (612.5 MeV): beam energy 612.5 MeV is outside the corrections grid"));
 }
 
 TEST_F(CampaignCli, TrendFindsTheStepAndRefitsTheStablePeriods) {

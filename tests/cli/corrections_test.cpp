@@ -4,8 +4,10 @@
 
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -129,3 +131,155 @@ TEST_F(CorrectionsCli, CampaignWithCorrectionsRefusesAnotherFile) {
 }
 
 }  // namespace
+
+// A grid over the beam energies (calib/corrections_grid.hpp): derived into a directory,
+// interpolated to the sample's energy, recorded in the result, never extrapolated.
+class CorrectionsGridCli : public CorrectionsCli {
+ protected:
+  static void SetUpTestSuite() {
+    CorrectionsCli::SetUpTestSuite();
+    const std::string common = "derive-corrections --ideal --events 20000 --response-samples 50 --response-events 5000 --seed 4";
+    grid_ = new emcalign::testing::CommandResult(
+        emcalign::testing::runEmcalign(*dir_, common + " --beam-energy 750,500 -o " + path("grid")));
+    single_ = new emcalign::testing::CommandResult(
+        emcalign::testing::runEmcalign(*dir_, common + " --beam-energy 500 -o " + path("single500.json")));
+  }
+  static void TearDownTestSuite() {
+    delete grid_;
+    delete single_;
+    CorrectionsCli::TearDownTestSuite();
+  }
+  static double depthOffset(const std::string& file) {
+    return json::parse(emcalign::testing::slurp(file))["depth_offset_cm"].get<double>();
+  }
+  static emcalign::testing::CommandResult* grid_;
+  static emcalign::testing::CommandResult* single_;
+};
+emcalign::testing::CommandResult* CorrectionsGridCli::grid_ = nullptr;
+emcalign::testing::CommandResult* CorrectionsGridCli::single_ = nullptr;
+
+TEST_F(CorrectionsGridCli, DeriveWritesOneFilePerEnergyAndResumes) {
+  ASSERT_EQ(grid_->exitCode, 0) << grid_->err;
+  ASSERT_EQ(single_->exitCode, 0) << single_->err;
+  const std::string a = path("grid/ee-500MeV.json"), b = path("grid/ee-750MeV.json");
+  ASSERT_TRUE(fs::exists(a) && fs::exists(b));
+  EXPECT_EQ(json::parse(emcalign::testing::slurp(b))["beam_energy_mev"], 750.0);
+  // A grid point is the file a single derivation at that energy writes, byte for byte.
+  EXPECT_EQ(emcalign::testing::slurp(a), emcalign::testing::slurp(path("single500.json")));
+  EXPECT_NE(grid_->out.find("grid " + path("grid") + ": 2 beam energies, 500 to 750 MeV"), std::string::npos) << grid_->out;
+  // A rerun keeps the points derived with the same settings; other settings derive again.
+  std::string out;
+  ASSERT_EQ(run("derive-corrections --ideal --events 20000 --response-samples 50 --response-events 5000 --seed 4 "
+                "--beam-energy 500,750 -o " + path("grid"),
+                nullptr, &out),
+            0);
+  EXPECT_NE(out.find("kept " + a), std::string::npos) << out;
+  EXPECT_NE(out.find("0 derived"), std::string::npos) << out;
+  std::string err;
+  EXPECT_EQ(run("derive-corrections --ideal --events 20000 --beam-energy 500,500 -o " + path("g2"), &err), 1);
+  EXPECT_NE(err.find("an energy is given twice"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(path("g2")));
+}
+
+TEST_F(CorrectionsGridCli, FitInterpolatesToTheSamplesEnergyAndRecordsIt) {
+  ASSERT_EQ(grid_->exitCode, 0) << grid_->err;
+  std::string out;
+  ASSERT_EQ(run("fit " + path("events.h5") + " --corrections " + path("grid") + " --profile-out " + path("gp.csv") +
+                    " -o " + path("gfit.json"),
+                nullptr, &out),
+            0);
+  EXPECT_NE(out.find("at 612.5 MeV (500 MeV × 0.550, 750 MeV × 0.450)"), std::string::npos) << out;
+  const json r = json::parse(emcalign::testing::slurp(path("gfit.json")));
+  const json& m = r["input"]["model_corrections"];
+  const double want = 0.55 * depthOffset(path("grid/ee-500MeV.json")) + 0.45 * depthOffset(path("grid/ee-750MeV.json"));
+  EXPECT_NEAR(m["depth_offset_cm"].get<double>(), want, 1e-12);
+  EXPECT_EQ(m["interpolation"]["beam_energy_mev"], 612.5);
+  ASSERT_EQ(m["interpolation"]["points"].size(), 2u);
+  EXPECT_EQ(m["interpolation"]["points"][1]["file"], path("grid/ee-750MeV.json"));
+  EXPECT_NEAR(m["interpolation"]["points"][1]["weight"].get<double>(), 0.45, 1e-12);
+  // The saved profile refits at the energy given (it does not say its own).
+  std::string err;
+  EXPECT_EQ(run("fit --profile-in " + path("gp.csv") + " --corrections " + path("grid") + " -o " + path("x.json"), &err), 1);
+  EXPECT_NE(err.find("give --beam-energy"), std::string::npos) << err;
+  ASSERT_EQ(run("fit --profile-in " + path("gp.csv") + " --corrections " + path("grid") + " --beam-energy 612.5 -o " +
+                path("gfit2.json")),
+            0);
+  const json r2 = json::parse(emcalign::testing::slurp(path("gfit2.json")));
+  EXPECT_NEAR(r2["parameters"]["dx"].get<double>(), r["parameters"]["dx"].get<double>(), 1e-9);
+}
+
+TEST_F(CorrectionsGridCli, NothingIsExtrapolatedAndOneFileAwayFromItsEnergyWarns) {
+  ASSERT_EQ(grid_->exitCode, 0) << grid_->err;
+  std::string err;
+  EXPECT_EQ(run("fit " + path("events.h5") + " --corrections " + path("grid") + " --beam-energy 900 -o " + path("x.json"),
+                &err),
+            1);
+  EXPECT_NE(err.find("beam energy 900 MeV is outside the corrections grid " + path("grid") + " (500 to 750 MeV)"),
+            std::string::npos)
+      << err;
+  EXPECT_FALSE(fs::exists(path("x.json")));
+  // One file is used at any energy, with a warning away from its own.
+  ASSERT_EQ(run("fit " + path("events.h5") + " --corrections " + path("grid/ee-500MeV.json") + " -o " + path("w.json"), &err),
+            0);
+  EXPECT_NE(err.find("warning: " + path("grid/ee-500MeV.json") +
+                     " was derived at 500 MeV and is applied to a sample at 612.5 MeV"),
+            std::string::npos)
+      << err;
+  // A sample of two energies is not fitted with corrections of one.
+  ASSERT_EQ(run("simulate --params " + std::string(EMCALIGN_SOURCE_DIR) +
+                "/data/examples/paper-like.json --events 3000 --ideal --theta-min 40 --theta-max 140 --seed 3 "
+                "--beam-energy 700 --run 2 -o " + path("e700.h5")),
+            0);
+  EXPECT_EQ(run("fit " + path("events.h5") + " " + path("e700.h5") + " --corrections " + path("grid") + " -o " +
+                    path("x.json"),
+                &err),
+            1);
+  EXPECT_NE(err.find("the selected events have 2 beam energies (612.5 to 700 MeV)"), std::string::npos) << err;
+  // validate takes the grid at its samples' energy.
+  ASSERT_EQ(run("validate --ideal --samples 2 --events 4000 --beam-energy 700 --corrections " + path("grid") + " -o " +
+                path("v700")),
+            0);
+  const json sample = json::parse(emcalign::testing::slurp(fs::path(path("v700")) / "samples" / "sample_0000.json"));
+  EXPECT_EQ(sample["campaign"]["settings"]["beam_energy_mev"], 700.0);
+  EXPECT_EQ(run("validate --ideal --samples 2 --events 4000 --beam-energy 400 --corrections " + path("grid") + " -o " +
+                    path("v400"),
+                &err),
+            1);
+  EXPECT_NE(err.find("outside the corrections grid"), std::string::npos) << err;
+}
+
+TEST_F(CorrectionsGridCli, CorrectTakesTheDepthOffsetOfEachEventsEnergy) {
+  ASSERT_EQ(grid_->exitCode, 0) << grid_->err;
+  const std::string alignment = std::string(EMCALIGN_SOURCE_DIR) + "/data/examples/paper-like.json";
+  ASSERT_EQ(run("correct " + path("events.h5") + " --alignment " + alignment + " --method clusters --corrections " +
+                path("grid") + " -o " + path("cg.csv")),
+            0);
+  // The same as the interpolated offset at 612.5 MeV given by hand (the rows; the header
+  // records the grid instead of a number).
+  const double offset = 0.55 * depthOffset(path("grid/ee-500MeV.json")) + 0.45 * depthOffset(path("grid/ee-750MeV.json"));
+  ASSERT_EQ(run("correct " + path("events.h5") + " --alignment " + alignment + " --method clusters --depth-offset " +
+                fmt::format("{}", offset) + " -o " + path("cd.csv")),
+            0);
+  auto rows = [](const std::string& text) {
+    std::string out, line;
+    std::istringstream in(text);
+    while (std::getline(in, line)) {
+      if (line.rfind("#", 0) != 0) out += line + "\n";
+    }
+    return out;
+  };
+  const std::string grid = emcalign::testing::slurp(path("cg.csv"));
+  EXPECT_EQ(rows(grid), rows(emcalign::testing::slurp(path("cd.csv"))));
+  EXPECT_NE(grid.find("\"corrections_grid\":\"" + path("grid") + "\""), std::string::npos);
+  // An event beyond the grid is refused, naming its run.
+  std::string err;
+  ASSERT_EQ(run("simulate --params " + alignment + " --events 500 --ideal --theta-min 40 --theta-max 140 --seed 3 "
+                "--beam-energy 900 --run 7 -o " + path("e900.h5")),
+            0);
+  EXPECT_EQ(run("correct " + path("e900.h5") + " --alignment " + alignment + " --method clusters --corrections " +
+                    path("grid") + " -o " + path("c900.csv"),
+                &err),
+            1);
+  EXPECT_NE(err.find("run 7 (900 MeV): beam energy 900 MeV is outside the corrections grid"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(path("c900.csv")));
+}

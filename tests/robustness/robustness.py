@@ -290,6 +290,38 @@ def cases():
         write(d, "cdeep.json", text)
     add(Case(C, "derived_from nested 100 000 deep", "emcalign validate --samples 1 --events 1000 "
              "--corrections cdeep.json -o vdeep", 1, "nested deeper than 64 levels", setup=deep))
+
+    def grid(name, energies, change=lambda j: None):
+        """A directory `name` of copies of c.json at these beam energies (None: the key left out)."""
+        def setup(d):
+            os.makedirs(os.path.join(d, name), exist_ok=True)
+            for k, e in enumerate(energies):
+                def at(j, e=e):
+                    j.pop("beam_energy_mev", None)
+                    if e is not None:
+                        j["beam_energy_mev"] = e
+                    change(j)
+                edit_json(d, "c.json", os.path.join(name, f"p{k}.json"), at)
+        return setup
+    add(Case(C, "a corrections grid of one file", "emcalign fit ev.csv --corrections g1 -o r.json", 1,
+             "two beam energies at least, found 1", setup=grid("g1", [612.5])))
+    add(Case(C, "an empty corrections directory", "mkdir -p g0 && emcalign fit ev.csv --corrections g0 -o r.json", 1,
+             "no corrections files"))
+    add(Case(C, "a grid file that does not say its beam energy", "emcalign fit ev.csv --corrections gn -o r.json", 1,
+             "key 'beam_energy_mev': missing", setup=grid("gn", [500.0, None])))
+    add(Case(C, "a grid with one beam energy twice", "emcalign fit ev.csv --corrections g2 -o r.json", 1,
+             "two corrections for the same beam energy 612.5 MeV", setup=grid("g2", [612.5, 612.5])))
+    add(Case(C, "a corrections file at 0 MeV", "emcalign fit ev.csv --corrections g00 -o r.json", 1,
+             "expected the beam energy in MeV", setup=grid("g00", [0.0, 612.5])))
+
+    def mixed_ranges(d):
+        grid("gt", [500.0])(d)
+        def wide(j):
+            j["beam_energy_mev"] = 750.0
+            j["derived_from"]["settings"]["theta_range_deg"] = [20.0, 160.0]
+        edit_json(d, "c.json", os.path.join("gt", "p1.json"), wide)
+    add(Case(C, "a grid mixing theta ranges", "emcalign fit ev.csv --corrections gt -o r.json", 1,
+             "different theta_range_deg", setup=mixed_ranges))
     add(Case(C, "HDF5 over a file-size limit (a full disk)",
              "ulimit -f 64; emcalign simulate --events 100000 --params p.json -o full.h5", 1, "File too large",
              check=no_temporaries))
@@ -341,6 +373,15 @@ def cases():
     add(Case(S, "the same file twice", "emcalign fit ev.csv ./ev.csv -o r.json", 1, "given twice"))
     add(Case(S, "a copy of a file after it", "cp ev.h5 copy.h5 && emcalign fit ev.h5 copy.h5 -o r.json", 1,
              "appears again"))
+
+    add(Case(S, "a sample beyond the corrections grid: not extrapolated",
+             "emcalign fit ev.csv --corrections ghi -o r.json", 1,
+             "beam energy 612.5 MeV is outside the corrections grid ghi (700 to 800 MeV)",
+             setup=grid("ghi", [700.0, 800.0])))
+    add(Case(S, "a sample of two beam energies with a grid interpolated to one",
+             "emcalign simulate --events 2000 --params p.json --theta-min 40 --theta-max 140 --beam-energy 700 "
+             "--run 2 -o ev700.csv && emcalign fit ev.csv ev700.csv --corrections gw -o r.json", 1,
+             "have 2 beam energies (612.5 to 700 MeV)", setup=grid("gw", [500.0, 750.0])))
 
     def repeated(d):
         comments, header, rows = csv_parts(d, "ev.csv")

@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "emcalign/core/result.hpp"
+#include "emcalign/calib/calibration.hpp"
 #include "emcalign/geometry/alignment_transform.hpp"
 #include "emcalign/geometry/detector.hpp"
 #include "emcalign/geometry/shower_depth.hpp"
@@ -37,6 +38,9 @@ struct CorrectOptions {
   CorrectionMethod method = CorrectionMethod::Auto;
   /// R(E, θ) of the cluster method (its offset from a corrections file, or 0: SPEC).
   geometry::ShowerDepth depth;
+  /// When set, the cluster method's R(E, θ) at each event's beam energy instead (a
+  /// corrections grid's offset; an error names the run).
+  calib::DepthAtEnergy depthAt;
   /// W0 of the logarithmic weights of the hits method: the reconstruction's (sim's default,
   /// SND-like).
   double logWeightW0 = 3.5;

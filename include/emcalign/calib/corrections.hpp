@@ -39,7 +39,7 @@
 //    fit without the response.
 //
 // File (`emcalign derive-corrections` writes it, `emcalign fit --corrections` reads it):
-//   {"format": "emcalign-corrections/1", "depth_offset_cm": 4.1,
+//   {"format": "emcalign-corrections/1", "beam_energy_mev": 612.5, "depth_offset_cm": 4.1,
 //    "parting_plane": {"phi_bins": 16, "plus_weight": [1, 1, 1, 0.97, 0.04, 0, …]},
 //    "nominal_profile": {"phi_bins": 16, "theta_bins": 10, "y_phi": [...], "sigma_phi": [...],
 //                        "y_theta": [...], "sigma_theta": [...]},   (rad, i_phi-major, null
@@ -49,7 +49,11 @@
 //                        (row j: fitted parameter, column k: true one; file units, deg and
 //                         cm, the gap matrix per cm of dx_rel)
 //    "derived_from": {…}}     (every key but "format" and "depth_offset_cm" optional)
+// "beam_energy_mev" is the beam energy the file was derived at: the corrections depend on
+// it (the shower depth and width grow with the energy), and a grid of such files covers a
+// beam-energy scan (calib/corrections_grid.hpp).
 
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -58,6 +62,7 @@
 
 #include "emcalign/core/parameters.hpp"
 #include "emcalign/core/result.hpp"
+#include "emcalign/core/units.hpp"
 #include "emcalign/io/json_files.hpp"
 
 namespace emcalign::calib {
@@ -67,6 +72,9 @@ inline constexpr std::string_view kCorrectionsFormat = "emcalign-corrections/1";
 /// The profile bins of SPEC §7 a corrections file belongs to (its tables have these sizes).
 inline constexpr int kProfilePhiBins = 16;
 inline constexpr int kProfileThetaBins = 10;
+/// The beam energies a corrections file can belong to (those the simulation makes).
+inline constexpr double kMinCorrectionsEnergy = 20.0 * units::MeV;
+inline constexpr double kMaxCorrectionsEnergy = 5000.0 * units::MeV;
 /// A depth offset beyond this is a unit mistake (the derived one is ~4 cm; the EMC is 37 cm deep).
 inline constexpr double kMaxDepthOffset = 20.0;  // cm
 
@@ -127,6 +135,8 @@ struct FitResponse {
 };
 
 struct ModelCorrections {
+  /// MeV, the beam energy the corrections belong to; NaN when the file does not say.
+  double beamEnergy = std::numeric_limits<double>::quiet_NaN();
   double depthOffset = 0.0;  ///< cm
   std::shared_ptr<const PartingPlaneResponse> partingPlane;  ///< none: SPEC's hard s = sign(cos φ)
   std::shared_ptr<const NominalProfile> nominalProfile;     ///< none: nothing subtracted

@@ -121,6 +121,10 @@ struct ReaderOptions {
   double hdf5TimeoutSeconds = 60.0;
 };
 
+/// The beam energy of the first event of the files (MeV): what a sample of one energy is at,
+/// before it is read (a corrections grid interpolates to it). Fails when there is no event.
+Result<double> firstBeamEnergy(const std::vector<std::string>& paths);
+
 /// Streams rows from one or several files in order. `open` checks that every file exists
 /// (a missing last file is reported at once, not after reading the others) and opens the
 /// first one (so its attributes are known and a bad header is reported by `open`).

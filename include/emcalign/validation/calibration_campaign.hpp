@@ -27,6 +27,7 @@
 
 #include "emcalign/calib/calibration.hpp"
 #include "emcalign/calib/corrections.hpp"
+#include "emcalign/calib/corrections_grid.hpp"
 #include "emcalign/calib/fit.hpp"
 #include "emcalign/calib/sigma_sys.hpp"
 #include "emcalign/conddb/conditions.hpp"
@@ -53,18 +54,28 @@ struct CampaignScan {
   std::vector<CampaignRun> runs;     ///< by run number
   /// The files holding runs [first, last], in the order of `files`.
   std::vector<std::string> filesOf(std::int64_t first, std::int64_t last) const;
+  /// The mean beam energy of the selected events of runs [first, last] (MeV; NaN: none).
+  double meanBeamEnergy(std::int64_t first, std::int64_t last) const;
   /// The merged fill of runs [first, last] (profiles with `options`), and those runs.
   calib::ProfileFill fillOf(std::int64_t first, std::int64_t last, const calib::ProfileOptions& options,
                             std::vector<std::int32_t>* runsFound = nullptr) const;
 };
 
 /// How the events are turned into profiles and fitted: the fit's geometry and corrections.
+/// With a corrections grid (a directory, calib/corrections_grid.hpp) the corrections depend
+/// on the beam energy: every run is filled at the depth of its energy (depthAt) and every
+/// group fitted with the corrections of its own (at).
 struct CampaignModel {
-  calib::FitGeometry geometry;
+  calib::FitGeometry geometry;    ///< with a grid: without corrections until at()
   calib::ProfileOptions profile;  ///< with the corrections' parting plane / nominal profile
   calib::SelectionOptions selection;
-  std::string corrections;         ///< the corrections file (empty: none), for the provenance
-  std::string correctionsSha256;   ///< its SHA-256 (empty: none)
+  std::string corrections;         ///< the corrections file or grid (empty: none), for the provenance
+  std::string correctionsSha256;   ///< its SHA-256 (empty: none; a grid's: CorrectionsGrid::sha256)
+  std::shared_ptr<const calib::CorrectionsGrid> grid;  ///< the corrections read (null: none)
+  /// Set by at() with a grid: the interpolation (CorrectionsAt::interpolation), recorded in
+  /// the fit result; and a single file's warning when used away from its energy.
+  io::Json interpolation;
+  std::string correctionsWarning;
   std::string detector = "embedded default";
   calib::SigmaSysChoice sigmaSys;  ///< of every group's fit (calib/sigma_sys.hpp)
   /// Sets σ_sys and whether the profiles keep the event pairs it needs.
@@ -72,6 +83,12 @@ struct CampaignModel {
     sigmaSys = choice;
     profile.eventPairs = choice.keepsEventPairs();
   }
+  /// The model of the events of one beam energy (MeV): a grid's corrections there (an energy
+  /// outside the grid is an error), else this model (NaN: this model, a group without
+  /// selected events).
+  Result<CampaignModel> at(double beamEnergy) const;
+  /// The shower depth of the events of one beam energy (ProfileFill by run).
+  Result<geometry::ShowerDepth> depthAt(double beamEnergy) const;
 };
 
 /// The event files of the inputs, as absolute paths (a batch job may run elsewhere): a

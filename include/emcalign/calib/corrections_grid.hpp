@@ -1,0 +1,98 @@
+#pragma once
+// Model corrections across a beam-energy scan (docs/validation.md, "The beam-energy scan").
+//
+// A corrections file (calib/corrections.hpp) is derived at one beam energy: the shower is
+// deeper and wider at higher energy, so the depth offset, the parting-plane shares W₊, the
+// nominal profile and the fit's response all move with it. A grid is a directory of
+// corrections files, one per beam energy (each says its "beam_energy_mev"; `emcalign
+// derive-corrections --beam-energy E1,E2,… -o DIR` writes them). At a sample's beam energy E
+// between two points E_a < E < E_b the corrections are interpolated linearly in E, every
+// number of the two files alike:
+//   c(E) = (1 − w)·c(E_a) + w·c(E_b),   w = (E − E_a)/(E_b − E_a),
+// the depth offset, each W₊, each bin of the nominal profile (its σ too, which keeps the
+// larger error of the two points' correlated noise) and every element of the response. An
+// energy outside [E_first, E_last] is refused: nothing is extrapolated.
+//
+// A single file is a grid of one point: it applies at any energy, as before the grid
+// existed, with a warning when the sample is more than 1 % away from the energy the file
+// says it was derived at.
+//
+// Every point of a grid must have the same pieces (a response in all or none) and, when the
+// files record them, the same θ range, detector and realism switches: a grid mixing them
+// would interpolate between different things.
+
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "emcalign/calib/corrections.hpp"
+#include "emcalign/core/result.hpp"
+#include "emcalign/io/json_files.hpp"
+
+namespace emcalign::calib {
+
+/// How far (relative) a sample's beam energy may lie from the energy its corrections are
+/// for: a single file's own energy (a warning beyond), or the energy a grid was
+/// interpolated to (a sample whose events spread wider is refused).
+inline constexpr double kCorrectionsEnergyTolerance = 0.01;
+
+struct CorrectionsPoint {
+  std::string file;
+  ModelCorrections corrections;  ///< with its beamEnergy (NaN only in a single file)
+};
+
+/// The corrections for one beam energy, and where they came from.
+struct CorrectionsAt {
+  ModelCorrections corrections;
+  double beamEnergy = 0.0;  ///< MeV, the energy they were asked for
+  /// Null for a single file; for a grid {"directory", "beam_energy_mev", "points": [{"file",
+  /// "beam_energy_mev", "weight"}]} (one point when E is a grid point, else the two around it).
+  io::Json interpolation;
+  std::string warning;  ///< a single file used away from its own energy (empty: none)
+};
+
+class CorrectionsGrid {
+ public:
+  /// A corrections file, or a directory of them (its *.json files; at least two, each with
+  /// beam_energy_mev, no energy twice). The error names the file and what is wrong.
+  static Result<CorrectionsGrid> read(const std::string& path);
+  /// A grid of these points (sorted here), for tests and programs that derive them; one
+  /// point without an energy is a single file.
+  static Result<CorrectionsGrid> of(std::vector<CorrectionsPoint> points, std::string path);
+
+  const std::string& path() const { return path_; }
+  /// The SHA-256 of the file, or of a directory's listing "<sha256>  <name>\n" per file
+  /// in name order (sha256sum's format), for the provenance.
+  const std::string& sha256() const { return sha256_; }
+  /// Whether it interpolates (a directory), rather than being one file for every energy.
+  bool isGrid() const { return grid_; }
+  const std::vector<CorrectionsPoint>& points() const { return points_; }
+
+  /// The corrections at `beamEnergy` (MeV). A grid fails outside its energies.
+  Result<CorrectionsAt> at(double beamEnergy) const;
+
+ private:
+  std::string path_, sha256_;
+  bool grid_ = false;
+  std::vector<CorrectionsPoint> points_;  ///< by beam energy
+};
+
+/// The corrections of a sample of event files: at `beamEnergy` (MeV) when given (the
+/// selection's override), else at the beam energy of the files' first event.
+Result<CorrectionsAt> correctionsForSample(const CorrectionsGrid& grid, const std::vector<std::string>& files,
+                                           std::optional<double> beamEnergy);
+/// Whether the selected events' beam energies (MeV) fit corrections interpolated to one
+/// energy: a grid's are refused for events more than kCorrectionsEnergyTolerance away (a
+/// sample of several energies is fitted energy by energy, or by `emcalign campaign`).
+Status checkSampleEnergies(const CorrectionsAt& corrections, const std::set<double>& energies);
+
+/// (1 − w)·a + w·b of every number of two corrections with the same pieces (w in [0, 1]);
+/// the result's beamEnergy is interpolated alike and derivedFrom is left empty.
+Result<ModelCorrections> interpolateCorrections(const ModelCorrections& a, const ModelCorrections& b, double w);
+
+/// The SHA-256 of a corrections path as CorrectionsGrid::sha256 gives it, without
+/// parsing the files (a campaign job checking that its corrections are the plan's).
+Result<std::string> correctionsDigest(const std::string& path);
+
+}  // namespace emcalign::calib

@@ -1,0 +1,247 @@
+#include "emcalign/calib/corrections_grid.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+
+#include <fmt/format.h>
+
+#include "emcalign/core/sha256.hpp"
+#include "emcalign/core/units.hpp"
+#include "emcalign/io/event_file.hpp"
+
+namespace emcalign::calib {
+
+namespace fs = std::filesystem;
+using io::Json;
+
+namespace {
+
+// The *.json files of a directory, by name.
+Result<std::vector<std::string>> jsonFilesIn(const std::string& dir) {
+  std::vector<std::string> files;
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
+    if (e.path().extension() == ".json" && e.is_regular_file()) files.push_back(e.path().string());
+  }
+  if (ec) return Error{fmt::format("{}: cannot list the directory: {}", dir, ec.message())};
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+Result<std::string> directoryDigest(const std::string& dir, const std::vector<std::string>& files) {
+  std::string listing;
+  for (const auto& f : files) {
+    auto d = sha256OfFile(f);
+    if (!d) return d.error();
+    listing += fmt::format("{}  {}\n", *d, fs::path(f).filename().string());
+  }
+  if (files.empty()) return Error{fmt::format("{}: no corrections files (*.json) in this directory", dir)};
+  return sha256(listing);
+}
+
+std::string pieces(const ModelCorrections& c) {
+  return fmt::format("parting plane {}, nominal profile {}, response {}{}", c.partingPlane ? "yes" : "no",
+                     c.nominalProfile ? "yes" : "no", c.response ? "yes" : "no",
+                     c.response && !c.response->gapMatrix.isZero(0.0) ? " with gap matrix" : "");
+}
+
+// The derivation settings two points of a grid must share, when both files record them.
+Status sameDerivation(const CorrectionsPoint& a, const CorrectionsPoint& b) {
+  if (pieces(a.corrections) != pieces(b.corrections)) {
+    return Error{fmt::format("{} ({}) and {} ({}) do not have the same corrections: a grid interpolates between "
+                             "files derived alike",
+                             a.file, pieces(a.corrections), b.file, pieces(b.corrections))};
+  }
+  const Json& sa = a.corrections.derivedFrom.is_object() ? a.corrections.derivedFrom.value("settings", Json()) : Json();
+  const Json& sb = b.corrections.derivedFrom.is_object() ? b.corrections.derivedFrom.value("settings", Json()) : Json();
+  if (!sa.is_object() || !sb.is_object()) return {};
+  for (const char* key : {"theta_range_deg", "detector", "ideal", "off"}) {
+    if (sa.contains(key) && sb.contains(key) && sa[key] != sb[key]) {
+      return Error{fmt::format("{} and {} were derived with different {} ({} and {}): a grid interpolates between "
+                               "files derived alike",
+                               a.file, b.file, key, sa[key].dump(), sb[key].dump())};
+    }
+  }
+  return {};
+}
+
+std::vector<double> mix(const std::vector<double>& a, const std::vector<double>& b, double w) {
+  std::vector<double> out(a.size());
+  for (std::size_t k = 0; k < a.size(); ++k) out[k] = (1.0 - w) * a[k] + w * b[k];  // NaN stays NaN
+  return out;
+}
+
+}  // namespace
+
+Result<ModelCorrections> interpolateCorrections(const ModelCorrections& a, const ModelCorrections& b, double w) {
+  if (!(w >= 0.0 && w <= 1.0)) return Error{fmt::format("interpolation weight {} outside [0, 1]", w)};
+  if (pieces(a) != pieces(b)) {
+    return Error{fmt::format("cannot interpolate between corrections with different pieces ({}; {})", pieces(a),
+                             pieces(b))};
+  }
+  ModelCorrections c;
+  c.beamEnergy = (1.0 - w) * a.beamEnergy + w * b.beamEnergy;
+  c.depthOffset = (1.0 - w) * a.depthOffset + w * b.depthOffset;
+  if (a.partingPlane) {
+    if (a.partingPlane->phiBins() != b.partingPlane->phiBins()) {
+      return Error{"cannot interpolate between parting-plane responses of different phi bins"};
+    }
+    auto p = PartingPlaneResponse::create(mix(a.partingPlane->weights(), b.partingPlane->weights(), w));
+    if (!p) return p.error();
+    c.partingPlane = std::make_shared<const PartingPlaneResponse>(std::move(*p));
+  }
+  if (a.nominalProfile) {
+    const NominalProfile &x = *a.nominalProfile, &y = *b.nominalProfile;
+    if (x.phiBins != y.phiBins || x.thetaBins != y.thetaBins) {
+      return Error{"cannot interpolate between nominal profiles of different bins"};
+    }
+    NominalProfile t{x.phiBins, x.thetaBins, mix(x.yPhi, y.yPhi, w), mix(x.sigmaPhi, y.sigmaPhi, w),
+                     mix(x.yTheta, y.yTheta, w), mix(x.sigmaTheta, y.sigmaTheta, w)};
+    if (Status s = t.validate(); !s) return s.error();
+    c.nominalProfile = std::make_shared<const NominalProfile>(std::move(t));
+  }
+  if (a.response) {
+    FitResponse r;
+    r.matrix = (1.0 - w) * a.response->matrix + w * b.response->matrix;
+    r.gapMatrix = (1.0 - w) * a.response->gapMatrix + w * b.response->gapMatrix;
+    r.offset = (1.0 - w) * a.response->offset + w * b.response->offset;
+    if (Status s = r.validate(); !s) return s.error();
+    c.response = std::make_shared<const FitResponse>(r);
+  }
+  return c;
+}
+
+Result<CorrectionsGrid> CorrectionsGrid::of(std::vector<CorrectionsPoint> points, std::string path) {
+  if (points.empty()) return Error{fmt::format("{}: no corrections", path)};
+  CorrectionsGrid g;
+  g.path_ = std::move(path);
+  g.grid_ = points.size() > 1;
+  if (g.grid_) {
+    for (const auto& p : points) {
+      if (std::isnan(p.corrections.beamEnergy)) {
+        return Error{fmt::format("{}: key 'beam_energy_mev': missing; every file of a grid says its beam energy "
+                                 "(derive it again, or add the energy it was derived at)",
+                                 p.file)};
+      }
+    }
+    std::sort(points.begin(), points.end(), [](const CorrectionsPoint& a, const CorrectionsPoint& b) {
+      return a.corrections.beamEnergy < b.corrections.beamEnergy;
+    });
+    for (std::size_t k = 1; k < points.size(); ++k) {
+      if (points[k].corrections.beamEnergy == points[k - 1].corrections.beamEnergy) {
+        return Error{fmt::format("{} and {}: two corrections for the same beam energy {} MeV", points[k - 1].file,
+                                 points[k].file, points[k].corrections.beamEnergy / units::MeV)};
+      }
+      if (Status s = sameDerivation(points[0], points[k]); !s) return s.error();
+    }
+  }
+  g.points_ = std::move(points);
+  return g;
+}
+
+Result<CorrectionsGrid> CorrectionsGrid::read(const std::string& path) {
+  std::error_code ec;
+  if (!fs::is_directory(path, ec)) {
+    auto c = readCorrections(path);
+    if (!c) return c.error();
+    auto digest = sha256OfFile(path);
+    if (!digest) return digest.error();
+    auto g = of({{path, std::move(*c)}}, path);
+    if (g) g->sha256_ = *digest;
+    return g;
+  }
+  auto files = jsonFilesIn(path);
+  if (!files) return files.error();
+  auto digest = directoryDigest(path, *files);
+  if (!digest) return digest.error();
+  if (files->size() < 2) {
+    return Error{fmt::format("{}: a grid needs corrections at two beam energies at least, found {} (give a single "
+                             "file as --corrections FILE)",
+                             path, files->size())};
+  }
+  std::vector<CorrectionsPoint> points;
+  for (const auto& f : *files) {
+    auto c = readCorrections(f);
+    if (!c) return c.error();
+    points.push_back({f, std::move(*c)});
+  }
+  auto g = of(std::move(points), path);
+  if (g) g->sha256_ = *digest;
+  return g;
+}
+
+Result<CorrectionsAt> CorrectionsGrid::at(double beamEnergy) const {
+  CorrectionsAt out;
+  out.beamEnergy = beamEnergy;
+  if (!grid_) {
+    const ModelCorrections& c = points_.front().corrections;
+    out.corrections = c;
+    if (!std::isnan(c.beamEnergy) && std::abs(beamEnergy - c.beamEnergy) > kCorrectionsEnergyTolerance * c.beamEnergy) {
+      out.warning = fmt::format("{} was derived at {} MeV and is applied to a sample at {} MeV: derive the corrections "
+                                "at this energy, or give a grid of them (a directory; docs/validation.md)",
+                                path_, c.beamEnergy / units::MeV, beamEnergy / units::MeV);
+    }
+    return out;
+  }
+  const double first = points_.front().corrections.beamEnergy, last = points_.back().corrections.beamEnergy;
+  if (!(beamEnergy >= first && beamEnergy <= last)) {
+    return Error{fmt::format("beam energy {} MeV is outside the corrections grid {} ({} to {} MeV): the corrections "
+                             "are not extrapolated; derive a point beyond it (emcalign derive-corrections "
+                             "--beam-energy E -o {}/ee-<E>MeV.json)",
+                             beamEnergy / units::MeV, path_, first / units::MeV, last / units::MeV, path_)};
+  }
+  std::size_t k = 1;
+  while (k + 1 < points_.size() && points_[k].corrections.beamEnergy < beamEnergy) ++k;
+  const CorrectionsPoint &a = points_[k - 1], &b = points_[k];
+  const double w = (beamEnergy - a.corrections.beamEnergy) / (b.corrections.beamEnergy - a.corrections.beamEnergy);
+  Json used = Json::array();
+  if (w == 0.0 || w == 1.0) {
+    const CorrectionsPoint& p = w == 0.0 ? a : b;
+    out.corrections = p.corrections;
+    used.push_back({{"file", p.file}, {"beam_energy_mev", p.corrections.beamEnergy / units::MeV}, {"weight", 1.0}});
+  } else {
+    auto c = interpolateCorrections(a.corrections, b.corrections, w);
+    if (!c) return Error{fmt::format("{}: at {} MeV: {}", path_, beamEnergy / units::MeV, c.error().message)};
+    out.corrections = std::move(*c);
+    out.corrections.beamEnergy = beamEnergy;
+    used.push_back({{"file", a.file}, {"beam_energy_mev", a.corrections.beamEnergy / units::MeV}, {"weight", 1.0 - w}});
+    used.push_back({{"file", b.file}, {"beam_energy_mev", b.corrections.beamEnergy / units::MeV}, {"weight", w}});
+  }
+  out.interpolation = {{"directory", path_}, {"beam_energy_mev", beamEnergy / units::MeV}, {"points", used}};
+  out.corrections.derivedFrom = {{"interpolated", out.interpolation}};
+  return out;
+}
+
+Result<CorrectionsAt> correctionsForSample(const CorrectionsGrid& grid, const std::vector<std::string>& files,
+                                           std::optional<double> beamEnergy) {
+  if (!beamEnergy) {
+    auto first = io::firstBeamEnergy(files);
+    if (!first) return first.error();
+    beamEnergy = *first;
+  }
+  return grid.at(*beamEnergy);
+}
+
+Status checkSampleEnergies(const CorrectionsAt& c, const std::set<double>& energies) {
+  if (c.interpolation.is_null() || energies.empty()) return {};
+  const double lo = *energies.begin(), hi = *energies.rbegin();
+  const double tolerance = kCorrectionsEnergyTolerance * c.beamEnergy;
+  if (std::abs(lo - c.beamEnergy) <= tolerance && std::abs(hi - c.beamEnergy) <= tolerance) return {};
+  return Error{fmt::format("the selected events have {} beam energies ({} to {} MeV), but the corrections of the grid "
+                           "{} were interpolated to one ({} MeV): fit each energy apart, or calibrate the runs with "
+                           "emcalign campaign (each group at its own energy)",
+                           energies.size(), lo / units::MeV, hi / units::MeV,
+                           c.interpolation.value("directory", std::string()), c.beamEnergy / units::MeV)};
+}
+
+Result<std::string> correctionsDigest(const std::string& path) {
+  std::error_code ec;
+  if (!fs::is_directory(path, ec)) return sha256OfFile(path);
+  auto files = jsonFilesIn(path);
+  if (!files) return files.error();
+  return directoryDigest(path, *files);
+}
+
+}  // namespace emcalign::calib

@@ -216,6 +216,9 @@ Result<CorrectionsAt> CorrectionsGrid::at(double beamEnergy) const {
 
 Result<CorrectionsAt> correctionsForSample(const CorrectionsGrid& grid, const std::vector<std::string>& files,
                                            std::optional<double> beamEnergy) {
+  // A single file that does not say its energy applies as it is: nothing to read for.
+  const bool needed = grid.isGrid() || !std::isnan(grid.points().front().corrections.beamEnergy);
+  if (!beamEnergy && !needed) return grid.at(std::numeric_limits<double>::quiet_NaN());
   if (!beamEnergy) {
     auto first = io::firstBeamEnergy(files);
     if (!first) return first.error();

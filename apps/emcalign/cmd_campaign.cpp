@@ -1,7 +1,7 @@
 // emcalign campaign: a period calibrated group by group into a conditions tag
 // (validation/calibration_campaign.hpp, docs/campaign.md).
 //
-//   campaign DIR|FILES... --conditions URI --tag T [--min-events N] [--threads N] [--corrections C.json]
+//   campaign DIR|FILES... --conditions URI --tag T [--min-events N] [--threads N] [--corrections C.json|GRID]
 //   campaign DIR|FILES... --plan PLAN.json [--min-events N]          the job list, nothing fitted
 //   campaign --plan PLAN.json --group K --conditions URI --tag T      one group of it (a batch job)
 
@@ -113,8 +113,8 @@ int runGroup(const CampaignCliOptions& o) {
   if (!groupModel->correctionsWarning.empty()) reportWarning(groupModel->correctionsWarning);
   calib::ProfileFill fill = calib::ProfileFill::empty(groupModel->profile);
   for (const auto& file : g.files) {
-    auto byRun = calib::fillProfilesByRun(file, [&](double e) { return groupModel->depthAt(e); },
-                                          groupModel->selection, groupModel->profile);
+    auto byRun = calib::fillProfilesByRun(file, groupModel->depthAtEnergy(), groupModel->selection,
+                                          groupModel->profile);
     if (!byRun) return reportError(byRun.error());
     for (std::int32_t run : g.runs) {
       if (auto it = byRun->find(run); it != byRun->end()) fill.merge(it->second);

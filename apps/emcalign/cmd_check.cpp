@@ -48,6 +48,21 @@ struct TemporaryFile {
 
 std::string fixed(double v, int digits) { return std::isfinite(v) ? fmt::format("{:.{}f}", v, digits) : "—"; }
 
+// A number of check.json, NaN where it is null (nothing to measure) or absent.
+double number(const io::Json& side, const std::string& key) {
+  return side.contains(key) && side.at(key).is_number() ? side.at(key).get<double>() : NAN;
+}
+
+// Fails when no event passed the selection: there is nothing to compare.
+Status anySelected(const apply::CheckCutFlow& flow, const std::string& process) {
+  if (!flow.events.empty() && flow.events.back() > 0) return {};
+  std::string text;
+  for (std::size_t k = 0; k < flow.names.size() && k < flow.events.size(); ++k) {
+    text += fmt::format("{}{} {}", k ? ", " : "", flow.names[k], flow.events[k]);
+  }
+  return Error{fmt::format("no event passes the {} selection ({}): nothing to check", process, text)};
+}
+
 int run(const CheckCliOptions& o) {
   std::vector<io::NamedPath> inputs;
   for (const auto& e : o.events) inputs.push_back({"", e});
@@ -84,13 +99,14 @@ int run(const CheckCliOptions& o) {
   if (o.process == "gg") {
     auto check = apply::checkGammaGamma(o.events, {corrected.path});
     if (!check) return reportError(check.error());
+    if (Status st = anySelected(check->cutFlow, "e+e- -> gamma gamma"); !st) return reportError(st.error());
     json = apply::checkJson(*check);
     const auto& b = json["before"];
     const auto& a = json["after"];
     auto label = [](const char* when, const io::Json& side, const char* what) {
       const std::string w(what);
-      return fmt::format("{}: σ_{{core}} {}°, rms {}°", when, fixed(side.value(w + "_width_deg", NAN), 3),
-                         fixed(side.value(w + "_rms_deg", NAN), 3));
+      return fmt::format("{}: σ_{{core}} {}°, rms {}°", when, fixed(number(side, w + "_width_deg"), 3),
+                         fixed(number(side, w + "_rms_deg"), 3));
     };
     panels.push_back({"Δφ = |φ_1 − φ_2| − 180°  [deg]", -6.0, 6.0, 60, check->dphi[0], check->dphi[1],
                       label("before", b, "dphi"), label("after", a, "dphi"), 0});
@@ -99,21 +115,15 @@ int run(const CheckCliOptions& o) {
     figure = "acollinearity";
     summary = fmt::format("check gg: {} of {} events selected; Δφ core width {}° -> {}° ({}% better), Δθ {}° -> {}°",
                           json["selected"].get<std::int64_t>(), check->cutFlow.events.front(),
-                          fixed(b.value("dphi_width_deg", NAN), 3), fixed(a.value("dphi_width_deg", NAN), 3),
-                          fixed(json["improvement_percent"].value("dphi_width", NAN), 1),
-                          fixed(b.value("dtheta_width_deg", NAN), 3), fixed(a.value("dtheta_width_deg", NAN), 3));
+                          fixed(number(b, "dphi_width_deg"), 3), fixed(number(a, "dphi_width_deg"), 3),
+                          fixed(number(json["improvement_percent"], "dphi_width"), 1),
+                          fixed(number(b, "dtheta_width_deg"), 3), fixed(number(a, "dtheta_width_deg"), 3));
   } else {
-    // The kinematic fit's R(E, θ): a grid's at the sample's beam energy (its first event's).
-    geometry::ShowerDepth depth = options.depth;
-    if (options.depthAt) {
-      auto energy = io::firstBeamEnergy(o.events);
-      if (!energy) return reportError(energy.error());
-      auto d = options.depthAt(*energy);
-      if (!d) return reportError(d.error());
-      depth = *d;
-    }
-    auto check = apply::checkThreePion(o.events, {corrected.path}, depth);
+    // The kinematic fit's R(E, θ), of each event's beam energy with a corrections grid.
+    auto check = apply::checkThreePion(o.events, {corrected.path},
+                                       options.depthAt ? options.depthAt : geometry::atEveryEnergy(options.depth));
     if (!check) return reportError(check.error());
+    if (Status st = anySelected(check->cutFlow, "e+e- -> pi+ pi- pi0"); !st) return reportError(st.error());
     json = apply::checkJson(*check);
     std::array<std::vector<double>, 2> chi2;
     for (std::size_t k = 0; k < 2; ++k) {
@@ -124,13 +134,13 @@ int run(const CheckCliOptions& o) {
     const auto& b = json["before"];
     const auto& a = json["after"];
     panels.push_back({"χ^2 of the kinematic fit (ndf 2)", 0.0, 30.0, 60, chi2[0], chi2[1],
-                      fmt::format("before: mean {}", fixed(b.value("chi2_mean", NAN), 2)),
-                      fmt::format("after: mean {}", fixed(a.value("chi2_mean", NAN), 2)), 2});
+                      fmt::format("before: mean {}", fixed(number(b, "chi2_mean"), 2)),
+                      fmt::format("after: mean {}", fixed(number(a, "chi2_mean"), 2)), 2});
     figure = "chi2";
     summary = fmt::format("check 3pi: {} of {} events selected; mean χ² {} -> {} ({}% lower); not converged {} / {}",
                           json["selected"].get<std::int64_t>(), check->cutFlow.events.front(),
-                          fixed(b.value("chi2_mean", NAN), 3), fixed(a.value("chi2_mean", NAN), 3),
-                          fixed(json["improvement_percent"].value("chi2_mean", NAN), 1),
+                          fixed(number(b, "chi2_mean"), 3), fixed(number(a, "chi2_mean"), 3),
+                          fixed(number(json["improvement_percent"], "chi2_mean"), 1),
                           b["not_converged"].get<std::int64_t>(), a["not_converged"].get<std::int64_t>());
   }
   json["alignment"] = source->description;

@@ -54,19 +54,6 @@ io::Json settingsOf(const DeriveOptions& cli, double beamEnergy) {
           {"detector", cli.detector.empty() ? "embedded default" : cli.detector}};
 }
 
-// A grid point's file: DIR/ee-<E>MeV.json.
-std::string pointFile(const std::string& dir, double beamEnergy) {
-  return (std::filesystem::path(dir) / fmt::format("ee-{}MeV.json", beamEnergy / units::MeV)).string();
-}
-
-// Whether `path` holds corrections derived with these settings (an interrupted grid resumes).
-bool derivedWith(const std::string& path, const io::Json& settings) {
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) return false;
-  auto c = calib::readCorrections(path);
-  return c && c->derivedFrom.is_object() && c->derivedFrom.value("settings", io::Json()) == settings;
-}
-
 void printReport(const validation::DerivationReport& report) {
   const auto& c = report.corrections;
   fmt::print(reportStream(), "Selected events: nominal {}, shift {}, gap {}\n", report.selectedEvents[0], report.selectedEvents[1],
@@ -142,13 +129,17 @@ int run(const DeriveOptions& cli) {
   o.simulation.generator.thetaMax = cli.thetaMaxDeg * units::deg;
 
   // A grid's points not yet derived with these settings (an interrupted grid resumes).
-  std::vector<std::pair<double, std::string>> todo;
-  for (double e : energies) {
-    const std::string file = grid ? pointFile(cli.output, e) : cli.output;
-    if (grid && derivedWith(file, settingsOf(cli, e))) {
-      fmt::print(reportStream(), "kept {} (derived with the same settings)\n", file);
-    } else {
-      todo.emplace_back(e, file);
+  std::vector<validation::GridPoint> todo = {{energies.front(), cli.output, false}};
+  if (grid) {
+    auto points = validation::planGrid(cli.output, energies, [&](double e) { return settingsOf(cli, e); });
+    if (!points) return reportError(points.error());
+    todo.clear();
+    for (auto& p : *points) {
+      if (p.done) {
+        fmt::print(reportStream(), "kept {} (derived with the same settings)\n", p.file);
+      } else {
+        todo.push_back(std::move(p));
+      }
     }
   }
   if (grid) {
@@ -159,7 +150,8 @@ int run(const DeriveOptions& cli) {
   const std::int64_t perPoint = 3 * cli.events + cli.responseSamples * cli.responseEvents;
   ProgressLine progress("derive-corrections", static_cast<std::int64_t>(todo.size()) * perPoint, "events");
   for (std::size_t k = 0; k < todo.size(); ++k) {
-    const auto& [energy, file] = todo[k];
+    const double energy = todo[k].beamEnergy;
+    const std::string& file = todo[k].file;
     o.simulation.generator.beamEnergy = energy;
     std::int64_t before = static_cast<std::int64_t>(k) * perPoint, lastTotal = 0;  // events of the finished samples
     std::string lastStage;

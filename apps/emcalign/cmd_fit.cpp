@@ -131,7 +131,7 @@ Result<calib::CorrectionsAt> correctionsOf(const FitCliOptions& o) {
   return calib::correctionsForSample(*grid, o.events, energy);
 }
 
-// " at E MeV (a.json × 0.6, b.json × 0.4)" for a grid's interpolation, else nothing.
+// " at 612.5 MeV (500 MeV × 0.550, 750 MeV × 0.450)" for a grid's interpolation, else nothing.
 std::string interpolationText(const io::Json& interpolation) {
   if (interpolation.is_null()) return {};
   std::vector<std::string> points;
@@ -164,14 +164,14 @@ int run(const FitCliOptions& o) {
     auto at = correctionsOf(o);
     if (!at) return reportError(at.error());
     corrections = std::move(*at);
-    if (!corrections->warning.empty()) reportWarning(corrections->warning);
+    // With events, checkSampleEnergies warns after the fill, from every selected event.
+    if (!o.profileIn.empty() && !corrections->warning.empty()) reportWarning(corrections->warning);
     const calib::ModelCorrections* c = &corrections->corrections;
     input.correctionsInterpolation = corrections->interpolation;
     geometry.apply(*c);
+    profileOptions.apply(*c);
     input.depthOffset = c->depthOffset;
     if (c->response) input.response = o.corrections;
-    profileOptions.partingPlane = c->partingPlane;
-    profileOptions.nominalProfile = c->nominalProfile;
     if (c->partingPlane) input.partingPlane = o.corrections;
     if (c->nominalProfile) input.nominalProfile = o.corrections;
     fmt::print(reportStream(),
@@ -226,7 +226,9 @@ int run(const FitCliOptions& o) {
     fill = std::move(*filled);
     printCutFlow(*fill);
     if (corrections) {
-      if (Status st = calib::checkSampleEnergies(*corrections, fill->beamEnergies); !st) return reportError(st.error());
+      auto warning = calib::checkSampleEnergies(*corrections, fill->beamEnergies);
+      if (!warning) return reportError(warning.error());
+      if (!warning->empty()) reportWarning(*warning);
     }
     input.files = o.events;
     input.fill = &*fill;

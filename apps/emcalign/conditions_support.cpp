@@ -94,17 +94,10 @@ Result<apply::CorrectOptions> correctOptions(const std::string& method, double d
   if (!corrections.empty()) {
     auto grid = calib::CorrectionsGrid::read(corrections);
     if (!grid) return grid.error();
-    const auto shared = std::make_shared<const calib::CorrectionsGrid>(std::move(*grid));
-    if (shared->isGrid()) {
-      options.depthAt = [shared, depth = options.depth](double beamEnergy) -> Result<geometry::ShowerDepth> {
-        auto at = shared->at(beamEnergy);
-        if (!at) return at.error();
-        geometry::ShowerDepth d = depth;
-        d.offset = at->corrections.depthOffset;
-        return d;
-      };
+    if (grid->isGrid()) {
+      options.depthAt = calib::depthAtEnergy(std::make_shared<const calib::CorrectionsGrid>(std::move(*grid)), options.depth);
     } else {
-      options.depth.offset = shared->points().front().corrections.depthOffset;
+      options.depth.offset = grid->points().front().corrections.depthOffset;
     }
   }
   return options;

@@ -191,7 +191,7 @@ Result<CorrectReport> correctFiles(const std::vector<std::string>& inputs, const
         if (Status s = select(r.run); !s) return s.error();
         if (o.depthAt && r.beamEnergy != depthEnergy) {
           auto d = o.depthAt(r.beamEnergy);
-          if (!d) return Error{fmt::format("{}: run {} ({} MeV): {}", inputs.front(), r.run, r.beamEnergy, d.error().message)};
+          if (!d) return Error{fmt::format("{}: run {} ({} MeV): {}", (*reader)->path(), r.run, r.beamEnergy, d.error().message)};
           depth = *d;
           depthEnergy = r.beamEnergy;
         }

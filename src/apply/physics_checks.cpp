@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <numeric>
 
 #include <Eigen/Dense>
@@ -210,8 +211,10 @@ Result<GammaGammaCheck> checkGammaGamma(const std::vector<std::string>& before, 
 }
 
 Result<ThreePionCheck> checkThreePion(const std::vector<std::string>& before, const std::vector<std::string>& after,
-                                      const geometry::ShowerDepth& depth, const ResolutionModel& resolution) {
+                                      const geometry::DepthAtEnergy& depthAt, const ResolutionModel& resolution) {
   ThreePionCheck c;
+  geometry::ShowerDepth depth;  // at depthEnergy
+  double depthEnergy = std::numeric_limits<double>::quiet_NaN();
   c.cutFlow.names = {"events",         "two tracks, two photons", "36 < theta_tracks < 144 deg",
                      "tracks not collinear in phi (> 10 deg)", "angle between tracks < 147 deg",
                      "E_gamma1 + E_gamma2 > 100 MeV"};
@@ -244,6 +247,12 @@ Result<ThreePionCheck> checkThreePion(const std::vector<std::string>& before, co
     ++flow[4];
     if (!(rows[photons[0]].energy + rows[photons[1]].energy > 100.0 * units::MeV)) return Status{};
     ++flow[5];
+    if (rows[0].beamEnergy != depthEnergy) {
+      auto d = depthAt(rows[0].beamEnergy);
+      if (!d) return Status{Error{fmt::format("run {} ({} MeV): {}", rows[0].run, rows[0].beamEnergy, d.error().message)}};
+      depth = *d;
+      depthEnergy = rows[0].beamEnergy;
+    }
     for (int k = 0; k < 2; ++k) {
       const auto& ev = k == 0 ? rows : corrected;
       c.fits[static_cast<std::size_t>(k)].push_back(

@@ -88,7 +88,8 @@ void ProfileFill::merge(const ProfileFill& other) {
   beamEnergies.insert(other.beamEnergies.begin(), other.beamEnergies.end());
 }
 
-Result<std::map<std::int32_t, ProfileFill>> fillProfilesByRun(const std::string& file, const DepthAtEnergy& depthAt,
+Result<std::map<std::int32_t, ProfileFill>> fillProfilesByRun(const std::string& file,
+                                                               const geometry::DepthAtEnergy& depthAt,
                                                                const SelectionOptions& selection,
                                                                const ProfileOptions& profile) {
   if (Status s = profile.validate(); !s) return s.error();

@@ -41,23 +41,35 @@ Result<std::string> directoryDigest(const std::string& dir, const std::vector<st
   return sha256(listing);
 }
 
-std::string pieces(const ModelCorrections& c) {
-  return fmt::format("parting plane {}, nominal profile {}, response {}{}", c.partingPlane ? "yes" : "no",
-                     c.nominalProfile ? "yes" : "no", c.response ? "yes" : "no",
-                     c.response && !c.response->gapMatrix.isZero(0.0) ? " with gap matrix" : "");
+// Which pieces a corrections file has: a grid interpolates between files with the same.
+struct Pieces {
+  bool partingPlane, nominalProfile, response, gapMatrix;
+  bool operator==(const Pieces&) const = default;
+};
+
+Pieces piecesOf(const ModelCorrections& c) {
+  return {c.partingPlane != nullptr, c.nominalProfile != nullptr, c.response != nullptr,
+          c.response && !c.response->gapMatrix.isZero(0.0)};
 }
 
-// The derivation settings two points of a grid must share, when both files record them.
+std::string describe(const Pieces& p) {
+  return fmt::format("parting plane {}, nominal profile {}, response {}{}", p.partingPlane ? "yes" : "no",
+                     p.nominalProfile ? "yes" : "no", p.response ? "yes" : "no", p.gapMatrix ? " with gap matrix" : "");
+}
+
+// The derivation settings two points of a grid must share, when both files record them (the
+// number of events and the seed may differ: they change the noise, not what is measured).
 Status sameDerivation(const CorrectionsPoint& a, const CorrectionsPoint& b) {
-  if (pieces(a.corrections) != pieces(b.corrections)) {
+  const Pieces pa = piecesOf(a.corrections), pb = piecesOf(b.corrections);
+  if (pa != pb) {
     return Error{fmt::format("{} ({}) and {} ({}) do not have the same corrections: a grid interpolates between "
                              "files derived alike",
-                             a.file, pieces(a.corrections), b.file, pieces(b.corrections))};
+                             a.file, describe(pa), b.file, describe(pb))};
   }
   const Json& sa = a.corrections.derivedFrom.is_object() ? a.corrections.derivedFrom.value("settings", Json()) : Json();
   const Json& sb = b.corrections.derivedFrom.is_object() ? b.corrections.derivedFrom.value("settings", Json()) : Json();
   if (!sa.is_object() || !sb.is_object()) return {};
-  for (const char* key : {"theta_range_deg", "detector", "ideal", "off"}) {
+  for (const char* key : {"theta_range_deg", "detector", "ideal", "off", "shift_cm", "gap_cm"}) {
     if (sa.contains(key) && sb.contains(key) && sa[key] != sb[key]) {
       return Error{fmt::format("{} and {} were derived with different {} ({} and {}): a grid interpolates between "
                                "files derived alike",
@@ -65,6 +77,13 @@ Status sameDerivation(const CorrectionsPoint& a, const CorrectionsPoint& b) {
     }
   }
   return {};
+}
+
+// The warning of a single file used away from its own energy, for events at lo to hi MeV.
+std::string awayFromItsEnergy(const std::string& path, double own, double lo, double hi) {
+  return fmt::format("{} was derived at {} MeV and is applied to events at {}{} MeV: derive the corrections at this "
+                     "energy, or give a grid of them (a directory; docs/validation.md)",
+                     path, own / units::MeV, lo / units::MeV, hi > lo ? fmt::format(" to {}", hi / units::MeV) : "");
 }
 
 std::vector<double> mix(const std::vector<double>& a, const std::vector<double>& b, double w) {
@@ -77,9 +96,9 @@ std::vector<double> mix(const std::vector<double>& a, const std::vector<double>&
 
 Result<ModelCorrections> interpolateCorrections(const ModelCorrections& a, const ModelCorrections& b, double w) {
   if (!(w >= 0.0 && w <= 1.0)) return Error{fmt::format("interpolation weight {} outside [0, 1]", w)};
-  if (pieces(a) != pieces(b)) {
-    return Error{fmt::format("cannot interpolate between corrections with different pieces ({}; {})", pieces(a),
-                             pieces(b))};
+  if (piecesOf(a) != piecesOf(b)) {
+    return Error{fmt::format("cannot interpolate between corrections with different pieces ({}; {})",
+                             describe(piecesOf(a)), describe(piecesOf(b)))};
   }
   ModelCorrections c;
   c.beamEnergy = (1.0 - w) * a.beamEnergy + w * b.beamEnergy;
@@ -172,30 +191,45 @@ Result<CorrectionsGrid> CorrectionsGrid::read(const std::string& path) {
   return g;
 }
 
-Result<CorrectionsAt> CorrectionsGrid::at(double beamEnergy) const {
-  CorrectionsAt out;
-  out.beamEnergy = beamEnergy;
-  if (!grid_) {
-    const ModelCorrections& c = points_.front().corrections;
-    out.corrections = c;
-    if (!std::isnan(c.beamEnergy) && std::abs(beamEnergy - c.beamEnergy) > kCorrectionsEnergyTolerance * c.beamEnergy) {
-      out.warning = fmt::format("{} was derived at {} MeV and is applied to a sample at {} MeV: derive the corrections "
-                                "at this energy, or give a grid of them (a directory; docs/validation.md)",
-                                path_, c.beamEnergy / units::MeV, beamEnergy / units::MeV);
-    }
-    return out;
-  }
+Result<std::pair<std::size_t, double>> CorrectionsGrid::around(double beamEnergy) const {
   const double first = points_.front().corrections.beamEnergy, last = points_.back().corrections.beamEnergy;
   if (!(beamEnergy >= first && beamEnergy <= last)) {
     return Error{fmt::format("beam energy {} MeV is outside the corrections grid {} ({} to {} MeV): the corrections "
                              "are not extrapolated; derive a point beyond it (emcalign derive-corrections "
-                             "--beam-energy E -o {}/ee-<E>MeV.json)",
-                             beamEnergy / units::MeV, path_, first / units::MeV, last / units::MeV, path_)};
+                             "--beam-energy E -o {}/{})",
+                             beamEnergy / units::MeV, path_, first / units::MeV, last / units::MeV, path_,
+                             gridPointName(std::nan("")))};
   }
   std::size_t k = 1;
   while (k + 1 < points_.size() && points_[k].corrections.beamEnergy < beamEnergy) ++k;
+  const double ea = points_[k - 1].corrections.beamEnergy, eb = points_[k].corrections.beamEnergy;
+  return std::pair{k, (beamEnergy - ea) / (eb - ea)};
+}
+
+Result<double> CorrectionsGrid::depthOffsetAt(double beamEnergy) const {
+  if (!grid_) return points_.front().corrections.depthOffset;
+  auto bracket = around(beamEnergy);
+  if (!bracket) return bracket.error();
+  const auto [k, w] = *bracket;
+  return (1.0 - w) * points_[k - 1].corrections.depthOffset + w * points_[k].corrections.depthOffset;
+}
+
+Result<CorrectionsAt> CorrectionsGrid::at(double beamEnergy) const {
+  CorrectionsAt out;
+  out.beamEnergy = beamEnergy;
+  out.path = path_;
+  if (!grid_) {
+    const ModelCorrections& c = points_.front().corrections;
+    out.corrections = c;
+    if (!std::isnan(c.beamEnergy) && std::abs(beamEnergy - c.beamEnergy) > kCorrectionsEnergyTolerance * c.beamEnergy) {
+      out.warning = awayFromItsEnergy(path_, c.beamEnergy, beamEnergy, beamEnergy);
+    }
+    return out;
+  }
+  auto bracket = around(beamEnergy);
+  if (!bracket) return bracket.error();
+  const auto [k, w] = *bracket;
   const CorrectionsPoint &a = points_[k - 1], &b = points_[k];
-  const double w = (beamEnergy - a.corrections.beamEnergy) / (b.corrections.beamEnergy - a.corrections.beamEnergy);
   Json used = Json::array();
   if (w == 0.0 || w == 1.0) {
     const CorrectionsPoint& p = w == 0.0 ? a : b;
@@ -214,11 +248,23 @@ Result<CorrectionsAt> CorrectionsGrid::at(double beamEnergy) const {
   return out;
 }
 
+std::string gridPointName(double beamEnergy) {
+  return std::isnan(beamEnergy) ? std::string("ee-<E>MeV.json") : fmt::format("ee-{}MeV.json", beamEnergy / units::MeV);
+}
+
+geometry::DepthAtEnergy depthAtEnergy(std::shared_ptr<const CorrectionsGrid> grid, const geometry::ShowerDepth& depth) {
+  return [grid = std::move(grid), depth](double beamEnergy) -> Result<geometry::ShowerDepth> {
+    auto offset = grid->depthOffsetAt(beamEnergy);
+    if (!offset) return offset.error();
+    geometry::ShowerDepth d = depth;
+    d.offset = *offset;
+    return d;
+  };
+}
+
 Result<CorrectionsAt> correctionsForSample(const CorrectionsGrid& grid, const std::vector<std::string>& files,
                                            std::optional<double> beamEnergy) {
-  // A single file that does not say its energy applies as it is: nothing to read for.
-  const bool needed = grid.isGrid() || !std::isnan(grid.points().front().corrections.beamEnergy);
-  if (!beamEnergy && !needed) return grid.at(std::numeric_limits<double>::quiet_NaN());
+  if (!grid.isGrid()) return grid.at(beamEnergy.value_or(grid.points().front().corrections.beamEnergy));
   if (!beamEnergy) {
     auto first = io::firstBeamEnergy(files);
     if (!first) return first.error();
@@ -227,11 +273,16 @@ Result<CorrectionsAt> correctionsForSample(const CorrectionsGrid& grid, const st
   return grid.at(*beamEnergy);
 }
 
-Status checkSampleEnergies(const CorrectionsAt& c, const std::set<double>& energies) {
-  if (c.interpolation.is_null() || energies.empty()) return {};
+Result<std::string> checkSampleEnergies(const CorrectionsAt& c, const std::set<double>& energies) {
+  const bool grid = !c.interpolation.is_null();
+  const double own = grid ? c.beamEnergy : c.corrections.beamEnergy;  // a single file's: its own
+  if (energies.empty() || std::isnan(own)) return std::string();
   const double lo = *energies.begin(), hi = *energies.rbegin();
-  const double tolerance = kCorrectionsEnergyTolerance * c.beamEnergy;
-  if (std::abs(lo - c.beamEnergy) <= tolerance && std::abs(hi - c.beamEnergy) <= tolerance) return {};
+  const double tolerance = kCorrectionsEnergyTolerance * own;
+  if (std::abs(lo - own) <= tolerance && std::abs(hi - own) <= tolerance) return std::string();
+  if (!grid) {
+    return awayFromItsEnergy(c.path, own, lo, hi);
+  }
   return Error{fmt::format("the selected events have {} beam energies ({} to {} MeV), but the corrections of the grid "
                            "{} were interpolated to one ({} MeV): fit each energy apart, or calibrate the runs with "
                            "emcalign campaign (each group at its own energy)",

@@ -181,6 +181,8 @@ class EventReaderImpl final : public EventReader {
     }
   }
 
+  const std::string& path() const override { return paths_[index_]; }
+
   const std::vector<TruthRow>* truth() const override {
     return source_ && source_->hasTruth() ? &truth_ : nullptr;
   }

@@ -74,11 +74,9 @@ Result<CampaignModel> campaignModel(const std::string& corrections, const std::s
     auto grid = calib::CorrectionsGrid::read(corrections);
     if (!grid) return grid.error();
     m.grid = std::make_shared<const calib::CorrectionsGrid>(std::move(*grid));
-    if (!m.grid->isGrid()) {
-      const calib::ModelCorrections& c = m.grid->points().front().corrections;
-      m.geometry.apply(c);
-      m.profile.partingPlane = c.partingPlane;
-      m.profile.nominalProfile = c.nominalProfile;
+    if (!m.grid->isGrid()) {  // a grid's corrections depend on the energy: at()
+      m.geometry.apply(m.grid->points().front().corrections);
+      m.profile.apply(m.grid->points().front().corrections);
     }
     m.corrections = corrections;
     m.correctionsSha256 = m.grid->sha256();
@@ -90,24 +88,25 @@ Result<CampaignModel> campaignModel(const std::string& corrections, const std::s
 }
 
 Result<CampaignModel> CampaignModel::at(double beamEnergy) const {
-  if (!grid || std::isnan(beamEnergy)) return *this;
+  if (!grid) return *this;
+  if (std::isnan(beamEnergy) && grid->isGrid()) {
+    return Error{fmt::format("no selected event, so no beam energy to take the corrections of the grid {} at",
+                             grid->path())};
+  }
   auto c = grid->at(beamEnergy);
   if (!c) return c.error();
   CampaignModel m = *this;
   m.correctionsWarning = c->warning;
   if (!grid->isGrid()) return m;
   m.geometry.apply(c->corrections);
-  m.profile.partingPlane = c->corrections.partingPlane;
-  m.profile.nominalProfile = c->corrections.nominalProfile;
+  m.profile.apply(c->corrections);
   m.interpolation = c->interpolation;
   return m;
 }
 
-Result<geometry::ShowerDepth> CampaignModel::depthAt(double beamEnergy) const {
-  if (!grid || !grid->isGrid()) return geometry.depth;
-  auto m = at(beamEnergy);
-  if (!m) return m.error();
-  return m->geometry.depth;
+geometry::DepthAtEnergy CampaignModel::depthAtEnergy() const {
+  if (!grid || !grid->isGrid()) return geometry::atEveryEnergy(geometry.depth);
+  return calib::depthAtEnergy(grid, geometry.depth);
 }
 
 Result<CampaignScan> scanRuns(const std::vector<std::string>& files, const CampaignModel& model,
@@ -129,8 +128,7 @@ Result<CampaignScan> scanRuns(const std::vector<std::string>& files, const Campa
   tbb::task_arena arena(kSanitized ? 1 : threads);
   arena.execute([&] {
     tbb::parallel_for(std::size_t{0}, files.size(), [&](std::size_t k) {
-      perFile[k] = calib::fillProfilesByRun(files[k], [&](double e) { return model.depthAt(e); }, model.selection,
-                                            model.profile);
+      perFile[k] = calib::fillProfilesByRun(files[k], model.depthAtEnergy(), model.selection, model.profile);
       const std::size_t n = ++done;
       if (o.progress) {
         std::lock_guard lock(progressMutex);

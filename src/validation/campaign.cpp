@@ -270,8 +270,7 @@ Result<Table> runCampaign(const geometry::Calorimeter& calo, const CampaignOptio
   auto geometry = calib::FitGeometry::of(calo.description());
   geometry.apply(o.corrections);
   calib::ProfileOptions profileOptions;
-  profileOptions.partingPlane = o.corrections.partingPlane;
-  profileOptions.nominalProfile = o.corrections.nominalProfile;
+  profileOptions.apply(o.corrections);
   profileOptions.eventPairs = o.sigmaSys.keepsEventPairs();
   if (Status s = profileOptions.validate(); !s) return Error{fmt::format("the corrections: {}", s.error().message)};
 

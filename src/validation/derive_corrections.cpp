@@ -2,12 +2,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <numbers>
+#include <set>
 
 #include <Eigen/Cholesky>
 #include <fmt/format.h>
 
 #include "emcalign/calib/calibration.hpp"
+#include "emcalign/calib/corrections_grid.hpp"
 #include "emcalign/core/random.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/geometry/residual_model.hpp"
@@ -438,6 +441,36 @@ Json derivationJson(const DerivationReport& r, const Json& settings) {
                                                                          : Json(nullptr)},
                    {"nominal_profile_parameter_errors", nominalErrors}};
   return calib::correctionsJson(c);
+}
+
+Result<std::vector<GridPoint>> planGrid(const std::string& dir, const std::vector<double>& energies,
+                                        const std::function<Json(double beamEnergy)>& settingsAt) {
+  namespace fs = std::filesystem;
+  std::vector<GridPoint> points;
+  std::set<std::string> names;
+  for (double e : energies) {
+    GridPoint p{e, (fs::path(dir) / calib::gridPointName(e)).string(), false};
+    std::error_code ec;
+    if (fs::is_regular_file(p.file, ec)) {
+      auto c = calib::readCorrections(p.file);  // unreadable or other settings: derived again
+      p.done = c && c->derivedFrom.is_object() && c->derivedFrom.value("settings", Json()) == settingsAt(e);
+    }
+    names.insert(fs::path(p.file).filename().string());
+    points.push_back(std::move(p));
+  }
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) return points;
+  for (const auto& entry : fs::directory_iterator(dir, ec)) {
+    const std::string name = entry.path().filename().string();
+    if (entry.path().extension() == ".json" && !names.contains(name)) {
+      return Error{fmt::format("{}: this grid directory holds {}, which is not one of the energies asked for: the "
+                               "directory is the grid that fit --corrections reads (give its energy too, or remove "
+                               "the file)",
+                               dir, name)};
+    }
+  }
+  if (ec) return Error{fmt::format("{}: cannot list the directory: {}", dir, ec.message())};
+  return points;
 }
 
 }  // namespace emcalign::validation

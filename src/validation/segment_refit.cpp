@@ -145,11 +145,15 @@ Result<RefittedSegment> refitPeriod(const TrendSegment& seg, std::size_t k, std:
   std::vector<std::vector<double>> statBefore(series.size());
   for (std::size_t i = seg.begin; i < seg.end; ++i) {
     const conddb::Iov& iov = tag.iovs()[i];
-    auto iovModel = model.at(scan.meanBeamEnergy(iov.firstRun, iov.lastRun));
+    const double energy = scan.meanBeamEnergy(iov.firstRun, iov.lastRun);
+    if (std::isnan(energy)) {  // no selected event
+      selectedBefore.push_back(0.0);
+      continue;
+    }
+    auto iovModel = model.at(energy);
     if (!iovModel) return Error{fmt::format("--refit: runs {}-{}: {}", iov.firstRun, iov.lastRun, iovModel.error().message)};
     const calib::ProfileFill f = scan.fillOf(iov.firstRun, iov.lastRun, iovModel->profile);
     selectedBefore.push_back(static_cast<double>(f.cutFlow.events.back()));
-    if (f.cutFlow.events.back() == 0) continue;
     auto st = statisticalFit(f, *iovModel, iov.firstRun, iov.lastRun);
     if (!st) continue;  // a group too poor for a fit without σ_sys counts as missing
     for (std::size_t s = 0; s < series.size() && s < st->size(); ++s) statBefore[s].push_back((*st)[s].second);

@@ -179,10 +179,16 @@ TEST_F(CampaignCli, SigmaSysIsEveryGroupsAndThePlansAndTheRefitsToo) {
 }
 
 TEST_F(CampaignCli, ACorrectionsGridFitsEveryGroupAtItsOwnEnergy) {
-  // A small idealised grid over 500-750 MeV: the period's runs are at 612.5 and 700 MeV.
+  // A small idealised grid over 500-750 MeV (the period's runs are at 612.5 and 700 MeV),
+  // its 750 MeV point moved 2 cm deeper so that every energy has a depth offset of its own.
   auto r = run("derive-corrections --ideal --events 20000 --response-samples 50 --response-events 5000 --seed 4 "
                "--beam-energy 500,750 -o " + path("grid"));
   ASSERT_EQ(r.exitCode, 0) << r.err;
+  json deeper = json::parse(emcalign::testing::slurp(path("grid/ee-750MeV.json")));
+  deeper["depth_offset_cm"] = deeper["depth_offset_cm"].get<double>() + 2.0;
+  std::ofstream(path("grid/ee-750MeV.json")) << deeper.dump();
+  const double d500 = json::parse(emcalign::testing::slurp(path("grid/ee-500MeV.json")))["depth_offset_cm"].get<double>();
+  const double d750 = deeper["depth_offset_cm"].get<double>();
   const std::string uri = "sqlite:" + path("c.db");
   r = run(fmt::format("campaign {} --conditions {} --tag g --min-events 4000 --corrections {}", events(), uri,
                       path("grid")));
@@ -191,7 +197,9 @@ TEST_F(CampaignCli, ACorrectionsGridFitsEveryGroupAtItsOwnEnergy) {
     r = run(fmt::format("conditions get {} --tag g --run {} -o {}", uri, run_, path("p.json")));
     ASSERT_EQ(r.exitCode, 0) << r.err;
     const json p = json::parse(emcalign::testing::slurp(path("p.json")));
-    const json& interpolation = p["input"]["provenance"]["model_corrections"]["interpolation"];
+    const json& corrections = p["input"]["provenance"]["model_corrections"];
+    EXPECT_NEAR(corrections["depth_offset_cm"].get<double>(), (1.0 - w750) * d500 + w750 * d750, 1e-12) << run_;
+    const json& interpolation = corrections["interpolation"];
     EXPECT_EQ(interpolation["beam_energy_mev"], energy) << run_;
     EXPECT_EQ(interpolation["directory"], path("grid"));
     EXPECT_NEAR(interpolation["points"][1]["weight"].get<double>(), w750, 1e-12) << run_;
@@ -204,13 +212,26 @@ TEST_F(CampaignCli, ACorrectionsGridFitsEveryGroupAtItsOwnEnergy) {
   r = run(fmt::format("trend --conditions {} --tag g -o {} --refit {} --tag-out g.seg2", uri, path("tr2"), events()));
   EXPECT_EQ(r.exitCode, 1);
   EXPECT_THAT(r.err, HasSubstr("give the same --corrections"));
-  // A plan's job checks the grid by its digest.
+  // A plan's job checks the grid by its digest, and stores the very payload of the campaign.
   r = run(fmt::format("campaign {} --plan {} --min-events 4000 --corrections {}", events(), path("plan.json"),
                       path("grid")));
   ASSERT_EQ(r.exitCode, 0) << r.err;
-  r = run(fmt::format("campaign --plan {} --group 0 --conditions {} --tag j --corrections {}", path("plan.json"), uri,
-                      path("grid")));
-  ASSERT_EQ(r.exitCode, 0) << r.err;
+  for (int group : {0, 9}) {
+    r = run(fmt::format("campaign --plan {} --group {} --conditions {} --tag j --corrections {}", path("plan.json"),
+                        group, uri, path("grid")));
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+  }
+  const json all = list(uri, "g"), jobs = list(uri, "j");
+  ASSERT_EQ(jobs["iovs"].size(), 2u);
+  for (const auto& iov : jobs["iovs"]) {
+    bool found = false;
+    for (const auto& other : all["iovs"]) {
+      if (other["first_run"] != iov["first_run"]) continue;
+      EXPECT_EQ(other["payload"], iov["payload"]) << iov["first_run"];  // content-addressed: the same fit
+      found = true;
+    }
+    EXPECT_TRUE(found) << iov["first_run"];
+  }
   r = run(fmt::format("campaign --plan {} --group 1 --conditions {} --tag j --corrections {}", path("plan.json"), uri,
                       path("grid/ee-500MeV.json")));
   EXPECT_EQ(r.exitCode, 1);
@@ -218,7 +239,7 @@ TEST_F(CampaignCli, ACorrectionsGridFitsEveryGroupAtItsOwnEnergy) {
   // A grid that does not reach the first runs' energy is refused before any fit.
   fs::create_directories(path("high"));
   fs::copy_file(path("grid/ee-750MeV.json"), path("high/ee-750MeV.json"));
-  json moved = json::parse(emcalign::testing::slurp(path("grid/ee-750MeV.json")));
+  json moved = deeper;
   moved["beam_energy_mev"] = 650.0;
   std::ofstream(path("high/ee-650MeV.json")) << moved.dump();
   r = run(fmt::format("campaign {} --conditions {} --tag h --min-events 4000 --corrections {}", events(), uri,

@@ -174,8 +174,32 @@ TEST_F(CorrectionsGridCli, DeriveWritesOneFilePerEnergyAndResumes) {
                 nullptr, &out),
             0);
   EXPECT_NE(out.find("kept " + a), std::string::npos) << out;
-  EXPECT_NE(out.find("0 derived"), std::string::npos) << out;
+  EXPECT_NE(out.find("kept " + b), std::string::npos) << out;
+  EXPECT_NE(out.find("500 to 750 MeV, 0 derived"), std::string::npos) << out;
   std::string err;
+  // A directory holding a point of another energy is not the grid asked for.
+  fs::create_directories(path("g3"));
+  fs::copy_file(a, path("g3/ee-500MeV.json"));
+  fs::copy_file(b, path("g3/ee-750MeV.json"));
+  EXPECT_EQ(run("derive-corrections --ideal --events 20000 --response-samples 50 --response-events 5000 --seed 4 "
+                "--beam-energy 500,625 -o " + path("g3"),
+                &err),
+            1);
+  EXPECT_NE(err.find("this grid directory holds ee-750MeV.json, which is not one of the energies asked for"),
+            std::string::npos)
+      << err;
+  // Other settings derive a point again (here: another seed for 500 MeV, 750 MeV kept).
+  ASSERT_EQ(run("derive-corrections --ideal --events 20000 --response-samples 50 --response-events 5000 --seed 4 "
+                "--beam-energy 500,750 -o " + path("g3"),
+                nullptr, &out),
+            0);
+  EXPECT_NE(out.find("0 derived"), std::string::npos) << out;
+  ASSERT_EQ(run("derive-corrections --ideal --events 20000 --response-samples 50 --response-events 5000 --seed 5 "
+                "--beam-energy 500,750 -o " + path("g3"),
+                nullptr, &out),
+            0);
+  EXPECT_NE(out.find("500 to 750 MeV, 2 derived"), std::string::npos) << out;
+  EXPECT_NE(emcalign::testing::slurp(path("g3/ee-500MeV.json")), emcalign::testing::slurp(a));
   EXPECT_EQ(run("derive-corrections --ideal --events 20000 --beam-energy 500,500 -o " + path("g2"), &err), 1);
   EXPECT_NE(err.find("an energy is given twice"), std::string::npos) << err;
   EXPECT_FALSE(fs::exists(path("g2")));
@@ -222,7 +246,7 @@ TEST_F(CorrectionsGridCli, NothingIsExtrapolatedAndOneFileAwayFromItsEnergyWarns
   ASSERT_EQ(run("fit " + path("events.h5") + " --corrections " + path("grid/ee-500MeV.json") + " -o " + path("w.json"), &err),
             0);
   EXPECT_NE(err.find("warning: " + path("grid/ee-500MeV.json") +
-                     " was derived at 500 MeV and is applied to a sample at 612.5 MeV"),
+                     " was derived at 500 MeV and is applied to events at 612.5 MeV"),
             std::string::npos)
       << err;
   // A sample of two energies is not fitted with corrections of one.
@@ -271,15 +295,42 @@ TEST_F(CorrectionsGridCli, CorrectTakesTheDepthOffsetOfEachEventsEnergy) {
   const std::string grid = emcalign::testing::slurp(path("cg.csv"));
   EXPECT_EQ(rows(grid), rows(emcalign::testing::slurp(path("cd.csv"))));
   EXPECT_NE(grid.find("\"corrections_grid\":\"" + path("grid") + "\""), std::string::npos);
-  // An event beyond the grid is refused, naming its run.
+  // Files of two energies: each event at its own energy's offset.
+  ASSERT_EQ(run("simulate --params " + alignment + " --events 500 --ideal --theta-min 40 --theta-max 140 --seed 3 "
+                "--beam-energy 700 --run 3 -o " + path("m700.h5")),
+            0);
+  ASSERT_EQ(run("correct " + path("events.h5") + " " + path("m700.h5") + " --alignment " + alignment +
+                " --method clusters --corrections " + path("grid") + " -o " + path("cm.csv")),
+            0);
+  const double offset700 = 0.2 * depthOffset(path("grid/ee-500MeV.json")) + 0.8 * depthOffset(path("grid/ee-750MeV.json"));
+  ASSERT_EQ(run("correct " + path("m700.h5") + " --alignment " + alignment + " --method clusters --depth-offset " +
+                fmt::format("{}", offset700) + " -o " + path("c700.csv")),
+            0);
+  const std::string c700 = rows(emcalign::testing::slurp(path("c700.csv")));
+  EXPECT_EQ(rows(emcalign::testing::slurp(path("cm.csv"))),
+            rows(grid) + c700.substr(c700.find('\n') + 1));  // the second file's rows, without the header
+  // An event beyond the grid is refused, naming its file and run.
   std::string err;
   ASSERT_EQ(run("simulate --params " + alignment + " --events 500 --ideal --theta-min 40 --theta-max 140 --seed 3 "
                 "--beam-energy 900 --run 7 -o " + path("e900.h5")),
             0);
-  EXPECT_EQ(run("correct " + path("e900.h5") + " --alignment " + alignment + " --method clusters --corrections " +
-                    path("grid") + " -o " + path("c900.csv"),
+  EXPECT_EQ(run("correct " + path("events.h5") + " " + path("e900.h5") + " --alignment " + alignment +
+                    " --method clusters --corrections " + path("grid") + " -o " + path("c900.csv"),
                 &err),
             1);
-  EXPECT_NE(err.find("run 7 (900 MeV): beam energy 900 MeV is outside the corrections grid"), std::string::npos) << err;
+  EXPECT_NE(err.find(path("e900.h5") + ": run 7 (900 MeV): beam energy 900 MeV is outside the corrections grid"),
+            std::string::npos)
+      << err;
   EXPECT_FALSE(fs::exists(path("c900.csv")));
+  // check 3pi takes each event's R(E, θ) from the grid too; a sample it cannot select is refused.
+  ASSERT_EQ(run("simulate --process 3pi --params " + alignment + " --events 3000 --seed 3 -o " + path("pi.h5")), 0);
+  std::string out;
+  ASSERT_EQ(run("check 3pi " + path("pi.h5") + " --alignment " + alignment + " --corrections " + path("grid") +
+                    " -o " + path("check3pi"),
+                &err, &out),
+            0)
+      << err;
+  EXPECT_NE(out.find("check 3pi:"), std::string::npos) << out;
+  EXPECT_EQ(run("check 3pi " + path("events.h5") + " --alignment " + alignment + " -o " + path("check-none"), &err), 1);
+  EXPECT_NE(err.find("no event passes the e+e- -> pi+ pi- pi0 selection"), std::string::npos) << err;
 }

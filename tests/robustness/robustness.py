@@ -677,6 +677,11 @@ def cases():
     add(Case(K, "a check without a process", "emcalign check ev.h5 --alignment p.json -o chk", 2,
              "subcommand is required"))
     add(Case(K, "a check into a file", "emcalign check 3pi ev.h5 --alignment p.json -o ev.csv", 1, "ev.csv"))
+    add(Case(K, "a 3pi check of e+e- -> e+e- events: nothing selected", "emcalign check 3pi ev.h5 --alignment p.json "
+             "-o chk3", 1, "no event passes the e+e- -> pi+ pi- pi0 selection", check=nothing_left("chk3"),
+             checked="no temporary left"))
+    add(Case(K, "a gg check of e+e- -> e+e- events: nothing selected", "emcalign check gg ev.h5 --alignment p.json "
+             "-o chkg", 1, "no event passes the e+e- -> gamma gamma selection"))
 
     # ---- Messages and exit codes -------------------------------------------------------------
     M = "Messages and exit codes"

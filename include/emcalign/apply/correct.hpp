@@ -22,7 +22,6 @@
 #include <vector>
 
 #include "emcalign/core/result.hpp"
-#include "emcalign/calib/calibration.hpp"
 #include "emcalign/geometry/alignment_transform.hpp"
 #include "emcalign/geometry/detector.hpp"
 #include "emcalign/geometry/shower_depth.hpp"
@@ -40,7 +39,7 @@ struct CorrectOptions {
   geometry::ShowerDepth depth;
   /// When set, the cluster method's R(E, θ) at each event's beam energy instead (a
   /// corrections grid's offset; an error names the run).
-  calib::DepthAtEnergy depthAt;
+  geometry::DepthAtEnergy depthAt;
   /// W0 of the logarithmic weights of the hits method: the reconstruction's (sim's default,
   /// SND-like).
   double logWeightW0 = 3.5;

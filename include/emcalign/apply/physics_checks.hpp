@@ -74,8 +74,10 @@ struct ThreePionCheck {
 /// `before` and `after` hold the same rows (`after` corrected by `emcalign correct`'s code);
 /// read in step, event by event. An event that differs between them is an error.
 Result<GammaGammaCheck> checkGammaGamma(const std::vector<std::string>& before, const std::vector<std::string>& after);
+/// The photons' shower depth R(E, θ) of each event's beam energy comes from `depthAt`
+/// (geometry::atEveryEnergy for one depth).
 Result<ThreePionCheck> checkThreePion(const std::vector<std::string>& before, const std::vector<std::string>& after,
-                                      const geometry::ShowerDepth& depth, const ResolutionModel& resolution = {});
+                                      const geometry::DepthAtEnergy& depthAt, const ResolutionModel& resolution = {});
 
 /// check.json: {"process": "gg", "selected", "cut_flow" (cut → events), "cut_order" (the
 /// cuts in the order applied), "before": {"dphi_width_deg",

@@ -65,15 +65,12 @@ Result<ProfileFill> fillProfiles(const std::vector<std::string>& files, const ge
                                  const SelectionOptions& selection, const ProfileOptions& profile = {},
                                  const ParticleVisitor& visit = {});
 
-/// The shower depth (with the model corrections' offset) of the events of one beam energy
-/// (MeV): a corrections grid's offset at that energy, or one depth for every energy.
-using DepthAtEnergy = std::function<Result<geometry::ShowerDepth>(double beamEnergy)>;
-
 /// The profiles of each run of a file (rows of one run contiguous or not), for a campaign
 /// that groups runs: run → its fill. A run's residuals are built at the depth of the beam
 /// energy of its first row (the selection's when it overrides the files'); an error of
 /// `depthAt` names the run.
-Result<std::map<std::int32_t, ProfileFill>> fillProfilesByRun(const std::string& file, const DepthAtEnergy& depthAt,
+Result<std::map<std::int32_t, ProfileFill>> fillProfilesByRun(const std::string& file,
+                                                               const geometry::DepthAtEnergy& depthAt,
                                                                const SelectionOptions& selection,
                                                                const ProfileOptions& profile = {});
 

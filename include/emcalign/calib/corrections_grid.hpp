@@ -9,25 +9,30 @@
 // between two points E_a < E < E_b the corrections are interpolated linearly in E, every
 // number of the two files alike:
 //   c(E) = (1 − w)·c(E_a) + w·c(E_b),   w = (E − E_a)/(E_b − E_a),
-// the depth offset, each W₊, each bin of the nominal profile (its σ too, which keeps the
-// larger error of the two points' correlated noise) and every element of the response. An
-// energy outside [E_first, E_last] is refused: nothing is extrapolated.
+// the depth offset, each W₊, each bin of the nominal profile (its σ interpolated alike: the
+// two points' errors are taken as fully correlated, the larger of the two assumptions) and
+// every element of the response. A nominal-profile bin missing at either point is missing
+// between them (it is kept only at the point that has it). An energy outside
+// [E_first, E_last] is refused: nothing is extrapolated.
 //
 // A single file is a grid of one point: it applies at any energy, as before the grid
 // existed, with a warning when the sample is more than 1 % away from the energy the file
 // says it was derived at.
 //
 // Every point of a grid must have the same pieces (a response in all or none) and, when the
-// files record them, the same θ range, detector and realism switches: a grid mixing them
-// would interpolate between different things.
+// files record them, the same θ range, detector, realism switches and derivation samples
+// (shift, gap): a grid mixing them would interpolate between different things.
 
+#include <memory>
 #include <optional>
 #include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "emcalign/calib/corrections.hpp"
 #include "emcalign/core/result.hpp"
+#include "emcalign/geometry/shower_depth.hpp"
 #include "emcalign/io/json_files.hpp"
 
 namespace emcalign::calib {
@@ -45,6 +50,7 @@ struct CorrectionsPoint {
 /// The corrections for one beam energy, and where they came from.
 struct CorrectionsAt {
   ModelCorrections corrections;
+  std::string path;         ///< the file or the grid's directory
   double beamEnergy = 0.0;  ///< MeV, the energy they were asked for
   /// Null for a single file; for a grid {"directory", "beam_energy_mev", "points": [{"file",
   /// "beam_energy_mev", "weight"}]} (one point when E is a grid point, else the two around it).
@@ -71,21 +77,35 @@ class CorrectionsGrid {
 
   /// The corrections at `beamEnergy` (MeV). A grid fails outside its energies.
   Result<CorrectionsAt> at(double beamEnergy) const;
+  /// Only their depth offset (cm), at the cost of one interpolation: for every run or event.
+  Result<double> depthOffsetAt(double beamEnergy) const;
 
  private:
+  /// The index k of the grid point above `beamEnergy` and its weight w (the one below,
+  /// k − 1, has 1 − w); an error outside the grid.
+  Result<std::pair<std::size_t, double>> around(double beamEnergy) const;
   std::string path_, sha256_;
   bool grid_ = false;
   std::vector<CorrectionsPoint> points_;  ///< by beam energy
 };
 
-/// The corrections of a sample of event files: at `beamEnergy` (MeV) when given (the
-/// selection's override), else at the beam energy of the files' first event.
+/// The file name of a grid's point: "ee-<E>MeV.json" (derive-corrections writes them so).
+std::string gridPointName(double beamEnergy);
+
+/// `depth` with the grid's depth offset at each beam energy (a single file's at every one).
+geometry::DepthAtEnergy depthAtEnergy(std::shared_ptr<const CorrectionsGrid> grid, const geometry::ShowerDepth& depth);
+
+/// The corrections of a sample of event files: a grid's at `beamEnergy` (MeV) when given
+/// (the selection's override), else at the beam energy of the files' first event; a single
+/// file's as they are (no event read: checkSampleEnergies looks at them all after the fill).
 Result<CorrectionsAt> correctionsForSample(const CorrectionsGrid& grid, const std::vector<std::string>& files,
                                            std::optional<double> beamEnergy);
-/// Whether the selected events' beam energies (MeV) fit corrections interpolated to one
-/// energy: a grid's are refused for events more than kCorrectionsEnergyTolerance away (a
-/// sample of several energies is fitted energy by energy, or by `emcalign campaign`).
-Status checkSampleEnergies(const CorrectionsAt& corrections, const std::set<double>& energies);
+/// The selected events' beam energies (MeV) against the corrections they were filled with:
+/// a grid's, interpolated to one energy, refuse events more than
+/// kCorrectionsEnergyTolerance away (a sample of several energies is fitted energy by
+/// energy, or by `emcalign campaign`); a single file's return a warning for events that far
+/// from its own energy (empty: none).
+Result<std::string> checkSampleEnergies(const CorrectionsAt& corrections, const std::set<double>& energies);
 
 /// (1 − w)·a + w·b of every number of two corrections with the same pieces (w in [0, 1]);
 /// the result's beamEnergy is interpolated alike and derivedFrom is left empty.

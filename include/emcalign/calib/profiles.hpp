@@ -41,6 +41,13 @@ struct ProfileOptions {
   /// bins, and no memory spent.
   bool eventPairs = false;
 
+  /// The parting-plane response and the nominal profile of `c` (the depth offset and the
+  /// response act on the fit: FitGeometry::apply).
+  void apply(const ModelCorrections& c) {
+    partingPlane = c.partingPlane;
+    nominalProfile = c.nominalProfile;
+  }
+
   /// At least one bin each way (at most 1000), a θ range inside [0, π], σ_sys finite and
   /// ≥ 0, minEntries ≥ 2, and corrections made for these bins; the error says which.
   Status validate() const;

@@ -9,7 +9,9 @@
 // at θ = 90°: R = 32.8 + 2.56·(3.840 − 0.5 − 0.13) = 41.02 cm, inside layer 2.
 
 #include <cmath>
+#include <functional>
 
+#include "emcalign/core/result.hpp"
 #include "emcalign/geometry/detector.hpp"
 
 namespace emcalign::geometry {
@@ -34,5 +36,15 @@ struct ShowerDepth {
            m.radiationLength * (log(energy / m.criticalEnergy) - 0.5 - m.preshowerMaterial / sin(theta));
   }
 };
+
+/// The shower depth of the events of one beam energy (MeV): the offset of model
+/// corrections derived per energy (calib/corrections_grid.hpp) makes it depend on the
+/// beam; an energy it cannot serve is an error.
+using DepthAtEnergy = std::function<Result<ShowerDepth>(double beamEnergy)>;
+
+/// The same depth at every energy.
+inline DepthAtEnergy atEveryEnergy(const ShowerDepth& depth) {
+  return [depth](double) -> Result<ShowerDepth> { return depth; };
+}
 
 }  // namespace emcalign::geometry

@@ -138,6 +138,8 @@ class EventReader {
   /// A block never spans two files (the last block of a file may be short), so an event
   /// cut across two files comes out as two events. After an error every call returns it.
   virtual Result<bool> next(std::vector<ParticleRow>& rows) = 0;
+  /// The file the last block came from.
+  virtual const std::string& path() const = 0;
   /// The truth rows matching the last block, when the current file has truth.
   virtual const std::vector<TruthRow>* truth() const = 0;
   /// The hits of the last block in row order (row i's are the next rows[i].hitCount), when

@@ -63,8 +63,8 @@ struct CampaignScan {
 
 /// How the events are turned into profiles and fitted: the fit's geometry and corrections.
 /// With a corrections grid (a directory, calib/corrections_grid.hpp) the corrections depend
-/// on the beam energy: every run is filled at the depth of its energy (depthAt) and every
-/// group fitted with the corrections of its own (at).
+/// on the beam energy: every run is filled at the depth of its energy (depthAtEnergy) and
+/// every group fitted with the corrections of its own (at).
 struct CampaignModel {
   calib::FitGeometry geometry;    ///< with a grid: without corrections until at()
   calib::ProfileOptions profile;  ///< with the corrections' parting plane / nominal profile
@@ -84,11 +84,10 @@ struct CampaignModel {
     profile.eventPairs = choice.keepsEventPairs();
   }
   /// The model of the events of one beam energy (MeV): a grid's corrections there (an energy
-  /// outside the grid is an error), else this model (NaN: this model, a group without
-  /// selected events).
+  /// outside the grid, or none, NaN, is an error), else this model.
   Result<CampaignModel> at(double beamEnergy) const;
-  /// The shower depth of the events of one beam energy (ProfileFill by run).
-  Result<geometry::ShowerDepth> depthAt(double beamEnergy) const;
+  /// The shower depth of the events of each beam energy (fillProfilesByRun).
+  geometry::DepthAtEnergy depthAtEnergy() const;
 };
 
 /// The event files of the inputs, as absolute paths (a batch job may run elsewhere): a

@@ -100,4 +100,17 @@ Result<DerivationReport> deriveCorrections(const geometry::Calorimeter& calo, co
 /// The corrections file content, with the report (errors, closure) under "derived_from".
 io::Json derivationJson(const DerivationReport& report, const io::Json& settings);
 
+/// One point of a grid derived into a directory (`derive-corrections --beam-energy E1,E2,…
+/// -o DIR`; calib/corrections_grid.hpp).
+struct GridPoint {
+  double beamEnergy = 0.0;  ///< MeV
+  std::string file;         ///< DIR/calib::gridPointName(E)
+  bool done = false;        ///< it holds corrections derived with the same settings: kept
+};
+/// The points of a grid in `dir` at `energies`, each derived with `settingsAt(E)` (what the
+/// file records under derived_from.settings). Any other *.json in `dir` is refused: the
+/// directory is the grid `fit --corrections DIR` reads, so it must hold the one asked for.
+Result<std::vector<GridPoint>> planGrid(const std::string& dir, const std::vector<double>& energies,
+                                        const std::function<io::Json(double beamEnergy)>& settingsAt);
+
 }  // namespace emcalign::validation

@@ -1,6 +1,7 @@
 // Corrections across the beam-energy scan (calib/corrections_grid.hpp): linear interpolation
 // of every piece between the two points around an energy, no extrapolation, a single file
-// for every energy (with a warning away from its own), and the checks a grid's files pass.
+// for every energy (with a warning away from its own), the checks a grid's files pass, and
+// the runs of a file filled each at the depth of its own energy (calib/calibration.hpp).
 
 #include "emcalign/calib/corrections_grid.hpp"
 
@@ -10,13 +11,19 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <numbers>
+#include <random>
 #include <string>
+#include <vector>
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include "emcalign/calib/calibration.hpp"
 #include "emcalign/core/sha256.hpp"
 #include "emcalign/core/units.hpp"
+#include "emcalign/geometry/detector.hpp"
+#include "emcalign/io/event_file.hpp"
 
 namespace emcalign::calib {
 namespace {
@@ -133,7 +140,7 @@ TEST(CorrectionsGrid, ASingleFileAppliesAtEveryEnergyWithAWarningAwayFromItsOwn)
   EXPECT_EQ(near->corrections.depthOffset, at(612.5).depthOffset);
   const auto far = g->at(900.0);
   ASSERT_TRUE(far.ok());
-  EXPECT_NE(far->warning.find("derived at 612.5 MeV and is applied to a sample at 900 MeV"), std::string::npos)
+  EXPECT_NE(far->warning.find("derived at 612.5 MeV and is applied to events at 900 MeV"), std::string::npos)
       << far->warning;
   // A file that does not say its energy (made before the key existed): no warning possible.
   ModelCorrections old = at(612.5);
@@ -164,6 +171,70 @@ TEST(CorrectionsGrid, RefusesGridsThatWouldInterpolateBetweenUnlikeFiles) {
   ASSERT_FALSE(d.ok());
   EXPECT_NE(d.error().message.find("different theta_range_deg ([40,140] and [20,160])"), std::string::npos)
       << d.error().message;
+}
+
+TEST(CorrectionsGrid, ANominalBinMissingAtOnePointIsMissingBetween) {
+  ModelCorrections a = at(500.0), b = at(750.0);
+  NominalProfile t = *b.nominalProfile;
+  t.yPhi[40] = t.yTheta[40] = t.sigmaPhi[40] = t.sigmaTheta[40] = kNaN;
+  b.nominalProfile = std::make_shared<const NominalProfile>(t);
+  auto g = CorrectionsGrid::of({{"a.json", a}, {"b.json", b}}, "g");
+  ASSERT_TRUE(g.ok());
+  EXPECT_FALSE(std::isnan(g->at(500.0)->corrections.nominalProfile->yPhi[40]));  // the point that has it
+  EXPECT_TRUE(std::isnan(g->at(500.001)->corrections.nominalProfile->yPhi[40]));
+  EXPECT_TRUE(std::isnan(g->at(750.0)->corrections.nominalProfile->yTheta[40]));
+  EXPECT_FALSE(std::isnan(g->at(600.0)->corrections.nominalProfile->yPhi[41]));
+}
+
+TEST(CorrectionsGrid, TheDepthOffsetAloneIsTheInterpolatedOnes) {
+  const CorrectionsGrid g = grid({500.0, 750.0, 1000.0});
+  for (double e : {500.0, 612.5, 750.0, 900.0, 1000.0}) {
+    EXPECT_NEAR(*g.depthOffsetAt(e), g.at(e)->corrections.depthOffset, 1e-12) << e;
+  }
+  EXPECT_FALSE(g.depthOffsetAt(1200.0).ok());
+  const auto shared = std::make_shared<const CorrectionsGrid>(g);
+  geometry::ShowerDepth base;
+  base.r0 = 30.0;
+  const auto depthAt = depthAtEnergy(shared, base);
+  const auto d = depthAt(612.5);
+  ASSERT_TRUE(d.ok());
+  EXPECT_EQ(d->r0, 30.0);
+  EXPECT_NEAR(d->offset, at(612.5).depthOffset, 1e-12);
+  const auto outside = depthAt(400.0);
+  ASSERT_FALSE(outside.ok());
+  EXPECT_NE(outside.error().message.find("outside the corrections grid"), std::string::npos);
+  EXPECT_EQ(gridPointName(612.5), "ee-612.5MeV.json");
+  EXPECT_EQ(gridPointName(1000.0), "ee-1000MeV.json");
+}
+
+TEST(CorrectionsGrid, ASampleIsCheckedAgainstTheEnergyOfItsCorrections) {
+  const CorrectionsGrid g = grid({500.0, 750.0});
+  const auto c = g.at(612.5);
+  ASSERT_TRUE(c.ok());
+  EXPECT_EQ(*checkSampleEnergies(*c, {612.5}), "");
+  EXPECT_EQ(*checkSampleEnergies(*c, {610.0, 615.0}), "");  // within 1 %
+  const auto mixed = checkSampleEnergies(*c, {612.5, 700.0});
+  ASSERT_FALSE(mixed.ok());
+  EXPECT_NE(mixed.error().message.find("2 beam energies (612.5 to 700 MeV)"), std::string::npos)
+      << mixed.error().message;
+  // A single file warns for every selected energy that far from its own, not only the first.
+  auto one = CorrectionsGrid::of({{"one.json", at(612.5)}}, "one.json");
+  ASSERT_TRUE(one.ok());
+  const auto single = one->at(612.5);
+  EXPECT_EQ(*checkSampleEnergies(*single, {612.5}), "");
+  const auto warning = checkSampleEnergies(*single, {612.5, 900.0});
+  ASSERT_TRUE(warning.ok());
+  EXPECT_NE(warning->find("one.json was derived at 612.5 MeV and is applied to events at 612.5 to 900 MeV"),
+            std::string::npos)
+      << *warning;
+  // A single file reads no event for its energy (the files are not even opened).
+  const auto read = correctionsForSample(*one, {"/nonexistent/events.h5"}, std::nullopt);
+  ASSERT_TRUE(read.ok()) << read.error().message;
+  EXPECT_EQ(read->corrections.depthOffset, at(612.5).depthOffset);
+  // A grid reads the first event's; given, the energy is taken as it is.
+  EXPECT_FALSE(correctionsForSample(g, {"/nonexistent/events.h5"}, std::nullopt).ok());
+  EXPECT_NEAR(correctionsForSample(g, {"/nonexistent/events.h5"}, 700.0)->corrections.depthOffset,
+              at(700.0).depthOffset, 1e-12);
 }
 
 class CorrectionsGridFiles : public ::testing::Test {
@@ -217,6 +288,100 @@ TEST_F(CorrectionsGridFiles, ABadFileOrATooSmallDirectoryIsNamed) {
   EXPECT_NE(g.error().message.find("ee-1000MeV.json: key 'beam_energy_mev': expected the beam energy in MeV"),
             std::string::npos)
       << g.error().message;
+}
+
+
+namespace by_run {
+
+// Back-to-back e+e- events that pass SPEC §7's selection, from vertices along the beam (so
+// that the residuals depend on the shower depth) and with EMC directions a little off.
+std::vector<ParticleRow> events(std::int32_t run, double beamEnergy, int n, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> phi(0.0, 2.0 * std::numbers::pi), theta(50.0 * deg, 130.0 * deg),
+      z(-3.0, 3.0);
+  std::vector<ParticleRow> rows;
+  for (int k = 0; k < n; ++k) {
+    const double p = phi(rng), t = theta(rng), z0 = z(rng);
+    for (int s = 0; s < 2; ++s) {
+      ParticleRow r;
+      r.run = run;
+      r.event = k;
+      r.beamEnergy = beamEnergy;
+      r.charged = 1;
+      r.z0 = z0;
+      r.phiTs = s == 0 ? p : std::fmod(p + std::numbers::pi, 2.0 * std::numbers::pi);
+      r.thetaTs = s == 0 ? t : std::numbers::pi - t;
+      r.energy = beamEnergy;
+      r.phiEmc = std::fmod(r.phiTs + 0.01, 2.0 * std::numbers::pi);
+      r.thetaEmc = r.thetaTs - 0.005;
+      rows.push_back(r);
+    }
+  }
+  return rows;
+}
+
+}  // namespace by_run
+
+TEST_F(CorrectionsGridFiles, EveryRunOfAFileIsFilledAtTheDepthOfItsEnergy) {
+  const std::vector<ParticleRow> run1 = by_run::events(1, 500.0, 300, 1), run2 = by_run::events(2, 750.0, 300, 2);
+  const std::string file = (dir_ / "runs.csv").string();
+  {
+    auto writer = io::EventWriter::open(file, {});
+    ASSERT_TRUE(writer.ok()) << writer.error().message;
+    auto appended = (*writer)->append(run1, {});
+    ASSERT_TRUE(appended.ok()) << appended.error().message;
+    ASSERT_TRUE((*writer)->append(run2, {}).ok());
+    ASSERT_TRUE((*writer)->close().ok());
+  }
+  const geometry::ShowerDepth base = geometry::ShowerDepth::of(geometry::DetectorDescription::sndDefault());
+  auto depthOf = [&](double e) {
+    geometry::ShowerDepth d = base;
+    d.offset = e == 500.0 ? 2.0 : 8.0;
+    return d;
+  };
+  std::vector<double> asked;
+  auto byRun = fillProfilesByRun(
+      file,
+      [&](double e) -> Result<geometry::ShowerDepth> {
+        asked.push_back(e);
+        return depthOf(e);
+      },
+      SelectionOptions{});
+  ASSERT_TRUE(byRun.ok()) << byRun.error().message;
+  EXPECT_EQ(asked, (std::vector<double>{500.0, 750.0}));  // once per run
+  ASSERT_EQ(byRun->size(), 2u);
+  for (const auto& [run, rows] : {std::pair{1, run1}, std::pair{2, run2}}) {
+    ProfileFiller alone(depthOf(rows.front().beamEnergy), SelectionOptions{});
+    alone.addEvents(rows);
+    ASSERT_EQ(alone.fill().cutFlow.events.back(), 300);
+    const auto want = alone.fill().profiles.bins(0.0), got = byRun->at(run).profiles.bins(0.0);
+    ASSERT_EQ(got.size(), want.size());
+    int compared = 0;
+    for (std::size_t b = 0; b < got.size(); ++b) {
+      if (want[b].n == 0) continue;
+      EXPECT_EQ(got[b].yPhi, want[b].yPhi) << run << " " << b;
+      EXPECT_EQ(got[b].yTheta, want[b].yTheta) << run << " " << b;
+      ++compared;
+    }
+    EXPECT_GT(compared, 100) << run;
+  }
+  // The depths make a difference: run 2 filled at run 1's depth differs.
+  ProfileFiller wrong(depthOf(500.0), SelectionOptions{});
+  wrong.addEvents(run2);
+  const auto wrongBins = wrong.fill().profiles.bins(0.0), rightBins = byRun->at(2).profiles.bins(0.0);
+  int differ = 0;
+  for (std::size_t b = 0; b < rightBins.size(); ++b) differ += rightBins[b].n > 0 && wrongBins[b].yTheta != rightBins[b].yTheta;
+  EXPECT_GT(differ, 100);
+  // An energy the depths cannot serve names the file and the run.
+  auto refused = fillProfilesByRun(
+      file,
+      [](double e) -> Result<geometry::ShowerDepth> {
+        if (e > 600.0) return Error{"outside"};
+        return geometry::ShowerDepth{};
+      },
+      SelectionOptions{});
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().message, file + ": run 2 (750 MeV): outside");
 }
 
 }  // namespace

@@ -140,27 +140,6 @@ int runGet(const ConditionsOptions& o) {
   return kExitOk;
 }
 
-Json tagJson(conddb::Database& db, const conddb::Tag& tag) {
-  Json iovs = Json::array();
-  auto list = db.iovs(tag.name);
-  if (list) {
-    for (const auto& iov : *list) {
-      Json i = {{"first_run", iov.firstRun}, {"last_run", iov.lastRun}, {"payload", iov.payload},
-                {"inserted", iov.inserted}};
-      if (auto p = db.payload(iov.payload); p) {
-        const Json& a = p->content["alignment"];
-        for (const char* key : {"status", "chi2", "ndf"}) {
-          if (a.contains(key)) i[key] = a[key];
-        }
-        if (p->content.contains("selected_events")) i["selected_events"] = p->content["selected_events"];
-      }
-      iovs.push_back(std::move(i));
-    }
-  }
-  return {{"tag", tag.name}, {"state", conddb::name(tag.state)}, {"description", tag.description},
-          {"created", tag.created}, {"iovs", iovs}};
-}
-
 int runList(const ConditionsOptions& o) {
   auto db = conddb::Database::open(o.uri);
   if (!db) return reportError(db.error());

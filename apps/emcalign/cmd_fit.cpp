@@ -5,7 +5,6 @@
 #include <cmath>
 #include <limits>
 #include <memory>
-#include <numbers>
 #include <optional>
 #include <string>
 #include <vector>
@@ -14,11 +13,11 @@
 #include <fmt/ranges.h>
 
 #include "common.hpp"
-#include "emcalign/apply/cluster_correction.hpp"
 #include "emcalign/calib/calibration.hpp"
 #include "emcalign/calib/corrections_grid.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/io/json_files.hpp"
+#include "emcalign/report/fit_figures.hpp"
 #include "emcalign/report/plots.hpp"
 
 namespace emcalign::app {
@@ -91,23 +90,17 @@ void printResult(const calib::FitResult& r) {
 
 // The figures; with event input, a second pass corrects each selected particle's EMC
 // direction with the fitted parameters for the after-correction distributions.
-Status drawPlots(const FitCliOptions& o, const calib::FitGeometry& geometry, const std::vector<calib::ProfileBin>& bins,
-                 const calib::FitResult& result, report::ResidualHistograms* histograms) {
-  if (histograms != nullptr) {
-    auto transform = geometry::AlignmentTransform::create(result.parameters, geometry.radii);
-    if (!transform) return transform.error();
+Status drawPlots(const FitCliOptions& o, const calib::FitGeometry& geometry, const calib::ProfileOptions& profile,
+                 const std::vector<calib::ProfileBin>& bins, const calib::FitResult& result) {
+  std::optional<report::FitFigureData> data;
+  if (o.profileIn.empty()) {
     calib::SelectionOptions selection;
     if (o.beamEnergy > 0.0) selection.beamEnergy = o.beamEnergy;
-    auto after = [&](const ParticleRow& row, const calib::ParticleResidual& y) {
-      const auto [phi, theta] = apply::correctDirection(*transform, geometry.depth, row.phiEmc, row.thetaEmc, row.energy);
-      const double phiR = row.phiEmc + std::asin(y.yPhi), thetaR = row.thetaEmc + y.yTheta;
-      histograms->dPhiAfter.fill(std::remainder(phiR - phi, 2.0 * std::numbers::pi) / units::deg);
-      histograms->dThetaAfter.fill((thetaR - theta) / units::deg);
-    };
-    auto second = calib::fillProfiles(o.events, geometry.depth, selection, {}, after);
-    if (!second) return second.error();
+    auto filled = report::fitFigureData(o.events, geometry, selection, profile, result.parameters);
+    if (!filled) return filled.error();
+    data = std::move(*filled);
   }
-  auto written = report::writeFitPlots(o.plots, bins, geometry, result, histograms);
+  auto written = report::writeFitPlots(o.plots, bins, geometry, result, data ? &data->residuals : nullptr);
   if (!written) return written.error();
   for (const auto& png : *written) fmt::print(reportStream(), "wrote {}\n", png);
   return {};
@@ -183,13 +176,6 @@ int run(const FitCliOptions& o) {
 
   std::vector<calib::ProfileBin> bins;
   std::optional<calib::ProfileFill> fill;
-  std::optional<report::ResidualHistograms> histograms;
-  if (!o.plots.empty() && o.profileIn.empty()) histograms.emplace();
-  // Δφ = φ_TS,R − φ_EMC and Δθ = θ_TS,R − θ_EMC of a selected particle, in degrees.
-  auto before = [&](const ParticleRow&, const calib::ParticleResidual& y) {
-    histograms->dPhiBefore.fill(std::asin(y.yPhi) / units::deg);
-    histograms->dThetaBefore.fill(y.yTheta / units::deg);
-  };
   input.detector = o.detector.empty() ? "embedded default" : o.detector;
   if (!o.profileIn.empty()) {
     auto read = calib::readProfileCsv(o.profileIn);
@@ -220,8 +206,7 @@ int run(const FitCliOptions& o) {
   } else {
     calib::SelectionOptions selection;
     if (o.beamEnergy > 0.0) selection.beamEnergy = o.beamEnergy;
-    auto filled = calib::fillProfiles(o.events, geometry.depth, selection, profileOptions,
-                                      histograms ? calib::ParticleVisitor(before) : calib::ParticleVisitor());
+    auto filled = calib::fillProfiles(o.events, geometry.depth, selection, profileOptions);
     if (!filled) return reportError(filled.error());
     fill = std::move(*filled);
     printCutFlow(*fill);
@@ -250,7 +235,7 @@ int run(const FitCliOptions& o) {
   }
   fmt::print(reportStream(), "wrote {}\n", o.output == "-" ? "the result to standard output" : o.output);
   if (!o.plots.empty()) {
-    if (Status s = drawPlots(o, geometry, bins, *result, histograms ? &*histograms : nullptr); !s) {
+    if (Status s = drawPlots(o, geometry, profileOptions, bins, *result); !s) {
       return reportError(s.error());
     }
   }

@@ -103,5 +103,6 @@ void addConditionsCommand(CLI::App& app, int& exitCode);
 void addCampaignCommand(CLI::App& app, int& exitCode);
 void addTrendCommand(CLI::App& app, int& exitCode);
 void addCheckCommand(CLI::App& app, int& exitCode);
+void addReportCommand(CLI::App& app, int& exitCode);
 
 }  // namespace emcalign::app

@@ -21,6 +21,11 @@ namespace emcalign::app {
 io::Json parameterFileOf(const conddb::Iov& iov, const conddb::Payload& payload, const std::string& uri,
                          const std::string& tag);
 
+/// A tag as `conditions list --json` shows it: {"tag", "state", "description", "created",
+/// "iovs": [{"first_run", "last_run", "payload", "inserted", "status", "chi2", "ndf",
+/// "selected_events"}]}.
+io::Json tagJson(conddb::Database& db, const conddb::Tag& tag);
+
 /// `--conditions URI --tag T`: each run's alignment, from the IOV that contains it.
 class ConditionsAlignments {
  public:

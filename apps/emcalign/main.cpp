@@ -61,6 +61,7 @@ int main(int argc, char** argv) {
   emcalign::app::addCampaignCommand(app, exitCode);
   emcalign::app::addTrendCommand(app, exitCode);
   emcalign::app::addCheckCommand(app, exitCode);
+  emcalign::app::addReportCommand(app, exitCode);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "emcalign/calib/calibration.hpp"
+#include "emcalign/core/paper.hpp"
 #include "emcalign/core/statistics.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/report/plots.hpp"
@@ -472,12 +473,6 @@ Json tableJson(const Table& t) {
 }
 
 std::string tableMarkdown(const Table& t) {
-  // SPEC §10 (the paper's Table 1): bias, spread.
-  const std::vector<std::tuple<std::string, double, double>> paper = {
-      {"alpha", -0.13, 0.02},   {"beta1", -0.007, 0.023}, {"beta2", -0.006, 0.017}, {"dx", -0.005, 0.006},
-      {"dy", -0.005, 0.012},    {"dz", 0.012, 0.021},     {"mu", -1e-4, 3e-4},      {"dx_rel", -0.021, 0.008},
-      {"dp1", -0.045, 0.031},   {"dp2", -0.030, 0.030},   {"dp3", -0.053, 0.036},   {"beta_rel", -1e-4, 5e-4},
-      {"dy_rel", 0.052, 0.018}, {"dz_rel", -0.005, 0.018}};
   std::string md = fmt::format(
       "# Validation: {} samples × {} events\n\n"
       "bias = mean of (fit − truth), spread = its standard deviation, ± = spread/√samples; pulls = (fit − "
@@ -491,11 +486,9 @@ std::string tableMarkdown(const Table& t) {
                                                    t.sigmaSysMin, t.sigmaSysMax));
   for (const auto& r : t.rows) {
     std::string pb = "", ps = "";
-    for (const auto& [n, b, s] : paper) {
-      if (n == r.name) {
-        pb = fmt::format("{:.3g}", b);
-        ps = fmt::format("{:.3g}", s);
-      }
+    if (const auto* p = paper::table1(r.name)) {  // SPEC §10
+      pb = fmt::format("{:.3g}", p->bias);
+      ps = fmt::format("{:.3g}", p->spread);
     }
     const std::string slope =
         std::isfinite(r.slope) ? fmt::format("{:+.4f} ± {:.4f}", r.slope, r.slopeError) : std::string("—");

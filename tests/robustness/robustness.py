@@ -683,6 +683,17 @@ def cases():
     add(Case(K, "a gg check of e+e- -> e+e- events: nothing selected", "emcalign check gg ev.h5 --alignment p.json "
              "-o chkg", 1, "no event passes the e+e- -> gamma gamma selection"))
 
+    # ---- The report ---------------------------------------------------------------------------
+    R = "The report"
+    add(Case(R, "a report of nothing", "emcalign report -o r.html", 1, "nothing to report"))
+    add(Case(R, "a parameter file as the fit", "emcalign report --fit p.json -o r.html", 1, "not a fit result"))
+    add(Case(R, "a directory that is not a validation", "mkdir -p empty && emcalign report --validation empty -o r.html",
+             1, "no table.json in this directory"))
+    add(Case(R, "events without the fit they belong to", "emcalign report --events ev.csv -o r.html", 2,
+             "requires --fit"))
+    add(Case(R, "the report over its fit", "emcalign report --fit result.json -o result.json", 1,
+             "same file as the input --fit"))
+
     # ---- Messages and exit codes -------------------------------------------------------------
     M = "Messages and exit codes"
     add(Case(M, "an unknown option", "emcalign fit ev.csv -o r.json --bogus", 2, "usage error"))

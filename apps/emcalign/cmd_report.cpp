@@ -1,0 +1,223 @@
+// emcalign report: one self-contained HTML page of a calibration (report/calibration_report.hpp):
+//   report [--fit RESULT.json [--events EVENTS...] [--corrections C]] [--validation DIR]
+//          [--trend DIR] [--conditions URI --tag T] [--checks DIR...] [--title T] -o report.html
+
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <unistd.h>
+
+#include <fmt/format.h>
+
+#include "common.hpp"
+#include "conditions_support.hpp"
+#include "emcalign/calib/corrections_grid.hpp"
+#include "emcalign/conddb/conditions.hpp"
+#include "emcalign/core/sha256.hpp"
+#include "emcalign/core/units.hpp"
+#include "emcalign/report/calibration_report.hpp"
+#include "emcalign/report/fit_figures.hpp"
+
+namespace emcalign::app {
+
+namespace {
+
+namespace fs = std::filesystem;
+using io::Json;
+
+struct ReportCliOptions {
+  std::string fit, corrections, validation, trend, conditions, tag, detector, title, output;
+  std::vector<std::string> events, checks;
+};
+
+// A scratch directory for the figures drawn here, removed when the report is written.
+class ScratchDirectory {
+ public:
+  static Result<ScratchDirectory> create() {
+    std::string pattern = (fs::temp_directory_path() / "emcalign-report-XXXXXX").string();
+    if (::mkdtemp(pattern.data()) == nullptr) return Error{"cannot create a scratch directory for the figures"};
+    ScratchDirectory d;
+    d.path_ = pattern;
+    return d;
+  }
+  ScratchDirectory() = default;
+  ScratchDirectory(ScratchDirectory&& o) noexcept : path_(std::move(o.path_)) { o.path_.clear(); }
+  ScratchDirectory& operator=(ScratchDirectory&&) = delete;
+  ~ScratchDirectory() {
+    std::error_code ec;
+    if (!path_.empty()) fs::remove_all(path_, ec);
+  }
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+};
+
+// The fit's model, as its result recorded it: the detector given, the corrections it names
+// (or --corrections instead), at the beam energy it was interpolated to.
+Result<calib::ModelCorrections> correctionsOfResult(const Json& result, const ReportCliOptions& o) {
+  const Json& in = result.at("input");
+  const Json corr = in.value("model_corrections", Json::object());
+  std::string path = o.corrections;
+  double energy = std::numeric_limits<double>::quiet_NaN();
+  if (corr.contains("interpolation")) {
+    energy = corr.at("interpolation").at("beam_energy_mev").get<double>() * units::MeV;
+    if (path.empty()) path = corr.at("interpolation").at("directory").get<std::string>();
+  }
+  for (const char* key : {"response", "nominal_profile", "parting_plane_response"}) {
+    if (path.empty() && corr.contains(key) && corr.at(key).is_string()) path = corr.at(key).get<std::string>();
+  }
+  calib::ModelCorrections c;
+  if (path.empty()) {
+    c.depthOffset = corr.value("depth_offset_cm", 0.0) * units::cm;
+    return c;
+  }
+  auto grid = calib::CorrectionsGrid::read(path);
+  if (!grid) return Error{fmt::format("the fit used the corrections {} (give --corrections if they moved): {}", path, grid.error().message)};
+  auto at = grid->at(energy);
+  if (!at) return at.error();
+  return at->corrections;
+}
+
+// The figures of the fit drawn from the events into `dir`.
+Result<std::vector<std::string>> fitFigures(const Json& result, const ReportCliOptions& o,
+                                            const geometry::Calorimeter& calo, const std::string& dir) {
+  auto parameters = io::parseAlignmentFile(result, calo.description().r1(), o.fit);
+  if (!parameters) return parameters.error();
+  auto corrections = correctionsOfResult(result, o);
+  if (!corrections) return corrections.error();
+  auto geometry = calib::FitGeometry::of(calo.description());
+  geometry.apply(*corrections);
+  calib::ProfileOptions profile;
+  profile.apply(*corrections);
+  auto data = report::fitFigureData(o.events, geometry, {}, profile, parameters->parameters);
+  if (!data) return data.error();
+  calib::FitResult fit;
+  fit.parameters = parameters->parameters;
+  fit.chi2 = result.at("chi2").get<double>();
+  fit.ndf = result.at("ndf").get<int>();
+  fit.status = parameters->status.value_or(FitStatus::Converged);
+  const Json sigma = result.value("sigma_sys", Json::object());
+  const double sigmaSys = sigma.value("value_deg", 0.2) * units::deg;
+  auto bins = data->fill.profiles.bins(std::isfinite(sigmaSys) ? sigmaSys : 0.2 * units::deg);
+  return report::writeFitPlots(dir, bins, geometry, fit, &data->residuals);
+}
+
+int run(const ReportCliOptions& o) {
+  std::vector<io::NamedPath> inputs = {{"--fit", o.fit}, {"--corrections", o.corrections}, {"--detector", o.detector}};
+  for (const auto& e : o.events) inputs.push_back({"--events", e});
+  if (Status s = checkOutputs({{"-o", o.output}}, {}, inputs); !s) return reportError(s.error());
+  if (!o.events.empty() && o.fit.empty()) return reportError({"--events draws the figures of a fit: give --fit"});
+  report::ReportInputs in;
+  if (!o.title.empty()) in.title = o.title;
+  std::optional<ScratchDirectory> scratch;
+  if (!o.fit.empty()) {
+    auto text = io::readTextFile(o.fit);
+    if (!text) return reportError(text.error());
+    auto j = io::parseJson(*text, o.fit);
+    if (!j) return reportError(j.error());
+    if (!j->is_object() || !j->contains("parameters") || !j->contains("chi2") || !j->contains("input")) {
+      return reportError({fmt::format("{}: not a fit result (emcalign fit -o)", o.fit)});
+    }
+    report::ReportFit fit{.path = o.fit, .result = *j};
+    if (j->at("input").contains("files")) {
+      for (const auto& f : j->at("input").at("files")) {
+        const std::string file = f.get<std::string>();
+        auto digest = sha256OfFile(file);
+        fit.inputDigests.emplace_back(file, digest ? *digest : std::string());
+      }
+    }
+    auto calo = loadCalorimeter(o.detector);
+    if (!calo) return reportError(calo.error());
+    const auto& d = calo->description();
+    fit.detector = fmt::format("{} ({}), {} counters in 3 layers, the EMC from R0 = {:.1f} cm; the hemispheres' "
+                               "support sphere at R1 = {:.1f} cm",
+                               d.name, o.detector.empty() ? "embedded" : o.detector, 3 * calo->countersPerLayer(),
+                               d.r0() / units::cm, d.r1() / units::cm);
+    if (!o.events.empty()) {
+      auto dir = ScratchDirectory::create();
+      if (!dir) return reportError(dir.error());
+      scratch.emplace(std::move(*dir));
+      fmt::print(reportStream(), "drawing the fit's figures from {} event file{} ...\n", o.events.size(),
+                 o.events.size() == 1 ? "" : "s");
+      try {
+        auto figures = fitFigures(*j, o, *calo, scratch->path());
+        if (!figures) return reportError(figures.error());
+        fit.figures = std::move(*figures);
+      } catch (const Json::exception& e) {
+        return reportError({fmt::format("{}: not what the report expects: {}", o.fit, e.what())});
+      }
+    }
+    in.fit = std::move(fit);
+  }
+  if (!o.validation.empty()) {
+    auto v = report::readValidationDirectory(o.validation);
+    if (!v) return reportError(v.error());
+    in.validation = std::move(*v);
+  }
+  if (!o.trend.empty()) {
+    auto t = report::readTrendDirectory(o.trend);
+    if (!t) return reportError(t.error());
+    in.trend = std::move(*t);
+  }
+  if (!o.conditions.empty()) {
+    auto db = conddb::Database::open(o.conditions);
+    if (!db) return reportError(db.error());
+    auto tag = (*db)->tag(o.tag);
+    if (!tag) return reportError(tag.error());
+    if (!tag->has_value()) {
+      return reportError({fmt::format("{}: no tag '{}' (the tags: emcalign conditions list {})", (*db)->uri(), o.tag,
+                                      (*db)->uri())});
+    }
+    in.conditions = report::ReportConditions{(*db)->uri(), o.tag, tagJson(**db, **tag).at("iovs")};
+  }
+  for (const auto& dir : o.checks) {
+    auto c = report::readCheckDirectory(dir);
+    if (!c) return reportError(c.error());
+    in.checks.push_back(std::move(*c));
+  }
+  auto page = report::calibrationReport(in);
+  if (!page) return reportError(page.error());
+  if (Status s = io::writeOutputFile(o.output, *page); !s) return reportError(s.error());
+  fmt::print(reportStream(), "wrote {} ({:.0f} kB)\n", o.output == "-" ? "the report to standard output" : o.output,
+             static_cast<double>(page->size()) / 1024.0);
+  return kExitOk;
+}
+
+}  // namespace
+
+void addReportCommand(CLI::App& app, int& exitCode) {
+  auto o = std::make_shared<ReportCliOptions>();
+  auto* cmd = app.add_subcommand("report",
+                                 "One self-contained HTML page of a calibration: the parameters, the profiles, the "
+                                 "validation, the time evolution and the physics checks (docs/report.md)");
+  addVersionFlag(*cmd);
+  auto* fit = cmd->add_option("--fit", o->fit, "a fit result (emcalign fit -o)")->check(CLI::ExistingFile);
+  cmd->add_option("--events", o->events,
+                  "the fit's event files: the profiles with the fitted model and the residuals before and after the "
+                  "correction")
+      ->check(CLI::ExistingFile)
+      ->needs(fit);
+  cmd->add_option("--corrections", o->corrections,
+                  "the corrections the fit used, when they are no longer where its result says (a file or a grid)")
+      ->check(CLI::ExistingPath)
+      ->needs(fit);
+  cmd->add_option("--validation", o->validation, "a validation campaign's directory (emcalign validate -o)")
+      ->check(CLI::ExistingDirectory);
+  cmd->add_option("--trend", o->trend, "a trend's directory (emcalign trend -o)")->check(CLI::ExistingDirectory);
+  auto* conditions = cmd->add_option("--conditions", o->conditions, "a conditions database: the IOVs of --tag");
+  auto* tag = cmd->add_option("--tag", o->tag, "the tag of --conditions")->check(tagName());
+  conditions->needs(tag);
+  tag->needs(conditions);
+  cmd->add_option("--checks", o->checks, "physics checks' directories (emcalign check -o)")->check(CLI::ExistingDirectory);
+  cmd->add_option("--title", o->title, "the page's title (default: EMC geometric calibration)");
+  addDetectorOption(*cmd, o->detector);
+  cmd->add_option("-o,--output", o->output, "the HTML file; '-': standard output")->required();
+  cmd->callback([o, &exitCode] { exitCode = run(*o); });
+}
+
+}  // namespace emcalign::app

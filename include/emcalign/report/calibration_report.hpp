@@ -1,0 +1,82 @@
+#pragma once
+// The calibration report (`emcalign report`, docs/report.md): one self-contained HTML page
+// from the files the other commands write, its sections following the paper:
+//  1. the calibration: the 12 parameters of a fit result (SPEC §3) with errors, the physical
+//     set, the correlation matrix as a heat map, χ²/ndf, status and warnings, σ_sys, the
+//     stages, and the provenance (inputs with their SHA-256, detector, corrections,
+//     software); with the events, the profiles with the fitted model (the paper's Figs. 3–4)
+//     and the residuals before and after the correction (Fig. 6);
+//  2. the validation campaign (`emcalign validate`'s table.json) beside the paper's Table 1,
+//     with the pull figures;
+//  3. the time evolution (`emcalign trend`'s trend.json and figures: the paper's Fig. 8),
+//     its steps, drifts and stable periods, and a conditions tag's IOVs;
+//  4. the physics checks (`emcalign check`'s check.json and figure: the paper's Figs. 9–10)
+//     beside the paper's improvements.
+// A section appears when its input is given. The report module reads the files' JSON, not
+// the modules that wrote them, so it draws nothing itself but the tables.
+
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "emcalign/core/result.hpp"
+#include "emcalign/io/json_files.hpp"
+
+namespace emcalign::report {
+
+struct ReportFit {
+  std::string path = {};  ///< the result file
+  io::Json result = {};   ///< its content (SPEC §3, `emcalign fit -o`)
+  /// The detector in a line (name, counters, radii; empty: not shown).
+  std::string detector = {};
+  /// The input files the result names, with their SHA-256 (empty where the file is gone).
+  std::vector<std::pair<std::string, std::string>> inputDigests = {};
+  /// The figures drawn from the events (report::writeFitPlots' PNGs), in order; none
+  /// without events.
+  std::vector<std::string> figures = {};
+};
+
+struct ReportValidation {
+  std::string dir;
+  io::Json table;                    ///< dir/table.json
+  std::vector<std::string> figures;  ///< dir/plots/*.png that exist
+};
+
+struct ReportTrend {
+  std::string dir;
+  io::Json trend;                    ///< dir/trend.json
+  std::vector<std::string> figures;  ///< dir/fig8.png, dir/trend_all.png, those that exist
+};
+
+struct ReportConditions {
+  std::string uri, tag;
+  io::Json iovs;  ///< `emcalign conditions list --json`'s "iovs"
+};
+
+struct ReportCheck {
+  std::string dir;
+  io::Json check;      ///< dir/check.json
+  std::string figure;  ///< dir/acollinearity.png or dir/chi2.png (empty: none)
+};
+
+struct ReportInputs {
+  std::string title = "EMC geometric calibration";
+  std::optional<ReportFit> fit;
+  std::optional<ReportValidation> validation;
+  std::optional<ReportTrend> trend;
+  std::optional<ReportConditions> conditions;
+  std::vector<ReportCheck> checks;
+};
+
+/// Reads a validation campaign's directory, a trend's or a check's: its JSON (refused when
+/// absent or of another kind) and the figures present.
+Result<ReportValidation> readValidationDirectory(const std::string& dir);
+Result<ReportTrend> readTrendDirectory(const std::string& dir);
+Result<ReportCheck> readCheckDirectory(const std::string& dir);
+
+/// The page. Fails when no section has an input, or when an input lacks what its section
+/// shows (the error names the file and the key).
+Result<std::string> calibrationReport(const ReportInputs& inputs);
+
+}  // namespace emcalign::report

@@ -1,0 +1,427 @@
+#include "emcalign/report/calibration_report.hpp"
+
+#include <cmath>
+#include <filesystem>
+
+#include <fmt/format.h>
+
+#include "emcalign/core/paper.hpp"
+#include "emcalign/report/html.hpp"
+
+namespace emcalign::report {
+
+namespace fs = std::filesystem;
+using io::Json;
+
+namespace {
+
+// The symbol a physicist reads for a parameter's file name.
+std::string symbol(const std::string& name) {
+  static const std::vector<std::pair<std::string, std::string>> kSymbols = {
+      {"alpha", "α"},    {"beta1", "β₁"},      {"beta2", "β₂"},        {"dp1", "dp₁"},   {"dp2", "dp₂"},
+      {"dp3", "dp₃"},    {"dy_rel", "dy_rel"}, {"dz_rel", "dz_rel"},   {"beta_rel", "β_rel"},
+      {"beta", "β"},     {"psi", "ψ"},         {"mu", "μ"},            {"tau", "τ"},     {"dx_rel", "dx_rel"}};
+  for (const auto& [n, s] : kSymbols) {
+    if (n == name) return s;
+  }
+  return name;
+}
+
+bool finite(const Json& v) { return v.is_number() && std::isfinite(v.get<double>()); }
+
+// A value to the precision of its error (two significant digits of the error).
+std::pair<std::string, std::string> withError(const Json& value, const Json& error) {
+  if (!finite(value)) return {"—", "—"};
+  if (!finite(error) || error.get<double>() <= 0.0) return {fmt::format("{:.5g}", value.get<double>()), "—"};
+  const double e = error.get<double>();
+  const int digits = std::clamp(1 - static_cast<int>(std::floor(std::log10(e))), 0, 7);
+  return {fmt::format("{:.{}f}", value.get<double>(), digits), fmt::format("{:.{}f}", e, digits)};
+}
+
+std::string number(const Json& v, const char* format = "{:.4g}") {
+  return finite(v) ? fmt::format(fmt::runtime(format), v.get<double>()) : std::string("—");
+}
+
+std::string text(const Json& v) { return html::escape(v.is_string() ? v.get<std::string>() : v.dump()); }
+
+const std::vector<std::string> kFitParams = {"alpha", "beta1", "beta2", "dx",     "dy",     "dz",
+                                             "dp1",   "dp2",   "dp3",   "dy_rel", "dz_rel", "beta_rel"};
+
+std::string unitOf(const std::string& name) {
+  return name == "dx" || name == "dy" || name == "dz" || name.rfind("dp", 0) == 0 || name == "dy_rel" ||
+                 name == "dz_rel" || name == "dx_rel"
+             ? "cm"
+             : "deg";
+}
+
+const std::vector<std::string> kFitCaptions = {
+    "Profiles ȳ_φ against φ_EMC, one panel per θ_EMC slice, with the fitted model (solid) and the nominal "
+    "geometry (dashed): the paper's Fig. 3.",
+    "Profiles ȳ_θ against φ_EMC, one panel per θ_EMC slice, with the fitted model: the paper's Fig. 4.",
+    "Both residuals against θ_EMC, one panel per φ_EMC slice, with the model at the slice's mean φ.",
+    "Δφ and Δθ of the selected particles before (filled) and after (open) the correction with the fitted "
+    "parameters: the paper's Fig. 6."};
+
+Result<std::string> fitSection(const ReportFit& f) {
+  const Json& r = f.result;
+  std::string body;
+  const std::string status = r.at("status").get<std::string>();
+  const bool converged = status == "converged";
+  body += fmt::format("<p>Result <code>{}</code>: status <span class=\"{}\">{}</span>; χ²/ndf = {:.1f}/{} (p-value {}); "
+                      "{} profile bins used.</p>\n",
+                      html::escape(f.path), converged ? "good" : "bad", html::escape(status), r.at("chi2").get<double>(),
+                      r.at("ndf").get<int>(), number(r.at("p_value"), "{:.3g}"),
+                      r.at("input").value("bins_used", Json()).dump());
+  if (!f.detector.empty()) body += html::paragraph("Detector: " + f.detector);
+  const Json& warnings = r.at("warnings");
+  if (!warnings.empty()) {
+    std::vector<std::string> items;
+    for (const auto& w : warnings) items.push_back(w.get<std::string>());
+    body += "<h3>Warnings</h3>\n" + html::list(items, "warn");
+  }
+
+  html::Table params{.caption = "The fit's set (SPEC §3)", .header = {"parameter", "value", "error", "unit"}};
+  params.numeric = {false, true, true, false};
+  for (const auto& name : kFitParams) {
+    const auto [v, e] = withError(r.at("parameters").at(name), r.at("errors").at(name));
+    params.rows.push_back({html::escape(symbol(name)) + " <code>" + name + "</code>", v, e, unitOf(name)});
+  }
+  body += "<div class=\"side\">\n" + html::table(params);
+
+  if (r.contains("derived") && r.at("derived").is_object()) {
+    html::Table derived{.caption = "The physical set (derived)", .header = {"parameter", "value", "error", "unit"}};
+    derived.numeric = {false, true, true, false};
+    for (const auto& [name, d] : r.at("derived").items()) {
+      const auto [v, e] = withError(d.at("value"), d.at("error"));
+      derived.rows.push_back({html::escape(symbol(name)) + " <code>" + html::escape(name) + "</code>", v, e,
+                              html::escape(d.value("unit", unitOf(name)))});
+    }
+    body += html::table(derived);
+  }
+  body += "</div>\n";
+
+  if (r.contains("correlation") && r.at("correlation").is_array()) {
+    std::vector<std::string> labels;
+    for (const auto& n : kFitParams) labels.push_back(symbol(n));
+    std::vector<std::vector<double>> m;
+    for (const auto& row : r.at("correlation")) {
+      std::vector<double> values;
+      for (const auto& v : row) values.push_back(finite(v) ? v.get<double>() : std::nan(""));
+      m.push_back(std::move(values));
+    }
+    body += "<h3>Correlations</h3>\n" +
+            html::heatMap(labels, m, "Correlation matrix of the fit (red positive, blue negative)");
+  }
+
+  if (r.contains("sigma_sys")) {
+    const Json& s = r.at("sigma_sys");
+    std::string line = fmt::format("σ_sys of every bin: {} deg ({}", number(s.value("value_deg", Json())),
+                                   s.value("method", std::string("?")));
+    if (s.value("method", std::string()) == "auto" && s.contains("interval_deg")) {
+      line += fmt::format(": χ²/ndf = 1 after the fit, 68 % interval {} to {} deg; χ² {} with the statistical "
+                          "errors alone",
+                          number(s.at("interval_deg")[0]), number(s.at("interval_deg")[1]),
+                          number(s.value("chi2_statistical_errors", Json()), "{:.1f}"));
+    }
+    body += html::paragraph(line + ").");
+  }
+
+  if (r.contains("stages") && r.at("stages").is_array()) {
+    html::Table stages{.caption = "The staged fit (SPEC §8)", .header = {"stage", "free parameters", "χ²", "iterations", "converged"}};
+    stages.numeric = {true, false, true, true, false};
+    for (const auto& s : r.at("stages")) {
+      std::string free;
+      for (const auto& p : s.at("free")) free += (free.empty() ? "" : ", ") + symbol(p.get<std::string>());
+      stages.rows.push_back({s.at("stage").dump(), html::escape(free), number(s.at("chi2"), "{:.1f}"),
+                             s.at("iterations").dump(), s.at("converged").get<bool>() ? "yes" : "<b>no</b>"});
+    }
+    body += html::table(stages);
+  }
+
+  // Provenance.
+  const Json& in = r.at("input");
+  html::Table prov{.header = {"item", "value"}};
+  for (const auto& [file, digest] : f.inputDigests) {
+    prov.rows.push_back({"input file", "<code>" + html::escape(file) + "</code><br>SHA-256 " +
+                                           (digest.empty() ? std::string("— (not found now)") : "<code>" + digest + "</code>")});
+  }
+  prov.rows.push_back({"detector", text(in.value("detector", Json("?")))});
+  if (in.contains("model_corrections")) {
+    const Json& c = in.at("model_corrections");
+    std::string corr = fmt::format("depth offset {} cm", number(c.value("depth_offset_cm", Json()), "{:+.3f}"));
+    for (const char* key : {"parting_plane_response", "nominal_profile", "response"}) {
+      if (c.contains(key) && c.at(key).is_string()) corr += fmt::format("; {}: <code>{}</code>", key, html::escape(c.at(key).get<std::string>()));
+    }
+    if (c.contains("interpolation")) {
+      const Json& i = c.at("interpolation");
+      corr += fmt::format("; interpolated to {} MeV between", number(i.at("beam_energy_mev"), "{}"));
+      for (const auto& p : i.at("points")) {
+        corr += fmt::format(" {} MeV (×{:.3f})", number(p.at("beam_energy_mev"), "{}"), p.at("weight").get<double>());
+      }
+    }
+    prov.rows.push_back({"model corrections", corr});
+  }
+  if (in.contains("beam_energies_mev")) prov.rows.push_back({"beam energies, MeV", text(in.at("beam_energies_mev"))});
+  if (in.contains("cut_flow")) {
+    std::string flow;
+    for (const auto& [cut, n] : in.at("cut_flow").items()) flow += fmt::format("{}{}: {}", flow.empty() ? "" : "; ", html::escape(cut), n.dump());
+    prov.rows.push_back({"selection (events)", flow});
+  }
+  prov.rows.push_back({"software", text(r.value("software", Json("?")))});
+  body += "<h3>Provenance</h3>\n" + html::table(prov);
+
+  if (!f.figures.empty()) {
+    body += "<h3>Profiles and residuals</h3>\n";
+    for (std::size_t k = 0; k < f.figures.size(); ++k) {
+      auto fig = html::figure(f.figures[k], k < kFitCaptions.size() ? kFitCaptions[k] : fs::path(f.figures[k]).stem().string());
+      if (!fig) return fig.error();
+      body += *fig;
+    }
+  }
+  return body;
+}
+
+Result<std::string> validationSection(const ReportValidation& v) {
+  const Json& t = v.table;
+  std::string body = fmt::format("<p>Campaign <code>{}</code>: {} samples of {} events, truths drawn over the expected "
+                                 "ranges, each fitted like data (<code>emcalign validate</code>). bias = mean of (fit − "
+                                 "truth), spread = its standard deviation, pulls = (fit − truth)/error; slope = of "
+                                 "(fit − truth) against truth. Beside: the paper's Table 1.</p>\n",
+                                 html::escape(v.dir), t.at("samples").dump(), t.at("events").dump());
+  html::Table table{.caption = "Validation beside the paper's Table 1", .header = {"parameter", "unit", "bias", "±", "spread", "pull mean", "pull width", "slope", "paper: bias",
+                     "paper: spread"}};
+  table.numeric = {false, false, true, true, true, true, true, true, true, true};
+  for (const auto& [name, row] : t.at("parameters").items()) {
+    const auto* paper = paper::table1(name);
+    const Json& width = row.at("pull_width");
+    const bool honest = finite(width) && std::abs(width.get<double>() - 1.0) <= 0.1;
+    table.rows.push_back({html::escape(symbol(name)) + " <code>" + html::escape(name) + "</code>",
+                          html::escape(row.value("unit", std::string())), number(row.at("bias")),
+                          number(row.at("bias_error"), "{:.2g}"), number(row.at("spread")),
+                          number(row.at("pull_mean"), "{:+.2f}"),
+                          fmt::format("<span class=\"{}\">{}</span> ± {}", honest ? "good" : "", number(width, "{:.2f}"),
+                                      number(row.value("pull_width_error", Json()), "{:.2f}")),
+                          number(row.value("slope", Json()), "{:+.4f}"), paper ? fmt::format("{:.3g}", paper->bias) : "",
+                          paper ? fmt::format("{:.3g}", paper->spread) : ""});
+  }
+  body += html::table(table);
+  if (t.contains("sigma_sys_deg")) {
+    const Json& s = t.at("sigma_sys_deg");
+    body += html::paragraph(fmt::format("σ_sys of the fits: median {} deg ({} to {}).", number(s.at("median")),
+                                        number(s.at("min")), number(s.at("max"))));
+  }
+  for (const auto& png : v.figures) {
+    const std::string stem = fs::path(png).stem().string();
+    auto fig = html::figure(png, stem == "pulls" ? "Pulls of every parameter over the samples, with the unit Gaussian."
+                                                 : "Fit − truth against truth, every parameter: a slope is a scale error.");
+    if (!fig) return fig.error();
+    body += *fig;
+  }
+  return body;
+}
+
+Result<std::string> trendSection(const std::optional<ReportTrend>& tr, const std::optional<ReportConditions>& cond) {
+  std::string body;
+  if (tr) {
+    const Json& t = tr->trend;
+    body += fmt::format("<p>Tag <code>{}</code> of <code>{}</code>: {} IOVs (<code>emcalign trend</code>, directory "
+                        "<code>{}</code>).</p>\n",
+                        text(t.value("tag", Json("?"))), text(t.value("conditions", Json("?"))), t.at("iovs").dump(),
+                        html::escape(tr->dir));
+    html::Table steps{.caption = "Steps found", .header = {"parameter", "first run after", "size", "±", "z", "where"}};
+    steps.numeric = {false, true, true, true, true, false};
+    for (const auto& s : t.at("steps")) {
+      const auto [v, e] = withError(s.at("size"), s.at("error"));
+      steps.rows.push_back({html::escape(symbol(s.at("parameter").get<std::string>())), s.at("first_run_after").dump(),
+                            v + " " + text(s.value("unit", Json(""))), e, number(s.at("z"), "{:.1f}"),
+                            s.contains("within_iov") && s.at("within_iov").is_array()
+                                ? fmt::format("{}–{}", s.at("within_iov")[0].dump(), s.at("within_iov")[1].dump())
+                                : "between IOVs"});
+    }
+    body += steps.rows.empty() ? html::paragraph("No step found.") : html::table(steps);
+    html::Table drifts{.caption = "Drifts found", .header = {"parameter", "runs", "slope per run", "±", "z"}};
+    drifts.numeric = {false, false, true, true, true};
+    for (const auto& d : t.at("drifts")) {
+      drifts.rows.push_back({html::escape(symbol(d.at("parameter").get<std::string>())),
+                             fmt::format("{}–{}", d.at("first_run").dump(), d.at("last_run").dump()),
+                             number(d.at("slope_per_run"), "{:.3g}") + " " + text(d.value("unit", Json(""))),
+                             number(d.at("error"), "{:.2g}"), number(d.at("z"), "{:.1f}")});
+    }
+    body += drifts.rows.empty() ? html::paragraph("No drift found.") : html::table(drifts);
+    html::Table segments{.caption = "Stable periods", .header = {"runs", "IOVs", "note"}};
+    segments.numeric = {false, true, false};
+    for (const auto& s : t.at("segments")) {
+      std::string note = s.value("transition", false) ? "straddles a step" : "";
+      if (s.contains("drifting") && !s.at("drifting").empty()) {
+        std::string names;
+        for (const auto& p : s.at("drifting")) names += (names.empty() ? "" : ", ") + symbol(p.get<std::string>());
+        note += (note.empty() ? "" : "; ") + html::escape("drifting: " + names);
+      }
+      segments.rows.push_back({fmt::format("{}–{}", s.at("first_run").dump(), s.at("last_run").dump()),
+                               s.at("iovs").dump(), note});
+    }
+    body += html::table(segments);
+    for (const auto& png : tr->figures) {
+      const std::string stem = fs::path(png).stem().string();
+      auto fig = html::figure(png, stem == "fig8" ? "α, dx, μ and ψ against run, with the steps and drifts found: the paper's Fig. 8."
+                                                  : "Every parameter against run.");
+      if (!fig) return fig.error();
+      body += *fig;
+    }
+  }
+  if (cond) {
+    html::Table iovs{.caption = fmt::format("IOVs of tag {} in {}", cond->tag, cond->uri), .header = {"first run", "last run", "payload", "selected events", "status", "χ²/ndf", "inserted"}};
+    iovs.numeric = {true, true, false, true, false, true, false};
+    for (const auto& i : cond->iovs) {
+      const std::string payload = i.value("payload", std::string());
+      iovs.rows.push_back({i.at("first_run").dump(), i.at("last_run").dump(),
+                           "<code>" + html::escape(payload.substr(0, 12)) + "</code>",
+                           i.contains("selected_events") ? i.at("selected_events").dump() : "",
+                           text(i.value("status", Json(""))),
+                           i.contains("chi2") && i.contains("ndf")
+                               ? fmt::format("{}/{}", number(i.at("chi2"), "{:.1f}"), i.at("ndf").dump())
+                               : "",
+                           text(i.value("inserted", Json("")))});
+    }
+    body += html::table(iovs);
+  }
+  return body;
+}
+
+Result<std::string> checksSection(const std::vector<ReportCheck>& checks) {
+  std::string body;
+  for (const auto& c : checks) {
+    const Json& j = c.check;
+    const std::string process = j.at("process").get<std::string>();
+    const Json &b = j.at("before"), &a = j.at("after"), &imp = j.at("improvement_percent");
+    html::Table t;
+    t.numeric = {false, true, true, true, false};
+    if (process == "gg") {
+      body += fmt::format("<h3>e+e- → γγ: acollinearity (<code>{}</code>)</h3>\n", html::escape(c.dir));
+      t.caption = fmt::format("{} events selected; the paper: the width improves by {:.0f} %", j.at("selected").dump(),
+                              paper::kGammaGammaImprovementPercent);
+      t.header = {"quantity", "before", "after", "improvement, %", "paper"};
+      t.rows.push_back({"Δφ core width, deg", number(b.value("dphi_width_deg", Json()), "{:.3f}"),
+                        number(a.value("dphi_width_deg", Json()), "{:.3f}"), number(imp.value("dphi_width", Json()), "{:.1f}"),
+                        fmt::format("{:.0f} %", paper::kGammaGammaImprovementPercent)});
+      t.rows.push_back({"Δφ rms, deg", number(b.value("dphi_rms_deg", Json()), "{:.3f}"), number(a.value("dphi_rms_deg", Json()), "{:.3f}"),
+                        number(imp.value("dphi_rms", Json()), "{:.1f}"), ""});
+      t.rows.push_back({"Δθ core width, deg", number(b.value("dtheta_width_deg", Json()), "{:.3f}"),
+                        number(a.value("dtheta_width_deg", Json()), "{:.3f}"), number(imp.value("dtheta_width", Json()), "{:.1f}"), ""});
+    } else {
+      body += fmt::format("<h3>e+e- → π+π−π0: kinematic fit (<code>{}</code>)</h3>\n", html::escape(c.dir));
+      t.caption = fmt::format("{} events selected; the paper: the mean χ² falls by {:.0f}–{:.0f} %", j.at("selected").dump(),
+                              paper::kThreePionImprovementLowPercent, paper::kThreePionImprovementHighPercent);
+      t.header = {"quantity", "before", "after", "improvement, %", "paper"};
+      t.rows.push_back({"mean χ² (ndf 2)", number(b.value("chi2_mean", Json()), "{:.2f}"), number(a.value("chi2_mean", Json()), "{:.2f}"),
+                        number(imp.value("chi2_mean", Json()), "{:.1f}"),
+                        fmt::format("{:.0f}–{:.0f} %", paper::kThreePionImprovementLowPercent, paper::kThreePionImprovementHighPercent)});
+      t.rows.push_back({"median χ²", number(b.value("chi2_median", Json()), "{:.2f}"), number(a.value("chi2_median", Json()), "{:.2f}"),
+                        number(imp.value("chi2_median", Json()), "{:.1f}"), ""});
+      t.rows.push_back({"fits not converged", b.value("not_converged", Json()).dump(), a.value("not_converged", Json()).dump(), "", ""});
+    }
+    body += html::table(t);
+    if (!c.figure.empty()) {
+      auto fig = html::figure(c.figure, process == "gg" ? "Δφ and Δθ of the γγ events before (filled) and after (open) the correction: the paper's Fig. 9."
+                                                        : "χ² of the π+π−π0 kinematic fit before and after the correction: the paper's Fig. 10.");
+      if (!fig) return fig.error();
+      body += *fig;
+    }
+  }
+  return body;
+}
+
+// Reads DIR/NAME as JSON whose "format" (or, for a check, "process") says what it is.
+Result<Json> readJsonIn(const std::string& dir, const std::string& name) {
+  const std::string path = (fs::path(dir) / name).string();
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) return Error{fmt::format("{}: no {} in this directory", dir, name)};
+  auto text = io::readTextFile(path);
+  if (!text) return text.error();
+  return io::parseJson(*text, path);
+}
+
+std::vector<std::string> existing(const std::string& dir, const std::vector<std::string>& names) {
+  std::vector<std::string> out;
+  for (const auto& n : names) {
+    std::error_code ec;
+    const fs::path p = fs::path(dir) / n;
+    if (fs::is_regular_file(p, ec)) out.push_back(p.string());
+  }
+  return out;
+}
+
+// Runs a section builder, turning a missing or mistyped key into an error naming the file.
+template <typename F>
+Result<std::string> guarded(const std::string& source, F&& build) {
+  try {
+    return build();
+  } catch (const Json::exception& e) {
+    return Error{fmt::format("{}: not what the report expects: {}", source, e.what())};
+  }
+}
+
+}  // namespace
+
+Result<ReportValidation> readValidationDirectory(const std::string& dir) {
+  auto j = readJsonIn(dir, "table.json");
+  if (!j) return j.error();
+  if (!j->is_object() || !j->contains("parameters") || !j->contains("samples")) {
+    return Error{fmt::format("{}/table.json: not a validation table (emcalign validate)", dir)};
+  }
+  return ReportValidation{dir, std::move(*j), existing(dir, {"plots/pulls.png", "plots/residuals_vs_truth.png"})};
+}
+
+Result<ReportTrend> readTrendDirectory(const std::string& dir) {
+  auto j = readJsonIn(dir, "trend.json");
+  if (!j) return j.error();
+  if (!j->is_object() || j->value("format", std::string()) != "emcalign-trend/1") {
+    return Error{fmt::format("{}/trend.json: not a trend (emcalign trend)", dir)};
+  }
+  return ReportTrend{dir, std::move(*j), existing(dir, {"fig8.png", "trend_all.png"})};
+}
+
+Result<ReportCheck> readCheckDirectory(const std::string& dir) {
+  auto j = readJsonIn(dir, "check.json");
+  if (!j) return j.error();
+  const std::string process = j->is_object() ? j->value("process", std::string()) : std::string();
+  if (process != "gg" && process != "3pi") return Error{fmt::format("{}/check.json: not a physics check (emcalign check)", dir)};
+  const auto figures = existing(dir, {process == "gg" ? "acollinearity.png" : "chi2.png"});
+  return ReportCheck{dir, std::move(*j), figures.empty() ? std::string() : figures.front()};
+}
+
+Result<std::string> calibrationReport(const ReportInputs& in) {
+  std::vector<html::Section> sections;
+  std::vector<std::string> sources;
+  if (in.fit) {
+    auto body = guarded(in.fit->path, [&] { return fitSection(*in.fit); });
+    if (!body) return body.error();
+    sections.push_back({"calibration", "The detector and the 12 parameters", *body});
+    sources.push_back(in.fit->path);
+  }
+  if (in.validation) {
+    auto body = guarded(in.validation->dir + "/table.json", [&] { return validationSection(*in.validation); });
+    if (!body) return body.error();
+    sections.push_back({"validation", "Validation on simulation (the paper's Table 1)", *body});
+    sources.push_back(in.validation->dir);
+  }
+  if (in.trend || in.conditions) {
+    auto body = guarded(in.trend ? in.trend->dir + "/trend.json" : in.conditions->uri,
+                        [&] { return trendSection(in.trend, in.conditions); });
+    if (!body) return body.error();
+    sections.push_back({"time-evolution", "Time evolution (the paper's Fig. 8)", *body});
+    sources.push_back(in.trend ? in.trend->dir : in.conditions->uri + " tag " + in.conditions->tag);
+  }
+  if (!in.checks.empty()) {
+    auto body = guarded(in.checks.front().dir, [&] { return checksSection(in.checks); });
+    if (!body) return body.error();
+    sections.push_back({"checks", "Physics checks (the paper's Figs. 9–10)", *body});
+    for (const auto& c : in.checks) sources.push_back(c.dir);
+  }
+  if (sections.empty()) return Error{"nothing to report: give --fit, --validation, --trend, --conditions or --checks"};
+  std::string subtitle = "From ";
+  for (std::size_t k = 0; k < sources.size(); ++k) subtitle += (k ? ", " : "") + sources[k];
+  return html::page(in.title, subtitle + ".", sections);
+}
+
+}  // namespace emcalign::report

@@ -1,0 +1,150 @@
+// The HTML report's building blocks and sections (report/html.hpp,
+// report/calibration_report.hpp): escaping, base64, figures inline, the heat map's colours,
+// and the sections made from the JSON the other commands write.
+
+#include "emcalign/report/html.hpp"
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include "emcalign/report/calibration_report.hpp"
+
+namespace emcalign::report {
+namespace {
+
+namespace fs = std::filesystem;
+using io::Json;
+
+TEST(Html, EscapesTextAndEncodesBase64) {
+  EXPECT_EQ(html::escape("a<b & \"c\" 'd'>"), "a&lt;b &amp; &quot;c&quot; &#39;d&#39;&gt;");
+  // RFC 4648's test vectors.
+  EXPECT_EQ(html::base64(""), "");
+  EXPECT_EQ(html::base64("f"), "Zg==");
+  EXPECT_EQ(html::base64("fo"), "Zm8=");
+  EXPECT_EQ(html::base64("foo"), "Zm9v");
+  EXPECT_EQ(html::base64("foob"), "Zm9vYg==");
+  EXPECT_EQ(html::base64("fooba"), "Zm9vYmE=");
+  EXPECT_EQ(html::base64("foobar"), "Zm9vYmFy");
+  EXPECT_EQ(html::base64(std::string("\xff\x00\x80", 3)), "/wCA");
+}
+
+TEST(Html, FiguresAreInlinePngsOnly) {
+  const fs::path dir = fs::temp_directory_path() / fmt::format("emcalign-html-{}", ::getpid());
+  fs::create_directories(dir);
+  const std::string png = (dir / "a.png").string(), text = (dir / "a.txt").string();
+  std::ofstream(png, std::ios::binary) << std::string("\x89PNG\r\n\x1a\n", 8) << "rest";
+  std::ofstream(text) << "not an image";
+  auto f = html::figure(png, "A <caption>");
+  ASSERT_TRUE(f.ok()) << f.error().message;
+  EXPECT_NE(f->find("src=\"data:image/png;base64," + html::base64(std::string("\x89PNG\r\n\x1a\nrest", 12)) + "\""),
+            std::string::npos);
+  EXPECT_NE(f->find("<figcaption>A &lt;caption&gt;</figcaption>"), std::string::npos);
+  auto bad = html::figure(text, "x");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_EQ(bad.error().message, text + ": not a PNG image");
+  EXPECT_FALSE(html::figure((dir / "missing.png").string(), "x").ok());
+  fs::remove_all(dir);
+}
+
+TEST(Html, HeatMapColoursBySignAndStrength) {
+  const std::string h = html::heatMap({"a", "b"}, {{1.0, -0.5}, {0.0, std::nan("")}}, "C");
+  EXPECT_NE(h.find("background:rgb(255,0,0);color:#fff\">+1.00"), std::string::npos) << h;   // full red
+  EXPECT_NE(h.find("background:rgb(128,128,255);color:#000\">-0.50"), std::string::npos) << h;  // half blue
+  EXPECT_NE(h.find("background:rgb(255,255,255);color:#000\">+0.00"), std::string::npos) << h;  // white
+  EXPECT_NE(h.find("<td>—</td>"), std::string::npos);
+}
+
+TEST(Html, APageHasNoScriptAndNoUrl) {
+  const std::string p = html::page("T <1>", "sub", {{"one", "One", "<p>x</p>"}, {"two", "Two", "<p>y</p>"}});
+  EXPECT_EQ(p.rfind("<!DOCTYPE html>", 0), 0u);
+  EXPECT_NE(p.find("<title>T &lt;1&gt;</title>"), std::string::npos);
+  EXPECT_NE(p.find("<a href=\"#two\">Two</a>"), std::string::npos);
+  EXPECT_EQ(p.find("<script"), std::string::npos);
+  EXPECT_EQ(p.find("url("), std::string::npos);
+  EXPECT_EQ(p.find("http"), std::string::npos);
+}
+
+Json fitResult() {
+  Json params = Json::object(), errors = Json::object();
+  for (const char* n : {"alpha", "beta1", "beta2", "dx", "dy", "dz", "dp1", "dp2", "dp3", "dy_rel", "dz_rel", "beta_rel"}) {
+    params[n] = 0.1;
+    errors[n] = 0.0123;
+  }
+  Json corr = Json::array();
+  for (int i = 0; i < 12; ++i) {
+    Json row = Json::array();
+    for (int j = 0; j < 12; ++j) row.push_back(i == j ? 1.0 : 0.0);
+    corr.push_back(row);
+  }
+  return {{"format", "emcalign-alignment/1"},
+          {"parameters", params},
+          {"errors", errors},
+          {"correlation", corr},
+          {"derived", {{"mu", {{"value", 0.05}, {"error", 0.01}, {"unit", "deg"}}}}},
+          {"chi2", 310.5},
+          {"ndf", 308},
+          {"p_value", 0.45},
+          {"status", "poor fit"},
+          {"warnings", {"a <warning>"}},
+          {"sigma_sys", {{"method", "spec"}, {"value_deg", 0.2}}},
+          {"stages", Json::array()},
+          {"input", {{"files", {"e.h5"}}, {"detector", "embedded default"}, {"bins_used", 160}}},
+          {"software", "emcalign test"}};
+}
+
+TEST(CalibrationReport, TheFitSectionShowsWhatTheResultSays) {
+  ReportInputs in;
+  in.fit = ReportFit{.path = "r.json", .result = fitResult(), .detector = "D", .inputDigests = {{"e.h5", "abc"}}};
+  auto page = calibrationReport(in);
+  ASSERT_TRUE(page.ok()) << page.error().message;
+  EXPECT_NE(page->find("status <span class=\"bad\">poor fit</span>; χ²/ndf = 310.5/308"), std::string::npos);
+  EXPECT_NE(page->find("<li>a &lt;warning&gt;</li>"), std::string::npos);
+  EXPECT_NE(page->find("<td class=\"num\">0.100</td><td class=\"num\">0.012</td>"), std::string::npos)
+      << "a value to its error's two digits";
+  EXPECT_NE(page->find("SHA-256 <code>abc</code>"), std::string::npos);
+  EXPECT_NE(page->find("Detector: D"), std::string::npos);
+  // One section only: no contents.
+  EXPECT_EQ(page->find("<nav>"), std::string::npos);
+}
+
+TEST(CalibrationReport, RefusesNothingAndNamesWhatIsMissing) {
+  auto none = calibrationReport({});
+  ASSERT_FALSE(none.ok());
+  EXPECT_NE(none.error().message.find("nothing to report"), std::string::npos);
+  ReportInputs in;
+  Json r = fitResult();
+  r.erase("parameters");
+  in.fit = ReportFit{.path = "r.json", .result = r};
+  auto bad = calibrationReport(in);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().message.find("r.json: not what the report expects"), std::string::npos) << bad.error().message;
+  EXPECT_FALSE(readValidationDirectory("/nonexistent").ok());
+  auto trend = readTrendDirectory("/nonexistent");
+  ASSERT_FALSE(trend.ok());
+  EXPECT_EQ(trend.error().message, "/nonexistent: no trend.json in this directory");
+}
+
+TEST(CalibrationReport, ChecksStandBesideThePapersImprovements) {
+  ReportInputs in;
+  in.checks.push_back({"chk",
+                       {{"process", "3pi"},
+                        {"selected", 1000},
+                        {"before", {{"chi2_mean", 20.0}, {"chi2_median", 3.0}, {"not_converged", 1}}},
+                        {"after", {{"chi2_mean", 18.0}, {"chi2_median", 2.0}, {"not_converged", 1}}},
+                        {"improvement_percent", {{"chi2_mean", 10.0}, {"chi2_median", 33.3}}}},
+                       ""});
+  auto page = calibrationReport(in);
+  ASSERT_TRUE(page.ok()) << page.error().message;
+  EXPECT_NE(page->find("the mean χ² falls by 10–15 %"), std::string::npos);
+  EXPECT_NE(page->find("<td class=\"num\">20.00</td><td class=\"num\">18.00</td><td class=\"num\">10.0</td>"),
+            std::string::npos);
+}
+
+}  // namespace
+}  // namespace emcalign::report

@@ -2,9 +2,7 @@
 //   report [--fit RESULT.json [--events EVENTS...] [--corrections C]] [--validation DIR]
 //          [--trend DIR] [--conditions URI --tag T] [--checks DIR...] [--title T] -o report.html
 
-#include <cmath>
 #include <filesystem>
-#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -15,7 +13,6 @@
 
 #include "common.hpp"
 #include "conditions_support.hpp"
-#include "emcalign/calib/corrections_grid.hpp"
 #include "emcalign/conddb/conditions.hpp"
 #include "emcalign/core/sha256.hpp"
 #include "emcalign/core/units.hpp"
@@ -38,7 +35,10 @@ struct ReportCliOptions {
 class ScratchDirectory {
  public:
   static Result<ScratchDirectory> create() {
-    std::string pattern = (fs::temp_directory_path() / "emcalign-report-XXXXXX").string();
+    std::error_code ec;
+    const fs::path tmp = fs::temp_directory_path(ec);
+    if (ec) return Error{fmt::format("no directory for temporary files (TMPDIR): {}", ec.message())};
+    std::string pattern = (tmp / "emcalign-report-XXXXXX").string();
     if (::mkdtemp(pattern.data()) == nullptr) return Error{"cannot create a scratch directory for the figures"};
     ScratchDirectory d;
     d.path_ = pattern;
@@ -57,56 +57,6 @@ class ScratchDirectory {
   std::string path_;
 };
 
-// The fit's model, as its result recorded it: the detector given, the corrections it names
-// (or --corrections instead), at the beam energy it was interpolated to.
-Result<calib::ModelCorrections> correctionsOfResult(const Json& result, const ReportCliOptions& o) {
-  const Json& in = result.at("input");
-  const Json corr = in.value("model_corrections", Json::object());
-  std::string path = o.corrections;
-  double energy = std::numeric_limits<double>::quiet_NaN();
-  if (corr.contains("interpolation")) {
-    energy = corr.at("interpolation").at("beam_energy_mev").get<double>() * units::MeV;
-    if (path.empty()) path = corr.at("interpolation").at("directory").get<std::string>();
-  }
-  for (const char* key : {"response", "nominal_profile", "parting_plane_response"}) {
-    if (path.empty() && corr.contains(key) && corr.at(key).is_string()) path = corr.at(key).get<std::string>();
-  }
-  calib::ModelCorrections c;
-  if (path.empty()) {
-    c.depthOffset = corr.value("depth_offset_cm", 0.0) * units::cm;
-    return c;
-  }
-  auto grid = calib::CorrectionsGrid::read(path);
-  if (!grid) return Error{fmt::format("the fit used the corrections {} (give --corrections if they moved): {}", path, grid.error().message)};
-  auto at = grid->at(energy);
-  if (!at) return at.error();
-  return at->corrections;
-}
-
-// The figures of the fit drawn from the events into `dir`.
-Result<std::vector<std::string>> fitFigures(const Json& result, const ReportCliOptions& o,
-                                            const geometry::Calorimeter& calo, const std::string& dir) {
-  auto parameters = io::parseAlignmentFile(result, calo.description().r1(), o.fit);
-  if (!parameters) return parameters.error();
-  auto corrections = correctionsOfResult(result, o);
-  if (!corrections) return corrections.error();
-  auto geometry = calib::FitGeometry::of(calo.description());
-  geometry.apply(*corrections);
-  calib::ProfileOptions profile;
-  profile.apply(*corrections);
-  auto data = report::fitFigureData(o.events, geometry, {}, profile, parameters->parameters);
-  if (!data) return data.error();
-  calib::FitResult fit;
-  fit.parameters = parameters->parameters;
-  fit.chi2 = result.at("chi2").get<double>();
-  fit.ndf = result.at("ndf").get<int>();
-  fit.status = parameters->status.value_or(FitStatus::Converged);
-  const Json sigma = result.value("sigma_sys", Json::object());
-  const double sigmaSys = sigma.value("value_deg", 0.2) * units::deg;
-  auto bins = data->fill.profiles.bins(std::isfinite(sigmaSys) ? sigmaSys : 0.2 * units::deg);
-  return report::writeFitPlots(dir, bins, geometry, fit, &data->residuals);
-}
-
 int run(const ReportCliOptions& o) {
   std::vector<io::NamedPath> inputs = {{"--fit", o.fit}, {"--corrections", o.corrections}, {"--detector", o.detector}};
   for (const auto& e : o.events) inputs.push_back({"--events", e});
@@ -124,33 +74,38 @@ int run(const ReportCliOptions& o) {
       return reportError({fmt::format("{}: not a fit result (emcalign fit -o)", o.fit)});
     }
     report::ReportFit fit{.path = o.fit, .result = *j};
-    if (j->at("input").contains("files")) {
+    if (j->at("input").contains("files") && j->at("input").at("files").is_array()) {
       for (const auto& f : j->at("input").at("files")) {
-        const std::string file = f.get<std::string>();
-        auto digest = sha256OfFile(file);
-        fit.inputDigests.emplace_back(file, digest ? *digest : std::string());
+        if (!f.is_string()) continue;
+        auto digest = sha256OfFile(f.get<std::string>());
+        fit.inputDigests.emplace_back(f.get<std::string>(), digest ? *digest : std::string());
       }
     }
-    auto calo = loadCalorimeter(o.detector);
+    // The fit's detector: --detector, else the one its result names.
+    std::string detector = o.detector;
+    const Json named = j->at("input").value("detector", Json("embedded default"));
+    if (detector.empty() && named.is_string() && named.get<std::string>() != "embedded default") {
+      detector = named.get<std::string>();
+    }
+    auto calo = loadCalorimeter(detector);
     if (!calo) return reportError(calo.error());
     const auto& d = calo->description();
-    fit.detector = fmt::format("{} ({}), {} counters in 3 layers, the EMC from R0 = {:.1f} cm; the hemispheres' "
-                               "support sphere at R1 = {:.1f} cm",
-                               d.name, o.detector.empty() ? "embedded" : o.detector, 3 * calo->countersPerLayer(),
+    fit.detector = fmt::format("{}{}, {} counters in 3 layers, the EMC from R0 = {:.1f} cm, the hemispheres' support "
+                               "sphere at R1 = {:.1f} cm",
+                               d.name, detector.empty() ? "" : " (" + detector + ")", 3 * calo->countersPerLayer(),
                                d.r0() / units::cm, d.r1() / units::cm);
     if (!o.events.empty()) {
+      if (Status s = report::checkEventsOfResult(*j, o.fit, o.events); !s) return reportError(s.error());
+      auto model = report::modelOfResult(*j, o.fit, *calo, o.corrections);
+      if (!model) return reportError(model.error());
       auto dir = ScratchDirectory::create();
       if (!dir) return reportError(dir.error());
       scratch.emplace(std::move(*dir));
       fmt::print(reportStream(), "drawing the fit's figures from {} event file{} ...\n", o.events.size(),
                  o.events.size() == 1 ? "" : "s");
-      try {
-        auto figures = fitFigures(*j, o, *calo, scratch->path());
-        if (!figures) return reportError(figures.error());
-        fit.figures = std::move(*figures);
-      } catch (const Json::exception& e) {
-        return reportError({fmt::format("{}: not what the report expects: {}", o.fit, e.what())});
-      }
+      auto figures = report::redrawFitFigures(*model, o.events, scratch->path());
+      if (!figures) return reportError(figures.error());
+      fit.figures = std::move(*figures);
     }
     in.fit = std::move(fit);
   }

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "emcalign/core/paper.hpp"
+#include "emcalign/core/version.hpp"
 #include "emcalign/report/html.hpp"
 
 namespace emcalign::report {
@@ -29,6 +30,18 @@ std::string symbol(const std::string& name) {
 
 bool finite(const Json& v) { return v.is_number() && std::isfinite(v.get<double>()); }
 
+// A JSON value as plain text (for captions, which html::table escapes), and escaped.
+std::string plain(const Json& v) { return v.is_string() ? v.get<std::string>() : v.dump(); }
+std::string text(const Json& v) { return html::escape(plain(v)); }
+
+// A parameter as a physicist reads it, with its file name where that differs.
+std::string label(const std::string& name) {
+  const std::string s = symbol(name);
+  return s == name ? html::escape(name) : fmt::format("{} <code>{}</code>", html::escape(s), html::escape(name));
+}
+
+std::string runs(const Json& first, const Json& last) { return text(first) + "–" + text(last); }
+
 // A value to the precision of its error (two significant digits of the error).
 std::pair<std::string, std::string> withError(const Json& value, const Json& error) {
   if (!finite(value)) return {"—", "—"};
@@ -42,8 +55,6 @@ std::string number(const Json& v, const char* format = "{:.4g}") {
   return finite(v) ? fmt::format(fmt::runtime(format), v.get<double>()) : std::string("—");
 }
 
-std::string text(const Json& v) { return html::escape(v.is_string() ? v.get<std::string>() : v.dump()); }
-
 const std::vector<std::string> kFitParams = {"alpha", "beta1", "beta2", "dx",     "dy",     "dz",
                                              "dp1",   "dp2",   "dp3",   "dy_rel", "dz_rel", "beta_rel"};
 
@@ -56,22 +67,22 @@ std::string unitOf(const std::string& name) {
 
 const std::vector<std::string> kFitCaptions = {
     "Profiles ȳ_φ against φ_EMC, one panel per θ_EMC slice, with the fitted model (solid) and the nominal "
-    "geometry (dashed): the paper's Fig. 3.",
-    "Profiles ȳ_θ against φ_EMC, one panel per θ_EMC slice, with the fitted model: the paper's Fig. 4.",
+    "geometry (dashed): the paper's Fig. 5.",
+    "Profiles ȳ_θ against φ_EMC, one panel per θ_EMC slice, with the fitted model (the paper's Fig. 5 shows both).",
     "Both residuals against θ_EMC, one panel per φ_EMC slice, with the model at the slice's mean φ.",
     "Δφ and Δθ of the selected particles before (filled) and after (open) the correction with the fitted "
-    "parameters: the paper's Fig. 6."};
+    "parameters: the paper's Fig. 8."};
 
 Result<std::string> fitSection(const ReportFit& f) {
   const Json& r = f.result;
   std::string body;
   const std::string status = r.at("status").get<std::string>();
   const bool converged = status == "converged";
-  body += fmt::format("<p>Result <code>{}</code>: status <span class=\"{}\">{}</span>; χ²/ndf = {:.1f}/{} (p-value {}); "
+  body += fmt::format("<p>Result <code>{}</code>: status <span class=\"{}\">{}</span>; χ²/ndf = {}/{} (p-value {}); "
                       "{} profile bins used.</p>\n",
-                      html::escape(f.path), converged ? "good" : "bad", html::escape(status), r.at("chi2").get<double>(),
-                      r.at("ndf").get<int>(), number(r.at("p_value"), "{:.3g}"),
-                      r.at("input").value("bins_used", Json()).dump());
+                      html::escape(f.path), converged ? "good" : "bad", html::escape(status),
+                      number(r.at("chi2"), "{:.1f}"), text(r.at("ndf")), number(r.value("p_value", Json()), "{:.3g}"),
+                      text(r.at("input").value("bins_used", Json("?"))));
   if (!f.detector.empty()) body += html::paragraph("Detector: " + f.detector);
   const Json& warnings = r.at("warnings");
   if (!warnings.empty()) {
@@ -84,7 +95,7 @@ Result<std::string> fitSection(const ReportFit& f) {
   params.numeric = {false, true, true, false};
   for (const auto& name : kFitParams) {
     const auto [v, e] = withError(r.at("parameters").at(name), r.at("errors").at(name));
-    params.rows.push_back({html::escape(symbol(name)) + " <code>" + name + "</code>", v, e, unitOf(name)});
+    params.rows.push_back({label(name), v, e, unitOf(name)});
   }
   body += "<div class=\"side\">\n" + html::table(params);
 
@@ -93,8 +104,7 @@ Result<std::string> fitSection(const ReportFit& f) {
     derived.numeric = {false, true, true, false};
     for (const auto& [name, d] : r.at("derived").items()) {
       const auto [v, e] = withError(d.at("value"), d.at("error"));
-      derived.rows.push_back({html::escape(symbol(name)) + " <code>" + html::escape(name) + "</code>", v, e,
-                              html::escape(d.value("unit", unitOf(name)))});
+      derived.rows.push_back({label(name), v, e, text(d.value("unit", Json(unitOf(name))))});
     }
     body += html::table(derived);
   }
@@ -132,18 +142,26 @@ Result<std::string> fitSection(const ReportFit& f) {
     for (const auto& s : r.at("stages")) {
       std::string free;
       for (const auto& p : s.at("free")) free += (free.empty() ? "" : ", ") + symbol(p.get<std::string>());
-      stages.rows.push_back({s.at("stage").dump(), html::escape(free), number(s.at("chi2"), "{:.1f}"),
-                             s.at("iterations").dump(), s.at("converged").get<bool>() ? "yes" : "<b>no</b>"});
+      stages.rows.push_back({text(s.at("stage")), html::escape(free), number(s.at("chi2"), "{:.1f}"),
+                             text(s.at("iterations")), s.value("converged", false) ? "yes" : "<b>no</b>"});
     }
     body += html::table(stages);
   }
 
+  if (!f.figures.empty()) {
+    body += "<h3>Profiles and residuals</h3>\n";
+    for (std::size_t k = 0; k < f.figures.size(); ++k) {
+      auto fig = html::figure(f.figures[k], k < kFitCaptions.size() ? kFitCaptions[k] : fs::path(f.figures[k]).stem().string());
+      if (!fig) return fig.error();
+      body += *fig;
+    }
+  }
   // Provenance.
   const Json& in = r.at("input");
   html::Table prov{.header = {"item", "value"}};
   for (const auto& [file, digest] : f.inputDigests) {
-    prov.rows.push_back({"input file", "<code>" + html::escape(file) + "</code><br>SHA-256 " +
-                                           (digest.empty() ? std::string("— (not found now)") : "<code>" + digest + "</code>")});
+    prov.rows.push_back({"input file", "<code>" + html::escape(file) + "</code><br>SHA-256 taken now: " +
+                                           (digest.empty() ? std::string("— (not found)") : "<code>" + digest + "</code>")});
   }
   prov.rows.push_back({"detector", text(in.value("detector", Json("?")))});
   if (in.contains("model_corrections")) {
@@ -161,23 +179,19 @@ Result<std::string> fitSection(const ReportFit& f) {
     }
     prov.rows.push_back({"model corrections", corr});
   }
-  if (in.contains("beam_energies_mev")) prov.rows.push_back({"beam energies, MeV", text(in.at("beam_energies_mev"))});
+  if (in.contains("beam_energies_mev") && in.at("beam_energies_mev").is_array()) {
+    std::string energies;
+    for (const auto& e : in.at("beam_energies_mev")) energies += (energies.empty() ? "" : ", ") + number(e, "{}");
+    prov.rows.push_back({"beam energies, MeV", energies});
+  }
   if (in.contains("cut_flow")) {
     std::string flow;
-    for (const auto& [cut, n] : in.at("cut_flow").items()) flow += fmt::format("{}{}: {}", flow.empty() ? "" : "; ", html::escape(cut), n.dump());
+    for (const auto& [cut, n] : in.at("cut_flow").items()) flow += fmt::format("{}{}: {}", flow.empty() ? "" : "; ", html::escape(cut), text(n));
     prov.rows.push_back({"selection (events)", flow});
   }
   prov.rows.push_back({"software", text(r.value("software", Json("?")))});
   body += "<h3>Provenance</h3>\n" + html::table(prov);
 
-  if (!f.figures.empty()) {
-    body += "<h3>Profiles and residuals</h3>\n";
-    for (std::size_t k = 0; k < f.figures.size(); ++k) {
-      auto fig = html::figure(f.figures[k], k < kFitCaptions.size() ? kFitCaptions[k] : fs::path(f.figures[k]).stem().string());
-      if (!fig) return fig.error();
-      body += *fig;
-    }
-  }
   return body;
 }
 
@@ -187,20 +201,20 @@ Result<std::string> validationSection(const ReportValidation& v) {
                                  "ranges, each fitted like data (<code>emcalign validate</code>). bias = mean of (fit − "
                                  "truth), spread = its standard deviation, pulls = (fit − truth)/error; slope = of "
                                  "(fit − truth) against truth. Beside: the paper's Table 1.</p>\n",
-                                 html::escape(v.dir), t.at("samples").dump(), t.at("events").dump());
+                                 html::escape(v.dir), text(t.at("samples")), text(t.at("events")));
   html::Table table{.caption = "Validation beside the paper's Table 1", .header = {"parameter", "unit", "bias", "±", "spread", "pull mean", "pull width", "slope", "paper: bias",
                      "paper: spread"}};
   table.numeric = {false, false, true, true, true, true, true, true, true, true};
   for (const auto& [name, row] : t.at("parameters").items()) {
     const auto* paper = paper::table1(name);
     const Json& width = row.at("pull_width");
-    const bool honest = finite(width) && std::abs(width.get<double>() - 1.0) <= 0.1;
-    table.rows.push_back({html::escape(symbol(name)) + " <code>" + html::escape(name) + "</code>",
-                          html::escape(row.value("unit", std::string())), number(row.at("bias")),
-                          number(row.at("bias_error"), "{:.2g}"), number(row.at("spread")),
+    // Errors that describe the scatter: a width within 0.1 of 1; beyond 0.2, they do not.
+    const double off = finite(width) ? std::abs(width.get<double>() - 1.0) : 1.0;
+    const auto [bias, biasError] = withError(row.at("bias"), row.at("bias_error"));
+    table.rows.push_back({label(name), text(row.value("unit", Json(""))), bias, biasError, number(row.at("spread")),
                           number(row.at("pull_mean"), "{:+.2f}"),
-                          fmt::format("<span class=\"{}\">{}</span> ± {}", honest ? "good" : "", number(width, "{:.2f}"),
-                                      number(row.value("pull_width_error", Json()), "{:.2f}")),
+                          fmt::format("<span class=\"{}\">{}</span> ± {}", off <= 0.1 ? "good" : off > 0.2 ? "bad" : "",
+                                      number(width, "{:.2f}"), number(row.value("pull_width_error", Json()), "{:.2f}")),
                           number(row.value("slope", Json()), "{:+.4f}"), paper ? fmt::format("{:.3g}", paper->bias) : "",
                           paper ? fmt::format("{:.3g}", paper->spread) : ""});
   }
@@ -226,16 +240,16 @@ Result<std::string> trendSection(const std::optional<ReportTrend>& tr, const std
     const Json& t = tr->trend;
     body += fmt::format("<p>Tag <code>{}</code> of <code>{}</code>: {} IOVs (<code>emcalign trend</code>, directory "
                         "<code>{}</code>).</p>\n",
-                        text(t.value("tag", Json("?"))), text(t.value("conditions", Json("?"))), t.at("iovs").dump(),
+                        text(t.value("tag", Json("?"))), text(t.value("conditions", Json("?"))), text(t.at("iovs")),
                         html::escape(tr->dir));
-    html::Table steps{.caption = "Steps found", .header = {"parameter", "first run after", "size", "±", "z", "where"}};
-    steps.numeric = {false, true, true, true, true, false};
+    html::Table steps{.caption = "Steps found", .header = {"parameter", "first run after", "size", "±", "unit", "z", "IOV"}};
+    steps.numeric = {false, true, true, true, false, true, false};
     for (const auto& s : t.at("steps")) {
       const auto [v, e] = withError(s.at("size"), s.at("error"));
-      steps.rows.push_back({html::escape(symbol(s.at("parameter").get<std::string>())), s.at("first_run_after").dump(),
-                            v + " " + text(s.value("unit", Json(""))), e, number(s.at("z"), "{:.1f}"),
+      steps.rows.push_back({html::escape(symbol(s.at("parameter").get<std::string>())), text(s.at("first_run_after")), v,
+                            e, text(s.value("unit", Json(""))), number(s.at("z"), "{:.1f}"),
                             s.contains("within_iov") && s.at("within_iov").is_array()
-                                ? fmt::format("{}–{}", s.at("within_iov")[0].dump(), s.at("within_iov")[1].dump())
+                                ? runs(s.at("within_iov")[0], s.at("within_iov")[1])
                                 : "between IOVs"});
     }
     body += steps.rows.empty() ? html::paragraph("No step found.") : html::table(steps);
@@ -243,7 +257,7 @@ Result<std::string> trendSection(const std::optional<ReportTrend>& tr, const std
     drifts.numeric = {false, false, true, true, true};
     for (const auto& d : t.at("drifts")) {
       drifts.rows.push_back({html::escape(symbol(d.at("parameter").get<std::string>())),
-                             fmt::format("{}–{}", d.at("first_run").dump(), d.at("last_run").dump()),
+                             runs(d.at("first_run"), d.at("last_run")),
                              number(d.at("slope_per_run"), "{:.3g}") + " " + text(d.value("unit", Json(""))),
                              number(d.at("error"), "{:.2g}"), number(d.at("z"), "{:.1f}")});
     }
@@ -257,13 +271,12 @@ Result<std::string> trendSection(const std::optional<ReportTrend>& tr, const std
         for (const auto& p : s.at("drifting")) names += (names.empty() ? "" : ", ") + symbol(p.get<std::string>());
         note += (note.empty() ? "" : "; ") + html::escape("drifting: " + names);
       }
-      segments.rows.push_back({fmt::format("{}–{}", s.at("first_run").dump(), s.at("last_run").dump()),
-                               s.at("iovs").dump(), note});
+      segments.rows.push_back({runs(s.at("first_run"), s.at("last_run")), text(s.at("iovs")), note});
     }
     body += html::table(segments);
     for (const auto& png : tr->figures) {
       const std::string stem = fs::path(png).stem().string();
-      auto fig = html::figure(png, stem == "fig8" ? "α, dx, μ and ψ against run, with the steps and drifts found: the paper's Fig. 8."
+      auto fig = html::figure(png, stem == "fig8" ? "α, dx, μ and ψ against run, with the steps and drifts found: the paper's Fig. 7."
                                                   : "Every parameter against run.");
       if (!fig) return fig.error();
       body += *fig;
@@ -274,16 +287,17 @@ Result<std::string> trendSection(const std::optional<ReportTrend>& tr, const std
     iovs.numeric = {true, true, false, true, false, true, false};
     for (const auto& i : cond->iovs) {
       const std::string payload = i.value("payload", std::string());
-      iovs.rows.push_back({i.at("first_run").dump(), i.at("last_run").dump(),
+      iovs.rows.push_back({text(i.at("first_run")), text(i.at("last_run")),
                            "<code>" + html::escape(payload.substr(0, 12)) + "</code>",
-                           i.contains("selected_events") ? i.at("selected_events").dump() : "",
+                           text(i.value("selected_events", Json(""))),
                            text(i.value("status", Json(""))),
                            i.contains("chi2") && i.contains("ndf")
-                               ? fmt::format("{}/{}", number(i.at("chi2"), "{:.1f}"), i.at("ndf").dump())
+                               ? fmt::format("{}/{}", number(i.at("chi2"), "{:.1f}"), text(i.at("ndf")))
                                : "",
                            text(i.value("inserted", Json("")))});
     }
-    body += html::table(iovs);
+    body += fmt::format("<details><summary>The {} IOVs of tag {}</summary>\n{}</details>\n", cond->iovs.size(),
+                        html::escape(cond->tag), html::table(iovs));
   }
   return body;
 }
@@ -298,7 +312,7 @@ Result<std::string> checksSection(const std::vector<ReportCheck>& checks) {
     t.numeric = {false, true, true, true, false};
     if (process == "gg") {
       body += fmt::format("<h3>e+e- → γγ: acollinearity (<code>{}</code>)</h3>\n", html::escape(c.dir));
-      t.caption = fmt::format("{} events selected; the paper: the width improves by {:.0f} %", j.at("selected").dump(),
+      t.caption = fmt::format("{} events selected; the paper: the width improves by {:.0f} %", plain(j.at("selected")),
                               paper::kGammaGammaImprovementPercent);
       t.header = {"quantity", "before", "after", "improvement, %", "paper"};
       t.rows.push_back({"Δφ core width, deg", number(b.value("dphi_width_deg", Json()), "{:.3f}"),
@@ -310,15 +324,15 @@ Result<std::string> checksSection(const std::vector<ReportCheck>& checks) {
                         number(a.value("dtheta_width_deg", Json()), "{:.3f}"), number(imp.value("dtheta_width", Json()), "{:.1f}"), ""});
     } else {
       body += fmt::format("<h3>e+e- → π+π−π0: kinematic fit (<code>{}</code>)</h3>\n", html::escape(c.dir));
-      t.caption = fmt::format("{} events selected; the paper: the mean χ² falls by {:.0f}–{:.0f} %", j.at("selected").dump(),
+      t.caption = fmt::format("{} events selected; the paper: the mean χ² falls by {:.0f}–{:.0f} %", plain(j.at("selected")),
                               paper::kThreePionImprovementLowPercent, paper::kThreePionImprovementHighPercent);
       t.header = {"quantity", "before", "after", "improvement, %", "paper"};
-      t.rows.push_back({"mean χ² (ndf 2)", number(b.value("chi2_mean", Json()), "{:.2f}"), number(a.value("chi2_mean", Json()), "{:.2f}"),
+      t.rows.push_back({fmt::format("mean χ² (ndf {})", text(j.value("ndf", Json(2)))), number(b.value("chi2_mean", Json()), "{:.2f}"), number(a.value("chi2_mean", Json()), "{:.2f}"),
                         number(imp.value("chi2_mean", Json()), "{:.1f}"),
                         fmt::format("{:.0f}–{:.0f} %", paper::kThreePionImprovementLowPercent, paper::kThreePionImprovementHighPercent)});
       t.rows.push_back({"median χ²", number(b.value("chi2_median", Json()), "{:.2f}"), number(a.value("chi2_median", Json()), "{:.2f}"),
                         number(imp.value("chi2_median", Json()), "{:.1f}"), ""});
-      t.rows.push_back({"fits not converged", b.value("not_converged", Json()).dump(), a.value("not_converged", Json()).dump(), "", ""});
+      t.rows.push_back({"fits not converged", text(b.value("not_converged", Json("—"))), text(a.value("not_converged", Json("—"))), "", ""});
     }
     body += html::table(t);
     if (!c.figure.empty()) {
@@ -409,7 +423,7 @@ Result<std::string> calibrationReport(const ReportInputs& in) {
     auto body = guarded(in.trend ? in.trend->dir + "/trend.json" : in.conditions->uri,
                         [&] { return trendSection(in.trend, in.conditions); });
     if (!body) return body.error();
-    sections.push_back({"time-evolution", "Time evolution (the paper's Fig. 8)", *body});
+    sections.push_back({"time-evolution", in.trend ? "Time evolution (the paper's Fig. 7)" : "Conditions", *body});
     sources.push_back(in.trend ? in.trend->dir : in.conditions->uri + " tag " + in.conditions->tag);
   }
   if (!in.checks.empty()) {
@@ -421,7 +435,10 @@ Result<std::string> calibrationReport(const ReportInputs& in) {
   if (sections.empty()) return Error{"nothing to report: give --fit, --validation, --trend, --conditions or --checks"};
   std::string subtitle = "From ";
   for (std::size_t k = 0; k < sources.size(); ++k) subtitle += (k ? ", " : "") + sources[k];
-  return html::page(in.title, subtitle + ".", sections);
+  return html::page(in.title, subtitle + ".", sections,
+                    fmt::format("Written by emcalign {} (emcalign report). Values in degrees and centimetres; the "
+                                "paper: the SND EMC geometric calibration (SPEC §10).",
+                                kVersion));
 }
 
 }  // namespace emcalign::report

@@ -46,8 +46,8 @@ std::string dataOf(const std::vector<BeforeAfterPanel>& panels) {
 std::string scriptOf(const std::string& name, const std::string& title, const std::vector<BeforeAfterPanel>& panels) {
   std::string s = terminalHeader(name, 800 * static_cast<int>(panels.size()), 650);
   s += fmt::format("data = '{}.dat'\n", name);
-  // About 100 pixels on the left of the first panel for the tick labels and the axis title.
-  const double left = 0.125 / static_cast<double>(panels.size());
+  // 140 pixels on the left of the first panel for five-digit tick labels and the axis title.
+  const double left = 140.0 / (800.0 * static_cast<double>(panels.size()));
   s += fmt::format("set multiplot layout 1,{} title \"{}\" font ',14' margins {:.3f},0.98,0.13,0.88 spacing 0.08,0.1\n",
                    panels.size(), quoted(title), left);
   s += "set grid lc rgb '#e0e0e0' lt 1\nset tics front\nset key top right Left reverse samplen 2 font ',10'\n"

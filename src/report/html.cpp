@@ -108,7 +108,9 @@ std::string heatMap(const std::vector<std::string>& labels, const std::vector<st
       const double a = std::clamp(std::abs(v), 0.0, 1.0);
       const int fade = static_cast<int>(std::lround(255.0 * (1.0 - a)));
       const std::string colour = v >= 0.0 ? fmt::format("rgb(255,{},{})", fade, fade) : fmt::format("rgb({},{},255)", fade, fade);
-      out += fmt::format("<td style=\"background:{};color:{}\">{:+.2f}</td>", colour, a > 0.6 ? "#fff" : "#000", v);
+      // Black text where the colour is pale, white on the strong ones; printed with the colours.
+      const std::string value = std::abs(v) < 0.005 ? std::string("0.00") : fmt::format("{:+.2f}", v);
+      out += fmt::format("<td style=\"background:{};color:{}\">{}</td>", colour, a > 0.6 ? "#fff" : "#000", value);
     }
     out += "</tr>\n";
   }
@@ -142,7 +144,8 @@ td.num, th.num { text-align: right; font-variant-numeric: tabular-nums; }
 tr.sub td { color: #555; }
 tr.warn td, ul.warn li { color: #8a3b00; }
 ul.warn { background: #fff6e8; border-left: 4px solid #e09000; padding: 0.5em 1.5em; }
-table.heat td { text-align: center; min-width: 3.2em; font-variant-numeric: tabular-nums; }
+table.heat td { text-align: center; min-width: 3.2em; font-variant-numeric: tabular-nums;
+                print-color-adjust: exact; -webkit-print-color-adjust: exact; }
 table.heat th { font-weight: normal; background: #f4f4f4; }
 figure { margin: 1em 0; page-break-inside: avoid; break-inside: avoid; }
 figure img { max-width: 100%; height: auto; border: 1px solid #ddd; }
@@ -163,7 +166,8 @@ footer { margin-top: 3em; color: #666; font-size: 0.85em; border-top: 1px solid 
 
 }  // namespace
 
-std::string page(const std::string& title, const std::string& subtitle, const std::vector<Section>& sections) {
+std::string page(const std::string& title, const std::string& subtitle, const std::vector<Section>& sections,
+                 const std::string& footer) {
   std::string out = fmt::format(
       "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
       "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n<title>{}</title>\n<style>{}</style>\n"
@@ -177,6 +181,7 @@ std::string page(const std::string& title, const std::string& subtitle, const st
   for (const auto& s : sections) {
     out += fmt::format("<section id=\"{}\">\n<h2>{}</h2>\n{}</section>\n", escape(s.id), escape(s.title), s.body);
   }
+  if (!footer.empty()) out += fmt::format("<footer>{}</footer>\n", escape(footer));
   return out + "</body>\n</html>\n";
 }
 

@@ -92,7 +92,8 @@ def main():
                               "paper-like.json")
         run([E, "simulate", "--events", "30000", "--params", params, "--theta-min", "40", "--theta-max", "140",
              "--seed", "3", "--no-hits", "-o", "ee.h5"], d)
-        run([E, "fit", "ee.h5", "-o", "fit.json"], d)
+        grid = os.path.join(os.path.dirname(params), "..", "corrections", "ee-40-140deg")
+        run([E, "fit", "ee.h5", "--corrections", grid, "-o", "fit.json"], d)
         run([E, "validate", "--samples", "4", "--events", "4000", "--ideal", "-o", "val"], d)
         run([E, "simulate", "--process", "gg", "--events", "6000", "--params", params, "--seed", "4", "-o", "gg.h5"], d)
         run([E, "check", "gg", "gg.h5", "--alignment", "fit.json", "-o", "chk-gg"], d)
@@ -104,6 +105,11 @@ def main():
         run([E, "report", "--fit", "fit.json", "--events", "ee.h5", "--validation", "val", "--trend", "tr",
              "--conditions", "sqlite:c.db", "--tag", "t", "--checks", "chk-gg", "-o", "report.html"], d)
         page = open(os.path.join(d, "report.html"), encoding="utf-8").read()
+        run([E, "report", "--fit", "fit.json", "-o", "fit-only.html"], d)
+        refused = subprocess.run([E, "report", "--fit", "fit.json", "--events", "gg.h5", "-o", "x.html"], cwd=d,
+                                 capture_output=True, text=True)
+        if refused.returncode != 1 or "are not the events" not in refused.stderr:
+            failures.append(f"the figures of other events were not refused: {refused.returncode} {refused.stderr}")
 
         # Self-contained.
         links = Links()
@@ -115,8 +121,11 @@ def main():
                 failures.append(f"<{tag} {key}> refers outside the page: {url[:80]}")
         if re.search(r"url\(|@import", page):
             failures.append("the styles refer to something by URL")
-        if links.images < 7:
-            failures.append(f"{links.images} figures; expected the fit's 4, the validation's 2, the trend's and the check's")
+        if links.images != 9:
+            failures.append(f"{links.images} figures; expected the fit's 4, the validation's 2, the trend's 2 and the "
+                            "check's")
+        if "interpolated to 612.5 MeV" not in page:
+            failures.append("the provenance does not show the grid's interpolation")
 
         # Rendered.
         probe_path = os.path.join(d, "probe.html")
@@ -140,21 +149,30 @@ def main():
             print(f"rendered: {len(probe['figures'])} figures, {len(probe['tables'])} tables, sections "
                   f"{probe['sections']}, {len(probe['resources'])} requests")
 
-        # Not blank.
+        # The page with --fit alone renders too.
+        r = chromium("--virtual-time-budget=5000", "--dump-dom", "file://" + os.path.join(d, "fit-only.html"))
+        if r.returncode != 0 or 'id="calibration"' not in r.stdout or "<nav>" in r.stdout:
+            failures.append(f"the page of --fit alone did not render as one section (exit {r.returncode})")
+
+        # Not blank, down to its end: a screenshot of the whole page, cut into bands of 800 px.
         shot = os.path.join(d, "report.png")
-        r = chromium("--window-size=1280,2400", f"--screenshot={shot}", "file://" + os.path.join(d, "report.html"))
+        r = chromium("--window-size=1280,24000", f"--screenshot={shot}", "file://" + os.path.join(d, "report.html"))
         if not os.path.exists(shot):
             failures.append(f"no screenshot: {r.stderr[-500:]}")
         else:
             from PIL import Image
             im = Image.open(shot).convert("RGB")
             small = im.resize((im.width // 4, im.height // 4))
-            pixels = list(small.getdata())
-            colours = len(set(pixels))
-            ink = sum(1 for p in pixels if sum(p) < 600) / len(pixels)
-            print(f"screenshot {im.width}x{im.height}: {colours} colours, {100 * ink:.1f} % ink")
-            if colours < 50 or ink < 0.02:
-                failures.append(f"the screenshot looks blank: {colours} colours, {100 * ink:.1f} % ink")
+            w, h = small.size
+            rows = [list(small.crop((0, y, w, y + 1)).getdata()) for y in range(h)]
+            inked = [any(sum(p) < 600 for p in row) for row in rows]
+            end = max((y for y in range(h) if inked[y]), default=0)
+            bands = [inked[y:y + 200] for y in range(0, end, 200)]
+            blank = sum(1 for b in bands if not any(b))
+            colours = len(set(small.crop((0, 0, w, end + 1)).getdata()))
+            print(f"screenshot {im.width}x{4 * end}: {colours} colours, {len(bands)} bands of 800 px, {blank} blank")
+            if colours < 50 or len(bands) < 10 or blank > 0:
+                failures.append(f"the page looks blank in places: {colours} colours, {len(bands)} bands, {blank} blank")
     finally:
         if not args.keep:
             shutil.rmtree(d, ignore_errors=True)

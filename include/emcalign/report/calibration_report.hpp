@@ -4,14 +4,17 @@
 //  1. the calibration: the 12 parameters of a fit result (SPEC §3) with errors, the physical
 //     set, the correlation matrix as a heat map, χ²/ndf, status and warnings, σ_sys, the
 //     stages, and the provenance (inputs with their SHA-256, detector, corrections,
-//     software); with the events, the profiles with the fitted model (the paper's Figs. 3–4)
-//     and the residuals before and after the correction (Fig. 6);
+//     software); with the events, the profiles with the fitted model (the paper's Fig. 5)
+//     and the residuals before and after the correction (Fig. 8);
 //  2. the validation campaign (`emcalign validate`'s table.json) beside the paper's Table 1,
 //     with the pull figures;
-//  3. the time evolution (`emcalign trend`'s trend.json and figures: the paper's Fig. 8),
+//  3. the time evolution (`emcalign trend`'s trend.json and figures: the paper's Fig. 7),
 //     its steps, drifts and stable periods, and a conditions tag's IOVs;
 //  4. the physics checks (`emcalign check`'s check.json and figure: the paper's Figs. 9–10)
 //     beside the paper's improvements.
+// (The paper's figures: 5 the fit results, 7 the time evolution, 8 the e+e- → e+e- residuals
+// before and after, 9 and 10 the γγ and π+π−π0 checks; elsewhere in the project the time
+// evolution's figure is still called "fig8", after the issue that asked for it.)
 // A section appears when its input is given. The report module reads the files' JSON, not
 // the modules that wrote them, so it draws nothing itself but the tables.
 

@@ -2,15 +2,20 @@
 // What the figures of a fit (report/plots.hpp, writeFitPlots) need from the events: the
 // profiles at the fit's model, and the Δφ, Δθ distributions of the selected particles before
 // and after correcting each EMC direction with the fitted parameters (SPEC §9's cluster
-// correction at the model's R(E, θ): the paper's Fig. 6). `emcalign fit --plots` and
-// `emcalign report --events` draw from the same pass.
+// correction at the model's R(E, θ): the paper's Fig. 8). `emcalign fit --plots` and
+// `emcalign report --events` draw from the same pass; the report first rebuilds the fit's
+// model from its result file.
 
+#include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "emcalign/calib/calibration.hpp"
 #include "emcalign/core/result.hpp"
 #include "emcalign/geometry/alignment_parameters.hpp"
+#include "emcalign/geometry/detector.hpp"
+#include "emcalign/io/json_files.hpp"
 #include "emcalign/report/plots.hpp"
 
 namespace emcalign::report {
@@ -25,5 +30,29 @@ struct FitFigureData {
 Result<FitFigureData> fitFigureData(const std::vector<std::string>& files, const calib::FitGeometry& geometry,
                                     const calib::SelectionOptions& selection, const calib::ProfileOptions& profile,
                                     const geometry::AlignmentParameters& parameters);
+
+/// A fit result's own model, to redraw its figures: its parameters (any status), χ²/ndf
+/// and σ_sys, and the corrections it names (`corrections` instead when given: they moved),
+/// a grid's at the beam energy the fit interpolated it to.
+struct ResultModel {
+  calib::FitResult fit;
+  calib::FitGeometry geometry;
+  calib::ProfileOptions profile;
+  double sigmaSys = 0.0;  ///< rad; SPEC's 0.2° for a fit of a saved profile (not recorded)
+  /// The fit's selection energy: its one recorded beam energy (an override or the sample's
+  /// own), else none (each event's).
+  std::optional<double> selection;
+};
+Result<ResultModel> modelOfResult(const io::Json& result, std::string_view source, const geometry::Calorimeter& calo,
+                                  const std::string& corrections);
+
+/// Whether `events` are the files the result was fitted from: the same paths, or the same
+/// content (SHA-256) as the named files. When the named files are gone, the same file names
+/// are taken as the same files. The error says which differ.
+Status checkEventsOfResult(const io::Json& result, std::string_view source, const std::vector<std::string>& events);
+
+/// The fit's figures (writeFitPlots) redrawn from its events into `dir`.
+Result<std::vector<std::string>> redrawFitFigures(const ResultModel& model, const std::vector<std::string>& events,
+                                                  const std::string& dir);
 
 }  // namespace emcalign::report

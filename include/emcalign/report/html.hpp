@@ -47,7 +47,9 @@ struct Section {
   std::string body;   ///< HTML
 };
 
-/// The whole page: its title, a line under it (plain text), the contents and the sections.
-std::string page(const std::string& title, const std::string& subtitle, const std::vector<Section>& sections);
+/// The whole page: its title, a line under it (plain text), the contents, the sections and
+/// a footer (plain text; none when empty).
+std::string page(const std::string& title, const std::string& subtitle, const std::vector<Section>& sections,
+                 const std::string& footer = {});
 
 }  // namespace emcalign::report::html

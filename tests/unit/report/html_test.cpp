@@ -56,7 +56,7 @@ TEST(Html, HeatMapColoursBySignAndStrength) {
   const std::string h = html::heatMap({"a", "b"}, {{1.0, -0.5}, {0.0, std::nan("")}}, "C");
   EXPECT_NE(h.find("background:rgb(255,0,0);color:#fff\">+1.00"), std::string::npos) << h;   // full red
   EXPECT_NE(h.find("background:rgb(128,128,255);color:#000\">-0.50"), std::string::npos) << h;  // half blue
-  EXPECT_NE(h.find("background:rgb(255,255,255);color:#000\">+0.00"), std::string::npos) << h;  // white
+  EXPECT_NE(h.find("background:rgb(255,255,255);color:#000\">0.00"), std::string::npos) << h;  // white, unsigned
   EXPECT_NE(h.find("<td>—</td>"), std::string::npos);
 }
 
@@ -104,13 +104,69 @@ TEST(CalibrationReport, TheFitSectionShowsWhatTheResultSays) {
   auto page = calibrationReport(in);
   ASSERT_TRUE(page.ok()) << page.error().message;
   EXPECT_NE(page->find("status <span class=\"bad\">poor fit</span>; χ²/ndf = 310.5/308"), std::string::npos);
+  EXPECT_NE(page->find("<td>μ <code>mu</code></td>"), std::string::npos);
+  EXPECT_NE(page->find("<td>dx</td>"), std::string::npos) << "a name that is its symbol once";
   EXPECT_NE(page->find("<li>a &lt;warning&gt;</li>"), std::string::npos);
   EXPECT_NE(page->find("<td class=\"num\">0.100</td><td class=\"num\">0.012</td>"), std::string::npos)
       << "a value to its error's two digits";
-  EXPECT_NE(page->find("SHA-256 <code>abc</code>"), std::string::npos);
+  EXPECT_NE(page->find("SHA-256 taken now: <code>abc</code>"), std::string::npos);
   EXPECT_NE(page->find("Detector: D"), std::string::npos);
   // One section only: no contents.
   EXPECT_EQ(page->find("<nav>"), std::string::npos);
+}
+
+TEST(CalibrationReport, NullsAndMarkupInTheInputsStayText) {
+  Json r = fitResult();
+  r["chi2"] = nullptr;  // a failed fit
+  r["p_value"] = nullptr;
+  r["errors"]["dx"] = nullptr;
+  r["status"] = "<b>not converged</b>";
+  r["input"]["detector"] = "<img src=x>";
+  ReportInputs in;
+  in.fit = ReportFit{.path = "r.json", .result = r};
+  in.checks.push_back({"chk",
+                       {{"process", "gg"},
+                        {"selected", "<script>"},
+                        {"before", {{"dphi_width_deg", nullptr}}},
+                        {"after", Json::object()},
+                        {"improvement_percent", {{"dphi_width", nullptr}}}},
+                       ""});
+  auto page = calibrationReport(in);
+  ASSERT_TRUE(page.ok()) << page.error().message;
+  EXPECT_NE(page->find("χ²/ndf = —/308 (p-value —)"), std::string::npos);
+  EXPECT_EQ(page->find("<img src=x>"), std::string::npos);
+  EXPECT_EQ(page->find("<script>"), std::string::npos);
+  EXPECT_EQ(page->find("<b>not converged"), std::string::npos);
+  EXPECT_NE(page->find("&lt;script&gt; events selected"), std::string::npos);
+}
+
+TEST(CalibrationReport, TheValidationStandsBesideTable1AndTheTrendListsItsFindings) {
+  ReportInputs in;
+  in.validation = ReportValidation{"val",
+                                   {{"samples", 100},
+                                    {"events", 50000},
+                                    {"parameters",
+                                     {{"dx", {{"unit", "cm"}, {"bias", 0.00042}, {"bias_error", 0.00044}, {"spread", 0.0044},
+                                              {"pull_mean", 0.03}, {"pull_width", 0.28}, {"pull_width_error", 0.02},
+                                              {"slope", 0.0008}}}}}},
+                                   {}};
+  in.trend = ReportTrend{"tr",
+                         {{"format", "emcalign-trend/1"},
+                          {"iovs", 3},
+                          {"steps", Json::array()},
+                          {"drifts", Json::array({{{"parameter", "dz"}, {"first_run", 5}, {"last_run", 9},
+                                                   {"slope_per_run", 3e-4}, {"error", 2e-5}, {"z", 15.0}, {"unit", "cm/run"}}})},
+                          {"segments", Json::array()}},
+                         {}};
+  auto page = calibrationReport(in);
+  ASSERT_TRUE(page.ok()) << page.error().message;
+  // The bias to its error's two digits; the paper's dx: −0.005 ± 0.006; a width far from 1 marked.
+  EXPECT_NE(page->find("<td class=\"num\">0.00042</td><td class=\"num\">0.00044</td>"), std::string::npos);
+  EXPECT_NE(page->find("<td class=\"num\">-0.005</td><td class=\"num\">0.006</td>"), std::string::npos);
+  EXPECT_NE(page->find("<span class=\"bad\">0.28</span>"), std::string::npos);
+  EXPECT_NE(page->find("No step found."), std::string::npos);
+  EXPECT_NE(page->find("<td>5–9</td>"), std::string::npos);
+  EXPECT_NE(page->find("Time evolution (the paper&#39;s Fig. 7)"), std::string::npos);
 }
 
 TEST(CalibrationReport, RefusesNothingAndNamesWhatIsMissing) {

@@ -1,5 +1,6 @@
 #include "emcalign/report/calibration_report.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 
@@ -345,6 +346,44 @@ Result<std::string> checksSection(const std::vector<ReportCheck>& checks) {
   return body;
 }
 
+// One line per input for the top of a page with several sections: what each says.
+std::vector<std::string> summary(const ReportInputs& in) {
+  std::vector<std::string> lines;
+  if (in.fit) {
+    const Json& r = in.fit->result;
+    lines.push_back(fmt::format("The fit: {}, χ²/ndf = {}/{}, {} warning(s).", plain(r.at("status")),
+                                number(r.at("chi2"), "{:.1f}"), plain(r.at("ndf")), r.value("warnings", Json::array()).size()));
+  }
+  if (in.validation) {
+    double lo = 1e300, hi = -1e300;
+    for (const auto& [name, row] : in.validation->table.at("parameters").items()) {
+      if (!finite(row.value("pull_width", Json()))) continue;
+      lo = std::min(lo, row.at("pull_width").get<double>());
+      hi = std::max(hi, row.at("pull_width").get<double>());
+    }
+    lines.push_back(fmt::format("The validation: {} samples of {} events; pull widths {:.2f} to {:.2f}.",
+                                plain(in.validation->table.at("samples")), plain(in.validation->table.at("events")), lo, hi));
+  }
+  if (in.trend) {
+    const Json& t = in.trend->trend;
+    lines.push_back(fmt::format("The time evolution: {} IOVs, {} step(s), {} drift(s), {} stable period(s).",
+                                plain(t.at("iovs")), t.at("steps").size(), t.at("drifts").size(), t.at("segments").size()));
+  }
+  for (const auto& c : in.checks) {
+    const Json& j = c.check;
+    const Json imp = j.value("improvement_percent", Json::object());
+    if (j.at("process") == "gg") {
+      lines.push_back(fmt::format("e+e- → γγ: the Δφ core width {} % narrower (the paper: {:.0f} %).",
+                                  number(imp.value("dphi_width", Json()), "{:.1f}"), paper::kGammaGammaImprovementPercent));
+    } else {
+      lines.push_back(fmt::format("e+e- → π+π−π0: the mean χ² {} % lower (the paper: {:.0f}–{:.0f} %).",
+                                  number(imp.value("chi2_mean", Json()), "{:.1f}"), paper::kThreePionImprovementLowPercent,
+                                  paper::kThreePionImprovementHighPercent));
+    }
+  }
+  return lines;
+}
+
 // Reads DIR/NAME as JSON whose "format" (or, for a check, "process") says what it is.
 Result<Json> readJsonIn(const std::string& dir, const std::string& name) {
   const std::string path = (fs::path(dir) / name).string();
@@ -433,6 +472,11 @@ Result<std::string> calibrationReport(const ReportInputs& in) {
     for (const auto& c : in.checks) sources.push_back(c.dir);
   }
   if (sections.empty()) return Error{"nothing to report: give --fit, --validation, --trend, --conditions or --checks"};
+  if (sections.size() > 1) {
+    auto lines = guarded("the summary", [&]() -> Result<std::string> { return html::list(summary(in)); });
+    if (!lines) return lines.error();
+    sections.insert(sections.begin(), {"summary", "At a glance", *lines});
+  }
   std::string subtitle = "From ";
   for (std::size_t k = 0; k < sources.size(); ++k) subtitle += (k ? ", " : "") + sources[k];
   return html::page(in.title, subtitle + ".", sections,

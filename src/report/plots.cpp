@@ -706,10 +706,11 @@ constexpr const char* kSamplesFile = "campaign_samples.dat";
 constexpr const char* kPullsFile = "pulls.dat";
 constexpr double kPullLimit = 5.0;  // pull histograms over [−5, 5]
 
-// Panels of the campaign figures: six to a row (the campaign's 12 fit parameters fill two
-// rows, its 5 derived quantities the third).
+// Panels of the campaign figures: four to a row (the campaign's 12 fit parameters fill three
+// rows, its 5 derived quantities two more), so that the figure, some 1600 px wide, keeps
+// legible text when a page shows it at its width (emcalign report).
 int campaignColumns(int panels) {
-  return std::clamp(static_cast<int>(std::ceil(std::sqrt(1.5 * panels))), 1, 6);
+  return std::clamp(static_cast<int>(std::ceil(std::sqrt(1.5 * panels))), 1, 4);
 }
 
 // A number in a data file; gnuplot reads "NaN" as not-a-number (fmt would write "nan").

@@ -109,10 +109,11 @@ Result<std::vector<std::string>> writeTrendPlots(const std::string& dir, const s
     scripts.push_back({"fig8", s});
   }
   {
-    const int columns = 3;
+    // Two to a row, 1400 px wide: legible where a page shows it at its width (emcalign report).
+    const int columns = 2;
     const int rows = static_cast<int>((figures.size() + columns - 1) / columns);
-    std::string s = terminalHeader("trend_all", 2100, 330 * rows) + common();
-    s += "set xlabel ''\nset format x '%.0f'\nset tics font ',8'\n";
+    std::string s = terminalHeader("trend_all", 1400, 330 * rows) + common();
+    s += "set xlabel ''\nset format x '%.0f'\nset tics font ',10'\n";
     s += fmt::format("set multiplot layout {},{} title \"{}: every parameter against run\" font ',15'\n", rows,
                      columns, plainText(title));
     for (std::size_t k = 0; k < figures.size(); ++k) s += panel(figures[k], false, 10);

@@ -144,7 +144,7 @@ def main():
                 failures.append(f"a table has no height: {probe['tables']}")
             if probe["resources"]:
                 failures.append(f"the page requested {probe['resources']}")
-            if probe["sections"] != ["calibration", "validation", "time-evolution", "checks"]:
+            if probe["sections"] != ["summary", "calibration", "validation", "time-evolution", "checks"]:
                 failures.append(f"sections {probe['sections']}")
             print(f"rendered: {len(probe['figures'])} figures, {len(probe['tables'])} tables, sections "
                   f"{probe['sections']}, {len(probe['resources'])} requests")

@@ -102,8 +102,8 @@ Result<std::vector<std::string>> writeFitPlots(const std::string& dir,
 //    β or μ near zero has a huge ψ or τ error), so the frame may cut a long bar.
 //
 // For an angle that wraps (`angleWraps`: ψ, τ, in degrees) fit − truth is the shortest
-// angular difference, in [−180°, 180°]. Panels follow the order of `series`, up to six to a
-// row (the campaign's 12 fit parameters fill two rows, its 5 derived quantities the third).
+// angular difference, in [−180°, 180°]. Panels follow the order of `series`, up to four to a
+// row (the campaign's 12 fit parameters fill three rows, its 5 derived quantities two more).
 // Data: campaign_samples.dat (per quantity a gnuplot index block: truth, fit, error,
 // fit − truth, pull) and pulls.dat (the histograms); scripts: pulls.gp, residuals_vs_truth.gp.
 

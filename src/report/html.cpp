@@ -160,6 +160,8 @@ footer { margin-top: 3em; color: #666; font-size: 0.85em; border-top: 1px solid 
   h2 { page-break-before: always; break-before: page; }
   section:first-of-type h2 { page-break-before: avoid; break-before: avoid; }
   table { page-break-inside: avoid; break-inside: avoid; }
+  h3, caption { page-break-after: avoid; break-after: avoid; }
+  figure img { max-height: 235mm; width: auto; }  /* a tall figure shrinks onto one page */
 }
 @page { size: A4; margin: 14mm; }
 )";

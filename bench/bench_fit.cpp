@@ -1,9 +1,17 @@
 // Time of the staged fit of 160 bins (320 residuals × 12 parameters, 6 stages, covariance):
 //   build/bin/emcalign_bench_fit
+// With `--profile FILE` (a profile of `emcalign fit --profile-out`), also the fit of that
+// profile exactly as `emcalign fit --profile-in FILE` makes it, in process: what
+// bench/minuit_crosscheck.py sets beside the staged iminuit fit of the same profile.
 
 #include <benchmark/benchmark.h>
 
+#include <cstdio>
+#include <string>
+#include <vector>
+
 #include "emcalign/calib/fit.hpp"
+#include "emcalign/calib/profiles.hpp"
 #include "emcalign/core/random.hpp"
 #include "emcalign/core/units.hpp"
 
@@ -51,4 +59,32 @@ BENCHMARK(BM_StagedFit160Bins)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) {
+  std::vector<char*> args;
+  std::string profile;
+  for (int i = 0; i < argc; ++i) {
+    if (std::string(argv[i]) == "--profile" && i + 1 < argc) {
+      profile = argv[++i];
+    } else {
+      args.push_back(argv[i]);
+    }
+  }
+  if (!profile.empty()) {
+    auto bins = calib::readProfileCsv(profile);
+    if (!bins) {
+      std::fprintf(stderr, "%s\n", bins.error().message.c_str());
+      return 1;
+    }
+    calib::markUsedBins(*bins, calib::ProfileOptions{}.minEntries);
+    benchmark::RegisterBenchmark("BM_StagedFitOfProfile", [b = std::move(*bins)](benchmark::State& state) {
+      const auto g = calib::FitGeometry::of(geometry::DetectorDescription::sndDefault());
+      for (auto _ : state) benchmark::DoNotOptimize(calib::fitProfiles(b, g));
+    })->Unit(benchmark::kMillisecond);
+  }
+  int count = static_cast<int>(args.size());
+  benchmark::Initialize(&count, args.data());
+  if (benchmark::ReportUnrecognizedArguments(count, args.data())) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

@@ -13,7 +13,8 @@ namespace {
 
 using namespace emcalign;
 
-void simulate(benchmark::State& state, sim::Process process, bool ideal) {
+void simulate(benchmark::State& state, sim::Process process, bool ideal, double thetaMinDeg = 10.0,
+              double thetaMaxDeg = 170.0) {
   static const auto calo = *geometry::Calorimeter::create(geometry::DetectorDescription::sndDefault());
   geometry::AlignmentParameters eta;
   eta[Param::Alpha] = 3.0 * units::deg;
@@ -22,6 +23,8 @@ void simulate(benchmark::State& state, sim::Process process, bool ideal) {
   sim::SimulationOptions o;
   o.generator.process = process;
   o.generator.beamEnergy = sim::defaultBeamEnergy(process);
+  o.generator.thetaMin = thetaMinDeg * units::deg;
+  o.generator.thetaMax = thetaMaxDeg * units::deg;
   if (ideal) o.setIdealised();
   const auto simulation = *sim::Simulation::create(calo, eta, o);
   sim::EventScratch scratch(calo.size());
@@ -39,10 +42,13 @@ void simulate(benchmark::State& state, sim::Process process, bool ideal) {
 }
 
 void BM_SimulateEE(benchmark::State& s) { simulate(s, sim::Process::Bhabha, false); }
+// The calibration sample of the validation and the period simulations (θ 40°–140°).
+void BM_SimulateEE40to140(benchmark::State& s) { simulate(s, sim::Process::Bhabha, false, 40.0, 140.0); }
 void BM_SimulateGG(benchmark::State& s) { simulate(s, sim::Process::GammaGamma, false); }
 void BM_Simulate3Pi(benchmark::State& s) { simulate(s, sim::Process::ThreePion, false); }
 void BM_SimulateEEIdealised(benchmark::State& s) { simulate(s, sim::Process::Bhabha, true); }
 BENCHMARK(BM_SimulateEE);
+BENCHMARK(BM_SimulateEE40to140);
 BENCHMARK(BM_SimulateGG);
 BENCHMARK(BM_Simulate3Pi);
 BENCHMARK(BM_SimulateEEIdealised);

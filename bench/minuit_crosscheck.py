@@ -363,6 +363,21 @@ def gauss_newton_cov(chi2, x):
     return np.linalg.inv(jac.T @ jac)
 
 
+def time_in_process(bench, profile):
+    """Median wall time (s) of the staged fit of `profile` inside emcalign_bench_fit."""
+    p = subprocess.run([bench, "--profile", profile, "--benchmark_filter=OfProfile",
+                        "--benchmark_format=json", "--benchmark_repetitions=5",
+                        "--benchmark_report_aggregates_only=true"],
+                       stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    if p.returncode != 0:
+        raise RuntimeError(f"{bench} failed: {p.stderr.strip()}")
+    for b in json.loads(p.stdout)["benchmarks"]:
+        if b.get("aggregate_name") == "median":
+            scale = {"ns": 1e-9, "us": 1e-6, "ms": 1e-3, "s": 1.0}[b["time_unit"]]
+            return b["real_time"] * scale
+    raise RuntimeError(f"{bench}: no median in its output")
+
+
 def time_emcalign(exe, profile, runs):
     times = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -387,6 +402,8 @@ def main():
     ap.add_argument("--emcalign", default=os.path.join(here, "..", "build", "bin", "emcalign"),
                     help="emcalign executable to time (default: ../build/bin/emcalign)")
     ap.add_argument("--timing-runs", type=int, default=5, help="emcalign runs to time (default 5)")
+    ap.add_argument("--bench-fit", default=os.path.join(here, "..", "build", "bin", "emcalign_bench_fit"),
+                    help="the fit benchmark, for the in-process time (default: ../build/bin/emcalign_bench_fit)")
     args = ap.parse_args()
 
     failures = []
@@ -484,6 +501,13 @@ def main():
               f"  ratio Minuit / emcalign = {t_total / med:.2f} (Minuit is {med / t_total:.1f}x faster)")
     except (OSError, RuntimeError) as exc:
         check(False, f"timing emcalign: {exc}")
+    try:
+        inner = time_in_process(os.path.abspath(args.bench_fit), args.profile)
+        print(f"  emcalign's staged fit in process (emcalign_bench_fit --profile, median of 5): "
+              f"{inner * 1e3:.2f} ms")
+        print(f"  ratio Minuit / emcalign in process = {t_total / inner:.0f}")
+    except (OSError, RuntimeError, ValueError, KeyError) as exc:
+        check(False, f"timing the fit in process: {exc}")
 
     print()
     if failures:

@@ -28,21 +28,35 @@ double seriesP(double a, double x, double logPrefactor) {
 }
 
 double continuedFractionQ(double a, double x, double logPrefactor) {
-  constexpr double kTiny = 1e-300;
-  double b = x + 1.0 - a, c = 1.0 / kTiny, d = 1.0 / b, h = d;
-  for (int i = 1; i < 1000; ++i) {
-    const double an = -i * (i - a);
-    b += 2.0;
-    d = an * d + b;
-    if (std::abs(d) < kTiny) d = kTiny;
-    c = b + an / c;
-    if (std::abs(c) < kTiny) c = kTiny;
-    d = 1.0 / d;
-    const double delta = d * c;
-    h *= delta;
-    if (std::abs(delta - 1.0) < 1e-15) break;
+  // Q = prefactor / F, F = b₀ + a₁/(b₁ + a₂/(b₂ + …)) with b_n = x + 2n + 1 − a and
+  // a_n = −n(n − a), by the forward recurrence of its convergents A_n/B_n (the simulation
+  // evaluates it three times per shower): multiply-adds, and one division per two terms
+  // where Lentz's method needs two per term. Rescaled before the convergents overflow.
+  double aPrev = 1.0, aCur = x + 1.0 - a;  // A_{n-1}, A_n
+  double bPrev = 0.0, bCur = 1.0;          // B_{n-1}, B_n
+  double f = aCur / bCur;
+  for (int n = 1; n < 1000; n += 2) {
+    for (int k = n; k < n + 2; ++k) {
+      const double an = -k * (k - a), bn = x + 2.0 * k + 1.0 - a;
+      const double aNext = bn * aCur + an * aPrev, bNext = bn * bCur + an * bPrev;
+      aPrev = aCur;
+      aCur = aNext;
+      bPrev = bCur;
+      bCur = bNext;
+    }
+    if (std::abs(aCur) > 1e150) {
+      aPrev *= 1e-150;
+      aCur *= 1e-150;
+      bPrev *= 1e-150;
+      bCur *= 1e-150;
+    }
+    if (bCur == 0.0) continue;
+    const double next = aCur / bCur;
+    const bool converged = std::abs(next - f) <= 1e-15 * std::abs(next);
+    f = next;
+    if (converged) break;
   }
-  return std::clamp(std::exp(logPrefactor) * h, 0.0, 1.0);
+  return std::clamp(std::exp(logPrefactor) / f, 0.0, 1.0);
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 #include "emcalign/geometry/detector.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -123,7 +124,10 @@ Calorimeter::Calorimeter(DetectorDescription description) : description_(std::mo
     layerR2_[l][1] = d.layers[static_cast<std::size_t>(l)].rOuter * d.layers[static_cast<std::size_t>(l)].rOuter;
   }
   outerR2_ = d.supports[1].rOuter * d.supports[1].rOuter;
-  for (int ring = 0; ring <= d.ringCount(); ++ring) ringCosEdges_.push_back(std::cos(d.thetaMin + ring * dTheta));
+  for (int ring = 0; ring <= d.ringCount(); ++ring) {
+    const double c = std::cos(d.thetaMin + ring * dTheta);
+    ringEdgeKeys_.push_back(c * std::abs(c));
+  }
   for (int n : d.countersPerRing) {
     std::vector<std::pair<double, double>> edges;
     for (int j = 1; j < n / 4; ++j) {
@@ -131,6 +135,31 @@ Calorimeter::Calorimeter(DetectorDescription description) : description_(std::mo
       edges.emplace_back(std::cos(a), std::sin(a));
     }
     quadrantEdges_.push_back(std::move(edges));
+  }
+  // The guesses must never be above the answer: each counts the edges passed at the bin's
+  // other end, moved by a margin far beyond the rounding of the bin index. (cos θ bins are
+  // bins of the signed square cos θ·|cos θ| that locate compares.)
+  constexpr double kMargin = 1e-9;
+  ringGuess_.resize(kCosBins);
+  for (int i = 0; i < kCosBins; ++i) {
+    const double top = -1.0 + 2.0 * (i + 1) / kCosBins + kMargin;
+    int ring = 0;
+    while (ring + 1 < d.ringCount() && ringEdgeKeys_[static_cast<std::size_t>(ring + 1)] >= top) ++ring;
+    ringGuess_[static_cast<std::size_t>(i)] = static_cast<std::int16_t>(ring);
+  }
+  phiGuess_.resize(static_cast<std::size_t>(kPhiBins) * d.countersPerRing.size());
+  for (std::size_t ring = 0; ring < d.countersPerRing.size(); ++ring) {
+    const auto& edges = quadrantEdges_[ring];
+    for (int i = 0; i < kPhiBins; ++i) {
+      // The pseudo-angle t = v/(u + v) of the point (u, v) = (1 − t, t).
+      const double t = std::max(0.0, static_cast<double>(i) / kPhiBins - kMargin);
+      int below = 0;
+      while (below < static_cast<int>(edges.size()) &&
+             (1.0 - t) * edges[static_cast<std::size_t>(below)].second - t * edges[static_cast<std::size_t>(below)].first <= 0.0) {
+        ++below;
+      }
+      phiGuess_[ring * kPhiBins + static_cast<std::size_t>(i)] = static_cast<std::int16_t>(below);
+    }
   }
   counters_.reserve(static_cast<std::size_t>(3 * countersPerLayer_));
   for (int layer = 1; layer <= 3; ++layer) {
@@ -154,21 +183,9 @@ Calorimeter::Calorimeter(DetectorDescription description) : description_(std::mo
         const double r = c.radius(), t = c.theta(), p = c.phi();
         c.position = Vec3(r * std::sin(t) * std::cos(p), r * std::sin(t) * std::sin(p), r * std::cos(t));
         counters_.push_back(c);
-        bounds_.push_back({c.rInner * c.rInner, c.rOuter * c.rOuter, std::cos(c.thetaMin), std::cos(c.thetaMax),
-                           std::cos(c.phiMin), std::sin(c.phiMin), std::cos(c.phiMax), std::sin(c.phiMax)});
       }
     }
   }
-}
-
-bool Calorimeter::contains(int counter, const Vec3& p) const {
-  const Bounds& b = bounds_[static_cast<std::size_t>(counter)];
-  const double r2 = p.squaredNorm();
-  if (r2 < b.r2Min || r2 >= b.r2Max) return false;
-  const double r = std::sqrt(r2);
-  // cos θ in (cos θmax, cos θmin], φ in [φmin, φmax) by cross products with the edges.
-  return p.z() <= b.cosMax * r && p.z() > b.cosMin * r && p.x() * b.sPhiMin - p.y() * b.cPhiMin <= 0.0 &&
-         p.x() * b.sPhiMax - p.y() * b.cPhiMax > 0.0;
 }
 
 int Calorimeter::counterIndex(int layer, int ring, int iphi) const {
@@ -179,8 +196,8 @@ int Calorimeter::counterIndex(int layer, int ring, int iphi) const {
 }
 
 Location Calorimeter::locate(const Vec3& p) const {
-  // Called for every shower spot of the simulation: squared radii and cosines instead of
-  // angles where the comparison allows it.
+  // Called for every shower spot of the simulation, so written for speed: no angle, no
+  // square root, no search with unpredictable branches (table guesses, see detector.hpp).
   const auto& d = description_;
   const double r2 = p.squaredNorm();
   int layer = 0;
@@ -192,19 +209,18 @@ Location Calorimeter::locate(const Vec3& p) const {
     if (r2 >= outerR2_) return {Region::Outside, -1};
     return {Region::SupportSphere, -1};
   }
-  // θ ∈ [θ_i, θ_i+1) ⇔ cosθ ∈ (cos θ_i+1, cos θ_i]; the edges' cosines decrease.
-  const double cosTheta = p.z() / std::sqrt(r2);
+  // θ ∈ [θ_i, θ_i+1) ⇔ cos θ ∈ (cos θ_i+1, cos θ_i]; the edges' cosines decrease. Compared
+  // as signed squares scaled by r²: cos θ_i ≥ z/r ⇔ c_i·|c_i|·r² ≥ z·|z|.
+  const double zz = p.z() * std::abs(p.z());
   const int rings = d.ringCount();
-  if (cosTheta > ringCosEdges_.front() || cosTheta <= ringCosEdges_.back()) return {Region::Uncovered, -1};
-  int ringLo = 0, ringHi = rings;  // the ring with edges[ring] >= cos > edges[ring + 1]
-  while (ringHi - ringLo > 1) {
-    const int mid = (ringLo + ringHi) / 2;
-    if (cosTheta > ringCosEdges_[static_cast<std::size_t>(mid)]) ringHi = mid; else ringLo = mid;
-  }
-  const int ring = ringLo;
-  // φ cell without atan2: the quadrant from the signs of x, y (as atan2 folded into
-  // [0, 2π) would place it), then the in-quadrant angle of the point rotated by −q·90°
-  // against the cell edges, by cross products.
+  if (zz > ringEdgeKeys_.front() * r2 || zz <= ringEdgeKeys_.back() * r2) return {Region::Uncovered, -1};
+  // The ring with edges[ring] ≥ cos θ > edges[ring + 1], from its table guess.
+  const int cosBin = std::clamp(static_cast<int>((zz / r2 + 1.0) * (0.5 * kCosBins)), 0, kCosBins - 1);
+  int ring = ringGuess_[static_cast<std::size_t>(cosBin)];
+  while (ring + 1 < rings && ringEdgeKeys_[static_cast<std::size_t>(ring + 1)] * r2 >= zz) ++ring;
+  // φ cell: the quadrant from the signs of x, y (as atan2 folded into [0, 2π) would place
+  // it), then the number of cell edges at or below the in-quadrant angle (u, v) of the
+  // point rotated by −q·90°, by cross products.
   const double x = p.x(), y = p.y();
   int quadrant;
   double u, v;
@@ -214,26 +230,29 @@ Location Calorimeter::locate(const Vec3& p) const {
     if (x < 0.0) { quadrant = 2; u = -x; v = -y; } else { quadrant = 3; u = -y; v = x; }
   }
   const auto& edges = quadrantEdges_[static_cast<std::size_t>(ring)];
-  int lo = 0, hi = static_cast<int>(edges.size());  // count the edges at or below the angle
-  while (lo < hi) {
-    const int mid = (lo + hi) / 2;
-    const auto& [ce, se] = edges[static_cast<std::size_t>(mid)];
-    if (u * se - v * ce <= 0.0) lo = mid + 1; else hi = mid;
+  const int edgeCount = static_cast<int>(edges.size());
+  // From the guess of the pseudo-angle v/(u + v), which grows with the angle.
+  const double sum = u + v;
+  const int phiBin = sum > 0.0 ? std::min(static_cast<int>(v / sum * kPhiBins), kPhiBins - 1) : 0;
+  int lo = phiGuess_[static_cast<std::size_t>(ring) * kPhiBins + static_cast<std::size_t>(phiBin)];
+  while (lo < edgeCount && u * edges[static_cast<std::size_t>(lo)].second - v * edges[static_cast<std::size_t>(lo)].first <= 0.0) {
+    ++lo;
   }
   const int n = d.countersPerRing[static_cast<std::size_t>(ring)];
-  int iphi = quadrant * (n / 4) + lo;
+  const int quarter = n / 4;
+  int iphi = quadrant * quarter + lo;
   // Cells are split exactly at x = 0: keep a point on its own side of the parting plane
-  // even when rounding puts φ on the other side of a 90°/270° edge.
-  const int base = countersPerLayer_ * (layer - 1) + ringOffsets_[static_cast<std::size_t>(ring)];
-  if (counters_[static_cast<std::size_t>(base + iphi)].hemisphere != hemisphereOf(x)) {
-    const int quarter = n / 4;
+  // even when rounding puts φ on the other side of a 90°/270° edge. (A cell is in s = +1
+  // when its centre is, i.e. below 90° or from 270°.)
+  const bool cellPlus = iphi < quarter || iphi >= 3 * quarter;
+  if (cellPlus != (hemisphereOf(x) == Hemisphere::Plus)) {
     if (iphi == quarter - 1 || iphi == 3 * quarter - 1) {
       iphi += 1;
     } else if (iphi == quarter || iphi == 3 * quarter) {
       iphi -= 1;
     }
   }
-  return {Region::Counter, base + iphi};
+  return {Region::Counter, countersPerLayer_ * (layer - 1) + ringOffsets_[static_cast<std::size_t>(ring)] + iphi};
 }
 
 }  // namespace emcalign::geometry

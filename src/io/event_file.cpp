@@ -77,27 +77,43 @@ class EventFingerprints {
   std::size_t size_ = 0;
 };
 
-// The events met so far, exactly while they come in few increasing runs — the usual case:
-// files are written in event order, one run after the other — as sorted segments of keys
-// (12 bytes per event, appended in order, no cache misses); beyond kMaxSegments segments
-// (events in no order), as fingerprints.
+// The events met so far, exactly while they come in few increasing sequences — the usual
+// case: files are written in event order, one run after the other — as sorted segments of
+// intervals of consecutive event numbers. Files numbered without gaps (as emcalign simulate
+// writes them) then take a few bytes however many events they hold; each gap in the
+// numbering costs one interval (24 bytes). Beyond kMaxSegments segments (events in no
+// order), as fingerprints.
 class SeenEvents {
  public:
   /// False when (run, event) was met before (or, past the segments, its fingerprint was).
   bool insert(std::int32_t run, std::int64_t event) {
     if (hashed_) return fingerprints_.insert(run, event);
-    const Key k{run, event};
     for (const auto& segment : segments_) {
-      if (segment.back() < k) continue;
-      if (std::binary_search(segment.begin(), segment.end(), k)) return false;
+      if (segment.back().before(run, event)) continue;
+      // The last interval starting at or before the key.
+      const auto after = std::upper_bound(segment.begin(), segment.end(), Interval{run, event, event},
+                                          [](const Interval& a, const Interval& b) {
+                                            return a.run != b.run ? a.run < b.run : a.first < b.first;
+                                          });
+      if (after != segment.begin() && std::prev(after)->holds(run, event)) return false;
     }
-    if (!segments_.empty() && segments_.back().back() < k) {
-      segments_.back().push_back(k);
+    if (!segments_.empty() && segments_.back().back().before(run, event)) {
+      Interval& last = segments_.back().back();
+      if (last.run == run && last.last + 1 == event) {
+        last.last = event;
+      } else {
+        segments_.back().push_back({run, event, event});
+      }
     } else if (segments_.size() < kMaxSegments) {
-      segments_.push_back({k});
+      segments_.push_back({{run, event, event}});
     } else {
       for (const auto& segment : segments_) {
-        for (const Key& old : segment) fingerprints_.insert(old.run, old.event);
+        for (const Interval& i : segment) {
+          for (std::int64_t e = i.first;; ++e) {
+            fingerprints_.insert(i.run, e);
+            if (e == i.last) break;
+          }
+        }
       }
       segments_.clear();
       hashed_ = true;
@@ -107,20 +123,22 @@ class SeenEvents {
   }
 
  private:
-  struct Key {
+  struct Interval {  // the events first..last of a run
     std::int32_t run;
-    std::int64_t event;
-    bool operator<(const Key& o) const { return run != o.run ? run < o.run : event < o.event; }
+    std::int64_t first, last;
+    bool holds(std::int32_t r, std::int64_t e) const { return r == run && e >= first && e <= last; }
+    bool before(std::int32_t r, std::int64_t e) const { return run != r ? run < r : last < e; }
   };
   static constexpr std::size_t kMaxSegments = 64;
-  std::vector<std::vector<Key>> segments_;
+  std::vector<std::vector<Interval>> segments_;
   bool hashed_ = false;
   EventFingerprints fingerprints_;
 };
 
-Result<std::unique_ptr<RowSource>> openSource(const std::string& path, std::size_t readRows, double hdf5Timeout) {
+Result<std::unique_ptr<RowSource>> openSource(const std::string& path, std::size_t readRows,
+                                              const ReaderOptions& options) {
   if (formatOf(path) == EventFormat::Csv) return openCsvSource(path);
-  return openIsolated(path, [&] { return openHdf5Source(path, readRows); }, hdf5Timeout);
+  return openIsolated(path, [&] { return openHdf5Source(path, readRows, options); }, options.hdf5TimeoutSeconds);
 }
 
 // ============================================================================ the reader
@@ -200,7 +218,7 @@ class EventReaderImpl final : public EventReader {
   std::size_t readRows() const { return std::max<std::size_t>(options_.blockRows, 256); }
 
   Status openFile(std::size_t index) {
-    auto source = openSource(paths_[index], readRows(), options_.hdf5TimeoutSeconds);
+    auto source = openSource(paths_[index], readRows(), options_);
     if (!source) return source.error();
     source_ = std::move(*source);
     index_ = index;
@@ -238,7 +256,7 @@ class EventReaderImpl final : public EventReader {
   // Where the event of `row` started before the current row, or "" if it did not.
   Result<std::string> locateEarlier(const ParticleRow& row) const {
     for (std::size_t f = 0; f <= index_; ++f) {
-      auto source = openSource(paths_[f], readRows(), options_.hdf5TimeoutSeconds);
+      auto source = openSource(paths_[f], readRows(), options_);
       if (!source) return source.error();
       const std::uint64_t limit = f == index_ ? rowInFile_ - 1 : UINT64_MAX;
       ParticleRow r;

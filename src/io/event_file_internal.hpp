@@ -183,8 +183,10 @@ class RowSource {
 Result<std::unique_ptr<EventWriter>> openCsvWriter(const std::string& path, const WriterOptions& options);
 Result<std::unique_ptr<EventWriter>> openHdf5Writer(const std::string& path, const WriterOptions& options);
 Result<std::unique_ptr<RowSource>> openCsvSource(const std::string& path);
-/// In this process (see openIsolated); `readRows`: rows read from each dataset at a time.
-Result<std::unique_ptr<RowSource>> openHdf5Source(const std::string& path, std::size_t readRows);
+/// In this process (see openIsolated); `readRows`: rows read from each dataset at a time;
+/// the truth and the hits only when `options` asks for them.
+Result<std::unique_ptr<RowSource>> openHdf5Source(const std::string& path, std::size_t readRows,
+                                                  const ReaderOptions& options);
 
 /// The source `open` makes, run in a child process that streams its rows back
 /// (isolated_source.cpp): a crash of the child is an error naming `path`, and a child silent

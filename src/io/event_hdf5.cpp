@@ -559,9 +559,10 @@ struct Hdf5Column {
 
 class Hdf5Source final : public RowSource {
  public:
-  static Result<std::unique_ptr<RowSource>> open(const std::string& path, std::size_t readRows) {
+  static Result<std::unique_ptr<RowSource>> open(const std::string& path, std::size_t readRows,
+                                                 const ReaderOptions& options) {
     Hdf5Quiet quiet;
-    auto s = std::unique_ptr<Hdf5Source>(new Hdf5Source(path, readRows));
+    auto s = std::unique_ptr<Hdf5Source>(new Hdf5Source(path, readRows, options));
     if (auto st = s->openFile(); !st) return st.error();
     return std::unique_ptr<RowSource>(std::move(s));
   }
@@ -606,8 +607,8 @@ class Hdf5Source final : public RowSource {
   }
 
  private:
-  Hdf5Source(std::string path, std::size_t readRows)
-      : path_(std::move(path)), readRows_(readRows) {}
+  Hdf5Source(std::string path, std::size_t readRows, const ReaderOptions& options)
+      : path_(std::move(path)), readRows_(readRows), wantTruth_(options.truth), wantHits_(options.hits) {}
 
   Error error(std::string_view what) const { return Error{fmt::format("{}: {}", path_, what)}; }
 
@@ -636,14 +637,16 @@ class Hdf5Source final : public RowSource {
         return error(fmt::format("the hits are incomplete: '/{0}/{1}', '/{0}/{2}' and the group '/{3}' come together",
                                  kEventsGroup, kHitOffset, kHitCount, kHitsGroup));
       }
-      eventColumns.emplace_back(kHitOffset, Kind::I64);
-      eventColumns.emplace_back(kHitCount, Kind::I32);
+      if (wantHits_) {
+        eventColumns.emplace_back(kHitOffset, Kind::I64);
+        eventColumns.emplace_back(kHitCount, Kind::I32);
+      }
     }
-    auto events = openColumns(kEventsGroup, eventColumns, true);
+    auto events = openColumns(kEventsGroup, eventColumns, true, {kHitOffset, kHitCount});
     if (!events) return events.error();
     eventCols_ = std::move(*events);
     rows_ = rowsOf_;
-    if (hitOffset) {
+    if (hitOffset && wantHits_) {
       auto hits = openColumns(kHitsGroup, {{kHitCounter, Kind::I32}, {kHitEnergy, Kind::F64}}, true);
       if (!hits) return hits.error();
       hitCols_ = std::move(*hits);
@@ -651,6 +654,7 @@ class Hdf5Source final : public RowSource {
       hasHits_ = true;
     }
 
+    if (!wantTruth_) return {};
     std::vector<std::pair<std::string, Kind>> truthColumns{{kTruthPdg, Kind::I32}};
     for (const auto& column : kTruthDoubles) truthColumns.emplace_back(column.name, Kind::F64);
     auto truth = openColumns(kTruthGroup, truthColumns, false);
@@ -706,10 +710,11 @@ class Hdf5Source final : public RowSource {
   }
 
   // Opens every listed dataset of a group (all required), checking names, types, rank and
-  // equal lengths; an absent optional group gives no columns. Sets rowsOf_.
+  // equal lengths; an absent optional group gives no columns. `skipped` names links that
+  // may be there but are not read. Sets rowsOf_.
   Result<std::vector<Hdf5Column>> openColumns(
       const char* groupName, const std::vector<std::pair<std::string, Kind>>& columns,
-      bool required) {
+      bool required, std::initializer_list<std::string_view> skipped = {}) {
     const htri_t exists = H5Lexists(file_.get(), groupName, H5P_DEFAULT);
     if (exists <= 0) {
       H5Eclear2(H5E_DEFAULT);
@@ -732,7 +737,7 @@ class Hdf5Source final : public RowSource {
         &links);
     if (iterated < 0) return error(fmt::format("cannot list '/{}': {}", groupName, hdf5Reason()));
     for (const std::string& link : links) {
-      bool known = false;
+      bool known = std::find(skipped.begin(), skipped.end(), link) != skipped.end();
       for (const auto& column : columns) known = known || column.first == link;
       if (!known) return error(fmt::format("unexpected dataset '/{}/{}'", groupName, link));
     }
@@ -877,6 +882,8 @@ class Hdf5Source final : public RowSource {
 
   std::string path_;
   hsize_t readRows_;
+  bool wantTruth_ = true;
+  bool wantHits_ = true;
   Hid file_;
   Attributes attributes_;
   std::vector<Hdf5Column> eventCols_;
@@ -913,8 +920,9 @@ Result<std::unique_ptr<EventWriter>> openHdf5Writer(const std::string& path, con
   return Hdf5Writer::create(path, options);
 }
 
-Result<std::unique_ptr<RowSource>> openHdf5Source(const std::string& path, std::size_t readRows) {
-  return Hdf5Source::open(path, readRows);
+Result<std::unique_ptr<RowSource>> openHdf5Source(const std::string& path, std::size_t readRows,
+                                                  const ReaderOptions& options) {
+  return Hdf5Source::open(path, readRows, options);
 }
 
 }  // namespace emcalign::io::detail

@@ -71,12 +71,20 @@ void CounterHits::clear() {
 }
 
 void CounterHits::add(int counter, int source, double energy, const Vec3& where, const Vec3& nominal) {
+  addToCounter(counter, source, energy, nominal);
+  addToSource(source, energy, energy * where);
+}
+
+void CounterHits::addToCounter(int counter, int source, double energy, const Vec3& nominal) {
   const auto c = static_cast<std::size_t>(counter);
   if (energy_[c] == 0.0) touched_.push_back(counter);
   energy_[c] += energy;
   nominalMoment_[c] += energy * nominal;
   contrib_[c][static_cast<std::size_t>(source)] += static_cast<float>(energy);
-  sourceSum_[static_cast<std::size_t>(source)] += energy * where;
+}
+
+void CounterHits::addToSource(int source, double energy, const Vec3& moment) {
+  sourceSum_[static_cast<std::size_t>(source)] += moment;
   sourceEnergy_[static_cast<std::size_t>(source)] += energy;
 }
 
@@ -130,7 +138,7 @@ bool CalorimeterResponse::nearCoverage(const Vec3& p) const {
   return cosTheta < cosCoverageMin_ && cosTheta > cosCoverageMax_;
 }
 
-int CalorimeterResponse::counterAt(const Vec3& p, Hemisphere hint, Vec3* nominalOut, int* last) const {
+int CalorimeterResponse::counterAt(const Vec3& p, Hemisphere hint, Vec3* nominalOut) const {
   const Hemisphere other = hint == Hemisphere::Plus ? Hemisphere::Minus : Hemisphere::Plus;
   for (Hemisphere h : {hint, other}) {
     const Vec3 q = actual_.placement(h, Support::Inner).applyInverse(p);
@@ -140,24 +148,18 @@ int CalorimeterResponse::counterAt(const Vec3& p, Hemisphere hint, Vec3* nominal
       nominal = actual_.placement(h, Support::Outer).applyInverse(p);
       if (geometry::hemisphereOf(nominal.x()) != h) continue;
     }
-    // Spots of a shower come in runs in the same counter: try the last one first.
-    if (last != nullptr && *last >= 0 && calo_->contains(*last, nominal)) {
-      if (nominalOut != nullptr) *nominalOut = nominal;
-      return *last;
-    }
     const geometry::Location loc = calo_->locate(nominal);
     if (loc.region != Region::Counter || isDead(loc.counter)) return -1;
     if (nominalOut != nullptr) *nominalOut = nominal;
-    if (last != nullptr) *last = loc.counter;
     return loc.counter;
   }
   return -1;  // between the hemispheres
 }
 
 void CalorimeterResponse::deposit(CounterHits& hits, int source, double energy, const Vec3& where,
-                                  Hemisphere hint, int* last) const {
+                                  Hemisphere hint) const {
   Vec3 nominal;
-  const int c = counterAt(where, hint, &nominal, last);
+  const int c = counterAt(where, hint, &nominal);
   if (c >= 0) hits.add(c, source, energy, where, nominal);
 }
 
@@ -247,10 +249,13 @@ void CalorimeterResponse::shower(CounterHits& hits, int source, double energy, b
     return tau < tauA ? (tau - preshower) * x0 : sB + (tau - tauB) * x0;
   };
 
-  Vec3 e1 = (std::abs(direction.z()) < 0.9 ? Vec3::UnitZ() : Vec3::UnitX()).cross(direction).normalized();
-  const Vec3 e2 = direction.cross(e1);
+  const Vec3 e1 = (std::abs(direction.z()) < 0.9 ? Vec3::UnitZ() : Vec3::UnitX()).cross(direction).normalized();
+  const ShowerFrame frame = showerFrame(h, start, direction, e1, direction.cross(e1));
   const double spotEnergy = gain * energy * inside / (o.spotsLongitudinal * o.spotsLateral);
-  int last = -1;
+  // Spots are drawn a batch at a time and then deposited: their square roots and divisions
+  // overlap instead of each waiting for the previous spot's counter.
+  std::array<Spot, kSpotBatch> batch;
+  std::size_t batched = 0;
   for (int i = 0; i < o.spotsLongitudinal; ++i) {
     double tau = 0.0;
     for (int tries = 0; tries < 64; ++tries) {
@@ -258,8 +263,7 @@ void CalorimeterResponse::shower(CounterHits& hits, int source, double energy, b
       if ((tau >= preshower && tau < tauA) || (tau >= tauB && tau < tauEnd)) break;
       tau = tau < tauA ? std::max(tau, preshower) : std::min(std::max(tau, tauB), tauEnd);  // after 64 tries
     }
-    const double t = geometric(tau) / x0;
-    const Vec3 axis = start + (t * m.radiationLength) * direction;
+    const double along = geometric(tau) / x0 * m.radiationLength;
     // Lateral spots at azimuths spread evenly from a random start (stratified sampling:
     // one random rotation per depth, then exact turns by 2π/n).
     double c, sn;
@@ -270,13 +274,57 @@ void CalorimeterResponse::shower(CounterHits& hits, int source, double energy, b
       const bool core = rng.uniform() < o.coreFraction;
       const double scale = (core ? o.coreRadius : o.tailRadius) * o.moliereRadius;
       const double u = rng.uniform() * (core ? coreCdfMax_ : tailCdfMax_);
-      const double r = scale * std::sqrt(u / (1.0 - u));
-      deposit(hits, source, spotEnergy, axis + r * (c * e1 + sn * e2), h, &last);
+      batch[batched++] = {along, scale * std::sqrt(u / (1.0 - u)), c, sn};
+      if (batched == batch.size()) {
+        depositSpots(hits, source, spotEnergy, frame, h, {batch.data(), batched});
+        batched = 0;
+      }
       const double turned = c * lateralCos_ - sn * lateralSin_;
       sn = sn * lateralCos_ + c * lateralSin_;
       c = turned;
     }
   }
+  depositSpots(hits, source, spotEnergy, frame, h, {batch.data(), batched});
+}
+
+CalorimeterResponse::ShowerFrame CalorimeterResponse::showerFrame(Hemisphere h, const Vec3& start, const Vec3& axis,
+                                                                  const Vec3& e1, const Vec3& e2) const {
+  const auto nominal = [&](Support s) {
+    const geometry::RigidTransform& t = actual_.placement(h, s);
+    const Mat3 back = t.rotation.transpose();
+    return Basis{t.applyInverse(start), back * axis, back * e1, back * e2};
+  };
+  return {Basis{start, axis, e1, e2}, nominal(Support::Inner), nominal(Support::Outer)};
+}
+
+void CalorimeterResponse::depositSpots(CounterHits& hits, int source, double energy, const ShowerFrame& f,
+                                       Hemisphere h, std::span<const Spot> spots) const {
+  Vec3 moment = Vec3::Zero();  // Σ where of the deposited spots: the source's centre
+  int deposited = 0;
+  for (const Spot& spot : spots) {
+    const Vec3 where = f.ts.at(spot);
+    // The spot in the nominal frame of the entered hemisphere's inner support, or of its
+    // layer 3 beyond support sphere 1 (counterAt's first try, without a matrix product).
+    Vec3 nominal = f.inner.at(spot);
+    bool inHint = geometry::hemisphereOf(nominal.x()) == h;
+    if (inHint && nominal.squaredNorm() >= r1Squared_) {
+      nominal = f.outer.at(spot);
+      inHint = geometry::hemisphereOf(nominal.x()) == h;
+    }
+    int c = -1;
+    if (inHint) {
+      const geometry::Location loc = calo_->locate(nominal);
+      if (loc.region == Region::Counter && !isDead(loc.counter)) c = loc.counter;
+    } else {  // crossed the parting plane: the other hemisphere
+      c = counterAt(where, h == Hemisphere::Plus ? Hemisphere::Minus : Hemisphere::Plus, &nominal);
+    }
+    if (c >= 0) {
+      hits.addToCounter(c, source, energy, nominal);
+      moment += where;
+      ++deposited;
+    }
+  }
+  hits.addToSource(source, deposited * energy, energy * moment);
 }
 
 void CalorimeterResponse::track(CounterHits& hits, int source, double kineticEnergy, bool hadron,

@@ -47,7 +47,10 @@ std::optional<std::pair<double, double>> clusterDirection(std::span<const Hit> h
   for (const Hit& h : hits) sum += h.energy;
   Vec3 centre = Vec3::Zero();
   double weights = 0.0;
+  // A counter below e^(−w0) of the sum has weight 0: no logarithm taken for it.
+  const double least = sum * std::exp(-w0);
   for (const Hit& h : hits) {
+    if (!(h.energy > least)) continue;
     const double w = std::max(0.0, w0 + std::log(std::max(h.energy, 1e-9) / sum));
     centre += w * geometry.centre(h.counter);
     weights += w;
@@ -69,18 +72,19 @@ void findClusters(const CounterHits& hits, const geometry::CounterGeometry& geom
   constexpr int kFired = -2;
   for (int c : hits.fired()) scratch.label[static_cast<std::size_t>(c)] = kFired;
   std::vector<int>& members = scratch.members;
+  int* const label = scratch.label.data();  // not resized below: kept out of the pushes' aliasing
   for (int seed : hits.fired()) {
-    if (scratch.label[static_cast<std::size_t>(seed)] != kFired) continue;
+    if (label[seed] != kFired) continue;
     members.clear();
     scratch.stack.assign(1, seed);
-    scratch.label[static_cast<std::size_t>(seed)] = 0;
+    label[seed] = 0;
     while (!scratch.stack.empty()) {
       const int c = scratch.stack.back();
       scratch.stack.pop_back();
       members.push_back(c);
       for (int n : neighbours.of(c)) {
-        if (scratch.label[static_cast<std::size_t>(n)] == kFired) {
-          scratch.label[static_cast<std::size_t>(n)] = 0;
+        if (label[n] == kFired) {
+          label[n] = 0;
           scratch.stack.push_back(n);
         }
       }

@@ -347,8 +347,16 @@ def cases():
 
     def damaged(name):
         return lambda d: shutil.copy(os.path.join(regressions, name), os.path.join(d, name))
+    def damagedWithParams(name):
+        def setup(d):
+            damaged(name)(d)
+            shutil.copy(os.path.join(SOURCE, "data", "examples", "paper-like.json"), os.path.join(d, "p.json"))
+        return setup
     add(Case(C, "a damaged HDF5 file on which libhdf5 divides by zero (found by fuzzing)",
-             "emcalign fit hdf5-chunk-dimension-zero.h5 -o r.json", 1, "crashed reading this file",
+             "emcalign correct hdf5-chunk-dimension-zero.h5 --alignment p.json -o c.h5", 1, "crashed reading this file",
+             setup=damagedWithParams("hdf5-chunk-dimension-zero.h5")))
+    add(Case(C, "the same file read by the fit, which reads /events only",
+             "emcalign fit hdf5-chunk-dimension-zero.h5 -o r.json", 1, "cannot read dataset '/events/run'",
              setup=damaged("hdf5-chunk-dimension-zero.h5")))
     add(Case(C, "a damaged HDF5 file on which libhdf5 asks for exabytes", "emcalign fit hdf5-huge-allocation.h5 -o r.json",
              1, "memory allocation failed", setup=damaged("hdf5-huge-allocation.h5")))

@@ -14,6 +14,7 @@
 // A counter's nominal centre is at its θ, φ mid-angles and its layer's mid-radius.
 
 #include <array>
+#include <cstdint>
 #include <span>
 #include <string>
 #include <vector>
@@ -133,27 +134,29 @@ class Calorimeter {
   /// The counter that contains a point of the nominal EMC frame, or why none does.
   Location locate(const Vec3& pointNominal) const;
 
-  /// Whether a nominal-frame point is inside a given counter: a few multiplications, for
-  /// the simulation's "same counter as the last spot" shortcut. Agrees with `locate` except
-  /// on the cell boundaries themselves.
-  bool contains(int counter, const Vec3& pointNominal) const;
 
  private:
   explicit Calorimeter(DetectorDescription description);
 
   DetectorDescription description_;
   std::vector<int> ringOffsets_;  ///< counters in the lower rings of a layer
-  std::vector<double> ringCosEdges_;  ///< cos of the ring edges, decreasing (locate)
+  /// cos θ·|cos θ| of the ring edges, decreasing: locate compares them with z·|z|/r².
+  std::vector<double> ringEdgeKeys_;
+  /// locate's first guesses, so that it needs no search with unpredictable branches: per
+  /// bin of cos θ·|cos θ| (kCosBins over [−1, 1]) a ring at or below the point's; per ring
+  /// and bin of the in-quadrant pseudo-angle v/(u + v) (kPhiBins over [0, 1]) a count of φ
+  /// edges at or below the point's. locate then steps up while the next edge is passed
+  /// (for the SND-like detector at most once), with the comparisons a search would make.
+  static constexpr int kCosBins = 1024;
+  static constexpr int kPhiBins = 256;
+  std::vector<std::int16_t> ringGuess_;
+  std::vector<std::int16_t> phiGuess_;  ///< ring-major, kPhiBins per ring
   double layerR2_[3][2] = {};         ///< squared inner and outer radii of the layers
   double outerR2_ = 0.0;              ///< squared outer radius of support sphere 2
   /// Per ring: (cos, sin) of the φ edges inside the first quadrant, 1..n/4−1 (locate).
   std::vector<std::vector<std::pair<double, double>>> quadrantEdges_;
   int countersPerLayer_ = 0;
   std::vector<Counter> counters_;
-  struct Bounds {  // per counter, for contains()
-    double r2Min, r2Max, cosMax, cosMin, cPhiMin, sPhiMin, cPhiMax, sPhiMax;
-  };
-  std::vector<Bounds> bounds_;
 };
 
 }  // namespace emcalign::geometry

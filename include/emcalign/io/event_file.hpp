@@ -11,9 +11,10 @@
 // charged = 0: a photon (an EMC cluster; the track fields empty). In memory and in HDF5 an
 // empty field is NaN; a NaN (or "nan" text) where a value is required is an error.
 //
-// Readers are strict and streaming: memory does not grow with the rows (only 12 bytes per
-// event for the check below, 16–32 when the events come in no order); every refused input is reported with the file, the line
-// (CSV) or record (HDF5) and the column. HDF5 files are read in a child process (libhdf5
+// Readers are strict and streaming: memory does not grow with the rows. The check below
+// keeps a few bytes per file whose events are numbered without gaps, 24 bytes per gap in
+// the numbering, 16–32 bytes per event when the events come in no order. Every refused
+// input is reported with the file, the line (CSV) or record (HDF5) and the column. HDF5 files are read in a child process (libhdf5
 // crashes and loops on some corrupted files; io/isolated_source.cpp).
 // Writers follow io/output_file.hpp: a temporary next to the target renamed on `close()`
 // (a writer destroyed without a successful close removes it, so a failed or interrupted
@@ -119,6 +120,11 @@ struct ReaderOptions {
   /// HDF5 files are read in a child process (libhdf5 crashes or loops on some corrupted
   /// files): one silent for this long is killed and the file reported as unreadable.
   double hdf5TimeoutSeconds = 60.0;
+  /// Whether to read the truth and the hits of files that have them. A reader that needs
+  /// neither (the fit: selection and profiles) reads only /events: a third of the bytes of
+  /// a simulated file with hits. What is not read is not checked, and truth()/hits() are null.
+  bool truth = true;
+  bool hits = true;
 };
 
 /// The beam energy of the first event of the files (MeV): what a sample of one energy is at,

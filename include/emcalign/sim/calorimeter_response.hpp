@@ -23,6 +23,7 @@
 
 #include <array>
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "emcalign/core/random.hpp"
@@ -97,6 +98,10 @@ class CounterHits {
   void clear();
   /// Adds energy at a TS-frame point `where`, which is `nominal` in the counter's own frame.
   void add(int counter, int source, double energy, const Vec3& where, const Vec3& nominal);
+  /// add's two halves: the counter's energy (and its share and moment), and the source's
+  /// energy and Σ energy·where (`moment`), which a shower adds once for all its spots.
+  void addToCounter(int counter, int source, double energy, const Vec3& nominal);
+  void addToSource(int source, double energy, const Vec3& moment);
   /// Adds noise and applies the threshold; afterwards `fired()` lists counters above it.
   void digitize(const EmcOptions& o, Rng& rng);
 
@@ -142,15 +147,35 @@ class CalorimeterResponse {
   /// Counter containing a TS-frame point of the actual detector, or -1 (gap, support
   /// sphere, dead counter, outside). `hint` is tried first (the hemisphere a shower entered).
   /// `nominal` receives the point in the counter's nominal frame.
-  /// `last`, if given, is a counter to try first and receives the one found.
-  int counterAt(const Vec3& point, geometry::Hemisphere hint, Vec3* nominal = nullptr, int* last = nullptr) const;
+  int counterAt(const Vec3& point, geometry::Hemisphere hint, Vec3* nominal = nullptr) const;
 
  private:
   // Where the line enters the EMC (actual inner surface) and through which hemisphere.
   double entry(const Vec3& point, const Vec3& direction, geometry::Hemisphere& hemisphere) const;
-  void deposit(CounterHits& hits, int source, double energy, const Vec3& where,
-               geometry::Hemisphere hint, int* last = nullptr) const;
+  void deposit(CounterHits& hits, int source, double energy, const Vec3& where, geometry::Hemisphere hint) const;
   bool nearCoverage(const Vec3& point) const;
+
+  // A shower spot: at `along` from the shower start on its axis, `radius` off it at the
+  // azimuth (cosine, sine) about the axis.
+  struct Spot {
+    double along, radius, cosine, sine;
+  };
+  static constexpr std::size_t kSpotBatch = 32;
+  // A shower's start, axis and two unit vectors across it, in one frame.
+  struct Basis {
+    Vec3 start, axis, e1, e2;
+    Vec3 at(const Spot& s) const { return (start + s.along * axis) + s.radius * (s.cosine * e1 + s.sine * e2); }
+  };
+  // The basis in the TS frame and in the nominal frames of the entered hemisphere's two
+  // supports (the inner for layers 1–2, the outer for layer 3).
+  struct ShowerFrame {
+    Basis ts, inner, outer;
+  };
+  ShowerFrame showerFrame(geometry::Hemisphere h, const Vec3& start, const Vec3& axis, const Vec3& e1,
+                          const Vec3& e2) const;
+  // Adds each spot's energy to the counter containing it (counterAt, hint h).
+  void depositSpots(CounterHits& hits, int source, double energy, const ShowerFrame& frame, geometry::Hemisphere h,
+                    std::span<const Spot> spots) const;
 
   const geometry::Calorimeter* calo_;
   ActualPlacement actual_;

@@ -1,9 +1,11 @@
 #include "emcalign/geometry/detector.hpp"
 
 #include <cmath>
+#include <numbers>
 
 #include <gtest/gtest.h>
 
+#include "emcalign/core/random.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/geometry/track.hpp"
 
@@ -78,6 +80,46 @@ TEST(Detector, LookupRoundTripForEveryCounter) {
         }
       }
     }
+  }
+}
+
+// locate starts from table guesses (detector.hpp): on random points, of the SND-like
+// detector and of a fine one whose rings and cells are narrower than the table bins, it
+// must agree with the counter found from the angles themselves.
+TEST(Detector, LocateAgreesWithTheAnglesOnRandomPoints) {
+  DetectorDescription fine = DetectorDescription::sndDefault();
+  fine.thetaMin = 0.5 * deg;
+  fine.thetaMax = 179.5 * deg;
+  fine.countersPerRing.assign(179, 400);  // 1° rings: near the poles narrower than a cos θ bin
+  for (const DetectorDescription& d : {DetectorDescription::sndDefault(), fine}) {
+    const auto calo = Calorimeter::create(d);
+    ASSERT_TRUE(calo.ok());
+    Rng rng(7, 0);
+    int checked = 0;
+    for (int i = 0; i < 200000; ++i) {
+      const double theta = d.thetaMin + (d.thetaMax - d.thetaMin) * rng.uniform();
+      const double phi = 2.0 * std::numbers::pi * rng.uniform();
+      const double r = d.layers[0].rInner + (d.layers[2].rOuter - d.layers[0].rInner) * rng.uniform();
+      const double ringAt = (theta - d.thetaMin) / d.ringWidth();
+      const int ring = static_cast<int>(ringAt);
+      const int n = d.countersPerRing[static_cast<std::size_t>(ring)];
+      const double phiAt = phi / (2.0 * std::numbers::pi / n);
+      // Far enough from every edge that rounding cannot decide.
+      if (std::abs(ringAt - std::round(ringAt)) < 1e-6 || std::abs(phiAt - std::round(phiAt)) < 1e-6) continue;
+      int layer = 0;
+      for (int l = 0; l < 3; ++l) {
+        if (d.layers[static_cast<std::size_t>(l)].contains(r)) layer = l + 1;
+      }
+      const Location loc = calo->locate(pointAt(r, theta, phi));
+      if (layer == 0) {
+        EXPECT_EQ(loc.region, Region::SupportSphere) << r;
+        continue;
+      }
+      ASSERT_EQ(loc.region, Region::Counter) << theta << " " << phi << " " << r;
+      ASSERT_EQ(loc.counter, calo->counterIndex(layer, ring, static_cast<int>(phiAt))) << theta << " " << phi;
+      ++checked;
+    }
+    EXPECT_GT(checked, 150000);
   }
 }
 

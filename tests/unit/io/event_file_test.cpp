@@ -983,6 +983,29 @@ TEST_F(EventFile, RowsOfAnEventApartAreRefused) {
   EXPECT_THAT(message, HasSubstr("contiguous"));
 }
 
+// The check keeps intervals of consecutive event numbers (event_file.cpp, SeenEvents): a
+// repeat inside an interval, after a gap, in another run, and after the events come in no
+// order (more than 64 sequences), is still found; an event in an earlier gap is not a repeat.
+TEST_F(EventFile, RepeatsAreFoundInsideIntervalsOfConsecutiveEvents) {
+  const auto row = [](int run, int event) { return fmt::format("{},{},508,0,0,,,,,200,3.0,2.0\n", run, event); };
+  std::string ok = kHeader;
+  for (int e : {1, 2, 3, 5, 6}) ok += row(1, e);
+  ok += row(2, 1) + row(2, 2) + row(1, 4);  // run 2, then run 1's gap: new, not repeats
+  writeBytes(path("ok.csv"), ok);
+  EXPECT_TRUE(readAll({path("ok.csv")}).ok());
+  EXPECT_THAT(csvError(ok + row(1, 2)), HasSubstr("line 10: run 1 event 2 appears again (its rows start at "));
+  EXPECT_THAT(csvError(ok + row(1, 5)), HasSubstr("line 10: run 1 event 5 appears again"));
+  EXPECT_THAT(csvError(ok + row(2, 2)), HasSubstr("line 10: run 2 event 2 appears again"));
+  // 100 decreasing events, each its own sequence: past 64 the check turns to fingerprints,
+  // which still hold every event of the intervals before.
+  std::string shuffled = kHeader;
+  for (int e = 1000; e < 1010; ++e) shuffled += row(3, e);
+  for (int e = 100; e > 0; --e) shuffled += row(4, e);
+  writeBytes(path("shuffled.csv"), shuffled);
+  EXPECT_TRUE(readAll({path("shuffled.csv")}).ok());
+  EXPECT_THAT(csvError(shuffled + row(3, 1005)), HasSubstr("line 112: run 3 event 1005 appears again"));
+}
+
 TEST_F(EventFile, AnEventOfMoreThanAThousandRowsIsRefused) {
   std::string text = kHeader;
   for (int i = 0; i < 1001; ++i) text += "1,7,508,0,0,,,,,200,3.0,2.0\n";
@@ -1138,6 +1161,43 @@ TEST_F(EventFile, HitsRoundTripThroughHdf5InAnyBlocks) {
   ASSERT_TRUE(*(*reader)->next(block));
   EXPECT_EQ((*reader)->hits(), nullptr);
   EXPECT_EQ(block[0].hitCount, 0);
+}
+
+// A reader that asks for neither (the fit's selection and profiles) reads /events only:
+// the same rows, no truth, no hits, and a broken /truth does not concern it.
+TEST_F(EventFile, ReadingWithoutTruthAndHitsGivesTheSameRows) {
+  auto rows = sampleRows(3000);
+  const auto hits = attachHits(rows);
+  WriterOptions o{true, kAttributes};
+  o.withHits = true;
+  ASSERT_TRUE(writeFile(path("h.h5"), rows, o, sampleTruth(rows.size()), hits).ok());
+  const ReaderOptions rowsOnly{.truth = false, .hits = false};
+  auto reader = EventReader::open({path("h.h5")}, rowsOnly);
+  ASSERT_TRUE(reader.ok()) << reader.error().message;
+  std::vector<ParticleRow> block, back;
+  while (true) {
+    auto more = (*reader)->next(block);
+    ASSERT_TRUE(more.ok()) << more.error().message;
+    if (!*more) break;
+    EXPECT_EQ((*reader)->truth(), nullptr);
+    EXPECT_EQ((*reader)->hits(), nullptr);
+    back.insert(back.end(), block.begin(), block.end());
+  }
+  ASSERT_EQ(back.size(), rows.size());
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    ASSERT_EQ(back[i].event, rows[i].event);
+    ASSERT_TRUE(sameDouble(back[i].thetaEmc, rows[i].thetaEmc)) << i;
+    ASSERT_EQ(back[i].hitCount, 0) << "hits not read";
+  }
+  // /truth cut short: an error for a reader of the truth, nothing for one of the rows.
+  const hid_t f = H5Fopen(path("h.h5").c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+  ASSERT_GE(f, 0);
+  ASSERT_GE(H5Ldelete(f, "/truth/pdg", H5P_DEFAULT), 0);
+  H5Fclose(f);
+  EXPECT_THAT(readAll({path("h.h5")}).error().message, HasSubstr("missing dataset '/truth/pdg'"));
+  auto again = EventReader::open({path("h.h5")}, rowsOnly);
+  ASSERT_TRUE(again.ok()) << again.error().message;
+  EXPECT_TRUE((*again)->next(block).ok());
 }
 
 TEST_F(EventFile, WriterRefusesHitsThatDoNotMatchTheRows) {

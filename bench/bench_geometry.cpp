@@ -1,6 +1,8 @@
 // Throughput of the geometry kernels the simulation and the fit call most:
 // the forward/inverse transform of a point, building the placements from η, and the model
-// residual with its 12 derivatives (Ceres Jets), as one fit bin costs.
+// residual with its 12 derivatives (Ceres Jets), as one fit bin costs; and the counter
+// containing a point (Calorimeter::locate, once per shower spot of the simulation), for
+// points in random order (every branch unpredictable) and along showers.
 
 #include <random>
 #include <vector>
@@ -10,6 +12,7 @@
 
 #include "emcalign/core/units.hpp"
 #include "emcalign/geometry/alignment_transform.hpp"
+#include "emcalign/geometry/detector.hpp"
 #include "emcalign/geometry/residual_model.hpp"
 
 namespace {
@@ -85,6 +88,33 @@ void BM_ModelJacobian160Bins(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_ModelJacobian160Bins);
+
+void locate(benchmark::State& state, bool alongShowers) {
+  static const auto calo = *Calorimeter::create(DetectorDescription::sndDefault());
+  std::mt19937_64 rng(2);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<Vec3> at;
+  while (at.size() < 4096) {
+    // Random points of the EMC volume, or 32 spots within 8 cm of a radial axis at a time.
+    const double theta = (40.0 + 100.0 * u(rng)) * units::deg, phi = 6.283185307179586 * u(rng);
+    const int spots = alongShowers ? 32 : 1;
+    for (int k = 0; k < spots; ++k) {
+      const double r = 33.0 + 35.0 * u(rng);
+      const Vec3 p = pointAt(r, theta, phi) + Vec3(8.0 * u(rng) - 4.0, 8.0 * u(rng) - 4.0, 8.0 * u(rng) - 4.0);
+      at.push_back(p);
+    }
+  }
+  std::size_t i = 0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(calo.locate(at[i]));
+    i = (i + 1) & 4095;
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+void BM_LocateRandomPoints(benchmark::State& s) { locate(s, false); }
+void BM_LocateAlongShowers(benchmark::State& s) { locate(s, true); }
+BENCHMARK(BM_LocateRandomPoints);
+BENCHMARK(BM_LocateAlongShowers);
 
 }  // namespace
 

@@ -15,7 +15,7 @@ Status ReconstructionOptions::validate() const {
   return {};
 }
 
-CounterNeighbours::CounterNeighbours(const geometry::Calorimeter& calo) : lists_(static_cast<std::size_t>(calo.size())) {
+CounterNeighbours::CounterNeighbours(const geometry::Calorimeter& calo) {
   // Two counters are neighbours when their layers, rings differ by at most one and their
   // φ ranges overlap or touch (9° and 22.5° cells meet at 36° and 144°).
   constexpr double kTol = 1e-9;
@@ -27,6 +27,7 @@ CounterNeighbours::CounterNeighbours(const geometry::Calorimeter& calo) : lists_
     return false;
   };
   const int rings = calo.description().ringCount();
+  first_.push_back(0);
   for (const auto& a : calo.counters()) {
     for (int layer = std::max(1, a.layer - 1); layer <= std::min(3, a.layer + 1); ++layer) {
       for (int ring = std::max(0, a.ring - 1); ring <= std::min(rings - 1, a.ring + 1); ++ring) {
@@ -34,10 +35,11 @@ CounterNeighbours::CounterNeighbours(const geometry::Calorimeter& calo) : lists_
         const int n = calo.description().countersPerRing[static_cast<std::size_t>(ring)];
         for (int i = first; i < first + n; ++i) {
           const auto& b = calo.counter(i);
-          if (a.index != b.index && touches(a, b)) lists_[static_cast<std::size_t>(a.index)].push_back(b.index);
+          if (a.index != b.index && touches(a, b)) all_.push_back(b.index);
         }
       }
     }
+    first_.push_back(all_.size());
   }
 }
 
@@ -130,12 +132,19 @@ std::vector<int> matchTracks(const std::vector<geometry::TrackLine>& tracks,
     int track, cluster;
   };
   std::vector<Pair> pairs;
+  std::vector<Vec3> directions;
+  directions.reserve(clusters.size());
+  for (const Cluster& c : clusters) directions.push_back(geometry::pointAt(1.0, c.theta, c.phi));
+  // Pairs clearly wider than the match radius are passed over by their cosine, before the
+  // accurate angle is taken (the margin keeps every pair the angle would accept).
+  const double widest = options.matchRadius < 3.0 ? std::cos(options.matchRadius) - 1e-9 : -2.0;
   for (std::size_t t = 0; t < tracks.size(); ++t) {
     const auto p = tracks[t].sphereIntersection(options.matchSphereRadius);
     if (!p) continue;
     const Vec3 u = p->normalized();
     for (std::size_t c = 0; c < clusters.size(); ++c) {
-      const Vec3 v = geometry::pointAt(1.0, clusters[c].theta, clusters[c].phi);
+      const Vec3& v = directions[c];
+      if (u.dot(v) < widest) continue;
       const double angle = std::atan2(u.cross(v).norm(), u.dot(v));
       if (angle < options.matchRadius) pairs.push_back({angle, static_cast<int>(t), static_cast<int>(c)});
     }

@@ -88,8 +88,11 @@ std::optional<geometry::TrackLine> TrackingSystem::measure(const ChargedPath& pa
 
   // Transverse fit: w = a + b·u in a frame rotated to the first-to-last hit direction, which
   // is linear and well conditioned for the near-radial tracks of the TS.
-  const double phiEst = std::atan2(hy[n - 1] - hy[0], hx[n - 1] - hx[0]);
-  const double ce = std::cos(phiEst), se = std::sin(phiEst);
+  // (cos, sin) of the first-to-last direction without trigonometry.
+  const double chordX = hx[n - 1] - hx[0], chordY = hy[n - 1] - hy[0];
+  const double chord = std::hypot(chordX, chordY);
+  if (!(chord > 0.0)) return std::nullopt;
+  const double ce = chordX / chord, se = chordY / chord;
   double su = 0, sw = 0, suu = 0, suw = 0;
   for (int i = 0; i < n; ++i) {
     const double u = hx[i] * ce + hy[i] * se, w = -hx[i] * se + hy[i] * ce;
@@ -102,10 +105,12 @@ std::optional<geometry::TrackLine> TrackingSystem::measure(const ChargedPath& pa
   if (!(det > 0.0)) return std::nullopt;
   const double b = (n * suw - su * sw) / det;
   const double a = (sw - b * su) / n;
-  const double phi = phiEst + std::atan(b);
+  // The fitted direction: the chord's turned by atan(b), i.e. (1, b) in the rotated frame.
+  const double norm = std::sqrt(1.0 + b * b);
+  const double cphi = (ce - b * se) / norm, sphi = (se + b * ce) / norm;
+  const double phi = std::atan2(sphi, cphi);
   // Closest approach to the z axis of the line through a·(−sinφe, cosφe) with direction φ.
   const double px = -a * se, py = a * ce;
-  const double cphi = std::cos(phi), sphi = std::sin(phi);
   const double rho = -px * sphi + py * cphi;
   const double cx = -rho * sphi, cy = rho * cphi;
   // Longitudinal fit: z = z0 + s·cotθ with s the transverse path from the closest approach.

@@ -12,10 +12,9 @@
 // * tracks and clusters are matched by angle; clusters left over are photons.
 
 #include <optional>
-#include <vector>
-
 #include <span>
 #include <utility>
+#include <vector>
 
 #include "emcalign/core/event_record.hpp"
 #include "emcalign/core/types.hpp"
@@ -57,10 +56,16 @@ std::optional<std::pair<double, double>> clusterDirection(std::span<const Hit> h
 class CounterNeighbours {
  public:
   explicit CounterNeighbours(const geometry::Calorimeter& calo);
-  const std::vector<int>& of(int counter) const { return lists_[static_cast<std::size_t>(counter)]; }
+  std::span<const int> of(int counter) const {
+    const auto c = static_cast<std::size_t>(counter);
+    return {all_.data() + first_[c], all_.data() + first_[c + 1]};
+  }
 
  private:
-  std::vector<std::vector<int>> lists_;
+  // Every counter's neighbours one after the other (counter c's are all_[first_[c],
+  // first_[c + 1])): the clustering walks them for every fired counter.
+  std::vector<int> all_;
+  std::vector<std::size_t> first_;
 };
 
 /// Scratch space of the clustering, reused across events.

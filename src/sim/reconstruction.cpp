@@ -27,14 +27,28 @@ CounterNeighbours::CounterNeighbours(const geometry::Calorimeter& calo) {
     return false;
   };
   const int rings = calo.description().ringCount();
+  const auto counters = calo.counters();
+  std::vector<int> candidates;
   first_.push_back(0);
-  for (const auto& a : calo.counters()) {
+  for (const auto& a : counters) {
     for (int layer = std::max(1, a.layer - 1); layer <= std::min(3, a.layer + 1); ++layer) {
       for (int ring = std::max(0, a.ring - 1); ring <= std::min(rings - 1, a.ring + 1); ++ring) {
         const int first = calo.counterIndex(layer, ring, 0);
         const int n = calo.description().countersPerRing[static_cast<std::size_t>(ring)];
-        for (int i = first; i < first + n; ++i) {
-          const auto& b = calo.counter(i);
+        // Only the cells of this ring around a's φ range can touch it (one cell of margin
+        // each side), taken in index order as a scan of the whole ring would find them.
+        const double width = twoPi / n;
+        const int lo = static_cast<int>(std::floor(a.phiMin / width)) - 1;
+        const int hi = static_cast<int>(std::floor(a.phiMax / width)) + 1;
+        candidates.clear();
+        if (hi - lo + 1 >= n) {
+          for (int i = 0; i < n; ++i) candidates.push_back(i);
+        } else {
+          for (int i = lo; i <= hi; ++i) candidates.push_back(((i % n) + n) % n);
+          std::sort(candidates.begin(), candidates.end());
+        }
+        for (int iphi : candidates) {
+          const auto& b = counters[static_cast<std::size_t>(first + iphi)];
           if (a.index != b.index && touches(a, b)) all_.push_back(b.index);
         }
       }

@@ -53,6 +53,35 @@ Sample simulate(const SimulationOptions& o, const AlignmentParameters& eta, std:
   return s;
 }
 
+// The neighbour lists look only at the cells around a counter's φ range: they must be the
+// lists a scan of every cell of the adjacent rings and layers finds, in the same order (the
+// clustering's order, hence the output, depends on it), for the SND-like detector and one
+// with rings of 4 and 400 cells side by side.
+TEST(Clustering, NeighbourListsEqualAFullScan) {
+  DetectorDescription mixed = DetectorDescription::sndDefault();
+  mixed.countersPerRing = {4, 400, 8, 36, 36, 400, 4, 12};
+  for (const DetectorDescription& d : {DetectorDescription::sndDefault(), mixed}) {
+    const auto calo = Calorimeter::create(d);
+    ASSERT_TRUE(calo.ok());
+    const CounterNeighbours neighbours(*calo);
+    const double twoPi = 2.0 * std::numbers::pi;
+    for (const auto& a : calo->counters()) {
+      std::vector<int> expected;
+      for (const auto& b : calo->counters()) {
+        if (b.index == a.index || std::abs(b.layer - a.layer) > 1 || std::abs(b.ring - a.ring) > 1) continue;
+        for (double shift : {-twoPi, 0.0, twoPi}) {
+          if (a.phiMin <= b.phiMax + shift + 1e-9 && b.phiMin + shift <= a.phiMax + 1e-9) {
+            expected.push_back(b.index);
+            break;
+          }
+        }
+      }
+      const auto got = neighbours.of(a.index);
+      ASSERT_EQ(std::vector<int>(got.begin(), got.end()), expected) << "counter " << a.index;
+    }
+  }
+}
+
 TEST(Tracking, ResolutionOfRadialTracksIsTheDocumentedOne) {
   TrackingOptions o;
   o.multipleScattering = false;

@@ -263,6 +263,7 @@ void CalorimeterResponse::shower(CounterHits& hits, int source, double energy, b
       if ((tau >= preshower && tau < tauA) || (tau >= tauB && tau < tauEnd)) break;
       tau = tau < tauA ? std::max(tau, preshower) : std::min(std::max(tau, tauB), tauEnd);  // after 64 tries
     }
+    // geometric(tau), rounded as the depth t·X0 always was (the same events as before).
     const double along = geometric(tau) / x0 * m.radiationLength;
     // Lateral spots at azimuths spread evenly from a random start (stratified sampling:
     // one random rotation per depth, then exact turns by 2π/n).

@@ -134,7 +134,6 @@ class Calorimeter {
   /// The counter that contains a point of the nominal EMC frame, or why none does.
   Location locate(const Vec3& pointNominal) const;
 
-
  private:
   explicit Calorimeter(DetectorDescription description);
 

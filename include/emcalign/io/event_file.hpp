@@ -14,8 +14,9 @@
 // Readers are strict and streaming: memory does not grow with the rows. The check below
 // keeps a few bytes per file whose events are numbered without gaps, 24 bytes per gap in
 // the numbering, 16–32 bytes per event when the events come in no order. Every refused
-// input is reported with the file, the line (CSV) or record (HDF5) and the column. HDF5 files are read in a child process (libhdf5
-// crashes and loops on some corrupted files; io/isolated_source.cpp).
+// input is reported with the file, the line (CSV) or record (HDF5) and the column. HDF5
+// files are read in a child process (libhdf5 crashes and loops on some corrupted files;
+// io/isolated_source.cpp).
 // Writers follow io/output_file.hpp: a temporary next to the target renamed on `close()`
 // (a writer destroyed without a successful close removes it, so a failed or interrupted
 // job leaves no partial file); a device, a FIFO or "-" (standard output, CSV) is written

@@ -59,7 +59,7 @@ std::string hdf5Reason() {
     if (to != std::string::npos) return reason.substr(from, to - from);
   }
   if (reason.size() > 300) reason = reason.substr(0, 300) + "…";
-  return reason.empty() ? "HDF5 error" : reason;
+  return reason.empty() ? "libhdf5 gives no reason (the file is probably damaged)" : reason;
 }
 
 // An owned HDF5 identifier.

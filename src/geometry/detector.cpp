@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -11,6 +12,14 @@
 namespace emcalign::geometry {
 
 using units::deg;
+
+namespace {
+// Whether a φ cell edge (cos, sin), in the first quadrant, is at or below the angle of the
+// in-quadrant point (u, v): the cross-product test of locate and of its table guesses.
+bool edgePassed(const std::pair<double, double>& edge, double u, double v) {
+  return u * edge.second - v * edge.first <= 0.0;
+}
+}  // namespace
 
 DetectorDescription DetectorDescription::sndDefault() {
   DetectorDescription d;
@@ -154,8 +163,7 @@ Calorimeter::Calorimeter(DetectorDescription description) : description_(std::mo
       // The pseudo-angle t = v/(u + v) of the point (u, v) = (1 − t, t).
       const double t = std::max(0.0, static_cast<double>(i) / kPhiBins - kMargin);
       int below = 0;
-      while (below < static_cast<int>(edges.size()) &&
-             (1.0 - t) * edges[static_cast<std::size_t>(below)].second - t * edges[static_cast<std::size_t>(below)].first <= 0.0) {
+      while (below < static_cast<int>(edges.size()) && edgePassed(edges[static_cast<std::size_t>(below)], 1.0 - t, t)) {
         ++below;
       }
       phiGuess_[ring * kPhiBins + static_cast<std::size_t>(i)] = static_cast<std::int16_t>(below);
@@ -235,9 +243,7 @@ Location Calorimeter::locate(const Vec3& p) const {
   const double sum = u + v;
   const int phiBin = sum > 0.0 ? std::min(static_cast<int>(v / sum * kPhiBins), kPhiBins - 1) : 0;
   int lo = phiGuess_[static_cast<std::size_t>(ring) * kPhiBins + static_cast<std::size_t>(phiBin)];
-  while (lo < edgeCount && u * edges[static_cast<std::size_t>(lo)].second - v * edges[static_cast<std::size_t>(lo)].first <= 0.0) {
-    ++lo;
-  }
+  while (lo < edgeCount && edgePassed(edges[static_cast<std::size_t>(lo)], u, v)) ++lo;
   const int n = d.countersPerRing[static_cast<std::size_t>(ring)];
   const int quarter = n / 4;
   int iphi = quadrant * quarter + lo;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -138,20 +139,28 @@ bool CalorimeterResponse::nearCoverage(const Vec3& p) const {
   return cosTheta < cosCoverageMin_ && cosTheta > cosCoverageMax_;
 }
 
+template <typename OuterFrame>
+std::optional<int> CalorimeterResponse::counterOnSide(Hemisphere h, const Vec3& inner, OuterFrame outer,
+                                                      Vec3& nominal) const {
+  if (geometry::hemisphereOf(inner.x()) != h) return std::nullopt;
+  nominal = inner;
+  if (inner.squaredNorm() >= r1Squared_) {  // beyond support sphere 1: layer 3's own placement
+    nominal = outer();
+    if (geometry::hemisphereOf(nominal.x()) != h) return std::nullopt;
+  }
+  const geometry::Location loc = calo_->locate(nominal);
+  return loc.region == Region::Counter && !isDead(loc.counter) ? loc.counter : -1;
+}
+
 int CalorimeterResponse::counterAt(const Vec3& p, Hemisphere hint, Vec3* nominalOut) const {
   const Hemisphere other = hint == Hemisphere::Plus ? Hemisphere::Minus : Hemisphere::Plus;
   for (Hemisphere h : {hint, other}) {
-    const Vec3 q = actual_.placement(h, Support::Inner).applyInverse(p);
-    if (geometry::hemisphereOf(q.x()) != h) continue;
-    Vec3 nominal = q;
-    if (q.squaredNorm() >= r1Squared_) {  // beyond support sphere 1: layer 3's own placement
-      nominal = actual_.placement(h, Support::Outer).applyInverse(p);
-      if (geometry::hemisphereOf(nominal.x()) != h) continue;
-    }
-    const geometry::Location loc = calo_->locate(nominal);
-    if (loc.region != Region::Counter || isDead(loc.counter)) return -1;
-    if (nominalOut != nullptr) *nominalOut = nominal;
-    return loc.counter;
+    Vec3 nominal;
+    const auto c = counterOnSide(h, actual_.placement(h, Support::Inner).applyInverse(p),
+                                 [&] { return actual_.placement(h, Support::Outer).applyInverse(p); }, nominal);
+    if (!c) continue;
+    if (*c >= 0 && nominalOut != nullptr) *nominalOut = nominal;
+    return *c;
   }
   return -1;  // between the hemispheres
 }
@@ -304,23 +313,13 @@ void CalorimeterResponse::depositSpots(CounterHits& hits, int source, double ene
   int deposited = 0;
   for (const Spot& spot : spots) {
     const Vec3 where = f.ts.at(spot);
-    // The spot in the nominal frame of the entered hemisphere's inner support, or of its
-    // layer 3 beyond support sphere 1 (counterAt's first try, without a matrix product).
-    Vec3 nominal = f.inner.at(spot);
-    bool inHint = geometry::hemisphereOf(nominal.x()) == h;
-    if (inHint && nominal.squaredNorm() >= r1Squared_) {
-      nominal = f.outer.at(spot);
-      inHint = geometry::hemisphereOf(nominal.x()) == h;
-    }
-    int c = -1;
-    if (inHint) {
-      const geometry::Location loc = calo_->locate(nominal);
-      if (loc.region == Region::Counter && !isDead(loc.counter)) c = loc.counter;
-    } else {  // crossed the parting plane: the other hemisphere
-      c = counterAt(where, h == Hemisphere::Plus ? Hemisphere::Minus : Hemisphere::Plus, &nominal);
-    }
-    if (c >= 0) {
-      hits.addToCounter(c, source, energy, nominal);
+    // counterAt's first try, with the spot placed in the entered hemisphere's frames by the
+    // shower's basis instead of a matrix product.
+    Vec3 nominal;
+    std::optional<int> c = counterOnSide(h, f.inner.at(spot), [&] { return f.outer.at(spot); }, nominal);
+    if (!c) c = counterAt(where, h == Hemisphere::Plus ? Hemisphere::Minus : Hemisphere::Plus, &nominal);
+    if (*c >= 0) {
+      hits.addToCounter(*c, source, energy, nominal);
       moment += where;
       ++deposited;
     }

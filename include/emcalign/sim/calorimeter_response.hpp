@@ -23,6 +23,7 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -173,6 +174,11 @@ class CalorimeterResponse {
   };
   ShowerFrame showerFrame(geometry::Hemisphere h, const Vec3& start, const Vec3& axis, const Vec3& e1,
                           const Vec3& e2) const;
+  // The counter of a point that `inner` places in hemisphere h's inner-support frame;
+  // `outer()` places it in the frame of h's layer 3. None when the point is not on h's side
+  // of the parting plane; −1 when it is, but in no live counter (counterAt's steps).
+  template <typename OuterFrame>
+  std::optional<int> counterOnSide(geometry::Hemisphere h, const Vec3& inner, OuterFrame outer, Vec3& nominal) const;
   // Adds each spot's energy to the counter containing it (counterAt, hint h).
   void depositSpots(CounterHits& hits, int source, double energy, const ShowerFrame& frame, geometry::Hemisphere h,
                     std::span<const Spot> spots) const;

@@ -6,7 +6,7 @@
 For every dataset of /events, /truth and /hits: whether the shapes and the NaN patterns
 agree, how many values differ and the largest absolute difference. Used to show that a
 change to the simulation's arithmetic gives the same events to rounding (issue 15). Exits 1
-when a shape, a NaN pattern or an integer column differs.
+when a shape, a NaN pattern or an integer column differs, 2 when a file cannot be read.
 """
 import sys
 
@@ -15,7 +15,11 @@ import numpy as np
 
 
 def main(a_path, b_path):
-    a, b = h5py.File(a_path, "r"), h5py.File(b_path, "r")
+    try:
+        a, b = h5py.File(a_path, "r"), h5py.File(b_path, "r")
+    except OSError as exc:
+        print(f"compare_event_files.py: cannot read the files: {exc}", file=sys.stderr)
+        return 2
     status = 0
     for group in ("events", "truth", "hits"):
         if (group in a) != (group in b):

@@ -20,7 +20,11 @@ printf "step\tevents\tthreads\twall_s\tcpu_s\tpeak_rss_mb\n" > "$out"
 measure() {  # step events command...
   local step="$1" events="$2"
   shift 2
-  /usr/bin/time -f "%e %U %S %M" -o "$dir/time.txt" "$@" > /dev/null 2> "$dir/$step.log"
+  if ! /usr/bin/time -f "%e %U %S %M" -o "$dir/time.txt" "$@" > /dev/null 2> "$dir/$step.log"; then
+    echo "scaling_study.sh: $step of $events events failed:" >&2
+    grep -v '^Command exited' "$dir/$step.log" >&2
+    exit 1
+  fi
   awk -v step="$step" -v n="$events" -v t="$threads" \
     '{ printf "%s\t%s\t%s\t%s\t%.2f\t%.0f\n", step, n, t, $1, $2 + $3, $4 / 1024 }' "$dir/time.txt" | tee -a "$out"
 }

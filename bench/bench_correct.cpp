@@ -58,7 +58,8 @@ const Sample& sample() {
 }
 
 const geometry::AlignmentTransform& transform() {
-  static const auto t = *geometry::AlignmentTransform::create(paperLike(), geometry::AlignmentRadii::of(snd().description()));
+  static const auto t =
+      *geometry::AlignmentTransform::create(paperLike(), geometry::AlignmentRadii::of(snd().description()));
   return t;
 }
 
@@ -99,7 +100,8 @@ BENCHMARK(BM_HitsMethodInMemory)->Unit(benchmark::kMillisecond);
 // A 200 000-event HDF5 file with truth and hits, written once per process.
 const std::string& eventFile() {
   static const std::string path = [] {
-    const std::string p = (fs::temp_directory_path() / fmt::format("emcalign_bench_correct_{}.h5", ::getpid())).string();
+    const std::string p =
+        (fs::temp_directory_path() / fmt::format("emcalign_bench_correct_{}.h5", ::getpid())).string();
     sim::SimulationOptions o;
     o.generator.thetaMin = 40.0 * units::deg;
     o.generator.thetaMax = 140.0 * units::deg;

@@ -38,8 +38,11 @@ std::vector<apply::ThreePionEvent> events(int n) {
       const double phi = std::atan2(p.momentum.y(), p.momentum.x());
       if (p.pdg == sim::pdg::Photon && photon < 2) {
         const double s = 0.042 * p.energy / std::pow(p.energy / 1000.0, 0.25);
-        e.photons[static_cast<std::size_t>(photon++)] = {p.energy + s * gauss(smear), theta + 0.026 * gauss(smear),
-                                                         phi + 0.026 / std::sin(theta) * gauss(smear), s, 0.026,
+        e.photons[static_cast<std::size_t>(photon++)] = {p.energy + s * gauss(smear),
+                                                         theta + 0.026 * gauss(smear),
+                                                         phi + 0.026 / std::sin(theta) * gauss(smear),
+                                                         s,
+                                                         0.026,
                                                          0.026 / std::sin(theta)};
       } else if (p.charge() != 0) {
         e.pions[p.pdg > 0 ? 0 : 1] = {theta + 0.005 * gauss(smear), phi + 0.0045 / std::sin(theta) * gauss(smear),

@@ -50,11 +50,11 @@ Sample simulate(const geometry::Calorimeter& calo, std::string name, const geome
   }
   calib::ProfileFiller filler(geometry::ShowerDepth::of(calo.description()), calib::SelectionOptions{}, {},
                               [&](const ParticleRow& row, const calib::ParticleResidual&) { s.rows.push_back(row); });
-  const Status run = simulation->run(events, 0, [&](std::span<const ParticleRow> rows, std::span<const TruthRow>,
-                                                    std::span<const Hit>) {
-    filler.addEvents(rows);
-    return Status{};
-  });
+  const Status run = simulation->run(
+      events, 0, [&](std::span<const ParticleRow> rows, std::span<const TruthRow>, std::span<const Hit>) {
+        filler.addEvents(rows);
+        return Status{};
+      });
   if (!run) std::exit(1);
   return s;
 }
@@ -183,17 +183,18 @@ int main(int argc, char** argv) {
       const auto [t, te] = minimum(j, 1);
       const auto [b, be] = minimum(j, 2);
       fmt::print("  {} {:2d} ({:5.1f} deg): {:6.2f} ± {:.2f} | {:6.2f} ± {:.2f} | {:6.2f} ± {:.2f}\n",
-                 j < 10 ? "theta" : "phi  ", j < 10 ? j : j - 10, j < 10 ? 49.5 + 9.0 * j : 11.25 + 22.5 * (j - 10),
-                 p, pe, t, te, b, be);
+                 j < 10 ? "theta" : "phi  ", j < 10 ? j : j - 10, j < 10 ? 49.5 + 9.0 * j : 11.25 + 22.5 * (j - 10), p,
+                 pe, t, te, b, be);
     }
   }
   const auto nb = profileOf(nominal, g.depth, raw).bins(0.0);
   for (const Sample& s : samples) {
     const auto sb = profileOf(s, g.depth, raw).bins(0.0);
-    fmt::print("\n{}: W+ per bin (rows: theta bins 0-9; columns: phi bins 3, 4, 11, 12), file's column W+: {:.3f} "
-               "{:.3f} {:.3f} {:.3f}\n",
-               s.name, corrections->partingPlane->plusWeight(3), corrections->partingPlane->plusWeight(4),
-               corrections->partingPlane->plusWeight(11), corrections->partingPlane->plusWeight(12));
+    fmt::print(
+        "\n{}: W+ per bin (rows: theta bins 0-9; columns: phi bins 3, 4, 11, 12), file's column W+: {:.3f} "
+        "{:.3f} {:.3f} {:.3f}\n",
+        s.name, corrections->partingPlane->plusWeight(3), corrections->partingPlane->plusWeight(4),
+        corrections->partingPlane->plusWeight(11), corrections->partingPlane->plusWeight(12));
     auto terms = [&](int ip, int it) {
       const auto k = static_cast<std::size_t>(ip * 10 + it);
       return validation::plusWeightTerms(sb[k], nb[k], s.truth, g.depth, g.radii);
@@ -224,13 +225,14 @@ int main(int argc, char** argv) {
     if (!fit) continue;
     auto truthPhys = geometry::toPhysical(s.truth, r1);
     auto fitPhys = geometry::toPhysical(fit->parameters, r1);
-    fmt::print("  fit with the file: mu {:.4f} deg (truth {:.4f}), tau {:.2f} deg (truth {:.2f}), dx_rel {:.4f} cm "
-               "(truth {:.4f}); dp {:.4f} {:.4f} {:.4f} (truth {:.4f} {:.4f} {:.4f}); beta_rel {:.4f} deg\n",
-               (*fitPhys)[Physical::Mu] / units::deg, (*truthPhys)[Physical::Mu] / units::deg,
-               (*fitPhys)[Physical::Tau] / units::deg, (*truthPhys)[Physical::Tau] / units::deg,
-               (*fitPhys)[Physical::DxRel], (*truthPhys)[Physical::DxRel], fit->parameters[Param::Dp1],
-               fit->parameters[Param::Dp2], fit->parameters[Param::Dp3], s.truth[Param::Dp1], s.truth[Param::Dp2],
-               s.truth[Param::Dp3], fit->parameters[Param::BetaRel] / units::deg);
+    fmt::print(
+        "  fit with the file: mu {:.4f} deg (truth {:.4f}), tau {:.2f} deg (truth {:.2f}), dx_rel {:.4f} cm "
+        "(truth {:.4f}); dp {:.4f} {:.4f} {:.4f} (truth {:.4f} {:.4f} {:.4f}); beta_rel {:.4f} deg\n",
+        (*fitPhys)[Physical::Mu] / units::deg, (*truthPhys)[Physical::Mu] / units::deg,
+        (*fitPhys)[Physical::Tau] / units::deg, (*truthPhys)[Physical::Tau] / units::deg, (*fitPhys)[Physical::DxRel],
+        (*truthPhys)[Physical::DxRel], fit->parameters[Param::Dp1], fit->parameters[Param::Dp2],
+        fit->parameters[Param::Dp3], s.truth[Param::Dp1], s.truth[Param::Dp2], s.truth[Param::Dp3],
+        fit->parameters[Param::BetaRel] / units::deg);
   }
   return 0;
 }

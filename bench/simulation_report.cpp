@@ -49,8 +49,9 @@ void tracking() {
       dPhi.push_back(std::remainder(t->phi - phi, 2 * std::numbers::pi));
       dTheta.push_back(t->theta - 90.0 * deg);
     }
-    std::printf("tracking, radial 612.5 MeV e at 90 deg, %s multiple scattering: sigma_phi %.3f deg, sigma_theta %.3f deg\n",
-                ms ? "with" : "without", robustSigma(dPhi) / deg, robustSigma(dTheta) / deg);
+    std::printf(
+        "tracking, radial 612.5 MeV e at 90 deg, %s multiple scattering: sigma_phi %.3f deg, sigma_theta %.3f deg\n",
+        ms ? "with" : "without", robustSigma(dPhi) / deg, robustSigma(dTheta) / deg);
   }
 }
 
@@ -96,12 +97,12 @@ void emc() {
       lo = std::min(lo, sum[b] / n[b]);
       hi = std::max(hi, sum[b] / n[b]);
     }
-    std::printf("EMC, 600 MeV %s, theta 45-135 deg: E/E_true median %.4f, sigma_E/E %.4f (4.2%%/E^1/4 = %.4f); "
-                "sigma_theta %.2f deg, sigma_phi*sin(theta) %.2f deg; phi_emc - phi_true across a 9 deg counter "
-                "spans +-%.2f deg; split-off clusters %.2f%% of particles\n",
-                p == sim::Process::Bhabha ? "e+-" : "photons", median(ratio), robustSigma(ratio),
-                0.042 / std::pow(0.6, 0.25), robustSigma(dTheta) / deg, robustSigma(dPhi) / deg, 0.5 * (hi - lo),
-                100.0 * splitOffs / particles);
+    std::printf(
+        "EMC, 600 MeV %s, theta 45-135 deg: E/E_true median %.4f, sigma_E/E %.4f (4.2%%/E^1/4 = %.4f); "
+        "sigma_theta %.2f deg, sigma_phi*sin(theta) %.2f deg; phi_emc - phi_true across a 9 deg counter "
+        "spans +-%.2f deg; split-off clusters %.2f%% of particles\n",
+        p == sim::Process::Bhabha ? "e+-" : "photons", median(ratio), robustSigma(ratio), 0.042 / std::pow(0.6, 0.25),
+        robustSigma(dTheta) / deg, robustSigma(dPhi) / deg, 0.5 * (hi - lo), 100.0 * splitOffs / particles);
   }
   // Longitudinal containment: the share of deposited energy in layers 1–2.
   sim::EmcOptions o;

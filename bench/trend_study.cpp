@@ -85,8 +85,9 @@ int main(int argc, char** argv) {
     std::printf("| %.1f | %.1f %% |\n", step, 100 * r.stepAtPlace);
   }
   std::printf("\n## A drift over the last 53 of 106 IOVs (total change in units of one IOV's error)\n\n");
-  std::printf("| total change | drift flagged | a step reported | a step reported without the knee test |\n"
-              "|---|---|---|---|\n");
+  std::printf(
+      "| total change | drift flagged | a step reported | a step reported without the knee test |\n"
+      "|---|---|---|---|\n");
   for (double total : {1.0, 2.0, 3.0, 4.0, 6.0}) {
     const auto seed = 3000 + static_cast<std::uint64_t>(10 * total);
     const Rates r = rates(106, 1.0, 0.0, total / 53.0, trials, seed);

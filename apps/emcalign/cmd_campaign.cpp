@@ -53,22 +53,23 @@ int runGroup(const CampaignCliOptions& o) {
   auto plan = validation::readCampaignPlan(o.plan);
   if (!plan) return reportError(plan.error());
   if (o.group >= static_cast<int>(plan->groups.size())) {
-    return reportError(Error{fmt::format("--group {}: the plan {} has groups 0 to {}", o.group, o.plan,
-                                         plan->groups.size() - 1)});
+    return reportError(
+        Error{fmt::format("--group {}: the plan {} has groups 0 to {}", o.group, o.plan, plan->groups.size() - 1)});
   }
   const std::string planDetector = plan->detector == "embedded default" ? std::string() : plan->detector;
   if (!o.detector.empty() && o.detector != planDetector) {
-    return reportError(Error{fmt::format("--detector {}: the plan {} was made with the {} detector", o.detector, o.plan,
-                                         plan->detector)});
+    return reportError(Error{
+        fmt::format("--detector {}: the plan {} was made with the {} detector", o.detector, o.plan, plan->detector)});
   }
   auto calo = loadCalorimeter(planDetector);
   if (!calo) return reportError(calo.error());
   auto model = validation::campaignModel(plan->corrections, planDetector, *calo);
   if (!model) return reportError(model.error());
   if (model->correctionsSha256 != plan->correctionsSha256) {
-    return reportError(Error{fmt::format("{}: its SHA-256 is not the plan's: the corrections changed since the plan {} "
-                                         "was made",
-                                         plan->corrections, o.plan)});
+    return reportError(
+        Error{fmt::format("{}: its SHA-256 is not the plan's: the corrections changed since the plan {} "
+                          "was made",
+                          plan->corrections, o.plan)});
   }
   if (!o.corrections.empty()) {
     auto given = calib::correctionsDigest(o.corrections);
@@ -102,31 +103,35 @@ int runGroup(const CampaignCliOptions& o) {
     auto digest = sha256OfFile(file);
     if (!digest) return reportError(digest.error());
     if (*digest != it->second) {
-      return reportError(Error{fmt::format("{}: its SHA-256 is not the plan's: the file changed since the plan {} was "
-                                           "made (make the plan again)",
-                                           file, o.plan)});
+      return reportError(
+          Error{fmt::format("{}: its SHA-256 is not the plan's: the file changed since the plan {} was "
+                            "made (make the plan again)",
+                            file, o.plan)});
     }
   }
   auto groupModel = model->at(g.beamEnergy);
-  if (!groupModel) return reportError(Error{fmt::format("group {} (runs {}-{}): {}", g.index, g.iovFirst, g.iovLast,
-                                                        groupModel.error().message)});
+  if (!groupModel)
+    return reportError(
+        Error{fmt::format("group {} (runs {}-{}): {}", g.index, g.iovFirst, g.iovLast, groupModel.error().message)});
   if (!groupModel->correctionsWarning.empty()) reportWarning(groupModel->correctionsWarning);
   calib::ProfileFill fill = calib::ProfileFill::empty(groupModel->profile);
   for (const auto& file : g.files) {
-    auto byRun = calib::fillProfilesByRun(file, groupModel->depthAtEnergy(), groupModel->selection,
-                                          groupModel->profile);
+    auto byRun =
+        calib::fillProfilesByRun(file, groupModel->depthAtEnergy(), groupModel->selection, groupModel->profile);
     if (!byRun) return reportError(byRun.error());
     for (std::int32_t run : g.runs) {
       if (auto it = byRun->find(run); it != byRun->end()) fill.merge(it->second);
     }
   }
   if (fill.cutFlow.events.back() != g.selected) {
-    return reportError(Error{fmt::format("group {}: {} selected events in its files, the plan counted {} (the files "
-                                         "changed since the plan was made?)",
-                                         g.index, fill.cutFlow.events.back(), g.selected)});
+    return reportError(
+        Error{fmt::format("group {}: {} selected events in its files, the plan counted {} (the files "
+                          "changed since the plan was made?)",
+                          g.index, fill.cutFlow.events.back(), g.selected)});
   }
-  auto fit = validation::fitGroup(g, fill, *groupModel, plan->digests,
-                                  validation::campaignOrigin(g, plan->minEvents, static_cast<int>(plan->groups.size())));
+  auto fit =
+      validation::fitGroup(g, fill, *groupModel, plan->digests,
+                           validation::campaignOrigin(g, plan->minEvents, static_cast<int>(plan->groups.size())));
   if (!fit) return reportError(fit.error());
   if (!usable(fit->result.status)) {
     return reportError(Error{fmt::format("group {} (runs {}-{}): the fit's status is '{}': not stored", g.index,
@@ -180,7 +185,8 @@ int run(const CampaignCliOptions& o) {
   if (planOnly) {
     const io::Json plan = validation::planJson(*scan, groups, o.minEvents, *model);
     if (Status s = io::writeOutputFile(o.plan, plan.dump(1) + "\n"); !s) return reportError(s.error());
-    fmt::print(reportStream(), "wrote the job list {}: run group K with\n  emcalign campaign --plan {} --group K "
+    fmt::print(reportStream(),
+               "wrote the job list {}: run group K with\n  emcalign campaign --plan {} --group K "
                "--conditions URI --tag T\n",
                o.plan, o.plan);
     return kExitOk;
@@ -197,13 +203,14 @@ int run(const CampaignCliOptions& o) {
   if (!report) return reportError(report.error());
   for (const auto& w : report->warnings) reportWarning(w);
   for (const auto& f : report->failures) reportWarning(f);
-  fmt::print(reportStream(), "campaign: {} groups: {} fitted and stored, {} in tag {} already, {} failed ({:.1f} s) -> {}\n",
-             report->groups, report->fitted, report->resumed, o.tag, report->failures.size(), fitting.elapsed(),
-             db->uri());
+  fmt::print(
+      reportStream(), "campaign: {} groups: {} fitted and stored, {} in tag {} already, {} failed ({:.1f} s) -> {}\n",
+      report->groups, report->fitted, report->resumed, o.tag, report->failures.size(), fitting.elapsed(), db->uri());
   if (!report->failures.empty()) {
-    return reportError(Error{fmt::format("{} of {} groups were not stored: the IOVs do not tile the runs (see the "
-                                         "warnings; a rerun fits only the missing groups)",
-                                         report->failures.size(), report->groups)});
+    return reportError(
+        Error{fmt::format("{} of {} groups were not stored: the IOVs do not tile the runs (see the "
+                          "warnings; a rerun fits only the missing groups)",
+                          report->failures.size(), report->groups)});
   }
   return kExitOk;
 }

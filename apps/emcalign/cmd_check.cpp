@@ -79,9 +79,9 @@ int run(const CheckCliOptions& o) {
   if (!made) return reportError(made.error());
   apply::CorrectOptions& options = *made;
   options.description = io::Json{{"software", fmt::format("emcalign {}", kVersion)},
-                                  {"alignment", source->description},
-                                  {"method", o.method},
-                                  {"purpose", "emcalign check " + o.process}}
+                                 {"alignment", source->description},
+                                 {"method", o.method},
+                                 {"purpose", "emcalign check " + o.process}}
                             .dump();
   std::error_code ec;
   fs::create_directories(o.output, ec);
@@ -151,10 +151,11 @@ int run(const CheckCliOptions& o) {
   if (Status s = io::writeOutputFile((dir / "check.json").string(), json.dump(1) + "\n"); !s) {
     return reportError(s.error());
   }
-  auto png = report::writeBeforeAfterPlot(o.output, figure,
-                                          o.process == "gg" ? "e+e- → γγ: acollinearity before and after the correction"
-                                                            : "e+e- → π+π−π0: kinematic fit before and after the correction",
-                                          panels);
+  auto png =
+      report::writeBeforeAfterPlot(o.output, figure,
+                                   o.process == "gg" ? "e+e- → γγ: acollinearity before and after the correction"
+                                                     : "e+e- → π+π−π0: kinematic fit before and after the correction",
+                                   panels);
   if (!png) return reportError(png.error());
   fmt::print(reportStream(), "{}\nwrote {}/check.json and {}\n", summary, o.output, *png);
   return kExitOk;
@@ -192,14 +193,19 @@ void addProcess(CLI::App& parent, const std::string& process, const std::string&
 }  // namespace
 
 void addCheckCommand(CLI::App& app, int& exitCode) {
-  auto* cmd = app.add_subcommand("check", "Physics checks of a calibration: the same events before and after the "
-                                          "correction (the paper, section 5)");
+  auto* cmd = app.add_subcommand("check",
+                                 "Physics checks of a calibration: the same events before and after the "
+                                 "correction (the paper, section 5)");
   addVersionFlag(*cmd);
   cmd->require_subcommand(1);
-  addProcess(*cmd, "gg", "e+e- → γγ: the acollinearity Δφ, Δθ of the paper's selection, its core width before and "
-                         "after", exitCode);
-  addProcess(*cmd, "3pi", "e+e- → π+π−π0: the 2C kinematic fit (energy and momentum, no π0 mass), its χ² before and "
-                          "after", exitCode);
+  addProcess(*cmd, "gg",
+             "e+e- → γγ: the acollinearity Δφ, Δθ of the paper's selection, its core width before and "
+             "after",
+             exitCode);
+  addProcess(*cmd, "3pi",
+             "e+e- → π+π−π0: the 2C kinematic fit (energy and momentum, no π0 mass), its χ² before and "
+             "after",
+             exitCode);
 }
 
 }  // namespace emcalign::app

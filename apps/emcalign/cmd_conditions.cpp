@@ -46,10 +46,9 @@ Result<std::pair<std::int64_t, std::int64_t>> parseRuns(const std::string& text)
   };
   std::int64_t first = 0, last = 0;
   const auto dash = text.find('-');
-  const bool ok = dash == std::string::npos
-                      ? number(text, first) && (last = first, true)
-                      : number(std::string_view(text).substr(0, dash), first) &&
-                            number(std::string_view(text).substr(dash + 1), last);
+  const bool ok = dash == std::string::npos ? number(text, first) && (last = first, true)
+                                            : number(std::string_view(text).substr(0, dash), first) &&
+                                                  number(std::string_view(text).substr(dash + 1), last);
   if (!ok) return Error{fmt::format("--runs '{}': expected FIRST-LAST (runs are integers >= 0), e.g. 1-40", text)};
   if (first > last) return Error{fmt::format("--runs '{}': the first run is after the last", text)};
   return std::pair{first, last};
@@ -110,9 +109,8 @@ int runPut(const ConditionsOptions& o) {
   if (Status s = (*db)->put(o.tag, runs->first, runs->second, *payload, true, o.description); !s) {
     return reportError(s.error());
   }
-  fmt::print("{}: tag {}{}: runs {}-{} <- {} (payload {})\n", (*db)->uri(), o.tag,
-             existed->has_value() ? "" : " (new)", runs->first, runs->second, o.result,
-             payload->hash().substr(0, 12));
+  fmt::print("{}: tag {}{}: runs {}-{} <- {} (payload {})\n", (*db)->uri(), o.tag, existed->has_value() ? "" : " (new)",
+             runs->first, runs->second, o.result, payload->hash().substr(0, 12));
   return kExitOk;
 }
 
@@ -125,8 +123,8 @@ int runGet(const ConditionsOptions& o) {
   if (!got->has_value()) {
     auto tag = (*db)->tag(o.tag);
     if (tag && !tag->has_value()) {
-      return reportError(Error{fmt::format("{}: no tag '{}' (the tags: emcalign conditions list {})", (*db)->uri(),
-                                           o.tag, (*db)->uri())});
+      return reportError(Error{
+          fmt::format("{}: no tag '{}' (the tags: emcalign conditions list {})", (*db)->uri(), o.tag, (*db)->uri())});
     }
     return reportError(Error{fmt::format("{}: tag '{}': no IOV contains run {}", (*db)->uri(), o.tag, o.run)});
   }
@@ -165,10 +163,9 @@ int runList(const ConditionsOptions& o) {
     fmt::print("{:<24} {:<7} {:>6} {:>17}  {}\n", "tag", "state", "IOVs", "runs", "description");
     for (const Json& t : listed) {
       const Json& iovs = t["iovs"];
-      const std::string runs =
-          iovs.empty() ? "-"
-                       : fmt::format("{}-{}", iovs.front()["first_run"].get<std::int64_t>(),
-                                     iovs.back()["last_run"].get<std::int64_t>());
+      const std::string runs = iovs.empty() ? "-"
+                                            : fmt::format("{}-{}", iovs.front()["first_run"].get<std::int64_t>(),
+                                                          iovs.back()["last_run"].get<std::int64_t>());
       fmt::print("{:<24} {:<7} {:>6} {:>17}  {}\n", t["tag"].get<std::string>(), t["state"].get<std::string>(),
                  iovs.size(), runs, t["description"].get<std::string>());
     }
@@ -215,9 +212,9 @@ int runCopy(const ConditionsOptions& o) {
   if (!to) return reportError(to.error());
   const std::string name = o.as.empty() ? o.tag : o.as;
   if (auto existing = (*to)->tag(name); !existing || existing->has_value()) {
-    return reportError(existing ? Error{fmt::format("{}: tag '{}' exists already (copy to a new tag: --as NAME)",
-                                                    (*to)->uri(), name)}
-                                : existing.error());
+    return reportError(
+        existing ? Error{fmt::format("{}: tag '{}' exists already (copy to a new tag: --as NAME)", (*to)->uri(), name)}
+                 : existing.error());
   }
   const std::string description = snapshot->tag().description.empty()
                                       ? fmt::format("copy of {} {}", (*from)->uri(), o.tag)
@@ -253,8 +250,9 @@ void addConditionsCommand(CLI::App& app, int& exitCode) {
   addUri(*init, o->uri);
   init->callback([o, &exitCode] { exitCode = runInit(*o); });
 
-  auto* put = cmd->add_subcommand("put", "Store a fit result or a parameter file for a run range of a tag "
-                                         "(the tag is created if new)");
+  auto* put = cmd->add_subcommand("put",
+                                  "Store a fit result or a parameter file for a run range of a tag "
+                                  "(the tag is created if new)");
   addUri(*put, o->uri);
   addTag(*put, o->tag)->required();
   put->add_option("--runs", o->runs, "FIRST-LAST, inclusive (or one run)")->required();
@@ -272,8 +270,9 @@ void addConditionsCommand(CLI::App& app, int& exitCode) {
   auto* list = cmd->add_subcommand("list", "List the tags, or the IOVs of one tag");
   addUri(*list, o->uri);
   addTag(*list, o->tag);
-  list->add_flag("--json", o->json, "JSON: {\"tag\", \"state\", \"iovs\": [{\"first_run\", \"last_run\", ...}]} "
-                                    "(an array of them without --tag)");
+  list->add_flag("--json", o->json,
+                 "JSON: {\"tag\", \"state\", \"iovs\": [{\"first_run\", \"last_run\", ...}]} "
+                 "(an array of them without --tag)");
   list->callback([o, &exitCode] { exitCode = runList(*o); });
 
   auto* lock = cmd->add_subcommand("lock", "Lock a tag: its IOVs never change again");
@@ -281,8 +280,9 @@ void addConditionsCommand(CLI::App& app, int& exitCode) {
   addTag(*lock, o->tag)->required();
   lock->callback([o, &exitCode] { exitCode = runLock(*o); });
 
-  auto* copy = cmd->add_subcommand("copy", "Copy a tag to another database (e.g. SQLite <-> PostgreSQL), in one "
-                                           "transaction");
+  auto* copy = cmd->add_subcommand("copy",
+                                   "Copy a tag to another database (e.g. SQLite <-> PostgreSQL), in one "
+                                   "transaction");
   addUri(*copy, o->uri);
   copy->add_option("target", o->target, "destination database (created if an SQLite path)")->required();
   addTag(*copy, o->tag)->required();

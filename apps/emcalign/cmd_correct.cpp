@@ -66,10 +66,9 @@ int run(const CorrectCliOptions& o) {
   auto report = apply::correctFiles(o.events, o.output, *calo, source->alignmentOf(), options);
   progress.finish();
   if (!report) return reportError(report.error());
-  const std::string iovs =
-      source->byRun ? fmt::format(" with {} IOV{} of tag {}", report->alignments, report->alignments == 1 ? "" : "s",
-                                  o.tag)
-            : "";
+  const std::string iovs = source->byRun ? fmt::format(" with {} IOV{} of tag {}", report->alignments,
+                                                       report->alignments == 1 ? "" : "s", o.tag)
+                                         : "";
   fmt::print(reportStream(), "correct ({}): {} events, {} rows, {} clusters corrected{}{}{} in {:.1f} s -> {}\n",
              name(report->method), report->events, report->rows, report->clusters, iovs,
              report->truth ? ", truth copied" : "", report->hits ? ", hits copied" : "", progress.elapsed(), o.output);
@@ -107,7 +106,8 @@ void addCorrectCommand(CLI::App& app, int& exitCode) {
       ->check(CLI::ExistingPath)
       ->excludes(offset);
   addDetectorOption(*cmd, o->detector);
-  cmd->add_option("-o,--output", o->output, "output file: .csv for CSV, anything else HDF5; '-': CSV to standard output")
+  cmd->add_option("-o,--output", o->output,
+                  "output file: .csv for CSV, anything else HDF5; '-': CSV to standard output")
       ->required();
   cmd->callback([o, &exitCode] {
     if (o->alignment.empty() && o->conditions.empty()) {

@@ -56,17 +56,18 @@ io::Json settingsOf(const DeriveOptions& cli, double beamEnergy) {
 
 void printReport(const validation::DerivationReport& report) {
   const auto& c = report.corrections;
-  fmt::print(reportStream(), "Selected events: nominal {}, shift {}, gap {}\n", report.selectedEvents[0], report.selectedEvents[1],
-             report.selectedEvents[2]);
-  fmt::print(reportStream(), "Depth offset: {:+.3f} ± {:.3f} cm (chi2 {:.1f} over {} bins)\n", c.depthOffset / units::cm,
-             report.depthOffsetError / units::cm, report.depthChi2, report.depthBins);
-  fmt::print(reportStream(), "Parting-plane response: W+ per phi column (measured; * = next to the plane, used in the model):\n");
+  fmt::print(reportStream(), "Selected events: nominal {}, shift {}, gap {}\n", report.selectedEvents[0],
+             report.selectedEvents[1], report.selectedEvents[2]);
+  fmt::print(reportStream(), "Depth offset: {:+.3f} ± {:.3f} cm (chi2 {:.1f} over {} bins)\n",
+             c.depthOffset / units::cm, report.depthOffsetError / units::cm, report.depthChi2, report.depthBins);
+  fmt::print(reportStream(),
+             "Parting-plane response: W+ per phi column (measured; * = next to the plane, used in the model):\n");
   const int columns = c.partingPlane->phiBins();
   for (int k = 0; k < columns; ++k) {
     const bool used = calib::PartingPlaneResponse::nextToPlane(k, columns);
-    fmt::print(reportStream(), "  phi {:5.1f}-{:5.1f} deg   W+ = {:6.3f} ± {:.3f}{}\n", 360.0 * k / columns, 360.0 * (k + 1) / columns,
-               report.columnWeights[static_cast<std::size_t>(k)], report.columnWeightErrors[static_cast<std::size_t>(k)],
-               used ? "  *" : "");
+    fmt::print(reportStream(), "  phi {:5.1f}-{:5.1f} deg   W+ = {:6.3f} ± {:.3f}{}\n", 360.0 * k / columns,
+               360.0 * (k + 1) / columns, report.columnWeights[static_cast<std::size_t>(k)],
+               report.columnWeightErrors[static_cast<std::size_t>(k)], used ? "  *" : "");
   }
   if (c.response) {
     fmt::print(reportStream(), "Fit response over the validation ranges, diagonal of R (fitted against true):\n ");
@@ -84,13 +85,15 @@ void printReport(const validation::DerivationReport& report) {
   }
   fmt::print(reportStream(), "Statistical error the nominal profile gives every fit using this file (file units):\n ");
   for (Param p : kAllParams) {
-    fmt::print(reportStream(), " {} {:.2g}", name(p),
-               report.nominalProfileErrors[static_cast<Eigen::Index>(index(p))] / geometry::AlignmentParameters::fileUnit(p));
+    fmt::print(
+        reportStream(), " {} {:.2g}", name(p),
+        report.nominalProfileErrors[static_cast<Eigen::Index>(index(p))] / geometry::AlignmentParameters::fileUnit(p));
   }
   fmt::print(reportStream(), "\n");
   fmt::print(reportStream(), "Closure (the derivation samples fitted like data):\n");
   for (const auto& f : report.closure) {
-    fmt::print(reportStream(), "  {:<5} {:<6} truth {:.3f} cm: paper's model {:.4f} ± {:.4f}, corrected {:.4f} ± {:.4f} cm\n", f.sample,
+    fmt::print(reportStream(),
+               "  {:<5} {:<6} truth {:.3f} cm: paper's model {:.4f} ± {:.4f}, corrected {:.4f} ± {:.4f} cm\n", f.sample,
                f.parameter, f.truth, f.paperModel, f.paperError, f.corrected, f.correctedError);
   }
 }
@@ -107,8 +110,8 @@ int run(const DeriveOptions& cli) {
   const bool grid = energies.size() > 1;
   // The output is checked before hours of simulation, not after.
   const std::vector<io::NamedPath> output = {{"-o", cli.output}};
-  if (Status s = checkOutputs(grid ? std::vector<io::NamedPath>{} : output, grid ? output : std::vector<io::NamedPath>{},
-                              {{"--detector", cli.detector}});
+  if (Status s = checkOutputs(grid ? std::vector<io::NamedPath>{} : output,
+                              grid ? output : std::vector<io::NamedPath>{}, {{"--detector", cli.detector}});
       !s) {
     return reportError(s.error());
   }
@@ -155,15 +158,16 @@ int run(const DeriveOptions& cli) {
     o.simulation.generator.beamEnergy = energy;
     std::int64_t before = static_cast<std::int64_t>(k) * perPoint, lastTotal = 0;  // events of the finished samples
     std::string lastStage;
-    auto report = validation::deriveCorrections(*calo, o, [&](std::string_view stage, std::int64_t done, std::int64_t total) {
-      if (stage.rfind("simulate", 0) != 0) return;
-      if (stage != lastStage) {
-        lastStage = std::string(stage);
-        before += lastTotal;
-        lastTotal = total;
-      }
-      progress.update(before + done);
-    });
+    auto report =
+        validation::deriveCorrections(*calo, o, [&](std::string_view stage, std::int64_t done, std::int64_t total) {
+          if (stage.rfind("simulate", 0) != 0) return;
+          if (stage != lastStage) {
+            lastStage = std::string(stage);
+            before += lastTotal;
+            lastTotal = total;
+          }
+          progress.update(before + done);
+        });
     if (!report) {
       progress.finish();
       return reportError(grid ? Error{fmt::format("at {} MeV: {}", energy / units::MeV, report.error().message)}
@@ -177,7 +181,8 @@ int run(const DeriveOptions& cli) {
   }
   progress.finish();
   if (grid) {
-    fmt::print(reportStream(), "grid {}: {} beam energies, {} to {} MeV, {} derived in {:.1f} s (use: emcalign fit "
+    fmt::print(reportStream(),
+               "grid {}: {} beam energies, {} to {} MeV, {} derived in {:.1f} s (use: emcalign fit "
                "--corrections {})\n",
                cli.output, energies.size(), energies.front() / units::MeV, energies.back() / units::MeV, todo.size(),
                progress.elapsed(), cli.output);
@@ -208,7 +213,8 @@ void addDeriveCorrectionsCommand(CLI::App& app, int& exitCode) {
   cmd->add_option("--theta-min", o->thetaMinDeg, "generated polar range of the leptons, deg (default 40)")
       ->check(finiteIn(0.0, 180.0));
   cmd->add_option("--theta-max", o->thetaMaxDeg, "(default 140)")->check(finiteIn(0.0, 180.0));
-  cmd->add_option("--shift", o->shift, "dx = dy = dz of the depth sample, cm (default 0.6)")->check(finiteIn(0.01, 5.0));
+  cmd->add_option("--shift", o->shift, "dx = dy = dz of the depth sample, cm (default 0.6)")
+      ->check(finiteIn(0.01, 5.0));
   cmd->add_option("--gap", o->gap, "dx_rel of the parting-plane sample, cm (default 0.5)")->check(finiteIn(0.01, 5.0));
   cmd->add_option("--response-samples", o->responseSamples,
                   "samples over the validation ranges that measure the fit's response (default 200; 0: no "

@@ -30,8 +30,8 @@ int run(const ExportOptions& o) {
   auto alignment = loadAlignment(o.alignment, *calo);
   if (!alignment) return reportError(alignment.error());
   for (const auto& w : alignment->warnings) reportWarning(w);
-  auto transform = geometry::AlignmentTransform::create(alignment->parameters,
-                                                        geometry::AlignmentRadii::of(calo->description()));
+  auto transform =
+      geometry::AlignmentTransform::create(alignment->parameters, geometry::AlignmentRadii::of(calo->description()));
   if (!transform) return reportError(transform.error());
   const apply::Placements placements = apply::placementsOf(*transform);
   const std::string text = o.format == "gdml" ? apply::placementsGdml(placements, calo->description())

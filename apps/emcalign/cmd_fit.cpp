@@ -44,7 +44,8 @@ void printCutFlow(const calib::ProfileFill& fill) {
   for (std::size_t k = 0; k < calib::CutFlow::kNames.size(); ++k) {
     fmt::print(reportStream(), "  {:<24} {:>10}\n", calib::CutFlow::kNames[k], fill.cutFlow.events[k]);
   }
-  fmt::print(reportStream(), "Particles: {} selected, {} in the profiles (45-135 deg), {} tracks missing the sphere R(E, theta)\n",
+  fmt::print(reportStream(),
+             "Particles: {} selected, {} in the profiles (45-135 deg), {} tracks missing the sphere R(E, theta)\n",
              fill.particlesSelected, fill.particlesInRange, fill.trackMisses);
 }
 
@@ -67,8 +68,8 @@ void printResult(const calib::FitResult& r) {
     fmt::print(reportStream(), "{:<10} {:>12} ± {:<10} {}\n", n, fixed5(v.value / unit), fixed5(v.error / unit),
                length ? "cm" : "deg");
   }
-  fmt::print(reportStream(), "\nchi2/ndf = {:.2f}/{} (p-value {:.3g}), {} bins used; stages chi2:", r.chi2, r.ndf, r.pValue,
-             r.binsUsed);
+  fmt::print(reportStream(), "\nchi2/ndf = {:.2f}/{} (p-value {:.3g}), {} bins used; stages chi2:", r.chi2, r.ndf,
+             r.pValue, r.binsUsed);
   for (const auto& s : r.stages) fmt::print(reportStream(), " {:.1f}", s.chi2);
   const auto& s = r.sigmaSys;
   if (s.method == calib::SigmaSysMethod::Auto) {
@@ -115,9 +116,10 @@ Result<calib::CorrectionsAt> correctionsOf(const FitCliOptions& o) {
   if (o.beamEnergy > 0.0) energy = o.beamEnergy * units::MeV;
   if (!o.profileIn.empty()) {
     if (grid->isGrid() && !energy) {
-      return Error{fmt::format("--corrections {} is a grid over beam energies and the profile {} does not say its "
-                               "energy: give --beam-energy",
-                               o.corrections, o.profileIn)};
+      return Error{
+          fmt::format("--corrections {} is a grid over beam energies and the profile {} does not say its "
+                      "energy: give --beam-energy",
+                      o.corrections, o.profileIn)};
     }
     return grid->at(energy.value_or(std::numeric_limits<double>::quiet_NaN()));
   }
@@ -129,7 +131,8 @@ std::string interpolationText(const io::Json& interpolation) {
   if (interpolation.is_null()) return {};
   std::vector<std::string> points;
   for (const auto& p : interpolation.at("points")) {
-    points.push_back(fmt::format("{} MeV × {:.3f}", p.at("beam_energy_mev").get<double>(), p.at("weight").get<double>()));
+    points.push_back(
+        fmt::format("{} MeV × {:.3f}", p.at("beam_energy_mev").get<double>(), p.at("weight").get<double>()));
   }
   return fmt::format(" at {} MeV ({})", interpolation.at("beam_energy_mev").get<double>(), fmt::join(points, ", "));
 }
@@ -140,7 +143,8 @@ int run(const FitCliOptions& o) {
   inputs.push_back({"--profile-in", o.profileIn});
   inputs.push_back({"--corrections", o.corrections});
   inputs.push_back({"--detector", o.detector});
-  if (Status s = checkOutputs({{"-o", o.output}, {"--profile-out", o.profileOut}}, {{"--plots", o.plots}}, inputs); !s) {
+  if (Status s = checkOutputs({{"-o", o.output}, {"--profile-out", o.profileOut}}, {{"--plots", o.plots}}, inputs);
+      !s) {
     return reportError(s.error());
   }
   auto calo = loadCalorimeter(o.detector);
@@ -170,8 +174,8 @@ int run(const FitCliOptions& o) {
     fmt::print(reportStream(),
                "Model corrections from {}{}: depth offset {:+.2f} cm, parting-plane response {}, nominal profile {}, "
                "fit response {}\n",
-               o.corrections, interpolationText(corrections->interpolation), c->depthOffset / units::cm, c->partingPlane ? "on" : "off",
-               c->nominalProfile ? "subtracted" : "off", c->response ? "on" : "off");
+               o.corrections, interpolationText(corrections->interpolation), c->depthOffset / units::cm,
+               c->partingPlane ? "on" : "off", c->nominalProfile ? "subtracted" : "off", c->response ? "on" : "off");
   }
 
   std::vector<calib::ProfileBin> bins;
@@ -181,24 +185,28 @@ int run(const FitCliOptions& o) {
     auto read = calib::readProfileCsv(o.profileIn);
     if (!read) return reportError(read.error());
     bins = std::move(*read);
-    const bool weighted = std::any_of(bins.begin(), bins.end(), [](const auto& b) { return !std::isnan(b.plusWeight); });
+    const bool weighted =
+        std::any_of(bins.begin(), bins.end(), [](const auto& b) { return !std::isnan(b.plusWeight); });
     // A profile written by a fit with --corrections carries them (the plus_weight column,
     // the nominal profile subtracted); only the model's depth offset must come again.
     if (!o.corrections.empty() && !weighted) {
-      return reportError({fmt::format("{}: this profile was written without --corrections and cannot take them now "
-                                      "(its residuals were built at another depth): fit the events with --corrections",
-                                      o.profileIn)});
+      return reportError(
+          {fmt::format("{}: this profile was written without --corrections and cannot take them now "
+                       "(its residuals were built at another depth): fit the events with --corrections",
+                       o.profileIn)});
     }
     if (weighted && o.corrections.empty()) {
-      return reportError({fmt::format("{}: this profile was written with --corrections (it has a plus_weight column): "
-                                      "give the same --corrections file, for the model's depth offset",
-                                      o.profileIn)});
+      return reportError(
+          {fmt::format("{}: this profile was written with --corrections (it has a plus_weight column): "
+                       "give the same --corrections file, for the model's depth offset",
+                       o.profileIn)});
     }
     if (weighted) input.partingPlane = input.nominalProfile = o.profileIn + " (written with " + o.corrections + ")";
     if (!o.sigmaSys.empty()) {
-      return reportError({fmt::format("{}: a saved profile holds the total errors it was written with (statistical and "
-                                      "sigma_sys): --sigma-sys needs the events (fit them with --sigma-sys {})",
-                                      o.profileIn, o.sigmaSys)});
+      return reportError(
+          {fmt::format("{}: a saved profile holds the total errors it was written with (statistical and "
+                       "sigma_sys): --sigma-sys needs the events (fit them with --sigma-sys {})",
+                       o.profileIn, o.sigmaSys)});
     }
     calib::markUsedBins(bins, calib::ProfileOptions{}.minEntries);
     input.files = {o.profileIn};
@@ -259,12 +267,14 @@ void addFitCommand(CLI::App& app, int& exitCode) {
   cmd->add_option("--plots", o->plots,
                   "draw the paper's figures (PNG, gnuplot) into this directory: profiles with the fitted "
                   "curves, and the residual distributions before and after the correction");
-  cmd->add_option("--beam-energy", o->beamEnergy, "beam energy for the selection and a corrections grid, MeV (default: from the file)")
+  cmd->add_option("--beam-energy", o->beamEnergy,
+                  "beam energy for the selection and a corrections grid, MeV (default: from the file)")
       ->check(finiteIn(10.0, 10000.0));
-  auto* depthOffset = cmd->add_option("--depth-offset", o->depthOffset,
-                  "cm added to the shower depth R(E, theta) in the residuals and the model (default 0: the "
-                  "paper's formula; see docs/validation.md)")
-      ->check(finiteIn(-calib::kMaxDepthOffset, calib::kMaxDepthOffset));
+  auto* depthOffset =
+      cmd->add_option("--depth-offset", o->depthOffset,
+                      "cm added to the shower depth R(E, theta) in the residuals and the model (default 0: the "
+                      "paper's formula; see docs/validation.md)")
+          ->check(finiteIn(-calib::kMaxDepthOffset, calib::kMaxDepthOffset));
   auto* corrections = cmd->add_option("--corrections", o->corrections,
                                       "model corrections derived from the simulation (emcalign derive-corrections): "
                                       "the shower-depth offset, the parting-plane response, the nominal profile and "

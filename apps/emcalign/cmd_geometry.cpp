@@ -21,9 +21,9 @@ namespace emcalign::app {
 namespace {
 
 using namespace emcalign::geometry;
+using io::Json;
 using units::cm;
 using units::deg;
-using io::Json;
 
 struct GeometryOptions {
   std::string detector;
@@ -68,18 +68,16 @@ Json summaryJson(const Calorimeter& calo) {
 void printSummary(const Calorimeter& calo) {
   const auto& d = calo.description();
   fmt::print("Detector: {}\n", d.name);
-  fmt::print("Counters: {} ({} per layer, {} rings of {:.4g} deg from {:.4g} to {:.4g} deg)\n",
-             calo.size(), calo.countersPerLayer(), d.ringCount(), d.ringWidth() / deg,
-             d.thetaMin / deg, d.thetaMax / deg);
+  fmt::print("Counters: {} ({} per layer, {} rings of {:.4g} deg from {:.4g} to {:.4g} deg)\n", calo.size(),
+             calo.countersPerLayer(), d.ringCount(), d.ringWidth() / deg, d.thetaMin / deg, d.thetaMax / deg);
   fmt::print("  {:<22} {:>10} {:>10}\n", "shell", "r_in, cm", "r_out, cm");
   const char* names[] = {"layer 1", "layer 2", "support sphere 1", "layer 3", "support sphere 2"};
-  const SphericalShell* shells[] = {&d.layers[0], &d.layers[1], &d.supports[0], &d.layers[2],
-                                    &d.supports[1]};
+  const SphericalShell* shells[] = {&d.layers[0], &d.layers[1], &d.supports[0], &d.layers[2], &d.supports[1]};
   for (int i = 0; i < 5; ++i) {
     fmt::print("  {:<22} {:>10.2f} {:>10.2f}\n", names[i], shells[i]->rInner / cm, shells[i]->rOuter / cm);
   }
-  fmt::print("R0 = {:.2f} cm (EMC inner radius), R1 = {:.2f} cm, R_p3 = {:.2f} cm\n", d.r0() / cm,
-             d.r1() / cm, d.rp3() / cm);
+  fmt::print("R0 = {:.2f} cm (EMC inner radius), R1 = {:.2f} cm, R_p3 = {:.2f} cm\n", d.r0() / cm, d.r1() / cm,
+             d.rp3() / cm);
   fmt::print("Rings (counters per ring):");
   for (int n : d.countersPerRing) fmt::print(" {}", n);
   fmt::print("\nShower depth: X0 = {} cm, Ec = {} MeV, x_pre = {} X0\n", d.material.radiationLength,
@@ -108,7 +106,8 @@ std::string coordinates(const Vec3& p, const std::string& system) {
   if (system == "cylindrical") {
     return fmt::format("{:.17g},{:.17g},{:.17g}", std::hypot(p.x(), p.y()) / cm, azimuth(p) / deg, p.z() / cm);
   }
-  if (system == "spherical") return fmt::format("{:.17g},{:.17g},{:.17g}", p.norm() / cm, polar(p) / deg, azimuth(p) / deg);
+  if (system == "spherical")
+    return fmt::format("{:.17g},{:.17g},{:.17g}", p.norm() / cm, polar(p) / deg, azimuth(p) / deg);
   return fmt::format("{:.17g},{:.17g},{:.17g}", p.x() / cm, p.y() / cm, p.z() / cm);
 }
 
@@ -133,8 +132,9 @@ int printCounters(const Calorimeter& calo, const std::string& paramsPath, const 
 int locatePoints(const Calorimeter& calo, const std::string& paramsPath) {
   auto geometry = geometryFor(calo, paramsPath);
   if (!geometry) return reportError(geometry.error());
-  std::string out = "x_cm,y_cm,z_cm,region,counter,layer,ring,iphi,hemisphere,other_counter,nominal_x_cm,nominal_y_cm,"
-                    "nominal_z_cm\n";
+  std::string out =
+      "x_cm,y_cm,z_cm,region,counter,layer,ring,iphi,hemisphere,other_counter,nominal_x_cm,nominal_y_cm,"
+      "nominal_z_cm\n";
   auto points = readPointsFromStdin();
   if (!points) return reportError(points.error());
   for (const Vec3& p : *points) {
@@ -182,22 +182,23 @@ void addGeometryCommand(CLI::App& app, int& exitCode) {
   addVersionFlag(*cmd);
   addDetectorOption(*cmd, opts->detector);
   auto* json = cmd->add_flag("--json", opts->json, "print the summary as JSON");
-  auto* counters = cmd->add_flag(
-      "--counters", opts->counters,
-      "print every counter as CSV: index,layer,ring,iphi,hemisphere,theta_deg,phi_deg,x_cm,y_cm,z_cm");
-  auto* locate = cmd->add_flag("--locate", opts->locate,
-                               "read x_cm,y_cm,z_cm rows (TS frame) on stdin and print the counter that contains each "
-                               "(or the region: gap, overlap, inside, support, outside, uncovered) and the point in the "
-                               "nominal EMC frame");
+  auto* counters =
+      cmd->add_flag("--counters", opts->counters,
+                    "print every counter as CSV: index,layer,ring,iphi,hemisphere,theta_deg,phi_deg,x_cm,y_cm,z_cm");
+  auto* locate =
+      cmd->add_flag("--locate", opts->locate,
+                    "read x_cm,y_cm,z_cm rows (TS frame) on stdin and print the counter that contains each "
+                    "(or the region: gap, overlap, inside, support, outside, uncovered) and the point in the "
+                    "nominal EMC frame");
   auto* params = cmd->add_option("--params", opts->params,
                                  "with --counters or --locate: the detector placed by these alignment parameters (a "
                                  "parameter file or a fit result; layer 3 with the mu3 rule)")
                      ->check(CLI::ExistingFile);
   cmd->add_option("--coordinates", opts->coordinates,
-                                 "with --counters: cartesian (x_cm,y_cm,z_cm), cylindrical (rho_cm,phi_deg,z_cm) or "
-                                 "spherical (r_cm,theta_deg,phi_deg) instead of theta_deg,phi_deg,x_cm,y_cm,z_cm")
-                     ->check(CLI::IsMember({"cartesian", "cylindrical", "spherical"}))
-                     ->needs(counters);
+                  "with --counters: cartesian (x_cm,y_cm,z_cm), cylindrical (rho_cm,phi_deg,z_cm) or "
+                  "spherical (r_cm,theta_deg,phi_deg) instead of theta_deg,phi_deg,x_cm,y_cm,z_cm")
+      ->check(CLI::IsMember({"cartesian", "cylindrical", "spherical"}))
+      ->needs(counters);
   auto* description = cmd->add_flag("--description", opts->description,
                                     "print the detector description JSON (the format --detector reads)");
   json->excludes(counters)->excludes(description)->excludes(locate);

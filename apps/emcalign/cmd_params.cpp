@@ -39,8 +39,7 @@ int runShow(const ShowOptions& o) {
     return 0;
   }
   auto phys = toPhysical(*eta, r1);
-  fmt::print("{:<10} {:>14}  {:<4}    {:<10} {:>14}  {:<4}\n", "fit set", "value", "unit",
-             "physical", "value", "unit");
+  fmt::print("{:<10} {:>14}  {:<4}    {:<10} {:>14}  {:<4}\n", "fit set", "value", "unit", "physical", "value", "unit");
   for (std::size_t i = 0; i < kNumParams; ++i) {
     const auto p = kAllParams[i];
     const auto q = static_cast<Physical>(i);
@@ -48,8 +47,10 @@ int runShow(const ShowOptions& o) {
                (*eta)[p] / AlignmentParameters::fileUnit(p), unitName(dimension(p)), name(q),
                (*phys)[q] / PhysicalParameters::fileUnit(q), unitName(dimension(q)));
   }
-  fmt::print("(beta1, beta2 are sin(beta)cos(psi), sin(beta)sin(psi) written in degrees; "
-             "R1 = {} cm)\n", r1 / units::cm);
+  fmt::print(
+      "(beta1, beta2 are sin(beta)cos(psi), sin(beta)sin(psi) written in degrees; "
+      "R1 = {} cm)\n",
+      r1 / units::cm);
   auto t = AlignmentTransform::create(*eta, AlignmentRadii::of(calo->description()));
   if (t && t->layer3RuleActive()) {
     fmt::print("Layer 3: dx_rel - R_p3*sin(mu) < 0, so layer 3 uses mu3 = asin(dx_rel/R_p3) = {:.6f} deg\n",

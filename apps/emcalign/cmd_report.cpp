@@ -90,10 +90,11 @@ int run(const ReportCliOptions& o) {
     auto calo = loadCalorimeter(detector);
     if (!calo) return reportError(calo.error());
     const auto& d = calo->description();
-    fit.detector = fmt::format("{}{}, {} counters in 3 layers, the EMC from R0 = {:.1f} cm, the hemispheres' support "
-                               "sphere at R1 = {:.1f} cm",
-                               d.name, detector.empty() ? "" : " (" + detector + ")", 3 * calo->countersPerLayer(),
-                               d.r0() / units::cm, d.r1() / units::cm);
+    fit.detector = fmt::format(
+        "{}{}, {} counters in 3 layers, the EMC from R0 = {:.1f} cm, the hemispheres' support "
+        "sphere at R1 = {:.1f} cm",
+        d.name, detector.empty() ? "" : " (" + detector + ")", 3 * calo->countersPerLayer(), d.r0() / units::cm,
+        d.r1() / units::cm);
     if (!o.events.empty()) {
       if (Status s = report::checkEventsOfResult(*j, o.fit, o.events); !s) return reportError(s.error());
       auto model = report::modelOfResult(*j, o.fit, *calo, o.corrections);
@@ -125,8 +126,8 @@ int run(const ReportCliOptions& o) {
     auto tag = (*db)->tag(o.tag);
     if (!tag) return reportError(tag.error());
     if (!tag->has_value()) {
-      return reportError({fmt::format("{}: no tag '{}' (the tags: emcalign conditions list {})", (*db)->uri(), o.tag,
-                                      (*db)->uri())});
+      return reportError(
+          {fmt::format("{}: no tag '{}' (the tags: emcalign conditions list {})", (*db)->uri(), o.tag, (*db)->uri())});
     }
     in.conditions = report::ReportConditions{(*db)->uri(), o.tag, tagJson(**db, **tag).at("iovs")};
   }
@@ -168,7 +169,8 @@ void addReportCommand(CLI::App& app, int& exitCode) {
   auto* tag = cmd->add_option("--tag", o->tag, "the tag of --conditions")->check(tagName());
   conditions->needs(tag);
   tag->needs(conditions);
-  cmd->add_option("--checks", o->checks, "physics checks' directories (emcalign check -o)")->check(CLI::ExistingDirectory);
+  cmd->add_option("--checks", o->checks, "physics checks' directories (emcalign check -o)")
+      ->check(CLI::ExistingDirectory);
   cmd->add_option("--title", o->title, "the page's title (default: EMC geometric calibration)");
   addDetectorOption(*cmd, o->detector);
   cmd->add_option("-o,--output", o->output, "the HTML file; '-': standard output")->required();

@@ -14,8 +14,8 @@
 #include "emcalign/apply/residual_summary.hpp"
 #include "emcalign/calib/corrections.hpp"
 #include "emcalign/core/units.hpp"
-#include "emcalign/io/csv.hpp"
 #include "emcalign/core/version.hpp"
+#include "emcalign/io/csv.hpp"
 #include "emcalign/report/residual_plots.hpp"
 
 namespace emcalign::app {
@@ -110,7 +110,8 @@ int run(const ResidualsOptions& o) {
                         {"depth_offset_cm", depth.offset / units::cm},
                         {"samples", json}};
   const auto dir = std::filesystem::path(o.output);
-  if (Status s = io::writeOutputFile((dir / "residuals.json").string(), doc.dump(2) + "\n"); !s) return reportError(s.error());
+  if (Status s = io::writeOutputFile((dir / "residuals.json").string(), doc.dump(2) + "\n"); !s)
+    return reportError(s.error());
   const std::string md = "# Residuals of the selected e+e- → e+e- particles (θ_EMC 45°–135°)\n\n" + table +
                          "\nsin Δφ and its means are shown as sin Δφ · 180/π; the φ irregularity is max − min of the "
                          "mean sin Δφ of the 16 φ columns.\n";

@@ -12,13 +12,13 @@
 #include "common.hpp"
 #include "conditions_support.hpp"
 #include "emcalign/core/sha256.hpp"
-#include "emcalign/validation/period.hpp"
-#include "progress.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/core/version.hpp"
 #include "emcalign/io/event_file.hpp"
 #include "emcalign/io/json_files.hpp"
 #include "emcalign/sim/simulation.hpp"
+#include "emcalign/validation/period.hpp"
+#include "progress.hpp"
 
 namespace emcalign::app {
 
@@ -29,8 +29,8 @@ struct SimulateOptions {
   std::int64_t events = 0;
   std::uint64_t seed = 1;
   std::string params;
-  std::string conditions, tag;  // instead of params: the IOV of --run in a conditions tag
-  std::string period;           // a whole period (validation/period.hpp) into the directory -o
+  std::string conditions, tag;       // instead of params: the IOV of --run in a conditions tag
+  std::string period;                // a whole period (validation/period.hpp) into the directory -o
   std::optional<double> beamEnergy;  // none: the process default
   std::string detector;
   std::string deadCounters;  // empty: default list; "none": no dead counters
@@ -67,21 +67,22 @@ Result<std::vector<int>> parseCounterList(const std::string& text) {
 io::Json settingsJson(const SimulateOptions& cli, const sim::SimulationOptions& o) {
   io::Json off = io::Json::array();
   for (const auto& e : cli.off) off.push_back(e);
-  return io::Json{{"software", fmt::format("emcalign {}", kVersion)},
-                  {"process", cli.process},
-                  {"events", cli.events},
-                  {"seed", o.seed},
-                  {"run", o.run},
-                  {"beam_energy_mev", o.generator.beamEnergy},
-                  {"beam_energy_spread_mev", o.generator.beamEnergySpread},
-                  {"theta_range_deg", {o.generator.thetaMin / units::deg, o.generator.thetaMax / units::deg}},
-                  {"vertex_sigma_cm", {o.generator.vertexSigma.x(), o.generator.vertexSigma.y(), o.generator.vertexSigma.z()}},
-                  {"ideal", cli.ideal},
-                  {"point_showers", o.emc.pointShowers},
-                  {"off", off},
-                  {"dead_counters", o.emc.deadCountersOn ? o.emc.deadCounters : std::vector<int>{}},
-                  {"cosmic_fraction", o.cosmicFraction},
-                  {"detector", cli.detector.empty() ? "embedded default" : cli.detector}};
+  return io::Json{
+      {"software", fmt::format("emcalign {}", kVersion)},
+      {"process", cli.process},
+      {"events", cli.events},
+      {"seed", o.seed},
+      {"run", o.run},
+      {"beam_energy_mev", o.generator.beamEnergy},
+      {"beam_energy_spread_mev", o.generator.beamEnergySpread},
+      {"theta_range_deg", {o.generator.thetaMin / units::deg, o.generator.thetaMax / units::deg}},
+      {"vertex_sigma_cm", {o.generator.vertexSigma.x(), o.generator.vertexSigma.y(), o.generator.vertexSigma.z()}},
+      {"ideal", cli.ideal},
+      {"point_showers", o.emc.pointShowers},
+      {"off", off},
+      {"dead_counters", o.emc.deadCountersOn ? o.emc.deadCounters : std::vector<int>{}},
+      {"cosmic_fraction", o.cosmicFraction},
+      {"detector", cli.detector.empty() ? "embedded default" : cli.detector}};
 }
 
 // The realism switches and dead counters of the command line.
@@ -121,7 +122,8 @@ int runPeriod(const SimulateOptions& cli) {
   const auto runs = validation::planPeriod(*scenario);
   std::int64_t total = 0;
   for (const auto& r : runs) total += r.events;
-  fmt::print(stderr, "simulate --period {}: runs {}-{} ({} runs), {} events, {} beam energies, {} segments, {} drifts -> {}\n",
+  fmt::print(stderr,
+             "simulate --period {}: runs {}-{} ({} runs), {} events, {} beam energies, {} segments, {} drifts -> {}\n",
              cli.period, scenario->firstRun, scenario->lastRun(), runs.size(), total, scenario->beamEnergy.size(),
              scenario->segments.size(), scenario->drifts.size(), cli.output);
   ProgressLine progress("simulate", static_cast<std::int64_t>(runs.size()), "runs");
@@ -129,7 +131,8 @@ int runPeriod(const SimulateOptions& cli) {
   auto report = validation::simulatePeriod(*scenario, *calo, cli.output, o);
   progress.finish();
   if (!report) return reportError(report.error());
-  fmt::print(stderr, "simulate: {} runs ({} there already), {} events simulated ({} in the period), {} particle rows, "
+  fmt::print(stderr,
+             "simulate: {} runs ({} there already), {} events simulated ({} in the period), {} particle rows, "
              "{:.1f} s -> {}/run_*.h5, {}/truth.json\n",
              report->runs, report->resumed, report->simulated, report->events, report->rows, progress.elapsed(),
              cli.output, cli.output);
@@ -190,8 +193,8 @@ int run(const SimulateOptions& cli) {
   progress.finish();
   if (!done) return reportError(done.error());
   if (Status s = (*writer)->close(); !s) return reportError(s.error());
-  fmt::print(stderr, "simulate: {} events, {} particle rows, {:.1f} s -> {}\n", cli.events, rows,
-             progress.elapsed(), cli.output);
+  fmt::print(stderr, "simulate: {} events, {} particle rows, {:.1f} s -> {}\n", cli.events, rows, progress.elapsed(),
+             cli.output);
   return 0;
 }
 
@@ -203,13 +206,15 @@ void addSimulateCommand(CLI::App& app, int& exitCode) {
   addVersionFlag(*cmd);
   cmd->add_option("--process", o->process, "ee (e+e- -> e+e-), gg (e+e- -> gamma gamma), 3pi (e+e- -> pi+pi-pi0)")
       ->check(CLI::IsMember({"ee", "gg", "3pi"}));
-  auto* events = cmd->add_option("--events", o->events, "number of events (at most 1e10)")->check(integerIn(0, kMaxEvents));
+  auto* events =
+      cmd->add_option("--events", o->events, "number of events (at most 1e10)")->check(integerIn(0, kMaxEvents));
   cmd->add_option("--period", o->period,
                   "simulate a whole period instead: every run of a scenario (emcalign-period/1, docs/campaign.md) "
                   "into the directory -o, with DIR/truth.json")
       ->check(CLI::ExistingFile)
       ->excludes(events);
-  cmd->add_option("--seed", o->seed, "random seed, 0 to 2^64 - 1 (the same seed gives the same file on any thread count)")
+  cmd->add_option("--seed", o->seed,
+                  "random seed, 0 to 2^64 - 1 (the same seed gives the same file on any thread count)")
       ->check(unsigned64());
   auto* params = cmd->add_option("--params", o->params,
                                  "truth alignment: a parameter file (JSON, SPEC §3), a fit result or a placements "
@@ -221,13 +226,18 @@ void addSimulateCommand(CLI::App& app, int& exitCode) {
                          ->excludes(params);
   cmd->add_option("--tag", o->tag, "the tag of --conditions")->needs(conditions);
   conditions->needs(cmd->get_option("--tag"));
-  cmd->add_option_function<double>("--beam-energy", [o](const double& v) { o->beamEnergy = v; }, "beam energy in MeV (default 612.5 for ee and gg, 510 for 3pi)")
+  cmd->add_option_function<double>(
+         "--beam-energy", [o](const double& v) { o->beamEnergy = v; },
+         "beam energy in MeV (default 612.5 for ee and gg, 510 for 3pi)")
       ->check(finiteIn(sim::kMinBeamEnergy / units::MeV, sim::kMaxBeamEnergy / units::MeV));
-  cmd->add_option_function<double>("--theta-min", [o](const double& v) { o->thetaMinDeg = v; },
-                  "lower edge of the generated polar range of the final-state particles, deg (default 10; "
-                  "e+e- -> e+e- is forward-peaked: 40 keeps nearly every event inside the profiles)")
+  cmd->add_option_function<double>(
+         "--theta-min", [o](const double& v) { o->thetaMinDeg = v; },
+         "lower edge of the generated polar range of the final-state particles, deg (default 10; "
+         "e+e- -> e+e- is forward-peaked: 40 keeps nearly every event inside the profiles)")
       ->check(finiteIn(0.0, 180.0));
-  cmd->add_option_function<double>("--theta-max", [o](const double& v) { o->thetaMaxDeg = v; }, "upper edge of the generated polar range, deg (default 170)")
+  cmd->add_option_function<double>(
+         "--theta-max", [o](const double& v) { o->thetaMaxDeg = v; },
+         "upper edge of the generated polar range, deg (default 170)")
       ->check(finiteIn(0.0, 180.0));
   addDetectorOption(*cmd, o->detector);
   cmd->add_option("--dead-counters", o->deadCounters,

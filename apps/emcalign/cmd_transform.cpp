@@ -82,10 +82,9 @@ int run(const TransformOptions& o) {
 
 void addTransformCommand(CLI::App& app, int& exitCode) {
   auto opts = std::make_shared<TransformOptions>();
-  auto* cmd = app.add_subcommand(
-      "transform",
-      "Apply the alignment transform to points read as CSV x_cm,y_cm,z_cm on stdin "
-      "(forward: nominal EMC -> actual position in the TS frame)");
+  auto* cmd = app.add_subcommand("transform",
+                                 "Apply the alignment transform to points read as CSV x_cm,y_cm,z_cm on stdin "
+                                 "(forward: nominal EMC -> actual position in the TS frame)");
   addVersionFlag(*cmd);
   cmd->add_option("--params", opts->params, "alignment parameter file (JSON, SPEC §3)")
       ->required()

@@ -37,7 +37,8 @@ struct TrendCliOptions {
   int minSegment = 2;
 };
 
-std::vector<report::TrendFigure> figuresOf(const validation::Trend& t, const std::vector<validation::TrendSeries>& series,
+std::vector<report::TrendFigure> figuresOf(const validation::Trend& t,
+                                           const std::vector<validation::TrendSeries>& series,
                                            const validation::PeriodTruth* truth) {
   std::vector<report::TrendFigure> figures;
   for (std::size_t k = 0; k < series.size(); ++k) {
@@ -92,27 +93,30 @@ int refit(const TrendCliOptions& o, const validation::Trend& trend, const std::v
     const bool value = recorded.contains("value_deg") && recorded.at("value_deg").is_number();
     auto choice = calib::recordedSigmaSysChoice(method, value ? recorded.at("value_deg").get<double>() : std::nan(""));
     if (!choice) {
-      return reportError(Error{fmt::format("tag {}: the calibration of runs {}-{} has sigma_sys {}: not one a campaign "
-                                           "makes ({})",
-                                           o.tag, iov.firstRun, iov.lastRun, recorded.dump(), choice.error().message)});
+      return reportError(
+          Error{fmt::format("tag {}: the calibration of runs {}-{} has sigma_sys {}: not one a campaign "
+                            "makes ({})",
+                            o.tag, iov.firstRun, iov.lastRun, recorded.dump(), choice.error().message)});
     }
     const io::Json usedSigma = validation::sigmaSysChoiceJson(*choice);
     if (!sigmaSys) {
       sigmaSys = usedSigma;
       model->setSigmaSys(*choice);
     } else if (*sigmaSys != usedSigma) {
-      return reportError(Error{fmt::format("tag {}: its IOVs were fitted with different sigma_sys ({} and {}): no "
-                                           "refit comparable with all of them",
-                                           o.tag, sigmaSys->dump(), usedSigma.dump())});
+      return reportError(
+          Error{fmt::format("tag {}: its IOVs were fitted with different sigma_sys ({} and {}): no "
+                            "refit comparable with all of them",
+                            o.tag, sigmaSys->dump(), usedSigma.dump())});
     }
     const io::Json& provenance = (*p)->content["provenance"];
     const std::string used = provenance.value("corrections", ""), usedSha = provenance.value("corrections_sha256", "");
     const bool same = usedSha.empty() ? used == o.corrections : usedSha == model->correctionsSha256;
     if (!same) {
       auto what = [](const std::string& c) { return c.empty() ? std::string("without corrections") : "with " + c; };
-      return reportError(Error{fmt::format("--refit {}: the calibration of runs {}-{} in tag {} was made {} (give the "
-                                           "same --corrections, for a refit comparable with them)",
-                                           what(o.corrections), iov.firstRun, iov.lastRun, o.tag, what(used))});
+      return reportError(
+          Error{fmt::format("--refit {}: the calibration of runs {}-{} in tag {} was made {} (give the "
+                            "same --corrections, for a refit comparable with them)",
+                            what(o.corrections), iov.firstRun, iov.lastRun, o.tag, what(used))});
     }
   }
   ProgressLine reading("trend --refit: reading", static_cast<std::int64_t>(files->size()), "files");
@@ -125,7 +129,8 @@ int refit(const TrendCliOptions& o, const validation::Trend& trend, const std::v
 
   auto r = validation::refitSegments(trend, series, snapshot, *scan, *model, truth);
   if (!r) return reportError(r.error());
-  if (Status s = db.put(o.tagOut, r->iovs, true, fmt::format("{} refitted by stable period (emcalign trend --refit)", o.tag));
+  if (Status s =
+          db.put(o.tagOut, r->iovs, true, fmt::format("{} refitted by stable period (emcalign trend --refit)", o.tag));
       !s) {
     return reportError(s.error());
   }
@@ -147,7 +152,8 @@ int refit(const TrendCliOptions& o, const validation::Trend& trend, const std::v
 }
 
 int run(const TrendCliOptions& o) {
-  std::vector<io::NamedPath> inputs = {{"--truth", o.truth}, {"--corrections", o.corrections}, {"--detector", o.detector}};
+  std::vector<io::NamedPath> inputs = {
+      {"--truth", o.truth}, {"--corrections", o.corrections}, {"--detector", o.detector}};
   if (Status s = checkOutputs({}, {{"-o", o.output}}, inputs); !s) return reportError(s.error());
   auto calo = loadCalorimeter(o.detector);
   if (!calo) return reportError(calo.error());
@@ -174,7 +180,8 @@ int run(const TrendCliOptions& o) {
   std::string md = validation::trendMarkdown(trend, *series, fmt::format("tag {} of {}", o.tag, (*db)->uri()));
   if (!o.tagOut.empty()) {
     Json summary;
-    if (int rc = refit(o, trend, *series, *snapshot, **db, *calo, truth ? &*truth : nullptr, summary, md); rc != kExitOk) {
+    if (int rc = refit(o, trend, *series, *snapshot, **db, *calo, truth ? &*truth : nullptr, summary, md);
+        rc != kExitOk) {
       return rc;
     }
     out["refit"] = summary;
@@ -183,9 +190,11 @@ int run(const TrendCliOptions& o) {
   fs::create_directories(o.output, ec);
   if (ec) return reportError(Error{fmt::format("{}: cannot create the directory: {}", o.output, ec.message())});
   const fs::path dir(o.output);
-  if (Status s = io::writeOutputFile((dir / "trend.json").string(), out.dump(1) + "\n"); !s) return reportError(s.error());
+  if (Status s = io::writeOutputFile((dir / "trend.json").string(), out.dump(1) + "\n"); !s)
+    return reportError(s.error());
   if (Status s = io::writeOutputFile((dir / "trend.md").string(), md); !s) return reportError(s.error());
-  auto pngs = report::writeTrendPlots(o.output, figuresOf(trend, *series, truth ? &*truth : nullptr), fmt::format("tag {}", o.tag));
+  auto pngs = report::writeTrendPlots(o.output, figuresOf(trend, *series, truth ? &*truth : nullptr),
+                                      fmt::format("tag {}", o.tag));
   if (!pngs) return reportError(pngs.error());
 
   const auto transitions = std::count_if(trend.segments.begin(), trend.segments.end(),
@@ -194,13 +203,14 @@ int run(const TrendCliOptions& o) {
              trend.iovs, trend.steps.size(), trend.drifts.size(), trend.segments.size() - transitions,
              transitions > 0 ? fmt::format(" and {} IOVs straddling a step", transitions) : std::string());
   for (const auto& s : trend.steps) {
-    fmt::print(reportStream(), "  step  {:<8} at run {:>6}: {:+.4f} ± {:.4f} {} (z {:.1f}){}\n", s.parameter,
-               s.firstRunAfter, s.size, s.error, s.unit, s.z(),
-               s.withinIov ? fmt::format(", inside IOV {}-{}", s.withinIov->first, s.withinIov->second) : std::string());
+    fmt::print(
+        reportStream(), "  step  {:<8} at run {:>6}: {:+.4f} ± {:.4f} {} (z {:.1f}){}\n", s.parameter, s.firstRunAfter,
+        s.size, s.error, s.unit, s.z(),
+        s.withinIov ? fmt::format(", inside IOV {}-{}", s.withinIov->first, s.withinIov->second) : std::string());
   }
   for (const auto& d : trend.drifts) {
-    fmt::print(reportStream(), "  drift {:<8} runs {}-{}: {:+.3g} ± {:.2g} {}/run (z {:.1f})\n", d.parameter, d.firstRun,
-               d.lastRun, d.slopePerRun, d.error, d.unit, d.z);
+    fmt::print(reportStream(), "  drift {:<8} runs {}-{}: {:+.3g} ± {:.2g} {}/run (z {:.1f})\n", d.parameter,
+               d.firstRun, d.lastRun, d.slopePerRun, d.error, d.unit, d.z);
   }
   fmt::print(reportStream(), "wrote {}/trend.json, trend.md and {} figures (fig8.png, trend_all.png, trend_*.png)\n",
              o.output, pngs->size());
@@ -218,7 +228,8 @@ void addTrendCommand(CLI::App& app, int& exitCode) {
   cmd->add_option("--conditions", o->conditions, "conditions database (sqlite:PATH, postgresql://...)")->required();
   cmd->add_option("--tag", o->tag, "the tag to follow")->required();
   cmd->add_option("-o,--output", o->output, "output directory: trend.json, trend.md, the figures")->required();
-  cmd->add_option("--truth", o->truth, "a simulated period's truth.json, drawn with the IOVs")->check(CLI::ExistingFile);
+  cmd->add_option("--truth", o->truth, "a simulated period's truth.json, drawn with the IOVs")
+      ->check(CLI::ExistingFile);
   auto* refit = cmd->add_option("--refit", o->refit,
                                 "the events (a directory or files): refit each stable period with all of them and "
                                 "write the result as --tag-out")
@@ -231,7 +242,8 @@ void addTrendCommand(CLI::App& app, int& exitCode) {
       ->check(CLI::ExistingPath);
   cmd->add_option("--min-segment", o->minSegment, "IOVs per stable segment at least (default 2)")
       ->check(integerIn(2, 1000));
-  cmd->add_option("--threads", o->threads, "worker threads for --refit (0: all cores)")->check(integerIn(0, kMaxThreads));
+  cmd->add_option("--threads", o->threads, "worker threads for --refit (0: all cores)")
+      ->check(integerIn(0, kMaxThreads));
   addDetectorOption(*cmd, o->detector);
   cmd->callback([o, &exitCode] { exitCode = run(*o); });
 }

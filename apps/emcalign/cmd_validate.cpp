@@ -36,8 +36,9 @@ struct ValidateOptions {
 };
 
 int run(const ValidateOptions& cli) {
-  if (Status s = checkOutputs({}, {{"-o", cli.output}},
-                              {{"--ranges", cli.ranges}, {"--corrections", cli.corrections}, {"--detector", cli.detector}});
+  if (Status s =
+          checkOutputs({}, {{"-o", cli.output}},
+                       {{"--ranges", cli.ranges}, {"--corrections", cli.corrections}, {"--detector", cli.detector}});
       !s) {
     return reportError(s.error());
   }
@@ -102,14 +103,14 @@ int run(const ValidateOptions& cli) {
   fmt::print(reportStream(), "{:<10} {:>4} {:>11} {:>9} {:>10} {:>9} {:>15} {:>18}\n", "parameter", "unit", "bias", "±",
              "spread", "pull mean", "pull width", "slope");
   for (const auto& r : table->rows) {
-    fmt::print(reportStream(), "{:<10} {:>4} {:>11.4g} {:>9.2g} {:>10.4g} {:>9.3f} {:>7.3f} ± {:.3f} {:>+9.4f} ± {:.4f}\n",
-               r.name, r.unit, r.bias, r.biasError, r.spread, r.pullMean, r.pullWidth, r.pullWidthError, r.slope,
-               r.slopeError);
+    fmt::print(reportStream(),
+               "{:<10} {:>4} {:>11.4g} {:>9.2g} {:>10.4g} {:>9.3f} {:>7.3f} ± {:.3f} {:>+9.4f} ± {:.4f}\n", r.name,
+               r.unit, r.bias, r.biasError, r.spread, r.pullMean, r.pullWidth, r.pullWidthError, r.slope, r.slopeError);
   }
   fmt::print(reportStream(), "sigma_sys of the fits: median {:.4f} deg ({:.4f} to {:.4f})\n", table->sigmaSysMedian,
              table->sigmaSysMin, table->sigmaSysMax);
-  fmt::print(reportStream(), "{} samples × {} events in {:.1f} s; wrote {}/table.json, table.md, plots/, samples/\n", table->samples,
-             table->events, progress.elapsed(), cli.output);
+  fmt::print(reportStream(), "{} samples × {} events in {:.1f} s; wrote {}/table.json, table.md, plots/, samples/\n",
+             table->samples, table->events, progress.elapsed(), cli.output);
   return 0;
 }
 
@@ -122,7 +123,8 @@ void addValidateCommand(CLI::App& app, int& exitCode) {
   cmd->add_option("--samples", o->samples, "number of samples (default 100)")->check(integerIn(1, 100000));
   cmd->add_option("--events", o->events, "events per sample (default 50000)")->check(integerIn(1, kMaxEvents));
   cmd->add_option("--seed", o->seed, "campaign seed, 0 to 2^64 - 1")->check(unsigned64());
-  cmd->add_option("--ranges", o->ranges, "ranges of the truth (JSON, emcalign-validation-ranges/1)")->check(CLI::ExistingFile);
+  cmd->add_option("--ranges", o->ranges, "ranges of the truth (JSON, emcalign-validation-ranges/1)")
+      ->check(CLI::ExistingFile);
   addDetectorOption(*cmd, o->detector);
   cmd->add_option("--threads", o->threads, "worker threads (0: all cores)")->check(integerIn(0, kMaxThreads));
   cmd->add_option("--beam-energy", o->beamEnergy, "beam energy of the samples, MeV (default 612.5)")

@@ -39,7 +39,8 @@ Status checkOutputs(const std::vector<io::NamedPath>& files, const std::vector<i
   }
   for (const auto& d : directories) {
     if (d.path.empty()) continue;
-    if (Status s = io::checkOutputDirectory(d.path); !s) return Error{fmt::format("{} {}", d.option, s.error().message)};
+    if (Status s = io::checkOutputDirectory(d.path); !s)
+      return Error{fmt::format("{} {}", d.option, s.error().message)};
   }
   return io::checkDistinct(given, inputs);
 }
@@ -137,8 +138,8 @@ Result<std::vector<Vec3>> readPointsFromStdin() {
     const auto fields = io::splitCsvLine(line);
     if (!header) {
       if (fields.size() != 3 || fields[0] != "x_cm" || fields[1] != "y_cm" || fields[2] != "z_cm") {
-        return Error{fmt::format("stdin, line {}: expected the header x_cm,y_cm,z_cm, got {}", lineNo,
-                                 io::quoted(line))};
+        return Error{
+            fmt::format("stdin, line {}: expected the header x_cm,y_cm,z_cm, got {}", lineNo, io::quoted(line))};
       }
       header = true;
       continue;

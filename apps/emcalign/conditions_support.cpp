@@ -13,8 +13,9 @@ namespace emcalign::app {
 io::Json parameterFileOf(const conddb::Iov& iov, const conddb::Payload& payload, const std::string& uri,
                          const std::string& tag) {
   io::Json file = payload.parameterFile();
-  io::Json input = {{"conditions", uri},  {"tag", tag},           {"first_run", iov.firstRun},
-                    {"last_run", iov.lastRun}, {"payload", iov.payload}, {"inserted", iov.inserted}};
+  io::Json input = {{"conditions", uri},         {"tag", tag},
+                    {"first_run", iov.firstRun}, {"last_run", iov.lastRun},
+                    {"payload", iov.payload},    {"inserted", iov.inserted}};
   if (payload.content.contains("selected_events")) input["selected_events"] = payload.content["selected_events"];
   if (payload.content.contains("provenance")) input["provenance"] = payload.content["provenance"];
   file["input"] = std::move(input);
@@ -78,7 +79,8 @@ Result<AlignmentSource> AlignmentSource::open(const std::string& alignment, cons
   auto file = loadAlignment(alignment, calo);
   if (!file) return file.error();
   a.warnings = file->warnings;
-  auto transform = geometry::AlignmentTransform::create(file->parameters, geometry::AlignmentRadii::of(calo.description()));
+  auto transform =
+      geometry::AlignmentTransform::create(file->parameters, geometry::AlignmentRadii::of(calo.description()));
   if (!transform) return transform.error();
   a.one = std::make_shared<const geometry::AlignmentTransform>(std::move(*transform));
   a.description = {{"file", alignment}, {"parameters", io::alignmentToJson(file->parameters)["parameters"]}};
@@ -95,7 +97,8 @@ Result<apply::CorrectOptions> correctOptions(const std::string& method, double d
     auto grid = calib::CorrectionsGrid::read(corrections);
     if (!grid) return grid.error();
     if (grid->isGrid()) {
-      options.depthAt = calib::depthAtEnergy(std::make_shared<const calib::CorrectionsGrid>(std::move(*grid)), options.depth);
+      options.depthAt =
+          calib::depthAtEnergy(std::make_shared<const calib::CorrectionsGrid>(std::move(*grid)), options.depth);
     } else {
       options.depth.offset = grid->points().front().corrections.depthOffset;
     }
@@ -109,8 +112,8 @@ io::Json tagJson(conddb::Database& db, const conddb::Tag& tag) {
   auto list = db.iovs(tag.name);
   if (list) {
     for (const auto& iov : *list) {
-      Json i = {{"first_run", iov.firstRun}, {"last_run", iov.lastRun}, {"payload", iov.payload},
-                {"inserted", iov.inserted}};
+      Json i = {
+          {"first_run", iov.firstRun}, {"last_run", iov.lastRun}, {"payload", iov.payload}, {"inserted", iov.inserted}};
       if (auto p = db.payload(iov.payload); p) {
         const Json& a = p->content["alignment"];
         for (const char* key : {"status", "chi2", "ndf"}) {
@@ -121,8 +124,11 @@ io::Json tagJson(conddb::Database& db, const conddb::Tag& tag) {
       iovs.push_back(std::move(i));
     }
   }
-  return {{"tag", tag.name}, {"state", conddb::name(tag.state)}, {"description", tag.description},
-          {"created", tag.created}, {"iovs", iovs}};
+  return {{"tag", tag.name},
+          {"state", conddb::name(tag.state)},
+          {"description", tag.description},
+          {"created", tag.created},
+          {"iovs", iovs}};
 }
 
 }  // namespace emcalign::app

@@ -5,8 +5,8 @@
 #include <csignal>
 #include <exception>
 
-#include <CLI/CLI.hpp>
 #include <fmt/format.h>
+#include <CLI/CLI.hpp>
 
 #include "common.hpp"
 #include "emcalign/core/version.hpp"
@@ -41,8 +41,9 @@ int main(int argc, char** argv) {
       "tracking system (SND-like, 12 alignment parameters)"};
   app.set_version_flag("--version", std::string(emcalign::kVersion));
   app.require_subcommand(1);
-  app.footer("Exit codes: 0 ok; 1 input refused or a step failed (nothing written); 2 usage error; 3 result written "
-             "but not converged; 4 internal error; 128+N killed by signal N. See docs/conventions.md.");
+  app.footer(
+      "Exit codes: 0 ok; 1 input refused or a step failed (nothing written); 2 usage error; 3 result written "
+      "but not converged; 4 internal error; 128+N killed by signal N. See docs/conventions.md.");
   app.failure_message([](const CLI::App*, const CLI::Error& e) {
     return fmt::format("emcalign: usage error: {}\nRun with --help for more information.\n", e.what());
   });

@@ -14,7 +14,10 @@ namespace emcalign::app {
 class ProgressLine {
  public:
   ProgressLine(std::string what, std::int64_t total, std::string unit)
-      : what_(std::move(what)), unit_(std::move(unit)), total_(total), enabled_(::isatty(2) != 0),
+      : what_(std::move(what)),
+        unit_(std::move(unit)),
+        total_(total),
+        enabled_(::isatty(2) != 0),
         start_(std::chrono::steady_clock::now()) {}
 
   void update(std::int64_t done) {
@@ -26,15 +29,13 @@ class ProgressLine {
       return;
     }
     const double left = rate > 0.0 ? (total_ - done) / rate : 0.0;
-    fmt::print(stderr, "\r{}: {}/{} {} ({:.0f}%), {:.0f} {}/s, {:.0f} s left   ", what_, done, total_,
-               unit_, total_ > 0 ? 100.0 * done / total_ : 100.0, rate, unit_, left);
+    fmt::print(stderr, "\r{}: {}/{} {} ({:.0f}%), {:.0f} {}/s, {:.0f} s left   ", what_, done, total_, unit_,
+               total_ > 0 ? 100.0 * done / total_ : 100.0, rate, unit_, left);
   }
   void finish() {
     if (enabled_) fmt::print(stderr, "\n");
   }
-  double elapsed() const {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-  }
+  double elapsed() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count(); }
 
  private:
   std::string what_, unit_;

@@ -40,8 +40,8 @@ namespace {
 
 // The hits method on one block: each cluster row rebuilt from its counters at their aligned
 // centres, by the reconstruction the simulation uses (sim/reconstruction.hpp).
-Status correctByHits(std::span<ParticleRow> rows, std::span<const Hit> hits,
-                     const geometry::CounterGeometry& aligned, double w0, const std::string& source) {
+Status correctByHits(std::span<ParticleRow> rows, std::span<const Hit> hits, const geometry::CounterGeometry& aligned,
+                     double w0, const std::string& source) {
   std::size_t at = 0;
   const int counters = aligned.calorimeter().size();
   for (ParticleRow& r : rows) {
@@ -50,16 +50,18 @@ Status correctByHits(std::span<ParticleRow> rows, std::span<const Hit> hits,
     if (std::isnan(r.energy)) continue;
     for (const Hit& h : own) {
       if (h.counter >= counters) {
-        return Error{fmt::format("{}: run {} event {}: counter {} of a hit is not one of this detector's {} counters "
-                                 "(another --detector?)",
-                                 source, r.run, r.event, h.counter, counters)};
+        return Error{
+            fmt::format("{}: run {} event {}: counter {} of a hit is not one of this detector's {} counters "
+                        "(another --detector?)",
+                        source, r.run, r.event, h.counter, counters)};
       }
     }
     const auto direction = sim::clusterDirection(own, aligned, w0);
     if (!direction) {
-      return Error{fmt::format("{}: run {} event {}: the cluster's counters give no direction (all weights are 0 "
-                               "with W0 = {})",
-                               source, r.run, r.event, w0)};
+      return Error{
+          fmt::format("{}: run {} event {}: the cluster's counters give no direction (all weights are 0 "
+                      "with W0 = {})",
+                      source, r.run, r.event, w0)};
     }
     r.thetaEmc = direction->first;
     r.phiEmc = direction->second;
@@ -73,9 +75,9 @@ Result<CorrectReport> correctFiles(const std::vector<std::string>& inputs, const
                                    const geometry::Calorimeter& calo, const geometry::AlignmentTransform& transform,
                                    const CorrectOptions& o) {
   // One alignment for every run: shared without a copy, never freed through this pointer.
-  const std::shared_ptr<const geometry::AlignmentTransform> one(&transform,
-                                                                [](const geometry::AlignmentTransform*) {});
-  return correctFiles(inputs, output, calo, [&](std::int64_t) { return Result(one); }, o);
+  const std::shared_ptr<const geometry::AlignmentTransform> one(&transform, [](const geometry::AlignmentTransform*) {});
+  return correctFiles(
+      inputs, output, calo, [&](std::int64_t) { return Result(one); }, o);
 }
 
 Result<CorrectReport> correctFiles(const std::vector<std::string>& inputs, const std::string& output,
@@ -90,9 +92,10 @@ Result<CorrectReport> correctFiles(const std::vector<std::string>& inputs, const
   // The input's hits decide the method of `auto` (files without hits: clusters).
   const bool hits = (*reader)->hits() != nullptr;
   if (o.method == CorrectionMethod::Hits && !hits) {
-    return Error{fmt::format("{}: --method hits needs event files with counter hits (emcalign simulate writes them to "
-                             "HDF5); this one has none: use --method clusters",
-                             inputs.front())};
+    return Error{
+        fmt::format("{}: --method hits needs event files with counter hits (emcalign simulate writes them to "
+                    "HDF5); this one has none: use --method clusters",
+                    inputs.front())};
   }
   // Rebuilding a cluster from its counters is the identity at zero alignment only when the
   // file's clusters were made that way: not by `simulate --ideal` or `--off counter-directions`
@@ -109,9 +112,10 @@ Result<CorrectReport> correctFiles(const std::vector<std::string>& inputs, const
     }
   }
   if (o.method == CorrectionMethod::Hits && !fromCounters) {
-    return Error{fmt::format("{}: its clusters were not reconstructed from counter centres (simulate --ideal or --off "
-                             "counter-directions), so the hits method cannot rebuild them: use --method clusters",
-                             inputs.front())};
+    return Error{
+        fmt::format("{}: its clusters were not reconstructed from counter centres (simulate --ideal or --off "
+                    "counter-directions), so the hits method cannot rebuild them: use --method clusters",
+                    inputs.front())};
   }
   report.method = o.method == CorrectionMethod::Auto
                       ? (hits && fromCounters ? CorrectionMethod::Hits : CorrectionMethod::Clusters)
@@ -158,9 +162,10 @@ Result<CorrectReport> correctFiles(const std::vector<std::string>& inputs, const
     const auto* truth = (*reader)->truth();
     const auto* blockHits = (*reader)->hits();
     if ((wo.withTruth && truth == nullptr) || (hits && blockHits == nullptr)) {
-      return Error{fmt::format("{}: the inputs of one output have {} all or none: a later file has none (correct "
-                               "the files one by one)",
-                               output, truth == nullptr ? "truth" : "hits")};
+      return Error{
+          fmt::format("{}: the inputs of one output have {} all or none: a later file has none (correct "
+                      "the files one by one)",
+                      output, truth == nullptr ? "truth" : "hits")};
     }
     for (std::size_t i = 0; i < rows.size(); ++i) {
       if (i == 0 || rows[i].event != rows[i - 1].event || rows[i].run != rows[i - 1].run) ++report.events;
@@ -173,8 +178,8 @@ Result<CorrectReport> correctFiles(const std::vector<std::string>& inputs, const
         std::size_t end = begin, hitEnd = hitBegin;
         while (end < rows.size() && rows[end].run == rows[begin].run) hitEnd += rows[end++].hitCount;
         if (hitEnd > blockHits->size()) {
-          return Error{fmt::format("{}: run {}: the rows count more hits than the file has", inputs.front(),
-                                   rows[begin].run)};
+          return Error{
+              fmt::format("{}: run {}: the rows count more hits than the file has", inputs.front(), rows[begin].run)};
         }
         if (Status s = select(rows[begin].run); !s) return s.error();
         const std::span<ParticleRow> stretch(rows.data() + begin, end - begin);
@@ -191,7 +196,9 @@ Result<CorrectReport> correctFiles(const std::vector<std::string>& inputs, const
         if (Status s = select(r.run); !s) return s.error();
         if (o.depthAt && r.beamEnergy != depthEnergy) {
           auto d = o.depthAt(r.beamEnergy);
-          if (!d) return Error{fmt::format("{}: run {} ({} MeV): {}", (*reader)->path(), r.run, r.beamEnergy, d.error().message)};
+          if (!d)
+            return Error{
+                fmt::format("{}: run {} ({} MeV): {}", (*reader)->path(), r.run, r.beamEnergy, d.error().message)};
           depth = *d;
           depthEnergy = r.beamEnergy;
         }

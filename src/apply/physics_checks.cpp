@@ -6,8 +6,8 @@
 #include <limits>
 #include <numeric>
 
-#include <Eigen/Dense>
 #include <fmt/format.h>
+#include <Eigen/Dense>
 
 #include "emcalign/core/statistics.hpp"
 #include "emcalign/geometry/track.hpp"
@@ -39,8 +39,9 @@ Status forEachEventPair(const std::vector<std::string>& before, const std::vecto
     auto moreB = (*b)->next(rb);
     if (!moreB) return moreB.error();
     if (*moreA != *moreB || ra.size() != rb.size()) {
-      return Error{"the corrected events are not the same events as the uncorrected ones (another file, or another "
-                   "order)"};
+      return Error{
+          "the corrected events are not the same events as the uncorrected ones (another file, or another "
+          "order)"};
     }
     if (!*moreA) return {};
     for (std::size_t i = 0; i < ra.size();) {
@@ -99,7 +100,7 @@ Json widthJson(const CoreWidth& w, const char* name) {
 
 double improvement(double before, double after) {
   return before > 0.0 && std::isfinite(before) && std::isfinite(after) ? 100.0 * (before - after) / before
-                                                                        : std::nan("");
+                                                                       : std::nan("");
 }
 
 }  // namespace
@@ -141,8 +142,8 @@ CoreWidth gaussianCore(std::span<const double> values) {
     for (double x : v) {
       if (x >= low && x < high) counts[static_cast<std::size_t>((x - low) / width)] += 1.0;
     }
-    double amplitude = std::accumulate(counts.begin(), counts.end(), 0.0) / 0.9545 * width /
-                       (sigma * std::sqrt(2.0 * M_PI));
+    double amplitude =
+        std::accumulate(counts.begin(), counts.end(), 0.0) / 0.9545 * width / (sigma * std::sqrt(2.0 * M_PI));
     for (int it = 0; it < 50; ++it) {
       Eigen::Vector3d gradient = Eigen::Vector3d::Zero();
       fisher.setZero();
@@ -175,37 +176,38 @@ CoreWidth gaussianCore(std::span<const double> values) {
 
 Result<GammaGammaCheck> checkGammaGamma(const std::vector<std::string>& before, const std::vector<std::string>& after) {
   GammaGammaCheck c;
-  c.cutFlow.names = {"events", "two photons, no track", "E > 0.7 E_beam", "|E1 - E2| < 150 MeV", "no muon veto",
-                     "36 < theta < 144 deg"};
+  c.cutFlow.names = {"events",       "two photons, no track", "E > 0.7 E_beam", "|E1 - E2| < 150 MeV",
+                     "no muon veto", "36 < theta < 144 deg"};
   c.cutFlow.events.assign(c.cutFlow.names.size(), 0);
-  Status s = forEachEventPair(before, after, [&](std::span<const ParticleRow> rows, std::span<const ParticleRow> corrected) {
-    auto& flow = c.cutFlow.events;
-    ++flow[0];
-    if (rows.size() != 2) return Status{};
-    for (const auto& r : rows) {
-      if (r.hasTrack() || r.charged != 0 || !r.hasCluster()) return Status{};
-    }
-    ++flow[1];
-    const double beam = rows[0].beamEnergy;
-    if (!(rows[0].energy > 0.7 * beam && rows[1].energy > 0.7 * beam)) return Status{};
-    ++flow[2];
-    if (!(std::abs(rows[0].energy - rows[1].energy) < 150.0 * units::MeV)) return Status{};
-    ++flow[3];
-    if (rows[0].muonVeto != 0) return Status{};
-    ++flow[4];
-    for (const auto& r : rows) {
-      if (!(r.thetaEmc > 36.0 * kDeg && r.thetaEmc < 144.0 * kDeg)) return Status{};
-    }
-    ++flow[5];
-    for (int k = 0; k < 2; ++k) {
-      const auto& ev = k == 0 ? rows : corrected;
-      double dphi = 0.0, dtheta = 0.0;
-      acollinearity(ev[0], ev[1], dphi, dtheta);
-      c.dphi[static_cast<std::size_t>(k)].push_back(dphi);
-      c.dtheta[static_cast<std::size_t>(k)].push_back(dtheta);
-    }
-    return Status{};
-  });
+  Status s =
+      forEachEventPair(before, after, [&](std::span<const ParticleRow> rows, std::span<const ParticleRow> corrected) {
+        auto& flow = c.cutFlow.events;
+        ++flow[0];
+        if (rows.size() != 2) return Status{};
+        for (const auto& r : rows) {
+          if (r.hasTrack() || r.charged != 0 || !r.hasCluster()) return Status{};
+        }
+        ++flow[1];
+        const double beam = rows[0].beamEnergy;
+        if (!(rows[0].energy > 0.7 * beam && rows[1].energy > 0.7 * beam)) return Status{};
+        ++flow[2];
+        if (!(std::abs(rows[0].energy - rows[1].energy) < 150.0 * units::MeV)) return Status{};
+        ++flow[3];
+        if (rows[0].muonVeto != 0) return Status{};
+        ++flow[4];
+        for (const auto& r : rows) {
+          if (!(r.thetaEmc > 36.0 * kDeg && r.thetaEmc < 144.0 * kDeg)) return Status{};
+        }
+        ++flow[5];
+        for (int k = 0; k < 2; ++k) {
+          const auto& ev = k == 0 ? rows : corrected;
+          double dphi = 0.0, dtheta = 0.0;
+          acollinearity(ev[0], ev[1], dphi, dtheta);
+          c.dphi[static_cast<std::size_t>(k)].push_back(dphi);
+          c.dtheta[static_cast<std::size_t>(k)].push_back(dtheta);
+        }
+        return Status{};
+      });
   if (!s) return s.error();
   return c;
 }
@@ -215,51 +217,58 @@ Result<ThreePionCheck> checkThreePion(const std::vector<std::string>& before, co
   ThreePionCheck c;
   geometry::ShowerDepth depth;  // at depthEnergy
   double depthEnergy = std::numeric_limits<double>::quiet_NaN();
-  c.cutFlow.names = {"events",         "two tracks, two photons", "36 < theta_tracks < 144 deg",
-                     "tracks not collinear in phi (> 10 deg)", "angle between tracks < 147 deg",
+  c.cutFlow.names = {"events",
+                     "two tracks, two photons",
+                     "36 < theta_tracks < 144 deg",
+                     "tracks not collinear in phi (> 10 deg)",
+                     "angle between tracks < 147 deg",
                      "E_gamma1 + E_gamma2 > 100 MeV"};
   c.cutFlow.events.assign(c.cutFlow.names.size(), 0);
-  Status s = forEachEventPair(before, after, [&](std::span<const ParticleRow> rows, std::span<const ParticleRow> corrected) {
-    auto& flow = c.cutFlow.events;
-    ++flow[0];
-    std::array<std::size_t, 2> tracks{}, photons{};
-    std::size_t nTracks = 0, nPhotons = 0;
-    for (std::size_t k = 0; k < rows.size(); ++k) {
-      if (rows[k].hasTrack()) {
-        if (nTracks < 2) tracks[nTracks] = k;
-        ++nTracks;
-      } else if (rows[k].hasCluster()) {
-        if (nPhotons < 2) photons[nPhotons] = k;
-        ++nPhotons;
-      }
-    }
-    if (nTracks != 2 || nPhotons != 2) return Status{};
-    ++flow[1];
-    const ParticleRow &t1 = rows[tracks[0]], &t2 = rows[tracks[1]];
-    for (const ParticleRow* t : {&t1, &t2}) {
-      if (!(t->thetaTs > 36.0 * kDeg && t->thetaTs < 144.0 * kDeg)) return Status{};
-    }
-    ++flow[2];
-    if (!(std::abs(180.0 - std::abs(t1.phiTs - t2.phiTs) / kDeg) > 10.0)) return Status{};
-    ++flow[3];
-    const double cosAngle = geometry::pointAt(1.0, t1.thetaTs, t1.phiTs).dot(geometry::pointAt(1.0, t2.thetaTs, t2.phiTs));
-    if (!(std::acos(std::clamp(cosAngle, -1.0, 1.0)) < 147.0 * kDeg)) return Status{};
-    ++flow[4];
-    if (!(rows[photons[0]].energy + rows[photons[1]].energy > 100.0 * units::MeV)) return Status{};
-    ++flow[5];
-    if (rows[0].beamEnergy != depthEnergy) {
-      auto d = depthAt(rows[0].beamEnergy);
-      if (!d) return Status{Error{fmt::format("run {} ({} MeV): {}", rows[0].run, rows[0].beamEnergy, d.error().message)}};
-      depth = *d;
-      depthEnergy = rows[0].beamEnergy;
-    }
-    for (int k = 0; k < 2; ++k) {
-      const auto& ev = k == 0 ? rows : corrected;
-      c.fits[static_cast<std::size_t>(k)].push_back(
-          fitThreePion(threePionEvent(ev, tracks, photons, depth, resolution)));
-    }
-    return Status{};
-  });
+  Status s =
+      forEachEventPair(before, after, [&](std::span<const ParticleRow> rows, std::span<const ParticleRow> corrected) {
+        auto& flow = c.cutFlow.events;
+        ++flow[0];
+        std::array<std::size_t, 2> tracks{}, photons{};
+        std::size_t nTracks = 0, nPhotons = 0;
+        for (std::size_t k = 0; k < rows.size(); ++k) {
+          if (rows[k].hasTrack()) {
+            if (nTracks < 2) tracks[nTracks] = k;
+            ++nTracks;
+          } else if (rows[k].hasCluster()) {
+            if (nPhotons < 2) photons[nPhotons] = k;
+            ++nPhotons;
+          }
+        }
+        if (nTracks != 2 || nPhotons != 2) return Status{};
+        ++flow[1];
+        const ParticleRow &t1 = rows[tracks[0]], &t2 = rows[tracks[1]];
+        for (const ParticleRow* t : {&t1, &t2}) {
+          if (!(t->thetaTs > 36.0 * kDeg && t->thetaTs < 144.0 * kDeg)) return Status{};
+        }
+        ++flow[2];
+        if (!(std::abs(180.0 - std::abs(t1.phiTs - t2.phiTs) / kDeg) > 10.0)) return Status{};
+        ++flow[3];
+        const double cosAngle =
+            geometry::pointAt(1.0, t1.thetaTs, t1.phiTs).dot(geometry::pointAt(1.0, t2.thetaTs, t2.phiTs));
+        if (!(std::acos(std::clamp(cosAngle, -1.0, 1.0)) < 147.0 * kDeg)) return Status{};
+        ++flow[4];
+        if (!(rows[photons[0]].energy + rows[photons[1]].energy > 100.0 * units::MeV)) return Status{};
+        ++flow[5];
+        if (rows[0].beamEnergy != depthEnergy) {
+          auto d = depthAt(rows[0].beamEnergy);
+          if (!d)
+            return Status{
+                Error{fmt::format("run {} ({} MeV): {}", rows[0].run, rows[0].beamEnergy, d.error().message)}};
+          depth = *d;
+          depthEnergy = rows[0].beamEnergy;
+        }
+        for (int k = 0; k < 2; ++k) {
+          const auto& ev = k == 0 ? rows : corrected;
+          c.fits[static_cast<std::size_t>(k)].push_back(
+              fitThreePion(threePionEvent(ev, tracks, photons, depth, resolution)));
+        }
+        return Status{};
+      });
   if (!s) return s.error();
   return c;
 }
@@ -304,7 +313,7 @@ Json checkJson(const ThreePionCheck& c) {
     }
     means[k] = chi2.empty() ? std::nan("") : std::accumulate(chi2.begin(), chi2.end(), 0.0) / chi2.size();
     medians[k] = median(chi2);
-      double truncated = 0.0;
+    double truncated = 0.0;
     std::int64_t inCore = 0;
     for (double x : chi2) {
       if (x < kChi2Tail) {
@@ -312,14 +321,16 @@ Json checkJson(const ThreePionCheck& c) {
         ++inCore;
       }
     }
-    sides[k] = {{"chi2_mean", io::numberOrNull(means[k])},
-                {"chi2_median", io::numberOrNull(medians[k])},
-                {"chi2_mean_below_20", io::numberOrNull(inCore > 0 ? truncated / static_cast<double>(inCore) : std::nan(""))},
-                {"fraction_above_20", io::numberOrNull(chi2.empty() ? std::nan("")
-                                                       : 1.0 - static_cast<double>(inCore) / static_cast<double>(chi2.size()))},
-                {"p_value_mean", io::numberOrNull(chi2.empty() ? std::nan("") : pSum / chi2.size())},
-                {"converged", chi2.size()},
-                {"not_converged", failed}};
+    sides[k] = {
+        {"chi2_mean", io::numberOrNull(means[k])},
+        {"chi2_median", io::numberOrNull(medians[k])},
+        {"chi2_mean_below_20", io::numberOrNull(inCore > 0 ? truncated / static_cast<double>(inCore) : std::nan(""))},
+        {"fraction_above_20",
+         io::numberOrNull(chi2.empty() ? std::nan("")
+                                       : 1.0 - static_cast<double>(inCore) / static_cast<double>(chi2.size()))},
+        {"p_value_mean", io::numberOrNull(chi2.empty() ? std::nan("") : pSum / chi2.size())},
+        {"converged", chi2.size()},
+        {"not_converged", failed}};
   }
   return {{"process", "3pi"},
           {"selected", c.fits[0].size()},
@@ -330,7 +341,8 @@ Json checkJson(const ThreePionCheck& c) {
           {"before", sides[0]},
           {"after", sides[1]},
           {"improvement_percent",
-           {{"chi2_mean", io::numberOrNull(improvement(means[0], means[1]))}, {"chi2_median", io::numberOrNull(improvement(medians[0], medians[1]))}}}};
+           {{"chi2_mean", io::numberOrNull(improvement(means[0], means[1]))},
+            {"chi2_median", io::numberOrNull(improvement(medians[0], medians[1]))}}}};
 }
 
 }  // namespace emcalign::apply

@@ -86,7 +86,8 @@ std::string placementsGdml(const Placements& p, const geometry::DetectorDescript
   std::string out =
       "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
       "<gdml xmlns:xsi=\"http://www.w3.org/2001/XMLSchema-instance\" "
-      "xsi:noNamespaceSchemaLocation=\"http://service-spi.web.cern.ch/service-spi/app/releases/GDML/schema/gdml.xsd\">\n";
+      "xsi:noNamespaceSchemaLocation=\"http://service-spi.web.cern.ch/service-spi/app/releases/GDML/schema/"
+      "gdml.xsd\">\n";
   out += fmt::format(
       "  <!-- emcalign {}: the four hemisphere placements of an alignment (docs/apply.md).\n"
       "       Each physvol places its shell with rotation M = Rz(z)*Ry(y)*Rx(x) of its angles as Geant4 reads\n"
@@ -95,16 +96,16 @@ std::string placementsGdml(const Placements& p, const geometry::DetectorDescript
       kVersion, io::alignmentToJson(p.alignment)["parameters"].dump());
   out += "  <define/>\n  <materials/>\n  <solids>\n";
   const double world = 4.0 * d.rp3() * kMmPerCm;
-  out += fmt::format("    <box name=\"world_box\" x=\"{:.17g}\" y=\"{:.17g}\" z=\"{:.17g}\" lunit=\"mm\"/>\n", world, world,
-                     world);
+  out += fmt::format("    <box name=\"world_box\" x=\"{:.17g}\" y=\"{:.17g}\" z=\"{:.17g}\" lunit=\"mm\"/>\n", world,
+                     world, world);
   const double radii[2][2] = {{d.r0(), d.r1()}, {d.layers[2].rInner, d.rp3()}};
   for (const Placement& q : p.placements) {
     const bool plus = q.hemisphere == Hemisphere::Plus;
     out += fmt::format(
         "    <sphere name=\"{}_solid\" rmin=\"{:.17g}\" rmax=\"{:.17g}\" startphi=\"{}\" deltaphi=\"180\" "
         "starttheta=\"{:.17g}\" deltatheta=\"{:.17g}\" aunit=\"deg\" lunit=\"mm\"/>\n",
-        q.name(), radii[q.support - 1][0] * kMmPerCm, radii[q.support - 1][1] * kMmPerCm, plus ? -90 : 90, d.thetaMin / deg,
-        (d.thetaMax - d.thetaMin) / deg);
+        q.name(), radii[q.support - 1][0] * kMmPerCm, radii[q.support - 1][1] * kMmPerCm, plus ? -90 : 90,
+        d.thetaMin / deg, (d.thetaMax - d.thetaMin) / deg);
   }
   out += "  </solids>\n  <structure>\n";
   for (const Placement& q : p.placements) {
@@ -124,8 +125,9 @@ std::string placementsGdml(const Placements& p, const geometry::DetectorDescript
         "      </physvol>\n",
         q.name(), t.x(), t.y(), t.z(), a.x(), a.y(), a.z());
   }
-  out += "    </volume>\n  </structure>\n  <setup name=\"Default\" version=\"1.0\">\n    <world ref=\"world\"/>\n"
-         "  </setup>\n</gdml>\n";
+  out +=
+      "    </volume>\n  </structure>\n  <setup name=\"Default\" version=\"1.0\">\n    <world ref=\"world\"/>\n"
+      "  </setup>\n</gdml>\n";
   return out;
 }
 
@@ -142,8 +144,8 @@ Result<Placements> readPlacements(const std::string& path, const geometry::Calor
   if (!isPlacementsJson(*j)) return Error{fmt::format("{}: key 'format': expected \"{}\"", path, kPlacementsFormat)};
   for (const auto& [key, value] : j->items()) {
     if (key != "format" && key != "software" && key != "convention" && key != "alignment" && key != "placements") {
-      return Error{fmt::format("{}: key '{}': unknown key (allowed: format, software, convention, alignment, placements)",
-                               path, key)};
+      return Error{fmt::format(
+          "{}: key '{}': unknown key (allowed: format, software, convention, alignment, placements)", path, key)};
     }
   }
   if (!j->contains("alignment")) return Error{fmt::format("{}: key 'alignment': missing", path)};
@@ -164,8 +166,8 @@ Result<Placements> readPlacements(const std::string& path, const geometry::Calor
     if (!q.is_object() || !q.contains("support") || !q.contains("hemisphere") || !q.contains("rotation") ||
         !q.contains("translation_cm") || !q["rotation"].is_array() || q["rotation"].size() != 3 ||
         !q["translation_cm"].is_array() || q["translation_cm"].size() != 3) {
-      return Error{fmt::format("{}: key '{}': expected support, hemisphere, rotation (3x3), translation_cm (3)", path,
-                               where)};
+      return Error{
+          fmt::format("{}: key '{}': expected support, hemisphere, rotation (3x3), translation_cm (3)", path, where)};
     }
     if (number(q["support"]) != e.support || number(q["hemisphere"]) != geometry::sign(e.hemisphere)) {
       return Error{fmt::format("{}: key '{}': expected support {} hemisphere {} (the order of the export)", path, where,
@@ -174,19 +176,21 @@ Result<Placements> readPlacements(const std::string& path, const geometry::Calor
     double worst = 0.0;
     for (int r = 0; r < 3; ++r) {
       const Json& row = q["rotation"][static_cast<std::size_t>(r)];
-      if (!row.is_array() || row.size() != 3) return Error{fmt::format("{}: key '{}.rotation': expected 3x3", path, where)};
+      if (!row.is_array() || row.size() != 3)
+        return Error{fmt::format("{}: key '{}.rotation': expected 3x3", path, where)};
       for (int c = 0; c < 3; ++c) {
         const double d = std::abs(number(row[static_cast<std::size_t>(c)]) - e.transform.rotation(r, c));
         worst = std::isnan(d) ? INFINITY : std::max(worst, d);
       }
-      const double d = std::abs(number(q["translation_cm"][static_cast<std::size_t>(r)]) * units::cm -
-                                e.transform.translation[r]);
+      const double d =
+          std::abs(number(q["translation_cm"][static_cast<std::size_t>(r)]) * units::cm - e.transform.translation[r]);
       worst = std::isnan(d) ? INFINITY : std::max(worst, d);
     }
     if (!(worst <= kTolerance)) {
-      return Error{fmt::format("{}: key '{}': the placement differs from the one its alignment gives (by {:.3g}): was "
-                               "it edited? Export the placements of the alignment you mean (emcalign export)",
-                               path, where, worst)};
+      return Error{
+          fmt::format("{}: key '{}': the placement differs from the one its alignment gives (by {:.3g}): was "
+                      "it edited? Export the placements of the alignment you mean (emcalign export)",
+                      path, where, worst)};
     }
   }
   return expected;

@@ -95,9 +95,9 @@ void ProfileFill::merge(const ProfileFill& other) {
 }
 
 Result<std::map<std::int32_t, ProfileFill>> fillProfilesByRun(const std::string& file,
-                                                               const geometry::DepthAtEnergy& depthAt,
-                                                               const SelectionOptions& selection,
-                                                               const ProfileOptions& profile) {
+                                                              const geometry::DepthAtEnergy& depthAt,
+                                                              const SelectionOptions& selection,
+                                                              const ProfileOptions& profile) {
   if (Status s = profile.validate(); !s) return s.error();
   auto reader = io::EventReader::open({file}, kProfileReading);
   if (!reader) return reader.error();
@@ -115,7 +115,8 @@ Result<std::map<std::int32_t, ProfileFill>> fillProfilesByRun(const std::string&
       if (it == fillers.end()) {
         const double energy = selection.beamEnergy.value_or(rows[i].beamEnergy);
         auto depth = depthAt(energy);
-        if (!depth) return Error{fmt::format("{}: run {} ({} MeV): {}", file, rows[i].run, energy, depth.error().message)};
+        if (!depth)
+          return Error{fmt::format("{}: run {} ({} MeV): {}", file, rows[i].run, energy, depth.error().message)};
         it = fillers.emplace(rows[i].run, ProfileFiller(*depth, selection, profile)).first;
       }
       it->second.addEvents(std::span<const ParticleRow>(rows).subspan(i, j - i));
@@ -129,7 +130,8 @@ Result<std::map<std::int32_t, ProfileFill>> fillProfilesByRun(const std::string&
 
 io::Json sigmaSysJson(const SigmaSysUsed& s) {
   using io::Json;
-  Json j = {{"method", std::string(name(s.method))}, {"value_deg", io::numberOrNull(s.value / units::deg)},
+  Json j = {{"method", std::string(name(s.method))},
+            {"value_deg", io::numberOrNull(s.value / units::deg)},
             {"event_pair_correlations", s.eventPairs}};
   if (s.method == SigmaSysMethod::Auto) {
     j["interval_deg"] = {io::numberOrNull(s.lower / units::deg), io::numberOrNull(s.upper / units::deg)};
@@ -141,8 +143,8 @@ io::Json sigmaSysJson(const SigmaSysUsed& s) {
 }
 
 io::Json fitResultJson(const FitResult& r, const FitInput& input) {
-  using io::Json;
   using geometry::AlignmentParameters;
+  using io::Json;
   Json j = io::alignmentToJson(r.parameters);
   Json errors = Json::object();
   for (Param p : kAllParams) {
@@ -170,8 +172,8 @@ io::Json fitResultJson(const FitResult& r, const FitInput& input) {
   Json derived = Json::object();
   for (const auto& [n, v] : r.derived) {
     const double unit = n == "dx_rel" ? units::cm : units::deg;
-    derived[n] = {{"value", v.value / unit}, {"error", io::numberOrNull(v.error / unit)},
-                  {"unit", n == "dx_rel" ? "cm" : "deg"}};
+    derived[n] = {
+        {"value", v.value / unit}, {"error", io::numberOrNull(v.error / unit)}, {"unit", n == "dx_rel" ? "cm" : "deg"}};
   }
   j["derived"] = derived;
   j["chi2"] = r.chi2;
@@ -191,13 +193,18 @@ io::Json fitResultJson(const FitResult& r, const FitInput& input) {
   j["status"] = std::string(name(r.status));
   j["warnings"] = r.warnings;
   j["sigma_sys"] = sigmaSysJson(r.sigmaSys);
-  Json in = {{"files", input.files}, {"from_profile", input.fromProfile}, {"detector", input.detector},
-             {"bins_used", r.binsUsed}, {"bins_left_out", r.binsLeftOut.size()}};
-  in["model_corrections"] = {{"depth_offset_cm", input.depthOffset / units::cm},
-                             {"parting_plane_response", input.partingPlane.empty() ? Json(nullptr) : Json(input.partingPlane)},
-                             {"nominal_profile", input.nominalProfile.empty() ? Json(nullptr) : Json(input.nominalProfile)},
-                             {"response", input.response.empty() ? Json(nullptr) : Json(input.response)}};
-  if (!input.correctionsInterpolation.is_null()) in["model_corrections"]["interpolation"] = input.correctionsInterpolation;
+  Json in = {{"files", input.files},
+             {"from_profile", input.fromProfile},
+             {"detector", input.detector},
+             {"bins_used", r.binsUsed},
+             {"bins_left_out", r.binsLeftOut.size()}};
+  in["model_corrections"] = {
+      {"depth_offset_cm", input.depthOffset / units::cm},
+      {"parting_plane_response", input.partingPlane.empty() ? Json(nullptr) : Json(input.partingPlane)},
+      {"nominal_profile", input.nominalProfile.empty() ? Json(nullptr) : Json(input.nominalProfile)},
+      {"response", input.response.empty() ? Json(nullptr) : Json(input.response)}};
+  if (!input.correctionsInterpolation.is_null())
+    in["model_corrections"]["interpolation"] = input.correctionsInterpolation;
   if (input.fill != nullptr) {
     Json flow = Json::object();
     for (std::size_t k = 0; k < CutFlow::kNames.size(); ++k) flow[CutFlow::kNames[k]] = input.fill->cutFlow.events[k];

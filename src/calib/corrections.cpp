@@ -27,9 +27,10 @@ Result<PartingPlaneResponse> PartingPlaneResponse::create(std::vector<double> pl
       return Error{fmt::format("parting-plane response: column {}: a weight must lie in [0, 1], got {}", k, w)};
     }
     if (!nextToPlane(k, n) && w != hardWeight(k, n)) {
-      return Error{fmt::format("parting-plane response: column {} is away from the plane and must keep its hard "
-                               "weight {}, got {}",
-                               k, hardWeight(k, n), w)};
+      return Error{
+          fmt::format("parting-plane response: column {} is away from the plane and must keep its hard "
+                      "weight {}, got {}",
+                      k, hardWeight(k, n), w)};
     }
   }
   PartingPlaneResponse r;
@@ -55,7 +56,8 @@ Status NominalProfile::validate() const {
   }
   for (std::size_t k = 0; k < n; ++k) {
     const bool missing = std::isnan(yPhi[k]);
-    if (missing != std::isnan(yTheta[k]) || missing != std::isnan(sigmaPhi[k]) || missing != std::isnan(sigmaTheta[k])) {
+    if (missing != std::isnan(yTheta[k]) || missing != std::isnan(sigmaPhi[k]) ||
+        missing != std::isnan(sigmaTheta[k])) {
       return Error{fmt::format("nominal profile: bin {}: either all four values or none", k)};
     }
     if (!missing && (!std::isfinite(yPhi[k]) || !std::isfinite(yTheta[k]) || !(sigmaPhi[k] >= 0.0) ||
@@ -112,14 +114,13 @@ Result<ResponseMatrix> readMatrix(const Json& m, std::string_view key) {
 }
 
 Result<FitResponse> parseResponse(const Json& p, std::string_view source) {
-  const auto fail = [&](const std::string& what) {
-    return Error{fmt::format("{}: key 'response': {}", source, what)};
-  };
+  const auto fail = [&](const std::string& what) { return Error{fmt::format("{}: key 'response': {}", source, what)}; };
   const bool gap = p.is_object() && p.contains("gap_matrix");
   if (!p.is_object() || p.size() != (gap ? 4u : 3u) || !p.contains("parameters") || !p.contains("matrix") ||
       !p.contains("offset")) {
-    return fail("expected {\"parameters\": [the 12 names], \"matrix\": 12 rows of 12 numbers, \"offset\": 12 numbers, "
-                "optionally \"gap_matrix\": 12 rows of 12 numbers}");
+    return fail(
+        "expected {\"parameters\": [the 12 names], \"matrix\": 12 rows of 12 numbers, \"offset\": 12 numbers, "
+        "optionally \"gap_matrix\": 12 rows of 12 numbers}");
   }
   if (p["parameters"] != parameterNamesJson()) {
     return fail(fmt::format("'parameters' must be [{}]", fmt::join(kParamNames, ", ")));
@@ -147,10 +148,11 @@ Result<FitResponse> parseResponse(const Json& p, std::string_view source) {
 Json responseJson(const FitResponse& response) {
   Json offset = Json::array();
   for (std::size_t j = 0; j < kNumParams; ++j) {
-    offset.push_back(response.offset[static_cast<Eigen::Index>(j)] / geometry::AlignmentParameters::fileUnit(kAllParams[j]));
+    offset.push_back(response.offset[static_cast<Eigen::Index>(j)] /
+                     geometry::AlignmentParameters::fileUnit(kAllParams[j]));
   }
-  Json out = {{"parameters", parameterNamesJson()}, {"matrix", matrixJson(inUnits(response.matrix, true))},
-              {"offset", offset}};
+  Json out = {
+      {"parameters", parameterNamesJson()}, {"matrix", matrixJson(inUnits(response.matrix, true))}, {"offset", offset}};
   if (!response.gapMatrix.isZero(0.0)) out["gap_matrix"] = matrixJson(inUnits(response.gapMatrix, true));
   return out;
 }
@@ -166,8 +168,9 @@ Status FitResponse::validate() const {
     for (std::size_t k = 0; k < kNumParams; ++k) {
       const double g = gapFile(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k));
       if (std::abs(g) > 1.0) {
-        return Error{fmt::format("the response's gap term of {} in {} is {:.4g} per cm of dx_rel: beyond the plausible 1",
-                                 kParamNames[j], kParamNames[k], g)};
+        return Error{
+            fmt::format("the response's gap term of {} in {} is {:.4g} per cm of dx_rel: beyond the plausible 1",
+                        kParamNames[j], kParamNames[k], g)};
       }
     }
   }
@@ -182,16 +185,17 @@ Status FitResponse::validate() const {
   for (std::size_t k = 0; k < kNumParams; ++k) {
     const double d = file(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(k));
     if (!(d >= 0.5 && d <= 1.5)) {
-      return Error{fmt::format("the response of {} to itself is {:.4g}: a fit that far from its truth is not a "
-                               "correction (0.5 to 1.5 expected)",
-                               kParamNames[k], d)};
+      return Error{
+          fmt::format("the response of {} to itself is {:.4g}: a fit that far from its truth is not a "
+                      "correction (0.5 to 1.5 expected)",
+                      kParamNames[k], d)};
     }
   }
   const Eigen::JacobiSVD<ResponseMatrix> svd(file);
   const double condition = svd.singularValues()(0) / svd.singularValues()(kNumParams - 1);
   if (!(condition < 100.0)) {
-    return Error{fmt::format("the response matrix is nearly singular (condition number {:.3g} in deg and cm)",
-                             condition)};
+    return Error{
+        fmt::format("the response matrix is nearly singular (condition number {:.3g} in deg and cm)", condition)};
   }
   return {};
 }
@@ -201,9 +205,10 @@ Result<ModelCorrections> parseCorrections(const Json& j, std::string_view source
   for (const auto& [key, value] : j.items()) {
     if (key != "format" && key != "beam_energy_mev" && key != "depth_offset_cm" && key != "parting_plane" &&
         key != "nominal_profile" && key != "response" && key != "derived_from") {
-      return Error{fmt::format("{}: key '{}': unknown key (allowed: format, beam_energy_mev, depth_offset_cm, "
-                               "parting_plane, nominal_profile, response, derived_from)",
-                               source, key)};
+      return Error{
+          fmt::format("{}: key '{}': unknown key (allowed: format, beam_energy_mev, depth_offset_cm, "
+                      "parting_plane, nominal_profile, response, derived_from)",
+                      source, key)};
     }
   }
   if (!j.contains("format") || j["format"] != kCorrectionsFormat) {
@@ -224,17 +229,21 @@ Result<ModelCorrections> parseCorrections(const Json& j, std::string_view source
   }
   c.depthOffset = j["depth_offset_cm"].get<double>() * units::cm;
   if (std::abs(c.depthOffset) > kMaxDepthOffset) {
-    return Error{fmt::format("{}: key 'depth_offset_cm': {:.6g} cm is beyond the plausible ±{} cm (the offset is in cm: "
-                             "given in mm?)",
-                             source, c.depthOffset / units::cm, kMaxDepthOffset / units::cm)};
+    return Error{
+        fmt::format("{}: key 'depth_offset_cm': {:.6g} cm is beyond the plausible ±{} cm (the offset is in cm: "
+                    "given in mm?)",
+                    source, c.depthOffset / units::cm, kMaxDepthOffset / units::cm)};
   }
   if (j.contains("parting_plane")) {
     const Json& p = j["parting_plane"];
     if (!p.is_object() || p.size() != 2 || !p.contains("phi_bins") || !p.contains("plus_weight")) {
-      return Error{fmt::format("{}: key 'parting_plane': expected {{\"phi_bins\": 16, \"plus_weight\": [...]}}", source)};
+      return Error{
+          fmt::format("{}: key 'parting_plane': expected {{\"phi_bins\": 16, \"plus_weight\": [...]}}", source)};
     }
     auto bins = io::integerIn(p["phi_bins"], kProfilePhiBins, kProfilePhiBins, source, "parting_plane.phi_bins");
-    if (!bins) return Error{fmt::format("{} (the response belongs to the {} phi bins of the profiles)", bins.error().message, kProfilePhiBins)};
+    if (!bins)
+      return Error{fmt::format("{} (the response belongs to the {} phi bins of the profiles)", bins.error().message,
+                               kProfilePhiBins)};
     if (!p["plus_weight"].is_array() || p["plus_weight"].size() != static_cast<std::size_t>(*bins)) {
       return Error{fmt::format("{}: key 'parting_plane.plus_weight': expected {} numbers", source, *bins)};
     }
@@ -251,7 +260,8 @@ Result<ModelCorrections> parseCorrections(const Json& j, std::string_view source
     const Json& p = j["nominal_profile"];
     static constexpr const char* kKeys[] = {"phi_bins", "theta_bins", "y_phi", "sigma_phi", "y_theta", "sigma_theta"};
     if (!p.is_object() || p.size() != 6) {
-      return Error{fmt::format("{}: key 'nominal_profile': expected an object with {}", source, fmt::join(kKeys, ", "))};
+      return Error{
+          fmt::format("{}: key 'nominal_profile': expected an object with {}", source, fmt::join(kKeys, ", "))};
     }
     for (const char* key : kKeys) {
       if (!p.contains(key)) return Error{fmt::format("{}: key 'nominal_profile.{}': missing", source, key)};
@@ -282,7 +292,8 @@ Result<ModelCorrections> parseCorrections(const Json& j, std::string_view source
         }
       }
     }
-    if (Status st = t.validate(); !st) return Error{fmt::format("{}: key 'nominal_profile': {}", source, st.error().message)};
+    if (Status st = t.validate(); !st)
+      return Error{fmt::format("{}: key 'nominal_profile': {}", source, st.error().message)};
     c.nominalProfile = std::make_shared<const NominalProfile>(std::move(t));
   }
   if (j.contains("response")) {
@@ -316,9 +327,9 @@ Json correctionsJson(const ModelCorrections& c) {
       for (double x : v) a.push_back(std::isnan(x) ? Json(nullptr) : Json(x));
       return a;
     };
-    j["nominal_profile"] = {{"phi_bins", t.phiBins},         {"theta_bins", t.thetaBins},
-                            {"y_phi", array(t.yPhi)},        {"sigma_phi", array(t.sigmaPhi)},
-                            {"y_theta", array(t.yTheta)},    {"sigma_theta", array(t.sigmaTheta)}};
+    j["nominal_profile"] = {{"phi_bins", t.phiBins},      {"theta_bins", t.thetaBins},
+                            {"y_phi", array(t.yPhi)},     {"sigma_phi", array(t.sigmaPhi)},
+                            {"y_theta", array(t.yTheta)}, {"sigma_theta", array(t.sigmaTheta)}};
   }
   if (c.response) j["response"] = responseJson(*c.response);
   if (!c.derivedFrom.empty()) j["derived_from"] = c.derivedFrom;

@@ -62,18 +62,20 @@ std::string describe(const Pieces& p) {
 Status sameDerivation(const CorrectionsPoint& a, const CorrectionsPoint& b) {
   const Pieces pa = piecesOf(a.corrections), pb = piecesOf(b.corrections);
   if (pa != pb) {
-    return Error{fmt::format("{} ({}) and {} ({}) do not have the same corrections: a grid interpolates between "
-                             "files derived alike",
-                             a.file, describe(pa), b.file, describe(pb))};
+    return Error{
+        fmt::format("{} ({}) and {} ({}) do not have the same corrections: a grid interpolates between "
+                    "files derived alike",
+                    a.file, describe(pa), b.file, describe(pb))};
   }
   const Json& sa = a.corrections.derivedFrom.is_object() ? a.corrections.derivedFrom.value("settings", Json()) : Json();
   const Json& sb = b.corrections.derivedFrom.is_object() ? b.corrections.derivedFrom.value("settings", Json()) : Json();
   if (!sa.is_object() || !sb.is_object()) return {};
   for (const char* key : {"theta_range_deg", "detector", "ideal", "off", "shift_cm", "gap_cm"}) {
     if (sa.contains(key) && sb.contains(key) && sa[key] != sb[key]) {
-      return Error{fmt::format("{} and {} were derived with different {} ({} and {}): a grid interpolates between "
-                               "files derived alike",
-                               a.file, b.file, key, sa[key].dump(), sb[key].dump())};
+      return Error{
+          fmt::format("{} and {} were derived with different {} ({} and {}): a grid interpolates between "
+                      "files derived alike",
+                      a.file, b.file, key, sa[key].dump(), sb[key].dump())};
     }
   }
   return {};
@@ -81,9 +83,10 @@ Status sameDerivation(const CorrectionsPoint& a, const CorrectionsPoint& b) {
 
 // The warning of a single file used away from its own energy, for events at lo to hi MeV.
 std::string awayFromItsEnergy(const std::string& path, double own, double lo, double hi) {
-  return fmt::format("{} was derived at {} MeV and is applied to events at {}{} MeV: derive the corrections at this "
-                     "energy, or give a grid of them (a directory; docs/validation.md)",
-                     path, own / units::MeV, lo / units::MeV, hi > lo ? fmt::format(" to {}", hi / units::MeV) : "");
+  return fmt::format(
+      "{} was derived at {} MeV and is applied to events at {}{} MeV: derive the corrections at this "
+      "energy, or give a grid of them (a directory; docs/validation.md)",
+      path, own / units::MeV, lo / units::MeV, hi > lo ? fmt::format(" to {}", hi / units::MeV) : "");
 }
 
 std::vector<double> mix(const std::vector<double>& a, const std::vector<double>& b, double w) {
@@ -116,8 +119,12 @@ Result<ModelCorrections> interpolateCorrections(const ModelCorrections& a, const
     if (x.phiBins != y.phiBins || x.thetaBins != y.thetaBins) {
       return Error{"cannot interpolate between nominal profiles of different bins"};
     }
-    NominalProfile t{x.phiBins, x.thetaBins, mix(x.yPhi, y.yPhi, w), mix(x.sigmaPhi, y.sigmaPhi, w),
-                     mix(x.yTheta, y.yTheta, w), mix(x.sigmaTheta, y.sigmaTheta, w)};
+    NominalProfile t{x.phiBins,
+                     x.thetaBins,
+                     mix(x.yPhi, y.yPhi, w),
+                     mix(x.sigmaPhi, y.sigmaPhi, w),
+                     mix(x.yTheta, y.yTheta, w),
+                     mix(x.sigmaTheta, y.sigmaTheta, w)};
     if (Status s = t.validate(); !s) return s.error();
     c.nominalProfile = std::make_shared<const NominalProfile>(std::move(t));
   }
@@ -140,9 +147,10 @@ Result<CorrectionsGrid> CorrectionsGrid::of(std::vector<CorrectionsPoint> points
   if (g.grid_) {
     for (const auto& p : points) {
       if (std::isnan(p.corrections.beamEnergy)) {
-        return Error{fmt::format("{}: key 'beam_energy_mev': missing; every file of a grid says its beam energy "
-                                 "(derive it again, or add the energy it was derived at)",
-                                 p.file)};
+        return Error{
+            fmt::format("{}: key 'beam_energy_mev': missing; every file of a grid says its beam energy "
+                        "(derive it again, or add the energy it was derived at)",
+                        p.file)};
       }
     }
     std::sort(points.begin(), points.end(), [](const CorrectionsPoint& a, const CorrectionsPoint& b) {
@@ -176,9 +184,10 @@ Result<CorrectionsGrid> CorrectionsGrid::read(const std::string& path) {
   auto digest = directoryDigest(path, *files);
   if (!digest) return digest.error();
   if (files->size() < 2) {
-    return Error{fmt::format("{}: a grid needs corrections at two beam energies at least, found {} (give a single "
-                             "file as --corrections FILE)",
-                             path, files->size())};
+    return Error{
+        fmt::format("{}: a grid needs corrections at two beam energies at least, found {} (give a single "
+                    "file as --corrections FILE)",
+                    path, files->size())};
   }
   std::vector<CorrectionsPoint> points;
   for (const auto& f : *files) {
@@ -194,11 +203,11 @@ Result<CorrectionsGrid> CorrectionsGrid::read(const std::string& path) {
 Result<std::pair<std::size_t, double>> CorrectionsGrid::around(double beamEnergy) const {
   const double first = points_.front().corrections.beamEnergy, last = points_.back().corrections.beamEnergy;
   if (!(beamEnergy >= first && beamEnergy <= last)) {
-    return Error{fmt::format("beam energy {} MeV is outside the corrections grid {} ({} to {} MeV): the corrections "
-                             "are not extrapolated; derive a point beyond it (emcalign derive-corrections "
-                             "--beam-energy E -o {}/{})",
-                             beamEnergy / units::MeV, path_, first / units::MeV, last / units::MeV, path_,
-                             gridPointName(std::nan("")))};
+    return Error{fmt::format(
+        "beam energy {} MeV is outside the corrections grid {} ({} to {} MeV): the corrections "
+        "are not extrapolated; derive a point beyond it (emcalign derive-corrections "
+        "--beam-energy E -o {}/{})",
+        beamEnergy / units::MeV, path_, first / units::MeV, last / units::MeV, path_, gridPointName(std::nan("")))};
   }
   std::size_t k = 1;
   while (k + 1 < points_.size() && points_[k].corrections.beamEnergy < beamEnergy) ++k;
@@ -283,11 +292,12 @@ Result<std::string> checkSampleEnergies(const CorrectionsAt& c, const std::set<d
   if (!grid) {
     return awayFromItsEnergy(c.path, own, lo, hi);
   }
-  return Error{fmt::format("the selected events have {} beam energies ({} to {} MeV), but the corrections of the grid "
-                           "{} were interpolated to one ({} MeV): fit each energy apart, or calibrate the runs with "
-                           "emcalign campaign (each group at its own energy)",
-                           energies.size(), lo / units::MeV, hi / units::MeV,
-                           c.interpolation.value("directory", std::string()), c.beamEnergy / units::MeV)};
+  return Error{
+      fmt::format("the selected events have {} beam energies ({} to {} MeV), but the corrections of the grid "
+                  "{} were interpolated to one ({} MeV): fit each energy apart, or calibrate the runs with "
+                  "emcalign campaign (each group at its own energy)",
+                  energies.size(), lo / units::MeV, hi / units::MeV, c.interpolation.value("directory", std::string()),
+                  c.beamEnergy / units::MeV)};
 }
 
 Result<std::string> correctionsDigest(const std::string& path) {

@@ -75,8 +75,8 @@ std::array<T, 5> derivedOf(const T* eta, double r1) {
   const T dxRel = (dp1 + dp2 + dp3) / 6.0;
   const T u = (2.0 * dp1 - dp2 - dp3) / 3.0;
   const T t = (dp3 - dp2) / (2.0 * std::numbers::sqrt3);
-  return {asin(sqrt(b1 * b1 + b2 * b2)), atan2(b2, b1), asin(sqrt(4.0 * t * t + u * u) / (2.0 * r1)),
-          atan2(2.0 * t, u), dxRel};
+  return {asin(sqrt(b1 * b1 + b2 * b2)), atan2(b2, b1), asin(sqrt(4.0 * t * t + u * u) / (2.0 * r1)), atan2(2.0 * t, u),
+          dxRel};
 }
 
 std::string paramList(const std::vector<Param>& ps) {
@@ -213,17 +213,19 @@ Result<FitResult> fitProfiles(const std::vector<ProfileBin>& bins, const FitGeom
     // The model places a bin's showers at R(E, θ): outside the calorimeter it is meaningless
     // (an energy of 1e-300 MeV, or a depth offset of metres).
     if (!(p.radius > 0.0 && p.radius < 2.0 * g.radii.rp3) || !std::isfinite(p.phi) || !std::isfinite(p.theta)) {
-      return Error{fmt::format("profile bin ({}, {}): the shower depth R(E, theta) = {:.4g} cm at its mean energy "
-                               "{:.4g} MeV lies outside the calorimeter (0 to {:.4g} cm): not a plausible bin (energy "
-                               "in MeV? depth offset in cm?)",
-                               bins[i].iPhi, bins[i].iTheta, p.radius, bins[i].energyMean, 2.0 * g.radii.rp3)};
+      return Error{
+          fmt::format("profile bin ({}, {}): the shower depth R(E, theta) = {:.4g} cm at its mean energy "
+                      "{:.4g} MeV lies outside the calorimeter (0 to {:.4g} cm): not a plausible bin (energy "
+                      "in MeV? depth offset in cm?)",
+                      bins[i].iPhi, bins[i].iTheta, p.radius, bins[i].energyMean, 2.0 * g.radii.rp3)};
     }
   }
   result.binsUsed = static_cast<int>(points.size());
   if (2 * result.binsUsed <= kN) {
-    return Error{fmt::format("only {} profile bins have at least 10 entries: the 12 parameters need at least 7 "
-                             "(are there selected e+e- -> e+e- events at 45-135 deg?)",
-                             result.binsUsed)};
+    return Error{
+        fmt::format("only {} profile bins have at least 10 entries: the 12 parameters need at least 7 "
+                    "(are there selected e+e- -> e+e- events at 45-135 deg?)",
+                    result.binsUsed)};
   }
 
   geometry::ParamVector eta = geometry::ParamVector::Zero();
@@ -271,13 +273,14 @@ Result<FitResult> fitProfiles(const std::vector<ProfileBin>& bins, const FitGeom
   result.chi2 = result.stages.back().chi2;
   if (!(result.chi2 >= 0.0)) result.chi2 = std::numeric_limits<double>::quiet_NaN();  // never evaluated
   result.ndf = 2 * result.binsUsed - kN;
-  result.pValue = std::isfinite(result.chi2) ? chi2PValue(result.chi2, result.ndf) : std::numeric_limits<double>::quiet_NaN();
+  result.pValue =
+      std::isfinite(result.chi2) ? chi2PValue(result.chi2, result.ndf) : std::numeric_limits<double>::quiet_NaN();
   result.status = allConverged ? FitStatus::Converged : FitStatus::NotConverged;
   if (!allConverged) {
     for (std::size_t k = 0; k < result.stages.size(); ++k) {
       if (!result.stages[k].converged) {
-        result.warnings.push_back(fmt::format("stage {} ({}) did not converge: {}", k + 1,
-                                              paramList(options.stages[k]), result.stages[k].termination));
+        result.warnings.push_back(fmt::format("stage {} ({}) did not converge: {}", k + 1, paramList(options.stages[k]),
+                                              result.stages[k].termination));
       }
     }
   }
@@ -299,17 +302,21 @@ Result<FitResult> fitProfiles(const std::vector<ProfileBin>& bins, const FitGeom
     const Eigen::Matrix<double, kN, 1> weak = eig.eigenvectors().col(0);
     std::string combo;
     for (int k = 0; k < kN; ++k) {
-      if (std::abs(weak[k]) > 0.1) combo += fmt::format("{}{:+.2f}·{}", combo.empty() ? "" : " ", weak[k], kParamNames[static_cast<std::size_t>(k)]);
+      if (std::abs(weak[k]) > 0.1)
+        combo +=
+            fmt::format("{}{:+.2f}·{}", combo.empty() ? "" : " ", weak[k], kParamNames[static_cast<std::size_t>(k)]);
     }
     result.weakCombination = combo;
     singular = ev[0] < options.singularEigenvalue * ev[kN - 1];
     if (!singular) {
-      const Covariance inverseScaled = eig.eigenvectors() * ev.cwiseInverse().asDiagonal() * eig.eigenvectors().transpose();
+      const Covariance inverseScaled =
+          eig.eigenvectors() * ev.cwiseInverse().asDiagonal() * eig.eigenvectors().transpose();
       covariance = d.asDiagonal() * inverseScaled * d.asDiagonal();
       if (ev[kN - 1] / ev[0] > options.conditionWarning) {
         result.warnings.push_back(fmt::format(
             "the covariance is ill-conditioned (condition number {:.3g} of the correlation-scaled matrix); the weak "
-            "combination is {}", ev[kN - 1] / ev[0], combo));
+            "combination is {}",
+            ev[kN - 1] / ev[0], combo));
       }
     }
   }
@@ -338,10 +345,10 @@ Result<FitResult> fitProfiles(const std::vector<ProfileBin>& bins, const FitGeom
   for (Param p : {Param::Dp1, Param::Dp2, Param::Dp3}) {
     const double v = result.parameters[p], e = result.errors[static_cast<Eigen::Index>(index(p))];
     if (v < 0.0 && (!std::isfinite(e) || v < -e)) {
-      result.warnings.push_back(fmt::format(
-          "{} = {:.4f} ± {:.4f} cm is negative beyond its error: the hemispheres overlap (a calibration or "
-          "reconstruction problem to deal with before using these parameters)",
-          name(p), v, e));
+      result.warnings.push_back(
+          fmt::format("{} = {:.4f} ± {:.4f} cm is negative beyond its error: the hemispheres overlap (a calibration or "
+                      "reconstruction problem to deal with before using these parameters)",
+                      name(p), v, e));
     }
   }
   if (!result.binsLeftOut.empty()) {

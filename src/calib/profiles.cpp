@@ -3,12 +3,12 @@
 #include <algorithm>
 #include <cerrno>
 #include <charconv>
-#include <cstring>
-#include <optional>
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <limits>
 #include <numbers>
+#include <optional>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -47,8 +47,8 @@ int Profiles::binOf(const ParticleResidual& p) const {
   if (!(p.phiEmc >= 0.0 && p.phiEmc < 2.0 * std::numbers::pi)) return -1;
   if (!(p.thetaEmc >= o.thetaMin && p.thetaEmc < o.thetaMax)) return -1;
   const int iPhi = std::min(o.phiBins - 1, static_cast<int>(p.phiEmc / (2.0 * std::numbers::pi) * o.phiBins));
-  const int iTheta = std::min(o.thetaBins - 1,
-                              static_cast<int>((p.thetaEmc - o.thetaMin) / (o.thetaMax - o.thetaMin) * o.thetaBins));
+  const int iTheta =
+      std::min(o.thetaBins - 1, static_cast<int>((p.thetaEmc - o.thetaMin) / (o.thetaMax - o.thetaMin) * o.thetaBins));
   return iPhi * o.thetaBins + iTheta;
 }
 
@@ -223,11 +223,13 @@ std::string number(double v) { return std::isfinite(v) ? fmt::format("{:.17g}", 
 }  // namespace
 
 std::string profileCsv(const std::vector<ProfileBin>& bins) {
-  const bool weights = std::any_of(bins.begin(), bins.end(), [](const ProfileBin& b) { return !std::isnan(b.plusWeight); });
+  const bool weights =
+      std::any_of(bins.begin(), bins.end(), [](const ProfileBin& b) { return !std::isnan(b.plusWeight); });
   std::string out = std::string(kHeader) + (weights ? ",plus_weight\n" : "\n");
   for (const auto& b : bins) {
-    out += fmt::format("{},{},{},{},{},{},{},{},{},{}", b.iPhi, b.iTheta, b.n, number(b.phiMean), number(b.thetaMean),
-                       number(b.energyMean), number(b.yPhi), number(b.sigmaPhi), number(b.yTheta), number(b.sigmaTheta));
+    out +=
+        fmt::format("{},{},{},{},{},{},{},{},{},{}", b.iPhi, b.iTheta, b.n, number(b.phiMean), number(b.thetaMean),
+                    number(b.energyMean), number(b.yPhi), number(b.sigmaPhi), number(b.yTheta), number(b.sigmaTheta));
     out += weights ? fmt::format(",{}\n", number(b.plusWeight)) : "\n";
   }
   return out;
@@ -249,8 +251,8 @@ Result<std::vector<ProfileBin>> readProfileCsv(const std::string& path, const Pr
   if (Status s = options.validate(); !s) return s.error();
   std::ifstream in(path, std::ios::binary);
   if (!in) return Error{fmt::format("{}: cannot open: {}", path, std::strerror(errno))};
-  static const char* kColumns[] = {"i_phi", "i_theta", "n", "phi_mean_rad", "theta_mean_rad", "e_mean_mev",
-                                   "y_phi", "sigma_phi", "y_theta", "sigma_theta", "plus_weight"};
+  static const char* kColumns[] = {"i_phi", "i_theta",   "n",       "phi_mean_rad", "theta_mean_rad", "e_mean_mev",
+                                   "y_phi", "sigma_phi", "y_theta", "sigma_theta",  "plus_weight"};
   enum { kIPhi, kITheta, kN, kPhiMean, kThetaMean, kEMean, kYPhi, kSigmaPhi, kYTheta, kSigmaTheta, kPlusWeight };
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const double pi = std::numbers::pi;
@@ -264,8 +266,8 @@ Result<std::vector<ProfileBin>> readProfileCsv(const std::string& path, const Pr
   while (std::getline(in, line)) {
     ++lineNo;
     if (in.eof() && !line.empty()) {
-      return Error{fmt::format("{}: line {}: the file ends inside this line (no newline at its end): truncated?", path,
-                               lineNo)};
+      return Error{
+          fmt::format("{}: line {}: the file ends inside this line (no newline at its end): truncated?", path, lineNo)};
     }
     if (io::isBlankOrComment(line)) continue;
     const auto f = io::splitCsvLine(line);
@@ -286,7 +288,9 @@ Result<std::vector<ProfileBin>> readProfileCsv(const std::string& path, const Pr
     }
     ProfileBin b;
     const auto iPhi = profileInteger(f[kIPhi], 0, options.phiBins - 1);
-    if (!iPhi) return Error{fmt::format("{}: {} is not a bin index 0 to {}", where(kIPhi), io::quoted(f[kIPhi]), options.phiBins - 1)};
+    if (!iPhi)
+      return Error{
+          fmt::format("{}: {} is not a bin index 0 to {}", where(kIPhi), io::quoted(f[kIPhi]), options.phiBins - 1)};
     const auto iTheta = profileInteger(f[kITheta], 0, options.thetaBins - 1);
     if (!iTheta) {
       return Error{fmt::format("{}: {} is not a bin index 0 to {}", where(kITheta), io::quoted(f[kITheta]),
@@ -344,7 +348,8 @@ Result<std::vector<ProfileBin>> readProfileCsv(const std::string& path, const Pr
       return bad(kEMean, "is not a plausible cluster energy (1 to 100000 MeV; energies are in MeV)");
     }
     if (!std::isnan(v[kYPhi]) && !(std::abs(v[kYPhi]) <= 1.0)) return bad(kYPhi, "is not a sine (|y_phi| <= 1)");
-    if (!std::isnan(v[kYTheta]) && !(std::abs(v[kYTheta]) <= pi)) return bad(kYTheta, "is not an angle (|y_theta| <= pi)");
+    if (!std::isnan(v[kYTheta]) && !(std::abs(v[kYTheta]) <= pi))
+      return bad(kYTheta, "is not an angle (|y_theta| <= pi)");
     for (int c : {kSigmaPhi, kSigmaTheta}) {
       if (!std::isnan(v[c]) && !(v[c] > 0.0 && v[c] <= pi)) return bad(c, "is not a plausible sigma (0 < sigma <= pi)");
     }
@@ -366,9 +371,10 @@ Result<std::vector<ProfileBin>> readProfileCsv(const std::string& path, const Pr
   if (out.size() != static_cast<std::size_t>(bins)) {
     for (int i = 0; i < bins; ++i) {
       if (lineOfBin[static_cast<std::size_t>(i)] == 0) {
-        return Error{fmt::format("{}: {} of the {} bins are given; bin ({}, {}) is missing (a profile lists every bin, "
-                                 "also the empty ones)",
-                                 path, out.size(), bins, i / options.thetaBins, i % options.thetaBins)};
+        return Error{
+            fmt::format("{}: {} of the {} bins are given; bin ({}, {}) is missing (a profile lists every bin, "
+                        "also the empty ones)",
+                        path, out.size(), bins, i / options.thetaBins, i % options.thetaBins)};
       }
     }
   }

@@ -13,8 +13,8 @@ std::string_view name(TagState s) { return s == TagState::Open ? "open" : "locke
 Status checkTagName(std::string_view tag) {
   if (tag.empty() || tag.size() > 100) return Error{fmt::format("tag '{}': a name has 1 to 100 characters", tag)};
   for (char c : tag) {
-    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
-                    c == '-' || c == '.';
+    const bool ok =
+        (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-' || c == '.';
     if (!ok) return Error{fmt::format("tag '{}': a name is made of letters, digits, '_', '-' and '.'", tag)};
   }
   return {};

@@ -84,9 +84,10 @@ class SqlDatabase final : public Database {
     auto has = db_->hasSchema();
     if (!has) return has.error();
     if (!*has) {
-      return Error{fmt::format("{}: not an emcalign conditions database (no emcalign tables; create one with: emcalign "
-                               "conditions init {})",
-                               db_->uri(), db_->uri())};
+      return Error{
+          fmt::format("{}: not an emcalign conditions database (no emcalign tables; create one with: emcalign "
+                      "conditions init {})",
+                      db_->uri(), db_->uri())};
     }
     auto version = db_->query("SELECT value FROM emcalign_meta WHERE key = 'schema_version'");
     if (!version) return version.error();
@@ -121,15 +122,15 @@ class SqlDatabase final : public Database {
       }
     }
     return inTransaction(*db_, true, [&]() -> Status {
-      const std::string lockTag =
-          fmt::format("SELECT state FROM emcalign_tags WHERE name = $1{}", db_->forUpdate());
+      const std::string lockTag = fmt::format("SELECT state FROM emcalign_tags WHERE name = $1{}", db_->forUpdate());
       auto state = db_->query(lockTag, {tag});
       if (!state) return state.error();
       if (state->empty()) {
         if (!createTag) {
-          return Error{fmt::format("{}: no tag '{}' (conditions put creates it; list the tags with: emcalign "
-                                   "conditions list {})",
-                                   db_->uri(), tag, db_->uri())};
+          return Error{
+              fmt::format("{}: no tag '{}' (conditions put creates it; list the tags with: emcalign "
+                          "conditions list {})",
+                          db_->uri(), tag, db_->uri())};
         }
         auto created = db_->query(
             "INSERT INTO emcalign_tags (name, description, state, created) VALUES ($1, $2, 'open', $3) "
@@ -141,7 +142,8 @@ class SqlDatabase final : public Database {
       }
       if (state->empty()) return Error{fmt::format("{}: tag '{}' vanished while writing", db_->uri(), tag)};
       if (toText((*state)[0][0]) == "locked") {
-        return Error{fmt::format("{}: tag '{}' is locked: its IOVs never change (write to a new tag)", db_->uri(), tag)};
+        return Error{
+            fmt::format("{}: tag '{}' is locked: its IOVs never change (write to a new tag)", db_->uri(), tag)};
       }
       const std::string now = utcNow();
       for (const NewIov& n : iovs) {
@@ -156,9 +158,9 @@ class SqlDatabase final : public Database {
                                    db_->uri(), tag, n.firstRun, n.lastRun, toInt((*overlap)[0][0]),
                                    toInt((*overlap)[0][1]))};
         }
-        auto stored = db_->query(
-            "INSERT INTO emcalign_payloads (hash, content) VALUES ($1, $2) ON CONFLICT (hash) DO NOTHING",
-            {n.payload.hash(), n.payload.content.dump()});
+        auto stored =
+            db_->query("INSERT INTO emcalign_payloads (hash, content) VALUES ($1, $2) ON CONFLICT (hash) DO NOTHING",
+                       {n.payload.hash(), n.payload.content.dump()});
         if (!stored) return stored.error();
         auto iov = db_->query(
             "INSERT INTO emcalign_iovs (tag, first_run, last_run, payload, inserted) VALUES ($1, $2, $3, $4, $5)",

@@ -83,9 +83,10 @@ class Sqlite final : public SqlBackend {
     auto rows = query("PRAGMA application_id", {});
     if (!rows) {
       if (sqlite3_errcode(db_) == SQLITE_NOTADB) {
-        return Error{fmt::format("{}: not a database (an SQLite file is expected; create one with: emcalign "
-                                 "conditions init)",
-                                 uri_)};
+        return Error{
+            fmt::format("{}: not a database (an SQLite file is expected; create one with: emcalign "
+                        "conditions init)",
+                        uri_)};
       }
       return rows.error();
     }

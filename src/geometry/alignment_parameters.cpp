@@ -12,17 +12,12 @@ namespace emcalign::geometry {
 namespace {
 constexpr double kSqrt3 = std::numbers::sqrt3;
 // γ_k of the three gap points, SPEC §3.
-constexpr std::array<double, 3> kGapAngles = {0.0, 2.0 * std::numbers::pi / 3.0,
-                                              4.0 * std::numbers::pi / 3.0};
+constexpr std::array<double, 3> kGapAngles = {0.0, 2.0 * std::numbers::pi / 3.0, 4.0 * std::numbers::pi / 3.0};
 }  // namespace
 
-double AlignmentParameters::fileUnit(Param p) {
-  return dimension(p) == Dimension::Angle ? units::deg : units::cm;
-}
+double AlignmentParameters::fileUnit(Param p) { return dimension(p) == Dimension::Angle ? units::deg : units::cm; }
 
-double PhysicalParameters::fileUnit(Physical p) {
-  return dimension(p) == Dimension::Angle ? units::deg : units::cm;
-}
+double PhysicalParameters::fileUnit(Physical p) { return dimension(p) == Dimension::Angle ? units::deg : units::cm; }
 
 GapDecomposition decomposeGaps(const AlignmentParameters& eta) {
   const double dp1 = eta[Param::Dp1], dp2 = eta[Param::Dp2], dp3 = eta[Param::Dp3];
@@ -39,18 +34,18 @@ Status validate(const AlignmentParameters& eta, double r1) {
   }
   const double b1 = eta[Param::Beta1], b2 = eta[Param::Beta2];
   if (b1 * b1 + b2 * b2 > 1.0) {
-    return Error{fmt::format(
-        "beta1, beta2: sin(beta) = sqrt(beta1^2 + beta2^2) = {} exceeds 1 (values in files are "
-        "in degrees: sin(beta)*180/pi)",
-        std::hypot(b1, b2))};
+    return Error{
+        fmt::format("beta1, beta2: sin(beta) = sqrt(beta1^2 + beta2^2) = {} exceeds 1 (values in files are "
+                    "in degrees: sin(beta)*180/pi)",
+                    std::hypot(b1, b2))};
   }
   const GapDecomposition g = decomposeGaps(eta);
   const double sinMu = std::sqrt(4.0 * g.t * g.t + g.u * g.u) / (2.0 * r1);
   if (sinMu > 1.0) {
-    return Error{fmt::format(
-        "dp1, dp2, dp3: the gaps need sin(mu) = {} > 1 at R1 = {} cm; they differ by more than "
-        "the sphere's diameter",
-        sinMu, r1)};
+    return Error{
+        fmt::format("dp1, dp2, dp3: the gaps need sin(mu) = {} > 1 at R1 = {} cm; they differ by more than "
+                    "the sphere's diameter",
+                    sinMu, r1)};
   }
   return {};
 }
@@ -61,19 +56,21 @@ Status checkPlausible(const AlignmentParameters& eta) {
     const double v = eta[p] / AlignmentParameters::fileUnit(p);
     if (dimension(p) == Dimension::Length) {
       if (!(std::abs(v) <= kMaxLengthCm)) {
-        return Error{fmt::format("{} = {:.6g} cm is beyond the plausible ±{} cm of an alignment: lengths are in cm "
-                                 "(given in mm?)",
-                                 name(p), v, kMaxLengthCm)};
+        return Error{
+            fmt::format("{} = {:.6g} cm is beyond the plausible ±{} cm of an alignment: lengths are in cm "
+                        "(given in mm?)",
+                        name(p), v, kMaxLengthCm)};
       }
       continue;
     }
-    const double limit = p == Param::Alpha ? kMaxAlphaDeg
+    const double limit = p == Param::Alpha     ? kMaxAlphaDeg
                          : p == Param::BetaRel ? kMaxTiltDeg
                                                : std::sin(kMaxTiltDeg * units::deg) / units::deg;
     if (!(std::abs(v) <= limit)) {
-      return Error{fmt::format("{} = {:.6g} deg is beyond the plausible ±{:.4g} deg of an alignment: angles are in "
-                               "degrees (given in radians, arcminutes or arcseconds?)",
-                               name(p), v, limit)};
+      return Error{
+          fmt::format("{} = {:.6g} deg is beyond the plausible ±{:.4g} deg of an alignment: angles are in "
+                      "degrees (given in radians, arcminutes or arcseconds?)",
+                      name(p), v, limit)};
     }
   }
   return {};
@@ -124,10 +121,10 @@ std::vector<std::string> warnings(const AlignmentParameters& eta) {
   std::vector<std::string> out;
   for (Param p : {Param::Dp1, Param::Dp2, Param::Dp3}) {
     if (eta[p] < 0.0) {
-      out.push_back(fmt::format(
-          "{} = {:.4f} cm is negative: the hemispheres overlap there (a calibration or "
-          "reconstruction problem to deal with before using these parameters)",
-          name(p), eta[p] / units::cm));
+      out.push_back(
+          fmt::format("{} = {:.4f} cm is negative: the hemispheres overlap there (a calibration or "
+                      "reconstruction problem to deal with before using these parameters)",
+                      name(p), eta[p] / units::cm));
     }
   }
   return out;

@@ -2,8 +2,7 @@
 
 namespace emcalign::geometry {
 
-Result<AlignmentTransform> AlignmentTransform::create(const AlignmentParameters& eta,
-                                                      const AlignmentRadii& radii) {
+Result<AlignmentTransform> AlignmentTransform::create(const AlignmentParameters& eta, const AlignmentRadii& radii) {
   if (Status s = validate(eta, radii.r1); !s) return s.error();
   AlignmentTransform t;
   t.eta_ = eta;

@@ -39,8 +39,8 @@ Status DetectorDescription::validate() const {
   // A radius beyond the plausible range: the likely mistake is the unit.
   auto plausible = [](std::string_view key, double r) -> Status {
     if (r > kMaxRadius) {
-      return Error{fmt::format("{} = {:.6g} cm is more than {} m: radii are in cm (given in mm?)", key, r,
-                               kMaxRadius / 100.0)};
+      return Error{
+          fmt::format("{} = {:.6g} cm is more than {} m: radii are in cm (given in mm?)", key, r, kMaxRadius / 100.0)};
     }
     if (r < kMinRadius) {
       return Error{fmt::format("{} = {:.6g} cm is less than {} cm: radii are in cm (given in m?)", key, r, kMinRadius)};
@@ -50,8 +50,8 @@ Status DetectorDescription::validate() const {
   for (std::size_t i = 0; i < layers.size(); ++i) {
     const auto& l = layers[i];
     if (!finite(l.rInner) || !finite(l.rOuter) || l.rInner <= 0.0 || l.rOuter <= l.rInner) {
-      return Error{fmt::format("layers[{}]: need 0 < r_inner_cm < r_outer_cm, got {:.6g} and {:.6g}", i, l.rInner,
-                               l.rOuter)};
+      return Error{
+          fmt::format("layers[{}]: need 0 < r_inner_cm < r_outer_cm, got {:.6g} and {:.6g}", i, l.rInner, l.rOuter)};
     }
     if (Status s = plausible(fmt::format("layers[{}].r_inner_cm", i), l.rInner); !s) return s;
     if (Status s = plausible(fmt::format("layers[{}].r_outer_cm", i), l.rOuter); !s) return s;
@@ -59,8 +59,8 @@ Status DetectorDescription::validate() const {
   for (std::size_t i = 0; i < supports.size(); ++i) {
     const auto& s = supports[i];
     if (!finite(s.rInner) || !finite(s.rOuter) || s.rOuter <= s.rInner) {
-      return Error{fmt::format("support_spheres[{}]: need r_inner_cm < r_outer_cm, got {:.6g} and {:.6g}", i,
-                               s.rInner, s.rOuter)};
+      return Error{fmt::format("support_spheres[{}]: need r_inner_cm < r_outer_cm, got {:.6g} and {:.6g}", i, s.rInner,
+                               s.rOuter)};
     }
     if (Status st = plausible(fmt::format("support_spheres[{}].r_inner_cm", i), s.rInner); !st) return st;
     if (Status st = plausible(fmt::format("support_spheres[{}].r_outer_cm", i), s.rOuter); !st) return st;
@@ -75,16 +75,16 @@ Status DetectorDescription::validate() const {
   }};
   for (std::size_t i = 1; i < order.size(); ++i) {
     if (order[i].second->rInner < order[i - 1].second->rOuter) {
-      return Error{fmt::format("{}.r_inner_cm ({:.6g}) is inside {} (r_outer_cm {:.6g}): shells must be "
-                               "ordered layer 1, layer 2, support sphere 1, layer 3, support sphere 2",
-                               order[i].first, order[i].second->rInner, order[i - 1].first,
-                               order[i - 1].second->rOuter)};
+      return Error{
+          fmt::format("{}.r_inner_cm ({:.6g}) is inside {} (r_outer_cm {:.6g}): shells must be "
+                      "ordered layer 1, layer 2, support sphere 1, layer 3, support sphere 2",
+                      order[i].first, order[i].second->rInner, order[i - 1].first, order[i - 1].second->rOuter)};
     }
   }
   if (!finite(thetaMin) || !finite(thetaMax) || thetaMin <= 0.0 || thetaMax >= std::numbers::pi ||
       thetaMax <= thetaMin) {
-    return Error{fmt::format("theta_min_deg/theta_max_deg: need 0 < min < max < 180, got {} and {}",
-                             thetaMin / deg, thetaMax / deg)};
+    return Error{fmt::format("theta_min_deg/theta_max_deg: need 0 < min < max < 180, got {} and {}", thetaMin / deg,
+                             thetaMax / deg)};
   }
   if (countersPerRing.empty()) return Error{"counters_per_ring: must not be empty"};
   if (countersPerRing.size() > static_cast<std::size_t>(kMaxRings)) {
@@ -93,16 +93,16 @@ Status DetectorDescription::validate() const {
   for (std::size_t i = 0; i < countersPerRing.size(); ++i) {
     const int n = countersPerRing[i];
     if (n < 4 || n % 4 != 0 || n > kMaxCountersPerRing) {
-      return Error{fmt::format(
-          "counters_per_ring[{}] = {}: must be a positive multiple of 4 (so that the parting plane x = 0, "
-          "phi = 90 and 270 deg, is a cell boundary) and at most {}",
-          i, n, kMaxCountersPerRing)};
+      return Error{
+          fmt::format("counters_per_ring[{}] = {}: must be a positive multiple of 4 (so that the parting plane x = 0, "
+                      "phi = 90 and 270 deg, is a cell boundary) and at most {}",
+                      i, n, kMaxCountersPerRing)};
     }
   }
   const auto& m = material;
   if (!finite(m.radiationLength) || m.radiationLength < 0.1 || m.radiationLength > 50.0) {
-    return Error{fmt::format("shower.x0_cm = {:.6g}: a radiation length lies in [0.1, 50] cm (NaI: 2.56)",
-                             m.radiationLength)};
+    return Error{
+        fmt::format("shower.x0_cm = {:.6g}: a radiation length lies in [0.1, 50] cm (NaI: 2.56)", m.radiationLength)};
   }
   if (!finite(m.criticalEnergy) || m.criticalEnergy < 1.0 || m.criticalEnergy > 100.0) {
     return Error{fmt::format("shower.critical_energy_mev = {:.6g}: a critical energy lies in [1, 100] MeV (NaI: 13.16)",
@@ -233,9 +233,25 @@ Location Calorimeter::locate(const Vec3& p) const {
   int quadrant;
   double u, v;
   if (y >= 0.0) {
-    if (x > 0.0) { quadrant = 0; u = x; v = y; } else { quadrant = 1; u = y; v = -x; }
+    if (x > 0.0) {
+      quadrant = 0;
+      u = x;
+      v = y;
+    } else {
+      quadrant = 1;
+      u = y;
+      v = -x;
+    }
   } else {
-    if (x < 0.0) { quadrant = 2; u = -x; v = -y; } else { quadrant = 3; u = -y; v = x; }
+    if (x < 0.0) {
+      quadrant = 2;
+      u = -x;
+      v = -y;
+    } else {
+      quadrant = 3;
+      u = -y;
+      v = x;
+    }
   }
   const auto& edges = quadrantEdges_[static_cast<std::size_t>(ring)];
   const int edgeCount = static_cast<int>(edges.size());

@@ -23,8 +23,7 @@ constexpr std::size_t kCsvFlushBytes = std::size_t{1} << 20;
 
 class CsvWriter final : public EventWriter {
  public:
-  static Result<std::unique_ptr<EventWriter>> create(const std::string& path,
-                                                     const WriterOptions& options) {
+  static Result<std::unique_ptr<EventWriter>> create(const std::string& path, const WriterOptions& options) {
     auto out = OutputFile::open(path);
     if (!out) return out.error();
     auto w = std::unique_ptr<CsvWriter>(new CsvWriter(path, std::move(*out)));
@@ -38,8 +37,7 @@ class CsvWriter final : public EventWriter {
   Status append(std::span<const ParticleRow> rows, std::span<const TruthRow> /*truth*/,
                 std::span<const Hit> /*hits*/) override {
     if (auto s = usable(); !s) return s;
-    if (auto s = checkAppend(path_, rows, {}, false, appended_, consistency_); !s)
-      return fail(s.error().message);
+    if (auto s = checkAppend(path_, rows, {}, false, appended_, consistency_); !s) return fail(s.error().message);
     auto out = std::back_inserter(buffer_);
     const auto number = [&](double x) {
       if (!std::isnan(x)) fmt::format_to(out, "{:.17g}", x);
@@ -119,8 +117,7 @@ class LineReader {
   Status open(const std::string& path) {
     path_ = path;
     file_ = std::fopen(path.c_str(), "rb");
-    if (file_ == nullptr)
-      return Error{fmt::format("{}: cannot open: {}", path, std::strerror(errno))};
+    if (file_ == nullptr) return Error{fmt::format("{}: cannot open: {}", path, std::strerror(errno))};
     return {};
   }
 
@@ -148,8 +145,8 @@ class LineReader {
       begin_ = 0;
       scanFrom_ = buffer_.size();
       if (buffer_.size() > kMaxLineBytes) {
-        return Error{fmt::format("{}: line {}: longer than {} MiB (not an event CSV file?)", path_,
-                                 lineNumber_ + 1, kMaxLineBytes >> 20)};
+        return Error{fmt::format("{}: line {}: longer than {} MiB (not an event CSV file?)", path_, lineNumber_ + 1,
+                                 kMaxLineBytes >> 20)};
       }
       const std::size_t old = buffer_.size();
       buffer_.resize(old + kReadBytes);
@@ -157,8 +154,7 @@ class LineReader {
       buffer_.resize(old + got);
       if (got < kReadBytes) {
         if (std::ferror(file_)) {
-          return Error{fmt::format("{}: line {}: read error: {}", path_, lineNumber_ + 1,
-                                   std::strerror(errno))};
+          return Error{fmt::format("{}: line {}: read error: {}", path_, lineNumber_ + 1, std::strerror(errno))};
         }
         eof_ = true;
       }
@@ -177,7 +173,6 @@ class LineReader {
   bool eof_ = false;
   std::uint64_t lineNumber_ = 0;
 };
-
 
 std::string lowerCase(std::string_view s) {
   std::string out(s);
@@ -213,8 +208,8 @@ std::optional<std::string> parseDoubleField(std::string_view field, double& out)
   return notANumber(field);
 }
 
-std::optional<std::string> parseIntegerField(std::string_view field, std::int64_t lo,
-                                             std::int64_t hi, std::int64_t& out) {
+std::optional<std::string> parseIntegerField(std::string_view field, std::int64_t lo, std::int64_t hi,
+                                             std::int64_t& out) {
   if (field.empty()) return "empty (a value is required)";
   std::string_view digits = field;
   if (digits.front() == '+') digits.remove_prefix(1);
@@ -238,8 +233,7 @@ std::string quotedList(const std::vector<std::string_view>& names) {
 
 // What is wrong with a header line, or none.
 std::optional<std::string> checkHeader(const std::vector<std::string_view>& fields) {
-  if (fields.size() == kColumnNames.size() &&
-      std::equal(fields.begin(), fields.end(), kColumnNames.begin())) {
+  if (fields.size() == kColumnNames.size() && std::equal(fields.begin(), fields.end(), kColumnNames.begin())) {
     return std::nullopt;
   }
   const auto contains = [](const auto& range, std::string_view name) {
@@ -251,9 +245,8 @@ std::optional<std::string> checkHeader(const std::vector<std::string_view>& fiel
   }
   for (std::size_t i = 0; i < fields.size(); ++i) {
     const auto f = fields[i];
-    if (!contains(kColumnNames, f) ||
-        std::find(fields.begin(), fields.begin() + static_cast<std::ptrdiff_t>(i), f) !=
-            fields.begin() + static_cast<std::ptrdiff_t>(i)) {
+    if (!contains(kColumnNames, f) || std::find(fields.begin(), fields.begin() + static_cast<std::ptrdiff_t>(i), f) !=
+                                          fields.begin() + static_cast<std::ptrdiff_t>(i)) {
       extra.push_back(f);
     }
   }
@@ -263,8 +256,7 @@ std::optional<std::string> checkHeader(const std::vector<std::string_view>& fiel
   } else {
     if (!missing.empty()) what += fmt::format("missing column(s) {}", quotedList(missing));
     if (!extra.empty()) {
-      what += fmt::format("{}unexpected or repeated column(s) {}", what.empty() ? "" : "; ",
-                          quotedList(extra));
+      what += fmt::format("{}unexpected or repeated column(s) {}", what.empty() ? "" : "; ", quotedList(extra));
     }
   }
   if (what.empty()) {
@@ -280,8 +272,7 @@ std::optional<std::string> checkHeader(const std::vector<std::string_view>& fiel
 }
 
 // '# key: value' → (key, value); other comments → none.
-std::optional<std::pair<std::string_view, std::string_view>> parseAttributeLine(
-    std::string_view line) {
+std::optional<std::pair<std::string_view, std::string_view>> parseAttributeLine(std::string_view line) {
   if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
   if (line.empty() || line.front() != '#') return std::nullopt;
   line.remove_prefix(1);
@@ -316,9 +307,10 @@ class CsvSource final : public RowSource {
     }
     if (!terminated) {
       // A cut inside the last field would still read as a number: a row must be whole.
-      return Error{fmt::format("{}: the file ends inside this row (the last line has no newline): truncated? Every "
-                               "row, the last too, ends with a newline",
-                               location())};
+      return Error{
+          fmt::format("{}: the file ends inside this row (the last line has no newline): truncated? Every "
+                      "row, the last too, ends with a newline",
+                      location())};
     }
     fields_ = splitCsvLine(line);
     const auto fail = [&](std::string_view column, const std::string& what) -> Error {
@@ -345,8 +337,8 @@ class CsvSource final : public RowSource {
       (c == kVeto ? row.muonVeto : row.charged) = static_cast<std::int8_t>(integer);
     }
     for (const auto& column : kEventDoubles) {
-      const auto index = static_cast<std::size_t>(
-          std::find(kColumnNames.begin(), kColumnNames.end(), column.name) - kColumnNames.begin());
+      const auto index = static_cast<std::size_t>(std::find(kColumnNames.begin(), kColumnNames.end(), column.name) -
+                                                  kColumnNames.begin());
       double x = 0.0;
       if (auto e = parseDoubleField(fields_[index], x)) return fail(column.name, *e);
       column.set(row, x);
@@ -356,9 +348,7 @@ class CsvSource final : public RowSource {
 
   bool hasTruth() const override { return false; }
   const Attributes& attributes() const override { return attributes_; }
-  std::string location() const override {
-    return fmt::format("{}: line {}", path_, lines_.lineNumber());
-  }
+  std::string location() const override { return fmt::format("{}: line {}", path_, lines_.lineNumber()); }
 
  private:
   explicit CsvSource(std::string path) : path_(std::move(path)) {}
@@ -371,11 +361,9 @@ class CsvSource final : public RowSource {
       auto got = lines_.next(line, terminated);
       if (!got) return got.error();
       if (!*got) {
-        return Error{fmt::format("{}: header: missing (the file has no header line '{}')", path_,
-                                 kCsvHeader)};
+        return Error{fmt::format("{}: header: missing (the file has no header line '{}')", path_, kCsvHeader)};
       }
-      if (lines_.lineNumber() == 1 && line.starts_with("\xEF\xBB\xBF"))
-        line.remove_prefix(3);  // UTF-8 BOM
+      if (lines_.lineNumber() == 1 && line.starts_with("\xEF\xBB\xBF")) line.remove_prefix(3);  // UTF-8 BOM
       if (isBlankOrComment(line)) {
         if (auto kv = parseAttributeLine(line)) {
           for (const auto& [key, value] : attributes_) {
@@ -387,8 +375,7 @@ class CsvSource final : public RowSource {
         }
         continue;
       }
-      if (auto e = checkHeader(splitCsvLine(line)))
-        return Error{fmt::format("{}: {}", location(), *e)};
+      if (auto e = checkHeader(splitCsvLine(line))) return Error{fmt::format("{}: {}", location(), *e)};
       return {};
     }
   }

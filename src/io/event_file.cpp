@@ -91,10 +91,9 @@ class SeenEvents {
     for (const auto& segment : segments_) {
       if (segment.back().before(run, event)) continue;
       // The last interval starting at or before the key.
-      const auto after = std::upper_bound(segment.begin(), segment.end(), Interval{run, event, event},
-                                          [](const Interval& a, const Interval& b) {
-                                            return a.run != b.run ? a.run < b.run : a.first < b.first;
-                                          });
+      const auto after = std::upper_bound(
+          segment.begin(), segment.end(), Interval{run, event, event},
+          [](const Interval& a, const Interval& b) { return a.run != b.run ? a.run < b.run : a.first < b.first; });
       if (after != segment.begin() && std::prev(after)->holds(run, event)) return false;
     }
     if (!segments_.empty() && segments_.back().back().before(run, event)) {
@@ -138,7 +137,8 @@ class SeenEvents {
 Result<std::unique_ptr<RowSource>> openSource(const std::string& path, std::size_t readRows,
                                               const ReaderOptions& options) {
   if (formatOf(path) == EventFormat::Csv) return openCsvSource(path);
-  return openIsolated(path, [&] { return openHdf5Source(path, readRows, options); }, options.hdf5TimeoutSeconds);
+  return openIsolated(
+      path, [&] { return openHdf5Source(path, readRows, options); }, options.hdf5TimeoutSeconds);
 }
 
 // ============================================================================ the reader
@@ -201,9 +201,7 @@ class EventReaderImpl final : public EventReader {
 
   const std::string& path() const override { return paths_[index_]; }
 
-  const std::vector<TruthRow>* truth() const override {
-    return source_ && source_->hasTruth() ? &truth_ : nullptr;
-  }
+  const std::vector<TruthRow>* truth() const override { return source_ && source_->hasTruth() ? &truth_ : nullptr; }
 
   const std::vector<Hit>* hits() const override { return source_ && source_->hasHits() ? &hits_ : nullptr; }
 
@@ -235,9 +233,10 @@ class EventReaderImpl final : public EventReader {
   Status checkEventOrder(const ParticleRow& row) {
     if (inEvent_ && sameEvent(row, current_)) {
       if (++eventRows_ > kMaxRowsPerEvent) {
-        return Error{fmt::format("{}: run {} event {} has more than {} rows: an event holds a handful of particles "
-                                 "(are the run and event columns filled?)",
-                                 source_->location(), row.run, row.event, kMaxRowsPerEvent)};
+        return Error{
+            fmt::format("{}: run {} event {} has more than {} rows: an event holds a handful of particles "
+                        "(are the run and event columns filled?)",
+                        source_->location(), row.run, row.event, kMaxRowsPerEvent)};
       }
       return {};
     }
@@ -248,9 +247,10 @@ class EventReaderImpl final : public EventReader {
     auto first = locateEarlier(row);
     if (!first) return first.error();
     if (first->empty()) return {};  // a fingerprint collision (events in no order), not a repeat
-    return Error{fmt::format("{}: run {} event {} appears again (its rows start at {}): each event must appear once, "
-                             "its rows contiguous (is a file given twice, or are the rows of this event apart?)",
-                             source_->location(), row.run, row.event, *first)};
+    return Error{
+        fmt::format("{}: run {} event {} appears again (its rows start at {}): each event must appear once, "
+                    "its rows contiguous (is a file given twice, or are the rows of this event apart?)",
+                    source_->location(), row.run, row.event, *first)};
   }
 
   // Where the event of `row` started before the current row, or "" if it did not.
@@ -304,16 +304,14 @@ class EventReaderImpl final : public EventReader {
 
 // ============================================================================ public API
 
-Result<std::unique_ptr<EventWriter>> EventWriter::open(const std::string& path,
-                                                       WriterOptions options) {
+Result<std::unique_ptr<EventWriter>> EventWriter::open(const std::string& path, WriterOptions options) {
   const EventFormat format = formatOf(path);
   if (auto s = checkAttributes(path, options.attributes, format); !s) return s.error();
   if (format == EventFormat::Csv) return openCsvWriter(path, options);
   return openHdf5Writer(path, options);
 }
 
-Result<std::unique_ptr<EventReader>> EventReader::open(std::vector<std::string> paths,
-                                                       ReaderOptions options) {
+Result<std::unique_ptr<EventReader>> EventReader::open(std::vector<std::string> paths, ReaderOptions options) {
   if (paths.empty()) return Error{"no event files given"};
   if (options.blockRows == 0) return Error{"event reader: blockRows must be at least 1"};
   if (!(options.hdf5TimeoutSeconds > 0.0)) return Error{"event reader: the HDF5 timeout must be positive"};
@@ -333,8 +331,8 @@ Result<std::unique_ptr<EventReader>> EventReader::open(std::vector<std::string> 
     }
     for (std::size_t j = 0; j < ids.size(); ++j) {
       if (ids[j] == std::pair{st.st_dev, st.st_ino}) {
-        return Error{fmt::format("{}: is the same file as {} (given twice?): its events would count twice", path,
-                                 paths[j])};
+        return Error{
+            fmt::format("{}: is the same file as {} (given twice?): its events would count twice", path, paths[j])};
       }
     }
     ids.emplace_back(st.st_dev, st.st_ino);

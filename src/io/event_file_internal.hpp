@@ -111,9 +111,7 @@ struct Issue {
 /// What is wrong with a row on its own, or none.
 std::optional<Issue> checkRow(const ParticleRow& r);
 
-inline bool sameEvent(const ParticleRow& a, const ParticleRow& b) {
-  return a.run == b.run && a.event == b.event;
-}
+inline bool sameEvent(const ParticleRow& a, const ParticleRow& b) { return a.run == b.run && a.event == b.event; }
 
 // The rows of one event share the beam energy and the muon veto; this follows the current
 // event through a stream of rows (block boundaries do not matter).
@@ -124,15 +122,13 @@ class EventConsistency {
   std::optional<Issue> check(const ParticleRow& r) {
     if (active_ && sameEvent(r, first_)) {
       if (r.beamEnergy != first_.beamEnergy) {
-        return Issue{kColumnNames[kBeam],
-                     fmt::format("{} differs from {} in the earlier rows of run {} event {}",
-                                 r.beamEnergy, first_.beamEnergy, r.run, r.event)};
+        return Issue{kColumnNames[kBeam], fmt::format("{} differs from {} in the earlier rows of run {} event {}",
+                                                      r.beamEnergy, first_.beamEnergy, r.run, r.event)};
       }
       if (r.muonVeto != first_.muonVeto) {
         return Issue{kColumnNames[kVeto],
                      fmt::format("{} differs from {} in the earlier rows of run {} event {}",
-                                 static_cast<int>(r.muonVeto), static_cast<int>(first_.muonVeto),
-                                 r.run, r.event)};
+                                 static_cast<int>(r.muonVeto), static_cast<int>(first_.muonVeto), r.run, r.event)};
       }
       return std::nullopt;
     }
@@ -158,8 +154,8 @@ std::optional<Issue> checkHits(const ParticleRow& r, std::span<const Hit> hits);
 /// Checks a whole append before any row is buffered: a refused append writes none of its
 /// rows (and the caller then fails the writer for good, see EventWriter::append). With
 /// `withHits`, `hits` are the rows' hits in row order.
-Status checkAppend(const std::string& path, std::span<const ParticleRow> rows, std::span<const Hit> hits,
-                   bool withHits, std::uint64_t firstIndex, EventConsistency& consistency);
+Status checkAppend(const std::string& path, std::span<const ParticleRow> rows, std::span<const Hit> hits, bool withHits,
+                   std::uint64_t firstIndex, EventConsistency& consistency);
 
 // ------------------------------------------------------------------------- reader sources
 

@@ -168,8 +168,7 @@ std::string describeType(hid_t type) {
   const std::size_t bits = H5Tget_size(type) * 8;
   switch (H5Tget_class(type)) {
     case H5T_INTEGER:
-      return fmt::format("{}-bit {} integer", bits,
-                         H5Tget_sign(type) == H5T_SGN_2 ? "signed" : "unsigned");
+      return fmt::format("{}-bit {} integer", bits, H5Tget_sign(type) == H5T_SGN_2 ? "signed" : "unsigned");
     case H5T_FLOAT:
       return fmt::format("{}-bit float", bits);
     case H5T_STRING:
@@ -207,8 +206,7 @@ Hid creationList(hid_t cls) {
 
 class Hdf5Writer final : public EventWriter {
  public:
-  static Result<std::unique_ptr<EventWriter>> create(const std::string& path,
-                                                     const WriterOptions& options) {
+  static Result<std::unique_ptr<EventWriter>> create(const std::string& path, const WriterOptions& options) {
     auto out = OutputFile::reserve(path);
     if (!out) return out.error();
     Hdf5Quiet quiet;
@@ -228,12 +226,10 @@ class Hdf5Writer final : public EventWriter {
                 std::span<const Hit> hits) override {
     if (auto s = usable(); !s) return s;
     if (withTruth_ && truth.size() != rows.size()) {
-      return fail(
-          fmt::format("{}: append: {} truth rows for {} rows (a file with truth needs one per row)",
-                      path_, truth.size(), rows.size()));
+      return fail(fmt::format("{}: append: {} truth rows for {} rows (a file with truth needs one per row)", path_,
+                              truth.size(), rows.size()));
     }
-    if (auto s = checkAppend(path_, rows, hits, withHits_, appended_, consistency_); !s)
-      return fail(s.error().message);
+    if (auto s = checkAppend(path_, rows, hits, withHits_, appended_, consistency_); !s) return fail(s.error().message);
     Hdf5Quiet quiet;
     std::size_t hit = 0;
     for (std::size_t i = 0; i < rows.size(); ++i) {
@@ -286,22 +282,20 @@ class Hdf5Writer final : public EventWriter {
     return Error{std::move(message)};
   }
 
-  Status hdf5Error(std::string_view what) {
-    return fail(fmt::format("{}: {}: {}", path_, what, hdf5Reason()));
-  }
+  Status hdf5Error(std::string_view what) { return fail(fmt::format("{}: {}: {}", path_, what, hdf5Reason())); }
 
   Status createFile(const Attributes& attributes) {
     if (H5Zfilter_avail(kLz4Filter) <= 0) {
       H5Eclear2(H5E_DEFAULT);
-      return Error{fmt::format("{}: HDF5 cannot load its LZ4 filter (32004), which event files are compressed with: "
-                               "install Debian's hdf5-filter-plugin (scripts/install-deps does)",
-                               path_)};
+      return Error{
+          fmt::format("{}: HDF5 cannot load its LZ4 filter (32004), which event files are compressed with: "
+                      "install Debian's hdf5-filter-plugin (scripts/install-deps does)",
+                      path_)};
     }
     // The file-creation list also creates the root group: no times there either, and the
     // attributes keep the order they were given in.
     Hid fcpl = creationList(H5P_FILE_CREATE);
-    if (!fcpl.valid() ||
-        H5Pset_attr_creation_order(fcpl.get(), H5P_CRT_ORDER_TRACKED | H5P_CRT_ORDER_INDEXED) < 0) {
+    if (!fcpl.valid() || H5Pset_attr_creation_order(fcpl.get(), H5P_CRT_ORDER_TRACKED | H5P_CRT_ORDER_INDEXED) < 0) {
       return hdf5Error("cannot set up the file-creation properties");
     }
     Hid fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
@@ -311,36 +305,31 @@ class Hdf5Writer final : public EventWriter {
     // Exclusive: another writer of the same target in this process has the same temporary.
     file_ = Hid(H5Fcreate(tmp_.c_str(), H5F_ACC_EXCL, fcpl.get(), fapl.get()), H5Fclose);
     if (!file_.valid()) {
-      return Error{
-          fmt::format("{}: cannot create the temporary file '{}': {}", path_, tmp_, hdf5Reason())};
+      return Error{fmt::format("{}: cannot create the temporary file '{}': {}", path_, tmp_, hdf5Reason())};
     }
     if (auto s = writeAttributes(attributes); !s) return s;
 
     Hid gcpl = creationList(H5P_GROUP_CREATE);
     Hid dcpl = creationList(H5P_DATASET_CREATE);
     const hsize_t chunk = kChunkRows;
-    if (!gcpl.valid() || !dcpl.valid() || H5Pset_chunk(dcpl.get(), 1, &chunk) < 0 ||
-        H5Pset_shuffle(dcpl.get()) < 0 || H5Pset_filter(dcpl.get(), kLz4Filter, H5Z_FLAG_MANDATORY, 0, nullptr) < 0) {
+    if (!gcpl.valid() || !dcpl.valid() || H5Pset_chunk(dcpl.get(), 1, &chunk) < 0 || H5Pset_shuffle(dcpl.get()) < 0 ||
+        H5Pset_filter(dcpl.get(), kLz4Filter, H5Z_FLAG_MANDATORY, 0, nullptr) < 0) {
       return hdf5Error("cannot set up the dataset-creation properties");
     }
-    events_ =
-        Hid(H5Gcreate2(file_.get(), kEventsGroup, H5P_DEFAULT, gcpl.get(), H5P_DEFAULT), H5Gclose);
+    events_ = Hid(H5Gcreate2(file_.get(), kEventsGroup, H5P_DEFAULT, gcpl.get(), H5P_DEFAULT), H5Gclose);
     if (!events_.valid()) return hdf5Error("cannot create the group '/events'");
     for (int c = 0; c < kNumCols; ++c) {
       const std::string name(kColumnNames[static_cast<std::size_t>(c)]);
       auto ds = createDataset(events_.get(), name, eventKind(c), dcpl.get());
-      if (!ds.valid())
-        return hdf5Error(fmt::format("cannot create the dataset '/events/{}'", name));
+      if (!ds.valid()) return hdf5Error(fmt::format("cannot create the dataset '/events/{}'", name));
       eventSets_[static_cast<std::size_t>(c)] = std::move(ds);
     }
     if (withTruth_) {
-      truthGroup_ =
-          Hid(H5Gcreate2(file_.get(), kTruthGroup, H5P_DEFAULT, gcpl.get(), H5P_DEFAULT), H5Gclose);
+      truthGroup_ = Hid(H5Gcreate2(file_.get(), kTruthGroup, H5P_DEFAULT, gcpl.get(), H5P_DEFAULT), H5Gclose);
       if (!truthGroup_.valid()) return hdf5Error("cannot create the group '/truth'");
       truthSets_[0] = createDataset(truthGroup_.get(), kTruthPdg, Kind::I32, dcpl.get());
       for (std::size_t i = 0; i < kTruthDoubles.size(); ++i) {
-        truthSets_[i + 1] =
-            createDataset(truthGroup_.get(), kTruthDoubles[i].name, Kind::F64, dcpl.get());
+        truthSets_[i + 1] = createDataset(truthGroup_.get(), kTruthDoubles[i].name, Kind::F64, dcpl.get());
       }
       for (const Hid& ds : truthSets_) {
         if (!ds.valid()) return hdf5Error("cannot create the datasets of '/truth'");
@@ -365,9 +354,7 @@ class Hdf5Writer final : public EventWriter {
     const hsize_t maxDims = H5S_UNLIMITED;
     Hid space(H5Screate_simple(1, &dims, &maxDims), H5Sclose);
     if (!space.valid()) return {};
-    return Hid(H5Dcreate2(group, name.c_str(), fileType(kind), space.get(), H5P_DEFAULT, dcpl,
-                          H5P_DEFAULT),
-               H5Dclose);
+    return Hid(H5Dcreate2(group, name.c_str(), fileType(kind), space.get(), H5P_DEFAULT, dcpl, H5P_DEFAULT), H5Dclose);
   }
 
   // Variable-length UTF-8 strings, scalar, on the root group.
@@ -380,9 +367,7 @@ class Hdf5Writer final : public EventWriter {
       return hdf5Error("cannot set up the string type of the attributes");
     }
     for (const auto& [key, value] : attributes) {
-      Hid attr(
-          H5Acreate2(file_.get(), key.c_str(), type.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT),
-          H5Aclose);
+      Hid attr(H5Acreate2(file_.get(), key.c_str(), type.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
       const char* text = value.c_str();
       if (!attr.valid() || H5Awrite(attr.get(), type.get(), &text) < 0) {
         return hdf5Error(fmt::format("cannot write the attribute '{}'", key));
@@ -428,43 +413,31 @@ class Hdf5Writer final : public EventWriter {
     std::vector<std::int8_t> i8;
     std::vector<double> f64;
     gather([](const ParticleRow& r) { return r.run; }, i32);
-    if (auto s = write(eventSets_[kRun], kEventsGroup, kColumnNames[kRun], Kind::I32, i32.data());
-        !s)
-      return s;
+    if (auto s = write(eventSets_[kRun], kEventsGroup, kColumnNames[kRun], Kind::I32, i32.data()); !s) return s;
     gather([](const ParticleRow& r) { return r.event; }, i64);
-    if (auto s =
-            write(eventSets_[kEvent], kEventsGroup, kColumnNames[kEvent], Kind::I64, i64.data());
-        !s) {
+    if (auto s = write(eventSets_[kEvent], kEventsGroup, kColumnNames[kEvent], Kind::I64, i64.data()); !s) {
       return s;
     }
     gather([](const ParticleRow& r) { return r.muonVeto; }, i8);
-    if (auto s = write(eventSets_[kVeto], kEventsGroup, kColumnNames[kVeto], Kind::I8, i8.data());
-        !s)
-      return s;
+    if (auto s = write(eventSets_[kVeto], kEventsGroup, kColumnNames[kVeto], Kind::I8, i8.data()); !s) return s;
     gather([](const ParticleRow& r) { return r.charged; }, i8);
-    if (auto s =
-            write(eventSets_[kCharged], kEventsGroup, kColumnNames[kCharged], Kind::I8, i8.data());
-        !s) {
+    if (auto s = write(eventSets_[kCharged], kEventsGroup, kColumnNames[kCharged], Kind::I8, i8.data()); !s) {
       return s;
     }
     for (const auto& column : kEventDoubles) {
-      const auto index = static_cast<std::size_t>(
-          std::find(kColumnNames.begin(), kColumnNames.end(), column.name) - kColumnNames.begin());
+      const auto index = static_cast<std::size_t>(std::find(kColumnNames.begin(), kColumnNames.end(), column.name) -
+                                                  kColumnNames.begin());
       gather(column.get, f64);
-      if (auto s = write(eventSets_[index], kEventsGroup, column.name, Kind::F64, f64.data()); !s)
-        return s;
+      if (auto s = write(eventSets_[index], kEventsGroup, column.name, Kind::F64, f64.data()); !s) return s;
     }
     if (withTruth_) {
       i32.clear();
       for (const TruthRow& t : truth_) i32.push_back(t.pdg);
-      if (auto s = write(truthSets_[0], kTruthGroup, kTruthPdg, Kind::I32, i32.data()); !s)
-        return s;
+      if (auto s = write(truthSets_[0], kTruthGroup, kTruthPdg, Kind::I32, i32.data()); !s) return s;
       for (std::size_t i = 0; i < kTruthDoubles.size(); ++i) {
         f64.clear();
         for (const TruthRow& t : truth_) f64.push_back(kTruthDoubles[i].get(t));
-        if (auto s =
-                write(truthSets_[i + 1], kTruthGroup, kTruthDoubles[i].name, Kind::F64, f64.data());
-            !s) {
+        if (auto s = write(truthSets_[i + 1], kTruthGroup, kTruthDoubles[i].name, Kind::F64, f64.data()); !s) {
           return s;
         }
       }
@@ -537,7 +510,7 @@ class Hdf5Writer final : public EventWriter {
   std::array<Hid, 1 + kTruthDoubles.size()> truthSets_;
   bool withHits_;
   Hid hitsGroup_, hitOffsetSet_, hitCountSet_, hitCounterSet_, hitEnergySet_;
-  std::vector<Hit> hits_;         // of the buffered rows
+  std::vector<Hit> hits_;  // of the buffered rows
   std::uint64_t hitsWritten_ = 0;
   std::vector<ParticleRow> rows_;  // at most one chunk
   std::vector<TruthRow> truth_;
@@ -571,9 +544,10 @@ class Hdf5Source final : public RowSource {
     if (pos_ == loaded_) {
       if (first_ + loaded_ == rows_) {
         if (hasHits_ && nextHit_ != hitsTotal_) {
-          return error(fmt::format("the rows use {} of the {} records of '/hits' (hit_offset and hit_count must "
-                                   "cover them all)",
-                                   nextHit_, hitsTotal_));
+          return error(
+              fmt::format("the rows use {} of the {} records of '/hits' (hit_offset and hit_count must "
+                          "cover them all)",
+                          nextHit_, hitsTotal_));
         }
         return false;
       }
@@ -585,12 +559,10 @@ class Hdf5Source final : public RowSource {
     row.event = event_[i];
     row.muonVeto = veto_[i];
     row.charged = charged_[i];
-    for (std::size_t c = 0; c < kEventDoubles.size(); ++c)
-      kEventDoubles[c].set(row, doubles_[c][i]);
+    for (std::size_t c = 0; c < kEventDoubles.size(); ++c) kEventDoubles[c].set(row, doubles_[c][i]);
     if (hasTruth_) {
       truth.pdg = pdg_[i];
-      for (std::size_t c = 0; c < kTruthDoubles.size(); ++c)
-        kTruthDoubles[c].set(truth, truthDoubles_[c][i]);
+      for (std::size_t c = 0; c < kTruthDoubles.size(); ++c) kTruthDoubles[c].set(truth, truthDoubles_[c][i]);
     }
     row.hitCount = 0;
     if (hasHits_) {
@@ -662,8 +634,7 @@ class Hdf5Source final : public RowSource {
     truthCols_ = std::move(*truth);
     hasTruth_ = !truthCols_.empty();
     if (hasTruth_ && rowsOf_ != rows_) {
-      return error(fmt::format("the datasets of '/truth' have {} records, those of '/events' {}",
-                               rowsOf_, rows_));
+      return error(fmt::format("the datasets of '/truth' have {} records, those of '/events' {}", rowsOf_, rows_));
     }
     return {};
   }
@@ -696,8 +667,8 @@ class Hdf5Source final : public RowSource {
       Hdf5Quiet quiet;
       if (!readRange(hitCols_[0], begin, n, windowCounter_.data()) ||
           !readRange(hitCols_[1], begin, n, windowEnergy_.data())) {
-        return error(fmt::format("records {}..{} of '/{}': cannot read: {}", begin, begin + n - 1, kHitsGroup,
-                                 hdf5Reason()));
+        return error(
+            fmt::format("records {}..{} of '/{}': cannot read: {}", begin, begin + n - 1, kHitsGroup, hdf5Reason()));
       }
       windowFirst_ = begin;
     }
@@ -712,9 +683,9 @@ class Hdf5Source final : public RowSource {
   // Opens every listed dataset of a group (all required), checking names, types, rank and
   // equal lengths; an absent optional group gives no columns. `skipped` names links that
   // may be there but are not read. Sets rowsOf_.
-  Result<std::vector<Hdf5Column>> openColumns(
-      const char* groupName, const std::vector<std::pair<std::string, Kind>>& columns,
-      bool required, std::initializer_list<std::string_view> skipped = {}) {
+  Result<std::vector<Hdf5Column>> openColumns(const char* groupName,
+                                              const std::vector<std::pair<std::string, Kind>>& columns, bool required,
+                                              std::initializer_list<std::string_view> skipped = {}) {
     const htri_t exists = H5Lexists(file_.get(), groupName, H5P_DEFAULT);
     if (exists <= 0) {
       H5Eclear2(H5E_DEFAULT);
@@ -722,8 +693,7 @@ class Hdf5Source final : public RowSource {
       return error(fmt::format("missing group '/{}' (not an emcalign event file?)", groupName));
     }
     Hid group(H5Gopen2(file_.get(), groupName, H5P_DEFAULT), H5Gclose);
-    if (!group.valid())
-      return error(fmt::format("'/{}' is not a group: {}", groupName, hdf5Reason()));
+    if (!group.valid()) return error(fmt::format("'/{}' is not a group: {}", groupName, hdf5Reason()));
 
     // Every link of the group must be a known column.
     std::vector<std::string> links;
@@ -756,16 +726,15 @@ class Hdf5Source final : public RowSource {
       Hid type(H5Dget_type(column.dataset.get()), H5Tclose);
       if (!type.valid()) return error(fmt::format("dataset '{}': {}", column.name, hdf5Reason()));
       if (!typeMatches(type.get(), kind)) {
-        return error(fmt::format("dataset '{}' (column '{}'): type is {}, expected {}", column.name,
-                                 name, describeType(type.get()), kindName(kind)));
+        return error(fmt::format("dataset '{}' (column '{}'): type is {}, expected {}", column.name, name,
+                                 describeType(type.get()), kindName(kind)));
       }
       Hid space(H5Dget_space(column.dataset.get()), H5Sclose);
       hsize_t dims = 0;
       if (!space.valid() || H5Sget_simple_extent_ndims(space.get()) != 1 ||
           H5Sget_simple_extent_dims(space.get(), &dims, nullptr) != 1) {
         H5Eclear2(H5E_DEFAULT);
-        return error(
-            fmt::format("dataset '{}' (column '{}'): not one-dimensional", column.name, name));
+        return error(fmt::format("dataset '{}' (column '{}'): not one-dimensional", column.name, name));
       }
       if (!out.empty() && dims != rowsOf_) {
         return error(
@@ -805,23 +774,20 @@ class Hdf5Source final : public RowSource {
       if (!attr.valid() || !type.valid() || !space.valid()) {
         return error(fmt::format("cannot open the attribute '{}': {}", name, hdf5Reason()));
       }
-      if (H5Tget_class(type.get()) != H5T_STRING || H5Sget_simple_extent_npoints(space.get()) != 1)
-        continue;
+      if (H5Tget_class(type.get()) != H5T_STRING || H5Sget_simple_extent_npoints(space.get()) != 1) continue;
       Hid memType(H5Tcopy(H5T_C_S1), H5Tclose);
       std::string value;
       bool ok = memType.valid() && H5Tset_cset(memType.get(), H5Tget_cset(type.get())) >= 0;
       if (ok && H5Tis_variable_str(type.get()) > 0) {
         char* text = nullptr;
-        ok = H5Tset_size(memType.get(), H5T_VARIABLE) >= 0 &&
-             H5Aread(attr.get(), memType.get(), &text) >= 0;
+        ok = H5Tset_size(memType.get(), H5T_VARIABLE) >= 0 && H5Aread(attr.get(), memType.get(), &text) >= 0;
         if (ok && text != nullptr) value = text;
         if (text != nullptr) H5free_memory(text);
       } else if (ok) {
         const std::size_t size = H5Tget_size(type.get());
         if (size == 0 || size > kMaxAttributeBytes) continue;  // not metadata emcalign writes
         std::string buffer(size, '\0');
-        ok = H5Tset_size(memType.get(), size) >= 0 &&
-             H5Tset_strpad(memType.get(), H5T_STR_NULLPAD) >= 0 &&
+        ok = H5Tset_size(memType.get(), size) >= 0 && H5Tset_strpad(memType.get(), H5T_STR_NULLPAD) >= 0 &&
              H5Aread(attr.get(), memType.get(), buffer.data()) >= 0;
         value = buffer.substr(0, buffer.find('\0'));
       }
@@ -836,12 +802,11 @@ class Hdf5Source final : public RowSource {
     Hid fileSpace(H5Dget_space(column.dataset.get()), H5Sclose);
     Hid memSpace(H5Screate_simple(1, &count, nullptr), H5Sclose);
     if (!fileSpace.valid() || !memSpace.valid()) return false;
-    if (H5Sselect_hyperslab(fileSpace.get(), H5S_SELECT_SET, &offset, nullptr, &count, nullptr) <
-        0) {
+    if (H5Sselect_hyperslab(fileSpace.get(), H5S_SELECT_SET, &offset, nullptr, &count, nullptr) < 0) {
       return false;
     }
-    return H5Dread(column.dataset.get(), memoryType(column.kind), memSpace.get(), fileSpace.get(),
-                   H5P_DEFAULT, out) >= 0;
+    return H5Dread(column.dataset.get(), memoryType(column.kind), memSpace.get(), fileSpace.get(), H5P_DEFAULT, out) >=
+           0;
   }
 
   Status load(hsize_t offset) {
@@ -849,8 +814,8 @@ class Hdf5Source final : public RowSource {
     const auto read = [&](const Hdf5Column& column, auto& buffer) -> Status {
       buffer.resize(count);
       if (!readRange(column, offset, count, buffer.data())) {
-        return error(fmt::format("records {}..{}: cannot read dataset '{}': {}", offset,
-                                 offset + count - 1, column.name, hdf5Reason()));
+        return error(fmt::format("records {}..{}: cannot read dataset '{}': {}", offset, offset + count - 1,
+                                 column.name, hdf5Reason()));
       }
       return {};
     };
@@ -860,8 +825,7 @@ class Hdf5Source final : public RowSource {
     if (auto s = read(eventCols_[kCharged], charged_); !s) return s;
     for (std::size_t c = 0; c < kEventDoubles.size(); ++c) {
       const auto index = static_cast<std::size_t>(
-          std::find(kColumnNames.begin(), kColumnNames.end(), kEventDoubles[c].name) -
-          kColumnNames.begin());
+          std::find(kColumnNames.begin(), kColumnNames.end(), kEventDoubles[c].name) - kColumnNames.begin());
       if (auto s = read(eventCols_[index], doubles_[c]); !s) return s;
     }
     if (hasTruth_) {

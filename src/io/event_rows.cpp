@@ -9,13 +9,11 @@ namespace emcalign::io::detail {
 
 std::optional<Issue> checkRow(const ParticleRow& r) {
   const auto name = [](int c) { return kColumnNames[static_cast<std::size_t>(c)]; };
-  const std::array<double, kNumCols> v = {0.0,       0.0,      r.beamEnergy, 0.0,
-                                          0.0,       r.z0,     r.rho,        r.phiTs,
-                                          r.thetaTs, r.energy, r.phiEmc,     r.thetaEmc};
+  const std::array<double, kNumCols> v = {0.0,   0.0,     r.beamEnergy, 0.0,      0.0,      r.z0,
+                                          r.rho, r.phiTs, r.thetaTs,    r.energy, r.phiEmc, r.thetaEmc};
   for (int c = kBeam; c < kNumCols; ++c) {
     if (std::isinf(v[static_cast<std::size_t>(c)])) {
-      return Issue{name(c),
-                   fmt::format("{} is not a finite number", v[static_cast<std::size_t>(c)])};
+      return Issue{name(c), fmt::format("{} is not a finite number", v[static_cast<std::size_t>(c)])};
     }
   }
   if (std::isnan(r.beamEnergy)) return Issue{name(kBeam), "empty (a value is required)"};
@@ -26,8 +24,7 @@ std::optional<Issue> checkRow(const ParticleRow& r) {
     return Issue{name(kVeto), fmt::format("must be 0 or 1, got {}", static_cast<int>(r.muonVeto))};
   }
   if (r.charged != 0 && r.charged != 1) {
-    return Issue{name(kCharged),
-                 fmt::format("must be 0 or 1, got {}", static_cast<int>(r.charged))};
+    return Issue{name(kCharged), fmt::format("must be 0 or 1, got {}", static_cast<int>(r.charged))};
   }
   for (int c = kZ0; c <= kThetaTs; ++c) {
     const double x = v[static_cast<std::size_t>(c)];
@@ -47,8 +44,7 @@ std::optional<Issue> checkRow(const ParticleRow& r) {
     return Issue{name(kThetaTs), fmt::format("{} is outside [0, pi]", r.thetaTs)};
   }
   int clusterFields = 0;
-  for (int c = kEnergy; c <= kThetaEmc; ++c)
-    clusterFields += std::isnan(v[static_cast<std::size_t>(c)]) ? 0 : 1;
+  for (int c = kEnergy; c <= kThetaEmc; ++c) clusterFields += std::isnan(v[static_cast<std::size_t>(c)]) ? 0 : 1;
   if (clusterFields == 0 && r.charged == 0) {
     return Issue{name(kEnergy), "empty, but a photon (charged = 0) needs an EMC cluster"};
   }
@@ -81,7 +77,8 @@ std::optional<Issue> checkHits(const ParticleRow& r, std::span<const Hit> hits) 
     return Issue{"hit_count", fmt::format("{} hits for a row without an EMC cluster", r.hitCount)};
   }
   if (!std::isnan(r.energy) && r.hitCount == 0) {
-    return Issue{"hit_count", "0 hits for a row with an EMC cluster (a file with hits stores every cluster's counters)"};
+    return Issue{"hit_count",
+                 "0 hits for a row with an EMC cluster (a file with hits stores every cluster's counters)"};
   }
   for (const Hit& h : hits) {
     if (h.counter < 0) return Issue{"/hits/counter", fmt::format("{} is not a counter index", h.counter)};
@@ -95,8 +92,8 @@ std::optional<Issue> checkHits(const ParticleRow& r, std::span<const Hit> hits) 
 bool isAttributeKey(std::string_view key) {
   if (key.empty()) return false;
   for (char ch : key) {
-    const bool ok = (ch >= 'a' && ch <= 'z') || (ch >= 'A' && ch <= 'Z') ||
-                    (ch >= '0' && ch <= '9') || ch == '_' || ch == '.' || ch == '-';
+    const bool ok = (ch >= 'a' && ch <= 'z') || (ch >= 'A' && ch <= 'Z') || (ch >= '0' && ch <= '9') || ch == '_' ||
+                    ch == '.' || ch == '-';
     if (!ok) return false;
   }
   return true;
@@ -106,8 +103,7 @@ Status checkAttributes(const std::string& path, const Attributes& attributes, Ev
   for (std::size_t i = 0; i < attributes.size(); ++i) {
     const auto& [key, value] = attributes[i];
     if (!isAttributeKey(key)) {
-      return Error{fmt::format(
-          "{}: attribute '{}': a key is made of letters, digits, '_', '.' and '-'", path, key)};
+      return Error{fmt::format("{}: attribute '{}': a key is made of letters, digits, '_', '.' and '-'", path, key)};
     }
     for (std::size_t j = 0; j < i; ++j) {
       if (attributes[j].first == key) {
@@ -115,21 +111,20 @@ Status checkAttributes(const std::string& path, const Attributes& attributes, Ev
       }
     }
     if (value.find('\0') != std::string::npos) {
-      return Error{
-          fmt::format("{}: attribute '{}': the value contains a NUL character", path, key)};
+      return Error{fmt::format("{}: attribute '{}': the value contains a NUL character", path, key)};
     }
     if (format == EventFormat::Csv && value.find_first_of("\r\n") != std::string::npos) {
-      return Error{fmt::format(
-          "{}: attribute '{}': the value contains a line break, which a CSV comment line cannot "
-          "hold (write it on one line, e.g. compact JSON)",
-          path, key)};
+      return Error{
+          fmt::format("{}: attribute '{}': the value contains a line break, which a CSV comment line cannot "
+                      "hold (write it on one line, e.g. compact JSON)",
+                      path, key)};
     }
   }
   return {};
 }
 
-Status checkAppend(const std::string& path, std::span<const ParticleRow> rows, std::span<const Hit> hits,
-                   bool withHits, std::uint64_t firstIndex, EventConsistency& consistency) {
+Status checkAppend(const std::string& path, std::span<const ParticleRow> rows, std::span<const Hit> hits, bool withHits,
+                   std::uint64_t firstIndex, EventConsistency& consistency) {
   EventConsistency trial = consistency;
   std::size_t hit = 0;
   for (std::size_t i = 0; i < rows.size(); ++i) {
@@ -144,9 +139,8 @@ Status checkAppend(const std::string& path, std::span<const ParticleRow> rows, s
       hit += n;
     }
     if (issue) {
-      return Error{fmt::format("{}: appended row {} (0-based, run {} event {}): column '{}': {}",
-                               path, firstIndex + i, rows[i].run, rows[i].event, issue->column,
-                               issue->what)};
+      return Error{fmt::format("{}: appended row {} (0-based, run {} event {}): column '{}': {}", path, firstIndex + i,
+                               rows[i].run, rows[i].event, issue->column, issue->what)};
     }
   }
   if (withHits && hit != hits.size()) {

@@ -29,8 +29,8 @@
 #include <cerrno>
 #include <chrono>
 #include <cstring>
-#include <string_view>
 #include <functional>
+#include <string_view>
 
 #include <fmt/format.h>
 
@@ -329,9 +329,10 @@ class IsolatedSource final : public RowSource {
   Status stalled() {
     ::kill(child_, SIGKILL);
     reap(false);
-    return Error{fmt::format("{}: the HDF5 library did not answer within {:g} s while reading this file: it is "
-                             "corrupted (libhdf5 loops on some damaged files), or the storage stalled",
-                             path_, timeout_)};
+    return Error{
+        fmt::format("{}: the HDF5 library did not answer within {:g} s while reading this file: it is "
+                    "corrupted (libhdf5 loops on some damaged files), or the storage stalled",
+                    path_, timeout_)};
   }
 
   Status died() {
@@ -341,9 +342,10 @@ class IsolatedSource final : public RowSource {
       return Error{fmt::format("{}: the HDF5 library crashed reading this file (signal {}, {}): the file is corrupted",
                                path_, sig, ::strsignal(sig))};
     }
-    return Error{fmt::format("{}: the HDF5 reader process ended without an answer (exit status {}): the file is "
-                             "probably corrupted",
-                             path_, status >= 0 && WIFEXITED(status) ? WEXITSTATUS(status) : -1)};
+    return Error{
+        fmt::format("{}: the HDF5 reader process ended without an answer (exit status {}): the file is "
+                    "probably corrupted",
+                    path_, status >= 0 && WIFEXITED(status) ? WEXITSTATUS(status) : -1)};
   }
 
   // Waits for the child (killing it first when asked); its wait status, or −1.

@@ -30,8 +30,8 @@ using json = Json;
 namespace {
 
 using strict::BadInput;
-using strict::StrictObject;
 using strict::guarded;
+using strict::StrictObject;
 
 void checkUnits(const StrictObject& top) {
   if (!top.has("units")) return;
@@ -81,12 +81,12 @@ std::optional<std::size_t> tooDeep(std::string_view text) {
 
 Result<json> parseJson(std::string_view text, std::string_view source) {
   if (text.size() > kMaxJsonBytes) {
-    return Error{fmt::format("{}: {} bytes is too large for an emcalign JSON file (at most {} MiB)", source, text.size(),
-                             kMaxJsonBytes >> 20)};
+    return Error{fmt::format("{}: {} bytes is too large for an emcalign JSON file (at most {} MiB)", source,
+                             text.size(), kMaxJsonBytes >> 20)};
   }
   if (auto at = tooDeep(text)) {
-    return Error{fmt::format("{}: not an emcalign file: nested deeper than {} levels (at byte {})", source,
-                             kMaxJsonDepth, *at)};
+    return Error{
+        fmt::format("{}: not an emcalign file: nested deeper than {} levels (at byte {})", source, kMaxJsonDepth, *at)};
   }
   // Duplicate keys are silently merged by JSON parsers; a calibration file with two
   // "alpha" entries is a mistake, so a callback tracks the keys of every open object.
@@ -157,8 +157,8 @@ Result<DetectorDescription> parseDetectorDescription(const json& j, std::string_
   return guarded([&]() -> DetectorDescription {
     using units::deg;
     StrictObject top(j, "", source);
-    top.allowOnly({"format", "name", "layers", "support_spheres", "theta_min_deg", "theta_max_deg",
-                   "counters_per_ring", "shower"});
+    top.allowOnly({"format", "name", "layers", "support_spheres", "theta_min_deg", "theta_max_deg", "counters_per_ring",
+                   "shower"});
     if (top.string("format") != kDetectorFormat) {
       top.fail("format", fmt::format("expected \"{}\"", kDetectorFormat));
     }
@@ -219,7 +219,8 @@ Result<DetectorDescription> readDetectorDescription(const std::string& path) {
 json toJson(const DetectorDescription& d) {
   auto shells = [](const auto& list) {
     json arr = json::array();
-    for (const auto& s : list) arr.push_back({{"r_inner_cm", s.rInner / units::cm}, {"r_outer_cm", s.rOuter / units::cm}});
+    for (const auto& s : list)
+      arr.push_back({{"r_inner_cm", s.rInner / units::cm}, {"r_outer_cm", s.rOuter / units::cm}});
     return arr;
   };
   return json{{"format", kDetectorFormat},
@@ -241,9 +242,8 @@ Result<AlignmentFile> parseAlignmentFile(const json& j, double r1, std::string_v
   return guarded([&]() -> AlignmentFile {
     StrictObject top(j, "", source);
     // The parameter keys, plus what a fit result adds (SPEC §3), read elsewhere.
-    top.allowOnly({"format", "units", "parameters", "physical", "errors", "covariance", "derived",
-                   "chi2", "ndf", "p_value", "stages", "status", "warnings", "input", "software",
-                   "correlation", "sigma_sys"});
+    top.allowOnly({"format", "units", "parameters", "physical", "errors", "covariance", "derived", "chi2", "ndf",
+                   "p_value", "stages", "status", "warnings", "input", "software", "correlation", "sigma_sys"});
     if (top.has("format") && top.string("format") != kAlignmentFormat) {
       top.fail("format", fmt::format("expected \"{}\"", kAlignmentFormat));
     }
@@ -256,7 +256,8 @@ Result<AlignmentFile> parseAlignmentFile(const json& j, double r1, std::string_v
     if (top.has("parameters")) {
       StrictObject p(top.at("parameters"), "parameters", source);
       for (const auto& [key, value] : top.at("parameters").items()) {
-        if (!paramFromName(key)) p.fail(p.pathOf(key), fmt::format("unknown parameter (the 12 are: {})", fmt::join(kParamNames, ", ")));
+        if (!paramFromName(key))
+          p.fail(p.pathOf(key), fmt::format("unknown parameter (the 12 are: {})", fmt::join(kParamNames, ", ")));
       }
       AlignmentParameters eta;
       for (Param q : kAllParams) eta[q] = p.number(name(q)) * AlignmentParameters::fileUnit(q);
@@ -268,7 +269,8 @@ Result<AlignmentFile> parseAlignmentFile(const json& j, double r1, std::string_v
       for (const auto& [key, value] : top.at("physical").items()) {
         bool known = false;
         for (auto n : kPhysicalNames) known = known || n == key;
-        if (!known) p.fail(p.pathOf(key), fmt::format("unknown parameter (the 12 are: {})", fmt::join(kPhysicalNames, ", ")));
+        if (!known)
+          p.fail(p.pathOf(key), fmt::format("unknown parameter (the 12 are: {})", fmt::join(kPhysicalNames, ", ")));
       }
       PhysicalParameters phys;
       for (std::size_t i = 0; i < kNumParams; ++i) {
@@ -297,20 +299,22 @@ Result<AlignmentFile> parseAlignmentFile(const json& j, double r1, std::string_v
       const std::string status = top.string("status");
       const auto s = fitStatusFromName(status);
       if (!s) {
-        top.fail("status", fmt::format("unknown status '{}' (converged, poor fit, not converged, covariance singular)",
-                                       status));
+        top.fail("status",
+                 fmt::format("unknown status '{}' (converged, poor fit, not converged, covariance singular)", status));
       }
       file.status = *s;
       if (use == AlignmentUse::Input && !usable(*s)) {
-        throw BadInput{fmt::format("{}: a fit result with status '{}': its parameters are not a calibration (read its "
-                                   "warnings and refit; to use them anyway, copy its \"parameters\" into a parameter "
-                                   "file)",
-                                   source, status)};
+        throw BadInput{
+            fmt::format("{}: a fit result with status '{}': its parameters are not a calibration (read its "
+                        "warnings and refit; to use them anyway, copy its \"parameters\" into a parameter "
+                        "file)",
+                        source, status)};
       }
       if (*s == FitStatus::PoorFit) {
-        file.warnings.push_back(fmt::format("{}: a fit result with status 'poor fit' (p-value below {:g}): the model does "
-                                            "not describe its profiles well; use it with care",
-                                            source, kPoorFitPValue));
+        file.warnings.push_back(
+            fmt::format("{}: a fit result with status 'poor fit' (p-value below {:g}): the model does "
+                        "not describe its profiles well; use it with care",
+                        source, kPoorFitPValue));
       }
     }
     if (use == AlignmentUse::Input) {
@@ -346,9 +350,7 @@ Result<AlignmentParameters> readAlignment(const std::string& path, double r1) {
 json alignmentToJson(const AlignmentParameters& eta) {
   json params = json::object();
   for (Param q : kAllParams) params[std::string(name(q))] = eta[q] / AlignmentParameters::fileUnit(q);
-  return json{{"format", kAlignmentFormat},
-              {"units", {{"angle", "deg"}, {"length", "cm"}}},
-              {"parameters", params}};
+  return json{{"format", kAlignmentFormat}, {"units", {{"angle", "deg"}, {"length", "cm"}}}, {"parameters", params}};
 }
 
 Result<json> alignmentToJsonWithPhysical(const AlignmentParameters& eta, double r1) {

@@ -133,19 +133,21 @@ Result<OutputTarget> resolveOutput(const std::string& path) {
     if (S_ISLNK(link.st_mode) && error == ENOENT) {
       std::error_code ec;
       const auto to = fs::read_symlink(path, ec);
-      return Error{fmt::format("{}: is a symbolic link to '{}', which does not exist: refusing to write through it "
-                               "(remove the link, or create its target)",
-                               path, ec ? std::string("?") : to.string())};
+      return Error{
+          fmt::format("{}: is a symbolic link to '{}', which does not exist: refusing to write through it "
+                      "(remove the link, or create its target)",
+                      path, ec ? std::string("?") : to.string())};
     }
     return Error{fmt::format("{}: cannot use as an output: {}", path, reason(error))};
   }
   if (S_ISDIR(st.st_mode)) return Error{fmt::format("{}: is a directory (an output file name is expected)", path)};
   if (S_ISCHR(st.st_mode) || S_ISFIFO(st.st_mode)) return OutputTarget{path, path, OutputKind::Stream};
   if (S_ISBLK(st.st_mode)) return Error{fmt::format("{}: is a block device: refusing to write to it", path)};
-  if (!S_ISREG(st.st_mode)) return Error{fmt::format("{}: is not a regular file, a device or a pipe: refusing to write to it", path)};
+  if (!S_ISREG(st.st_mode))
+    return Error{fmt::format("{}: is not a regular file, a device or a pipe: refusing to write to it", path)};
   if ((st.st_mode & (S_IWUSR | S_IWGRP | S_IWOTH)) == 0) {
-    return Error{fmt::format("{}: is read-only: refusing to replace it (chmod u+w {} to allow it, or remove it)", path,
-                             path)};
+    return Error{
+        fmt::format("{}: is read-only: refusing to replace it (chmod u+w {} to allow it, or remove it)", path, path)};
   }
   if (::access(path.c_str(), W_OK) != 0) {
     return Error{fmt::format("{}: cannot replace it: {}", path, reason(errno))};
@@ -174,7 +176,8 @@ Status checkOutputDirectory(const std::string& path) {
   if (::stat(path.c_str(), &st) != 0) {
     return Error{fmt::format("{}: is a symbolic link to nothing: refusing to write through it", path)};
   }
-  if (!S_ISDIR(st.st_mode)) return Error{fmt::format("{}: exists and is not a directory (an output directory is expected)", path)};
+  if (!S_ISDIR(st.st_mode))
+    return Error{fmt::format("{}: exists and is not a directory (an output directory is expected)", path)};
   if (::access(path.c_str(), W_OK | X_OK) != 0) {
     return Error{fmt::format("{}: cannot write into this directory: {}", path, reason(errno))};
   }
@@ -204,8 +207,8 @@ Status checkDistinct(const std::vector<NamedPath>& outputs, const std::vector<Na
     const std::string name = fs::weakly_canonical(fs::absolute(o.path, ec), ec).string();
     for (const auto& [other, otherName] : absent) {
       if (otherName == name) {
-        return Error{fmt::format("{} {}: is the same file as the output {} {}: give each output its own file",
-                                 o.option, o.path, other->option, other->path)};
+        return Error{fmt::format("{} {}: is the same file as the output {} {}: give each output its own file", o.option,
+                                 o.path, other->option, other->path)};
       }
     }
     absent.emplace_back(&o, name);
@@ -222,8 +225,8 @@ Status checkDistinct(const std::vector<NamedPath>& outputs, const std::vector<Na
     }
     for (const auto& s : out) {
       if (s.dev == st.st_dev && s.ino == st.st_ino) {
-        return Error{fmt::format("{} {}: is the same file as the output {} {}: give each output its own file",
-                                 o.option, o.path, s.path->option, s.path->path)};
+        return Error{fmt::format("{} {}: is the same file as the output {} {}: give each output its own file", o.option,
+                                 o.path, s.path->option, s.path->path)};
       }
     }
     out.push_back({&o, st.st_dev, st.st_ino});
@@ -243,8 +246,9 @@ Result<std::unique_ptr<OutputFile>> OutputFile::reserve(const std::string& path)
     out->written_ = temporaryPathFor(target->realPath);
     struct stat existing {};
     if (::lstat(out->written_.c_str(), &existing) == 0) {
-      return Error{fmt::format("{}: the temporary file '{}' exists: is this file being written by this process already?",
-                               path, out->written_)};
+      return Error{
+          fmt::format("{}: the temporary file '{}' exists: is this file being written by this process already?", path,
+                      out->written_)};
     }
     struct stat st {};
     if (::stat(target->realPath.c_str(), &st) == 0) out->mode_ = static_cast<int>(st.st_mode & 07777);
@@ -252,9 +256,9 @@ Result<std::unique_ptr<OutputFile>> OutputFile::reserve(const std::string& path)
     std::error_code ec;
     const fs::path dir = fs::temp_directory_path(ec);
     if (ec) return Error{fmt::format("{}: no temporary directory to build the file in: {}", path, ec.message())};
-    out->written_ = (dir / fmt::format("emcalign-{}-{}.tmp", static_cast<long>(::getpid()),
-                                       gStreamTemporaries.fetch_add(1)))
-                        .string();
+    out->written_ =
+        (dir / fmt::format("emcalign-{}-{}.tmp", static_cast<long>(::getpid()), gStreamTemporaries.fetch_add(1)))
+            .string();
     out->copyOnCommit_ = true;
   }
   out->temporary_ = true;
@@ -302,7 +306,8 @@ Status OutputFile::closeStream() {
   if (stream_ == nullptr) return {};
   std::FILE* s = std::exchange(stream_, nullptr);
   if (s == stdout) {
-    if (std::fflush(s) != 0 || std::ferror(s)) return Error{fmt::format("standard output: write failed: {}", reason(errno))};
+    if (std::fflush(s) != 0 || std::ferror(s))
+      return Error{fmt::format("standard output: write failed: {}", reason(errno))};
     return {};
   }
   const bool flushed = std::fflush(s) == 0 && !std::ferror(s);

@@ -20,9 +20,9 @@ namespace {
 // The symbol a physicist reads for a parameter's file name.
 std::string symbol(const std::string& name) {
   static const std::vector<std::pair<std::string, std::string>> kSymbols = {
-      {"alpha", "α"},    {"beta1", "β₁"},      {"beta2", "β₂"},        {"dp1", "dp₁"},   {"dp2", "dp₂"},
-      {"dp3", "dp₃"},    {"dy_rel", "dy_rel"}, {"dz_rel", "dz_rel"},   {"beta_rel", "β_rel"},
-      {"beta", "β"},     {"psi", "ψ"},         {"mu", "μ"},            {"tau", "τ"},     {"dx_rel", "dx_rel"}};
+      {"alpha", "α"}, {"beta1", "β₁"},      {"beta2", "β₂"},      {"dp1", "dp₁"},        {"dp2", "dp₂"},
+      {"dp3", "dp₃"}, {"dy_rel", "dy_rel"}, {"dz_rel", "dz_rel"}, {"beta_rel", "β_rel"}, {"beta", "β"},
+      {"psi", "ψ"},   {"mu", "μ"},          {"tau", "τ"},         {"dx_rel", "dx_rel"}};
   for (const auto& [n, s] : kSymbols) {
     if (n == name) return s;
   }
@@ -79,11 +79,12 @@ Result<std::string> fitSection(const ReportFit& f) {
   std::string body;
   const std::string status = r.at("status").get<std::string>();
   const bool converged = status == "converged";
-  body += fmt::format("<p>Result <code>{}</code>: status <span class=\"{}\">{}</span>; χ²/ndf = {}/{} (p-value {}); "
-                      "{} profile bins used.</p>\n",
-                      html::escape(f.path), converged ? "good" : "bad", html::escape(status),
-                      number(r.at("chi2"), "{:.1f}"), text(r.at("ndf")), number(r.value("p_value", Json()), "{:.3g}"),
-                      text(r.at("input").value("bins_used", Json("?"))));
+  body += fmt::format(
+      "<p>Result <code>{}</code>: status <span class=\"{}\">{}</span>; χ²/ndf = {}/{} (p-value {}); "
+      "{} profile bins used.</p>\n",
+      html::escape(f.path), converged ? "good" : "bad", html::escape(status), number(r.at("chi2"), "{:.1f}"),
+      text(r.at("ndf")), number(r.value("p_value", Json()), "{:.3g}"),
+      text(r.at("input").value("bins_used", Json("?"))));
   if (!f.detector.empty()) body += html::paragraph("Detector: " + f.detector);
   const Json& warnings = r.at("warnings");
   if (!warnings.empty()) {
@@ -129,16 +130,18 @@ Result<std::string> fitSection(const ReportFit& f) {
     std::string line = fmt::format("σ_sys of every bin: {} deg ({}", number(s.value("value_deg", Json())),
                                    s.value("method", std::string("?")));
     if (s.value("method", std::string()) == "auto" && s.contains("interval_deg")) {
-      line += fmt::format(": χ²/ndf = 1 after the fit, 68 % interval {} to {} deg; χ² {} with the statistical "
-                          "errors alone",
-                          number(s.at("interval_deg")[0]), number(s.at("interval_deg")[1]),
-                          number(s.value("chi2_statistical_errors", Json()), "{:.1f}"));
+      line += fmt::format(
+          ": χ²/ndf = 1 after the fit, 68 % interval {} to {} deg; χ² {} with the statistical "
+          "errors alone",
+          number(s.at("interval_deg")[0]), number(s.at("interval_deg")[1]),
+          number(s.value("chi2_statistical_errors", Json()), "{:.1f}"));
     }
     body += html::paragraph(line + ").");
   }
 
   if (r.contains("stages") && r.at("stages").is_array()) {
-    html::Table stages{.caption = "The staged fit (SPEC §8)", .header = {"stage", "free parameters", "χ²", "iterations", "converged"}};
+    html::Table stages{.caption = "The staged fit (SPEC §8)",
+                       .header = {"stage", "free parameters", "χ²", "iterations", "converged"}};
     stages.numeric = {true, false, true, true, false};
     for (const auto& s : r.at("stages")) {
       std::string free;
@@ -152,7 +155,8 @@ Result<std::string> fitSection(const ReportFit& f) {
   if (!f.figures.empty()) {
     body += "<h3>Profiles and residuals</h3>\n";
     for (std::size_t k = 0; k < f.figures.size(); ++k) {
-      auto fig = html::figure(f.figures[k], k < kFitCaptions.size() ? kFitCaptions[k] : fs::path(f.figures[k]).stem().string());
+      auto fig = html::figure(f.figures[k],
+                              k < kFitCaptions.size() ? kFitCaptions[k] : fs::path(f.figures[k]).stem().string());
       if (!fig) return fig.error();
       body += *fig;
     }
@@ -161,15 +165,17 @@ Result<std::string> fitSection(const ReportFit& f) {
   const Json& in = r.at("input");
   html::Table prov{.header = {"item", "value"}};
   for (const auto& [file, digest] : f.inputDigests) {
-    prov.rows.push_back({"input file", "<code>" + html::escape(file) + "</code><br>SHA-256 taken now: " +
-                                           (digest.empty() ? std::string("— (not found)") : "<code>" + digest + "</code>")});
+    prov.rows.push_back(
+        {"input file", "<code>" + html::escape(file) + "</code><br>SHA-256 taken now: " +
+                           (digest.empty() ? std::string("— (not found)") : "<code>" + digest + "</code>")});
   }
   prov.rows.push_back({"detector", text(in.value("detector", Json("?")))});
   if (in.contains("model_corrections")) {
     const Json& c = in.at("model_corrections");
     std::string corr = fmt::format("depth offset {} cm", number(c.value("depth_offset_cm", Json()), "{:+.3f}"));
     for (const char* key : {"parting_plane_response", "nominal_profile", "response"}) {
-      if (c.contains(key) && c.at(key).is_string()) corr += fmt::format("; {}: <code>{}</code>", key, html::escape(c.at(key).get<std::string>()));
+      if (c.contains(key) && c.at(key).is_string())
+        corr += fmt::format("; {}: <code>{}</code>", key, html::escape(c.at(key).get<std::string>()));
     }
     if (c.contains("interpolation")) {
       const Json& i = c.at("interpolation");
@@ -187,7 +193,8 @@ Result<std::string> fitSection(const ReportFit& f) {
   }
   if (in.contains("cut_flow")) {
     std::string flow;
-    for (const auto& [cut, n] : in.at("cut_flow").items()) flow += fmt::format("{}{}: {}", flow.empty() ? "" : "; ", html::escape(cut), text(n));
+    for (const auto& [cut, n] : in.at("cut_flow").items())
+      flow += fmt::format("{}{}: {}", flow.empty() ? "" : "; ", html::escape(cut), text(n));
     prov.rows.push_back({"selection (events)", flow});
   }
   prov.rows.push_back({"software", text(r.value("software", Json("?")))});
@@ -198,13 +205,15 @@ Result<std::string> fitSection(const ReportFit& f) {
 
 Result<std::string> validationSection(const ReportValidation& v) {
   const Json& t = v.table;
-  std::string body = fmt::format("<p>Campaign <code>{}</code>: {} samples of {} events, truths drawn over the expected "
-                                 "ranges, each fitted like data (<code>emcalign validate</code>). bias = mean of (fit − "
-                                 "truth), spread = its standard deviation, pulls = (fit − truth)/error; slope = of "
-                                 "(fit − truth) against truth. Beside: the paper's Table 1.</p>\n",
-                                 html::escape(v.dir), text(t.at("samples")), text(t.at("events")));
-  html::Table table{.caption = "Validation beside the paper's Table 1", .header = {"parameter", "unit", "bias", "±", "spread", "pull mean", "pull width", "slope", "paper: bias",
-                     "paper: spread"}};
+  std::string body = fmt::format(
+      "<p>Campaign <code>{}</code>: {} samples of {} events, truths drawn over the expected "
+      "ranges, each fitted like data (<code>emcalign validate</code>). bias = mean of (fit − "
+      "truth), spread = its standard deviation, pulls = (fit − truth)/error; slope = of "
+      "(fit − truth) against truth. Beside: the paper's Table 1.</p>\n",
+      html::escape(v.dir), text(t.at("samples")), text(t.at("events")));
+  html::Table table{.caption = "Validation beside the paper's Table 1",
+                    .header = {"parameter", "unit", "bias", "±", "spread", "pull mean", "pull width", "slope",
+                               "paper: bias", "paper: spread"}};
   table.numeric = {false, false, true, true, true, true, true, true, true, true};
   for (const auto& [name, row] : t.at("parameters").items()) {
     const auto* paper = paper::table1(name);
@@ -214,9 +223,13 @@ Result<std::string> validationSection(const ReportValidation& v) {
     const auto [bias, biasError] = withError(row.at("bias"), row.at("bias_error"));
     table.rows.push_back({label(name), text(row.value("unit", Json(""))), bias, biasError, number(row.at("spread")),
                           number(row.at("pull_mean"), "{:+.2f}"),
-                          fmt::format("<span class=\"{}\">{}</span> ± {}", off <= 0.1 ? "good" : off > 0.2 ? "bad" : "",
+                          fmt::format("<span class=\"{}\">{}</span> ± {}",
+                                      off <= 0.1  ? "good"
+                                      : off > 0.2 ? "bad"
+                                                  : "",
                                       number(width, "{:.2f}"), number(row.value("pull_width_error", Json()), "{:.2f}")),
-                          number(row.value("slope", Json()), "{:+.4f}"), paper ? fmt::format("{:.3g}", paper->bias) : "",
+                          number(row.value("slope", Json()), "{:+.4f}"),
+                          paper ? fmt::format("{:.3g}", paper->bias) : "",
                           paper ? fmt::format("{:.3g}", paper->spread) : ""});
   }
   body += html::table(table);
@@ -227,8 +240,9 @@ Result<std::string> validationSection(const ReportValidation& v) {
   }
   for (const auto& png : v.figures) {
     const std::string stem = fs::path(png).stem().string();
-    auto fig = html::figure(png, stem == "pulls" ? "Pulls of every parameter over the samples, with the unit Gaussian."
-                                                 : "Fit − truth against truth, every parameter: a slope is a scale error.");
+    auto fig =
+        html::figure(png, stem == "pulls" ? "Pulls of every parameter over the samples, with the unit Gaussian."
+                                          : "Fit − truth against truth, every parameter: a slope is a scale error.");
     if (!fig) return fig.error();
     body += *fig;
   }
@@ -239,16 +253,18 @@ Result<std::string> trendSection(const std::optional<ReportTrend>& tr, const std
   std::string body;
   if (tr) {
     const Json& t = tr->trend;
-    body += fmt::format("<p>Tag <code>{}</code> of <code>{}</code>: {} IOVs (<code>emcalign trend</code>, directory "
-                        "<code>{}</code>).</p>\n",
-                        text(t.value("tag", Json("?"))), text(t.value("conditions", Json("?"))), text(t.at("iovs")),
-                        html::escape(tr->dir));
-    html::Table steps{.caption = "Steps found", .header = {"parameter", "first run after", "size", "±", "unit", "z", "IOV"}};
+    body += fmt::format(
+        "<p>Tag <code>{}</code> of <code>{}</code>: {} IOVs (<code>emcalign trend</code>, directory "
+        "<code>{}</code>).</p>\n",
+        text(t.value("tag", Json("?"))), text(t.value("conditions", Json("?"))), text(t.at("iovs")),
+        html::escape(tr->dir));
+    html::Table steps{.caption = "Steps found",
+                      .header = {"parameter", "first run after", "size", "±", "unit", "z", "IOV"}};
     steps.numeric = {false, true, true, true, false, true, false};
     for (const auto& s : t.at("steps")) {
       const auto [v, e] = withError(s.at("size"), s.at("error"));
-      steps.rows.push_back({html::escape(symbol(s.at("parameter").get<std::string>())), text(s.at("first_run_after")), v,
-                            e, text(s.value("unit", Json(""))), number(s.at("z"), "{:.1f}"),
+      steps.rows.push_back({html::escape(symbol(s.at("parameter").get<std::string>())), text(s.at("first_run_after")),
+                            v, e, text(s.value("unit", Json(""))), number(s.at("z"), "{:.1f}"),
                             s.contains("within_iov") && s.at("within_iov").is_array()
                                 ? runs(s.at("within_iov")[0], s.at("within_iov")[1])
                                 : "between IOVs"});
@@ -277,21 +293,22 @@ Result<std::string> trendSection(const std::optional<ReportTrend>& tr, const std
     body += html::table(segments);
     for (const auto& png : tr->figures) {
       const std::string stem = fs::path(png).stem().string();
-      auto fig = html::figure(png, stem == "fig8" ? "α, dx, μ and ψ against run, with the steps and drifts found: the paper's Fig. 7."
-                                                  : "Every parameter against run.");
+      auto fig = html::figure(
+          png, stem == "fig8" ? "α, dx, μ and ψ against run, with the steps and drifts found: the paper's Fig. 7."
+                              : "Every parameter against run.");
       if (!fig) return fig.error();
       body += *fig;
     }
   }
   if (cond) {
-    html::Table iovs{.caption = fmt::format("IOVs of tag {} in {}", cond->tag, cond->uri), .header = {"first run", "last run", "payload", "selected events", "status", "χ²/ndf", "inserted"}};
+    html::Table iovs{.caption = fmt::format("IOVs of tag {} in {}", cond->tag, cond->uri),
+                     .header = {"first run", "last run", "payload", "selected events", "status", "χ²/ndf", "inserted"}};
     iovs.numeric = {true, true, false, true, false, true, false};
     for (const auto& i : cond->iovs) {
       const std::string payload = i.value("payload", std::string());
       iovs.rows.push_back({text(i.at("first_run")), text(i.at("last_run")),
                            "<code>" + html::escape(payload.substr(0, 12)) + "</code>",
-                           text(i.value("selected_events", Json(""))),
-                           text(i.value("status", Json(""))),
+                           text(i.value("selected_events", Json(""))), text(i.value("status", Json(""))),
                            i.contains("chi2") && i.contains("ndf")
                                ? fmt::format("{}/{}", number(i.at("chi2"), "{:.1f}"), text(i.at("ndf")))
                                : "",
@@ -317,28 +334,39 @@ Result<std::string> checksSection(const std::vector<ReportCheck>& checks) {
                               paper::kGammaGammaImprovementPercent);
       t.header = {"quantity", "before", "after", "improvement, %", "paper"};
       t.rows.push_back({"Δφ core width, deg", number(b.value("dphi_width_deg", Json()), "{:.3f}"),
-                        number(a.value("dphi_width_deg", Json()), "{:.3f}"), number(imp.value("dphi_width", Json()), "{:.1f}"),
+                        number(a.value("dphi_width_deg", Json()), "{:.3f}"),
+                        number(imp.value("dphi_width", Json()), "{:.1f}"),
                         fmt::format("{:.0f} %", paper::kGammaGammaImprovementPercent)});
-      t.rows.push_back({"Δφ rms, deg", number(b.value("dphi_rms_deg", Json()), "{:.3f}"), number(a.value("dphi_rms_deg", Json()), "{:.3f}"),
+      t.rows.push_back({"Δφ rms, deg", number(b.value("dphi_rms_deg", Json()), "{:.3f}"),
+                        number(a.value("dphi_rms_deg", Json()), "{:.3f}"),
                         number(imp.value("dphi_rms", Json()), "{:.1f}"), ""});
       t.rows.push_back({"Δθ core width, deg", number(b.value("dtheta_width_deg", Json()), "{:.3f}"),
-                        number(a.value("dtheta_width_deg", Json()), "{:.3f}"), number(imp.value("dtheta_width", Json()), "{:.1f}"), ""});
+                        number(a.value("dtheta_width_deg", Json()), "{:.3f}"),
+                        number(imp.value("dtheta_width", Json()), "{:.1f}"), ""});
     } else {
       body += fmt::format("<h3>e+e- → π+π−π0: kinematic fit (<code>{}</code>)</h3>\n", html::escape(c.dir));
-      t.caption = fmt::format("{} events selected; the paper: the mean χ² falls by {:.0f}–{:.0f} %", plain(j.at("selected")),
-                              paper::kThreePionImprovementLowPercent, paper::kThreePionImprovementHighPercent);
+      t.caption =
+          fmt::format("{} events selected; the paper: the mean χ² falls by {:.0f}–{:.0f} %", plain(j.at("selected")),
+                      paper::kThreePionImprovementLowPercent, paper::kThreePionImprovementHighPercent);
       t.header = {"quantity", "before", "after", "improvement, %", "paper"};
-      t.rows.push_back({fmt::format("mean χ² (ndf {})", text(j.value("ndf", Json(2)))), number(b.value("chi2_mean", Json()), "{:.2f}"), number(a.value("chi2_mean", Json()), "{:.2f}"),
+      t.rows.push_back({fmt::format("mean χ² (ndf {})", text(j.value("ndf", Json(2)))),
+                        number(b.value("chi2_mean", Json()), "{:.2f}"), number(a.value("chi2_mean", Json()), "{:.2f}"),
                         number(imp.value("chi2_mean", Json()), "{:.1f}"),
-                        fmt::format("{:.0f}–{:.0f} %", paper::kThreePionImprovementLowPercent, paper::kThreePionImprovementHighPercent)});
-      t.rows.push_back({"median χ²", number(b.value("chi2_median", Json()), "{:.2f}"), number(a.value("chi2_median", Json()), "{:.2f}"),
+                        fmt::format("{:.0f}–{:.0f} %", paper::kThreePionImprovementLowPercent,
+                                    paper::kThreePionImprovementHighPercent)});
+      t.rows.push_back({"median χ²", number(b.value("chi2_median", Json()), "{:.2f}"),
+                        number(a.value("chi2_median", Json()), "{:.2f}"),
                         number(imp.value("chi2_median", Json()), "{:.1f}"), ""});
-      t.rows.push_back({"fits not converged", text(b.value("not_converged", Json("—"))), text(a.value("not_converged", Json("—"))), "", ""});
+      t.rows.push_back({"fits not converged", text(b.value("not_converged", Json("—"))),
+                        text(a.value("not_converged", Json("—"))), "", ""});
     }
     body += html::table(t);
     if (!c.figure.empty()) {
-      auto fig = html::figure(c.figure, process == "gg" ? "Δφ and Δθ of the γγ events before (filled) and after (open) the correction: the paper's Fig. 9."
-                                                        : "χ² of the π+π−π0 kinematic fit before and after the correction: the paper's Fig. 10.");
+      auto fig = html::figure(
+          c.figure,
+          process == "gg"
+              ? "Δφ and Δθ of the γγ events before (filled) and after (open) the correction: the paper's Fig. 9."
+              : "χ² of the π+π−π0 kinematic fit before and after the correction: the paper's Fig. 10.");
       if (!fig) return fig.error();
       body += *fig;
     }
@@ -352,7 +380,8 @@ std::vector<std::string> summary(const ReportInputs& in) {
   if (in.fit) {
     const Json& r = in.fit->result;
     lines.push_back(fmt::format("The fit: {}, χ²/ndf = {}/{}, {} warning(s).", plain(r.at("status")),
-                                number(r.at("chi2"), "{:.1f}"), plain(r.at("ndf")), r.value("warnings", Json::array()).size()));
+                                number(r.at("chi2"), "{:.1f}"), plain(r.at("ndf")),
+                                r.value("warnings", Json::array()).size()));
   }
   if (in.validation) {
     double lo = 1e300, hi = -1e300;
@@ -362,23 +391,26 @@ std::vector<std::string> summary(const ReportInputs& in) {
       hi = std::max(hi, row.at("pull_width").get<double>());
     }
     lines.push_back(fmt::format("The validation: {} samples of {} events; pull widths {:.2f} to {:.2f}.",
-                                plain(in.validation->table.at("samples")), plain(in.validation->table.at("events")), lo, hi));
+                                plain(in.validation->table.at("samples")), plain(in.validation->table.at("events")), lo,
+                                hi));
   }
   if (in.trend) {
     const Json& t = in.trend->trend;
     lines.push_back(fmt::format("The time evolution: {} IOVs, {} step(s), {} drift(s), {} stable period(s).",
-                                plain(t.at("iovs")), t.at("steps").size(), t.at("drifts").size(), t.at("segments").size()));
+                                plain(t.at("iovs")), t.at("steps").size(), t.at("drifts").size(),
+                                t.at("segments").size()));
   }
   for (const auto& c : in.checks) {
     const Json& j = c.check;
     const Json imp = j.value("improvement_percent", Json::object());
     if (j.at("process") == "gg") {
       lines.push_back(fmt::format("e+e- → γγ: the Δφ core width {} % narrower (the paper: {:.0f} %).",
-                                  number(imp.value("dphi_width", Json()), "{:.1f}"), paper::kGammaGammaImprovementPercent));
+                                  number(imp.value("dphi_width", Json()), "{:.1f}"),
+                                  paper::kGammaGammaImprovementPercent));
     } else {
       lines.push_back(fmt::format("e+e- → π+π−π0: the mean χ² {} % lower (the paper: {:.0f}–{:.0f} %).",
-                                  number(imp.value("chi2_mean", Json()), "{:.1f}"), paper::kThreePionImprovementLowPercent,
-                                  paper::kThreePionImprovementHighPercent));
+                                  number(imp.value("chi2_mean", Json()), "{:.1f}"),
+                                  paper::kThreePionImprovementLowPercent, paper::kThreePionImprovementHighPercent));
     }
   }
   return lines;
@@ -438,7 +470,8 @@ Result<ReportCheck> readCheckDirectory(const std::string& dir) {
   auto j = readJsonIn(dir, "check.json");
   if (!j) return j.error();
   const std::string process = j->is_object() ? j->value("process", std::string()) : std::string();
-  if (process != "gg" && process != "3pi") return Error{fmt::format("{}/check.json: not a physics check (emcalign check)", dir)};
+  if (process != "gg" && process != "3pi")
+    return Error{fmt::format("{}/check.json: not a physics check (emcalign check)", dir)};
   const auto figures = existing(dir, {process == "gg" ? "acollinearity.png" : "chi2.png"});
   return ReportCheck{dir, std::move(*j), figures.empty() ? std::string() : figures.front()};
 }

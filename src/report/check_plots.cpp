@@ -57,21 +57,24 @@ std::string scriptOf(const std::string& name, const std::string& title, const st
     const double width = (p.high - p.low) / p.bins;
     s += fmt::format("\nset xlabel \"{}\"\nset ylabel \"events / {:.3g}\"\nset xrange [{}:{}]\n", p.xlabel, width,
                      p.low, p.high);
-    s += fmt::format("plot data index {} using 1:2 with boxes lc rgb '#1f77b4' title \"{}\", \\\n"
-                     "     data index {} using 1:3 with histeps lw 2 lc rgb '#d62728' title \"{}\"",
-                     k, quoted(p.beforeLabel), k, quoted(p.afterLabel));
+    s += fmt::format(
+        "plot data index {} using 1:2 with boxes lc rgb '#1f77b4' title \"{}\", \\\n"
+        "     data index {} using 1:3 with histeps lw 2 lc rgb '#d62728' title \"{}\"",
+        k, quoted(p.beforeLabel), k, quoted(p.afterLabel));
     if (p.chi2Ndf > 0) {
       // The χ² density of ndf, scaled to the events after the correction (ndf = 2: exp(−x/2)/2).
       const double n = static_cast<double>(p.after.size()) * width;
       if (p.chi2Ndf == 2) {
-        s += fmt::format(", \\\n     {:.8g} * exp(-x / 2) / 2 with lines dt 2 lw 1.5 lc rgb '#444444' title "
-                         "\"χ^2 density, ndf 2\"",
-                         n);
+        s += fmt::format(
+            ", \\\n     {:.8g} * exp(-x / 2) / 2 with lines dt 2 lw 1.5 lc rgb '#444444' title "
+            "\"χ^2 density, ndf 2\"",
+            n);
       } else {
         const double k2 = p.chi2Ndf / 2.0;
-        s += fmt::format(", \\\n     {:.8g} * x**({:.6g}) * exp(-x / 2) / (2**{:.6g} * gamma({:.6g})) with lines dt 2 "
-                         "lw 1.5 lc rgb '#444444' title \"χ^2 density, ndf {}\"",
-                         n, k2 - 1.0, k2, k2, p.chi2Ndf);
+        s += fmt::format(
+            ", \\\n     {:.8g} * x**({:.6g}) * exp(-x / 2) / (2**{:.6g} * gamma({:.6g})) with lines dt 2 "
+            "lw 1.5 lc rgb '#444444' title \"χ^2 density, ndf {}\"",
+            n, k2 - 1.0, k2, k2, p.chi2Ndf);
       }
     }
     s += "\n";

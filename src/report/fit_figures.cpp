@@ -118,9 +118,10 @@ Status checkEventsOfResult(const Json& result, std::string_view source, const st
     }
   }
   if (in.value("from_profile", false) || named.empty()) {
-    return Error{fmt::format("{}: the fit was made from a saved profile, not from events: its figures cannot be "
-                             "redrawn from --events (draw them with emcalign fit --plots)",
-                             source)};
+    return Error{
+        fmt::format("{}: the fit was made from a saved profile, not from events: its figures cannot be "
+                    "redrawn from --events (draw them with emcalign fit --plots)",
+                    source)};
   }
   auto same = [](const std::string& a, const std::string& b) {
     std::error_code ec;
@@ -132,9 +133,10 @@ Status checkEventsOfResult(const Json& result, std::string_view source, const st
   bool ok = named.size() == events.size();
   for (std::size_t k = 0; ok && k < named.size(); ++k) ok = same(named[k], events[k]);
   if (ok) return {};
-  return Error{fmt::format("--events {} are not the events {} was fitted from ({}): the figures would not be its "
-                           "fit's",
-                           fmt::join(events, " "), source, fmt::join(named, " "))};
+  return Error{
+      fmt::format("--events {} are not the events {} was fitted from ({}): the figures would not be its "
+                  "fit's",
+                  fmt::join(events, " "), source, fmt::join(named, " "))};
 }
 
 Result<std::vector<std::string>> redrawFitFigures(const ResultModel& m, const std::vector<std::string>& events,

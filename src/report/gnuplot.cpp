@@ -31,8 +31,7 @@ std::string shellQuote(const std::string& s) {
 std::string plainText(const std::string& s) {
   std::string out;
   for (char c : s) {
-    if (std::isalnum(static_cast<unsigned char>(c)) || c == ' ' || c == '.' || c == ',' || c == '-')
-      out += c;
+    if (std::isalnum(static_cast<unsigned char>(c)) || c == ' ' || c == '.' || c == ',' || c == '-') out += c;
   }
   return out;
 }
@@ -55,12 +54,10 @@ Status writeFile(const fs::path& dir, const std::string& name, const std::string
 // Runs `gnuplot -d NAME.gp` in `dir`; gnuplot's messages go into the error.
 Status runGnuplot(const fs::path& dir, const std::string& name) {
   const std::string script = name + ".gp";
-  const std::string command =
-      fmt::format("cd {} && gnuplot -d {} 2>&1", shellQuote(dir.string()), shellQuote(script));
+  const std::string command = fmt::format("cd {} && gnuplot -d {} 2>&1", shellQuote(dir.string()), shellQuote(script));
   std::FILE* pipe = popen(command.c_str(), "r");
   if (pipe == nullptr)
-    return Error{
-        fmt::format("{}: cannot start gnuplot: {}", (dir / script).string(), std::strerror(errno))};
+    return Error{fmt::format("{}: cannot start gnuplot: {}", (dir / script).string(), std::strerror(errno))};
   std::string output;
   char buffer[4096];
   std::size_t got = 0;
@@ -69,8 +66,7 @@ Status runGnuplot(const fs::path& dir, const std::string& name) {
   while (!output.empty() && (output.back() == '\n' || output.back() == ' ')) output.pop_back();
   if (output.size() > 2000) output = output.substr(0, 2000) + " …";
   if (status == -1)
-    return Error{fmt::format("{}: running gnuplot failed: {}", (dir / script).string(),
-                             std::strerror(errno))};
+    return Error{fmt::format("{}: running gnuplot failed: {}", (dir / script).string(), std::strerror(errno))};
   if (WIFEXITED(status) && WEXITSTATUS(status) == 127)
     return Error{fmt::format("gnuplot was not found (needed to draw {}): {}; the shell said: {}",
                              (dir / (name + ".png")).string(), kInstallHint, output)};
@@ -78,10 +74,8 @@ Status runGnuplot(const fs::path& dir, const std::string& name) {
     std::error_code ec;
     fs::remove(dir / (name + ".png"), ec);  // no half-drawn figure
     return Error{fmt::format(
-        "gnuplot failed on {} ({}): {}\n(gnuplot with the pngcairo terminal is needed; {})",
-        (dir / script).string(),
-        WIFEXITED(status) ? fmt::format("exit status {}", WEXITSTATUS(status))
-                          : std::string("killed by a signal"),
+        "gnuplot failed on {} ({}): {}\n(gnuplot with the pngcairo terminal is needed; {})", (dir / script).string(),
+        WIFEXITED(status) ? fmt::format("exit status {}", WEXITSTATUS(status)) : std::string("killed by a signal"),
         output, kInstallHint)};
   }
   std::error_code ec;
@@ -95,15 +89,12 @@ Status runGnuplot(const fs::path& dir, const std::string& name) {
 Status createPlotDirectory(const fs::path& dir) {
   std::error_code ec;
   fs::create_directories(dir, ec);
-  if (ec)
-    return Error{
-        fmt::format("cannot create the plot directory '{}': {}", dir.string(), ec.message())};
+  if (ec) return Error{fmt::format("cannot create the plot directory '{}': {}", dir.string(), ec.message())};
   return {};
 }
 
 // Writes each figure's script and runs it; the paths of the PNGs, in order.
-Result<std::vector<std::string>> drawFigures(const fs::path& out,
-                                             const std::vector<Figure>& figures) {
+Result<std::vector<std::string>> drawFigures(const fs::path& out, const std::vector<Figure>& figures) {
   std::vector<std::string> written;
   for (const auto& f : figures) {
     if (auto st = writeFile(out, f.name + ".gp", f.script); !st) return st.error();

@@ -11,8 +11,7 @@
 
 namespace emcalign::report::detail {
 
-inline constexpr const char* kInstallHint =
-    "install it with `apt-get install gnuplot-nox` (scripts/install-deps does)";
+inline constexpr const char* kInstallHint = "install it with `apt-get install gnuplot-nox` (scripts/install-deps does)";
 
 /// A shell word: the text in single quotes.
 std::string shellQuote(const std::string& s);

@@ -14,12 +14,23 @@ std::string escape(std::string_view text) {
   out.reserve(text.size());
   for (char c : text) {
     switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\'': out += "&#39;"; break;
-      default: out += c;
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      case '\'':
+        out += "&#39;";
+        break;
+      default:
+        out += c;
     }
   }
   return out;
@@ -66,8 +77,8 @@ Result<std::string> pngDataUri(const std::string& path) {
 Result<std::string> figure(const std::string& pngPath, const std::string& caption) {
   auto uri = pngDataUri(pngPath);
   if (!uri) return uri.error();
-  return fmt::format("<figure><img src=\"{}\" alt=\"{}\"><figcaption>{}</figcaption></figure>\n", *uri,
-                     escape(caption), escape(caption));
+  return fmt::format("<figure><img src=\"{}\" alt=\"{}\"><figcaption>{}</figcaption></figure>\n", *uri, escape(caption),
+                     escape(caption));
 }
 
 std::string table(const Table& t) {
@@ -80,7 +91,8 @@ std::string table(const Table& t) {
   }
   out += "</tr></thead>\n<tbody>\n";
   for (std::size_t r = 0; r < t.rows.size(); ++r) {
-    const std::string cls = r < t.rowClass.size() && !t.rowClass[r].empty() ? fmt::format(" class=\"{}\"", t.rowClass[r]) : "";
+    const std::string cls =
+        r < t.rowClass.size() && !t.rowClass[r].empty() ? fmt::format(" class=\"{}\"", t.rowClass[r]) : "";
     out += fmt::format("<tr{}>", cls);
     for (std::size_t c = 0; c < t.rows[r].size(); ++c) {
       out += fmt::format("<td{}>{}</td>", numeric(c) ? " class=\"num\"" : "", t.rows[r][c]);
@@ -107,7 +119,8 @@ std::string heatMap(const std::vector<std::string>& labels, const std::vector<st
       // White at 0, red (+1) or blue (−1) at full strength.
       const double a = std::clamp(std::abs(v), 0.0, 1.0);
       const int fade = static_cast<int>(std::lround(255.0 * (1.0 - a)));
-      const std::string colour = v >= 0.0 ? fmt::format("rgb(255,{},{})", fade, fade) : fmt::format("rgb({},{},255)", fade, fade);
+      const std::string colour =
+          v >= 0.0 ? fmt::format("rgb(255,{},{})", fade, fade) : fmt::format("rgb({},{},255)", fade, fade);
       // Black text where the colour is pale, white on the strong ones; printed with the colours.
       const std::string value = std::abs(v) < 0.005 ? std::string("0.00") : fmt::format("{:+.2f}", v);
       out += fmt::format("<td style=\"background:{};color:{}\">{}</td>", colour, a > 0.6 ? "#fff" : "#000", value);
@@ -177,7 +190,8 @@ std::string page(const std::string& title, const std::string& subtitle, const st
       escape(title), kStyle, escape(title), escape(subtitle));
   if (sections.size() > 1) {
     out += "<nav><h2>Contents</h2>\n<ol>\n";
-    for (const auto& s : sections) out += fmt::format("<li><a href=\"#{}\">{}</a></li>\n", escape(s.id), escape(s.title));
+    for (const auto& s : sections)
+      out += fmt::format("<li><a href=\"#{}\">{}</a></li>\n", escape(s.id), escape(s.title));
     out += "</ol>\n</nav>\n";
   }
   for (const auto& s : sections) {

@@ -63,9 +63,7 @@ double Histogram::rms() const {
   return std::sqrt(std::max(0.0, sumWX2 / sumW - m * m));
 }
 
-double Histogram::binWidth() const {
-  return counts.empty() ? 0.0 : (high - low) / static_cast<double>(counts.size());
-}
+double Histogram::binWidth() const { return counts.empty() ? 0.0 : (high - low) / static_cast<double>(counts.size()); }
 
 double Histogram::binCenter(int i) const { return low + (i + 0.5) * binWidth(); }
 
@@ -99,8 +97,8 @@ constexpr const char* kStyles =
     "set style line 7 lc rgb '#d62728' pt 5 ps 0.6 lw 1.2    # first residual (profile_theta)\n";
 
 bool hasEntries(const calib::ProfileBin& b) {
-  return b.n > 0 && std::isfinite(b.phiMean) && std::isfinite(b.thetaMean) &&
-         std::isfinite(b.energyMean) && std::isfinite(b.yPhi) && std::isfinite(b.yTheta);
+  return b.n > 0 && std::isfinite(b.phiMean) && std::isfinite(b.thetaMean) && std::isfinite(b.energyMean) &&
+         std::isfinite(b.yPhi) && std::isfinite(b.yTheta);
 }
 
 double finiteOrZero(double x) { return std::isfinite(x) ? x : 0.0; }
@@ -152,13 +150,12 @@ struct ProfileData {
   std::vector<geometry::AngularResidual> atBins;
 };
 
-Result<ProfileData> summarise(const std::vector<calib::ProfileBin>& bins,
-                              const calib::FitGeometry& geometry, const calib::FitResult& fit) {
+Result<ProfileData> summarise(const std::vector<calib::ProfileBin>& bins, const calib::FitGeometry& geometry,
+                              const calib::FitResult& fit) {
   ProfileData d;
   for (const auto& b : bins) {
     if (b.iPhi < 0 || b.iTheta < 0 || b.iPhi >= 1000 || b.iTheta >= 1000)
-      return Error{
-          fmt::format("profile bin ({}, {}): bin index out of range [0, 1000)", b.iPhi, b.iTheta)};
+      return Error{fmt::format("profile bin ({}, {}): bin index out of range [0, 1000)", b.iPhi, b.iTheta)};
     d.nPhi = std::max(d.nPhi, b.iPhi + 1);
     d.nTheta = std::max(d.nTheta, b.iTheta + 1);
   }
@@ -169,8 +166,8 @@ Result<ProfileData> summarise(const std::vector<calib::ProfileBin>& bins,
   for (const auto& b : bins) {
     geometry::AngularResidual f{kNaN, kNaN};
     if (hasEntries(b)) {
-      for (Slice* s : {&d.phiSlices[static_cast<std::size_t>(b.iPhi)],
-                       &d.thetaSlices[static_cast<std::size_t>(b.iTheta)]}) {
+      for (Slice* s :
+           {&d.phiSlices[static_cast<std::size_t>(b.iPhi)], &d.thetaSlices[static_cast<std::size_t>(b.iTheta)]}) {
         s->n += b.n;
         s->sumPhi += static_cast<double>(b.n) * b.phiMean;
         s->sumTheta += static_cast<double>(b.n) * b.thetaMean;
@@ -193,8 +190,8 @@ struct SliceChi2 {
 };
 
 template <typename Pred>
-SliceChi2 sliceChi2(const std::vector<calib::ProfileBin>& bins, const ProfileData& d, Pred inSlice,
-                    bool phiPart, bool thetaPart) {
+SliceChi2 sliceChi2(const std::vector<calib::ProfileBin>& bins, const ProfileData& d, Pred inSlice, bool phiPart,
+                    bool thetaPart) {
   SliceChi2 c;
   for (std::size_t k = 0; k < bins.size(); ++k) {
     const auto& b = bins[k];
@@ -215,20 +212,17 @@ SliceChi2 sliceChi2(const std::vector<calib::ProfileBin>& bins, const ProfileDat
 
 std::string binsFile(const std::vector<calib::ProfileBin>& bins) {
   fmt::memory_buffer out;
-  fmt::format_to(
-      std::back_inserter(out),
-      "# emcalign profile bins (bins without entries left out), angles in degrees.\n"
-      "# y_phi is sin(phi_TS,R - phi_EMC)*180/pi, y_theta is theta_TS,R - theta_EMC;\n"
-      "# sigma is the total (stat + sys) the chi2 uses; used = 1 if the bin is in the chi2.\n"
-      "# columns: 1 phi_emc  2 theta_emc  3 y_phi  4 sigma_phi  5 y_theta  6 sigma_theta"
-      "  7 used  8 n  9 i_phi  10 i_theta  11 e_mev\n");
+  fmt::format_to(std::back_inserter(out),
+                 "# emcalign profile bins (bins without entries left out), angles in degrees.\n"
+                 "# y_phi is sin(phi_TS,R - phi_EMC)*180/pi, y_theta is theta_TS,R - theta_EMC;\n"
+                 "# sigma is the total (stat + sys) the chi2 uses; used = 1 if the bin is in the chi2.\n"
+                 "# columns: 1 phi_emc  2 theta_emc  3 y_phi  4 sigma_phi  5 y_theta  6 sigma_theta"
+                 "  7 used  8 n  9 i_phi  10 i_theta  11 e_mev\n");
   for (const auto& b : bins) {
     if (!hasEntries(b)) continue;
-    fmt::format_to(std::back_inserter(out),
-                   "{:.6f} {:.6f} {:.6g} {:.6g} {:.6g} {:.6g} {} {} {} {} {:.6g}\n",
-                   b.phiMean / deg, b.thetaMean / deg, b.yPhi / deg, finiteOrZero(b.sigmaPhi) / deg,
-                   b.yTheta / deg, finiteOrZero(b.sigmaTheta) / deg, b.used ? 1 : 0, b.n, b.iPhi,
-                   b.iTheta, b.energyMean);
+    fmt::format_to(std::back_inserter(out), "{:.6f} {:.6f} {:.6g} {:.6g} {:.6g} {:.6g} {} {} {} {} {:.6g}\n",
+                   b.phiMean / deg, b.thetaMean / deg, b.yPhi / deg, finiteOrZero(b.sigmaPhi) / deg, b.yTheta / deg,
+                   finiteOrZero(b.sigmaTheta) / deg, b.used ? 1 : 0, b.n, b.iPhi, b.iTheta, b.energyMean);
   }
   return fmt::to_string(out);
 }
@@ -240,30 +234,28 @@ void writeCurvePoint(fmt::memory_buffer& out, double x, const geometry::AngularR
     fmt::format_to(std::back_inserter(out), "\n");  // breaks the line
     return;
   }
-  fmt::format_to(std::back_inserter(out), "{:.4f} {:.6g} {:.6g} {:.6g} {:.6g} {}\n", x, f.phi / deg,
-                 f.theta / deg, f0.phi / deg, f0.theta / deg, slice);
+  fmt::format_to(std::back_inserter(out), "{:.4f} {:.6g} {:.6g} {:.6g} {:.6g} {}\n", x, f.phi / deg, f.theta / deg,
+                 f0.phi / deg, f0.theta / deg, slice);
 }
 
 constexpr const char* kCurveColumns =
     "  2 f_phi (sin dphi*180/pi)  3 f_theta  4 f_phi at eta=0  5 f_theta at eta=0  6 slice\n";
 
 // f(φ) per θ slice at the slice's mean θ and the mean energy; one segment per hemisphere.
-std::string modelVsPhiFile(const ProfileData& d, const calib::FitGeometry& geometry,
-                           const calib::FitResult& fit, Range& phiRange, Range& thetaRange) {
+std::string modelVsPhiFile(const ProfileData& d, const calib::FitGeometry& geometry, const calib::FitResult& fit,
+                           Range& phiRange, Range& thetaRange) {
   const geometry::ParamVector eta = fit.parameters.values;
   const geometry::ParamVector zero = geometry::ParamVector::Zero();
   fmt::memory_buffer out;
-  fmt::format_to(
-      std::back_inserter(out),
-      "# emcalign fitted model against phi_EMC, per theta slice (column 6 = i_theta), at the\n"
-      "# slice's mean theta_EMC and E = {:.1f} MeV; degrees; blank lines separate the\n"
-      "# hemispheres (the model jumps at 90 and 270 deg).\n"
-      "# columns: 1 phi_emc{}",
-      d.energy, kCurveColumns);
+  fmt::format_to(std::back_inserter(out),
+                 "# emcalign fitted model against phi_EMC, per theta slice (column 6 = i_theta), at the\n"
+                 "# slice's mean theta_EMC and E = {:.1f} MeV; degrees; blank lines separate the\n"
+                 "# hemispheres (the model jumps at 90 and 270 deg).\n"
+                 "# columns: 1 phi_emc{}",
+                 d.energy, kCurveColumns);
   // The model takes hemisphere s = sign(cos φ); sample each side up to its edge.
   const double edge = 1e-3;  // deg, printed exactly by {:.4f}
-  const double segments[3][2] = {
-      {0.0, 90.0 - edge}, {90.0 + edge, 270.0 - edge}, {270.0 + edge, 360.0}};
+  const double segments[3][2] = {{0.0, 90.0 - edge}, {90.0 + edge, 270.0 - edge}, {270.0 + edge, 360.0}};
   for (int j = 0; j < d.nTheta; ++j) {
     const double theta = d.thetaSlices[static_cast<std::size_t>(j)].meanTheta();
     if (!std::isfinite(theta)) continue;
@@ -286,18 +278,16 @@ std::string modelVsPhiFile(const ProfileData& d, const calib::FitGeometry& geome
 }
 
 // f(θ) per φ slice at the slice's mean φ and the mean energy, over [thetaLo, thetaHi] (deg).
-std::string modelVsThetaFile(const ProfileData& d, const calib::FitGeometry& geometry,
-                             const calib::FitResult& fit, double thetaLoDeg, double thetaHiDeg,
-                             Range& range) {
+std::string modelVsThetaFile(const ProfileData& d, const calib::FitGeometry& geometry, const calib::FitResult& fit,
+                             double thetaLoDeg, double thetaHiDeg, Range& range) {
   const geometry::ParamVector eta = fit.parameters.values;
   const geometry::ParamVector zero = geometry::ParamVector::Zero();
   fmt::memory_buffer out;
-  fmt::format_to(
-      std::back_inserter(out),
-      "# emcalign fitted model against theta_EMC, per phi slice (column 6 = i_phi), at the\n"
-      "# slice's mean phi_EMC and E = {:.1f} MeV; degrees.\n"
-      "# columns: 1 theta_emc{}",
-      d.energy, kCurveColumns);
+  fmt::format_to(std::back_inserter(out),
+                 "# emcalign fitted model against theta_EMC, per phi slice (column 6 = i_phi), at the\n"
+                 "# slice's mean phi_EMC and E = {:.1f} MeV; degrees.\n"
+                 "# columns: 1 theta_emc{}",
+                 d.energy, kCurveColumns);
   const int steps = std::max(1, static_cast<int>(std::ceil((thetaHiDeg - thetaLoDeg) / 0.5)));
   for (int i = 0; i < d.nPhi; ++i) {
     const double phi = d.phiSlices[static_cast<std::size_t>(i)].meanPhi();
@@ -362,8 +352,8 @@ struct Grid {
         "set tmargin at screen {:.4f}; set bmargin at screen {:.4f}\n"
         "set format y {}; set ylabel {}; set xlabel {}\n",
         double(x0) / width, double(x0 + panelWidth()) / width, 1.0 - double(y0) / height,
-        1.0 - double(y0 + panelHeight) / height, left ? "'%g'" : "''",
-        left ? "\"" + ylabel + "\"" : "''", bottom ? "\"" + xlabel + "\" offset 0,0.3" : "''");
+        1.0 - double(y0 + panelHeight) / height, left ? "'%g'" : "''", left ? "\"" + ylabel + "\"" : "''",
+        bottom ? "\"" + xlabel + "\" offset 0,0.3" : "''");
   }
 
   std::string legend(const std::vector<std::string>& entries) const {
@@ -400,27 +390,23 @@ std::string plotCommand(const std::vector<std::string>& items) {
 }
 
 // The profile against φ of one residual (Δφ or Δθ), one panel per θ slice.
-std::string profileVsPhiScript(const std::string& name, bool phiResidual,
-                               const std::vector<calib::ProfileBin>& bins, const ProfileData& d,
-                               const calib::FitResult& fit, Range yRange) {
+std::string profileVsPhiScript(const std::string& name, bool phiResidual, const std::vector<calib::ProfileBin>& bins,
+                               const ProfileData& d, const calib::FitResult& fit, Range yRange) {
   const Grid g(d.nTheta, 5, 1900, 300);
   std::string s = scriptHeader(name, g.width, g.height);
   s += fmt::format("model = '{}'\n", kModelVsPhiFile);
-  s += multiplotStart(
-      fmt::format("{} profiles against φ_{{EMC}}, per θ_{{EMC}} slice — fit {}",
-                  phiResidual ? "sin Δφ" : "Δθ", fitSummary(fit)),
-      fmt::format(
-          "error bars: the σ of the χ^2 (stat ⊕ sys); curves at the slice's mean θ_{{EMC}} and "
-          "E = {:.0f} MeV, broken where the hemispheres meet (90°, 270°)",
-          d.energy));
+  s += multiplotStart(fmt::format("{} profiles against φ_{{EMC}}, per θ_{{EMC}} slice — fit {}",
+                                  phiResidual ? "sin Δφ" : "Δθ", fitSummary(fit)),
+                      fmt::format("error bars: the σ of the χ^2 (stat ⊕ sys); curves at the slice's mean θ_{{EMC}} and "
+                                  "E = {:.0f} MeV, broken where the hemispheres meet (90°, 270°)",
+                                  d.energy));
   s += fmt::format(
       "set xrange [0:360]; set xtics 0,90,360; set mxtics 3\n"
       "set yrange [{:.6g}:{:.6g}]\n"
       "set arrow 1 from 90, graph 0 to 90, graph 1 nohead lc rgb '#b0b0b0' dt 3 back\n"
       "set arrow 2 from 270, graph 0 to 270, graph 1 nohead lc rgb '#b0b0b0' dt 3 back\n",
       yRange.lo, yRange.hi);
-  const std::string ylabel =
-      phiResidual ? "sin(φ_{TS} − φ_{EMC}) · 180/π  [deg]" : "θ_{TS} − θ_{EMC}  [deg]";
+  const std::string ylabel = phiResidual ? "sin(φ_{TS} − φ_{EMC}) · 180/π  [deg]" : "θ_{TS} − θ_{EMC}  [deg]";
   const int yCol = phiResidual ? 3 : 5, fCol = phiResidual ? 2 : 3, f0Col = phiResidual ? 4 : 5;
   bool anyLeftOut = false;
   for (int j = 0; j < d.nTheta; ++j) {
@@ -433,13 +419,12 @@ std::string profileVsPhiScript(const std::string& name, bool phiResidual,
     }
     anyLeftOut = anyLeftOut || leftOut > 0;
     const auto c = sliceChi2(
-        bins, d, [j](const calib::ProfileBin& b) { return b.iTheta == j; }, phiResidual,
-        !phiResidual);
+        bins, d, [j](const calib::ProfileBin& b) { return b.iTheta == j; }, phiResidual, !phiResidual);
     if (slice.n == 0)
       s += "set title 'no entries'\n";
     else
-      s += fmt::format("set title \"θ_{{EMC}} ≈ {:.1f}°     χ^2_{{{}}} = {:.1f} / {} bins\"\n",
-                       slice.meanTheta() / deg, phiResidual ? "φ" : "θ", c.chi2, c.terms);
+      s += fmt::format("set title \"θ_{{EMC}} ≈ {:.1f}°     χ^2_{{{}}} = {:.1f} / {} bins\"\n", slice.meanTheta() / deg,
+                       phiResidual ? "φ" : "θ", c.chi2, c.terms);
     std::vector<std::string> items = {"NaN notitle"};
     if (slice.n > 0) {
       items.push_back(fmt::format("model using 1:($6=={} ? ${} : NaN) with lines ls 4", j, f0Col));
@@ -447,12 +432,10 @@ std::string profileVsPhiScript(const std::string& name, bool phiResidual,
     }
     if (leftOut > 0)
       items.push_back(
-          fmt::format("bins using 1:(($10=={} && $7==0) ? ${} : NaN):{} with yerrorbars ls 2", j,
-                      yCol, yCol + 1));
+          fmt::format("bins using 1:(($10=={} && $7==0) ? ${} : NaN):{} with yerrorbars ls 2", j, yCol, yCol + 1));
     if (used > 0)
       items.push_back(
-          fmt::format("bins using 1:(($10=={} && $7==1) ? ${} : NaN):{} with yerrorbars ls 1", j,
-                      yCol, yCol + 1));
+          fmt::format("bins using 1:(($10=={} && $7==1) ? ${} : NaN):{} with yerrorbars ls 1", j, yCol, yCol + 1));
     s += plotCommand(items);
   }
   std::vector<std::string> legend = {"keyentry with yerrorbars ls 1 title 'profile mean ± σ'"};
@@ -465,25 +448,20 @@ std::string profileVsPhiScript(const std::string& name, bool phiResidual,
 }
 
 // Both residuals against θ, one panel per φ slice.
-std::string profileVsThetaScript(const std::string& name,
-                                 const std::vector<calib::ProfileBin>& bins, const ProfileData& d,
-                                 const calib::FitResult& fit, double thetaLoDeg, double thetaHiDeg,
-                                 Range yRange) {
-  const Grid g(d.nPhi, static_cast<int>(std::ceil(std::sqrt(static_cast<double>(d.nPhi)))), 1700,
-               250);
+std::string profileVsThetaScript(const std::string& name, const std::vector<calib::ProfileBin>& bins,
+                                 const ProfileData& d, const calib::FitResult& fit, double thetaLoDeg,
+                                 double thetaHiDeg, Range yRange) {
+  const Grid g(d.nPhi, static_cast<int>(std::ceil(std::sqrt(static_cast<double>(d.nPhi)))), 1700, 250);
   std::string s = scriptHeader(name, g.width, g.height);
   s += fmt::format("model = '{}'\n", kModelVsThetaFile);
   s += multiplotStart(
-      fmt::format("sin Δφ and Δθ profiles against θ_{{EMC}}, per φ_{{EMC}} slice — fit {}",
-                  fitSummary(fit)),
-      fmt::format(
-          "error bars: the σ of the χ^2 (stat ⊕ sys); curves at the slice's mean φ_{{EMC}} and "
-          "E = {:.0f} MeV; (+), (−): hemisphere, cos φ_{{EMC}} ≥ 0 or < 0; panel χ^2 / number of "
-          "terms (both residuals)",
-          d.energy));
-  s += fmt::format(
-      "set xrange [{:.6g}:{:.6g}]; set xtics 60,30,120; set mxtics 2\nset yrange [{:.6g}:{:.6g}]\n",
-      thetaLoDeg, thetaHiDeg, yRange.lo, yRange.hi);
+      fmt::format("sin Δφ and Δθ profiles against θ_{{EMC}}, per φ_{{EMC}} slice — fit {}", fitSummary(fit)),
+      fmt::format("error bars: the σ of the χ^2 (stat ⊕ sys); curves at the slice's mean φ_{{EMC}} and "
+                  "E = {:.0f} MeV; (+), (−): hemisphere, cos φ_{{EMC}} ≥ 0 or < 0; panel χ^2 / number of "
+                  "terms (both residuals)",
+                  d.energy));
+  s += fmt::format("set xrange [{:.6g}:{:.6g}]; set xtics 60,30,120; set mxtics 2\nset yrange [{:.6g}:{:.6g}]\n",
+                   thetaLoDeg, thetaHiDeg, yRange.lo, yRange.hi);
   bool anyLeftOut = false;
   for (int i = 0; i < d.nPhi; ++i) {
     const Slice& slice = d.phiSlices[static_cast<std::size_t>(i)];
@@ -505,29 +483,24 @@ std::string profileVsThetaScript(const std::string& name,
     }
     std::vector<std::string> items = {"NaN notitle"};
     if (slice.n > 0) {
-      for (int col : {4, 5})
-        items.push_back(fmt::format("model using 1:($6=={} ? ${} : NaN) with lines ls 4", i, col));
+      for (int col : {4, 5}) items.push_back(fmt::format("model using 1:($6=={} ? ${} : NaN) with lines ls 4", i, col));
       items.push_back(fmt::format("model using 1:($6=={} ? $2 : NaN) with lines ls 3", i));
       items.push_back(fmt::format("model using 1:($6=={} ? $3 : NaN) with lines ls 6", i));
     }
     if (leftOut > 0) {
       for (int col : {3, 5})
         items.push_back(
-            fmt::format("bins using 2:(($9=={} && $7==0) ? ${} : NaN):{} with yerrorbars ls 2", i,
-                        col, col + 1));
+            fmt::format("bins using 2:(($9=={} && $7==0) ? ${} : NaN):{} with yerrorbars ls 2", i, col, col + 1));
     }
     if (used > 0) {
-      items.push_back(
-          fmt::format("bins using 2:(($9=={} && $7==1) ? $3 : NaN):4 with yerrorbars ls 7", i));
-      items.push_back(
-          fmt::format("bins using 2:(($9=={} && $7==1) ? $5 : NaN):6 with yerrorbars ls 5", i));
+      items.push_back(fmt::format("bins using 2:(($9=={} && $7==1) ? $3 : NaN):4 with yerrorbars ls 7", i));
+      items.push_back(fmt::format("bins using 2:(($9=={} && $7==1) ? $5 : NaN):6 with yerrorbars ls 5", i));
     }
     s += plotCommand(items);
   }
-  std::vector<std::string> legend = {"keyentry with yerrorbars ls 7 title 'sin Δφ · 180/π'",
-                                     "keyentry with lines ls 3 title 'fit, sin Δφ'",
-                                     "keyentry with yerrorbars ls 5 title 'Δθ'",
-                                     "keyentry with lines ls 6 title 'fit, Δθ'"};
+  std::vector<std::string> legend = {
+      "keyentry with yerrorbars ls 7 title 'sin Δφ · 180/π'", "keyentry with lines ls 3 title 'fit, sin Δφ'",
+      "keyentry with yerrorbars ls 5 title 'Δθ'", "keyentry with lines ls 6 title 'fit, Δθ'"};
   if (anyLeftOut) legend.push_back("keyentry with yerrorbars ls 2 title 'left out of the χ^2'");
   legend.push_back("keyentry with lines ls 4 title 'η = 0'");
   s += g.legend(legend);
@@ -538,19 +511,17 @@ std::string profileVsThetaScript(const std::string& name,
 // Histogram blocks (gnuplot index 0..3) and the x range that holds the bulk of them.
 std::string histogramsFile(const ResidualHistograms& r) {
   fmt::memory_buffer out;
-  fmt::format_to(
-      std::back_inserter(out),
-      "# emcalign residual distributions of the selected particles, degrees.\n"
-      "# blocks (gnuplot index): 0 dphi before, 1 dphi after, 2 dtheta before, 3 dtheta after\n"
-      "# columns: 1 bin centre  2 count  3 low edge  4 high edge\n");
+  fmt::format_to(std::back_inserter(out),
+                 "# emcalign residual distributions of the selected particles, degrees.\n"
+                 "# blocks (gnuplot index): 0 dphi before, 1 dphi after, 2 dtheta before, 3 dtheta after\n"
+                 "# columns: 1 bin centre  2 count  3 low edge  4 high edge\n");
   const Histogram* hs[4] = {&r.dPhiBefore, &r.dPhiAfter, &r.dThetaBefore, &r.dThetaAfter};
   for (int k = 0; k < 4; ++k) {
     const Histogram& h = *hs[k];
     if (k > 0) fmt::format_to(std::back_inserter(out), "\n\n");
     for (int i = 0; i < static_cast<int>(h.counts.size()); ++i) {
       fmt::format_to(std::back_inserter(out), "{:.6g} {:.6g} {:.6g} {:.6g}\n", h.binCenter(i),
-                     h.counts[static_cast<std::size_t>(i)], h.low + i * h.binWidth(),
-                     h.low + (i + 1) * h.binWidth());
+                     h.counts[static_cast<std::size_t>(i)], h.low + i * h.binWidth(), h.low + (i + 1) * h.binWidth());
     }
   }
   return fmt::to_string(out);
@@ -572,20 +543,17 @@ Range bulkRange(const Histogram& a, const Histogram& b) {
   }
   if (!(r.hi > r.lo)) return Range{a.low, a.high};
   const double pad = 0.3 * (r.hi - r.lo);
-  return Range{std::max(std::min(a.low, b.low), r.lo - pad),
-               std::min(std::max(a.high, b.high), r.hi + pad)};
+  return Range{std::max(std::min(a.low, b.low), r.lo - pad), std::min(std::max(a.high, b.high), r.hi + pad)};
 }
 
 std::string histogramKey(const char* when, const Histogram& h) {
-  std::string s = fmt::format("{}: N = {:.0f}, mean = {:.3f}°, rms = {:.3f}°", when, h.entries(),
-                              h.mean(), h.rms());
+  std::string s = fmt::format("{}: N = {:.0f}, mean = {:.3f}°, rms = {:.3f}°", when, h.entries(), h.mean(), h.rms());
   const double outside = h.underflow + h.overflow;
   if (outside > 0.0) s += fmt::format(" ({:.0f} outside)", outside);
   return s;
 }
 
-std::string residualsScript(const std::string& name, const ResidualHistograms& r,
-                            const calib::FitResult& fit) {
+std::string residualsScript(const std::string& name, const ResidualHistograms& r, const calib::FitResult& fit) {
   std::string s = scriptHeader(name, 1600, 650);
   s += "hist = 'residuals_before_after.dat'\n";
   s += fmt::format(
@@ -600,19 +568,16 @@ std::string residualsScript(const std::string& name, const ResidualHistograms& r
     const char *xlabel, *title;
     int index;
   };
-  const Panel panels[2] = {
-      {&r.dPhiBefore, &r.dPhiAfter, "Δφ = φ_{TS} − φ_{EMC}  [deg]", "Δφ", 0},
-      {&r.dThetaBefore, &r.dThetaAfter, "Δθ = θ_{TS} − θ_{EMC}  [deg]", "Δθ", 2}};
+  const Panel panels[2] = {{&r.dPhiBefore, &r.dPhiAfter, "Δφ = φ_{TS} − φ_{EMC}  [deg]", "Δφ", 0},
+                           {&r.dThetaBefore, &r.dThetaAfter, "Δθ = θ_{TS} − θ_{EMC}  [deg]", "Δθ", 2}};
   for (const Panel& p : panels) {
     const Range x = bulkRange(*p.before, *p.after);
     double yMax = 0.0;
     for (const Histogram* h : {p.before, p.after})
       for (double c : h->counts) yMax = std::max(yMax, c);
     s += fmt::format("\n# ---- {}\n", p.title);
-    s += fmt::format("set xrange [{:.6g}:{:.6g}]\nset yrange [0:{:.6g}]\n", x.lo, x.hi,
-                     yMax > 0.0 ? 1.35 * yMax : 1.0);
-    s += fmt::format("set xlabel \"{}\"\nset ylabel \"particles / {:.2g}°\"\n", p.xlabel,
-                     p.before->binWidth());
+    s += fmt::format("set xrange [{:.6g}:{:.6g}]\nset yrange [0:{:.6g}]\n", x.lo, x.hi, yMax > 0.0 ? 1.35 * yMax : 1.0);
+    s += fmt::format("set xlabel \"{}\"\nset ylabel \"particles / {:.2g}°\"\n", p.xlabel, p.before->binWidth());
     s += fmt::format(
         "plot hist index {} using 1:2 with boxes lc rgb '#4a7ebb' title \"{}\", \\\n"
         "     hist index {} using 1:2 with histeps lw 2 lc rgb '#000000' title \"{}\"\n",
@@ -624,10 +589,8 @@ std::string residualsScript(const std::string& name, const ResidualHistograms& r
 
 }  // namespace
 
-Result<std::vector<std::string>> writeFitPlots(const std::string& dir,
-                                               const std::vector<calib::ProfileBin>& bins,
-                                               const calib::FitGeometry& geometry,
-                                               const calib::FitResult& fit,
+Result<std::vector<std::string>> writeFitPlots(const std::string& dir, const std::vector<calib::ProfileBin>& bins,
+                                               const calib::FitGeometry& geometry, const calib::FitResult& fit,
                                                const ResidualHistograms* residuals) {
   auto summary = summarise(bins, geometry, fit);
   if (!summary) return summary.error();
@@ -663,25 +626,21 @@ Result<std::vector<std::string>> writeFitPlots(const std::string& dir,
   const struct {
     const char* name;
     std::string data;
-  } files[] = {{kBinsFile, binsFile(bins)},
-               {kModelVsPhiFile, modelVsPhi},
-               {kModelVsThetaFile, modelVsTheta}};
+  } files[] = {{kBinsFile, binsFile(bins)}, {kModelVsPhiFile, modelVsPhi}, {kModelVsThetaFile, modelVsTheta}};
   for (const auto& f : files)
     if (auto st = writeFile(out, f.name, f.data); !st) return st.error();
 
   std::vector<Figure> figures = {
-      {"profile_phi",
-       profileVsPhiScript("profile_phi", true, bins, d, fit, phiRange.padded(minSpan))},
+      {"profile_phi", profileVsPhiScript("profile_phi", true, bins, d, fit, phiRange.padded(minSpan))},
       {"profile_theta_vs_phi",
        profileVsPhiScript("profile_theta_vs_phi", false, bins, d, fit, thetaRange.padded(minSpan))},
-      {"profile_theta", profileVsThetaScript("profile_theta", bins, d, fit, thetaLo, thetaHi,
-                                             bothRange.padded(minSpan))}};
+      {"profile_theta",
+       profileVsThetaScript("profile_theta", bins, d, fit, thetaLo, thetaHi, bothRange.padded(minSpan))}};
   if (residuals != nullptr) {
-    const std::pair<const char*, const Histogram*> hs[] = {
-        {"dPhiBefore", &residuals->dPhiBefore},
-        {"dPhiAfter", &residuals->dPhiAfter},
-        {"dThetaBefore", &residuals->dThetaBefore},
-        {"dThetaAfter", &residuals->dThetaAfter}};
+    const std::pair<const char*, const Histogram*> hs[] = {{"dPhiBefore", &residuals->dPhiBefore},
+                                                           {"dPhiAfter", &residuals->dPhiAfter},
+                                                           {"dThetaBefore", &residuals->dThetaBefore},
+                                                           {"dThetaAfter", &residuals->dThetaAfter}};
     for (const auto& [what, h] : hs) {
       if (h->counts.empty() || !(h->high > h->low))
         return Error{
@@ -689,10 +648,8 @@ Result<std::vector<std::string>> writeFitPlots(const std::string& dir,
                         "over [{}, {}])",
                         what, h->counts.size(), h->low, h->high)};
     }
-    if (auto st = writeFile(out, "residuals_before_after.dat", histogramsFile(*residuals)); !st)
-      return st.error();
-    figures.push_back(
-        {"residuals_before_after", residualsScript("residuals_before_after", *residuals, fit)});
+    if (auto st = writeFile(out, "residuals_before_after.dat", histogramsFile(*residuals)); !st) return st.error();
+    figures.push_back({"residuals_before_after", residualsScript("residuals_before_after", *residuals, fit)});
   }
 
   return drawFigures(out, figures);
@@ -709,9 +666,7 @@ constexpr double kPullLimit = 5.0;  // pull histograms over [−5, 5]
 // Panels of the campaign figures: four to a row (the campaign's 12 fit parameters fill three
 // rows, its 5 derived quantities two more), so that the figure, some 1600 px wide, keeps
 // legible text when a page shows it at its width (emcalign report).
-int campaignColumns(int panels) {
-  return std::clamp(static_cast<int>(std::ceil(std::sqrt(1.5 * panels))), 1, 4);
-}
+int campaignColumns(int panels) { return std::clamp(static_cast<int>(std::ceil(std::sqrt(1.5 * panels))), 1, 4); }
 
 // A number in a data file; gnuplot reads "NaN" as not-a-number (fmt would write "nan").
 std::string dataNumber(double x) { return std::isfinite(x) ? fmt::format("{:.9g}", x) : "NaN"; }
@@ -737,8 +692,7 @@ std::string quantityLabel(const std::string& name) {
   };
   const auto underscore = name.find('_');
   const std::string head = alnum(std::string_view(name).substr(0, underscore));
-  const std::string tail =
-      underscore == std::string::npos ? "" : alnum(std::string_view(name).substr(underscore + 1));
+  const std::string tail = underscore == std::string::npos ? "" : alnum(std::string_view(name).substr(underscore + 1));
   std::size_t digits = head.size();
   while (digits > 0 && std::isdigit(static_cast<unsigned char>(head[digits - 1]))) --digits;
   std::string label = head.substr(0, digits);
@@ -823,19 +777,16 @@ Result<std::vector<Quantity>> reduce(const std::vector<CampaignSeries>& series) 
   std::vector<Quantity> out;
   for (std::size_t k = 0; k < series.size(); ++k) {
     const CampaignSeries& s = series[k];
-    if (s.name.empty())
-      return Error{fmt::format("campaign plots: quantity {} (counting from 0) has no name", k)};
+    if (s.name.empty()) return Error{fmt::format("campaign plots: quantity {} (counting from 0) has no name", k)};
     if (s.truth.size() != s.fit.size() || s.truth.size() != s.error.size())
-      return Error{fmt::format(
-          "campaign plots: quantity '{}': truth, fit and error need one value per sample each "
-          "(got {}, {} and {})",
-          s.name, s.truth.size(), s.fit.size(), s.error.size())};
-    if (s.truth.empty())
-      return Error{fmt::format("campaign plots: quantity '{}': no samples", s.name)};
+      return Error{
+          fmt::format("campaign plots: quantity '{}': truth, fit and error need one value per sample each "
+                      "(got {}, {} and {})",
+                      s.name, s.truth.size(), s.fit.size(), s.error.size())};
+    if (s.truth.empty()) return Error{fmt::format("campaign plots: quantity '{}': no samples", s.name)};
     if (s.angleWraps && s.unit != "deg")
-      return Error{fmt::format(
-          "campaign plots: quantity '{}': an angle that wraps needs unit \"deg\" (got \"{}\")",
-          s.name, s.unit)};
+      return Error{fmt::format("campaign plots: quantity '{}': an angle that wraps needs unit \"deg\" (got \"{}\")",
+                               s.name, s.unit)};
     Quantity q;
     q.series = &s;
     q.label = quantityLabel(s.name);
@@ -873,14 +824,12 @@ Result<std::vector<Quantity>> reduce(const std::vector<CampaignSeries>& series) 
 std::string samplesFile(const std::vector<Quantity>& qs) {
   fmt::memory_buffer out;
   const auto put = std::back_inserter(out);
-  fmt::format_to(
-      put,
-      "# emcalign validation campaign: one gnuplot index block per quantity, one row per sample,\n"
-      "# file units. fit - truth is the shortest angular difference for angles that wrap;\n"
-      "# pull = (fit - truth)/error, NaN without a finite positive error.\n");
+  fmt::format_to(put,
+                 "# emcalign validation campaign: one gnuplot index block per quantity, one row per sample,\n"
+                 "# file units. fit - truth is the shortest angular difference for angles that wrap;\n"
+                 "# pull = (fit - truth)/error, NaN without a finite positive error.\n");
   for (std::size_t k = 0; k < qs.size(); ++k)
-    fmt::format_to(put, "#   index {}: {} [{}]{}\n", k, plainText(qs[k].series->name),
-                   plainText(qs[k].series->unit),
+    fmt::format_to(put, "#   index {}: {} [{}]{}\n", k, plainText(qs[k].series->name), plainText(qs[k].series->unit),
                    qs[k].series->angleWraps ? " (wraps at 360 deg)" : "");
   fmt::format_to(put, "# columns: 1 truth  2 fit  3 error  4 fit-truth  5 pull\n");
   for (std::size_t k = 0; k < qs.size(); ++k) {
@@ -888,8 +837,8 @@ std::string samplesFile(const std::vector<Quantity>& qs) {
     const CampaignSeries& s = *q.series;
     fmt::format_to(put, "{}# index {}: {}\n", k > 0 ? "\n\n" : "", k, plainText(s.name));
     for (std::size_t i = 0; i < s.truth.size(); ++i)
-      fmt::format_to(put, "{} {} {} {} {}\n", dataNumber(s.truth[i]), dataNumber(s.fit[i]),
-                     dataNumber(s.error[i]), dataNumber(q.diff[i]), dataNumber(q.pull[i]));
+      fmt::format_to(put, "{} {} {} {} {}\n", dataNumber(s.truth[i]), dataNumber(s.fit[i]), dataNumber(s.error[i]),
+                     dataNumber(q.diff[i]), dataNumber(q.pull[i]));
   }
   return fmt::to_string(out);
 }
@@ -906,8 +855,7 @@ std::string pullsFile(const std::vector<Quantity>& qs) {
     fmt::format_to(std::back_inserter(out), "{}# index {}: {}\n", k > 0 ? "\n\n" : "", k,
                    plainText(qs[k].series->name));
     for (int i = 0; i < static_cast<int>(h.counts.size()); ++i)
-      fmt::format_to(std::back_inserter(out), "{:.6g} {:.6g}\n", h.binCenter(i),
-                     h.counts[static_cast<std::size_t>(i)]);
+      fmt::format_to(std::back_inserter(out), "{:.6g} {:.6g}\n", h.binCenter(i), h.counts[static_cast<std::size_t>(i)]);
   }
   return fmt::to_string(out);
 }
@@ -947,11 +895,9 @@ std::string pullsScript(const std::string& name, const std::vector<Quantity>& qs
     yMax = std::max(yMax, q.pullStats.n * q.pulls.binWidth() / std::sqrt(2.0 * std::numbers::pi));
   }
   std::string s = terminalHeader(name, g.width, g.height) + kCampaignStyles;
-  s += fmt::format("pulls = '{}'\ngauss(x, n, w) = n * w / sqrt(2 * pi) * exp(-0.5 * x * x)\n",
-                   kPullsFile);
+  s += fmt::format("pulls = '{}'\ngauss(x, n, w) = n * w / sqrt(2 * pi) * exp(-0.5 * x * x)\n", kPullsFile);
   s += multiplotStart(
-      fmt::format("Pulls (fit − truth)/σ_{{fit}} of the validation campaign — {} samples",
-                  sampleCount(qs)),
+      fmt::format("Pulls (fit − truth)/σ_{{fit}} of the validation campaign — {} samples", sampleCount(qs)),
       "curve: the unit Gaussian, scaled to the number of pulls × bin width (what unbiased fits "
       "with right errors give); panel title: mean and width (standard deviation) of the pulls" +
           wrapNote(qs));
@@ -968,16 +914,14 @@ std::string pullsScript(const std::string& name, const std::vector<Quantity>& qs
     if (q.pullStats.n == 0) {
       title = fmt::format("{{/:Bold {}}}   no pulls (no finite error)", q.label);
     } else {
-      title = fmt::format("{{/:Bold {}}}   mean {},  width {}", q.label,
-                          titleNumber(q.pullStats.mean, "{:.2f}"),
+      title = fmt::format("{{/:Bold {}}}   mean {},  width {}", q.label, titleNumber(q.pullStats.mean, "{:.2f}"),
                           titleNumber(q.pullStats.width, "{:.2f}"));
       const double outside = q.pulls.underflow + q.pulls.overflow;
       if (outside > 0.0) title += fmt::format("  ({:.0f} beyond ±5)", outside);
     }
     s += fmt::format("set title \"{}\"\n", title);
-    s += plotCommand(
-        {fmt::format("pulls index {} using 1:2 with boxes ls 4", k),
-         fmt::format("gauss(x, {}, {:.6g}) with lines ls 3", q.pullStats.n, q.pulls.binWidth())});
+    s += plotCommand({fmt::format("pulls index {} using 1:2 with boxes ls 4", k),
+                      fmt::format("gauss(x, {}, {:.6g}) with lines ls 3", q.pullStats.n, q.pulls.binWidth())});
   }
   s += g.legend({"keyentry with boxes ls 4 title 'pulls of the samples'",
                  "keyentry with lines ls 3 title 'unit Gaussian N(0, 1)'"});
@@ -992,11 +936,10 @@ std::string residualsVsTruthScript(const std::string& name, const std::vector<Qu
   const Grid g(n, cols, Grid::widthFor(n, cols, 300, layout), 250, layout);
   std::string s = terminalHeader(name, g.width, g.height) + kCampaignStyles;
   s += fmt::format("samples = '{}'\n", kSamplesFile);
-  s += multiplotStart(
-      fmt::format("Fit − truth against truth, validation campaign — {} samples", sampleCount(qs)),
-      "error bars: the fit's σ; dashed: zero; red: the mean of fit − truth (the bias); panel "
-      "title: bias ± spread/√n and spread (standard deviation)" +
-          wrapNote(qs));
+  s += multiplotStart(fmt::format("Fit − truth against truth, validation campaign — {} samples", sampleCount(qs)),
+                      "error bars: the fit's σ; dashed: zero; red: the mean of fit − truth (the bias); panel "
+                      "title: bias ± spread/√n and spread (standard deviation)" +
+                          wrapNote(qs));
   s += kCampaignTitleFont;
   s += "set format x '%g'; set mxtics 2\n";
   for (int k = 0; k < n; ++k) {
@@ -1011,41 +954,37 @@ std::string residualsVsTruthScript(const std::string& name, const std::vector<Qu
                          : span > 200.0        ? 90.0
                          : span > 100.0        ? 45.0
                                                : ticStep(span, 4);
-    s += fmt::format("set xrange [{:.9g}:{:.9g}]; set xtics {:.9g}\nset yrange [{:.9g}:{:.9g}]\n",
-                     x.lo, x.hi, xStep, y.lo, y.hi);
+    s += fmt::format("set xrange [{:.9g}:{:.9g}]; set xtics {:.9g}\nset yrange [{:.9g}:{:.9g}]\n", x.lo, x.hi, xStep,
+                     y.lo, y.hi);
     const MeanWidth& d = q.diffStats;
     const double biasError = d.n > 1 ? d.width / std::sqrt(static_cast<double>(d.n)) : kNaN;
     const int samples = static_cast<int>(q.series->truth.size());
-    s += fmt::format("set title \"{{/:Bold {}}}\\n{{/=10 bias {} ± {} {},  spread {}{}}}\"\n",
-                     q.label, titleNumber(d.mean, "{:.2g}"), titleNumber(biasError, "{:.1g}"), unit,
+    s += fmt::format("set title \"{{/:Bold {}}}\\n{{/=10 bias {} ± {} {},  spread {}{}}}\"\n", q.label,
+                     titleNumber(d.mean, "{:.2g}"), titleNumber(biasError, "{:.1g}"), unit,
                      titleNumber(d.width, "{:.2g}"),
                      d.n < samples ? fmt::format("  ({} of {} samples)", d.n, samples) : "");
     std::vector<std::string> items = {"0 with lines ls 2"};
     if (std::isfinite(d.mean)) items.push_back(fmt::format("{:.9g} with lines ls 3", d.mean));
-    items.push_back(
-        fmt::format("samples index {} using 1:4:($3 == $3 ? $3 : 0) with yerrorbars ls 1", k));
+    items.push_back(fmt::format("samples index {} using 1:4:($3 == $3 ? $3 : 0) with yerrorbars ls 1", k));
     s += plotCommand(items);
   }
   s += g.legend({"keyentry with yerrorbars ls 1 title 'fit − truth ± σ_{fit}'",
-                 "keyentry with lines ls 3 title 'mean (bias)'",
-                 "keyentry with lines ls 2 title 'zero'"});
+                 "keyentry with lines ls 3 title 'mean (bias)'", "keyentry with lines ls 2 title 'zero'"});
   s += "unset multiplot\n";
   return s;
 }
 
 }  // namespace
 
-Result<std::vector<std::string>> writeCampaignPlots(const std::string& dir,
-                                                    const std::vector<CampaignSeries>& series) {
+Result<std::vector<std::string>> writeCampaignPlots(const std::string& dir, const std::vector<CampaignSeries>& series) {
   auto quantities = reduce(series);
   if (!quantities) return quantities.error();
   const fs::path out(dir);
   if (auto st = createPlotDirectory(out); !st) return st.error();
   if (auto st = writeFile(out, kSamplesFile, samplesFile(*quantities)); !st) return st.error();
   if (auto st = writeFile(out, kPullsFile, pullsFile(*quantities)); !st) return st.error();
-  return drawFigures(
-      out, {{"pulls", pullsScript("pulls", *quantities)},
-            {"residuals_vs_truth", residualsVsTruthScript("residuals_vs_truth", *quantities)}});
+  return drawFigures(out, {{"pulls", pullsScript("pulls", *quantities)},
+                           {"residuals_vs_truth", residualsVsTruthScript("residuals_vs_truth", *quantities)}});
 }
 
 }  // namespace emcalign::report

@@ -76,17 +76,17 @@ std::string residualsScript(const std::vector<LabelledSummary>& samples) {
     int column;
   } panels[] = {{"Δφ = φ_{TS} − φ_{EMC}  [deg]", "dphi", 2}, {"Δθ = θ_{TS} − θ_{EMC}  [deg]", "dtheta", 3}};
   for (const auto& p : panels) {
-    s += fmt::format("\nset xlabel \"{}\"\nset ylabel \"particles / deg (unit area)\"\nset xrange [{}:{}]\n",
-                     p.xlabel, -S::kRangeDeg, S::kRangeDeg);
+    s += fmt::format("\nset xlabel \"{}\"\nset ylabel \"particles / deg (unit area)\"\nset xrange [{}:{}]\n", p.xlabel,
+                     -S::kRangeDeg, S::kRangeDeg);
     std::string items;
     for (std::size_t k = 0; k < samples.size(); ++k) {
       const S& x = samples[k].summary;
       const double mean = p.column == 2 ? x.meanSinDphiDeg : x.meanDthetaDeg;
       const double rms = p.column == 2 ? x.rmsDphiDeg : x.rmsDthetaDeg;
-      items += fmt::format("{}data index {} using 1:{} with histeps lw 2 lc rgb '{}' title \"{}: mean {:+.3f}°, rms "
-                           "{:.3f}°\"",
-                           k > 0 ? ", \\\n     " : "plot ", k, p.column, colour(k), plainText(samples[k].label), mean,
-                           rms);
+      items += fmt::format(
+          "{}data index {} using 1:{} with histeps lw 2 lc rgb '{}' title \"{}: mean {:+.3f}°, rms "
+          "{:.3f}°\"",
+          k > 0 ? ", \\\n     " : "plot ", k, p.column, colour(k), plainText(samples[k].label), mean, rms);
     }
     s += items + "\n";
   }
@@ -113,7 +113,8 @@ std::string columnsScript(const std::vector<LabelledSummary>& samples) {
 
 }  // namespace
 
-Result<std::vector<std::string>> writeResidualPlots(const std::string& dir, const std::vector<LabelledSummary>& samples) {
+Result<std::vector<std::string>> writeResidualPlots(const std::string& dir,
+                                                    const std::vector<LabelledSummary>& samples) {
   if (samples.empty()) return Error{"residual figures: no sample"};
   const fs::path out(dir);
   if (Status s = createPlotDirectory(out); !s) return s.error();

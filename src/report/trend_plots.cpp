@@ -17,10 +17,10 @@ namespace fs = std::filesystem;
 // How a parameter is named on an axis.
 std::string axisName(const std::string& p) {
   static const std::pair<const char*, const char*> names[] = {
-      {"alpha", "α"},   {"beta1", "β_1"}, {"beta2", "β_2"},  {"dx", "dx"},         {"dy", "dy"},
-      {"dz", "dz"},     {"dp1", "dp_1"},  {"dp2", "dp_2"},   {"dp3", "dp_3"},      {"dy_rel", "dy_{rel}"},
-      {"dz_rel", "dz_{rel}"}, {"beta_rel", "β_{rel}"}, {"beta", "β"}, {"psi", "ψ"}, {"mu", "μ"},
-      {"tau", "τ"},     {"dx_rel", "dx_{rel}"}};
+      {"alpha", "α"},         {"beta1", "β_1"},        {"beta2", "β_2"}, {"dx", "dx"},    {"dy", "dy"},
+      {"dz", "dz"},           {"dp1", "dp_1"},         {"dp2", "dp_2"},  {"dp3", "dp_3"}, {"dy_rel", "dy_{rel}"},
+      {"dz_rel", "dz_{rel}"}, {"beta_rel", "β_{rel}"}, {"beta", "β"},    {"psi", "ψ"},    {"mu", "μ"},
+      {"tau", "τ"},           {"dx_rel", "dx_{rel}"}};
   for (const auto& [k, v] : names) {
     if (p == k) return v;
   }
@@ -39,8 +39,8 @@ std::string dataOf(const TrendFigure& f) {
   }
   fmt::format_to(std::back_inserter(out), "\n\n");
   for (const auto& l : f.segments) {
-    fmt::format_to(std::back_inserter(out), "{:.1f} {:.8g} {}\n{:.1f} {:.8g} {}\n\n", l.x0, l.y0, l.drift ? 1 : 0,
-                   l.x1, l.y1, l.drift ? 1 : 0);
+    fmt::format_to(std::back_inserter(out), "{:.1f} {:.8g} {}\n{:.1f} {:.8g} {}\n\n", l.x0, l.y0, l.drift ? 1 : 0, l.x1,
+                   l.y1, l.drift ? 1 : 0);
   }
   fmt::format_to(std::back_inserter(out), "\n");
   if (f.truth.empty()) fmt::format_to(std::back_inserter(out), "NaN NaN\n");
@@ -54,8 +54,8 @@ std::string panel(const TrendFigure& f, bool key, int fontSize) {
   s += fmt::format("set ylabel \"{} [{}]\" font ',{}'\n", axisName(f.parameter), f.unit, fontSize);
   s += "unset arrow\n";
   for (double x : f.steps) {
-    s += fmt::format("set arrow from {:.1f}, graph 0 to {:.1f}, graph 1 nohead lw 1.5 dt 2 lc rgb '#d62728'\n",
-                     x - 0.5, x - 0.5);
+    s += fmt::format("set arrow from {:.1f}, graph 0 to {:.1f}, graph 1 nohead lw 1.5 dt 2 lc rgb '#d62728'\n", x - 0.5,
+                     x - 0.5);
   }
   if (key) {
     s += "set key top left Left reverse samplen 2 font ',10' opaque\n";
@@ -101,9 +101,10 @@ Result<std::vector<std::string>> writeTrendPlots(const std::string& dir, const s
   }
   if (!four.empty()) {
     std::string s = terminalHeader("fig8", 1600, 1000) + common();
-    s += fmt::format("set multiplot layout 2,2 title \"{}: the time evolution of α, dx, μ, ψ (the paper's Fig. 8)\" "
-                     "font ',14'\n",
-                     plainText(title));
+    s += fmt::format(
+        "set multiplot layout 2,2 title \"{}: the time evolution of α, dx, μ, ψ (the paper's Fig. 8)\" "
+        "font ',14'\n",
+        plainText(title));
     for (std::size_t k = 0; k < four.size(); ++k) s += panel(*four[k], k == 0, 11);
     s += "unset multiplot\n";
     scripts.push_back({"fig8", s});
@@ -114,8 +115,8 @@ Result<std::vector<std::string>> writeTrendPlots(const std::string& dir, const s
     const int rows = static_cast<int>((figures.size() + columns - 1) / columns);
     std::string s = terminalHeader("trend_all", 1400, 330 * rows) + common();
     s += "set xlabel ''\nset format x '%.0f'\nset tics font ',10'\n";
-    s += fmt::format("set multiplot layout {},{} title \"{}: every parameter against run\" font ',15'\n", rows,
-                     columns, plainText(title));
+    s += fmt::format("set multiplot layout {},{} title \"{}: every parameter against run\" font ',15'\n", rows, columns,
+                     plainText(title));
     for (std::size_t k = 0; k < figures.size(); ++k) s += panel(figures[k], false, 10);
     s += "unset multiplot\n";
     scripts.push_back({"trend_all", s});

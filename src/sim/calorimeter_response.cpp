@@ -17,8 +17,7 @@ using geometry::Region;
 using geometry::Support;
 
 Status EmcOptions::validate(int counters) const {
-  if (!(moliereRadius > 0.0) || !(profileB > 0.0) || !(coreRadius > 0.0) || !(tailRadius > 0.0) ||
-      !(maxRadius > 0.0)) {
+  if (!(moliereRadius > 0.0) || !(profileB > 0.0) || !(coreRadius > 0.0) || !(tailRadius > 0.0) || !(maxRadius > 0.0)) {
     return Error{"emc: Moliere radius, profile b and lateral radii must be positive"};
   }
   if (!(coreFraction >= 0.0 && coreFraction <= 1.0)) return Error{"emc: coreFraction must be in [0, 1]"};
@@ -108,8 +107,8 @@ Vec3 CounterHits::sourceCentre(int source) const {
 
 // ------------------------------------------------------------------- response
 
-CalorimeterResponse::CalorimeterResponse(const geometry::Calorimeter& calo,
-                                         const geometry::AlignmentTransform& truth, EmcOptions options)
+CalorimeterResponse::CalorimeterResponse(const geometry::Calorimeter& calo, const geometry::AlignmentTransform& truth,
+                                         EmcOptions options)
     : calo_(&calo),
       actual_(truth, options.layer3OffsetOn ? options.layer3Offset : Vec3::Zero()),
       options_(std::move(options)),
@@ -156,8 +155,9 @@ int CalorimeterResponse::counterAt(const Vec3& p, Hemisphere hint, Vec3* nominal
   const Hemisphere other = hint == Hemisphere::Plus ? Hemisphere::Minus : Hemisphere::Plus;
   for (Hemisphere h : {hint, other}) {
     Vec3 nominal;
-    const auto c = counterOnSide(h, actual_.placement(h, Support::Inner).applyInverse(p),
-                                 [&] { return actual_.placement(h, Support::Outer).applyInverse(p); }, nominal);
+    const auto c = counterOnSide(
+        h, actual_.placement(h, Support::Inner).applyInverse(p),
+        [&] { return actual_.placement(h, Support::Outer).applyInverse(p); }, nominal);
     if (!c) continue;
     if (*c >= 0 && nominalOut != nullptr) *nominalOut = nominal;
     return *c;
@@ -196,8 +196,8 @@ double CalorimeterResponse::entry(const Vec3& p, const Vec3& d, Hemisphere& hemi
   return crossing(p, d);
 }
 
-void CalorimeterResponse::shower(CounterHits& hits, int source, double energy, bool photon,
-                                 const Vec3& point, const Vec3& direction, Rng& rng) const {
+void CalorimeterResponse::shower(CounterHits& hits, int source, double energy, bool photon, const Vec3& point,
+                                 const Vec3& direction, Rng& rng) const {
   const auto& o = options_;
   const auto& m = calo_->description().material;
   Hemisphere h;
@@ -244,10 +244,10 @@ void CalorimeterResponse::shower(CounterHits& hits, int source, double energy, b
   const double sA = distanceTo(d.supports[0].rInner), sB = distanceTo(d.supports[0].rOuter);
   const double sExit = distanceTo(d.supports[1].rInner);
   const double x0 = m.radiationLength;
-  const double tauA = preshower + sA / x0;                         // support begins
+  const double tauA = preshower + sA / x0;                          // support begins
   const double tauB = tauA + (sB - sA) / o.supportRadiationLength;  // support ends
   const double tauEnd = tauB + std::max(0.0, sExit - sB) / x0;      // layer 3 ends
-  const double logGammaA = std::log(std::tgamma(a));  // thread-safe, unlike std::lgamma
+  const double logGammaA = std::log(std::tgamma(a));                // thread-safe, unlike std::lgamma
   const double pPre = regularizedGammaP(a, b * preshower, logGammaA);
   const double pA = regularizedGammaP(a, b * tauA, logGammaA);
   const double pB = regularizedGammaP(a, b * tauB, logGammaA);
@@ -307,8 +307,8 @@ CalorimeterResponse::ShowerFrame CalorimeterResponse::showerFrame(Hemisphere h, 
   return {Basis{start, axis, e1, e2}, nominal(Support::Inner), nominal(Support::Outer)};
 }
 
-void CalorimeterResponse::depositSpots(CounterHits& hits, int source, double energy, const ShowerFrame& f,
-                                       Hemisphere h, std::span<const Spot> spots) const {
+void CalorimeterResponse::depositSpots(CounterHits& hits, int source, double energy, const ShowerFrame& f, Hemisphere h,
+                                       std::span<const Spot> spots) const {
   Vec3 moment = Vec3::Zero();  // Σ where of the deposited spots: the source's centre
   int deposited = 0;
   for (const Spot& spot : spots) {
@@ -316,7 +316,8 @@ void CalorimeterResponse::depositSpots(CounterHits& hits, int source, double ene
     // counterAt's first try, with the spot placed in the entered hemisphere's frames by the
     // shower's basis instead of a matrix product.
     Vec3 nominal;
-    std::optional<int> c = counterOnSide(h, f.inner.at(spot), [&] { return f.outer.at(spot); }, nominal);
+    std::optional<int> c = counterOnSide(
+        h, f.inner.at(spot), [&] { return f.outer.at(spot); }, nominal);
     if (!c) c = counterAt(where, h == Hemisphere::Plus ? Hemisphere::Minus : Hemisphere::Plus, &nominal);
     if (*c >= 0) {
       hits.addToCounter(*c, source, energy, nominal);
@@ -327,8 +328,8 @@ void CalorimeterResponse::depositSpots(CounterHits& hits, int source, double ene
   hits.addToSource(source, deposited * energy, energy * moment);
 }
 
-void CalorimeterResponse::track(CounterHits& hits, int source, double kineticEnergy, bool hadron,
-                                const Vec3& point, const Vec3& direction, Rng& rng) const {
+void CalorimeterResponse::track(CounterHits& hits, int source, double kineticEnergy, bool hadron, const Vec3& point,
+                                const Vec3& direction, Rng& rng) const {
   const auto& o = options_;
   Hemisphere h;
   const double s = entry(point, direction, h);

@@ -182,8 +182,7 @@ double energyScale(double q1sq, double q2sq, double kSum, double sqrtS) {
 /// ISR fractions, the Born angle in the CM range, the FSR photons, boosts to the lab and keeps
 /// the event if both leptons lie in the lab range; otherwise everything but the beam energies
 /// is drawn again.
-Beams bhabha(const GeneratorOptions& o, double beam1, double beam2, Rng& rng,
-             GeneratedEvent& event) {
+Beams bhabha(const GeneratorOptions& o, double beam1, double beam2, Rng& rng, GeneratedEvent& event) {
   const PolarRange range = polarRange(o);
   const std::size_t first = event.particles.size();
   double bIsr = 0.0, softIsr = 1.0, logSoftRatio = 0.0;
@@ -226,10 +225,8 @@ Beams bhabha(const GeneratorOptions& o, double beam1, double beam2, Rng& rng,
       const Vec3 k2 = y2 > 0.0 ? fsrPhoton(-p1, pL, y2 * eL, theta0, logRange, rng) : Vec3::Zero();
       const Vec3 q1 = p1 - k1, q2 = -p1 - k2;
       const double l = energyScale(q1.squaredNorm(), q2.squaredNorm(), (y1 + y2) * eL, sqrtS);
-      event.particles.push_back(
-          {pdg::Electron, l * q1, std::sqrt(l * l * q1.squaredNorm() + kMe2)});
-      event.particles.push_back(
-          {pdg::Positron, l * q2, std::sqrt(l * l * q2.squaredNorm() + kMe2)});
+      event.particles.push_back({pdg::Electron, l * q1, std::sqrt(l * l * q1.squaredNorm() + kMe2)});
+      event.particles.push_back({pdg::Positron, l * q2, std::sqrt(l * l * q2.squaredNorm() + kMe2)});
       if (y1 > 0.0) event.particles.push_back({pdg::Photon, l * k1, l * y1 * eL});
       if (y2 > 0.0) event.particles.push_back({pdg::Photon, l * k2, l * y2 * eL});
     }
@@ -245,8 +242,7 @@ Beams bhabha(const GeneratorOptions& o, double beam1, double beam2, Rng& rng,
 }
 
 /// e+e- → γγ, drawn like bhabha() without final-state radiation.
-Beams gammaGamma(const GeneratorOptions& o, double beam1, double beam2, Rng& rng,
-                 GeneratedEvent& event) {
+Beams gammaGamma(const GeneratorOptions& o, double beam1, double beam2, Rng& rng, GeneratedEvent& event) {
   const PolarRange range = polarRange(o);
   const std::size_t first = event.particles.size();
   double bIsr = 0.0, softIsr = 1.0;
@@ -331,9 +327,7 @@ DalitzPoint dalitzPoint(double sqrtS, double sPlusZero, double sMinusZero) {
   d.pMinus2 = eMinus * eMinus - mc2;
   const double pZero2 = eZero * eZero - m02;
   d.dot = 0.5 * (pZero2 - d.pPlus2 - d.pMinus2);
-  d.gram = (d.pPlus2 < 0.0 || d.pMinus2 < 0.0 || pZero2 < 0.0)
-               ? -1.0
-               : d.pPlus2 * d.pMinus2 - d.dot * d.dot;
+  d.gram = (d.pPlus2 < 0.0 || d.pMinus2 < 0.0 || pZero2 < 0.0) ? -1.0 : d.pPlus2 * d.pMinus2 - d.dot * d.dot;
   return d;
 }
 
@@ -384,8 +378,7 @@ double threePionBound(const GeneratorOptions& o) {
   if (tBound.beamEnergy == o.beamEnergy && tBound.spread == o.beamEnergySpread) {
     return tBound.maxWeight;
   }
-  const double lo =
-      std::max(2.0 * (o.beamEnergy - 6.0 * o.beamEnergySpread), kPiThreshold * (1.0 + 1e-6));
+  const double lo = std::max(2.0 * (o.beamEnergy - 6.0 * o.beamEnergySpread), kPiThreshold * (1.0 + 1e-6));
   const double hi = std::max(2.0 * (o.beamEnergy + 6.0 * o.beamEnergySpread), lo);
   double best = 0.0;
   for (int i = 0; i <= 4; ++i) best = std::max(best, gridMaximum(lo + 0.25 * i * (hi - lo)));
@@ -495,8 +488,7 @@ Status GeneratorOptions::validate() const {
         beamEnergy / units::MeV, kMinBeamEnergy / units::MeV, maxBeam / units::MeV, name(process))};
   }
   if (!(std::isfinite(beamEnergySpread) && beamEnergySpread >= 0.0)) {
-    return Error{fmt::format("generator: the beam energy spread must not be negative (got {} MeV)",
-                             beamEnergySpread)};
+    return Error{fmt::format("generator: the beam energy spread must not be negative (got {} MeV)", beamEnergySpread)};
   }
   if (beamEnergySpread > 0.05 * beamEnergy) {
     return Error{
@@ -505,8 +497,8 @@ Status GeneratorOptions::validate() const {
                     beamEnergySpread, beamEnergy)};
   }
   if (!(vertexSigma.allFinite() && vertexSigma.minCoeff() >= 0.0)) {
-    return Error{fmt::format("generator: the vertex sigma must not be negative (got {}, {}, {} cm)",
-                             vertexSigma.x(), vertexSigma.y(), vertexSigma.z())};
+    return Error{fmt::format("generator: the vertex sigma must not be negative (got {}, {}, {} cm)", vertexSigma.x(),
+                             vertexSigma.y(), vertexSigma.z())};
   }
   if (!(std::isfinite(thetaMin) && std::isfinite(thetaMax) && thetaMin >= 0.0 && thetaMax <= pi &&
         thetaMin < thetaMax)) {
@@ -534,8 +526,8 @@ Status GeneratorOptions::validate() const {
 
 Collision generate(const GeneratorOptions& o, Rng& rng, GeneratedEvent& event) {
   event.particles.clear();
-  event.vertex = Vec3(o.vertexSigma.x() * rng.normal(), o.vertexSigma.y() * rng.normal(),
-                      o.vertexSigma.z() * rng.normal());
+  event.vertex =
+      Vec3(o.vertexSigma.x() * rng.normal(), o.vertexSigma.y() * rng.normal(), o.vertexSigma.z() * rng.normal());
   Collision c;
   bool aboveThreshold = false;
   for (int trial = 0; trial < kMaxTrials && !aboveThreshold; ++trial) {

@@ -76,8 +76,8 @@ std::optional<std::pair<double, double>> clusterDirection(std::span<const Hit> h
 }
 
 void findClusters(const CounterHits& hits, const geometry::CounterGeometry& geometry,
-                  const CounterNeighbours& neighbours, const ReconstructionOptions& options,
-                  ClusterScratch& scratch, Rng& rng, std::vector<Cluster>& clusters) {
+                  const CounterNeighbours& neighbours, const ReconstructionOptions& options, ClusterScratch& scratch,
+                  Rng& rng, std::vector<Cluster>& clusters) {
   const geometry::Calorimeter& calo = geometry.calorimeter();
   clusters.clear();
   scratch.hits.clear();
@@ -128,9 +128,11 @@ void findClusters(const CounterHits& hits, const geometry::CounterGeometry& geom
     } else {
       Vec3 centre = Vec3::Zero();
       for (int c : members) centre += hits.nominalMoment(c);
-      cl.theta = std::clamp(geometry::polar(centre) + options.idealDirectionSigma * rng.normal(), 0.0, std::numbers::pi);
-      cl.phi = std::fmod(geometry::azimuth(centre) + options.idealDirectionSigma * rng.normal() + 2.0 * std::numbers::pi,
-                         2.0 * std::numbers::pi);
+      cl.theta =
+          std::clamp(geometry::polar(centre) + options.idealDirectionSigma * rng.normal(), 0.0, std::numbers::pi);
+      cl.phi =
+          std::fmod(geometry::azimuth(centre) + options.idealDirectionSigma * rng.normal() + 2.0 * std::numbers::pi,
+                    2.0 * std::numbers::pi);
     }
     cl.mainSource = static_cast<int>(std::max_element(bySource.begin(), bySource.end()) - bySource.begin());
     cl.counters = static_cast<int>(members.size());
@@ -139,8 +141,8 @@ void findClusters(const CounterHits& hits, const geometry::CounterGeometry& geom
   for (int c : hits.fired()) scratch.label[static_cast<std::size_t>(c)] = -1;
 }
 
-std::vector<int> matchTracks(const std::vector<geometry::TrackLine>& tracks,
-                             const std::vector<Cluster>& clusters, const ReconstructionOptions& options) {
+std::vector<int> matchTracks(const std::vector<geometry::TrackLine>& tracks, const std::vector<Cluster>& clusters,
+                             const ReconstructionOptions& options) {
   struct Pair {
     double angle;
     int track, cluster;

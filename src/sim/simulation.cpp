@@ -1,8 +1,8 @@
 #include "emcalign/sim/simulation.hpp"
 
 #include <algorithm>
-#include <future>
 #include <cmath>
+#include <future>
 #include <limits>
 #include <numbers>
 
@@ -37,24 +37,35 @@ void SimulationOptions::setIdealised() {
 
 const std::vector<std::string>& SimulationOptions::effectNames() {
   static const std::vector<std::string> names = {
-      "radiation",           "background",    "dead-counters", "noise",
+      "radiation",           "background",          "dead-counters", "noise",
       "energy-resolution",   "shower-fluctuations", "layer3-offset", "cosmics",
       "multiple-scattering", "counter-directions"};
   return names;
 }
 
 Status SimulationOptions::switchOff(std::string_view effect) {
-  if (effect == "radiation") generator.radiation = false;
-  else if (effect == "background") emc.beamBackground = false;
-  else if (effect == "dead-counters") emc.deadCountersOn = false;
-  else if (effect == "noise") emc.noise = false;
-  else if (effect == "energy-resolution") emc.energyResolution = false;
-  else if (effect == "shower-fluctuations") emc.showerFluctuations = false;
-  else if (effect == "layer3-offset") emc.layer3OffsetOn = false;
-  else if (effect == "cosmics") cosmicFraction = 0.0;
-  else if (effect == "multiple-scattering") tracking.multipleScattering = false;
-  else if (effect == "counter-directions") reconstruction.directionFromCounters = false;
-  else return Error{fmt::format("unknown effect '{}' (known: {})", effect, fmt::join(effectNames(), ", "))};
+  if (effect == "radiation")
+    generator.radiation = false;
+  else if (effect == "background")
+    emc.beamBackground = false;
+  else if (effect == "dead-counters")
+    emc.deadCountersOn = false;
+  else if (effect == "noise")
+    emc.noise = false;
+  else if (effect == "energy-resolution")
+    emc.energyResolution = false;
+  else if (effect == "shower-fluctuations")
+    emc.showerFluctuations = false;
+  else if (effect == "layer3-offset")
+    emc.layer3OffsetOn = false;
+  else if (effect == "cosmics")
+    cosmicFraction = 0.0;
+  else if (effect == "multiple-scattering")
+    tracking.multipleScattering = false;
+  else if (effect == "counter-directions")
+    reconstruction.directionFromCounters = false;
+  else
+    return Error{fmt::format("unknown effect '{}' (known: {})", effect, fmt::join(effectNames(), ", "))};
   return {};
 }
 
@@ -136,8 +147,8 @@ void Simulation::simulateEvent(std::int64_t index, EventScratch& scratch, std::v
       if (apdg == pdg::Electron) {
         response_->shower(hits, k, particle.energy, false, path.point, path.direction, rng);
       } else {
-        response_->track(hits, k, particle.energy - particle.mass(), apdg == pdg::PiPlus, path.point,
-                         path.direction, rng);
+        response_->track(hits, k, particle.energy - particle.mass(), apdg == pdg::PiPlus, path.point, path.direction,
+                         rng);
       }
     } else if (particle.pdg == pdg::Photon) {
       response_->shower(hits, k, particle.energy, true, ev.vertex, d, rng);
@@ -257,9 +268,10 @@ Status Simulation::run(std::int64_t events, int threads, const Sink& sink, const
     });
     for (EventScratch& s : scratch) {
       if (s.failedEvent >= 0) {
-        return Error{fmt::format("event {}: the {} generator made no event in 2^20 trials: its options (beam energy {} "
-                                 "MeV, polar range) are at the edge of what it models",
-                                 s.failedEvent, name(options_.generator.process), options_.generator.beamEnergy)};
+        return Error{
+            fmt::format("event {}: the {} generator made no event in 2^20 trials: its options (beam energy {} "
+                        "MeV, polar range) are at the edge of what it models",
+                        s.failedEvent, name(options_.generator.process), options_.generator.beamEnergy)};
       }
     }
     if (Status s = drain(); !s) return s;

@@ -47,8 +47,8 @@ void perpendiculars(const Vec3& d, Vec3& e1, Vec3& e2) {
 
 }  // namespace
 
-ChargedPath TrackingSystem::scatter(const Vec3& vertex, const Vec3& direction, double momentum,
-                                    double beta, Rng& rng) const {
+ChargedPath TrackingSystem::scatter(const Vec3& vertex, const Vec3& direction, double momentum, double beta,
+                                    Rng& rng) const {
   const auto& o = options_;
   const double s = cylinderCrossing(vertex, direction, o.beamPipeRadius);
   if (!o.multipleScattering || s < 0.0 || o.beamPipeThickness <= 0.0) return {vertex, direction};
@@ -129,7 +129,8 @@ std::optional<geometry::TrackLine> TrackingSystem::measure(const ChargedPath& pa
   geometry::TrackLine t;
   t.z0 = z0;
   t.rho = rho;
-  t.phi = phi < 0.0 ? phi + 2.0 * std::numbers::pi : (phi >= 2.0 * std::numbers::pi ? phi - 2.0 * std::numbers::pi : phi);
+  t.phi =
+      phi < 0.0 ? phi + 2.0 * std::numbers::pi : (phi >= 2.0 * std::numbers::pi ? phi - 2.0 * std::numbers::pi : phi);
   t.theta = std::atan2(1.0, cot);
   return t;
 }

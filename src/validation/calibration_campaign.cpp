@@ -51,7 +51,8 @@ Result<std::vector<std::string>> eventFilesIn(const std::vector<std::string>& in
       std::vector<std::string> found;
       for (const auto& e : fs::directory_iterator(in, ec)) {
         const std::string ext = e.path().extension().string();
-        if (e.is_regular_file() && (ext == ".h5" || ext == ".hdf5" || ext == ".csv")) found.push_back(e.path().string());
+        if (e.is_regular_file() && (ext == ".h5" || ext == ".hdf5" || ext == ".csv"))
+          found.push_back(e.path().string());
       }
       if (ec) return Error{fmt::format("{}: cannot list the directory: {}", in, ec.message())};
       if (found.empty()) return Error{fmt::format("{}: no event files (*.h5, *.hdf5, *.csv) in this directory", in)};
@@ -90,8 +91,8 @@ Result<CampaignModel> campaignModel(const std::string& corrections, const std::s
 Result<CampaignModel> CampaignModel::at(double beamEnergy) const {
   if (!grid) return *this;
   if (std::isnan(beamEnergy) && grid->isGrid()) {
-    return Error{fmt::format("no selected event, so no beam energy to take the corrections of the grid {} at",
-                             grid->path())};
+    return Error{
+        fmt::format("no selected event, so no beam energy to take the corrections of the grid {} at", grid->path())};
   }
   auto c = grid->at(beamEnergy);
   if (!c) return c.error();
@@ -109,8 +110,7 @@ geometry::DepthAtEnergy CampaignModel::depthAtEnergy() const {
   return calib::depthAtEnergy(grid, geometry.depth);
 }
 
-Result<CampaignScan> scanRuns(const std::vector<std::string>& files, const CampaignModel& model,
-                              const ScanOptions& o) {
+Result<CampaignScan> scanRuns(const std::vector<std::string>& files, const CampaignModel& model, const ScanOptions& o) {
   if (files.empty()) return Error{"no event files to calibrate"};
   CampaignScan scan;
   scan.files = files;
@@ -127,14 +127,17 @@ Result<CampaignScan> scanRuns(const std::vector<std::string>& files, const Campa
   const int threads = o.threads > 0 ? o.threads : tbb::this_task_arena::max_concurrency();
   tbb::task_arena arena(kSanitized ? 1 : threads);
   arena.execute([&] {
-    tbb::parallel_for(std::size_t{0}, files.size(), [&](std::size_t k) {
-      perFile[k] = calib::fillProfilesByRun(files[k], model.depthAtEnergy(), model.selection, model.profile);
-      const std::size_t n = ++done;
-      if (o.progress) {
-        std::lock_guard lock(progressMutex);
-        o.progress(n, files.size());
-      }
-    }, tbb::simple_partitioner());
+    tbb::parallel_for(
+        std::size_t{0}, files.size(),
+        [&](std::size_t k) {
+          perFile[k] = calib::fillProfilesByRun(files[k], model.depthAtEnergy(), model.selection, model.profile);
+          const std::size_t n = ++done;
+          if (o.progress) {
+            std::lock_guard lock(progressMutex);
+            o.progress(n, files.size());
+          }
+        },
+        tbb::simple_partitioner());
   });
   for (std::size_t k = 0; k < files.size(); ++k) {
     if (!perFile[k]->ok()) return perFile[k]->error();
@@ -178,10 +181,11 @@ Result<CampaignScan> scanRuns(const std::vector<std::string>& files, const Campa
     if (r.fill.beamEnergies.size() > 1) {
       std::vector<std::string> names;
       for (std::size_t f : r.files) names.push_back(files[f]);
-      return Error{fmt::format("run {}: selected events of {} beam energies ({:.3f} ... {:.3f} MeV) in {}: a run has "
-                               "one (files of two runs with one number?)",
-                               run, r.fill.beamEnergies.size(), *r.fill.beamEnergies.begin(),
-                               *r.fill.beamEnergies.rbegin(), fmt::join(names, ", "))};
+      return Error{
+          fmt::format("run {}: selected events of {} beam energies ({:.3f} ... {:.3f} MeV) in {}: a run has "
+                      "one (files of two runs with one number?)",
+                      run, r.fill.beamEnergies.size(), *r.fill.beamEnergies.begin(), *r.fill.beamEnergies.rbegin(),
+                      fmt::join(names, ", "))};
     }
     r.beamEnergy = r.fill.beamEnergies.empty() ? kNoEnergy : *r.fill.beamEnergies.begin();
     r.selected = r.fill.cutFlow.events.back();
@@ -214,7 +218,7 @@ double CampaignScan::meanBeamEnergy(std::int64_t first, std::int64_t last) const
 }
 
 calib::ProfileFill CampaignScan::fillOf(std::int64_t first, std::int64_t last, const calib::ProfileOptions& options,
-                                       std::vector<std::int32_t>* runsFound) const {
+                                        std::vector<std::int32_t>* runsFound) const {
   calib::ProfileFill fill = calib::ProfileFill::empty(options);
   for (const CampaignRun& r : runs) {
     if (r.run < first || r.run > last) continue;
@@ -420,7 +424,8 @@ Result<GroupFit> fitGroup(const CampaignGroup& g, const calib::ProfileFill& fill
     return Error{fmt::format("group {} (runs {}-{}): no selected event", g.index, g.iovFirst, g.iovLast)};
   }
   auto result = calib::fitProfiles(fill.profiles, model.geometry, model.sigmaSys);
-  if (!result) return Error{fmt::format("group {} (runs {}-{}): {}", g.index, g.iovFirst, g.iovLast, result.error().message)};
+  if (!result)
+    return Error{fmt::format("group {} (runs {}-{}): {}", g.index, g.iovFirst, g.iovLast, result.error().message)};
   calib::FitInput input;
   input.files = g.files;
   input.fill = &fill;
@@ -441,10 +446,10 @@ Result<GroupFit> fitGroup(const CampaignGroup& g, const calib::ProfileFill& fill
     provenance["corrections"] = model.corrections;
     provenance["corrections_sha256"] = model.correctionsSha256;
   }
-  auto payload = conddb::makePayload(resultJson, model.geometry.radii.r1, fmt::format("group {}", g.index),
-                                     std::move(provenance));
-  if (!payload) return Error{fmt::format("group {} (runs {}-{}): {}", g.index, g.iovFirst, g.iovLast,
-                                         payload.error().message)};
+  auto payload =
+      conddb::makePayload(resultJson, model.geometry.radii.r1, fmt::format("group {}", g.index), std::move(provenance));
+  if (!payload)
+    return Error{fmt::format("group {} (runs {}-{}): {}", g.index, g.iovFirst, g.iovLast, payload.error().message)};
   return GroupFit{std::move(*result), std::move(resultJson), std::move(*payload)};
 }
 
@@ -457,9 +462,10 @@ Result<std::vector<bool>> groupsInTag(conddb::Database& db, const std::string& t
     auto it = std::lower_bound(groups.begin(), groups.end(), iov.firstRun,
                                [](const CampaignGroup& g, std::int64_t r) { return g.iovFirst < r; });
     if (it == groups.end() || it->iovFirst != iov.firstRun || it->iovLast != iov.lastRun) {
-      return Error{fmt::format("{}: tag '{}' holds the IOV {}-{}, which is not one of this campaign's groups (another "
-                               "--min-events, other files, another plan): write to a new tag",
-                               db.uri(), tag, iov.firstRun, iov.lastRun)};
+      return Error{
+          fmt::format("{}: tag '{}' holds the IOV {}-{}, which is not one of this campaign's groups (another "
+                      "--min-events, other files, another plan): write to a new tag",
+                      db.uri(), tag, iov.firstRun, iov.lastRun)};
     }
     done[static_cast<std::size_t>(it - groups.begin())] = true;
   }
@@ -489,56 +495,62 @@ Result<CampaignReport> runCampaign(const CampaignScan& scan, const CampaignModel
   std::map<std::string, std::string> digests;
   for (std::size_t k = 0; k < scan.files.size(); ++k) digests[scan.files[k]] = scan.digests[k];
 
-  std::mutex dbMutex;  // one connection, one transaction at a time
+  std::mutex dbMutex;                  // one connection, one transaction at a time
   std::set<std::string> corrWarnings;  // a single corrections file away from its energy
   int finished = 0;
   const int threads = o.threads > 0 ? o.threads : tbb::this_task_arena::max_concurrency();
   tbb::task_arena arena(threads);
   arena.execute([&] {
-    tbb::parallel_for(std::size_t{0}, todo.size(), [&](std::size_t t) {
-      const CampaignGroup& g = groups[todo[t]];
-      // The group's IOV holds exactly its runs (the IOVs tile the scanned runs), of one energy.
-      std::string warning;
-      auto fit = [&]() -> Result<GroupFit> {
-        auto groupModel = model.at(g.beamEnergy);
-        if (!groupModel) return Error{fmt::format("group {} (runs {}-{}): {}", g.index, g.iovFirst, g.iovLast,
-                                                  groupModel.error().message)};
-        warning = groupModel->correctionsWarning;
-        const calib::ProfileFill fill = scan.fillOf(g.iovFirst, g.iovLast, groupModel->profile);
-        return fitGroup(g, fill, *groupModel, digests, campaignOrigin(g, o.minEvents, static_cast<int>(groups.size())));
-      }();
-      std::lock_guard lock(dbMutex);
-      if (!warning.empty()) corrWarnings.insert(warning);
-      std::string status;
-      if (!fit) {
-        report.failures.push_back(fit.error().message);
-        status = "failed";
-      } else if (!usable(fit->result.status)) {
-        report.failures.push_back(fmt::format("group {} (runs {}-{}): the fit's status is '{}': not stored",
-                                              g.index, g.iovFirst, g.iovLast, name(fit->result.status)));
-        status = std::string(name(fit->result.status));
-      } else if (Status s = db.put(tag, g.iovFirst, g.iovLast, fit->payload, true, o.description); !s) {
-        report.failures.push_back(fmt::format("group {} (runs {}-{}): {}", g.index, g.iovFirst, g.iovLast,
-                                              s.error().message));
-        status = "not stored";
-      } else {
-        ++report.fitted;
-        status = std::string(name(fit->result.status));
-        if (fit->result.status == FitStatus::PoorFit) {
-          report.warnings.push_back(fmt::format("group {} (runs {}-{}): poor fit (chi2/ndf {:.1f}/{})", g.index,
-                                                g.iovFirst, g.iovLast, fit->result.chi2, fit->result.ndf));
-        }
-      }
-      ++finished;
-      if (o.progress) o.progress(finished, static_cast<int>(todo.size()), g, status);
-    }, tbb::simple_partitioner());
+    tbb::parallel_for(
+        std::size_t{0}, todo.size(),
+        [&](std::size_t t) {
+          const CampaignGroup& g = groups[todo[t]];
+          // The group's IOV holds exactly its runs (the IOVs tile the scanned runs), of one energy.
+          std::string warning;
+          auto fit = [&]() -> Result<GroupFit> {
+            auto groupModel = model.at(g.beamEnergy);
+            if (!groupModel)
+              return Error{
+                  fmt::format("group {} (runs {}-{}): {}", g.index, g.iovFirst, g.iovLast, groupModel.error().message)};
+            warning = groupModel->correctionsWarning;
+            const calib::ProfileFill fill = scan.fillOf(g.iovFirst, g.iovLast, groupModel->profile);
+            return fitGroup(g, fill, *groupModel, digests,
+                            campaignOrigin(g, o.minEvents, static_cast<int>(groups.size())));
+          }();
+          std::lock_guard lock(dbMutex);
+          if (!warning.empty()) corrWarnings.insert(warning);
+          std::string status;
+          if (!fit) {
+            report.failures.push_back(fit.error().message);
+            status = "failed";
+          } else if (!usable(fit->result.status)) {
+            report.failures.push_back(fmt::format("group {} (runs {}-{}): the fit's status is '{}': not stored",
+                                                  g.index, g.iovFirst, g.iovLast, name(fit->result.status)));
+            status = std::string(name(fit->result.status));
+          } else if (Status s = db.put(tag, g.iovFirst, g.iovLast, fit->payload, true, o.description); !s) {
+            report.failures.push_back(
+                fmt::format("group {} (runs {}-{}): {}", g.index, g.iovFirst, g.iovLast, s.error().message));
+            status = "not stored";
+          } else {
+            ++report.fitted;
+            status = std::string(name(fit->result.status));
+            if (fit->result.status == FitStatus::PoorFit) {
+              report.warnings.push_back(fmt::format("group {} (runs {}-{}): poor fit (chi2/ndf {:.1f}/{})", g.index,
+                                                    g.iovFirst, g.iovLast, fit->result.chi2, fit->result.ndf));
+            }
+          }
+          ++finished;
+          if (o.progress) o.progress(finished, static_cast<int>(todo.size()), g, status);
+        },
+        tbb::simple_partitioner());
   });
   report.warnings.insert(report.warnings.end(), corrWarnings.begin(), corrWarnings.end());
   for (const CampaignGroup& g : groups) {
     if (g.isShort) {
-      report.warnings.push_back(fmt::format("group {} (runs {}-{}, {:.1f} MeV): {} selected events, fewer than {} "
-                                            "(its energy point has no more)",
-                                            g.index, g.iovFirst, g.iovLast, g.beamEnergy, g.selected, o.minEvents));
+      report.warnings.push_back(
+          fmt::format("group {} (runs {}-{}, {:.1f} MeV): {} selected events, fewer than {} "
+                      "(its energy point has no more)",
+                      g.index, g.iovFirst, g.iovLast, g.beamEnergy, g.selected, o.minEvents));
     }
   }
   std::sort(report.failures.begin(), report.failures.end());

@@ -99,7 +99,8 @@ Result<Ranges> readRanges(const std::string& path) {
     return Error{fmt::format("{}: key 'format': expected \"{}\"", path, kRangesFormat)};
   }
   if (j->contains("mu_below_gapless")) {
-    if (!(*j)["mu_below_gapless"].is_boolean()) return Error{fmt::format("{}: key 'mu_below_gapless': expected true or false", path)};
+    if (!(*j)["mu_below_gapless"].is_boolean())
+      return Error{fmt::format("{}: key 'mu_below_gapless': expected true or false", path)};
     r.muBelowGapless = (*j)["mu_below_gapless"].get<bool>();
   }
   if (j->contains("ranges")) {
@@ -175,7 +176,8 @@ std::optional<SampleResult> readSample(const std::string& path, int sampleIndex,
     Json& c = (*j)["campaign"];  // not const: a missing key reads as null, never undefined behaviour
     // Integers exactly as written (a wrapped or truncated number is not this campaign's).
     const bool sameSeed = c["seed"].is_number_unsigned() && c["seed"].get<std::uint64_t>() == o.seed;
-    const auto events = io::integerIn(c["events"], 1, std::numeric_limits<std::int64_t>::max(), path, "campaign.events");
+    const auto events =
+        io::integerIn(c["events"], 1, std::numeric_limits<std::int64_t>::max(), path, "campaign.events");
     const auto stored = io::integerIn((*j)["index"], 0, std::numeric_limits<int>::max(), path, "index");
     const auto selected =
         io::integerIn((*j)["selected_events"], 0, std::numeric_limits<std::int64_t>::max(), path, "selected_events");
@@ -215,7 +217,8 @@ std::optional<SampleResult> readSample(const std::string& path, int sampleIndex,
     if (f.contains("sigma_sys")) s.fit.sigmaSys.value = f["sigma_sys"]["value_deg"].get<double>() * units::deg;
     if (f.contains("correlation")) {
       for (int r = 0; r < static_cast<int>(kNumParams); ++r) {
-        for (int c = 0; c < static_cast<int>(kNumParams); ++c) s.fit.correlation(r, c) = f["correlation"][r][c].get<double>();
+        for (int c = 0; c < static_cast<int>(kNumParams); ++c)
+          s.fit.correlation(r, c) = f["correlation"][r][c].get<double>();
       }
     }
     return s;
@@ -244,7 +247,8 @@ std::vector<report::CampaignSeries> campaignSeries(const std::vector<SampleResul
   for (std::size_t k = 0; k < kDerived.size(); ++k) {
     const bool length = kDerived[k] == "dx_rel";
     const double unit = length ? units::cm : units::deg;
-    report::CampaignSeries q{std::string(kDerived[k]), length ? "cm" : "deg", {}, {}, {}, kDerived[k] == "psi" || kDerived[k] == "tau"};
+    report::CampaignSeries q{
+        std::string(kDerived[k]), length ? "cm" : "deg", {}, {}, {}, kDerived[k] == "psi" || kDerived[k] == "tau"};
     for (std::size_t i = 0; i < samples.size(); ++i) {
       calib::DerivedValue fit{std::nan(""), std::nan("")};
       for (const auto& [n, v] : samples[i].fit.derived) {
@@ -284,9 +288,10 @@ Result<Table> runCampaign(const geometry::Calorimeter& calo, const CampaignOptio
         if (progress) progress(i + 1, o.samples);
         continue;
       }
-      return Error{fmt::format("{} is not a finished sample of this campaign (another seed, number of events or "
-                               "simulation setting?): use another directory, or remove it",
-                               path)};
+      return Error{
+          fmt::format("{} is not a finished sample of this campaign (another seed, number of events or "
+                      "simulation setting?): use another directory, or remove it",
+                      path)};
     }
     Rng truthRng(o.seed, static_cast<std::uint64_t>(i));
     SampleResult s;
@@ -297,10 +302,11 @@ Result<Table> runCampaign(const geometry::Calorimeter& calo, const CampaignOptio
     auto simulation = sim::Simulation::create(calo, s.truth, so);
     if (!simulation) return simulation.error();
     calib::ProfileFiller filler(geometry.depth, calib::SelectionOptions{}, profileOptions);
-    const Status run = simulation->run(o.events, o.threads, [&](std::span<const ParticleRow> rows, std::span<const TruthRow>, std::span<const Hit>) {
-      filler.addEvents(rows);
-      return Status{};
-    });
+    const Status run = simulation->run(
+        o.events, o.threads, [&](std::span<const ParticleRow> rows, std::span<const TruthRow>, std::span<const Hit>) {
+          filler.addEvents(rows);
+          return Status{};
+        });
     if (!run) return run.error();
     if (Status sel = filler.checkSelected(); !sel) return Error{fmt::format("sample {}: {}", i, sel.error().message)};
     auto fit = calib::fitProfiles(filler.fill().profiles, geometry, o.sigmaSys);
@@ -322,7 +328,8 @@ Result<Table> runCampaign(const geometry::Calorimeter& calo, const CampaignOptio
   if (Status w = io::writeOutputFile((fs::path(dir) / "table.md").string(), tableMarkdown(table)); !w) {
     return w.error();
   }
-  if (auto plots = report::writeCampaignPlots((fs::path(dir) / "plots").string(), campaignSeries(samples, r1)); !plots) {
+  if (auto plots = report::writeCampaignPlots((fs::path(dir) / "plots").string(), campaignSeries(samples, r1));
+      !plots) {
     return plots.error();
   }
   return table;
@@ -380,7 +387,8 @@ Table tabulate(const std::vector<SampleResult>& samples, std::int64_t events, do
   }
   for (auto n : kDerived) {
     const bool length = n == "dx_rel";
-    acc.push_back({std::string(n), length ? "cm" : "deg", length ? units::cm : units::deg, n == "psi" || n == "tau", {}, {}, {}});
+    acc.push_back(
+        {std::string(n), length ? "cm" : "deg", length ? units::cm : units::deg, n == "psi" || n == "tau", {}, {}, {}});
   }
   int correlations = 0;
   for (const auto& s : samples) {
@@ -481,9 +489,9 @@ std::string tableMarkdown(const Table& t) {
       "| parameter | unit | bias | ± | spread | pull mean | pull width | slope | paper bias | paper spread |\n"
       "|---|---|---|---|---|---|---|---|---|---|\n",
       t.samples, t.events,
-      t.sigmaSysMin == t.sigmaSysMax ? fmt::format("{:.4g} deg", t.sigmaSysMedian)
-                                     : fmt::format("median {:.4g} deg ({:.4g} to {:.4g})", t.sigmaSysMedian,
-                                                   t.sigmaSysMin, t.sigmaSysMax));
+      t.sigmaSysMin == t.sigmaSysMax
+          ? fmt::format("{:.4g} deg", t.sigmaSysMedian)
+          : fmt::format("median {:.4g} deg ({:.4g} to {:.4g})", t.sigmaSysMedian, t.sigmaSysMin, t.sigmaSysMax));
   for (const auto& r : t.rows) {
     std::string pb = "", ps = "";
     if (const auto* p = paper::table1(r.name)) {  // SPEC §10

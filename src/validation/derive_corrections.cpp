@@ -6,8 +6,8 @@
 #include <numbers>
 #include <set>
 
-#include <Eigen/Cholesky>
 #include <fmt/format.h>
+#include <Eigen/Cholesky>
 
 #include "emcalign/calib/calibration.hpp"
 #include "emcalign/calib/corrections_grid.hpp"
@@ -32,7 +32,8 @@ PlusWeightTerms plusWeightTerms(const calib::ProfileBin& sample, const calib::Pr
   const double vPhi = 1.0 / (sample.sigmaPhi * sample.sigmaPhi + nominal.sigmaPhi * nominal.sigmaPhi);
   const double vTheta = 1.0 / (sample.sigmaTheta * sample.sigmaTheta + nominal.sigmaTheta * nominal.sigmaTheta);
   const double dPhi = fp.phi - fm.phi, dTheta = fp.theta - fm.theta;
-  return {(sample.yPhi - nominal.yPhi - fm.phi) * dPhi * vPhi + (sample.yTheta - nominal.yTheta - fm.theta) * dTheta * vTheta,
+  return {(sample.yPhi - nominal.yPhi - fm.phi) * dPhi * vPhi +
+              (sample.yTheta - nominal.yTheta - fm.theta) * dTheta * vTheta,
           dPhi * dPhi * vPhi + dTheta * dTheta * vTheta};
 }
 
@@ -75,15 +76,17 @@ Result<Sample> simulate(const geometry::Calorimeter& calo, const DerivationOptio
   s.truth = truth;
   // The residuals at the nominal depth only decide which tracks reach the EMC; the rows are
   // kept and their residuals rebuilt at every depth tried.
-  calib::ProfileFiller filler(geometry::ShowerDepth::of(calo.description()), calib::SelectionOptions{}, {},
-                              [&](const ParticleRow& row, const calib::ParticleResidual&) { s.particles.push_back(row); });
+  calib::ProfileFiller filler(
+      geometry::ShowerDepth::of(calo.description()), calib::SelectionOptions{}, {},
+      [&](const ParticleRow& row, const calib::ParticleResidual&) { s.particles.push_back(row); });
   const std::uint64_t seed = Rng(o.seed ^ 0xC0EEC7ULL, static_cast<std::uint64_t>(k)).next();
   if (Status st = simulateInto(calo, o, truth, seed, o.events, filler, stage, progress); !st) return st.error();
   s.selectedEvents = filler.fill().cutFlow.events.back();
   return s;
 }
 
-std::vector<calib::ProfileBin> profileOf(const Sample& s, const geometry::ShowerDepth& depth, calib::ProfileOptions po) {
+std::vector<calib::ProfileBin> profileOf(const Sample& s, const geometry::ShowerDepth& depth,
+                                         calib::ProfileOptions po) {
   calib::Profiles profiles(std::move(po));
   for (const auto& row : s.particles) {
     if (const auto y = calib::residualOf(row, depth)) profiles.fill(*y);
@@ -142,12 +145,14 @@ Status measureColumnWeights(const std::vector<calib::ProfileBin>& gb, const std:
       num += t.num;
       den += t.den;
     }
-    if (!(den > 0.0)) return Error{fmt::format("parting-plane response: phi column {} has no usable bins (more --events?)", c)};
+    if (!(den > 0.0))
+      return Error{fmt::format("parting-plane response: phi column {} has no usable bins (more --events?)", c)};
     const auto k = static_cast<std::size_t>(c);
     out.measured[k] = num / den;
     out.errors[k] = 1.0 / std::sqrt(den);
-    out.weights[k] = calib::PartingPlaneResponse::nextToPlane(c, columns) ? std::clamp(num / den, 0.0, 1.0)
-                                                                          : calib::PartingPlaneResponse::hardWeight(c, columns);
+    out.weights[k] = calib::PartingPlaneResponse::nextToPlane(c, columns)
+                         ? std::clamp(num / den, 0.0, 1.0)
+                         : calib::PartingPlaneResponse::hardWeight(c, columns);
   }
   return {};
 }
@@ -235,9 +240,10 @@ Result<calib::FitResponse> measureResponse(const geometry::Calorimeter& calo, co
     }
   }
   if (Status s = response.validate(); !s) {
-    return Error{fmt::format("the measured response: {} (too few response events for {} coefficients per parameter? "
-                             "more --response-samples or --response-events)",
-                             s.error().message, kCols)};
+    return Error{
+        fmt::format("the measured response: {} (too few response events for {} coefficients per parameter? "
+                    "more --response-samples or --response-events)",
+                    s.error().message, kCols)};
   }
   return response;
 }
@@ -429,7 +435,8 @@ Json derivationJson(const DerivationReport& r, const Json& settings) {
   const Json nominalErrors = parameterErrorsJson(r.nominalProfileErrors);
   c.derivedFrom = {{"command", "emcalign derive-corrections"},
                    {"settings", settings},
-                   {"selected_events", {{"nominal", r.selectedEvents[0]}, {"shift", r.selectedEvents[1]}, {"gap", r.selectedEvents[2]}}},
+                   {"selected_events",
+                    {{"nominal", r.selectedEvents[0]}, {"shift", r.selectedEvents[1]}, {"gap", r.selectedEvents[2]}}},
                    {"depth_offset_error_cm", r.depthOffsetError},
                    {"depth_chi2", r.depthChi2},
                    {"depth_bins", r.depthBins},
@@ -437,8 +444,8 @@ Json derivationJson(const DerivationReport& r, const Json& settings) {
                    {"column_plus_weight_error", r.columnWeightErrors},
                    {"closure", closure},
                    {"response_error", r.corrections.response ? responseErrorJson(r) : Json(nullptr)},
-                   {"response_parameter_errors", r.corrections.response ? parameterErrorsJson(r.responseParameterErrors)
-                                                                         : Json(nullptr)},
+                   {"response_parameter_errors",
+                    r.corrections.response ? parameterErrorsJson(r.responseParameterErrors) : Json(nullptr)},
                    {"nominal_profile_parameter_errors", nominalErrors}};
   return calib::correctionsJson(c);
 }
@@ -463,10 +470,11 @@ Result<std::vector<GridPoint>> planGrid(const std::string& dir, const std::vecto
   for (const auto& entry : fs::directory_iterator(dir, ec)) {
     const std::string name = entry.path().filename().string();
     if (entry.path().extension() == ".json" && !names.contains(name)) {
-      return Error{fmt::format("{}: this grid directory holds {}, which is not one of the energies asked for: the "
-                               "directory is the grid that fit --corrections reads (give its energy too, or remove "
-                               "the file)",
-                               dir, name)};
+      return Error{
+          fmt::format("{}: this grid directory holds {}, which is not one of the energies asked for: the "
+                      "directory is the grid that fit --corrections reads (give its energy too, or remove "
+                      "the file)",
+                      dir, name)};
     }
   }
   if (ec) return Error{fmt::format("{}: cannot list the directory: {}", dir, ec.message())};

@@ -34,8 +34,7 @@ using io::strict::StrictObject;
 namespace {
 
 // An integer of the scenario within [lo, hi] (throws BadInput naming the key).
-std::int64_t integer(const Json& v, std::int64_t lo, std::int64_t hi, std::string_view source,
-                     const std::string& key) {
+std::int64_t integer(const Json& v, std::int64_t lo, std::int64_t hi, std::string_view source, const std::string& key) {
   auto n = io::integerIn(v, lo, hi, source, key);
   if (!n) throw BadInput{n.error().message};
   return *n;
@@ -164,7 +163,8 @@ Result<PeriodScenario> parsePeriodScenario(const Json& j, double r1, std::string
         e.fail(e.pathOf("value"), fmt::format("a beam energy from {} to {} MeV", sim::kMinBeamEnergy / units::MeV,
                                               sim::kMaxBeamEnergy / units::MeV));
       }
-      if (e.has("events_per_run")) p.eventsPerRun = eventsRange(e.at("events_per_run"), source, path + ".events_per_run");
+      if (e.has("events_per_run"))
+        p.eventsPerRun = eventsRange(e.at("events_per_run"), source, path + ".events_per_run");
       s.beamEnergy.push_back(p);
     }
     const Json& segments = top.at("segments");
@@ -184,7 +184,8 @@ Result<PeriodScenario> parsePeriodScenario(const Json& j, double r1, std::string
         PeriodScenario::Drift drift;
         const auto q = paramFromName(d.string("parameter"));
         if (!q) {
-          d.fail(d.pathOf("parameter"), fmt::format("unknown parameter (the 12 fit names: {})", fmt::join(kParamNames, ", ")));
+          d.fail(d.pathOf("parameter"),
+                 fmt::format("unknown parameter (the 12 fit names: {})", fmt::join(kParamNames, ", ")));
         }
         drift.parameter = *q;
         drift.fromRun = integer(d.at("from_run"), s.firstRun, s.lastRun(), source, path + ".from_run");
@@ -299,8 +300,8 @@ Result<PeriodTruth> readPeriodTruth(const std::string& path) {
   if (!j) return j.error();
   if (!j->is_object() || j->value("format", "") != kPeriodTruthFormat || !j->contains("runs") ||
       !(*j)["runs"].is_array()) {
-    return Error{fmt::format("{}: not a period truth file ({}, written by simulate --period)", path,
-                             kPeriodTruthFormat)};
+    return Error{
+        fmt::format("{}: not a period truth file ({}, written by simulate --period)", path, kPeriodTruthFormat)};
   }
   PeriodTruth out;
   std::size_t k = 0;
@@ -323,8 +324,8 @@ Result<PeriodTruth> readPeriodTruth(const std::string& path) {
   return out;
 }
 
-Result<PeriodReport> simulatePeriod(const PeriodScenario& s, const geometry::Calorimeter& calo,
-                                    const std::string& dir, const PeriodOptions& o) {
+Result<PeriodReport> simulatePeriod(const PeriodScenario& s, const geometry::Calorimeter& calo, const std::string& dir,
+                                    const PeriodOptions& o) {
   const std::vector<PeriodRun> runs = planPeriod(s);
   std::error_code ec;
   fs::create_directories(dir, ec);
@@ -343,9 +344,10 @@ Result<PeriodReport> simulatePeriod(const PeriodScenario& s, const geometry::Cal
     auto old = io::parseJson(*text, statePath);
     if (!old || !old->is_object() || old->value("scenario", Json()) != s.source ||
         old->value("hits", Json()) != o.hits || old->value("settings", Json()) != o.settings) {
-      return Error{fmt::format("{}: this directory holds another period (another scenario, --no-hits, realism "
-                               "switches or detector): choose another directory, or remove this one",
-                               dir)};
+      return Error{
+          fmt::format("{}: this directory holds another period (another scenario, --no-hits, realism "
+                      "switches or detector): choose another directory, or remove this one",
+                      dir)};
     }
   } else {
     for (const auto& entry : fs::directory_iterator(dir)) {
@@ -500,7 +502,8 @@ Result<PeriodReport> simulatePeriod(const PeriodScenario& s, const geometry::Cal
   if (!outputFailure.ok()) return outputFailure.error();
 
   const double r1 = calo.description().r1();
-  if (Status w = io::writeOutputFile((fs::path(dir) / "truth.json").string(), periodTruthJson(s, runs, r1).dump(1) + "\n");
+  if (Status w =
+          io::writeOutputFile((fs::path(dir) / "truth.json").string(), periodTruthJson(s, runs, r1).dump(1) + "\n");
       !w) {
     return w.error();
   }

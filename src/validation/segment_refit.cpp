@@ -32,8 +32,9 @@ std::vector<std::pair<double, double>> valuesOf(const calib::FitResult& r) {
 }
 
 // The statistical errors alone: the fit of the same profile with σ_sys = 0.
-Result<std::vector<std::pair<double, double>>> statisticalFit(const calib::ProfileFill& fill, const CampaignModel& model,
-                                                             std::int64_t first, std::int64_t last) {
+Result<std::vector<std::pair<double, double>>> statisticalFit(const calib::ProfileFill& fill,
+                                                              const CampaignModel& model, std::int64_t first,
+                                                              std::int64_t last) {
   auto r = calib::fitProfiles(fill.profiles.bins(0.0), model.geometry);
   if (!r) return Error{fmt::format("runs {}-{}, statistical errors alone: {}", first, last, r.error().message)};
   return valuesOf(*r);
@@ -83,7 +84,8 @@ RefitPrecision precisionOf(const TrendSeries& series, std::int64_t first, std::i
     if (pt.firstRun < first || pt.lastRun > last) continue;
     values.push_back(pt.value);
     errors.push_back(pt.error);
-    if (truth != nullptr) offTruth.push_back(difference(p.parameter, pt.value, truth->mean(p.parameter, pt.firstRun, pt.lastRun)));
+    if (truth != nullptr)
+      offTruth.push_back(difference(p.parameter, pt.value, truth->mean(p.parameter, pt.firstRun, pt.lastRun)));
   }
   p.quotedBefore = median(errors);
   if (values.size() >= 2) {
@@ -116,7 +118,8 @@ Result<RefittedSegment> refitPeriod(const TrendSegment& seg, std::size_t k, std:
   // A period spans several beam energies: each run was filled at its own energy's depth, and
   // the period is fitted with the corrections at its events' mean energy (a grid's).
   auto periodModel = model.at(scan.meanBeamEnergy(seg.firstRun, seg.lastRun));
-  if (!periodModel) return Error{fmt::format("--refit: runs {}-{}: {}", seg.firstRun, seg.lastRun, periodModel.error().message)};
+  if (!periodModel)
+    return Error{fmt::format("--refit: runs {}-{}: {}", seg.firstRun, seg.lastRun, periodModel.error().message)};
   calib::ProfileFill fill = scan.fillOf(seg.firstRun, seg.lastRun, periodModel->profile, &g.runs);
   if (g.runs.empty()) {
     return Error{fmt::format("--refit: no events of runs {}-{} in the files given", seg.firstRun, seg.lastRun)};
@@ -151,7 +154,8 @@ Result<RefittedSegment> refitPeriod(const TrendSegment& seg, std::size_t k, std:
       continue;
     }
     auto iovModel = model.at(energy);
-    if (!iovModel) return Error{fmt::format("--refit: runs {}-{}: {}", iov.firstRun, iov.lastRun, iovModel.error().message)};
+    if (!iovModel)
+      return Error{fmt::format("--refit: runs {}-{}: {}", iov.firstRun, iov.lastRun, iovModel.error().message)};
     const calib::ProfileFill f = scan.fillOf(iov.firstRun, iov.lastRun, iovModel->profile);
     selectedBefore.push_back(static_cast<double>(f.cutFlow.events.back()));
     auto st = statisticalFit(f, *iovModel, iov.firstRun, iov.lastRun);
@@ -171,11 +175,11 @@ Result<RefittedSegment> refitPeriod(const TrendSegment& seg, std::size_t k, std:
 
 }  // namespace
 
-Result<SegmentRefit> refitSegments(const Trend& trend, const std::vector<TrendSeries>& series,
-                                   conddb::TagSnapshot& tag, const CampaignScan& scan, const CampaignModel& model,
-                                   const PeriodTruth* truth) {
+Result<SegmentRefit> refitSegments(const Trend& trend, const std::vector<TrendSeries>& series, conddb::TagSnapshot& tag,
+                                   const CampaignScan& scan, const CampaignModel& model, const PeriodTruth* truth) {
   std::map<std::string, std::string> digests;
-  for (std::size_t k = 0; k < scan.files.size() && k < scan.digests.size(); ++k) digests[scan.files[k]] = scan.digests[k];
+  for (std::size_t k = 0; k < scan.files.size() && k < scan.digests.size(); ++k)
+    digests[scan.files[k]] = scan.digests[k];
   SegmentRefit out;
   for (std::size_t k = 0; k < trend.segments.size(); ++k) {
     const TrendSegment& seg = trend.segments[k];
@@ -257,13 +261,15 @@ std::string refitMarkdown(const SegmentRefit& r, std::size_t iovsBefore, const s
   for (const auto& s : r.segments) {
     for (const auto& p : s.precision) withTruth = withTruth || std::isfinite(p.truth);
   }
-  md += withTruth ? "; and, against the simulation's truth, the RMS of (IOV − truth) before and |refit − truth| after.\n"
-                  : ".\n";
+  md += withTruth
+            ? "; and, against the simulation's truth, the RMS of (IOV − truth) before and |refit − truth| after.\n"
+            : ".\n";
   for (const RefittedSegment& s : r.segments) {
     if (s.transition) {
-      md += fmt::format("\n### Runs {}-{}: kept, straddling a step (to be calibrated again, split where the detector "
-                        "changed)\n",
-                        s.firstRun, s.lastRun);
+      md += fmt::format(
+          "\n### Runs {}-{}: kept, straddling a step (to be calibrated again, split where the detector "
+          "changed)\n",
+          s.firstRun, s.lastRun);
       continue;
     }
     if (!s.drifting.empty()) {
@@ -273,10 +279,12 @@ std::string refitMarkdown(const SegmentRefit& r, std::size_t iovsBefore, const s
     }
     md += fmt::format("\n### Runs {}-{}: {} IOVs → 1; {} selected events (median {} per IOV before)\n\n", s.firstRun,
                       s.lastRun, s.end - s.begin, s.selected, s.medianSelectedBefore);
-    md += withTruth ? "| parameter | refit | truth | quoted error before → after | statistical error before → after | "
-                      "gain | observed scatter before | RMS(IOV − truth) → refit − truth |\n|---|---|---|---|---|---|---|---|\n"
-                    : "| parameter | refit | quoted error before → after | statistical error before → after | gain | "
-                      "observed scatter before |\n|---|---|---|---|---|---|\n";
+    md +=
+        withTruth
+            ? "| parameter | refit | truth | quoted error before → after | statistical error before → after | "
+              "gain | observed scatter before | RMS(IOV − truth) → refit − truth |\n|---|---|---|---|---|---|---|---|\n"
+            : "| parameter | refit | quoted error before → after | statistical error before → after | gain | "
+              "observed scatter before |\n|---|---|---|---|---|---|\n";
     for (const RefitPrecision& p : s.precision) {
       const int d = digitsOf(p.unit);
       const std::string u = p.unit == "deg" ? "°" : " cm";
@@ -286,7 +294,8 @@ std::string refitMarkdown(const SegmentRefit& r, std::size_t iovsBefore, const s
                          number(p.statBefore, d), number(p.statAfter, d), ratio(p.statBefore, p.statAfter),
                          number(p.scatter, d));
       if (withTruth) {
-        row += fmt::format(" {} → {} |", number(p.truthRmsBefore, d), number(difference(p.parameter, p.value, p.truth), d));
+        row += fmt::format(" {} → {} |", number(p.truthRmsBefore, d),
+                           number(difference(p.parameter, p.value, p.truth), d));
       }
       md += row + "\n";
     }

@@ -6,8 +6,8 @@
 #include <map>
 #include <numeric>
 
-#include <Eigen/Dense>
 #include <fmt/format.h>
+#include <Eigen/Dense>
 
 #include "emcalign/core/parameters.hpp"
 
@@ -45,7 +45,7 @@ struct Sums {
     const double y = sy[b] - sy[a], xy = sxy[b] - sxy[a], yy = syy[b] - syy[a];
     const double d = w * xx - x * x;
     double c = b - a >= kMinLinePoints && d > 1e-12 * w * xx ? yy - (y * y * xx - 2.0 * y * x * xy + w * xy * xy) / d
-                                                : yy - y * y / w;
+                                                             : yy - y * y / w;
     return std::max(c, 0.0);  // rounding below 0 is 0 (c is never NaN: w > 0)
   }
 };
@@ -76,7 +76,8 @@ double kneeChi2(const TrendSeries& s, std::size_t a, std::size_t c, std::size_t 
       for (std::size_t j = a; j < c; ++j) {
         if (j == skip) continue;
         const double dx = s.points[j].x() - k;
-        const double r = (s.points[j].value - p[0] - p[1] * dx - p[2] * std::max(0.0, dx)) / (scale * s.points[j].error);
+        const double r =
+            (s.points[j].value - p[0] - p[1] * dx - p[2] * std::max(0.0, dx)) / (scale * s.points[j].error);
         chi2 += r * r;
       }
       best = std::min(best, chi2);
@@ -105,15 +106,17 @@ Result<std::vector<TrendSeries>> seriesOfTag(conddb::TagSnapshot& tag) {
     const std::string where = fmt::format("tag {} IOV {}-{}", tag.tag().name, iov.firstRun, iov.lastRun);
     constexpr std::int64_t kMaxRun = std::numeric_limits<std::int32_t>::max();
     if (iov.firstRun < -kMaxRun || iov.lastRun > kMaxRun) {
-      return Error{fmt::format("{}: runs beyond ±(2^31 - 1), which no event file has: the trend places each IOV at its "
-                               "middle run, so give it closed IOVs",
-                               where)};
+      return Error{
+          fmt::format("{}: runs beyond ±(2^31 - 1), which no event file has: the trend places each IOV at its "
+                      "middle run, so give it closed IOVs",
+                      where)};
     }
     auto number = [&](const Json& j, const std::string& key) -> Result<double> {
       if (!j.is_number() || !std::isfinite(j.get<double>())) {
-        return Error{fmt::format("{}: {} is missing or not a number (a parameter file without errors cannot be "
-                                 "tracked: store fit results)",
-                                 where, key)};
+        return Error{
+            fmt::format("{}: {} is missing or not a number (a parameter file without errors cannot be "
+                        "tracked: store fit results)",
+                        where, key)};
       }
       return j.get<double>();
     };
@@ -297,8 +300,8 @@ std::vector<TrendStep> findSteps(const TrendSeries& s, const SeriesAnalysis& a, 
     const double xb = transition ? tp.x() : static_cast<double>(s.points[i].firstRun) - 0.5;
     const LineFit &l0 = segs[j - 1].stepModel(), &l1 = segs[j].stepModel();
     const double before = l0.value(xb), after = l1.value(xb);
-    TrendStep step{s.parameter, s.unit, i, s.points[i].firstRun, after - before,
-                   std::hypot(l0.error(xb), l1.error(xb)), std::nullopt};
+    TrendStep step{s.parameter, s.unit, i, s.points[i].firstRun, after - before, std::hypot(l0.error(xb), l1.error(xb)),
+                   std::nullopt};
     if (!(std::abs(step.z()) >= o.stepZ)) continue;
     if (o.kneeTest && segs[j - 1].isLine() && segs[j].isLine()) {
       const std::size_t skip = transition ? i - 1 : std::numeric_limits<std::size_t>::max();
@@ -420,28 +423,47 @@ Trend analyseTrend(const std::vector<TrendSeries>& series, const TrendOptions& o
 Json trendJson(const Trend& t, const std::vector<TrendSeries>& series) {
   Json steps = Json::array(), drifts = Json::array(), segments = Json::array(), list = Json::array();
   for (const auto& s : t.steps) {
-    steps.push_back({{"parameter", s.parameter}, {"first_run_after", s.firstRunAfter}, {"size", s.size},
-                     {"error", s.error}, {"z", s.z()}, {"unit", s.unit},
+    steps.push_back({{"parameter", s.parameter},
+                     {"first_run_after", s.firstRunAfter},
+                     {"size", s.size},
+                     {"error", s.error},
+                     {"z", s.z()},
+                     {"unit", s.unit},
                      {"within_iov", s.withinIov ? Json::array({s.withinIov->first, s.withinIov->second}) : Json()}});
   }
   for (const auto& d : t.drifts) {
-    drifts.push_back({{"parameter", d.parameter}, {"first_run", d.firstRun}, {"last_run", d.lastRun},
-                      {"slope_per_run", d.slopePerRun}, {"error", d.error}, {"z", d.z}, {"p_value", d.pValue},
+    drifts.push_back({{"parameter", d.parameter},
+                      {"first_run", d.firstRun},
+                      {"last_run", d.lastRun},
+                      {"slope_per_run", d.slopePerRun},
+                      {"error", d.error},
+                      {"z", d.z},
+                      {"p_value", d.pValue},
                       {"unit", d.unit + "/run"}});
   }
   for (const auto& s : t.segments) {
-    segments.push_back({{"first_run", s.firstRun}, {"last_run", s.lastRun}, {"iovs", s.end - s.begin},
-                        {"transition", s.transition}, {"steps_at_start", s.stepsAtStart}, {"drifting", s.drifting}});
+    segments.push_back({{"first_run", s.firstRun},
+                        {"last_run", s.lastRun},
+                        {"iovs", s.end - s.begin},
+                        {"transition", s.transition},
+                        {"steps_at_start", s.stepsAtStart},
+                        {"drifting", s.drifting}});
   }
   for (std::size_t k = 0; k < t.series.size(); ++k) {
     const auto& a = t.series[k];
     Json segs = Json::array();
     for (const auto& g : a.segments) {
       const auto& pts = series[k].points;
-      segs.push_back({{"first_run", pts[g.begin].firstRun}, {"last_run", pts[g.end - 1].lastRun},
-                      {"iovs", g.end - g.begin}, {"mean", g.constant.a}, {"mean_error", std::sqrt(g.constant.varA)},
-                      {"chi2", g.constant.chi2}, {"slope_per_run", g.line.b},
-                      {"slope_error", std::sqrt(g.line.varB)}, {"slope_z", g.slopeZ}, {"drift", g.drift}});
+      segs.push_back({{"first_run", pts[g.begin].firstRun},
+                      {"last_run", pts[g.end - 1].lastRun},
+                      {"iovs", g.end - g.begin},
+                      {"mean", g.constant.a},
+                      {"mean_error", std::sqrt(g.constant.varA)},
+                      {"chi2", g.constant.chi2},
+                      {"slope_per_run", g.line.b},
+                      {"slope_error", std::sqrt(g.line.varB)},
+                      {"slope_z", g.slopeZ},
+                      {"drift", g.drift}});
     }
     Json transitions = Json::array();
     for (const Change& c : a.changes) {
@@ -450,30 +472,35 @@ Json trendJson(const Trend& t, const std::vector<TrendSeries>& series) {
         transitions.push_back(Json::array({p.firstRun, p.lastRun}));
       }
     }
-    list.push_back({{"parameter", a.parameter}, {"unit", a.unit}, {"iovs", series[k].points.size()},
-                    {"error_scale", a.errorScale}, {"segments", segs}, {"transition_iovs", transitions}});
+    list.push_back({{"parameter", a.parameter},
+                    {"unit", a.unit},
+                    {"iovs", series[k].points.size()},
+                    {"error_scale", a.errorScale},
+                    {"segments", segs},
+                    {"transition_iovs", transitions}});
   }
-  return {{"format", kTrendFormat},
-          {"method",
-           {{"changes", "optimal partitioning, Gaussian known-variance cost, a straight line per segment"},
-            {"penalty", t.penalty},
-            {"penalty_rule", "(k + 2) ln n, k = 2 (MBIC with a slope)"},
-            {"error_scale_rule", "IOV-to-IOV scatter / quoted error (median |dy|/0.6745), x(1 + 2.3/sqrt(m)), up or down"},
-            {"step_test", "jump between the segments' models >= 3 sigma, and no continuous broken line within chi2 9"},
-            {"transition_penalty", t.transitionPenalty},
-            {"transition_rule", "ln n more for an IOV left out between two segments (straddling a step)"},
-            {"step_z", t.options.stepZ},
-            {"min_segment", t.options.minSegment},
-            {"min_line_points", kMinLinePoints},
-            {"knee_test", t.options.kneeTest},
-            {"drift_test", "slope against 0 in each segment of a line, Bonferroni over all segments tested"},
-            {"drift_alpha", t.options.driftAlpha},
-            {"drift_tests", t.tests}}},
-          {"iovs", t.iovs},
-          {"steps", steps},
-          {"drifts", drifts},
-          {"segments", segments},
-          {"series", list}};
+  return {
+      {"format", kTrendFormat},
+      {"method",
+       {{"changes", "optimal partitioning, Gaussian known-variance cost, a straight line per segment"},
+        {"penalty", t.penalty},
+        {"penalty_rule", "(k + 2) ln n, k = 2 (MBIC with a slope)"},
+        {"error_scale_rule", "IOV-to-IOV scatter / quoted error (median |dy|/0.6745), x(1 + 2.3/sqrt(m)), up or down"},
+        {"step_test", "jump between the segments' models >= 3 sigma, and no continuous broken line within chi2 9"},
+        {"transition_penalty", t.transitionPenalty},
+        {"transition_rule", "ln n more for an IOV left out between two segments (straddling a step)"},
+        {"step_z", t.options.stepZ},
+        {"min_segment", t.options.minSegment},
+        {"min_line_points", kMinLinePoints},
+        {"knee_test", t.options.kneeTest},
+        {"drift_test", "slope against 0 in each segment of a line, Bonferroni over all segments tested"},
+        {"drift_alpha", t.options.driftAlpha},
+        {"drift_tests", t.tests}}},
+      {"iovs", t.iovs},
+      {"steps", steps},
+      {"drifts", drifts},
+      {"segments", segments},
+      {"series", list}};
 }
 
 std::string trendMarkdown(const Trend& t, const std::vector<TrendSeries>& series, const std::string& source) {
@@ -486,10 +513,11 @@ std::string trendMarkdown(const Trend& t, const std::vector<TrendSeries>& series
       break;
     }
   }
-  md += fmt::format("{} IOVs, runs {}-{}. Each parameter's series was cut where the data demand a step (optimal "
-                    "partitioning, a straight line per segment, penalty {:.1f} per change), and each segment's slope "
-                    "was tested against zero ({} tests, Bonferroni).\n\n",
-                    t.iovs, first, last, t.penalty, t.tests);
+  md += fmt::format(
+      "{} IOVs, runs {}-{}. Each parameter's series was cut where the data demand a step (optimal "
+      "partitioning, a straight line per segment, penalty {:.1f} per change), and each segment's slope "
+      "was tested against zero ({} tests, Bonferroni).\n\n",
+      t.iovs, first, last, t.penalty, t.tests);
   if (t.steps.empty()) {
     md += "**No step**: no parameter changed between IOVs more than its errors allow.\n\n";
   } else {
@@ -504,27 +532,28 @@ std::string trendMarkdown(const Trend& t, const std::vector<TrendSeries>& series
     }
     md += "\n";
   }
-  md += fmt::format("## {} stable periods\n\n",
-                    std::count_if(t.segments.begin(), t.segments.end(), [](const TrendSegment& g) { return !g.transition; }));
+  md += fmt::format("## {} stable periods\n\n", std::count_if(t.segments.begin(), t.segments.end(),
+                                                              [](const TrendSegment& g) { return !g.transition; }));
   for (const auto& s : t.segments) {
     if (s.transition) {
-      md += fmt::format("- runs {}-{} (1 IOV): **straddles the change of {}** — its calibration mixes the detector "
-                        "before and after; calibrate its runs again, split where the detector changed\n",
-                        s.firstRun, s.lastRun, fmt::join(s.stepsAtStart, ", "));
+      md += fmt::format(
+          "- runs {}-{} (1 IOV): **straddles the change of {}** — its calibration mixes the detector "
+          "before and after; calibrate its runs again, split where the detector changed\n",
+          s.firstRun, s.lastRun, fmt::join(s.stepsAtStart, ", "));
       continue;
     }
-    md += fmt::format("- runs {}-{} ({} IOVs){}{}\n", s.firstRun, s.lastRun, s.end - s.begin,
-                      s.stepsAtStart.empty() ? ""
-                                             : fmt::format(", after a change of {}", fmt::join(s.stepsAtStart, ", ")),
-                      s.drifting.empty() ? ""
-                                         : fmt::format("; **drifting: {}**", fmt::join(s.drifting, ", ")));
+    md += fmt::format(
+        "- runs {}-{} ({} IOVs){}{}\n", s.firstRun, s.lastRun, s.end - s.begin,
+        s.stepsAtStart.empty() ? "" : fmt::format(", after a change of {}", fmt::join(s.stepsAtStart, ", ")),
+        s.drifting.empty() ? "" : fmt::format("; **drifting: {}**", fmt::join(s.drifting, ", ")));
   }
   md += "\n";
   if (t.drifts.empty()) {
     md += "**No drift**: within every stable period the parameters are constant within their errors.\n";
   } else {
-    md += "## Drifts (steady changes: check the reconstruction, or the detector)\n\n"
-          "| parameter | runs | slope per run | per 100 runs | z | p-value |\n|---|---|---|---|---|---|\n";
+    md +=
+        "## Drifts (steady changes: check the reconstruction, or the detector)\n\n"
+        "| parameter | runs | slope per run | per 100 runs | z | p-value |\n|---|---|---|---|---|---|\n";
     for (const auto& d : t.drifts) {
       md += fmt::format("| {} | {}-{} | {:+.3g} ± {:.2g} {}/run | {:+.4f} {} | {:.1f} | {:.2g} |\n", d.parameter,
                         d.firstRun, d.lastRun, d.slopePerRun, d.error, d.unit, 100.0 * d.slopePerRun, d.unit, d.z,

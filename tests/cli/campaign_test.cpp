@@ -39,8 +39,8 @@ class CampaignCli : public ::testing::Test {
     fs::create_directories(*period_);
     std::ofstream(*period_ / "s.json") << kScenario;
     const auto r = emcalign::testing::runEmcalign(
-        *period_, fmt::format("simulate --period {} -o {} --no-hits", (*period_ / "s.json").string(),
-                              (*period_ / "p").string()));
+        *period_,
+        fmt::format("simulate --period {} -o {} --no-hits", (*period_ / "s.json").string(), (*period_ / "p").string()));
     ASSERT_EQ(r.exitCode, 0) << r.err;
   }
   static void TearDownTestSuite() {
@@ -51,7 +51,9 @@ class CampaignCli : public ::testing::Test {
   void TearDown() override { fs::remove_all(dir_); }
   std::string path(const std::string& n) const { return (dir_ / n).string(); }
   static std::string events() { return (*period_ / "p").string(); }
-  emcalign::testing::CommandResult run(const std::string& args) const { return emcalign::testing::runEmcalign(dir_, args); }
+  emcalign::testing::CommandResult run(const std::string& args) const {
+    return emcalign::testing::runEmcalign(dir_, args);
+  }
   json list(const std::string& uri, const std::string& tag) const {
     const auto r = run(fmt::format("conditions list {} --tag {} --json", uri, tag));
     EXPECT_EQ(r.exitCode, 0) << r.err;
@@ -111,9 +113,9 @@ TEST_F(CampaignCli, PlanFannedOutToParallelProcessesAgainstPostgres) {
   ASSERT_EQ(groups, 11u);
   std::string script = "set -u\n";
   for (std::size_t k = 0; k < groups; ++k) {
-    script += fmt::format("({} campaign --plan {} --group {} --conditions {} --tag fan >/dev/null 2>{}; echo $? > {}) &\n",
-                          EMCALIGN_BINARY, path("plan.json"), k, pg, path(fmt::format("err{}", k)),
-                          path(fmt::format("rc{}", k)));
+    script += fmt::format(
+        "({} campaign --plan {} --group {} --conditions {} --tag fan >/dev/null 2>{}; echo $? > {}) &\n",
+        EMCALIGN_BINARY, path("plan.json"), k, pg, path(fmt::format("err{}", k)), path(fmt::format("rc{}", k)));
   }
   script += "wait\n";
   std::ofstream(path("array.sh")) << script;
@@ -181,13 +183,16 @@ TEST_F(CampaignCli, SigmaSysIsEveryGroupsAndThePlansAndTheRefitsToo) {
 TEST_F(CampaignCli, ACorrectionsGridFitsEveryGroupAtItsOwnEnergy) {
   // A small idealised grid over 500-750 MeV (the period's runs are at 612.5 and 700 MeV),
   // its 750 MeV point moved 2 cm deeper so that every energy has a depth offset of its own.
-  auto r = run("derive-corrections --ideal --events 20000 --response-samples 50 --response-events 5000 --seed 4 "
-               "--beam-energy 500,750 -o " + path("grid"));
+  auto r =
+      run("derive-corrections --ideal --events 20000 --response-samples 50 --response-events 5000 --seed 4 "
+          "--beam-energy 500,750 -o " +
+          path("grid"));
   ASSERT_EQ(r.exitCode, 0) << r.err;
   json deeper = json::parse(emcalign::testing::slurp(path("grid/ee-750MeV.json")));
   deeper["depth_offset_cm"] = deeper["depth_offset_cm"].get<double>() + 2.0;
   std::ofstream(path("grid/ee-750MeV.json")) << deeper.dump();
-  const double d500 = json::parse(emcalign::testing::slurp(path("grid/ee-500MeV.json")))["depth_offset_cm"].get<double>();
+  const double d500 =
+      json::parse(emcalign::testing::slurp(path("grid/ee-500MeV.json")))["depth_offset_cm"].get<double>();
   const double d750 = deeper["depth_offset_cm"].get<double>();
   const std::string uri = "sqlite:" + path("c.db");
   r = run(fmt::format("campaign {} --conditions {} --tag g --min-events 4000 --corrections {}", events(), uri,

@@ -25,8 +25,11 @@ class CheckCli : public ::testing::Test {
   void SetUp() override { dir_ = emcalign::testing::freshTestDirectory("emcalign_check"); }
   void TearDown() override { fs::remove_all(dir_); }
   std::string path(const std::string& n) const { return (dir_ / n).string(); }
-  emcalign::testing::CommandResult run(const std::string& args) const { return emcalign::testing::runEmcalign(dir_, args); }
-  json check(const std::string& process, const std::string& events, const std::string& alignment, const std::string& out) {
+  emcalign::testing::CommandResult run(const std::string& args) const {
+    return emcalign::testing::runEmcalign(dir_, args);
+  }
+  json check(const std::string& process, const std::string& events, const std::string& alignment,
+             const std::string& out) {
     const auto r = run(fmt::format("check {} {} --alignment {} -o {}", process, events, alignment, path(out)));
     EXPECT_EQ(r.exitCode, 0) << r.err;
     for (const auto& e : fs::directory_iterator(path(out))) {

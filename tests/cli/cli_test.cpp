@@ -40,7 +40,8 @@ class Cli : public ::testing::Test {
 
   std::string paramsFile(const std::string& body) const {
     return write("p.json", R"({"format": "emcalign-alignment/1", "units": {"angle": "deg", "length": "cm"},
-      "parameters": {)" + body + "}}");
+      "parameters": {)" + body +
+                               "}}");
   }
 
   fs::path dir_;
@@ -109,7 +110,8 @@ TEST_F(Cli, GeometryDatabaseLocatesEveryAlignedCounterCentre) {
   ASSERT_EQ(xyz.exitCode, 0) << xyz.err;
   auto rows = csvRows(xyz.out);
   ASSERT_EQ(rows.size(), 1633u);
-  EXPECT_EQ(rows[0], (std::vector<std::string>{"index", "layer", "ring", "iphi", "hemisphere", "x_cm", "y_cm", "z_cm"}));
+  EXPECT_EQ(rows[0],
+            (std::vector<std::string>{"index", "layer", "ring", "iphi", "hemisphere", "x_cm", "y_cm", "z_cm"}));
   std::string points = "x_cm,y_cm,z_cm\n";
   for (std::size_t i = 1; i < rows.size(); ++i) points += rows[i][5] + "," + rows[i][6] + "," + rows[i][7] + "\n";
   CmdResult located = run("geometry --locate --params " + p, points);
@@ -299,8 +301,7 @@ std::vector<double> firstPoint(const std::string& out) {
 }
 
 TEST_F(DocsExamples, RotationShiftGapAndTilt) {
-  CmdResult r = run("transform --params " + std::string(EMCALIGN_SOURCE_DIR) +
-                        "/data/examples/spec-example.json",
+  CmdResult r = run("transform --params " + std::string(EMCALIGN_SOURCE_DIR) + "/data/examples/spec-example.json",
                     "x_cm,y_cm,z_cm\n40,0,0\n");
   ASSERT_EQ(r.exitCode, 0) << r.err;
   EXPECT_EQ(csvRows(r.out)[1], (std::vector<std::string>{"40.444907297133867", "2.1039054409663422", "0", "1"}));

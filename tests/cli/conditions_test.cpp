@@ -2,9 +2,9 @@
 // the test suite's PostgreSQL server: the commands of SPEC §11, writers in parallel
 // processes, a writer killed with SIGKILL mid-write, copies between back ends.
 
+#include <fcntl.h>
 #include <signal.h>
 #include <sys/wait.h>
-#include <fcntl.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -122,8 +122,8 @@ TEST_P(ConditionsCli, ParallelWriters) {
   std::string script = "set -u\n";
   for (int i = 0; i < 8; ++i) {
     script += fmt::format("({} conditions put {} --tag par --runs {}-{} {} >/dev/null 2>&1; echo $? > {}) &\n",
-                          EMCALIGN_BINARY, uri_, 10 * i + 1, 10 * i + 10, params(fmt::format("p{}.json", i), 2 + i, 0.1),
-                          path(fmt::format("rc{}", i)));
+                          EMCALIGN_BINARY, uri_, 10 * i + 1, 10 * i + 10,
+                          params(fmt::format("p{}.json", i), 2 + i, 0.1), path(fmt::format("rc{}", i)));
   }
   for (int i = 0; i < 4; ++i) {
     script += fmt::format("({} conditions put {} --tag par --runs 500-510 {} >/dev/null 2>&1; echo $? > {}) &\n",
@@ -188,13 +188,15 @@ TEST_P(ConditionsCli, CorrectAndSimulateByRun) {
   ASSERT_EQ(run(fmt::format("conditions put {} --tag t --runs 6-9 {}", uri_, b)).exitCode, 0);
   // Run 3 simulated with the truth of IOV 1-5, run 7 with that of 6-9.
   for (int r : {3, 7}) {
-    auto sim = run(fmt::format("simulate --events 300 --seed {} --run {} --conditions {} --tag t --theta-min 40 "
-                               "--theta-max 140 -o {}",
-                               r, r, uri_, path(fmt::format("r{}.h5", r))));
+    auto sim =
+        run(fmt::format("simulate --events 300 --seed {} --run {} --conditions {} --tag t --theta-min 40 "
+                        "--theta-max 140 -o {}",
+                        r, r, uri_, path(fmt::format("r{}.h5", r))));
     ASSERT_EQ(sim.exitCode, 0) << sim.err;
-    auto direct = run(fmt::format("simulate --events 300 --seed {} --run {} --params {} --theta-min 40 --theta-max 140 "
-                                  "-o {}",
-                                  r, r, r == 3 ? a : b, path(fmt::format("d{}.h5", r))));
+    auto direct =
+        run(fmt::format("simulate --events 300 --seed {} --run {} --params {} --theta-min 40 --theta-max 140 "
+                        "-o {}",
+                        r, r, r == 3 ? a : b, path(fmt::format("d{}.h5", r))));
     ASSERT_EQ(direct.exitCode, 0);
   }
   auto outside = run(fmt::format("simulate --events 10 --run 12 --conditions {} --tag t -o {}", uri_, path("x.h5")));
@@ -202,8 +204,8 @@ TEST_P(ConditionsCli, CorrectAndSimulateByRun) {
   EXPECT_NE(outside.err.find("run 12: no IOV of tag 't'"), std::string::npos) << outside.err;
 
   // Both runs corrected in one go, each by its own IOV, equal the files corrected one by one.
-  auto both = run(fmt::format("correct {} {} --conditions {} --tag t -o {}", path("r3.h5"), path("r7.h5"), uri_,
-                              path("both.h5")));
+  auto both = run(
+      fmt::format("correct {} {} --conditions {} --tag t -o {}", path("r3.h5"), path("r7.h5"), uri_, path("both.h5")));
   ASSERT_EQ(both.exitCode, 0) << both.err;
   EXPECT_NE(both.out.find("with 2 IOVs of tag t"), std::string::npos) << both.out;
   ASSERT_EQ(run(fmt::format("correct {} --alignment {} -o {}", path("r3.h5"), a, path("c3.h5"))).exitCode, 0);

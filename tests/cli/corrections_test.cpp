@@ -23,8 +23,9 @@ class CorrectionsCli : public ::testing::Test {
   static void SetUpTestSuite() {
     // One small idealised derivation and one event file for the whole suite.
     dir_ = new fs::path(emcalign::testing::freshTestDirectory("emcalign_corrections"));
-    const auto r = emcalign::testing::runEmcalign(*dir_, "derive-corrections --ideal --events 20000 --response-samples 50 --response-events 5000 --seed 4 -o " +
-                                                             (*dir_ / "corr.json").string());
+    const auto r = emcalign::testing::runEmcalign(
+        *dir_, "derive-corrections --ideal --events 20000 --response-samples 50 --response-events 5000 --seed 4 -o " +
+                   (*dir_ / "corr.json").string());
     derived_ = new emcalign::testing::CommandResult(r);
     emcalign::testing::runEmcalign(*dir_, "simulate --params " + std::string(EMCALIGN_SOURCE_DIR) +
                                               "/data/examples/paper-like.json --events 20000 --ideal --theta-min 40 "
@@ -72,8 +73,8 @@ TEST_F(CorrectionsCli, DeriveWritesTheFileAndReportsTheClosure) {
 TEST_F(CorrectionsCli, FitRecordsTheCorrectionsItUsed) {
   ASSERT_EQ(derived_->exitCode, 0);
   std::string out;
-  ASSERT_EQ(run("fit " + path("events.h5") + " --corrections " + path("corr.json") + " --profile-out " +
-                    path("p.csv") + " -o " + path("fit.json"),
+  ASSERT_EQ(run("fit " + path("events.h5") + " --corrections " + path("corr.json") + " --profile-out " + path("p.csv") +
+                    " -o " + path("fit.json"),
                 nullptr, &out),
             0);
   EXPECT_NE(out.find("nominal profile subtracted"), std::string::npos) << out;
@@ -85,7 +86,8 @@ TEST_F(CorrectionsCli, FitRecordsTheCorrectionsItUsed) {
   EXPECT_EQ(m["response"], path("corr.json"));
   EXPECT_NE(emcalign::testing::slurp(path("p.csv")).find(",plus_weight"), std::string::npos);
   // The saved profile refits with the same corrections file, to the same parameters.
-  ASSERT_EQ(run("fit --profile-in " + path("p.csv") + " --corrections " + path("corr.json") + " -o " + path("fit2.json")), 0);
+  ASSERT_EQ(
+      run("fit --profile-in " + path("p.csv") + " --corrections " + path("corr.json") + " -o " + path("fit2.json")), 0);
   const json r2 = json::parse(emcalign::testing::slurp(path("fit2.json")));
   EXPECT_NEAR(r2["parameters"]["dx"].get<double>(), r["parameters"]["dx"].get<double>(), 1e-9);
 }
@@ -94,14 +96,16 @@ TEST_F(CorrectionsCli, MisuseIsRefused) {
   ASSERT_EQ(derived_->exitCode, 0);
   std::string err;
   // A depth offset and a corrections file at once.
-  EXPECT_NE(run("fit " + path("events.h5") + " --corrections " + path("corr.json") + " --depth-offset 3 -o " +
-                    path("x.json"),
-                &err),
-            0);
+  EXPECT_NE(
+      run("fit " + path("events.h5") + " --corrections " + path("corr.json") + " --depth-offset 3 -o " + path("x.json"),
+          &err),
+      0);
   EXPECT_NE(err.find("excludes"), std::string::npos) << err;
   // A profile saved without corrections cannot take them afterwards, nor the reverse.
   ASSERT_EQ(run("fit " + path("events.h5") + " --profile-out " + path("raw.csv") + " -o " + path("raw.json")), 0);
-  EXPECT_EQ(run("fit --profile-in " + path("raw.csv") + " --corrections " + path("corr.json") + " -o " + path("x.json"), &err), 1);
+  EXPECT_EQ(run("fit --profile-in " + path("raw.csv") + " --corrections " + path("corr.json") + " -o " + path("x.json"),
+                &err),
+            1);
   EXPECT_NE(err.find("written without --corrections"), std::string::npos) << err;
   ASSERT_EQ(run("fit " + path("events.h5") + " --corrections " + path("corr.json") + " --profile-out " +
                 path("cor.csv") + " -o " + path("x.json")),
@@ -126,7 +130,8 @@ TEST_F(CorrectionsCli, CampaignWithCorrectionsRefusesAnotherFile) {
   other["depth_offset_cm"] = other["depth_offset_cm"].get<double>() + 1.0;
   std::ofstream(path("other.json")) << other.dump();
   std::string err;
-  EXPECT_NE(run("validate --ideal --samples 2 --events 4000 --corrections " + path("other.json") + " -o " + out, &err), 0);
+  EXPECT_NE(run("validate --ideal --samples 2 --events 4000 --corrections " + path("other.json") + " -o " + out, &err),
+            0);
   EXPECT_NE(err.find("not a finished sample of this campaign"), std::string::npos) << err;
 }
 
@@ -138,7 +143,8 @@ class CorrectionsGridCli : public CorrectionsCli {
  protected:
   static void SetUpTestSuite() {
     CorrectionsCli::SetUpTestSuite();
-    const std::string common = "derive-corrections --ideal --events 20000 --response-samples 50 --response-events 5000 --seed 4";
+    const std::string common =
+        "derive-corrections --ideal --events 20000 --response-samples 50 --response-events 5000 --seed 4";
     grid_ = new emcalign::testing::CommandResult(
         emcalign::testing::runEmcalign(*dir_, common + " --beam-energy 750,500 -o " + path("grid")));
     single_ = new emcalign::testing::CommandResult(
@@ -166,11 +172,13 @@ TEST_F(CorrectionsGridCli, DeriveWritesOneFilePerEnergyAndResumes) {
   EXPECT_EQ(json::parse(emcalign::testing::slurp(b))["beam_energy_mev"], 750.0);
   // A grid point is the file a single derivation at that energy writes, byte for byte.
   EXPECT_EQ(emcalign::testing::slurp(a), emcalign::testing::slurp(path("single500.json")));
-  EXPECT_NE(grid_->out.find("grid " + path("grid") + ": 2 beam energies, 500 to 750 MeV"), std::string::npos) << grid_->out;
+  EXPECT_NE(grid_->out.find("grid " + path("grid") + ": 2 beam energies, 500 to 750 MeV"), std::string::npos)
+      << grid_->out;
   // A rerun keeps the points derived with the same settings; other settings derive again.
   std::string out;
   ASSERT_EQ(run("derive-corrections --ideal --events 20000 --response-samples 50 --response-events 5000 --seed 4 "
-                "--beam-energy 500,750 -o " + path("grid"),
+                "--beam-energy 500,750 -o " +
+                    path("grid"),
                 nullptr, &out),
             0);
   EXPECT_NE(out.find("kept " + a), std::string::npos) << out;
@@ -182,7 +190,8 @@ TEST_F(CorrectionsGridCli, DeriveWritesOneFilePerEnergyAndResumes) {
   fs::copy_file(a, path("g3/ee-500MeV.json"));
   fs::copy_file(b, path("g3/ee-750MeV.json"));
   EXPECT_EQ(run("derive-corrections --ideal --events 20000 --response-samples 50 --response-events 5000 --seed 4 "
-                "--beam-energy 500,625 -o " + path("g3"),
+                "--beam-energy 500,625 -o " +
+                    path("g3"),
                 &err),
             1);
   EXPECT_NE(err.find("this grid directory holds ee-750MeV.json, which is not one of the energies asked for"),
@@ -190,12 +199,14 @@ TEST_F(CorrectionsGridCli, DeriveWritesOneFilePerEnergyAndResumes) {
       << err;
   // Other settings derive a point again (here: another seed for 500 MeV, 750 MeV kept).
   ASSERT_EQ(run("derive-corrections --ideal --events 20000 --response-samples 50 --response-events 5000 --seed 4 "
-                "--beam-energy 500,750 -o " + path("g3"),
+                "--beam-energy 500,750 -o " +
+                    path("g3"),
                 nullptr, &out),
             0);
   EXPECT_NE(out.find("0 derived"), std::string::npos) << out;
   ASSERT_EQ(run("derive-corrections --ideal --events 20000 --response-samples 50 --response-events 5000 --seed 5 "
-                "--beam-energy 500,750 -o " + path("g3"),
+                "--beam-energy 500,750 -o " +
+                    path("g3"),
                 nullptr, &out),
             0);
   EXPECT_NE(out.find("500 to 750 MeV, 2 derived"), std::string::npos) << out;
@@ -223,7 +234,8 @@ TEST_F(CorrectionsGridCli, FitInterpolatesToTheSamplesEnergyAndRecordsIt) {
   EXPECT_NEAR(m["interpolation"]["points"][1]["weight"].get<double>(), 0.45, 1e-12);
   // The saved profile refits at the energy given (it does not say its own).
   std::string err;
-  EXPECT_EQ(run("fit --profile-in " + path("gp.csv") + " --corrections " + path("grid") + " -o " + path("x.json"), &err), 1);
+  EXPECT_EQ(
+      run("fit --profile-in " + path("gp.csv") + " --corrections " + path("grid") + " -o " + path("x.json"), &err), 1);
   EXPECT_NE(err.find("give --beam-energy"), std::string::npos) << err;
   ASSERT_EQ(run("fit --profile-in " + path("gp.csv") + " --corrections " + path("grid") + " --beam-energy 612.5 -o " +
                 path("gfit2.json")),
@@ -235,16 +247,18 @@ TEST_F(CorrectionsGridCli, FitInterpolatesToTheSamplesEnergyAndRecordsIt) {
 TEST_F(CorrectionsGridCli, NothingIsExtrapolatedAndOneFileAwayFromItsEnergyWarns) {
   ASSERT_EQ(grid_->exitCode, 0) << grid_->err;
   std::string err;
-  EXPECT_EQ(run("fit " + path("events.h5") + " --corrections " + path("grid") + " --beam-energy 900 -o " + path("x.json"),
-                &err),
-            1);
+  EXPECT_EQ(
+      run("fit " + path("events.h5") + " --corrections " + path("grid") + " --beam-energy 900 -o " + path("x.json"),
+          &err),
+      1);
   EXPECT_NE(err.find("beam energy 900 MeV is outside the corrections grid " + path("grid") + " (500 to 750 MeV)"),
             std::string::npos)
       << err;
   EXPECT_FALSE(fs::exists(path("x.json")));
   // One file is used at any energy, with a warning away from its own.
-  ASSERT_EQ(run("fit " + path("events.h5") + " --corrections " + path("grid/ee-500MeV.json") + " -o " + path("w.json"), &err),
-            0);
+  ASSERT_EQ(
+      run("fit " + path("events.h5") + " --corrections " + path("grid/ee-500MeV.json") + " -o " + path("w.json"), &err),
+      0);
   EXPECT_NE(err.find("warning: " + path("grid/ee-500MeV.json") +
                      " was derived at 500 MeV and is applied to events at 612.5 MeV"),
             std::string::npos)
@@ -252,7 +266,8 @@ TEST_F(CorrectionsGridCli, NothingIsExtrapolatedAndOneFileAwayFromItsEnergyWarns
   // A sample of two energies is not fitted with corrections of one.
   ASSERT_EQ(run("simulate --params " + std::string(EMCALIGN_SOURCE_DIR) +
                 "/data/examples/paper-like.json --events 3000 --ideal --theta-min 40 --theta-max 140 --seed 3 "
-                "--beam-energy 700 --run 2 -o " + path("e700.h5")),
+                "--beam-energy 700 --run 2 -o " +
+                path("e700.h5")),
             0);
   EXPECT_EQ(run("fit " + path("events.h5") + " " + path("e700.h5") + " --corrections " + path("grid") + " -o " +
                     path("x.json"),
@@ -280,7 +295,8 @@ TEST_F(CorrectionsGridCli, CorrectTakesTheDepthOffsetOfEachEventsEnergy) {
             0);
   // The same as the interpolated offset at 612.5 MeV given by hand (the rows; the header
   // records the grid instead of a number).
-  const double offset = 0.55 * depthOffset(path("grid/ee-500MeV.json")) + 0.45 * depthOffset(path("grid/ee-750MeV.json"));
+  const double offset =
+      0.55 * depthOffset(path("grid/ee-500MeV.json")) + 0.45 * depthOffset(path("grid/ee-750MeV.json"));
   ASSERT_EQ(run("correct " + path("events.h5") + " --alignment " + alignment + " --method clusters --depth-offset " +
                 fmt::format("{}", offset) + " -o " + path("cd.csv")),
             0);
@@ -296,13 +312,16 @@ TEST_F(CorrectionsGridCli, CorrectTakesTheDepthOffsetOfEachEventsEnergy) {
   EXPECT_EQ(rows(grid), rows(emcalign::testing::slurp(path("cd.csv"))));
   EXPECT_NE(grid.find("\"corrections_grid\":\"" + path("grid") + "\""), std::string::npos);
   // Files of two energies: each event at its own energy's offset.
-  ASSERT_EQ(run("simulate --params " + alignment + " --events 500 --ideal --theta-min 40 --theta-max 140 --seed 3 "
-                "--beam-energy 700 --run 3 -o " + path("m700.h5")),
+  ASSERT_EQ(run("simulate --params " + alignment +
+                " --events 500 --ideal --theta-min 40 --theta-max 140 --seed 3 "
+                "--beam-energy 700 --run 3 -o " +
+                path("m700.h5")),
             0);
   ASSERT_EQ(run("correct " + path("events.h5") + " " + path("m700.h5") + " --alignment " + alignment +
                 " --method clusters --corrections " + path("grid") + " -o " + path("cm.csv")),
             0);
-  const double offset700 = 0.2 * depthOffset(path("grid/ee-500MeV.json")) + 0.8 * depthOffset(path("grid/ee-750MeV.json"));
+  const double offset700 =
+      0.2 * depthOffset(path("grid/ee-500MeV.json")) + 0.8 * depthOffset(path("grid/ee-750MeV.json"));
   ASSERT_EQ(run("correct " + path("m700.h5") + " --alignment " + alignment + " --method clusters --depth-offset " +
                 fmt::format("{}", offset700) + " -o " + path("c700.csv")),
             0);
@@ -311,8 +330,10 @@ TEST_F(CorrectionsGridCli, CorrectTakesTheDepthOffsetOfEachEventsEnergy) {
             rows(grid) + c700.substr(c700.find('\n') + 1));  // the second file's rows, without the header
   // An event beyond the grid is refused, naming its file and run.
   std::string err;
-  ASSERT_EQ(run("simulate --params " + alignment + " --events 500 --ideal --theta-min 40 --theta-max 140 --seed 3 "
-                "--beam-energy 900 --run 7 -o " + path("e900.h5")),
+  ASSERT_EQ(run("simulate --params " + alignment +
+                " --events 500 --ideal --theta-min 40 --theta-max 140 --seed 3 "
+                "--beam-energy 900 --run 7 -o " +
+                path("e900.h5")),
             0);
   EXPECT_EQ(run("correct " + path("events.h5") + " " + path("e900.h5") + " --alignment " + alignment +
                     " --method clusters --corrections " + path("grid") + " -o " + path("c900.csv"),
@@ -325,8 +346,8 @@ TEST_F(CorrectionsGridCli, CorrectTakesTheDepthOffsetOfEachEventsEnergy) {
   // check 3pi takes each event's R(E, θ) from the grid too; a sample it cannot select is refused.
   ASSERT_EQ(run("simulate --process 3pi --params " + alignment + " --events 3000 --seed 3 -o " + path("pi.h5")), 0);
   std::string out;
-  ASSERT_EQ(run("check 3pi " + path("pi.h5") + " --alignment " + alignment + " --corrections " + path("grid") +
-                    " -o " + path("check3pi"),
+  ASSERT_EQ(run("check 3pi " + path("pi.h5") + " --alignment " + alignment + " --corrections " + path("grid") + " -o " +
+                    path("check3pi"),
                 &err, &out),
             0)
       << err;

@@ -25,12 +25,16 @@ class FitCli : public ::testing::Test {
     // ctest runs each test in its own process, possibly at the same time: one directory each.
     dir_ = emcalign::testing::freshTestDirectory("emcalign_fit_cli");
     const std::string truth = std::string(EMCALIGN_SOURCE_DIR) + "/data/examples/paper-like.json";
-    const std::string sim = std::string(EMCALIGN_BINARY) + " simulate --events 20000 --seed 3 --theta-min 40 "
-                            "--theta-max 140 --params " + truth + " -o ";
+    const std::string sim = std::string(EMCALIGN_BINARY) +
+                            " simulate --events 20000 --seed 3 --theta-min 40 "
+                            "--theta-max 140 --params " +
+                            truth + " -o ";
     ASSERT_EQ(std::system((sim + (dir_ / "ee.h5").string() + " 2>/dev/null").c_str()), 0);
     ASSERT_EQ(std::system((sim + (dir_ / "ee.csv").string() + " 2>/dev/null").c_str()), 0);
     ASSERT_EQ(std::system((std::string(EMCALIGN_BINARY) + " simulate --process gg --events 2000 --params " + truth +
-                           " -o " + (dir_ / "gg.h5").string() + " 2>/dev/null").c_str()), 0);
+                           " -o " + (dir_ / "gg.h5").string() + " 2>/dev/null")
+                              .c_str()),
+              0);
   }
   static void TearDownTestSuite() { fs::remove_all(dir_); }
 
@@ -80,8 +84,11 @@ TEST_F(FitCli, FitsASimulatedFileAndRefitsItsProfile) {
 TEST_F(FitCli, SigmaSysAutoAndByHandAreRecordedInTheResult) {
   // The simulation has a counter non-uniformity but no 0.2° of it: auto finds less than SPEC's.
   std::string out;
-  ASSERT_EQ(run("fit " + path("ee.h5") + " --sigma-sys auto -o " + path("auto.json") + " --profile-out " +
-                    path("auto.csv"), &out), 0) << out;
+  ASSERT_EQ(
+      run("fit " + path("ee.h5") + " --sigma-sys auto -o " + path("auto.json") + " --profile-out " + path("auto.csv"),
+          &out),
+      0)
+      << out;
   EXPECT_NE(out.find("sigma_sys = "), std::string::npos) << out;
   const auto a = nlohmann::json::parse(slurp(path("auto.json")));
   const auto& s = a["sigma_sys"];

@@ -35,8 +35,8 @@ inline CommandResult runEmcalign(const std::filesystem::path& scratch, const std
                                  const std::string& stdinText = "") {
   const auto in = scratch / "stdin.txt", out = scratch / "stdout.txt", err = scratch / "stderr.txt";
   std::ofstream(in) << stdinText;
-  const std::string cmd = std::string(EMCALIGN_BINARY) + " " + args + " <" + in.string() + " >" + out.string() +
-                          " 2>" + err.string();
+  const std::string cmd =
+      std::string(EMCALIGN_BINARY) + " " + args + " <" + in.string() + " >" + out.string() + " 2>" + err.string();
   const int status = std::system(cmd.c_str());
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(out), slurp(err)};
 }

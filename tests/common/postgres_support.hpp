@@ -26,8 +26,8 @@ inline std::string& ownStateFile() {
 }
 inline void stopOwnServer() {
   if (ownStateFile().empty()) return;
-  const std::string cmd = fmt::format("/usr/bin/python3 {}/tests/postgres/pg_server.py stop {}", EMCALIGN_SOURCE_DIR,
-                                      ownStateFile());
+  const std::string cmd =
+      fmt::format("/usr/bin/python3 {}/tests/postgres/pg_server.py stop {}", EMCALIGN_SOURCE_DIR, ownStateFile());
   [[maybe_unused]] int rc = std::system(cmd.c_str());
 }
 }  // namespace detail

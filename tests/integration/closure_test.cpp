@@ -30,8 +30,8 @@ namespace emcalign {
 namespace {
 
 using geometry::AlignmentParameters;
-using units::deg;
 using geometry::testing::paperLike;
+using units::deg;
 
 const geometry::Calorimeter& calorimeter() {
   static const auto calo = *geometry::Calorimeter::create(geometry::DetectorDescription::sndDefault());
@@ -46,17 +46,17 @@ calib::FitResult simulateAndFit(const AlignmentParameters& truth, sim::Simulatio
   EXPECT_TRUE(simulation.ok()) << simulation.error().message;
   const auto geometry = calib::FitGeometry::of(calorimeter().description());
   calib::ProfileFiller filler(geometry.depth, calib::SelectionOptions{}, profile);
-  const Status run = simulation->run(events, 0, [&](std::span<const ParticleRow> rows, std::span<const TruthRow>, std::span<const Hit>) {
-    filler.addEvents(rows);
-    return Status{};
-  });
+  const Status run = simulation->run(
+      events, 0, [&](std::span<const ParticleRow> rows, std::span<const TruthRow>, std::span<const Hit>) {
+        filler.addEvents(rows);
+        return Status{};
+      });
   EXPECT_TRUE(run.ok());
   EXPECT_TRUE(filler.checkSelected().ok());
   auto fit = calib::fitProfiles(filler.fill().profiles.bins(), geometry);
   EXPECT_TRUE(fit.ok()) << fit.error().message;
   return *fit;
 }
-
 
 AlignmentParameters large() {
   AlignmentParameters eta;

@@ -20,7 +20,6 @@ namespace emcalign::apply {
 
 /// The corrected (φ', θ') of a cluster, rad; φ' in [0, 2π), θ' in [0, π].
 std::pair<double, double> correctDirection(const geometry::AlignmentTransform& transform,
-                                           const geometry::ShowerDepth& depth, double phi, double theta,
-                                           double energy);
+                                           const geometry::ShowerDepth& depth, double phi, double theta, double energy);
 
 }  // namespace emcalign::apply

@@ -63,8 +63,7 @@ struct CorrectReport {
 
 /// The alignment of each run: the IOVs of a conditions tag, or one alignment for every run.
 /// The same object is returned for every run of one alignment.
-using AlignmentOfRun =
-    std::function<Result<std::shared_ptr<const geometry::AlignmentTransform>>(std::int64_t run)>;
+using AlignmentOfRun = std::function<Result<std::shared_ptr<const geometry::AlignmentTransform>>(std::int64_t run)>;
 
 /// Reads `inputs`, corrects every cluster, writes `output` (io/output_file.hpp rules: no
 /// partial file on failure).

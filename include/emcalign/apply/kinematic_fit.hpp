@@ -36,8 +36,8 @@ struct TrackMeasurement {
 struct ThreePionEvent {
   std::array<PhotonMeasurement, 2> photons;
   std::array<TrackMeasurement, 2> pions;
-  double totalEnergy = 0.0;               ///< MeV, of the collision (2 E_beam)
-  Vec3 totalMomentum = Vec3::Zero();      ///< MeV, of the collision (0 for head-on beams)
+  double totalEnergy = 0.0;           ///< MeV, of the collision (2 E_beam)
+  Vec3 totalMomentum = Vec3::Zero();  ///< MeV, of the collision (0 for head-on beams)
 };
 
 struct KinematicFitOptions {

@@ -52,11 +52,11 @@ CoreWidth gaussianCore(std::span<const double> values);
 /// The measurement errors of the kinematic fit (docs/checks.md gives each one's source: the
 /// cores measured in the simulation by bench/check_resolutions.py on φ → π+π−π0 events).
 struct ResolutionModel {
-  double photonEnergyStochastic = 0.042;          ///< σE/E = a / E(GeV)^¼ (SND design; the core measured within 10 %)
-  double photonTheta = 1.57 * units::deg;         ///< rad, measured: 1.53°–1.59° from 50 to 600 MeV
-  double photonPhiSinTheta = 1.16 * units::deg;   ///< σ_φ·sinθ, rad, measured: 1.11°–1.25°
-  double trackTheta = 0.25 * units::deg;          ///< rad, measured for the pions
-  double trackPhi = 0.34 * units::deg;            ///< rad, measured for the pions (multiple scattering)
+  double photonEnergyStochastic = 0.042;         ///< σE/E = a / E(GeV)^¼ (SND design; the core measured within 10 %)
+  double photonTheta = 1.57 * units::deg;        ///< rad, measured: 1.53°–1.59° from 50 to 600 MeV
+  double photonPhiSinTheta = 1.16 * units::deg;  ///< σ_φ·sinθ, rad, measured: 1.11°–1.25°
+  double trackTheta = 0.25 * units::deg;         ///< rad, measured for the pions
+  double trackPhi = 0.34 * units::deg;           ///< rad, measured for the pions (multiple scattering)
 };
 
 struct GammaGammaCheck {

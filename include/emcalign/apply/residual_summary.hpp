@@ -36,7 +36,7 @@ struct ResidualSummary {
   double rmsDphiDeg = 0.0, rmsDthetaDeg = 0.0;
   std::array<double, kColumns> columnMeanDeg{};  ///< mean sin Δφ per φ column (NaN if empty)
   std::array<std::int64_t, kColumns> columnEntries{};
-  double irregularityDeg = 0.0;  ///< max − min of the non-empty columns' means
+  double irregularityDeg = 0.0;                  ///< max − min of the non-empty columns' means
   std::vector<double> dPhiCounts, dThetaCounts;  ///< kBins each over [−kRangeDeg, kRangeDeg)
 };
 

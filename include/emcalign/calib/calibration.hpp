@@ -70,9 +70,9 @@ Result<ProfileFill> fillProfiles(const std::vector<std::string>& files, const ge
 /// energy of its first row (the selection's when it overrides the files'); an error of
 /// `depthAt` names the run.
 Result<std::map<std::int32_t, ProfileFill>> fillProfilesByRun(const std::string& file,
-                                                               const geometry::DepthAtEnergy& depthAt,
-                                                               const SelectionOptions& selection,
-                                                               const ProfileOptions& profile = {});
+                                                              const geometry::DepthAtEnergy& depthAt,
+                                                              const SelectionOptions& selection,
+                                                              const ProfileOptions& profile = {});
 
 /// Describes the input of a fit in the result file.
 struct FitInput {

@@ -137,11 +137,11 @@ struct FitResponse {
 struct ModelCorrections {
   /// MeV, the beam energy the corrections belong to; NaN when the file does not say.
   double beamEnergy = std::numeric_limits<double>::quiet_NaN();
-  double depthOffset = 0.0;  ///< cm
+  double depthOffset = 0.0;                                  ///< cm
   std::shared_ptr<const PartingPlaneResponse> partingPlane;  ///< none: SPEC's hard s = sign(cos φ)
-  std::shared_ptr<const NominalProfile> nominalProfile;     ///< none: nothing subtracted
-  std::shared_ptr<const FitResponse> response;              ///< none: the model at η itself
-  io::Json derivedFrom = io::Json::object();  ///< how the file was made (free-form)
+  std::shared_ptr<const NominalProfile> nominalProfile;      ///< none: nothing subtracted
+  std::shared_ptr<const FitResponse> response;               ///< none: the model at η itself
+  io::Json derivedFrom = io::Json::object();                 ///< how the file was made (free-form)
 };
 
 /// Reads a corrections file (strict: unknown keys, wrong types and bad tables are errors

@@ -33,16 +33,15 @@ using Covariance = Eigen::Matrix<double, static_cast<int>(kNumParams), static_ca
 
 struct FitOptions {
   /// Parameters freed at each stage (SPEC §8); the union must be all 12.
-  std::vector<std::vector<Param>> stages = {
-      {Param::Alpha},
-      {Param::Dx, Param::Dy},
-      {Param::Dz, Param::Beta1, Param::Beta2},
-      {Param::Dp1, Param::Dp2, Param::Dp3},
-      {Param::DyRel, Param::DzRel},
-      {Param::BetaRel}};
-  int maxIterations = 200;                ///< per stage
-  double conditionWarning = 1e8;          ///< of the correlation-scaled JᵀJ
-  double singularEigenvalue = 1e-12;      ///< of the correlation-scaled JᵀJ, relative
+  std::vector<std::vector<Param>> stages = {{Param::Alpha},
+                                            {Param::Dx, Param::Dy},
+                                            {Param::Dz, Param::Beta1, Param::Beta2},
+                                            {Param::Dp1, Param::Dp2, Param::Dp3},
+                                            {Param::DyRel, Param::DzRel},
+                                            {Param::BetaRel}};
+  int maxIterations = 200;            ///< per stage
+  double conditionWarning = 1e8;      ///< of the correlation-scaled JᵀJ
+  double singularEigenvalue = 1e-12;  ///< of the correlation-scaled JᵀJ, relative
   Status validate() const;
 };
 
@@ -89,7 +88,7 @@ struct SigmaSysUsed {
 struct FitResult {
   geometry::AlignmentParameters parameters;
   geometry::ParamVector errors = geometry::ParamVector::Constant(std::numeric_limits<double>::quiet_NaN());
-  std::optional<Covariance> covariance;   ///< native units; none if singular
+  std::optional<Covariance> covariance;  ///< native units; none if singular
   Covariance correlation = Covariance::Zero();
   /// β, ψ, μ, τ, dx_rel (in this order)
   std::vector<std::pair<std::string, DerivedValue>> derived;

@@ -27,9 +27,9 @@ namespace emcalign::calib {
 struct ProfileOptions {
   int phiBins = 16;
   int thetaBins = 10;
-  double thetaMin = 45.0 * 0.017453292519943295;  ///< rad
-  double thetaMax = 135.0 * 0.017453292519943295; ///< rad
-  double sigmaSys = 0.2 * 0.017453292519943295;   ///< rad, for y_φ and y_θ
+  double thetaMin = 45.0 * 0.017453292519943295;   ///< rad
+  double thetaMax = 135.0 * 0.017453292519943295;  ///< rad
+  double sigmaSys = 0.2 * 0.017453292519943295;    ///< rad, for y_φ and y_θ
   int minEntries = 10;
   /// When set (with phiBins columns), each bin carries its column's W₊ (ProfileBin::plusWeight).
   std::shared_ptr<const PartingPlaneResponse> partingPlane;
@@ -65,9 +65,9 @@ struct ProfileBin {
   int iPhi = 0, iTheta = 0;
   std::int64_t n = 0;
   double phiMean = 0.0, thetaMean = 0.0, energyMean = 0.0;  ///< rad, rad, MeV
-  double yPhi = 0.0, sigmaPhi = 0.0;      ///< mean and total σ (stat ⊕ sys)
+  double yPhi = 0.0, sigmaPhi = 0.0;                        ///< mean and total σ (stat ⊕ sys)
   double yTheta = 0.0, sigmaTheta = 0.0;
-  bool used = false;                      ///< n ≥ minEntries and σ finite
+  bool used = false;  ///< n ≥ minEntries and σ finite
   /// W₊ of the parting-plane response; NaN: SPEC's hemisphere s = sign(cos phiMean).
   double plusWeight = std::numeric_limits<double>::quiet_NaN();
 };

@@ -20,19 +20,18 @@
 namespace emcalign::calib {
 
 struct SelectionOptions {
-  double maxAbsZ0 = 10.0;               ///< cm
-  double maxAbsRho = 1.0;               ///< cm
-  double minEnergyFraction = 0.8;       ///< of E_beam
-  double maxEnergyFraction = 1.1;       ///< of E_beam
+  double maxAbsZ0 = 10.0;                                 ///< cm
+  double maxAbsRho = 1.0;                                 ///< cm
+  double minEnergyFraction = 0.8;                         ///< of E_beam
+  double maxEnergyFraction = 1.1;                         ///< of E_beam
   double maxAcollinearity = 10.0 * 0.017453292519943295;  ///< rad, |180° − |Δφ_ts||
-  std::optional<double> beamEnergy;     ///< MeV; default: each event's beam_energy_mev
+  std::optional<double> beamEnergy;                       ///< MeV; default: each event's beam_energy_mev
 };
 
 /// Events left after each cut, in the order they are applied.
 struct CutFlow {
-  static constexpr std::array<const char*, 6> kNames = {
-      "events read", "no muon veto", "2 charged, 0 photons", "track |z0|, |rho|",
-      "cluster energies", "acollinearity"};
+  static constexpr std::array<const char*, 6> kNames = {"events read",       "no muon veto",     "2 charged, 0 photons",
+                                                        "track |z0|, |rho|", "cluster energies", "acollinearity"};
   std::array<std::int64_t, 6> events{};
   std::int64_t rows = 0;
 };

@@ -41,13 +41,13 @@ struct Hit {
 
 /// Simulation truth for one row (HDF5 only).
 struct TruthRow {
-  std::int32_t pdg = 0;                ///< generated particle behind the row (0: background)
-  double energy = 0.0;                 ///< MeV, generated energy
-  double theta = 0.0;                  ///< rad, generated direction at the vertex
-  double phi = 0.0;                    ///< rad
-  Vec3 vertex = Vec3::Zero();          ///< cm, interaction point
-  Vec3 showerCentre = Vec3::Zero();    ///< cm, TS frame, energy-weighted centre of the
-                                       ///< deposited shower (NaN if none)
+  std::int32_t pdg = 0;              ///< generated particle behind the row (0: background)
+  double energy = 0.0;               ///< MeV, generated energy
+  double theta = 0.0;                ///< rad, generated direction at the vertex
+  double phi = 0.0;                  ///< rad
+  Vec3 vertex = Vec3::Zero();        ///< cm, interaction point
+  Vec3 showerCentre = Vec3::Zero();  ///< cm, TS frame, energy-weighted centre of the
+                                     ///< deposited shower (NaN if none)
 };
 
 }  // namespace emcalign

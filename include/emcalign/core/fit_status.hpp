@@ -38,7 +38,8 @@ inline constexpr std::string_view name(FitStatus s) {
 }
 
 inline std::optional<FitStatus> fitStatusFromName(std::string_view n) {
-  for (FitStatus s : {FitStatus::Converged, FitStatus::PoorFit, FitStatus::NotConverged, FitStatus::CovarianceSingular}) {
+  for (FitStatus s :
+       {FitStatus::Converged, FitStatus::PoorFit, FitStatus::NotConverged, FitStatus::CovarianceSingular}) {
     if (name(s) == n) return s;
   }
   return std::nullopt;

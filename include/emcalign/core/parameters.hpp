@@ -10,16 +10,16 @@
 namespace emcalign {
 
 enum class Param : std::size_t {
-  Alpha,    ///< rotation of the whole EMC about Z (rad)
-  Beta1,    ///< sinβ·cosψ, dimensionless (files: degrees, value·180/π)
-  Beta2,    ///< sinβ·sinψ, dimensionless (files: degrees, value·180/π)
-  Dx,       ///< common shift ξ (cm)
+  Alpha,  ///< rotation of the whole EMC about Z (rad)
+  Beta1,  ///< sinβ·cosψ, dimensionless (files: degrees, value·180/π)
+  Beta2,  ///< sinβ·sinψ, dimensionless (files: degrees, value·180/π)
+  Dx,     ///< common shift ξ (cm)
   Dy,
   Dz,
-  Dp1,      ///< gap between the hemispheres at R1·(0, cos γ, −sin γ), γ = 0° (cm)
-  Dp2,      ///< … γ = 120° (cm)
-  Dp3,      ///< … γ = 240° (cm)
-  DyRel,    ///< relative shift of the halves (cm), hemisphere s moves by s·dy_rel
+  Dp1,    ///< gap between the hemispheres at R1·(0, cos γ, −sin γ), γ = 0° (cm)
+  Dp2,    ///< … γ = 120° (cm)
+  Dp3,    ///< … γ = 240° (cm)
+  DyRel,  ///< relative shift of the halves (cm), hemisphere s moves by s·dy_rel
   DzRel,
   BetaRel,  ///< relative rotation about X (rad), hemisphere s turns by s·β_rel
 };
@@ -28,9 +28,9 @@ inline constexpr std::size_t kNumParams = 12;
 
 inline constexpr std::size_t index(Param p) { return static_cast<std::size_t>(p); }
 
-inline constexpr std::array<Param, kNumParams> kAllParams = {
-    Param::Alpha, Param::Beta1, Param::Beta2, Param::Dx,    Param::Dy,    Param::Dz,
-    Param::Dp1,   Param::Dp2,   Param::Dp3,   Param::DyRel, Param::DzRel, Param::BetaRel};
+inline constexpr std::array<Param, kNumParams> kAllParams = {Param::Alpha, Param::Beta1, Param::Beta2, Param::Dx,
+                                                             Param::Dy,    Param::Dz,    Param::Dp1,   Param::Dp2,
+                                                             Param::Dp3,   Param::DyRel, Param::DzRel, Param::BetaRel};
 
 /// The exact names of SPEC §3 (file keys, table rows).
 inline constexpr std::array<std::string_view, kNumParams> kParamNames = {
@@ -63,7 +63,18 @@ inline std::optional<Param> paramFromName(std::string_view n) {
 
 /// The physical parameter set of SPEC §3 (also accepted as input).
 enum class Physical : std::size_t {
-  Alpha, Beta, Psi, Dx, Dy, Dz, Mu, Tau, DxRel, DyRel, DzRel, BetaRel,
+  Alpha,
+  Beta,
+  Psi,
+  Dx,
+  Dy,
+  Dz,
+  Mu,
+  Tau,
+  DxRel,
+  DyRel,
+  DzRel,
+  BetaRel,
 };
 
 inline constexpr std::size_t index(Physical p) { return static_cast<std::size_t>(p); }

@@ -52,9 +52,7 @@ struct RigidTransformT {
   Vec3T<T> translation = Vec3T<T>::Zero();
 
   Vec3T<T> apply(const Vec3T<T>& p) const { return rotation * p + translation; }
-  Vec3T<T> applyInverse(const Vec3T<T>& p) const {
-    return rotation.transpose() * (p - translation);
-  }
+  Vec3T<T> applyInverse(const Vec3T<T>& p) const { return rotation.transpose() * (p - translation); }
 };
 using RigidTransform = RigidTransformT<double>;
 
@@ -139,8 +137,7 @@ Vec3T<T> outerSeparationSineVector(const Vec3T<T>& sinMuN, const T& dxRel, doubl
 
 /// The rigid placement (R_s, t_s) of hemisphere s on the given support sphere.
 template <typename T>
-RigidTransformT<T> hemisphereTransform(const ParamVectorT<T>& eta, Hemisphere h,
-                                       const AlignmentRadii& radii,
+RigidTransformT<T> hemisphereTransform(const ParamVectorT<T>& eta, Hemisphere h, const AlignmentRadii& radii,
                                        Support support = Support::Inner) {
   const double s = sign(h);
   T dxRel;

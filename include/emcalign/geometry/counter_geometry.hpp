@@ -34,8 +34,8 @@ std::string_view name(PointRegion r);
 
 struct PointLocation {
   PointRegion region = PointRegion::Outside;
-  int counter = -1;       ///< Counter; Overlap: the counter of hemisphere +1
-  int otherCounter = -1;  ///< Overlap: the counter of hemisphere −1
+  int counter = -1;                          ///< Counter; Overlap: the counter of hemisphere +1
+  int otherCounter = -1;                     ///< Overlap: the counter of hemisphere −1
   Hemisphere hemisphere = Hemisphere::Plus;  ///< whose pre-image `nominal` is (not for Gap)
   Vec3 nominal = Vec3::Zero();               ///< the point in the nominal EMC frame (not for Gap)
 };

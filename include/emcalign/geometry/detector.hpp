@@ -48,9 +48,9 @@ struct SphericalShell {
 
 /// Material constants of the shower-depth formula R(E, θ) (SPEC §5, from the paper).
 struct ShowerMaterial {
-  double radiationLength = 2.56;   ///< X0 of NaI, cm
-  double criticalEnergy = 13.16;   ///< Ec of NaI, MeV
-  double preshowerMaterial = 0.13; ///< x_pre, material before the EMC at normal incidence, in X0
+  double radiationLength = 2.56;    ///< X0 of NaI, cm
+  double criticalEnergy = 13.16;    ///< Ec of NaI, MeV
+  double preshowerMaterial = 0.13;  ///< x_pre, material before the EMC at normal incidence, in X0
 };
 
 /// Everything the library knows about the detector shape. Plain numbers, native units.
@@ -78,9 +78,9 @@ struct DetectorDescription {
   static constexpr int kMaxRings = 180;
   static constexpr int kMaxCountersPerRing = 3600;
 
-  double r0() const { return layers[0].rInner; }   ///< EMC inner radius
-  double r1() const { return supports[0].rOuter; }  ///< outer radius of support sphere 1
-  double rp3() const { return supports[1].rOuter; } ///< outer radius of support sphere 2
+  double r0() const { return layers[0].rInner; }     ///< EMC inner radius
+  double r1() const { return supports[0].rOuter; }   ///< outer radius of support sphere 1
+  double rp3() const { return supports[1].rOuter; }  ///< outer radius of support sphere 2
   int ringCount() const { return static_cast<int>(countersPerRing.size()); }
   double ringWidth() const { return (thetaMax - thetaMin) / ringCount(); }
 };
@@ -150,8 +150,8 @@ class Calorimeter {
   static constexpr int kPhiBins = 256;
   std::vector<std::int16_t> ringGuess_;
   std::vector<std::int16_t> phiGuess_;  ///< ring-major, kPhiBins per ring
-  double layerR2_[3][2] = {};         ///< squared inner and outer radii of the layers
-  double outerR2_ = 0.0;              ///< squared outer radius of support sphere 2
+  double layerR2_[3][2] = {};           ///< squared inner and outer radii of the layers
+  double outerR2_ = 0.0;                ///< squared outer radius of support sphere 2
   /// Per ring: (cos, sin) of the φ edges inside the first quadrant, 1..n/4−1 (locate).
   std::vector<std::vector<std::pair<double, double>>> quadrantEdges_;
   int countersPerLayer_ = 0;

@@ -33,8 +33,8 @@ using AngularResidual = AngularResidualT<double>;
 /// f_φ, f_θ for an EMC direction, with the two hemispheres' placements already built (the
 /// fit builds them once per parameter vector and evaluates every bin with them).
 template <typename T>
-AngularResidualT<T> modelResidual(const RigidTransformT<T>& plus, const RigidTransformT<T>& minus,
-                                  double phi0, double theta0, double radius) {
+AngularResidualT<T> modelResidual(const RigidTransformT<T>& plus, const RigidTransformT<T>& minus, double phi0,
+                                  double theta0, double radius) {
   using std::atan2;
   using std::sqrt;
   const double cosPhi0 = std::cos(phi0), sinPhi0 = std::sin(phi0);
@@ -52,8 +52,8 @@ AngularResidualT<T> modelResidual(const RigidTransformT<T>& plus, const RigidTra
 /// f = w₊·f₊ + (1 − w₊)·f₋, each hemisphere's placement applied at the same point (a rigid
 /// placement is defined everywhere). w₊ = 1 or 0 evaluates one hemisphere only.
 template <typename T>
-AngularResidualT<T> mixedModelResidual(const RigidTransformT<T>& plus, const RigidTransformT<T>& minus,
-                                       double phi0, double theta0, double radius, double plusWeight) {
+AngularResidualT<T> mixedModelResidual(const RigidTransformT<T>& plus, const RigidTransformT<T>& minus, double phi0,
+                                       double theta0, double radius, double plusWeight) {
   if (plusWeight >= 1.0) return modelResidual<T>(plus, plus, phi0, theta0, radius);
   if (plusWeight <= 0.0) return modelResidual<T>(minus, minus, phi0, theta0, radius);
   const auto fp = modelResidual<T>(plus, plus, phi0, theta0, radius);
@@ -63,9 +63,8 @@ AngularResidualT<T> mixedModelResidual(const RigidTransformT<T>& plus, const Rig
 
 /// f_φ, f_θ from the parameters themselves (convenience; builds both placements).
 template <typename T>
-AngularResidualT<T> modelResidual(const ParamVectorT<T>& eta, const AlignmentRadii& radii,
-                                  const ShowerDepth& depth, double phi0, double theta0,
-                                  double energy) {
+AngularResidualT<T> modelResidual(const ParamVectorT<T>& eta, const AlignmentRadii& radii, const ShowerDepth& depth,
+                                  double phi0, double theta0, double energy) {
   const auto plus = hemisphereTransform<T>(eta, Hemisphere::Plus, radii);
   const auto minus = hemisphereTransform<T>(eta, Hemisphere::Minus, radii);
   return modelResidual<T>(plus, minus, phi0, theta0, depth.radius(energy, theta0));
@@ -73,9 +72,8 @@ AngularResidualT<T> modelResidual(const ParamVectorT<T>& eta, const AlignmentRad
 
 /// y_φ, y_θ of one particle: its track, its cluster energy (MeV) and EMC angles (rad).
 /// None when the track misses the sphere R(E, θ_TS).
-inline std::optional<AngularResidual> measuredResidual(const TrackLine& track, double energy,
-                                                       double phiEmc, double thetaEmc,
-                                                       const ShowerDepth& depth) {
+inline std::optional<AngularResidual> measuredResidual(const TrackLine& track, double energy, double phiEmc,
+                                                       double thetaEmc, const ShowerDepth& depth) {
   const auto pR = track.sphereIntersection(depth.radius(energy, track.theta));
   if (!pR) return std::nullopt;
   return AngularResidual{std::sin(azimuth(*pR) - phiEmc), polar(*pR) - thetaEmc};

@@ -32,8 +32,7 @@ struct ShowerDepth {
     using std::log;
     using std::sin;
     const auto& m = material;
-    return r0 + offset +
-           m.radiationLength * (log(energy / m.criticalEnergy) - 0.5 - m.preshowerMaterial / sin(theta));
+    return r0 + offset + m.radiationLength * (log(energy / m.criticalEnergy) - 0.5 - m.preshowerMaterial / sin(theta));
   }
 };
 

@@ -24,9 +24,7 @@ struct TrackLine {
   double theta = 0.0;
 
   Vec3 closestApproach() const { return {-rho * std::sin(phi), rho * std::cos(phi), z0}; }
-  Vec3 direction() const {
-    return {std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)};
-  }
+  Vec3 direction() const { return {std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)}; }
 
   /// The outward intersection with the sphere of radius R (cm) centred at the origin;
   /// none when the line misses the sphere.

@@ -54,8 +54,7 @@ inline Json numberOrNull(double v) { return std::isfinite(v) ? Json(v) : Json(nu
 /// Reads a whole file; the error names the path and the system's reason.
 Result<std::string> readTextFile(const std::string& path);
 
-Result<geometry::DetectorDescription> parseDetectorDescription(const Json& j,
-                                                               std::string_view source);
+Result<geometry::DetectorDescription> parseDetectorDescription(const Json& j, std::string_view source);
 Result<geometry::DetectorDescription> readDetectorDescription(const std::string& path);
 Json toJson(const geometry::DetectorDescription& d);
 
@@ -88,7 +87,6 @@ Result<geometry::AlignmentParameters> readAlignment(const std::string& path, dou
 /// {"format", "units", "parameters"} in file units.
 Json alignmentToJson(const geometry::AlignmentParameters& eta);
 /// The same plus "physical" (fails when η is not a rigid placement).
-Result<Json> alignmentToJsonWithPhysical(const geometry::AlignmentParameters& eta,
-                                                   double r1);
+Result<Json> alignmentToJsonWithPhysical(const geometry::AlignmentParameters& eta, double r1);
 
 }  // namespace emcalign::io

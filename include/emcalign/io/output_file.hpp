@@ -98,7 +98,7 @@ class OutputFile {
   OutputTarget target_;
   std::string written_;
   std::FILE* stream_ = nullptr;
-  bool temporary_ = false;  ///< written_ is a registered temporary
+  bool temporary_ = false;     ///< written_ is a registered temporary
   bool copyOnCommit_ = false;  ///< a temporary whose content goes to a Stream or stdout
   bool committed_ = false;
   int slot_ = -1;

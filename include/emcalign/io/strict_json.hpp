@@ -58,9 +58,7 @@ class StrictObject {
   std::string pathOf(std::string_view key) const { return join(path_, key); }
 
   double number(std::string_view key) const { return numberValue(at(key), pathOf(key)); }
-  double number(std::string_view key, double fallback) const {
-    return has(key) ? number(key) : fallback;
-  }
+  double number(std::string_view key, double fallback) const { return has(key) ? number(key) : fallback; }
   std::string string(std::string_view key) const {
     const Json& v = at(key);
     if (!v.is_string()) fail(pathOf(key), fmt::format("expected a string, got {}", typeName(v)));

@@ -77,10 +77,8 @@ struct ResidualHistograms {
 /// returns the paths of the PNG files written (dir/NAME.png). `residuals` may be null
 /// (then residuals_before_after.png is not drawn). Fails when no bin has entries, when a
 /// file cannot be written, or when gnuplot is missing or fails.
-Result<std::vector<std::string>> writeFitPlots(const std::string& dir,
-                                               const std::vector<calib::ProfileBin>& bins,
-                                               const calib::FitGeometry& geometry,
-                                               const calib::FitResult& fit,
+Result<std::vector<std::string>> writeFitPlots(const std::string& dir, const std::vector<calib::ProfileBin>& bins,
+                                               const calib::FitGeometry& geometry, const calib::FitResult& fit,
                                                const ResidualHistograms* residuals);
 
 // ---- validation campaign figures
@@ -121,7 +119,6 @@ struct CampaignSeries {
 /// quantity has no name, no samples, truth/fit/error of different lengths or angleWraps
 /// without unit "deg" (the error names the quantity), when a file cannot be written, or when
 /// gnuplot is missing or fails.
-Result<std::vector<std::string>> writeCampaignPlots(const std::string& dir,
-                                                    const std::vector<CampaignSeries>& series);
+Result<std::vector<std::string>> writeCampaignPlots(const std::string& dir, const std::vector<CampaignSeries>& series);
 
 }  // namespace emcalign::report

@@ -26,6 +26,7 @@ struct LabelledSummary {
 
 /// Writes the two figures (with data and scripts) into `dir` (created if missing); the PNG
 /// paths. Fails on no sample, on a file that cannot be written, or when gnuplot fails.
-Result<std::vector<std::string>> writeResidualPlots(const std::string& dir, const std::vector<LabelledSummary>& samples);
+Result<std::vector<std::string>> writeResidualPlots(const std::string& dir,
+                                                    const std::vector<LabelledSummary>& samples);
 
 }  // namespace emcalign::report

@@ -37,40 +37,40 @@ namespace emcalign::sim {
 
 struct EmcOptions {
   // Shower shape
-  double moliereRadius = 4.13;       ///< cm, NaI (PDG)
-  double profileB = 0.5;             ///< b of the Gamma profile (PDG, typical)
-  double coreFraction = 0.75;        ///< lateral profile: fraction of energy in the core
-  double coreRadius = 0.2;           ///< in Molière radii, f(r) ∝ r·R²/(r² + R²)² (assumed)
-  double tailRadius = 0.8;           ///< in Molière radii (assumed; 88% inside 1 R_M)
-  double maxRadius = 2.0;            ///< in Molière radii: spots beyond are not made (the
-                                     ///< ~4% of energy there is in the containment)
+  double moliereRadius = 4.13;            ///< cm, NaI (PDG)
+  double profileB = 0.5;                  ///< b of the Gamma profile (PDG, typical)
+  double coreFraction = 0.75;             ///< lateral profile: fraction of energy in the core
+  double coreRadius = 0.2;                ///< in Molière radii, f(r) ∝ r·R²/(r² + R²)² (assumed)
+  double tailRadius = 0.8;                ///< in Molière radii (assumed; 88% inside 1 R_M)
+  double maxRadius = 2.0;                 ///< in Molière radii: spots beyond are not made (the
+                                          ///< ~4% of energy there is in the containment)
   double supportRadiationLength = 8.897;  ///< cm, X0 of the aluminium support spheres (PDG)
-  int spotsLongitudinal = 8;         ///< depths drawn per shower
-  int spotsLateral = 4;              ///< spots per depth
-  bool showerFluctuations = true;    ///< t_max fluctuates event by event
-  bool pointShowers = false;         ///< all energy in one spot at the model depth R(E, θ)
+  int spotsLongitudinal = 8;              ///< depths drawn per shower
+  int spotsLateral = 4;                   ///< spots per depth
+  bool showerFluctuations = true;         ///< t_max fluctuates event by event
+  bool pointShowers = false;              ///< all energy in one spot at the model depth R(E, θ)
 
   // Energy response
-  bool energyResolution = true;      ///< per-shower Gaussian smearing
-  double resolutionAt1GeV = 0.042;   ///< σE/E = 4.2%/E(GeV)^¼ in all (SND design)
-  double smearingShare = 0.85;       ///< share of it given by the smearing (the rest comes
-                                     ///< from leakage and sampling; tuned, docs/simulation.md)
+  bool energyResolution = true;     ///< per-shower Gaussian smearing
+  double resolutionAt1GeV = 0.042;  ///< σE/E = 4.2%/E(GeV)^¼ in all (SND design)
+  double smearingShare = 0.85;      ///< share of it given by the smearing (the rest comes
+                                    ///< from leakage and sampling; tuned, docs/simulation.md)
   bool noise = true;
-  double noiseSigma = 0.3;           ///< MeV per counter (assumed)
-  double counterThreshold = 2.0;     ///< MeV (assumed)
+  double noiseSigma = 0.3;        ///< MeV per counter (assumed)
+  double counterThreshold = 2.0;  ///< MeV (assumed)
 
   // Ionisation of charged hadrons and muons in NaI
-  double mipDedx = 4.8;              ///< MeV/cm (PDG: 1.305 MeV cm²/g × 3.667 g/cm³)
+  double mipDedx = 4.8;                    ///< MeV/cm (PDG: 1.305 MeV cm²/g × 3.667 g/cm³)
   double nuclearInteractionLength = 41.3;  ///< cm (PDG, NaI)
 
   // Imperfections
   bool deadCountersOn = true;
   std::vector<int> deadCounters = {51, 230, 377, 612, 845, 1002, 1290};  ///< assumed
   bool beamBackground = true;
-  double backgroundHitsPerEvent = 0.3;     ///< Poisson mean (assumed)
-  double backgroundMeanEnergy = 6.0;       ///< MeV, exponential (assumed)
+  double backgroundHitsPerEvent = 0.3;  ///< Poisson mean (assumed)
+  double backgroundMeanEnergy = 6.0;    ///< MeV, exponential (assumed)
   bool layer3OffsetOn = true;
-  Vec3 layer3Offset{0.05, -0.04, 0.06};    ///< cm, independent shift of layer 3 (assumed)
+  Vec3 layer3Offset{0.05, -0.04, 0.06};  ///< cm, independent shift of layer 3 (assumed)
 
   Status validate(int counters) const;
 };
@@ -130,18 +130,17 @@ class CounterHits {
 /// Deposits particles' energy into `CounterHits` for one actual placement.
 class CalorimeterResponse {
  public:
-  CalorimeterResponse(const geometry::Calorimeter& calo, const geometry::AlignmentTransform& truth,
-                      EmcOptions options);
+  CalorimeterResponse(const geometry::Calorimeter& calo, const geometry::AlignmentTransform& truth, EmcOptions options);
   const EmcOptions& options() const { return options_; }
   const geometry::Calorimeter& calorimeter() const { return *calo_; }
   bool isDead(int counter) const { return dead_[static_cast<std::size_t>(counter)] != 0; }
 
   /// An electromagnetic shower of an e± (photon = false) or γ along the line p + s·d.
-  void shower(CounterHits& hits, int source, double energy, bool photon, const Vec3& point,
-              const Vec3& direction, Rng& rng) const;
+  void shower(CounterHits& hits, int source, double energy, bool photon, const Vec3& point, const Vec3& direction,
+              Rng& rng) const;
   /// Ionisation (and, for pions, a possible nuclear interaction) along the line.
-  void track(CounterHits& hits, int source, double kineticEnergy, bool hadron, const Vec3& point,
-             const Vec3& direction, Rng& rng) const;
+  void track(CounterHits& hits, int source, double kineticEnergy, bool hadron, const Vec3& point, const Vec3& direction,
+             Rng& rng) const;
   /// Beam-background hits in random counters.
   void background(CounterHits& hits, Rng& rng) const;
 

@@ -26,13 +26,13 @@
 namespace emcalign::sim {
 
 struct ReconstructionOptions {
-  double clusterThreshold = 10.0;    ///< MeV: lighter clusters are dropped (assumed)
-  double logWeightW0 = 3.5;          ///< W0 of the logarithmic weights (tuned: σ_θ ≈ 1.5°)
-  double containment = 0.958;        ///< median E_sum/E of 600 MeV e± and γ (measured, docs/simulation.md)
-  double matchRadius = 15.0 * 0.017453292519943295;  ///< rad, track–cluster angle
-  double matchSphereRadius = 45.0;   ///< cm, where the track direction is taken for matching
-  bool directionFromCounters = true; ///< false: the exact nominal-frame direction of the
-                                     ///< deposited energy, smeared (the idealised limit)
+  double clusterThreshold = 10.0;  ///< MeV: lighter clusters are dropped (assumed)
+  double logWeightW0 = 3.5;        ///< W0 of the logarithmic weights (tuned: σ_θ ≈ 1.5°)
+  double containment = 0.958;      ///< median E_sum/E of 600 MeV e± and γ (measured, docs/simulation.md)
+  double matchRadius = 15.0 * 0.017453292519943295;         ///< rad, track–cluster angle
+  double matchSphereRadius = 45.0;                          ///< cm, where the track direction is taken for matching
+  bool directionFromCounters = true;                        ///< false: the exact nominal-frame direction of the
+                                                            ///< deposited energy, smeared (the idealised limit)
   double idealDirectionSigma = 1.5 * 0.017453292519943295;  ///< rad, smearing per angle then
   Status validate() const;
 };
@@ -43,7 +43,7 @@ struct Cluster {
   double phi = 0.0;     ///< rad
   int mainSource = -1;  ///< source (generated particle or background) with most energy
   int counters = 0;
-  int firstHit = 0;     ///< its counters: ClusterScratch::hits[firstHit, firstHit + counters)
+  int firstHit = 0;  ///< its counters: ClusterScratch::hits[firstHit, firstHit + counters)
 };
 
 /// The direction (θ, φ) of a cluster from its counters (index, energy), in their order:
@@ -73,19 +73,19 @@ struct ClusterScratch {
   std::vector<int> label;  ///< per counter: cluster id, -1 unassigned (reset after use)
   std::vector<int> stack;
   std::vector<int> members;
-  std::vector<Hit> hits;   ///< the counters of the clusters found, cluster by cluster
+  std::vector<Hit> hits;  ///< the counters of the clusters found, cluster by cluster
 };
 
 /// Clusters of the fired counters, directions from the centres of `geometry` (the nominal
 /// one in the simulation); each keeps its counters in `scratch.hits` (`rng` smears the
 /// idealised directions only).
 void findClusters(const CounterHits& hits, const geometry::CounterGeometry& geometry,
-                  const CounterNeighbours& neighbours, const ReconstructionOptions& options,
-                  ClusterScratch& scratch, Rng& rng, std::vector<Cluster>& clusters);
+                  const CounterNeighbours& neighbours, const ReconstructionOptions& options, ClusterScratch& scratch,
+                  Rng& rng, std::vector<Cluster>& clusters);
 
 /// Matches tracks to clusters by the smallest angle within the match radius; returns, for
 /// each track, the index of its cluster or -1.
-std::vector<int> matchTracks(const std::vector<geometry::TrackLine>& tracks,
-                             const std::vector<Cluster>& clusters, const ReconstructionOptions& options);
+std::vector<int> matchTracks(const std::vector<geometry::TrackLine>& tracks, const std::vector<Cluster>& clusters,
+                             const ReconstructionOptions& options);
 
 }  // namespace emcalign::sim

@@ -33,8 +33,8 @@ struct SimulationOptions {
   TrackingOptions tracking;
   EmcOptions emc;
   ReconstructionOptions reconstruction;
-  double cosmicFraction = 0.01;       ///< events replaced by a cosmic muon (assumed)
-  double muonVetoEfficiency = 0.99;   ///< for cosmic muons (assumed); collisions never fire it
+  double cosmicFraction = 0.01;      ///< events replaced by a cosmic muon (assumed)
+  double muonVetoEfficiency = 0.99;  ///< for cosmic muons (assumed); collisions never fire it
   std::int32_t run = 1;
   std::uint64_t seed = 1;
 
@@ -72,8 +72,8 @@ class EventScratch {
 class Simulation {
  public:
   /// The calorimeter must outlive the simulation.
-  static Result<Simulation> create(const geometry::Calorimeter& calorimeter,
-                                   const geometry::AlignmentParameters& truth, SimulationOptions options);
+  static Result<Simulation> create(const geometry::Calorimeter& calorimeter, const geometry::AlignmentParameters& truth,
+                                   SimulationOptions options);
 
   const SimulationOptions& options() const { return options_; }
   const geometry::Calorimeter& calorimeter() const { return *calo_; }

@@ -21,14 +21,14 @@
 namespace emcalign::sim {
 
 struct TrackingOptions {
-  double beamPipeRadius = 2.0;               ///< cm
-  double beamPipeThickness = 0.1;            ///< cm of beryllium
-  double beamPipeRadiationLength = 35.28;    ///< cm, X0 of Be
+  double beamPipeRadius = 2.0;                                                       ///< cm
+  double beamPipeThickness = 0.1;                                                    ///< cm of beryllium
+  double beamPipeRadiationLength = 35.28;                                            ///< cm, X0 of Be
   std::vector<double> layerRadii = {4.0, 4.9, 5.8, 6.7, 7.6, 8.5, 9.4, 10.3, 11.2};  ///< cm
-  double halfLength = 20.0;                  ///< cm, |z| of the sensitive volume
-  double sigmaRPhi = 0.0316;                 ///< cm per hit
-  double sigmaZ = 0.0365;                    ///< cm per hit
-  int minHits = 4;                           ///< fewer hits: no track
+  double halfLength = 20.0;   ///< cm, |z| of the sensitive volume
+  double sigmaRPhi = 0.0316;  ///< cm per hit
+  double sigmaZ = 0.0365;     ///< cm per hit
+  int minHits = 4;            ///< fewer hits: no track
   bool multipleScattering = true;
 
   Status validate() const;
@@ -47,8 +47,7 @@ class TrackingSystem {
 
   /// The path after multiple scattering in the beam pipe for a particle of momentum p
   /// (MeV) and speed β leaving the vertex in direction d.
-  ChargedPath scatter(const Vec3& vertex, const Vec3& direction, double momentum, double beta,
-                      Rng& rng) const;
+  ChargedPath scatter(const Vec3& vertex, const Vec3& direction, double momentum, double beta, Rng& rng) const;
 
   /// Hits on the layers, smeared, and the least-squares line fit; none with too few hits.
   std::optional<geometry::TrackLine> measure(const ChargedPath& path, Rng& rng) const;

@@ -69,8 +69,8 @@ struct CampaignModel {
   calib::FitGeometry geometry;    ///< with a grid: without corrections until at()
   calib::ProfileOptions profile;  ///< with the corrections' parting plane / nominal profile
   calib::SelectionOptions selection;
-  std::string corrections;         ///< the corrections file or grid (empty: none), for the provenance
-  std::string correctionsSha256;   ///< its SHA-256 (empty: none; a grid's: CorrectionsGrid::sha256)
+  std::string corrections;        ///< the corrections file or grid (empty: none), for the provenance
+  std::string correctionsSha256;  ///< its SHA-256 (empty: none; a grid's: CorrectionsGrid::sha256)
   std::shared_ptr<const calib::CorrectionsGrid> grid;  ///< the corrections read (null: none)
   /// Set by at() with a grid: the interpolation (CorrectionsAt::interpolation), recorded in
   /// the fit result; and a single file's warning when used away from its energy.
@@ -117,7 +117,7 @@ struct CampaignGroup {
   std::vector<std::string> files;          ///< the files holding them
   double beamEnergy = 0.0;                 ///< MeV; NaN when the group has no selected event
   std::int64_t selected = 0;
-  bool isShort = false;                    ///< fewer than min_events selected events
+  bool isShort = false;  ///< fewer than min_events selected events
 };
 
 /// Groups the scanned runs (see the top of this file).

@@ -38,10 +38,10 @@ struct DerivationOptions {
   std::int64_t events = 400000;  ///< per sample (three samples)
   std::uint64_t seed = 1;
   int threads = 0;
-  sim::SimulationOptions simulation;  ///< the seed is set per sample
-  double shift = 0.6;                 ///< cm, dx = dy = dz of the depth sample
-  double gap = 0.5;                   ///< cm, dx_rel of the parting-plane sample
-  double depthLow = -10.0, depthHigh = 20.0;                ///< cm, search interval of δ
+  sim::SimulationOptions simulation;          ///< the seed is set per sample
+  double shift = 0.6;                         ///< cm, dx = dy = dz of the depth sample
+  double gap = 0.5;                           ///< cm, dx_rel of the parting-plane sample
+  double depthLow = -10.0, depthHigh = 20.0;  ///< cm, search interval of δ
   /// The fit's response (calib/corrections.hpp, 4.): samples (0: none) of responseEvents
   /// each, truths drawn over these ranges.
   int responseSamples = 200;
@@ -52,25 +52,25 @@ struct DerivationOptions {
 
 /// A fit of one derivation sample with the paper's model and with the derived corrections.
 struct ClosureFit {
-  std::string sample;     ///< "shift" or "gap"
-  std::string parameter;  ///< "dx" or "dx_rel"
-  double truth = 0.0;     ///< cm
+  std::string sample;                         ///< "shift" or "gap"
+  std::string parameter;                      ///< "dx" or "dx_rel"
+  double truth = 0.0;                         ///< cm
   double paperModel = 0.0, paperError = 0.0;  ///< cm
   double corrected = 0.0, correctedError = 0.0;
 };
 
 struct DerivationReport {
   calib::ModelCorrections corrections;
-  double depthOffsetError = 0.0;                    ///< cm (Δχ² = 1)
-  double depthChi2 = 0.0;                           ///< at the minimum
-  int depthBins = 0;                                ///< bins in χ²(δ)
-  std::vector<double> columnWeights;                ///< measured W₊ of every φ column
+  double depthOffsetError = 0.0;      ///< cm (Δχ² = 1)
+  double depthChi2 = 0.0;             ///< at the minimum
+  int depthBins = 0;                  ///< bins in χ²(δ)
+  std::vector<double> columnWeights;  ///< measured W₊ of every φ column
   std::vector<double> columnWeightErrors;
   std::vector<ClosureFit> closure;
   /// Errors of a fit to the nominal profile alone (native units): the systematic error that
   /// the nominal profile's statistics give every fit using the file.
   geometry::ParamVector nominalProfileErrors = geometry::ParamVector::Zero();
-  std::int64_t selectedEvents[3] = {0, 0, 0};       ///< N, S, G
+  std::int64_t selectedEvents[3] = {0, 0, 0};  ///< N, S, G
   /// The statistical errors of the response's matrix and offset (native units, as they).
   calib::ResponseMatrix responseErrors = calib::ResponseMatrix::Zero();
   geometry::ParamVector responseOffsetErrors = geometry::ParamVector::Zero();

@@ -69,7 +69,7 @@ struct PeriodScenario {
   };
   std::vector<Drift> drifts;
   std::vector<std::pair<std::int64_t, std::int64_t>> missingRuns;  ///< inclusive ranges
-  io::Json source;  ///< the scenario as read
+  io::Json source;                                                 ///< the scenario as read
 
   std::int64_t lastRun() const { return firstRun + runs - 1; }
 };
@@ -97,7 +97,7 @@ struct PeriodOptions {
   /// How the simulation was set (realism switches, the detector): kept in DIR/period.json
   /// and each run file; resuming with other settings is refused.
   io::Json settings = io::Json::object();
-  int threads = 0;                    ///< 0: all cores
+  int threads = 0;  ///< 0: all cores
   /// Called as runs finish (done, total) and with the events made so far.
   std::function<void(std::int64_t runsDone, std::int64_t runs, std::int64_t events)> progress;
 };
@@ -115,8 +115,8 @@ struct PeriodReport {
 /// period (another scenario, --no-hits or settings) is refused; one holding this period (an
 /// interrupted run) is resumed: a run whose file is there is kept (files are renamed into
 /// place only when complete).
-Result<PeriodReport> simulatePeriod(const PeriodScenario& s, const geometry::Calorimeter& calo,
-                                    const std::string& dir, const PeriodOptions& options);
+Result<PeriodReport> simulatePeriod(const PeriodScenario& s, const geometry::Calorimeter& calo, const std::string& dir,
+                                    const PeriodOptions& options);
 
 /// The truth file of a period: {"format", "scenario", "runs": [{"run", "file", "events",
 /// "beam_energy_mev", "seed", "parameters", "derived"}]}.

@@ -30,14 +30,14 @@ namespace emcalign::validation {
 struct RefitPrecision {
   static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
   std::string parameter, unit;
-  double value = kNaN;          ///< the refit
-  double quotedBefore = kNaN;   ///< median quoted error of the replaced IOVs
-  double quotedAfter = kNaN;    ///< the refit's quoted error
-  double statBefore = kNaN;     ///< median statistical error (σ_sys = 0) of the replaced IOVs
-  double statAfter = kNaN;      ///< the refit's statistical error
-  double scatter = kNaN;        ///< RMS of the replaced IOVs about their mean
-  double truth = kNaN;          ///< mean truth over the period's runs (with a truth)
-  double truthRmsBefore = kNaN; ///< RMS over the replaced IOVs of (value − truth over the IOV)
+  double value = kNaN;           ///< the refit
+  double quotedBefore = kNaN;    ///< median quoted error of the replaced IOVs
+  double quotedAfter = kNaN;     ///< the refit's quoted error
+  double statBefore = kNaN;      ///< median statistical error (σ_sys = 0) of the replaced IOVs
+  double statAfter = kNaN;       ///< the refit's statistical error
+  double scatter = kNaN;         ///< RMS of the replaced IOVs about their mean
+  double truth = kNaN;           ///< mean truth over the period's runs (with a truth)
+  double truthRmsBefore = kNaN;  ///< RMS over the replaced IOVs of (value − truth over the IOV)
 };
 
 struct RefittedSegment {
@@ -59,9 +59,8 @@ struct SegmentRefit {
 /// Refits every stable period of `trend` (of `series`, the tag's) from the scanned events.
 /// `model` must be the campaign's (the same corrections); `truth` may be null. A payload's
 /// provenance says {"refit": {"tag", "period", "periods", "replaces_iovs", "runs"}}.
-Result<SegmentRefit> refitSegments(const Trend& trend, const std::vector<TrendSeries>& series,
-                                   conddb::TagSnapshot& tag, const CampaignScan& scan, const CampaignModel& model,
-                                   const PeriodTruth* truth);
+Result<SegmentRefit> refitSegments(const Trend& trend, const std::vector<TrendSeries>& series, conddb::TagSnapshot& tag,
+                                   const CampaignScan& scan, const CampaignModel& model, const PeriodTruth* truth);
 
 /// trend.json's "refit": {"iovs", "iovs_before", "segments": [{"first_run", "last_run",
 /// "replaces_iovs", "selected_events", "kept" | "parameters", "precision": {name: {...}}}]}.

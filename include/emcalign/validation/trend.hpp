@@ -67,8 +67,8 @@ Result<std::vector<TrendSeries>> seriesOfTag(conddb::TagSnapshot& tag);
 /// A straight line fitted to points [begin, end) of a series (errors scaled).
 struct LineFit {
   std::size_t begin = 0, end = 0;
-  double xRef = 0.0;                 ///< the line is a + b·(x − xRef)
-  double a = 0.0, b = 0.0;           ///< with b = 0 for the constant model
+  double xRef = 0.0;        ///< the line is a + b·(x − xRef)
+  double a = 0.0, b = 0.0;  ///< with b = 0 for the constant model
   double varA = 0.0, varB = 0.0, covAB = 0.0;
   double chi2 = 0.0;
   double value(double x) const { return a + b * (x - xRef); }
@@ -93,9 +93,9 @@ struct SegmentTest {
 
 struct TrendStep {
   std::string parameter, unit;
-  std::size_t index = 0;            ///< the first point after the step
-  std::int64_t firstRunAfter = 0;   ///< inside a transition IOV: the run its mixture points to
-  double size = 0.0, error = 0.0;   ///< after − before, at the boundary
+  std::size_t index = 0;           ///< the first point after the step
+  std::int64_t firstRunAfter = 0;  ///< inside a transition IOV: the run its mixture points to
+  double size = 0.0, error = 0.0;  ///< after − before, at the boundary
   /// The IOV that straddles the step (a transition), if any.
   std::optional<std::pair<std::int64_t, std::int64_t>> withinIov;
   double z() const { return error > 0.0 ? size / error : 0.0; }
@@ -135,10 +135,10 @@ struct TrendSegment {
 };
 
 struct TrendOptions {
-  std::size_t minSegment = 2;  ///< points per segment (at least 1)
-  double stepZ = 3.0;          ///< jump / error for a change to count as a step
-  double driftAlpha = 0.01;    ///< family-wise false-flag rate of the drift tests
-  std::optional<double> penalty;  ///< default (k + 2)·ln n
+  std::size_t minSegment = 2;               ///< points per segment (at least 1)
+  double stepZ = 3.0;                       ///< jump / error for a change to count as a step
+  double driftAlpha = 0.01;                 ///< family-wise false-flag rate of the drift tests
+  std::optional<double> penalty;            ///< default (k + 2)·ln n
   std::optional<double> transitionPenalty;  ///< default ln n (the mixture's fraction)
   /// Require a step to beat a continuous broken line (off: only for comparisons).
   bool kneeTest = true;
@@ -151,9 +151,9 @@ struct Trend {
   std::vector<TrendDrift> drifts;  ///< the flagged ones
   std::vector<TrendSegment> segments;
   std::size_t iovs = 0;
-  double penalty = 0.0;  ///< per change (the largest over the series)
+  double penalty = 0.0;            ///< per change (the largest over the series)
   double transitionPenalty = 0.0;  ///< more for a transition IOV
-  int tests = 0;  ///< segments tested for a drift
+  int tests = 0;                   ///< segments tested for a drift
 };
 
 /// The change points of one series (optimal partitioning, see above); `scale` multiplies

@@ -39,8 +39,8 @@ Truth generated(Rng& rng) {
     const double phi = std::atan2(p.momentum.y(), p.momentum.x());
     if (p.pdg == sim::pdg::Photon && photon < 2) {
       const double e = p.energy;
-      t.event.photons[static_cast<std::size_t>(photon++)] = {e, theta, phi, 0.042 * e / std::pow(e / 1000.0, 0.25),
-                                                            1.5 * units::deg, 1.5 * units::deg / std::sin(theta)};
+      t.event.photons[static_cast<std::size_t>(photon++)] = {
+          e, theta, phi, 0.042 * e / std::pow(e / 1000.0, 0.25), 1.5 * units::deg, 1.5 * units::deg / std::sin(theta)};
     } else if (p.pdg == sim::pdg::PiPlus || p.pdg == sim::pdg::PiMinus) {
       const std::size_t j = p.pdg == sim::pdg::PiPlus ? 0 : 1;
       t.event.pions[j] = {theta, phi, 0.3 * units::deg, 0.26 * units::deg / std::sin(theta)};

@@ -54,7 +54,8 @@ TEST(Placements, GeantAnglesRoundTrip) {
 class PlacementsFile : public ::testing::Test {
  protected:
   void SetUp() override {
-    path_ = (std::filesystem::temp_directory_path() / ("emcalign_placements_" + std::to_string(::getpid()) + ".json")).string();
+    path_ = (std::filesystem::temp_directory_path() / ("emcalign_placements_" + std::to_string(::getpid()) + ".json"))
+                .string();
   }
   void TearDown() override { std::filesystem::remove(path_); }
   std::string path_;

@@ -259,9 +259,9 @@ TEST_F(CorrectionsGridFiles, ADirectoryIsAGridAndItsDigestIsOfItsListing) {
   ASSERT_EQ(g->points().size(), 2u);
   EXPECT_EQ(g->points()[0].file, (dir_ / "ee-500MeV.json").string());
   EXPECT_NEAR(g->at(750.0)->corrections.depthOffset, at(750.0).depthOffset, 1e-12);
-  const std::string listing = fmt::format("{}  ee-1000MeV.json\n{}  ee-500MeV.json\n",
-                                          *sha256OfFile((dir_ / "ee-1000MeV.json").string()),
-                                          *sha256OfFile((dir_ / "ee-500MeV.json").string()));
+  const std::string listing =
+      fmt::format("{}  ee-1000MeV.json\n{}  ee-500MeV.json\n", *sha256OfFile((dir_ / "ee-1000MeV.json").string()),
+                  *sha256OfFile((dir_ / "ee-500MeV.json").string()));
   EXPECT_EQ(g->sha256(), sha256(listing));
   EXPECT_EQ(*correctionsDigest(dir_.string()), g->sha256());
   // A file is a single point, its digest the file's.
@@ -290,15 +290,13 @@ TEST_F(CorrectionsGridFiles, ABadFileOrATooSmallDirectoryIsNamed) {
       << g.error().message;
 }
 
-
 namespace by_run {
 
 // Back-to-back e+e- events that pass SPEC §7's selection, from vertices along the beam (so
 // that the residuals depend on the shower depth) and with EMC directions a little off.
 std::vector<ParticleRow> events(std::int32_t run, double beamEnergy, int n, std::uint64_t seed) {
   std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> phi(0.0, 2.0 * std::numbers::pi), theta(50.0 * deg, 130.0 * deg),
-      z(-3.0, 3.0);
+  std::uniform_real_distribution<double> phi(0.0, 2.0 * std::numbers::pi), theta(50.0 * deg, 130.0 * deg), z(-3.0, 3.0);
   std::vector<ParticleRow> rows;
   for (int k = 0; k < n; ++k) {
     const double p = phi(rng), t = theta(rng), z0 = z(rng);
@@ -370,7 +368,8 @@ TEST_F(CorrectionsGridFiles, EveryRunOfAFileIsFilledAtTheDepthOfItsEnergy) {
   wrong.addEvents(run2);
   const auto wrongBins = wrong.fill().profiles.bins(0.0), rightBins = byRun->at(2).profiles.bins(0.0);
   int differ = 0;
-  for (std::size_t b = 0; b < rightBins.size(); ++b) differ += rightBins[b].n > 0 && wrongBins[b].yTheta != rightBins[b].yTheta;
+  for (std::size_t b = 0; b < rightBins.size(); ++b)
+    differ += rightBins[b].n > 0 && wrongBins[b].yTheta != rightBins[b].yTheta;
   EXPECT_GT(differ, 100);
   // An energy the depths cannot serve names the file and the run.
   auto refused = fillProfilesByRun(

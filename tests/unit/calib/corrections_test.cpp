@@ -218,7 +218,8 @@ TEST(Profiles, SubtractTheNominalProfileAndCarryTheColumnWeight) {
 
 // 160 bins of the mixed model at η, the nominal pattern added: what a detector with these
 // features would show.
-std::vector<ProfileBin> mixedBins(const AlignmentParameters& eta, const PartingPlaneResponse& w, const NominalProfile& t) {
+std::vector<ProfileBin> mixedBins(const AlignmentParameters& eta, const PartingPlaneResponse& w,
+                                  const NominalProfile& t) {
   const auto plus = geometry::hemisphereTransform<double>(eta.values, geometry::Hemisphere::Plus, kGeometry.radii);
   const auto minus = geometry::hemisphereTransform<double>(eta.values, geometry::Hemisphere::Minus, kGeometry.radii);
   std::vector<ProfileBin> bins;
@@ -318,7 +319,8 @@ TEST(FitResponse, RoundTripsInFileUnitsAndRefusesImplausibleOnes) {
     change(bad);
     auto r = parseCorrections(bad, "r.json");
     if (r.ok()) return ::testing::AssertionFailure() << "accepted";
-    if (r.error().message.find(expected) == std::string::npos) return ::testing::AssertionFailure() << r.error().message;
+    if (r.error().message.find(expected) == std::string::npos)
+      return ::testing::AssertionFailure() << r.error().message;
     return ::testing::AssertionSuccess();
   };
   EXPECT_TRUE(refused([](Json& x) { x["response"]["matrix"][3][3] = 0.3; }, "response of dx to itself is 0.3"));
@@ -368,8 +370,7 @@ TEST(FitResponse, TheFitReturnsTheTruthTheResponseHides) {
   auto withResponse = fitProfiles(bins, g);
   ASSERT_TRUE(plain.ok() && withResponse.ok());
   EXPECT_NEAR(withResponse->chi2, plain->chi2, 1e-6 * plain->chi2);
-  const geometry::ParamVector back =
-      g.response->matrix.inverse() * (plain->parameters.values - g.response->offset);
+  const geometry::ParamVector back = g.response->matrix.inverse() * (plain->parameters.values - g.response->offset);
   for (Param p : kAllParams) {
     const auto k = static_cast<Eigen::Index>(index(p));
     EXPECT_NEAR(withResponse->parameters.values[k], back[k], 1e-3 * withResponse->errors[k]) << name(p);
@@ -379,8 +380,7 @@ TEST(FitResponse, TheFitReturnsTheTruthTheResponseHides) {
   const ResponseMatrix expected = inverse * *plain->covariance * inverse.transpose();
   for (int a = 0; a < 12; ++a) {
     for (int b = 0; b < 12; ++b) {
-      EXPECT_NEAR((*withResponse->covariance)(a, b), expected(a, b),
-                  1e-4 * std::sqrt(expected(a, a) * expected(b, b)))
+      EXPECT_NEAR((*withResponse->covariance)(a, b), expected(a, b), 1e-4 * std::sqrt(expected(a, a) * expected(b, b)))
           << a << "," << b;
     }
   }

@@ -17,11 +17,10 @@ namespace emcalign::calib {
 namespace {
 
 using geometry::AlignmentParameters;
-using units::deg;
 using geometry::testing::paperLike;
+using units::deg;
 
 const FitGeometry kGeometry = FitGeometry::of(geometry::DetectorDescription::sndDefault());
-
 
 // 160 bins whose means follow the model at η, plus Gaussian noise of σ (rad).
 std::vector<ProfileBin> syntheticBins(const AlignmentParameters& eta, double sigma, Rng* rng) {
@@ -72,8 +71,9 @@ TEST(Fit, PullsHaveUnitWidth) {
     ASSERT_TRUE(r.ok());
     chi2 += r->chi2;
     for (std::size_t k = 0; k < kNumParams; ++k) {
-      const double pull = (r->parameters.values[static_cast<Eigen::Index>(k)] - truth.values[static_cast<Eigen::Index>(k)]) /
-                          r->errors[static_cast<Eigen::Index>(k)];
+      const double pull =
+          (r->parameters.values[static_cast<Eigen::Index>(k)] - truth.values[static_cast<Eigen::Index>(k)]) /
+          r->errors[static_cast<Eigen::Index>(k)];
       sum[k] += pull;
       sum2[k] += pull * pull;
     }
@@ -91,13 +91,14 @@ TEST(Fit, StagedAndAllFreeReachTheSameMinimum) {
   const auto bins = syntheticBins(paperLike(), 0.1 * deg, &rng);
   auto staged = fitProfiles(bins, kGeometry);
   FitOptions allFree;
-  allFree.stages = {{Param::Alpha, Param::Beta1, Param::Beta2, Param::Dx, Param::Dy, Param::Dz, Param::Dp1,
-                     Param::Dp2, Param::Dp3, Param::DyRel, Param::DzRel, Param::BetaRel}};
+  allFree.stages = {{Param::Alpha, Param::Beta1, Param::Beta2, Param::Dx, Param::Dy, Param::Dz, Param::Dp1, Param::Dp2,
+                     Param::Dp3, Param::DyRel, Param::DzRel, Param::BetaRel}};
   auto single = fitProfiles(bins, kGeometry, allFree);
   ASSERT_TRUE(staged.ok() && single.ok());
   EXPECT_NEAR(staged->chi2, single->chi2, 1e-8 * staged->chi2);
   for (Param p : kAllParams) {
-    EXPECT_NEAR(staged->parameters[p], single->parameters[p], 1e-3 * staged->errors[static_cast<Eigen::Index>(index(p))]);
+    EXPECT_NEAR(staged->parameters[p], single->parameters[p],
+                1e-3 * staged->errors[static_cast<Eigen::Index>(index(p))]);
   }
   EXPECT_NEAR(chi2At(bins, kGeometry, staged->parameters.values), staged->chi2, 1e-9 * staged->chi2);
 }

@@ -6,9 +6,9 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <random>
 #include <sstream>
-#include <fstream>
 #include <string>
 #include <vector>
 
@@ -107,7 +107,8 @@ TEST_F(ProfileCsv, RoundTripsExactly) {
 
 TEST_F(ProfileCsv, IndicesAndCountsAreIntegersInRange) {
   // Once cast from double to int (undefined behaviour) or accepted as a 17th column.
-  EXPECT_THAT(errorWith(2, [](auto& f) { f[0] = "1e300"; }), HasSubstr("line 2: column 'i_phi': '1e300' is not a bin index 0 to 15"));
+  EXPECT_THAT(errorWith(2, [](auto& f) { f[0] = "1e300"; }),
+              HasSubstr("line 2: column 'i_phi': '1e300' is not a bin index 0 to 15"));
   EXPECT_THAT(errorWith(2, [](auto& f) { f[0] = "99"; }), HasSubstr("column 'i_phi': '99'"));
   EXPECT_THAT(errorWith(2, [](auto& f) { f[1] = "2.5"; }), HasSubstr("column 'i_theta'"));
   EXPECT_THAT(errorWith(2, [](auto& f) { f[2] = "1e300"; }), HasSubstr("column 'n': '1e300' is not a count"));
@@ -115,14 +116,17 @@ TEST_F(ProfileCsv, IndicesAndCountsAreIntegersInRange) {
 }
 
 TEST_F(ProfileCsv, EveryBinExactlyOnce) {
-  EXPECT_THAT(errorWith(3, [](auto& f) { f[1] = "0"; }), HasSubstr("line 3: bin (0, 0) is given again (first on line 2)"));
+  EXPECT_THAT(errorWith(3, [](auto& f) { f[1] = "0"; }),
+              HasSubstr("line 3: bin (0, 0) is given again (first on line 2)"));
   std::string shorter = text_.substr(0, text_.rfind('\n', text_.size() - 2) + 1);
   EXPECT_THAT(errorOf(shorter), HasSubstr("159 of the 160 bins are given; bin (15, 9) is missing"));
 }
 
 TEST_F(ProfileCsv, ValuesMustBePlausible) {
-  EXPECT_THAT(errorWith(2, [](auto& f) { f[5] = "1e-300"; }), HasSubstr("column 'e_mean_mev': '1e-300' is not a plausible cluster energy"));
-  EXPECT_THAT(errorWith(2, [](auto& f) { f[3] = "3.0"; }), HasSubstr("column 'phi_mean_rad': '3.0' lies outside its bin i_phi = 0"));
+  EXPECT_THAT(errorWith(2, [](auto& f) { f[5] = "1e-300"; }),
+              HasSubstr("column 'e_mean_mev': '1e-300' is not a plausible cluster energy"));
+  EXPECT_THAT(errorWith(2, [](auto& f) { f[3] = "3.0"; }),
+              HasSubstr("column 'phi_mean_rad': '3.0' lies outside its bin i_phi = 0"));
   EXPECT_THAT(errorWith(2, [](auto& f) { f[4] = "0.1"; }), HasSubstr("column 'theta_mean_rad'"));
   EXPECT_THAT(errorWith(2, [](auto& f) { f[6] = "1.5"; }), HasSubstr("column 'y_phi': '1.5' is not a sine"));
   EXPECT_THAT(errorWith(2, [](auto& f) { f[7] = "0"; }), HasSubstr("column 'sigma_phi'"));

@@ -160,9 +160,10 @@ TEST_P(Conditions, OpenChecksTheSchema) {
   {
     // Reach into the table the way a future emcalign would have changed it.
     if (GetParam() == "sqlite") {
-      const std::string cmd = fmt::format("sqlite3 '{}' \"UPDATE emcalign_meta SET value = '99' WHERE key = "
-                                          "'schema_version'\"",
-                                          uri_.substr(7));
+      const std::string cmd = fmt::format(
+          "sqlite3 '{}' \"UPDATE emcalign_meta SET value = '99' WHERE key = "
+          "'schema_version'\"",
+          uri_.substr(7));
       ASSERT_EQ(std::system(cmd.c_str()), 0);
     } else {
       pqxx::connection c(uri_);
@@ -244,7 +245,7 @@ TEST_P(Conditions, KillDuringWriteLeavesItConsistent) {
   auto iovs = db->iovs("k");
   ASSERT_TRUE(iovs) << iovs.error().message;
   ASSERT_EQ(iovs->size(), 1U);
-  EXPECT_FALSE(db->payload(payloadOf(3.3).hash()));  // its payload went with it
+  EXPECT_FALSE(db->payload(payloadOf(3.3).hash()));          // its payload went with it
   ASSERT_TRUE(db->put("k", 11, 20, payloadOf(3.4), false));  // no lock left behind
   auto got = db->get("k", 15);
   ASSERT_TRUE(got && got->has_value());
@@ -256,9 +257,7 @@ INSTANTIATE_TEST_SUITE_P(Backends, Conditions, ::testing::Values("sqlite", "post
 TEST(ConditionsUri, RefusesWhatIsNotADatabase) {
   const fs::path dir = fs::temp_directory_path() / fmt::format("emcalign-conddb-uri-{}", ::getpid());
   fs::create_directories(dir);
-  {
-    std::ofstream(dir / "text.db") << "not a database at all, just text that is long enough to look like a file\n";
-  }
+  { std::ofstream(dir / "text.db") << "not a database at all, just text that is long enough to look like a file\n"; }
   auto text = Database::open((dir / "text.db").string());
   ASSERT_FALSE(text);
   EXPECT_NE(text.error().message.find("text.db"), std::string::npos) << text.error().message;

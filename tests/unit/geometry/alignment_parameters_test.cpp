@@ -40,8 +40,7 @@ TEST(AlignmentParameters, PhysicalToFitToPhysicalRoundTrips) {
     phys[Physical::Dz] = u01(rng) - 0.5;
     phys[Physical::Mu] = u01(rng) * 0.5 * deg;
     // τ near ±180° in a third of the cases: the wrap of atan2 must not break the round trip.
-    phys[Physical::Tau] = i % 3 == 0 ? (i % 2 ? 1.0 : -1.0) * (M_PI - 1e-9 * u01(rng))
-                                     : (u01(rng) - 0.5) * 2.0 * M_PI;
+    phys[Physical::Tau] = i % 3 == 0 ? (i % 2 ? 1.0 : -1.0) * (M_PI - 1e-9 * u01(rng)) : (u01(rng) - 0.5) * 2.0 * M_PI;
     phys[Physical::DxRel] = u01(rng) * 0.5;
     phys[Physical::DyRel] = u01(rng) - 0.5;
     phys[Physical::DzRel] = u01(rng) - 0.5;
@@ -65,7 +64,7 @@ TEST(AlignmentParameters, ZeroSeparationIsExactAndStable) {
   eta[Param::Dp1] = eta[Param::Dp2] = eta[Param::Dp3] = 0.4;
   auto phys = toPhysical(eta, kR1);
   ASSERT_TRUE(phys.ok());
-  EXPECT_EQ((*phys)[Physical::Mu], 0.0);  // u = t = 0 exactly for equal gaps
+  EXPECT_EQ((*phys)[Physical::Mu], 0.0);   // u = t = 0 exactly for equal gaps
   EXPECT_EQ((*phys)[Physical::Tau], 0.0);  // atan2(0, 0)
   EXPECT_EQ((*phys)[Physical::Beta], 0.0);
   EXPECT_NEAR((*phys)[Physical::DxRel], 0.2, 1e-15);

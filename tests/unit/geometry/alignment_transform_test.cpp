@@ -3,8 +3,8 @@
 #include <cmath>
 #include <random>
 
-#include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include <Eigen/Geometry>
 
 #include "emcalign/core/units.hpp"
 #include "test_support.hpp"
@@ -30,8 +30,8 @@ Vec3 literalForward(const AlignmentParameters& eta, const Vec3& p0, int s, doubl
   const double psi = (*phys)[Physical::Psi], tau = (*phys)[Physical::Tau];
   const double mu = std::isnan(muOverride) ? (*phys)[Physical::Mu] : muOverride;
   using AA = Eigen::AngleAxisd;
-  const Mat3 zyz = (AA(psi, Vec3::UnitZ()) * AA(beta, Vec3::UnitY()) * AA(alpha - psi, Vec3::UnitZ()))
-                       .toRotationMatrix();
+  const Mat3 zyz =
+      (AA(psi, Vec3::UnitZ()) * AA(beta, Vec3::UnitY()) * AA(alpha - psi, Vec3::UnitZ())).toRotationMatrix();
   const Vec3 n(0.0, -std::sin(tau), std::cos(tau));
   const Mat3 tMu = AA(-s * mu, n).toRotationMatrix();
   const Mat3 tBetaRel = AA(s * eta[Param::BetaRel], Vec3::UnitX()).toRotationMatrix();
@@ -105,8 +105,7 @@ TEST(AlignmentTransform, GapsHaveTheirGeometricMeaning) {
     for (int k = 0; k < 3; ++k) {
       const double g = k * 120.0 * deg;
       const Vec3 p = kRadii.r1 * Vec3(0.0, std::cos(g), -std::sin(g));
-      const double separation =
-          t.forward(p, Hemisphere::Plus).x() - t.forward(p, Hemisphere::Minus).x();
+      const double separation = t.forward(p, Hemisphere::Plus).x() - t.forward(p, Hemisphere::Minus).x();
       EXPECT_NEAR(separation, eta[gaps[k]], 1e-12) << "dp" << k + 1;
     }
   }
@@ -155,8 +154,7 @@ TEST(AlignmentTransform, PositiveMuWithTauZeroOpensTheTopGap) {
   EXPECT_LT(topMinus.x(), 0.0);
   EXPECT_NEAR(topPlus.x() - topMinus.x(), 0.6, 1e-12);
   // At the bottom the halves close: 2·dx_rel − 2·R1·sinμ = 0.2 − 0.4 = −0.2 (overlap).
-  EXPECT_NEAR(t.forward(bottom, Hemisphere::Plus).x() - t.forward(bottom, Hemisphere::Minus).x(),
-              -0.2, 1e-12);
+  EXPECT_NEAR(t.forward(bottom, Hemisphere::Plus).x() - t.forward(bottom, Hemisphere::Minus).x(), -0.2, 1e-12);
 }
 
 TEST(AlignmentTransform, RelativeRotationTurnsHalvesOppositely) {
@@ -210,8 +208,7 @@ TEST(AlignmentTransform, ThirdLayerFollowsTheInnerSphereWhenNoOverlap) {
   const auto c = make(closed);
   ASSERT_TRUE(c.layer3RuleActive());
   auto outerGap = [&](const Vec3& p) {
-    return c.forward(p, Hemisphere::Plus, Support::Outer).x() -
-           c.forward(p, Hemisphere::Minus, Support::Outer).x();
+    return c.forward(p, Hemisphere::Plus, Support::Outer).x() - c.forward(p, Hemisphere::Minus, Support::Outer).x();
   };
   EXPECT_NEAR(outerGap(Vec3(0.0, -kRadii.rp3, 0.0)), 0.0, 1e-12);
   EXPECT_NEAR(outerGap(Vec3(0.0, kRadii.rp3, 0.0)), -0.6, 1e-12);
@@ -234,8 +231,8 @@ TEST(AlignmentTransform, InverseAutoFindsTheHemisphereOrReportsGapAndOverlap) {
     EXPECT_LT((r.point - p0).norm(), 1e-12);
   }
   // x = 0 at the top, rotated by α like the EMC: between the halves.
-  const Vec3 top = t.forward(Vec3(0.0, kRadii.r1, 0.0), Hemisphere::Plus) +
-                   t.forward(Vec3(0.0, kRadii.r1, 0.0), Hemisphere::Minus);
+  const Vec3 top =
+      t.forward(Vec3(0.0, kRadii.r1, 0.0), Hemisphere::Plus) + t.forward(Vec3(0.0, kRadii.r1, 0.0), Hemisphere::Minus);
   EXPECT_EQ(t.inverseAuto(top / 2.0).kind, InverseKind::Gap);
   const Vec3 bottom = t.forward(Vec3(0.0, -kRadii.r1, 0.0), Hemisphere::Plus) +
                       t.forward(Vec3(0.0, -kRadii.r1, 0.0), Hemisphere::Minus);

@@ -37,8 +37,8 @@ using ::testing::HasSubstr;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kPi = std::numbers::pi;
 
-ParticleRow chargedRow(std::int32_t run, std::int64_t event, double beam, double z0, double rho,
-                       double phi, double theta, double energy, double phiEmc, double thetaEmc) {
+ParticleRow chargedRow(std::int32_t run, std::int64_t event, double beam, double z0, double rho, double phi,
+                       double theta, double energy, double phiEmc, double thetaEmc) {
   ParticleRow r;
   r.run = run;
   r.event = event;
@@ -55,8 +55,8 @@ ParticleRow chargedRow(std::int32_t run, std::int64_t event, double beam, double
   return r;
 }
 
-ParticleRow photonRow(std::int32_t run, std::int64_t event, double beam, double energy,
-                      double phiEmc, double thetaEmc) {
+ParticleRow photonRow(std::int32_t run, std::int64_t event, double beam, double energy, double phiEmc,
+                      double thetaEmc) {
   ParticleRow r = chargedRow(run, event, beam, kNaN, kNaN, kNaN, kNaN, energy, phiEmc, thetaEmc);
   r.charged = 0;
   return r;
@@ -77,8 +77,8 @@ std::vector<ParticleRow> sampleRows(int events, std::int32_t run = 1, std::int64
       } else if (i == 3) {
         rows.push_back(chargedRow(run, event, beam, -0.0, 0.1, 0.0, 0.0, kNaN, kNaN, kNaN));
       } else {
-        rows.push_back(chargedRow(run, event, beam, -3.25 + t, 0.1 + t, 1.0 / 3.0 + t, kPi / 2 + t,
-                                  beam * (0.9 + t), 1.0 / 3.0 + 2 * t, kPi / 2 - t));
+        rows.push_back(chargedRow(run, event, beam, -3.25 + t, 0.1 + t, 1.0 / 3.0 + t, kPi / 2 + t, beam * (0.9 + t),
+                                  1.0 / 3.0 + 2 * t, kPi / 2 - t));
       }
       rows.back().muonVeto = static_cast<std::int8_t>(e % 2);
     }
@@ -101,8 +101,7 @@ std::vector<TruthRow> sampleTruth(std::size_t n) {
 }
 
 bool sameDouble(double a, double b) {
-  return (std::isnan(a) && std::isnan(b)) ||
-         std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b);
+  return (std::isnan(a) && std::isnan(b)) || std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b);
 }
 
 void expectSameRows(const std::vector<ParticleRow>& a, const std::vector<ParticleRow>& b) {
@@ -176,9 +175,8 @@ Result<ReadBack> readAll(const std::vector<std::string>& paths, std::size_t bloc
   return out;
 }
 
-Status writeFile(const std::string& path, const std::vector<ParticleRow>& rows,
-                 WriterOptions options = {}, const std::vector<TruthRow>& truth = {},
-                 const std::vector<Hit>& hits = {}) {
+Status writeFile(const std::string& path, const std::vector<ParticleRow>& rows, WriterOptions options = {},
+                 const std::vector<TruthRow>& truth = {}, const std::vector<Hit>& hits = {}) {
   auto writer = EventWriter::open(path, std::move(options));
   if (!writer) return writer.error();
   if (auto s = (*writer)->append(rows, truth, hits); !s) return s;
@@ -200,8 +198,7 @@ class EventFile : public ::testing::Test {
 
   std::vector<std::string> filesInDir() const {
     std::vector<std::string> names;
-    for (const auto& entry : fs::directory_iterator(dir_))
-      names.push_back(entry.path().filename().string());
+    for (const auto& entry : fs::directory_iterator(dir_)) names.push_back(entry.path().filename().string());
     return names;
   }
 
@@ -236,27 +233,23 @@ TEST_F(EventFile, CsvRoundTripIsExact) {
 }
 
 TEST_F(EventFile, CsvTextFormat) {
-  std::vector<ParticleRow> rows = {
-      chargedRow(3, 9000000000, 508, 0.5, 0.1, 1, 1.5, kNaN, kNaN, kNaN),
-      photonRow(3, 9000000000, 508, 200, 3, 2)};
+  std::vector<ParticleRow> rows = {chargedRow(3, 9000000000, 508, 0.5, 0.1, 1, 1.5, kNaN, kNaN, kNaN),
+                                   photonRow(3, 9000000000, 508, 200, 3, 2)};
   rows[0].muonVeto = rows[1].muonVeto = 1;
   ASSERT_TRUE(writeFile(path("t.csv"), rows, {false, {{"generator", "{\"seed\":1}"}}}).ok());
-  EXPECT_EQ(
-      readBytes(path("t.csv")),
-      "# generator: {\"seed\":1}\n"
-      "run,event,beam_energy_mev,muon_veto,charged,z0_cm,rho_cm,phi_ts_rad,theta_ts_rad,energy_mev,"
-      "phi_emc_rad,theta_emc_rad\n"
-      "3,9000000000,508,1,1,0.5,0.10000000000000001,1,1.5,,,\n"
-      "3,9000000000,508,1,0,,,,,200,3,2\n");
-  EXPECT_EQ(
-      std::string(kCsvHeader) + "\n",
-      "run,event,beam_energy_mev,muon_veto,charged,z0_cm,rho_cm,phi_ts_rad,theta_ts_rad,energy_mev,"
-      "phi_emc_rad,theta_emc_rad\n");
+  EXPECT_EQ(readBytes(path("t.csv")),
+            "# generator: {\"seed\":1}\n"
+            "run,event,beam_energy_mev,muon_veto,charged,z0_cm,rho_cm,phi_ts_rad,theta_ts_rad,energy_mev,"
+            "phi_emc_rad,theta_emc_rad\n"
+            "3,9000000000,508,1,1,0.5,0.10000000000000001,1,1.5,,,\n"
+            "3,9000000000,508,1,0,,,,,200,3,2\n");
+  EXPECT_EQ(std::string(kCsvHeader) + "\n",
+            "run,event,beam_energy_mev,muon_veto,charged,z0_cm,rho_cm,phi_ts_rad,theta_ts_rad,energy_mev,"
+            "phi_emc_rad,theta_emc_rad\n");
 }
 
 TEST_F(EventFile, CsvAcceptsCommentsBlankLinesAndCrlf) {
-  const std::string text = "# a plain comment\r\n# source: hand-written\r\n\r\n" +
-                           std::string(kCsvHeader) +
+  const std::string text = "# a plain comment\r\n# source: hand-written\r\n\r\n" + std::string(kCsvHeader) +
                            "\r\n1,7,508,0,1,0.5,0.1,1,1.5,480,1.01,1.49\r\n# between rows\r\n\r\n"
                            "1,7,508,0,0,,,,,200,3.0,2.0\r\n# a last comment without newline";
   writeBytes(path("h.csv"), text);
@@ -298,8 +291,7 @@ TEST_F(EventFile, Hdf5RoundTripWithTruthIsExact) {
 
 TEST_F(EventFile, Hdf5WithoutTruthHasNoTruth) {
   const auto rows = sampleRows(10);
-  std::vector<std::pair<std::string, std::string>> attributes = {
-      {"note", "two\nlines are fine in HDF5"}};
+  std::vector<std::pair<std::string, std::string>> attributes = {{"note", "two\nlines are fine in HDF5"}};
   ASSERT_TRUE(writeFile(path("e.hdf5"), rows, {false, attributes}).ok());
   auto reader = EventReader::open({path("e.hdf5")});
   ASSERT_TRUE(reader.ok()) << reader.error().message;
@@ -347,8 +339,7 @@ TEST_F(EventFile, Hdf5Layout) {
     ASSERT_EQ(H5Pget_nfilters(dcpl), 2);
     unsigned flags = 0, level = 0;
     std::size_t nElements = 1;
-    EXPECT_EQ(H5Pget_filter2(dcpl, 0, &flags, &nElements, &level, 0, nullptr, nullptr),
-              H5Z_FILTER_SHUFFLE);
+    EXPECT_EQ(H5Pget_filter2(dcpl, 0, &flags, &nElements, &level, 0, nullptr, nullptr), H5Z_FILTER_SHUFFLE);
     nElements = 1;
     EXPECT_EQ(H5Pget_filter2(dcpl, 1, &flags, &nElements, &level, 0, nullptr, nullptr), 32004)
         << "LZ4, the filter of Debian's hdf5-filter-plugin";
@@ -368,13 +359,13 @@ TEST_F(EventFile, Hdf5Layout) {
   check("/events/beam_energy_mev", H5T_IEEE_F64LE);
   check("/events/muon_veto", H5T_STD_I8LE);
   check("/events/charged", H5T_STD_I8LE);
-  for (const char* name : {"z0_cm", "rho_cm", "phi_ts_rad", "theta_ts_rad", "energy_mev",
-                           "phi_emc_rad", "theta_emc_rad"}) {
+  for (const char* name :
+       {"z0_cm", "rho_cm", "phi_ts_rad", "theta_ts_rad", "energy_mev", "phi_emc_rad", "theta_emc_rad"}) {
     check(fmt::format("/events/{}", name), H5T_IEEE_F64LE);
   }
   check("/truth/pdg", H5T_STD_I32LE);
-  for (const char* name : {"energy_mev", "theta_rad", "phi_rad", "vertex_x_cm", "vertex_y_cm",
-                           "vertex_z_cm", "shower_x_cm", "shower_y_cm", "shower_z_cm"}) {
+  for (const char* name : {"energy_mev", "theta_rad", "phi_rad", "vertex_x_cm", "vertex_y_cm", "vertex_z_cm",
+                           "shower_x_cm", "shower_y_cm", "shower_z_cm"}) {
     check(fmt::format("/truth/{}", name), H5T_IEEE_F64LE);
   }
   for (const char* group : {"/", "/events", "/truth"}) {
@@ -397,8 +388,7 @@ TEST_F(EventFile, Hdf5IsByteIdenticalOnRewrite) {
     ASSERT_TRUE(writer.ok());
     for (std::size_t i = 0; i < rows.size(); i += 777) {  // other append sizes, same file
       const std::size_t n = std::min<std::size_t>(777, rows.size() - i);
-      ASSERT_TRUE(
-          (*writer)->append(std::span(rows).subspan(i, n), std::span(truth).subspan(i, n)).ok());
+      ASSERT_TRUE((*writer)->append(std::span(rows).subspan(i, n), std::span(truth).subspan(i, n)).ok());
     }
     ASSERT_TRUE((*writer)->close().ok());
   }
@@ -423,8 +413,7 @@ TEST_F(EventFile, BlocksEndAtEventBoundariesAcrossFiles) {
   const auto rowsA = sampleRows(11, 1, 0);    // events of 2, 3, 4 rows
   const auto rowsB = sampleRows(13, 2, 100);  // in another run
   ASSERT_TRUE(writeFile(path("a.csv"), rowsA, {false, {{"file", "a"}}}).ok());
-  ASSERT_TRUE(
-      writeFile(path("b.h5"), rowsB, {true, {{"file", "b"}}}, sampleTruth(rowsB.size())).ok());
+  ASSERT_TRUE(writeFile(path("b.h5"), rowsB, {true, {{"file", "b"}}}, sampleTruth(rowsB.size())).ok());
 
   auto reader = EventReader::open({path("a.csv"), path("b.h5")}, ReaderOptions{kBlock});
   ASSERT_TRUE(reader.ok()) << reader.error().message;
@@ -468,8 +457,7 @@ TEST_F(EventFile, BlocksEndAtEventBoundariesAcrossFiles) {
   std::size_t sum = 0;
   auto back = readAll({path("a.csv")}, kBlock);
   ASSERT_TRUE(back.ok());
-  for (std::size_t i = 0; i + 1 < back->blockSizes.size(); ++i)
-    EXPECT_GE(back->blockSizes[i], kBlock);
+  for (std::size_t i = 0; i + 1 < back->blockSizes.size(); ++i) EXPECT_GE(back->blockSizes[i], kBlock);
   for (auto n : back->blockSizes) sum += n;
   EXPECT_EQ(sum, rowsA.size());
 }
@@ -504,8 +492,7 @@ TEST_F(EventFile, WriterDestroyedWithoutCloseLeavesNothing) {
 TEST_F(EventFile, WriterTemporaryIsNamedAfterTheTarget) {
   auto writer = EventWriter::open(path("e.h5"), {});
   ASSERT_TRUE(writer.ok());
-  EXPECT_EQ(filesInDir(),
-            std::vector<std::string>{fmt::format("e.h5.tmp-{}", static_cast<long>(::getpid()))});
+  EXPECT_EQ(filesInDir(), std::vector<std::string>{fmt::format("e.h5.tmp-{}", static_cast<long>(::getpid()))});
 }
 
 TEST_F(EventFile, WriterRefusesBadRowsAndLeavesNothing) {
@@ -610,8 +597,7 @@ TEST_F(EventFile, CsvRowErrorsNameFileLineAndColumn) {
       {",7,508,0,1,0.5,0.1,1,1.5,480,1,1.5\n", "line 2", "'run'", "empty"},
       {"3000000000,7,508,0,1,0.5,0.1,1,1.5,480,1,1.5\n", "line 2", "'run'", "outside"},
       {"1,2e3,508,0,1,0.5,0.1,1,1.5,480,1,1.5\n", "line 2", "'event'", "not an integer"},
-      {"1,99999999999999999999,508,0,1,0.5,0.1,1,1.5,480,1,1.5\n", "line 2", "'event'",
-       "out of range"},
+      {"1,99999999999999999999,508,0,1,0.5,0.1,1,1.5,480,1,1.5\n", "line 2", "'event'", "out of range"},
       {"1,7,508,0.5,1,0.5,0.1,1,1.5,480,1,1.5\n", "line 2", "muon_veto", "not an integer"},
       {"1,7,508,2,1,0.5,0.1,1,1.5,480,1,1.5\n", "line 2", "muon_veto", "outside [0, 1]"},
       {"1,7,508,0,x,0.5,0.1,1,1.5,480,1,1.5\n", "line 2", "charged", "not a finite number"},
@@ -633,13 +619,10 @@ TEST_F(EventFile, CsvRowErrorsNameFileLineAndColumn) {
       {"1,8,508,0,0,,,,1.5,200,3,2\n", "line 2", "theta_ts_rad", "photon"},
       {"1,8,508,0,0,,,,,,,\n", "line 2", "energy_mev", "needs an EMC cluster"},
       // the rows of an event share beam energy and veto
-      {"1,7,508,0,1,0.5,0.1,1,1.5,480,1,1.5\n1,7,509,0,0,,,,,200,3,2\n", "line 3",
-       "beam_energy_mev", "differs"},
-      {"1,7,508,0,1,0.5,0.1,1,1.5,480,1,1.5\n1,7,508,1,0,,,,,200,3,2\n", "line 3", "muon_veto",
-       "differs"},
+      {"1,7,508,0,1,0.5,0.1,1,1.5,480,1,1.5\n1,7,509,0,0,,,,,200,3,2\n", "line 3", "beam_energy_mev", "differs"},
+      {"1,7,508,0,1,0.5,0.1,1,1.5,480,1,1.5\n1,7,508,1,0,,,,,200,3,2\n", "line 3", "muon_veto", "differs"},
       // comment and blank lines count as lines
-      {"# note\n\n1,7,508,0,1,0.5,0.1,1,1.5,480,1,abc\n", "line 4", "theta_emc_rad",
-       "not a finite"},
+      {"# note\n\n1,7,508,0,1,0.5,0.1,1,1.5,480,1,abc\n", "line 4", "theta_emc_rad", "not a finite"},
   };
   for (const CsvCase& c : cases) {
     SCOPED_TRACE(c.body);
@@ -705,15 +688,13 @@ TEST_F(EventFile, CsvHeaderErrors) {
     EXPECT_THAT(message, HasSubstr("bad.csv: line 1: header:"));
     EXPECT_THAT(message, HasSubstr(c.mention));
   }
-  EXPECT_THAT(csvError("# generator: x\n" + good.substr(1) + "\n"),
-              HasSubstr("bad.csv: line 2: header:"));
+  EXPECT_THAT(csvError("# generator: x\n" + good.substr(1) + "\n"), HasSubstr("bad.csv: line 2: header:"));
   for (const std::string& text : {std::string(), std::string("# only a comment\n\n")}) {
     const std::string message = csvError(text);
     EXPECT_THAT(message, HasSubstr("bad.csv"));
     EXPECT_THAT(message, HasSubstr("header"));
   }
-  EXPECT_THAT(csvError("# k: 1\n# k: 2\n" + kHeader),
-              HasSubstr("line 2: attribute 'k' given twice"));
+  EXPECT_THAT(csvError("# k: 1\n# k: 2\n" + kHeader), HasSubstr("line 2: attribute 'k' given twice"));
 }
 
 // -------------------------------------------------------------------------- HDF5 errors
@@ -731,19 +712,18 @@ std::vector<RawColumn> rawColumns(const std::vector<ParticleRow>& rows) {
     for (const auto& r : rows) c.values.push_back(static_cast<double>(get(r)));
     return c;
   };
-  return {
-      column("run", H5T_STD_I32LE, [](const ParticleRow& r) { return r.run; }),
-      column("event", H5T_STD_I64LE, [](const ParticleRow& r) { return r.event; }),
-      column("beam_energy_mev", H5T_IEEE_F64LE, [](const ParticleRow& r) { return r.beamEnergy; }),
-      column("muon_veto", H5T_STD_I8LE, [](const ParticleRow& r) { return r.muonVeto; }),
-      column("charged", H5T_STD_I8LE, [](const ParticleRow& r) { return r.charged; }),
-      column("z0_cm", H5T_IEEE_F64LE, [](const ParticleRow& r) { return r.z0; }),
-      column("rho_cm", H5T_IEEE_F64LE, [](const ParticleRow& r) { return r.rho; }),
-      column("phi_ts_rad", H5T_IEEE_F64LE, [](const ParticleRow& r) { return r.phiTs; }),
-      column("theta_ts_rad", H5T_IEEE_F64LE, [](const ParticleRow& r) { return r.thetaTs; }),
-      column("energy_mev", H5T_IEEE_F64LE, [](const ParticleRow& r) { return r.energy; }),
-      column("phi_emc_rad", H5T_IEEE_F64LE, [](const ParticleRow& r) { return r.phiEmc; }),
-      column("theta_emc_rad", H5T_IEEE_F64LE, [](const ParticleRow& r) { return r.thetaEmc; })};
+  return {column("run", H5T_STD_I32LE, [](const ParticleRow& r) { return r.run; }),
+          column("event", H5T_STD_I64LE, [](const ParticleRow& r) { return r.event; }),
+          column("beam_energy_mev", H5T_IEEE_F64LE, [](const ParticleRow& r) { return r.beamEnergy; }),
+          column("muon_veto", H5T_STD_I8LE, [](const ParticleRow& r) { return r.muonVeto; }),
+          column("charged", H5T_STD_I8LE, [](const ParticleRow& r) { return r.charged; }),
+          column("z0_cm", H5T_IEEE_F64LE, [](const ParticleRow& r) { return r.z0; }),
+          column("rho_cm", H5T_IEEE_F64LE, [](const ParticleRow& r) { return r.rho; }),
+          column("phi_ts_rad", H5T_IEEE_F64LE, [](const ParticleRow& r) { return r.phiTs; }),
+          column("theta_ts_rad", H5T_IEEE_F64LE, [](const ParticleRow& r) { return r.thetaTs; }),
+          column("energy_mev", H5T_IEEE_F64LE, [](const ParticleRow& r) { return r.energy; }),
+          column("phi_emc_rad", H5T_IEEE_F64LE, [](const ParticleRow& r) { return r.phiEmc; }),
+          column("theta_emc_rad", H5T_IEEE_F64LE, [](const ParticleRow& r) { return r.thetaEmc; })};
 }
 
 void writeRawHdf5(const std::string& path, const std::vector<RawColumn>& events,
@@ -757,12 +737,10 @@ void writeRawHdf5(const std::string& path, const std::vector<RawColumn>& events,
     for (const RawColumn& c : columns) {
       const hsize_t n = c.values.size();
       const hid_t space = H5Screate_simple(1, &n, nullptr);
-      const hid_t ds =
-          H5Dcreate2(g, c.name.c_str(), c.type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+      const hid_t ds = H5Dcreate2(g, c.name.c_str(), c.type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
       ASSERT_GE(ds, 0) << c.name;
       if (n > 0) {
-        ASSERT_GE(H5Dwrite(ds, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, c.values.data()),
-                  0);
+        ASSERT_GE(H5Dwrite(ds, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, c.values.data()), 0);
       }
       H5Dclose(ds);
       H5Sclose(space);
@@ -820,16 +798,14 @@ TEST_F(EventFile, Hdf5ValueErrorsNameFileRecordAndColumn) {
     writeRawHdf5(path("bad.h5"), columns);
     auto r = readAll({path("bad.h5")}, 2);
     ASSERT_FALSE(r.ok());
-    EXPECT_THAT(r.error().message,
-                HasSubstr(fmt::format("bad.h5: record {}: column '{}'", c.record, c.column)));
+    EXPECT_THAT(r.error().message, HasSubstr(fmt::format("bad.h5: record {}: column '{}'", c.record, c.column)));
     EXPECT_THAT(r.error().message, HasSubstr(c.reason));
   }
 }
 
 TEST_F(EventFile, Hdf5StructureErrors) {
   const auto rows = sampleRows(3);
-  const auto expectError = [&](const std::vector<RawColumn>& events,
-                               const std::vector<RawColumn>& truth,
+  const auto expectError = [&](const std::vector<RawColumn>& events, const std::vector<RawColumn>& truth,
                                std::vector<std::string> mentions, const char* group = "events") {
     writeRawHdf5(path("bad.h5"), events, truth, group);
     auto r = readAll({path("bad.h5")});
@@ -853,8 +829,7 @@ TEST_F(EventFile, Hdf5StructureErrors) {
     SCOPED_TRACE("wrong type");
     auto columns = rawColumns(rows);
     columnNamed(columns, "run").type = H5T_IEEE_F64LE;
-    expectError(columns, {},
-                {"'/events/run'", "type is 64-bit float, expected 32-bit signed integer"});
+    expectError(columns, {}, {"'/events/run'", "type is 64-bit float, expected 32-bit signed integer"});
     columns = rawColumns(rows);
     columnNamed(columns, "phi_ts_rad").type = H5T_IEEE_F32LE;
     expectError(columns, {}, {"'/events/phi_ts_rad'", "32-bit float"});
@@ -874,10 +849,9 @@ TEST_F(EventFile, Hdf5StructureErrors) {
   }
   {
     SCOPED_TRACE("truth of another length");
-    std::vector<RawColumn> truth = {
-        {"pdg", H5T_STD_I32LE, std::vector<double>(rows.size() + 1, 11.0)}};
-    for (const char* n : {"energy_mev", "theta_rad", "phi_rad", "vertex_x_cm", "vertex_y_cm",
-                          "vertex_z_cm", "shower_x_cm", "shower_y_cm", "shower_z_cm"}) {
+    std::vector<RawColumn> truth = {{"pdg", H5T_STD_I32LE, std::vector<double>(rows.size() + 1, 11.0)}};
+    for (const char* n : {"energy_mev", "theta_rad", "phi_rad", "vertex_x_cm", "vertex_y_cm", "vertex_z_cm",
+                          "shower_x_cm", "shower_y_cm", "shower_z_cm"}) {
       truth.push_back({n, H5T_IEEE_F64LE, std::vector<double>(rows.size() + 1, 1.0)});
     }
     expectError(rawColumns(rows), truth, {"'/truth'", "records"});
@@ -893,9 +867,7 @@ TEST_F(EventFile, Hdf5TruncatedFileFails) {
   const std::string bytes = readBytes(path("full.h5"));
   for (const double fraction : {0.5, 0.9, 0.999}) {
     SCOPED_TRACE(fraction);
-    writeBytes(
-        path("cut.h5"),
-        bytes.substr(0, static_cast<std::size_t>(fraction * static_cast<double>(bytes.size()))));
+    writeBytes(path("cut.h5"), bytes.substr(0, static_cast<std::size_t>(fraction * static_cast<double>(bytes.size()))));
     auto r = readAll({path("cut.h5")});
     ASSERT_FALSE(r.ok());
     EXPECT_THAT(r.error().message, HasSubstr("cut.h5"));
@@ -927,8 +899,7 @@ TEST_F(EventFile, MissingAndNonHdf5FilesFail) {
 }
 
 TEST_F(EventFile, ReaderErrorIsSticky) {
-  writeBytes(path("bad.csv"),
-             kHeader + kGoodCharged + "1,8,508,0,1,oops,0.1,1,1.5,480,1,1.5\n" + kGoodCharged);
+  writeBytes(path("bad.csv"), kHeader + kGoodCharged + "1,8,508,0,1,oops,0.1,1,1.5,480,1,1.5\n" + kGoodCharged);
   auto reader = EventReader::open({path("bad.csv")}, ReaderOptions{1});
   ASSERT_TRUE(reader.ok());
   std::vector<ParticleRow> block;
@@ -975,8 +946,8 @@ TEST_F(EventFile, RepeatedEventsAreRefusedNamingBothPlaces) {
 
 TEST_F(EventFile, RowsOfAnEventApartAreRefused) {
   // Event 7's rows are split by event 8: the selection would see two broken events.
-  const std::string text = kHeader + "1,7,508,0,0,,,,,200,3.0,2.0\n" + "1,8,508,0,0,,,,,200,3.0,2.0\n" +
-                           "1,7,508,0,0,,,,,210,3.1,2.1\n";
+  const std::string text =
+      kHeader + "1,7,508,0,0,,,,,200,3.0,2.0\n" + "1,8,508,0,0,,,,,200,3.0,2.0\n" + "1,7,508,0,0,,,,,210,3.1,2.1\n";
   const std::string message = csvError(text);
   EXPECT_THAT(message, HasSubstr("bad.csv: line 4: run 1 event 7 appears again (its rows start at "));
   EXPECT_THAT(message, HasSubstr("bad.csv: line 2)"));
@@ -1055,7 +1026,9 @@ namespace {
 // Found by fuzzing (tests/fuzz/regressions/): inside libhdf5 1.10 they end in SIGFPE, an
 // endless loop and an exabyte allocation. The reader runs HDF5 in a child process, so each
 // becomes an error naming the file.
-std::string regression(const char* name) { return std::string(EMCALIGN_SOURCE_DIR) + "/tests/fuzz/regressions/" + name; }
+std::string regression(const char* name) {
+  return std::string(EMCALIGN_SOURCE_DIR) + "/tests/fuzz/regressions/" + name;
+}
 
 TEST(EventFileIsolation, ACrashOfTheHdf5LibraryIsAnError) {
   auto r = readAll({regression("hdf5-chunk-dimension-zero.h5")});

@@ -79,7 +79,8 @@ TEST(AlignmentFile, StrictValidationNamesTheKey) {
   EXPECT_NE(errorOf(replace(kGood, "\"dx\": 0.3", "\"dx\": \"0.3\"")).find("parameters.dx"), std::string::npos);
   EXPECT_NE(errorOf(replace(kGood, "\"dx\": 0.3", "\"dx\": 1e999")).find("out of range"), std::string::npos);
   EXPECT_NE(errorOf(replace(kGood, "\"dx\": 0.3", "\"dx\": NaN")).find("not valid JSON"), std::string::npos);
-  EXPECT_NE(errorOf(replace(kGood, "\"dy\": 0.0", "\"dy\": 0.0, \"dx\": 0.1")).find("'dx' appears twice"), std::string::npos);
+  EXPECT_NE(errorOf(replace(kGood, "\"dy\": 0.0", "\"dy\": 0.0, \"dx\": 0.1")).find("'dx' appears twice"),
+            std::string::npos);
   EXPECT_NE(errorOf(replace(kGood, "\"deg\"", "\"rad\"")).find("units.angle"), std::string::npos);
   EXPECT_NE(errorOf(replace(kGood, "\"format\"", "\"comment\": 1, \"format\"")).find("comment"), std::string::npos);
   EXPECT_NE(errorOf(replace(kGood, "alignment/1", "alignment/2")).find("format"), std::string::npos);
@@ -90,7 +91,8 @@ TEST(AlignmentFile, StrictValidationNamesTheKey) {
 }
 
 TEST(AlignmentFile, AcceptsFitResultKeys) {
-  std::string withResult = replace(kGood, "\"format\"", "\"chi2\": 301.5, \"ndf\": 308, \"status\": \"converged\", \"format\"");
+  std::string withResult =
+      replace(kGood, "\"format\"", "\"chi2\": 301.5, \"ndf\": 308, \"status\": \"converged\", \"format\"");
   EXPECT_TRUE(parse(withResult).ok());
 }
 
@@ -118,7 +120,8 @@ TEST(DetectorFile, PartialOverrideKeepsTheRest) {
   auto j = parseJson(R"({"format": "emcalign-detector/1", "support_spheres": [
       {"r_inner_cm": 52.7, "r_outer_cm": 54.0}, {"r_inner_cm": 68.5, "r_outer_cm": 70.0}],
       "layers": [{"r_inner_cm": 32.8, "r_outer_cm": 40.3}, {"r_inner_cm": 40.3, "r_outer_cm": 52.7},
-                 {"r_inner_cm": 54.0, "r_outer_cm": 68.5}]})", "d.json");
+                 {"r_inner_cm": 54.0, "r_outer_cm": 68.5}]})",
+                     "d.json");
   ASSERT_TRUE(j.ok());
   auto d = parseDetectorDescription(*j, "d.json");
   ASSERT_TRUE(d.ok()) << d.error().message;
@@ -178,11 +181,14 @@ TEST(DetectorFile, UnitMistakesAreNamed) {
                 .find("given in mm?"),
             std::string::npos);
   // A radius of 1e300 cm (the tracking loop of the simulation once walked it in 2 cm steps).
-  EXPECT_NE(error(R"("support_spheres": [{"r_inner_cm": 52.7, "r_outer_cm": 53.7}, {"r_inner_cm": 68.5, "r_outer_cm": 1e300}])")
-                .find("support_spheres[1].r_outer_cm"),
-            std::string::npos);
+  EXPECT_NE(
+      error(
+          R"("support_spheres": [{"r_inner_cm": 52.7, "r_outer_cm": 53.7}, {"r_inner_cm": 68.5, "r_outer_cm": 1e300}])")
+          .find("support_spheres[1].r_outer_cm"),
+      std::string::npos);
   EXPECT_NE(error(R"("shower": {"x0_cm": 25.6e3})").find("shower.x0_cm"), std::string::npos);
-  EXPECT_NE(error(R"("shower": {"critical_energy_mev": 0.01316})").find("shower.critical_energy_mev"), std::string::npos);
+  EXPECT_NE(error(R"("shower": {"critical_energy_mev": 0.01316})").find("shower.critical_energy_mev"),
+            std::string::npos);
 }
 
 TEST(Json, DeepNestingIsRefusedBeforeParsing) {
@@ -195,7 +201,8 @@ TEST(Json, DeepNestingIsRefusedBeforeParsing) {
   ASSERT_FALSE(j.ok());
   EXPECT_NE(j.error().message.find("nested deeper than 64 levels"), std::string::npos) << j.error().message;
   // Brackets inside strings do not count; 60 levels are fine.
-  std::string text = R"({"s": "[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[\"{{{{", "a": )";
+  std::string text =
+      R"({"s": "[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[\"{{{{", "a": )";
   for (int i = 0; i < 60; ++i) text += "[";
   for (int i = 0; i < 60; ++i) text += "]";
   text += "}";
@@ -219,7 +226,8 @@ TEST(AlignmentFile, ImplausibleValuesNameTheLikelyUnitMistake) {
   EXPECT_NE(errorOf(replace(kGood, "\"alpha\": 3.0", "\"alpha\": 1e6")).find("alpha = 1e+06 deg"), std::string::npos);
   EXPECT_NE(errorOf(replace(kGood, "\"alpha\": 3.0", "\"alpha\": 1e6")).find("degrees"), std::string::npos);
   EXPECT_NE(errorOf(replace(kGood, "\"dx\": 0.3", "\"dx\": 1e300")).find("given in mm?"), std::string::npos);
-  EXPECT_NE(errorOf(replace(kGood, "\"dx\": 0.3", "\"dx\": 30")).find("dx = 30 cm"), std::string::npos) << "3 mm given in mm";
+  EXPECT_NE(errorOf(replace(kGood, "\"dx\": 0.3", "\"dx\": 30")).find("dx = 30 cm"), std::string::npos)
+      << "3 mm given in mm";
   EXPECT_NE(errorOf(replace(kGood, "\"beta_rel\": 0.02", "\"beta_rel\": 45")).find("beta_rel"), std::string::npos);
   EXPECT_TRUE(parse(replace(kGood, "\"dx\": 0.3", "\"dx\": 0.9")).ok()) << "9 mm is a plausible shift";
 }

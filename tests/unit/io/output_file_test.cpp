@@ -31,9 +31,8 @@ using ::testing::HasSubstr;
 class OutputFileTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           fmt::format("emcalign_output_{}_{}", ::getpid(),
-                       ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    dir_ = fs::temp_directory_path() / fmt::format("emcalign_output_{}_{}", ::getpid(),
+                                                   ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::remove_all(dir_);
     fs::create_directories(dir_);
   }
@@ -179,7 +178,8 @@ TEST_F(OutputFileTest, RegisteredTemporariesAreRemovedOnDemand) {
   const Status s = (*out)->commit();
   ASSERT_FALSE(s.ok());
   // The system's reason, taken before anything else can change errno (once "… Success").
-  EXPECT_THAT(s.error().message, HasSubstr("r.csv: cannot rename the temporary file into place: No such file or directory"));
+  EXPECT_THAT(s.error().message,
+              HasSubstr("r.csv: cannot rename the temporary file into place: No such file or directory"));
   EXPECT_FALSE(fs::exists(path("r.csv")));
 }
 
@@ -211,10 +211,9 @@ TEST_F(OutputFileTest, OutputsMustDifferFromInputsAndEachOther) {
   EXPECT_THAT(checkDistinct({{"-o", path("ev.csv")}}, inputs).error().message, HasSubstr("same file as the input"));
   EXPECT_THAT(checkDistinct({{"-o", path("link.csv")}}, inputs).error().message, HasSubstr("same file as the input"));
   EXPECT_THAT(checkDistinct({{"-o", path("hard.csv")}}, inputs).error().message, HasSubstr("same file as the input"));
-  EXPECT_THAT(checkDistinct({{"-o", path("a.json")}, {"--profile-out", dir_.string() + "/./a.json"}}, inputs)
-                  .error()
-                  .message,
-              HasSubstr("same file as the output -o"));
+  EXPECT_THAT(
+      checkDistinct({{"-o", path("a.json")}, {"--profile-out", dir_.string() + "/./a.json"}}, inputs).error().message,
+      HasSubstr("same file as the output -o"));
   EXPECT_TRUE(checkDistinct({{"-o", path("a.json")}, {"--profile-out", path("p.csv")}}, inputs).ok());
   EXPECT_TRUE(checkDistinct({{"-o", "/dev/null"}, {"--profile-out", "/dev/null"}}, inputs).ok());
 }

@@ -54,9 +54,9 @@ TEST(Html, FiguresAreInlinePngsOnly) {
 
 TEST(Html, HeatMapColoursBySignAndStrength) {
   const std::string h = html::heatMap({"a", "b"}, {{1.0, -0.5}, {0.0, std::nan("")}}, "C");
-  EXPECT_NE(h.find("background:rgb(255,0,0);color:#fff\">+1.00"), std::string::npos) << h;   // full red
+  EXPECT_NE(h.find("background:rgb(255,0,0);color:#fff\">+1.00"), std::string::npos) << h;      // full red
   EXPECT_NE(h.find("background:rgb(128,128,255);color:#000\">-0.50"), std::string::npos) << h;  // half blue
-  EXPECT_NE(h.find("background:rgb(255,255,255);color:#000\">0.00"), std::string::npos) << h;  // white, unsigned
+  EXPECT_NE(h.find("background:rgb(255,255,255);color:#000\">0.00"), std::string::npos) << h;   // white, unsigned
   EXPECT_NE(h.find("<td>—</td>"), std::string::npos);
 }
 
@@ -72,7 +72,8 @@ TEST(Html, APageHasNoScriptAndNoUrl) {
 
 Json fitResult() {
   Json params = Json::object(), errors = Json::object();
-  for (const char* n : {"alpha", "beta1", "beta2", "dx", "dy", "dz", "dp1", "dp2", "dp3", "dy_rel", "dz_rel", "beta_rel"}) {
+  for (const char* n :
+       {"alpha", "beta1", "beta2", "dx", "dy", "dz", "dp1", "dp2", "dp3", "dy_rel", "dz_rel", "beta_rel"}) {
     params[n] = 0.1;
     errors[n] = 0.0123;
   }
@@ -146,16 +147,27 @@ TEST(CalibrationReport, TheValidationStandsBesideTable1AndTheTrendListsItsFindin
                                    {{"samples", 100},
                                     {"events", 50000},
                                     {"parameters",
-                                     {{"dx", {{"unit", "cm"}, {"bias", 0.00042}, {"bias_error", 0.00044}, {"spread", 0.0044},
-                                              {"pull_mean", 0.03}, {"pull_width", 0.28}, {"pull_width_error", 0.02},
-                                              {"slope", 0.0008}}}}}},
+                                     {{"dx",
+                                       {{"unit", "cm"},
+                                        {"bias", 0.00042},
+                                        {"bias_error", 0.00044},
+                                        {"spread", 0.0044},
+                                        {"pull_mean", 0.03},
+                                        {"pull_width", 0.28},
+                                        {"pull_width_error", 0.02},
+                                        {"slope", 0.0008}}}}}},
                                    {}};
   in.trend = ReportTrend{"tr",
                          {{"format", "emcalign-trend/1"},
                           {"iovs", 3},
                           {"steps", Json::array()},
-                          {"drifts", Json::array({{{"parameter", "dz"}, {"first_run", 5}, {"last_run", 9},
-                                                   {"slope_per_run", 3e-4}, {"error", 2e-5}, {"z", 15.0}, {"unit", "cm/run"}}})},
+                          {"drifts", Json::array({{{"parameter", "dz"},
+                                                   {"first_run", 5},
+                                                   {"last_run", 9},
+                                                   {"slope_per_run", 3e-4},
+                                                   {"error", 2e-5},
+                                                   {"z", 15.0},
+                                                   {"unit", "cm/run"}}})},
                           {"segments", Json::array()}},
                          {}};
   auto page = calibrationReport(in);

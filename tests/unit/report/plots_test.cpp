@@ -102,8 +102,7 @@ TEST(Histogram, ResidualHistogramsAreTenDegreesEitherSideInTenthsOfADegree) {
 
 // ---- writeFitPlots
 
-const calib::FitGeometry kGeometry =
-    calib::FitGeometry::of(geometry::DetectorDescription::sndDefault());
+const calib::FitGeometry kGeometry = calib::FitGeometry::of(geometry::DetectorDescription::sndDefault());
 
 AlignmentParameters paperLike() {
   AlignmentParameters eta;
@@ -147,8 +146,8 @@ std::vector<calib::ProfileBin> syntheticBins(const AlignmentParameters& eta) {
   bins[3].n = 5;
   bins[77].n = 8;
   bins[150].n = 0;
-  bins[150].phiMean = bins[150].thetaMean = bins[150].yPhi = bins[150].yTheta =
-      bins[150].energyMean = std::numeric_limits<double>::quiet_NaN();
+  bins[150].phiMean = bins[150].thetaMean = bins[150].yPhi = bins[150].yTheta = bins[150].energyMean =
+      std::numeric_limits<double>::quiet_NaN();
   calib::markUsedBins(bins, 10);
   return bins;
 }
@@ -179,8 +178,7 @@ class PlotTest : public testing::Test {
  protected:
   void SetUp() override {
     dir_ = fs::temp_directory_path() /
-           ("emcalign_plots_test_" +
-            std::string(testing::UnitTest::GetInstance()->current_test_info()->name()));
+           ("emcalign_plots_test_" + std::string(testing::UnitTest::GetInstance()->current_test_info()->name()));
     fs::remove_all(dir_);
   }
   void TearDown() override {
@@ -204,8 +202,7 @@ TEST_F(PlotTest, WritesFourPngFiguresWithTheirDataAndScripts) {
   auto r = writeFitPlots((dir_ / "plots").string(), bins, kGeometry, fitAt(eta, bins), &hist);
   ASSERT_TRUE(r.ok()) << r.error().message;
   ASSERT_EQ(r->size(), 4u);
-  const std::string names[] = {"profile_phi", "profile_theta_vs_phi", "profile_theta",
-                               "residuals_before_after"};
+  const std::string names[] = {"profile_phi", "profile_theta_vs_phi", "profile_theta", "residuals_before_after"};
   for (int k = 0; k < 4; ++k) {
     const fs::path png = dir_ / "plots" / (names[k] + ".png");
     EXPECT_EQ(fs::path((*r)[static_cast<std::size_t>(k)]), png);
@@ -214,8 +211,8 @@ TEST_F(PlotTest, WritesFourPngFiguresWithTheirDataAndScripts) {
     EXPECT_GT(fs::file_size(png), 20000u) << png;  // a drawn figure, not an empty canvas
     EXPECT_TRUE(fs::exists(dir_ / "plots" / (names[k] + ".gp"))) << names[k];
   }
-  for (const char* data : {"profile_bins.dat", "profile_model_vs_phi.dat",
-                           "profile_model_vs_theta.dat", "residuals_before_after.dat"})
+  for (const char* data :
+       {"profile_bins.dat", "profile_model_vs_phi.dat", "profile_model_vs_theta.dat", "residuals_before_after.dat"})
     EXPECT_TRUE(fs::exists(dir_ / "plots" / data)) << data;
 }
 

@@ -126,7 +126,8 @@ TEST(Calorimeter, ElectronShowersSitMostlyInLayersOneAndTwo) {
   EmcOptions o;
   o.deadCountersOn = false;
   o.energyResolution = false;
-  auto truth = geometry::AlignmentTransform::create(AlignmentParameters{}, geometry::AlignmentRadii::of(calo.description()));
+  auto truth =
+      geometry::AlignmentTransform::create(AlignmentParameters{}, geometry::AlignmentRadii::of(calo.description()));
   CalorimeterResponse response(calo, *truth, o);
   CounterHits hits(calo.size());
   Rng rng(7, 0);
@@ -224,11 +225,11 @@ TEST(Calorimeter, ReconstructedAngleIsNonUniformInsideACounter) {
     ASSERT_GT(n[b], 500);
     profile[b] = sum[b] / n[b];
   }
-  const double amplitude = 0.5 * (*std::max_element(profile.begin(), profile.end()) -
-                                  *std::min_element(profile.begin(), profile.end()));
+  const double amplitude =
+      0.5 * (*std::max_element(profile.begin(), profile.end()) - *std::min_element(profile.begin(), profile.end()));
   EXPECT_GT(amplitude, 0.1);
-  EXPECT_GT(profile[1], 0.05);          // left of the centre: pulled up
-  EXPECT_LT(profile[kBins - 2], -0.05); // right of the centre: pulled down
+  EXPECT_GT(profile[1], 0.05);           // left of the centre: pulled up
+  EXPECT_LT(profile[kBins - 2], -0.05);  // right of the centre: pulled down
   EXPECT_NEAR(profile[kBins / 2], 0.0, 0.1);
 }
 
@@ -246,15 +247,15 @@ double meanSinDeltaPhi(const Sample& s) {
       bool ok = true;
       for (std::size_t k = i; k < j; ++k) {
         const auto& r = s.rows[k];
-        ok = ok && r.hasCluster() && std::abs(r.z0) < 10 && std::abs(r.rho) < 1 &&
-             r.energy > 0.8 * r.beamEnergy && r.energy < 1.1 * r.beamEnergy;
+        ok = ok && r.hasCluster() && std::abs(r.z0) < 10 && std::abs(r.rho) < 1 && r.energy > 0.8 * r.beamEnergy &&
+             r.energy < 1.1 * r.beamEnergy;
       }
       const double acol = std::abs(180.0 - std::abs(s.rows[i].phiTs - s.rows[i + 1].phiTs) / deg);
       if (ok && acol < 10.0) {
         for (std::size_t k = i; k < j; ++k) {
           const auto& r = s.rows[k];
-          const auto y = geometry::measuredResidual({r.z0, r.rho, r.phiTs, r.thetaTs}, r.energy, r.phiEmc,
-                                                    r.thetaEmc, depth);
+          const auto y =
+              geometry::measuredResidual({r.z0, r.rho, r.phiTs, r.thetaTs}, r.energy, r.phiEmc, r.thetaEmc, depth);
           if (y && r.thetaEmc > 45 * deg && r.thetaEmc < 135 * deg) {
             sum += y->phi;
             ++n;

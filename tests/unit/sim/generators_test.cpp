@@ -211,8 +211,7 @@ TEST(BhabhaBorn, AngularDistributionFollowsLowestOrderQed) {
     ASSERT_EQ(em.momentum, -ep.momentum);
     ASSERT_EQ(em.energy, o.beamEnergy);
     ASSERT_EQ(ep.energy, o.beamEnergy);
-    ASSERT_NEAR(em.energy * em.energy - em.momentum.squaredNorm(), mass::Electron * mass::Electron,
-                1e-6);
+    ASSERT_NEAR(em.energy * em.energy - em.momentum.squaredNorm(), mass::Electron * mass::Electron, 1e-6);
     c.push_back(cosTheta(em.momentum));
   }
   const double lo = std::cos(o.thetaMax), hi = std::cos(o.thetaMin);
@@ -249,16 +248,15 @@ TEST(BhabhaRadiative, BalancesEnergyAndHasRadiativeTails) {
     ASSERT_GE(col.electronEnergy, (1.0 - kMaxPhotonFraction) * col.electronBeam * (1.0 - 1e-12));
     if (col.electronEnergy < col.electronBeam || col.positronEnergy < col.positronBeam) ++isr;
     const FourMomentum f = sum(ev);
-    worstImbalance = std::max({worstImbalance, std::abs(f.e - col.energy()), std::abs(f.p.x()),
-                               std::abs(f.p.y()), std::abs(f.p.z() - col.momentumZ())});
+    worstImbalance = std::max({worstImbalance, std::abs(f.e - col.energy()), std::abs(f.p.x()), std::abs(f.p.y()),
+                               std::abs(f.p.z() - col.momentumZ())});
     // Both leptons in the generated range; every particle on its mass shell.
     ASSERT_GE(cosTheta(em.momentum), cosLo);
     ASSERT_LE(cosTheta(em.momentum), cosHi);
     ASSERT_GE(cosTheta(ep.momentum), cosLo);
     ASSERT_LE(cosTheta(ep.momentum), cosHi);
     for (const auto& q : ev.particles) {
-      ASSERT_NEAR(q.energy * q.energy - q.momentum.squaredNorm(), q.mass() * q.mass(),
-                  1e-6 * q.energy);
+      ASSERT_NEAR(q.energy * q.energy - q.momentum.squaredNorm(), q.mass() * q.mass(), 1e-6 * q.energy);
     }
     if (angle(em.momentum, -ep.momentum) > 5.0 * deg) ++acollinear;
     leptonEnergy += em.energy + ep.energy;
@@ -364,8 +362,7 @@ TEST(GammaGamma, InitialStateRadiationPerBeamFollowsTheStructureFunction) {
   int emitted = 0, hard = 0;
   for (int i = 0; i < kEvents; ++i) {
     const Collision col = generate(o, rng, ev);
-    for (double x : {1.0 - col.electronEnergy / col.electronBeam,
-                     1.0 - col.positronEnergy / col.positronBeam}) {
+    for (double x : {1.0 - col.electronEnergy / col.electronBeam, 1.0 - col.positronEnergy / col.positronBeam}) {
       ASSERT_LE(x, kMaxPhotonFraction + 1e-12);
       if (x > 0.0) {
         ++emitted;
@@ -399,8 +396,7 @@ struct RhoPiModel {
   double M;
   std::complex<double> bw(double s, double ma, double mb) const {
     auto q = [&](double x) {
-      return std::sqrt(
-          std::max(0.0, (x - (ma + mb) * (ma + mb)) * (x - (ma - mb) * (ma - mb)) / (4.0 * x)));
+      return std::sqrt(std::max(0.0, (x - (ma + mb) * (ma + mb)) * (x - (ma - mb) * (ma - mb)) / (4.0 * x)));
     };
     const double mr = mass::Rho, width = 149.1 * std::pow(q(s) / q(mr * mr), 3) * mr / std::sqrt(s);
     return 1.0 / std::complex<double>(mr * mr - s, -mr * width);
@@ -415,10 +411,8 @@ struct RhoPiModel {
     return pp2 * pm2 * std::max(0.0, 1.0 - cosine * cosine);
   }
   double weight(double sP0, double sM0) const {
-    const double sPM =
-        M * M + 2.0 * mass::PiCharged * mass::PiCharged + mass::Pi0 * mass::Pi0 - sP0 - sM0;
-    const std::complex<double> a = bw(sPM, mass::PiCharged, mass::PiCharged) +
-                                   bw(sP0, mass::PiCharged, mass::Pi0) +
+    const double sPM = M * M + 2.0 * mass::PiCharged * mass::PiCharged + mass::Pi0 * mass::Pi0 - sP0 - sM0;
+    const std::complex<double> a = bw(sPM, mass::PiCharged, mass::PiCharged) + bw(sP0, mass::PiCharged, mass::Pi0) +
                                    bw(sM0, mass::PiCharged, mass::Pi0);
     return cross2(sP0, sM0) * std::norm(a);
   }
@@ -445,8 +439,7 @@ TEST(ThreePion, ConservesFourMomentumAndFollowsThePhiPolarisation) {
     ASSERT_NEAR(f.e, M, 1e-9 * M);
     ASSERT_LT(f.p.norm(), 1e-9 * M);
     for (const auto& q : ev.particles) {
-      ASSERT_NEAR(q.energy * q.energy - q.momentum.squaredNorm(), q.mass() * q.mass(),
-                  1e-6 * q.energy);
+      ASSERT_NEAR(q.energy * q.energy - q.momentum.squaredNorm(), q.mass() * q.mass(), 1e-6 * q.energy);
     }
     FourMomentum pi0;
     (pi0 += ev.particles[2]) += ev.particles[3];

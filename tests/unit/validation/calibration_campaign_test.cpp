@@ -74,7 +74,8 @@ TEST(CampaignPlan, GroupsRunsOfOneEnergyUntilTheyHaveEnoughEvents) {
   EXPECT_EQ(groups[1].runs, (std::vector<std::int32_t>{6, 7, 8, 9}));
   EXPECT_EQ(groups[0].iovLast, 5);  // the missing run is covered by the IOV before it
   EXPECT_EQ(groups[1].iovFirst, 6);
-  const auto& lastLow = *std::find_if(groups.rbegin(), groups.rend(), [](const auto& g) { return g.beamEnergy == 612.5; });
+  const auto& lastLow =
+      *std::find_if(groups.rbegin(), groups.rend(), [](const auto& g) { return g.beamEnergy == 612.5; });
   EXPECT_EQ(lastLow.runs.back(), 30);
   EXPECT_EQ(lastLow.runs.size(), 5u);
   EXPECT_EQ(lastLow.iovLast, 30);

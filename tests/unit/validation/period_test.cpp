@@ -119,8 +119,8 @@ TEST(PeriodScenario, RefusesWhatIsWrong) {
 class PeriodSimulation : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           fmt::format("emcalign_period_{}_{}", ::getpid(), ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    dir_ = fs::temp_directory_path() / fmt::format("emcalign_period_{}_{}", ::getpid(),
+                                                   ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::remove_all(dir_);
     fs::create_directories(dir_);
   }
@@ -161,8 +161,7 @@ TEST_F(PeriodSimulation, SameFilesOnAnyThreadCountAndResumes) {
   auto again = simulate("one", 2);
   ASSERT_TRUE(again) << again.error().message;
   EXPECT_EQ(again->resumed, 9);
-  EXPECT_EQ(slurp(dir_ / "one" / "run_000105.h5"),
-            slurp(dir_ / "two" / "run_000105.h5"));
+  EXPECT_EQ(slurp(dir_ / "one" / "run_000105.h5"), slurp(dir_ / "two" / "run_000105.h5"));
   // Another scenario into the same directory is refused.
   Json other = scenario();
   other["seed"] = 4u;
@@ -173,7 +172,8 @@ TEST_F(PeriodSimulation, SameFilesOnAnyThreadCountAndResumes) {
 
 TEST_F(PeriodSimulation, TruthFileIsReadStrictly) {
   const auto path = (dir_ / "truth.json").string();
-  std::ofstream(path) << R"({"format": "emcalign-period-truth/1", "runs": [{"run": 1, "parameters": {"dx": "a"}, "derived": {}}]})";
+  std::ofstream(path)
+      << R"({"format": "emcalign-period-truth/1", "runs": [{"run": 1, "parameters": {"dx": "a"}, "derived": {}}]})";
   auto t = readPeriodTruth(path);
   ASSERT_FALSE(t);
   EXPECT_THAT(t.error().message, HasSubstr("run 1: parameters.dx is not a number"));

@@ -151,9 +151,12 @@ TEST(Trend, ShortSeries) {
 // Steps of several parameters at one change of the detector make one boundary.
 TEST(Trend, StepsOfSeveralParametersMakeOneBoundary) {
   std::mt19937_64 rng(7);
-  const auto dx = series(50, 0.01, rng, [](std::size_t i) { return i < 20 ? 0.3 : 0.4; }, "dx");
-  const auto psi = series(50, 1.0, rng, [](std::size_t i) { return i < 20 ? 40.0 : 110.0; }, "psi");
-  const auto alpha = series(50, 0.01, rng, [](std::size_t) { return 2.9; }, "alpha");
+  const auto dx = series(
+      50, 0.01, rng, [](std::size_t i) { return i < 20 ? 0.3 : 0.4; }, "dx");
+  const auto psi = series(
+      50, 1.0, rng, [](std::size_t i) { return i < 20 ? 40.0 : 110.0; }, "psi");
+  const auto alpha = series(
+      50, 0.01, rng, [](std::size_t) { return 2.9; }, "alpha");
   const Trend t = analyseTrend({alpha, dx, psi});
   ASSERT_EQ(t.steps.size(), 2u);
   ASSERT_EQ(t.segments.size(), 2u);
@@ -165,8 +168,12 @@ TEST(Trend, StepsOfSeveralParametersMakeOneBoundary) {
 // one: IOV 30 is still the transition (its calibration mixes the two detectors).
 TEST(Trend, ATransitionSeenByOneParameterIsKept) {
   std::mt19937_64 rng(9);
-  const auto dx = series(60, 0.01, rng, [](std::size_t i) { return i < 30 ? 0.25 : i == 30 ? 0.3 : 0.45; }, "dx");
-  const auto psi = series(60, 1.0, rng, [](std::size_t i) { return i <= 30 ? 40.0 : 115.0; }, "psi");
+  const auto dx = series(
+      60, 0.01, rng, [](std::size_t i) { return i < 30    ? 0.25
+                                                : i == 30 ? 0.3
+                                                          : 0.45; }, "dx");
+  const auto psi = series(
+      60, 1.0, rng, [](std::size_t i) { return i <= 30 ? 40.0 : 115.0; }, "psi");
   const Trend t = analyseTrend({dx, psi});
   ASSERT_EQ(t.steps.size(), 2u);
   ASSERT_EQ(t.segments.size(), 3u);

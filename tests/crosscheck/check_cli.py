@@ -25,6 +25,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -37,6 +38,7 @@ TOL_SHOW = 1e-9
 N_BULK = 300        # isotropic points per case
 N_PLANE = 100       # points close to the parting plane x = 0 (gap / overlap region)
 TIMEOUT = 120
+WORKERS = 4         # invocations of the binary run side by side (each is mostly start-up)
 
 results = []        # (name, ok, detail)
 
@@ -191,10 +193,8 @@ def parse_transform_output(text, n_expected):
     return out
 
 
-def check_transform(binary, pfile, case, pts, pts_csv, inverse, hem, layer):
-    """One invocation; hem in (None, +1, -1, 'auto'); layer in (None, 1, 3)."""
-    fit = case["fit"]
-    ref_layer = 1 if layer is None else layer
+def transform_args(pfile, inverse, hem, layer):
+    """The command line of one invocation; hem in (None, +1, -1, 'auto'); layer in (None, 1, 3)."""
     args = ["transform", "--params", pfile]
     if inverse:
         args.append("--inverse")
@@ -202,11 +202,18 @@ def check_transform(binary, pfile, case, pts, pts_csv, inverse, hem, layer):
         args += ["--hemisphere", {1: "+1", -1: "-1", "auto": "auto"}[hem]]
     if layer is not None:
         args += ["--layer", str(layer)]
+    return args
+
+
+def check_transform(output, case, pts, inverse, hem, layer):
+    """One invocation's `run` output (stdout, stderr) against the reference."""
+    fit = case["fit"]
+    ref_layer = 1 if layer is None else layer
     name = "%s: %s hem=%s layer=%s" % (case["name"], "inverse" if inverse else "forward",
                                        "default" if hem is None else
                                        {1: "+1", -1: "-1", "auto": "auto"}[hem],
                                        "default(1)" if layer is None else layer)
-    stdout, err = run(binary, args, pts_csv)
+    stdout, err = output
     if stdout is None:
         check(name, False, err)
         return
@@ -215,41 +222,50 @@ def check_transform(binary, pfile, case, pts, pts_csv, inverse, hem, layer):
     except ValueError as exc:
         check(name, False, "bad output: %s" % exc)
         return
+    # The reference on all points at once (the same maps as ref.forward / ref.inverse /
+    # ref.inverse_auto point by point); NaN rows where no coordinates are expected.
+    if not inverse:
+        exp_h = [ref.hemisphere_of(p) if hem is None else hem for p in pts]
+        exp_xyz = ref.forward_many(pts, fit, np.array(exp_h), ref_layer)
+    elif hem in (1, -1):
+        exp_h = [hem] * len(pts)
+        exp_xyz = ref.inverse_many(pts, fit, hem, ref_layer)
+    else:
+        exp_xyz, exp_h = ref.inverse_auto_many(pts, fit, ref_layer)
+        ties = ref.auto_margin_many(pts, fit, ref_layer) < 1e-9
     worst, bad, n_gap, n_ovl, n_tie = 0.0, [], 0, 0, 0
     for i, (p, (xyz, h)) in enumerate(zip(pts, rows)):
-        if not inverse:
-            s = ref.hemisphere_of(p) if hem is None else hem
-            exp_xyz, exp_h = ref.forward(p, fit, s, ref_layer), s
-        elif hem in (1, -1):
-            exp_xyz, exp_h = ref.inverse(p, fit, hem, ref_layer), hem
-        else:
-            exp_xyz, exp_h = ref.inverse_auto(p, fit, ref_layer)
-            if ref.auto_margin(p, fit, ref_layer) < 1e-9:
-                # decision within rounding of a tie: accept any consistent answer
-                n_tie += 1
-                if h in (1, -1):
-                    exp_xyz, exp_h = ref.inverse(p, fit, h, ref_layer), h
-                else:
-                    exp_xyz, exp_h = None, h
-        if exp_h == "gap":
+        if inverse and hem not in (1, -1) and ties[i]:
+            # decision within rounding of a tie: accept any consistent answer
+            n_tie += 1
+            exp_h[i] = h
+            exp_xyz[i] = ref.inverse(p, fit, h, ref_layer) if h in (1, -1) else np.nan
+        if exp_h[i] == "gap":
             n_gap += 1
-        elif exp_h == "overlap":
+        elif exp_h[i] == "overlap":
             n_ovl += 1
-        if h != exp_h:
-            bad.append("pt %d: hemisphere %r, expected %r" % (i, h, exp_h))
+        if h != exp_h[i]:
+            bad.append("pt %d: hemisphere %r, expected %r" % (i, h, exp_h[i]))
             continue
-        if exp_xyz is None:
+        if h not in (1, -1):
             if xyz is not None:
                 bad.append("pt %d: %s with coordinates %r" % (i, h, xyz))
             continue
         if xyz is None:
             bad.append("pt %d: empty coordinates" % i)
             continue
-        d = float(np.max(np.abs(xyz - exp_xyz)))
-        worst = max(worst, d)
-        if not d <= TOL_CM:
+    # Coordinates of the rows whose hemisphere matched and that have some, all at once.
+    have = [i for i, (xyz, h) in enumerate(rows)
+            if xyz is not None and h in (1, -1) and h == exp_h[i]]
+    if have:
+        got = np.array([rows[i][0] for i in have])
+        dev = np.max(np.abs(got - exp_xyz[have]), axis=1)
+        worst = float(np.max(dev))
+        for k in np.flatnonzero(~(dev <= TOL_CM)):
+            i = have[k]
+            p = pts[i]
             bad.append("pt %d (%.6g,%.6g,%.6g): got %r expected %r (dev %.3g cm)"
-                       % (i, p[0], p[1], p[2], list(xyz), list(exp_xyz), d))
+                       % (i, p[0], p[1], p[2], list(got[k]), list(exp_xyz[i]), dev[k]))
     detail = "%d pts, max dev %.2e cm" % (len(pts), worst)
     if inverse and hem not in (1, -1):
         detail += ", %d gap, %d overlap%s" % (n_gap, n_ovl,
@@ -263,9 +279,10 @@ def angle_diff_deg(a, b):
     return abs((a - b + 180.0) % 360.0 - 180.0)
 
 
-def check_show(binary, pfile, case):
+def check_show(output, case):
+    """`params show --json`'s `run` output (stdout, stderr) against the reference."""
     name = "%s: params show" % case["name"]
-    stdout, err = run(binary, ["params", "show", pfile, "--json"])
+    stdout, err = output
     if stdout is None:
         check(name, False, err)
         return
@@ -360,18 +377,24 @@ def main(argv):
         if not (os.path.isfile(binary) and os.access(binary, os.X_OK)):
             check("binary present and executable", False, binary)
         else:
-            for case in cases:
-                print("-- %s" % case["name"])
-                check_show(binary, case["file"], case)
-                for layer in (1, 3):
-                    for hem in (None, 1, -1):
-                        check_transform(binary, case["file"], case, pts, pts_csv,
-                                        False, hem, layer)
-                    for hem in (None, 1, -1, "auto"):
-                        check_transform(binary, case["file"], case, pts, pts_csv,
-                                        True, hem, layer)
-                check_transform(binary, case["file"], case, pts, pts_csv, False, None, None)
-                check_transform(binary, case["file"], case, pts, pts_csv, True, "auto", None)
+            # (inverse, hem, layer) of every transform invocation of a case.
+            modes = []
+            for layer in (1, 3):
+                modes += [(False, hem, layer) for hem in (None, 1, -1)]
+                modes += [(True, hem, layer) for hem in (None, 1, -1, "auto")]
+            modes += [(False, None, None), (True, "auto", None)]
+            # Every invocation is started at once (WORKERS at a time); the checks take
+            # their outputs in order.
+            with ThreadPoolExecutor(max_workers=WORKERS) as pool:
+                outputs = [(pool.submit(run, binary, ["params", "show", case["file"], "--json"]),
+                            [pool.submit(run, binary, transform_args(case["file"], *m), pts_csv)
+                             for m in modes])
+                           for case in cases]
+                for case, (show, transforms) in zip(cases, outputs):
+                    print("-- %s" % case["name"])
+                    check_show(show.result(), case)
+                    for m, out in zip(modes, transforms):
+                        check_transform(out.result(), case, pts, *m)
     finally:
         if keep:
             print("temp files kept in %s" % tmp)

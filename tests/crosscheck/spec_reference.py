@@ -12,6 +12,7 @@ files as value*180/pi ("degrees").
 Run `python3 spec_reference.py` for the module's self-consistency checks.
 """
 
+import functools
 import math
 
 import numpy as np
@@ -154,9 +155,20 @@ def layer3_rule_active(fit):
 
 
 def matrices(fit, s, layer=1):
-    """(T_zyz, T_mu, T_betarel, xi_rel, xi) for hemisphere s (+1/-1) and a layer."""
+    """(T_zyz, T_mu, T_betarel, xi_rel, xi) for hemisphere s (+1/-1) and a layer.
+
+    Built once per (parameter values, s, layer) and shared: the arrays are read-only.
+    The key is the exact bits of every value (float.hex), so -0.0 and 0.0, which give
+    different atan2 angles, are different sets.
+    """
     if s not in (1, -1):
         raise ValueError("hemisphere must be +1 or -1")
+    return _matrices(tuple(float(fit[n]).hex() for n in FIT_NAMES), s, layer)
+
+
+@functools.lru_cache(maxsize=1024)
+def _matrices(key, s, layer):
+    fit = {n: float.fromhex(v) for n, v in zip(FIT_NAMES, key)}
     phys = physical_from_fit(fit)
     beta, psi, alpha = phys["beta"], phys["psi"], fit["alpha"]
     T_zyz = rot_z(psi) @ rot_y(beta) @ rot_z(alpha - psi)
@@ -166,7 +178,10 @@ def matrices(fit, s, layer=1):
     T_br = rot_x(s * fit["beta_rel"])
     xi_rel = s * np.array([phys["dx_rel"], fit["dy_rel"], fit["dz_rel"]])
     xi = np.array([fit["dx"], fit["dy"], fit["dz"]])
-    return T_zyz, T_mu, T_br, xi_rel, xi
+    out = (T_zyz, T_mu, T_br, xi_rel, xi)
+    for a in out:
+        a.setflags(write=False)
+    return out
 
 
 def forward(p0, fit, s, layer=1):
@@ -181,6 +196,49 @@ def inverse(p1, fit, s, layer=1):
     T_zyz, T_mu, T_br, xi_rel, xi = matrices(fit, s, layer)
     p1 = np.asarray(p1, dtype=float)
     return T_br.T @ T_mu.T @ (T_zyz.T @ (p1 - xi) - xi_rel)
+
+
+# The same maps on many points at once: rows of an (N, 3) array, p @ M.T being M p per row.
+def forward_many(p0, fit, s, layer=1):
+    """forward() of every row of p0; s is +1, -1 or an array of them, one per row."""
+    p0 = np.asarray(p0, dtype=float)
+    if np.ndim(s) == 0:
+        T_zyz, T_mu, T_br, xi_rel, xi = matrices(fit, int(s), layer)
+        return (p0 @ (T_mu @ T_br).T + xi_rel) @ T_zyz.T + xi
+    s = np.asarray(s)
+    if not np.all((s == 1) | (s == -1)):
+        raise ValueError("hemisphere must be +1 or -1")
+    return np.where((s == 1)[:, None], forward_many(p0, fit, 1, layer),
+                    forward_many(p0, fit, -1, layer))
+
+
+def inverse_many(p1, fit, s, layer=1):
+    """inverse() of every row of p1 for one hemisphere s."""
+    T_zyz, T_mu, T_br, xi_rel, xi = matrices(fit, s, layer)
+    p1 = np.asarray(p1, dtype=float)
+    # p0 = T_br^T T_mu^T v per row: v^T (T_mu T_br)
+    return ((p1 - xi) @ T_zyz - xi_rel) @ (T_mu @ T_br)
+
+
+def inverse_auto_many(p1, fit, layer=1):
+    """inverse_auto() of every row: (p0 with NaN rows for gap/overlap, list of s or label)."""
+    q_plus = inverse_many(p1, fit, 1, layer)
+    q_minus = inverse_many(p1, fit, -1, layer)
+    ok_plus = q_plus[:, 0] >= 0.0
+    ok_minus = q_minus[:, 0] < 0.0
+    labels = [("overlap" if m else 1) if p else (-1 if m else "gap")
+              for p, m in zip(ok_plus.tolist(), ok_minus.tolist())]
+    p0 = np.full_like(q_plus, np.nan)
+    only_plus, only_minus = ok_plus & ~ok_minus, ok_minus & ~ok_plus
+    p0[only_plus] = q_plus[only_plus]
+    p0[only_minus] = q_minus[only_minus]
+    return p0, labels
+
+
+def auto_margin_many(p1, fit, layer=1):
+    """auto_margin() of every row."""
+    return np.minimum(np.abs(inverse_many(p1, fit, 1, layer)[:, 0]),
+                      np.abs(inverse_many(p1, fit, -1, layer)[:, 0]))
 
 
 def hemisphere_of(p):
@@ -392,9 +450,8 @@ def self_test(verbose=True):
         gs = np.linspace(0.0, 2 * math.pi, 721)
         if layer3_rule_active(fit):
             n_on += 1
-            seps = [forward(RP3 * np.array([0.0, math.cos(g), -math.sin(g)]), fit, 1, 3)[0]
-                    - forward(RP3 * np.array([0.0, math.cos(g), -math.sin(g)]), fit, -1, 3)[0]
-                    for g in gs]
+            ring = RP3 * np.column_stack((np.zeros_like(gs), np.cos(gs), -np.sin(gs)))
+            seps = forward_many(ring, fit, 1, 3)[:, 0] - forward_many(ring, fit, -1, 3)[:, 0]
             ok &= abs(min(seps)) < 1e-4 and min(seps) > -1e-12
         else:
             n_off += 1
@@ -444,7 +501,32 @@ def self_test(verbose=True):
         ok &= abs(fp - math.sin(0.01)) < 1e-14 and abs(ft) < 1e-14
     check("model_residuals: zero at eta = 0, sin(alpha) for pure alpha", ok)
 
-    # 11. shower depth value.
+    # 11. the maps on many points at once equal the point-by-point ones.
+    worst, ok = 0.0, True
+    for _ in range(10):
+        fit = random_fit(rng)
+        pts = rng.normal(size=(50, 3)) * 40.0
+        pts[:10, 0] *= 0.01     # near the parting plane: gaps and overlaps
+        for layer in (1, 3):
+            s = np.where(pts[:, 0] >= 0.0, 1, -1)
+            many = [forward_many(pts, fit, s, layer)]
+            one = [[forward(p, fit, hemisphere_of(p), layer) for p in pts]]
+            for h in (1, -1):
+                many.append(inverse_many(pts, fit, h, layer))
+                one.append([inverse(p, fit, h, layer) for p in pts])
+            worst = max([worst] + [float(np.max(np.abs(np.array(b) - a)))
+                                   for a, b in zip(many, one)])
+            q, labels = inverse_auto_many(pts, fit, layer)
+            for i, p in enumerate(pts):
+                q1, s1 = inverse_auto(p, fit, layer)
+                ok &= s1 == labels[i] and (np.all(np.isnan(q[i])) if q1 is None
+                                           else np.allclose(q[i], q1, rtol=0.0, atol=1e-12))
+            ok &= np.allclose(auto_margin_many(pts, fit, layer),
+                              [auto_margin(p, fit, layer) for p in pts], rtol=0.0, atol=1e-12)
+    check("forward/inverse/inverse_auto on many points == point by point",
+          ok and worst < 1e-12, "max dev %.3g cm" % worst)
+
+    # 12. shower depth value.
     r = shower_depth(500.0, math.pi / 2)
     ok = abs(r - (R0 + X0 * (math.log(500.0 / EC) - 0.5 - X_PRE))) < 1e-12
     check("shower_depth(500 MeV, 90 deg) = %.6f cm" % r, ok)

@@ -248,8 +248,11 @@ TEST(BhabhaRadiative, BalancesEnergyAndHasRadiativeTails) {
     ASSERT_GE(col.electronEnergy, (1.0 - kMaxPhotonFraction) * col.electronBeam * (1.0 - 1e-12));
     if (col.electronEnergy < col.electronBeam || col.positronEnergy < col.positronBeam) ++isr;
     const FourMomentum f = sum(ev);
-    worstImbalance = std::max({worstImbalance, std::abs(f.e - col.energy()), std::abs(f.p.x()), std::abs(f.p.y()),
-                               std::abs(f.p.z() - col.momentumZ())});
+    // Each imbalance on its own: a NaN fails here (std::max would drop it).
+    for (double d : {f.e - col.energy(), f.p.x(), f.p.y(), f.p.z() - col.momentumZ()}) {
+      ASSERT_TRUE(std::isfinite(d));
+      worstImbalance = std::max(worstImbalance, std::abs(d));
+    }
     // Both leptons in the generated range; every particle on its mass shell.
     ASSERT_GE(cosTheta(em.momentum), cosLo);
     ASSERT_LE(cosTheta(em.momentum), cosHi);

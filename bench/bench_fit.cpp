@@ -14,12 +14,14 @@
 #include "emcalign/calib/profiles.hpp"
 #include "emcalign/core/random.hpp"
 #include "emcalign/core/units.hpp"
+#include "synthetic_bins.hpp"
 
 namespace {
 
 using namespace emcalign;
 using units::deg;
 
+// 160 bins of the model at a paper-like misalignment with noise of σ = 0.2°.
 std::vector<calib::ProfileBin> bins(const calib::FitGeometry& g) {
   geometry::AlignmentParameters eta;
   eta[Param::Alpha] = 3.0 * deg;
@@ -29,25 +31,11 @@ std::vector<calib::ProfileBin> bins(const calib::FitGeometry& g) {
   eta[Param::Dp3] = 0.4;
   eta[Param::DyRel] = 0.05;
   Rng rng(1, 0);
-  std::vector<calib::ProfileBin> out;
-  for (int i = 0; i < 16; ++i) {
-    for (int j = 0; j < 10; ++j) {
-      calib::ProfileBin b;
-      b.iPhi = i;
-      b.iTheta = j;
-      b.n = 400;
-      b.phiMean = (i + 0.5) * 22.5 * deg;
-      b.thetaMean = (49.5 + 9.0 * j) * deg;
-      b.energyMean = 610.0;
-      const auto f = calib::modelAt(g, eta.values, b.phiMean, b.thetaMean, b.energyMean);
-      b.yPhi = f.phi + 0.2 * deg * rng.normal();
-      b.yTheta = f.theta + 0.2 * deg * rng.normal();
-      b.sigmaPhi = b.sigmaTheta = 0.2 * deg;
-      out.push_back(b);
-    }
-  }
-  calib::markUsedBins(out, 10);
-  return out;
+  calib::testing::SyntheticBinOptions o;
+  o.noise = &rng;
+  o.entries = 400;
+  o.energy = 610.0;
+  return calib::testing::syntheticBins(g, eta.values, o);
 }
 
 void BM_StagedFit160Bins(benchmark::State& state) {

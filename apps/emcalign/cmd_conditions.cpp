@@ -131,10 +131,9 @@ int runGet(const ConditionsOptions& o) {
   const auto& [iov, payload] = **got;
   const Json file = parameterFileOf(iov, payload, (*db)->uri(), o.tag);
   if (Status s = io::writeOutputFile(o.output, file.dump(2) + "\n"); !s) return reportError(s.error());
-  if (o.output != "-") {
-    fmt::print(reportStream(), "{}: tag {} run {}: IOV {}-{} (payload {}) -> {}\n", (*db)->uri(), o.tag, o.run,
-               iov.firstRun, iov.lastRun, iov.payload.substr(0, 12), o.output);
-  }
+  // The report goes to stderr when the file goes to stdout (checkOutputs).
+  fmt::print(reportStream(), "{}: tag {} run {}: IOV {}-{} (payload {}) -> {}\n", (*db)->uri(), o.tag, o.run,
+             iov.firstRun, iov.lastRun, iov.payload.substr(0, 12), o.output);
   return kExitOk;
 }
 

@@ -72,22 +72,19 @@ void printReport(const validation::DerivationReport& report) {
   if (c.response) {
     fmt::print(reportStream(), "Fit response over the validation ranges, diagonal of R (fitted against true):\n ");
     for (Param p : kAllParams) {
-      const auto k = static_cast<Eigen::Index>(index(p));
-      fmt::print(reportStream(), " {} {:.4f}±{:.4f}", name(p), c.response->matrix(k, k), report.responseErrors(k, k));
+      fmt::print(reportStream(), " {} {:.4f}±{:.4f}", name(p), c.response->matrix(p, p), report.responseErrors(p, p));
     }
     fmt::print(reportStream(), "\nStatistical error the response gives every fit using this file (file units):\n ");
     for (Param p : kAllParams) {
       fmt::print(reportStream(), " {} {:.2g}", name(p),
-                 report.responseParameterErrors[static_cast<Eigen::Index>(index(p))] /
-                     geometry::AlignmentParameters::fileUnit(p));
+                 report.responseParameterErrors[p] / geometry::AlignmentParameters::fileUnit(p));
     }
     fmt::print(reportStream(), "\n");
   }
   fmt::print(reportStream(), "Statistical error the nominal profile gives every fit using this file (file units):\n ");
   for (Param p : kAllParams) {
-    fmt::print(
-        reportStream(), " {} {:.2g}", name(p),
-        report.nominalProfileErrors[static_cast<Eigen::Index>(index(p))] / geometry::AlignmentParameters::fileUnit(p));
+    fmt::print(reportStream(), " {} {:.2g}", name(p),
+               report.nominalProfileErrors[p] / geometry::AlignmentParameters::fileUnit(p));
   }
   fmt::print(reportStream(), "\n");
   fmt::print(reportStream(), "Closure (the derivation samples fitted like data):\n");

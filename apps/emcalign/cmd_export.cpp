@@ -37,10 +37,9 @@ int run(const ExportOptions& o) {
   const std::string text = o.format == "gdml" ? apply::placementsGdml(placements, calo->description())
                                               : apply::placementsJson(placements).dump(2) + "\n";
   if (Status s = io::writeOutputFile(o.output, text); !s) return reportError(s.error());
-  if (o.output != "-") {
-    fmt::print(reportStream(), "wrote {} ({} placements: sphere1_plus, sphere1_minus, sphere2_plus, sphere2_minus{})\n",
-               o.output, o.format, transform->layer3RuleActive() ? "; layer 3 with the mu3 rule" : "");
-  }
+  // The report goes to stderr when the file goes to stdout (checkOutputs).
+  fmt::print(reportStream(), "wrote {} ({} placements: sphere1_plus, sphere1_minus, sphere2_plus, sphere2_minus{})\n",
+             o.output, o.format, transform->layer3RuleActive() ? "; layer 3 with the mu3 rule" : "");
   return kExitOk;
 }
 

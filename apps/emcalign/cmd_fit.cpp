@@ -18,7 +18,7 @@
 #include "emcalign/core/units.hpp"
 #include "emcalign/io/json_files.hpp"
 #include "emcalign/report/fit_figures.hpp"
-#include "emcalign/report/plots.hpp"
+#include "emcalign/report/fit_plots.hpp"
 
 namespace emcalign::app {
 
@@ -57,16 +57,15 @@ void printResult(const calib::FitResult& r) {
   fmt::print(reportStream(), "\n{:<10} {:>12}   {:<10} {}\n", "parameter", "value", "error", "unit");
   for (Param p : kAllParams) {
     const double unit = AlignmentParameters::fileUnit(p);
-    const double e = r.errors[static_cast<Eigen::Index>(index(p))];
-    fmt::print(reportStream(), "{:<10} {:>12} ± {:<10} {}\n", name(p), fixed5(r.parameters[p] / unit), fixed5(e / unit),
-               dimension(p) == Dimension::Angle ? "deg" : "cm");
+    fmt::print(reportStream(), "{:<10} {:>12} ± {:<10} {}\n", name(p), fixed5(r.parameters[p] / unit),
+               fixed5(r.errors[p] / unit), fileUnitName(dimension(p)));
   }
   fmt::print(reportStream(), "derived:\n");
-  for (const auto& [n, v] : r.derived) {
-    const bool length = n == "dx_rel";
-    const double unit = length ? units::cm : units::deg;
-    fmt::print(reportStream(), "{:<10} {:>12} ± {:<10} {}\n", n, fixed5(v.value / unit), fixed5(v.error / unit),
-               length ? "cm" : "deg");
+  for (Physical p : kDerivedParams) {
+    const double unit = geometry::PhysicalParameters::fileUnit(p);
+    const calib::DerivedValue& v = r.derived[p];
+    fmt::print(reportStream(), "{:<10} {:>12} ± {:<10} {}\n", name(p), fixed5(v.value / unit), fixed5(v.error / unit),
+               fileUnitName(dimension(p)));
   }
   fmt::print(reportStream(), "\nchi2/ndf = {:.2f}/{} (p-value {:.3g}), {} bins used; stages chi2:", r.chi2, r.ndf,
              r.pValue, r.binsUsed);

@@ -122,7 +122,7 @@ int runPeriod(const SimulateOptions& cli) {
   const auto runs = validation::planPeriod(*scenario);
   std::int64_t total = 0;
   for (const auto& r : runs) total += r.events;
-  fmt::print(stderr,
+  fmt::print(reportStream(),
              "simulate --period {}: runs {}-{} ({} runs), {} events, {} beam energies, {} segments, {} drifts -> {}\n",
              cli.period, scenario->firstRun, scenario->lastRun(), runs.size(), total, scenario->beamEnergy.size(),
              scenario->segments.size(), scenario->drifts.size(), cli.output);
@@ -131,7 +131,7 @@ int runPeriod(const SimulateOptions& cli) {
   auto report = validation::simulatePeriod(*scenario, *calo, cli.output, o);
   progress.finish();
   if (!report) return reportError(report.error());
-  fmt::print(stderr,
+  fmt::print(reportStream(),
              "simulate: {} runs ({} there already), {} events simulated ({} in the period), {} particle rows, "
              "{:.1f} s -> {}/run_*.h5, {}/truth.json\n",
              report->runs, report->resumed, report->simulated, report->events, report->rows, progress.elapsed(),
@@ -193,8 +193,8 @@ int run(const SimulateOptions& cli) {
   progress.finish();
   if (!done) return reportError(done.error());
   if (Status s = (*writer)->close(); !s) return reportError(s.error());
-  fmt::print(stderr, "simulate: {} events, {} particle rows, {:.1f} s -> {}\n", cli.events, rows, progress.elapsed(),
-             cli.output);
+  fmt::print(reportStream(), "simulate: {} events, {} particle rows, {:.1f} s -> {}\n", cli.events, rows,
+             progress.elapsed(), cli.output);
   return 0;
 }
 

@@ -20,8 +20,8 @@ const io::ReaderOptions kProfileReading{.truth = false, .hits = false};
 
 ProfileFiller::ProfileFiller(const geometry::ShowerDepth& depth, SelectionOptions selection, ProfileOptions profile,
                              ParticleVisitor visit)
-    : depth_(depth), selection_(std::move(selection)), visit_(std::move(visit)) {
-  fill_.profiles = Profiles(profile);
+    : depth_(depth), selection_(selection), visit_(std::move(visit)) {
+  fill_.profiles = Profiles(std::move(profile));
 }
 
 void ProfileFiller::addEvents(std::span<const ParticleRow> rows) {
@@ -148,8 +148,7 @@ io::Json fitResultJson(const FitResult& r, const FitInput& input) {
   Json j = io::alignmentToJson(r.parameters);
   Json errors = Json::object();
   for (Param p : kAllParams) {
-    const double e = r.errors[static_cast<Eigen::Index>(index(p))];
-    errors[std::string(name(p))] = io::numberOrNull(e / AlignmentParameters::fileUnit(p));
+    errors[std::string(name(p))] = io::numberOrNull(r.errors[p] / AlignmentParameters::fileUnit(p));
   }
   j["errors"] = errors;
   if (r.covariance) {
@@ -157,9 +156,8 @@ io::Json fitResultJson(const FitResult& r, const FitInput& input) {
     for (Param p : kAllParams) {
       Json row = Json::array(), crow = Json::array();
       for (Param q : kAllParams) {
-        const auto i = static_cast<Eigen::Index>(index(p)), k = static_cast<Eigen::Index>(index(q));
-        row.push_back((*r.covariance)(i, k) / (AlignmentParameters::fileUnit(p) * AlignmentParameters::fileUnit(q)));
-        crow.push_back(r.correlation(i, k));
+        row.push_back((*r.covariance)(p, q) / (AlignmentParameters::fileUnit(p) * AlignmentParameters::fileUnit(q)));
+        crow.push_back(r.correlation(p, q));
       }
       cov.push_back(row);
       corr.push_back(crow);
@@ -170,10 +168,11 @@ io::Json fitResultJson(const FitResult& r, const FitInput& input) {
     j["covariance"] = nullptr;
   }
   Json derived = Json::object();
-  for (const auto& [n, v] : r.derived) {
-    const double unit = n == "dx_rel" ? units::cm : units::deg;
-    derived[n] = {
-        {"value", v.value / unit}, {"error", io::numberOrNull(v.error / unit)}, {"unit", n == "dx_rel" ? "cm" : "deg"}};
+  for (Physical p : kDerivedParams) {
+    const double unit = geometry::PhysicalParameters::fileUnit(p);
+    const DerivedValue& v = r.derived[p];
+    derived[std::string(name(p))] = {
+        {"value", v.value / unit}, {"error", io::numberOrNull(v.error / unit)}, {"unit", fileUnitName(dimension(p))}};
   }
   j["derived"] = derived;
   j["chi2"] = r.chi2;

@@ -191,7 +191,7 @@ Status FitResponse::validate() const {
                       kParamNames[k], d)};
     }
   }
-  const Eigen::JacobiSVD<ResponseMatrix> svd(file);
+  const Eigen::JacobiSVD<ResponseMatrix::Base> svd(file);
   const double condition = svd.singularValues()(0) / svd.singularValues()(kNumParams - 1);
   if (!(condition < 100.0)) {
     return Error{

@@ -64,21 +64,6 @@ std::vector<BinPoint> pointsOf(const std::vector<ProfileBin>& bins, const FitGeo
   return out;
 }
 
-// The derived parameters as functions of η, templated for their Jacobian.
-template <typename T>
-std::array<T, 5> derivedOf(const T* eta, double r1) {
-  using std::asin;
-  using std::atan2;
-  using std::sqrt;
-  const T b1 = eta[index(Param::Beta1)], b2 = eta[index(Param::Beta2)];
-  const T dp1 = eta[index(Param::Dp1)], dp2 = eta[index(Param::Dp2)], dp3 = eta[index(Param::Dp3)];
-  const T dxRel = (dp1 + dp2 + dp3) / 6.0;
-  const T u = (2.0 * dp1 - dp2 - dp3) / 3.0;
-  const T t = (dp3 - dp2) / (2.0 * std::numbers::sqrt3);
-  return {asin(sqrt(b1 * b1 + b2 * b2)), atan2(b2, b1), asin(sqrt(4.0 * t * t + u * u) / (2.0 * r1)), atan2(2.0 * t, u),
-          dxRel};
-}
-
 std::string paramList(const std::vector<Param>& ps) {
   std::string s;
   for (Param p : ps) s += fmt::format("{}{}", s.empty() ? "" : ", ", name(p));
@@ -133,21 +118,19 @@ void setCovariance(FitResult& result, const Covariance& covariance) {
   }
 }
 
-// Derived parameters, errors by their Jacobian (automatic differentiation).
+// The physical parameters, errors by the Jacobian of physicalOf (automatic differentiation).
 void setDerived(FitResult& result, double r1) {
   using Jet = ceres::Jet<double, kN>;
-  std::array<Jet, kN> etaJet;
-  for (int k = 0; k < kN; ++k) etaJet[static_cast<std::size_t>(k)] = Jet(result.parameters.values[k], k);
-  const auto derived = derivedOf<Jet>(etaJet.data(), r1);
-  const char* names[] = {"beta", "psi", "mu", "tau", "dx_rel"};
-  result.derived.clear();
-  for (int i = 0; i < 5; ++i) {
-    DerivedValue v;
-    v.value = derived[static_cast<std::size_t>(i)].a;
-    const Eigen::Matrix<double, kN, 1> grad = derived[static_cast<std::size_t>(i)].v;
+  geometry::ParamVectorT<Jet> etaJet;
+  for (int k = 0; k < kN; ++k) etaJet[k] = Jet(result.parameters.values[k], k);
+  const auto physical = geometry::physicalOf<Jet>(etaJet, r1);
+  for (Physical p : kAllPhysical) {
+    const Jet& x = physical[index(p)];
+    DerivedValue& v = result.derived[p];
+    v.value = x.a;
+    const Eigen::Matrix<double, kN, 1> grad = x.v;
     v.error = result.covariance && grad.allFinite() ? std::sqrt(grad.dot(*result.covariance * grad))
                                                     : std::numeric_limits<double>::quiet_NaN();
-    result.derived.emplace_back(names[i], v);
   }
 }
 
@@ -200,18 +183,18 @@ Status applyBinCovariances(FitResult& result, const std::vector<ProfileBin>& bin
   return {};
 }
 
-Result<FitResult> fitProfiles(const std::vector<ProfileBin>& bins, const FitGeometry& g, const FitOptions& options) {
-  if (Status s = options.validate(); !s) return s.error();
-  FitResult result;
-  for (const auto& b : bins) {
-    if (!b.used) result.binsLeftOut.emplace_back(b.iPhi, b.iTheta);
-  }
-  const std::vector<BinPoint> points = pointsOf(bins, g);
+namespace {
+
+using ProfileCost = ceres::AutoDiffCostFunction<ProfileResiduals, ceres::DYNAMIC, kN>;
+
+// The used bins as points of the χ², each checked: the model places a bin's showers at
+// R(E, θ), and outside the calorimeter it is meaningless (an energy of 1e-300 MeV, or a
+// depth offset of metres). Fails also with fewer residuals than parameters.
+Result<std::vector<BinPoint>> fitPoints(const std::vector<ProfileBin>& bins, const FitGeometry& g) {
+  std::vector<BinPoint> points = pointsOf(bins, g);
   for (std::size_t i = 0, k = 0; i < bins.size(); ++i) {
     if (!bins[i].used) continue;
     const BinPoint& p = points[k++];
-    // The model places a bin's showers at R(E, θ): outside the calorimeter it is meaningless
-    // (an energy of 1e-300 MeV, or a depth offset of metres).
     if (!(p.radius > 0.0 && p.radius < 2.0 * g.radii.rp3) || !std::isfinite(p.phi) || !std::isfinite(p.theta)) {
       return Error{
           fmt::format("profile bin ({}, {}): the shower depth R(E, theta) = {:.4g} cm at its mean energy "
@@ -220,20 +203,19 @@ Result<FitResult> fitProfiles(const std::vector<ProfileBin>& bins, const FitGeom
                       bins[i].iPhi, bins[i].iTheta, p.radius, bins[i].energyMean, 2.0 * g.radii.rp3)};
     }
   }
-  result.binsUsed = static_cast<int>(points.size());
-  if (2 * result.binsUsed <= kN) {
+  if (2 * static_cast<int>(points.size()) <= kN) {
     return Error{
         fmt::format("only {} profile bins have at least 10 entries: the 12 parameters need at least 7 "
                     "(are there selected e+e- -> e+e- events at 45-135 deg?)",
-                    result.binsUsed)};
+                    points.size())};
   }
+  return points;
+}
 
-  geometry::ParamVector eta = geometry::ParamVector::Zero();
-  auto* cost = new ceres::AutoDiffCostFunction<ProfileResiduals, ceres::DYNAMIC, kN>(
-      new ProfileResiduals{&points, g.radii, g.response}, 2 * result.binsUsed);
-  ceres::Problem problem;
-  problem.AddResidualBlock(cost, nullptr, eta.data());
-
+// The staged minimisation of SPEC §8: each stage frees its parameters and starts where the
+// last ended. Fills the stages, parameters, χ², ndf, p-value and the status so far.
+void minimiseInStages(ceres::Problem& problem, geometry::ParamVector& eta, const FitOptions& options,
+                      FitResult& result) {
   std::vector<Param> free;
   bool allConverged = true;
   for (const auto& stage : options.stages) {
@@ -276,19 +258,22 @@ Result<FitResult> fitProfiles(const std::vector<ProfileBin>& bins, const FitGeom
   result.pValue =
       std::isfinite(result.chi2) ? chi2PValue(result.chi2, result.ndf) : std::numeric_limits<double>::quiet_NaN();
   result.status = allConverged ? FitStatus::Converged : FitStatus::NotConverged;
-  if (!allConverged) {
-    for (std::size_t k = 0; k < result.stages.size(); ++k) {
-      if (!result.stages[k].converged) {
-        result.warnings.push_back(fmt::format("stage {} ({}) did not converge: {}", k + 1, paramList(options.stages[k]),
-                                              result.stages[k].termination));
-      }
+  for (std::size_t k = 0; k < result.stages.size(); ++k) {
+    if (!result.stages[k].converged) {
+      result.warnings.push_back(fmt::format("stage {} ({}) did not converge: {}", k + 1, paramList(options.stages[k]),
+                                            result.stages[k].termination));
     }
   }
+}
 
-  // Covariance (JᵀJ)⁻¹ of the whitened residuals at the minimum, through the correlation-
-  // scaled matrix D·JᵀJ·D (D = diag(JᵀJ)^(−1/2)), whose eigenvalues are unit-free.
-  // (The residuals always evaluate; were they not to, a zero Jacobian reads as singular.)
-  const Jacobian jacobian = jacobianAt(*cost, eta).value_or(Jacobian::Zero(cost->num_residuals(), kN));
+// The covariance (JᵀJ)⁻¹ of the whitened residuals at the minimum, through the correlation-
+// scaled matrix D·JᵀJ·D (D = diag(JᵀJ)^(−1/2)), whose eigenvalues are unit-free: sets the
+// eigenvalues, the weak direction, and either the covariance (with a warning when it is
+// ill-conditioned) or the status CovarianceSingular. (The residuals always evaluate; were
+// they not to, a zero Jacobian reads as singular.)
+void analyseCovariance(const ProfileCost& cost, const FitOptions& options, FitResult& result) {
+  const Jacobian jacobian =
+      jacobianAt(cost, result.parameters.values).value_or(Jacobian::Zero(cost.num_residuals(), kN));
   const Covariance jtj = jacobian.transpose() * jacobian;
   const Eigen::Matrix<double, kN, 1> diag = jtj.diagonal();
   bool singular = (diag.array() <= 0.0).any();
@@ -296,15 +281,14 @@ Result<FitResult> fitProfiles(const std::vector<ProfileBin>& bins, const FitGeom
   if (!singular) {
     const Eigen::Matrix<double, kN, 1> d = diag.array().rsqrt();
     const Covariance scaled = d.asDiagonal() * jtj * d.asDiagonal();
-    Eigen::SelfAdjointEigenSolver<Covariance> eig(scaled);
+    Eigen::SelfAdjointEigenSolver<Covariance::Base> eig(scaled);
     const auto& ev = eig.eigenvalues();
     result.eigenvalues.assign(ev.data(), ev.data() + kN);
-    const Eigen::Matrix<double, kN, 1> weak = eig.eigenvectors().col(0);
+    result.weakDirection = eig.eigenvectors().col(0);
     std::string combo;
-    for (int k = 0; k < kN; ++k) {
-      if (std::abs(weak[k]) > 0.1)
-        combo +=
-            fmt::format("{}{:+.2f}·{}", combo.empty() ? "" : " ", weak[k], kParamNames[static_cast<std::size_t>(k)]);
+    for (Param p : kAllParams) {
+      const double w = result.weakDirection[p];
+      if (std::abs(w) > 0.1) combo += fmt::format("{}{:+.2f}·{}", combo.empty() ? "" : " ", w, name(p));
     }
     result.weakCombination = combo;
     singular = ev[0] < options.singularEigenvalue * ev[kN - 1];
@@ -320,19 +304,22 @@ Result<FitResult> fitProfiles(const std::vector<ProfileBin>& bins, const FitGeom
       }
     }
   }
-  if (singular) {
-    result.status = FitStatus::CovarianceSingular;
-    std::string evs;
-    for (double e : result.eigenvalues) evs += fmt::format("{}{:.3g}", evs.empty() ? "" : ", ", e);
-    result.warnings.push_back(fmt::format(
-        "the covariance is singular: the data do not constrain {} (eigenvalues of the correlation-scaled JᵀJ: {}); "
-        "no errors are given",
-        result.weakCombination.empty() ? "some parameter" : result.weakCombination, evs));
-  } else {
+  if (!singular) {
     setCovariance(result, covariance);
+    return;
   }
-  setDerived(result, g.radii.r1);
+  result.status = FitStatus::CovarianceSingular;
+  std::string evs;
+  for (double e : result.eigenvalues) evs += fmt::format("{}{:.3g}", evs.empty() ? "" : ", ", e);
+  result.warnings.push_back(fmt::format(
+      "the covariance is singular: the data do not constrain {} (eigenvalues of the correlation-scaled JᵀJ: {}); "
+      "no errors are given",
+      result.weakCombination.empty() ? "some parameter" : result.weakCombination, evs));
+}
 
+// A converged fit whose p-value is below kPoorFitPValue is a poor fit; negative gaps and
+// bins left out are said: what a calibration physicist acts on.
+void judge(const std::vector<ProfileBin>& bins, FitResult& result) {
   if (result.status == FitStatus::Converged && result.pValue < kPoorFitPValue) {
     result.status = FitStatus::PoorFit;
     result.warnings.push_back(fmt::format(
@@ -340,23 +327,35 @@ Result<FitResult> fitProfiles(const std::vector<ProfileBin>& bins, const FitGeom
         "reconstruction effect the model lacks, repeated events, or errors too small); use the result with care",
         result.chi2, result.ndf, result.pValue));
   }
-
-  // Warnings a calibration physicist acts on.
-  for (Param p : {Param::Dp1, Param::Dp2, Param::Dp3}) {
-    const double v = result.parameters[p], e = result.errors[static_cast<Eigen::Index>(index(p))];
-    if (v < 0.0 && (!std::isfinite(e) || v < -e)) {
-      result.warnings.push_back(
-          fmt::format("{} = {:.4f} ± {:.4f} cm is negative beyond its error: the hemispheres overlap (a calibration or "
-                      "reconstruction problem to deal with before using these parameters)",
-                      name(p), v, e));
-    }
-  }
+  for (std::string& w : geometry::warnings(result.parameters, &result.errors)) result.warnings.push_back(std::move(w));
   if (!result.binsLeftOut.empty()) {
     std::string list;
     for (const auto& [i, j] : result.binsLeftOut) list += fmt::format("{}({},{})", list.empty() ? "" : " ", i, j);
     result.warnings.push_back(fmt::format("{} of {} profile bins have fewer than 10 entries and are left out: {}",
                                           result.binsLeftOut.size(), bins.size(), list));
   }
+}
+
+}  // namespace
+
+Result<FitResult> fitProfiles(const std::vector<ProfileBin>& bins, const FitGeometry& g, const FitOptions& options) {
+  if (Status s = options.validate(); !s) return s.error();
+  auto points = fitPoints(bins, g);
+  if (!points) return points.error();
+  FitResult result;
+  for (const auto& b : bins) {
+    if (!b.used) result.binsLeftOut.emplace_back(b.iPhi, b.iTheta);
+  }
+  result.binsUsed = static_cast<int>(points->size());
+
+  geometry::ParamVector eta = geometry::ParamVector::Zero();
+  auto* cost = new ProfileCost(new ProfileResiduals{&*points, g.radii, g.response}, 2 * result.binsUsed);
+  ceres::Problem problem;  // owns `cost`
+  problem.AddResidualBlock(cost, nullptr, eta.data());
+  minimiseInStages(problem, eta, options, result);
+  analyseCovariance(*cost, options, result);
+  setDerived(result, g.radii.r1);
+  judge(bins, result);
   return result;
 }
 

@@ -1,11 +1,13 @@
 #include "emcalign/calib/profiles.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <numbers>
 #include <optional>
@@ -245,39 +247,135 @@ std::optional<std::int64_t> profileInteger(std::string_view field, std::int64_t 
   return x;
 }
 
+// The columns of a profile CSV, in their order (plus_weight optional).
+constexpr const char* kColumns[] = {"i_phi", "i_theta",   "n",       "phi_mean_rad", "theta_mean_rad", "e_mean_mev",
+                                    "y_phi", "sigma_phi", "y_theta", "sigma_theta",  "plus_weight"};
+enum Column { kIPhi, kITheta, kN, kPhiMean, kThetaMean, kEMean, kYPhi, kSigmaPhi, kYTheta, kSigmaTheta, kPlusWeight };
+constexpr std::size_t kRequiredColumns = kPlusWeight, kAllColumns = kPlusWeight + 1;
+
+// One data line of a profile CSV, its fields split; `where(c)` names the file, line and column.
+struct ProfileLine {
+  const std::vector<std::string_view>& fields;
+  std::function<std::string(int column)> where;
+  [[nodiscard]] Error bad(int c, std::string_view what) const {
+    return Error{fmt::format("{}: {} {}", where(c), io::quoted(fields[static_cast<std::size_t>(c)]), what)};
+  }
+};
+
+// The bin indices and the entries of a line.
+Status parseBinIndex(const ProfileLine& line, const ProfileOptions& options, ProfileBin& b) {
+  const auto& f = line.fields;
+  const auto iPhi = profileInteger(f[kIPhi], 0, options.phiBins - 1);
+  if (!iPhi) {
+    return Error{
+        fmt::format("{}: {} is not a bin index 0 to {}", line.where(kIPhi), io::quoted(f[kIPhi]), options.phiBins - 1)};
+  }
+  const auto iTheta = profileInteger(f[kITheta], 0, options.thetaBins - 1);
+  if (!iTheta) {
+    return Error{fmt::format("{}: {} is not a bin index 0 to {}", line.where(kITheta), io::quoted(f[kITheta]),
+                             options.thetaBins - 1)};
+  }
+  constexpr std::int64_t kMaxEntries = std::int64_t{1} << 53;
+  const auto n = profileInteger(f[kN], 0, kMaxEntries);
+  if (!n) return Error{fmt::format("{}: {} is not a count of entries (0 to 2^53)", line.where(kN), io::quoted(f[kN]))};
+  b.iPhi = static_cast<int>(*iPhi);
+  b.iTheta = static_cast<int>(*iTheta);
+  b.n = *n;
+  return {};
+}
+
+// The real-valued columns of a line (empty: NaN), each a finite number in the range its
+// definition allows.
+Status parseBinValues(const ProfileLine& line, const ProfileOptions& options, ProfileBin& b) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double pi = std::numbers::pi;
+  std::array<double, kAllColumns> v;
+  v[kPlusWeight] = nan;
+  for (std::size_t c = kPhiMean; c < line.fields.size(); ++c) {
+    const auto field = line.fields[c];
+    if (field.empty()) {
+      v[c] = nan;
+      continue;
+    }
+    const auto x = io::parseFiniteDouble(field);
+    if (!x)
+      return Error{fmt::format("{}: not a finite number: {}", line.where(static_cast<int>(c)), io::quoted(field))};
+    v[c] = *x;
+  }
+  const double phiLo = 2.0 * pi * b.iPhi / options.phiBins, phiHi = 2.0 * pi * (b.iPhi + 1) / options.phiBins;
+  const double dTheta = (options.thetaMax - options.thetaMin) / options.thetaBins;
+  const double thetaLo = options.thetaMin + dTheta * b.iTheta, thetaHi = thetaLo + dTheta;
+  const double slack = 1e-9;
+  if (b.n == 0) {
+    for (int c = kPhiMean; c <= kSigmaTheta; ++c) {
+      if (!std::isnan(v[c])) return line.bad(c, "is given for a bin without entries (n = 0)");
+    }
+  } else {
+    for (int c : {kPhiMean, kThetaMean, kEMean}) {
+      if (std::isnan(v[c])) return Error{fmt::format("{}: empty, but the bin has {} entries", line.where(c), b.n)};
+    }
+  }
+  if (!std::isnan(v[kPhiMean]) && !(v[kPhiMean] >= phiLo - slack && v[kPhiMean] <= phiHi + slack)) {
+    return line.bad(kPhiMean,
+                    fmt::format("lies outside its bin i_phi = {} ({:.6g} to {:.6g} rad)", b.iPhi, phiLo, phiHi));
+  }
+  if (!std::isnan(v[kThetaMean]) && !(v[kThetaMean] >= thetaLo - slack && v[kThetaMean] <= thetaHi + slack)) {
+    return line.bad(kThetaMean, fmt::format("lies outside its bin i_theta = {} ({:.6g} to {:.6g} rad)", b.iTheta,
+                                            thetaLo, thetaHi));
+  }
+  if (!std::isnan(v[kEMean]) && !(v[kEMean] > 1.0 && v[kEMean] < 1e5)) {
+    return line.bad(kEMean, "is not a plausible cluster energy (1 to 100000 MeV; energies are in MeV)");
+  }
+  if (!std::isnan(v[kYPhi]) && !(std::abs(v[kYPhi]) <= 1.0)) return line.bad(kYPhi, "is not a sine (|y_phi| <= 1)");
+  if (!std::isnan(v[kYTheta]) && !(std::abs(v[kYTheta]) <= pi)) {
+    return line.bad(kYTheta, "is not an angle (|y_theta| <= pi)");
+  }
+  for (int c : {kSigmaPhi, kSigmaTheta}) {
+    if (!std::isnan(v[c]) && !(v[c] > 0.0 && v[c] <= pi)) {
+      return line.bad(c, "is not a plausible sigma (0 < sigma <= pi)");
+    }
+  }
+  if (!std::isnan(v[kPlusWeight]) && !(v[kPlusWeight] >= 0.0 && v[kPlusWeight] <= 1.0)) {
+    return line.bad(kPlusWeight, "is not a weight in [0, 1]");
+  }
+  b.phiMean = v[kPhiMean];
+  b.thetaMean = v[kThetaMean];
+  b.energyMean = v[kEMean];
+  b.yPhi = v[kYPhi];
+  b.sigmaPhi = v[kSigmaPhi];
+  b.yTheta = v[kYTheta];
+  b.sigmaTheta = v[kSigmaTheta];
+  b.plusWeight = v[kPlusWeight];
+  return {};
+}
+
 }  // namespace
 
 Result<std::vector<ProfileBin>> readProfileCsv(const std::string& path, const ProfileOptions& options) {
   if (Status s = options.validate(); !s) return s.error();
   std::ifstream in(path, std::ios::binary);
   if (!in) return Error{fmt::format("{}: cannot open: {}", path, std::strerror(errno))};
-  static const char* kColumns[] = {"i_phi", "i_theta",   "n",       "phi_mean_rad", "theta_mean_rad", "e_mean_mev",
-                                   "y_phi", "sigma_phi", "y_theta", "sigma_theta",  "plus_weight"};
-  enum { kIPhi, kITheta, kN, kPhiMean, kThetaMean, kEMean, kYPhi, kSigmaPhi, kYTheta, kSigmaTheta, kPlusWeight };
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  const double pi = std::numbers::pi;
   const int bins = options.phiBins * options.thetaBins;
   std::vector<int> lineOfBin(static_cast<std::size_t>(bins), 0);
   std::vector<ProfileBin> out;
-  std::string line;
+  std::string text;
   long lineNo = 0;
   bool header = false;
-  std::size_t columns = 10;
-  while (std::getline(in, line)) {
+  std::size_t columns = kRequiredColumns;
+  while (std::getline(in, text)) {
     ++lineNo;
-    if (in.eof() && !line.empty()) {
+    if (in.eof() && !text.empty()) {
       return Error{
           fmt::format("{}: line {}: the file ends inside this line (no newline at its end): truncated?", path, lineNo)};
     }
-    if (io::isBlankOrComment(line)) continue;
-    const auto f = io::splitCsvLine(line);
-    const auto where = [&](int k) { return fmt::format("{}: line {}: column '{}'", path, lineNo, kColumns[k]); };
+    if (io::isBlankOrComment(text)) continue;
+    const auto f = io::splitCsvLine(text);
     if (!header) {
-      bool names = f.size() == 10 || f.size() == 11;
+      bool names = f.size() == kRequiredColumns || f.size() == kAllColumns;
       for (std::size_t k = 0; names && k < f.size(); ++k) names = f[k] == kColumns[k];
       if (!names) {
         return Error{fmt::format("{}: line {}: header: expected '{}' (optionally followed by ',plus_weight'), got {}",
-                                 path, lineNo, kHeader, io::quoted(line))};
+                                 path, lineNo, kHeader, io::quoted(text))};
       }
       columns = f.size();
       header = true;
@@ -286,84 +384,17 @@ Result<std::vector<ProfileBin>> readProfileCsv(const std::string& path, const Pr
     if (f.size() != columns) {
       return Error{fmt::format("{}: line {}: expected {} columns, got {}", path, lineNo, columns, f.size())};
     }
+    const ProfileLine line{f,
+                           [&](int k) { return fmt::format("{}: line {}: column '{}'", path, lineNo, kColumns[k]); }};
     ProfileBin b;
-    const auto iPhi = profileInteger(f[kIPhi], 0, options.phiBins - 1);
-    if (!iPhi)
-      return Error{
-          fmt::format("{}: {} is not a bin index 0 to {}", where(kIPhi), io::quoted(f[kIPhi]), options.phiBins - 1)};
-    const auto iTheta = profileInteger(f[kITheta], 0, options.thetaBins - 1);
-    if (!iTheta) {
-      return Error{fmt::format("{}: {} is not a bin index 0 to {}", where(kITheta), io::quoted(f[kITheta]),
-                               options.thetaBins - 1)};
-    }
-    constexpr std::int64_t kMaxEntries = std::int64_t{1} << 53;
-    const auto n = profileInteger(f[kN], 0, kMaxEntries);
-    if (!n) return Error{fmt::format("{}: {} is not a count of entries (0 to 2^53)", where(kN), io::quoted(f[kN]))};
-    b.iPhi = static_cast<int>(*iPhi);
-    b.iTheta = static_cast<int>(*iTheta);
-    b.n = *n;
+    if (Status s = parseBinIndex(line, options, b); !s) return s.error();
     const auto k = static_cast<std::size_t>(b.iPhi * options.thetaBins + b.iTheta);
     if (lineOfBin[k] != 0) {
       return Error{fmt::format("{}: line {}: bin ({}, {}) is given again (first on line {})", path, lineNo, b.iPhi,
                                b.iTheta, lineOfBin[k])};
     }
     lineOfBin[k] = static_cast<int>(lineNo);
-    double v[11];
-    v[kPlusWeight] = nan;
-    for (int c = kPhiMean; c < static_cast<int>(columns); ++c) {
-      const auto field = f[static_cast<std::size_t>(c)];
-      if (field.empty()) {
-        v[c] = nan;
-        continue;
-      }
-      const auto x = io::parseFiniteDouble(field);
-      if (!x) return Error{fmt::format("{}: not a finite number: {}", where(c), io::quoted(field))};
-      v[c] = *x;
-    }
-    // Plausibility: each value in the range its definition allows.
-    const double phiLo = 2.0 * pi * b.iPhi / options.phiBins, phiHi = 2.0 * pi * (b.iPhi + 1) / options.phiBins;
-    const double dTheta = (options.thetaMax - options.thetaMin) / options.thetaBins;
-    const double thetaLo = options.thetaMin + dTheta * b.iTheta, thetaHi = thetaLo + dTheta;
-    const double slack = 1e-9;
-    const auto bad = [&](int c, std::string_view what) {
-      return Error{fmt::format("{}: {} {}", where(c), io::quoted(f[static_cast<std::size_t>(c)]), what)};
-    };
-    if (b.n == 0) {
-      for (int c = kPhiMean; c <= kSigmaTheta; ++c) {
-        if (!std::isnan(v[c])) return bad(c, "is given for a bin without entries (n = 0)");
-      }
-    } else {
-      for (int c : {kPhiMean, kThetaMean, kEMean}) {
-        if (std::isnan(v[c])) return Error{fmt::format("{}: empty, but the bin has {} entries", where(c), b.n)};
-      }
-    }
-    if (!std::isnan(v[kPhiMean]) && !(v[kPhiMean] >= phiLo - slack && v[kPhiMean] <= phiHi + slack)) {
-      return bad(kPhiMean, fmt::format("lies outside its bin i_phi = {} ({:.6g} to {:.6g} rad)", b.iPhi, phiLo, phiHi));
-    }
-    if (!std::isnan(v[kThetaMean]) && !(v[kThetaMean] >= thetaLo - slack && v[kThetaMean] <= thetaHi + slack)) {
-      return bad(kThetaMean,
-                 fmt::format("lies outside its bin i_theta = {} ({:.6g} to {:.6g} rad)", b.iTheta, thetaLo, thetaHi));
-    }
-    if (!std::isnan(v[kEMean]) && !(v[kEMean] > 1.0 && v[kEMean] < 1e5)) {
-      return bad(kEMean, "is not a plausible cluster energy (1 to 100000 MeV; energies are in MeV)");
-    }
-    if (!std::isnan(v[kYPhi]) && !(std::abs(v[kYPhi]) <= 1.0)) return bad(kYPhi, "is not a sine (|y_phi| <= 1)");
-    if (!std::isnan(v[kYTheta]) && !(std::abs(v[kYTheta]) <= pi))
-      return bad(kYTheta, "is not an angle (|y_theta| <= pi)");
-    for (int c : {kSigmaPhi, kSigmaTheta}) {
-      if (!std::isnan(v[c]) && !(v[c] > 0.0 && v[c] <= pi)) return bad(c, "is not a plausible sigma (0 < sigma <= pi)");
-    }
-    if (!std::isnan(v[kPlusWeight]) && !(v[kPlusWeight] >= 0.0 && v[kPlusWeight] <= 1.0)) {
-      return bad(kPlusWeight, "is not a weight in [0, 1]");
-    }
-    b.phiMean = v[kPhiMean];
-    b.thetaMean = v[kThetaMean];
-    b.energyMean = v[kEMean];
-    b.yPhi = v[kYPhi];
-    b.sigmaPhi = v[kSigmaPhi];
-    b.yTheta = v[kYTheta];
-    b.sigmaTheta = v[kSigmaTheta];
-    b.plusWeight = v[kPlusWeight];
+    if (Status s = parseBinValues(line, options, b); !s) return s.error();
     out.push_back(b);
   }
   if (in.bad()) return Error{fmt::format("{}: read error: {}", path, std::strerror(errno))};

@@ -91,8 +91,8 @@ class Chi2OfSigma {
     }
     return it->second.chi2;
   }
-  const FitResult& fitAt(double u) const { return fits_.at(u); }
-  int fits() const { return static_cast<int>(fits_.size()); }
+  [[nodiscard]] const FitResult& fitAt(double u) const { return fits_.at(u); }
+  [[nodiscard]] int fits() const { return static_cast<int>(fits_.size()); }
 
  private:
   const std::vector<ProfileBin>& stat_;

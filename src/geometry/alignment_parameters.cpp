@@ -10,7 +10,6 @@
 namespace emcalign::geometry {
 
 namespace {
-constexpr double kSqrt3 = std::numbers::sqrt3;
 // γ_k of the three gap points, SPEC §3.
 constexpr std::array<double, 3> kGapAngles = {0.0, 2.0 * std::numbers::pi / 3.0, 4.0 * std::numbers::pi / 3.0};
 }  // namespace
@@ -18,15 +17,6 @@ constexpr std::array<double, 3> kGapAngles = {0.0, 2.0 * std::numbers::pi / 3.0,
 double AlignmentParameters::fileUnit(Param p) { return dimension(p) == Dimension::Angle ? units::deg : units::cm; }
 
 double PhysicalParameters::fileUnit(Physical p) { return dimension(p) == Dimension::Angle ? units::deg : units::cm; }
-
-GapDecomposition decomposeGaps(const AlignmentParameters& eta) {
-  const double dp1 = eta[Param::Dp1], dp2 = eta[Param::Dp2], dp3 = eta[Param::Dp3];
-  GapDecomposition g;
-  g.dxRel = (dp1 + dp2 + dp3) / 6.0;
-  g.u = (2.0 * dp1 - dp2 - dp3) / 3.0;  // = dp1 − 2·dx_rel, exactly 0 for equal gaps
-  g.t = (dp3 - dp2) / (2.0 * kSqrt3);
-  return g;
-}
 
 Status validate(const AlignmentParameters& eta, double r1) {
   for (Param p : kAllParams) {
@@ -78,22 +68,7 @@ Status checkPlausible(const AlignmentParameters& eta) {
 
 Result<PhysicalParameters> toPhysical(const AlignmentParameters& eta, double r1) {
   if (Status s = validate(eta, r1); !s) return s.error();
-  const double b1 = eta[Param::Beta1], b2 = eta[Param::Beta2];
-  const GapDecomposition g = decomposeGaps(eta);
-  PhysicalParameters phys;
-  phys[Physical::Alpha] = eta[Param::Alpha];
-  phys[Physical::Beta] = std::asin(std::hypot(b1, b2));
-  phys[Physical::Psi] = std::atan2(b2, b1);
-  phys[Physical::Dx] = eta[Param::Dx];
-  phys[Physical::Dy] = eta[Param::Dy];
-  phys[Physical::Dz] = eta[Param::Dz];
-  phys[Physical::Mu] = std::asin(std::sqrt(4.0 * g.t * g.t + g.u * g.u) / (2.0 * r1));
-  phys[Physical::Tau] = std::atan2(2.0 * g.t, g.u);
-  phys[Physical::DxRel] = g.dxRel;
-  phys[Physical::DyRel] = eta[Param::DyRel];
-  phys[Physical::DzRel] = eta[Param::DzRel];
-  phys[Physical::BetaRel] = eta[Param::BetaRel];
-  return phys;
+  return PhysicalParameters{physicalOf<double>(eta.values, r1)};
 }
 
 AlignmentParameters fromPhysical(const PhysicalParameters& phys, double r1) {
@@ -117,14 +92,24 @@ AlignmentParameters fromPhysical(const PhysicalParameters& phys, double r1) {
   return eta;
 }
 
-std::vector<std::string> warnings(const AlignmentParameters& eta) {
+std::vector<std::string> warnings(const AlignmentParameters& eta, const ParamVector* errors) {
   std::vector<std::string> out;
   for (Param p : {Param::Dp1, Param::Dp2, Param::Dp3}) {
-    if (eta[p] < 0.0) {
+    const double v = eta[p] / units::cm;
+    if (!(v < 0.0)) continue;
+    if (!errors) {
       out.push_back(
           fmt::format("{} = {:.4f} cm is negative: the hemispheres overlap there (a calibration or "
                       "reconstruction problem to deal with before using these parameters)",
-                      name(p), eta[p] / units::cm));
+                      name(p), v));
+      continue;
+    }
+    const double e = (*errors)[p] / units::cm;
+    if (!std::isfinite(e) || v < -e) {
+      out.push_back(
+          fmt::format("{} = {:.4f} ± {:.4f} cm is negative beyond its error: the hemispheres overlap (a calibration or "
+                      "reconstruction problem to deal with before using these parameters)",
+                      name(p), v, e));
     }
   }
   return out;

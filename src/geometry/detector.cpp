@@ -153,7 +153,7 @@ Calorimeter::Calorimeter(DetectorDescription description) : description_(std::mo
   for (int i = 0; i < kCosBins; ++i) {
     const double top = -1.0 + 2.0 * (i + 1) / kCosBins + kMargin;
     int ring = 0;
-    while (ring + 1 < d.ringCount() && ringEdgeKeys_[static_cast<std::size_t>(ring + 1)] >= top) ++ring;
+    while (ring + 1 < d.ringCount() && ringEdgeKeys_[static_cast<std::size_t>(ring) + 1] >= top) ++ring;
     ringGuess_[static_cast<std::size_t>(i)] = static_cast<std::int16_t>(ring);
   }
   phiGuess_.resize(static_cast<std::size_t>(kPhiBins) * d.countersPerRing.size());
@@ -169,7 +169,7 @@ Calorimeter::Calorimeter(DetectorDescription description) : description_(std::mo
       phiGuess_[ring * kPhiBins + static_cast<std::size_t>(i)] = static_cast<std::int16_t>(below);
     }
   }
-  counters_.reserve(static_cast<std::size_t>(3 * countersPerLayer_));
+  counters_.reserve(3 * static_cast<std::size_t>(countersPerLayer_));
   for (int layer = 1; layer <= 3; ++layer) {
     const auto& shell = d.layers[static_cast<std::size_t>(layer - 1)];
     for (int ring = 0; ring < d.ringCount(); ++ring) {
@@ -225,7 +225,7 @@ Location Calorimeter::locate(const Vec3& p) const {
   // The ring with edges[ring] ≥ cos θ > edges[ring + 1], from its table guess.
   const int cosBin = std::clamp(static_cast<int>((zz / r2 + 1.0) * (0.5 * kCosBins)), 0, kCosBins - 1);
   int ring = ringGuess_[static_cast<std::size_t>(cosBin)];
-  while (ring + 1 < rings && ringEdgeKeys_[static_cast<std::size_t>(ring + 1)] * r2 >= zz) ++ring;
+  while (ring + 1 < rings && ringEdgeKeys_[static_cast<std::size_t>(ring) + 1] * r2 >= zz) ++ring;
   // φ cell: the quadrant from the signs of x, y (as atan2 folded into [0, 2π) would place
   // it), then the number of cell edges at or below the in-quadrant angle (u, v) of the
   // point rotated by −q·90°, by cross products.

@@ -5,7 +5,7 @@
 
 #include <fmt/format.h>
 
-#include "emcalign/report/plots.hpp"
+#include "emcalign/report/histogram.hpp"
 #include "gnuplot.hpp"
 
 namespace emcalign::report {

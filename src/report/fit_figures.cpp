@@ -13,6 +13,7 @@
 #include "emcalign/core/sha256.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/geometry/alignment_transform.hpp"
+#include "emcalign/report/fit_plots.hpp"
 
 namespace emcalign::report {
 

@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "emcalign/core/special_functions.hpp"
+#include "emcalign/core/units.hpp"
 
 namespace emcalign::sim {
 
@@ -122,7 +123,7 @@ CalorimeterResponse::CalorimeterResponse(const geometry::Calorimeter& calo, cons
     const double x = options_.maxRadius / radius;
     return x * x / (x * x + 1.0);
   };
-  constexpr double kMargin = 12.0 * 0.017453292519943295;
+  constexpr double kMargin = 12.0 * units::deg;
   cosCoverageMin_ = std::cos(std::max(0.0, calo.description().thetaMin - kMargin));
   cosCoverageMax_ = std::cos(std::min(std::numbers::pi, calo.description().thetaMax + kMargin));
   lateralCos_ = std::cos(2.0 * std::numbers::pi / options_.spotsLateral);

@@ -11,7 +11,9 @@ Status TrackingOptions::validate() const {
   if (!(beamPipeRadius > 0.0) || !(beamPipeThickness >= 0.0) || !(beamPipeRadiationLength > 0.0)) {
     return Error{"tracking: beam pipe radius, thickness and X0 must be positive"};
   }
-  if (layerRadii.size() < 2) return Error{"tracking: need at least 2 layers"};
+  if (layerRadii.size() < 2 || layerRadii.size() > kMaxLayers) {
+    return Error{fmt::format("tracking: need 2 to {} layers, not {}", kMaxLayers, layerRadii.size())};
+  }
   for (std::size_t i = 0; i < layerRadii.size(); ++i) {
     if (!(layerRadii[i] > beamPipeRadius) || (i > 0 && !(layerRadii[i] > layerRadii[i - 1]))) {
       return Error{fmt::format("tracking: layer radii must increase outside the beam pipe (layer {})", i)};
@@ -68,10 +70,10 @@ ChargedPath TrackingSystem::scatter(const Vec3& vertex, const Vec3& direction, d
 std::optional<geometry::TrackLine> TrackingSystem::measure(const ChargedPath& path, Rng& rng) const {
   const auto& o = options_;
   // Hits: crossing points with the layers, smeared along the tangent (r-φ) and in z.
-  double hx[16], hy[16], hz[16];
+  double hx[TrackingOptions::kMaxLayers], hy[TrackingOptions::kMaxLayers], hz[TrackingOptions::kMaxLayers];
   int n = 0;
   for (double r : o.layerRadii) {
-    if (n == 16) break;
+    if (n == static_cast<int>(TrackingOptions::kMaxLayers)) break;  // validate() allows no more
     const double s = cylinderCrossing(path.point, path.direction, r);
     if (s < 0.0) continue;
     const Vec3 h = path.point + s * path.direction;

@@ -13,7 +13,7 @@
 #include "emcalign/core/paper.hpp"
 #include "emcalign/core/statistics.hpp"
 #include "emcalign/core/units.hpp"
-#include "emcalign/report/plots.hpp"
+#include "emcalign/report/campaign_plots.hpp"
 
 namespace emcalign::validation {
 
@@ -30,17 +30,17 @@ constexpr std::string_view kSampleFormat = "emcalign-validation-sample/1";
 
 double fileUnitOf(Physical p) { return PhysicalParameters::fileUnit(p); }
 
-// The derived quantities the table reports besides the 12 fit parameters, in the order of
-// calib::FitResult::derived: β, ψ, μ, τ, dx_rel.
-constexpr std::array<std::string_view, 5> kDerived = {"beta", "psi", "mu", "tau", "dx_rel"};
+// The table reports besides the 12 fit parameters the derived quantities kDerivedParams
+// (β, ψ, μ, τ, dx_rel); ψ and τ are angles that wrap.
+bool wraps(Physical p) { return p == Physical::Psi || p == Physical::Tau; }
 
-// The truths of the derived quantities (order of kDerived), native units; NaN when the
-// truth has no physical form.
-std::array<double, 5> derivedTruth(const AlignmentParameters& truth, double r1) {
-  const auto phys = geometry::toPhysical(truth, r1);
-  if (!phys) return {std::nan(""), std::nan(""), std::nan(""), std::nan(""), std::nan("")};
-  return {(*phys)[Physical::Beta], (*phys)[Physical::Psi], (*phys)[Physical::Mu], (*phys)[Physical::Tau],
-          (*phys)[Physical::DxRel]};
+// The truths of the physical parameters, native units; NaN when the truth has no physical form.
+PhysicalParameters physicalTruth(const AlignmentParameters& truth, double r1) {
+  auto phys = geometry::toPhysical(truth, r1);
+  if (phys) return *phys;
+  PhysicalParameters none;
+  none.values.fill(std::nan(""));
+  return none;
 }
 
 std::uint64_t sampleSeed(std::uint64_t seed, int index) {
@@ -203,16 +203,14 @@ std::optional<SampleResult> readSample(const std::string& path, int sampleIndex,
     s.fit.ndf = static_cast<int>(*ndf);
     for (Param p : kAllParams) {
       const Json& e = f["errors"][std::string(name(p))];
-      s.fit.errors[static_cast<Eigen::Index>(index(p))] =
-          e.is_null() ? std::nan("") : e.get<double>() * AlignmentParameters::fileUnit(p);
+      s.fit.errors[p] = e.is_null() ? std::nan("") : e.get<double>() * AlignmentParameters::fileUnit(p);
     }
-    for (auto n : kDerived) {
-      Json& d = f["derived"][std::string(n)];
-      const double unit = n == "dx_rel" ? units::cm : units::deg;
-      calib::DerivedValue v;
+    for (Physical p : kDerivedParams) {
+      Json& d = f["derived"][std::string(name(p))];
+      const double unit = fileUnitOf(p);
+      calib::DerivedValue& v = s.fit.derived[p];
       v.value = d["value"].get<double>() * unit;
       v.error = d["error"].is_null() ? std::nan("") : d["error"].get<double>() * unit;
-      s.fit.derived.emplace_back(std::string(n), v);
     }
     if (f.contains("sigma_sys")) s.fit.sigmaSys.value = f["sigma_sys"]["value_deg"].get<double>() * units::deg;
     if (f.contains("correlation")) {
@@ -238,23 +236,18 @@ std::vector<report::CampaignSeries> campaignSeries(const std::vector<SampleResul
     for (const auto& s : samples) {
       q.truth.push_back(s.truth[p] / unit);
       q.fit.push_back(s.fit.parameters[p] / unit);
-      q.error.push_back(s.fit.errors[static_cast<Eigen::Index>(index(p))] / unit);
+      q.error.push_back(s.fit.errors[p] / unit);
     }
     series.push_back(std::move(q));
   }
-  std::vector<std::array<double, 5>> truths;
-  for (const auto& s : samples) truths.push_back(derivedTruth(s.truth, r1));
-  for (std::size_t k = 0; k < kDerived.size(); ++k) {
-    const bool length = kDerived[k] == "dx_rel";
-    const double unit = length ? units::cm : units::deg;
-    report::CampaignSeries q{
-        std::string(kDerived[k]), length ? "cm" : "deg", {}, {}, {}, kDerived[k] == "psi" || kDerived[k] == "tau"};
+  std::vector<PhysicalParameters> truths;
+  for (const auto& s : samples) truths.push_back(physicalTruth(s.truth, r1));
+  for (Physical p : kDerivedParams) {
+    const double unit = fileUnitOf(p);
+    report::CampaignSeries q{std::string(name(p)), std::string(fileUnitName(dimension(p))), {}, {}, {}, wraps(p)};
     for (std::size_t i = 0; i < samples.size(); ++i) {
-      calib::DerivedValue fit{std::nan(""), std::nan("")};
-      for (const auto& [n, v] : samples[i].fit.derived) {
-        if (n == kDerived[k]) fit = v;
-      }
-      q.truth.push_back(truths[i][k] / unit);
+      const calib::DerivedValue& fit = samples[i].fit.derived[p];
+      q.truth.push_back(truths[i][p] / unit);
       q.fit.push_back(fit.value / unit);
       q.error.push_back(fit.error / unit);
     }
@@ -385,14 +378,12 @@ Table tabulate(const std::vector<SampleResult>& samples, std::int64_t events, do
     const bool isAngle = dimension(p) == Dimension::Angle;
     acc.push_back({std::string(name(p)), isAngle ? "deg" : "cm", AlignmentParameters::fileUnit(p), false, {}, {}, {}});
   }
-  for (auto n : kDerived) {
-    const bool length = n == "dx_rel";
-    acc.push_back(
-        {std::string(n), length ? "cm" : "deg", length ? units::cm : units::deg, n == "psi" || n == "tau", {}, {}, {}});
+  for (Physical p : kDerivedParams) {
+    acc.push_back({std::string(name(p)), std::string(fileUnitName(dimension(p))), fileUnitOf(p), wraps(p), {}, {}, {}});
   }
   int correlations = 0;
   for (const auto& s : samples) {
-    const std::array<double, 5> truthDerived = derivedTruth(s.truth, r1);
+    const PhysicalParameters truthPhysical = physicalTruth(s.truth, r1);
     for (std::size_t k = 0; k < kNumParams; ++k) {
       const auto i = static_cast<Eigen::Index>(k);
       const double d = s.fit.parameters.values[i] - s.truth.values[i];
@@ -400,12 +391,14 @@ Table tabulate(const std::vector<SampleResult>& samples, std::int64_t events, do
       acc[k].pull.push_back(d / s.fit.errors[i]);
       acc[k].truth.push_back(s.truth.values[i]);
     }
-    for (std::size_t k = 0; k < kDerived.size() && k < s.fit.derived.size(); ++k) {
-      double d = s.fit.derived[k].second.value - truthDerived[k];
-      if (acc[kNumParams + k].angle) d = std::remainder(d, 2.0 * std::numbers::pi);
-      acc[kNumParams + k].diff.push_back(d);
-      acc[kNumParams + k].pull.push_back(d / s.fit.derived[k].second.error);
-      acc[kNumParams + k].truth.push_back(acc[kNumParams + k].angle ? std::nan("") : truthDerived[k]);
+    for (std::size_t k = 0; k < kDerivedParams.size(); ++k) {
+      const Physical p = kDerivedParams[k];
+      Acc& a = acc[kNumParams + k];
+      double d = s.fit.derived[p].value - truthPhysical[p];
+      if (a.angle) d = std::remainder(d, 2.0 * std::numbers::pi);
+      a.diff.push_back(d);
+      a.pull.push_back(d / s.fit.derived[p].error);
+      a.truth.push_back(a.angle ? std::nan("") : truthPhysical[p]);
     }
     if (s.fit.correlation.allFinite() && s.fit.correlation.diagonal().sum() > 0.0) {
       t.meanCorrelation += s.fit.correlation;

@@ -259,6 +259,111 @@ Status DerivationOptions::validate() const {
   return {};
 }
 
+namespace {
+
+// The depth offset's search: the golden-section tolerance, the step of the χ² curvature
+// that gives its error, and how close to the interval's ends a minimum is refused (cm).
+constexpr double kDepthTolerance = 0.005, kDepthCurvatureStep = 0.25, kDepthEdgeMargin = 0.05;
+
+// Step 1, the depth: the offset δ whose R(E, θ) + δ makes the shift sample's profile minus
+// the nominal one the model of the known shift (DepthChi2), with its error from the χ²'s
+// curvature.
+Status deriveDepth(const Sample& shifted, const Sample& nominal, const calib::FitGeometry& nominalGeometry,
+                   const DerivationOptions& o, DerivationReport& report) {
+  DepthChi2 chi2{&shifted, &nominal, nominalGeometry};
+  const double delta = goldenMinimum(chi2, o.depthLow, o.depthHigh, kDepthTolerance);
+  const double h = kDepthCurvatureStep;
+  const double c0 = chi2(delta), cp = chi2(delta + h), cm = chi2(delta - h);
+  report.depthChi2 = c0;
+  report.depthBins = chi2.bins;
+  const double curvature = (cp - 2.0 * c0 + cm) / (h * h);
+  report.depthOffsetError = curvature > 0.0 ? std::sqrt(2.0 / curvature) : std::nan("");
+  if (delta - o.depthLow < kDepthEdgeMargin || o.depthHigh - delta < kDepthEdgeMargin) {
+    return Error{fmt::format("the depth offset sits at the edge of the search interval [{}, {}] cm: {:.2f} cm",
+                             o.depthLow, o.depthHigh, delta)};
+  }
+  report.corrections.depthOffset = delta;
+  report.corrections.beamEnergy = o.simulation.generator.beamEnergy;
+  return {};
+}
+
+// Step 2, the parting-plane response at the derived depth: per φ column next to the plane,
+// the least-squares W₊ of Δy = f₋ + W₊·(f₊ − f₋) over the column's bins (Δy = gap sample −
+// nominal sample, statistical σ), both components.
+Status derivePartingPlane(const std::vector<calib::ProfileBin>& gappedBins,
+                          const std::vector<calib::ProfileBin>& nominalBins, const AlignmentParameters& gap,
+                          const geometry::ShowerDepth& depth, const geometry::AlignmentRadii& radii,
+                          DerivationReport& report) {
+  ColumnWeights largest;
+  if (Status s = measureColumnWeights(gappedBins, nominalBins, gap, depth, radii, largest); !s) return s.error();
+  report.columnWeights = largest.measured;
+  report.columnWeightErrors = largest.errors;
+  auto response = calib::PartingPlaneResponse::create(largest.weights);
+  if (!response) return response.error();
+  report.corrections.partingPlane = std::make_shared<const calib::PartingPlaneResponse>(std::move(*response));
+  return {};
+}
+
+// Step 3, the nominal sample's profile at the derived depth, to be subtracted from every bin
+// (NaN where the bin had too few entries).
+Result<calib::NominalProfile> nominalProfileOf(const std::vector<calib::ProfileBin>& nominalBins,
+                                               const calib::ProfileOptions& po) {
+  calib::NominalProfile t;
+  t.phiBins = po.phiBins;
+  t.thetaBins = po.thetaBins;
+  const double nan = std::nan("");
+  for (const auto& b : nominalBins) {
+    t.yPhi.push_back(b.used ? b.yPhi : nan);
+    t.yTheta.push_back(b.used ? b.yTheta : nan);
+    t.sigmaPhi.push_back(b.used ? b.sigmaPhi : nan);
+    t.sigmaTheta.push_back(b.used ? b.sigmaTheta : nan);
+  }
+  if (Status st = t.validate(); !st) return st.error();
+  return t;
+}
+
+// The closure: the shift and gap samples fitted with the paper's model and with all the
+// corrections, as data would be fitted; each reports the quantity its sample moved (dx,
+// dx_rel).
+Status closureFits(const Sample& shifted, const Sample& gapped, const calib::FitGeometry& nominalGeometry,
+                   const DerivationOptions& o, DerivationReport& report) {
+  auto fitOne = [&](const Sample& s, bool corrected) -> Result<calib::FitResult> {
+    calib::FitGeometry g = nominalGeometry;
+    calib::ProfileOptions po;
+    if (corrected) {
+      g.apply(report.corrections);
+      po.partingPlane = report.corrections.partingPlane;
+      po.nominalProfile = report.corrections.nominalProfile;
+    }
+    return calib::fitProfiles(profileOf(s, g.depth, po), g);
+  };
+  struct Closure {
+    const Sample* sample;
+    const char* name;
+    Physical measured;
+    double truth;
+  };
+  for (const Closure& k :
+       {Closure{&shifted, "shift", Physical::Dx, o.shift}, Closure{&gapped, "gap", Physical::DxRel, o.gap}}) {
+    auto paper = fitOne(*k.sample, false);
+    if (!paper) return paper.error();
+    auto corrected = fitOne(*k.sample, true);
+    if (!corrected) return corrected.error();
+    ClosureFit c;
+    c.sample = k.name;
+    c.parameter = std::string(name(k.measured));
+    c.truth = k.truth;
+    c.paperModel = paper->derived[k.measured].value;
+    c.paperError = paper->derived[k.measured].error;
+    c.corrected = corrected->derived[k.measured].value;
+    c.correctedError = corrected->derived[k.measured].error;
+    report.closure.push_back(c);
+  }
+  return {};
+}
+
+}  // namespace
+
 Result<DerivationReport> deriveCorrections(const geometry::Calorimeter& calo, const DerivationOptions& o,
                                            const DerivationProgress& progress) {
   if (Status s = o.validate(); !s) return s.error();
@@ -279,55 +384,22 @@ Result<DerivationReport> deriveCorrections(const geometry::Calorimeter& calo, co
   report.selectedEvents[1] = shifted->selectedEvents;
   report.selectedEvents[2] = gapped->selectedEvents;
 
-  // 1. Depth.
   if (progress) progress("depth", 0, 1);
-  DepthChi2 chi2{&*shifted, &*nominal, nominalGeometry};
-  const double delta = goldenMinimum(chi2, o.depthLow, o.depthHigh, 0.005);
-  const double h = 0.25;
-  const double c0 = chi2(delta), cp = chi2(delta + h), cm = chi2(delta - h);
-  report.depthChi2 = c0;
-  report.depthBins = chi2.bins;
-  const double curvature = (cp - 2.0 * c0 + cm) / (h * h);
-  report.depthOffsetError = curvature > 0.0 ? std::sqrt(2.0 / curvature) : std::nan("");
-  if (delta - o.depthLow < 0.05 || o.depthHigh - delta < 0.05) {
-    return Error{fmt::format("the depth offset sits at the edge of the search interval [{}, {}] cm: {:.2f} cm",
-                             o.depthLow, o.depthHigh, delta)};
-  }
-  report.corrections.depthOffset = delta;
-  report.corrections.beamEnergy = o.simulation.generator.beamEnergy;
+  if (Status s = deriveDepth(*shifted, *nominal, nominalGeometry, o, report); !s) return s.error();
   if (progress) progress("depth", 1, 1);
 
-  // 2. The parting-plane response, at the derived depth: per φ column next to the plane,
-  // the least-squares W₊ of Δy = f₋ + W₊·(f₊ − f₋) over the column's bins (Δy = gap sample −
-  // nominal sample, statistical σ), both components.
   geometry::ShowerDepth depth = nominalGeometry.depth;
-  depth.offset = delta;
+  depth.offset = report.corrections.depthOffset;
   calib::ProfileOptions po;
   po.sigmaSys = 0.0;
   const auto gb = profileOf(*gapped, depth, po), nb = profileOf(*nominal, depth, po);
-  ColumnWeights largest;
-  if (Status s = measureColumnWeights(gb, nb, gap, depth, nominalGeometry.radii, largest); !s) return s.error();
-  report.columnWeights = largest.measured;
-  report.columnWeightErrors = largest.errors;
-  auto response = calib::PartingPlaneResponse::create(largest.weights);
-  if (!response) return response.error();
-  report.corrections.partingPlane = std::make_shared<const calib::PartingPlaneResponse>(std::move(*response));
+  if (Status s = derivePartingPlane(gb, nb, gap, depth, nominalGeometry.radii, report); !s) return s.error();
 
-  // 3. The nominal sample's profile at the derived depth, subtracted from every bin.
-  calib::NominalProfile nominalProfile;
-  nominalProfile.phiBins = po.phiBins;
-  nominalProfile.thetaBins = po.thetaBins;
-  for (const auto& b : nb) {
-    const double nan = std::nan("");
-    nominalProfile.yPhi.push_back(b.used ? b.yPhi : nan);
-    nominalProfile.yTheta.push_back(b.used ? b.yTheta : nan);
-    nominalProfile.sigmaPhi.push_back(b.used ? b.sigmaPhi : nan);
-    nominalProfile.sigmaTheta.push_back(b.used ? b.sigmaTheta : nan);
-  }
-  if (Status st = nominalProfile.validate(); !st) return st.error();
-  report.corrections.nominalProfile = std::make_shared<const calib::NominalProfile>(std::move(nominalProfile));
+  auto nominalProfile = nominalProfileOf(nb, po);
+  if (!nominalProfile) return nominalProfile.error();
+  report.corrections.nominalProfile = std::make_shared<const calib::NominalProfile>(std::move(*nominalProfile));
 
-  // 4. The fit's response, with the corrections so far.
+  // Step 4, the fit's response, with the corrections so far.
   if (o.responseSamples > 0) {
     auto response = measureResponse(calo, o, report, progress);
     if (!response) return response.error();
@@ -337,55 +409,14 @@ Result<DerivationReport> deriveCorrections(const geometry::Calorimeter& calo, co
   // The nominal profile's statistical noise is common to every fit that uses the file: the
   // errors of a fit to it alone (statistical σ), with the model the file makes, are that
   // systematic error, per parameter.
-  {
-    calib::FitGeometry g = nominalGeometry;
-    g.apply(report.corrections);
-    auto noise = calib::fitProfiles(nb, g);
-    if (!noise) return Error{fmt::format("fit of the nominal profile: {}", noise.error().message)};
-    report.nominalProfileErrors = noise->errors;
-  }
+  calib::FitGeometry corrected = nominalGeometry;
+  corrected.apply(report.corrections);
+  auto noise = calib::fitProfiles(nb, corrected);
+  if (!noise) return Error{fmt::format("fit of the nominal profile: {}", noise.error().message)};
+  report.nominalProfileErrors = noise->errors;
 
-  // Closure: the shift and gap samples fitted with the paper's model and with all the
-  // corrections, as data would be fitted.
   if (progress) progress("closure fits", 0, 1);
-  auto fitOne = [&](const Sample& s, bool corrected) -> Result<calib::FitResult> {
-    calib::FitGeometry g = nominalGeometry;
-    calib::ProfileOptions po;
-    if (corrected) {
-      g.apply(report.corrections);
-      po.partingPlane = report.corrections.partingPlane;
-      po.nominalProfile = report.corrections.nominalProfile;
-    }
-    return calib::fitProfiles(profileOf(s, g.depth, po), g);
-  };
-  for (const auto& [sample, name, param] :
-       {std::tuple{&*shifted, "shift", Param::Dx}, std::tuple{&*gapped, "gap", Param::Dp1}}) {
-    auto paper = fitOne(*sample, false);
-    if (!paper) return paper.error();
-    auto corrected = fitOne(*sample, true);
-    if (!corrected) return corrected.error();
-    ClosureFit c;
-    c.sample = name;
-    const Param measured = param;  // a structured binding cannot be captured (C++20; clang refuses it)
-    auto valueOf = [&](const calib::FitResult& r, double& value, double& error) {
-      if (measured == Param::Dx) {
-        value = r.parameters[Param::Dx];
-        error = r.errors[static_cast<Eigen::Index>(index(Param::Dx))];
-      } else {
-        for (const auto& [n, v] : r.derived) {
-          if (n == "dx_rel") {
-            value = v.value;
-            error = v.error;
-          }
-        }
-      }
-    };
-    c.parameter = param == Param::Dx ? "dx" : "dx_rel";
-    c.truth = param == Param::Dx ? o.shift : o.gap;
-    valueOf(*paper, c.paperModel, c.paperError);
-    valueOf(*corrected, c.corrected, c.correctedError);
-    report.closure.push_back(c);
-  }
+  if (Status s = closureFits(*shifted, *gapped, nominalGeometry, o, report); !s) return s.error();
   if (progress) progress("closure fits", 1, 1);
   return report;
 }
@@ -395,7 +426,7 @@ namespace {
 Json parameterErrorsJson(const geometry::ParamVector& errors) {
   Json out = Json::object();
   for (Param p : kAllParams) {
-    out[std::string(name(p))] = errors[static_cast<Eigen::Index>(index(p))] / AlignmentParameters::fileUnit(p);
+    out[std::string(name(p))] = errors[p] / AlignmentParameters::fileUnit(p);
   }
   return out;
 }
@@ -406,14 +437,13 @@ Json responseErrorJson(const DerivationReport& r) {
   for (Param pj : kAllParams) {
     Json row = Json::array();
     for (Param pk : kAllParams) {
-      row.push_back(r.responseErrors(static_cast<Eigen::Index>(index(pj)), static_cast<Eigen::Index>(index(pk))) *
-                    AlignmentParameters::fileUnit(pk) / AlignmentParameters::fileUnit(pj));
+      row.push_back(r.responseErrors(pj, pk) * AlignmentParameters::fileUnit(pk) / AlignmentParameters::fileUnit(pj));
     }
     rows.push_back(row);
   }
   Json offset = Json::array();
   for (Param p : kAllParams) {
-    offset.push_back(r.responseOffsetErrors[static_cast<Eigen::Index>(index(p))] / AlignmentParameters::fileUnit(p));
+    offset.push_back(r.responseOffsetErrors[p] / AlignmentParameters::fileUnit(p));
   }
   return {{"matrix", rows}, {"offset", offset}};
 }

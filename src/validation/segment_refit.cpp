@@ -22,11 +22,11 @@ std::vector<std::pair<double, double>> valuesOf(const calib::FitResult& r) {
   std::vector<std::pair<double, double>> out;
   for (Param p : kAllParams) {
     const double unit = geometry::AlignmentParameters::fileUnit(p);
-    out.emplace_back(r.parameters[p] / unit, r.errors[static_cast<Eigen::Index>(index(p))] / unit);
+    out.emplace_back(r.parameters[p] / unit, r.errors[p] / unit);
   }
-  for (const auto& [n, v] : r.derived) {
-    const double unit = n == "dx_rel" ? units::cm : units::deg;
-    out.emplace_back(v.value / unit, v.error / unit);
+  for (Physical p : kDerivedParams) {
+    const double unit = geometry::PhysicalParameters::fileUnit(p);
+    out.emplace_back(r.derived[p].value / unit, r.derived[p].error / unit);
   }
   return out;
 }

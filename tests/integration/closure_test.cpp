@@ -84,7 +84,7 @@ TEST(Closure, IdealisedSimulationIsFittedBackWithin3Sigma) {
     const auto r = simulateAndFit(truth, o, 20000);
     EXPECT_EQ(r.status, emcalign::FitStatus::Converged);
     for (Param p : kAllParams) {
-      const double e = r.errors[static_cast<Eigen::Index>(index(p))];
+      const double e = r.errors[p];
       EXPECT_NEAR(r.parameters[p], truth[p], 3.0 * e) << name(p) << ", truth set " << seed;
     }
   }
@@ -104,7 +104,7 @@ TEST(Closure, FullRealismConvergesWithTheKnownBiases) {
   }
   for (Param p : {Param::Dp1, Param::Dp2, Param::Dp3}) EXPECT_LT(std::abs(diff(p)), 0.35) << name(p);
   // dx_rel: low, as explained above.
-  const double dxRel = r.derived[4].second.value;
+  const double dxRel = r.derived[Physical::DxRel].value;
   EXPECT_LT(dxRel - 0.2, 0.0);
   EXPECT_GT(dxRel - 0.2, -0.15);
 }

@@ -47,7 +47,7 @@ class ProfileFiller {
                 ParticleVisitor visit = {});
   /// Rows of whole events, the rows of an event contiguous.
   void addEvents(std::span<const ParticleRow> rows);
-  const ProfileFill& fill() const { return fill_; }
+  [[nodiscard]] const ProfileFill& fill() const { return fill_; }
   ProfileFill& fill() { return fill_; }
   /// Fails when no event passed the selection (the message gives the cut flow).
   Status checkSelected() const;

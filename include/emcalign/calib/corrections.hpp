@@ -63,6 +63,7 @@
 #include "emcalign/core/parameters.hpp"
 #include "emcalign/core/result.hpp"
 #include "emcalign/core/units.hpp"
+#include "emcalign/geometry/alignment_parameters.hpp"
 #include "emcalign/io/json_files.hpp"
 
 namespace emcalign::calib {
@@ -90,9 +91,9 @@ class PartingPlaneResponse {
   /// SPEC's hard value of a column away from the plane.
   static double hardWeight(int iPhi, int phiBins);
 
-  int phiBins() const { return static_cast<int>(weight_.size()); }
-  double plusWeight(int iPhi) const { return weight_[static_cast<std::size_t>(iPhi)]; }
-  const std::vector<double>& weights() const { return weight_; }
+  [[nodiscard]] int phiBins() const { return static_cast<int>(weight_.size()); }
+  [[nodiscard]] double plusWeight(int iPhi) const { return weight_[static_cast<std::size_t>(iPhi)]; }
+  [[nodiscard]] const std::vector<double>& weights() const { return weight_; }
 
  private:
   std::vector<double> weight_;
@@ -106,7 +107,7 @@ struct NominalProfile {
   Status validate() const;
 };
 
-using ResponseMatrix = Eigen::Matrix<double, static_cast<int>(kNumParams), static_cast<int>(kNumParams)>;
+using ResponseMatrix = geometry::ParamMatrix;
 
 /// The fit's response: E[η̂ | η] = offset + matrix·η + gapMatrix·η·dx_rel(η) (native units:
 /// rad, cm; dx_rel = (dp1 + dp2 + dp3)/6 in cm). The last term is the interaction of every
@@ -115,8 +116,7 @@ using ResponseMatrix = Eigen::Matrix<double, static_cast<int>(kNumParams), stati
 struct FitResponse {
   ResponseMatrix matrix = ResponseMatrix::Identity();
   ResponseMatrix gapMatrix = ResponseMatrix::Zero();
-  Eigen::Matrix<double, static_cast<int>(kNumParams), 1> offset =
-      Eigen::Matrix<double, static_cast<int>(kNumParams), 1>::Zero();
+  geometry::ParamVector offset = geometry::ParamVector::Zero();
   /// Plausible when finite, the diagonal of the matrix in [0.5, 1.5] and its condition
   /// number in file units below 100 (a fit that returns its truth within tens of per cent),
   /// the offset below 0.5° and 0.5 cm, the gap matrix below 1 per cm (file units).

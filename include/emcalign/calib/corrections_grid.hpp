@@ -67,13 +67,13 @@ class CorrectionsGrid {
   /// point without an energy is a single file.
   static Result<CorrectionsGrid> of(std::vector<CorrectionsPoint> points, std::string path);
 
-  const std::string& path() const { return path_; }
+  [[nodiscard]] const std::string& path() const { return path_; }
   /// The SHA-256 of the file, or of a directory's listing "<sha256>  <name>\n" per file
   /// in name order (sha256sum's format), for the provenance.
-  const std::string& sha256() const { return sha256_; }
+  [[nodiscard]] const std::string& sha256() const { return sha256_; }
   /// Whether it interpolates (a directory), rather than being one file for every energy.
-  bool isGrid() const { return grid_; }
-  const std::vector<CorrectionsPoint>& points() const { return points_; }
+  [[nodiscard]] bool isGrid() const { return grid_; }
+  [[nodiscard]] const std::vector<CorrectionsPoint>& points() const { return points_; }
 
   /// The corrections at `beamEnergy` (MeV). A grid fails outside its energies.
   Result<CorrectionsAt> at(double beamEnergy) const;

@@ -11,6 +11,7 @@
 // Errors: covariance = (JᵀJ)⁻¹ of the whitened residuals at the minimum (Δχ² = 1). A
 // singular covariance is reported (eigenvalues, the weak combination), never regularised.
 
+#include <array>
 #include <limits>
 #include <memory>
 #include <optional>
@@ -23,13 +24,14 @@
 #include "emcalign/calib/profiles.hpp"
 #include "emcalign/core/fit_status.hpp"
 #include "emcalign/core/parameters.hpp"
+#include "emcalign/core/units.hpp"
 #include "emcalign/geometry/alignment_parameters.hpp"
 #include "emcalign/geometry/alignment_transform.hpp"
 #include "emcalign/geometry/shower_depth.hpp"
 
 namespace emcalign::calib {
 
-using Covariance = Eigen::Matrix<double, static_cast<int>(kNumParams), static_cast<int>(kNumParams)>;
+using Covariance = geometry::ParamMatrix;
 
 struct FitOptions {
   /// Parameters freed at each stage (SPEC §8); the union must be all 12.
@@ -53,10 +55,21 @@ struct StageResult {
   std::string termination;
 };
 
-/// A derived (physical) parameter with its propagated error, native units.
+/// A physical parameter with its propagated error, native units.
 struct DerivedValue {
-  double value = 0.0;
-  double error = 0.0;  ///< NaN where the linear propagation is undefined (β = 0 for ψ, …)
+  double value = std::numeric_limits<double>::quiet_NaN();
+  double error = std::numeric_limits<double>::quiet_NaN();  ///< NaN where the linear propagation is
+                                                            ///< undefined (β = 0 for ψ, …)
+};
+
+/// Every physical parameter of a fit (SPEC §3) with its error, indexed by `Physical`:
+/// `derived[Physical::Mu]`. Those that are fit parameters too repeat the fit's value and
+/// error; the five that are not (kDerivedParams: β, ψ, μ, τ, dx_rel) are what result files
+/// call "derived". NaN until a fit sets them.
+struct DerivedValues {
+  std::array<DerivedValue, kNumParams> values;
+  DerivedValue& operator[](Physical p) { return values[index(p)]; }
+  const DerivedValue& operator[](Physical p) const { return values[index(p)]; }
 };
 
 /// The systematic error σ_sys added in quadrature to the statistical σ of every bin (for y_φ
@@ -71,7 +84,7 @@ std::string_view name(SigmaSysMethod m);
 
 struct SigmaSysUsed {
   SigmaSysMethod method = SigmaSysMethod::Spec;
-  double value = 0.2 * 0.017453292519943295;  ///< rad
+  double value = 0.2 * units::deg;  ///< rad
   /// Auto only: the 68 % interval of the estimate (the σ_sys for which the χ² is ndf ± √(2 ndf);
   /// the lower end 0 when the statistical errors alone already give χ² ≤ ndf + √(2 ndf)), the χ²
   /// of the fit with the statistical errors alone, and its p-value (the model's own test).
@@ -90,8 +103,7 @@ struct FitResult {
   geometry::ParamVector errors = geometry::ParamVector::Constant(std::numeric_limits<double>::quiet_NaN());
   std::optional<Covariance> covariance;  ///< native units; none if singular
   Covariance correlation = Covariance::Zero();
-  /// β, ψ, μ, τ, dx_rel (in this order)
-  std::vector<std::pair<std::string, DerivedValue>> derived;
+  DerivedValues derived;
   double chi2 = 0.0;
   int ndf = 0;
   double pValue = 0.0;
@@ -100,7 +112,8 @@ struct FitResult {
   std::vector<StageResult> stages;
   /// Eigenvalues of the correlation-scaled JᵀJ (ascending) and the weakest combination.
   std::vector<double> eigenvalues;
-  std::string weakCombination;
+  geometry::ParamVector weakDirection = geometry::ParamVector::Zero();  ///< unit eigenvector of the smallest
+  std::string weakCombination;  ///< its components above 0.1, e.g. "+0.71·dy -0.70·dy_rel"
   /// How it ended (core/fit_status.hpp); the warnings say why when it is not Converged.
   FitStatus status = FitStatus::NotConverged;
   std::vector<std::string> warnings;
@@ -125,7 +138,7 @@ struct FitGeometry {
     response = c.response;
   }
   /// The parameters the model sees: the response's (calib/corrections.hpp), or η.
-  geometry::ParamVector modelParameters(const geometry::ParamVector& eta) const {
+  [[nodiscard]] geometry::ParamVector modelParameters(const geometry::ParamVector& eta) const {
     if (!response) return eta;
     geometry::ParamVector seen;
     response->apply(eta.data(), seen.data());

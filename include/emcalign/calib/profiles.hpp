@@ -21,15 +21,16 @@
 #include "emcalign/calib/corrections.hpp"
 #include "emcalign/calib/selection.hpp"
 #include "emcalign/core/result.hpp"
+#include "emcalign/core/units.hpp"
 
 namespace emcalign::calib {
 
 struct ProfileOptions {
   int phiBins = 16;
   int thetaBins = 10;
-  double thetaMin = 45.0 * 0.017453292519943295;   ///< rad
-  double thetaMax = 135.0 * 0.017453292519943295;  ///< rad
-  double sigmaSys = 0.2 * 0.017453292519943295;    ///< rad, for y_φ and y_θ
+  double thetaMin = 45.0 * units::deg;   ///< rad
+  double thetaMax = 135.0 * units::deg;  ///< rad
+  double sigmaSys = 0.2 * units::deg;    ///< rad, for y_φ and y_θ
   int minEntries = 10;
   /// When set (with phiBins columns), each bin carries its column's W₊ (ProfileBin::plusWeight).
   std::shared_ptr<const PartingPlaneResponse> partingPlane;
@@ -76,15 +77,15 @@ class Profiles {
  public:
   /// The options must pass validate() (std::invalid_argument otherwise: check first).
   explicit Profiles(ProfileOptions options = {});
-  const ProfileOptions& options() const { return options_; }
+  [[nodiscard]] const ProfileOptions& options() const { return options_; }
 
   /// Adds a particle; false if it is outside the profile range.
   bool fill(const ParticleResidual& p);
   /// The bins with their means and σ (all phiBins × thetaBins, i_phi-major).
-  std::vector<ProfileBin> bins() const { return bins(options_.sigmaSys); }
+  [[nodiscard]] std::vector<ProfileBin> bins() const { return bins(options_.sigmaSys); }
   /// The same with another σ_sys (0: the statistical errors alone).
-  std::vector<ProfileBin> bins(double sigmaSys) const;
-  std::int64_t entries() const { return entries_; }
+  [[nodiscard]] std::vector<ProfileBin> bins(double sigmaSys) const;
+  [[nodiscard]] std::int64_t entries() const { return entries_; }
   /// The two particles of one event, each already given to fill(): with eventPairs, their
   /// residuals' cross moments are kept per pair of bins (the two particles of an e+e- → e+e-
   /// event are back to back, hit the same place inside their counters, and their y_φ
@@ -94,7 +95,7 @@ class Profiles {
   /// The covariances of the bin means beyond SPEC's independent particles: those the event
   /// pairs make between two bins (and inside one), and the y_φ–y_θ covariance of each bin's
   /// mean. Empty without eventPairs.
-  std::vector<BinCovariance> binCovariances() const;
+  [[nodiscard]] std::vector<BinCovariance> binCovariances() const;
   /// Adds the entries of profiles with the same bins (the profiles of several runs make the
   /// profile of their group: the same means and σ as filling one from all the particles, to
   /// rounding). Throws std::invalid_argument for other bins.
@@ -112,7 +113,7 @@ class Profiles {
     std::int64_t n = 0;
     double a[2] = {}, b[2] = {}, ab[2][2] = {};
   };
-  int binOf(const ParticleResidual& p) const;  // -1 when out of range
+  [[nodiscard]] int binOf(const ParticleResidual& p) const;  // -1 when out of range
   ProfileOptions options_;
   std::vector<Accumulator> acc_;
   std::map<std::pair<int, int>, PairSums> pairs_;

@@ -15,17 +15,18 @@
 
 #include "emcalign/core/event_record.hpp"
 #include "emcalign/core/result.hpp"
+#include "emcalign/core/units.hpp"
 #include "emcalign/geometry/residual_model.hpp"
 
 namespace emcalign::calib {
 
 struct SelectionOptions {
-  double maxAbsZ0 = 10.0;                                 ///< cm
-  double maxAbsRho = 1.0;                                 ///< cm
-  double minEnergyFraction = 0.8;                         ///< of E_beam
-  double maxEnergyFraction = 1.1;                         ///< of E_beam
-  double maxAcollinearity = 10.0 * 0.017453292519943295;  ///< rad, |180° − |Δφ_ts||
-  std::optional<double> beamEnergy;                       ///< MeV; default: each event's beam_energy_mev
+  double maxAbsZ0 = 10.0;                       ///< cm
+  double maxAbsRho = 1.0;                       ///< cm
+  double minEnergyFraction = 0.8;               ///< of E_beam
+  double maxEnergyFraction = 1.1;               ///< of E_beam
+  double maxAcollinearity = 10.0 * units::deg;  ///< rad, |180° − |Δφ_ts||
+  std::optional<double> beamEnergy;             ///< MeV; default: each event's beam_energy_mev
 };
 
 /// Events left after each cut, in the order they are applied.

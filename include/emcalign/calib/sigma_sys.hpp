@@ -23,11 +23,12 @@
 #include "emcalign/calib/fit.hpp"
 #include "emcalign/calib/profiles.hpp"
 #include "emcalign/core/result.hpp"
+#include "emcalign/core/units.hpp"
 
 namespace emcalign::calib {
 
 /// SPEC §7's σ_sys, rad.
-inline constexpr double kSpecSigmaSys = 0.2 * 0.017453292519943295;
+inline constexpr double kSpecSigmaSys = 0.2 * units::deg;
 /// An auto estimate above this is reported (rad): the profiles scatter about the model far
 /// more than the paper's data did about its.
 inline constexpr double kLargeSigmaSys = 3.0 * kSpecSigmaSys;
@@ -42,7 +43,7 @@ struct SigmaSysChoice {
   Status validate() const;
   /// Whether the profiles must keep the event pairs (ProfileOptions::eventPairs): the
   /// honest errors of `auto` carry their correlation.
-  bool keepsEventPairs() const { return method == SigmaSysMethod::Auto; }
+  [[nodiscard]] bool keepsEventPairs() const { return method == SigmaSysMethod::Auto; }
 };
 
 /// The choice a plan or a result records: its method's name ("spec", "fixed", "auto") and,

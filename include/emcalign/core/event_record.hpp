@@ -28,9 +28,9 @@ struct ParticleRow {
   std::int32_t hitCount = 0;
 
   /// Track fields are present (not NaN).
-  bool hasTrack() const { return !std::isnan(z0); }
+  [[nodiscard]] bool hasTrack() const { return !std::isnan(z0); }
   /// Cluster fields are present (not NaN).
-  bool hasCluster() const { return !std::isnan(energy); }
+  [[nodiscard]] bool hasCluster() const { return !std::isnan(energy); }
 };
 
 /// One counter of a cluster: its index (SPEC §2 numbering) and the energy it measured.

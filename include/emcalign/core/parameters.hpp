@@ -42,6 +42,9 @@ inline constexpr std::string_view name(Param p) { return kParamNames[index(p)]; 
 /// beta1 and beta2 are dimensionless but written as degrees (SPEC §3).
 enum class Dimension { Angle, Length };
 
+/// The name of a dimension's file unit: "deg" or "cm".
+inline constexpr std::string_view fileUnitName(Dimension d) { return d == Dimension::Angle ? "deg" : "cm"; }
+
 inline constexpr Dimension dimension(Param p) {
   switch (p) {
     case Param::Alpha:
@@ -83,6 +86,22 @@ inline constexpr std::array<std::string_view, kNumParams> kPhysicalNames = {
     "alpha", "beta", "psi", "dx", "dy", "dz", "mu", "tau", "dx_rel", "dy_rel", "dz_rel", "beta_rel"};
 
 inline constexpr std::string_view name(Physical p) { return kPhysicalNames[index(p)]; }
+
+inline constexpr std::array<Physical, kNumParams> kAllPhysical = {
+    Physical::Alpha, Physical::Beta, Physical::Psi,   Physical::Dx,    Physical::Dy,    Physical::Dz,
+    Physical::Mu,    Physical::Tau,  Physical::DxRel, Physical::DyRel, Physical::DzRel, Physical::BetaRel};
+
+/// The physical parameters that are not fit parameters: what a fit result calls "derived"
+/// (SPEC §3), in the order files and tables list them.
+inline constexpr std::array<Physical, 5> kDerivedParams = {Physical::Beta, Physical::Psi, Physical::Mu, Physical::Tau,
+                                                           Physical::DxRel};
+
+inline std::optional<Physical> physicalFromName(std::string_view n) {
+  for (Physical p : kAllPhysical) {
+    if (name(p) == n) return p;
+  }
+  return std::nullopt;
+}
 
 inline constexpr Dimension dimension(Physical p) {
   switch (p) {

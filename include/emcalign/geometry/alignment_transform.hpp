@@ -51,8 +51,8 @@ struct RigidTransformT {
   Mat3T<T> rotation = Mat3T<T>::Identity();
   Vec3T<T> translation = Vec3T<T>::Zero();
 
-  Vec3T<T> apply(const Vec3T<T>& p) const { return rotation * p + translation; }
-  Vec3T<T> applyInverse(const Vec3T<T>& p) const { return rotation.transpose() * (p - translation); }
+  [[nodiscard]] Vec3T<T> apply(const Vec3T<T>& p) const { return rotation * p + translation; }
+  [[nodiscard]] Vec3T<T> applyInverse(const Vec3T<T>& p) const { return rotation.transpose() * (p - translation); }
 };
 using RigidTransform = RigidTransformT<double>;
 
@@ -110,12 +110,9 @@ Mat3T<T> commonRotation(const ParamVectorT<T>& eta) {
 /// sinμ·n = (0, −t/R1, u/(2R1)) from the gaps (SPEC §4), and dx_rel.
 template <typename T>
 Vec3T<T> separationSineVector(const ParamVectorT<T>& eta, double r1, T* dxRel = nullptr) {
-  const T dp1 = eta[index(Param::Dp1)], dp2 = eta[index(Param::Dp2)], dp3 = eta[index(Param::Dp3)];
-  const T dxr = (dp1 + dp2 + dp3) / 6.0;
-  const T u = (2.0 * dp1 - dp2 - dp3) / 3.0;  // = dp1 − 2·dx_rel, exactly 0 for equal gaps
-  const T t = (dp3 - dp2) / (2.0 * std::sqrt(3.0));
-  if (dxRel != nullptr) *dxRel = dxr;
-  return Vec3T<T>(T(0), -t / r1, u / (2.0 * r1));
+  const GapDecompositionT<T> g = decomposeGaps<T>(eta);
+  if (dxRel != nullptr) *dxRel = g.dxRel;
+  return Vec3T<T>(T(0), -g.t / r1, g.u / (2.0 * r1));
 }
 
 /// Whether the layer-3 rule applies: dx_rel − R_p3·sinμ < 0 (written without √ or asin).
@@ -177,26 +174,26 @@ class AlignmentTransform {
   static Result<AlignmentTransform> create(const AlignmentParameters& eta, const AlignmentRadii& radii);
 
   /// Nominal → actual. The hemisphere is that of the nominal element (x ≥ 0 → Plus).
-  Vec3 forward(const Vec3& p0, Hemisphere h, Support support = Support::Inner) const {
+  [[nodiscard]] Vec3 forward(const Vec3& p0, Hemisphere h, Support support = Support::Inner) const {
     return placement(h, support).apply(p0);
   }
   /// Forward with the hemisphere taken from the sign of x of p0.
-  Vec3 forward(const Vec3& p0, Support support = Support::Inner) const {
+  [[nodiscard]] Vec3 forward(const Vec3& p0, Support support = Support::Inner) const {
     return forward(p0, hemisphereOf(p0.x()), support);
   }
   /// Actual → nominal for a known hemisphere (a cluster knows its counters).
-  Vec3 inverse(const Vec3& p1, Hemisphere h, Support support = Support::Inner) const {
+  [[nodiscard]] Vec3 inverse(const Vec3& p1, Hemisphere h, Support support = Support::Inner) const {
     return placement(h, support).applyInverse(p1);
   }
   /// Actual → nominal, choosing the hemisphere whose pre-image lies on its own side.
-  InverseResult inverseAuto(const Vec3& p1, Support support = Support::Inner) const;
+  [[nodiscard]] InverseResult inverseAuto(const Vec3& p1, Support support = Support::Inner) const;
 
-  const RigidTransform& placement(Hemisphere h, Support support) const {
+  [[nodiscard]] const RigidTransform& placement(Hemisphere h, Support support) const {
     return placements_[(h == Hemisphere::Plus ? 0 : 1) + (support == Support::Outer ? 2 : 0)];
   }
-  const AlignmentParameters& parameters() const { return eta_; }
+  [[nodiscard]] const AlignmentParameters& parameters() const { return eta_; }
   /// Whether layer 3 uses μ3 instead of μ (SPEC §4).
-  bool layer3RuleActive() const { return layer3Rule_; }
+  [[nodiscard]] bool layer3RuleActive() const { return layer3Rule_; }
 
  private:
   AlignmentTransform() = default;

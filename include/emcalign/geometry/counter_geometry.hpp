@@ -47,15 +47,15 @@ class CounterGeometry {
   /// The detector placed by an alignment.
   static CounterGeometry aligned(const Calorimeter& calo, const AlignmentTransform& transform);
 
-  const Calorimeter& calorimeter() const { return *calo_; }
+  [[nodiscard]] const Calorimeter& calorimeter() const { return *calo_; }
   /// The centre of counter `index` in the TS frame.
-  const Vec3& centre(int index) const { return centres_[static_cast<std::size_t>(index)]; }
-  std::span<const Vec3> centres() const { return centres_; }
+  [[nodiscard]] const Vec3& centre(int index) const { return centres_[static_cast<std::size_t>(index)]; }
+  [[nodiscard]] std::span<const Vec3> centres() const { return centres_; }
   /// The rigid placement of a hemisphere on a support sphere (identity when nominal).
-  const RigidTransform& placement(Hemisphere h, Support s) const;
+  [[nodiscard]] const RigidTransform& placement(Hemisphere h, Support s) const;
 
   /// The counter (or region) containing a TS-frame point.
-  PointLocation locate(const Vec3& pointTs) const;
+  [[nodiscard]] PointLocation locate(const Vec3& pointTs) const;
 
  private:
   CounterGeometry() = default;

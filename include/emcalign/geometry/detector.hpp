@@ -42,8 +42,8 @@ inline constexpr Support supportOfLayer(int layer) { return layer == 3 ? Support
 struct SphericalShell {
   double rInner = 0.0;  ///< cm
   double rOuter = 0.0;  ///< cm
-  double rMid() const { return 0.5 * (rInner + rOuter); }
-  bool contains(double r) const { return r >= rInner && r < rOuter; }
+  [[nodiscard]] double rMid() const { return 0.5 * (rInner + rOuter); }
+  [[nodiscard]] bool contains(double r) const { return r >= rInner && r < rOuter; }
 };
 
 /// Material constants of the shower-depth formula R(E, θ) (SPEC §5, from the paper).
@@ -78,11 +78,11 @@ struct DetectorDescription {
   static constexpr int kMaxRings = 180;
   static constexpr int kMaxCountersPerRing = 3600;
 
-  double r0() const { return layers[0].rInner; }     ///< EMC inner radius
-  double r1() const { return supports[0].rOuter; }   ///< outer radius of support sphere 1
-  double rp3() const { return supports[1].rOuter; }  ///< outer radius of support sphere 2
-  int ringCount() const { return static_cast<int>(countersPerRing.size()); }
-  double ringWidth() const { return (thetaMax - thetaMin) / ringCount(); }
+  [[nodiscard]] double r0() const { return layers[0].rInner; }     ///< EMC inner radius
+  [[nodiscard]] double r1() const { return supports[0].rOuter; }   ///< outer radius of support sphere 1
+  [[nodiscard]] double rp3() const { return supports[1].rOuter; }  ///< outer radius of support sphere 2
+  [[nodiscard]] int ringCount() const { return static_cast<int>(countersPerRing.size()); }
+  [[nodiscard]] double ringWidth() const { return (thetaMax - thetaMin) / ringCount(); }
 };
 
 struct Counter {
@@ -96,11 +96,11 @@ struct Counter {
   double rInner = 0.0, rOuter = 0.0;      ///< cm
   Vec3 position = Vec3::Zero();           ///< the nominal centre, see centre()
 
-  double theta() const { return 0.5 * (thetaMin + thetaMax); }
-  double phi() const { return 0.5 * (phiMin + phiMax); }
-  double radius() const { return 0.5 * (rInner + rOuter); }
+  [[nodiscard]] double theta() const { return 0.5 * (thetaMin + thetaMax); }
+  [[nodiscard]] double phi() const { return 0.5 * (phiMin + phiMax); }
+  [[nodiscard]] double radius() const { return 0.5 * (rInner + rOuter); }
   /// Nominal centre: mid-angles at the layer's mid-radius, nominal EMC frame.
-  const Vec3& centre() const { return position; }
+  [[nodiscard]] const Vec3& centre() const { return position; }
 };
 
 /// Where a nominal-frame point lies.
@@ -122,17 +122,17 @@ class Calorimeter {
  public:
   static Result<Calorimeter> create(DetectorDescription description);
 
-  const DetectorDescription& description() const { return description_; }
-  int size() const { return static_cast<int>(counters_.size()); }
-  int countersPerLayer() const { return countersPerLayer_; }
-  const Counter& counter(int index) const { return counters_.at(static_cast<std::size_t>(index)); }
-  std::span<const Counter> counters() const { return counters_; }
+  [[nodiscard]] const DetectorDescription& description() const { return description_; }
+  [[nodiscard]] int size() const { return static_cast<int>(counters_.size()); }
+  [[nodiscard]] int countersPerLayer() const { return countersPerLayer_; }
+  [[nodiscard]] const Counter& counter(int index) const { return counters_.at(static_cast<std::size_t>(index)); }
+  [[nodiscard]] std::span<const Counter> counters() const { return counters_; }
 
   /// Index of (layer 1..3, ring, iphi); -1 when out of range.
-  int counterIndex(int layer, int ring, int iphi) const;
+  [[nodiscard]] int counterIndex(int layer, int ring, int iphi) const;
 
   /// The counter that contains a point of the nominal EMC frame, or why none does.
-  Location locate(const Vec3& pointNominal) const;
+  [[nodiscard]] Location locate(const Vec3& pointNominal) const;
 
  private:
   explicit Calorimeter(DetectorDescription description);

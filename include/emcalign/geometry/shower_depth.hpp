@@ -28,7 +28,7 @@ struct ShowerDepth {
 
   /// R(E, θ) in cm for a cluster energy E (MeV) and a polar angle θ (rad).
   template <typename T>
-  T radius(const T& energy, const T& theta) const {
+  [[nodiscard]] T radius(const T& energy, const T& theta) const {
     using std::log;
     using std::sin;
     const auto& m = material;

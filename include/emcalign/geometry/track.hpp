@@ -23,12 +23,14 @@ struct TrackLine {
   double phi = 0.0;
   double theta = 0.0;
 
-  Vec3 closestApproach() const { return {-rho * std::sin(phi), rho * std::cos(phi), z0}; }
-  Vec3 direction() const { return {std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)}; }
+  [[nodiscard]] Vec3 closestApproach() const { return {-rho * std::sin(phi), rho * std::cos(phi), z0}; }
+  [[nodiscard]] Vec3 direction() const {
+    return {std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)};
+  }
 
   /// The outward intersection with the sphere of radius R (cm) centred at the origin;
   /// none when the line misses the sphere.
-  std::optional<Vec3> sphereIntersection(double radius) const {
+  [[nodiscard]] std::optional<Vec3> sphereIntersection(double radius) const {
     const double sinT = std::sin(theta), cosT = std::cos(theta);
     const double disc = radius * radius - rho * rho - z0 * z0 * sinT * sinT;
     if (!(disc >= 0.0)) return std::nullopt;

@@ -1,5 +1,5 @@
 #pragma once
-// What the figures of a fit (report/plots.hpp, writeFitPlots) need from the events: the
+// What the figures of a fit (report/fit_plots.hpp, writeFitPlots) need from the events: the
 // profiles at the fit's model, and the Δφ, Δθ distributions of the selected particles before
 // and after correcting each EMC direction with the fitted parameters (SPEC §9's cluster
 // correction at the model's R(E, θ): the paper's Fig. 8). `emcalign fit --plots` and
@@ -16,7 +16,7 @@
 #include "emcalign/geometry/alignment_parameters.hpp"
 #include "emcalign/geometry/detector.hpp"
 #include "emcalign/io/json_files.hpp"
-#include "emcalign/report/plots.hpp"
+#include "emcalign/report/histogram.hpp"
 
 namespace emcalign::report {
 

@@ -18,6 +18,7 @@
 
 #include "emcalign/core/event_record.hpp"
 #include "emcalign/core/types.hpp"
+#include "emcalign/core/units.hpp"
 #include "emcalign/geometry/counter_geometry.hpp"
 #include "emcalign/geometry/detector.hpp"
 #include "emcalign/geometry/track.hpp"
@@ -26,14 +27,14 @@
 namespace emcalign::sim {
 
 struct ReconstructionOptions {
-  double clusterThreshold = 10.0;  ///< MeV: lighter clusters are dropped (assumed)
-  double logWeightW0 = 3.5;        ///< W0 of the logarithmic weights (tuned: σ_θ ≈ 1.5°)
-  double containment = 0.958;      ///< median E_sum/E of 600 MeV e± and γ (measured, docs/simulation.md)
-  double matchRadius = 15.0 * 0.017453292519943295;         ///< rad, track–cluster angle
-  double matchSphereRadius = 45.0;                          ///< cm, where the track direction is taken for matching
-  bool directionFromCounters = true;                        ///< false: the exact nominal-frame direction of the
-                                                            ///< deposited energy, smeared (the idealised limit)
-  double idealDirectionSigma = 1.5 * 0.017453292519943295;  ///< rad, smearing per angle then
+  double clusterThreshold = 10.0;          ///< MeV: lighter clusters are dropped (assumed)
+  double logWeightW0 = 3.5;                ///< W0 of the logarithmic weights (tuned: σ_θ ≈ 1.5°)
+  double containment = 0.958;              ///< median E_sum/E of 600 MeV e± and γ (measured, docs/simulation.md)
+  double matchRadius = 15.0 * units::deg;  ///< rad, track–cluster angle
+  double matchSphereRadius = 45.0;         ///< cm, where the track direction is taken for matching
+  bool directionFromCounters = true;       ///< false: the exact nominal-frame direction of the
+                                           ///< deposited energy, smeared (the idealised limit)
+  double idealDirectionSigma = 1.5 * units::deg;  ///< rad, smearing per angle then
   Status validate() const;
 };
 

@@ -24,6 +24,7 @@ struct TrackingOptions {
   double beamPipeRadius = 2.0;                                                       ///< cm
   double beamPipeThickness = 0.1;                                                    ///< cm of beryllium
   double beamPipeRadiationLength = 35.28;                                            ///< cm, X0 of Be
+  static constexpr std::size_t kMaxLayers = 16;                                      ///< the track fit's hit buffers
   std::vector<double> layerRadii = {4.0, 4.9, 5.8, 6.7, 7.6, 8.5, 9.4, 10.3, 11.2};  ///< cm
   double halfLength = 20.0;   ///< cm, |z| of the sensitive volume
   double sigmaRPhi = 0.0316;  ///< cm per hit

@@ -16,6 +16,7 @@
 #include "emcalign/core/random.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/geometry/residual_model.hpp"
+#include "synthetic_bins.hpp"
 #include "test_support.hpp"
 
 namespace emcalign::calib {
@@ -222,27 +223,16 @@ std::vector<ProfileBin> mixedBins(const AlignmentParameters& eta, const PartingP
                                   const NominalProfile& t) {
   const auto plus = geometry::hemisphereTransform<double>(eta.values, geometry::Hemisphere::Plus, kGeometry.radii);
   const auto minus = geometry::hemisphereTransform<double>(eta.values, geometry::Hemisphere::Minus, kGeometry.radii);
-  std::vector<ProfileBin> bins;
-  for (int i = 0; i < 16; ++i) {
-    for (int j = 0; j < 10; ++j) {
-      ProfileBin b;
-      b.iPhi = i;
-      b.iTheta = j;
-      b.n = 300;
-      b.phiMean = (i + 0.5) * 22.5 * deg;
-      b.thetaMean = (45.0 + (j + 0.5) * 9.0) * deg;
-      b.energyMean = 600.0;
-      const double radius = kGeometry.depth.radius(b.energyMean, b.thetaMean);
-      const auto f = geometry::mixedModelResidual<double>(plus, minus, b.phiMean, b.thetaMean, radius, w.plusWeight(i));
-      const auto k = static_cast<std::size_t>(i * 10 + j);
-      b.yPhi = f.phi + t.yPhi[k];
-      b.yTheta = f.theta + t.yTheta[k];
-      b.sigmaPhi = b.sigmaTheta = 0.05 * deg;
-      bins.push_back(b);
-    }
-  }
-  markUsedBins(bins, 10);
-  return bins;
+  testing::SyntheticBinOptions o;
+  o.sigma = 0.05 * deg;
+  return testing::syntheticBins(
+      [&](int i, int j, double phi, double theta, double energy) {
+        const double radius = kGeometry.depth.radius(energy, theta);
+        auto f = geometry::mixedModelResidual<double>(plus, minus, phi, theta, radius, w.plusWeight(i));
+        const auto k = static_cast<std::size_t>(i * 10 + j);
+        return geometry::AngularResidual{f.phi + t.yPhi[k], f.theta + t.yTheta[k]};
+      },
+      o);
 }
 
 TEST(Fit, WithTheCorrectionsRecoversWhatThePapersModelGetsWrong) {
@@ -254,12 +244,7 @@ TEST(Fit, WithTheCorrectionsRecoversWhatThePapersModelGetsWrong) {
   auto paper = fitProfiles(raw, kGeometry);
   ASSERT_TRUE(paper.ok());
   const double dxRel = (truth[Param::Dp1] + truth[Param::Dp2] + truth[Param::Dp3]) / 6.0;
-  auto dxRelOf = [](const FitResult& r) {
-    for (const auto& [n, v] : r.derived) {
-      if (n == "dx_rel") return v.value;
-    }
-    return std::nan("");
-  };
+  auto dxRelOf = [](const FitResult& r) { return r.derived[Physical::DxRel].value; };
   EXPECT_GT(std::abs(dxRelOf(*paper) - dxRel), 0.01);  // the mixture and the pattern bias it
 
   std::vector<ProfileBin> corrected = raw;
@@ -347,25 +332,14 @@ TEST(FitResponse, TheFitReturnsTheTruthTheResponseHides) {
   g.response = std::make_shared<const FitResponse>(someResponse());
   AlignmentParameters seen;
   seen.values = g.modelParameters(truth.values);
-  std::vector<ProfileBin> bins;
   Rng rng(5, 0);
-  for (int i = 0; i < 16; ++i) {
-    for (int k = 0; k < 10; ++k) {
-      ProfileBin b;
-      b.iPhi = i;
-      b.iTheta = k;
-      b.n = 500;
-      b.phiMean = (i + 0.4) * 22.5 * units::deg;
-      b.thetaMean = (45.0 + (k + 0.5) * 9.0) * units::deg;
-      b.energyMean = 590.0;
-      const auto f = modelAt(kGeometry, seen.values, b.phiMean, b.thetaMean, b.energyMean);
-      b.yPhi = f.phi + 0.05 * units::deg * rng.normal();
-      b.yTheta = f.theta + 0.05 * units::deg * rng.normal();
-      b.sigmaPhi = b.sigmaTheta = 0.05 * units::deg;
-      bins.push_back(b);
-    }
-  }
-  markUsedBins(bins, 10);
+  testing::SyntheticBinOptions o;
+  o.sigma = 0.05 * units::deg;
+  o.noise = &rng;
+  o.entries = 500;
+  o.energy = 590.0;
+  o.phiPosition = [](int, Rng*) { return 0.4; };
+  const std::vector<ProfileBin> bins = testing::syntheticBins(kGeometry, seen.values, o);
   auto plain = fitProfiles(bins, kGeometry);
   auto withResponse = fitProfiles(bins, g);
   ASSERT_TRUE(plain.ok() && withResponse.ok());

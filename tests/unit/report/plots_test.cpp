@@ -2,7 +2,9 @@
 // follow the model (the PNGs exist and are real PNGs; the curves written are the model;
 // unwritable places, empty input and a missing gnuplot are errors that say so).
 
-#include "emcalign/report/plots.hpp"
+#include "emcalign/report/campaign_plots.hpp"
+#include "emcalign/report/fit_plots.hpp"
+#include "emcalign/report/histogram.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -18,6 +20,8 @@
 
 #include "emcalign/core/random.hpp"
 #include "emcalign/core/units.hpp"
+#include "synthetic_bins.hpp"
+#include "test_support.hpp"
 
 namespace emcalign::report {
 namespace {
@@ -104,45 +108,18 @@ TEST(Histogram, ResidualHistogramsAreTenDegreesEitherSideInTenthsOfADegree) {
 
 const calib::FitGeometry kGeometry = calib::FitGeometry::of(geometry::DetectorDescription::sndDefault());
 
-AlignmentParameters paperLike() {
-  AlignmentParameters eta;
-  eta[Param::Alpha] = 1.5 * deg;
-  eta[Param::Beta1] = 0.2 * deg;
-  eta[Param::Beta2] = -0.1 * deg;
-  eta[Param::Dx] = 0.3;
-  eta[Param::Dy] = -0.1;
-  eta[Param::Dz] = 0.2;
-  eta[Param::Dp1] = 0.6;
-  eta[Param::Dp2] = 0.2;
-  eta[Param::Dp3] = 0.4;
-  eta[Param::DyRel] = 0.05;
-  eta[Param::DzRel] = -0.05;
-  eta[Param::BetaRel] = 0.3 * deg;
-  return eta;
-}
+using geometry::testing::paperLike;
 
-// 160 bins whose means follow the model at η plus noise of σ = 0.2°; two bins have too few
-// entries (drawn grey), one none at all.
+// 160 bins whose means follow the model at η, scattered inside their bins, plus noise of
+// σ = 0.2°; two bins have too few entries (drawn grey), one none at all.
 std::vector<calib::ProfileBin> syntheticBins(const AlignmentParameters& eta) {
   Rng rng(11, 0);
-  const double sigma = 0.2 * deg;
-  std::vector<calib::ProfileBin> bins;
-  for (int i = 0; i < 16; ++i) {
-    for (int j = 0; j < 10; ++j) {
-      calib::ProfileBin b;
-      b.iPhi = i;
-      b.iTheta = j;
-      b.n = 100;
-      b.phiMean = (i + 0.5 + 0.2 * rng.uniform(-1.0, 1.0)) * 22.5 * deg;
-      b.thetaMean = (45.0 + (j + 0.5 + 0.1 * rng.uniform(-1.0, 1.0)) * 9.0) * deg;
-      b.energyMean = 600.0;
-      const auto f = calib::modelAt(kGeometry, eta.values, b.phiMean, b.thetaMean, b.energyMean);
-      b.yPhi = f.phi + sigma * rng.normal();
-      b.yTheta = f.theta + sigma * rng.normal();
-      b.sigmaPhi = b.sigmaTheta = sigma;
-      bins.push_back(b);
-    }
-  }
+  calib::testing::SyntheticBinOptions o;
+  o.noise = &rng;
+  o.entries = 100;
+  o.phiPosition = [](int, Rng* r) { return 0.5 + 0.2 * r->uniform(-1.0, 1.0); };
+  o.thetaPosition = [](int, Rng* r) { return 0.5 + 0.1 * r->uniform(-1.0, 1.0); };
+  std::vector<calib::ProfileBin> bins = calib::testing::syntheticBins(kGeometry, eta.values, o);
   bins[3].n = 5;
   bins[77].n = 8;
   bins[150].n = 0;

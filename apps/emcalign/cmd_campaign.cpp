@@ -30,9 +30,9 @@ namespace fs = std::filesystem;
 struct CampaignCliOptions {
   std::vector<std::string> inputs;
   std::string conditions, tag, corrections, plan, detector, description, sigmaSys;
-  std::int64_t minEvents = 50000;
+  std::int64_t minEvents = validation::CalibrationCampaignOptions{}.minEvents;
   int group = -1;
-  int threads = 0;
+  int threads = validation::CalibrationCampaignOptions{}.threads;
 };
 
 void printGroups(const std::vector<validation::CampaignGroup>& groups, std::int64_t minEvents) {

@@ -34,7 +34,8 @@ namespace fs = std::filesystem;
 struct CheckCliOptions {
   std::string process;  // "gg" or "3pi"
   std::vector<std::string> events;
-  std::string alignment, conditions, tag, method = "auto", corrections, detector, output;
+  std::string alignment, conditions, tag, corrections, detector, output;
+  std::string method = std::string(apply::name(apply::CorrectOptions{}.method));
 };
 
 // Removes the temporary corrected file however the check ends.

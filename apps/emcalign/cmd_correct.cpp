@@ -24,9 +24,9 @@ struct CorrectCliOptions {
   std::vector<std::string> events;
   std::string alignment;
   std::string conditions, tag;
-  std::string method = "auto";
+  std::string method = std::string(apply::name(apply::CorrectOptions{}.method));
   std::string corrections;
-  double depthOffset = 0.0;
+  double depthOffset = apply::CorrectOptions{}.depth.offset / units::cm;
   std::string detector;
   std::string output;
 };
@@ -97,9 +97,10 @@ void addCorrectCommand(CLI::App& app, int& exitCode) {
                   "clusters (SPEC 9: the point at R(E, theta) moved by the alignment), hits (each cluster rebuilt "
                   "from its counters at their aligned centres; files with hits) or auto (hits when present)")
       ->check(CLI::IsMember({"auto", "hits", "clusters"}));
-  auto* offset = cmd->add_option("--depth-offset", o->depthOffset,
-                                 "cm added to R(E, theta) by the cluster method (default 0, SPEC)")
-                     ->check(finiteIn(-calib::kMaxDepthOffset, calib::kMaxDepthOffset));
+  auto* offset =
+      cmd->add_option("--depth-offset", o->depthOffset,
+                      fmt::format("cm added to R(E, theta) by the cluster method (default {}, SPEC)", o->depthOffset))
+          ->check(finiteIn(-calib::kMaxDepthOffset, calib::kMaxDepthOffset));
   cmd->add_option("--corrections", o->corrections,
                   "take the depth offset of the cluster method from a corrections file (emcalign derive-corrections), "
                   "or from a grid directory at each event's beam energy")

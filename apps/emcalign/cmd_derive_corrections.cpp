@@ -21,17 +21,19 @@ namespace emcalign::app {
 
 namespace {
 
+// The defaults are the library's (validation::DerivationOptions), but for the polar range:
+// the generator's covers the whole calorimeter, the derivation samples only the profiles'.
 struct DeriveOptions {
-  std::int64_t events = 400000;
-  std::uint64_t seed = 1;
-  int threads = 0;
+  std::int64_t events = validation::DerivationOptions{}.events;
+  std::uint64_t seed = validation::DerivationOptions{}.seed;
+  int threads = validation::DerivationOptions{}.threads;
   std::vector<double> beamEnergies;  ///< MeV; several: a grid written into the -o directory
   double thetaMinDeg = 40.0;
   double thetaMaxDeg = 140.0;
-  double shift = 0.6;
-  double gap = 0.5;
-  int responseSamples = 200;
-  std::int64_t responseEvents = 100000;
+  double shift = validation::DerivationOptions{}.shift / units::cm;
+  double gap = validation::DerivationOptions{}.gap / units::cm;
+  int responseSamples = validation::DerivationOptions{}.responseSamples;
+  std::int64_t responseEvents = validation::DerivationOptions{}.responseEvents;
   bool ideal = false;
   std::vector<std::string> off;
   std::string detector;
@@ -120,8 +122,8 @@ int run(const DeriveOptions& cli) {
   o.events = cli.events;
   o.seed = cli.seed;
   o.threads = cli.threads;
-  o.shift = cli.shift;
-  o.gap = cli.gap;
+  o.shift = cli.shift * units::cm;
+  o.gap = cli.gap * units::cm;
   o.responseEvents = cli.responseEvents;
   o.responseSamples = cli.responseSamples;
   if (Status s = applyRealismSwitches(o.simulation, cli.ideal, cli.off); !s) return reportError(s.error());
@@ -197,27 +199,33 @@ void addDeriveCorrectionsCommand(CLI::App& app, int& exitCode) {
                                  "Measure the model corrections (shower depth, parting-plane response) in the "
                                  "simulation, for emcalign fit --corrections");
   addVersionFlag(*cmd);
-  cmd->add_option("--events", o->events, "events per sample, three samples (default 400000)")
+  cmd->add_option("--events", o->events, fmt::format("events per sample, three samples (default {})", o->events))
       ->check(integerIn(1000, 1000000000));
   cmd->add_option("--seed", o->seed, "seed, 0 to 2^64 - 1")->check(unsigned64());
   cmd->add_option("--threads", o->threads, "worker threads (0: all cores)")->check(integerIn(0, kMaxThreads));
   cmd->add_option("--beam-energy", o->beamEnergies,
-                  "beam energy, MeV (default 612.5); several (E1,E2,...) derive a grid for a beam-energy scan, "
-                  "one file per energy in the -o directory (ee-<E>MeV.json; a rerun keeps the points already "
-                  "derived with the same settings)")
+                  fmt::format("beam energy, MeV (default {}); several (E1,E2,...) derive a grid for a beam-energy "
+                              "scan, one file per energy in the -o directory (ee-<E>MeV.json; a rerun keeps the "
+                              "points already derived with the same settings)",
+                              validation::DerivationOptions{}.simulation.generator.beamEnergy / units::MeV))
       ->delimiter(',')
       ->check(finiteIn(sim::kMinBeamEnergy / units::MeV, sim::kMaxBeamEnergy / units::MeV));
-  cmd->add_option("--theta-min", o->thetaMinDeg, "generated polar range of the leptons, deg (default 40)")
+  cmd->add_option("--theta-min", o->thetaMinDeg,
+                  fmt::format("generated polar range of the leptons, deg (default {})", o->thetaMinDeg))
       ->check(finiteIn(0.0, 180.0));
-  cmd->add_option("--theta-max", o->thetaMaxDeg, "(default 140)")->check(finiteIn(0.0, 180.0));
-  cmd->add_option("--shift", o->shift, "dx = dy = dz of the depth sample, cm (default 0.6)")
+  cmd->add_option("--theta-max", o->thetaMaxDeg, fmt::format("(default {})", o->thetaMaxDeg))
+      ->check(finiteIn(0.0, 180.0));
+  cmd->add_option("--shift", o->shift, fmt::format("dx = dy = dz of the depth sample, cm (default {})", o->shift))
       ->check(finiteIn(0.01, 5.0));
-  cmd->add_option("--gap", o->gap, "dx_rel of the parting-plane sample, cm (default 0.5)")->check(finiteIn(0.01, 5.0));
+  cmd->add_option("--gap", o->gap, fmt::format("dx_rel of the parting-plane sample, cm (default {})", o->gap))
+      ->check(finiteIn(0.01, 5.0));
   cmd->add_option("--response-samples", o->responseSamples,
-                  "samples over the validation ranges that measure the fit's response (default 200; 0: no "
-                  "response correction)")
+                  fmt::format("samples over the validation ranges that measure the fit's response (default {}; "
+                              "0: no response correction)",
+                              o->responseSamples))
       ->check(integerIn(0, 100000));
-  cmd->add_option("--response-events", o->responseEvents, "events per response sample (default 100000)")
+  cmd->add_option("--response-events", o->responseEvents,
+                  fmt::format("events per response sample (default {})", o->responseEvents))
       ->check(integerIn(1000, kMaxEvents));
   cmd->add_flag("--ideal", o->ideal, "use the idealised simulation (the corrections should vanish)");
   cmd->add_option("--off", o->off, "switch realism effects off (as emcalign simulate --off)")->delimiter(',');

@@ -16,6 +16,7 @@
 #include "emcalign/calib/calibration.hpp"
 #include "emcalign/calib/corrections_grid.hpp"
 #include "emcalign/core/units.hpp"
+#include "emcalign/geometry/shower_depth.hpp"
 #include "emcalign/io/json_files.hpp"
 #include "emcalign/report/fit_figures.hpp"
 #include "emcalign/report/fit_plots.hpp"
@@ -34,7 +35,7 @@ struct FitCliOptions {
   std::string detector;
   std::string plots;
   double beamEnergy = 0.0;
-  double depthOffset = 0.0;
+  double depthOffset = geometry::ShowerDepth{}.offset / units::cm;
   std::string corrections;
   std::string sigmaSys;
 };
@@ -149,12 +150,12 @@ int run(const FitCliOptions& o) {
   auto calo = loadCalorimeter(o.detector);
   if (!calo) return reportError(calo.error());
   auto geometry = calib::FitGeometry::of(calo->description());
-  geometry.depth.offset = o.depthOffset;
+  geometry.depth.offset = o.depthOffset * units::cm;
   calib::ProfileOptions profileOptions;
   // The honest errors take the correlation of an event's two particles along (profiles.hpp).
   profileOptions.eventPairs = sigmaSysChoice(o.sigmaSys).keepsEventPairs();
   calib::FitInput input;
-  input.depthOffset = o.depthOffset;
+  input.depthOffset = o.depthOffset * units::cm;
   std::optional<calib::CorrectionsAt> corrections;
   if (!o.corrections.empty()) {
     auto at = correctionsOf(o);
@@ -271,8 +272,9 @@ void addFitCommand(CLI::App& app, int& exitCode) {
       ->check(finiteIn(10.0, 10000.0));
   auto* depthOffset =
       cmd->add_option("--depth-offset", o->depthOffset,
-                      "cm added to the shower depth R(E, theta) in the residuals and the model (default 0: the "
-                      "paper's formula; see docs/validation.md)")
+                      fmt::format("cm added to the shower depth R(E, theta) in the residuals and the model (default "
+                                  "{}: the paper's formula; see docs/validation.md)",
+                                  o->depthOffset))
           ->check(finiteIn(-calib::kMaxDepthOffset, calib::kMaxDepthOffset));
   auto* corrections = cmd->add_option("--corrections", o->corrections,
                                       "model corrections derived from the simulation (emcalign derive-corrections): "

@@ -171,7 +171,7 @@ void addReportCommand(CLI::App& app, int& exitCode) {
   tag->needs(conditions);
   cmd->add_option("--checks", o->checks, "physics checks' directories (emcalign check -o)")
       ->check(CLI::ExistingDirectory);
-  cmd->add_option("--title", o->title, "the page's title (default: EMC geometric calibration)");
+  cmd->add_option("--title", o->title, fmt::format("the page's title (default: {})", report::ReportInputs{}.title));
   addDetectorOption(*cmd, o->detector);
   cmd->add_option("-o,--output", o->output, "the HTML file; '-': standard output")->required();
   cmd->callback([o, &exitCode] { exitCode = run(*o); });

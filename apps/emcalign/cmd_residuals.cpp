@@ -15,6 +15,7 @@
 #include "emcalign/calib/corrections.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/core/version.hpp"
+#include "emcalign/geometry/shower_depth.hpp"
 #include "emcalign/io/csv.hpp"
 #include "emcalign/report/residual_plots.hpp"
 
@@ -25,7 +26,7 @@ namespace {
 struct ResidualsOptions {
   std::vector<std::string> samples;  // NAME=FILE[,FILE...]
   double beamEnergy = 0.0;
-  double depthOffset = 0.0;
+  double depthOffset = geometry::ShowerDepth{}.offset / units::cm;
   std::string corrections;
   std::string detector;
   std::string output;
@@ -136,7 +137,8 @@ void addResidualsCommand(CLI::App& app, int& exitCode) {
   cmd->add_option("--sample", o->samples, "a sample as NAME=FILE[,FILE...] (repeat for several)")->required();
   cmd->add_option("--beam-energy", o->beamEnergy, "beam energy for the selection, MeV (default: from the files)")
       ->check(finiteIn(10.0, 10000.0));
-  auto* offset = cmd->add_option("--depth-offset", o->depthOffset, "cm added to R(E, theta) (default 0)")
+  auto* offset = cmd->add_option("--depth-offset", o->depthOffset,
+                                 fmt::format("cm added to R(E, theta) (default {})", o->depthOffset))
                      ->check(finiteIn(-calib::kMaxDepthOffset, calib::kMaxDepthOffset));
   cmd->add_option("--corrections", o->corrections, "take the depth offset from a corrections file")
       ->check(CLI::ExistingFile)

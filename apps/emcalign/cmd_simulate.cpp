@@ -16,6 +16,7 @@
 #include "emcalign/core/version.hpp"
 #include "emcalign/io/event_file.hpp"
 #include "emcalign/io/json_files.hpp"
+#include "emcalign/sim/generators.hpp"
 #include "emcalign/sim/simulation.hpp"
 #include "emcalign/validation/period.hpp"
 #include "progress.hpp"
@@ -25,9 +26,9 @@ namespace emcalign::app {
 namespace {
 
 struct SimulateOptions {
-  std::string process = "ee";
+  std::string process = std::string(sim::name(sim::GeneratorOptions{}.process));
   std::int64_t events = 0;
-  std::uint64_t seed = 1;
+  std::uint64_t seed = sim::SimulationOptions{}.seed;
   std::string params;
   std::string conditions, tag;       // instead of params: the IOV of --run in a conditions tag
   std::string period;                // a whole period (validation/period.hpp) into the directory -o
@@ -35,7 +36,7 @@ struct SimulateOptions {
   std::string detector;
   std::string deadCounters;  // empty: default list; "none": no dead counters
   int threads = 0;
-  int run = 1;
+  int run = sim::SimulationOptions{}.run;
   std::string output;
   std::vector<std::string> off;
   std::optional<double> thetaMinDeg;  // none: the generator default
@@ -228,16 +229,20 @@ void addSimulateCommand(CLI::App& app, int& exitCode) {
   conditions->needs(cmd->get_option("--tag"));
   cmd->add_option_function<double>(
          "--beam-energy", [o](const double& v) { o->beamEnergy = v; },
-         "beam energy in MeV (default 612.5 for ee and gg, 510 for 3pi)")
+         fmt::format("beam energy in MeV (default {} for ee and gg, {} for 3pi)",
+                     sim::defaultBeamEnergy(sim::Process::Bhabha) / units::MeV,
+                     sim::defaultBeamEnergy(sim::Process::ThreePion) / units::MeV))
       ->check(finiteIn(sim::kMinBeamEnergy / units::MeV, sim::kMaxBeamEnergy / units::MeV));
   cmd->add_option_function<double>(
          "--theta-min", [o](const double& v) { o->thetaMinDeg = v; },
-         "lower edge of the generated polar range of the final-state particles, deg (default 10; "
-         "e+e- -> e+e- is forward-peaked: 40 keeps nearly every event inside the profiles)")
+         fmt::format("lower edge of the generated polar range of the final-state particles, deg (default {}; "
+                     "e+e- -> e+e- is forward-peaked: 40 keeps nearly every event inside the profiles)",
+                     sim::GeneratorOptions{}.thetaMin / units::deg))
       ->check(finiteIn(0.0, 180.0));
   cmd->add_option_function<double>(
          "--theta-max", [o](const double& v) { o->thetaMaxDeg = v; },
-         "upper edge of the generated polar range, deg (default 170)")
+         fmt::format("upper edge of the generated polar range, deg (default {})",
+                     sim::GeneratorOptions{}.thetaMax / units::deg))
       ->check(finiteIn(0.0, 180.0));
   addDetectorOption(*cmd, o->detector);
   cmd->add_option("--dead-counters", o->deadCounters,

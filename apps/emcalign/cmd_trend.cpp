@@ -33,8 +33,8 @@ using io::Json;
 struct TrendCliOptions {
   std::string conditions, tag, output, truth, tagOut, corrections, detector;
   std::vector<std::string> refit;
-  int threads = 0;
-  int minSegment = 2;
+  int threads = validation::ScanOptions{}.threads;
+  int minSegment = static_cast<int>(validation::TrendOptions{}.minSegment);
 };
 
 std::vector<report::TrendFigure> figuresOf(const validation::Trend& t,
@@ -240,7 +240,8 @@ void addTrendCommand(CLI::App& app, int& exitCode) {
   cmd->add_option("--corrections", o->corrections,
                   "the model corrections the campaign used, a file or a grid directory (for --refit)")
       ->check(CLI::ExistingPath);
-  cmd->add_option("--min-segment", o->minSegment, "IOVs per stable segment at least (default 2)")
+  cmd->add_option("--min-segment", o->minSegment,
+                  fmt::format("IOVs per stable segment at least (default {})", o->minSegment))
       ->check(integerIn(2, 1000));
   cmd->add_option("--threads", o->threads, "worker threads for --refit (0: all cores)")
       ->check(integerIn(0, kMaxThreads));

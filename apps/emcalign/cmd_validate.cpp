@@ -16,19 +16,21 @@ namespace emcalign::app {
 
 namespace {
 
+// The defaults are the library's (validation::CampaignOptions), but for the polar range:
+// the generator's covers the whole calorimeter, the samples only the profiles'.
 struct ValidateOptions {
-  int samples = 100;
-  std::int64_t events = 50000;
-  std::uint64_t seed = 1;
+  int samples = validation::CampaignOptions{}.samples;
+  std::int64_t events = validation::CampaignOptions{}.events;
+  std::uint64_t seed = validation::CampaignOptions{}.seed;
   std::string ranges;
   std::string detector;
-  int threads = 0;
+  int threads = validation::CampaignOptions{}.threads;
   double beamEnergy = 0.0;  ///< MeV; 0: the simulation's default
   double thetaMinDeg = 40.0;
   double thetaMaxDeg = 140.0;
   bool ideal = false;
   bool pointShowers = false;
-  double depthOffset = 0.0;
+  double depthOffset = validation::CampaignOptions{}.corrections.depthOffset / units::cm;
   std::string corrections;
   std::vector<std::string> off;
   std::string sigmaSys;
@@ -59,7 +61,7 @@ int run(const ValidateOptions& cli) {
   }
   if (Status s = applyRealismSwitches(o.simulation, cli.ideal, cli.off); !s) return reportError(s.error());
   if (cli.pointShowers) o.simulation.emc.pointShowers = true;
-  o.corrections.depthOffset = cli.depthOffset;
+  o.corrections.depthOffset = cli.depthOffset * units::cm;
   io::Json correctionsSetting = nullptr;
   if (cli.beamEnergy > 0.0) o.simulation.generator.beamEnergy = cli.beamEnergy * units::MeV;
   if (!cli.corrections.empty()) {
@@ -120,18 +122,24 @@ void addValidateCommand(CLI::App& app, int& exitCode) {
   auto o = std::make_shared<ValidateOptions>();
   auto* cmd = app.add_subcommand("validate", "Validation campaign: bias, spread and pulls over simulated samples");
   addVersionFlag(*cmd);
-  cmd->add_option("--samples", o->samples, "number of samples (default 100)")->check(integerIn(1, 100000));
-  cmd->add_option("--events", o->events, "events per sample (default 50000)")->check(integerIn(1, kMaxEvents));
+  cmd->add_option("--samples", o->samples, fmt::format("number of samples (default {})", o->samples))
+      ->check(integerIn(1, 100000));
+  cmd->add_option("--events", o->events, fmt::format("events per sample (default {})", o->events))
+      ->check(integerIn(1, kMaxEvents));
   cmd->add_option("--seed", o->seed, "campaign seed, 0 to 2^64 - 1")->check(unsigned64());
   cmd->add_option("--ranges", o->ranges, "ranges of the truth (JSON, emcalign-validation-ranges/1)")
       ->check(CLI::ExistingFile);
   addDetectorOption(*cmd, o->detector);
   cmd->add_option("--threads", o->threads, "worker threads (0: all cores)")->check(integerIn(0, kMaxThreads));
-  cmd->add_option("--beam-energy", o->beamEnergy, "beam energy of the samples, MeV (default 612.5)")
+  cmd->add_option("--beam-energy", o->beamEnergy,
+                  fmt::format("beam energy of the samples, MeV (default {})",
+                              validation::CampaignOptions{}.simulation.generator.beamEnergy / units::MeV))
       ->check(finiteIn(sim::kMinBeamEnergy / units::MeV, sim::kMaxBeamEnergy / units::MeV));
-  cmd->add_option("--theta-min", o->thetaMinDeg, "generated polar range of the leptons, deg (default 40)")
+  cmd->add_option("--theta-min", o->thetaMinDeg,
+                  fmt::format("generated polar range of the leptons, deg (default {})", o->thetaMinDeg))
       ->check(finiteIn(0.0, 180.0));
-  cmd->add_option("--theta-max", o->thetaMaxDeg, "(default 140)")->check(finiteIn(0.0, 180.0));
+  cmd->add_option("--theta-max", o->thetaMaxDeg, fmt::format("(default {})", o->thetaMaxDeg))
+      ->check(finiteIn(0.0, 180.0));
   cmd->add_flag("--ideal", o->ideal, "use the idealised simulation (the fit model is exact)");
   cmd->add_option("--off", o->off,
                   "switch realism effects off (as emcalign simulate --off), to trace a bias to its cause")

@@ -115,8 +115,10 @@ CLI::Option* addSigmaSysOption(CLI::App& cmd, std::string& text) {
       "auto|DEG");
   return cmd
       .add_option("--sigma-sys", text,
-                  "systematic error added in quadrature to every profile bin: DEG, or 'auto' to estimate it from the "
-                  "profiles (chi2/ndf = 1 after the fit; docs/fit.md). Default 0.2 (SPEC, the paper's data)")
+                  fmt::format("systematic error added in quadrature to every profile bin: DEG, or 'auto' to "
+                              "estimate it from the profiles (chi2/ndf = 1 after the fit; docs/fit.md). Default {} "
+                              "(SPEC, the paper's data)",
+                              calib::kSpecSigmaSys / units::deg))
       ->check(autoOrDegrees);
 }
 

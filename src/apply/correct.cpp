@@ -80,6 +80,124 @@ Result<CorrectReport> correctFiles(const std::vector<std::string>& inputs, const
       inputs, output, calo, [&](std::int64_t) { return Result(one); }, o);
 }
 
+namespace {
+
+// Whether the file's clusters were rebuilt from counter centres, so that the hits method is
+// the identity at zero alignment: not with `simulate --ideal` or `--off counter-directions`
+// (directions from the deposit itself), as the file's "simulation" attribute says.
+bool clustersFromCounters(const std::vector<std::pair<std::string, std::string>>& attributes) {
+  for (const auto& [key, value] : attributes) {
+    if (key != "simulation") continue;
+    auto j = io::Json::parse(value, nullptr, false);
+    if (j.is_discarded() || !j.is_object()) continue;
+    const io::Json off = j.value("off", io::Json::array());
+    if (j.value("ideal", false) ||
+        (off.is_array() && std::find(off.begin(), off.end(), io::Json("counter-directions")) != off.end())) {
+      return false;
+    }
+  }
+  return true;
+}
+
+// The method for these inputs: the one asked for, or for `auto` the hits method when the
+// files have hits and their clusters were made from counters.
+Result<CorrectionMethod> methodFor(const io::EventReader& reader, const CorrectOptions& o, const std::string& input) {
+  const bool hits = reader.hits() != nullptr;
+  if (o.method == CorrectionMethod::Hits && !hits) {
+    return Error{
+        fmt::format("{}: --method hits needs event files with counter hits (emcalign simulate writes them to "
+                    "HDF5); this one has none: use --method clusters",
+                    input)};
+  }
+  const bool fromCounters = clustersFromCounters(reader.attributes());
+  if (o.method == CorrectionMethod::Hits && !fromCounters) {
+    return Error{
+        fmt::format("{}: its clusters were not reconstructed from counter centres (simulate --ideal or --off "
+                    "counter-directions), so the hits method cannot rebuild them: use --method clusters",
+                    input)};
+  }
+  if (o.method != CorrectionMethod::Auto) return o.method;
+  return hits && fromCounters ? CorrectionMethod::Hits : CorrectionMethod::Clusters;
+}
+
+// The alignment of the current run and, for the hits method, its aligned counters, made once
+// per alignment.
+class RunAlignments {
+ public:
+  RunAlignments(const geometry::Calorimeter& calo, const AlignmentOfRun& alignmentOf, bool withCounters)
+      : calo_(calo), alignmentOf_(alignmentOf), withCounters_(withCounters) {}
+
+  Status select(std::int64_t run) {
+    if (transform_ && run == run_) return {};
+    auto t = alignmentOf_(run);
+    if (!t) return t.error();
+    run_ = run;
+    transform_ = *t;
+    used_.insert(t->get());
+    if (withCounters_) {
+      auto& c = counters_[t->get()];
+      if (!c) c = std::make_unique<geometry::CounterGeometry>(geometry::CounterGeometry::aligned(calo_, **t));
+      current_ = c.get();
+    }
+    return {};
+  }
+  [[nodiscard]] const geometry::AlignmentTransform& transform() const { return *transform_; }
+  [[nodiscard]] const geometry::CounterGeometry& counters() const { return *current_; }
+  [[nodiscard]] int used() const { return static_cast<int>(used_.size()); }
+
+ private:
+  const geometry::Calorimeter& calo_;
+  const AlignmentOfRun& alignmentOf_;
+  bool withCounters_;
+  std::int64_t run_ = -1;
+  std::shared_ptr<const geometry::AlignmentTransform> transform_;
+  const geometry::CounterGeometry* current_ = nullptr;
+  std::map<const geometry::AlignmentTransform*, std::unique_ptr<geometry::CounterGeometry>> counters_;
+  std::set<const geometry::AlignmentTransform*> used_;
+};
+
+// The hits method on a block: each stretch of one run with its alignment's counters.
+Status correctBlockByHits(std::span<ParticleRow> rows, std::span<const Hit> hits, RunAlignments& alignments, double w0,
+                          const std::string& source) {
+  std::size_t begin = 0, hitBegin = 0;
+  while (begin < rows.size()) {
+    std::size_t end = begin, hitEnd = hitBegin;
+    while (end < rows.size() && rows[end].run == rows[begin].run) hitEnd += rows[end++].hitCount;
+    if (hitEnd > hits.size()) {
+      return Error{fmt::format("{}: run {}: the rows count more hits than the file has", source, rows[begin].run)};
+    }
+    if (Status s = alignments.select(rows[begin].run); !s) return s;
+    if (Status s = correctByHits(rows.subspan(begin, end - begin), hits.subspan(hitBegin, hitEnd - hitBegin),
+                                 alignments.counters(), w0, source);
+        !s) {
+      return s;
+    }
+    begin = end;
+    hitBegin = hitEnd;
+  }
+  return {};
+}
+
+// The cluster method on a block: each cluster's direction corrected at the depth of its beam
+// energy (o.depthAt, remembered between blocks in `depth` and `depthEnergy`).
+Status correctBlockByClusters(std::span<ParticleRow> rows, RunAlignments& alignments, const CorrectOptions& o,
+                              geometry::ShowerDepth& depth, double& depthEnergy, const std::string& source) {
+  for (ParticleRow& r : rows) {
+    if (std::isnan(r.energy)) continue;
+    if (Status s = alignments.select(r.run); !s) return s;
+    if (o.depthAt && r.beamEnergy != depthEnergy) {
+      auto d = o.depthAt(r.beamEnergy);
+      if (!d) return Error{fmt::format("{}: run {} ({} MeV): {}", source, r.run, r.beamEnergy, d.error().message)};
+      depth = *d;
+      depthEnergy = r.beamEnergy;
+    }
+    std::tie(r.phiEmc, r.thetaEmc) = correctDirection(alignments.transform(), depth, r.phiEmc, r.thetaEmc, r.energy);
+  }
+  return {};
+}
+
+}  // namespace
+
 Result<CorrectReport> correctFiles(const std::vector<std::string>& inputs, const std::string& output,
                                    const geometry::Calorimeter& calo, const AlignmentOfRun& alignmentOf,
                                    const CorrectOptions& o) {
@@ -89,60 +207,11 @@ Result<CorrectReport> correctFiles(const std::vector<std::string>& inputs, const
   std::vector<ParticleRow> rows;
   auto first = (*reader)->next(rows);
   if (!first) return first.error();
-  // The input's hits decide the method of `auto` (files without hits: clusters).
+  auto method = methodFor(**reader, o, inputs.front());
+  if (!method) return method.error();
+  report.method = *method;
   const bool hits = (*reader)->hits() != nullptr;
-  if (o.method == CorrectionMethod::Hits && !hits) {
-    return Error{
-        fmt::format("{}: --method hits needs event files with counter hits (emcalign simulate writes them to "
-                    "HDF5); this one has none: use --method clusters",
-                    inputs.front())};
-  }
-  // Rebuilding a cluster from its counters is the identity at zero alignment only when the
-  // file's clusters were made that way: not by `simulate --ideal` or `--off counter-directions`
-  // (directions from the deposit itself), as the file's "simulation" attribute says.
-  bool fromCounters = true;
-  for (const auto& [key, value] : (*reader)->attributes()) {
-    if (key != "simulation") continue;
-    auto j = io::Json::parse(value, nullptr, false);
-    if (j.is_discarded() || !j.is_object()) continue;
-    const io::Json off = j.value("off", io::Json::array());
-    if (j.value("ideal", false) ||
-        (off.is_array() && std::find(off.begin(), off.end(), io::Json("counter-directions")) != off.end())) {
-      fromCounters = false;
-    }
-  }
-  if (o.method == CorrectionMethod::Hits && !fromCounters) {
-    return Error{
-        fmt::format("{}: its clusters were not reconstructed from counter centres (simulate --ideal or --off "
-                    "counter-directions), so the hits method cannot rebuild them: use --method clusters",
-                    inputs.front())};
-  }
-  report.method = o.method == CorrectionMethod::Auto
-                      ? (hits && fromCounters ? CorrectionMethod::Hits : CorrectionMethod::Clusters)
-                      : o.method;
-  // The alignment of the current run, and its aligned counters (hits method), made once per
-  // alignment.
-  struct Current {
-    std::int64_t run = -1;
-    std::shared_ptr<const geometry::AlignmentTransform> transform;
-    const geometry::CounterGeometry* counters = nullptr;
-  } current;
-  std::map<const geometry::AlignmentTransform*, std::unique_ptr<geometry::CounterGeometry>> counters;
-  std::set<const geometry::AlignmentTransform*> used;
-  auto select = [&](std::int64_t run) -> Status {
-    if (current.transform && run == current.run) return {};
-    auto t = alignmentOf(run);
-    if (!t) return t.error();
-    current.run = run;
-    current.transform = *t;
-    used.insert(t->get());
-    if (report.method == CorrectionMethod::Hits) {
-      auto& c = counters[t->get()];
-      if (!c) c = std::make_unique<geometry::CounterGeometry>(geometry::CounterGeometry::aligned(calo, **t));
-      current.counters = c.get();
-    }
-    return {};
-  };
+  RunAlignments alignments(calo, alignmentOf, report.method == CorrectionMethod::Hits);
 
   io::WriterOptions wo;
   const bool hdf5 = io::formatOf(output) == io::EventFormat::Hdf5;
@@ -171,40 +240,10 @@ Result<CorrectReport> correctFiles(const std::vector<std::string>& inputs, const
       if (i == 0 || rows[i].event != rows[i - 1].event || rows[i].run != rows[i - 1].run) ++report.events;
       if (!std::isnan(rows[i].energy)) ++report.clusters;
     }
-    if (report.method == CorrectionMethod::Hits) {
-      // Each stretch of one run with its alignment's counters.
-      std::size_t begin = 0, hitBegin = 0;
-      while (begin < rows.size()) {
-        std::size_t end = begin, hitEnd = hitBegin;
-        while (end < rows.size() && rows[end].run == rows[begin].run) hitEnd += rows[end++].hitCount;
-        if (hitEnd > blockHits->size()) {
-          return Error{
-              fmt::format("{}: run {}: the rows count more hits than the file has", inputs.front(), rows[begin].run)};
-        }
-        if (Status s = select(rows[begin].run); !s) return s.error();
-        const std::span<ParticleRow> stretch(rows.data() + begin, end - begin);
-        const std::span<const Hit> stretchHits(blockHits->data() + hitBegin, hitEnd - hitBegin);
-        if (Status s = correctByHits(stretch, stretchHits, *current.counters, o.logWeightW0, inputs.front()); !s) {
-          return s.error();
-        }
-        begin = end;
-        hitBegin = hitEnd;
-      }
-    } else {
-      for (ParticleRow& r : rows) {
-        if (std::isnan(r.energy)) continue;
-        if (Status s = select(r.run); !s) return s.error();
-        if (o.depthAt && r.beamEnergy != depthEnergy) {
-          auto d = o.depthAt(r.beamEnergy);
-          if (!d)
-            return Error{
-                fmt::format("{}: run {} ({} MeV): {}", (*reader)->path(), r.run, r.beamEnergy, d.error().message)};
-          depth = *d;
-          depthEnergy = r.beamEnergy;
-        }
-        std::tie(r.phiEmc, r.thetaEmc) = correctDirection(*current.transform, depth, r.phiEmc, r.thetaEmc, r.energy);
-      }
-    }
+    const Status corrected = report.method == CorrectionMethod::Hits
+                                 ? correctBlockByHits(rows, *blockHits, alignments, o.logWeightW0, inputs.front())
+                                 : correctBlockByClusters(rows, alignments, o, depth, depthEnergy, (*reader)->path());
+    if (!corrected) return corrected.error();
     const std::span<const TruthRow> t = wo.withTruth ? std::span<const TruthRow>(*truth) : std::span<const TruthRow>();
     const std::span<const Hit> h = wo.withHits ? std::span<const Hit>(*blockHits) : std::span<const Hit>();
     if (Status s = (*writer)->append(rows, t, h); !s) return s.error();
@@ -215,7 +254,7 @@ Result<CorrectReport> correctFiles(const std::vector<std::string>& inputs, const
     more = *next;
   }
   if (Status s = (*writer)->close(); !s) return s.error();
-  report.alignments = static_cast<int>(used.size());
+  report.alignments = alignments.used();
   return report;
 }
 

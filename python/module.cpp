@@ -1,0 +1,365 @@
+// The pybind11 module `emcalign._emcalign`: bindings only (STYLE.md). Arrays cross as numpy
+// arrays, never as per-row Python objects; every library error becomes `emcalign.Error` with
+// the message the command-line tool prints after "emcalign: error: ". Long loops release the
+// GIL. Units are the library's (cm, MeV, rad) unless a name says otherwise.
+
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "emcalign/core/parameters.hpp"
+#include "emcalign/geometry/alignment_parameters.hpp"
+#include "emcalign/geometry/alignment_transform.hpp"
+#include "emcalign/geometry/counter_geometry.hpp"
+#include "emcalign/geometry/detector.hpp"
+#include "emcalign/io/event_file.hpp"
+#include "emcalign/io/json_files.hpp"
+#include "emcalign/io/output_file.hpp"
+
+namespace py = pybind11;
+using namespace emcalign;
+
+namespace {
+
+using Array = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+// The Python exception of every library error (created in the module init).
+PyObject* gError = nullptr;
+
+[[noreturn]] void raise(const Error& e) {
+  PyErr_SetString(gError, e.message.c_str());
+  throw py::error_already_set();
+}
+
+template <typename T>
+T unwrap(Result<T> r) {
+  if (!r) raise(r.error());
+  return std::move(r.value());
+}
+
+void check(const Status& s) {
+  if (!s) raise(s.error());
+}
+
+// The 12 fit parameters from a numpy vector (native units).
+geometry::AlignmentParameters parametersOf(const Array& values) {
+  if (values.ndim() != 1 || values.shape(0) != static_cast<py::ssize_t>(kNumParams)) {
+    raise(Error{"parameters: expected 12 values (the fit set of SPEC §3, native units)"});
+  }
+  geometry::AlignmentParameters eta;
+  for (std::size_t k = 0; k < kNumParams; ++k) eta.values[static_cast<Eigen::Index>(k)] = values.at(k);
+  return eta;
+}
+
+Array arrayOf(const geometry::ParamVector& v) {
+  Array out(static_cast<py::ssize_t>(kNumParams));
+  for (std::size_t k = 0; k < kNumParams; ++k) out.mutable_at(k) = v[static_cast<Eigen::Index>(k)];
+  return out;
+}
+
+// (N, 3) points in, checked.
+py::ssize_t pointCount(const Array& points) {
+  if (points.ndim() != 2 || points.shape(1) != 3) raise(Error{"points: expected an (N, 3) array of x, y, z in cm"});
+  return points.shape(0);
+}
+
+Vec3 pointAt(const Array& points, py::ssize_t i) { return {points.at(i, 0), points.at(i, 1), points.at(i, 2)}; }
+
+// The calorimeter and its nominal counters: the embedded SND-like detector or a description.
+class Detector {
+ public:
+  explicit Detector(const std::optional<std::string>& path)
+      : calo_(unwrap(path ? [&]() -> Result<geometry::Calorimeter> {
+          auto d = io::readDetectorDescription(*path);
+          if (!d) return d.error();
+          auto c = geometry::Calorimeter::create(std::move(*d));
+          if (!c) return Error{*path + ": " + c.error().message};
+          return c;
+        }()
+                         : geometry::Calorimeter::create(geometry::DetectorDescription::sndDefault()))) {}
+
+  [[nodiscard]] const geometry::Calorimeter& calorimeter() const { return calo_; }
+
+  // The counters as columns (SPEC §2 indexing): index, layer, ring, iphi, hemisphere, the
+  // mid-angles θ, φ (rad) and the nominal centre (N, 3), cm.
+  [[nodiscard]] py::dict counters() const {
+    const auto n = static_cast<py::ssize_t>(calo_.size());
+    py::array_t<int> layer(n), ring(n), iphi(n), hemisphere(n);
+    Array theta(n), phi(n), centre({n, static_cast<py::ssize_t>(3)});
+    for (py::ssize_t i = 0; i < n; ++i) {
+      const auto& c = calo_.counter(static_cast<int>(i));
+      layer.mutable_at(i) = c.layer;
+      ring.mutable_at(i) = c.ring;
+      iphi.mutable_at(i) = c.iphi;
+      hemisphere.mutable_at(i) = geometry::sign(c.hemisphere);
+      theta.mutable_at(i) = c.theta();
+      phi.mutable_at(i) = c.phi();
+      for (int k = 0; k < 3; ++k) centre.mutable_at(i, k) = c.centre()[k];
+    }
+    py::dict out;
+    out["layer"] = layer;
+    out["ring"] = ring;
+    out["iphi"] = iphi;
+    out["hemisphere"] = hemisphere;
+    out["theta_rad"] = theta;
+    out["phi_rad"] = phi;
+    out["centre_cm"] = centre;
+    return out;
+  }
+
+  // The counter centres in the TS frame with an alignment (the geometry database).
+  [[nodiscard]] Array alignedCentres(const Array& values) const {
+    const auto transform = unwrap(
+        geometry::AlignmentTransform::create(parametersOf(values), geometry::AlignmentRadii::of(calo_.description())));
+    const auto n = static_cast<py::ssize_t>(calo_.size());
+    Array out({n, static_cast<py::ssize_t>(3)});
+    auto w = out.mutable_unchecked<2>();
+    {
+      py::gil_scoped_release release;
+      const auto g = geometry::CounterGeometry::aligned(calo_, transform);
+      for (py::ssize_t i = 0; i < n; ++i) {
+        for (int k = 0; k < 3; ++k) w(i, k) = g.centre(static_cast<int>(i))[k];
+      }
+    }
+    return out;
+  }
+
+  // The counter containing each nominal-frame point, −1 where none.
+  [[nodiscard]] py::array_t<int> locate(const Array& points) const {
+    const py::ssize_t n = pointCount(points);
+    py::array_t<int> out(n);
+    auto r = points.unchecked<2>();
+    auto w = out.mutable_unchecked<1>();
+    py::gil_scoped_release release;
+    for (py::ssize_t i = 0; i < n; ++i) {
+      const auto at = calo_.locate({r(i, 0), r(i, 1), r(i, 2)});
+      w(i) = at.region == geometry::Region::Counter ? at.counter : -1;
+    }
+    return out;
+  }
+
+ private:
+  geometry::Calorimeter calo_;
+};
+
+// The transform of SPEC §4 on (N, 3) points, each in the hemisphere of its own x (nominal
+// frame, forward) or as given; support "inner" or "outer" (layer 3).
+Array transformPoints(const Detector& detector, const Array& values, const Array& points, bool forward,
+                      const std::string& support, std::optional<int> hemisphere) {
+  if (support != "inner" && support != "outer") raise(Error{"support: 'inner' or 'outer'"});
+  if (hemisphere && *hemisphere != 1 && *hemisphere != -1) raise(Error{"hemisphere: +1, -1 or None"});
+  if (!forward && !hemisphere) raise(Error{"inverse: give the hemisphere (+1 or -1) of the points"});
+  const auto transform = unwrap(geometry::AlignmentTransform::create(
+      parametersOf(values), geometry::AlignmentRadii::of(detector.calorimeter().description())));
+  const py::ssize_t n = pointCount(points);
+  const geometry::Support s = support == "outer" ? geometry::Support::Outer : geometry::Support::Inner;
+  Array out({n, static_cast<py::ssize_t>(3)});
+  auto r = points.unchecked<2>();
+  auto w = out.mutable_unchecked<2>();
+  py::gil_scoped_release release;
+  for (py::ssize_t i = 0; i < n; ++i) {
+    const Vec3 p{r(i, 0), r(i, 1), r(i, 2)};
+    const geometry::Hemisphere h =
+        hemisphere ? static_cast<geometry::Hemisphere>(*hemisphere) : geometry::hemisphereOf(p.x());
+    const Vec3 q = forward ? transform.forward(p, h, s) : transform.inverse(p, h, s);
+    for (int k = 0; k < 3; ++k) w(i, k) = q[k];
+  }
+  return out;
+}
+
+// An event file's rows as numpy columns (SPEC §6 names and units), with its truth and hits
+// when it has them and they are asked for.
+py::dict readEvents(const std::vector<std::string>& paths, bool truth, bool hits) {
+  io::ReaderOptions o;
+  o.truth = truth;
+  o.hits = hits;
+  std::vector<ParticleRow> rows;
+  std::vector<TruthRow> truthRows;
+  std::vector<Hit> hitRows;
+  bool withTruth = truth, withHits = hits;
+  {
+    py::gil_scoped_release release;
+    auto reader = io::EventReader::open(paths, o);
+    if (!reader) {
+      py::gil_scoped_acquire acquire;
+      raise(reader.error());
+    }
+    std::vector<ParticleRow> block;
+    while (true) {
+      auto more = (*reader)->next(block);
+      if (!more) {
+        py::gil_scoped_acquire acquire;
+        raise(more.error());
+      }
+      if (!*more) break;
+      rows.insert(rows.end(), block.begin(), block.end());
+      const auto* t = (*reader)->truth();
+      const auto* h = (*reader)->hits();
+      withTruth = withTruth && t != nullptr;
+      withHits = withHits && h != nullptr;
+      if (withTruth) truthRows.insert(truthRows.end(), t->begin(), t->end());
+      if (withHits) hitRows.insert(hitRows.end(), h->begin(), h->end());
+    }
+  }
+  const auto n = static_cast<py::ssize_t>(rows.size());
+  py::dict out;
+  const auto column = [&](const char* key, auto field) {
+    using V = std::decay_t<decltype(field(rows[0]))>;
+    py::array_t<V> a(n);
+    auto w = a.template mutable_unchecked<1>();
+    for (py::ssize_t i = 0; i < n; ++i) w(i) = field(rows[static_cast<std::size_t>(i)]);
+    out[key] = a;
+  };
+  column("run", [](const ParticleRow& r) { return r.run; });
+  column("event", [](const ParticleRow& r) { return r.event; });
+  column("beam_energy_mev", [](const ParticleRow& r) { return r.beamEnergy; });
+  column("muon_veto", [](const ParticleRow& r) { return r.muonVeto; });
+  column("charged", [](const ParticleRow& r) { return r.charged; });
+  column("z0_cm", [](const ParticleRow& r) { return r.z0; });
+  column("rho_cm", [](const ParticleRow& r) { return r.rho; });
+  column("phi_ts_rad", [](const ParticleRow& r) { return r.phiTs; });
+  column("theta_ts_rad", [](const ParticleRow& r) { return r.thetaTs; });
+  column("energy_mev", [](const ParticleRow& r) { return r.energy; });
+  column("phi_emc_rad", [](const ParticleRow& r) { return r.phiEmc; });
+  column("theta_emc_rad", [](const ParticleRow& r) { return r.thetaEmc; });
+  if (withHits) column("hit_count", [](const ParticleRow& r) { return r.hitCount; });
+  if (withTruth && truthRows.size() == rows.size()) {
+    py::dict t;
+    const auto tn = static_cast<py::ssize_t>(truthRows.size());
+    py::array_t<std::int32_t> pdg(tn);
+    Array energy(tn), theta(tn), phi(tn), vertex({tn, static_cast<py::ssize_t>(3)}),
+        shower({tn, static_cast<py::ssize_t>(3)});
+    for (py::ssize_t i = 0; i < tn; ++i) {
+      const TruthRow& r = truthRows[static_cast<std::size_t>(i)];
+      pdg.mutable_at(i) = r.pdg;
+      energy.mutable_at(i) = r.energy;
+      theta.mutable_at(i) = r.theta;
+      phi.mutable_at(i) = r.phi;
+      for (int k = 0; k < 3; ++k) {
+        vertex.mutable_at(i, k) = r.vertex[k];
+        shower.mutable_at(i, k) = r.showerCentre[k];
+      }
+    }
+    t["pdg"] = pdg;
+    t["energy_mev"] = energy;
+    t["theta_rad"] = theta;
+    t["phi_rad"] = phi;
+    t["vertex_cm"] = vertex;
+    t["shower_centre_cm"] = shower;
+    out["truth"] = t;
+  }
+  if (withHits) {
+    const auto hn = static_cast<py::ssize_t>(hitRows.size());
+    py::array_t<std::int32_t> counter(hn);
+    Array energy(hn);
+    for (py::ssize_t i = 0; i < hn; ++i) {
+      counter.mutable_at(i) = hitRows[static_cast<std::size_t>(i)].counter;
+      energy.mutable_at(i) = hitRows[static_cast<std::size_t>(i)].energy;
+    }
+    py::dict h;
+    h["counter"] = counter;
+    h["energy_mev"] = energy;
+    out["hits"] = h;
+  }
+  return out;
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_emcalign, m) {
+  m.doc() = "emcalign: the geometric calibration of a two-hemisphere calorimeter (C++ library bindings)";
+  gError = PyErr_NewExceptionWithDoc("emcalign.Error",
+                                     "A refused input or a failed step; the message is the command-line tool's.",
+                                     PyExc_RuntimeError, nullptr);
+  m.attr("Error") = py::handle(gError);
+
+  std::vector<std::string> params, physical;
+  for (Param p : kAllParams) params.emplace_back(name(p));
+  for (Physical p : kAllPhysical) physical.emplace_back(name(p));
+  m.attr("PARAMETERS") = params;
+  m.attr("PHYSICAL") = physical;
+  m.attr("DERIVED") = [] {
+    std::vector<std::string> d;
+    for (Physical p : kDerivedParams) d.emplace_back(name(p));
+    return d;
+  }();
+  m.def(
+      "file_units",
+      [] {
+        Array out(static_cast<py::ssize_t>(kNumParams));
+        for (Param p : kAllParams) out.mutable_at(index(p)) = geometry::AlignmentParameters::fileUnit(p);
+        return out;
+      },
+      "native = file value × file_units()[k]: degrees for angles (and beta1, beta2), cm for lengths");
+
+  py::class_<Detector>(m, "Detector", "The calorimeter: the embedded SND-like detector, or a description file")
+      .def(py::init<std::optional<std::string>>(), py::arg("path") = py::none())
+      .def_property_readonly("size", [](const Detector& d) { return d.calorimeter().size(); })
+      .def_property_readonly("r1", [](const Detector& d) { return d.calorimeter().description().r1(); })
+      .def("counters", &Detector::counters, "the counters as numpy columns (SPEC §2 indexing)")
+      .def("aligned_centres", &Detector::alignedCentres, py::arg("parameters"),
+           "the counter centres (N, 3) in the TS frame placed by an alignment (native units)")
+      .def("locate", &Detector::locate, py::arg("points"),
+           "the counter containing each nominal-frame point (N, 3), -1 where none");
+
+  m.def(
+      "read_alignment",
+      [](const std::string& path, const Detector& detector) {
+        auto file = unwrap(io::readAlignmentFile(path, detector.calorimeter().description().r1()));
+        return py::make_tuple(arrayOf(file.parameters.values), file.warnings);
+      },
+      py::arg("path"), py::arg("detector"),
+      "(parameters, warnings): the fit set (12, native units) of a parameter or fit-result file, and the "
+      "warnings the command-line tool prints for it");
+  m.def(
+      "write_alignment",
+      [](const std::string& path, const Array& values, const Detector& detector) {
+        const auto j =
+            unwrap(io::alignmentToJsonWithPhysical(parametersOf(values), detector.calorimeter().description().r1()));
+        check(io::writeOutputFile(path, j.dump(2) + "\n"));
+      },
+      py::arg("path"), py::arg("parameters"), py::arg("detector"),
+      "writes a parameter file (SPEC §3: file units, with the physical set)");
+  m.def(
+      "to_physical",
+      [](const Array& values, double r1) {
+        const auto phys = unwrap(geometry::toPhysical(parametersOf(values), r1));
+        Array out(static_cast<py::ssize_t>(kNumParams));
+        for (std::size_t k = 0; k < kNumParams; ++k) out.mutable_at(k) = phys.values[k];
+        return out;
+      },
+      py::arg("parameters"), py::arg("r1"), "fit set -> physical set (12, native units, order of PHYSICAL)");
+  m.def(
+      "from_physical",
+      [](const Array& values, double r1) {
+        if (values.ndim() != 1 || values.shape(0) != static_cast<py::ssize_t>(kNumParams)) {
+          raise(Error{"physical: expected 12 values (SPEC §3, native units)"});
+        }
+        geometry::PhysicalParameters phys;
+        for (std::size_t k = 0; k < kNumParams; ++k) phys.values[k] = values.at(k);
+        return arrayOf(geometry::fromPhysical(phys, r1).values);
+      },
+      py::arg("physical"), py::arg("r1"), "physical set -> fit set (12, native units)");
+  m.def(
+      "forward",
+      [](const Detector& d, const Array& values, const Array& points, const std::string& support,
+         std::optional<int> hemisphere) { return transformPoints(d, values, points, true, support, hemisphere); },
+      py::arg("detector"), py::arg("parameters"), py::arg("points"), py::arg("support") = "inner",
+      py::arg("hemisphere") = py::none(),
+      "nominal EMC frame -> TS frame (SPEC §4) for (N, 3) points; hemisphere: of each point's x unless given");
+  m.def(
+      "inverse",
+      [](const Detector& d, const Array& values, const Array& points, int hemisphere, const std::string& support) {
+        return transformPoints(d, values, points, false, support, hemisphere);
+      },
+      py::arg("detector"), py::arg("parameters"), py::arg("points"), py::arg("hemisphere"),
+      py::arg("support") = "inner", "TS frame -> nominal EMC frame (SPEC §4) for (N, 3) points of one hemisphere");
+  m.def("read_events", &readEvents, py::arg("paths"), py::arg("truth") = true, py::arg("hits") = true,
+        "the rows of event files (HDF5 or CSV, SPEC §6) as a dict of numpy columns, with 'truth' and 'hits' "
+        "dicts when the files have them");
+}

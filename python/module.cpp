@@ -12,7 +12,11 @@
 #include <string>
 #include <vector>
 
+#include "emcalign/calib/calibration.hpp"
+#include "emcalign/calib/fit.hpp"
+#include "emcalign/calib/sigma_sys.hpp"
 #include "emcalign/core/parameters.hpp"
+#include "emcalign/core/units.hpp"
 #include "emcalign/geometry/alignment_parameters.hpp"
 #include "emcalign/geometry/alignment_transform.hpp"
 #include "emcalign/geometry/counter_geometry.hpp"
@@ -74,7 +78,8 @@ Vec3 pointAt(const Array& points, py::ssize_t i) { return {points.at(i, 0), poin
 class Detector {
  public:
   explicit Detector(const std::optional<std::string>& path)
-      : calo_(unwrap(path ? [&]() -> Result<geometry::Calorimeter> {
+      : source_(path ? *path : "embedded default"),
+        calo_(unwrap(path ? [&]() -> Result<geometry::Calorimeter> {
           auto d = io::readDetectorDescription(*path);
           if (!d) return d.error();
           auto c = geometry::Calorimeter::create(std::move(*d));
@@ -84,6 +89,8 @@ class Detector {
                          : geometry::Calorimeter::create(geometry::DetectorDescription::sndDefault()))) {}
 
   [[nodiscard]] const geometry::Calorimeter& calorimeter() const { return calo_; }
+  /// What a result file records as the detector: the path, or "embedded default".
+  [[nodiscard]] const std::string& source() const { return source_; }
 
   // The counters as columns (SPEC §2 indexing): index, layer, ring, iphi, hemisphere, the
   // mid-angles θ, φ (rad) and the nominal centre (N, 3), cm.
@@ -144,6 +151,7 @@ class Detector {
   }
 
  private:
+  std::string source_;
   geometry::Calorimeter calo_;
 };
 
@@ -269,6 +277,78 @@ py::dict readEvents(const std::vector<std::string>& paths, bool truth, bool hits
   return out;
 }
 
+// A fit of event files as `emcalign fit FILES -o RESULT --profile-out PROFILE` makes it
+// (SPEC §7–§8, without --corrections): the result, its file's text and the profile's.
+struct EventFit {
+  calib::ProfileFill fill;
+  calib::FitResult result;
+  std::vector<calib::ProfileBin> bins;
+  std::string json;        ///< the result file, byte for byte the CLI's
+  std::string profileCsv;  ///< the --profile-out file
+};
+
+EventFit fitEvents(const std::vector<std::string>& paths, const Detector& detector, const py::object& sigmaSys,
+                   std::optional<double> beamEnergy, double depthOffset) {
+  calib::SigmaSysChoice choice = calib::SigmaSysChoice::spec();
+  if (py::isinstance<py::str>(sigmaSys)) {
+    if (sigmaSys.cast<std::string>() != "auto") raise(Error{"sigma_sys: None (SPEC's 0.2 deg), 'auto' or degrees"});
+    choice = calib::SigmaSysChoice::automatic();
+  } else if (!sigmaSys.is_none()) {
+    choice = calib::SigmaSysChoice::fixed(sigmaSys.cast<double>() * units::deg);
+  }
+  check(choice.validate());
+  if (beamEnergy && !(*beamEnergy > 0.0)) raise(Error{"beam_energy: a positive energy in MeV, or None"});
+  EventFit out;
+  Status failed;
+  {
+    py::gil_scoped_release release;
+    calib::FitGeometry geometry = calib::FitGeometry::of(detector.calorimeter().description());
+    geometry.depth.offset = depthOffset * units::cm;
+    calib::ProfileOptions profile;
+    profile.eventPairs = choice.keepsEventPairs();
+    calib::SelectionOptions selection;
+    if (beamEnergy) selection.beamEnergy = *beamEnergy;
+    auto filled = calib::fillProfiles(paths, geometry.depth, selection, profile);
+    if (filled) {
+      out.fill = std::move(*filled);
+      auto result = calib::fitProfiles(out.fill.profiles, geometry, choice);
+      if (result) {
+        out.result = std::move(*result);
+        out.bins = calib::fittedBins(out.fill.profiles, out.result.sigmaSys);
+        calib::FitInput input;
+        input.files = paths;
+        input.fill = &out.fill;
+        input.detector = detector.source();
+        input.depthOffset = depthOffset * units::cm;
+        out.json = calib::fitResultJson(out.result, input).dump(2) + "\n";
+        out.profileCsv = calib::profileCsv(out.bins);
+      } else {
+        failed = result.error();
+      }
+    } else {
+      failed = filled.error();
+    }
+  }
+  check(failed);
+  return out;
+}
+
+py::dict derivedOf(const calib::FitResult& r) {
+  py::dict d;
+  for (Physical p : kDerivedParams)
+    d[py::str(std::string(name(p)))] = py::make_tuple(r.derived[p].value, r.derived[p].error);
+  return d;
+}
+
+py::object matrixOf(const geometry::ParamMatrix& m) {
+  const auto n = static_cast<py::ssize_t>(kNumParams);
+  Array out({n, n});
+  for (py::ssize_t i = 0; i < n; ++i) {
+    for (py::ssize_t j = 0; j < n; ++j) out.mutable_at(i, j) = m(i, j);
+  }
+  return std::move(out);
+}
+
 }  // namespace
 
 PYBIND11_MODULE(_emcalign, m) {
@@ -362,4 +442,45 @@ PYBIND11_MODULE(_emcalign, m) {
   m.def("read_events", &readEvents, py::arg("paths"), py::arg("truth") = true, py::arg("hits") = true,
         "the rows of event files (HDF5 or CSV, SPEC §6) as a dict of numpy columns, with 'truth' and 'hits' "
         "dicts when the files have them");
+
+  py::class_<EventFit>(m, "FitResult", "A fit of event files: what emcalign fit writes, as numbers and as its files")
+      .def_property_readonly("parameters", [](const EventFit& f) { return arrayOf(f.result.parameters.values); })
+      .def_property_readonly("errors", [](const EventFit& f) { return arrayOf(f.result.errors); })
+      .def_property_readonly("covariance",
+                             [](const EventFit& f) -> py::object {
+                               if (!f.result.covariance) return py::none();
+                               return matrixOf(*f.result.covariance);
+                             })
+      .def_property_readonly("correlation", [](const EventFit& f) { return matrixOf(f.result.correlation); })
+      .def_property_readonly(
+          "derived", [](const EventFit& f) { return derivedOf(f.result); },
+          "{name: (value, error)} of DERIVED, native units")
+      .def_property_readonly("chi2", [](const EventFit& f) { return f.result.chi2; })
+      .def_property_readonly("ndf", [](const EventFit& f) { return f.result.ndf; })
+      .def_property_readonly("p_value", [](const EventFit& f) { return f.result.pValue; })
+      .def_property_readonly("bins_used", [](const EventFit& f) { return f.result.binsUsed; })
+      .def_property_readonly("status", [](const EventFit& f) { return std::string(name(f.result.status)); })
+      .def_property_readonly("warnings", [](const EventFit& f) { return f.result.warnings; })
+      .def_property_readonly(
+          "sigma_sys", [](const EventFit& f) { return f.result.sigmaSys.value; }, "rad")
+      .def_property_readonly("cut_flow",
+                             [](const EventFit& f) {
+                               py::dict d;
+                               for (std::size_t k = 0; k < calib::CutFlow::kNames.size(); ++k) {
+                                 d[calib::CutFlow::kNames[k]] = f.fill.cutFlow.events[k];
+                               }
+                               return d;
+                             })
+      .def_property_readonly(
+          "json", [](const EventFit& f) { return f.json; }, "the result file's text (emcalign fit -o)")
+      .def_property_readonly(
+          "profile_csv", [](const EventFit& f) { return f.profileCsv; },
+          "the profile file's text (emcalign fit --profile-out)")
+      .def(
+          "write", [](const EventFit& f, const std::string& path) { check(io::writeOutputFile(path, f.json)); },
+          py::arg("path"), "writes the result file");
+  m.def("fit", &fitEvents, py::arg("paths"), py::arg("detector"), py::arg("sigma_sys") = py::none(),
+        py::arg("beam_energy") = py::none(), py::arg("depth_offset") = 0.0,
+        "selects, fills the profiles and fits, as emcalign fit PATHS does (sigma_sys: None for SPEC's 0.2 deg, "
+        "'auto', or degrees; beam_energy: MeV, None for each event's; depth_offset: cm)");
 }

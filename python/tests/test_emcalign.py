@@ -175,3 +175,51 @@ def test_long_calls_release_the_gil(detector, paper_like):
         t.join()
     for r in results:
         np.testing.assert_array_equal(r, expected)
+
+
+@pytest.fixture(scope="module")
+def fit_sample(tmp_path_factory):
+    """A sample large enough to fit (12 parameters, 160 bins), written by the CLI."""
+    d = tmp_path_factory.mktemp("fit")
+    h5 = d / "ee.h5"
+    cli("simulate", "--params", PAPER_LIKE, "--events", "40000", "--seed", "11", "--theta-min", "40",
+        "--theta-max", "140", "--no-hits", "-o", str(h5))
+    return h5
+
+
+@pytest.mark.parametrize("sigma_sys", [None, "auto", 0.15])
+def test_fit_writes_the_cli_result_byte_for_byte(tmp_path, detector, fit_sample, sigma_sys):
+    args = [] if sigma_sys is None else ["--sigma-sys", str(sigma_sys)]
+    result, profile = tmp_path / "r.json", tmp_path / "p.csv"
+    done = subprocess.run([CLI, "fit", str(fit_sample), "-o", str(result), "--profile-out", str(profile), *args],
+                          capture_output=True, text=True, check=False)
+    assert done.returncode in (0, 3), done.stderr
+    r = emcalign.fit([str(fit_sample)], detector, sigma_sys=sigma_sys)
+    assert r.json == result.read_text()
+    assert r.profile_csv == profile.read_text()
+    saved = json.loads(r.json)
+    assert r.status == saved["status"]
+    units = emcalign.file_units()
+    for k, name in enumerate(emcalign.PARAMETERS):
+        assert r.parameters[k] / units[k] == saved["parameters"][name]
+        assert r.errors[k] / units[k] == saved["errors"][name]
+    assert r.cut_flow["events read"] == 40000
+    value, error = r.derived["dx_rel"]
+    assert value == saved["derived"]["dx_rel"]["value"] and error == saved["derived"]["dx_rel"]["error"]
+    assert r.covariance.shape == (12, 12) and np.allclose(r.covariance, r.covariance.T, rtol=1e-12, atol=0)
+    written = tmp_path / "again.json"
+    r.write(str(written))
+    assert written.read_text() == result.read_text()
+
+
+def test_fit_errors_are_the_cli_messages(tmp_path, detector, sample):
+    h5, _ = sample
+    empty = tmp_path / "few.csv"
+    cli("simulate", "--params", PAPER_LIKE, "--events", "5", "--seed", "1", "--process", "gg", "-o", str(empty))
+    with pytest.raises(emcalign.Error) as ours:
+        emcalign.fit([str(empty)], detector)
+    done = subprocess.run([CLI, "fit", str(empty), "-o", str(tmp_path / "r.json")], capture_output=True, text=True)
+    assert done.returncode == 1
+    assert f"emcalign: error: {ours.value}" in done.stderr
+    with pytest.raises(emcalign.Error, match="sigma_sys"):
+        emcalign.fit([str(h5)], detector, sigma_sys="spec")

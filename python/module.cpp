@@ -7,13 +7,18 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <fmt/format.h>
+
 #include <array>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
 #include "emcalign/calib/calibration.hpp"
 #include "emcalign/calib/fit.hpp"
+#include "emcalign/calib/profiles.hpp"
+#include "emcalign/calib/selection.hpp"
 #include "emcalign/calib/sigma_sys.hpp"
 #include "emcalign/core/parameters.hpp"
 #include "emcalign/core/units.hpp"
@@ -277,6 +282,95 @@ py::dict readEvents(const std::vector<std::string>& paths, bool truth, bool hits
   return out;
 }
 
+// A column of the dict read_events gives (or any dict of the same columns), as doubles.
+std::vector<double> columnOf(const py::dict& events, const char* key, std::size_t n) {
+  if (!events.contains(key)) raise(Error{fmt::format("events: no column '{}' (a dict as read_events gives)", key)});
+  const auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(events[key]);
+  if (!a || a.ndim() != 1 || static_cast<std::size_t>(a.shape(0)) != n) {
+    raise(Error{fmt::format("events: column '{}' is not a 1-D array of {} rows", key, n)});
+  }
+  return {a.data(), a.data() + n};
+}
+
+// SPEC §7's selection on the rows of `events`: per row, the index (1..5, CutFlow::kNames) of
+// the first cut its event fails, 0 when the event is selected. An event is its consecutive
+// rows of one (run, event).
+py::array_t<int> selectRows(const py::dict& events, const calib::SelectionOptions& options) {
+  if (!events.contains("run")) raise(Error{"events: no column 'run' (a dict as read_events gives)"});
+  const auto n = static_cast<std::size_t>(py::len(events["run"]));
+  const auto run = columnOf(events, "run", n), event = columnOf(events, "event", n);
+  const auto beam = columnOf(events, "beam_energy_mev", n), veto = columnOf(events, "muon_veto", n);
+  const auto charged = columnOf(events, "charged", n), z0 = columnOf(events, "z0_cm", n);
+  const auto rho = columnOf(events, "rho_cm", n), phiTs = columnOf(events, "phi_ts_rad", n);
+  const auto thetaTs = columnOf(events, "theta_ts_rad", n), energy = columnOf(events, "energy_mev", n);
+  const auto phiEmc = columnOf(events, "phi_emc_rad", n), thetaEmc = columnOf(events, "theta_emc_rad", n);
+  py::array_t<int> out(static_cast<py::ssize_t>(n));
+  auto w = out.mutable_unchecked<1>();
+  py::gil_scoped_release release;
+  std::vector<ParticleRow> rows(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    ParticleRow& r = rows[i];
+    r.run = static_cast<std::int32_t>(run[i]);
+    r.event = static_cast<std::int64_t>(event[i]);
+    r.beamEnergy = beam[i];
+    r.muonVeto = static_cast<std::int8_t>(veto[i]);
+    r.charged = static_cast<std::int8_t>(charged[i]);
+    r.z0 = z0[i];
+    r.rho = rho[i];
+    r.phiTs = phiTs[i];
+    r.thetaTs = thetaTs[i];
+    r.energy = energy[i];
+    r.phiEmc = phiEmc[i];
+    r.thetaEmc = thetaEmc[i];
+  }
+  for (std::size_t i = 0; i < n;) {
+    std::size_t j = i + 1;
+    while (j < n && rows[j].event == rows[i].event && rows[j].run == rows[i].run) ++j;
+    const int cut = calib::selectEvent(std::span<const ParticleRow>(rows.data() + i, j - i), options);
+    for (std::size_t k = i; k < j; ++k) w(static_cast<py::ssize_t>(k)) = cut;
+    i = j;
+  }
+  return out;
+}
+
+// Profile bins as numpy columns (the profile file's, SPEC §8), plus `used`.
+py::dict binColumns(const std::vector<calib::ProfileBin>& bins) {
+  const auto n = static_cast<py::ssize_t>(bins.size());
+  py::array_t<int> iPhi(n), iTheta(n);
+  py::array_t<std::int64_t> entries(n);
+  py::array_t<bool> used(n);
+  Array phi(n), theta(n), energy(n), yPhi(n), sigmaPhi(n), yTheta(n), sigmaTheta(n), plusWeight(n);
+  for (py::ssize_t i = 0; i < n; ++i) {
+    const calib::ProfileBin& b = bins[static_cast<std::size_t>(i)];
+    iPhi.mutable_at(i) = b.iPhi;
+    iTheta.mutable_at(i) = b.iTheta;
+    entries.mutable_at(i) = b.n;
+    used.mutable_at(i) = b.used;
+    phi.mutable_at(i) = b.phiMean;
+    theta.mutable_at(i) = b.thetaMean;
+    energy.mutable_at(i) = b.energyMean;
+    yPhi.mutable_at(i) = b.yPhi;
+    sigmaPhi.mutable_at(i) = b.sigmaPhi;
+    yTheta.mutable_at(i) = b.yTheta;
+    sigmaTheta.mutable_at(i) = b.sigmaTheta;
+    plusWeight.mutable_at(i) = b.plusWeight;
+  }
+  py::dict d;
+  d["i_phi"] = iPhi;
+  d["i_theta"] = iTheta;
+  d["n"] = entries;
+  d["phi_mean_rad"] = phi;
+  d["theta_mean_rad"] = theta;
+  d["e_mean_mev"] = energy;
+  d["y_phi"] = yPhi;
+  d["sigma_phi"] = sigmaPhi;
+  d["y_theta"] = yTheta;
+  d["sigma_theta"] = sigmaTheta;
+  d["plus_weight"] = plusWeight;
+  d["used"] = used;
+  return d;
+}
+
 // A fit of event files as `emcalign fit FILES -o RESULT --profile-out PROFILE` makes it
 // (SPEC §7–§8, without --corrections): the result, its file's text and the profile's.
 struct EventFit {
@@ -472,6 +566,9 @@ PYBIND11_MODULE(_emcalign, m) {
                                return d;
                              })
       .def_property_readonly(
+          "bins", [](const EventFit& f) { return binColumns(f.bins); },
+          "the profile bins as the fit saw them (columns of the profile file, and 'used')")
+      .def_property_readonly(
           "json", [](const EventFit& f) { return f.json; }, "the result file's text (emcalign fit -o)")
       .def_property_readonly(
           "profile_csv", [](const EventFit& f) { return f.profileCsv; },
@@ -483,4 +580,36 @@ PYBIND11_MODULE(_emcalign, m) {
         py::arg("beam_energy") = py::none(), py::arg("depth_offset") = 0.0,
         "selects, fills the profiles and fits, as emcalign fit PATHS does (sigma_sys: None for SPEC's 0.2 deg, "
         "'auto', or degrees; beam_energy: MeV, None for each event's; depth_offset: cm)");
+
+  std::vector<std::string> cuts;
+  for (const char* c : calib::CutFlow::kNames) cuts.emplace_back(c);
+  m.attr("CUTS") = cuts;
+  m.def(
+      "select",
+      [](const py::dict& events, std::optional<double> beamEnergy, std::optional<double> maxAbsZ0,
+         std::optional<double> maxAbsRho, std::optional<double> minEnergyFraction,
+         std::optional<double> maxEnergyFraction, std::optional<double> maxAcollinearityDeg) {
+        calib::SelectionOptions o;  // SPEC §7's cuts, unless given
+        o.beamEnergy = beamEnergy;
+        if (maxAbsZ0) o.maxAbsZ0 = *maxAbsZ0 * units::cm;
+        if (maxAbsRho) o.maxAbsRho = *maxAbsRho * units::cm;
+        if (minEnergyFraction) o.minEnergyFraction = *minEnergyFraction;
+        if (maxEnergyFraction) o.maxEnergyFraction = *maxEnergyFraction;
+        if (maxAcollinearityDeg) o.maxAcollinearity = *maxAcollinearityDeg * units::deg;
+        return selectRows(events, o);
+      },
+      py::arg("events"), py::kw_only(), py::arg("beam_energy") = py::none(), py::arg("max_abs_z0") = py::none(),
+      py::arg("max_abs_rho") = py::none(), py::arg("min_energy_fraction") = py::none(),
+      py::arg("max_energy_fraction") = py::none(), py::arg("max_acollinearity_deg") = py::none(),
+      "SPEC §7's selection on the rows of read_events: per row, the index in CUTS of the first cut its event "
+      "fails, 0 when selected. A cut not given is SPEC's (z0, rho in cm; energies as fractions of the beam "
+      "energy, MeV).");
+  m.def(
+      "read_profile",
+      [](const std::string& path) {
+        auto bins = unwrap(calib::readProfileCsv(path));
+        calib::markUsedBins(bins, calib::ProfileOptions{}.minEntries);
+        return binColumns(bins);
+      },
+      py::arg("path"), "a profile file (emcalign fit --profile-out) as numpy columns");
 }

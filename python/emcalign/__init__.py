@@ -6,6 +6,7 @@ command-line tool prints. See docs/python.md.
 """
 
 from ._emcalign import (  # noqa: F401  (the module's public names)
+    CUTS,
     DERIVED,
     PARAMETERS,
     PHYSICAL,
@@ -19,11 +20,14 @@ from ._emcalign import (  # noqa: F401  (the module's public names)
     inverse,
     read_alignment,
     read_events,
+    read_profile,
+    select,
     to_physical,
     write_alignment,
 )
 
 __all__ = [
+    "CUTS",
     "DERIVED",
     "PARAMETERS",
     "PHYSICAL",
@@ -37,6 +41,8 @@ __all__ = [
     "inverse",
     "read_alignment",
     "read_events",
+    "read_profile",
+    "select",
     "to_physical",
     "write_alignment",
 ]

@@ -136,8 +136,7 @@ def test_errors_are_the_cli_messages(tmp_path, detector):
     missing = str(tmp_path / "none.h5")
     with pytest.raises(emcalign.Error) as ours:
         emcalign.read_events([missing])
-    done = subprocess.run([CLI, "fit", missing, "-o", str(tmp_path / "r.json")], capture_output=True, text=True)
-    assert done.returncode != 0
+    assert str(ours.value).startswith(missing)  # the file named first, as every reader does
     bad = tmp_path / "bad.json"
     bad.write_text('{"format": "emcalign-alignment/1", "parameters": {"alpha": 1e9}}')
     with pytest.raises(emcalign.Error) as ours:
@@ -223,3 +222,41 @@ def test_fit_errors_are_the_cli_messages(tmp_path, detector, sample):
     assert f"emcalign: error: {ours.value}" in done.stderr
     with pytest.raises(emcalign.Error, match="sigma_sys"):
         emcalign.fit([str(h5)], detector, sigma_sys="spec")
+
+
+def test_select_gives_the_cut_flow_of_the_fit(detector, fit_sample):
+    ev = emcalign.read_events([str(fit_sample)])
+    cut = emcalign.select(ev)
+    assert cut.shape == ev["run"].shape and set(np.unique(cut)) <= set(range(len(emcalign.CUTS)))
+    first_rows = np.ones(len(cut), bool)
+    first_rows[1:] = (ev["event"][1:] != ev["event"][:-1]) | (ev["run"][1:] != ev["run"][:-1])
+    per_event = cut[first_rows]
+    flow = emcalign.fit([str(fit_sample)], detector).cut_flow
+    # events left after cut k: those failing a later cut, or none
+    for k, name in enumerate(emcalign.CUTS):
+        if k == 0:
+            assert flow[name] == len(per_event)
+        else:
+            assert flow[name] == np.count_nonzero((per_event == 0) | (per_event > k)), name
+    # a tighter acollinearity cut selects fewer events, never more
+    tight = emcalign.select(ev, max_acollinearity_deg=2.0)
+    assert np.count_nonzero(tight == 0) < np.count_nonzero(cut == 0)
+    assert np.all((tight == 0) <= (cut == 0))
+    with pytest.raises(emcalign.Error, match="no column 'z0_cm'"):
+        emcalign.select({k: v for k, v in ev.items() if k != "z0_cm"})
+
+
+def test_profile_columns_are_the_profile_file(tmp_path, detector, fit_sample):
+    r = emcalign.fit([str(fit_sample)], detector)
+    path = tmp_path / "p.csv"
+    path.write_text(r.profile_csv)
+    read = emcalign.read_profile(str(path))
+    assert len(read["n"]) == 160 and read["used"].sum() == r.bins_used
+    for key in ("i_phi", "i_theta", "n", "used"):
+        np.testing.assert_array_equal(read[key], r.bins[key], err_msg=key)
+    for key in ("phi_mean_rad", "theta_mean_rad", "e_mean_mev", "y_phi", "sigma_phi", "y_theta", "sigma_theta"):
+        np.testing.assert_array_equal(read[key], r.bins[key], err_msg=key)  # 17 digits: exact, NaN alike
+    with pytest.raises(emcalign.Error, match="header"):
+        bad = tmp_path / "bad.csv"
+        bad.write_text("a,b\n")
+        emcalign.read_profile(str(bad))

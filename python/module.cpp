@@ -83,15 +83,7 @@ Vec3 pointAt(const Array& points, py::ssize_t i) { return {points.at(i, 0), poin
 class Detector {
  public:
   explicit Detector(const std::optional<std::string>& path)
-      : source_(path ? *path : "embedded default"),
-        calo_(unwrap(path ? [&]() -> Result<geometry::Calorimeter> {
-          auto d = io::readDetectorDescription(*path);
-          if (!d) return d.error();
-          auto c = geometry::Calorimeter::create(std::move(*d));
-          if (!c) return Error{*path + ": " + c.error().message};
-          return c;
-        }()
-                         : geometry::Calorimeter::create(geometry::DetectorDescription::sndDefault()))) {}
+      : source_(path ? *path : "embedded default"), calo_(unwrap(io::loadCalorimeter(path.value_or("")))) {}
 
   [[nodiscard]] const geometry::Calorimeter& calorimeter() const { return calo_; }
   /// What a result file records as the detector: the path, or "embedded default".
@@ -325,7 +317,7 @@ py::array_t<int> selectRows(const py::dict& events, const calib::SelectionOption
   }
   for (std::size_t i = 0; i < n;) {
     std::size_t j = i + 1;
-    while (j < n && rows[j].event == rows[i].event && rows[j].run == rows[i].run) ++j;
+    while (j < n && sameEvent(rows[j], rows[i])) ++j;
     const int cut = calib::selectEvent(std::span<const ParticleRow>(rows.data() + i, j - i), options);
     for (std::size_t k = i; k < j; ++k) w(static_cast<py::ssize_t>(k)) = cut;
     i = j;

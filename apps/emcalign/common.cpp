@@ -45,15 +45,6 @@ Status checkOutputs(const std::vector<io::NamedPath>& files, const std::vector<i
   return io::checkDistinct(given, inputs);
 }
 
-Result<geometry::Calorimeter> loadCalorimeter(const std::string& detectorPath) {
-  if (detectorPath.empty()) return geometry::Calorimeter::create(geometry::DetectorDescription::sndDefault());
-  auto description = io::readDetectorDescription(detectorPath);
-  if (!description) return description.error();
-  auto calo = geometry::Calorimeter::create(std::move(*description));
-  if (!calo) return Error{fmt::format("{}: {}", detectorPath, calo.error().message)};
-  return calo;
-}
-
 Result<io::AlignmentFile> loadAlignment(const std::string& path, const geometry::Calorimeter& calo) {
   auto text = io::readTextFile(path);
   if (!text) return text.error();

@@ -53,7 +53,7 @@ Status checkOutputs(const std::vector<io::NamedPath>& files, const std::vector<i
                     const std::vector<io::NamedPath>& inputs);
 
 /// The detector of `--detector FILE`, or the embedded default when the path is empty.
-Result<geometry::Calorimeter> loadCalorimeter(const std::string& detectorPath);
+using io::loadCalorimeter;
 
 /// An alignment from any of the files that hold one: a parameter file, a fit result (a
 /// usable one: io/json_files.hpp), or a placements file (apply/placements.hpp, checked

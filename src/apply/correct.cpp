@@ -237,7 +237,7 @@ Result<CorrectReport> correctFiles(const std::vector<std::string>& inputs, const
                       output, truth == nullptr ? "truth" : "hits")};
     }
     for (std::size_t i = 0; i < rows.size(); ++i) {
-      if (i == 0 || rows[i].event != rows[i - 1].event || rows[i].run != rows[i - 1].run) ++report.events;
+      if (i == 0 || !sameEvent(rows[i], rows[i - 1])) ++report.events;
       if (!std::isnan(rows[i].energy)) ++report.clusters;
     }
     const Status corrected = report.method == CorrectionMethod::Hits

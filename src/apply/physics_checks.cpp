@@ -46,9 +46,9 @@ Status forEachEventPair(const std::vector<std::string>& before, const std::vecto
     if (!*moreA) return {};
     for (std::size_t i = 0; i < ra.size();) {
       std::size_t j = i;
-      while (j < ra.size() && ra[j].run == ra[i].run && ra[j].event == ra[i].event) ++j;
+      while (j < ra.size() && sameEvent(ra[j], ra[i])) ++j;
       for (std::size_t k = i; k < j; ++k) {
-        if (rb[k].run != ra[k].run || rb[k].event != ra[k].event) {
+        if (!sameEvent(rb[k], ra[k])) {
           return Error{fmt::format("run {} event {}: the corrected file holds run {} event {} at its place", ra[k].run,
                                    ra[k].event, rb[k].run, rb[k].event)};
         }

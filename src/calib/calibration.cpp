@@ -28,7 +28,7 @@ void ProfileFiller::addEvents(std::span<const ParticleRow> rows) {
   fill_.cutFlow.rows += static_cast<std::int64_t>(rows.size());
   for (std::size_t i = 0; i < rows.size();) {
     std::size_t j = i + 1;
-    while (j < rows.size() && rows[j].event == rows[i].event && rows[j].run == rows[i].run) ++j;
+    while (j < rows.size() && sameEvent(rows[j], rows[i])) ++j;
     const std::span<const ParticleRow> event = rows.subspan(i, j - i);
     const int failed = selectEvent(event, selection_);
     const int passed = failed == 0 ? static_cast<int>(CutFlow::kNames.size()) : failed;

@@ -111,8 +111,6 @@ struct Issue {
 /// What is wrong with a row on its own, or none.
 std::optional<Issue> checkRow(const ParticleRow& r);
 
-inline bool sameEvent(const ParticleRow& a, const ParticleRow& b) { return a.run == b.run && a.event == b.event; }
-
 // The rows of one event share the beam energy and the muon veto; this follows the current
 // event through a stream of rows (block boundaries do not matter).
 class EventConsistency {

@@ -366,4 +366,13 @@ Result<json> alignmentToJsonWithPhysical(const AlignmentParameters& eta, double 
   return j;
 }
 
+Result<geometry::Calorimeter> loadCalorimeter(const std::string& path) {
+  if (path.empty()) return geometry::Calorimeter::create(geometry::DetectorDescription::sndDefault());
+  auto description = io::readDetectorDescription(path);
+  if (!description) return description.error();
+  auto calo = geometry::Calorimeter::create(std::move(*description));
+  if (!calo) return Error{fmt::format("{}: {}", path, calo.error().message)};
+  return calo;
+}
+
 }  // namespace emcalign::io

@@ -34,6 +34,10 @@ struct ParticleRow {
 };
 
 /// One counter of a cluster: its index (SPEC §2 numbering) and the energy it measured.
+/// Whether two rows belong to one event (the same run and event number): the rows of an
+/// event are contiguous in files and in every block of rows.
+inline bool sameEvent(const ParticleRow& a, const ParticleRow& b) { return a.run == b.run && a.event == b.event; }
+
 struct Hit {
   std::int32_t counter = 0;
   double energy = 0.0;  ///< MeV

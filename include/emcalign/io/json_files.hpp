@@ -56,6 +56,9 @@ Result<std::string> readTextFile(const std::string& path);
 
 Result<geometry::DetectorDescription> parseDetectorDescription(const Json& j, std::string_view source);
 Result<geometry::DetectorDescription> readDetectorDescription(const std::string& path);
+/// The calorimeter of a description file (`--detector FILE`), or the embedded SND-like one
+/// when the path is empty; a description the calorimeter refuses is named by its path.
+Result<geometry::Calorimeter> loadCalorimeter(const std::string& path);
 Json toJson(const geometry::DetectorDescription& d);
 
 /// How strictly an alignment is read.

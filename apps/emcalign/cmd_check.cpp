@@ -16,10 +16,10 @@
 #include <fmt/format.h>
 
 #include "common.hpp"
-#include "conditions_support.hpp"
 #include "emcalign/apply/correct.hpp"
 #include "emcalign/apply/physics_checks.hpp"
 #include "emcalign/calib/corrections.hpp"
+#include "emcalign/conddb/calibrations.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/core/version.hpp"
 #include "emcalign/report/check_plots.hpp"
@@ -73,10 +73,10 @@ int run(const CheckCliOptions& o) {
   if (Status s = checkOutputs({}, {{"-o", o.output}}, inputs); !s) return reportError(s.error());
   auto calo = loadCalorimeter(o.detector);
   if (!calo) return reportError(calo.error());
-  auto source = AlignmentSource::open(o.alignment, o.conditions, o.tag, *calo);
+  auto source = conddb::AlignmentSource::open(o.alignment, o.conditions, o.tag, *calo);
   if (!source) return reportError(source.error());
   for (const auto& w : source->warnings) reportWarning(w);
-  auto made = correctOptions(o.method, 0.0, o.corrections, *calo);
+  auto made = apply::correctOptionsOf(o.method, 0.0, o.corrections, *calo);
   if (!made) return reportError(made.error());
   apply::CorrectOptions& options = *made;
   options.description = io::Json{{"software", fmt::format("emcalign {}", kVersion)},

@@ -7,11 +7,7 @@
 //   conditions list URI [--tag T] [--json]
 //   conditions lock URI --tag T
 //   conditions copy FROM TO --tag T [--as T2]
-
-#include <unistd.h>
-
 #include <charconv>
-#include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
@@ -19,16 +15,13 @@
 #include <fmt/format.h>
 
 #include "common.hpp"
-#include "conditions_support.hpp"
+#include "emcalign/conddb/calibrations.hpp"
 #include "emcalign/conddb/conditions.hpp"
-#include "emcalign/core/sha256.hpp"
-#include "emcalign/core/version.hpp"
 
 namespace emcalign::app {
 
 namespace {
 
-namespace fs = std::filesystem;
 using io::Json;
 
 struct ConditionsOptions {
@@ -54,32 +47,6 @@ Result<std::pair<std::int64_t, std::int64_t>> parseRuns(const std::string& text)
   return std::pair{first, last};
 }
 
-// The digests of a fit's inputs: found as named, or next to the result file.
-Json inputDigests(const Json& result, const std::string& resultPath) {
-  Json digests = Json::object();
-  if (!result.contains("input") || !result["input"].is_object() || !result["input"].contains("files") ||
-      !result["input"]["files"].is_array()) {
-    return digests;
-  }
-  for (const Json& f : result["input"]["files"]) {
-    if (!f.is_string()) continue;
-    const std::string name = f.get<std::string>();
-    std::string path = name;
-    if (!fs::exists(path)) path = (fs::path(resultPath).parent_path() / name).string();
-    if (!fs::is_regular_file(path)) {
-      reportWarning(fmt::format("{}: input {} not found: its digest is not recorded", resultPath, name));
-      continue;
-    }
-    auto d = sha256OfFile(path);
-    if (!d) {
-      reportWarning(d.error().message);
-      continue;
-    }
-    digests[name] = *d;
-  }
-  return digests;
-}
-
 int runInit(const ConditionsOptions& o) {
   auto db = conddb::Database::open(o.uri, true);
   if (!db) return reportError(db.error());
@@ -92,25 +59,16 @@ int runInit(const ConditionsOptions& o) {
 int runPut(const ConditionsOptions& o) {
   auto runs = parseRuns(o.runs);
   if (!runs) return reportError(runs.error());
-  auto text = io::readTextFile(o.result);
-  if (!text) return reportError(text.error());
-  auto j = io::parseJson(*text, o.result);
-  if (!j) return reportError(j.error());
   auto calo = loadCalorimeter("");
   if (!calo) return reportError(calo.error());
-  Json provenance = {{"source_sha256", sha256(*text)}, {"put_software", fmt::format("emcalign {}", kVersion)}};
-  if (Json d = inputDigests(*j, o.result); !d.empty()) provenance["input_sha256"] = d;
-  auto payload = conddb::makePayload(*j, calo->description().r1(), o.result, provenance);
-  if (!payload) return reportError(payload.error());
   auto db = conddb::Database::open(o.uri);
   if (!db) return reportError(db.error());
-  auto existed = (*db)->tag(o.tag);
-  if (!existed) return reportError(existed.error());
-  if (Status s = (*db)->put(o.tag, runs->first, runs->second, *payload, true, o.description); !s) {
-    return reportError(s.error());
-  }
-  fmt::print("{}: tag {}{}: runs {}-{} <- {} (payload {})\n", (*db)->uri(), o.tag, existed->has_value() ? "" : " (new)",
-             runs->first, runs->second, o.result, payload->hash().substr(0, 12));
+  auto put =
+      conddb::putResultFile(**db, o.tag, runs->first, runs->second, o.result, o.description, calo->description().r1());
+  if (!put) return reportError(put.error());
+  for (const auto& w : put->warnings) reportWarning(w);
+  fmt::print("{}: tag {}{}: runs {}-{} <- {} (payload {})\n", (*db)->uri(), o.tag, put->newTag ? " (new)" : "",
+             runs->first, runs->second, o.result, put->payload.substr(0, 12));
   return kExitOk;
 }
 
@@ -118,41 +76,21 @@ int runGet(const ConditionsOptions& o) {
   if (Status s = checkOutputs({{"-o", o.output}}, {}, {}); !s) return reportError(s.error());
   auto db = conddb::Database::open(o.uri);
   if (!db) return reportError(db.error());
-  auto got = (*db)->get(o.tag, o.run);
+  auto got = conddb::calibrationAt(**db, o.tag, o.run);
   if (!got) return reportError(got.error());
-  if (!got->has_value()) {
-    auto tag = (*db)->tag(o.tag);
-    if (tag && !tag->has_value()) {
-      return reportError(Error{
-          fmt::format("{}: no tag '{}' (the tags: emcalign conditions list {})", (*db)->uri(), o.tag, (*db)->uri())});
-    }
-    return reportError(Error{fmt::format("{}: tag '{}': no IOV contains run {}", (*db)->uri(), o.tag, o.run)});
-  }
-  const auto& [iov, payload] = **got;
-  const Json file = parameterFileOf(iov, payload, (*db)->uri(), o.tag);
-  if (Status s = io::writeOutputFile(o.output, file.dump(2) + "\n"); !s) return reportError(s.error());
+  if (Status s = io::writeOutputFile(o.output, got->parameterFile.dump(2) + "\n"); !s) return reportError(s.error());
   // The report goes to stderr when the file goes to stdout (checkOutputs).
   fmt::print(reportStream(), "{}: tag {} run {}: IOV {}-{} (payload {}) -> {}\n", (*db)->uri(), o.tag, o.run,
-             iov.firstRun, iov.lastRun, iov.payload.substr(0, 12), o.output);
+             got->iov.firstRun, got->iov.lastRun, got->iov.payload.substr(0, 12), o.output);
   return kExitOk;
 }
 
 int runList(const ConditionsOptions& o) {
   auto db = conddb::Database::open(o.uri);
   if (!db) return reportError(db.error());
-  std::vector<conddb::Tag> tags;
-  if (!o.tag.empty()) {
-    auto t = (*db)->tag(o.tag);
-    if (!t) return reportError(t.error());
-    if (!t->has_value()) return reportError(Error{fmt::format("{}: no tag '{}'", (*db)->uri(), o.tag)});
-    tags.push_back(**t);
-  } else {
-    auto all = (*db)->tags();
-    if (!all) return reportError(all.error());
-    tags = std::move(*all);
-  }
-  std::vector<Json> listed;
-  for (const auto& t : tags) listed.push_back(tagJson(**db, t));
+  auto tags = conddb::listTags(**db, o.tag);
+  if (!tags) return reportError(tags.error());
+  const std::vector<Json>& listed = *tags;
   if (o.json) {
     const Json out = o.tag.empty() ? Json(listed) : listed.front();
     fmt::print("{}\n", out.dump(2));

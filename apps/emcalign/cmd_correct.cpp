@@ -9,11 +9,10 @@
 #include <fmt/format.h>
 
 #include "common.hpp"
-#include "conditions_support.hpp"
 #include "emcalign/apply/correct.hpp"
 #include "emcalign/calib/corrections.hpp"
+#include "emcalign/conddb/calibrations.hpp"
 #include "emcalign/core/units.hpp"
-#include "emcalign/core/version.hpp"
 #include "progress.hpp"
 
 namespace emcalign::app {
@@ -41,26 +40,14 @@ int run(const CorrectCliOptions& o) {
   auto calo = loadCalorimeter(o.detector);
   if (!calo) return reportError(calo.error());
   // One alignment for every event, or each run's own from a conditions tag.
-  auto source = AlignmentSource::open(o.alignment, o.conditions, o.tag, *calo);
+  auto source = conddb::AlignmentSource::open(o.alignment, o.conditions, o.tag, *calo);
   if (!source) return reportError(source.error());
   for (const auto& w : source->warnings) reportWarning(w);
-  const io::Json& alignmentJson = source->description;
 
-  auto made = correctOptions(o.method, o.depthOffset, o.corrections, *calo);
+  auto made = apply::correctOptionsOf(o.method, o.depthOffset * units::cm, o.corrections, *calo);
   if (!made) return reportError(made.error());
   apply::CorrectOptions& options = *made;
-  io::Json inputsJson = o.events;
-  io::Json description = {{"software", fmt::format("emcalign {}", kVersion)},
-                          {"alignment", alignmentJson},
-                          {"method", o.method},
-                          {"log_weight_w0", options.logWeightW0},
-                          {"depth_offset_cm", options.depth.offset / units::cm},
-                          {"inputs", inputsJson}};
-  if (options.depthAt) {  // a grid: the offset of each event's beam energy
-    description["depth_offset_cm"] = nullptr;
-    description["corrections_grid"] = o.corrections;
-  }
-  options.description = description.dump();
+  options.description = apply::correctionRecord(source->description, o.method, options, o.events, o.corrections).dump();
   ProgressLine progress("correct", 0, "rows");
   options.progress = [&](std::int64_t rows) { progress.update(rows); };
   auto report = apply::correctFiles(o.events, o.output, *calo, source->alignmentOf(), options);

@@ -14,7 +14,7 @@
 
 #include "common.hpp"
 #include "emcalign/calib/calibration.hpp"
-#include "emcalign/calib/corrections_grid.hpp"
+#include "emcalign/calib/fit_job.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/geometry/shower_depth.hpp"
 #include "emcalign/io/json_files.hpp"
@@ -91,39 +91,21 @@ void printResult(const calib::FitResult& r) {
 
 // The figures; with event input, a second pass corrects each selected particle's EMC
 // direction with the fitted parameters for the after-correction distributions.
-Status drawPlots(const FitCliOptions& o, const calib::FitGeometry& geometry, const calib::ProfileOptions& profile,
-                 const std::vector<calib::ProfileBin>& bins, const calib::FitResult& result) {
+Status drawPlots(const FitCliOptions& o, const calib::FitJob& job, const calib::FitOutcome& fitted) {
   std::optional<report::FitFigureData> data;
   if (o.profileIn.empty()) {
     calib::SelectionOptions selection;
     if (o.beamEnergy > 0.0) selection.beamEnergy = o.beamEnergy;
-    auto filled = report::fitFigureData(o.events, geometry, selection, profile, result.parameters);
+    auto filled =
+        report::fitFigureData(o.events, job.geometry(), selection, job.profileOptions(), fitted.result.parameters);
     if (!filled) return filled.error();
     data = std::move(*filled);
   }
-  auto written = report::writeFitPlots(o.plots, bins, geometry, result, data ? &data->residuals : nullptr);
+  auto written =
+      report::writeFitPlots(o.plots, fitted.bins, job.geometry(), fitted.result, data ? &data->residuals : nullptr);
   if (!written) return written.error();
   for (const auto& png : *written) fmt::print(reportStream(), "wrote {}\n", png);
   return {};
-}
-
-// The corrections of --corrections at the sample's beam energy: --beam-energy, else the
-// first event's (a saved profile does not say it: a grid needs --beam-energy).
-Result<calib::CorrectionsAt> correctionsOf(const FitCliOptions& o) {
-  auto grid = calib::CorrectionsGrid::read(o.corrections);
-  if (!grid) return grid.error();
-  std::optional<double> energy;
-  if (o.beamEnergy > 0.0) energy = o.beamEnergy * units::MeV;
-  if (!o.profileIn.empty()) {
-    if (grid->isGrid() && !energy) {
-      return Error{
-          fmt::format("--corrections {} is a grid over beam energies and the profile {} does not say its "
-                      "energy: give --beam-energy",
-                      o.corrections, o.profileIn)};
-    }
-    return grid->at(energy.value_or(std::numeric_limits<double>::quiet_NaN()));
-  }
-  return calib::correctionsForSample(*grid, o.events, energy);
 }
 
 // " at 612.5 MeV (500 MeV × 0.550, 750 MeV × 0.450)" for a grid's interpolation, else nothing.
@@ -135,6 +117,28 @@ std::string interpolationText(const io::Json& interpolation) {
         fmt::format("{} MeV × {:.3f}", p.at("beam_energy_mev").get<double>(), p.at("weight").get<double>()));
   }
   return fmt::format(" at {} MeV ({})", interpolation.at("beam_energy_mev").get<double>(), fmt::join(points, ", "));
+}
+
+void printCorrections(const calib::CorrectionsAt& at) {
+  const calib::ModelCorrections& c = at.corrections;
+  fmt::print(reportStream(),
+             "Model corrections from {}{}: depth offset {:+.2f} cm, parting-plane response {}, nominal profile {}, "
+             "fit response {}\n",
+             at.path, interpolationText(at.interpolation), c.depthOffset / units::cm, c.partingPlane ? "on" : "off",
+             c.nominalProfile ? "subtracted" : "off", c.response ? "on" : "off");
+}
+
+calib::FitRequest requestOf(const FitCliOptions& o) {
+  calib::FitRequest r;
+  r.events = o.events;
+  r.profileIn = o.profileIn;
+  r.detectorName = o.detector.empty() ? "embedded default" : o.detector;
+  r.depthOffset = o.depthOffset * units::cm;
+  r.corrections = o.corrections;
+  if (o.beamEnergy > 0.0) r.beamEnergy = o.beamEnergy;
+  if (!o.sigmaSys.empty()) r.sigmaSys = sigmaSysChoice(o.sigmaSys);
+  r.sigmaSysText = o.sigmaSys;
+  return r;
 }
 
 int run(const FitCliOptions& o) {
@@ -149,105 +153,27 @@ int run(const FitCliOptions& o) {
   }
   auto calo = loadCalorimeter(o.detector);
   if (!calo) return reportError(calo.error());
-  auto geometry = calib::FitGeometry::of(calo->description());
-  geometry.depth.offset = o.depthOffset * units::cm;
-  calib::ProfileOptions profileOptions;
-  // The honest errors take the correlation of an event's two particles along (profiles.hpp).
-  profileOptions.eventPairs = sigmaSysChoice(o.sigmaSys).keepsEventPairs();
-  calib::FitInput input;
-  input.depthOffset = o.depthOffset * units::cm;
-  std::optional<calib::CorrectionsAt> corrections;
-  if (!o.corrections.empty()) {
-    auto at = correctionsOf(o);
-    if (!at) return reportError(at.error());
-    corrections = std::move(*at);
-    // With events, checkSampleEnergies warns after the fill, from every selected event.
-    if (!o.profileIn.empty() && !corrections->warning.empty()) reportWarning(corrections->warning);
-    const calib::ModelCorrections* c = &corrections->corrections;
-    input.correctionsInterpolation = corrections->interpolation;
-    geometry.apply(*c);
-    profileOptions.apply(*c);
-    input.depthOffset = c->depthOffset;
-    if (c->response) input.response = o.corrections;
-    if (c->partingPlane) input.partingPlane = o.corrections;
-    if (c->nominalProfile) input.nominalProfile = o.corrections;
-    fmt::print(reportStream(),
-               "Model corrections from {}{}: depth offset {:+.2f} cm, parting-plane response {}, nominal profile {}, "
-               "fit response {}\n",
-               o.corrections, interpolationText(corrections->interpolation), c->depthOffset / units::cm,
-               c->partingPlane ? "on" : "off", c->nominalProfile ? "subtracted" : "off", c->response ? "on" : "off");
-  }
-
-  std::vector<calib::ProfileBin> bins;
-  std::optional<calib::ProfileFill> fill;
-  input.detector = o.detector.empty() ? "embedded default" : o.detector;
-  if (!o.profileIn.empty()) {
-    auto read = calib::readProfileCsv(o.profileIn);
-    if (!read) return reportError(read.error());
-    bins = std::move(*read);
-    const bool weighted =
-        std::any_of(bins.begin(), bins.end(), [](const auto& b) { return !std::isnan(b.plusWeight); });
-    // A profile written by a fit with --corrections carries them (the plus_weight column,
-    // the nominal profile subtracted); only the model's depth offset must come again.
-    if (!o.corrections.empty() && !weighted) {
-      return reportError(
-          {fmt::format("{}: this profile was written without --corrections and cannot take them now "
-                       "(its residuals were built at another depth): fit the events with --corrections",
-                       o.profileIn)});
-    }
-    if (weighted && o.corrections.empty()) {
-      return reportError(
-          {fmt::format("{}: this profile was written with --corrections (it has a plus_weight column): "
-                       "give the same --corrections file, for the model's depth offset",
-                       o.profileIn)});
-    }
-    if (weighted) input.partingPlane = input.nominalProfile = o.profileIn + " (written with " + o.corrections + ")";
-    if (!o.sigmaSys.empty()) {
-      return reportError(
-          {fmt::format("{}: a saved profile holds the total errors it was written with (statistical and "
-                       "sigma_sys): --sigma-sys needs the events (fit them with --sigma-sys {})",
-                       o.profileIn, o.sigmaSys)});
-    }
-    calib::markUsedBins(bins, calib::ProfileOptions{}.minEntries);
-    input.files = {o.profileIn};
-    input.fromProfile = true;
-  } else {
-    calib::SelectionOptions selection;
-    if (o.beamEnergy > 0.0) selection.beamEnergy = o.beamEnergy;
-    auto filled = calib::fillProfiles(o.events, geometry.depth, selection, profileOptions);
-    if (!filled) return reportError(filled.error());
-    fill = std::move(*filled);
-    printCutFlow(*fill);
-    if (corrections) {
-      auto warning = calib::checkSampleEnergies(*corrections, fill->beamEnergies);
-      if (!warning) return reportError(warning.error());
-      if (!warning->empty()) reportWarning(*warning);
-    }
-    input.files = o.events;
-    input.fill = &*fill;
-  }
-  auto result = fill ? calib::fitProfiles(fill->profiles, geometry, sigmaSysChoice(o.sigmaSys))
-                     : calib::fitProfiles(bins, geometry);
-  if (!result) return reportError(result.error());
-  if (fill) {
-    bins = calib::fittedBins(fill->profiles, result->sigmaSys);
-  } else {
-    result->sigmaSys = {.method = calib::SigmaSysMethod::Saved, .value = std::numeric_limits<double>::quiet_NaN()};
-  }
-  printResult(*result);
+  auto job = calib::FitJob::prepare(requestOf(o), calo->description());
+  if (!job) return reportError(job.error());
+  if (job->corrections()) printCorrections(*job->corrections());
+  auto data = job->load();
+  if (!data) return reportError(data.error());
+  if (data->fill) printCutFlow(*data->fill);
+  for (const auto& w : data->warnings) reportWarning(w);
+  auto fitted = job->fit(*data);
+  if (!fitted) return reportError(fitted.error());
+  printResult(fitted->result);
   if (!o.profileOut.empty()) {
-    if (Status s = io::writeOutputFile(o.profileOut, calib::profileCsv(bins)); !s) return reportError(s.error());
-  }
-  if (Status s = io::writeOutputFile(o.output, calib::fitResultJson(*result, input).dump(2) + "\n"); !s) {
-    return reportError(s.error());
-  }
-  fmt::print(reportStream(), "wrote {}\n", o.output == "-" ? "the result to standard output" : o.output);
-  if (!o.plots.empty()) {
-    if (Status s = drawPlots(o, geometry, profileOptions, bins, *result); !s) {
+    if (Status s = io::writeOutputFile(o.profileOut, calib::profileCsv(fitted->bins)); !s) {
       return reportError(s.error());
     }
   }
-  return result->status == FitStatus::Converged ? kExitOk : kExitUnusable;
+  if (Status s = io::writeOutputFile(o.output, fitted->resultJson.dump(2) + "\n"); !s) return reportError(s.error());
+  fmt::print(reportStream(), "wrote {}\n", o.output == "-" ? "the result to standard output" : o.output);
+  if (!o.plots.empty()) {
+    if (Status s = drawPlots(o, *job, *fitted); !s) return reportError(s.error());
+  }
+  return fitted->result.status == FitStatus::Converged ? kExitOk : kExitUnusable;
 }
 
 }  // namespace

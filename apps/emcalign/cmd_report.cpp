@@ -12,7 +12,7 @@
 #include <fmt/format.h>
 
 #include "common.hpp"
-#include "conditions_support.hpp"
+#include "emcalign/conddb/calibrations.hpp"
 #include "emcalign/conddb/conditions.hpp"
 #include "emcalign/core/sha256.hpp"
 #include "emcalign/core/units.hpp"
@@ -129,7 +129,7 @@ int run(const ReportCliOptions& o) {
       return reportError(
           {fmt::format("{}: no tag '{}' (the tags: emcalign conditions list {})", (*db)->uri(), o.tag, (*db)->uri())});
     }
-    in.conditions = report::ReportConditions{(*db)->uri(), o.tag, tagJson(**db, **tag).at("iovs")};
+    in.conditions = report::ReportConditions{(*db)->uri(), o.tag, conddb::tagJson(**db, **tag).at("iovs")};
   }
   for (const auto& dir : o.checks) {
     auto c = report::readCheckDirectory(dir);

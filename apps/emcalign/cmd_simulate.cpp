@@ -10,7 +10,7 @@
 #include <fmt/format.h>
 
 #include "common.hpp"
-#include "conditions_support.hpp"
+#include "emcalign/conddb/calibrations.hpp"
 #include "emcalign/core/sha256.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/core/version.hpp"
@@ -148,7 +148,7 @@ int run(const SimulateOptions& cli) {
   if (!calo) return reportError(calo.error());
   geometry::AlignmentParameters truthParameters;
   if (!cli.conditions.empty()) {
-    auto c = ConditionsAlignments::open(cli.conditions, cli.tag, *calo);
+    auto c = conddb::TagAlignments::open(cli.conditions, cli.tag, *calo);
     if (!c) return reportError(c.error());
     auto eta = c->parametersOf(cli.run);
     if (!eta) return reportError(eta.error());

@@ -6,7 +6,6 @@
 
 #include <fmt/format.h>
 
-#include "emcalign/apply/placements.hpp"
 #include "emcalign/conddb/conditions.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/core/version.hpp"
@@ -43,22 +42,6 @@ Status checkOutputs(const std::vector<io::NamedPath>& files, const std::vector<i
       return Error{fmt::format("{} {}", d.option, s.error().message)};
   }
   return io::checkDistinct(given, inputs);
-}
-
-Result<io::AlignmentFile> loadAlignment(const std::string& path, const geometry::Calorimeter& calo) {
-  auto text = io::readTextFile(path);
-  if (!text) return text.error();
-  auto j = io::parseJson(*text, path);
-  if (!j) return j.error();
-  if (apply::isPlacementsJson(*j)) {
-    auto placements = apply::readPlacements(path, calo);
-    if (!placements) return placements.error();
-    io::AlignmentFile file;
-    file.parameters = placements->alignment;
-    for (const auto& w : geometry::warnings(file.parameters)) file.warnings.push_back(fmt::format("{}: {}", path, w));
-    return file;
-  }
-  return io::parseAlignmentFile(*j, calo.description().r1(), path);
 }
 
 void addDetectorOption(CLI::App& cmd, std::string& path) {

@@ -10,6 +10,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "emcalign/apply/placements.hpp"
 #include "emcalign/calib/sigma_sys.hpp"
 #include "emcalign/core/result.hpp"
 #include "emcalign/geometry/alignment_parameters.hpp"
@@ -55,10 +56,8 @@ Status checkOutputs(const std::vector<io::NamedPath>& files, const std::vector<i
 /// The detector of `--detector FILE`, or the embedded default when the path is empty.
 using io::loadCalorimeter;
 
-/// An alignment from any of the files that hold one: a parameter file, a fit result (a
-/// usable one: io/json_files.hpp), or a placements file (apply/placements.hpp, checked
-/// against its own alignment). The warnings are for the caller to print.
-Result<io::AlignmentFile> loadAlignment(const std::string& path, const geometry::Calorimeter& calo);
+/// An alignment from a parameter file, a fit result or a placements file (apply/placements.hpp).
+using apply::loadAlignment;
 
 /// `--ideal` and `--off EFFECT,...` of simulate, validate and derive-corrections, applied to
 /// the simulation options; the error names the unknown effect.

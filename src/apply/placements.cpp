@@ -196,4 +196,20 @@ Result<Placements> readPlacements(const std::string& path, const geometry::Calor
   return expected;
 }
 
+Result<io::AlignmentFile> loadAlignment(const std::string& path, const geometry::Calorimeter& calo) {
+  auto text = io::readTextFile(path);
+  if (!text) return text.error();
+  auto j = io::parseJson(*text, path);
+  if (!j) return j.error();
+  if (apply::isPlacementsJson(*j)) {
+    auto placements = apply::readPlacements(path, calo);
+    if (!placements) return placements.error();
+    io::AlignmentFile file;
+    file.parameters = placements->alignment;
+    for (const auto& w : geometry::warnings(file.parameters)) file.warnings.push_back(fmt::format("{}: {}", path, w));
+    return file;
+  }
+  return io::parseAlignmentFile(*j, calo.description().r1(), path);
+}
+
 }  // namespace emcalign::apply

@@ -26,6 +26,7 @@
 #include "emcalign/geometry/detector.hpp"
 #include "emcalign/geometry/shower_depth.hpp"
 #include "emcalign/io/event_file.hpp"
+#include "emcalign/io/json_files.hpp"
 
 namespace emcalign::apply {
 
@@ -50,6 +51,20 @@ struct CorrectOptions {
   /// Called after each block with the rows done so far.
   std::function<void(std::int64_t rows)> progress;
 };
+
+/// The options of a correction as a user gives them: the method by name (auto, hits,
+/// clusters), the cluster method's R(E, θ) of `calo` with `depthOffset` added (native length),
+/// or with the offset of `corrections` when given (a file's; a grid directory's at each
+/// event's beam energy). The error names a bad method or corrections file.
+Result<CorrectOptions> correctOptionsOf(std::string_view method, double depthOffset, const std::string& corrections,
+                                        const geometry::Calorimeter& calo);
+
+/// What the output's "correction" attribute records (CorrectOptions::description, compact):
+/// {"software", "alignment", "method" (as given), "log_weight_w0", "depth_offset_cm" (null
+/// with a grid, then "corrections_grid": its path), "inputs"}. `alignment` says which
+/// alignment corrected it (a file and its parameters, or a conditions tag).
+io::Json correctionRecord(const io::Json& alignment, std::string_view method, const CorrectOptions& options,
+                          const std::vector<std::string>& inputs, const std::string& corrections);
 
 struct CorrectReport {
   CorrectionMethod method = CorrectionMethod::Clusters;  ///< the one used

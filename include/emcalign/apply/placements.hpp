@@ -66,4 +66,9 @@ Result<Placements> readPlacements(const std::string& path, const geometry::Calor
 /// Whether a JSON document is a placements file (by its "format").
 bool isPlacementsJson(const io::Json& j);
 
+/// An alignment from any of the files that hold one: a parameter file, a fit result (a
+/// usable one: io/json_files.hpp), or a placements file (checked against its own alignment).
+/// The warnings are for the caller to show.
+Result<io::AlignmentFile> loadAlignment(const std::string& path, const geometry::Calorimeter& calo);
+
 }  // namespace emcalign::apply

@@ -1,0 +1,89 @@
+#pragma once
+// A fit as `emcalign fit` runs it, for every front end (the command line, the Python module):
+// event files or a saved profile, with or without model corrections (a file or a grid at the
+// sample's beam energy), σ_sys SPEC's, fixed or auto, and the result file of SPEC §3.
+//
+// Three steps, so that a front end can report between them (the corrections used, the cut
+// flow) and a failure of a later step does not hide what an earlier one found:
+//   FitJob::prepare   the fit geometry and profile options, the corrections loaded;
+//   FitJob::load      the events selected and the profiles filled, or the profile read;
+//   FitJob::fit       the staged fit, the bins as it saw them, the result file.
+//
+// The rules between the inputs (docs/fit.md): a saved profile holds the total errors it was
+// written with, so it takes no σ_sys; a profile written with corrections (its plus_weight
+// column) needs the same corrections again for the depth offset, and one written without
+// cannot take them; a grid of corrections needs the beam energy, which a profile does not say.
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "emcalign/calib/calibration.hpp"
+#include "emcalign/calib/corrections_grid.hpp"
+#include "emcalign/calib/fit.hpp"
+#include "emcalign/calib/profiles.hpp"
+#include "emcalign/calib/sigma_sys.hpp"
+#include "emcalign/core/result.hpp"
+#include "emcalign/geometry/detector.hpp"
+#include "emcalign/io/json_files.hpp"
+
+namespace emcalign::calib {
+
+struct FitRequest {
+  std::vector<std::string> events;  ///< event files (SPEC §6), or
+  std::string profileIn;            ///< a saved profile (profileCsv), not both
+  /// The detector as the result file names it: a description's path, or "embedded default".
+  std::string detectorName = "embedded default";
+  double depthOffset = 0.0;                ///< added to R(E, θ), native length; corrections bring their own
+  std::string corrections;                 ///< a corrections file or grid directory (empty: none)
+  std::optional<double> beamEnergy;        ///< MeV: the selection's and the grid's (none: the files')
+  std::optional<SigmaSysChoice> sigmaSys;  ///< none: SPEC's 0.2°
+  /// The text of the choice for messages ("auto", "0.15"): how the user spelled it.
+  std::string sigmaSysText;
+
+  /// Events or a profile (one of them), a positive beam energy, a valid σ_sys.
+  Status validate() const;
+};
+
+/// What `load` found: the fill of the events (cut flow, counts, profiles), or the bins of a
+/// saved profile.
+struct FitData {
+  std::optional<ProfileFill> fill;
+  std::vector<ProfileBin> bins;  ///< of a saved profile (marked used)
+  /// Warnings to show before the result: corrections used away from the sample's energy.
+  std::vector<std::string> warnings;
+};
+
+/// The fit and its files.
+struct FitOutcome {
+  FitResult result;
+  std::vector<ProfileBin> bins;  ///< as the fit saw them (the profile file, the figures)
+  io::Json resultJson;           ///< the result file (SPEC §3)
+};
+
+class FitJob {
+ public:
+  /// Checks the request and loads its corrections: the error names the file or the option.
+  static Result<FitJob> prepare(FitRequest request, const geometry::DetectorDescription& detector);
+
+  [[nodiscard]] const FitRequest& request() const { return request_; }
+  [[nodiscard]] const FitGeometry& geometry() const { return geometry_; }
+  [[nodiscard]] const ProfileOptions& profileOptions() const { return profile_; }
+  /// The corrections at the sample's energy (none without --corrections).
+  [[nodiscard]] const std::optional<CorrectionsAt>& corrections() const { return corrections_; }
+  /// The σ_sys the profiles are fitted with (SPEC's unless the request says otherwise).
+  [[nodiscard]] SigmaSysChoice sigmaSys() const { return request_.sigmaSys.value_or(SigmaSysChoice::spec()); }
+
+  /// Selects and fills (events), or reads and checks the profile.
+  Result<FitData> load() const;
+  /// Fits what `load` gave.
+  Result<FitOutcome> fit(const FitData& data) const;
+
+ private:
+  FitRequest request_;
+  FitGeometry geometry_;
+  ProfileOptions profile_;
+  std::optional<CorrectionsAt> corrections_;
+};
+
+}  // namespace emcalign::calib

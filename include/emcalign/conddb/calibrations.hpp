@@ -1,0 +1,91 @@
+#pragma once
+// The conditions database as its users work with it (the command line, the Python module):
+// a fit result stored for a run range with its provenance, the parameter file valid for a
+// run, the tags as JSON, and the alignment of each run for correcting or simulating run by
+// run (conddb/conditions.hpp is the database itself).
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "emcalign/apply/correct.hpp"
+#include "emcalign/conddb/conditions.hpp"
+#include "emcalign/core/result.hpp"
+#include "emcalign/geometry/alignment_parameters.hpp"
+#include "emcalign/geometry/alignment_transform.hpp"
+#include "emcalign/geometry/detector.hpp"
+#include "emcalign/io/json_files.hpp"
+
+namespace emcalign::conddb {
+
+/// What putResultFile did.
+struct PutReport {
+  bool newTag = false;                ///< the tag was created
+  std::string payload;                ///< the payload's hash
+  std::vector<std::string> warnings;  ///< inputs of the result whose digest is not recorded
+};
+
+/// Stores a fit result or a parameter file for runs [first, last] of `tag` (created, open,
+/// with `description` when new). The payload's provenance records the file's SHA-256, this
+/// software, and the SHA-256 of each input file the result names, found as named or beside
+/// the result (one not found is a warning). `r1` is the detector's, for the physical set.
+Result<PutReport> putResultFile(Database& db, const std::string& tag, std::int64_t first, std::int64_t last,
+                                const std::string& path, const std::string& description, double r1);
+
+/// The parameter file of a payload (SPEC §3), with where it came from under "input":
+/// {"conditions": URI, "tag", "first_run", "last_run", "payload", "inserted",
+/// "selected_events", "provenance"}.
+io::Json parameterFileOf(const Iov& iov, const Payload& payload, const std::string& uri, const std::string& tag);
+
+struct RunCalibration {
+  Iov iov;
+  io::Json parameterFile;  ///< parameterFileOf
+};
+/// The calibration valid for `run`; the error says whether the tag or the IOV is missing.
+Result<RunCalibration> calibrationAt(Database& db, const std::string& tag, std::int64_t run);
+
+/// A tag as `conditions list --json` shows it: {"tag", "state", "description", "created",
+/// "iovs": [{"first_run", "last_run", "payload", "inserted", "status", "chi2", "ndf",
+/// "selected_events"}]}.
+io::Json tagJson(Database& db, const Tag& tag);
+/// Every tag as tagJson gives it, or only `tag` when not empty (an error when it does not exist).
+Result<std::vector<io::Json>> listTags(Database& db, const std::string& tag = {});
+
+/// The alignment of each run from the IOVs of a tag.
+class TagAlignments {
+ public:
+  /// The calorimeter must outlive this object.
+  static Result<TagAlignments> open(const std::string& uri, const std::string& tag, const geometry::Calorimeter& calo);
+  /// The alignment of `run` (the same object for every run of one IOV); the error names the
+  /// run and the tag.
+  Result<std::shared_ptr<const geometry::AlignmentTransform>> transformOf(std::int64_t run);
+  Result<geometry::AlignmentParameters> parametersOf(std::int64_t run);
+  /// The IOVs used so far.
+  [[nodiscard]] int used() const { return static_cast<int>(transforms_.size()); }
+  [[nodiscard]] const std::string& uri() const { return db_->uri(); }
+  [[nodiscard]] const std::string& tag() const { return snapshot_->tag().name; }
+
+ private:
+  std::unique_ptr<Database> db_;
+  std::unique_ptr<TagSnapshot> snapshot_;
+  const geometry::Calorimeter* calo_ = nullptr;
+  std::map<std::int64_t, std::shared_ptr<const geometry::AlignmentTransform>> transforms_;  // by first run
+};
+
+/// The alignment events are corrected with: one file (a parameter file, a fit result or a
+/// placements file) for every run, or each run's own IOV of a conditions tag.
+struct AlignmentSource {
+  std::shared_ptr<const geometry::AlignmentTransform> one;
+  std::shared_ptr<TagAlignments> byRun;
+  /// For the outputs: {"file", "parameters"} or {"conditions", "tag"}.
+  io::Json description;
+  std::vector<std::string> warnings;  ///< of the alignment file
+  [[nodiscard]] apply::AlignmentOfRun alignmentOf() const;
+  /// The file `alignment`, or when `conditions` is not empty the tag `tag` of that database.
+  static Result<AlignmentSource> open(const std::string& alignment, const std::string& conditions,
+                                      const std::string& tag, const geometry::Calorimeter& calo);
+};
+
+}  // namespace emcalign::conddb

@@ -1,0 +1,196 @@
+#include "emcalign/conddb/calibrations.hpp"
+
+#include <filesystem>
+
+#include <fmt/format.h>
+
+#include "emcalign/apply/placements.hpp"
+#include "emcalign/core/sha256.hpp"
+#include "emcalign/core/version.hpp"
+
+namespace emcalign::conddb {
+
+namespace {
+
+namespace fs = std::filesystem;
+using io::Json;
+
+// The digests of a fit's inputs: found as named, or next to the result file.
+Json inputDigests(const Json& result, const std::string& resultPath, std::vector<std::string>& warnings) {
+  Json digests = Json::object();
+  if (!result.contains("input") || !result["input"].is_object() || !result["input"].contains("files") ||
+      !result["input"]["files"].is_array()) {
+    return digests;
+  }
+  for (const Json& f : result["input"]["files"]) {
+    if (!f.is_string()) continue;
+    const std::string name = f.get<std::string>();
+    std::string path = name;
+    if (!fs::exists(path)) path = (fs::path(resultPath).parent_path() / name).string();
+    if (!fs::is_regular_file(path)) {
+      warnings.push_back(fmt::format("{}: input {} not found: its digest is not recorded", resultPath, name));
+      continue;
+    }
+    auto d = sha256OfFile(path);
+    if (!d) {
+      warnings.push_back(d.error().message);
+      continue;
+    }
+    digests[name] = *d;
+  }
+  return digests;
+}
+
+}  // namespace
+
+Result<PutReport> putResultFile(Database& db, const std::string& tag, std::int64_t first, std::int64_t last,
+                                const std::string& path, const std::string& description, double r1) {
+  auto text = io::readTextFile(path);
+  if (!text) return text.error();
+  auto j = io::parseJson(*text, path);
+  if (!j) return j.error();
+  PutReport report;
+  Json provenance = {{"source_sha256", sha256(*text)}, {"put_software", fmt::format("emcalign {}", kVersion)}};
+  if (Json d = inputDigests(*j, path, report.warnings); !d.empty()) provenance["input_sha256"] = d;
+  auto payload = makePayload(*j, r1, path, provenance);
+  if (!payload) return payload.error();
+  auto existed = db.tag(tag);
+  if (!existed) return existed.error();
+  if (Status s = db.put(tag, first, last, *payload, true, description); !s) return s.error();
+  report.newTag = !existed->has_value();
+  report.payload = payload->hash();
+  return report;
+}
+
+io::Json parameterFileOf(const Iov& iov, const Payload& payload, const std::string& uri, const std::string& tag) {
+  Json file = payload.parameterFile();
+  Json input = {{"conditions", uri},         {"tag", tag},
+                {"first_run", iov.firstRun}, {"last_run", iov.lastRun},
+                {"payload", iov.payload},    {"inserted", iov.inserted}};
+  if (payload.content.contains("selected_events")) input["selected_events"] = payload.content["selected_events"];
+  if (payload.content.contains("provenance")) input["provenance"] = payload.content["provenance"];
+  file["input"] = std::move(input);
+  return file;
+}
+
+Result<RunCalibration> calibrationAt(Database& db, const std::string& tag, std::int64_t run) {
+  auto got = db.get(tag, run);
+  if (!got) return got.error();
+  if (!got->has_value()) {
+    auto t = db.tag(tag);
+    if (t && !t->has_value()) {
+      return Error{fmt::format("{}: no tag '{}' (the tags: emcalign conditions list {})", db.uri(), tag, db.uri())};
+    }
+    return Error{fmt::format("{}: tag '{}': no IOV contains run {}", db.uri(), tag, run)};
+  }
+  const auto& [iov, payload] = **got;
+  return RunCalibration{iov, parameterFileOf(iov, payload, db.uri(), tag)};
+}
+
+io::Json tagJson(Database& db, const Tag& tag) {
+  Json iovs = Json::array();
+  auto list = db.iovs(tag.name);
+  if (list) {
+    for (const auto& iov : *list) {
+      Json i = {
+          {"first_run", iov.firstRun}, {"last_run", iov.lastRun}, {"payload", iov.payload}, {"inserted", iov.inserted}};
+      if (auto p = db.payload(iov.payload); p) {
+        const Json& a = p->content["alignment"];
+        for (const char* key : {"status", "chi2", "ndf"}) {
+          if (a.contains(key)) i[key] = a[key];
+        }
+        if (p->content.contains("selected_events")) i["selected_events"] = p->content["selected_events"];
+      }
+      iovs.push_back(std::move(i));
+    }
+  }
+  return {{"tag", tag.name},
+          {"state", name(tag.state)},
+          {"description", tag.description},
+          {"created", tag.created},
+          {"iovs", iovs}};
+}
+
+Result<std::vector<io::Json>> listTags(Database& db, const std::string& tag) {
+  std::vector<Tag> tags;
+  if (!tag.empty()) {
+    auto t = db.tag(tag);
+    if (!t) return t.error();
+    if (!t->has_value()) return Error{fmt::format("{}: no tag '{}'", db.uri(), tag)};
+    tags.push_back(**t);
+  } else {
+    auto all = db.tags();
+    if (!all) return all.error();
+    tags = std::move(*all);
+  }
+  std::vector<Json> listed;
+  for (const auto& t : tags) listed.push_back(tagJson(db, t));
+  return listed;
+}
+
+Result<TagAlignments> TagAlignments::open(const std::string& uri, const std::string& tag,
+                                          const geometry::Calorimeter& calo) {
+  auto db = Database::open(uri);
+  if (!db) return db.error();
+  auto snapshot = TagSnapshot::load(**db, tag);
+  if (!snapshot) return snapshot.error();
+  TagAlignments c;
+  c.db_ = std::move(*db);
+  c.snapshot_ = std::make_unique<TagSnapshot>(std::move(*snapshot));
+  c.calo_ = &calo;
+  return c;
+}
+
+Result<geometry::AlignmentParameters> TagAlignments::parametersOf(std::int64_t run) {
+  auto at = snapshot_->at(run);
+  if (!at) return at.error();
+  const auto& [iov, payload] = *at;
+  return io::parseAlignment(payload->parameterFile(), calo_->description().r1(),
+                            fmt::format("{} tag {} IOV {}-{}", db_->uri(), tag(), iov->firstRun, iov->lastRun));
+}
+
+Result<std::shared_ptr<const geometry::AlignmentTransform>> TagAlignments::transformOf(std::int64_t run) {
+  const Iov* iov = snapshot_->find(run);
+  if (iov != nullptr) {
+    if (auto it = transforms_.find(iov->firstRun); it != transforms_.end()) return it->second;
+  }
+  auto eta = parametersOf(run);
+  if (!eta) return eta.error();
+  auto t = geometry::AlignmentTransform::create(*eta, geometry::AlignmentRadii::of(calo_->description()));
+  if (!t) return t.error();
+  auto shared = std::make_shared<const geometry::AlignmentTransform>(std::move(*t));
+  transforms_[iov->firstRun] = shared;
+  return shared;
+}
+
+apply::AlignmentOfRun AlignmentSource::alignmentOf() const {
+  auto byRunAlignments = byRun;
+  auto single = one;
+  return [byRunAlignments, single](std::int64_t run) -> Result<std::shared_ptr<const geometry::AlignmentTransform>> {
+    if (byRunAlignments) return byRunAlignments->transformOf(run);
+    return single;
+  };
+}
+
+Result<AlignmentSource> AlignmentSource::open(const std::string& alignment, const std::string& conditions,
+                                              const std::string& tag, const geometry::Calorimeter& calo) {
+  AlignmentSource a;
+  if (!conditions.empty()) {
+    auto c = TagAlignments::open(conditions, tag, calo);
+    if (!c) return c.error();
+    a.byRun = std::make_shared<TagAlignments>(std::move(*c));
+    a.description = {{"conditions", a.byRun->uri()}, {"tag", tag}};
+    return a;
+  }
+  auto file = apply::loadAlignment(alignment, calo);
+  if (!file) return file.error();
+  a.warnings = file->warnings;
+  auto transform =
+      geometry::AlignmentTransform::create(file->parameters, geometry::AlignmentRadii::of(calo.description()));
+  if (!transform) return transform.error();
+  a.one = std::make_shared<const geometry::AlignmentTransform>(std::move(*transform));
+  a.description = {{"file", alignment}, {"parameters", io::alignmentToJson(file->parameters)["parameters"]}};
+  return a;
+}
+
+}  // namespace emcalign::conddb

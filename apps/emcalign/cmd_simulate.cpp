@@ -13,12 +13,11 @@
 #include "emcalign/conddb/calibrations.hpp"
 #include "emcalign/core/sha256.hpp"
 #include "emcalign/core/units.hpp"
-#include "emcalign/core/version.hpp"
-#include "emcalign/io/event_file.hpp"
 #include "emcalign/io/json_files.hpp"
 #include "emcalign/sim/generators.hpp"
 #include "emcalign/sim/simulation.hpp"
 #include "emcalign/validation/period.hpp"
+#include "emcalign/validation/simulate_file.hpp"
 #include "progress.hpp"
 
 namespace emcalign::app {
@@ -65,25 +64,17 @@ Result<std::vector<int>> parseCounterList(const std::string& text) {
   return out;
 }
 
-io::Json settingsJson(const SimulateOptions& cli, const sim::SimulationOptions& o) {
-  io::Json off = io::Json::array();
-  for (const auto& e : cli.off) off.push_back(e);
-  return io::Json{
-      {"software", fmt::format("emcalign {}", kVersion)},
-      {"process", cli.process},
-      {"events", cli.events},
-      {"seed", o.seed},
-      {"run", o.run},
-      {"beam_energy_mev", o.generator.beamEnergy},
-      {"beam_energy_spread_mev", o.generator.beamEnergySpread},
-      {"theta_range_deg", {o.generator.thetaMin / units::deg, o.generator.thetaMax / units::deg}},
-      {"vertex_sigma_cm", {o.generator.vertexSigma.x(), o.generator.vertexSigma.y(), o.generator.vertexSigma.z()}},
-      {"ideal", cli.ideal},
-      {"point_showers", o.emc.pointShowers},
-      {"off", off},
-      {"dead_counters", o.emc.deadCountersOn ? o.emc.deadCounters : std::vector<int>{}},
-      {"cosmic_fraction", o.cosmicFraction},
-      {"detector", cli.detector.empty() ? "embedded default" : cli.detector}};
+// The record of the command line (its switches already applied to `o`).
+validation::SimulateRequest requestOf(const SimulateOptions& cli, const sim::SimulationOptions& o) {
+  validation::SimulateRequest r;
+  r.options = o;
+  r.events = cli.events;
+  r.threads = cli.threads;
+  r.hits = !cli.noHits;
+  r.ideal = cli.ideal;
+  r.off = cli.off;
+  r.detectorName = cli.detector.empty() ? "embedded default" : cli.detector;
+  return r;
 }
 
 // The realism switches and dead counters of the command line.
@@ -115,7 +106,7 @@ int runPeriod(const SimulateOptions& cli) {
   if (Status s = realism(cli, o.simulation); !s) return reportError(s.error());
   o.hits = !cli.noHits;
   o.threads = cli.threads;
-  o.settings = settingsJson(cli, o.simulation);
+  o.settings = validation::simulationSettings(requestOf(cli, o.simulation));
   for (const char* perRun : {"process", "events", "seed", "run", "beam_energy_mev", "theta_range_deg", "software"}) {
     o.settings.erase(perRun);  // set by the scenario for each run, or not a setting
   }
@@ -171,30 +162,12 @@ int run(const SimulateOptions& cli) {
   if (cli.thetaMaxDeg) o.generator.thetaMax = *cli.thetaMaxDeg * units::deg;
   o.seed = cli.seed;
   o.run = cli.run;
-  auto simulation = sim::Simulation::create(*calo, *truth, o);
-  if (!simulation) return reportError(simulation.error());
-
-  io::WriterOptions wo;
-  wo.withTruth = true;
-  wo.withHits = !cli.noHits;
-  wo.attributes = {{"truth_parameters", io::alignmentToJson(*truth).dump()},
-                   {"simulation", settingsJson(cli, o).dump()}};
-  auto writer = io::EventWriter::open(cli.output, wo);
-  if (!writer) return reportError(writer.error());
-
   ProgressLine progress("simulate", cli.events, "events");
-  std::int64_t rows = 0;
-  const Status done = simulation->run(
-      cli.events, cli.threads,
-      [&](std::span<const ParticleRow> r, std::span<const TruthRow> t, std::span<const Hit> h) {
-        rows += static_cast<std::int64_t>(r.size());
-        return (*writer)->append(r, t, h);
-      },
-      [&](std::int64_t n) { progress.update(n); });
+  auto report = validation::simulateFile(*calo, *truth, requestOf(cli, o), cli.output,
+                                         [&](std::int64_t n) { progress.update(n); });
   progress.finish();
-  if (!done) return reportError(done.error());
-  if (Status s = (*writer)->close(); !s) return reportError(s.error());
-  fmt::print(reportStream(), "simulate: {} events, {} particle rows, {:.1f} s -> {}\n", cli.events, rows,
+  if (!report) return reportError(report.error());
+  fmt::print(reportStream(), "simulate: {} events, {} particle rows, {:.1f} s -> {}\n", report->events, report->rows,
              progress.elapsed(), cli.output);
   return 0;
 }

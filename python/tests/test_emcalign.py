@@ -7,7 +7,6 @@ build/python.
 import csv
 import io
 import json
-import os
 import subprocess
 import threading
 
@@ -15,38 +14,7 @@ import numpy as np
 import pytest
 
 import emcalign
-
-CLI = os.environ.get("EMCALIGN_CLI", "emcalign")
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-PAPER_LIKE = os.path.join(ROOT, "data", "examples", "paper-like.json")
-
-
-def cli(*args, stdin=None):
-    done = subprocess.run([CLI, *args], input=stdin, capture_output=True, text=True, check=False)
-    assert done.returncode == 0, done.stderr
-    return done.stdout
-
-
-@pytest.fixture(scope="module")
-def detector():
-    return emcalign.Detector()
-
-
-@pytest.fixture(scope="module")
-def paper_like(detector):
-    values, warnings = emcalign.read_alignment(PAPER_LIKE, detector)
-    assert warnings == []
-    return values
-
-
-@pytest.fixture(scope="module")
-def sample(tmp_path_factory):
-    """A small simulated sample written by the CLI, as HDF5 with hits and as CSV."""
-    d = tmp_path_factory.mktemp("events")
-    h5, text = d / "ev.h5", d / "ev.csv"
-    for out in (h5, text):
-        cli("simulate", "--params", PAPER_LIKE, "--events", "3000", "--seed", "7", "-o", str(out))
-    return h5, text
+from cli_helpers import CLI, PAPER_LIKE, cli
 
 
 def test_names_follow_spec(detector):
@@ -174,16 +142,6 @@ def test_long_calls_release_the_gil(detector, paper_like):
         t.join()
     for r in results:
         np.testing.assert_array_equal(r, expected)
-
-
-@pytest.fixture(scope="module")
-def fit_sample(tmp_path_factory):
-    """A sample large enough to fit (12 parameters, 160 bins), written by the CLI."""
-    d = tmp_path_factory.mktemp("fit")
-    h5 = d / "ee.h5"
-    cli("simulate", "--params", PAPER_LIKE, "--events", "40000", "--seed", "11", "--theta-min", "40",
-        "--theta-max", "140", "--no-hits", "-o", str(h5))
-    return h5
 
 
 @pytest.mark.parametrize("sigma_sys", [None, "auto", 0.15])

@@ -1,0 +1,48 @@
+#pragma once
+// An event file simulated with a known (truth) alignment, as `emcalign simulate` writes it
+// (HDF5 with truth and hits, or CSV): the rows of sim/simulation.hpp, and the file's record
+// of how it was made — the "truth_parameters" and "simulation" attributes (SPEC §6).
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "emcalign/core/result.hpp"
+#include "emcalign/geometry/alignment_parameters.hpp"
+#include "emcalign/geometry/detector.hpp"
+#include "emcalign/io/json_files.hpp"
+#include "emcalign/sim/simulation.hpp"
+
+namespace emcalign::validation {
+
+struct SimulateRequest {
+  sim::SimulationOptions options;  ///< process, beam energy, θ range, seed, run, realism
+  std::int64_t events = 0;
+  int threads = 0;   ///< 0: all cores (the file does not depend on it)
+  bool hits = true;  ///< each cluster's counters (HDF5 only)
+  /// For the record: `--ideal` and the effects switched off by name (already applied to
+  /// `options`), and the detector ("embedded default" or a description's path).
+  bool ideal = false;
+  std::vector<std::string> off;
+  std::string detectorName = "embedded default";
+};
+
+/// The "simulation" attribute: {"software", "process", "events", "seed", "run",
+/// "beam_energy_mev", "beam_energy_spread_mev", "theta_range_deg", "vertex_sigma_cm",
+/// "ideal", "point_showers", "off", "dead_counters", "cosmic_fraction", "detector"}.
+io::Json simulationSettings(const SimulateRequest& request);
+
+struct SimulateReport {
+  std::int64_t events = 0;
+  std::int64_t rows = 0;  ///< particle rows written
+};
+
+/// Simulates `request.events` events of `calo` misaligned by `truth` into `output` (.csv:
+/// CSV, "-": CSV on standard output, else HDF5; no partial file on failure). `progress` is
+/// called with the events done.
+Result<SimulateReport> simulateFile(const geometry::Calorimeter& calo, const geometry::AlignmentParameters& truth,
+                                    const SimulateRequest& request, const std::string& output,
+                                    const std::function<void(std::int64_t)>& progress = {});
+
+}  // namespace emcalign::validation

@@ -1,0 +1,132 @@
+// What a user does with fitted parameters: event files corrected (apply/correct.hpp), and the
+// cluster correction of SPEC §9 on numpy columns.
+
+#include <fmt/format.h>
+
+#include <cmath>
+
+#include "bindings.hpp"
+#include "emcalign/apply/cluster_correction.hpp"
+#include "emcalign/apply/correct.hpp"
+#include "emcalign/conddb/calibrations.hpp"
+#include "emcalign/core/units.hpp"
+#include "emcalign/geometry/alignment_transform.hpp"
+#include "emcalign/io/output_file.hpp"
+
+namespace emcalign::python {
+
+namespace {
+
+// `emcalign correct PATHS -o OUTPUT (--alignment FILE | --conditions URI --tag T)`: the same
+// file, the report as a dict and the alignment file's warnings.
+py::dict correctFiles(const Paths& paths, const Path& output, const Detector* given,
+                      const std::optional<Path>& alignment, const std::optional<std::string>& conditions,
+                      const std::optional<std::string>& tag, const std::string& method, double depthOffset,
+                      const std::optional<Path>& corrections) {
+  const Detector& detector = detectorOr(given);
+  if (alignment.has_value() == conditions.has_value()) {
+    raise(Error{"correct: give alignment= (a file) or conditions= with tag=, one of them"});
+  }
+  if (conditions.has_value() != tag.has_value()) raise(Error{"correct: conditions= and tag= go together"});
+  if (depthOffset != 0.0 && corrections) {
+    raise(Error{"correct: depth_offset and corrections: the corrections bring their own depth offset"});
+  }
+  const std::vector<std::string> inputs = stringsOf(paths);
+  const std::string out = output.string();
+  const std::string correctionsPath = corrections ? corrections->string() : std::string();
+  std::vector<io::NamedPath> named;
+  for (const auto& p : inputs) named.push_back({"", p});
+  if (alignment) named.push_back({"alignment", alignment->string()});
+  if (corrections) named.push_back({"corrections", correctionsPath});
+  if (auto target = io::resolveOutput(out); !target) raise(target.error());
+  check(io::checkDistinct({{"output", out}}, named));
+
+  Status status;
+  apply::CorrectReport report;
+  std::vector<std::string> warnings;
+  {
+    py::gil_scoped_release release;
+    auto source = conddb::AlignmentSource::open(alignment ? alignment->string() : std::string(),
+                                                conditions.value_or(""), tag.value_or(""), detector.calorimeter());
+    auto options =
+        source ? apply::correctOptionsOf(method, depthOffset * units::cm, correctionsPath, detector.calorimeter())
+               : Result<apply::CorrectOptions>(source.error());
+    if (options) {
+      warnings = source->warnings;
+      options->description =
+          apply::correctionRecord(source->description, method, *options, inputs, correctionsPath).dump();
+      auto done = apply::correctFiles(inputs, out, detector.calorimeter(), source->alignmentOf(), *options);
+      if (done) {
+        report = *done;
+      } else {
+        status = done.error();
+      }
+    } else {
+      status = options.error();
+    }
+  }
+  check(status);
+  py::dict d;
+  d["method"] = std::string(apply::name(report.method));
+  d["events"] = report.events;
+  d["rows"] = report.rows;
+  d["clusters"] = report.clusters;
+  d["truth"] = report.truth;
+  d["hits"] = report.hits;
+  d["alignments"] = report.alignments;
+  d["warnings"] = warnings;
+  return d;
+}
+
+// SPEC §9 on columns: each cluster's (φ, θ, E) → the corrected (φ', θ').
+py::tuple correctDirections(const Array& values, const Array& phi, const Array& theta, const Array& energy,
+                            const Detector* given, double depthOffset) {
+  const Detector& detector = detectorOr(given);
+  if (phi.ndim() != 1 || theta.ndim() != 1 || energy.ndim() != 1 || theta.shape(0) != phi.shape(0) ||
+      energy.shape(0) != phi.shape(0)) {
+    raise(Error{"correct_directions: phi, theta and energy must be 1-D arrays of one length"});
+  }
+  const auto transform = unwrap(geometry::AlignmentTransform::create(
+      parametersOf(values), geometry::AlignmentRadii::of(detector.calorimeter().description())));
+  geometry::ShowerDepth depth = geometry::ShowerDepth::of(detector.calorimeter().description());
+  depth.offset = depthOffset * units::cm;
+  const py::ssize_t n = phi.shape(0);
+  Array phiOut(n), thetaOut(n);
+  auto p = phi.unchecked<1>();
+  auto t = theta.unchecked<1>();
+  auto e = energy.unchecked<1>();
+  auto wp = phiOut.mutable_unchecked<1>();
+  auto wt = thetaOut.mutable_unchecked<1>();
+  {
+    py::gil_scoped_release release;
+    for (py::ssize_t i = 0; i < n; ++i) {
+      if (std::isnan(e(i))) {  // a row without a cluster (as correct does)
+        wp(i) = p(i);
+        wt(i) = t(i);
+        continue;
+      }
+      const auto [a, b] = apply::correctDirection(transform, depth, p(i), t(i), e(i));
+      wp(i) = a;
+      wt(i) = b;
+    }
+  }
+  return py::make_tuple(phiOut, thetaOut);
+}
+
+}  // namespace
+
+void bindApply(py::module_& m) {
+  m.def("correct", &correctFiles, py::arg("paths"), py::arg("output"), py::arg("detector") = py::none(), py::kw_only(),
+        py::arg("alignment") = py::none(), py::arg("conditions") = py::none(), py::arg("tag") = py::none(),
+        py::arg("method") = "auto", py::arg("depth_offset") = 0.0, py::arg("corrections") = py::none(),
+        "corrects the EMC directions of event files into output, as emcalign correct does (the same file): "
+        "with alignment= (a parameter file, fit result or placements file) or each run's IOV of conditions= "
+        "(URI) tag=; method 'auto', 'hits' or 'clusters'; depth_offset cm, or corrections= (a file or grid). "
+        "Returns {method, events, rows, clusters, truth, hits, alignments, warnings}.");
+  m.def("correct_directions", &correctDirections, py::arg("parameters"), py::arg("phi"), py::arg("theta"),
+        py::arg("energy"), py::arg("detector") = py::none(), py::arg("depth_offset") = 0.0,
+        "SPEC §9's cluster correction on columns: (phi, theta) rad and energy MeV of clusters in the nominal "
+        "frame -> (phi', theta') in the TS frame; a row of NaN energy (no cluster) is left as it is. depth_offset: cm");
+}
+
+}  // namespace emcalign::python

@@ -1,0 +1,102 @@
+// The conditions database: calibrations stored by run range in tags (conddb/, docs/campaign.md).
+
+#include <fmt/format.h>
+
+#include "bindings.hpp"
+#include "emcalign/conddb/calibrations.hpp"
+#include "emcalign/conddb/conditions.hpp"
+
+namespace emcalign::python {
+
+namespace {
+
+// The GIL is held throughout: a database connection is not shared between threads (libpqxx's
+// is not thread-safe), and every call is short.
+class Conditions {
+ public:
+  Conditions(const std::string& uri, bool create) : db_(unwrap(conddb::Database::open(uri, create))) {}
+
+  [[nodiscard]] const std::string& uri() const { return db_->uri(); }
+
+  // Every tag, or one, as `conditions list --json` shows them.
+  py::object tags(const std::string& name) {
+    const std::vector<io::Json> listed = unwrap(conddb::listTags(*db_, name));
+    if (!name.empty()) return pythonOf(listed.front());
+    py::list out;
+    for (const auto& t : listed) out.append(pythonOf(t));
+    return std::move(out);
+  }
+
+  // The calibration of `run`: {"parameters" (12, native), "first_run", "last_run", "payload",
+  // "inserted", "file": the parameter file's text as `conditions get -o` writes it}.
+  py::dict get(const std::string& tag, std::int64_t run, const Detector* given) {
+    const Detector& detector = detectorOr(given);
+    const conddb::RunCalibration c = unwrap(conddb::calibrationAt(*db_, tag, run));
+    const auto eta =
+        unwrap(io::parseAlignment(c.parameterFile, detector.r1(),
+                                  fmt::format("{} tag {} IOV {}-{}", db_->uri(), tag, c.iov.firstRun, c.iov.lastRun)));
+    py::dict d;
+    d["parameters"] = arrayOf(eta.values);
+    d["first_run"] = c.iov.firstRun;
+    d["last_run"] = c.iov.lastRun;
+    d["payload"] = c.iov.payload;
+    d["inserted"] = c.iov.inserted;
+    d["file"] = c.parameterFile.dump(2) + "\n";
+    return d;
+  }
+
+  // Stores a fit result or parameter file for runs [first, last].
+  py::dict put(const std::string& tag, const py::object& runs, const Path& path, const std::string& description,
+               const Detector* given) {
+    std::int64_t first = 0, last = 0;
+    if (py::isinstance<py::int_>(runs)) {
+      first = last = runs.cast<std::int64_t>();
+    } else {
+      std::tie(first, last) = runs.cast<std::pair<std::int64_t, std::int64_t>>();
+    }
+    if (first < 0 || first > last) {
+      raise(Error{fmt::format("runs ({}, {}): expected (first, last) with 0 <= first <= last", first, last)});
+    }
+    check(conddb::checkTagName(tag));
+    const double r1 = detectorOr(given).r1();
+    const conddb::PutReport report =
+        unwrap(conddb::putResultFile(*db_, tag, first, last, path.string(), description, r1));
+    py::dict d;
+    d["payload"] = report.payload;
+    d["new_tag"] = report.newTag;
+    d["warnings"] = report.warnings;
+    return d;
+  }
+
+  void lock(const std::string& tag) { check(db_->lock(tag)); }
+
+ private:
+  std::unique_ptr<conddb::Database> db_;
+};
+
+}  // namespace
+
+void bindConditions(py::module_& m) {
+  py::class_<Conditions>(m, "Conditions",
+                         "A conditions database (sqlite:PATH, a path, or postgresql://user@host:port/db): "
+                         "calibrations stored by run range in tags")
+      .def(py::init<const std::string&, bool>(), py::arg("uri"), py::arg("create") = false,
+           "opens the database; create=True makes a new SQLite file (or a PostgreSQL schema), as conditions init")
+      .def_property_readonly("uri", &Conditions::uri)
+      .def(
+          "tags", [](Conditions& c) { return c.tags(""); },
+          "every tag as conditions list --json shows it: {tag, state, description, created, iovs: [...]}")
+      .def(
+          "tag", [](Conditions& c, const std::string& name) { return c.tags(name); }, py::arg("name"),
+          "one tag as conditions list --tag NAME --json shows it")
+      .def("get", &Conditions::get, py::arg("tag"), py::arg("run"), py::arg("detector") = py::none(),
+           "the calibration valid for a run: {parameters (12, native units), first_run, last_run, payload, "
+           "inserted, file (the parameter file's text, as conditions get -o writes it)}")
+      .def("put", &Conditions::put, py::arg("tag"), py::arg("runs"), py::arg("path"), py::arg("description") = "",
+           py::arg("detector") = py::none(),
+           "stores a fit result or parameter file for runs (first, last) or one run (the tag is created if new): "
+           "{payload, new_tag, warnings}")
+      .def("lock", &Conditions::lock, py::arg("tag"), "locks a tag: its IOVs never change again");
+}
+
+}  // namespace emcalign::python

@@ -1,0 +1,142 @@
+// Event files as numpy columns, and SPEC §7's selection on them.
+
+#include <fmt/format.h>
+
+#include <span>
+
+#include "bindings.hpp"
+#include "emcalign/calib/selection.hpp"
+#include "emcalign/core/units.hpp"
+#include "emcalign/io/event_file.hpp"
+
+namespace emcalign::python {
+
+namespace {
+
+// An event file's rows as numpy columns (SPEC §6 names and units), with its truth and hits
+// when it has them and they are asked for.
+py::dict readEvents(const Paths& paths, bool truth, bool hits) {
+  io::ReaderOptions o;
+  o.truth = truth;
+  o.hits = hits;
+  std::vector<ParticleRow> rows;
+  std::vector<TruthRow> truthRows;
+  std::vector<Hit> hitRows;
+  bool withTruth = truth, withHits = hits;
+  Status status;
+  {
+    py::gil_scoped_release release;
+    auto reader = io::EventReader::open(stringsOf(paths), o);
+    if (!reader) status = reader.error();
+    std::vector<ParticleRow> block;
+    while (status) {
+      auto more = (*reader)->next(block);
+      if (!more) status = more.error();
+      if (!status || !*more) break;
+      rows.insert(rows.end(), block.begin(), block.end());
+      const auto* t = (*reader)->truth();
+      const auto* h = (*reader)->hits();
+      withTruth = withTruth && t != nullptr;
+      withHits = withHits && h != nullptr;
+      if (withTruth) truthRows.insert(truthRows.end(), t->begin(), t->end());
+      if (withHits) hitRows.insert(hitRows.end(), h->begin(), h->end());
+    }
+  }
+  check(status);
+  return eventColumns(rows, withTruth ? &truthRows : nullptr, withHits ? &hitRows : nullptr);
+}
+
+// A column of the dict read_events gives (or any dict of the same columns), as doubles.
+std::vector<double> columnOf(const py::dict& events, const char* key, std::size_t n) {
+  if (!events.contains(key)) raise(Error{fmt::format("events: no column '{}' (a dict as read_events gives)", key)});
+  const auto a = Array::ensure(events[key]);
+  if (!a || a.ndim() != 1 || static_cast<std::size_t>(a.shape(0)) != n) {
+    raise(Error{fmt::format("events: column '{}' is not a 1-D array of {} rows", key, n)});
+  }
+  return {a.data(), a.data() + n};
+}
+
+}  // namespace
+
+std::vector<ParticleRow> rowsOf(const py::dict& events) {
+  if (!events.contains("run")) raise(Error{"events: no column 'run' (a dict as read_events gives)"});
+  const auto n = static_cast<std::size_t>(py::len(events["run"]));
+  const auto run = columnOf(events, "run", n), event = columnOf(events, "event", n);
+  const auto beam = columnOf(events, "beam_energy_mev", n), veto = columnOf(events, "muon_veto", n);
+  const auto charged = columnOf(events, "charged", n), z0 = columnOf(events, "z0_cm", n);
+  const auto rho = columnOf(events, "rho_cm", n), phiTs = columnOf(events, "phi_ts_rad", n);
+  const auto thetaTs = columnOf(events, "theta_ts_rad", n), energy = columnOf(events, "energy_mev", n);
+  const auto phiEmc = columnOf(events, "phi_emc_rad", n), thetaEmc = columnOf(events, "theta_emc_rad", n);
+  std::vector<ParticleRow> rows(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    ParticleRow& r = rows[i];
+    r.run = static_cast<std::int32_t>(run[i]);
+    r.event = static_cast<std::int64_t>(event[i]);
+    r.beamEnergy = beam[i];
+    r.muonVeto = static_cast<std::int8_t>(veto[i]);
+    r.charged = static_cast<std::int8_t>(charged[i]);
+    r.z0 = z0[i];
+    r.rho = rho[i];
+    r.phiTs = phiTs[i];
+    r.thetaTs = thetaTs[i];
+    r.energy = energy[i];
+    r.phiEmc = phiEmc[i];
+    r.thetaEmc = thetaEmc[i];
+  }
+  return rows;
+}
+
+namespace {
+
+// SPEC §7's selection on the rows of `events`: per row, the index (1..5, CutFlow::kNames) of
+// the first cut its event fails, 0 when the event is selected. An event is its consecutive
+// rows of one (run, event).
+py::array_t<int> selectRows(const py::dict& events, const calib::SelectionOptions& options) {
+  const std::vector<ParticleRow> rows = rowsOf(events);
+  const std::size_t n = rows.size();
+  py::array_t<int> out(static_cast<py::ssize_t>(n));
+  auto w = out.mutable_unchecked<1>();
+  py::gil_scoped_release release;
+  for (std::size_t i = 0; i < n;) {
+    std::size_t j = i + 1;
+    while (j < n && sameEvent(rows[j], rows[i])) ++j;
+    const int cut = calib::selectEvent(std::span<const ParticleRow>(rows.data() + i, j - i), options);
+    for (std::size_t k = i; k < j; ++k) w(static_cast<py::ssize_t>(k)) = cut;
+    i = j;
+  }
+  return out;
+}
+
+}  // namespace
+
+void bindEvents(py::module_& m) {
+  m.def("read_events", &readEvents, py::arg("paths"), py::arg("truth") = true, py::arg("hits") = true,
+        "the rows of event files (HDF5 or CSV, SPEC §6) as a dict of numpy columns, with 'truth' and 'hits' "
+        "dicts when the files have them");
+
+  std::vector<std::string> cuts;
+  for (const char* c : calib::CutFlow::kNames) cuts.emplace_back(c);
+  m.attr("CUTS") = cuts;
+  m.def(
+      "select",
+      [](const py::dict& events, std::optional<double> beamEnergy, std::optional<double> maxAbsZ0,
+         std::optional<double> maxAbsRho, std::optional<double> minEnergyFraction,
+         std::optional<double> maxEnergyFraction, std::optional<double> maxAcollinearityDeg) {
+        calib::SelectionOptions o;  // SPEC §7's cuts, unless given
+        o.beamEnergy = beamEnergy;
+        if (maxAbsZ0) o.maxAbsZ0 = *maxAbsZ0 * units::cm;
+        if (maxAbsRho) o.maxAbsRho = *maxAbsRho * units::cm;
+        if (minEnergyFraction) o.minEnergyFraction = *minEnergyFraction;
+        if (maxEnergyFraction) o.maxEnergyFraction = *maxEnergyFraction;
+        if (maxAcollinearityDeg) o.maxAcollinearity = *maxAcollinearityDeg * units::deg;
+        return selectRows(events, o);
+      },
+      py::arg("events"), py::kw_only(), py::arg("beam_energy") = py::none(), py::arg("max_abs_z0") = py::none(),
+      py::arg("max_abs_rho") = py::none(), py::arg("min_energy_fraction") = py::none(),
+      py::arg("max_energy_fraction") = py::none(), py::arg("max_acollinearity_deg") = py::none(),
+      "SPEC §7's selection on the rows of read_events: per row, the index in CUTS of the first cut its event "
+      "fails, 0 when selected. A cut not given is SPEC's (z0, rho in cm; energies as fractions of the beam "
+      "energy, MeV).");
+}
+
+}  // namespace emcalign::python

@@ -1,0 +1,221 @@
+// The fit of event files or of a saved profile, as `emcalign fit` runs it (calib/fit_job.hpp),
+// and profile files as numpy columns.
+
+#include <fmt/format.h>
+
+#include "bindings.hpp"
+#include "emcalign/calib/fit_job.hpp"
+#include "emcalign/core/parameters.hpp"
+#include "emcalign/core/units.hpp"
+#include "emcalign/io/output_file.hpp"
+
+namespace emcalign::python {
+
+namespace {
+
+// A fit: the data it was made from, its result and files, the corrections it used.
+struct Fit {
+  calib::FitData data;
+  calib::FitOutcome outcome;
+  std::optional<calib::CorrectionsAt> corrections;
+  [[nodiscard]] const calib::FitResult& result() const { return outcome.result; }
+  [[nodiscard]] std::string json() const { return outcome.resultJson.dump(2) + "\n"; }
+};
+
+// sigma_sys: None (SPEC's), "auto", or degrees.
+std::optional<calib::SigmaSysChoice> sigmaSysOf(const py::object& sigmaSys, std::string& text) {
+  if (sigmaSys.is_none()) return std::nullopt;
+  if (py::isinstance<py::str>(sigmaSys)) {
+    if (sigmaSys.cast<std::string>() != "auto") raise(Error{"sigma_sys: None (SPEC's 0.2 deg), 'auto' or degrees"});
+    text = "auto";
+    return calib::SigmaSysChoice::automatic();
+  }
+  const double deg = sigmaSys.cast<double>();
+  text = fmt::format("{}", deg);
+  return calib::SigmaSysChoice::fixed(deg * units::deg);
+}
+
+Fit fit(const std::optional<Paths>& paths, const Detector* given, const py::object& sigmaSys,
+        std::optional<double> beamEnergy, double depthOffset, const std::optional<Path>& corrections,
+        const std::optional<Path>& profile) {
+  const Detector& detector = detectorOr(given);
+  calib::FitRequest request;
+  if (paths) request.events = stringsOf(*paths);
+  if (profile) request.profileIn = profile->string();
+  if (request.events.empty() == request.profileIn.empty()) {
+    raise(Error{"fit: give event files (paths) or a saved profile (profile=), one of them"});
+  }
+  request.detectorName = detector.source();
+  request.depthOffset = depthOffset * units::cm;
+  if (corrections) request.corrections = corrections->string();
+  request.beamEnergy = beamEnergy;
+  request.sigmaSys = sigmaSysOf(sigmaSys, request.sigmaSysText);
+  Fit out;
+  Status status;
+  {
+    py::gil_scoped_release release;
+    auto job = calib::FitJob::prepare(std::move(request), detector.calorimeter().description());
+    auto data = job ? job->load() : Result<calib::FitData>(job.error());
+    auto fitted = data ? job->fit(*data) : Result<calib::FitOutcome>(data.error());
+    if (fitted) {
+      out.data = std::move(*data);
+      out.outcome = std::move(*fitted);
+      out.corrections = job->corrections();
+    } else {
+      status = fitted.error();
+    }
+  }
+  check(status);
+  return out;
+}
+
+// Profile bins as numpy columns (the profile file's, SPEC §8), plus `used`.
+py::dict binColumns(const std::vector<calib::ProfileBin>& bins) {
+  const auto n = static_cast<py::ssize_t>(bins.size());
+  py::array_t<int> iPhi(n), iTheta(n);
+  py::array_t<std::int64_t> entries(n);
+  py::array_t<bool> used(n);
+  Array phi(n), theta(n), energy(n), yPhi(n), sigmaPhi(n), yTheta(n), sigmaTheta(n), plusWeight(n);
+  for (py::ssize_t i = 0; i < n; ++i) {
+    const calib::ProfileBin& b = bins[static_cast<std::size_t>(i)];
+    iPhi.mutable_at(i) = b.iPhi;
+    iTheta.mutable_at(i) = b.iTheta;
+    entries.mutable_at(i) = b.n;
+    used.mutable_at(i) = b.used;
+    phi.mutable_at(i) = b.phiMean;
+    theta.mutable_at(i) = b.thetaMean;
+    energy.mutable_at(i) = b.energyMean;
+    yPhi.mutable_at(i) = b.yPhi;
+    sigmaPhi.mutable_at(i) = b.sigmaPhi;
+    yTheta.mutable_at(i) = b.yTheta;
+    sigmaTheta.mutable_at(i) = b.sigmaTheta;
+    plusWeight.mutable_at(i) = b.plusWeight;
+  }
+  py::dict d;
+  d["i_phi"] = iPhi;
+  d["i_theta"] = iTheta;
+  d["n"] = entries;
+  d["phi_mean_rad"] = phi;
+  d["theta_mean_rad"] = theta;
+  d["e_mean_mev"] = energy;
+  d["y_phi"] = yPhi;
+  d["sigma_phi"] = sigmaPhi;
+  d["y_theta"] = yTheta;
+  d["sigma_theta"] = sigmaTheta;
+  d["plus_weight"] = plusWeight;
+  d["used"] = used;
+  return d;
+}
+
+py::dict derivedOf(const calib::FitResult& r) {
+  py::dict d;
+  for (Physical p : kDerivedParams) {
+    d[py::str(std::string(name(p)))] = py::make_tuple(r.derived[p].value, r.derived[p].error);
+  }
+  return d;
+}
+
+py::object matrixOf(const geometry::ParamMatrix& m) {
+  const auto n = static_cast<py::ssize_t>(kNumParams);
+  Array out({n, n});
+  for (py::ssize_t i = 0; i < n; ++i) {
+    for (py::ssize_t j = 0; j < n; ++j) out.mutable_at(i, j) = m(i, j);
+  }
+  return std::move(out);
+}
+
+py::object cutFlowOf(const Fit& f) {
+  if (!f.data.fill) return py::none();
+  py::dict d;
+  for (std::size_t k = 0; k < calib::CutFlow::kNames.size(); ++k) {
+    d[calib::CutFlow::kNames[k]] = f.data.fill->cutFlow.events[k];
+  }
+  return std::move(d);
+}
+
+// The corrections a fit used: {"path", "depth_offset_cm", "parting_plane", "nominal_profile",
+// "response", "interpolation"}, or None.
+py::object correctionsOf(const Fit& f) {
+  if (!f.corrections) return py::none();
+  const calib::ModelCorrections& c = f.corrections->corrections;
+  py::dict d;
+  d["path"] = f.corrections->path;
+  d["depth_offset_cm"] = c.depthOffset / units::cm;
+  d["parting_plane"] = static_cast<bool>(c.partingPlane);
+  d["nominal_profile"] = static_cast<bool>(c.nominalProfile);
+  d["response"] = static_cast<bool>(c.response);
+  d["interpolation"] = pythonOf(f.corrections->interpolation);
+  return std::move(d);
+}
+
+}  // namespace
+
+void bindFit(py::module_& m) {
+  py::class_<Fit>(m, "FitResult", "A fit: what emcalign fit writes, as numbers and as its files")
+      .def_property_readonly("parameters", [](const Fit& f) { return arrayOf(f.result().parameters.values); })
+      .def_property_readonly("errors", [](const Fit& f) { return arrayOf(f.result().errors); })
+      .def_property_readonly("covariance",
+                             [](const Fit& f) -> py::object {
+                               if (!f.result().covariance) return py::none();
+                               return matrixOf(*f.result().covariance);
+                             })
+      .def_property_readonly("correlation", [](const Fit& f) { return matrixOf(f.result().correlation); })
+      .def_property_readonly(
+          "derived", [](const Fit& f) { return derivedOf(f.result()); },
+          "{name: (value, error)} of DERIVED, native units")
+      .def_property_readonly("chi2", [](const Fit& f) { return f.result().chi2; })
+      .def_property_readonly("ndf", [](const Fit& f) { return f.result().ndf; })
+      .def_property_readonly("p_value", [](const Fit& f) { return f.result().pValue; })
+      .def_property_readonly("bins_used", [](const Fit& f) { return f.result().binsUsed; })
+      .def_property_readonly("status", [](const Fit& f) { return std::string(name(f.result().status)); })
+      .def_property_readonly(
+          "warnings", [](const Fit& f) { return f.result().warnings; }, "the fit's warnings (in the result file)")
+      .def_property_readonly(
+          "input_warnings", [](const Fit& f) { return f.data.warnings; },
+          "warnings about the input: corrections used away from the sample's beam energy")
+      .def_property_readonly(
+          "sigma_sys", [](const Fit& f) { return f.result().sigmaSys.value; },
+          "rad (NaN for a saved profile: its errors are the totals it was written with)")
+      .def_property_readonly("cut_flow", &cutFlowOf, "{cut: events} of SPEC §7 (None for a saved profile)")
+      .def_property_readonly("corrections", &correctionsOf,
+                             "the model corrections used: {path, depth_offset_cm, parting_plane, nominal_profile, "
+                             "response, interpolation}, or None")
+      .def_property_readonly(
+          "bins", [](const Fit& f) { return binColumns(f.outcome.bins); },
+          "the profile bins as the fit saw them (columns of the profile file, and 'used')")
+      .def_property_readonly("json", &Fit::json, "the result file's text (emcalign fit -o)")
+      .def_property_readonly(
+          "profile_csv", [](const Fit& f) { return calib::profileCsv(f.outcome.bins); },
+          "the profile file's text (emcalign fit --profile-out)")
+      .def(
+          "write", [](const Fit& f, const Path& path) { check(io::writeOutputFile(path.string(), f.json())); },
+          py::arg("path"), "writes the result file")
+      .def(
+          "write_profile",
+          [](const Fit& f, const Path& path) {
+            check(io::writeOutputFile(path.string(), calib::profileCsv(f.outcome.bins)));
+          },
+          py::arg("path"), "writes the profile file")
+      .def("__repr__", [](const Fit& f) {
+        return fmt::format("<emcalign.FitResult {}: chi2/ndf = {:.1f}/{}, {} bins>", name(f.result().status),
+                           f.result().chi2, f.result().ndf, f.result().binsUsed);
+      });
+  m.def("fit", &fit, py::arg("paths") = py::none(), py::arg("detector") = py::none(), py::arg("sigma_sys") = py::none(),
+        py::arg("beam_energy") = py::none(), py::arg("depth_offset") = 0.0, py::arg("corrections") = py::none(),
+        py::arg("profile") = py::none(),
+        "selects, fills the profiles and fits, as emcalign fit does: event files (paths), or a saved profile "
+        "(profile=, paths None), on the detector given (None: the embedded one). sigma_sys: None for SPEC's 0.2 deg, "
+        "'auto', or degrees; beam_energy: MeV, None for "
+        "each event's; depth_offset: cm; corrections: a corrections file or grid directory (emcalign "
+        "derive-corrections)");
+  m.def(
+      "read_profile",
+      [](const Path& path) {
+        auto bins = unwrap(calib::readProfileCsv(path.string()));
+        calib::markUsedBins(bins, calib::ProfileOptions{}.minEntries);
+        return binColumns(bins);
+      },
+      py::arg("path"), "a profile file (emcalign fit --profile-out) as numpy columns");
+}
+
+}  // namespace emcalign::python

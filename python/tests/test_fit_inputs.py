@@ -1,0 +1,74 @@
+"""The fit with model corrections and of saved profiles, against emcalign fit: byte for byte."""
+
+import json
+import math
+
+import pytest
+
+import emcalign
+from cli_helpers import CORRECTIONS, GRID, cli, cli_error
+
+
+@pytest.mark.parametrize("corrections", [CORRECTIONS, GRID], ids=["file", "grid"])
+def test_fit_with_corrections_writes_the_cli_result(tmp_path, fit_sample, corrections):
+    result, profile = tmp_path / "r.json", tmp_path / "p.csv"
+    cli("fit", fit_sample, "-o", result, "--profile-out", profile, "--corrections", corrections)
+    r = emcalign.fit(str(fit_sample), corrections=corrections)
+    assert r.json == result.read_text()
+    assert r.profile_csv == profile.read_text()
+    assert r.corrections["path"] == corrections
+    saved = json.loads(r.json)
+    assert r.corrections["depth_offset_cm"] == saved["input"]["model_corrections"]["depth_offset_cm"]
+    if corrections == GRID:  # interpolated to the sample's energy between two points
+        assert r.corrections["interpolation"]["beam_energy_mev"] == 612.5
+        assert sum(p["weight"] for p in r.corrections["interpolation"]["points"]) == pytest.approx(1.0)
+    else:
+        assert r.corrections["interpolation"] is None
+    assert r.input_warnings == []
+    # the corrections move the result: the test could fail
+    assert r.json != emcalign.fit(str(fit_sample)).json
+
+
+def test_fit_of_a_saved_profile_writes_the_cli_result(tmp_path, fit_sample):
+    profile, plain = tmp_path / "p.csv", tmp_path / "rp.json"
+    cli("fit", fit_sample, "-o", tmp_path / "r.json", "--profile-out", profile)
+    cli("fit", "--profile-in", profile, "-o", plain)
+    r = emcalign.fit(profile=profile)
+    assert r.json == plain.read_text()
+    assert r.cut_flow is None and math.isnan(r.sigma_sys) and r.corrections is None
+    # written with corrections: they come again for the depth offset
+    weighted, withc = tmp_path / "pc.csv", tmp_path / "rpc.json"
+    cli("fit", fit_sample, "-o", tmp_path / "rc.json", "--profile-out", weighted, "--corrections", CORRECTIONS)
+    cli("fit", "--profile-in", weighted, "-o", withc, "--corrections", CORRECTIONS)
+    assert emcalign.fit(profile=str(weighted), corrections=CORRECTIONS).json == withc.read_text()
+    # a grid needs the beam energy, which a profile does not say
+    cli("fit", "--profile-in", weighted, "-o", withc, "--corrections", GRID, "--beam-energy", "612.5")
+    assert emcalign.fit(profile=str(weighted), corrections=GRID, beam_energy=612.5).json == withc.read_text()
+
+
+def test_refused_profile_fits_give_the_cli_messages(tmp_path, fit_sample):
+    profile, weighted = tmp_path / "p.csv", tmp_path / "pc.csv"
+    cli("fit", fit_sample, "-o", tmp_path / "r.json", "--profile-out", profile)
+    cli("fit", fit_sample, "-o", tmp_path / "rc.json", "--profile-out", weighted, "--corrections", CORRECTIONS)
+    out = tmp_path / "never.json"
+    cases = [
+        (dict(profile=str(profile), sigma_sys=0.1), ["--profile-in", profile, "--sigma-sys", "0.1"]),
+        (dict(profile=str(profile), corrections=CORRECTIONS), ["--profile-in", profile, "--corrections", CORRECTIONS]),
+        (dict(profile=str(weighted)), ["--profile-in", weighted]),
+        (dict(profile=str(weighted), corrections=GRID), ["--profile-in", weighted, "--corrections", GRID]),
+    ]
+    for kwargs, args in cases:
+        with pytest.raises(emcalign.Error) as ours:
+            emcalign.fit(**kwargs)
+        assert str(ours.value) == cli_error("fit", *args, "-o", out), kwargs
+    assert not out.exists()
+    with pytest.raises(emcalign.Error, match="one of them"):
+        emcalign.fit(str(fit_sample), profile=str(profile))
+    with pytest.raises(emcalign.Error, match="one of them"):
+        emcalign.fit()
+    with pytest.raises(emcalign.Error, match="bring their own"):
+        emcalign.fit(str(fit_sample), corrections=CORRECTIONS, depth_offset=0.5)
+
+
+def test_paths_may_be_pathlib_and_a_single_path(fit_sample):
+    assert emcalign.fit(fit_sample).json == emcalign.fit([str(fit_sample)]).json

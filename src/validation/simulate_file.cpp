@@ -1,0 +1,61 @@
+#include "emcalign/validation/simulate_file.hpp"
+
+#include <fmt/format.h>
+
+#include "emcalign/core/units.hpp"
+#include "emcalign/core/version.hpp"
+#include "emcalign/io/event_file.hpp"
+
+namespace emcalign::validation {
+
+io::Json simulationSettings(const SimulateRequest& request) {
+  const sim::SimulationOptions& o = request.options;
+  io::Json off = io::Json::array();
+  for (const auto& e : request.off) off.push_back(e);
+  return io::Json{
+      {"software", fmt::format("emcalign {}", kVersion)},
+      {"process", sim::name(o.generator.process)},
+      {"events", request.events},
+      {"seed", o.seed},
+      {"run", o.run},
+      {"beam_energy_mev", o.generator.beamEnergy},
+      {"beam_energy_spread_mev", o.generator.beamEnergySpread},
+      {"theta_range_deg", {o.generator.thetaMin / units::deg, o.generator.thetaMax / units::deg}},
+      {"vertex_sigma_cm", {o.generator.vertexSigma.x(), o.generator.vertexSigma.y(), o.generator.vertexSigma.z()}},
+      {"ideal", request.ideal},
+      {"point_showers", o.emc.pointShowers},
+      {"off", off},
+      {"dead_counters", o.emc.deadCountersOn ? o.emc.deadCounters : std::vector<int>{}},
+      {"cosmic_fraction", o.cosmicFraction},
+      {"detector", request.detectorName}};
+}
+
+Result<SimulateReport> simulateFile(const geometry::Calorimeter& calo, const geometry::AlignmentParameters& truth,
+                                    const SimulateRequest& request, const std::string& output,
+                                    const std::function<void(std::int64_t)>& progress) {
+  auto simulation = sim::Simulation::create(calo, truth, request.options);
+  if (!simulation) return simulation.error();
+  io::WriterOptions wo;
+  wo.withTruth = true;
+  wo.withHits = request.hits;
+  wo.attributes = {{"truth_parameters", io::alignmentToJson(truth).dump()},
+                   {"simulation", simulationSettings(request).dump()}};
+  auto writer = io::EventWriter::open(output, wo);
+  if (!writer) return writer.error();
+  SimulateReport report;
+  report.events = request.events;
+  const Status done = simulation->run(
+      request.events, request.threads,
+      [&](std::span<const ParticleRow> r, std::span<const TruthRow> t, std::span<const Hit> h) {
+        report.rows += static_cast<std::int64_t>(r.size());
+        return (*writer)->append(r, t, h);
+      },
+      [&](std::int64_t n) {
+        if (progress) progress(n);
+      });
+  if (!done) return done.error();
+  if (Status s = (*writer)->close(); !s) return s.error();
+  return report;
+}
+
+}  // namespace emcalign::validation

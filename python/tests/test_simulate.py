@@ -1,10 +1,12 @@
 """The simulation from Python: the file emcalign simulate writes (byte for byte), or its columns."""
 
+import subprocess
+
 import numpy as np
 import pytest
 
 import emcalign
-from cli_helpers import PAPER_LIKE, cli, cli_error
+from cli_helpers import CLI, PAPER_LIKE, cli, cli_error
 
 CASES = {
     "ee-h5": ([], {}),
@@ -63,3 +65,18 @@ def test_refused_simulations(tmp_path):
         emcalign.simulate(PAPER_LIKE, 10, output=PAPER_LIKE)
     with pytest.raises(emcalign.Error, match="negative"):
         emcalign.simulate(PAPER_LIKE, -1)
+
+
+def test_a_truth_file_warns_as_the_cli_does(tmp_path, detector, paper_like):
+    overlap = tmp_path / "overlap.json"
+    values = paper_like.copy()
+    values[emcalign.PARAMETERS.index("dp1")] = -0.2  # cm: the hemispheres overlap
+    emcalign.write_alignment(overlap, values, detector)
+    _, warnings = emcalign.read_alignment(overlap, detector)
+    assert len(warnings) == 1 and "dp1 = -0.2000 cm is negative" in warnings[0]
+    with pytest.warns(UserWarning) as caught:
+        emcalign.simulate(overlap, 10, seed=1)
+    assert [str(w.message) for w in caught] == warnings
+    done = subprocess.run([CLI, "simulate", "--params", str(overlap), "--events", "10", "-o", str(tmp_path / "x.csv")],
+                          capture_output=True, text=True, check=False)
+    assert done.returncode == 0 and f"emcalign: warning: {warnings[0]}" in done.stderr

@@ -35,7 +35,7 @@ using strict::StrictObject;
 
 void checkUnits(const StrictObject& top) {
   if (!top.has("units")) return;
-  StrictObject u(top.at("units"), "units", "");
+  const StrictObject u = top.object("units");
   u.allowOnly({"angle", "length"});
   if (u.has("angle") && u.string("angle") != "deg") top.fail("units.angle", "only \"deg\" is supported");
   if (u.has("length") && u.string("length") != "cm") top.fail("units.length", "only \"cm\" is supported");

@@ -56,6 +56,8 @@ class StrictObject {
     return j_.at(std::string(key));
   }
   std::string pathOf(std::string_view key) const { return join(path_, key); }
+  /// The object at `key`, checked as this one is and named in the same file.
+  StrictObject object(std::string_view key) const { return {at(key), pathOf(key), source_}; }
 
   double number(std::string_view key) const { return numberValue(at(key), pathOf(key)); }
   double number(std::string_view key, double fallback) const { return has(key) ? number(key) : fallback; }

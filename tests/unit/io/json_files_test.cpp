@@ -90,6 +90,15 @@ TEST(AlignmentFile, StrictValidationNamesTheKey) {
   EXPECT_NE(errorOf(replace(kGood, "} }", "}")).find("not valid JSON"), std::string::npos);
 }
 
+TEST(AlignmentFile, ErrorsInsideUnitsNameTheFile) {
+  // Every message starts with the file's name, also for a key of the nested "units" object.
+  for (const auto& text : {replace(kGood, "\"angle\"", "\"angles\""), replace(kGood, "\"deg\"", "\"rad\""),
+                           replace(kGood, "{\"angle\": \"deg\", \"length\": \"cm\"}", "3")}) {
+    const std::string message = errorOf(text);
+    EXPECT_EQ(message.rfind("test.json: key 'units", 0), 0u) << message;
+  }
+}
+
 TEST(AlignmentFile, AcceptsFitResultKeys) {
   std::string withResult =
       replace(kGood, "\"format\"", "\"chi2\": 301.5, \"ndf\": 308, \"status\": \"converged\", \"format\"");

@@ -154,12 +154,9 @@ int run(const SimulateOptions& cli) {
 
   sim::SimulationOptions o;
   if (Status st = realism(cli, o); !st) return reportError(st.error());
-  const auto process = sim::processFromName(cli.process);
-  if (!process) return reportError({fmt::format("--process: unknown process '{}' (ee, gg, 3pi)", cli.process)});
-  o.generator.process = *process;
-  o.generator.beamEnergy = cli.beamEnergy ? *cli.beamEnergy * units::MeV : sim::defaultBeamEnergy(*process);
-  if (cli.thetaMinDeg) o.generator.thetaMin = *cli.thetaMinDeg * units::deg;
-  if (cli.thetaMaxDeg) o.generator.thetaMax = *cli.thetaMaxDeg * units::deg;
+  if (Status s = o.generator.choose(cli.process, cli.beamEnergy, cli.thetaMinDeg, cli.thetaMaxDeg); !s) {
+    return reportError({fmt::format("--process: {}", s.error().message)});
+  }
   o.seed = cli.seed;
   o.run = cli.run;
   ProgressLine progress("simulate", cli.events, "events");

@@ -54,10 +54,7 @@ void addDetectorOption(CLI::App& cmd, std::string& path) {
 void addVersionFlag(CLI::App& cmd) { cmd.set_version_flag("--version", std::string(kVersion)); }
 
 Status applyRealismSwitches(sim::SimulationOptions& options, bool ideal, const std::vector<std::string>& off) {
-  if (ideal) options.setIdealised();
-  for (const auto& e : off) {
-    if (Status s = options.switchOff(e); !s) return Error{fmt::format("--off: {}", s.error().message)};
-  }
+  if (Status s = options.applyRealism(ideal, off); !s) return Error{fmt::format("--off: {}", s.error().message)};
   return {};
 }
 

@@ -35,15 +35,6 @@ py::object pythonOf(const io::Json& j) { return py::module_::import("json").attr
 namespace {
 
 template <typename Row, typename Field>
-void addColumn(py::dict& out, const char* key, const std::vector<Row>& rows, Field field) {
-  using V = std::decay_t<decltype(field(rows[0]))>;
-  py::array_t<V> a(static_cast<py::ssize_t>(rows.size()));
-  auto w = a.template mutable_unchecked<1>();
-  for (std::size_t i = 0; i < rows.size(); ++i) w(static_cast<py::ssize_t>(i)) = field(rows[i]);
-  out[key] = a;
-}
-
-template <typename Row, typename Field>
 void addPoints(py::dict& out, const char* key, const std::vector<Row>& rows, Field field) {
   Array a({static_cast<py::ssize_t>(rows.size()), static_cast<py::ssize_t>(3)});
   auto w = a.mutable_unchecked<2>();

@@ -53,6 +53,16 @@ Array arrayOf(const geometry::ParamVector& v);
 /// A JSON value as Python objects (dict, list, str, float, int, bool, None).
 py::object pythonOf(const io::Json& j);
 
+/// out[key] = a numpy column of field(row) for every row (its type: the field's).
+template <typename Row, typename Field>
+void addColumn(py::dict& out, const char* key, const std::vector<Row>& rows, Field field) {
+  using V = std::decay_t<decltype(field(rows[0]))>;
+  py::array_t<V> a(static_cast<py::ssize_t>(rows.size()));
+  auto w = a.template mutable_unchecked<1>();
+  for (std::size_t i = 0; i < rows.size(); ++i) w(static_cast<py::ssize_t>(i)) = field(rows[i]);
+  out[key] = a;
+}
+
 /// Rows of particles (SPEC §6) as the dict of numpy columns read_events gives, with "truth"
 /// and "hits" dicts when given (truth: one per row).
 py::dict eventColumns(const std::vector<ParticleRow>& rows, const std::vector<TruthRow>* truth,

@@ -24,7 +24,7 @@ class Conditions {
     if (!name.empty()) return pythonOf(listed.front());
     py::list out;
     for (const auto& t : listed) out.append(pythonOf(t));
-    return std::move(out);
+    return out;
   }
 
   // The calibration of `run`: {"parameters" (12, native), "first_run", "last_run", "payload",

@@ -71,39 +71,20 @@ Fit fit(const std::optional<Paths>& paths, const Detector* given, const py::obje
 
 // Profile bins as numpy columns (the profile file's, SPEC §8), plus `used`.
 py::dict binColumns(const std::vector<calib::ProfileBin>& bins) {
-  const auto n = static_cast<py::ssize_t>(bins.size());
-  py::array_t<int> iPhi(n), iTheta(n);
-  py::array_t<std::int64_t> entries(n);
-  py::array_t<bool> used(n);
-  Array phi(n), theta(n), energy(n), yPhi(n), sigmaPhi(n), yTheta(n), sigmaTheta(n), plusWeight(n);
-  for (py::ssize_t i = 0; i < n; ++i) {
-    const calib::ProfileBin& b = bins[static_cast<std::size_t>(i)];
-    iPhi.mutable_at(i) = b.iPhi;
-    iTheta.mutable_at(i) = b.iTheta;
-    entries.mutable_at(i) = b.n;
-    used.mutable_at(i) = b.used;
-    phi.mutable_at(i) = b.phiMean;
-    theta.mutable_at(i) = b.thetaMean;
-    energy.mutable_at(i) = b.energyMean;
-    yPhi.mutable_at(i) = b.yPhi;
-    sigmaPhi.mutable_at(i) = b.sigmaPhi;
-    yTheta.mutable_at(i) = b.yTheta;
-    sigmaTheta.mutable_at(i) = b.sigmaTheta;
-    plusWeight.mutable_at(i) = b.plusWeight;
-  }
+  using Bin = calib::ProfileBin;
   py::dict d;
-  d["i_phi"] = iPhi;
-  d["i_theta"] = iTheta;
-  d["n"] = entries;
-  d["phi_mean_rad"] = phi;
-  d["theta_mean_rad"] = theta;
-  d["e_mean_mev"] = energy;
-  d["y_phi"] = yPhi;
-  d["sigma_phi"] = sigmaPhi;
-  d["y_theta"] = yTheta;
-  d["sigma_theta"] = sigmaTheta;
-  d["plus_weight"] = plusWeight;
-  d["used"] = used;
+  addColumn(d, "i_phi", bins, [](const Bin& b) { return b.iPhi; });
+  addColumn(d, "i_theta", bins, [](const Bin& b) { return b.iTheta; });
+  addColumn(d, "n", bins, [](const Bin& b) { return b.n; });
+  addColumn(d, "phi_mean_rad", bins, [](const Bin& b) { return b.phiMean; });
+  addColumn(d, "theta_mean_rad", bins, [](const Bin& b) { return b.thetaMean; });
+  addColumn(d, "e_mean_mev", bins, [](const Bin& b) { return b.energyMean; });
+  addColumn(d, "y_phi", bins, [](const Bin& b) { return b.yPhi; });
+  addColumn(d, "sigma_phi", bins, [](const Bin& b) { return b.sigmaPhi; });
+  addColumn(d, "y_theta", bins, [](const Bin& b) { return b.yTheta; });
+  addColumn(d, "sigma_theta", bins, [](const Bin& b) { return b.sigmaTheta; });
+  addColumn(d, "plus_weight", bins, [](const Bin& b) { return b.plusWeight; });
+  addColumn(d, "used", bins, [](const Bin& b) { return b.used; });
   return d;
 }
 
@@ -121,7 +102,7 @@ py::object matrixOf(const geometry::ParamMatrix& m) {
   for (py::ssize_t i = 0; i < n; ++i) {
     for (py::ssize_t j = 0; j < n; ++j) out.mutable_at(i, j) = m(i, j);
   }
-  return std::move(out);
+  return out;
 }
 
 py::object cutFlowOf(const Fit& f) {
@@ -130,7 +111,7 @@ py::object cutFlowOf(const Fit& f) {
   for (std::size_t k = 0; k < calib::CutFlow::kNames.size(); ++k) {
     d[calib::CutFlow::kNames[k]] = f.data.fill->cutFlow.events[k];
   }
-  return std::move(d);
+  return d;
 }
 
 // The corrections a fit used: {"path", "depth_offset_cm", "parting_plane", "nominal_profile",
@@ -145,7 +126,7 @@ py::object correctionsOf(const Fit& f) {
   d["nominal_profile"] = static_cast<bool>(c.nominalProfile);
   d["response"] = static_cast<bool>(c.response);
   d["interpolation"] = pythonOf(f.corrections->interpolation);
-  return std::move(d);
+  return d;
 }
 
 }  // namespace

@@ -47,18 +47,12 @@ validation::SimulateRequest requestOf(const SimulateArgs& a, const Detector& det
   if (a.threads < 0) raise(Error{fmt::format("threads: {} is negative (0: all cores)", a.threads)});
   validation::SimulateRequest r;
   sim::SimulationOptions& o = r.options;
-  if (a.ideal) o.setIdealised();
-  for (const auto& e : a.off) {
-    if (Status s = o.switchOff(e); !s) raise(Error{fmt::format("off: {}", s.error().message)});
-  }
+  if (Status s = o.applyRealism(a.ideal, a.off); !s) raise(Error{fmt::format("off: {}", s.error().message)});
   if (a.pointShowers) o.emc.pointShowers = true;
   if (a.deadCounters) o.emc.deadCounters = *a.deadCounters;
-  const auto process = sim::processFromName(a.process);
-  if (!process) raise(Error{fmt::format("process: unknown process '{}' (ee, gg, 3pi)", a.process)});
-  o.generator.process = *process;
-  o.generator.beamEnergy = a.beamEnergy ? *a.beamEnergy * units::MeV : sim::defaultBeamEnergy(*process);
-  if (a.thetaMinDeg) o.generator.thetaMin = *a.thetaMinDeg * units::deg;
-  if (a.thetaMaxDeg) o.generator.thetaMax = *a.thetaMaxDeg * units::deg;
+  if (Status s = o.generator.choose(a.process, a.beamEnergy, a.thetaMinDeg, a.thetaMaxDeg); !s) {
+    raise(Error{fmt::format("process: {}", s.error().message)});
+  }
   o.seed = a.seed;
   o.run = a.run;
   r.events = a.events;
@@ -132,7 +126,7 @@ void bindSimulate(py::module_& m) {
         py::dict d;
         d["events"] = report.events;
         d["rows"] = report.rows;
-        return std::move(d);
+        return d;
       },
       py::arg("truth"), py::arg("events"), py::arg("detector") = py::none(), py::kw_only(),
       py::arg("output") = py::none(), py::arg("seed") = sim::SimulationOptions{}.seed,

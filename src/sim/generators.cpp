@@ -479,6 +479,17 @@ double defaultBeamEnergy(Process process) {
   return process == Process::ThreePion ? 510.0 * units::MeV : 612.5 * units::MeV;
 }
 
+Status GeneratorOptions::choose(std::string_view processName, std::optional<double> beamEnergyMev,
+                                std::optional<double> thetaMinDeg, std::optional<double> thetaMaxDeg) {
+  const auto p = processFromName(processName);
+  if (!p) return Error{fmt::format("unknown process '{}' (ee, gg, 3pi)", processName)};
+  process = *p;
+  beamEnergy = beamEnergyMev ? *beamEnergyMev * units::MeV : defaultBeamEnergy(*p);
+  if (thetaMinDeg) thetaMin = *thetaMinDeg * units::deg;
+  if (thetaMaxDeg) thetaMax = *thetaMaxDeg * units::deg;
+  return {};
+}
+
 Status GeneratorOptions::validate() const {
   const double maxBeam = process == Process::ThreePion ? kMaxThreePionBeamEnergy : kMaxBeamEnergy;
   if (!(std::isfinite(beamEnergy) && beamEnergy >= kMinBeamEnergy && beamEnergy <= maxBeam)) {

@@ -43,6 +43,14 @@ const std::vector<std::string>& SimulationOptions::effectNames() {
   return names;
 }
 
+Status SimulationOptions::applyRealism(bool ideal, const std::vector<std::string>& off) {
+  if (ideal) setIdealised();
+  for (const auto& e : off) {
+    if (Status s = switchOff(e); !s) return s;
+  }
+  return {};
+}
+
 Status SimulationOptions::switchOff(std::string_view effect) {
   if (effect == "radiation")
     generator.radiation = false;

@@ -88,6 +88,11 @@ struct GeneratorOptions {
   /// Refuses a beam energy outside the modelled range above, a negative spread or one above 5 % of
   /// the beam energy, a negative vertex σ, a polar range that is empty, outside [0, π] or (for
   /// ee and γγ) not containing 90° or touching 0 or π, and a 3π beam energy below threshold.
+  /// A user's choice, in the units of a command line: the process by name ("ee", "gg", "3pi"),
+  /// its beam energy (MeV; none: defaultBeamEnergy) and the polar range (deg; none: as it
+  /// is). The error, for an unknown process, says the names (the caller names its option).
+  Status choose(std::string_view processName, std::optional<double> beamEnergyMev, std::optional<double> thetaMinDeg,
+                std::optional<double> thetaMaxDeg);
   Status validate() const;
 };
 

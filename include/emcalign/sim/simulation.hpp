@@ -51,6 +51,9 @@ struct SimulationOptions {
   /// layer3-offset, cosmics, multiple-scattering, counter-directions.
   Status switchOff(std::string_view effect);
   static const std::vector<std::string>& effectNames();
+  /// `--ideal` (setIdealised) when `ideal`, then every effect of `off` switched off; the
+  /// error names an unknown effect (the caller names its option).
+  Status applyRealism(bool ideal, const std::vector<std::string>& off);
 
   Status validate(int counters) const;
 };

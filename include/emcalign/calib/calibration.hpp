@@ -75,6 +75,9 @@ Result<std::map<std::int32_t, ProfileFill>> fillProfilesByRun(const std::string&
                                                               const ProfileOptions& profile = {});
 
 /// Describes the input of a fit in the result file.
+// (bugprone-exception-escape takes the assertion in nlohmann::json's noexcept default
+// constructor for a throw from FitInput().)
+// NOLINTNEXTLINE(bugprone-exception-escape)
 struct FitInput {
   std::vector<std::string> files;  ///< event files, or the profile file
   bool fromProfile = false;

@@ -78,12 +78,12 @@ class CorrectionsGrid {
   /// The corrections at `beamEnergy` (MeV). A grid fails outside its energies.
   Result<CorrectionsAt> at(double beamEnergy) const;
   /// Only their depth offset (cm), at the cost of one interpolation: for every run or event.
-  Result<double> depthOffsetAt(double beamEnergy) const;
+  [[nodiscard]] Result<double> depthOffsetAt(double beamEnergy) const;
 
  private:
   /// The index k of the grid point above `beamEnergy` and its weight w (the one below,
   /// k − 1, has 1 − w); an error outside the grid.
-  Result<std::pair<std::size_t, double>> around(double beamEnergy) const;
+  [[nodiscard]] Result<std::pair<std::size_t, double>> around(double beamEnergy) const;
   std::string path_, sha256_;
   bool grid_ = false;
   std::vector<CorrectionsPoint> points_;  ///< by beam energy

@@ -182,6 +182,25 @@ Result<std::unique_ptr<RowSource>> openCsvSource(const std::string& path);
 Result<std::unique_ptr<RowSource>> openHdf5Source(const std::string& path, std::size_t readRows,
                                                   const ReaderOptions& options);
 
+/// The process's lock on HDF5. Debian's libhdf5 is the serial build: no two threads may be
+/// inside it at once (a program that writes one file while it reads another, the Python
+/// module's threads), and a reader forked while another thread is inside HDF5 would start
+/// with HDF5's state half-changed and its internal locks held. So every call into HDF5
+/// holds this lock (Hdf5Quiet), and so does the fork of openIsolated. The forked reader is
+/// alone in its process and takes no lock (hdf5LockNeeded() false there).
+class Hdf5Lock {
+ public:
+  Hdf5Lock();
+  ~Hdf5Lock();
+  Hdf5Lock(const Hdf5Lock&) = delete;
+  Hdf5Lock& operator=(const Hdf5Lock&) = delete;
+
+ private:
+  bool held_ = false;
+};
+/// Called in a forked reader: from now on this process has one thread and takes no lock.
+void leaveHdf5LockAfterFork();
+
 /// The source `open` makes, run in a child process that streams its rows back
 /// (isolated_source.cpp): a crash of the child is an error naming `path`, and a child silent
 /// for `timeoutSeconds` is killed and reported. For HDF5, whose library is not safe on

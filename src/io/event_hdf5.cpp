@@ -23,6 +23,7 @@ namespace {
 // final write (a full disk), HDF5 1.10 keeps the file half-closed and its exit handler
 // crashes on it. emcalign closes every file it opens itself, so the handler has nothing to
 // do (H5dont_atexit must come before the first HDF5 call, which this is).
+// It holds the process's HDF5 lock (event_file_internal.hpp) for the same scope.
 class Hdf5Quiet {
  public:
   Hdf5Quiet() {
@@ -35,6 +36,7 @@ class Hdf5Quiet {
   Hdf5Quiet& operator=(const Hdf5Quiet&) = delete;
 
  private:
+  Hdf5Lock lock_;  // first: taken before the first call into HDF5, released after the last
   H5E_auto2_t func_ = nullptr;
   void* data_ = nullptr;
 };

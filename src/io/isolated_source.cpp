@@ -30,6 +30,8 @@
 #include <chrono>
 #include <cstring>
 #include <functional>
+#include <mutex>
+#include <optional>
 #include <string_view>
 
 #include <fmt/format.h>
@@ -377,7 +379,28 @@ class IsolatedSource final : public RowSource {
   std::optional<Error> failed_;
 };
 
+// The lock of every call into HDF5 (Hdf5Lock): recursive, since a writer's close calls
+// into HDF5 from inside another guarded call.
+std::recursive_mutex& hdf5Mutex() {
+  static std::recursive_mutex m;
+  return m;
+}
+
+bool gForkedReader = false;  // this process is a forked reader: one thread, no lock
+
 }  // namespace
+
+Hdf5Lock::Hdf5Lock() {
+  if (gForkedReader) return;
+  hdf5Mutex().lock();
+  held_ = true;
+}
+
+Hdf5Lock::~Hdf5Lock() {
+  if (held_) hdf5Mutex().unlock();
+}
+
+void leaveHdf5LockAfterFork() { gForkedReader = true; }
 
 Result<std::unique_ptr<RowSource>> openIsolated(const std::string& path,
                                                 const std::function<Result<std::unique_ptr<RowSource>>()>& open,
@@ -387,7 +410,14 @@ Result<std::unique_ptr<RowSource>> openIsolated(const std::string& path,
     return Error{fmt::format("{}: cannot start the HDF5 reader process: {}", path, std::strerror(errno))};
   }
   std::fflush(nullptr);  // nothing buffered is written twice
+  std::optional<Hdf5Lock> noThreadInHdf5;
+  noThreadInHdf5.emplace();
   const pid_t child = ::fork();
+  if (child == 0) {
+    leaveHdf5LockAfterFork();  // the mutex was copied held: the child, alone, never takes it
+  } else {
+    noThreadInHdf5.reset();  // (the child never returns from runChild: nothing to release there)
+  }
   if (child < 0) {
     const int error = errno;
     ::close(fds[0]);

@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <atomic>
 #include <bit>
 #include <chrono>
 #include <cmath>
@@ -13,6 +14,7 @@
 #include <numbers>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <fmt/format.h>
@@ -287,6 +289,53 @@ TEST_F(EventFile, Hdf5RoundTripWithTruthIsExact) {
   expectSameTruth(back->truth, truth);
   EXPECT_EQ(back->attributes, kAttributes) << "attributes keep their order";
   EXPECT_EQ(filesInDir(), std::vector<std::string>{"e.h5"});
+}
+
+// Debian's libhdf5 is the serial build, and the reader forks: a thread writing HDF5 while
+// another opens a reader must neither race inside HDF5 nor hand the forked reader HDF5's
+// state half-changed (it then waited for a lock nobody would release, and the file was
+// reported unreadable after the timeout). Every open below has 10 s; an open normally takes
+// milliseconds.
+TEST_F(EventFile, Hdf5ReadWhileAnotherThreadWrites) {
+  const auto rows = sampleRows(3000);
+  const auto truth = sampleTruth(rows.size());
+  ASSERT_TRUE(writeFile(path("in.h5"), rows, {true, kAttributes}, truth).ok());
+  std::atomic<bool> writing{true};
+  std::atomic<int> writes{0};
+  std::string writeError;
+  std::thread writer([&] {
+    for (int i = 0; writing && i < 1000; ++i) {
+      if (Status s = writeFile(path(fmt::format("out{}.h5", i % 2)), rows, {true, kAttributes}, truth); !s) {
+        writeError = s.error().message;
+        return;
+      }
+      ++writes;
+    }
+  });
+  ReaderOptions o{65536};
+  o.hdf5TimeoutSeconds = 10.0;
+  std::string readError;
+  for (int k = 0; k < 40 && readError.empty(); ++k) {
+    auto reader = EventReader::open({path("in.h5")}, o);
+    std::vector<ParticleRow> block;
+    std::size_t n = 0;
+    while (reader.ok()) {
+      auto more = (*reader)->next(block);
+      if (!more) readError = fmt::format("read {}: {}", k, more.error().message);
+      if (!more || !*more) break;
+      n += block.size();
+    }
+    if (!reader) readError = fmt::format("open {}: {}", k, reader.error().message);
+    if (readError.empty() && n != rows.size()) readError = fmt::format("read {}: {} rows", k, n);
+  }
+  writing = false;
+  writer.join();
+  EXPECT_EQ(readError, "");
+  EXPECT_EQ(writeError, "");
+  EXPECT_GT(writes.load(), 0);
+  auto back = readAll({path("out0.h5")});
+  ASSERT_TRUE(back.ok()) << back.error().message;
+  expectSameRows(back->rows, rows);
 }
 
 TEST_F(EventFile, Hdf5WithoutTruthHasNoTruth) {

@@ -58,7 +58,10 @@ class ScratchDirectory {
 };
 
 int run(const ReportCliOptions& o) {
-  std::vector<io::NamedPath> inputs = {{"--fit", o.fit}, {"--corrections", o.corrections}, {"--detector", o.detector}};
+  std::vector<io::NamedPath> inputs = {{"--fit", o.fit},
+                                       {"--corrections", o.corrections},
+                                       {"--conditions", conddb::sqliteFileOf(o.conditions)},
+                                       {"--detector", o.detector}};
   for (const auto& e : o.events) inputs.push_back({"--events", e});
   if (Status s = checkOutputs({{"-o", o.output}}, {}, inputs); !s) return reportError(s.error());
   if (!o.events.empty() && o.fit.empty()) return reportError({"--events draws the figures of a fit: give --fit"});

@@ -132,7 +132,11 @@ int runPeriod(const SimulateOptions& cli) {
 }
 
 int run(const SimulateOptions& cli) {
-  if (Status s = checkOutputs({{"-o", cli.output}}, {}, {{"--params", cli.params}, {"--detector", cli.detector}}); !s) {
+  if (Status s = checkOutputs({{"-o", cli.output}}, {},
+                              {{"--params", cli.params},
+                               {"--conditions", conddb::sqliteFileOf(cli.conditions)},
+                               {"--detector", cli.detector}});
+      !s) {
     return reportError(s.error());
   }
   auto calo = loadCalorimeter(cli.detector);

@@ -70,7 +70,7 @@ CLI::Validator finiteIn(double lo, double hi) {
 }
 
 namespace {
-constexpr double kMaxSigmaSysDeg = 10.0;
+constexpr double kMaxSigmaSysDeg = calib::kMaxSigmaSys / units::deg;
 }
 
 CLI::Option* addSigmaSysOption(CLI::App& cmd, std::string& text) {

@@ -36,8 +36,8 @@ inline constexpr int kExitInternal = 4;
 
 /// Limits of counting options: more events than a machine makes in days, more threads
 /// than any machine has, are typing mistakes.
-inline constexpr std::int64_t kMaxEvents = 10'000'000'000;
-inline constexpr std::int64_t kMaxThreads = 1024;
+using sim::kMaxEvents;
+inline constexpr std::int64_t kMaxThreads = sim::kMaxThreads;
 
 /// Prints "emcalign: error: <message>" on stderr and returns kExitFailure.
 int reportError(const Error& error);

@@ -9,6 +9,7 @@
 #include <CLI/CLI.hpp>
 
 #include "common.hpp"
+#include "emcalign/core/utf8.hpp"
 #include "emcalign/core/version.hpp"
 #include "emcalign/io/output_file.hpp"
 
@@ -47,6 +48,16 @@ int main(int argc, char** argv) {
   app.failure_message([](const CLI::App*, const CLI::Error& e) {
     return fmt::format("emcalign: usage error: {}\nRun with --help for more information.\n", e.what());
   });
+  // Paths and names go into JSON (results, attributes), which is UTF-8: say so before any work.
+  for (int i = 1; i < argc; ++i) {
+    if (!emcalign::isValidUtf8(argv[i])) {
+      fmt::print(stderr,
+                 "emcalign: usage error: argument {} is not valid UTF-8 (file names and values are recorded in "
+                 "JSON, which must be: rename the file)\n",
+                 i);
+      return emcalign::app::kExitUsage;
+    }
+  }
   int exitCode = 0;
   emcalign::app::addGeometryCommand(app, exitCode);
   emcalign::app::addParamsCommand(app, exitCode);

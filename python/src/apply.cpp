@@ -8,6 +8,7 @@
 #include "bindings.hpp"
 #include "emcalign/apply/cluster_correction.hpp"
 #include "emcalign/apply/correct.hpp"
+#include "emcalign/calib/corrections.hpp"
 #include "emcalign/conddb/calibrations.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/geometry/alignment_transform.hpp"
@@ -32,11 +33,13 @@ py::dict correctFiles(const Paths& paths, const Path& output, const Detector* gi
     raise(Error{"correct: depth_offset and corrections: the corrections bring their own depth offset"});
   }
   const std::vector<std::string> inputs = stringsOf(paths);
-  const std::string out = output.string();
-  const std::string correctionsPath = corrections ? corrections->string() : std::string();
+  const std::string out = pathString(output);
+  const std::string correctionsPath = corrections ? pathString(*corrections) : std::string();
+  const std::string alignmentPath = alignment ? pathString(*alignment) : std::string();
   std::vector<io::NamedPath> named;
   for (const auto& p : inputs) named.push_back({"", p});
-  if (alignment) named.push_back({"alignment", alignment->string()});
+  named.push_back({"alignment", alignmentPath});
+  if (conditions) named.push_back({"conditions", conddb::sqliteFileOf(*conditions)});
   if (corrections) named.push_back({"corrections", correctionsPath});
   if (auto target = io::resolveOutput(out); !target) raise(target.error());
   check(io::checkDistinct({{"output", out}}, named));
@@ -46,8 +49,8 @@ py::dict correctFiles(const Paths& paths, const Path& output, const Detector* gi
   std::vector<std::string> warnings;
   {
     py::gil_scoped_release release;
-    auto source = conddb::AlignmentSource::open(alignment ? alignment->string() : std::string(),
-                                                conditions.value_or(""), tag.value_or(""), detector.calorimeter());
+    auto source =
+        conddb::AlignmentSource::open(alignmentPath, conditions.value_or(""), tag.value_or(""), detector.calorimeter());
     auto options =
         source ? apply::correctOptionsOf(method, depthOffset * units::cm, correctionsPath, detector.calorimeter())
                : Result<apply::CorrectOptions>(source.error());
@@ -88,6 +91,7 @@ py::tuple correctDirections(const Array& values, const Array& phi, const Array& 
   }
   const auto transform = unwrap(geometry::AlignmentTransform::create(
       parametersOf(values), geometry::AlignmentRadii::of(detector.calorimeter().description())));
+  check(calib::checkDepthOffset(depthOffset * units::cm));
   geometry::ShowerDepth depth = geometry::ShowerDepth::of(detector.calorimeter().description());
   depth.offset = depthOffset * units::cm;
   const py::ssize_t n = phi.shape(0);

@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include "emcalign/core/utf8.hpp"
+
 namespace emcalign::python {
 
 namespace {
@@ -11,8 +13,22 @@ PyObject* gError = nullptr;
 void setErrorType(PyObject* type) { gError = type; }
 
 void raise(const Error& e) {
-  PyErr_SetString(gError, e.message.c_str());
+  // A message may quote bytes of a file (a binary file given as text): never lose it.
+  PyObject* text =
+      PyUnicode_DecodeUTF8(e.message.data(), static_cast<Py_ssize_t>(e.message.size()), "backslashreplace");
+  if (text == nullptr) throw py::error_already_set();
+  PyErr_SetObject(gError, text);
+  Py_DECREF(text);
   throw py::error_already_set();
+}
+
+std::string pathString(const Path& path) {
+  std::string s = path.string();
+  if (s.empty()) raise(Error{"a path is empty"});
+  if (!isValidUtf8(s)) {
+    raise(Error{"a path is not valid UTF-8 (paths are recorded in JSON, which must be: rename the file)"});
+  }
+  return s;
 }
 
 geometry::AlignmentParameters parametersOf(const Array& values) {
@@ -83,8 +99,7 @@ py::dict eventColumns(const std::vector<ParticleRow>& rows, const std::vector<Tr
 }
 
 Detector::Detector(const std::optional<Path>& path)
-    : source_(path ? path->string() : "embedded default"),
-      calo_(unwrap(io::loadCalorimeter(path ? path->string() : std::string()))) {}
+    : source_(path ? pathString(*path) : "embedded default"), calo_(unwrap(io::loadCalorimeter(path ? source_ : ""))) {}
 
 const Detector& detectorOr(const Detector* detector) {
   if (detector != nullptr) return *detector;
@@ -93,9 +108,10 @@ const Detector& detectorOr(const Detector* detector) {
 }
 
 std::vector<std::string> stringsOf(const Paths& paths) {
-  if (const auto* one = std::get_if<Path>(&paths)) return {one->string()};
+  if (const auto* one = std::get_if<Path>(&paths)) return {pathString(*one)};
   std::vector<std::string> out;
-  for (const auto& p : std::get<std::vector<Path>>(paths)) out.push_back(p.string());
+  for (const auto& p : std::get<std::vector<Path>>(paths)) out.push_back(pathString(p));
+  if (out.empty()) raise(Error{"no path given (an empty list)"});
   return out;
 }
 

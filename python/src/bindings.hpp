@@ -31,6 +31,9 @@ using Array = py::array_t<double, py::array::c_style | py::array::forcecast>;
 using Path = std::filesystem::path;
 /// One path or a list of them.
 using Paths = std::variant<Path, std::vector<Path>>;
+/// The text of a path (not empty, valid UTF-8: paths are recorded in JSON) or of each of
+/// several (at least one).
+std::string pathString(const Path& path);
 std::vector<std::string> stringsOf(const Paths& paths);
 
 /// Raises `emcalign.Error` with the error's message (the exception made in the module init).

@@ -10,11 +10,25 @@ namespace emcalign::python {
 
 namespace {
 
+// An integer of Python or numpy (not a bool), or nothing.
+std::optional<std::int64_t> runOf(const py::handle& v) {
+  if (PyBool_Check(v.ptr()) || !PyIndex_Check(v.ptr())) return std::nullopt;
+  const auto index = py::reinterpret_steal<py::object>(PyNumber_Index(v.ptr()));
+  if (!index) throw py::error_already_set();
+  const long long n = PyLong_AsLongLong(index.ptr());
+  if (n == -1 && PyErr_Occurred()) throw py::error_already_set();
+  return n;
+}
+
 // The GIL is held throughout: a database connection is not shared between threads (libpqxx's
 // is not thread-safe), and every call is short.
 class Conditions {
  public:
-  Conditions(const std::string& uri, bool create) : db_(unwrap(conddb::Database::open(uri, create))) {}
+  // A URI (sqlite:PATH, postgresql://…) or the path of an SQLite file.
+  Conditions(const std::variant<std::string, Path>& uri, bool create)
+      : db_(unwrap(conddb::Database::open(
+            std::holds_alternative<Path>(uri) ? pathString(std::get<Path>(uri)) : std::get<std::string>(uri),
+            create))) {}
 
   [[nodiscard]] const std::string& uri() const { return db_->uri(); }
 
@@ -49,10 +63,15 @@ class Conditions {
   py::dict put(const std::string& tag, const py::object& runs, const Path& path, const std::string& description,
                const Detector* given) {
     std::int64_t first = 0, last = 0;
-    if (py::isinstance<py::int_>(runs)) {
-      first = last = runs.cast<std::int64_t>();
+    if (const auto one = runOf(runs)) {
+      first = last = *one;
     } else {
-      std::tie(first, last) = runs.cast<std::pair<std::int64_t, std::int64_t>>();
+      const auto pair = py::isinstance<py::sequence>(runs) && !py::isinstance<py::str>(runs) && py::len(runs) == 2
+                            ? std::pair{runOf(runs[py::int_(0)]), runOf(runs[py::int_(1)])}
+                            : std::pair<std::optional<std::int64_t>, std::optional<std::int64_t>>{};
+      if (!pair.first || !pair.second) throw py::type_error("runs: a run number or (first, last)");
+      first = *pair.first;
+      last = *pair.second;
     }
     if (first < 0 || first > last) {
       raise(Error{fmt::format("runs ({}, {}): expected (first, last) with 0 <= first <= last", first, last)});
@@ -60,7 +79,7 @@ class Conditions {
     check(conddb::checkTagName(tag));
     const double r1 = detectorOr(given).r1();
     const conddb::PutReport report =
-        unwrap(conddb::putResultFile(*db_, tag, first, last, path.string(), description, r1));
+        unwrap(conddb::putResultFile(*db_, tag, first, last, pathString(path), description, r1));
     py::dict d;
     d["payload"] = report.payload;
     d["new_tag"] = report.newTag;
@@ -80,15 +99,19 @@ void bindConditions(py::module_& m) {
   py::class_<Conditions>(m, "Conditions",
                          "A conditions database (sqlite:PATH, a path, or postgresql://user@host:port/db): "
                          "calibrations stored by run range in tags")
-      .def(py::init<const std::string&, bool>(), py::arg("uri"), py::arg("create") = false,
+      .def(py::init<const std::variant<std::string, Path>&, bool>(), py::arg("uri"), py::arg("create") = false,
            "opens the database; create=True makes a new SQLite file (or a PostgreSQL schema), as conditions init")
       .def_property_readonly("uri", &Conditions::uri)
       .def(
           "tags", [](Conditions& c) { return c.tags(""); },
           "every tag as conditions list --json shows it: {tag, state, description, created, iovs: [...]}")
       .def(
-          "tag", [](Conditions& c, const std::string& name) { return c.tags(name); }, py::arg("name"),
-          "one tag as conditions list --tag NAME --json shows it")
+          "tag",
+          [](Conditions& c, const std::string& name) {
+            if (name.empty()) raise(Error{"tag: a tag's name (tags() lists them all)"});
+            return c.tags(name);
+          },
+          py::arg("name"), "one tag as conditions list --tag NAME --json shows it")
       .def("get", &Conditions::get, py::arg("tag"), py::arg("run"), py::arg("detector") = py::none(),
            "the calibration valid for a run: {parameters (12, native units), first_run, last_run, payload, "
            "inserted, file (the parameter file's text, as conditions get -o writes it)}")

@@ -2,6 +2,9 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
+#include <limits>
+#include <set>
 #include <span>
 
 #include "bindings.hpp"
@@ -23,10 +26,11 @@ py::dict readEvents(const Paths& paths, bool truth, bool hits) {
   std::vector<TruthRow> truthRows;
   std::vector<Hit> hitRows;
   bool withTruth = truth, withHits = hits;
+  const std::vector<std::string> files = stringsOf(paths);  // may raise: with the GIL
   Status status;
   {
     py::gil_scoped_release release;
-    auto reader = io::EventReader::open(stringsOf(paths), o);
+    auto reader = io::EventReader::open(files, o);
     if (!reader) status = reader.error();
     std::vector<ParticleRow> block;
     while (status) {
@@ -46,14 +50,61 @@ py::dict readEvents(const Paths& paths, bool truth, bool hits) {
   return eventColumns(rows, withTruth ? &truthRows : nullptr, withHits ? &hitRows : nullptr);
 }
 
-// A column of the dict read_events gives (or any dict of the same columns), as doubles.
-std::vector<double> columnOf(const py::dict& events, const char* key, std::size_t n) {
+// A column of the dict read_events gives (or any dict of the same columns), checked.
+py::array columnArray(const py::dict& events, const char* key, std::size_t n) {
   if (!events.contains(key)) raise(Error{fmt::format("events: no column '{}' (a dict as read_events gives)", key)});
-  const auto a = Array::ensure(events[key]);
+  auto a = py::array::ensure(events[key]);
   if (!a || a.ndim() != 1 || static_cast<std::size_t>(a.shape(0)) != n) {
     raise(Error{fmt::format("events: column '{}' is not a 1-D array of {} rows", key, n)});
   }
+  const char kind = a.dtype().kind();
+  if (kind != 'i' && kind != 'u' && kind != 'f' && kind != 'b') {
+    raise(Error{
+        fmt::format("events: column '{}' is not numeric (dtype {})", key, py::str(a.dtype()).cast<std::string>())});
+  }
+  return a;
+}
+
+std::vector<double> columnOf(const py::dict& events, const char* key, std::size_t n) {
+  const auto a = Array::ensure(columnArray(events, key, n));
   return {a.data(), a.data() + n};
+}
+
+// An integer column, exactly (an event number above 2^53 is not a double): integers as they
+// are, floats only where every value is a whole number in [lo, hi].
+std::vector<std::int64_t> integerColumnOf(const py::dict& events, const char* key, std::size_t n, std::int64_t lo,
+                                          std::int64_t hi) {
+  const py::array a = columnArray(events, key, n);
+  std::vector<std::int64_t> out(n);
+  const char kind = a.dtype().kind();
+  if (kind == 'f') {
+    const auto d = Array::ensure(a);
+    for (std::size_t i = 0; i < n; ++i) {
+      const double v = d.data()[i];
+      if (!(std::isfinite(v) && v == std::floor(v) && v >= static_cast<double>(lo) && v <= static_cast<double>(hi) &&
+            std::abs(v) < 9007199254740992.0)) {
+        raise(Error{fmt::format("events: row {}: {} {} is not an integer in [{}, {}]", i, key, v, lo, hi)});
+      }
+      out[i] = static_cast<std::int64_t>(v);
+    }
+    return out;
+  }
+  if (kind == 'u' && a.itemsize() == 8) {  // above 2^63 would wrap
+    const auto u = py::array_t<std::uint64_t, py::array::c_style | py::array::forcecast>::ensure(a);
+    for (std::size_t i = 0; i < n; ++i) {
+      if (u.data()[i] > static_cast<std::uint64_t>(hi)) {
+        raise(Error{fmt::format("events: row {}: {} {} is not an integer in [{}, {}]", i, key, u.data()[i], lo, hi)});
+      }
+    }
+  }
+  const auto v = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(a);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (v.data()[i] < lo || v.data()[i] > hi) {
+      raise(Error{fmt::format("events: row {}: {} {} is not an integer in [{}, {}]", i, key, v.data()[i], lo, hi)});
+    }
+    out[i] = v.data()[i];
+  }
+  return out;
 }
 
 }  // namespace
@@ -61,17 +112,23 @@ std::vector<double> columnOf(const py::dict& events, const char* key, std::size_
 std::vector<ParticleRow> rowsOf(const py::dict& events) {
   if (!events.contains("run")) raise(Error{"events: no column 'run' (a dict as read_events gives)"});
   const auto n = static_cast<std::size_t>(py::len(events["run"]));
-  const auto run = columnOf(events, "run", n), event = columnOf(events, "event", n);
-  const auto beam = columnOf(events, "beam_energy_mev", n), veto = columnOf(events, "muon_veto", n);
-  const auto charged = columnOf(events, "charged", n), z0 = columnOf(events, "z0_cm", n);
-  const auto rho = columnOf(events, "rho_cm", n), phiTs = columnOf(events, "phi_ts_rad", n);
-  const auto thetaTs = columnOf(events, "theta_ts_rad", n), energy = columnOf(events, "energy_mev", n);
+  using Limits32 = std::numeric_limits<std::int32_t>;
+  const auto run = integerColumnOf(events, "run", n, Limits32::min(), Limits32::max());
+  const auto event = integerColumnOf(events, "event", n, std::numeric_limits<std::int64_t>::min(),
+                                     std::numeric_limits<std::int64_t>::max());
+  const auto veto = integerColumnOf(events, "muon_veto", n, 0, 1);
+  const auto charged = integerColumnOf(events, "charged", n, 0, 1);
+  const auto beam = columnOf(events, "beam_energy_mev", n);
+  const auto z0 = columnOf(events, "z0_cm", n), rho = columnOf(events, "rho_cm", n);
+  const auto phiTs = columnOf(events, "phi_ts_rad", n), thetaTs = columnOf(events, "theta_ts_rad", n);
+  const auto energy = columnOf(events, "energy_mev", n);
   const auto phiEmc = columnOf(events, "phi_emc_rad", n), thetaEmc = columnOf(events, "theta_emc_rad", n);
   std::vector<ParticleRow> rows(n);
+  std::set<std::pair<std::int32_t, std::int64_t>> ended;
   for (std::size_t i = 0; i < n; ++i) {
     ParticleRow& r = rows[i];
     r.run = static_cast<std::int32_t>(run[i]);
-    r.event = static_cast<std::int64_t>(event[i]);
+    r.event = event[i];
     r.beamEnergy = beam[i];
     r.muonVeto = static_cast<std::int8_t>(veto[i]);
     r.charged = static_cast<std::int8_t>(charged[i]);
@@ -82,6 +139,17 @@ std::vector<ParticleRow> rowsOf(const py::dict& events) {
     r.energy = energy[i];
     r.phiEmc = phiEmc[i];
     r.thetaEmc = thetaEmc[i];
+    // An event is its rows together: one met again after another began is an error, not
+    // a second event (as the files' readers say).
+    if (i > 0 && !sameEvent(r, rows[i - 1])) {
+      ended.insert({rows[i - 1].run, rows[i - 1].event});
+      if (ended.count({r.run, r.event}) != 0) {
+        raise(
+            Error{fmt::format("events: row {} (run {}, event {}) belongs to an event whose rows ended earlier: the "
+                              "rows of an event must be together, as read_events gives them",
+                              i, r.run, r.event)});
+      }
+    }
   }
   return rows;
 }
@@ -129,6 +197,7 @@ void bindEvents(py::module_& m) {
         if (minEnergyFraction) o.minEnergyFraction = *minEnergyFraction;
         if (maxEnergyFraction) o.maxEnergyFraction = *maxEnergyFraction;
         if (maxAcollinearityDeg) o.maxAcollinearity = *maxAcollinearityDeg * units::deg;
+        check(o.validate());
         return selectRows(events, o);
       },
       py::arg("events"), py::kw_only(), py::arg("beam_energy") = py::none(), py::arg("max_abs_z0") = py::none(),

@@ -18,11 +18,19 @@ struct Fit {
   calib::FitData data;
   calib::FitOutcome outcome;
   std::optional<calib::CorrectionsAt> corrections;
+  std::vector<io::NamedPath> inputs;  ///< what a file written must not replace
   [[nodiscard]] const calib::FitResult& result() const { return outcome.result; }
   [[nodiscard]] std::string json() const { return outcome.resultJson.dump(2) + "\n"; }
+  // Writes one of the fit's files, never over one of its inputs.
+  void write(const Path& path, const std::string& text) const {
+    const std::string p = pathString(path);
+    if (auto target = io::resolveOutput(p); !target) raise(target.error());
+    check(io::checkDistinct({{"path", p}}, inputs));
+    check(io::writeOutputFile(p, text));
+  }
 };
 
-// sigma_sys: None (SPEC's), "auto", or degrees.
+// sigma_sys: None (SPEC's), "auto", or degrees (any real number but a bool).
 std::optional<calib::SigmaSysChoice> sigmaSysOf(const py::object& sigmaSys, std::string& text) {
   if (sigmaSys.is_none()) return std::nullopt;
   if (py::isinstance<py::str>(sigmaSys)) {
@@ -30,7 +38,11 @@ std::optional<calib::SigmaSysChoice> sigmaSysOf(const py::object& sigmaSys, std:
     text = "auto";
     return calib::SigmaSysChoice::automatic();
   }
-  const double deg = sigmaSys.cast<double>();
+  if (PyBool_Check(sigmaSys.ptr()) || !PyNumber_Check(sigmaSys.ptr())) {
+    throw py::type_error("sigma_sys: None (SPEC's 0.2 deg), 'auto' or a number of degrees");
+  }
+  const double deg = PyFloat_AsDouble(sigmaSys.ptr());
+  if (deg == -1.0 && PyErr_Occurred()) throw py::error_already_set();
   text = fmt::format("{}", deg);
   return calib::SigmaSysChoice::fixed(deg * units::deg);
 }
@@ -41,16 +53,19 @@ Fit fit(const std::optional<Paths>& paths, const Detector* given, const py::obje
   const Detector& detector = detectorOr(given);
   calib::FitRequest request;
   if (paths) request.events = stringsOf(*paths);
-  if (profile) request.profileIn = profile->string();
+  if (profile) request.profileIn = pathString(*profile);
   if (request.events.empty() == request.profileIn.empty()) {
     raise(Error{"fit: give event files (paths) or a saved profile (profile=), one of them"});
   }
   request.detectorName = detector.source();
   request.depthOffset = depthOffset * units::cm;
-  if (corrections) request.corrections = corrections->string();
+  if (corrections) request.corrections = pathString(*corrections);
   request.beamEnergy = beamEnergy;
   request.sigmaSys = sigmaSysOf(sigmaSys, request.sigmaSysText);
   Fit out;
+  for (const auto& e : request.events) out.inputs.push_back({"", e});
+  out.inputs.push_back({"profile", request.profileIn});
+  out.inputs.push_back({"corrections", request.corrections});
   Status status;
   {
     py::gil_scoped_release release;
@@ -169,13 +184,10 @@ void bindFit(py::module_& m) {
           "profile_csv", [](const Fit& f) { return calib::profileCsv(f.outcome.bins); },
           "the profile file's text (emcalign fit --profile-out)")
       .def(
-          "write", [](const Fit& f, const Path& path) { check(io::writeOutputFile(path.string(), f.json())); },
-          py::arg("path"), "writes the result file")
+          "write", [](const Fit& f, const Path& path) { f.write(path, f.json()); }, py::arg("path"),
+          "writes the result file (never over one of the fit's inputs)")
       .def(
-          "write_profile",
-          [](const Fit& f, const Path& path) {
-            check(io::writeOutputFile(path.string(), calib::profileCsv(f.outcome.bins)));
-          },
+          "write_profile", [](const Fit& f, const Path& path) { f.write(path, calib::profileCsv(f.outcome.bins)); },
           py::arg("path"), "writes the profile file")
       .def("__repr__", [](const Fit& f) {
         return fmt::format("<emcalign.FitResult {}: chi2/ndf = {:.1f}/{}, {} bins>", name(f.result().status),
@@ -192,7 +204,7 @@ void bindFit(py::module_& m) {
   m.def(
       "read_profile",
       [](const Path& path) {
-        auto bins = unwrap(calib::readProfileCsv(path.string()));
+        auto bins = unwrap(calib::readProfileCsv(pathString(path)));
         calib::markUsedBins(bins, calib::ProfileOptions{}.minEntries);
         return binColumns(bins);
       },

@@ -3,6 +3,8 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
+
 #include "bindings.hpp"
 #include "emcalign/apply/placements.hpp"
 #include "emcalign/core/parameters.hpp"
@@ -13,6 +15,12 @@
 namespace emcalign::python {
 
 namespace {
+
+// The radius of support sphere 1 of a conversion: a positive length (cm).
+double radiusOf(double r1) {
+  if (!(std::isfinite(r1) && r1 > 0.0)) raise(Error{fmt::format("r1: {} cm is not a positive radius", r1)});
+  return r1;
+}
 
 // (N, 3) points in, checked.
 py::ssize_t pointCount(const Array& points) {
@@ -137,7 +145,7 @@ void bindGeometry(py::module_& m) {
   m.def(
       "read_alignment",
       [](const Path& path, const Detector& detector) {
-        auto file = unwrap(apply::loadAlignment(path.string(), detector.calorimeter()));
+        auto file = unwrap(apply::loadAlignment(pathString(path), detector.calorimeter()));
         return py::make_tuple(arrayOf(file.parameters.values), file.warnings);
       },
       py::arg("path"), py::arg("detector"),
@@ -147,14 +155,14 @@ void bindGeometry(py::module_& m) {
       "write_alignment",
       [](const Path& path, const Array& values, const Detector& detector) {
         const auto j = unwrap(io::alignmentToJsonWithPhysical(parametersOf(values), detector.r1()));
-        check(io::writeOutputFile(path.string(), j.dump(2) + "\n"));
+        check(io::writeOutputFile(pathString(path), j.dump(2) + "\n"));
       },
       py::arg("path"), py::arg("parameters"), py::arg("detector"),
       "writes a parameter file (SPEC §3: file units, with the physical set)");
   m.def(
       "to_physical",
       [](const Array& values, double r1) {
-        const auto phys = unwrap(geometry::toPhysical(parametersOf(values), r1));
+        const auto phys = unwrap(geometry::toPhysical(parametersOf(values), radiusOf(r1)));
         Array out(static_cast<py::ssize_t>(kNumParams));
         for (std::size_t k = 0; k < kNumParams; ++k) out.mutable_at(k) = phys.values[k];
         return out;
@@ -168,7 +176,7 @@ void bindGeometry(py::module_& m) {
         }
         geometry::PhysicalParameters phys;
         for (std::size_t k = 0; k < kNumParams; ++k) phys.values[k] = values.at(k);
-        return arrayOf(geometry::fromPhysical(phys, r1).values);
+        return arrayOf(geometry::fromPhysical(phys, radiusOf(r1)).values);
       },
       py::arg("physical"), py::arg("r1"), "physical set -> fit set (12, native units)");
   m.def(

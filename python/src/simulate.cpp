@@ -3,6 +3,9 @@
 
 #include <fmt/format.h>
 
+#include <atomic>
+#include <memory>
+
 #include "bindings.hpp"
 #include "emcalign/apply/placements.hpp"
 #include "emcalign/core/units.hpp"
@@ -18,7 +21,7 @@ namespace {
 // Python warnings, as the command-line tool prints them).
 geometry::AlignmentParameters truthOf(const py::object& truth, const Detector& detector, std::string& file) {
   if (py::isinstance<py::str>(truth) || py::hasattr(truth, "__fspath__")) {
-    file = truth.cast<Path>().string();
+    file = pathString(truth.cast<Path>());
     const auto loaded = unwrap(apply::loadAlignment(file, detector.calorimeter()));
     for (const auto& w : loaded.warnings) {
       if (PyErr_WarnEx(PyExc_UserWarning, w.c_str(), 1) != 0) throw py::error_already_set();
@@ -42,9 +45,17 @@ struct SimulateArgs {
   bool hits = true;
 };
 
+// Events kept in memory at most: about 1 kB each with the numpy copies (a row, its truth and
+// its hits, twice); more belong in a file.
+constexpr std::int64_t kMaxEventsInMemory = 5'000'000;
+
 validation::SimulateRequest requestOf(const SimulateArgs& a, const Detector& detector) {
-  if (a.events < 0) raise(Error{fmt::format("events: {} is negative", a.events)});
-  if (a.threads < 0) raise(Error{fmt::format("threads: {} is negative (0: all cores)", a.threads)});
+  if (a.events < 0 || a.events > sim::kMaxEvents) {
+    raise(Error{fmt::format("events: {} is not in [0, {}]", a.events, sim::kMaxEvents)});
+  }
+  if (a.threads < 0 || a.threads > sim::kMaxThreads) {
+    raise(Error{fmt::format("threads: {} is not in [0, {}] (0: all cores)", a.threads, sim::kMaxThreads)});
+  }
   validation::SimulateRequest r;
   sim::SimulationOptions& o = r.options;
   if (Status s = o.applyRealism(a.ideal, a.off); !s) raise(Error{fmt::format("off: {}", s.error().message)});
@@ -64,12 +75,52 @@ validation::SimulateRequest requestOf(const SimulateArgs& a, const Detector& det
   return r;
 }
 
+// Ctrl-C during a simulation: the calling thread looks for Python's signals after each
+// block of events (with the GIL, briefly); once one is pending, the sink stops the run and
+// the KeyboardInterrupt is raised when the GIL is back.
+class Interruption {
+ public:
+  // The progress callback: called on the calling thread.
+  void check() {
+    if (pending_) return;
+    py::gil_scoped_acquire acquire;
+    if (PyErr_CheckSignals() != 0) {
+      error_ = std::make_unique<py::error_already_set>();
+      pending_ = true;
+    }
+  }
+  [[nodiscard]] bool pending() const { return pending_; }
+  // With the GIL: raises the pending KeyboardInterrupt (or whatever the handler raised).
+  void raiseIfPending() {
+    if (error_) {
+      const py::error_already_set e = *error_;
+      error_.reset();
+      throw e;
+    }
+  }
+  ~Interruption() {
+    if (error_) {
+      py::gil_scoped_acquire acquire;
+      error_.reset();
+    }
+  }
+
+ private:
+  std::atomic<bool> pending_{false};
+  std::unique_ptr<py::error_already_set> error_;
+};
+
 // The events in memory, as read_events would give them from the file.
 py::dict simulateColumns(const geometry::Calorimeter& calo, const geometry::AlignmentParameters& truth,
                          const validation::SimulateRequest& request) {
+  if (request.events > kMaxEventsInMemory) {
+    raise(Error{fmt::format("events: {} in memory is more than {} (about 1 kB each): write them to a file (output=)",
+                            request.events, kMaxEventsInMemory)});
+  }
   std::vector<ParticleRow> rows;
   std::vector<TruthRow> truthRows;
   std::vector<Hit> hits;
+  Interruption interruption;
   Status status;
   {
     py::gil_scoped_release release;
@@ -78,15 +129,18 @@ py::dict simulateColumns(const geometry::Calorimeter& calo, const geometry::Alig
       status = simulation->run(
           request.events, request.threads,
           [&](std::span<const ParticleRow> r, std::span<const TruthRow> t, std::span<const Hit> h) -> Status {
+            if (interruption.pending()) return Error{validation::kInterrupted};
             rows.insert(rows.end(), r.begin(), r.end());
             truthRows.insert(truthRows.end(), t.begin(), t.end());
             if (request.hits) hits.insert(hits.end(), h.begin(), h.end());
             return {};
-          });
+          },
+          [&](std::int64_t) { interruption.check(); });
     } else {
       status = simulation.error();
     }
   }
+  interruption.raiseIfPending();
   check(status);
   return eventColumns(rows, &truthRows, request.hits ? &hits : nullptr);
 }
@@ -108,20 +162,25 @@ void bindSimulate(py::module_& m) {
                                         deadCounters, pointShowers, threads, hits},
                                        detector);
         if (!output) return simulateColumns(detector.calorimeter(), eta, request);
-        const std::string path = output->string();
+        const std::string path = pathString(*output);
         if (auto target = io::resolveOutput(path); !target) raise(target.error());
         check(io::checkDistinct({{"output", path}}, {{"truth", truthFile}}));
         Status status;
         validation::SimulateReport report;
+        Interruption interruption;
+        auto interruptible = request;
+        interruptible.interrupted = [&interruption] { return interruption.pending(); };
         {
           py::gil_scoped_release release;
-          auto done = validation::simulateFile(detector.calorimeter(), eta, request, path);
+          auto done = validation::simulateFile(detector.calorimeter(), eta, interruptible, path,
+                                               [&](std::int64_t) { interruption.check(); });
           if (done) {
             report = *done;
           } else {
             status = done.error();
           }
         }
+        interruption.raiseIfPending();
         check(status);
         py::dict d;
         d["events"] = report.events;

@@ -14,6 +14,14 @@
 
 namespace emcalign::calib {
 
+Status checkDepthOffset(double offset) {
+  if (!(std::abs(offset) <= kMaxDepthOffset * units::cm)) {
+    return Error{fmt::format("the depth offset {:.6g} cm is beyond the plausible ±{} cm (in cm: given in mm?)",
+                             offset / units::cm, kMaxDepthOffset)};
+  }
+  return {};
+}
+
 using io::Json;
 
 Result<PartingPlaneResponse> PartingPlaneResponse::create(std::vector<double> plusWeight) {

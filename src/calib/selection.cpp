@@ -3,7 +3,27 @@
 #include <cmath>
 #include <numbers>
 
+#include <fmt/format.h>
+
 namespace emcalign::calib {
+
+Status SelectionOptions::validate() const {
+  const auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
+  if (!positive(maxAbsZ0)) return Error{fmt::format("the |z0| cut {} cm: expected a positive length", maxAbsZ0)};
+  if (!positive(maxAbsRho)) return Error{fmt::format("the |rho| cut {} cm: expected a positive length", maxAbsRho)};
+  if (!positive(maxAcollinearity)) {
+    return Error{fmt::format("the acollinearity cut {} deg: expected a positive angle", maxAcollinearity / units::deg)};
+  }
+  if (!(std::isfinite(minEnergyFraction) && std::isfinite(maxEnergyFraction) && minEnergyFraction >= 0.0 &&
+        minEnergyFraction < maxEnergyFraction)) {
+    return Error{fmt::format("the cluster energy window [{}, {}] of the beam energy: expected 0 <= min < max",
+                             minEnergyFraction, maxEnergyFraction)};
+  }
+  if (beamEnergy && !positive(*beamEnergy)) {
+    return Error{fmt::format("the beam energy {} MeV: expected a positive energy", *beamEnergy)};
+  }
+  return {};
+}
 
 int selectEvent(std::span<const ParticleRow> event, const SelectionOptions& o) {
   if (event.empty()) return 2;

@@ -31,9 +31,9 @@ std::string_view name(SigmaSysMethod m) {
 Status SigmaSysChoice::validate() const {
   if (method == SigmaSysMethod::Saved)
     return Error{"sigma_sys: 'saved profile' is not a choice for profiles filled here"};
-  if (method == SigmaSysMethod::Fixed && !(std::isfinite(value) && value >= 0.0 && value < std::numbers::pi / 2.0)) {
-    return Error{
-        fmt::format("sigma_sys {} deg: expected a finite value, at least 0 and below 90 deg", value / units::deg)};
+  if (method == SigmaSysMethod::Fixed && !(std::isfinite(value) && value >= 0.0 && value <= kMaxSigmaSys)) {
+    return Error{fmt::format("sigma_sys {} deg: expected a finite value in [0, {}] deg", value / units::deg,
+                             kMaxSigmaSys / units::deg)};
   }
   return {};
 }

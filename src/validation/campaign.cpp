@@ -145,10 +145,7 @@ AlignmentParameters drawTruth(const Ranges& ranges, double r1, Rng& rng) {
 Status CampaignOptions::validate() const {
   if (samples < 1) return Error{"--samples must be at least 1"};
   if (events < 1) return Error{"--events must be at least 1"};
-  if (!(std::abs(corrections.depthOffset) <= calib::kMaxDepthOffset)) {
-    return Error{fmt::format("the depth offset {:.6g} cm is beyond the plausible ±{} cm (in cm: given in mm?)",
-                             corrections.depthOffset, calib::kMaxDepthOffset)};
-  }
+  if (Status s = calib::checkDepthOffset(corrections.depthOffset); !s) return s;
   return ranges.validate();
 }
 

@@ -47,6 +47,7 @@ Result<SimulateReport> simulateFile(const geometry::Calorimeter& calo, const geo
   const Status done = simulation->run(
       request.events, request.threads,
       [&](std::span<const ParticleRow> r, std::span<const TruthRow> t, std::span<const Hit> h) {
+        if (request.interrupted && request.interrupted()) return Status{Error{kInterrupted}};
         report.rows += static_cast<std::int64_t>(r.size());
         return (*writer)->append(r, t, h);
       },

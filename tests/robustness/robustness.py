@@ -562,6 +562,13 @@ def cases():
              "letters, digits", setup=conditions_db))
     add(Case(D, "a fit result that did not converge", "emcalign conditions put c.db --tag u --runs 20-30 nc.json", 1,
              "not converged", setup=lambda d: (conditions_db(d), not_converged(d))))
+    add(Case(D, "corrected events over the database they were corrected from",
+             "emcalign correct ev.h5 --conditions c.db --tag t -o c.db", 1, "same file as the input --conditions",
+             setup=db_setup, check=unchanged_db[1], checked="database unchanged"))
+    add(Case(D, "simulated events over the database of their truth",
+             "emcalign simulate --events 10 --conditions sqlite:c.db --tag t --run 3 -o c.db", 1,
+             "same file as the input --conditions", setup=db_setup, check=unchanged_db[1],
+             checked="database unchanged"))
     add(Case(D, "a run no IOV holds", "emcalign conditions get c.db --tag t --run 11 -o got.json", 1,
              "no IOV contains run 11", setup=conditions_db,
              check=lambda d, r: "got.json written" if os.path.exists(os.path.join(d, "got.json")) else None,

@@ -27,6 +27,9 @@ struct SelectionOptions {
   double maxEnergyFraction = 1.1;               ///< of E_beam
   double maxAcollinearity = 10.0 * units::deg;  ///< rad, |180° − |Δφ_ts||
   std::optional<double> beamEnergy;             ///< MeV; default: each event's beam_energy_mev
+  /// Every cut finite and positive, the energy window not empty, a given beam energy
+  /// positive; the error names the cut.
+  [[nodiscard]] Status validate() const;
 };
 
 /// Events left after each cut, in the order they are applied.

@@ -32,6 +32,9 @@ inline constexpr double kSpecSigmaSys = 0.2 * units::deg;
 /// An auto estimate above this is reported (rad): the profiles scatter about the model far
 /// more than the paper's data did about its.
 inline constexpr double kLargeSigmaSys = 3.0 * kSpecSigmaSys;
+/// A fixed σ_sys above this is a unit mistake (rad given for deg?): the profiles' own
+/// scatter is a fraction of a degree.
+inline constexpr double kMaxSigmaSys = 10.0 * units::deg;
 
 struct SigmaSysChoice {
   SigmaSysMethod method = SigmaSysMethod::Spec;
@@ -39,7 +42,7 @@ struct SigmaSysChoice {
   static SigmaSysChoice spec() { return {}; }
   static SigmaSysChoice fixed(double rad) { return {SigmaSysMethod::Fixed, rad}; }
   static SigmaSysChoice automatic() { return {SigmaSysMethod::Auto, 0.0}; }
-  /// A fixed value finite, ≥ 0 and below 90°.
+  /// A fixed value finite, ≥ 0 and at most kMaxSigmaSys.
   Status validate() const;
   /// Whether the profiles must keep the event pairs (ProfileOptions::eventPairs): the
   /// honest errors of `auto` carry their correlation.

@@ -71,6 +71,11 @@ Result<Payload> makePayload(const io::Json& resultOrParameters, double r1, std::
 /// Tag names: letters, digits, '_', '-', '.', 1 to 100 characters.
 Status checkTagName(std::string_view tag);
 
+/// The file of an SQLite database URI ("sqlite:PATH", "sqlite://PATH" or a plain path);
+/// empty for a server (postgresql://…) or a URI without a file. A command checks that no
+/// output of its overwrites it.
+std::string sqliteFileOf(const std::string& uri);
+
 class Database {
  public:
   /// Opens a database: `sqlite:PATH`, a plain path, or `postgresql://…` / `postgres://…`. An

@@ -28,6 +28,11 @@
 
 namespace emcalign::sim {
 
+/// Limits of counting arguments: more events than a machine makes in days, more threads
+/// than any machine has, are typing mistakes.
+inline constexpr std::int64_t kMaxEvents = 10'000'000'000;
+inline constexpr int kMaxThreads = 1024;
+
 struct SimulationOptions {
   GeneratorOptions generator;
   TrackingOptions tracking;

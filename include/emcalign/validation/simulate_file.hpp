@@ -26,6 +26,9 @@ struct SimulateRequest {
   bool ideal = false;
   std::vector<std::string> off;
   std::string detectorName = "embedded default";
+  /// Asked after each block of events: true stops the simulation (an error "interrupted",
+  /// no file left). None: it runs to the end.
+  std::function<bool()> interrupted;
 };
 
 /// The "simulation" attribute: {"software", "process", "events", "seed", "run",
@@ -37,6 +40,9 @@ struct SimulateReport {
   std::int64_t events = 0;
   std::int64_t rows = 0;  ///< particle rows written
 };
+
+/// The error of an interrupted simulation (SimulateRequest::interrupted).
+inline constexpr const char* kInterrupted = "interrupted";
 
 /// Simulates `request.events` events of `calo` misaligned by `truth` into `output` (.csv:
 /// CSV, "-": CSV on standard output, else HDF5; no partial file on failure). `progress` is

@@ -1,0 +1,33 @@
+#include "emcalign/core/utf8.hpp"
+
+#include <gtest/gtest.h>
+
+#include <string>
+
+namespace emcalign {
+namespace {
+
+TEST(Utf8, AcceptsValidText) {
+  EXPECT_TRUE(isValidUtf8(""));
+  EXPECT_TRUE(isValidUtf8("run_0001.h5"));
+  EXPECT_TRUE(isValidUtf8("σ_sys ± 0.2° → γγ"));      // 2- and 3-byte sequences
+  EXPECT_TRUE(isValidUtf8("\xF0\x9F\x93\x88 plot"));  // U+1F4C8, 4 bytes
+  EXPECT_TRUE(isValidUtf8("\xF4\x8F\xBF\xBF"));       // U+10FFFF, the last code point
+  EXPECT_TRUE(isValidUtf8(std::string("a\0b", 3)));   // NUL is ASCII
+}
+
+TEST(Utf8, RefusesWhatIsNot) {
+  EXPECT_FALSE(isValidUtf8("fit\xff.h5"));        // never in UTF-8
+  EXPECT_FALSE(isValidUtf8("\x89HDF\r\n"));       // a continuation byte alone
+  EXPECT_FALSE(isValidUtf8("\xC3"));              // cut short at the end
+  EXPECT_FALSE(isValidUtf8("\xE2\x82"));          // cut short
+  EXPECT_FALSE(isValidUtf8("\xC3x"));             // not a continuation
+  EXPECT_FALSE(isValidUtf8("\xC0\xAF"));          // overlong '/'
+  EXPECT_FALSE(isValidUtf8("\xE0\x80\xAF"));      // overlong, 3 bytes
+  EXPECT_FALSE(isValidUtf8("\xED\xA0\x80"));      // a surrogate, U+D800
+  EXPECT_FALSE(isValidUtf8("\xF4\x90\x80\x80"));  // above U+10FFFF
+  EXPECT_FALSE(isValidUtf8("\xF5\x80\x80\x80"));
+}
+
+}  // namespace
+}  // namespace emcalign

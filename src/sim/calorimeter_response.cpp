@@ -35,6 +35,14 @@ Status EmcOptions::validate(int counters) const {
     }
   }
   if (!layer3Offset.allFinite()) return Error{"emc: layer-3 offset must be finite"};
+  if (!std::isfinite(tMaxShift) || std::abs(tMaxShift) > 5.0) return Error{"emc: the t_max shift must be within ±5 X0"};
+  if (!(tMaxFluctuationScale >= 0.0 && tMaxFluctuationScale <= 10.0)) {
+    return Error{"emc: the t_max fluctuation scale must be in [0, 10]"};
+  }
+  if (preshowerMaterial && !(*preshowerMaterial >= 0.0 && *preshowerMaterial <= 10.0)) {
+    return Error{"emc: the material before the EMC must be in [0, 10] X0"};
+  }
+  if (!(counterGainSpread >= 0.0 && counterGainSpread <= 0.5)) return Error{"emc: the gain spread must be in [0, 0.5]"};
   return {};
 }
 
@@ -89,12 +97,13 @@ void CounterHits::addToSource(int source, double energy, const Vec3& moment) {
   sourceEnergy_[static_cast<std::size_t>(source)] += energy;
 }
 
-void CounterHits::digitize(const EmcOptions& o, Rng& rng) {
+void CounterHits::digitize(const EmcOptions& o, std::span<const double> gains, Rng& rng) {
   // Only counters with a deposit get noise: with σ = 0.3 MeV and a 2 MeV threshold a
   // noise-only counter fires with probability ~1e-11.
   std::sort(touched_.begin(), touched_.end());
   for (int c : touched_) {
     double& e = energy_[static_cast<std::size_t>(c)];
+    if (!gains.empty()) e *= gains[static_cast<std::size_t>(c)];
     if (o.noise) e += o.noiseSigma * rng.normal();
     if (e >= o.counterThreshold) fired_.push_back(c);
   }
@@ -116,6 +125,13 @@ CalorimeterResponse::CalorimeterResponse(const geometry::Calorimeter& calo, cons
       dead_(static_cast<std::size_t>(calo.size()), 0) {
   if (options_.deadCountersOn) {
     for (int c : options_.deadCounters) dead_[static_cast<std::size_t>(c)] = 1;
+  }
+  if (options_.counterGainSpread > 0.0) {
+    gains_.resize(static_cast<std::size_t>(calo.size()));
+    for (std::size_t c = 0; c < gains_.size(); ++c) {
+      Rng rng(options_.gainSeed, c);
+      gains_[c] = std::max(0.0, 1.0 + options_.counterGainSpread * rng.normal());
+    }
   }
   const double r1 = calo.description().supports[0].rOuter;
   r1Squared_ = r1 * r1;
@@ -207,7 +223,7 @@ void CalorimeterResponse::shower(CounterHits& hits, int source, double energy, b
   const Vec3 start = point + s * direction;
   if (!nearCoverage(start)) return;  // through the end-cap holes: nothing to deposit
   const double sinTheta = std::max(1e-3, std::hypot(direction.x(), direction.y()));
-  const double preshower = m.preshowerMaterial / sinTheta;  // X0 before the EMC
+  const double preshower = o.preshowerMaterial.value_or(m.preshowerMaterial) / sinTheta;  // X0 before the EMC
   const double lnY = std::log(std::max(energy / m.criticalEnergy, 1.01));
 
   double gain = 1.0;
@@ -224,9 +240,9 @@ void CalorimeterResponse::shower(CounterHits& hits, int source, double energy, b
     return;
   }
 
-  double tMax = std::max(0.3, lnY + (photon ? 0.5 : -0.5));
+  double tMax = std::max(0.3, lnY + (photon ? 0.5 : -0.5) + o.tMaxShift);
   if (o.showerFluctuations) {
-    const double sigmaLn = std::clamp(1.0 / (1.26 * lnY - 1.4), 0.05, 0.5);
+    const double sigmaLn = o.tMaxFluctuationScale * std::clamp(1.0 / (1.26 * lnY - 1.4), 0.05, 0.5);
     tMax = std::max(0.3, tMax * std::exp(sigmaLn * rng.normal() - 0.5 * sigmaLn * sigmaLn));
   }
   const double b = o.profileB, a = 1.0 + b * tMax;

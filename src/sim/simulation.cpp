@@ -163,7 +163,7 @@ void Simulation::simulateEvent(std::int64_t index, EventScratch& scratch, std::v
     }
   }
   response_->background(hits, rng);
-  hits.digitize(o.emc, rng);
+  hits.digitize(o.emc, response_->gains(), rng);
   findClusters(hits, *nominal_, *neighbours_, o.reconstruction, scratch.clusters, rng, scratch.clusterList);
   // A cluster row carries the cluster's counters (when the caller keeps hits).
   const auto keepHits = [&](ParticleRow& r, const Cluster& c) {

@@ -48,7 +48,15 @@ struct EmcOptions {
   int spotsLongitudinal = 8;              ///< depths drawn per shower
   int spotsLateral = 4;                   ///< spots per depth
   bool showerFluctuations = true;         ///< t_max fluctuates event by event
-  bool pointShowers = false;              ///< all energy in one spot at the model depth R(E, θ)
+  /// Added to t_max = ln(E/Ec) + C, in X0 (0: PDG's C; a systematic variation moves it).
+  double tMaxShift = 0.0;
+  /// Scales the width σ(ln t_max) of the fluctuation (1: GFLASH's).
+  double tMaxFluctuationScale = 1.0;
+  /// The material before the EMC crossed by the simulated showers, X0 at normal incidence;
+  /// none: the detector's (DetectorDescription::preshowerMaterial). The fit's R(E, θ) keeps
+  /// the detector's: a value here is a difference between the simulation and the model.
+  std::optional<double> preshowerMaterial;
+  bool pointShowers = false;  ///< all energy in one spot at the model depth R(E, θ)
 
   // Energy response
   bool energyResolution = true;     ///< per-shower Gaussian smearing
@@ -58,6 +66,10 @@ struct EmcOptions {
   bool noise = true;
   double noiseSigma = 0.3;        ///< MeV per counter (assumed)
   double counterThreshold = 2.0;  ///< MeV (assumed)
+  /// Counter-to-counter gain non-uniformity: each counter's deposits scaled by a fixed gain
+  /// 1 + σ·N(0, 1) drawn from Rng(gainSeed, counter) (0: uniform, the default).
+  double counterGainSpread = 0.0;
+  std::uint64_t gainSeed = 1;
 
   // Ionisation of charged hadrons and muons in NaI
   double mipDedx = 4.8;                    ///< MeV/cm (PDG: 1.305 MeV cm²/g × 3.667 g/cm³)
@@ -104,7 +116,8 @@ class CounterHits {
   void addToCounter(int counter, int source, double energy, const Vec3& nominal);
   void addToSource(int source, double energy, const Vec3& moment);
   /// Adds noise and applies the threshold; afterwards `fired()` lists counters above it.
-  void digitize(const EmcOptions& o, Rng& rng);
+  /// Noise and threshold; `gains` (one per counter, or empty) scale each counter first.
+  void digitize(const EmcOptions& o, std::span<const double> gains, Rng& rng);
 
   double energy(int counter) const { return energy_[static_cast<std::size_t>(counter)]; }
   const std::array<float, kMaxSources>& contributions(int counter) const {
@@ -134,6 +147,8 @@ class CalorimeterResponse {
   const EmcOptions& options() const { return options_; }
   const geometry::Calorimeter& calorimeter() const { return *calo_; }
   bool isDead(int counter) const { return dead_[static_cast<std::size_t>(counter)] != 0; }
+  /// The counters' gains (EmcOptions::counterGainSpread), empty when uniform.
+  [[nodiscard]] std::span<const double> gains() const { return gains_; }
 
   /// An electromagnetic shower of an e± (photon = false) or γ along the line p + s·d.
   void shower(CounterHits& hits, int source, double energy, bool photon, const Vec3& point, const Vec3& direction,
@@ -186,6 +201,7 @@ class CalorimeterResponse {
   ActualPlacement actual_;
   EmcOptions options_;
   std::vector<std::uint8_t> dead_;
+  std::vector<double> gains_;
   double r1Squared_ = 0.0;
   double coreCdfMax_ = 1.0, tailCdfMax_ = 1.0;  ///< F(r_max) of the lateral components
   double cosCoverageMin_ = 1.0, cosCoverageMax_ = -1.0;

@@ -148,6 +148,73 @@ TEST(Calorimeter, ElectronShowersSitMostlyInLayersOneAndTwo) {
   EXPECT_LT(contained, 1.0);
 }
 
+// The knobs of the systematic variations (docs/systematics.md) move what they say: the
+// energy-weighted depth of 600 MeV electron showers with t_max and with the material
+// before the EMC, its spread with the fluctuation of t_max, and the gains of the counters.
+struct ShowerDepths {
+  double mean = 0.0, sigma = 0.0, deposited = 0.0;
+};
+ShowerDepths showerDepths(const EmcOptions& o) {
+  const auto& calo = calorimeter();
+  auto truth =
+      geometry::AlignmentTransform::create(AlignmentParameters{}, geometry::AlignmentRadii::of(calo.description()));
+  CalorimeterResponse response(calo, *truth, o);
+  CounterHits hits(calo.size());
+  Rng rng(11, 0);
+  std::vector<double> depth;
+  double all = 0.0;
+  for (int i = 0; i < 3000; ++i) {
+    hits.clear();
+    const Vec3 d = geometry::pointAt(1.0, 90.0 * deg, rng.uniform(0.3, 1.2));  // away from the plane x = 0
+    response.shower(hits, 0, 600.0, false, Vec3::Zero(), d, rng);
+    const Vec3 c = hits.sourceCentre(0);
+    if (c.allFinite()) depth.push_back(c.norm());
+    all += hits.sourceEnergy(0);
+  }
+  return {mean(depth), robustSigma(depth), all / (3000 * 600.0)};
+}
+
+TEST(Calorimeter, VariationKnobsMoveTheShower) {
+  EmcOptions o;
+  o.deadCountersOn = false;
+  o.energyResolution = false;
+  const ShowerDepths nominal = showerDepths(o);
+  EmcOptions deeper = o;
+  deeper.tMaxShift = 0.5;  // X0 of NaI: 2.56 cm deeper in t_max
+  const ShowerDepths shifted = showerDepths(deeper);
+  EXPECT_NEAR(shifted.mean - nominal.mean, 0.5 * 2.56, 0.4) << nominal.mean << " -> " << shifted.mean;
+  EmcOptions calm = o;
+  calm.tMaxFluctuationScale = 0.0;  // no event-by-event fluctuation of t_max
+  EXPECT_LT(showerDepths(calm).sigma, nominal.sigma);
+  EmcOptions thick = o;
+  thick.preshowerMaterial = 1.13;  // one X0 more before the EMC: it starts earlier, more is lost
+  const ShowerDepths early = showerDepths(thick);
+  EXPECT_LT(early.mean, nominal.mean - 1.0);
+  EXPECT_LT(early.deposited, nominal.deposited);
+
+  const auto& calo = calorimeter();
+  auto truth =
+      geometry::AlignmentTransform::create(AlignmentParameters{}, geometry::AlignmentRadii::of(calo.description()));
+  EXPECT_TRUE(CalorimeterResponse(calo, *truth, o).gains().empty());
+  EmcOptions spread = o;
+  spread.counterGainSpread = 0.05;
+  const CalorimeterResponse withGains(calo, *truth, spread);
+  const std::vector<double> gains(withGains.gains().begin(), withGains.gains().end());
+  ASSERT_EQ(gains.size(), static_cast<std::size_t>(calo.size()));
+  EXPECT_NEAR(mean(gains), 1.0, 0.005);
+  EXPECT_NEAR(robustSigma(gains), 0.05, 0.005);
+  const CalorimeterResponse again(calo, *truth, spread);  // fixed by the seed
+  EXPECT_TRUE(std::equal(gains.begin(), gains.end(), again.gains().begin()));
+  using Edit = void (*)(EmcOptions&);
+  for (Edit bad : std::initializer_list<Edit>{
+           [](EmcOptions& e) { e.counterGainSpread = 0.9; }, [](EmcOptions& e) { e.tMaxShift = NAN; },
+           [](EmcOptions& e) { e.tMaxFluctuationScale = -1.0; }, [](EmcOptions& e) { e.preshowerMaterial = -0.1; }}) {
+    EmcOptions e = o;
+    bad(e);
+    EXPECT_FALSE(e.validate(calo.size()).ok());
+  }
+}
+
 SimulationOptions cleanOptions(Process process) {
   SimulationOptions o;
   o.generator.process = process;

@@ -64,7 +64,7 @@ class ClusterFinding : public ::testing::Test {
     hits_.add(c, source, energy, centre, centre);
   }
   const std::vector<Cluster>& reconstruct() {
-    hits_.digitize(digitization_, rng_);
+    hits_.digitize(digitization_, {}, rng_);
     findClusters(hits_, nominal(), neighbours(), options_, scratch_, rng_, clusters_);
     return clusters_;
   }

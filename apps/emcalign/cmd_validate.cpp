@@ -10,6 +10,7 @@
 #include "emcalign/calib/corrections_grid.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/validation/campaign.hpp"
+#include "emcalign/validation/variations.hpp"
 #include "progress.hpp"
 
 namespace emcalign::app {
@@ -34,6 +35,7 @@ struct ValidateOptions {
   std::string corrections;
   std::vector<std::string> off;
   std::string sigmaSys;
+  std::string variation;  ///< a systematic variation of the simulation (validation/variations.hpp)
   std::string output;
 };
 
@@ -61,6 +63,7 @@ int run(const ValidateOptions& cli) {
   }
   if (Status s = applyRealismSwitches(o.simulation, cli.ideal, cli.off); !s) return reportError(s.error());
   if (cli.pointShowers) o.simulation.emc.pointShowers = true;
+  if (!cli.variation.empty()) validation::findVariation(cli.variation)->apply(o.simulation);
   o.corrections.depthOffset = cli.depthOffset * units::cm;
   io::Json correctionsSetting = nullptr;
   if (cli.beamEnergy > 0.0) o.simulation.generator.beamEnergy = cli.beamEnergy * units::MeV;
@@ -97,6 +100,7 @@ int run(const ValidateOptions& cli) {
   // Only when given, so that a campaign directory made before the option resumes.
   if (!cli.sigmaSys.empty()) o.settings["sigma_sys"] = cli.sigmaSys;
   if (cli.beamEnergy > 0.0) o.settings["beam_energy_mev"] = cli.beamEnergy;
+  if (!cli.variation.empty()) o.settings["variation"] = cli.variation;
   o.sigmaSys = sigmaSysChoice(cli.sigmaSys);
   ProgressLine progress("validate", cli.samples, "samples");
   auto table = validation::runCampaign(*calo, o, cli.output, [&](int done, int) { progress.update(done); });
@@ -154,6 +158,13 @@ void addValidateCommand(CLI::App& app, int& exitCode) {
       ->check(CLI::ExistingPath)
       ->excludes(depthOffset);
   addSigmaSysOption(*cmd, o->sigmaSys);
+  std::vector<std::string> names;
+  for (const auto& v : validation::variations()) names.push_back(v.name);
+  cmd->add_option(
+         "--variation", o->variation,
+         "simulate with a systematic variation, one of the names above (docs/systematics.md): the fits keep the "
+         "detector's model")
+      ->check(CLI::IsMember(names));
   cmd->add_option("-o,--output", o->output, "campaign directory (a rerun resumes it)")->required();
   cmd->callback([o, &exitCode] { exitCode = run(*o); });
 }

@@ -114,3 +114,22 @@ TEST_F(ValidateCli, BadRangeFilesAreRefused) {
 }
 
 }  // namespace
+
+// A systematic variation (validation/variations.hpp) changes the simulation of the same
+// samples (same truths, same random streams), is recorded in each sample, and is another
+// campaign: a directory of one is not resumed as the other.
+TEST_F(ValidateCli, AVariationIsTheSameSamplesSimulatedOtherwise) {
+  const std::string base = path("base"), varied = path("varied");
+  ASSERT_EQ(run("validate --samples 2 --events 4000 --seed 5 -o " + base), 0);
+  ASSERT_EQ(run("validate --samples 2 --events 4000 --seed 5 --variation gains-5pc -o " + varied), 0);
+  const auto a = nlohmann::json::parse(slurp(fs::path(base) / "samples" / "sample_0001.json"));
+  const auto b = nlohmann::json::parse(slurp(fs::path(varied) / "samples" / "sample_0001.json"));
+  EXPECT_EQ(a["truth"], b["truth"]);                          // paired: the same truth
+  EXPECT_NE(a["fit"]["parameters"], b["fit"]["parameters"]);  // another simulation
+  EXPECT_EQ(b["campaign"]["settings"]["variation"], "gains-5pc");
+  EXPECT_FALSE(a["campaign"]["settings"].contains("variation"));
+  std::string err;
+  EXPECT_NE(run("validate --samples 2 --events 4000 --seed 5 --variation tmax-up -o " + varied, &err), 0);
+  EXPECT_NE(err.find("another directory"), std::string::npos) << err;
+  EXPECT_EQ(run("validate --samples 2 --events 4000 --variation gravity -o " + path("x"), &err), 2);
+}

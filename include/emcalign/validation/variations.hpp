@@ -1,0 +1,37 @@
+#pragma once
+// Plausible variations of the simulation, for the systematic uncertainty of what was derived
+// from it (docs/systematics.md, issue 18).
+//
+// The model corrections (calib/corrections.hpp) are measured in this simulation; on SND data
+// the shower depth, the lateral profile, the counters' response, the dead channels, the
+// background and the tracker differ from it by amounts nobody knows exactly. Each variation
+// below changes one of them by about its uncertainty (each says why that much), in both
+// directions where both are plausible; a campaign simulated with it and fitted with the
+// shipped corrections (`emcalign validate --variation NAME`) shows how far each parameter's
+// bias moves. Variations of one quantity form a pair; its shift is the larger of the two.
+//
+// A variation changes the simulation only: the fit keeps the detector's description (its
+// R(E, θ), its x_pre), as a fit of data would.
+
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "emcalign/sim/simulation.hpp"
+
+namespace emcalign::validation {
+
+struct Variation {
+  std::string name;      ///< e.g. "tmax-up": what --variation takes
+  std::string quantity;  ///< the quantity it varies, shared by a pair (e.g. "t_max")
+  std::string change;    ///< what it sets, e.g. "t_max + 0.5 X0"
+  std::string why;       ///< why that much
+  void (*apply)(sim::SimulationOptions&) = nullptr;
+};
+
+/// Every variation, in the order of docs/systematics.md.
+const std::vector<Variation>& variations();
+/// The variation of that name, or nullptr.
+const Variation* findVariation(std::string_view name);
+
+}  // namespace emcalign::validation

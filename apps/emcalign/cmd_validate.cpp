@@ -1,7 +1,9 @@
 // emcalign validate: the validation campaign (the paper's Table 1) — simulated samples with
 // truths drawn over the expected ranges, each fitted like data.
 
+#include <algorithm>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include <fmt/format.h>
@@ -10,6 +12,7 @@
 #include "emcalign/calib/corrections_grid.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/validation/campaign.hpp"
+#include "emcalign/validation/systematics.hpp"
 #include "emcalign/validation/variations.hpp"
 #include "progress.hpp"
 
@@ -35,22 +38,27 @@ struct ValidateOptions {
   std::string corrections;
   std::vector<std::string> off;
   std::string sigmaSys;
-  std::string variation;  ///< a systematic variation of the simulation (validation/variations.hpp)
+  std::string variation;                ///< a systematic variation of the simulation (validation/variations.hpp)
+  std::vector<std::string> variations;  ///< systematics: the variations to run (none: all)
   std::string output;
 };
 
-int run(const ValidateOptions& cli) {
+// The campaign of the command line, checked: its outputs, the detector (into `calo`), the
+// ranges, the simulation's switches, the corrections, and the settings each sample records.
+Result<validation::CampaignOptions> campaignOptionsOf(const ValidateOptions& cli,
+                                                      std::optional<geometry::Calorimeter>& calo) {
   if (Status s =
           checkOutputs({}, {{"-o", cli.output}},
                        {{"--ranges", cli.ranges}, {"--corrections", cli.corrections}, {"--detector", cli.detector}});
       !s) {
-    return reportError(s.error());
+    return s.error();
   }
   if (cli.thetaMinDeg >= cli.thetaMaxDeg) {
-    return reportError({fmt::format("--theta-min {} must be below --theta-max {}", cli.thetaMinDeg, cli.thetaMaxDeg)});
+    return Error{fmt::format("--theta-min {} must be below --theta-max {}", cli.thetaMinDeg, cli.thetaMaxDeg)};
   }
-  auto calo = loadCalorimeter(cli.detector);
-  if (!calo) return reportError(calo.error());
+  auto loaded = loadCalorimeter(cli.detector);
+  if (!loaded) return loaded.error();
+  calo = std::move(*loaded);
   validation::CampaignOptions o;
   o.samples = cli.samples;
   o.events = cli.events;
@@ -58,10 +66,10 @@ int run(const ValidateOptions& cli) {
   o.threads = cli.threads;
   if (!cli.ranges.empty()) {
     auto r = validation::readRanges(cli.ranges);
-    if (!r) return reportError(r.error());
+    if (!r) return r.error();
     o.ranges = *r;
   }
-  if (Status s = applyRealismSwitches(o.simulation, cli.ideal, cli.off); !s) return reportError(s.error());
+  if (Status s = applyRealismSwitches(o.simulation, cli.ideal, cli.off); !s) return s.error();
   if (cli.pointShowers) o.simulation.emc.pointShowers = true;
   if (!cli.variation.empty()) validation::findVariation(cli.variation)->apply(o.simulation);
   o.corrections.depthOffset = cli.depthOffset * units::cm;
@@ -69,9 +77,9 @@ int run(const ValidateOptions& cli) {
   if (cli.beamEnergy > 0.0) o.simulation.generator.beamEnergy = cli.beamEnergy * units::MeV;
   if (!cli.corrections.empty()) {
     auto grid = calib::CorrectionsGrid::read(cli.corrections);
-    if (!grid) return reportError(grid.error());
+    if (!grid) return grid.error();
     auto c = grid->at(o.simulation.generator.beamEnergy);
-    if (!c) return reportError(c.error());
+    if (!c) return c.error();
     if (!c->warning.empty()) reportWarning(c->warning);
     o.corrections = c->corrections;
     // The samples record what the corrections were, so that a rerun with another file is refused.
@@ -102,6 +110,14 @@ int run(const ValidateOptions& cli) {
   if (cli.beamEnergy > 0.0) o.settings["beam_energy_mev"] = cli.beamEnergy;
   if (!cli.variation.empty()) o.settings["variation"] = cli.variation;
   o.sigmaSys = sigmaSysChoice(cli.sigmaSys);
+  return o;
+}
+
+int run(const ValidateOptions& cli) {
+  std::optional<geometry::Calorimeter> calo;
+  auto made = campaignOptionsOf(cli, calo);
+  if (!made) return reportError(made.error());
+  const validation::CampaignOptions& o = *made;
   ProgressLine progress("validate", cli.samples, "samples");
   auto table = validation::runCampaign(*calo, o, cli.output, [&](int done, int) { progress.update(done); });
   progress.finish();
@@ -120,53 +136,108 @@ int run(const ValidateOptions& cli) {
   return 0;
 }
 
+// emcalign systematics: the nominal campaign and one per variation, paired (validation/systematics.hpp).
+int runSystematics(const ValidateOptions& cli) {
+  std::optional<geometry::Calorimeter> calo;
+  auto made = campaignOptionsOf(cli, calo);
+  if (!made) return reportError(made.error());
+  validation::SystematicsOptions o;
+  o.campaign = std::move(*made);
+  for (const auto& name : cli.variations) o.variations.push_back(validation::findVariation(name));
+  const std::size_t campaigns = (o.variations.empty() ? validation::variations().size() : o.variations.size()) + 1;
+  ProgressLine progress("systematics", static_cast<std::int64_t>(campaigns) * cli.samples, "samples");
+  auto table = validation::runSystematics(*calo, o, cli.output, [&](int done, int) { progress.update(done); });
+  progress.finish();
+  if (!table) return reportError(table.error());
+  fmt::print(reportStream(), "{:<10} {:>4} {:>19} {:>9} {:>11}  largest shift\n", "parameter", "unit", "nominal bias",
+             "spread", "systematic");
+  for (const auto& r : table->rows) {
+    const auto largest = std::max_element(r.envelope.begin(), r.envelope.end());
+    const std::string which =
+        largest == r.envelope.end()
+            ? std::string()
+            : fmt::format("{:.4f} ({})", *largest,
+                          table->quantities[static_cast<std::size_t>(largest - r.envelope.begin())]);
+    fmt::print(reportStream(), "{:<10} {:>4} {:>+9.4f} ± {:<7.4f} {:>9.4f} {:>11.4f}  {}\n", r.name, r.unit, r.bias,
+               r.biasError, r.spread, r.systematic, which);
+  }
+  fmt::print(reportStream(),
+             "{} campaigns × {} samples × {} events in {:.1f} s; wrote {}/systematics.json, systematics.md, "
+             "nominal/, one directory per variation\n",
+             campaigns, table->samples, table->events, progress.elapsed(), cli.output);
+  return kExitOk;
+}
+
+// The options of a campaign, shared by validate and systematics.
+void addCampaignOptions(CLI::App& cmd, ValidateOptions& o) {
+  cmd.add_option("--samples", o.samples, fmt::format("number of samples (default {})", o.samples))
+      ->check(integerIn(1, 100000));
+  cmd.add_option("--events", o.events, fmt::format("events per sample (default {})", o.events))
+      ->check(integerIn(1, kMaxEvents));
+  cmd.add_option("--seed", o.seed, "campaign seed, 0 to 2^64 - 1")->check(unsigned64());
+  cmd.add_option("--ranges", o.ranges, "ranges of the truth (JSON, emcalign-validation-ranges/1)")
+      ->check(CLI::ExistingFile);
+  addDetectorOption(cmd, o.detector);
+  cmd.add_option("--threads", o.threads, "worker threads (0: all cores)")->check(integerIn(0, kMaxThreads));
+  cmd.add_option("--beam-energy", o.beamEnergy,
+                 fmt::format("beam energy of the samples, MeV (default {})",
+                             validation::CampaignOptions{}.simulation.generator.beamEnergy / units::MeV))
+      ->check(finiteIn(sim::kMinBeamEnergy / units::MeV, sim::kMaxBeamEnergy / units::MeV));
+  cmd.add_option("--theta-min", o.thetaMinDeg,
+                 fmt::format("generated polar range of the leptons, deg (default {})", o.thetaMinDeg))
+      ->check(finiteIn(0.0, 180.0));
+  cmd.add_option("--theta-max", o.thetaMaxDeg, fmt::format("(default {})", o.thetaMaxDeg))->check(finiteIn(0.0, 180.0));
+  cmd.add_flag("--ideal", o.ideal, "use the idealised simulation (the fit model is exact)");
+  cmd.add_option("--off", o.off,
+                 "switch realism effects off (as emcalign simulate --off), to trace a bias to its cause")
+      ->delimiter(',');
+  cmd.add_flag("--point-showers", o.pointShowers, "deposit each shower in one spot at the model depth R(E, theta)");
+  auto* depthOffset =
+      cmd.add_option("--depth-offset", o.depthOffset, "cm added to R(E, theta) in the fits (as emcalign fit)")
+          ->check(finiteIn(-calib::kMaxDepthOffset, calib::kMaxDepthOffset));
+  cmd.add_option("--corrections", o.corrections,
+                 "fit with the model corrections of this file, or of a grid directory at the samples' beam "
+                 "energy (emcalign derive-corrections; as emcalign fit)")
+      ->check(CLI::ExistingPath)
+      ->excludes(depthOffset);
+  addSigmaSysOption(cmd, o.sigmaSys);
+}
+
+std::vector<std::string> variationNames() {
+  std::vector<std::string> names;
+  for (const auto& v : validation::variations()) names.push_back(v.name);
+  return names;
+}
+
 }  // namespace
 
 void addValidateCommand(CLI::App& app, int& exitCode) {
   auto o = std::make_shared<ValidateOptions>();
   auto* cmd = app.add_subcommand("validate", "Validation campaign: bias, spread and pulls over simulated samples");
   addVersionFlag(*cmd);
-  cmd->add_option("--samples", o->samples, fmt::format("number of samples (default {})", o->samples))
-      ->check(integerIn(1, 100000));
-  cmd->add_option("--events", o->events, fmt::format("events per sample (default {})", o->events))
-      ->check(integerIn(1, kMaxEvents));
-  cmd->add_option("--seed", o->seed, "campaign seed, 0 to 2^64 - 1")->check(unsigned64());
-  cmd->add_option("--ranges", o->ranges, "ranges of the truth (JSON, emcalign-validation-ranges/1)")
-      ->check(CLI::ExistingFile);
-  addDetectorOption(*cmd, o->detector);
-  cmd->add_option("--threads", o->threads, "worker threads (0: all cores)")->check(integerIn(0, kMaxThreads));
-  cmd->add_option("--beam-energy", o->beamEnergy,
-                  fmt::format("beam energy of the samples, MeV (default {})",
-                              validation::CampaignOptions{}.simulation.generator.beamEnergy / units::MeV))
-      ->check(finiteIn(sim::kMinBeamEnergy / units::MeV, sim::kMaxBeamEnergy / units::MeV));
-  cmd->add_option("--theta-min", o->thetaMinDeg,
-                  fmt::format("generated polar range of the leptons, deg (default {})", o->thetaMinDeg))
-      ->check(finiteIn(0.0, 180.0));
-  cmd->add_option("--theta-max", o->thetaMaxDeg, fmt::format("(default {})", o->thetaMaxDeg))
-      ->check(finiteIn(0.0, 180.0));
-  cmd->add_flag("--ideal", o->ideal, "use the idealised simulation (the fit model is exact)");
-  cmd->add_option("--off", o->off,
-                  "switch realism effects off (as emcalign simulate --off), to trace a bias to its cause")
-      ->delimiter(',');
-  cmd->add_flag("--point-showers", o->pointShowers, "deposit each shower in one spot at the model depth R(E, theta)");
-  auto* depthOffset =
-      cmd->add_option("--depth-offset", o->depthOffset, "cm added to R(E, theta) in the fits (as emcalign fit)")
-          ->check(finiteIn(-calib::kMaxDepthOffset, calib::kMaxDepthOffset));
-  cmd->add_option("--corrections", o->corrections,
-                  "fit with the model corrections of this file, or of a grid directory at the samples' beam "
-                  "energy (emcalign derive-corrections; as emcalign fit)")
-      ->check(CLI::ExistingPath)
-      ->excludes(depthOffset);
-  addSigmaSysOption(*cmd, o->sigmaSys);
-  std::vector<std::string> names;
-  for (const auto& v : validation::variations()) names.push_back(v.name);
-  cmd->add_option(
-         "--variation", o->variation,
-         "simulate with a systematic variation, one of the names above (docs/systematics.md): the fits keep the "
-         "detector's model")
-      ->check(CLI::IsMember(names));
+  addCampaignOptions(*cmd, *o);
+  cmd->add_option("--variation", o->variation,
+                  "simulate with a systematic variation, one of the names above (docs/systematics.md): the fits keep "
+                  "the detector's model")
+      ->check(CLI::IsMember(variationNames()));
   cmd->add_option("-o,--output", o->output, "campaign directory (a rerun resumes it)")->required();
   cmd->callback([o, &exitCode] { exitCode = run(*o); });
+
+  auto s = std::make_shared<ValidateOptions>();
+  s->samples = 40;  // 40 paired samples measure a shift to a fraction of a fit's spread
+  auto* sys = app.add_subcommand("systematics",
+                                 "Systematic study: a validation campaign of the nominal simulation and one of each "
+                                 "variation, paired sample by sample (docs/systematics.md)");
+  addVersionFlag(*sys);
+  addCampaignOptions(*sys, *s);
+  sys->add_option("--variations", s->variations, "the variations to run (default: all)")
+      ->delimiter(',')
+      ->check(CLI::IsMember(variationNames()));
+  sys->add_option("-o,--output", s->output,
+                  "study directory: nominal/, one campaign per variation, systematics.json "
+                  "and .md (a rerun resumes it)")
+      ->required();
+  sys->callback([s, &exitCode] { exitCode = runSystematics(*s); });
 }
 
 }  // namespace emcalign::app

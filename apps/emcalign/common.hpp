@@ -93,7 +93,7 @@ void addParamsCommand(CLI::App& app, int& exitCode);
 void addTransformCommand(CLI::App& app, int& exitCode);
 void addSimulateCommand(CLI::App& app, int& exitCode);
 void addFitCommand(CLI::App& app, int& exitCode);
-void addValidateCommand(CLI::App& app, int& exitCode);
+void addValidateCommand(CLI::App& app, int& exitCode);  // validate and systematics
 void addDeriveCorrectionsCommand(CLI::App& app, int& exitCode);
 void addExportCommand(CLI::App& app, int& exitCode);
 void addCorrectCommand(CLI::App& app, int& exitCode);

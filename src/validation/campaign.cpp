@@ -256,7 +256,7 @@ std::vector<report::CampaignSeries> campaignSeries(const std::vector<SampleResul
 }  // namespace
 
 Result<Table> runCampaign(const geometry::Calorimeter& calo, const CampaignOptions& o, const std::string& dir,
-                          const CampaignProgress& progress) {
+                          const CampaignProgress& progress, std::vector<SampleResult>* samplesOut) {
   if (Status s = o.validate(); !s) return s.error();
   std::error_code ec;
   fs::create_directories(fs::path(dir) / "samples", ec);
@@ -322,6 +322,7 @@ Result<Table> runCampaign(const geometry::Calorimeter& calo, const CampaignOptio
       !plots) {
     return plots.error();
   }
+  if (samplesOut != nullptr) *samplesOut = std::move(samples);
   return table;
 }
 

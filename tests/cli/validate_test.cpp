@@ -133,3 +133,42 @@ TEST_F(ValidateCli, AVariationIsTheSameSamplesSimulatedOtherwise) {
   EXPECT_NE(err.find("another directory"), std::string::npos) << err;
   EXPECT_EQ(run("validate --samples 2 --events 4000 --variation gravity -o " + path("x"), &err), 2);
 }
+
+// emcalign systematics: the nominal campaign and one per variation; each shift is the mean of
+// the paired differences of the fits, which the test recomputes from the sample files; the
+// envelope of a pair is the larger |shift|; a rerun resumes to the same table.
+TEST_F(ValidateCli, SystematicsPairsTheSamplesAndTakesTheEnvelope) {
+  const std::string out = path("sys");
+  const std::string args =
+      "systematics --samples 3 --events 4000 --seed 2 --variations tmax-up,tmax-down,gains-5pc -o ";
+  ASSERT_EQ(run(args + out), 0);
+  const auto table = nlohmann::json::parse(slurp(fs::path(out) / "systematics.json"));
+  EXPECT_EQ(table["samples"], 3);
+  ASSERT_EQ(table["variations"].size(), 3u);
+  const auto fitOf = [&](const std::string& campaign, int i) {
+    return nlohmann::json::parse(
+        slurp(fs::path(out) / campaign / "samples" / ("sample_000" + std::to_string(i) + ".json")))["fit"];
+  };
+  for (const char* variation : {"tmax-up", "gains-5pc"}) {
+    double mean = 0.0;
+    for (int i = 0; i < 3; ++i) {
+      mean += (fitOf(variation, i)["parameters"]["dp1"].get<double>() -
+               fitOf("nominal", i)["parameters"]["dp1"].get<double>()) /
+              3.0;
+    }
+    const double shift = table["parameters"]["dp1"]["shifts"][variation][0].get<double>();
+    EXPECT_NEAR(shift, mean, 1e-12) << variation;
+    EXPECT_NE(shift, 0.0) << variation;
+  }
+  const auto& dp1 = table["parameters"]["dp1"];
+  const double up = std::abs(dp1["shifts"]["tmax-up"][0].get<double>());
+  const double down = std::abs(dp1["shifts"]["tmax-down"][0].get<double>());
+  EXPECT_DOUBLE_EQ(dp1["envelopes"]["t_max"].get<double>(), std::max(up, down));
+  const double gains = dp1["envelopes"]["counter gains"].get<double>();
+  EXPECT_DOUBLE_EQ(dp1["systematic"].get<double>(), std::hypot(std::max(up, down), gains));
+  EXPECT_NE(slurp(fs::path(out) / "systematics.md").find("| dp1 | cm |"), std::string::npos);
+  const std::string first = slurp(fs::path(out) / "systematics.json");
+  fs::remove(fs::path(out) / "gains-5pc" / "samples" / "sample_0001.json");
+  ASSERT_EQ(run(args + out), 0);
+  EXPECT_EQ(slurp(fs::path(out) / "systematics.json"), first);
+}

@@ -101,8 +101,9 @@ using CampaignProgress = std::function<void(int done, int total)>;
 /// Runs (or resumes) the campaign into `dir`: dir/samples/sample_NNN.json per sample,
 /// then dir/table.json, dir/table.md and the figures dir/plots/{pulls,residuals_vs_truth}.png.
 /// Returns the table.
+/// `samples`, when given, receives the finished samples (as the table saw them).
 Result<Table> runCampaign(const geometry::Calorimeter& calo, const CampaignOptions& options, const std::string& dir,
-                          const CampaignProgress& progress = {});
+                          const CampaignProgress& progress = {}, std::vector<SampleResult>* samples = nullptr);
 
 /// The table from finished samples.
 Table tabulate(const std::vector<SampleResult>& samples, std::int64_t events, double r1);

@@ -20,7 +20,7 @@ namespace {
 // The truth: 12 values (native units) or a file holding an alignment (its warnings shown as
 // Python warnings, as the command-line tool prints them).
 geometry::AlignmentParameters truthOf(const py::object& truth, const Detector& detector, std::string& file) {
-  if (py::isinstance<py::str>(truth) || py::hasattr(truth, "__fspath__")) {
+  if (py::isinstance<py::str>(truth) || py::isinstance<py::bytes>(truth) || py::hasattr(truth, "__fspath__")) {
     file = pathString(truth.cast<Path>());
     const auto loaded = unwrap(apply::loadAlignment(file, detector.calorimeter()));
     for (const auto& w : loaded.warnings) {
@@ -28,7 +28,12 @@ geometry::AlignmentParameters truthOf(const py::object& truth, const Detector& d
     }
     return loaded.parameters;
   }
-  return parametersOf(truth.cast<Array>());
+  const auto values = Array::ensure(truth);
+  if (!values) {
+    PyErr_Clear();
+    throw py::type_error("truth: 12 values (native units) or the path of a parameter, fit-result or placements file");
+  }
+  return parametersOf(values);
 }
 
 struct SimulateArgs {

@@ -122,6 +122,13 @@ def test_ctrl_c_stops_a_simulation_soon(tmp_path, paper_like):
     assert os.listdir(tmp_path) == []  # no file, no temporary
 
 
+def test_a_truth_of_the_wrong_type_is_a_type_error():
+    with pytest.raises(TypeError, match="truth"):
+        emcalign.simulate({"alpha": 3.0}, 10)
+    with pytest.raises(emcalign.Error, match="not valid UTF-8"):
+        emcalign.simulate(b"p\xff.json", 10)  # a bytes path is a path
+
+
 def test_sizes_beyond_reason_are_refused(paper_like):
     with pytest.raises(emcalign.Error, match="write them to a file"):
         emcalign.simulate(paper_like, 10**8)

@@ -71,7 +71,6 @@ Result<validation::CampaignOptions> campaignOptionsOf(const ValidateOptions& cli
   }
   if (Status s = applyRealismSwitches(o.simulation, cli.ideal, cli.off); !s) return s.error();
   if (cli.pointShowers) o.simulation.emc.pointShowers = true;
-  if (!cli.variation.empty()) validation::findVariation(cli.variation)->apply(o.simulation);
   o.corrections.depthOffset = cli.depthOffset * units::cm;
   io::Json correctionsSetting = nullptr;
   if (cli.beamEnergy > 0.0) o.simulation.generator.beamEnergy = cli.beamEnergy * units::MeV;
@@ -108,8 +107,8 @@ Result<validation::CampaignOptions> campaignOptionsOf(const ValidateOptions& cli
   // Only when given, so that a campaign directory made before the option resumes.
   if (!cli.sigmaSys.empty()) o.settings["sigma_sys"] = cli.sigmaSys;
   if (cli.beamEnergy > 0.0) o.settings["beam_energy_mev"] = cli.beamEnergy;
-  if (!cli.variation.empty()) o.settings["variation"] = cli.variation;
   o.sigmaSys = sigmaSysChoice(cli.sigmaSys);
+  if (!cli.variation.empty()) return validation::withVariation(std::move(o), *validation::findVariation(cli.variation));
   return o;
 }
 

@@ -33,6 +33,12 @@ std::vector<SampleResult> pairedWithNominal(const std::vector<SampleResult>& var
 
 }  // namespace
 
+CampaignOptions withVariation(CampaignOptions options, const Variation& variation) {
+  variation.apply(options.simulation);
+  options.settings["variation"] = variation.name;
+  return options;
+}
+
 Result<SystematicsTable> runSystematics(const geometry::Calorimeter& calo, const SystematicsOptions& options,
                                         const std::string& dir, const SystematicsProgress& progress) {
   SystematicsTable t;
@@ -55,9 +61,7 @@ Result<SystematicsTable> runSystematics(const geometry::Calorimeter& calo, const
   const double r1 = calo.description().r1();
   std::vector<Table> shifts;
   for (const Variation* v : t.variations) {
-    CampaignOptions o = nominalOptions;
-    v->apply(o.simulation);
-    o.settings["variation"] = v->name;
+    const CampaignOptions o = withVariation(nominalOptions, *v);
     std::vector<SampleResult> varied;
     auto table = runCampaign(calo, o, (fs::path(dir) / v->name).string(), progressOf, &varied);
     if (!table) return Error{fmt::format("variation {}: {}", v->name, table.error().message)};

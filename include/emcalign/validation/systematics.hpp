@@ -33,6 +33,10 @@ struct SystematicsOptions {
   std::vector<const Variation*> variations;
 };
 
+/// The campaign with a variation: its simulation changed, and the variation recorded in the
+/// settings of every sample (so that a directory of another campaign is refused).
+CampaignOptions withVariation(CampaignOptions options, const Variation& variation);
+
 /// One parameter (the 12 and the derived, as the validation table names them).
 struct SystematicsRow {
   std::string name;

@@ -29,9 +29,6 @@ py::dict correctFiles(const Paths& paths, const Path& output, const Detector* gi
     raise(Error{"correct: give alignment= (a file) or conditions= with tag=, one of them"});
   }
   if (conditions.has_value() != tag.has_value()) raise(Error{"correct: conditions= and tag= go together"});
-  if (depthOffset != 0.0 && corrections) {
-    raise(Error{"correct: depth_offset and corrections: the corrections bring their own depth offset"});
-  }
   const std::vector<std::string> inputs = stringsOf(paths);
   const std::string out = pathString(output);
   const std::string correctionsPath = corrections ? pathString(*corrections) : std::string();

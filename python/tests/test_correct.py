@@ -61,6 +61,8 @@ def test_refused_corrections(tmp_path, sample):
         emcalign.correct(h5, tmp_path / "o.h5")
     with pytest.raises(emcalign.Error, match="go together"):
         emcalign.correct(h5, tmp_path / "o.h5", alignment=PAPER_LIKE, tag="t")
+    with pytest.raises(emcalign.Error, match="bring their own"):
+        emcalign.correct(h5, tmp_path / "o.h5", alignment=PAPER_LIKE, corrections=CORRECTIONS, depth_offset=0.5)
     with pytest.raises(emcalign.Error, match="method"):
         emcalign.correct(h5, tmp_path / "o.h5", alignment=PAPER_LIKE, method="best")
     before = h5.read_bytes()

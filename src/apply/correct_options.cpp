@@ -16,7 +16,7 @@ Result<CorrectOptions> correctOptionsOf(std::string_view method, double depthOff
   const auto m = correctionMethodFromName(method);
   if (!m) return Error{fmt::format("method '{}': expected auto, hits or clusters", method)};
   options.method = *m;
-  if (Status s = calib::checkDepthOffset(depthOffset); !s) return s.error();
+  if (Status s = calib::checkDepthOffset(depthOffset, corrections); !s) return s.error();
   options.depth = geometry::ShowerDepth::of(calo.description());
   options.depth.offset = depthOffset;
   if (!corrections.empty()) {

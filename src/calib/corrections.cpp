@@ -14,10 +14,13 @@
 
 namespace emcalign::calib {
 
-Status checkDepthOffset(double offset) {
+Status checkDepthOffset(double offset, const std::string& corrections) {
   if (!(std::abs(offset) <= kMaxDepthOffset * units::cm)) {
     return Error{fmt::format("the depth offset {:.6g} cm is beyond the plausible ±{} cm (in cm: given in mm?)",
                              offset / units::cm, kMaxDepthOffset)};
+  }
+  if (offset != 0.0 && !corrections.empty()) {
+    return Error{"a depth offset and corrections: the corrections bring their own depth offset"};
   }
   return {};
 }

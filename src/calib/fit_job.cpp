@@ -14,10 +14,7 @@ Status FitRequest::validate() const {
   if (beamEnergy && !(std::isfinite(*beamEnergy) && *beamEnergy > 0.0)) {
     return Error{fmt::format("beam energy {} MeV: expected a positive energy", *beamEnergy)};
   }
-  if (Status s = checkDepthOffset(depthOffset); !s) return s;
-  if (depthOffset != 0.0 && !corrections.empty()) {
-    return Error{"a depth offset and corrections: the corrections bring their own depth offset"};
-  }
+  if (Status s = checkDepthOffset(depthOffset, corrections); !s) return s;
   if (sigmaSys) return sigmaSys->validate();
   return {};
 }

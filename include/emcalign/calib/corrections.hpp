@@ -78,8 +78,9 @@ inline constexpr double kMinCorrectionsEnergy = 20.0 * units::MeV;
 inline constexpr double kMaxCorrectionsEnergy = 5000.0 * units::MeV;
 /// A depth offset beyond this is a unit mistake (the derived one is ~4 cm; the EMC is 37 cm deep).
 inline constexpr double kMaxDepthOffset = 20.0;  // cm
-/// A depth offset (native length) finite and within ±kMaxDepthOffset; the error says so.
-Status checkDepthOffset(double offset);
+/// A depth offset (native length) finite and within ±kMaxDepthOffset, and none beside a
+/// corrections file or grid (`corrections` not empty: they bring their own); the error says which.
+Status checkDepthOffset(double offset, const std::string& corrections = {});
 
 /// W₊ per φ column of the profiles.
 class PartingPlaneResponse {

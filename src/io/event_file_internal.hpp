@@ -187,7 +187,7 @@ Result<std::unique_ptr<RowSource>> openHdf5Source(const std::string& path, std::
 /// module's threads), and a reader forked while another thread is inside HDF5 would start
 /// with HDF5's state half-changed and its internal locks held. So every call into HDF5
 /// holds this lock (Hdf5Quiet), and so does the fork of openIsolated. The forked reader is
-/// alone in its process and takes no lock (hdf5LockNeeded() false there).
+/// alone in its process and takes no lock (leaveHdf5LockAfterFork).
 class Hdf5Lock {
  public:
   Hdf5Lock();

@@ -56,7 +56,7 @@ Result<SystematicsTable> runSystematics(const geometry::Calorimeter& calo, const
   };
   std::vector<SampleResult> nominal;
   auto nominalTable = runCampaign(calo, nominalOptions, (fs::path(dir) / "nominal").string(), progressOf, &nominal);
-  if (!nominalTable) return nominalTable.error();
+  if (!nominalTable) return Error{fmt::format("the nominal campaign: {}", nominalTable.error().message)};
   ++campaignsDone;
   const double r1 = calo.description().r1();
   std::vector<Table> shifts;

@@ -171,4 +171,8 @@ TEST_F(ValidateCli, SystematicsPairsTheSamplesAndTakesTheEnvelope) {
   fs::remove(fs::path(out) / "gains-5pc" / "samples" / "sample_0001.json");
   ASSERT_EQ(run(args + out), 0);
   EXPECT_EQ(slurp(fs::path(out) / "systematics.json"), first);
+  // A failure says which campaign failed.
+  std::string err;
+  EXPECT_EQ(run("systematics --samples 1 --events 50 --variations tmax-up -o " + path("few"), &err), 1);
+  EXPECT_NE(err.find("the nominal campaign: sample 0"), std::string::npos) << err;
 }

@@ -54,19 +54,27 @@ void printCutFlow(const calib::ProfileFill& fill) {
 // digits of fixed notation).
 std::string fixed5(double v) { return std::abs(v) < 1e6 ? fmt::format("{:.5f}", v) : fmt::format("{:.5g}", v); }
 
-void printResult(const calib::FitResult& r) {
-  fmt::print(reportStream(), "\n{:<10} {:>12}   {:<10} {}\n", "parameter", "value", "error", "unit");
+// The parameters with their statistical errors, and the systematic ones when the
+// corrections carry them (docs/systematics.md).
+void printResult(const calib::FitResult& r, const calib::SystematicErrors* systematic) {
+  const auto syst = [&](std::string_view n) {
+    if (systematic == nullptr) return std::string();
+    const auto it = systematic->errors.find(n);
+    return fmt::format(" ± {:<10}", it == systematic->errors.end() ? std::string("—") : fixed5(it->second));
+  };
+  fmt::print(reportStream(), "\n{:<10} {:>12}   {:<10}{} {}\n", "parameter", "value", systematic ? "stat" : "error",
+             systematic ? fmt::format("   {:<10}", "syst") : "", "unit");
   for (Param p : kAllParams) {
     const double unit = AlignmentParameters::fileUnit(p);
-    fmt::print(reportStream(), "{:<10} {:>12} ± {:<10} {}\n", name(p), fixed5(r.parameters[p] / unit),
-               fixed5(r.errors[p] / unit), fileUnitName(dimension(p)));
+    fmt::print(reportStream(), "{:<10} {:>12} ± {:<10}{} {}\n", name(p), fixed5(r.parameters[p] / unit),
+               fixed5(r.errors[p] / unit), syst(name(p)), fileUnitName(dimension(p)));
   }
   fmt::print(reportStream(), "derived:\n");
   for (Physical p : kDerivedParams) {
     const double unit = geometry::PhysicalParameters::fileUnit(p);
     const calib::DerivedValue& v = r.derived[p];
-    fmt::print(reportStream(), "{:<10} {:>12} ± {:<10} {}\n", name(p), fixed5(v.value / unit), fixed5(v.error / unit),
-               fileUnitName(dimension(p)));
+    fmt::print(reportStream(), "{:<10} {:>12} ± {:<10}{} {}\n", name(p), fixed5(v.value / unit), fixed5(v.error / unit),
+               syst(name(p)), fileUnitName(dimension(p)));
   }
   fmt::print(reportStream(), "\nchi2/ndf = {:.2f}/{} (p-value {:.3g}), {} bins used; stages chi2:", r.chi2, r.ndf,
              r.pValue, r.binsUsed);
@@ -123,9 +131,10 @@ void printCorrections(const calib::CorrectionsAt& at) {
   const calib::ModelCorrections& c = at.corrections;
   fmt::print(reportStream(),
              "Model corrections from {}{}: depth offset {:+.2f} cm, parting-plane response {}, nominal profile {}, "
-             "fit response {}\n",
+             "fit response {}, systematic errors {}\n",
              at.path, interpolationText(at.interpolation), c.depthOffset / units::cm, c.partingPlane ? "on" : "off",
-             c.nominalProfile ? "subtracted" : "off", c.response ? "on" : "off");
+             c.nominalProfile ? "subtracted" : "off", c.response ? "on" : "off",
+             c.systematics ? "carried" : "not measured");
 }
 
 calib::FitRequest requestOf(const FitCliOptions& o) {
@@ -162,7 +171,7 @@ int run(const FitCliOptions& o) {
   for (const auto& w : data->warnings) reportWarning(w);
   auto fitted = job->fit(*data);
   if (!fitted) return reportError(fitted.error());
-  printResult(fitted->result);
+  printResult(fitted->result, job->corrections() ? job->corrections()->corrections.systematics.get() : nullptr);
   if (!o.profileOut.empty()) {
     if (Status s = io::writeOutputFile(o.profileOut, calib::profileCsv(fitted->bins)); !s) {
       return reportError(s.error());

@@ -2,6 +2,7 @@
 // truths drawn over the expected ranges, each fitted like data.
 
 #include <algorithm>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
@@ -11,7 +12,9 @@
 #include "common.hpp"
 #include "emcalign/calib/corrections_grid.hpp"
 #include "emcalign/core/units.hpp"
+#include "emcalign/core/version.hpp"
 #include "emcalign/validation/campaign.hpp"
+#include "emcalign/validation/derive_corrections.hpp"
 #include "emcalign/validation/systematics.hpp"
 #include "emcalign/validation/variations.hpp"
 #include "progress.hpp"
@@ -40,7 +43,20 @@ struct ValidateOptions {
   std::string sigmaSys;
   std::string variation;                ///< a systematic variation of the simulation (validation/variations.hpp)
   std::vector<std::string> variations;  ///< systematics: the variations to run (none: all)
+  bool reverse = false;                 ///< systematics: the reverse study too
+  validation::DerivationOptions derivation = reverseDefaults();  ///< its derivations
+  std::string writeCorrections;  ///< systematics: a copy of --corrections with the systematic errors
   std::string output;
+
+  // The reverse study's derivations: a third of derive-corrections' default statistics, enough
+  // for shifts measured by pairing (every derivation has the same seed).
+  static validation::DerivationOptions reverseDefaults() {
+    validation::DerivationOptions d;
+    d.events = 1000000;
+    d.responseSamples = 100;
+    d.responseEvents = 50000;
+    return d;
+  }
 };
 
 // The campaign of the command line, checked: its outputs, the detector (into `calo`), the
@@ -82,10 +98,7 @@ Result<validation::CampaignOptions> campaignOptionsOf(const ValidateOptions& cli
     if (!c->warning.empty()) reportWarning(c->warning);
     o.corrections = c->corrections;
     // The samples record what the corrections were, so that a rerun with another file is refused.
-    const std::string text = calib::correctionsJson(o.corrections).dump();
-    std::uint64_t digest = 0xcbf29ce484222325ULL;  // FNV-1a
-    for (unsigned char ch : text) digest = (digest ^ ch) * 0x100000001b3ULL;
-    correctionsSetting = {{"file", cli.corrections}, {"fnv1a", fmt::format("{:016x}", digest)}};
+    correctionsSetting = {{"file", cli.corrections}, {"fnv1a", calib::correctionsDigest(o.corrections)}};
   }
   o.simulation.generator.thetaMin = cli.thetaMinDeg * units::deg;
   o.simulation.generator.thetaMax = cli.thetaMaxDeg * units::deg;
@@ -135,20 +148,68 @@ int run(const ValidateOptions& cli) {
   return 0;
 }
 
+// The corrections file of the study with its systematic errors (calib::SystematicErrors),
+// written to --write-corrections: what `emcalign fit --corrections` then reports beside the
+// statistical errors.
+Status writeCorrectionsWithErrors(const ValidateOptions& cli, const validation::SystematicsTable& table) {
+  auto corrections = calib::readCorrections(cli.corrections);
+  if (!corrections) return corrections.error();
+  std::vector<std::string> names;
+  for (const auto* v : table.variations) names.push_back(v->name);
+  const io::Json study = {
+      {"command", "emcalign systematics"},
+      {"software", fmt::format("emcalign {}", kVersion)},
+      {"samples", table.samples},
+      {"events", table.events},
+      {"seed", cli.seed},
+      {"variations", names},
+      {"reverse", table.reverse},
+      {"combination",
+       "per parameter the quadrature sum over the varied quantities of the largest effect of each (a pattern's "
+       "root mean square; the reverse shifts included), in quadrature with the derivation's statistical errors"},
+      {"corrections_fnv1a", calib::correctionsDigest(*corrections)}};
+  auto systematics =
+      calib::parseSystematicErrors(validation::systematicErrorsJson(table, *corrections, study), cli.writeCorrections);
+  if (!systematics) return systematics.error();
+  corrections->systematics = std::make_shared<const calib::SystematicErrors>(std::move(*systematics));
+  return io::writeOutputFile(cli.writeCorrections, calib::correctionsJson(*corrections).dump(2) + "\n");
+}
+
 // emcalign systematics: the nominal campaign and one per variation, paired (validation/systematics.hpp).
 int runSystematics(const ValidateOptions& cli) {
+  if (!cli.writeCorrections.empty()) {
+    if (std::filesystem::is_directory(cli.corrections)) {
+      reportError(
+          {"--write-corrections needs --corrections FILE, not a grid: the study measures the systematic "
+           "errors of one file (a grid's files are studied one by one, each at its own --beam-energy)"});
+      return kExitUsage;
+    }
+    if (Status s = checkOutputs({{"--write-corrections", cli.writeCorrections}}, {{"-o", cli.output}},
+                                {{"--corrections", cli.corrections}});
+        !s) {
+      return reportError(s.error());
+    }
+  }
   std::optional<geometry::Calorimeter> calo;
   auto made = campaignOptionsOf(cli, calo);
   if (!made) return reportError(made.error());
   validation::SystematicsOptions o;
   o.campaign = std::move(*made);
   for (const auto& name : cli.variations) o.variations.push_back(validation::findVariation(name));
-  const std::size_t campaigns = (o.variations.empty() ? validation::variations().size() : o.variations.size()) + 1;
-  ProgressLine progress("systematics", static_cast<std::int64_t>(campaigns) * cli.samples, "samples");
-  auto table = validation::runSystematics(*calo, o, cli.output, [&](int done, int) { progress.update(done); });
+  if (cli.reverse) {
+    o.reverse = cli.derivation;
+    o.reverse->threads = cli.threads;
+  }
+  ProgressLine progress("systematics", 0, "events");
+  bool started = false;
+  auto table = validation::runSystematics(*calo, o, cli.output, [&](std::int64_t done, std::int64_t total) {
+    if (!started) progress = ProgressLine("systematics", total, "events");
+    started = true;
+    progress.update(done);
+  });
   progress.finish();
   if (!table) return reportError(table.error());
-  fmt::print(reportStream(), "{:<10} {:>4} {:>19} {:>9} {:>11}  largest shift\n", "parameter", "unit", "nominal bias",
+  fmt::print(reportStream(), "{:<10} {:>4} {:>19} {:>9} {:>11}  largest effect\n", "parameter", "unit", "nominal bias",
              "spread", "systematic");
   for (const auto& r : table->rows) {
     const auto largest = std::max_element(r.envelope.begin(), r.envelope.end());
@@ -160,10 +221,17 @@ int runSystematics(const ValidateOptions& cli) {
     fmt::print(reportStream(), "{:<10} {:>4} {:>+9.4f} ± {:<7.4f} {:>9.4f} {:>11.4f}  {}\n", r.name, r.unit, r.bias,
                r.biasError, r.spread, r.systematic, which);
   }
+  const std::size_t campaigns = table->variations.size() + 1;
   fmt::print(reportStream(),
-             "{} campaigns × {} samples × {} events in {:.1f} s; wrote {}/systematics.json, systematics.md, "
-             "nominal/, one directory per variation\n",
-             campaigns, table->samples, table->events, progress.elapsed(), cli.output);
+             "{} campaigns{} × {} samples × {} events in {:.1f} s; wrote {}/systematics.json, systematics.md, "
+             "plots/systematics.png, nominal/, one directory per variation{}\n",
+             campaigns, cli.reverse ? fmt::format(" (and {} derivations with their campaigns)", campaigns) : "",
+             table->samples, table->events, progress.elapsed(), cli.output, cli.reverse ? ", reverse/" : "");
+  if (!cli.writeCorrections.empty()) {
+    if (Status s = writeCorrectionsWithErrors(cli, *table); !s) return reportError(s.error());
+    fmt::print(reportStream(), "wrote {}: {} with the systematic errors (use: emcalign fit --corrections {})\n",
+               cli.writeCorrections, cli.corrections, cli.writeCorrections);
+  }
   return kExitOk;
 }
 
@@ -232,6 +300,24 @@ void addValidateCommand(CLI::App& app, int& exitCode) {
   sys->add_option("--variations", s->variations, "the variations to run (default: all)")
       ->delimiter(',')
       ->check(CLI::IsMember(variationNames()));
+  sys->add_flag("--reverse", s->reverse,
+                "also the reverse study: corrections derived with each variation (and without), each fitted to "
+                "the nominal samples");
+  sys->add_option("--reverse-events", s->derivation.events,
+                  fmt::format("events per derivation sample of the reverse study (default {})", s->derivation.events))
+      ->check(integerIn(1000, 1000000000));
+  sys->add_option(
+         "--reverse-response-samples", s->derivation.responseSamples,
+         fmt::format("response samples of each derivation (default {}; 0: none)", s->derivation.responseSamples))
+      ->check(integerIn(0, 100000));
+  sys->add_option("--reverse-response-events", s->derivation.responseEvents,
+                  fmt::format("events per response sample (default {})", s->derivation.responseEvents))
+      ->check(integerIn(1000, kMaxEvents));
+  sys->add_option("--reverse-seed", s->derivation.seed, "seed of every derivation, 0 to 2^64 - 1")->check(unsigned64());
+  sys->add_option("--write-corrections", s->writeCorrections,
+                  "write the --corrections file with the systematic errors measured here, for emcalign fit to "
+                  "report beside the statistical ones")
+      ->needs(sys->get_option("--corrections"));
   sys->add_option("-o,--output", s->output,
                   "study directory: nominal/, one campaign per variation, systematics.json "
                   "and .md (a rerun resumes it)")

@@ -144,12 +144,24 @@ py::object correctionsOf(const Fit& f) {
   return d;
 }
 
+// The 12 systematic errors of the corrections (native units, as `errors`), or None.
+py::object systematicErrorsOf(const Fit& f) {
+  if (!f.corrections || !f.corrections->corrections.systematics) return py::none();
+  const calib::SystematicErrors& s = *f.corrections->corrections.systematics;
+  geometry::ParamVector v;
+  for (Param p : kAllParams) v[p] = s.errors.find(name(p))->second * geometry::AlignmentParameters::fileUnit(p);
+  return arrayOf(v);
+}
+
 }  // namespace
 
 void bindFit(py::module_& m) {
   py::class_<Fit>(m, "FitResult", "A fit: what emcalign fit writes, as numbers and as its files")
       .def_property_readonly("parameters", [](const Fit& f) { return arrayOf(f.result().parameters.values); })
       .def_property_readonly("errors", [](const Fit& f) { return arrayOf(f.result().errors); })
+      .def_property_readonly("systematic_errors", &systematicErrorsOf,
+                             "the systematic errors the corrections carry (docs/systematics.md), native units, or "
+                             "None")
       .def_property_readonly("covariance",
                              [](const Fit& f) -> py::object {
                                if (!f.result().covariance) return py::none();

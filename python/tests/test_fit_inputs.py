@@ -25,6 +25,13 @@ def test_fit_with_corrections_writes_the_cli_result(tmp_path, fit_sample, correc
     else:
         assert r.corrections["interpolation"] is None
     assert r.input_warnings == []
+    # the shipped file carries its systematic errors (docs/systematics.md), the grid none
+    if corrections == CORRECTIONS:
+        for k, name in enumerate(emcalign.PARAMETERS):
+            want = saved["systematic_errors"][name] / saved["errors"][name]
+            assert r.systematic_errors[k] / r.errors[k] == pytest.approx(want, rel=1e-12)
+    else:
+        assert r.systematic_errors is None and "systematic_errors" not in saved
     # the corrections move the result: the test could fail
     assert r.json != emcalign.fit(str(fit_sample)).json
 

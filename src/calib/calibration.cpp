@@ -151,6 +151,11 @@ io::Json fitResultJson(const FitResult& r, const FitInput& input) {
     errors[std::string(name(p))] = io::numberOrNull(r.errors[p] / AlignmentParameters::fileUnit(p));
   }
   j["errors"] = errors;
+  if (input.systematics) {
+    Json systematic = Json::object();
+    for (std::string_view p : kParamNames) systematic[std::string(p)] = input.systematics->errors.find(p)->second;
+    j["systematic_errors"] = systematic;
+  }
   if (r.covariance) {
     Json cov = Json::array(), corr = Json::array();
     for (Param p : kAllParams) {
@@ -173,6 +178,10 @@ io::Json fitResultJson(const FitResult& r, const FitInput& input) {
     const DerivedValue& v = r.derived[p];
     derived[std::string(name(p))] = {
         {"value", v.value / unit}, {"error", io::numberOrNull(v.error / unit)}, {"unit", fileUnitName(dimension(p))}};
+    if (!input.systematics) continue;
+    if (auto it = input.systematics->errors.find(name(p)); it != input.systematics->errors.end()) {
+      derived[std::string(name(p))]["systematic_error"] = it->second;
+    }
   }
   j["derived"] = derived;
   j["chi2"] = r.chi2;
@@ -204,6 +213,10 @@ io::Json fitResultJson(const FitResult& r, const FitInput& input) {
       {"response", input.response.empty() ? Json(nullptr) : Json(input.response)}};
   if (!input.correctionsInterpolation.is_null())
     in["model_corrections"]["interpolation"] = input.correctionsInterpolation;
+  if (input.systematics) {
+    in["model_corrections"]["systematic_errors"] = {{"source", input.systematicsSource},
+                                                    {"study", input.systematics->study}};
+  }
   if (input.fill != nullptr) {
     Json flow = Json::object();
     for (std::size_t k = 0; k < CutFlow::kNames.size(); ++k) flow[CutFlow::kNames[k]] = input.fill->cutFlow.events[k];

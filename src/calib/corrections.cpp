@@ -215,10 +215,10 @@ Result<ModelCorrections> parseCorrections(const Json& j, std::string_view source
   if (!j.is_object()) return Error{fmt::format("{}: expected a JSON object", source)};
   for (const auto& [key, value] : j.items()) {
     if (key != "format" && key != "beam_energy_mev" && key != "depth_offset_cm" && key != "parting_plane" &&
-        key != "nominal_profile" && key != "response" && key != "derived_from") {
+        key != "nominal_profile" && key != "response" && key != "systematic_errors" && key != "derived_from") {
       return Error{
           fmt::format("{}: key '{}': unknown key (allowed: format, beam_energy_mev, depth_offset_cm, "
-                      "parting_plane, nominal_profile, response, derived_from)",
+                      "parting_plane, nominal_profile, response, systematic_errors, derived_from)",
                       source, key)};
     }
   }
@@ -312,8 +312,78 @@ Result<ModelCorrections> parseCorrections(const Json& j, std::string_view source
     if (!r) return r.error();
     c.response = std::make_shared<const FitResponse>(*r);
   }
+  if (j.contains("systematic_errors")) {
+    auto e = parseSystematicErrors(j["systematic_errors"], source);
+    if (!e) return e.error();
+    c.systematics = std::make_shared<const SystematicErrors>(std::move(*e));
+  }
   if (j.contains("derived_from")) c.derivedFrom = j["derived_from"];
+  // Systematic errors belong to the corrections they were measured with.
+  if (c.systematics && c.systematics->study.contains("corrections_fnv1a")) {
+    const Json& measured = c.systematics->study["corrections_fnv1a"];
+    if (const std::string own = correctionsDigest(c); !measured.is_string() || measured.get<std::string>() != own) {
+      return Error{fmt::format(
+          "{}: key 'systematic_errors': measured with other corrections (fnv1a {}, this file's {}): the file was "
+          "changed after `emcalign systematics --write-corrections`; run the study again",
+          source, measured.is_string() ? measured.get<std::string>() : measured.dump(), own)};
+    }
+  }
   return c;
+}
+
+Result<SystematicErrors> parseSystematicErrors(const Json& j, std::string_view source) {
+  if (!j.is_object()) return Error{fmt::format("{}: key 'systematic_errors': expected an object", source)};
+  for (const auto& [key, value] : j.items()) {
+    if (key != "errors" && key != "components" && key != "study") {
+      return Error{
+          fmt::format("{}: key 'systematic_errors.{}': unknown key (allowed: errors, components, study)", source, key)};
+    }
+  }
+  if (!j.contains("errors") || !j["errors"].is_object()) {
+    return Error{fmt::format("{}: key 'systematic_errors.errors': expected an object {{parameter: error}}", source)};
+  }
+  SystematicErrors out;
+  for (const auto& [key, value] : j["errors"].items()) {
+    const bool derived = key == "beta" || key == "mu" || key == "dx_rel";
+    if (!paramFromName(key) && !derived) {
+      return Error{fmt::format(
+          "{}: key 'systematic_errors.errors.{}': unknown parameter (the 12 of the fit, and beta, mu, dx_rel)", source,
+          key)};
+    }
+    if (!value.is_number() || !(value.get<double>() >= 0.0 && value.get<double>() <= kMaxSystematicError)) {
+      return Error{fmt::format("{}: key 'systematic_errors.errors.{}': expected a number in [0, {}] (deg or cm)",
+                               source, key, kMaxSystematicError)};
+    }
+    out.errors.emplace(key, value.get<double>());
+  }
+  for (std::string_view name : kParamNames) {
+    if (!out.errors.contains(name)) {
+      return Error{fmt::format("{}: key 'systematic_errors.errors.{}': missing (every parameter of the fit has one)",
+                               source, name)};
+    }
+  }
+  for (const char* key : {"components", "study"}) {
+    if (!j.contains(key)) continue;
+    if (!j[key].is_object())
+      return Error{fmt::format("{}: key 'systematic_errors.{}': expected an object", source, key)};
+    (key == std::string_view("study") ? out.study : out.components) = j[key];
+  }
+  return out;
+}
+
+Json systematicErrorsJson(const SystematicErrors& s) {
+  Json errors = Json::object();
+  // The fit's parameters in their order, then the derived ones.
+  for (std::string_view name : kParamNames) {
+    if (auto it = s.errors.find(name); it != s.errors.end()) errors[std::string(name)] = it->second;
+  }
+  for (const auto& [name, value] : s.errors) {
+    if (!errors.contains(name)) errors[name] = value;
+  }
+  Json j{{"errors", errors}};
+  if (!s.components.empty()) j["components"] = s.components;
+  if (!s.study.empty()) j["study"] = s.study;
+  return j;
 }
 
 Result<ModelCorrections> readCorrections(const std::string& path) {
@@ -343,8 +413,18 @@ Json correctionsJson(const ModelCorrections& c) {
                             {"y_theta", array(t.yTheta)}, {"sigma_theta", array(t.sigmaTheta)}};
   }
   if (c.response) j["response"] = responseJson(*c.response);
+  if (c.systematics) j["systematic_errors"] = systematicErrorsJson(*c.systematics);
   if (!c.derivedFrom.empty()) j["derived_from"] = c.derivedFrom;
   return j;
+}
+
+std::string correctionsDigest(const ModelCorrections& c) {
+  Json j = correctionsJson(c);
+  j.erase("systematic_errors");  // what the corrections do, not what is known of them
+  const std::string text = j.dump();
+  std::uint64_t digest = 0xcbf29ce484222325ULL;  // FNV-1a
+  for (unsigned char ch : text) digest = (digest ^ ch) * 0x100000001b3ULL;
+  return fmt::format("{:016x}", digest);
 }
 
 }  // namespace emcalign::calib

@@ -136,6 +136,17 @@ Result<ModelCorrections> interpolateCorrections(const ModelCorrections& a, const
     if (Status s = r.validate(); !s) return s.error();
     c.response = std::make_shared<const FitResponse>(r);
   }
+  // Systematic errors only where both points have them (a grid's points are studied apart).
+  if (a.systematics && b.systematics) {
+    SystematicErrors e;
+    for (const auto& [name, value] : a.systematics->errors) {
+      if (auto it = b.systematics->errors.find(name); it != b.systematics->errors.end()) {
+        e.errors.emplace(name, (1.0 - w) * value + w * it->second);
+      }
+    }
+    e.study = {{"interpolated", "linearly between the two points' systematic errors"}};
+    c.systematics = std::make_shared<const SystematicErrors>(std::move(e));
+  }
   return c;
 }
 

@@ -140,6 +140,8 @@ Result<FitOutcome> FitJob::fit(const FitData& data) const {
     if (c.response) input.response = path;
     if (c.partingPlane) input.partingPlane = path;
     if (c.nominalProfile) input.nominalProfile = path;
+    input.systematics = c.systematics;
+    input.systematicsSource = path;
     if (!data.fill) input.partingPlane = input.nominalProfile = request_.profileIn + " (written with " + path + ")";
   }
   out.resultJson = fitResultJson(out.result, input);

@@ -242,8 +242,9 @@ Result<AlignmentFile> parseAlignmentFile(const json& j, double r1, std::string_v
   return guarded([&]() -> AlignmentFile {
     StrictObject top(j, "", source);
     // The parameter keys, plus what a fit result adds (SPEC §3), read elsewhere.
-    top.allowOnly({"format", "units", "parameters", "physical", "errors", "covariance", "derived", "chi2", "ndf",
-                   "p_value", "stages", "status", "warnings", "input", "software", "correlation", "sigma_sys"});
+    top.allowOnly({"format", "units", "parameters", "physical", "errors", "systematic_errors", "covariance", "derived",
+                   "chi2", "ndf", "p_value", "stages", "status", "warnings", "input", "software", "correlation",
+                   "sigma_sys"});
     if (top.has("format") && top.string("format") != kAlignmentFormat) {
       top.fail("format", fmt::format("expected \"{}\"", kAlignmentFormat));
     }

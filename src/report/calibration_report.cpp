@@ -93,22 +93,41 @@ Result<std::string> fitSection(const ReportFit& f) {
     body += "<h3>Warnings</h3>\n" + html::list(items, "warn");
   }
 
-  html::Table params{.caption = "The fit's set (SPEC §3)", .header = {"parameter", "value", "error", "unit"}};
-  params.numeric = {false, true, true, false};
+  // The systematic errors of the model corrections (docs/systematics.md), when they carry them.
+  const Json* systematic =
+      r.contains("systematic_errors") && r.at("systematic_errors").is_object() ? &r.at("systematic_errors") : nullptr;
+  const auto header = [&] {
+    return systematic ? std::vector<std::string>{"parameter", "value", "statistical", "systematic", "unit"}
+                      : std::vector<std::string>{"parameter", "value", "error", "unit"};
+  };
+  const auto row = [&](const std::string& name, const Json& value, const Json& error, const Json& syst,
+                       const std::string& unit) {
+    const auto [v, e] = withError(value, error);
+    if (!systematic) return std::vector<std::string>{label(name), v, e, unit};
+    return std::vector<std::string>{label(name), v, e, finite(syst) ? withError(syst, syst).second : "—", unit};
+  };
+  html::Table params{.caption = "The fit's set (SPEC §3)", .header = header()};
+  params.numeric =
+      systematic ? std::vector<bool>{false, true, true, true, false} : std::vector<bool>{false, true, true, false};
   for (const auto& name : kFitParams) {
-    const auto [v, e] = withError(r.at("parameters").at(name), r.at("errors").at(name));
-    params.rows.push_back({label(name), v, e, unitOf(name)});
+    params.rows.push_back(row(name, r.at("parameters").at(name), r.at("errors").at(name),
+                              systematic ? systematic->value(name, Json()) : Json(), unitOf(name)));
   }
   body += "<div class=\"side\">\n" + html::table(params);
 
   if (r.contains("derived") && r.at("derived").is_object()) {
-    html::Table derived{.caption = "The physical set (derived)", .header = {"parameter", "value", "error", "unit"}};
-    derived.numeric = {false, true, true, false};
+    html::Table derived{.caption = "The physical set (derived)", .header = header()};
+    derived.numeric = params.numeric;
     for (const auto& [name, d] : r.at("derived").items()) {
-      const auto [v, e] = withError(d.at("value"), d.at("error"));
-      derived.rows.push_back({label(name), v, e, text(d.value("unit", Json(unitOf(name))))});
+      derived.rows.push_back(row(name, d.at("value"), d.at("error"), d.value("systematic_error", Json()),
+                                 text(d.value("unit", Json(unitOf(name))))));
     }
     body += html::table(derived);
+  }
+  if (systematic) {
+    body += html::paragraph(
+        "The systematic errors are those the model corrections carry: how far the result moves when the "
+        "simulation they were derived from is plausibly different (emcalign systematics, docs/systematics.md).");
   }
   body += "</div>\n";
 

@@ -6,7 +6,9 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <string_view>
 #include <system_error>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -34,6 +36,34 @@ std::string plainText(const std::string& s) {
     if (std::isalnum(static_cast<unsigned char>(c)) || c == ' ' || c == '.' || c == ',' || c == '-') out += c;
   }
   return out;
+}
+
+// Enhanced-text label of a quantity: a leading Greek letter's name becomes the letter, and
+// trailing digits and a "_suffix" a subscript ("beta1" → β_{1}, "dx_rel" → dx_{rel},
+// "beta_rel" → β_{rel}). Only letters and digits of the name are kept, so the label is
+// safe in a double-quoted enhanced-mode string.
+std::string quantityLabel(const std::string& name) {
+  static constexpr std::pair<std::string_view, std::string_view> kGreek[] = {
+      {"alpha", "α"}, {"beta", "β"}, {"gamma", "γ"}, {"delta", "δ"}, {"eta", "η"},
+      {"theta", "θ"}, {"mu", "μ"},   {"psi", "ψ"},   {"tau", "τ"},   {"phi", "φ"}};
+  auto alnum = [](std::string_view s) {
+    std::string out;
+    for (char c : s)
+      if (std::isalnum(static_cast<unsigned char>(c))) out += c;
+    return out;
+  };
+  const auto underscore = name.find('_');
+  const std::string head = alnum(std::string_view(name).substr(0, underscore));
+  const std::string tail = underscore == std::string::npos ? "" : alnum(std::string_view(name).substr(underscore + 1));
+  std::size_t digits = head.size();
+  while (digits > 0 && std::isdigit(static_cast<unsigned char>(head[digits - 1]))) --digits;
+  std::string label = head.substr(0, digits);
+  for (const auto& [word, letter] : kGreek)
+    if (label == word) label = letter;
+  std::string sub = head.substr(digits);
+  if (!tail.empty()) sub += (sub.empty() ? "" : ",") + tail;
+  if (!sub.empty()) label += "_{" + sub + "}";
+  return label.empty() ? std::string("?") : label;
 }
 
 // Terminal and output of a script drawing NAME.png.

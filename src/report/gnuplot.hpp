@@ -17,6 +17,9 @@ inline constexpr const char* kInstallHint = "install it with `apt-get install gn
 std::string shellQuote(const std::string& s);
 /// Keeps text that is safe inside a double-quoted gnuplot string in enhanced mode.
 std::string plainText(const std::string& s);
+/// Enhanced-text label of a quantity: a leading Greek letter's name becomes the letter, and
+/// trailing digits and a "_suffix" a subscript ("beta1" → β_{1}, "dx_rel" → dx_{rel}).
+std::string quantityLabel(const std::string& name);
 /// Terminal and output of a script drawing NAME.png (pngcairo, UTF-8).
 std::string terminalHeader(const std::string& pngName, int width, int height);
 /// Writes dir/name (io/output_file.hpp rules).

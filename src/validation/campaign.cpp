@@ -289,6 +289,7 @@ Result<Table> runCampaign(const geometry::Calorimeter& calo, const CampaignOptio
     s.truth = drawTruth(o.ranges, r1, truthRng);
     sim::SimulationOptions so = o.simulation;
     so.seed = sampleSeed(o.seed, i);
+    if (o.samplePattern) o.samplePattern(so, so.seed, calo.size());
     auto simulation = sim::Simulation::create(calo, s.truth, so);
     if (!simulation) return simulation.error();
     calib::ProfileFiller filler(geometry.depth, calib::SelectionOptions{}, profileOptions);

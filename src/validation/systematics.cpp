@@ -3,11 +3,14 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 
 #include <fmt/format.h>
 
 #include "emcalign/core/paper.hpp"
+#include "emcalign/core/units.hpp"
 #include "emcalign/io/output_file.hpp"
+#include "emcalign/report/systematics_plot.hpp"
 
 namespace emcalign::validation {
 
@@ -16,19 +19,132 @@ namespace {
 namespace fs = std::filesystem;
 using io::Json;
 
-// Sample i of a varied campaign against sample i of the nominal one: as a "truth" the
-// nominal fit, so that tabulate's bias is the mean of fit(variation) − fit(nominal), its
+// Sample i of a varied campaign against sample i of the reference one: as a "truth" the
+// reference fit, so that tabulate's bias is the mean of fit(variation) − fit(reference), its
 // error their spread/√n, with ψ and τ by the shortest angle and the derived parameters
-// against the nominal fit's (the same conversion).
-std::vector<SampleResult> pairedWithNominal(const std::vector<SampleResult>& varied,
-                                            const std::vector<SampleResult>& nominal) {
+// against the reference fit's (the same conversion).
+std::vector<SampleResult> pairedWith(const std::vector<SampleResult>& varied,
+                                     const std::vector<SampleResult>& reference) {
   std::vector<SampleResult> out;
-  for (std::size_t i = 0; i < varied.size() && i < nominal.size(); ++i) {
+  for (std::size_t i = 0; i < varied.size() && i < reference.size(); ++i) {
     SampleResult s = varied[i];
-    s.truth = nominal[i].fit.parameters;
+    s.truth = reference[i].fit.parameters;
     out.push_back(std::move(s));
   }
   return out;
+}
+
+// The settings a reverse study's derivation records (its file is kept by a rerun only when
+// they are the same): the derivation's statistics and seed, the variation, and the campaign's
+// simulation settings (the corrections of the forward campaigns play no part).
+Json reverseSettings(const DerivationOptions& d, const CampaignOptions& campaign, const Variation* v) {
+  Json simulation = campaign.settings;
+  simulation.erase("corrections");
+  simulation.erase("variation");
+  simulation.erase("variation_pattern");
+  return {{"study", "emcalign systematics --reverse"},
+          {"variation", v ? Json(v->name) : Json(nullptr)},
+          {"events_per_sample", d.events},
+          {"seed", d.seed},
+          {"shift_cm", d.shift},
+          {"gap_cm", d.gap},
+          {"response_samples", d.responseSamples},
+          {"response_events_per_sample", d.responseEvents},
+          {"beam_energy_mev", campaign.simulation.generator.beamEnergy / units::MeV},
+          {"campaign", simulation}};
+}
+
+// The corrections of the reverse study with variation `v` (none: the nominal simulation):
+// those in `file` when derived with the same settings, else derived and written there.
+Result<calib::ModelCorrections> reverseCorrections(const geometry::Calorimeter& calo, DerivationOptions d,
+                                                   const CampaignOptions& campaign, const Variation* v,
+                                                   const std::string& file,
+                                                   const std::function<void(std::int64_t)>& eventsDone) {
+  const Json settings = reverseSettings(d, campaign, v);
+  if (fs::exists(file)) {
+    auto text = io::readTextFile(file);
+    if (!text) return text.error();
+    auto j = io::parseJson(*text, file);
+    if (!j) return j.error();
+    const Json* recorded =
+        j->contains("derived_from") && (*j)["derived_from"].is_object() ? &(*j)["derived_from"] : nullptr;
+    if (recorded == nullptr || !recorded->contains("settings") || (*recorded)["settings"] != settings) {
+      return Error{fmt::format(
+          "{} was derived with other settings than this study's: use another directory, or remove it", file)};
+    }
+    return calib::parseCorrections(*j, file);
+  }
+  d.simulation = campaign.simulation;
+  if (v != nullptr) {
+    v->apply(d.simulation);
+    if (v->pattern != nullptr) v->pattern(d.simulation, d.seed, calo.size());
+  }
+  d.responseRanges = campaign.ranges;
+  std::int64_t before = 0, lastTotal = 0;
+  std::string lastStage;
+  auto report = deriveCorrections(calo, d, [&](std::string_view stage, std::int64_t done, std::int64_t total) {
+    if (stage.rfind("simulate", 0) != 0) return;
+    if (stage != lastStage) {
+      lastStage = std::string(stage);
+      before += lastTotal;
+      lastTotal = total;
+    }
+    eventsDone(before + done);
+  });
+  if (!report) return report.error();
+  const Json content = derivationJson(*report, settings);
+  if (Status s = io::writeOutputFile(file, content.dump(2) + "\n"); !s) return s.error();
+  return calib::parseCorrections(content, file);
+}
+
+// A row's quantity index of variation j.
+std::size_t quantityOf(const SystematicsTable& t, std::size_t j) {
+  return static_cast<std::size_t>(std::find(t.quantities.begin(), t.quantities.end(), t.variations[j]->quantity) -
+                                  t.quantities.begin());
+}
+
+// Keeps the larger of `envelope` and `effect`; a NaN effect makes it NaN (never dropped).
+void widen(double& envelope, double effect) {
+  if (!(envelope >= effect)) envelope = effect;
+}
+
+// The heat map of the study (report/systematics_plot.hpp).
+Status drawSystematics(const SystematicsTable& t, const std::string& dir) {
+  report::SystematicsFigure f;
+  f.title = "Systematic shifts: the simulation varied";
+  f.subtitle =
+      fmt::format("{} paired samples × {} events; cells: shift / spread of the nominal fits", t.samples, t.events);
+  for (const auto& r : t.rows) {
+    if (r.name == "psi" || r.name == "tau") continue;  // directions of tilts near zero: no scale
+    f.parameters.push_back(r.name);
+  }
+  const auto cellsOf = [&](const auto& value) {
+    std::vector<double> cells;
+    for (const auto& r : t.rows) {
+      if (r.name == "psi" || r.name == "tau") continue;
+      cells.push_back(r.spread > 0.0 ? value(r) / r.spread : std::numeric_limits<double>::quiet_NaN());
+    }
+    return cells;
+  };
+  for (std::size_t j = 0; j < t.variations.size(); ++j) {
+    f.rows.push_back(t.variations[j]->name);
+    f.cells.push_back(cellsOf([&](const SystematicsRow& r) { return r.shift[j]; }));
+  }
+  for (std::size_t q = 0; q < t.quantities.size(); ++q) {
+    f.rows.push_back("effect of " + t.quantities[q]);
+    f.cells.push_back(cellsOf([&](const SystematicsRow& r) { return r.envelope[q]; }));
+  }
+  f.rows.push_back("systematic");
+  f.cells.push_back(cellsOf([](const SystematicsRow& r) { return r.systematic; }));
+  if (!t.reverse.is_null()) {
+    for (std::size_t j = 0; j < t.variations.size(); ++j) {
+      f.reverseRows.push_back(t.variations[j]->name);
+      f.reverseCells.push_back(cellsOf([&](const SystematicsRow& r) { return r.reverseShift[j]; }));
+    }
+  }
+  auto written = report::writeSystematicsPlot((fs::path(dir) / "plots").string(), f);
+  if (!written) return written.error();
+  return {};
 }
 
 }  // namespace
@@ -36,6 +152,10 @@ std::vector<SampleResult> pairedWithNominal(const std::vector<SampleResult>& var
 CampaignOptions withVariation(CampaignOptions options, const Variation& variation) {
   variation.apply(options.simulation);
   options.settings["variation"] = variation.name;
+  if (variation.pattern != nullptr) {
+    options.samplePattern = variation.pattern;
+    options.settings["variation_pattern"] = "drawn per sample";
+  }
   return options;
 }
 
@@ -49,39 +169,104 @@ Result<SystematicsTable> runSystematics(const geometry::Calorimeter& calo, const
   const CampaignOptions& nominalOptions = options.campaign;
   t.samples = nominalOptions.samples;
   t.events = nominalOptions.events;
-  const int total = nominalOptions.samples * static_cast<int>(t.variations.size() + 1);
-  int campaignsDone = 0;
-  const auto progressOf = [&](int done, int) {
-    if (progress) progress(campaignsDone * nominalOptions.samples + done, total);
+  if (options.reverse) {
+    if (Status s = options.reverse->validate(); !s)
+      return Error{fmt::format("the reverse study: {}", s.error().message)};
+  }
+  const std::int64_t campaignEvents = static_cast<std::int64_t>(nominalOptions.samples) * nominalOptions.events;
+  const std::int64_t derivationEvents =
+      options.reverse ? 3 * options.reverse->events + options.reverse->responseSamples * options.reverse->responseEvents
+                      : 0;
+  const auto runs = static_cast<std::int64_t>(t.variations.size() + 1);
+  const std::int64_t total = runs * campaignEvents * (options.reverse ? 2 : 1) + runs * derivationEvents;
+  std::int64_t finished = 0;  // events of the finished campaigns and derivations
+  const auto campaignProgress = [&](int done, int) {
+    if (progress) progress(finished + done * nominalOptions.events, total);
   };
+  const auto derivationProgress = [&](std::int64_t done) {
+    if (progress) progress(finished + done, total);
+  };
+
   std::vector<SampleResult> nominal;
-  auto nominalTable = runCampaign(calo, nominalOptions, (fs::path(dir) / "nominal").string(), progressOf, &nominal);
+  auto nominalTable =
+      runCampaign(calo, nominalOptions, (fs::path(dir) / "nominal").string(), campaignProgress, &nominal);
   if (!nominalTable) return Error{fmt::format("the nominal campaign: {}", nominalTable.error().message)};
-  ++campaignsDone;
+  finished += campaignEvents;
   const double r1 = calo.description().r1();
   std::vector<Table> shifts;
   for (const Variation* v : t.variations) {
     const CampaignOptions o = withVariation(nominalOptions, *v);
     std::vector<SampleResult> varied;
-    auto table = runCampaign(calo, o, (fs::path(dir) / v->name).string(), progressOf, &varied);
+    auto table = runCampaign(calo, o, (fs::path(dir) / v->name).string(), campaignProgress, &varied);
     if (!table) return Error{fmt::format("variation {}: {}", v->name, table.error().message)};
-    ++campaignsDone;
-    shifts.push_back(tabulate(pairedWithNominal(varied, nominal), o.events, r1));
+    finished += campaignEvents;
+    shifts.push_back(tabulate(pairedWith(varied, nominal), o.events, r1));
     if (std::find(t.quantities.begin(), t.quantities.end(), v->quantity) == t.quantities.end()) {
       t.quantities.push_back(v->quantity);
     }
   }
+
+  // The reverse study: the nominal samples fitted with corrections derived with each variation.
+  std::optional<Table> reverseNominal;
+  std::vector<Table> reverseShifts;
+  if (options.reverse) {
+    const fs::path base = fs::path(dir) / "reverse";
+    std::error_code ec;
+    fs::create_directories(base / "corrections", ec);
+    if (ec)
+      return Error{fmt::format("{}: cannot create the directory: {}", (base / "corrections").string(), ec.message())};
+    std::vector<SampleResult> reference;
+    for (std::size_t j = 0; j <= t.variations.size(); ++j) {
+      const Variation* v = j == 0 ? nullptr : t.variations[j - 1];
+      const std::string name = v ? v->name : "nominal";
+      auto corrections = reverseCorrections(calo, *options.reverse, nominalOptions, v,
+                                            (base / "corrections" / (name + ".json")).string(), derivationProgress);
+      if (!corrections) return Error{fmt::format("the reverse study, {}: {}", name, corrections.error().message)};
+      finished += derivationEvents;
+      CampaignOptions o = nominalOptions;
+      o.corrections = std::move(*corrections);
+      o.settings["corrections"] = {{"reverse", name}, {"fnv1a", calib::correctionsDigest(o.corrections)}};
+      std::vector<SampleResult> fitted;
+      auto table = runCampaign(calo, o, (base / name).string(), campaignProgress, &fitted);
+      if (!table) return Error{fmt::format("the reverse study, {}: {}", name, table.error().message)};
+      finished += campaignEvents;
+      if (v == nullptr) {
+        reverseNominal = std::move(*table);
+        reference = std::move(fitted);
+      } else {
+        reverseShifts.push_back(tabulate(pairedWith(fitted, reference), o.events, r1));
+      }
+    }
+    t.reverse = reverseSettings(*options.reverse, nominalOptions, nullptr);
+    t.reverse.erase("variation");
+  }
+
   for (std::size_t k = 0; k < nominalTable->rows.size(); ++k) {
     const TableRow& n = nominalTable->rows[k];
-    SystematicsRow row{n.name, n.unit, n.bias, n.biasError, n.spread, {}, {}, {}, 0.0};
+    SystematicsRow row;
+    row.name = n.name;
+    row.unit = n.unit;
+    row.bias = n.bias;
+    row.biasError = n.biasError;
+    row.spread = n.spread;
     row.envelope.assign(t.quantities.size(), 0.0);
     for (std::size_t j = 0; j < t.variations.size(); ++j) {
       const TableRow& s = shifts[j].rows[k];
       row.shift.push_back(s.bias);
       row.shiftError.push_back(s.biasError);
-      const auto q = static_cast<std::size_t>(
-          std::find(t.quantities.begin(), t.quantities.end(), t.variations[j]->quantity) - t.quantities.begin());
-      row.envelope[q] = std::max(row.envelope[q], std::abs(s.bias));
+      row.shiftSpread.push_back(s.spread);
+      row.effect.push_back(t.variations[j]->pattern != nullptr ? std::hypot(s.bias, s.spread) : std::abs(s.bias));
+      widen(row.envelope[quantityOf(t, j)], row.effect.back());
+    }
+    if (reverseNominal) {
+      row.reverseBias = reverseNominal->rows[k].bias;
+      row.reverseBiasError = reverseNominal->rows[k].biasError;
+      for (std::size_t j = 0; j < t.variations.size(); ++j) {
+        const TableRow& s = reverseShifts[j].rows[k];
+        row.reverseShift.push_back(s.bias);
+        row.reverseShiftError.push_back(s.biasError);
+        widen(row.envelope[quantityOf(t, j)], std::abs(s.bias));
+      }
     }
     double sum2 = 0.0;
     for (double e : row.envelope) sum2 += e * e;
@@ -95,35 +280,56 @@ Result<SystematicsTable> runSystematics(const geometry::Calorimeter& calo, const
   if (Status s = io::writeOutputFile((fs::path(dir) / "systematics.md").string(), systematicsMarkdown(t)); !s) {
     return s.error();
   }
+  if (Status s = drawSystematics(t, dir); !s) return s.error();
   return t;
 }
 
 Json systematicsJson(const SystematicsTable& t) {
   Json variationsJson = Json::array();
   for (const Variation* v : t.variations) {
-    variationsJson.push_back({{"name", v->name}, {"quantity", v->quantity}, {"change", v->change}, {"why", v->why}});
+    variationsJson.push_back({{"name", v->name},
+                              {"quantity", v->quantity},
+                              {"change", v->change},
+                              {"why", v->why},
+                              {"pattern", v->pattern != nullptr}});
   }
   Json parameters = Json::object();
   for (const auto& r : t.rows) {
-    Json shifts = Json::object(), envelopes = Json::object();
+    Json shifts = Json::object(), effects = Json::object(), envelopes = Json::object();
     for (std::size_t j = 0; j < t.variations.size(); ++j) {
-      shifts[t.variations[j]->name] = {r.shift[j], r.shiftError[j]};
+      shifts[t.variations[j]->name] = {r.shift[j], r.shiftError[j], r.shiftSpread[j]};
+      effects[t.variations[j]->name] = r.effect[j];
     }
     for (std::size_t q = 0; q < t.quantities.size(); ++q) envelopes[t.quantities[q]] = r.envelope[q];
-    parameters[r.name] = {
-        {"unit", r.unit},   {"bias", r.bias},         {"bias_error", r.biasError}, {"spread", r.spread},
-        {"shifts", shifts}, {"envelopes", envelopes}, {"systematic", r.systematic}};
+    Json p = {{"unit", r.unit},     {"bias", r.bias},   {"bias_error", r.biasError},
+              {"spread", r.spread}, {"shifts", shifts}, {"effects", effects}};
+    if (!t.reverse.is_null()) {
+      Json reverse = Json::object();
+      for (std::size_t j = 0; j < t.variations.size(); ++j) {
+        reverse[t.variations[j]->name] = {r.reverseShift[j], r.reverseShiftError[j]};
+      }
+      p["reverse_bias"] = {r.reverseBias, r.reverseBiasError};
+      p["reverse_shifts"] = reverse;
+    }
+    p["envelopes"] = envelopes;
+    p["systematic"] = r.systematic;
+    parameters[r.name] = p;
   }
-  return {{"samples", t.samples}, {"events", t.events}, {"variations", variationsJson}, {"parameters", parameters}};
+  return {{"samples", t.samples},
+          {"events", t.events},
+          {"variations", variationsJson},
+          {"reverse", t.reverse},
+          {"parameters", parameters}};
 }
 
 std::string systematicsMarkdown(const SystematicsTable& t) {
   std::string md = fmt::format(
       "# Systematic shifts: {} paired samples × {} events per variation\n\n"
-      "Each column: the larger |mean of fit(variation) − fit(nominal)| of the quantity's variations (file units). "
-      "systematic = their quadrature sum. Nominal bias ± its statistical error, and the spread of the fits, "
-      "beside the paper's Table 1 bias (SPEC §10).\n\n| parameter | unit | nominal bias | spread |",
-      t.samples, t.events);
+      "Each quantity's column: the largest effect of its variations (file units): |mean of fit(variation) − "
+      "fit(nominal)|, or for a pattern drawn per sample (gains, dead counters) the root mean square of the "
+      "differences{}. systematic = their quadrature sum. Nominal bias ± its statistical error, and the spread of "
+      "the fits, beside the paper's Table 1 bias (SPEC §10).\n\n| parameter | unit | nominal bias | spread |",
+      t.samples, t.events, t.reverse.is_null() ? "" : "; the reverse shifts count too");
   for (const auto& q : t.quantities) md += fmt::format(" {} |", q);
   md += " **systematic** | paper bias |\n|---|---|---|---|";
   for (std::size_t q = 0; q < t.quantities.size(); ++q) md += "---|";
@@ -134,19 +340,72 @@ std::string systematicsMarkdown(const SystematicsTable& t) {
     const auto* p = paper::table1(r.name);
     md += fmt::format(" **{:.4f}** | {} |\n", r.systematic, p ? fmt::format("{:.3g}", p->bias) : std::string());
   }
-  md += "\nEvery shift with its statistical error (mean ± error of the paired differences):\n\n| parameter |";
-  for (const Variation* v : t.variations) md += fmt::format(" {} |", v->name);
-  md += "\n|---|";
-  for (std::size_t j = 0; j < t.variations.size(); ++j) md += "---|";
-  md += "\n";
-  for (const auto& r : t.rows) {
-    md += fmt::format("| {} |", r.name);
-    for (std::size_t j = 0; j < t.variations.size(); ++j) {
-      md += fmt::format(" {:+.4f} ± {:.4f} |", r.shift[j], r.shiftError[j]);
-    }
+  const auto shiftTable = [&](const std::string& heading, const auto& cell) {
+    md += heading + "\n\n| parameter |";
+    for (const Variation* v : t.variations) md += fmt::format(" {} |", v->name);
+    md += "\n|---|";
+    for (std::size_t j = 0; j < t.variations.size(); ++j) md += "---|";
     md += "\n";
+    for (const auto& r : t.rows) {
+      md += fmt::format("| {} |", r.name);
+      for (std::size_t j = 0; j < t.variations.size(); ++j) md += fmt::format(" {} |", cell(r, j));
+      md += "\n";
+    }
+  };
+  shiftTable(
+      "\nEvery shift with its statistical error (mean ± error of the paired differences; a pattern's root mean "
+      "square after the slash):",
+      [&](const SystematicsRow& r, std::size_t j) {
+        return t.variations[j]->pattern != nullptr
+                   ? fmt::format("{:+.4f} ± {:.4f} / {:.4f}", r.shift[j], r.shiftError[j], r.effect[j])
+                   : fmt::format("{:+.4f} ± {:.4f}", r.shift[j], r.shiftError[j]);
+      });
+  if (!t.reverse.is_null()) {
+    shiftTable(
+        fmt::format("\nThe reverse study: corrections derived with each variation ({} events per derivation "
+                    "sample, {} response samples × {} events, seed {}), fitted to the nominal samples; mean "
+                    "± error of fit(its corrections) − fit(corrections derived without variation):",
+                    t.reverse.value("events_per_sample", std::int64_t{0}), t.reverse.value("response_samples", 0),
+                    t.reverse.value("response_events_per_sample", std::int64_t{0}),
+                    t.reverse.value("seed", std::uint64_t{0})),
+        [&](const SystematicsRow& r, std::size_t j) {
+          return fmt::format("{:+.4f} ± {:.4f}", r.reverseShift[j], r.reverseShiftError[j]);
+        });
+    md += "\nThe nominal samples fitted with the corrections derived without variation: bias ± error\n\n";
+    for (const auto& r : t.rows) {
+      md += fmt::format("- {}: {:+.4f} ± {:.4f} {}\n", r.name, r.reverseBias, r.reverseBiasError, r.unit);
+    }
   }
   return md;
+}
+
+Json systematicErrorsJson(const SystematicsTable& t, const calib::ModelCorrections& corrections, const Json& study) {
+  // The derivation's own statistics are a systematic error of every fit with the file too
+  // (validation/derive_corrections.hpp): added in quadrature, where the file records them.
+  std::vector<std::pair<std::string, const Json*>> statistics;
+  for (const char* key : {"response_parameter_errors", "nominal_profile_parameter_errors"}) {
+    if (corrections.derivedFrom.is_object() && corrections.derivedFrom.contains(key) &&
+        corrections.derivedFrom[key].is_object()) {
+      statistics.emplace_back(key, &corrections.derivedFrom[key]);
+    }
+  }
+  Json errors = Json::object(), variationsPart = Json::object();
+  Json statisticsPart = Json::object();
+  for (const auto& r : t.rows) {
+    if (r.name == "psi" || r.name == "tau") continue;  // directions: their error depends on the tilt
+    variationsPart[r.name] = r.systematic;
+    double sum2 = r.systematic * r.systematic;
+    for (const auto& [key, values] : statistics) {
+      if (!values->contains(r.name) || !(*values)[r.name].is_number()) continue;
+      const double e = (*values)[r.name].get<double>();
+      statisticsPart[key][r.name] = e;
+      sum2 += e * e;
+    }
+    errors[r.name] = std::sqrt(sum2);
+  }
+  Json components = {{"simulation variations", variationsPart}};
+  for (const auto& [key, values] : statisticsPart.items()) components["derivation statistics: " + key] = values;
+  return {{"errors", errors}, {"components", components}, {"study", study}};
 }
 
 }  // namespace emcalign::validation

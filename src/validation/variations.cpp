@@ -1,14 +1,31 @@
 #include "emcalign/validation/variations.hpp"
 
+#include <algorithm>
+
+#include "emcalign/core/random.hpp"
+
 namespace emcalign::validation {
 
 namespace {
 
 using sim::SimulationOptions;
 
-// The dead counters added by "dead-double": seven more, spread over the layers and both
-// hemispheres as the default seven are (assumed, as they are).
-constexpr int kMoreDeadCounters[] = {140, 305, 498, 733, 960, 1150, 1420};
+// "dead-double": as many more dead counters as the default list has, drawn uniformly among
+// the live counters of the whole calorimeter in every sample (dead channels come and go from
+// run to run, anywhere).
+void moreDeadCounters(SimulationOptions& o, std::uint64_t seed, int counters) {
+  Rng rng(seed, 0xDEADULL);
+  const std::size_t more = o.emc.deadCounters.size();
+  std::vector<int> dead = o.emc.deadCounters;
+  while (dead.size() < 2 * more && static_cast<int>(dead.size()) < counters) {
+    const int c = std::min(counters - 1, static_cast<int>(rng.uniform() * counters));
+    if (std::find(dead.begin(), dead.end(), c) == dead.end()) dead.push_back(c);
+  }
+  o.emc.deadCounters = std::move(dead);
+}
+
+// "gains-*": each sample draws its own pattern of gains.
+void gainPattern(SimulationOptions& o, std::uint64_t seed, int /*counters*/) { o.emc.gainSeed = seed; }
 
 std::vector<Variation> makeVariations() {
   const std::string tmaxWhy =
@@ -23,7 +40,9 @@ std::vector<Variation> makeVariations() {
       "after a calibration with cosmic muons and Bhabha events the counters' gains agree to about 2 %; 5 % is a "
       "poorly calibrated period";
   const std::string layer3Why = "the independent offset of layer 3 is assumed; none and twice it bracket it";
-  const std::string deadWhy = "dead channels change from run to run: none, or twice the default list";
+  const std::string deadWhy =
+      "dead channels change from run to run: none, or as many more as the default list, anywhere (drawn anew in "
+      "every sample)";
   const std::string backgroundWhy =
       "the beam background rate depends on the beams; none, or three times the assumed 0.3 hits per event";
   const std::string tsWhy = "the tracker's resolution in data is known to about 20 %";
@@ -44,21 +63,18 @@ std::vector<Variation> makeVariations() {
        [](SimulationOptions& o) { o.emc.tailRadius = 0.6; }},
       {"tail-wide", "lateral tail radius", "tail radius 1.0 R_M (0.8)", tailWhy,
        [](SimulationOptions& o) { o.emc.tailRadius = 1.0; }},
-      {"gains-2pc", "counter gains", "gain spread 2 % (uniform)", gainWhy,
-       [](SimulationOptions& o) { o.emc.counterGainSpread = 0.02; }},
-      {"gains-5pc", "counter gains", "gain spread 5 % (uniform)", gainWhy,
-       [](SimulationOptions& o) { o.emc.counterGainSpread = 0.05; }},
+      {"gains-2pc", "counter gains", "gain spread 2 % (none), a pattern per sample", gainWhy,
+       [](SimulationOptions& o) { o.emc.counterGainSpread = 0.02; }, gainPattern},
+      {"gains-5pc", "counter gains", "gain spread 5 % (none), a pattern per sample", gainWhy,
+       [](SimulationOptions& o) { o.emc.counterGainSpread = 0.05; }, gainPattern},
       {"layer3-none", "layer-3 offset", "no layer-3 offset", layer3Why,
        [](SimulationOptions& o) { o.emc.layer3OffsetOn = false; }},
       {"layer3-double", "layer-3 offset", "layer-3 offset × 2", layer3Why,
        [](SimulationOptions& o) { o.emc.layer3Offset *= 2.0; }},
       {"dead-none", "dead counters", "no dead counter (7)", deadWhy,
        [](SimulationOptions& o) { o.emc.deadCountersOn = false; }},
-      {"dead-double", "dead counters", "14 dead counters (7)", deadWhy,
-       [](SimulationOptions& o) {
-         o.emc.deadCounters.insert(o.emc.deadCounters.end(), std::begin(kMoreDeadCounters),
-                                   std::end(kMoreDeadCounters));
-       }},
+      {"dead-double", "dead counters", "7 more dead counters (7), anywhere, a pattern per sample", deadWhy,
+       [](SimulationOptions&) {}, moreDeadCounters},
       {"background-none", "beam background", "no background hits (0.3 per event)", backgroundWhy,
        [](SimulationOptions& o) { o.emc.beamBackground = false; }},
       {"background-triple", "beam background", "0.9 background hits per event (0.3)", backgroundWhy,

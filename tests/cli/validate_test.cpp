@@ -3,6 +3,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -164,8 +165,17 @@ TEST_F(ValidateCli, SystematicsPairsTheSamplesAndTakesTheEnvelope) {
   const double up = std::abs(dp1["shifts"]["tmax-up"][0].get<double>());
   const double down = std::abs(dp1["shifts"]["tmax-down"][0].get<double>());
   EXPECT_DOUBLE_EQ(dp1["envelopes"]["t_max"].get<double>(), std::max(up, down));
+  // The gains are a pattern drawn per sample: their effect is the root mean square of the
+  // differences, √(mean² + spread²), not the mean alone.
+  const auto& gainShift = dp1["shifts"]["gains-5pc"];
   const double gains = dp1["envelopes"]["counter gains"].get<double>();
+  EXPECT_DOUBLE_EQ(gains, std::hypot(gainShift[0].get<double>(), gainShift[2].get<double>()));
+  EXPECT_GT(gains, std::abs(gainShift[0].get<double>()));
+  EXPECT_DOUBLE_EQ(dp1["effects"]["tmax-up"].get<double>(), up);
   EXPECT_DOUBLE_EQ(dp1["systematic"].get<double>(), std::hypot(std::max(up, down), gains));
+  EXPECT_TRUE(table["variations"][2]["pattern"].get<bool>());
+  EXPECT_FALSE(table["variations"][0]["pattern"].get<bool>());
+  EXPECT_TRUE(fs::is_regular_file(fs::path(out) / "plots" / "systematics.png"));
   EXPECT_NE(slurp(fs::path(out) / "systematics.md").find("| dp1 | cm |"), std::string::npos);
   const std::string first = slurp(fs::path(out) / "systematics.json");
   fs::remove(fs::path(out) / "gains-5pc" / "samples" / "sample_0001.json");
@@ -175,4 +185,97 @@ TEST_F(ValidateCli, SystematicsPairsTheSamplesAndTakesTheEnvelope) {
   std::string err;
   EXPECT_EQ(run("systematics --samples 1 --events 50 --variations tmax-up -o " + path("few"), &err), 1);
   EXPECT_NE(err.find("the nominal campaign: sample 0"), std::string::npos) << err;
+}
+
+// The reverse study derives corrections with each variation and without, fits the nominal
+// samples with each, and pairs them; --write-corrections puts the systematic errors into a
+// copy of the corrections file, which the fit then reports beside the statistical errors.
+TEST_F(ValidateCli, ReverseStudyAndSystematicErrorsInTheFit) {
+  const std::string corrections = std::string(EMCALIGN_SOURCE_DIR) + "/data/corrections/ee-612.5MeV-40-140deg.json";
+  const std::string out = path("sys"), written = path("with-errors.json");
+  const std::string args =
+      "systematics --samples 3 --events 4000 --seed 2 --variations tmax-up --reverse "
+      "--reverse-events 20000 --reverse-response-samples 0 --corrections " +
+      corrections + " --write-corrections " + written + " -o " + out;
+  std::string err;
+  ASSERT_EQ(run(args, &err), 0) << err;
+  const auto table = nlohmann::json::parse(slurp(fs::path(out) / "systematics.json"));
+  ASSERT_TRUE(table["reverse"].is_object());
+  EXPECT_EQ(table["reverse"]["events_per_sample"], 20000);
+  const fs::path reverse = fs::path(out) / "reverse";
+  for (const std::string name : {"nominal", "tmax-up"}) {
+    const auto c = nlohmann::json::parse(slurp(reverse / "corrections" / (name + ".json")));
+    EXPECT_EQ(c["derived_from"]["settings"]["variation"],
+              name == "nominal" ? nlohmann::json(nullptr) : nlohmann::json(name));
+  }
+  // The reverse shift is the mean of the paired differences of the nominal samples' fits.
+  const auto sampleOf = [&](const std::string& campaign, int i) {
+    return nlohmann::json::parse(slurp(reverse / campaign / "samples" / ("sample_000" + std::to_string(i) + ".json")));
+  };
+  double mean = 0.0;
+  for (int i = 0; i < 3; ++i) {
+    const auto varied = sampleOf("tmax-up", i), nominal = sampleOf("nominal", i);
+    EXPECT_EQ(varied["truth"], nominal["truth"]);
+    mean += (varied["fit"]["parameters"]["dx"].get<double>() - nominal["fit"]["parameters"]["dx"].get<double>()) / 3;
+  }
+  const auto& dx = table["parameters"]["dx"];
+  EXPECT_NEAR(dx["reverse_shifts"]["tmax-up"][0].get<double>(), mean, 1e-12);
+  EXPECT_NE(mean, 0.0);
+  // The quantity's effect is the larger of the forward and the reverse shift.
+  EXPECT_DOUBLE_EQ(dx["envelopes"]["t_max"].get<double>(),
+                   std::max(std::abs(dx["shifts"]["tmax-up"][0].get<double>()), std::abs(mean)));
+  EXPECT_NE(slurp(fs::path(out) / "systematics.md").find("The reverse study"), std::string::npos);
+  // A rerun keeps the derivations and gives the same table.
+  const std::string first = slurp(fs::path(out) / "systematics.json");
+  ASSERT_EQ(run(args, &err), 0) << err;
+  EXPECT_EQ(slurp(fs::path(out) / "systematics.json"), first);
+
+  // The corrections file with the systematic errors: the study's in quadrature with the
+  // derivation's statistics, which the file records.
+  const auto file = nlohmann::json::parse(slurp(written));
+  const auto original = nlohmann::json::parse(slurp(corrections));
+  EXPECT_EQ(file["depth_offset_cm"], original["depth_offset_cm"]);
+  EXPECT_EQ(file["response"], original["response"]);
+  const auto& errors = file["systematic_errors"]["errors"];
+  const double response = original["derived_from"]["response_parameter_errors"]["dx"].get<double>();
+  const double profile = original["derived_from"]["nominal_profile_parameter_errors"]["dx"].get<double>();
+  EXPECT_NEAR(errors["dx"].get<double>(),
+              std::sqrt(std::pow(dx["systematic"].get<double>(), 2) + response * response + profile * profile), 1e-15);
+  EXPECT_FALSE(errors.contains("psi"));
+  EXPECT_TRUE(errors.contains("mu"));
+
+  // A fit with it writes them beside the statistical errors.
+  const std::string events = path("events.h5"), result = path("result.json");
+  ASSERT_EQ(run("simulate --events 20000 --seed 5 --theta-min 40 --theta-max 140 --params " +
+                std::string(EMCALIGN_SOURCE_DIR) + "/data/examples/paper-like.json -o " + events),
+            0);
+  ASSERT_EQ(run("fit " + events + " --corrections " + written + " -o " + result, &err), 0) << err;
+  const auto fit = nlohmann::json::parse(slurp(result));
+  ASSERT_TRUE(fit.contains("systematic_errors"));
+  EXPECT_EQ(fit["systematic_errors"]["dx"], errors["dx"]);
+  EXPECT_EQ(fit["derived"]["mu"]["systematic_error"], errors["mu"]);
+  EXPECT_FALSE(fit["derived"]["psi"].contains("systematic_error"));
+  EXPECT_EQ(fit["input"]["model_corrections"]["systematic_errors"]["source"], written);
+  // and the same fit with the file without them has none, with equal parameters and errors.
+  auto stripped = original;
+  stripped.erase("systematic_errors");
+  const std::string strippedFile = path("no-errors.json"), plain = path("plain.json");
+  std::ofstream(strippedFile) << stripped.dump(2);
+  ASSERT_EQ(run("fit " + events + " --corrections " + strippedFile + " -o " + plain), 0);
+  const auto without = nlohmann::json::parse(slurp(plain));
+  EXPECT_FALSE(without.contains("systematic_errors"));
+  EXPECT_EQ(without["parameters"], fit["parameters"]);
+  EXPECT_EQ(without["errors"], fit["errors"]);
+  // The result reads as an alignment like any fit result.
+  ASSERT_EQ(run("correct " + events + " --alignment " + result + " -o " + path("corrected.h5"), &err), 0) << err;
+
+  // Corrections changed after the study no longer carry its errors.
+  auto edited = file;
+  edited["depth_offset_cm"] = file["depth_offset_cm"].get<double>() + 0.1;
+  const std::string stale = path("stale.json");
+  std::ofstream(stale) << edited.dump(2);
+  ASSERT_EQ(run("fit " + events + " --corrections " + stale + " -o " + path("stale-result.json"), &err), 1);
+  EXPECT_NE(err.find("measured with other corrections"), std::string::npos) << err;
+  // --write-corrections needs one corrections file.
+  EXPECT_EQ(run("systematics --samples 1 --write-corrections " + path("x.json") + " -o " + path("y")), 2);
 }

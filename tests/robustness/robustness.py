@@ -197,6 +197,10 @@ def cases():
     s, c = unchanged("c.json")
     add(Case(F, "the result over the corrections", "emcalign fit ev.csv --corrections c.json -o c.json", 1,
              "same file as the input --corrections", setup=s, check=c))
+    s, c = unchanged("c.json")
+    add(Case(F, "systematics writing its errors over its own corrections",
+             "emcalign systematics --samples 1 --events 1000 --corrections c.json --write-corrections c.json -o sy", 1,
+             "same file as the input", setup=s, check=c))
     s, c = unchanged("d.json")
     add(Case(F, "corrections over the detector", "emcalign derive-corrections --detector d.json -o d.json", 1,
              "same file as the input --detector", setup=s, check=c))
@@ -282,6 +286,16 @@ def cases():
              "the response of dx to itself is 0", setup=corrections("c0.json", lambda j: j.update(
                  response={"parameters": names, "matrix": flat, "offset": [0.0] * 12}))))
 
+    def stale(j):
+        j["depth_offset_cm"] += 0.1
+    add(Case(C, "corrections changed after their systematic study",
+             "emcalign fit ev.csv --corrections cstale.json -o r.json", 1, "measured with other corrections",
+             setup=corrections("cstale.json", stale)))
+
+    def in_mm(j):
+        j["systematic_errors"]["errors"]["dx"] = 50.0
+    add(Case(C, "a systematic error of 50 (mm for cm?)", "emcalign fit ev.csv --corrections cmm.json -o r.json", 1,
+             "expected a number in [0, 10]", setup=corrections("cmm.json", in_mm)))
     def deep(d):
         with open(os.path.join(d, "c.json")) as f:
             j = json.load(f)
@@ -292,11 +306,13 @@ def cases():
              "--corrections cdeep.json -o vdeep", 1, "nested deeper than 64 levels", setup=deep))
 
     def grid(name, energies, change=lambda j: None):
-        """A directory `name` of copies of c.json at these beam energies (None: the key left out)."""
+        """A directory `name` of copies of c.json at these beam energies (None: the key left out),
+        without its systematic errors (measured for the file as it is)."""
         def setup(d):
             os.makedirs(os.path.join(d, name), exist_ok=True)
             for k, e in enumerate(energies):
                 def at(j, e=e):
+                    j.pop("systematic_errors", None)
                     j.pop("beam_energy_mev", None)
                     if e is not None:
                         j["beam_energy_mev"] = e
@@ -317,6 +333,7 @@ def cases():
     def mixed_ranges(d):
         grid("gt", [500.0])(d)
         def wide(j):
+            j.pop("systematic_errors", None)
             j["beam_energy_mev"] = 750.0
             j["derived_from"]["settings"]["theta_range_deg"] = [20.0, 160.0]
         edit_json(d, "c.json", os.path.join("gt", "p1.json"), wide)

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "emcalign/calib/corrections.hpp"
 #include "emcalign/calib/fit.hpp"
 #include "emcalign/calib/profiles.hpp"
 #include "emcalign/calib/selection.hpp"
@@ -92,6 +93,10 @@ struct FitInput {
   /// A corrections grid's interpolation to the sample's beam energy (null: none;
   /// calib/corrections_grid.hpp, CorrectionsAt::interpolation).
   io::Json correctionsInterpolation;
+  /// The systematic errors the corrections carry (none: not measured): the result writes
+  /// them as "systematic_errors" beside "errors", and in each derived entry.
+  std::shared_ptr<const SystematicErrors> systematics;
+  std::string systematicsSource;  ///< the corrections file or grid they came from
 };
 
 /// How σ_sys was chosen, as the result file says it: {"method": "spec"|"fixed"|"auto",

@@ -48,12 +48,16 @@
 //                 "gap_matrix": 12 rows of 12 (optional)},
 //                        (row j: fitted parameter, column k: true one; file units, deg and
 //                         cm, the gap matrix per cm of dx_rel)
+//    "systematic_errors": {"errors": {"alpha": deg, …, the 12 and optionally beta, mu,
+//                          dx_rel}, "components": {source: {name: value}}, "study": {…}},
+//                        (file units; `emcalign systematics --write-corrections` adds it)
 //    "derived_from": {…}}     (every key but "format" and "depth_offset_cm" optional)
 // "beam_energy_mev" is the beam energy the file was derived at: the corrections depend on
 // it (the shower depth and width grow with the energy), and a grid of such files covers a
 // beam-energy scan (calib/corrections_grid.hpp).
 
 #include <limits>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -137,6 +141,18 @@ struct FitResponse {
   }
 };
 
+/// The systematic error of a fit made with these corrections, measured by `emcalign
+/// systematics` on this very file (docs/systematics.md): a fit result writes it beside its
+/// statistical errors.
+struct SystematicErrors {
+  /// By parameter name, file units (deg, cm): the 12 of SPEC §3, and optionally the derived
+  /// beta, mu, dx_rel (not the directions ψ and τ, whose error depends on the tilt). Each
+  /// finite, in [0, kMaxSystematicError].
+  std::map<std::string, double, std::less<>> errors;
+  io::Json components = io::Json::object();  ///< what they are made of: {source: {name: value}}
+  io::Json study = io::Json::object();       ///< how they were measured (free-form)
+};
+
 struct ModelCorrections {
   /// MeV, the beam energy the corrections belong to; NaN when the file does not say.
   double beamEnergy = std::numeric_limits<double>::quiet_NaN();
@@ -144,13 +160,24 @@ struct ModelCorrections {
   std::shared_ptr<const PartingPlaneResponse> partingPlane;  ///< none: SPEC's hard s = sign(cos φ)
   std::shared_ptr<const NominalProfile> nominalProfile;      ///< none: nothing subtracted
   std::shared_ptr<const FitResponse> response;               ///< none: the model at η itself
-  io::Json derivedFrom = io::Json::object();                 ///< how the file was made (free-form)
+  /// The systematic errors of a fit with them; none: not measured.
+  std::shared_ptr<const SystematicErrors> systematics;
+  io::Json derivedFrom = io::Json::object();  ///< how the file was made (free-form)
 };
 
 /// Reads a corrections file (strict: unknown keys, wrong types and bad tables are errors
 /// naming the file and the key).
 Result<ModelCorrections> readCorrections(const std::string& path);
 Result<ModelCorrections> parseCorrections(const io::Json& j, std::string_view source);
+/// The "systematic_errors" block (strict, as parseCorrections).
+Result<SystematicErrors> parseSystematicErrors(const io::Json& j, std::string_view source);
+io::Json systematicErrorsJson(const SystematicErrors& s);
+/// The largest systematic error a file may give, deg or cm: beyond is a unit mistake.
+inline constexpr double kMaxSystematicError = 10.0;
 io::Json correctionsJson(const ModelCorrections& c);
+/// A digest of what the corrections do (FNV-1a of correctionsJson without the systematic
+/// errors, 16 hex digits): a campaign records it, so that a rerun with other corrections is
+/// refused.
+std::string correctionsDigest(const ModelCorrections& c);
 
 }  // namespace emcalign::calib

@@ -53,6 +53,11 @@ struct CampaignOptions {
   int threads = 0;
   Ranges ranges = Ranges::defaults();
   sim::SimulationOptions simulation;  ///< the seed is set per sample
+  /// Draws a pattern of the detector per sample (a systematic variation's counter gains or
+  /// dead counters, validation/variations.hpp): called on each sample's simulation options
+  /// with the sample's simulation seed and the number of counters. None: the same detector
+  /// in every sample.
+  std::function<void(sim::SimulationOptions&, std::uint64_t seed, int counters)> samplePattern;
   /// Model corrections of the fits (calib/corrections.hpp): depth offset, parting-plane
   /// response, nominal profile; default none (the paper's model).
   calib::ModelCorrections corrections;

@@ -6,22 +6,35 @@
 // the mean of those differences (its error: their spread/√n) is how far the variation moves
 // each parameter's bias — measured with a fraction of the statistical spread of the fits.
 //
-// A quantity's shift is the larger |shift| of its variations (the envelope of the pair); the
-// systematic error of a parameter is the quadrature sum of its quantities' shifts. A shift
-// is counted as measured, without subtracting its own statistical error (conservative; the
-// table shows each error beside it).
+// A variation's effect is |shift|; for a pattern drawn anew in every sample (counter gains,
+// dead counters) it is the root mean square of the samples' differences, √(shift² + spread²):
+// data have one pattern, of unknown sign. A quantity's effect is the larger of its variations
+// (the envelope of the pair); the systematic error of a parameter is the quadrature sum of its
+// quantities' effects. An effect is counted as measured, without subtracting its own
+// statistical error (conservative; the table shows each error beside it).
+//
+// The reverse study (optional) derives the corrections in the simulation with each variation
+// and without (DIR/reverse/corrections/<name>.json, `derive-corrections` at the statistics
+// given, the same seed for all), and fits the nominal campaign's samples with each
+// (DIR/reverse/<name>, DIR/reverse/nominal): a variation's reverse shift is the mean of
+// fit(its corrections) − fit(the nominal ones), sample by sample. A pattern variation derives
+// with one pattern (the derivation's seed). A quantity's effect is then the largest of its
+// variations' effects, forward and reverse.
 //
 // The campaigns live in DIR/nominal and DIR/<variation>, each resumable as `validate`'s;
-// DIR/systematics.json and DIR/systematics.md hold the table.
+// DIR/systematics.json and DIR/systematics.md hold the table, DIR/systematics.png the shifts.
 
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "emcalign/calib/corrections.hpp"
 #include "emcalign/core/result.hpp"
 #include "emcalign/geometry/detector.hpp"
 #include "emcalign/io/json_files.hpp"
 #include "emcalign/validation/campaign.hpp"
+#include "emcalign/validation/derive_corrections.hpp"
 #include "emcalign/validation/variations.hpp"
 
 namespace emcalign::validation {
@@ -31,6 +44,9 @@ struct SystematicsOptions {
   CampaignOptions campaign;
   /// The variations to run (validation::variations() order); empty: all of them.
   std::vector<const Variation*> variations;
+  /// The reverse study, when given: the derivations' statistics and seed (their simulation,
+  /// beam energy and response ranges are the campaign's).
+  std::optional<DerivationOptions> reverse;
 };
 
 /// The campaign with a variation: its simulation changed, and the variation recorded in the
@@ -46,7 +62,14 @@ struct SystematicsRow {
   double spread = 0.0;        ///< nominal campaign: the fits' spread about the truth
   std::vector<double> shift;  ///< per variation: mean of fit(variation) − fit(nominal)
   std::vector<double> shiftError;
-  std::vector<double> envelope;  ///< per quantity: the largest |shift| of its variations
+  std::vector<double> shiftSpread;  ///< per variation: the spread of fit(variation) − fit(nominal)
+  std::vector<double> effect;       ///< per variation: |shift|, or √(shift² + spread²) for a pattern
+  /// The reverse study (empty when not run): the nominal samples fitted with the corrections
+  /// derived without variation (bias and its error), and per variation the mean of
+  /// fit(its corrections) − fit(the nominal ones) with its error.
+  double reverseBias = 0.0, reverseBiasError = 0.0;
+  std::vector<double> reverseShift, reverseShiftError;
+  std::vector<double> envelope;  ///< per quantity: the largest effect of its variations (and reverse shifts)
   double systematic = 0.0;       ///< quadrature sum of the envelopes
 };
 
@@ -56,21 +79,33 @@ struct SystematicsTable {
   std::vector<const Variation*> variations;
   std::vector<std::string> quantities;  ///< in the order of first appearance
   std::vector<SystematicsRow> rows;
+  /// The reverse study's derivations (settings as their files record them); null: not run.
+  io::Json reverse = nullptr;
 };
 
-/// Called with the samples done over all campaigns and their total.
-using SystematicsProgress = std::function<void(int done, int total)>;
+/// Called with the events simulated over all campaigns and derivations, and their total.
+using SystematicsProgress = std::function<void(std::int64_t done, std::int64_t total)>;
 
 /// Runs (or resumes) the campaigns into `dir` and writes the table.
 Result<SystematicsTable> runSystematics(const geometry::Calorimeter& calo, const SystematicsOptions& options,
                                         const std::string& dir, const SystematicsProgress& progress = {});
 
-/// {"samples", "events", "variations": [{"name", "quantity", "change", "why"}], "parameters":
-/// {name: {"unit", "bias", "bias_error", "spread", "shifts": {variation: [shift, error]},
-/// "envelopes": {quantity: value}, "systematic"}}}.
+/// {"samples", "events", "variations": [{"name", "quantity", "change", "why", "pattern"}],
+/// "reverse": {derivation settings} or null, "parameters": {name: {"unit", "bias",
+/// "bias_error", "spread", "shifts": {variation: [shift, error, spread of the differences]},
+/// "effects": {variation: value}, "reverse_bias": [bias, error], "reverse_shifts":
+/// {variation: [shift, error]}, "envelopes": {quantity: value}, "systematic"}}} (the
+/// reverse keys only with the reverse study).
 io::Json systematicsJson(const SystematicsTable& table);
 /// The table in Markdown: per parameter the nominal bias and spread, each quantity's
 /// envelope and the total, and the paper's Table 1 bias beside it.
 std::string systematicsMarkdown(const SystematicsTable& table);
+
+/// The "systematic_errors" block of `corrections` (calib::SystematicErrors), the file the
+/// study was run with: per parameter of the table but ψ and τ its systematic error in quadrature with
+/// the statistical errors of the derivation the file records (response, nominal profile:
+/// common to every fit with the file), each part under "components"; `study` says how.
+io::Json systematicErrorsJson(const SystematicsTable& table, const calib::ModelCorrections& corrections,
+                              const io::Json& study);
 
 }  // namespace emcalign::validation

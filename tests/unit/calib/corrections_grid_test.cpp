@@ -112,6 +112,27 @@ TEST(CorrectionsGrid, InterpolatesEveryPieceLinearlyBetweenTheTwoPointsAround) {
   EXPECT_TRUE(c->warning.empty());
 }
 
+// Systematic errors are interpolated where both points have them, and dropped where one lacks
+// them (a grid's points are studied one by one).
+TEST(CorrectionsGrid, SystematicErrorsOnlyWhereBothPointsHaveThem) {
+  const auto withErrors = [](double energy, double dx) {
+    ModelCorrections c = at(energy);
+    SystematicErrors e;
+    for (std::string_view name : kParamNames) e.errors.emplace(std::string(name), 0.01);
+    e.errors["dx"] = dx;
+    c.systematics = std::make_shared<const SystematicErrors>(e);
+    return c;
+  };
+  auto both = interpolateCorrections(withErrors(500.0, 0.02), withErrors(750.0, 0.04), 0.25);
+  ASSERT_TRUE(both.ok()) << both.error().message;
+  ASSERT_TRUE(both->systematics);
+  EXPECT_NEAR(both->systematics->errors.at("dx"), 0.025, 1e-15);
+  EXPECT_NEAR(both->systematics->errors.at("alpha"), 0.01, 1e-15);
+  auto one = interpolateCorrections(withErrors(500.0, 0.02), at(750.0), 0.25);
+  ASSERT_TRUE(one.ok()) << one.error().message;
+  EXPECT_FALSE(one->systematics);
+}
+
 TEST(CorrectionsGrid, AGridPointAndTheEndsAreTheirFilesAndNothingIsExtrapolated) {
   const CorrectionsGrid g = grid({500.0, 750.0, 1000.0});
   for (double e : {500.0, 750.0, 1000.0}) {

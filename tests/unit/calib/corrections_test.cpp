@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <functional>
+#include <iterator>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -151,6 +152,91 @@ TEST(ModelCorrections, RefusesMalformedFiles) {
   j = good;
   j["depth_offset_cm"] = 1e6;
   EXPECT_TRUE(refused(j, "given in mm?"));
+}
+
+// The systematic errors a study puts into a file (docs/systematics.md): all 12 parameters,
+// plausible values, only beta, mu and dx_rel beside them, and tied to the corrections they
+// were measured with.
+TEST(ModelCorrections, SystematicErrorsRoundTripAndBelongToTheirCorrections) {
+  ModelCorrections c;
+  c.depthOffset = 4.2;
+  c.nominalProfile = std::make_shared<const NominalProfile>(smallPattern());
+  const std::string digest = correctionsDigest(c);
+  SystematicErrors e;
+  for (std::string_view name : kParamNames) e.errors.emplace(std::string(name), 0.001 * (1 + e.errors.size()));
+  e.errors.emplace("mu", 0.02);
+  e.components = {{"simulation variations", {{"dx", 0.005}}}};
+  e.study = {{"command", "emcalign systematics"}, {"corrections_fnv1a", digest}};
+  c.systematics = std::make_shared<const SystematicErrors>(e);
+  EXPECT_EQ(correctionsDigest(c), digest);  // what the corrections do, not what is known of them
+  const Json good = correctionsJson(c);
+  auto back = parseCorrections(Json::parse(good.dump()), "corr.json");
+  ASSERT_TRUE(back.ok()) << back.error().message;
+  ASSERT_TRUE(back->systematics);
+  EXPECT_EQ(back->systematics->errors, e.errors);
+  EXPECT_EQ(back->systematics->components, e.components);
+  EXPECT_EQ(correctionsJson(*back), good);
+  // The fit's parameters first, in their order, then the derived ones.
+  EXPECT_EQ(good["systematic_errors"]["errors"].begin().key(), "alpha");
+  EXPECT_EQ(std::prev(good["systematic_errors"]["errors"].end()).key(), "mu");
+
+  auto refused = [](Json j, const std::string& key) {
+    auto r = parseCorrections(j, "corr.json");
+    if (r.ok()) return ::testing::AssertionFailure() << "accepted";
+    if (r.error().message.find(key) == std::string::npos) return ::testing::AssertionFailure() << r.error().message;
+    return ::testing::AssertionSuccess();
+  };
+  Json j = good;
+  j["systematic_errors"]["errors"].erase("dp2");
+  EXPECT_TRUE(refused(j, "systematic_errors.errors.dp2': missing"));
+  j = good;
+  j["systematic_errors"]["errors"]["psi"] = 1.0;
+  EXPECT_TRUE(refused(j, "systematic_errors.errors.psi': unknown parameter"));
+  j = good;
+  j["systematic_errors"]["errors"]["dx"] = -0.1;
+  EXPECT_TRUE(refused(j, "systematic_errors.errors.dx': expected a number in [0, 10]"));
+  j = good;
+  j["systematic_errors"]["errors"]["dx"] = 30.0;
+  EXPECT_TRUE(refused(j, "systematic_errors.errors.dx'"));
+  j = good;
+  j["systematic_errors"]["errors"]["dx"] = "0.1";
+  EXPECT_TRUE(refused(j, "systematic_errors.errors.dx'"));
+  j = good;
+  j["systematic_errors"]["total"] = 1;
+  EXPECT_TRUE(refused(j, "systematic_errors.total': unknown key"));
+  j = good;
+  j["systematic_errors"]["study"] = "x";
+  EXPECT_TRUE(refused(j, "systematic_errors.study': expected an object"));
+  // Corrections changed after the study: its errors are not theirs.
+  j = good;
+  j["depth_offset_cm"] = 4.3;
+  EXPECT_TRUE(refused(j, "measured with other corrections"));
+  // Without the digest (e.g. written by hand) nothing ties them: accepted.
+  j["systematic_errors"]["study"].erase("corrections_fnv1a");
+  EXPECT_TRUE(parseCorrections(j, "corr.json").ok());
+}
+
+// A fit result writes the systematic errors its corrections carry beside the statistical
+// ones, and each derived one that has it.
+TEST(FitResultJson, WritesTheSystematicErrorsBesideTheStatisticalOnes) {
+  FitResult r;
+  r.status = FitStatus::Converged;
+  FitInput input;
+  EXPECT_FALSE(fitResultJson(r, input).contains("systematic_errors"));
+  SystematicErrors e;
+  for (std::string_view name : kParamNames) e.errors.emplace(std::string(name), 0.004);
+  e.errors["dx"] = 0.009;
+  e.errors.emplace("dx_rel", 0.006);
+  input.systematics = std::make_shared<const SystematicErrors>(e);
+  input.systematicsSource = "corr.json";
+  const Json j = fitResultJson(r, input);
+  ASSERT_TRUE(j.contains("systematic_errors"));
+  EXPECT_EQ(j["systematic_errors"]["dx"], 0.009);
+  EXPECT_EQ(j["systematic_errors"].size(), kNumParams);
+  EXPECT_EQ(std::next(j.find("errors")).key(), "systematic_errors");  // beside the statistical errors
+  EXPECT_EQ(j["derived"]["dx_rel"]["systematic_error"], 0.006);
+  EXPECT_FALSE(j["derived"]["mu"].contains("systematic_error"));
+  EXPECT_EQ(j["input"]["model_corrections"]["systematic_errors"]["source"], "corr.json");
 }
 
 TEST(ProfileOptions, ValidateNamesTheMismatch) {

@@ -116,6 +116,29 @@ TEST(CalibrationReport, TheFitSectionShowsWhatTheResultSays) {
   EXPECT_EQ(page->find("<nav>"), std::string::npos);
 }
 
+// With corrections that carry systematic errors, the tables show them beside the statistical
+// ones; without, the tables keep their three columns.
+TEST(CalibrationReport, SystematicErrorsGetTheirOwnColumn) {
+  Json r = fitResult();
+  Json systematic = Json::object();
+  for (const auto& [name, value] : r["errors"].items()) systematic[name] = 0.0047;
+  r["systematic_errors"] = systematic;
+  r["derived"]["mu"]["systematic_error"] = 0.0021;
+  ReportInputs in;
+  in.fit = ReportFit{.path = "r.json", .result = r};
+  auto page = calibrationReport(in);
+  ASSERT_TRUE(page.ok()) << page.error().message;
+  EXPECT_NE(page->find("<th class=\"num\">statistical</th><th class=\"num\">systematic</th>"), std::string::npos);
+  EXPECT_NE(page->find("<td class=\"num\">0.100</td><td class=\"num\">0.012</td><td class=\"num\">0.0047</td>"),
+            std::string::npos);
+  EXPECT_NE(page->find("<td class=\"num\">0.0021</td>"), std::string::npos);
+  EXPECT_NE(page->find("emcalign systematics"), std::string::npos);
+  in.fit->result.erase("systematic_errors");
+  auto plain = calibrationReport(in);
+  ASSERT_TRUE(plain.ok()) << plain.error().message;
+  EXPECT_EQ(plain->find("systematic"), std::string::npos);
+}
+
 TEST(CalibrationReport, NullsAndMarkupInTheInputsStayText) {
   Json r = fitResult();
   r["chi2"] = nullptr;  // a failed fit

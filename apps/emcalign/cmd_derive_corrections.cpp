@@ -155,18 +155,9 @@ int run(const DeriveOptions& cli) {
     const double energy = todo[k].beamEnergy;
     const std::string& file = todo[k].file;
     o.simulation.generator.beamEnergy = energy;
-    std::int64_t before = static_cast<std::int64_t>(k) * perPoint, lastTotal = 0;  // events of the finished samples
-    std::string lastStage;
-    auto report =
-        validation::deriveCorrections(*calo, o, [&](std::string_view stage, std::int64_t done, std::int64_t total) {
-          if (stage.rfind("simulate", 0) != 0) return;
-          if (stage != lastStage) {
-            lastStage = std::string(stage);
-            before += lastTotal;
-            lastTotal = total;
-          }
-          progress.update(before + done);
-        });
+    const std::int64_t before = static_cast<std::int64_t>(k) * perPoint;  // events of the points done
+    auto report = validation::deriveCorrections(
+        *calo, o, validation::simulatedEventsProgress([&](std::int64_t done) { progress.update(before + done); }));
     if (!report) {
       progress.finish();
       return reportError(grid ? Error{fmt::format("at {} MeV: {}", energy / units::MeV, report.error().message)}

@@ -48,8 +48,9 @@ struct ValidateOptions {
   std::string writeCorrections;  ///< systematics: a copy of --corrections with the systematic errors
   std::string output;
 
-  // The reverse study's derivations: a third of derive-corrections' default statistics, enough
-  // for shifts measured by pairing (every derivation has the same seed).
+  // The reverse study's derivations: a third of the shipped file's statistics (10⁶ events per
+  // sample, 100 response samples of 50 000), enough for shifts measured by pairing (every
+  // derivation has the same seed).
   static validation::DerivationOptions reverseDefaults() {
     validation::DerivationOptions d;
     d.events = 1000000;
@@ -151,9 +152,13 @@ int run(const ValidateOptions& cli) {
 // The corrections file of the study with its systematic errors (calib::SystematicErrors),
 // written to --write-corrections: what `emcalign fit --corrections` then reports beside the
 // statistical errors.
-Status writeCorrectionsWithErrors(const ValidateOptions& cli, const validation::SystematicsTable& table) {
+Status writeCorrectionsWithErrors(const ValidateOptions& cli, const validation::CampaignOptions& campaign,
+                                  const validation::SystematicsTable& table) {
   auto corrections = calib::readCorrections(cli.corrections);
   if (!corrections) return corrections.error();
+  io::Json conditions = campaign.settings;  // the simulation, ranges, σ_sys and detector of the study
+  conditions.erase("corrections");
+  conditions["beam_energy_mev"] = campaign.simulation.generator.beamEnergy / units::MeV;
   std::vector<std::string> names;
   for (const auto* v : table.variations) names.push_back(v->name);
   const io::Json study = {
@@ -162,6 +167,7 @@ Status writeCorrectionsWithErrors(const ValidateOptions& cli, const validation::
       {"samples", table.samples},
       {"events", table.events},
       {"seed", cli.seed},
+      {"conditions", conditions},
       {"variations", names},
       {"reverse", table.reverse},
       {"combination",
@@ -175,24 +181,63 @@ Status writeCorrectionsWithErrors(const ValidateOptions& cli, const validation::
   return io::writeOutputFile(cli.writeCorrections, calib::correctionsJson(*corrections).dump(2) + "\n");
 }
 
+// Whether `path` is `dir` or lies inside it (both made absolute and normal, links resolved
+// where they exist).
+bool inside(const std::string& path, const std::string& dir) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path p = fs::weakly_canonical(fs::absolute(path), ec), d = fs::weakly_canonical(fs::absolute(dir), ec);
+  const auto [end, at] = std::mismatch(d.begin(), d.end(), p.begin(), p.end());
+  return end == d.end() || (std::next(end) == d.end() && end->empty());  // "d/" ends in an empty element
+}
+
+// What --write-corrections needs, checked before the study: one corrections file, an output
+// outside the study's directory, and a study of the conditions the file was derived for
+// (its beam energy and polar range, the realistic simulation), so that the errors it will
+// carry are its own.
+Status checkWriteCorrections(const ValidateOptions& cli, const validation::CampaignOptions& campaign) {
+  if (std::filesystem::is_directory(cli.corrections)) {
+    return Error{
+        "--write-corrections needs --corrections FILE, not a grid: the study measures the systematic "
+        "errors of one file (a grid's files are studied one by one, each at its own --beam-energy)"};
+  }
+  if (cli.writeCorrections != "-" && inside(cli.writeCorrections, cli.output)) {
+    return Error{fmt::format("--write-corrections {} is inside the study's directory -o {}: write it elsewhere",
+                             cli.writeCorrections, cli.output)};
+  }
+  if (cli.ideal || cli.pointShowers || !cli.off.empty()) {
+    return Error{
+        "--write-corrections: the errors a corrections file carries are measured with the realistic "
+        "simulation (no --ideal, --point-showers or --off)"};
+  }
+  const calib::ModelCorrections& c = campaign.corrections;
+  const double energy = campaign.simulation.generator.beamEnergy;
+  if (!std::isnan(c.beamEnergy) && std::abs(c.beamEnergy - energy) > 1e-9 * energy) {
+    return Error{
+        fmt::format("--write-corrections: {} was derived at {} MeV, the study would run at {} MeV: its "
+                    "errors are measured at its own energy (--beam-energy {})",
+                    cli.corrections, c.beamEnergy / units::MeV, energy / units::MeV, c.beamEnergy / units::MeV)};
+  }
+  const io::Json settings = c.derivedFrom.is_object() ? c.derivedFrom.value("settings", io::Json()) : io::Json();
+  if (settings.is_object() && settings.contains("theta_range_deg") &&
+      settings["theta_range_deg"] != io::Json{cli.thetaMinDeg, cli.thetaMaxDeg}) {
+    return Error{
+        fmt::format("--write-corrections: {} was derived for the polar range {} deg, the study's is [{}, "
+                    "{}]: give --theta-min and --theta-max as it was derived",
+                    cli.corrections, settings["theta_range_deg"].dump(), cli.thetaMinDeg, cli.thetaMaxDeg)};
+  }
+  return checkOutputs({{"--write-corrections", cli.writeCorrections}}, {{"-o", cli.output}},
+                      {{"--corrections", cli.corrections}});
+}
+
 // emcalign systematics: the nominal campaign and one per variation, paired (validation/systematics.hpp).
 int runSystematics(const ValidateOptions& cli) {
-  if (!cli.writeCorrections.empty()) {
-    if (std::filesystem::is_directory(cli.corrections)) {
-      reportError(
-          {"--write-corrections needs --corrections FILE, not a grid: the study measures the systematic "
-           "errors of one file (a grid's files are studied one by one, each at its own --beam-energy)"});
-      return kExitUsage;
-    }
-    if (Status s = checkOutputs({{"--write-corrections", cli.writeCorrections}}, {{"-o", cli.output}},
-                                {{"--corrections", cli.corrections}});
-        !s) {
-      return reportError(s.error());
-    }
-  }
   std::optional<geometry::Calorimeter> calo;
   auto made = campaignOptionsOf(cli, calo);
   if (!made) return reportError(made.error());
+  if (!cli.writeCorrections.empty()) {
+    if (Status s = checkWriteCorrections(cli, *made); !s) return reportError(s.error());
+  }
   validation::SystematicsOptions o;
   o.campaign = std::move(*made);
   for (const auto& name : cli.variations) o.variations.push_back(validation::findVariation(name));
@@ -228,9 +273,13 @@ int runSystematics(const ValidateOptions& cli) {
              campaigns, cli.reverse ? fmt::format(" (and {} derivations with their campaigns)", campaigns) : "",
              table->samples, table->events, progress.elapsed(), cli.output, cli.reverse ? ", reverse/" : "");
   if (!cli.writeCorrections.empty()) {
-    if (Status s = writeCorrectionsWithErrors(cli, *table); !s) return reportError(s.error());
-    fmt::print(reportStream(), "wrote {}: {} with the systematic errors (use: emcalign fit --corrections {})\n",
-               cli.writeCorrections, cli.corrections, cli.writeCorrections);
+    if (Status s = writeCorrectionsWithErrors(cli, o.campaign, *table); !s) return reportError(s.error());
+    if (cli.writeCorrections == "-") {
+      fmt::print(reportStream(), "wrote {} with the systematic errors to standard output\n", cli.corrections);
+    } else {
+      fmt::print(reportStream(), "wrote {}: {} with the systematic errors (use: emcalign fit --corrections {})\n",
+                 cli.writeCorrections, cli.corrections, cli.writeCorrections);
+    }
   }
   return kExitOk;
 }
@@ -302,7 +351,8 @@ void addValidateCommand(CLI::App& app, int& exitCode) {
       ->check(CLI::IsMember(variationNames()));
   sys->add_flag("--reverse", s->reverse,
                 "also the reverse study: corrections derived with each variation (and without), each fitted to "
-                "the nominal samples");
+                "the nominal samples (needs --corrections: it studies the corrected model)")
+      ->needs(sys->get_option("--corrections"));
   sys->add_option("--reverse-events", s->derivation.events,
                   fmt::format("events per derivation sample of the reverse study (default {})", s->derivation.events))
       ->check(integerIn(1000, 1000000000));

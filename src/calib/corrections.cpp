@@ -319,7 +319,13 @@ Result<ModelCorrections> parseCorrections(const Json& j, std::string_view source
   }
   if (j.contains("derived_from")) c.derivedFrom = j["derived_from"];
   // Systematic errors belong to the corrections they were measured with.
-  if (c.systematics && c.systematics->study.contains("corrections_fnv1a")) {
+  if (c.systematics) {
+    if (!c.systematics->study.contains("corrections_fnv1a")) {
+      return Error{fmt::format(
+          "{}: key 'systematic_errors.study.corrections_fnv1a': missing: systematic errors belong to the corrections "
+          "they were measured with (`emcalign systematics --write-corrections` writes them with their digest)",
+          source)};
+    }
     const Json& measured = c.systematics->study["corrections_fnv1a"];
     if (const std::string own = correctionsDigest(c); !measured.is_string() || measured.get<std::string>() != own) {
       return Error{fmt::format(

@@ -3,6 +3,7 @@
 // without enhancement, the parameters as quantity labels (α, β_{1}, dx_{rel}).
 #include "emcalign/report/systematics_plot.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 
@@ -20,7 +21,7 @@ using namespace detail;
 constexpr int kCellWidth = 62, kCellHeight = 26;  // px
 // The first map's top leaves room for the figure's title and subtitle, its own title and its
 // column labels; every map's for its title and column labels.
-constexpr int kLeft = 250, kRight = 110, kTop = 140, kBottom = 20, kMapGap = 95;
+constexpr int kLeft = 250, kRight = 110, kTop = 140, kBottom = 20, kMapGap = 95, kMinColourBar = 200;
 
 // x, y and the value of every cell (gnuplot's `with image` and `with labels` read it).
 Result<std::string> cellData(const SystematicsFigure& f, const std::vector<std::string>& rows,
@@ -97,7 +98,9 @@ Result<std::string> writeSystematicsPlot(const std::string& dir, const Systemati
   const int width = kLeft + kRight + static_cast<int>(f.parameters.size()) * kCellWidth;
   const int forwardHeight = static_cast<int>(f.rows.size()) * kCellHeight;
   const int reverseHeight = reverse ? kMapGap + static_cast<int>(f.reverseRows.size()) * kCellHeight : 0;
-  const int height = kTop + forwardHeight + reverseHeight + kBottom;
+  // The colour bar beside the first map, tall enough for its label however few its rows.
+  const int colourBar = std::max(forwardHeight, kMinColourBar);
+  const int height = kTop + std::max(forwardHeight + reverseHeight, colourBar) + kBottom;
   std::string script = terminalHeader("systematics", width, height);
   script += fmt::format(
       "set multiplot title \"{}\\n{{/=11 {}}}\" font ',14'\n"
@@ -109,7 +112,7 @@ Result<std::string> writeSystematicsPlot(const std::string& dir, const Systemati
       "set cblabel 'shift / spread of the fits' font ',10'\n"
       "set border 0\n",
       unquoted(f.title), unquoted(f.subtitle), 1.0 - double(kRight - 25) / width,
-      1.0 - double(kTop + forwardHeight) / height, 15.0 / width, double(forwardHeight) / height);
+      1.0 - double(kTop + colourBar) / height, 15.0 / width, double(colourBar) / height);
   script +=
       mapScript(f, f.rows, "systematics.dat",
                 "mean of fit(variation) − fit(nominal); below it each quantity's effect, and the systematic error",

@@ -78,6 +78,7 @@ Result<CampaignModel> campaignModel(const std::string& corrections, const std::s
     if (!m.grid->isGrid()) {  // a grid's corrections depend on the energy: at()
       m.geometry.apply(m.grid->points().front().corrections);
       m.profile.apply(m.grid->points().front().corrections);
+      m.systematics = m.grid->points().front().corrections.systematics;
     }
     m.corrections = corrections;
     m.correctionsSha256 = m.grid->sha256();
@@ -102,6 +103,7 @@ Result<CampaignModel> CampaignModel::at(double beamEnergy) const {
   m.geometry.apply(c->corrections);
   m.profile.apply(c->corrections);
   m.interpolation = c->interpolation;
+  m.systematics = c->corrections.systematics;
   return m;
 }
 
@@ -435,6 +437,8 @@ Result<GroupFit> fitGroup(const CampaignGroup& g, const calib::ProfileFill& fill
   if (model.profile.nominalProfile) input.nominalProfile = model.corrections;
   if (model.geometry.response) input.response = model.corrections;
   input.correctionsInterpolation = model.interpolation;
+  input.systematics = model.systematics;
+  input.systematicsSource = model.corrections;
   Json resultJson = calib::fitResultJson(*result, input);
   Json sha = Json::object();
   for (const auto& f : g.files) {

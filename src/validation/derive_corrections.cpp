@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <memory>
 #include <numbers>
 #include <set>
 
@@ -449,6 +450,23 @@ Json responseErrorJson(const DerivationReport& r) {
 }
 
 }  // namespace
+
+DerivationProgress simulatedEventsProgress(std::function<void(std::int64_t)> events) {
+  struct Count {
+    std::int64_t before = 0, lastTotal = 0;  // events of the finished stages; the current one's total
+    std::string lastStage;
+  };
+  return [count = std::make_shared<Count>(), events = std::move(events)](std::string_view stage, std::int64_t done,
+                                                                         std::int64_t total) {
+    if (stage.rfind("simulate", 0) != 0) return;
+    if (stage != count->lastStage) {
+      count->lastStage = std::string(stage);
+      count->before += count->lastTotal;
+      count->lastTotal = total;
+    }
+    events(count->before + done);
+  };
+}
 
 Json derivationJson(const DerivationReport& r, const Json& settings) {
   calib::ModelCorrections c = r.corrections;

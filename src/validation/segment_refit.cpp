@@ -224,6 +224,8 @@ Json refitJson(const SegmentRefit& r, std::size_t iovsBefore) {
     j["median_selected_events_before"] = s.medianSelectedBefore;
     j["parameters"] = s.fit->resultJson["parameters"];
     j["errors"] = s.fit->resultJson["errors"];
+    if (s.fit->resultJson.contains("systematic_errors"))
+      j["systematic_errors"] = s.fit->resultJson["systematic_errors"];
     j["status"] = s.fit->resultJson["status"];
     Json precision = Json::object();
     for (const RefitPrecision& p : s.precision) {

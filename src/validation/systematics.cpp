@@ -42,16 +42,18 @@ Json reverseSettings(const DerivationOptions& d, const CampaignOptions& campaign
   simulation.erase("corrections");
   simulation.erase("variation");
   simulation.erase("variation_pattern");
-  return {{"study", "emcalign systematics --reverse"},
-          {"variation", v ? Json(v->name) : Json(nullptr)},
-          {"events_per_sample", d.events},
-          {"seed", d.seed},
-          {"shift_cm", d.shift},
-          {"gap_cm", d.gap},
-          {"response_samples", d.responseSamples},
-          {"response_events_per_sample", d.responseEvents},
-          {"beam_energy_mev", campaign.simulation.generator.beamEnergy / units::MeV},
-          {"campaign", simulation}};
+  Json j = {{"study", "emcalign systematics --reverse"},
+            {"variation", v ? Json(v->name) : Json(nullptr)},
+            {"events_per_sample", d.events},
+            {"seed", d.seed},
+            {"shift_cm", d.shift},
+            {"gap_cm", d.gap},
+            {"response_samples", d.responseSamples},
+            {"response_events_per_sample", d.responseEvents},
+            {"beam_energy_mev", campaign.simulation.generator.beamEnergy / units::MeV},
+            {"campaign", simulation}};
+  if (v != nullptr && v->pattern != nullptr) j["variation_pattern"] = "one, drawn from the derivation's seed";
+  return j;
 }
 
 // The corrections of the reverse study with variation `v` (none: the nominal simulation):
@@ -80,17 +82,7 @@ Result<calib::ModelCorrections> reverseCorrections(const geometry::Calorimeter& 
     if (v->pattern != nullptr) v->pattern(d.simulation, d.seed, calo.size());
   }
   d.responseRanges = campaign.ranges;
-  std::int64_t before = 0, lastTotal = 0;
-  std::string lastStage;
-  auto report = deriveCorrections(calo, d, [&](std::string_view stage, std::int64_t done, std::int64_t total) {
-    if (stage.rfind("simulate", 0) != 0) return;
-    if (stage != lastStage) {
-      lastStage = std::string(stage);
-      before += lastTotal;
-      lastTotal = total;
-    }
-    eventsDone(before + done);
-  });
+  auto report = deriveCorrections(calo, d, simulatedEventsProgress(eventsDone));
   if (!report) return report.error();
   const Json content = derivationJson(*report, settings);
   if (Status s = io::writeOutputFile(file, content.dump(2) + "\n"); !s) return s.error();
@@ -103,8 +95,9 @@ std::size_t quantityOf(const SystematicsTable& t, std::size_t j) {
                                   t.quantities.begin());
 }
 
-// Keeps the larger of `envelope` and `effect`; a NaN effect makes it NaN (never dropped).
+// Keeps the larger of `envelope` and `effect`; a NaN effect makes it NaN for good (never dropped).
 void widen(double& envelope, double effect) {
+  if (std::isnan(envelope)) return;
   if (!(envelope >= effect)) envelope = effect;
 }
 
@@ -154,7 +147,7 @@ CampaignOptions withVariation(CampaignOptions options, const Variation& variatio
   options.settings["variation"] = variation.name;
   if (variation.pattern != nullptr) {
     options.samplePattern = variation.pattern;
-    options.settings["variation_pattern"] = "drawn per sample";
+    options.settings["variation_pattern"] = "drawn per sample from its own stream";
   }
   return options;
 }
@@ -169,6 +162,9 @@ Result<SystematicsTable> runSystematics(const geometry::Calorimeter& calo, const
   const CampaignOptions& nominalOptions = options.campaign;
   t.samples = nominalOptions.samples;
   t.events = nominalOptions.events;
+  if (t.samples < 2) {
+    return Error{"a systematic study needs 2 samples at least: a shift's error and a pattern's spread come from them"};
+  }
   if (options.reverse) {
     if (Status s = options.reverse->validate(); !s)
       return Error{fmt::format("the reverse study: {}", s.error().message)};
@@ -281,6 +277,10 @@ Result<SystematicsTable> runSystematics(const geometry::Calorimeter& calo, const
     return s.error();
   }
   if (Status s = drawSystematics(t, dir); !s) return s.error();
+  if (t.reverse.is_null()) {  // a study run again without --reverse: no stale data beside its figure
+    std::error_code ec;
+    fs::remove(fs::path(dir) / "plots" / "systematics_reverse.dat", ec);
+  }
   return t;
 }
 

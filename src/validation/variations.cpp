@@ -10,11 +10,16 @@ namespace {
 
 using sim::SimulationOptions;
 
+// The streams of Rng(sample seed, ·) the patterns draw from: beyond any event's (an event
+// number is below sim::kMaxEvents).
+constexpr std::uint64_t kGainSeedStream = (1ULL << 62) + 1;
+constexpr std::uint64_t kDeadCounterStream = (1ULL << 62) + 2;
+
 // "dead-double": as many more dead counters as the default list has, drawn uniformly among
 // the live counters of the whole calorimeter in every sample (dead channels come and go from
 // run to run, anywhere).
 void moreDeadCounters(SimulationOptions& o, std::uint64_t seed, int counters) {
-  Rng rng(seed, 0xDEADULL);
+  Rng rng(seed, kDeadCounterStream);
   const std::size_t more = o.emc.deadCounters.size();
   std::vector<int> dead = o.emc.deadCounters;
   while (dead.size() < 2 * more && static_cast<int>(dead.size()) < counters) {
@@ -24,8 +29,12 @@ void moreDeadCounters(SimulationOptions& o, std::uint64_t seed, int counters) {
   o.emc.deadCounters = std::move(dead);
 }
 
-// "gains-*": each sample draws its own pattern of gains.
-void gainPattern(SimulationOptions& o, std::uint64_t seed, int /*counters*/) { o.emc.gainSeed = seed; }
+// "gains-*": each sample draws its own pattern of gains. The counters' gains come from
+// Rng(gainSeed, counter); the seed is drawn here, so that they share no stream with the
+// sample's events (Rng(seed, event)).
+void gainPattern(SimulationOptions& o, std::uint64_t seed, int /*counters*/) {
+  o.emc.gainSeed = Rng(seed, kGainSeedStream).next();
+}
 
 std::vector<Variation> makeVariations() {
   const std::string tmaxWhy =

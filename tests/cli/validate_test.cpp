@@ -183,7 +183,7 @@ TEST_F(ValidateCli, SystematicsPairsTheSamplesAndTakesTheEnvelope) {
   EXPECT_EQ(slurp(fs::path(out) / "systematics.json"), first);
   // A failure says which campaign failed.
   std::string err;
-  EXPECT_EQ(run("systematics --samples 1 --events 50 --variations tmax-up -o " + path("few"), &err), 1);
+  EXPECT_EQ(run("systematics --samples 2 --events 50 --variations tmax-up -o " + path("few"), &err), 1);
   EXPECT_NE(err.find("the nominal campaign: sample 0"), std::string::npos) << err;
 }
 
@@ -276,6 +276,23 @@ TEST_F(ValidateCli, ReverseStudyAndSystematicErrorsInTheFit) {
   std::ofstream(stale) << edited.dump(2);
   ASSERT_EQ(run("fit " + events + " --corrections " + stale + " -o " + path("stale-result.json"), &err), 1);
   EXPECT_NE(err.find("measured with other corrections"), std::string::npos) << err;
-  // --write-corrections needs one corrections file.
-  EXPECT_EQ(run("systematics --samples 1 --write-corrections " + path("x.json") + " -o " + path("y")), 2);
+  // --write-corrections needs one corrections file, an output outside the study, and the
+  // conditions the file was derived for; --reverse needs corrections; a study two samples.
+  EXPECT_EQ(run("systematics --samples 2 --write-corrections " + path("x.json") + " -o " + path("y")), 2);
+  const std::string small = "systematics --samples 2 --events 1000 --variations tmax-up --corrections " + corrections;
+  EXPECT_EQ(run(small + " --write-corrections " + out + "/nominal/table.json -o " + out, &err), 1);
+  EXPECT_NE(err.find("inside the study's directory"), std::string::npos) << err;
+  EXPECT_EQ(run(small + " --write-corrections " + path("new") + " -o " + path("new"), &err), 1);
+  EXPECT_NE(err.find("inside the study's directory"), std::string::npos) << err;
+  EXPECT_EQ(run(small + " --beam-energy 1000 --write-corrections " + path("e.json") + " -o " + path("e"), &err), 1);
+  EXPECT_NE(err.find("derived at 612.5 MeV, the study would run at 1000 MeV"), std::string::npos) << err;
+  EXPECT_EQ(run(small + " --theta-min 60 --write-corrections " + path("t.json") + " -o " + path("t"), &err), 1);
+  EXPECT_NE(err.find("polar range"), std::string::npos) << err;
+  EXPECT_EQ(run(small + " --ideal --write-corrections " + path("i.json") + " -o " + path("i"), &err), 1);
+  EXPECT_NE(err.find("realistic simulation"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(path("e")) || fs::exists(path("t")) || fs::exists(path("i")));  // refused before the study
+  EXPECT_EQ(run("systematics --samples 2 --reverse -o " + path("r")), 2);
+  EXPECT_EQ(run("systematics --samples 1 --events 1000 -o " + path("one"), &err), 1);
+  EXPECT_NE(err.find("2 samples at least"), std::string::npos) << err;
+  EXPECT_EQ(slurp(fs::path(out) / "systematics.json"), first);  // the study's files untouched
 }

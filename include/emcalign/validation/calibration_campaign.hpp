@@ -76,6 +76,8 @@ struct CampaignModel {
   /// the fit result; and a single file's warning when used away from its energy.
   io::Json interpolation;
   std::string correctionsWarning;
+  /// The systematic errors the corrections carry (a grid's interpolated by at()); none: none.
+  std::shared_ptr<const calib::SystematicErrors> systematics;
   std::string detector = "embedded default";
   calib::SigmaSysChoice sigmaSys;  ///< of every group's fit (calib/sigma_sys.hpp)
   /// Sets σ_sys and whether the profiles keep the event pairs it needs.

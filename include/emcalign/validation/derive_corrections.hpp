@@ -97,6 +97,10 @@ using DerivationProgress = std::function<void(std::string_view stage, std::int64
 Result<DerivationReport> deriveCorrections(const geometry::Calorimeter& calo, const DerivationOptions& options,
                                            const DerivationProgress& progress = {});
 
+/// A progress for deriveCorrections that calls `events` with the events simulated so far
+/// over all its samples (each "simulate …" stage counts from zero; the others are ignored).
+DerivationProgress simulatedEventsProgress(std::function<void(std::int64_t events)> events);
+
 /// The corrections file content, with the report (errors, closure) under "derived_from".
 io::Json derivationJson(const DerivationReport& report, const io::Json& settings);
 

@@ -22,7 +22,8 @@
 // variations' effects, forward and reverse.
 //
 // The campaigns live in DIR/nominal and DIR/<variation>, each resumable as `validate`'s;
-// DIR/systematics.json and DIR/systematics.md hold the table, DIR/systematics.png the shifts.
+// DIR/systematics.json and DIR/systematics.md hold the table, DIR/plots/systematics.png the
+// shifts. A study needs 2 samples at least.
 
 #include <functional>
 #include <optional>
@@ -104,7 +105,8 @@ std::string systematicsMarkdown(const SystematicsTable& table);
 /// The "systematic_errors" block of `corrections` (calib::SystematicErrors), the file the
 /// study was run with: per parameter of the table but ψ and τ its systematic error in quadrature with
 /// the statistical errors of the derivation the file records (response, nominal profile:
-/// common to every fit with the file), each part under "components"; `study` says how.
+/// common to every fit with the file; recorded for the 12 fit parameters only, so β, μ and
+/// dx_rel have the variations' part alone), each part under "components"; `study` says how.
 io::Json systematicErrorsJson(const SystematicsTable& table, const calib::ModelCorrections& corrections,
                               const io::Json& study);
 

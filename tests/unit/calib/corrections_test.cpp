@@ -102,17 +102,19 @@ TEST(ModelCorrections, FileRoundTrips) {
   EXPECT_EQ(back->derivedFrom["note"], "test");
 }
 
+// Whether parseCorrections refuses `j` with a message that contains `key`.
+::testing::AssertionResult refused(const Json& j, const std::string& key) {
+  auto r = parseCorrections(j, "corr.json");
+  if (r.ok()) return ::testing::AssertionFailure() << "accepted";
+  if (r.error().message.find(key) == std::string::npos) return ::testing::AssertionFailure() << r.error().message;
+  return ::testing::AssertionSuccess();
+}
+
 TEST(ModelCorrections, RefusesMalformedFiles) {
   ModelCorrections c;
   c.depthOffset = 1.0;
   c.nominalProfile = std::make_shared<const NominalProfile>(smallPattern());
   const Json good = correctionsJson(c);
-  auto refused = [](Json j, const std::string& key) {
-    auto r = parseCorrections(j, "corr.json");
-    if (r.ok()) return ::testing::AssertionFailure() << "accepted";
-    if (r.error().message.find(key) == std::string::npos) return ::testing::AssertionFailure() << r.error().message;
-    return ::testing::AssertionSuccess();
-  };
   Json j = good;
   j["format"] = "emcalign-corrections/0";
   EXPECT_TRUE(refused(j, "format"));
@@ -180,12 +182,6 @@ TEST(ModelCorrections, SystematicErrorsRoundTripAndBelongToTheirCorrections) {
   EXPECT_EQ(good["systematic_errors"]["errors"].begin().key(), "alpha");
   EXPECT_EQ(std::prev(good["systematic_errors"]["errors"].end()).key(), "mu");
 
-  auto refused = [](Json j, const std::string& key) {
-    auto r = parseCorrections(j, "corr.json");
-    if (r.ok()) return ::testing::AssertionFailure() << "accepted";
-    if (r.error().message.find(key) == std::string::npos) return ::testing::AssertionFailure() << r.error().message;
-    return ::testing::AssertionSuccess();
-  };
   Json j = good;
   j["systematic_errors"]["errors"].erase("dp2");
   EXPECT_TRUE(refused(j, "systematic_errors.errors.dp2': missing"));
@@ -211,9 +207,14 @@ TEST(ModelCorrections, SystematicErrorsRoundTripAndBelongToTheirCorrections) {
   j = good;
   j["depth_offset_cm"] = 4.3;
   EXPECT_TRUE(refused(j, "measured with other corrections"));
-  // Without the digest (e.g. written by hand) nothing ties them: accepted.
+  // Without the digest (a block written by hand, or pasted from another file) nothing ties
+  // them to these corrections: refused.
+  j = good;
   j["systematic_errors"]["study"].erase("corrections_fnv1a");
-  EXPECT_TRUE(parseCorrections(j, "corr.json").ok());
+  EXPECT_TRUE(refused(j, "systematic_errors.study.corrections_fnv1a': missing"));
+  j = good;
+  j["systematic_errors"].erase("study");
+  EXPECT_TRUE(refused(j, "corrections_fnv1a"));
 }
 
 // A fit result writes the systematic errors its corrections carry beside the statistical

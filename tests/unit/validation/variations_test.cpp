@@ -22,7 +22,9 @@ TEST(Variations, ComeInPairsOfOneQuantityWithUniqueNames) {
     EXPECT_TRUE(names.insert(v.name).second) << v.name;
     EXPECT_EQ(findVariation(v.name), &v);
     EXPECT_FALSE(v.why.empty()) << v.name;
-    if (k % 2 == 1) EXPECT_EQ(v.quantity, variations()[k - 1].quantity) << v.name;
+    if (k % 2 == 1) {
+      EXPECT_EQ(v.quantity, variations()[k - 1].quantity) << v.name;
+    }
   }
   EXPECT_EQ(names.size(), 20u);
   EXPECT_EQ(findVariation("gravity"), nullptr);
@@ -57,11 +59,18 @@ TEST(Variations, GainPatternsFollowTheSampleSeedAndRecordThemselves) {
   CampaignOptions o = withVariation(CampaignOptions{}, *v);
   EXPECT_DOUBLE_EQ(o.simulation.emc.counterGainSpread, 0.05);
   EXPECT_EQ(o.settings["variation"], "gains-5pc");
-  EXPECT_EQ(o.settings["variation_pattern"], "drawn per sample");
   ASSERT_TRUE(o.samplePattern);
-  sim::SimulationOptions s = o.simulation;
-  o.samplePattern(s, 77, 1680);
-  EXPECT_EQ(s.emc.gainSeed, 77u);
+  // The gains come from Rng(gainSeed, counter): a seed of their own per sample, not the
+  // sample's (whose streams are its events').
+  const auto seedOf = [&](std::uint64_t sampleSeed) {
+    sim::SimulationOptions s = o.simulation;
+    o.samplePattern(s, sampleSeed, 1680);
+    return s.emc.gainSeed;
+  };
+  EXPECT_EQ(seedOf(77), seedOf(77));
+  EXPECT_NE(seedOf(77), seedOf(78));
+  EXPECT_NE(seedOf(77), 77u);
+  EXPECT_EQ(o.settings["variation_pattern"], "drawn per sample from its own stream");
   // A variation that is no pattern leaves the samples alike.
   const CampaignOptions t = withVariation(CampaignOptions{}, *findVariation("tmax-up"));
   EXPECT_FALSE(t.samplePattern);

@@ -180,6 +180,23 @@ TEST_F(CampaignCli, SigmaSysIsEveryGroupsAndThePlansAndTheRefitsToo) {
   EXPECT_DOUBLE_EQ(f1["sigma_sys"]["value_deg"].get<double>(), 0.1);
 }
 
+// The systematic errors the corrections carry (docs/systematics.md) are stored with every
+// group's calibration, as a fit writes them.
+TEST_F(CampaignCli, EveryGroupCarriesTheSystematicErrorsOfItsCorrections) {
+  const std::string corrections = std::string(EMCALIGN_SOURCE_DIR) + "/data/corrections/ee-612.5MeV-40-140deg.json";
+  const json file = json::parse(emcalign::testing::slurp(corrections));
+  const std::string uri = "sqlite:" + path("s.db");
+  auto r = run(fmt::format("campaign {} --conditions {} --tag s --min-events 4000 --corrections {}", events(), uri,
+                           corrections));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  r = run(fmt::format("conditions get {} --tag s --run 1 -o {}", uri, path("s1.json")));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const json p = json::parse(emcalign::testing::slurp(path("s1.json")));
+  ASSERT_TRUE(p.contains("systematic_errors"));
+  EXPECT_EQ(p["systematic_errors"]["dx"], file["systematic_errors"]["errors"]["dx"]);
+  EXPECT_EQ(p["derived"]["mu"]["systematic_error"], file["systematic_errors"]["errors"]["mu"]);
+}
+
 TEST_F(CampaignCli, ACorrectionsGridFitsEveryGroupAtItsOwnEnergy) {
   // A small idealised grid over 500-750 MeV (the period's runs are at 612.5 and 700 MeV),
   // its 750 MeV point moved 2 cm deeper so that every energy has a depth offset of its own.

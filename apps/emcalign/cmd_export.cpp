@@ -39,7 +39,8 @@ int run(const ExportOptions& o) {
   if (Status s = io::writeOutputFile(o.output, text); !s) return reportError(s.error());
   // The report goes to stderr when the file goes to stdout (checkOutputs).
   fmt::print(reportStream(), "wrote {} ({} placements: sphere1_plus, sphere1_minus, sphere2_plus, sphere2_minus{})\n",
-             o.output, o.format, transform->layer3RuleActive() ? "; layer 3 with the mu3 rule" : "");
+             o.output == "-" ? "the placements to standard output" : o.output, o.format,
+             transform->layer3RuleActive() ? "; layer 3 with the mu3 rule" : "");
   return kExitOk;
 }
 

@@ -108,6 +108,11 @@ namespace {
 TEST_F(Simulate, ExportedPlacementsAreTheTruthTheyCameFrom) {
   const std::string placements = out("placements.json");
   ASSERT_EQ(run("export --alignment " + params_ + " --format json -o " + placements), 0);
+  // To standard output: the same bytes, and the report on stderr says where they went.
+  const auto piped = emcalign::testing::runEmcalign(dir_, "export --alignment " + params_ + " --format json -o -");
+  ASSERT_EQ(piped.exitCode, 0) << piped.err;
+  EXPECT_EQ(piped.out, bytes(placements));
+  EXPECT_NE(piped.err.find("wrote the placements to standard output (json placements"), std::string::npos) << piped.err;
   ASSERT_EQ(run("simulate --events 2000 --params " + params_ + " -o " + out("a.csv")), 0);
   ASSERT_EQ(run("simulate --events 2000 --params " + placements + " -o " + out("b.csv")), 0);
   EXPECT_TRUE(bytes(out("a.csv")) == bytes(out("b.csv")));

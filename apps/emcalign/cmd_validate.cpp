@@ -152,10 +152,10 @@ int run(const ValidateOptions& cli) {
 // The corrections file of the study with its systematic errors (calib::SystematicErrors),
 // written to --write-corrections: what `emcalign fit --corrections` then reports beside the
 // statistical errors.
+// The corrections are those the study fitted with (a single file's, as read).
 Status writeCorrectionsWithErrors(const ValidateOptions& cli, const validation::CampaignOptions& campaign,
                                   const validation::SystematicsTable& table) {
-  auto corrections = calib::readCorrections(cli.corrections);
-  if (!corrections) return corrections.error();
+  calib::ModelCorrections corrections = campaign.corrections;
   io::Json conditions = campaign.settings;  // the simulation, ranges, σ_sys and detector of the study
   conditions.erase("corrections");
   conditions["beam_energy_mev"] = campaign.simulation.generator.beamEnergy / units::MeV;
@@ -173,12 +173,12 @@ Status writeCorrectionsWithErrors(const ValidateOptions& cli, const validation::
       {"combination",
        "per parameter the quadrature sum over the varied quantities of the largest effect of each (a pattern's "
        "root mean square; the reverse shifts included), in quadrature with the derivation's statistical errors"},
-      {"corrections_fnv1a", calib::correctionsDigest(*corrections)}};
+      {"corrections_fnv1a", calib::correctionsDigest(corrections)}};
   auto systematics =
-      calib::parseSystematicErrors(validation::systematicErrorsJson(table, *corrections, study), cli.writeCorrections);
+      calib::parseSystematicErrors(validation::systematicErrorsJson(table, corrections, study), cli.writeCorrections);
   if (!systematics) return systematics.error();
-  corrections->systematics = std::make_shared<const calib::SystematicErrors>(std::move(*systematics));
-  return io::writeOutputFile(cli.writeCorrections, calib::correctionsJson(*corrections).dump(2) + "\n");
+  corrections.systematics = std::make_shared<const calib::SystematicErrors>(std::move(*systematics));
+  return io::writeOutputFile(cli.writeCorrections, calib::correctionsJson(corrections).dump(2) + "\n");
 }
 
 // Whether `path` is `dir` or lies inside it (both made absolute and normal, links resolved
@@ -245,11 +245,9 @@ int runSystematics(const ValidateOptions& cli) {
     o.reverse = cli.derivation;
     o.reverse->threads = cli.threads;
   }
-  ProgressLine progress("systematics", 0, "events");
-  bool started = false;
+  ProgressLine progress("systematics", 0, "events");  // the study knows its total
   auto table = validation::runSystematics(*calo, o, cli.output, [&](std::int64_t done, std::int64_t total) {
-    if (!started) progress = ProgressLine("systematics", total, "events");
-    started = true;
+    progress.setTotal(total);
     progress.update(done);
   });
   progress.finish();

@@ -32,6 +32,8 @@ class ProgressLine {
     fmt::print(stderr, "\r{}: {}/{} {} ({:.0f}%), {:.0f} {}/s, {:.0f} s left   ", what_, done, total_, unit_,
                total_ > 0 ? 100.0 * done / total_ : 100.0, rate, unit_, left);
   }
+  /// The total, when it is known only once the work has started.
+  void setTotal(std::int64_t total) { total_ = total; }
   void finish() {
     if (enabled_) fmt::print(stderr, "\n");
   }

@@ -101,21 +101,26 @@ void widen(double& envelope, double effect) {
   if (!(envelope >= effect)) envelope = effect;
 }
 
+// ψ and τ, the directions of tilts drawn near zero: their error depends on the tilt, so they
+// have no systematic error of their own to carry or draw.
+bool isDirection(const std::string& name) { return name == "psi" || name == "tau"; }
+
 // The heat map of the study (report/systematics_plot.hpp).
 Status drawSystematics(const SystematicsTable& t, const std::string& dir) {
   report::SystematicsFigure f;
   f.title = "Systematic shifts: the simulation varied";
   f.subtitle =
       fmt::format("{} paired samples × {} events; cells: shift / spread of the nominal fits", t.samples, t.events);
+  std::vector<const SystematicsRow*> shown;
   for (const auto& r : t.rows) {
-    if (r.name == "psi" || r.name == "tau") continue;  // directions of tilts near zero: no scale
+    if (isDirection(r.name)) continue;
+    shown.push_back(&r);
     f.parameters.push_back(r.name);
   }
   const auto cellsOf = [&](const auto& value) {
     std::vector<double> cells;
-    for (const auto& r : t.rows) {
-      if (r.name == "psi" || r.name == "tau") continue;
-      cells.push_back(r.spread > 0.0 ? value(r) / r.spread : std::numeric_limits<double>::quiet_NaN());
+    for (const SystematicsRow* r : shown) {
+      cells.push_back(r->spread > 0.0 ? value(*r) / r->spread : std::numeric_limits<double>::quiet_NaN());
     }
     return cells;
   };
@@ -392,7 +397,7 @@ Json systematicErrorsJson(const SystematicsTable& t, const calib::ModelCorrectio
   Json errors = Json::object(), variationsPart = Json::object();
   Json statisticsPart = Json::object();
   for (const auto& r : t.rows) {
-    if (r.name == "psi" || r.name == "tau") continue;  // directions: their error depends on the tilt
+    if (isDirection(r.name)) continue;
     variationsPart[r.name] = r.systematic;
     double sum2 = r.systematic * r.systematic;
     for (const auto& [key, values] : statistics) {

@@ -6,12 +6,14 @@
 //   campaign --plan PLAN.json --group K --conditions URI --tag T      one group of it (a batch job)
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "common.hpp"
 #include "emcalign/calib/corrections.hpp"
@@ -92,14 +94,20 @@ int runGroup(const CampaignCliOptions& o) {
   auto done = validation::groupsInTag(**db, o.tag, plan->groups);
   if (!done) return reportError(done.error());
   if ((*done)[static_cast<std::size_t>(o.group)]) {
-    fmt::print(reportStream(), "group {} (runs {}-{}) is in tag {} already: nothing to do\n", g.index, g.iovFirst,
-               g.iovLast, o.tag);
+    // A retried job: done, if the tag holds this group from the same data.
+    auto same = validation::groupStored(**db, o.tag, g, plan->digests);
+    if (!same) return reportError(same.error());
+    fmt::print(reportStream(), "group {} (runs {}-{}) is in tag {} already, from the same data: nothing to do\n",
+               g.index, g.iovFirst, g.iovLast, o.tag);
     return kExitOk;
   }
-  // The files must be those the plan was made from.
+  // The files must be those the plan was made from (the plan has a digest of each).
   for (const auto& file : g.files) {
     auto it = plan->digests.find(file);
-    if (it == plan->digests.end() || it->second.empty()) continue;
+    if (it == plan->digests.end()) {
+      return reportError(
+          Error{fmt::format("group {}: its file {} is not among the inputs of the plan {}", g.index, file, o.plan)});
+    }
     auto digest = sha256OfFile(file);
     if (!digest) return reportError(digest.error());
     if (*digest != it->second) {
@@ -123,6 +131,14 @@ int runGroup(const CampaignCliOptions& o) {
       if (auto it = byRun->find(run); it != byRun->end()) fill.merge(it->second);
     }
   }
+  if (!fill.beamEnergies.empty() &&
+      (std::isnan(g.beamEnergy) || fill.beamEnergies.size() != 1 || *fill.beamEnergies.begin() != g.beamEnergy)) {
+    return reportError(Error{fmt::format(
+        "group {} (runs {}-{}): the plan {} says beam energy {}, its events have {:.6g} MeV (the plan was edited?)",
+        g.index, g.iovFirst, g.iovLast, o.plan,
+        std::isnan(g.beamEnergy) ? std::string("none") : fmt::format("{:.6g} MeV", g.beamEnergy),
+        fmt::join(fill.beamEnergies, ", "))});
+  }
   if (fill.cutFlow.events.back() != g.selected) {
     return reportError(
         Error{fmt::format("group {}: {} selected events in its files, the plan counted {} (the files "
@@ -138,7 +154,12 @@ int runGroup(const CampaignCliOptions& o) {
                                          g.iovFirst, g.iovLast, name(fit->result.status))});
   }
   if (Status s = (*db)->put(o.tag, g.iovFirst, g.iovLast, fit->payload, true, o.description); !s) {
-    return reportError(s.error());
+    // The same job run twice at once: the other copy stored the group first.
+    auto same = validation::groupStored(**db, o.tag, g, plan->digests);
+    if (!same || !*same) return reportError(s.error());
+    fmt::print(reportStream(), "group {} (runs {}-{}) was stored meanwhile by another job, from the same data: done\n",
+               g.index, g.iovFirst, g.iovLast);
+    return kExitOk;
   }
   fmt::print(reportStream(), "group {} (runs {}-{}, {} selected events): {}, chi2/ndf {:.1f}/{} -> {} tag {}\n",
              g.index, g.iovFirst, g.iovLast, g.selected, name(fit->result.status), fit->result.chi2, fit->result.ndf,
@@ -153,8 +174,9 @@ int run(const CampaignCliOptions& o) {
 
   auto files = validation::eventFilesIn(o.inputs);
   if (!files) return reportError(files.error());
-  std::vector<io::NamedPath> inputs;
+  std::vector<io::NamedPath> inputs = {{"--corrections", o.corrections}, {"--detector", o.detector}};
   for (const auto& f : *files) inputs.push_back({"", f});
+  for (auto& c : conditionsInputs(o.conditions)) inputs.push_back(std::move(c));
   const bool planOnly = !o.plan.empty();
   if (Status s = checkOutputs(planOnly ? std::vector<io::NamedPath>{{"--plan", o.plan}} : std::vector<io::NamedPath>{},
                               {}, inputs);

@@ -6,8 +6,6 @@
 //   check gg EVENTS... (--alignment A.json | --conditions URI --tag T) -o DIR   → check.json, acollinearity.png
 //   check 3pi EVENTS... (--alignment A.json | --conditions URI --tag T) -o DIR  → check.json, chi2.png
 
-#include <unistd.h>
-
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -38,15 +36,6 @@ struct CheckCliOptions {
   std::string method = std::string(apply::name(apply::CorrectOptions{}.method));
 };
 
-// Removes the temporary corrected file however the check ends.
-struct TemporaryFile {
-  std::string path;
-  ~TemporaryFile() {
-    std::error_code ec;
-    if (!path.empty()) fs::remove(path, ec);
-  }
-};
-
 std::string fixed(double v, int digits) { return std::isfinite(v) ? fmt::format("{:.{}f}", v, digits) : "—"; }
 
 // A number of check.json, NaN where it is null (nothing to measure) or absent.
@@ -70,6 +59,7 @@ int run(const CheckCliOptions& o) {
   inputs.push_back({"--alignment", o.alignment});
   inputs.push_back({"--corrections", o.corrections});
   inputs.push_back({"--detector", o.detector});
+  for (auto& c : conditionsInputs(o.conditions)) inputs.push_back(std::move(c));
   if (Status s = checkOutputs({}, {{"-o", o.output}}, inputs); !s) return reportError(s.error());
   auto calo = loadCalorimeter(o.detector);
   if (!calo) return reportError(calo.error());
@@ -87,10 +77,14 @@ int run(const CheckCliOptions& o) {
   std::error_code ec;
   fs::create_directories(o.output, ec);
   if (ec) return reportError(Error{fmt::format("{}: cannot create the directory: {}", o.output, ec.message())});
-  TemporaryFile corrected{(fs::path(o.output) / fmt::format(".corrected-{}.h5", ::getpid())).string()};
+  // The corrected events live in a temporary of the output directory, never committed: removed
+  // however the check ends (a signal included), and by the next check there after a kill -9.
+  auto scratch = io::OutputFile::reserve((fs::path(o.output) / "corrected.h5").string());
+  if (!scratch) return reportError(scratch.error());
+  const std::string corrected = (*scratch)->writtenPath();
   ProgressLine progress("check: correcting", 0, "rows");
   options.progress = [&](std::int64_t rows) { progress.update(rows); };
-  auto report = apply::correctFiles(o.events, corrected.path, *calo, source->alignmentOf(), options);
+  auto report = apply::correctFiles(o.events, corrected, *calo, source->alignmentOf(), options);
   progress.finish();
   if (!report) return reportError(report.error());
 
@@ -98,7 +92,7 @@ int run(const CheckCliOptions& o) {
   std::vector<report::BeforeAfterPanel> panels;
   std::string figure, summary;
   if (o.process == "gg") {
-    auto check = apply::checkGammaGamma(o.events, {corrected.path});
+    auto check = apply::checkGammaGamma(o.events, {corrected});
     if (!check) return reportError(check.error());
     if (Status st = anySelected(check->cutFlow, "e+e- -> gamma gamma"); !st) return reportError(st.error());
     json = apply::checkJson(*check);
@@ -121,7 +115,7 @@ int run(const CheckCliOptions& o) {
                           fixed(number(b, "dtheta_width_deg"), 3), fixed(number(a, "dtheta_width_deg"), 3));
   } else {
     // The kinematic fit's R(E, θ), of each event's beam energy with a corrections grid.
-    auto check = apply::checkThreePion(o.events, {corrected.path},
+    auto check = apply::checkThreePion(o.events, {corrected},
                                        options.depthAt ? options.depthAt : geometry::atEveryEnergy(options.depth));
     if (!check) return reportError(check.error());
     if (Status st = anySelected(check->cutFlow, "e+e- -> pi+ pi- pi0"); !st) return reportError(st.error());

@@ -17,6 +17,7 @@
 #include "common.hpp"
 #include "emcalign/conddb/calibrations.hpp"
 #include "emcalign/conddb/conditions.hpp"
+#include "emcalign/core/utf8.hpp"
 
 namespace emcalign::app {
 
@@ -73,7 +74,9 @@ int runPut(const ConditionsOptions& o) {
 }
 
 int runGet(const ConditionsOptions& o) {
-  if (Status s = checkOutputs({{"-o", o.output}}, {}, {}); !s) return reportError(s.error());
+  if (Status s = checkOutputs({{"-o", o.output}}, {}, conditionsInputs(o.uri, "database")); !s) {
+    return reportError(s.error());
+  }
   auto db = conddb::Database::open(o.uri);
   if (!db) return reportError(db.error());
   auto got = conddb::calibrationAt(**db, o.tag, o.run);
@@ -117,8 +120,10 @@ int runList(const ConditionsOptions& o) {
     const std::string chi2 = i.contains("chi2") && i.contains("ndf") && i["chi2"].is_number() && i["ndf"].is_number()
                                  ? fmt::format("{:.1f}/{}", i["chi2"].get<double>(), i["ndf"].get<std::int64_t>())
                                  : "-";
-    const std::string events = i.contains("selected_events") ? i["selected_events"].dump() : "-";
-    const std::string status = i.contains("status") && i["status"].is_string() ? i["status"].get<std::string>() : "-";
+    const std::string events = i.contains("selected_events") ? printable(i["selected_events"].dump()) : "-";
+    // Text of a payload is printed escaped: a database can hold anything (core/utf8.hpp).
+    const std::string status =
+        i.contains("status") && i["status"].is_string() ? printable(i["status"].get<std::string>()) : "-";
     fmt::print("{:>10} {:>10} {:>9} {:>12} {:<12} {:<12} {}\n", i["first_run"].get<std::int64_t>(),
                i["last_run"].get<std::int64_t>(), events, chi2, status, i["payload"].get<std::string>().substr(0, 12),
                i["inserted"].get<std::string>());

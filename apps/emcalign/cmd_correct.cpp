@@ -34,7 +34,7 @@ int run(const CorrectCliOptions& o) {
   std::vector<io::NamedPath> inputs;
   for (const auto& e : o.events) inputs.push_back({"", e});
   inputs.push_back({"--alignment", o.alignment});
-  inputs.push_back({"--conditions", conddb::sqliteFileOf(o.conditions)});
+  for (auto& c : conditionsInputs(o.conditions)) inputs.push_back(std::move(c));
   inputs.push_back({"--corrections", o.corrections});
   inputs.push_back({"--detector", o.detector});
   if (Status s = checkOutputs({{"-o", o.output}}, {}, inputs); !s) return reportError(s.error());

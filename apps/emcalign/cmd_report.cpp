@@ -2,6 +2,7 @@
 //   report [--fit RESULT.json [--events EVENTS...] [--corrections C]] [--validation DIR]
 //          [--trend DIR] [--conditions URI --tag T] [--checks DIR...] [--title T] -o report.html
 
+#include <algorithm>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -58,11 +59,16 @@ class ScratchDirectory {
 };
 
 int run(const ReportCliOptions& o) {
-  std::vector<io::NamedPath> inputs = {{"--fit", o.fit},
-                                       {"--corrections", o.corrections},
-                                       {"--conditions", conddb::sqliteFileOf(o.conditions)},
-                                       {"--detector", o.detector}};
+  std::vector<io::NamedPath> inputs = {{"--fit", o.fit}, {"--corrections", o.corrections}, {"--detector", o.detector}};
   for (const auto& e : o.events) inputs.push_back({"--events", e});
+  for (auto& c : conditionsInputs(o.conditions)) inputs.push_back(std::move(c));
+  // The files the report reads inside the directories it is given.
+  auto inside = [&](const std::string& option, const std::string& dir, const char* name) {
+    if (!dir.empty()) inputs.push_back({option, (fs::path(dir) / name).string()});
+  };
+  inside("--validation", o.validation, "table.json");
+  inside("--trend", o.trend, "trend.json");
+  for (const auto& c : o.checks) inside("--checks", c, "check.json");
   if (Status s = checkOutputs({{"-o", o.output}}, {}, inputs); !s) return reportError(s.error());
   if (!o.events.empty() && o.fit.empty()) return reportError({"--events draws the figures of a fit: give --fit"});
   report::ReportInputs in;
@@ -77,11 +83,19 @@ int run(const ReportCliOptions& o) {
       return reportError({fmt::format("{}: not a fit result (emcalign fit -o)", o.fit)});
     }
     report::ReportFit fit{.path = o.fit, .result = *j};
+    // The digests of the fit's inputs that the command line names (--events): the report
+    // opens nothing a result file names by itself (it could name any file of the system).
     if (j->at("input").contains("files") && j->at("input").at("files").is_array()) {
       for (const auto& f : j->at("input").at("files")) {
         if (!f.is_string()) continue;
-        auto digest = sha256OfFile(f.get<std::string>());
-        fit.inputDigests.emplace_back(f.get<std::string>(), digest ? *digest : std::string());
+        const std::string named = f.get<std::string>();
+        std::string digest;
+        if (std::find(o.events.begin(), o.events.end(), named) != o.events.end()) {
+          auto d = sha256OfFile(named);
+          if (!d) return reportError(d.error());
+          digest = *d;
+        }
+        fit.inputDigests.emplace_back(named, digest);
       }
     }
     // The fit's detector: --detector, else the one its result names.
@@ -132,7 +146,9 @@ int run(const ReportCliOptions& o) {
       return reportError(
           {fmt::format("{}: no tag '{}' (the tags: emcalign conditions list {})", (*db)->uri(), o.tag, (*db)->uri())});
     }
-    in.conditions = report::ReportConditions{(*db)->uri(), o.tag, conddb::tagJson(**db, **tag).at("iovs")};
+    auto listed = conddb::tagJson(**db, **tag);
+    if (!listed) return reportError(listed.error());
+    in.conditions = report::ReportConditions{(*db)->uri(), o.tag, listed->at("iovs")};
   }
   for (const auto& dir : o.checks) {
     auto c = report::readCheckDirectory(dir);

@@ -132,11 +132,9 @@ int runPeriod(const SimulateOptions& cli) {
 }
 
 int run(const SimulateOptions& cli) {
-  if (Status s = checkOutputs({{"-o", cli.output}}, {},
-                              {{"--params", cli.params},
-                               {"--conditions", conddb::sqliteFileOf(cli.conditions)},
-                               {"--detector", cli.detector}});
-      !s) {
+  std::vector<io::NamedPath> inputs = {{"--params", cli.params}, {"--detector", cli.detector}};
+  for (auto& c : conditionsInputs(cli.conditions)) inputs.push_back(std::move(c));
+  if (Status s = checkOutputs({{"-o", cli.output}}, {}, inputs); !s) {
     return reportError(s.error());
   }
   auto calo = loadCalorimeter(cli.detector);

@@ -126,6 +126,9 @@ int refit(const TrendCliOptions& o, const validation::Trend& trend, const std::v
   auto scan = validation::scanRuns(*files, *model, so);
   reading.finish();
   if (!scan) return reportError(scan.error());
+  auto same = validation::checkRefitData(snapshot, *scan);
+  if (!same) return reportError(same.error());
+  for (const auto& w : *same) reportWarning(w);
 
   auto r = validation::refitSegments(trend, series, snapshot, *scan, *model, truth);
   if (!r) return reportError(r.error());
@@ -154,6 +157,12 @@ int refit(const TrendCliOptions& o, const validation::Trend& trend, const std::v
 int run(const TrendCliOptions& o) {
   std::vector<io::NamedPath> inputs = {
       {"--truth", o.truth}, {"--corrections", o.corrections}, {"--detector", o.detector}};
+  for (auto& c : conditionsInputs(o.conditions)) inputs.push_back(std::move(c));
+  if (!o.refit.empty()) {
+    auto files = validation::eventFilesIn(o.refit);
+    if (!files) return reportError(files.error());
+    for (const auto& f : *files) inputs.push_back({"--refit", f});
+  }
   if (Status s = checkOutputs({}, {{"-o", o.output}}, inputs); !s) return reportError(s.error());
   auto calo = loadCalorimeter(o.detector);
   if (!calo) return reportError(calo.error());

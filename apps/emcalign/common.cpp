@@ -6,6 +6,7 @@
 
 #include <fmt/format.h>
 
+#include "emcalign/conddb/address.hpp"
 #include "emcalign/conddb/conditions.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/core/version.hpp"
@@ -27,8 +28,17 @@ void reportWarning(const std::string& message) { fmt::print(stderr, "emcalign: w
 
 std::FILE* reportStream() { return gReport; }
 
+std::vector<io::NamedPath> conditionsInputs(const std::string& uri, const std::string& option) {
+  std::vector<io::NamedPath> out;
+  auto address = conddb::DatabaseAddress::parse(uri);
+  if (!address) return out;  // refused with its reason when opened
+  for (const std::string& f : address->files()) out.push_back({option, f});
+  return out;
+}
+
 Status checkOutputs(const std::vector<io::NamedPath>& files, const std::vector<io::NamedPath>& directories,
                     const std::vector<io::NamedPath>& inputs) {
+  for (const auto& i : inputs) io::protectInput(i);
   std::vector<io::NamedPath> given;
   for (const auto& f : files) {
     if (f.path.empty()) continue;
@@ -40,6 +50,7 @@ Status checkOutputs(const std::vector<io::NamedPath>& files, const std::vector<i
     if (d.path.empty()) continue;
     if (Status s = io::checkOutputDirectory(d.path); !s)
       return Error{fmt::format("{} {}", d.option, s.error().message)};
+    if (Status s = io::checkDirectoryHoldsNoInput(d, inputs); !s) return s;
   }
   return io::checkDistinct(given, inputs);
 }

@@ -48,10 +48,15 @@ void reportWarning(const std::string& message);
 /// the output's).
 std::FILE* reportStream();
 /// Checks a command's outputs before any work (io/output_file.hpp): every file output can
-/// be written, every directory output is a directory or absent, and no output is an input
-/// or another output. An output "-" sends the report to stderr.
+/// be written, every directory output is a directory or absent and holds no link to an
+/// input, and no output is an input or another output. The inputs become protected inputs
+/// (no later write may replace them). An output "-" sends the report to stderr.
 Status checkOutputs(const std::vector<io::NamedPath>& files, const std::vector<io::NamedPath>& directories,
                     const std::vector<io::NamedPath>& inputs);
+
+/// The files of a conditions database (an SQLite file and its journals; none for a server), as
+/// inputs of a command: no output may replace them.
+std::vector<io::NamedPath> conditionsInputs(const std::string& uri, const std::string& option = "--conditions");
 
 /// The detector of `--detector FILE`, or the embedded default when the path is empty.
 using io::loadCalorimeter;

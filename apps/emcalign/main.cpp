@@ -2,8 +2,12 @@
 // This file only wires the subcommands (each lives in cmd_<name>.cpp), the signals and the
 // exit codes of docs/conventions.md.
 
+#include <cerrno>
 #include <csignal>
+#include <cstdio>
+#include <cstring>
 #include <exception>
+#include <system_error>
 
 #include <fmt/format.h>
 #include <CLI/CLI.hpp>
@@ -33,10 +37,23 @@ void installSignalHandlers() {
   std::signal(SIGXFSZ, SIG_IGN);
 }
 
+// A command's report or output to standard output that did not arrive (a full disk, a closed
+// pipe that does not raise SIGPIPE) is a failure, not a success.
+int checkStandardOutput(int exitCode) {
+  if (std::fflush(stdout) == 0 && std::ferror(stdout) == 0) return exitCode;
+  const int error = errno;
+  fmt::print(stderr, "emcalign: error: standard output: write failed: {}\n",
+             error != 0 ? std::strerror(error) : "an output error");
+  return exitCode == emcalign::app::kExitOk || exitCode == emcalign::app::kExitUnusable ? emcalign::app::kExitFailure
+                                                                                        : exitCode;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   installSignalHandlers();
+  // No output of a command may replace one of its inputs (io/output_file.hpp).
+  emcalign::io::enableInputProtection();
   CLI::App app{
       "emcalign: geometric calibration of the electromagnetic calorimeter relative to the "
       "tracking system (SND-like, 12 alignment parameters)"};
@@ -79,10 +96,15 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     // --help and --version end here with 0; every other parse error is a usage error.
     const int code = app.exit(e);
-    return code == 0 ? 0 : emcalign::app::kExitUsage;
+    return code == 0 ? checkStandardOutput(0) : emcalign::app::kExitUsage;
+  } catch (const std::system_error& e) {
+    // fmt::print throws when standard output cannot be written (a full disk): not a bug.
+    if (std::ferror(stdout) != 0) return checkStandardOutput(emcalign::app::kExitOk);
+    fmt::print(stderr, "emcalign: internal error: {} (a bug: please report it with the command line)\n", e.what());
+    return emcalign::app::kExitInternal;
   } catch (const std::exception& e) {
     fmt::print(stderr, "emcalign: internal error: {} (a bug: please report it with the command line)\n", e.what());
     return emcalign::app::kExitInternal;
   }
-  return exitCode;
+  return checkStandardOutput(exitCode);
 }

@@ -96,6 +96,12 @@ py::tuple correctDirections(const Array& values, const Array& phi, const Array& 
   auto p = phi.unchecked<1>();
   auto t = theta.unchecked<1>();
   auto e = energy.unchecked<1>();
+  for (py::ssize_t i = 0; i < n; ++i) {
+    if (std::isnan(e(i))) continue;  // no cluster
+    if (Status s = apply::checkCluster(p(i), t(i), e(i)); !s) {
+      raise(Error{fmt::format("correct_directions: row {}: {}", i, s.error().message)});
+    }
+  }
   auto wp = phiOut.mutable_unchecked<1>();
   auto wt = thetaOut.mutable_unchecked<1>();
   {

@@ -136,3 +136,38 @@ def test_sizes_beyond_reason_are_refused(paper_like):
         emcalign.simulate(paper_like, 10, threads=100000)
     with pytest.raises(emcalign.Error, match="events"):
         emcalign.simulate(paper_like, 10**11, output="never.h5")
+
+
+def test_text_with_nul_is_refused_not_cut(tmp_path):
+    """lock('base\\x00x') once locked 'base': the C API cut the name at the NUL."""
+    db = emcalign.Conditions(tmp_path / "c.sqlite", create=True)
+    db.put("base", (1, 10), PAPER_LIKE)
+    for call in (lambda: db.lock("base\x00x"), lambda: db.tag("base\x00x"), lambda: db.get("base\x00x", 5)):
+        with pytest.raises(emcalign.Error, match="tag"):
+            call()
+    assert db.tag("base")["state"] == "open"
+    with pytest.raises(emcalign.Error, match="NUL"):
+        db.put("other", (1, 10), PAPER_LIKE, description="before\x00after")
+    assert [t["tag"] for t in db.tags()] == ["base"]
+
+
+def test_clusters_out_of_range_are_refused(paper_like):
+    good = emcalign.correct_directions(paper_like, [1.0, 2.0], [1.0, 1.5], [500.0, np.nan])
+    assert np.isfinite(good[0][0]) and good[0][1] == 2.0  # NaN energy: no cluster, left as it is
+    for phi, theta, energy, says in ((1.0, 1.0, 0.0, "energy"), (1.0, 1.0, -100.0, "energy"),
+                                     (1.0, 1.0, 1e300, "energy"), (1.0, 1.0, np.inf, "energy"),
+                                     (1.0, 100.0, 500.0, "theta"), (1.0, -0.1, 500.0, "theta"),
+                                     (7.0, 1.0, 500.0, "phi"), (np.nan, 1.0, 500.0, "phi")):
+        with pytest.raises(emcalign.Error, match=f"row 1: {says}"):
+            emcalign.correct_directions(paper_like, [1.0, phi], [1.0, theta], [500.0, energy])
+
+
+def test_a_fifo_is_refused_at_once_not_waited_on(tmp_path):
+    fifo = tmp_path / "detector.json"
+    os.mkfifo(fifo)
+    start = time.monotonic()
+    with pytest.raises(emcalign.Error, match="FIFO"):
+        emcalign.Detector(fifo)
+    with pytest.raises(emcalign.Error, match="character device"):
+        emcalign.Detector("/dev/zero")
+    assert time.monotonic() - start < 5

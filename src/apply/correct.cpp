@@ -232,16 +232,16 @@ Result<CorrectReport> correctFiles(const std::vector<std::string>& inputs, const
     const auto* blockHits = (*reader)->hits();
     if ((wo.withTruth && truth == nullptr) || (hits && blockHits == nullptr)) {
       return Error{
-          fmt::format("{}: the inputs of one output have {} all or none: a later file has none (correct "
+          fmt::format("{}: has no {}, which {} has: the inputs of one output have them all or none (correct "
                       "the files one by one)",
-                      output, truth == nullptr ? "truth" : "hits")};
+                      (*reader)->path(), truth == nullptr ? "truth" : "hits", inputs.front())};
     }
     for (std::size_t i = 0; i < rows.size(); ++i) {
       if (i == 0 || !sameEvent(rows[i], rows[i - 1])) ++report.events;
       if (!std::isnan(rows[i].energy)) ++report.clusters;
     }
     const Status corrected = report.method == CorrectionMethod::Hits
-                                 ? correctBlockByHits(rows, *blockHits, alignments, o.logWeightW0, inputs.front())
+                                 ? correctBlockByHits(rows, *blockHits, alignments, o.logWeightW0, (*reader)->path())
                                  : correctBlockByClusters(rows, alignments, o, depth, depthEnergy, (*reader)->path());
     if (!corrected) return corrected.error();
     const std::span<const TruthRow> t = wo.withTruth ? std::span<const TruthRow>(*truth) : std::span<const TruthRow>();

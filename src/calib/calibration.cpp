@@ -97,7 +97,8 @@ void ProfileFill::merge(const ProfileFill& other) {
 Result<std::map<std::int32_t, ProfileFill>> fillProfilesByRun(const std::string& file,
                                                               const geometry::DepthAtEnergy& depthAt,
                                                               const SelectionOptions& selection,
-                                                              const ProfileOptions& profile) {
+                                                              const ProfileOptions& profile,
+                                                              std::map<std::int32_t, io::EventNumbers>* events) {
   if (Status s = profile.validate(); !s) return s.error();
   auto reader = io::EventReader::open({file}, kProfileReading);
   if (!reader) return reader.error();
@@ -120,6 +121,10 @@ Result<std::map<std::int32_t, ProfileFill>> fillProfilesByRun(const std::string&
         it = fillers.emplace(rows[i].run, ProfileFiller(*depth, selection, profile)).first;
       }
       it->second.addEvents(std::span<const ParticleRow>(rows).subspan(i, j - i));
+      if (events != nullptr) {
+        io::EventNumbers& numbers = (*events)[rows[i].run];
+        for (std::size_t k = i; k < j; ++k) numbers.insert(rows[k].event);
+      }
       i = j;
     }
   }

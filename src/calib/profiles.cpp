@@ -6,16 +6,17 @@
 #include <charconv>
 #include <cmath>
 #include <cstring>
-#include <fstream>
 #include <functional>
 #include <limits>
 #include <numbers>
 #include <optional>
+#include <sstream>
 #include <stdexcept>
 
 #include <fmt/format.h>
 
 #include "emcalign/io/csv.hpp"
+#include "emcalign/io/json_files.hpp"
 
 namespace emcalign::calib {
 
@@ -353,8 +354,9 @@ Status parseBinValues(const ProfileLine& line, const ProfileOptions& options, Pr
 
 Result<std::vector<ProfileBin>> readProfileCsv(const std::string& path, const ProfileOptions& options) {
   if (Status s = options.validate(); !s) return s.error();
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return Error{fmt::format("{}: cannot open: {}", path, std::strerror(errno))};
+  auto content = io::readTextFile(path);
+  if (!content) return content.error();
+  std::istringstream in(*content);
   const int bins = options.phiBins * options.thetaBins;
   std::vector<int> lineOfBin(static_cast<std::size_t>(bins), 0);
   std::vector<ProfileBin> out;

@@ -87,28 +87,27 @@ Result<RunCalibration> calibrationAt(Database& db, const std::string& tag, std::
   return RunCalibration{iov, parameterFileOf(iov, payload, db.uri(), tag)};
 }
 
-io::Json tagJson(Database& db, const Tag& tag) {
+Result<io::Json> tagJson(Database& db, const Tag& tag) {
   Json iovs = Json::array();
   auto list = db.iovs(tag.name);
-  if (list) {
-    for (const auto& iov : *list) {
-      Json i = {
-          {"first_run", iov.firstRun}, {"last_run", iov.lastRun}, {"payload", iov.payload}, {"inserted", iov.inserted}};
-      if (auto p = db.payload(iov.payload); p) {
-        const Json& a = p->content["alignment"];
-        for (const char* key : {"status", "chi2", "ndf"}) {
-          if (a.contains(key)) i[key] = a[key];
-        }
-        if (p->content.contains("selected_events")) i["selected_events"] = p->content["selected_events"];
-      }
-      iovs.push_back(std::move(i));
+  if (!list) return list.error();
+  for (const auto& iov : *list) {
+    Json i = {
+        {"first_run", iov.firstRun}, {"last_run", iov.lastRun}, {"payload", iov.payload}, {"inserted", iov.inserted}};
+    auto p = db.payload(iov.payload);  // its hash checked: an edited payload is an error, not shown
+    if (!p) return p.error();
+    const Json& a = p->content["alignment"];
+    for (const char* key : {"status", "chi2", "ndf"}) {
+      if (a.contains(key)) i[key] = a[key];
     }
+    if (p->content.contains("selected_events")) i["selected_events"] = p->content["selected_events"];
+    iovs.push_back(std::move(i));
   }
-  return {{"tag", tag.name},
-          {"state", name(tag.state)},
-          {"description", tag.description},
-          {"created", tag.created},
-          {"iovs", iovs}};
+  return Json{{"tag", tag.name},
+              {"state", name(tag.state)},
+              {"description", tag.description},
+              {"created", tag.created},
+              {"iovs", iovs}};
 }
 
 Result<std::vector<io::Json>> listTags(Database& db, const std::string& tag) {
@@ -124,7 +123,11 @@ Result<std::vector<io::Json>> listTags(Database& db, const std::string& tag) {
     tags = std::move(*all);
   }
   std::vector<Json> listed;
-  for (const auto& t : tags) listed.push_back(tagJson(db, t));
+  for (const auto& t : tags) {
+    auto j = tagJson(db, t);
+    if (!j) return j.error();
+    listed.push_back(std::move(*j));
+  }
   return listed;
 }
 

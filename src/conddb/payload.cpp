@@ -3,6 +3,7 @@
 #include "emcalign/conddb/conditions.hpp"
 #include "emcalign/core/fit_status.hpp"
 #include "emcalign/core/sha256.hpp"
+#include "emcalign/core/utf8.hpp"
 
 namespace emcalign::conddb {
 
@@ -11,11 +12,13 @@ using io::Json;
 std::string_view name(TagState s) { return s == TagState::Open ? "open" : "locked"; }
 
 Status checkTagName(std::string_view tag) {
-  if (tag.empty() || tag.size() > 100) return Error{fmt::format("tag '{}': a name has 1 to 100 characters", tag)};
+  if (tag.empty() || tag.size() > 100) {
+    return Error{fmt::format("tag '{}': a name has 1 to 100 characters", printable(tag.substr(0, 100)))};
+  }
   for (char c : tag) {
     const bool ok =
         (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-' || c == '.';
-    if (!ok) return Error{fmt::format("tag '{}': a name is made of letters, digits, '_', '-' and '.'", tag)};
+    if (!ok) return Error{fmt::format("tag '{}': a name is made of letters, digits, '_', '-' and '.'", printable(tag))};
   }
   return {};
 }

@@ -16,19 +16,11 @@ namespace emcalign::conddb::detail {
 
 namespace {
 
-constexpr int kConnectTimeoutSeconds = 20;
-
-// The URI without a password, for messages: postgresql://user:secret@host → postgresql://user@host.
-std::string withoutPassword(const std::string& uri) {
-  const auto scheme = uri.find("://");
-  if (scheme == std::string::npos) return uri;
-  const auto at = uri.find('@', scheme + 3);
-  const auto slash = uri.find('/', scheme + 3);
-  if (at == std::string::npos || (slash != std::string::npos && slash < at)) return uri;
-  const auto colon = uri.find(':', scheme + 3);
-  if (colon == std::string::npos || colon > at) return uri;
-  return uri.substr(0, colon) + uri.substr(at);
-}
+// How long a write waits for a tag another client is writing (SELECT … FOR UPDATE), unless
+// the user set lock_timeout (PGOPTIONS='-c lock_timeout=10s', or the server's default).
+constexpr std::string_view kLockTimeout = "60s";
+// SQLSTATE lock_not_available: the lock_timeout ran out.
+constexpr std::string_view kLockNotAvailable = "55P03";
 
 // One line of a server message.
 std::string firstLine(std::string_view text) {
@@ -69,6 +61,7 @@ class Postgres final : public SqlBackend {
   }
 
   Result<std::vector<Row>> query(std::string_view sql, const std::vector<Param>& params) override {
+    if (Status s = checkParams(params, uri_); !s) return s.error();
     std::vector<std::string> values;
     values.reserve(params.size());
     for (const Param& p : params) {
@@ -90,9 +83,28 @@ class Postgres final : public SqlBackend {
         rows.push_back(std::move(out));
       }
       return rows;
+    } catch (const pqxx::sql_error& e) {
+      if (e.sqlstate() == kLockNotAvailable) {
+        return Error{
+            fmt::format("{}: busy: another client has held what this write needs for longer than "
+                        "lock_timeout ({}; PGOPTIONS='-c lock_timeout=...' sets it): try again later",
+                        uri_, lockTimeout_)};
+      }
+      return Error{fmt::format("{}: {}", uri_, firstLine(e.what()))};
     } catch (const std::exception& e) {
       return Error{fmt::format("{}: {}", uri_, firstLine(e.what()))};
     }
+  }
+
+  // A lock wait that ends: the user's lock_timeout, or kLockTimeout when there is none.
+  Status boundLockWaits() {
+    auto shown = query("SHOW lock_timeout", {});
+    if (!shown) return shown.error();
+    lockTimeout_ = !shown->empty() && (*shown)[0][0] ? *(*shown)[0][0] : std::string("0");
+    if (lockTimeout_ != "0") return {};
+    if (auto set = query(fmt::format("SET lock_timeout = '{}'", kLockTimeout), {}); !set) return set.error();
+    lockTimeout_ = std::string(kLockTimeout);
+    return {};
   }
 
   std::string_view forUpdate() const override { return " FOR UPDATE"; }
@@ -127,24 +139,26 @@ class Postgres final : public SqlBackend {
   std::unique_ptr<pqxx::connection> c_;
   std::unique_ptr<pqxx::work> tx_;
   std::string uri_;
+  std::string lockTimeout_;
 };
 
 }  // namespace
 
-Result<std::unique_ptr<SqlBackend>> openPostgres(const std::string& uri) {
-  const std::string shown = withoutPassword(uri);
-  // A server that does not answer is an error after a while, not a hang.
-  std::string conninfo = uri;
-  if (conninfo.find("connect_timeout=") == std::string::npos) {
-    conninfo += (conninfo.find('?') == std::string::npos ? "?" : "&");
-    conninfo += fmt::format("connect_timeout={}", kConnectTimeoutSeconds);
-  }
+Result<std::unique_ptr<SqlBackend>> openPostgres(const DatabaseAddress& address) {
+  std::unique_ptr<Postgres> db;
   try {
-    auto c = std::make_unique<pqxx::connection>(conninfo);
-    return std::unique_ptr<SqlBackend>(std::make_unique<Postgres>(std::move(c), shown));
+    db = std::make_unique<Postgres>(std::make_unique<pqxx::connection>(address.connection), address.shown);
   } catch (const std::exception& e) {
-    return Error{fmt::format("{}: cannot connect: {}", shown, firstLine(e.what()))};
+    // libpq quotes parts of a malformed URI: its message loses the password first.
+    const std::string why = address.redact(firstLine(e.what()));
+    const bool authentication = why.find("password") != std::string::npos;
+    return Error{fmt::format("{}: cannot connect: {}{}", address.shown, why,
+                             authentication ? " (the password comes from libpq's PGPASSFILE, ~/.pgpass, or "
+                                              "PGPASSWORD)"
+                                            : "")};
   }
+  if (Status s = db->boundLockWaits(); !s) return Error{address.redact(s.error().message)};
+  return std::unique_ptr<SqlBackend>(std::move(db));
 }
 
 }  // namespace emcalign::conddb::detail

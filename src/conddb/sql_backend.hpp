@@ -12,6 +12,7 @@
 #include <variant>
 #include <vector>
 
+#include "emcalign/conddb/address.hpp"
 #include "emcalign/conddb/conditions.hpp"
 
 namespace emcalign::conddb::detail {
@@ -41,10 +42,14 @@ class SqlBackend {
 
 std::unique_ptr<Database> makeSqlDatabase(std::unique_ptr<SqlBackend> backend);
 Result<std::unique_ptr<SqlBackend>> openSqlite(const std::string& path, bool create);
-Result<std::unique_ptr<SqlBackend>> openPostgres(const std::string& uri);
+Result<std::unique_ptr<SqlBackend>> openPostgres(const DatabaseAddress& address);
 
 /// Checks, on open, that the database has the schema of this emcalign.
 Status checkSchemaOf(Database& db);
+
+/// Text parameters must not hold NUL: an engine's C API would cut the text there (a lock of
+/// "base\0x" locking "base").
+Status checkParams(const std::vector<Param>& params, const std::string& uri);
 
 /// The current time, UTC, ISO 8601 to the second.
 std::string utcNow();

@@ -8,6 +8,7 @@
 
 #include <fmt/format.h>
 
+#include "emcalign/core/utf8.hpp"
 #include "sql_backend.hpp"
 
 namespace emcalign::conddb::detail {
@@ -107,6 +108,7 @@ class SqlDatabase final : public Database {
   }
 
   Result<std::optional<Tag>> tag(const std::string& name) override {
+    if (Status s = checkTagName(name); !s) return s.error();
     auto rows = db_->query("SELECT name, description, state, created FROM emcalign_tags WHERE name = $1", {name});
     if (!rows) return rows.error();
     if (rows->empty()) return std::optional<Tag>();
@@ -116,6 +118,7 @@ class SqlDatabase final : public Database {
   Status put(const std::string& tag, const std::vector<NewIov>& iovs, bool createTag,
              const std::string& description) override {
     if (Status s = checkTagName(tag); !s) return s;
+    if (Status s = checkText(description, "a tag's description"); !s) return s;
     for (const NewIov& n : iovs) {
       if (n.firstRun > n.lastRun) {
         return Error{fmt::format("runs {}-{}: the first run is after the last", n.firstRun, n.lastRun)};
@@ -124,7 +127,7 @@ class SqlDatabase final : public Database {
     return inTransaction(*db_, true, [&]() -> Status {
       const std::string lockTag = fmt::format("SELECT state FROM emcalign_tags WHERE name = $1{}", db_->forUpdate());
       auto state = db_->query(lockTag, {tag});
-      if (!state) return state.error();
+      if (!state) return Error{fmt::format("tag '{}': {}", tag, state.error().message)};
       if (state->empty()) {
         if (!createTag) {
           return Error{
@@ -138,7 +141,7 @@ class SqlDatabase final : public Database {
             {tag, description, utcNow()});
         if (!created) return created.error();
         state = db_->query(lockTag, {tag});
-        if (!state) return state.error();
+        if (!state) return Error{fmt::format("tag '{}': {}", tag, state.error().message)};
       }
       if (state->empty()) return Error{fmt::format("{}: tag '{}' vanished while writing", db_->uri(), tag)};
       if (toText((*state)[0][0]) == "locked") {
@@ -174,6 +177,7 @@ class SqlDatabase final : public Database {
 
   Result<std::optional<std::pair<Iov, Payload>>> get(const std::string& tag, std::int64_t run) override {
     using Out = std::optional<std::pair<Iov, Payload>>;
+    if (Status s = checkTagName(tag); !s) return s.error();
     return inTransaction(*db_, false, [&]() -> Result<Out> {
       auto rows = db_->query(
           "SELECT i.first_run, i.last_run, i.payload, i.inserted, p.content FROM emcalign_iovs i JOIN "
@@ -182,31 +186,31 @@ class SqlDatabase final : public Database {
       if (!rows) return rows.error();
       if (rows->empty()) return Out();
       const Row& r = (*rows)[0];
-      auto content = io::parseJson(toText(r[4]), fmt::format("{}: payload {}", db_->uri(), toText(r[2])));
-      if (!content) return content.error();
-      return Out(std::pair{Iov{toInt(r[0]), toInt(r[1]), toText(r[2]), toText(r[3])}, Payload{std::move(*content)}});
+      auto payload = verifiedPayload(toText(r[2]), toText(r[4]));
+      if (!payload) return payload.error();
+      return Out(std::pair{Iov{toInt(r[0]), toInt(r[1]), toText(r[2]), printable(toText(r[3]))}, std::move(*payload)});
     });
   }
 
   Result<std::vector<Iov>> iovs(const std::string& tag) override {
+    if (Status s = checkTagName(tag); !s) return s.error();
     auto rows = db_->query(
         "SELECT first_run, last_run, payload, inserted FROM emcalign_iovs WHERE tag = $1 ORDER BY first_run", {tag});
     if (!rows) return rows.error();
     std::vector<Iov> out;
-    for (const Row& r : *rows) out.push_back({toInt(r[0]), toInt(r[1]), toText(r[2]), toText(r[3])});
+    for (const Row& r : *rows) out.push_back({toInt(r[0]), toInt(r[1]), toText(r[2]), printable(toText(r[3]))});
     return out;
   }
 
   Result<Payload> payload(const std::string& hash) override {
     auto rows = db_->query("SELECT content FROM emcalign_payloads WHERE hash = $1", {hash});
     if (!rows) return rows.error();
-    if (rows->empty()) return Error{fmt::format("{}: no payload {}", db_->uri(), hash)};
-    auto content = io::parseJson(toText((*rows)[0][0]), fmt::format("{}: payload {}", db_->uri(), hash));
-    if (!content) return content.error();
-    return Payload{std::move(*content)};
+    if (rows->empty()) return Error{fmt::format("{}: no payload {}", db_->uri(), printable(hash))};
+    return verifiedPayload(hash, toText((*rows)[0][0]));
   }
 
   Status lock(const std::string& tag) override {
+    if (Status s = checkTagName(tag); !s) return s;
     return inTransaction(*db_, true, [&]() -> Status {
       auto rows = db_->query("UPDATE emcalign_tags SET state = 'locked' WHERE name = $1", {tag});
       if (!rows) return rows.error();
@@ -220,8 +224,34 @@ class SqlDatabase final : public Database {
   const std::string& uri() const override { return db_->uri(); }
 
  private:
+  // Text read back is made printable (a database edited by hand may hold anything: bytes that
+  // are not UTF-8, terminal escapes): core/utf8.hpp.
   static Tag tagOf(const Row& r) {
-    return {toText(r[0]), toText(r[1]), toText(r[2]) == "locked" ? TagState::Locked : TagState::Open, toText(r[3])};
+    return {printable(toText(r[0])), printable(toText(r[1])),
+            toText(r[2]) == "locked" ? TagState::Locked : TagState::Open, printable(toText(r[3]))};
+  }
+
+  // A payload as stored under `hash`: its content must still have that hash (every read
+  // checks it, so an edit behind the tool's back is never served under the old name).
+  Result<Payload> verifiedPayload(const std::string& hash, const std::string& text) const {
+    const std::string source = fmt::format("{}: payload {}…", db_->uri(), printable(hash).substr(0, 12));
+    if (!isValidUtf8(text)) return Error{fmt::format("{}: not UTF-8 text (edited by hand?)", source)};
+    auto content = io::parseJson(text, source);
+    if (!content) return content.error();
+    Payload p{std::move(*content)};
+    if (p.hash() != hash) {
+      return Error{
+          fmt::format("{}: its content no longer has that hash (the database was edited behind emcalign's "
+                      "back?): refusing to use it",
+                      source)};
+    }
+    return p;
+  }
+
+  static Status checkText(const std::string& text, std::string_view what) {
+    if (text.find('\0') != std::string::npos) return Error{fmt::format("{} holds a NUL character", what)};
+    if (!isValidUtf8(text)) return Error{fmt::format("{} is not UTF-8 text", what)};
+    return {};
   }
 
   std::unique_ptr<SqlBackend> db_;
@@ -236,6 +266,15 @@ std::string utcNow() {
   char text[32];
   std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &tm);
   return text;
+}
+
+Status checkParams(const std::vector<Param>& params, const std::string& uri) {
+  for (const Param& p : params) {
+    if (std::holds_alternative<std::string>(p) && std::get<std::string>(p).find('\0') != std::string::npos) {
+      return Error{fmt::format("{}: a text with a NUL character cannot be stored or looked up", uri)};
+    }
+  }
+  return {};
 }
 
 std::unique_ptr<Database> makeSqlDatabase(std::unique_ptr<SqlBackend> backend) {

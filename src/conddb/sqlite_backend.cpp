@@ -8,6 +8,7 @@
 
 #include <fmt/format.h>
 
+#include "emcalign/io/output_file.hpp"
 #include "sql_backend.hpp"
 
 namespace emcalign::conddb::detail {
@@ -31,6 +32,7 @@ class Sqlite final : public SqlBackend {
   const std::string& uri() const override { return uri_; }
 
   Result<std::vector<Row>> query(std::string_view sql, const std::vector<Param>& params) override {
+    if (Status s = checkParams(params, uri_); !s) return s.error();
     std::string text(sql);
     for (char& c : text) {
       if (c == '$') c = '?';  // $1 → ?1: SQLite's numbered parameters
@@ -40,9 +42,11 @@ class Sqlite final : public SqlBackend {
     std::vector<Row> rows;
     for (std::size_t i = 0; i < params.size(); ++i) {
       const int k = static_cast<int>(i) + 1;
-      const int rc = std::holds_alternative<std::int64_t>(params[i])
-                         ? sqlite3_bind_int64(stmt, k, std::get<std::int64_t>(params[i]))
-                         : sqlite3_bind_text(stmt, k, std::get<std::string>(params[i]).c_str(), -1, SQLITE_TRANSIENT);
+      const int rc =
+          std::holds_alternative<std::int64_t>(params[i])
+              ? sqlite3_bind_int64(stmt, k, std::get<std::int64_t>(params[i]))
+              : sqlite3_bind_text(stmt, k, std::get<std::string>(params[i]).data(),
+                                  static_cast<int>(std::get<std::string>(params[i]).size()), SQLITE_TRANSIENT);
       if (rc != SQLITE_OK) {
         sqlite3_finalize(stmt);
         return failure("bind");
@@ -139,6 +143,10 @@ Result<std::unique_ptr<SqlBackend>> openSqlite(const std::string& path, bool cre
   if (Status st2 = s->run("PRAGMA journal_mode = WAL"); !st2) return st2.error();
   if (Status st2 = s->run("PRAGMA synchronous = FULL"); !st2) return st2.error();
   if (Status st2 = s->run("PRAGMA foreign_keys = ON"); !st2) return st2.error();
+  // The database and its journals are inputs of the command: no output may replace them.
+  for (const std::string& f : {path, path + "-wal", path + "-shm", path + "-journal"}) {
+    io::protectInput({"--conditions", f});
+  }
   return std::unique_ptr<SqlBackend>(std::move(s));
 }
 

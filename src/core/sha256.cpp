@@ -10,6 +10,8 @@
 
 #include <fmt/format.h>
 
+#include "emcalign/core/regular_file.hpp"
+
 namespace emcalign {
 
 struct Sha256::State {
@@ -50,19 +52,16 @@ std::string sha256(std::string_view text) {
 }
 
 Result<std::string> sha256OfFile(const std::string& path) {
-  std::FILE* f = std::fopen(path.c_str(), "rb");
-  if (f == nullptr) return Error{fmt::format("{}: cannot read: {}", path, std::strerror(errno))};
+  auto file = RegularFile::open(path);
+  if (!file) return file.error();
   Sha256 h;
   std::vector<char> buffer(1 << 20);
   while (true) {
-    const std::size_t n = std::fread(buffer.data(), 1, buffer.size(), f);
-    h.update(buffer.data(), n);
-    if (n < buffer.size()) break;
+    auto n = file->read(buffer.data(), buffer.size());
+    if (!n) return n.error();
+    h.update(buffer.data(), *n);
+    if (*n < buffer.size()) break;
   }
-  const bool failed = std::ferror(f) != 0;
-  const int err = errno;
-  std::fclose(f);
-  if (failed) return Error{fmt::format("{}: read error: {}", path, std::strerror(err))};
   return h.hex();
 }
 

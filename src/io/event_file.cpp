@@ -6,10 +6,12 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <filesystem>
 #include <optional>
 
 #include <fmt/format.h>
 
+#include "emcalign/io/output_file.hpp"
 #include "event_file_internal.hpp"
 
 namespace emcalign::io {
@@ -320,6 +322,13 @@ Result<std::unique_ptr<EventReader>> EventReader::open(std::vector<std::string> 
   std::vector<std::pair<dev_t, ino_t>> ids;
   for (std::size_t i = 0; i < paths.size(); ++i) {
     const std::string& path = paths[i];
+    if (const long writer = temporaryWriter(std::filesystem::path(path).filename().string());
+        writer > 0 && writer != static_cast<long>(::getpid())) {
+      return Error{
+          fmt::format("{}: a temporary file of an emcalign command (being written, or left by one that was "
+                      "killed), not event data",
+                      path)};
+    }
     struct stat st {};
     if (::stat(path.c_str(), &st) != 0) {
       if (errno == ENOENT) return Error{fmt::format("{}: no such file", path)};
@@ -336,6 +345,7 @@ Result<std::unique_ptr<EventReader>> EventReader::open(std::vector<std::string> 
       }
     }
     ids.emplace_back(st.st_dev, st.st_ino);
+    protectInput({"", path});
   }
   auto reader = std::make_unique<EventReaderImpl>(std::move(paths), options);
   if (auto s = reader->start(); !s) return s.error();

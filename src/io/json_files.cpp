@@ -17,7 +17,9 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "emcalign/core/regular_file.hpp"
 #include "emcalign/core/units.hpp"
+#include "emcalign/io/output_file.hpp"
 #include "emcalign/io/strict_json.hpp"
 
 namespace emcalign::io {
@@ -49,7 +51,7 @@ namespace {
 // the parser, the digests and the printers recurse, and a hostile file must not overflow
 // the stack.
 constexpr int kMaxJsonDepth = 64;
-constexpr std::size_t kMaxJsonBytes = std::size_t{64} << 20;
+constexpr std::size_t kMaxJsonBytes = kMaxInputFileBytes;
 
 std::optional<std::size_t> tooDeep(std::string_view text) {
   int depth = 0;
@@ -142,13 +144,17 @@ Result<std::int64_t> integerIn(const json& v, std::int64_t lo, std::int64_t hi, 
   return x;
 }
 
-Result<std::string> readTextFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return Error{fmt::format("{}: cannot open: {}", path, std::strerror(errno))};
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  if (in.bad()) return Error{fmt::format("{}: read error", path)};
-  return ss.str();
+Result<std::string> readTextFile(const std::string& path, std::size_t maxBytes) {
+  auto file = RegularFile::open(path);
+  if (!file) return file.error();
+  protectInput({"", path});
+  return file->readAll(maxBytes);
+}
+
+Result<std::string> readOwnOutput(const std::string& path, std::size_t maxBytes) {
+  auto file = RegularFile::open(path);
+  if (!file) return file.error();
+  return file->readAll(maxBytes);
 }
 
 // ---------------------------------------------------------------- detector description

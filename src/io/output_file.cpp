@@ -5,12 +5,14 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <atomic>
 #include <cerrno>
 #include <charconv>
 #include <cstring>
 #include <filesystem>
+#include <mutex>
 
 #include <fmt/format.h>
 
@@ -69,11 +71,13 @@ void removeStaleTemporaries(const std::string& realPath) {
     if (ec) return;
     const std::string name = it->path().filename().string();
     if (!name.starts_with(prefix) || name.size() == prefix.size()) continue;
+    // NAME.tmp-PID, or NAME.tmp-PID.tmp-PID2 (a temporary written through its own temporary).
     long pid = 0;
     const char* first = name.data() + prefix.size();
     const char* last = name.data() + name.size();
     const auto [ptr, err] = std::from_chars(first, last, pid);
-    if (err != std::errc() || ptr != last || pid <= 0 || pid == static_cast<long>(::getpid())) continue;
+    const bool nested = std::string_view(ptr, static_cast<std::size_t>(last - ptr)).starts_with(".tmp-");
+    if (err != std::errc() || (ptr != last && !nested) || pid <= 0 || pid == static_cast<long>(::getpid())) continue;
     if (::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH) continue;  // alive, or not ours to judge
     std::error_code kind;
     if (!fs::is_regular_file(it->symlink_status(kind))) continue;
@@ -97,13 +101,144 @@ bool writeAll(int fd, const char* data, std::size_t size) {
 
 std::atomic<unsigned> gStreamTemporaries{0};
 
+// ------------------------------------------------------------------- the protected inputs
+
+struct ProtectedInput {
+  NamedPath name;
+  dev_t dev;
+  ino_t ino;
+};
+std::mutex gProtectedMutex;
+std::atomic<bool> gProtecting{false};
+std::vector<ProtectedInput> gProtected;  // guarded by gProtectedMutex
+
+// The file an existing path is (following links): a regular file's device and inode.
+bool fileIdentity(const std::string& path, dev_t& dev, ino_t& ino) {
+  struct stat st {};
+  if (path.empty() || path == "-" || ::stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) return false;
+  dev = st.st_dev;
+  ino = st.st_ino;
+  return true;
+}
+
+std::string describe(const NamedPath& input) {
+  return input.option.empty() ? input.path : input.option + " " + input.path;
+}
+
+Error overwritesInput(const std::string& output, const NamedPath& input) {
+  return Error{
+      fmt::format("{}: is the same file as the input {}: refusing to overwrite an input", output, describe(input))};
+}
+
 }  // namespace
+
+void enableInputProtection() { gProtecting.store(true); }
+
+void disableInputProtection() {
+  gProtecting.store(false);
+  const std::lock_guard lock(gProtectedMutex);
+  gProtected.clear();
+}
+
+void protectInput(const NamedPath& input) {
+  if (!gProtecting.load()) return;
+  dev_t dev{};
+  ino_t ino{};
+  if (!fileIdentity(input.path, dev, ino)) return;
+  const std::lock_guard lock(gProtectedMutex);
+  for (auto& p : gProtected) {
+    if (p.dev != dev || p.ino != ino) continue;
+    if (p.name.option.empty()) p.name = input;  // the option it was given with names it best
+    return;
+  }
+  gProtected.push_back({input, dev, ino});
+}
+
+std::optional<NamedPath> protectedInputAt(const std::string& path) {
+  if (!gProtecting.load()) return std::nullopt;
+  dev_t dev{};
+  ino_t ino{};
+  if (!fileIdentity(path, dev, ino)) return std::nullopt;
+  const std::lock_guard lock(gProtectedMutex);
+  for (const auto& p : gProtected) {
+    if (p.dev == dev && p.ino == ino) return p.name;
+  }
+  return std::nullopt;
+}
+
+Status checkDirectoryHoldsNoInput(const NamedPath& directory, const std::vector<NamedPath>& inputs, int maxDepth) {
+  struct Known {
+    NamedPath name;
+    std::string absolute;  // the name it was given by, normalised
+    dev_t dev;
+    ino_t ino;
+  };
+  auto normalised = [](const std::string& p) {
+    std::error_code ec;
+    return fs::absolute(p, ec).lexically_normal().string();
+  };
+  std::vector<Known> known;
+  for (const auto& i : inputs) {
+    dev_t dev{};
+    ino_t ino{};
+    if (fileIdentity(i.path, dev, ino)) known.push_back({i, normalised(i.path), dev, ino});
+  }
+  if (gProtecting.load()) {
+    const std::lock_guard lock(gProtectedMutex);
+    for (const auto& p : gProtected) known.push_back({p.name, normalised(p.name.path), p.dev, p.ino});
+  }
+  std::error_code ec;
+  if (known.empty() || !fs::is_directory(directory.path, ec)) return {};
+  constexpr std::size_t kMaxEntries = 100000;  // a campaign's directory; beyond, the write-time check remains
+  std::size_t seen = 0;
+  fs::recursive_directory_iterator it(directory.path, fs::directory_options::skip_permission_denied, ec);
+  for (; !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
+    if (++seen > kMaxEntries) break;
+    if (it.depth() >= maxDepth) it.disable_recursion_pending();
+    std::error_code kind;
+    if (it->is_directory(kind)) continue;
+    dev_t dev{};
+    ino_t ino{};
+    const std::string entry = it->path().string();
+    if (!fileIdentity(entry, dev, ino)) continue;
+    for (const auto& k : known) {
+      if (k.dev != dev || k.ino != ino || normalised(entry) == k.absolute) continue;
+      return Error{fmt::format(
+          "{} {}: {} is {} the input {}: an output written there would replace that input (remove it from the "
+          "directory, or write elsewhere)",
+          directory.option, directory.path, entry,
+          fs::is_symlink(it->symlink_status(kind)) ? "a link to" : "a hard link of", describe(k.name))};
+    }
+  }
+  return {};
+}
 
 void removeTemporaries() noexcept {
   for (auto& slot : gSlots) {
     if (slot.state.load(std::memory_order_acquire) == 2) ::unlink(slot.path);
   }
 }
+
+long temporaryWriter(std::string_view name) {
+  auto pidOf = [](std::string_view s) -> long {
+    long pid = 0;
+    const auto [ptr, err] = std::from_chars(s.data(), s.data() + s.size(), pid);
+    return !s.empty() && err == std::errc() && ptr == s.data() + s.size() && pid > 0 ? pid : 0;
+  };
+  if (const auto at = name.find(".tmp-"); at != std::string_view::npos && at > 0) {
+    // NAME.tmp-PID, or NAME.tmp-PID.tmp-PID2 (a temporary written through its own temporary).
+    std::string_view rest = name.substr(at + 5);
+    if (const auto inner = rest.find(".tmp-"); inner != std::string_view::npos) rest = rest.substr(0, inner);
+    if (long pid = pidOf(rest); pid > 0) return pid;
+  }
+  constexpr std::string_view kCorrected = ".corrected-", kH5 = ".h5";
+  if (name.starts_with(kCorrected) && name.ends_with(kH5) && name.size() > kCorrected.size() + kH5.size()) {
+    return pidOf(name.substr(kCorrected.size(), name.size() - kCorrected.size() - kH5.size()));
+  }
+  return 0;
+}
+
+bool isTemporaryName(std::string_view name) { return temporaryWriter(name) > 0; }
 
 std::string temporaryPathFor(const std::string& realPath) {
   return fmt::format("{}.tmp-{}", realPath, static_cast<long>(::getpid()));
@@ -145,6 +280,7 @@ Result<OutputTarget> resolveOutput(const std::string& path) {
   if (S_ISBLK(st.st_mode)) return Error{fmt::format("{}: is a block device: refusing to write to it", path)};
   if (!S_ISREG(st.st_mode))
     return Error{fmt::format("{}: is not a regular file, a device or a pipe: refusing to write to it", path)};
+  if (auto input = protectedInputAt(path)) return overwritesInput(path, *input);
   if ((st.st_mode & (S_IWUSR | S_IWGRP | S_IWOTH)) == 0) {
     return Error{
         fmt::format("{}: is read-only: refusing to replace it (chmod u+w {} to allow it, or remove it)", path, path)};

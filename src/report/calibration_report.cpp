@@ -185,8 +185,10 @@ Result<std::string> fitSection(const ReportFit& f) {
   html::Table prov{.header = {"item", "value"}};
   for (const auto& [file, digest] : f.inputDigests) {
     prov.rows.push_back(
-        {"input file", "<code>" + html::escape(file) + "</code><br>SHA-256 taken now: " +
-                           (digest.empty() ? std::string("— (not found)") : "<code>" + digest + "</code>")});
+        {"input file",
+         "<code>" + html::escape(file) + "</code><br>SHA-256 taken now: " +
+             (digest.empty() ? std::string("— (not taken: the report reads only the event files given with --events)")
+                             : "<code>" + digest + "</code>")});
   }
   prov.rows.push_back({"detector", text(in.value("detector", Json("?")))});
   if (in.contains("model_corrections")) {

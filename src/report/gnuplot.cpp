@@ -12,6 +12,8 @@
 
 #include <fmt/format.h>
 
+#include "emcalign/core/regular_file.hpp"
+#include "emcalign/io/json_files.hpp"
 #include "emcalign/io/output_file.hpp"
 
 namespace emcalign::report::detail {
@@ -81,39 +83,62 @@ Status writeFile(const fs::path& dir, const std::string& name, const std::string
   return io::writeOutputFile((dir / name).string(), content);
 }
 
-// Runs `gnuplot -d NAME.gp` in `dir`; gnuplot's messages go into the error.
+// Runs `gnuplot -d NAME.gp` in `dir`; gnuplot's messages go into the error. gnuplot does not
+// write NAME.png itself (it would follow a link planted there, and leave half a figure when
+// killed): it draws into the temporary of that output (io/output_file.hpp), which is renamed
+// into place when gnuplot succeeds. The script it runs is NAME.gp with that output, kept in a
+// temporary beside it; NAME.gp as written still draws NAME.png when a user runs it.
 Status runGnuplot(const fs::path& dir, const std::string& name) {
   const std::string script = name + ".gp";
-  const std::string command = fmt::format("cd {} && gnuplot -d {} 2>&1", shellQuote(dir.string()), shellQuote(script));
+  const std::string png = (dir / (name + ".png")).string();
+  auto text = RegularFile::open((dir / script).string());
+  if (!text) return text.error();
+  auto content = text->readAll(io::kMaxInputFileBytes);
+  if (!content) return content.error();
+  auto output = io::OutputFile::reserve(png);
+  if (!output) return output.error();
+  const std::string setOutput = fmt::format("set output '{}.png'\n", name);
+  const auto at = content->find(setOutput);
+  if (at == std::string::npos) return Error{fmt::format("{}: no line {}", (dir / script).string(), setOutput)};
+  std::string target = fs::absolute((*output)->writtenPath()).string();
+  std::string quotedTarget;
+  for (char c : target) quotedTarget += c == '\'' ? std::string("''") : std::string(1, c);
+  content->replace(at, setOutput.size(), fmt::format("set output '{}'\n", quotedTarget));
+  auto run = io::OutputFile::open((dir / ("." + script)).string());  // never committed: removed afterwards
+  if (!run) return run.error();
+  if (std::fwrite(content->data(), 1, content->size(), (*run)->stream()) != content->size() ||
+      std::fflush((*run)->stream()) != 0) {
+    return Error{fmt::format("{}: write failed: {}", (*run)->writtenPath(), std::strerror(errno))};
+  }
+  const std::string command = fmt::format("cd {} && gnuplot -d {} 2>&1", shellQuote(dir.string()),
+                                          shellQuote(fs::path((*run)->writtenPath()).filename().string()));
   std::FILE* pipe = popen(command.c_str(), "r");
   if (pipe == nullptr)
     return Error{fmt::format("{}: cannot start gnuplot: {}", (dir / script).string(), std::strerror(errno))};
-  std::string output;
+  std::string said;
   char buffer[4096];
   std::size_t got = 0;
-  while ((got = std::fread(buffer, 1, sizeof buffer, pipe)) > 0) output.append(buffer, got);
+  while ((got = std::fread(buffer, 1, sizeof buffer, pipe)) > 0) said.append(buffer, got);
   const int status = pclose(pipe);
-  while (!output.empty() && (output.back() == '\n' || output.back() == ' ')) output.pop_back();
-  if (output.size() > 2000) output = output.substr(0, 2000) + " …";
+  while (!said.empty() && (said.back() == '\n' || said.back() == ' ')) said.pop_back();
+  if (said.size() > 2000) said = said.substr(0, 2000) + " …";
   if (status == -1)
     return Error{fmt::format("{}: running gnuplot failed: {}", (dir / script).string(), std::strerror(errno))};
   if (WIFEXITED(status) && WEXITSTATUS(status) == 127)
-    return Error{fmt::format("gnuplot was not found (needed to draw {}): {}; the shell said: {}",
-                             (dir / (name + ".png")).string(), kInstallHint, output)};
+    return Error{
+        fmt::format("gnuplot was not found (needed to draw {}): {}; the shell said: {}", png, kInstallHint, said)};
   if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
-    std::error_code ec;
-    fs::remove(dir / (name + ".png"), ec);  // no half-drawn figure
     return Error{fmt::format(
         "gnuplot failed on {} ({}): {}\n(gnuplot with the pngcairo terminal is needed; {})", (dir / script).string(),
         WIFEXITED(status) ? fmt::format("exit status {}", WEXITSTATUS(status)) : std::string("killed by a signal"),
-        output, kInstallHint)};
+        said, kInstallHint)};
   }
   std::error_code ec;
-  const auto size = fs::file_size(dir / (name + ".png"), ec);
+  const auto size = fs::file_size((*output)->writtenPath(), ec);
   if (ec || size == 0)
-    return Error{fmt::format("gnuplot ran {} but wrote no {}.png{}", (dir / script).string(), name,
-                             output.empty() ? "" : ": " + output)};
-  return {};
+    return Error{fmt::format("gnuplot ran {} but drew no {}.png{}", (dir / script).string(), name,
+                             said.empty() ? "" : ": " + said)};
+  return (*output)->commit();
 }
 
 Status createPlotDirectory(const fs::path& dir) {

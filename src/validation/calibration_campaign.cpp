@@ -1,5 +1,7 @@
 #include "emcalign/validation/calibration_campaign.hpp"
 
+#include <sys/stat.h>
+
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -16,6 +18,7 @@
 #include "emcalign/core/sha256.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/core/version.hpp"
+#include "emcalign/io/output_file.hpp"
 #include "emcalign/io/strict_json.hpp"
 
 namespace emcalign::validation {
@@ -41,6 +44,44 @@ constexpr bool kSanitized = false;
 
 bool sameEnergy(double a, double b) { return std::isnan(a) || std::isnan(b) || a == b; }
 
+bool isSha256(const std::string& s) {
+  return s.size() == 64 &&
+         std::all_of(s.begin(), s.end(), [](char c) { return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'); });
+}
+
+// Every event in one file only, as one reader of all the files demands (io/event_file.hpp):
+// a copy of a file is named by its digest, another file holding the same events (a corrected
+// copy, another version) by the first event the two share.
+Status eachEventOnce(const std::vector<std::string>& files, const std::vector<std::string>& digests,
+                     const std::vector<std::map<std::int32_t, io::EventNumbers>>& eventsOf) {
+  std::map<std::string, std::size_t> byDigest;
+  for (std::size_t k = 0; k < files.size(); ++k) {
+    if (digests[k].empty()) continue;
+    auto [it, fresh] = byDigest.emplace(digests[k], k);
+    if (!fresh) {
+      return Error{fmt::format("{}: has the same content as {} (SHA-256 {}…): a copy, whose events would count twice",
+                               files[k], files[it->second], digests[k].substr(0, 12))};
+    }
+  }
+  std::map<std::int32_t, std::vector<std::size_t>> filesOfRun;
+  for (std::size_t k = 0; k < files.size(); ++k) {
+    for (const auto& [run, numbers] : eventsOf[k]) filesOfRun[run].push_back(k);
+  }
+  for (const auto& [run, ks] : filesOfRun) {
+    for (std::size_t a = 0; a < ks.size(); ++a) {
+      for (std::size_t b = a + 1; b < ks.size(); ++b) {
+        const auto common = eventsOf[ks[a]].at(run).firstCommon(eventsOf[ks[b]].at(run));
+        if (!common) continue;
+        return Error{fmt::format(
+            "run {} event {} is in {} and in {}: each event must appear once (a copy, a corrected copy or another "
+            "version of a file beside it?)",
+            run, *common, files[ks[a]], files[ks[b]])};
+      }
+    }
+  }
+  return {};
+}
+
 }  // namespace
 
 Result<std::vector<std::string>> eventFilesIn(const std::vector<std::string>& inputs) {
@@ -50,7 +91,10 @@ Result<std::vector<std::string>> eventFilesIn(const std::vector<std::string>& in
     if (fs::is_directory(in, ec)) {
       std::vector<std::string> found;
       for (const auto& e : fs::directory_iterator(in, ec)) {
+        const std::string name = e.path().filename().string();
         const std::string ext = e.path().extension().string();
+        // Hidden files and temporaries (a command writing or killed there) are not data.
+        if (name.starts_with(".") || io::isTemporaryName(name)) continue;
         if (e.is_regular_file() && (ext == ".h5" || ext == ".hdf5" || ext == ".csv"))
           found.push_back(e.path().string());
       }
@@ -59,10 +103,33 @@ Result<std::vector<std::string>> eventFilesIn(const std::vector<std::string>& in
       std::sort(found.begin(), found.end());
       files.insert(files.end(), found.begin(), found.end());
     } else {
+      if (io::isTemporaryName(fs::path(in).filename().string())) {
+        return Error{
+            fmt::format("{}: a temporary file of an emcalign command (being written, or left by one that "
+                        "was killed), not event data",
+                        in)};
+      }
       files.push_back(in);
     }
   }
   for (auto& f : files) f = fs::absolute(f).lexically_normal().string();
+  // A file given twice (by two names, or as a file and inside its directory) counts once.
+  std::vector<std::pair<std::pair<dev_t, ino_t>, std::size_t>> ids;
+  for (std::size_t k = 0; k < files.size(); ++k) {
+    struct stat st {};
+    if (::stat(files[k].c_str(), &st) != 0) continue;  // the reader says why
+    for (const auto& [id, j] : ids) {
+      if (id == std::pair{st.st_dev, st.st_ino}) {
+        return Error{files[k] == files[j]
+                         ? fmt::format("{}: given twice (by name, and inside a directory given?): its events would "
+                                       "count twice",
+                                       files[k])
+                         : fmt::format("{}: is the same file as {} (given twice?): its events would count twice",
+                                       files[k], files[j])};
+      }
+    }
+    ids.push_back({{st.st_dev, st.st_ino}, k});
+  }
   return files;
 }
 
@@ -118,6 +185,7 @@ Result<CampaignScan> scanRuns(const std::vector<std::string>& files, const Campa
   scan.files = files;
   scan.digests.assign(files.size(), "");
   std::vector<std::optional<Result<std::map<std::int32_t, calib::ProfileFill>>>> perFile(files.size());
+  std::vector<std::map<std::int32_t, io::EventNumbers>> eventsOf(files.size());
   std::vector<std::string> digestErrors(files.size());
   // Each file is decoded by a child process (io/event_file.hpp) while its reader selects:
   // one reader per core keeps the cores busy (measured on the SND-like period: 15 s with two
@@ -132,7 +200,8 @@ Result<CampaignScan> scanRuns(const std::vector<std::string>& files, const Campa
     tbb::parallel_for(
         std::size_t{0}, files.size(),
         [&](std::size_t k) {
-          perFile[k] = calib::fillProfilesByRun(files[k], model.depthAtEnergy(), model.selection, model.profile);
+          perFile[k] =
+              calib::fillProfilesByRun(files[k], model.depthAtEnergy(), model.selection, model.profile, &eventsOf[k]);
           const std::size_t n = ++done;
           if (o.progress) {
             std::lock_guard lock(progressMutex);
@@ -158,6 +227,7 @@ Result<CampaignScan> scanRuns(const std::vector<std::string>& files, const Campa
       });
     });
   }
+  if (Status s = eachEventOnce(files, scan.digests, eventsOf); !s) return s.error();
   // Merged in the order of the files: the same result on any number of threads.
   std::map<std::int32_t, CampaignRun> runs;
   for (std::size_t k = 0; k < files.size(); ++k) {
@@ -348,7 +418,9 @@ Result<CampaignPlan> readCampaignPlan(const std::string& path) {
     for (std::size_t i = 0; i < inputs.size(); ++i) {
       StrictObject in(inputs[i], fmt::format("inputs[{}]", i), path);
       in.allowOnly({"file", "sha256"});
-      plan.digests[in.string("file")] = in.string("sha256");
+      const std::string file = in.string("file"), sha = in.string("sha256");
+      if (!isSha256(sha)) in.fail(in.pathOf("sha256"), "expected the file's SHA-256 (64 hexadecimal digits)");
+      if (!plan.digests.emplace(file, sha).second) in.fail(in.pathOf("file"), "the file is listed twice");
     }
     const Json& groups = top.at("groups");
     if (!groups.is_array() || groups.empty()) top.fail("groups", "expected a non-empty list");
@@ -363,7 +435,7 @@ Result<CampaignPlan> readCampaignPlan(const std::string& path) {
       group.index = static_cast<int>(*index);
       const Json& iov = g.at("iov");
       if (!iov.is_array() || iov.size() != 2) g.fail(g.pathOf("iov"), "expected [first_run, last_run]");
-      constexpr std::int64_t kMinRun = std::numeric_limits<std::int32_t>::min();
+      constexpr std::int64_t kMinRun = 0;  // run numbers, as the conditions database takes them
       constexpr std::int64_t kMaxRun = std::numeric_limits<std::int32_t>::max();
       auto a = io::integerIn(iov[0], kMinRun, kMaxRun, path, where + ".iov[0]");
       auto b = io::integerIn(iov[1], kMinRun, kMaxRun, path, where + ".iov[1]");
@@ -386,10 +458,16 @@ Result<CampaignPlan> readCampaignPlan(const std::string& path) {
       if (!files.is_array() || files.empty()) g.fail(g.pathOf("files"), "expected a non-empty list of files");
       for (const Json& f : files) {
         if (!f.is_string()) g.fail(g.pathOf("files"), "expected file names");
-        group.files.push_back(f.get<std::string>());
+        const std::string file = f.get<std::string>();
+        if (std::find(group.files.begin(), group.files.end(), file) != group.files.end()) {
+          g.fail(g.pathOf("files"), fmt::format("{} is listed twice: its events would count twice", file));
+        }
+        if (!plan.digests.contains(file)) g.fail(g.pathOf("files"), fmt::format("{} is not among the inputs", file));
+        group.files.push_back(file);
       }
       const Json& e = g.at("beam_energy_mev");
       group.beamEnergy = e.is_null() ? kNoEnergy : g.number("beam_energy_mev");
+      if (!e.is_null() && !(group.beamEnergy > 0.0)) g.fail(g.pathOf("beam_energy_mev"), "expected a positive energy");
       auto selected = io::integerIn(g.at("selected_events"), 0, std::numeric_limits<std::int64_t>::max(), path,
                                     where + ".selected_events");
       if (!selected) return selected.error();
@@ -457,6 +535,49 @@ Result<GroupFit> fitGroup(const CampaignGroup& g, const calib::ProfileFill& fill
   return GroupFit{std::move(*result), std::move(resultJson), std::move(*payload)};
 }
 
+Result<bool> groupStored(conddb::Database& db, const std::string& tag, const CampaignGroup& g,
+                         const std::map<std::string, std::string>& digests) {
+  auto got = db.get(tag, g.iovFirst);
+  if (!got) return got.error();
+  if (!got->has_value()) return false;
+  const auto& [iov, payload] = **got;
+  const std::string group = fmt::format("group {} (runs {}-{})", g.index, g.iovFirst, g.iovLast);
+  if (iov.firstRun != g.iovFirst || iov.lastRun != g.iovLast) {
+    return Error{
+        fmt::format("{}: tag '{}' holds the IOV {}-{} over its runs: not this campaign's grouping (write to a "
+                    "new tag)",
+                    group, tag, iov.firstRun, iov.lastRun)};
+  }
+  std::multiset<std::string> expected, stored;
+  for (const auto& f : g.files) {
+    auto it = digests.find(f);
+    if (it == digests.end() || it->second.empty()) {
+      return Error{fmt::format("{}: no SHA-256 of its file {} to compare with what tag '{}' holds", group, f, tag)};
+    }
+    expected.insert(it->second);
+  }
+  const Json& provenance = payload.content.contains("provenance") ? payload.content["provenance"] : Json();
+  const Json recorded = provenance.is_object() ? provenance.value("input_sha256", Json()) : Json();
+  if (recorded.is_object()) {
+    for (const auto& [file, sha] : recorded.items()) {
+      if (sha.is_string()) stored.insert(sha.get<std::string>());
+    }
+  }
+  if (stored.empty()) {
+    return Error{
+        fmt::format("{}: tag '{}' holds its IOV from data whose digests it does not record (put by hand?): "
+                    "cannot tell it is the same data; write to a new tag",
+                    group, tag)};
+  }
+  if (stored != expected) {
+    return Error{
+        fmt::format("{}: tag '{}' holds its runs from other data (the SHA-256 of the files it was made from "
+                    "differ from those of {}): the same run numbers, another data set; write to a new tag",
+                    group, tag, g.files.size() == 1 ? g.files.front() : fmt::format("its {} files", g.files.size()))};
+  }
+  return true;
+}
+
 Result<std::vector<bool>> groupsInTag(conddb::Database& db, const std::string& tag,
                                       const std::vector<CampaignGroup>& groups) {
   std::vector<bool> done(groups.size(), false);
@@ -498,6 +619,12 @@ Result<CampaignReport> runCampaign(const CampaignScan& scan, const CampaignModel
   }
   std::map<std::string, std::string> digests;
   for (std::size_t k = 0; k < scan.files.size(); ++k) digests[scan.files[k]] = scan.digests[k];
+  // The groups stored already must be from this data (before any fit).
+  for (std::size_t k = 0; k < groups.size(); ++k) {
+    if (!(*done)[k]) continue;
+    auto same = groupStored(db, tag, groups[k], digests);
+    if (!same) return same.error();
+  }
 
   std::mutex dbMutex;                  // one connection, one transaction at a time
   std::set<std::string> corrWarnings;  // a single corrections file away from its energy
@@ -532,9 +659,15 @@ Result<CampaignReport> runCampaign(const CampaignScan& scan, const CampaignModel
                                                   g.index, g.iovFirst, g.iovLast, name(fit->result.status)));
             status = std::string(name(fit->result.status));
           } else if (Status s = db.put(tag, g.iovFirst, g.iovLast, fit->payload, true, o.description); !s) {
-            report.failures.push_back(
-                fmt::format("group {} (runs {}-{}): {}", g.index, g.iovFirst, g.iovLast, s.error().message));
-            status = "not stored";
+            // Another process may have stored this very group meanwhile (a batch retry).
+            if (auto same = groupStored(db, tag, g, digests); same && *same) {
+              ++report.resumed;
+              status = "stored by another process";
+            } else {
+              report.failures.push_back(
+                  fmt::format("group {} (runs {}-{}): {}", g.index, g.iovFirst, g.iovLast, s.error().message));
+              status = "not stored";
+            }
           } else {
             ++report.fitted;
             status = std::string(name(fit->result.status));
@@ -551,10 +684,10 @@ Result<CampaignReport> runCampaign(const CampaignScan& scan, const CampaignModel
   report.warnings.insert(report.warnings.end(), corrWarnings.begin(), corrWarnings.end());
   for (const CampaignGroup& g : groups) {
     if (g.isShort) {
-      report.warnings.push_back(
-          fmt::format("group {} (runs {}-{}, {:.1f} MeV): {} selected events, fewer than {} "
-                      "(its energy point has no more)",
-                      g.index, g.iovFirst, g.iovLast, g.beamEnergy, g.selected, o.minEvents));
+      report.warnings.push_back(fmt::format(
+          "group {} (runs {}-{}{}): {} selected events, fewer than {} ({})", g.index, g.iovFirst, g.iovLast,
+          std::isnan(g.beamEnergy) ? "" : fmt::format(", {:.1f} MeV", g.beamEnergy), g.selected, o.minEvents,
+          std::isnan(g.beamEnergy) ? "none of its events is selected" : "its energy point has no more"));
     }
   }
   std::sort(report.failures.begin(), report.failures.end());

@@ -165,7 +165,7 @@ Json sampleJson(const SampleResult& s, const CampaignOptions& o) {
 // Reads back what the table needs from a sample file; none if it is not a finished sample
 // of this campaign.
 std::optional<SampleResult> readSample(const std::string& path, int sampleIndex, const CampaignOptions& o, double r1) {
-  auto text = io::readTextFile(path);
+  auto text = io::readOwnOutput(path);
   if (!text) return std::nullopt;
   auto j = io::parseJson(*text, path);
   if (!j || !j->is_object() || !j->contains("format") || (*j)["format"] != kSampleFormat) return std::nullopt;

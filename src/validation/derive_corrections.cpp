@@ -507,7 +507,10 @@ Result<std::vector<GridPoint>> planGrid(const std::string& dir, const std::vecto
     GridPoint p{e, (fs::path(dir) / calib::gridPointName(e)).string(), false};
     std::error_code ec;
     if (fs::is_regular_file(p.file, ec)) {
-      auto c = calib::readCorrections(p.file);  // unreadable or other settings: derived again
+      // This command's own output of an earlier run: unreadable or other settings, derived again.
+      auto text = io::readOwnOutput(p.file);
+      auto j = text ? io::parseJson(*text, p.file) : Result<Json>(text.error());
+      auto c = j ? calib::parseCorrections(*j, p.file) : Result<calib::ModelCorrections>(j.error());
       p.done = c && c->derivedFrom.is_object() && c->derivedFrom.value("settings", Json()) == settingsAt(e);
     }
     names.insert(fs::path(p.file).filename().string());

@@ -339,7 +339,7 @@ Status claimPeriodDirectory(const std::string& dir, const PeriodScenario& s, con
                       {"software", fmt::format("emcalign {}", kVersion)}};
   const std::string statePath = (fs::path(dir) / "period.json").string();
   if (fs::exists(statePath)) {
-    auto text = io::readTextFile(statePath);
+    auto text = io::readOwnOutput(statePath);
     if (!text) return text.error();
     auto old = io::parseJson(*text, statePath);
     if (!old || !old->is_object() || old->value("scenario", Json()) != s.source ||

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <set>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -174,6 +175,48 @@ Result<RefittedSegment> refitPeriod(const TrendSegment& seg, std::size_t k, std:
 }
 
 }  // namespace
+
+Result<std::vector<std::string>> checkRefitData(conddb::TagSnapshot& tag, const CampaignScan& scan) {
+  std::vector<std::string> warnings;
+  std::map<std::string, std::string> recorded;  // SHA-256 → the file's name and IOV when recorded
+  for (const conddb::Iov& iov : tag.iovs()) {
+    auto p = tag.payload(iov);
+    if (!p) return p.error();
+    const Json& provenance = (*p)->content.contains("provenance") ? (*p)->content["provenance"] : Json();
+    const Json digests = provenance.is_object() ? provenance.value("input_sha256", Json()) : Json();
+    if (!digests.is_object() || digests.empty()) {
+      warnings.push_back(
+          fmt::format("tag {}: the calibration of runs {}-{} records no digests of its data: the refit "
+                      "cannot check it reads the same events",
+                      tag.tag().name, iov.firstRun, iov.lastRun));
+      continue;
+    }
+    for (const auto& [file, sha] : digests.items()) {
+      if (sha.is_string())
+        recorded.emplace(sha.get<std::string>(), fmt::format("{} (runs {}-{})", file, iov.firstRun, iov.lastRun));
+    }
+  }
+  if (recorded.empty()) return warnings;
+  std::set<std::string> given;
+  for (std::size_t k = 0; k < scan.files.size() && k < scan.digests.size(); ++k) {
+    given.insert(scan.digests[k]);
+    if (!recorded.contains(scan.digests[k])) {
+      return Error{
+          fmt::format("--refit: {} is not one of the files tag {} was made from (another period's file, or "
+                      "a file changed since?): a refit reads the tag's own data",
+                      scan.files[k], tag.tag().name)};
+    }
+  }
+  for (const auto& [sha, where] : recorded) {
+    if (!given.contains(sha)) {
+      return Error{
+          fmt::format("--refit: the data lack {} (SHA-256 {}…), which tag {} was made from: a refit reads "
+                      "all of the tag's data",
+                      where, sha.substr(0, 12), tag.tag().name)};
+    }
+  }
+  return warnings;
+}
 
 Result<SegmentRefit> refitSegments(const Trend& trend, const std::vector<TrendSeries>& series, conddb::TagSnapshot& tag,
                                    const CampaignScan& scan, const CampaignModel& model, const PeriodTruth* truth) {

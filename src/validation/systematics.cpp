@@ -64,7 +64,7 @@ Result<calib::ModelCorrections> reverseCorrections(const geometry::Calorimeter& 
                                                    const std::function<void(std::int64_t)>& eventsDone) {
   const Json settings = reverseSettings(d, campaign, v);
   if (fs::exists(file)) {
-    auto text = io::readTextFile(file);
+    auto text = io::readOwnOutput(file);
     if (!text) return text.error();
     auto j = io::parseJson(*text, file);
     if (!j) return j.error();

@@ -33,7 +33,7 @@ class CheckCli : public ::testing::Test {
     const auto r = run(fmt::format("check {} {} --alignment {} -o {}", process, events, alignment, path(out)));
     EXPECT_EQ(r.exitCode, 0) << r.err;
     for (const auto& e : fs::directory_iterator(path(out))) {
-      EXPECT_EQ(e.path().filename().string().rfind(".corrected", 0), std::string::npos) << "left: " << e.path();
+      EXPECT_EQ(e.path().filename().string().find(".tmp-"), std::string::npos) << "left: " << e.path();
     }
     return json::parse(emcalign::testing::slurp(path(out + "/check.json")));
   }

@@ -276,4 +276,58 @@ TEST(ConditionsCopy, BetweenBackEnds) {
   fs::remove_all(dir);
 }
 
+// A password given in the URI (which the test server, trusting local connections, never asks
+// for) leaves no trace: not in a message, a file, a corrected event file, a report, or the
+// databases themselves (a copied tag's description).
+TEST(ConditionsSecrets, APasswordInTheUriIsPrintedWrittenAndStoredNowhere) {
+  const fs::path dir = emcalign::testing::freshTestDirectory("emcalign_conditions_secret");
+  const std::string secret = "Hunter2Secret", other = "Other9Secret";
+  std::string pg = emcalign::testing::freshPostgresDatabase();  // postgresql://user@host:port/db
+  const auto at = pg.find('@');
+  const std::string withPassword = pg.substr(0, at) + ":" + secret + pg.substr(at) + "?password=" + other;
+  const std::string uri = "'" + withPassword + "'";
+  std::string said;
+  auto run = [&](const std::string& args) {
+    auto r = emcalign::testing::runEmcalign(dir, args);
+    said += r.out + r.err;
+    EXPECT_EQ(r.exitCode, 0) << args << "\n" << r.err;
+    return r;
+  };
+  std::string text = kParams;
+  text.replace(text.find("ALPHA"), 5, "2.8");
+  text.replace(text.find("DX"), 2, "0.3");
+  std::ofstream(dir / "a.json") << text;
+  std::ofstream(dir / "period.json") << R"({"format": "emcalign-period/1", "first_run": 1, "runs": 4,
+    "events_per_run": 1000, "seed": 1, "theta_range_deg": [40, 140], "beam_energy_mev": [{"from_run": 1, "value": 612.5}],
+    "segments": [{"from_run": 1, "parameters": {"alpha": 2.8, "dx": 0.3}}]})";
+  const auto p = [&](const char* name) { return (dir / name).string(); };
+  run("conditions init " + uri);
+  run(fmt::format("conditions put {} --tag t --runs 1-10 {}", uri, p("a.json")));
+  run(fmt::format("simulate --period {} -o {} --no-hits", p("period.json"), p("period")));
+  run(fmt::format("campaign {} --conditions {} --tag c --min-events 1500", p("period"), uri));
+  run(fmt::format("trend --conditions {} --tag c -o {}", uri, p("TD")));
+  run(fmt::format("simulate --events 500 --run 3 --conditions {} --tag t -o {}", uri, p("r3.csv")));
+  run(fmt::format("correct {} --conditions {} --tag t -o {}", p("r3.csv"), uri, p("c3.csv")));
+  run(fmt::format("simulate --process gg --events 3000 --run 3 --params {} -o {}", p("a.json"), p("gg.h5")));
+  run(fmt::format("check gg {} --conditions {} --tag t -o {}", p("gg.h5"), uri, p("CK")));
+  run(fmt::format("report --conditions {} --tag c --trend {} -o {}", uri, p("TD"), p("report.html")));
+  run(fmt::format("conditions copy {} {} --tag t --as t2", uri, uri));
+  run(fmt::format("conditions copy {} sqlite:{} --tag t", uri, p("copy.db")));
+  run("conditions list " + uri);
+  run(fmt::format("conditions get {} --tag t --run 5 -o {}", uri, p("got.json")));
+  // The shown form is there, the password nowhere.
+  EXPECT_NE(said.find(pg.substr(0, pg.find('?'))), std::string::npos) << said;
+  for (const std::string& s : {secret, other}) {
+    EXPECT_EQ(said.find(s), std::string::npos) << "printed: " << said;
+    for (const auto& e : fs::recursive_directory_iterator(dir)) {
+      if (!e.is_regular_file()) continue;
+      EXPECT_EQ(emcalign::testing::slurp(e.path()).find(s), std::string::npos) << "written into " << e.path();
+    }
+  }
+  const json copied = json::parse(run(fmt::format("conditions list {} --tag t2 --json", uri)).out);
+  EXPECT_NE(copied["description"].get<std::string>().find("copy of postgresql://"), std::string::npos);
+  EXPECT_EQ(copied.dump().find(secret), std::string::npos) << "stored in the database: " << copied.dump();
+  fs::remove_all(dir);
+}
+
 }  // namespace

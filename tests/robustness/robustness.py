@@ -265,6 +265,72 @@ def cases():
              "emcalign simulate --events 50000000 --params p.json -o big.h5", 0, check=no_temporaries,
              run=killed_then_rerun, checked="the rerun removed the big.h5.tmp-PID of the killed process"))
 
+    # The seams (issue 28): every output against every input, the database included, also the
+    # files a command writes inside its output directories, through links.
+    s_db, c_db = unchanged("c.db")
+
+    def db_unchanged_setup(extra=lambda d: None):
+        def setup(d):
+            conditions_db(d)
+            s_db(d)
+            extra(d)
+        return setup
+    add(Case(F, "a parameter file over the conditions database", "emcalign conditions get c.db --tag t --run 1 -o c.db",
+             1, "same file as the input database", setup=db_unchanged_setup(), check=c_db,
+             checked="database unchanged"))
+    add(Case(F, "... through a symbolic link to it", "emcalign conditions get c.db --tag t --run 1 -o latest.db", 1,
+             "same file as the input database",
+             setup=db_unchanged_setup(lambda d: os.symlink("c.db", os.path.join(d, "latest.db"))), check=c_db,
+             checked="database unchanged"))
+    s2, c2 = unchanged("c2.json")
+    add(Case(F, "a campaign's job list over its corrections",
+             "emcalign campaign period --plan c2.json --corrections c2.json", 1, "same file as the input --corrections",
+             setup=lambda d: (shutil.copy(os.path.join(d, "c.json"), os.path.join(d, "c2.json")), s2(d)), check=c2))
+    s3, c3 = unchanged("d.json")
+    add(Case(F, "a job list over the detector", "emcalign campaign period --plan d.json --detector d.json", 1,
+             "same file as the input --detector", setup=s3, check=c3))
+
+    def trend_dir(name):
+        def setup(d):
+            runner_binary_run(d, ["trend", "--conditions", "camp.db", "--tag", "c", "-o", name])
+        return setup
+    s4, c4 = unchanged("TR/trend.json")
+    add(Case(F, "the report over the trend it reports", "emcalign report --trend TR -o TR/trend.json", 1,
+             "same file as the input --trend", setup=lambda d: (trend_dir("TR")(d), s4(d)), check=c4))
+
+    def validation_dir(d):
+        runner_binary_run(d, ["validate", "--samples", "1", "--events", "1000", "-o", "VA"])
+    s5, c5 = unchanged("VA/table.json")
+    add(Case(F, "the report over the validation it reports", "emcalign report --validation VA -o VA/table.json", 1,
+             "same file as the input --validation", setup=lambda d: (validation_dir(d), s5(d)), check=c5))
+
+    def check_dir(d):
+        runner_binary_run(d, ["simulate", "--process", "gg", "--events", "3000", "--params", "p.json", "-o", "gg.h5"])
+        runner_binary_run(d, ["check", "gg", "gg.h5", "--alignment", "p.json", "-o", "CK"])
+    s6, c6 = unchanged("CK/check.json")
+    add(Case(F, "the report over a check it reports", "emcalign report --checks CK -o CK/check.json", 1,
+             "same file as the input --checks", setup=lambda d: (check_dir(d), s6(d)), check=c6))
+    s7, c7 = unchanged("camp.db")
+
+    def planted(link, target):
+        def setup(d):
+            os.makedirs(os.path.dirname(os.path.join(d, link)), exist_ok=True)
+            os.symlink(os.path.relpath(os.path.join(d, target), os.path.dirname(os.path.join(d, link))),
+                       os.path.join(d, link))
+        return setup
+    add(Case(F, "a link planted in a trend's directory to the database",
+             "emcalign trend --conditions camp.db --tag c -o TD", 1, "TD/trend.json is a link to the input --conditions",
+             setup=lambda d: (planted("TD/trend.json", "camp.db")(d), s7(d)), check=c7, checked="database unchanged"))
+    s8, c8 = unchanged("ev.h5")
+    add(Case(F, "a link planted in a check's directory to the events",
+             "emcalign check gg ev.h5 --alignment p.json -o CL", 1, "CL/check.json is a link to the input ev.h5",
+             setup=lambda d: (planted("CL/check.json", "ev.h5")(d), s8(d)), check=c8, checked="events unchanged"))
+    s9, c9 = unchanged("ev.csv")
+    add(Case(F, "a figure's name linked to the events (gnuplot draws into a temporary)",
+             "emcalign fit ev.csv -o r.json --plots PL", 1, "PL/profile_phi.png is a link to the input ev.csv",
+             setup=lambda d: (planted("PL/profile_phi.png", "ev.csv")(d), s9(d)), check=c9,
+             checked="events unchanged"))
+
     # ---- Crashes ---------------------------------------------------------------------------
     C = "Crashes"
 
@@ -599,6 +665,46 @@ def cases():
              check=lambda d, r: no_temporaries(d, r) or ("out.h5 written" if os.path.exists(os.path.join(d, "out.h5"))
                                                          else None), checked="nothing written"))
 
+    def edited_payload(d):
+        import sqlite3
+        conditions_db(d)
+        c = sqlite3.connect(os.path.join(d, "c.db"))
+        c.execute("UPDATE emcalign_payloads SET content = replace(content, '\"alpha\":', '\"alpha\":1')")
+        c.commit()
+        c.close()
+    add(Case(D, "a payload edited behind the tool's back: not served", "emcalign conditions get c.db --tag t --run 1 "
+             "-o got.json", 1, "no longer has that hash", setup=edited_payload,
+             check=lambda d, r: "got.json written" if os.path.exists(os.path.join(d, "got.json")) else None,
+             checked="nothing written"))
+    add(Case(D, "... nor reported", "emcalign report --conditions c.db --tag t -o edited.html", 1,
+             "no longer has that hash", setup=edited_payload,
+             check=lambda d, r: "a report written" if os.path.exists(os.path.join(d, "edited.html")) else None,
+             checked="nothing written"))
+
+    def described(description_sql):
+        def setup(d):
+            import sqlite3
+            conditions_db(d)
+            c = sqlite3.connect(os.path.join(d, "c.db"))
+            c.execute(f"UPDATE emcalign_tags SET description = {description_sql} WHERE name = 't'")
+            c.commit()
+            c.close()
+        return setup
+
+    def printed(expected, forbidden):
+        def check(d, r):
+            if any(f in r.out for f in forbidden):
+                return "raw bytes printed"
+            return None if expected in r.out else f"{expected!r} not in the listing"
+        return check
+    add(Case(D, "a description that is not UTF-8 (written by hand)", "emcalign conditions list c.db", 0,
+             setup=described("CAST(X'6E616976E9' AS TEXT)"), check=printed("naiv\\xe9", ["\udce9", "\ufffd"]),
+             checked="printed escaped: naiv\\xe9"))
+    add(Case(D, "terminal escapes in a description", "emcalign conditions list c.db", 0,
+             setup=described("'x' || char(27) || ']0;owned' || char(7) || char(27) || '[2J'"),
+             check=printed("\\x1b]0;owned\\x07\\x1b[2J", ["\x1b", "\x07"]),
+             checked="control characters printed escaped"))
+
     # ---- Periods, campaigns and trends ---------------------------------------------------------
     P = "Periods, campaigns and trends"
 
@@ -688,13 +794,251 @@ def cases():
     add(Case(P, "a refit with other corrections than the campaign's", "emcalign trend --conditions camp.db --tag c "
              "-o tr --refit period --tag-out c2 --corrections c.json", 1, "was made without corrections"))
 
+    # ---- Mixes data sets (issue 28) ------------------------------------------------------------
+    X = "Mixes data sets"
+
+    def period_copy(name, change=lambda d, target: None):
+        def setup(d):
+            target = os.path.join(d, name)
+            if os.path.exists(target):
+                shutil.rmtree(target)
+            shutil.copytree(os.path.join(d, "period"), target)
+            change(d, target)
+        return setup
+
+    def nothing_stored(db):
+        def check(d, r):
+            path = os.path.join(d, db)
+            if not os.path.exists(path):
+                return None
+            out = subprocess.run([runner_binary[0], "conditions", "list", db, "--json"], cwd=d, capture_output=True,
+                                 text=True).stdout
+            return None if out.strip() in ("", "[]") else f"{db} holds tags: {out[:200]}"
+        return check
+    add(Case(X, "a campaign given a run file twice (as a file and in its directory)",
+             "emcalign campaign period period/run_000002.h5 --conditions m1.db --tag m", 1, "given twice",
+             check=nothing_stored("m1.db"), checked="nothing stored"))
+    add(Case(X, "a copy of a run file in the directory", "emcalign campaign PC --conditions m2.db --tag m", 1,
+             "has the same content as", setup=period_copy(
+                 "PC", lambda d, t: shutil.copy(os.path.join(t, "run_000002.h5"), os.path.join(t, "run_000002b.h5"))),
+             check=nothing_stored("m2.db"), checked="nothing stored"))
+
+    def corrected_copy(d, target):
+        runner_binary_run(d, ["correct", os.path.join(target, "run_000003.h5"), "--alignment", "p.json", "-o",
+                              os.path.join(target, "run_000003_corrected.h5")])
+    add(Case(X, "a corrected copy beside its original", "emcalign campaign PCC --conditions m3.db --tag m", 1,
+             "run 3 event", setup=period_copy("PCC", corrected_copy), check=nothing_stored("m3.db"),
+             checked="nothing stored"))
+
+    def leftovers(d, target):
+        shutil.copy(os.path.join(target, "run_000001.h5"), os.path.join(target, ".corrected-99999.h5"))
+        shutil.copy(os.path.join(target, "run_000001.h5"), os.path.join(target, "run_000001.h5.tmp-99999"))
+
+    def same_groups_as_campaign(db):
+        def check(d, r):
+            def iovs(database, tag):
+                out = subprocess.run([runner_binary[0], "conditions", "list", database, "--tag", tag, "--json"], cwd=d,
+                                     capture_output=True, text=True).stdout
+                return [(i["first_run"], i["last_run"], i["selected_events"]) for i in json.loads(out)["iovs"]]
+            return None if iovs(db, "m") == iovs("camp.db", "c") else "other IOVs or event counts than without them"
+        return check
+    add(Case(X, "leftover temporaries in the directory (a killed check's, a killed writer's): not read",
+             "emcalign campaign PT --conditions m4.db --tag m --min-events 1500", 0,
+             setup=period_copy("PT", leftovers), check=same_groups_as_campaign("m4.db"),
+             checked="the same IOVs and selected events as without them"))
+    add(Case(X, "another process's temporary named as an input",
+             "cp ev.h5 ev.h5.tmp-99999 && emcalign fit ev.h5.tmp-99999 -o r.json", 1,
+             "a temporary file of an emcalign command"))
+    add(Case(X, "a refit with a run file missing",
+             "emcalign trend --conditions camp.db --tag c -o trm --refit PM --tag-out c2", 1, "the data lack",
+             setup=period_copy("PM", lambda d, t: os.unlink(os.path.join(t, "run_000004.h5")))))
+
+    def other_period(d):
+        if not os.path.isdir(os.path.join(d, "other")):
+            edit_json(d, "period.json", "period2.json", lambda j: j.update(seed=2))
+            runner_binary_run(d, ["simulate", "--period", "period2.json", "-o", "other", "--no-hits"])
+    add(Case(X, "a refit on another period's files (the same run numbers)",
+             "emcalign trend --conditions camp.db --tag c -o tro --refit other --tag-out c2", 1,
+             "is not one of the files tag c was made from", setup=other_period))
+
+    def run99(d):
+        runner_binary_run(d, ["simulate", "--events", "500", "--run", "99", "--params", "p.json", "-o", "run99.h5"])
+    add(Case(X, "a refit with an unrelated file added",
+             "emcalign trend --conditions camp.db --tag c -o tru --refit period run99.h5 --tag-out c2", 1,
+             "run99.h5 is not one of the files tag c was made from", setup=run99))
+    tag_c = {}
+
+    def keep_tag(d):
+        tag_c["before"] = subprocess.run([runner_binary[0], "conditions", "list", "camp.db", "--tag", "c", "--json"],
+                                         cwd=d, check=True, capture_output=True, text=True).stdout
+
+    def tag_kept(d, r):
+        after = subprocess.run([runner_binary[0], "conditions", "list", "camp.db", "--tag", "c", "--json"], cwd=d,
+                               check=True, capture_output=True, text=True).stdout
+        return None if after == tag_c["before"] else "tag c was changed"
+    add(Case(X, "a campaign resuming a tag with another data set of the same runs",
+             "emcalign campaign other --conditions camp.db --tag c --min-events 1500", 1,
+             "holds its runs from other data", setup=lambda d: (other_period(d), keep_tag(d)), check=tag_kept,
+             checked="tag unchanged"))
+
+    def other_plan(d):
+        other_period(d)
+        runner_binary_run(d, ["campaign", "other", "--plan", "other-plan.json", "--min-events", "1500"])
+    add(Case(X, "a batch job whose group is stored from other data",
+             "emcalign campaign --plan other-plan.json --group 0 --conditions camp.db --tag c", 1,
+             "holds its runs from other data", setup=other_plan))
+
+    def edited_plan(name, change):
+        def setup(d):
+            plan(d)
+            edit_json(d, "plan.json", name, change)
+        return setup
+    add(Case(X, "a plan edited by hand: a group lists a file twice",
+             "emcalign campaign --plan twice.json --group 0 --conditions p1.db --tag p", 1,
+             "groups[0].files", setup=edited_plan("twice.json", lambda j: j["groups"][0]["files"].append(
+                 j["groups"][0]["files"][0]))))
+    add(Case(X, "a plan edited by hand: a beam energy the events do not have",
+             "emcalign campaign --plan energy.json --group 0 --conditions p2.db --tag p", 1,
+             "the plan energy.json says beam energy 700 MeV",
+             setup=edited_plan("energy.json", lambda j: j["groups"][0].__setitem__("beam_energy_mev", 700.0)),
+             check=nothing_stored("p2.db"), checked="nothing stored"))
+    add(Case(X, "a plan edited by hand: an IOV of negative runs",
+             "emcalign campaign --plan negative.json --group 0 --conditions p3.db --tag p", 1,
+             "groups[0].iov[0]", setup=edited_plan("negative.json", lambda j: j["groups"][0]["iov"].__setitem__(0, -5))))
+    add(Case(X, "a plan edited by hand: an empty digest",
+             "emcalign campaign --plan nodigest.json --group 0 --conditions p4.db --tag p", 1,
+             "inputs[0].sha256", setup=edited_plan("nodigest.json", lambda j: j["inputs"][0].__setitem__("sha256", ""))))
+
+    def three_at_once(runner, command):
+        script = ("for i in 1 2 3; do " + command + " & done; rc=0; for j in 1 2 3; do wait -n || rc=1; done; "
+                  "exit $rc")
+        return runner.shell(script)
+    add(Case(X, "three copies of one batch job at once (a batch system's retry): all succeed",
+             "emcalign campaign --plan plan.json --group 1 --conditions b3.db --tag b", 0, setup=plan,
+             run=three_at_once, check=lambda d, r: None if r.err.count("error") == 0 else "an error was printed",
+             checked="every copy exits 0, none prints an error"))
+
+    def killed_check_then_rerun(runner, command):
+        d = runner.dir
+        runner_binary_run(d, ["simulate", "--process", "gg", "--events", "400000", "--params", "p.json",
+                              "--no-hits", "-o", "big-gg.h5"])
+        out = os.path.join(d, "CKK")
+        os.makedirs(out, exist_ok=True)
+        p = subprocess.Popen([runner.binary, "check", "gg", "big-gg.h5", "--alignment", "p.json", "-o", "CKK"], cwd=d,
+                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        deadline = time.monotonic() + TIMEOUT
+        while time.monotonic() < deadline and p.poll() is None:
+            if any(".tmp-" in n for n in os.listdir(out)):
+                break
+            time.sleep(0.02)
+        time.sleep(0.2)
+        p.kill()
+        p.wait()
+        if not any(".tmp-" in n for n in os.listdir(out)):
+            return Result(-1, "", "kill -9 left no temporary to clean", 0)
+        return runner.shell(command)
+
+    def clean_check_dir(d, r):
+        left = [n for n in os.listdir(os.path.join(d, "CKK")) if ".tmp-" in n or n.startswith(".corrected")]
+        return f"left in CKK: {left}" if left else None
+    add(Case(X, "a check killed (kill -9), then run again: its temporary corrected events are removed",
+             "emcalign simulate --process gg --events 3000 --params p.json -o small-gg.h5 && "
+             "emcalign check gg small-gg.h5 --alignment p.json -o CKK", 0, run=killed_check_then_rerun,
+             check=clean_check_dir, checked="no temporary left in CKK"))
+
+    # ---- Leaks secrets (issue 28) ------------------------------------------------------------
+    L = "Leaks secrets"
+
+    def hides(*secrets):
+        def check(d, r):
+            shown = [s for s in secrets if s in r.err or s in r.out]
+            created = [n for n in os.listdir(d) if any(s in n for s in secrets)]
+            if shown:
+                return f"shown: {shown}"
+            return f"files named with it: {created}" if created else None
+        return check
+    add(Case(L, "a password as a URI parameter", "emcalign conditions list "
+             "'postgresql://me@127.0.0.1:1/db?password=hunter2secret'", 1, "cannot connect",
+             check=hides("hunter2secret"), checked="the password is not shown"))
+    add(Case(L, "a raw '/' in the password", "emcalign conditions list 'postgresql://me:hunt/er2secret@127.0.0.1:1/db'",
+             1, "must be percent-encoded", check=hides("hunt", "er2secret"), checked="no part of it shown"))
+    add(Case(L, "a raw '@' in the password", "emcalign conditions list 'postgresql://me:hunt@er2secret@127.0.0.1:1/db'",
+             1, "must be percent-encoded", check=hides("hunt", "er2secret"), checked="no part of it shown"))
+    add(Case(L, "a malformed URI (libpq quotes it whole)",
+             "emcalign conditions list 'postgresql://me:hunter2secret@[::1:1/db'", 1, "cannot connect",
+             check=hides("hunter2secret"), checked="the password is not shown"))
+    add(Case(L, "a percent-encoded password parameter", "emcalign conditions list "
+             "'postgresql://me@127.0.0.1:1/db?pass%77ord=hunter2secret'", 1, "cannot connect",
+             check=hides("hunter2secret"), checked="the password is not shown"))
+    add(Case(L, "a libpq keyword string", "emcalign conditions init 'host=127.0.0.1 password=hunter2secret dbname=x'",
+             1, "keyword string", check=hides("hunter2secret"), checked="not shown, no file created"))
+
+    def result_naming(d):
+        os.mkfifo(os.path.join(d, "named.fifo"))
+        edit_json(d, "result.json", "rnamed.json",
+                  lambda j: j["input"].__setitem__("files", ["/etc/shadow", os.path.join(d, "named.fifo")]))
+
+    def nothing_opened(d, r):
+        with open(os.path.join(d, "rnamed.html")) as f:
+            html = f.read()
+        return None if "not taken" in html else "a digest of a file the command line does not name"
+    add(Case(L, "a fit result naming a system file and a FIFO as its inputs",
+             "emcalign report --fit rnamed.json -o rnamed.html", 0, setup=result_naming, check=nothing_opened,
+             checked="neither opened: no digest taken, no hang"))
+
+    # ---- Loses data quietly (issue 28) ---------------------------------------------------------
+    Q = "Loses data quietly"
+    add(Case(Q, "an in-memory database", "emcalign conditions init :memory:", 1, "in-memory SQLite database"))
+    add(Case(Q, "an in-memory database for a campaign",
+             "emcalign campaign period --conditions sqlite::memory: --tag m --min-events 1500", 1,
+             "in-memory SQLite database"))
+    add(Case(Q, "an SQLite URI filename with mode=memory", "emcalign conditions init 'sqlite:file:m.db?mode=memory'", 1,
+             "SQLite URI filenames"))
+    add(Case(Q, "an SQLite URI filename without locking (vfs=unix-none)",
+             "emcalign conditions put 'sqlite:file:c.db?vfs=unix-none' --tag t --runs 50-60 p.json", 1,
+             "SQLite URI filenames", setup=conditions_db))
+    add(Case(Q, "a listing to a full disk", "emcalign conditions list c.db > /dev/full", 1,
+             "standard output: write failed: No space left on device", setup=conditions_db))
+    add(Case(Q, "the counter table to a full disk", "emcalign geometry --counters > /dev/full", 1,
+             "standard output: write failed: No space left on device"))
+
+    # ---- Hangs on what is not a file (issue 28) -------------------------------------------------
+    N = "Hangs on what is not a file"
+
+    def fifo(name):
+        def setup(d):
+            if not os.path.exists(os.path.join(d, name)):
+                os.mkfifo(os.path.join(d, name))
+        return setup
+    add(Case(N, "a FIFO as the alignment", "emcalign export --alignment fa.json --format json -o pl.json", 1,
+             "is a FIFO (named pipe), not a regular file", setup=fifo("fa.json")))
+    add(Case(N, "a FIFO as the fit result of a report", "emcalign report --fit fa.json -o r.html", 1,
+             "is a FIFO (named pipe), not a regular file", setup=fifo("fa.json")))
+    add(Case(N, "a FIFO as a campaign's plan", "emcalign campaign --plan fa.json --group 0 --conditions camp.db --tag c",
+             1, "is a FIFO (named pipe), not a regular file", setup=fifo("fa.json")))
+    add(Case(N, "a FIFO as a trend's truth", "emcalign trend --conditions camp.db --tag c --truth fa.json -o trf", 1,
+             "is a FIFO (named pipe), not a regular file", setup=fifo("fa.json")))
+    add(Case(N, "/dev/zero as the detector", "emcalign geometry --detector /dev/zero", 1,
+             "is a character device, not a regular file"))
+
+    def fifo_in_plan(d):
+        plan(d)
+        fifo("fe.h5")(d)
+
+        def change(j):
+            j["inputs"].append({"file": os.path.join(d, "fe.h5"), "sha256": "0" * 64})
+            j["groups"][0]["files"] = [os.path.join(d, "fe.h5")]
+        edit_json(d, "plan.json", "fifo-plan.json", change)
+    add(Case(N, "a FIFO among a plan's files", "emcalign campaign --plan fifo-plan.json --group 0 --conditions p5.db "
+             "--tag p", 1, "is a FIFO (named pipe), not a regular file", setup=fifo_in_plan))
+
     # ---- Physics checks ------------------------------------------------------------------------
     K = "Physics checks"
 
     def nothing_left(out):
         def check(d, r):
             o = os.path.join(d, out)
-            left = [n for n in os.listdir(o) if n.startswith(".corrected")] if os.path.isdir(o) else []
+            left = [n for n in os.listdir(o) if n.startswith(".corrected") or ".tmp-" in n] if os.path.isdir(o) else []
             return f"left in {out}: {left}" if left else None
         return check
     add(Case(K, "a check with a tag that does not cover the runs", "emcalign check gg ev.h5 --conditions c.db --tag late "
@@ -758,6 +1102,21 @@ def cases():
              "cannot read: Permission denied", setup=unreadable))
     add(Case(M, "an HDF5 file that is not HDF5", "echo hello > fake.h5 && emcalign fit fake.h5 -o r.json", 1,
              "not an HDF5 file"))
+
+    def gg_only(d):
+        runner_binary_run(d, ["simulate", "--process", "gg", "--events", "2000", "--params", "p.json", "-o",
+                              "only-gg.h5"])
+    add(Case(M, "a campaign whose one group has no selected event: no 'nan MeV'",
+             "emcalign campaign only-gg.h5 --conditions g.db --tag g", 1, "none of its events is selected",
+             setup=gg_only, check=lambda d, r: "nan printed" if "nan" in r.err.lower() else None,
+             checked="no nan in the messages"))
+
+    def csv_run5(d):
+        runner_binary_run(d, ["simulate", "--events", "500", "--run", "5", "--params", "p.json", "-o", "ev5.csv"])
+    add(Case(M, "a check whose second input lacks what the first one has: the input is named, not the temporary",
+             "emcalign check gg ev.h5 ev5.csv --alignment p.json -o CKM", 1, "ev5.csv: has no", setup=csv_run5,
+             check=lambda d, r: "the temporary is named" if ".tmp-" in r.err else None,
+             checked="no temporary named"))
     return out
 
 

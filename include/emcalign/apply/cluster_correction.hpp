@@ -13,6 +13,7 @@
 
 #include <utility>
 
+#include "emcalign/core/result.hpp"
 #include "emcalign/geometry/alignment_transform.hpp"
 #include "emcalign/geometry/shower_depth.hpp"
 
@@ -21,5 +22,14 @@ namespace emcalign::apply {
 /// The corrected (φ', θ') of a cluster, rad; φ' in [0, 2π), θ' in [0, π].
 std::pair<double, double> correctDirection(const geometry::AlignmentTransform& transform,
                                            const geometry::ShowerDepth& depth, double phi, double theta, double energy);
+
+/// The largest cluster energy taken (MeV): a collider's beams are a few GeV; 1e300 is a
+/// unit or a column mistake.
+inline constexpr double kMaxClusterEnergyMeV = 1e5;
+
+/// A cluster as the correction takes it from columns a caller filled (Python): energy finite
+/// in (0, 1e5] MeV, θ in [0, π], φ in [0, 2π] (rad, as event files hold them). The error
+/// names the value and its field; NaN energy (no cluster) is the caller's to skip.
+Status checkCluster(double phi, double theta, double energy);
 
 }  // namespace emcalign::apply

@@ -15,6 +15,7 @@
 #include "emcalign/calib/profiles.hpp"
 #include "emcalign/calib/selection.hpp"
 #include "emcalign/core/result.hpp"
+#include "emcalign/io/event_numbers.hpp"
 #include "emcalign/io/json_files.hpp"
 
 namespace emcalign::calib {
@@ -69,11 +70,11 @@ Result<ProfileFill> fillProfiles(const std::vector<std::string>& files, const ge
 /// The profiles of each run of a file (rows of one run contiguous or not), for a campaign
 /// that groups runs: run → its fill. A run's residuals are built at the depth of the beam
 /// energy of its first row (the selection's when it overrides the files'); an error of
-/// `depthAt` names the run.
-Result<std::map<std::int32_t, ProfileFill>> fillProfilesByRun(const std::string& file,
-                                                              const geometry::DepthAtEnergy& depthAt,
-                                                              const SelectionOptions& selection,
-                                                              const ProfileOptions& profile = {});
+/// `depthAt` names the run. With `events`, the event numbers of each run read (all events,
+/// selected or not) are put there, to compare files read one by one.
+Result<std::map<std::int32_t, ProfileFill>> fillProfilesByRun(
+    const std::string& file, const geometry::DepthAtEnergy& depthAt, const SelectionOptions& selection,
+    const ProfileOptions& profile = {}, std::map<std::int32_t, io::EventNumbers>* events = nullptr);
 
 /// Describes the input of a fit in the result file.
 // (bugprone-exception-escape takes the assertion in nlohmann::json's noexcept default

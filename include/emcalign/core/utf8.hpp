@@ -4,6 +4,7 @@
 // deep inside a writer.
 
 #include <cstddef>
+#include <string>
 #include <string_view>
 
 namespace emcalign {
@@ -39,6 +40,48 @@ inline bool isValidUtf8(std::string_view s) {
     i += n + 1;
   }
   return true;
+}
+
+/// The length of the valid UTF-8 sequence at s[i] (1 to 4), or 0 when the byte there does not
+/// start one.
+inline std::size_t utf8SequenceAt(std::string_view s, std::size_t i) {
+  for (std::size_t n = 1; n <= 4 && i + n <= s.size(); ++n) {
+    const std::string_view piece = s.substr(i, n);
+    if (isValidUtf8(piece)) return n;
+  }
+  return 0;
+}
+
+/// Text read from a file or a database, made safe to print on a terminal and to write into
+/// JSON: control characters (C0, DEL and C1: ESC sequences, a bell, a carriage return that
+/// rewrites the line) as \xNN or \uNNNN, bytes that are not UTF-8 as \xNN; the rest as it is.
+inline std::string printable(std::string_view s) {
+  static constexpr char kHex[] = "0123456789abcdef";
+  std::string out;
+  out.reserve(s.size());
+  std::size_t i = 0;
+  while (i < s.size()) {
+    const auto c = static_cast<unsigned char>(s[i]);
+    const std::size_t n = utf8SequenceAt(s, i);
+    if (n == 0 || c < 0x20 || c == 0x7f) {
+      out += "\\x";
+      out += kHex[c >> 4];
+      out += kHex[c & 15];
+      ++i;
+      continue;
+    }
+    if (n == 2 && c == 0xC2 && static_cast<unsigned char>(s[i + 1]) < 0xA0) {  // U+0080 to U+009F
+      const auto low = static_cast<unsigned char>(s[i + 1]);
+      out += "\\u00";
+      out += kHex[low >> 4];
+      out += kHex[low & 15];
+      i += 2;
+      continue;
+    }
+    out.append(s.substr(i, n));
+    i += n;
+  }
+  return out;
 }
 
 }  // namespace emcalign

@@ -39,6 +39,9 @@ using Json = nlohmann::ordered_json;
 inline constexpr std::string_view kAlignmentFormat = "emcalign-alignment/1";
 inline constexpr std::string_view kDetectorFormat = "emcalign-detector/1";
 
+/// The largest JSON file (and whole text file) emcalign reads.
+inline constexpr std::size_t kMaxInputFileBytes = std::size_t{64} << 20;
+
 /// Parses JSON text, rejecting duplicate keys, nesting deeper than 64 levels and texts
 /// above 64 MiB; `source` names the input in messages.
 Result<Json> parseJson(std::string_view text, std::string_view source);
@@ -51,8 +54,13 @@ Result<std::int64_t> integerIn(const Json& value, std::int64_t lo, std::int64_t 
 /// A number, or null when it is not finite (JSON has no NaN or infinity).
 inline Json numberOrNull(double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); }
 
-/// Reads a whole file; the error names the path and the system's reason.
-Result<std::string> readTextFile(const std::string& path);
+/// Reads a whole regular file of at most `maxBytes` (a FIFO, a device or a larger file is
+/// refused: core/regular_file.hpp); the error names the path and the system's reason. The
+/// file becomes a protected input of the command (io/output_file.hpp).
+Result<std::string> readTextFile(const std::string& path, std::size_t maxBytes = kMaxInputFileBytes);
+/// Reads a file the running command wrote on an earlier run and may write again (the state of
+/// a resumed job, its finished parts): as readTextFile, but it does not become a protected input.
+Result<std::string> readOwnOutput(const std::string& path, std::size_t maxBytes = kMaxInputFileBytes);
 
 Result<geometry::DetectorDescription> parseDetectorDescription(const Json& j, std::string_view source);
 Result<geometry::DetectorDescription> readDetectorDescription(const std::string& path);

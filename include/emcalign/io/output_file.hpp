@@ -15,7 +15,8 @@
 //  - Refused before any work: a directory, a block device, a socket, a name in a missing
 //    directory, a read-only file (no write permission bit, or not writable by this user:
 //    `chmod u+w` allows replacing it), and an output that is the same file (device and
-//    inode, through links) as an input of the command or as another of its outputs.
+//    inode, through links) as an input of the command or as another of its outputs, and,
+//    when the input protection is on, any file the command has read (see below).
 //  - Temporaries are registered while they exist. `removeTemporaries()` deletes them and is
 //    async-signal-safe: the command-line tool calls it from its SIGINT/SIGTERM/SIGHUP/
 //    SIGPIPE handler. A temporary left by a process that no longer runs (kill -9, a crash)
@@ -23,6 +24,7 @@
 
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -61,6 +63,27 @@ struct NamedPath {
 /// (device and inode, through symbolic links). Outputs that do not exist yet, "-", devices
 /// and FIFOs never clash.
 Status checkDistinct(const std::vector<NamedPath>& outputs, const std::vector<NamedPath>& inputs);
+
+/// The inputs of the running command, which no output may replace. While protection is on
+/// (the command-line tool turns it on first thing), every file output — also those a command
+/// writes inside its output directories, and the figures gnuplot draws — is refused when it
+/// is one of them (device and inode, through links and hard links), and the readers of this
+/// library (readTextFile, event files, digests, the conditions database) add every file they
+/// open. Off, as in a library embedded elsewhere (Python), where reading a file and writing it
+/// later is the caller's choice, `protectInput` does nothing.
+void enableInputProtection();
+/// Turns the protection off and forgets the inputs (tests).
+void disableInputProtection();
+/// Adds an input (a file that does not exist, "-" or an empty name is skipped).
+void protectInput(const NamedPath& input);
+/// The protected input that `path` is (through links), or none.
+std::optional<NamedPath> protectedInputAt(const std::string& path);
+
+/// An output directory that exists must hold no file that is an input of the command under
+/// another name (a link or a hard link planted as `DIR/trend.json` → the database): an output
+/// written there would replace the input. Looks `maxDepth` levels down; the inputs are
+/// `inputs` and the protected ones.
+Status checkDirectoryHoldsNoInput(const NamedPath& directory, const std::vector<NamedPath>& inputs, int maxDepth = 3);
 
 /// Writes `content` to `path` by the rules above.
 Status writeOutputFile(const std::string& path, std::string_view content);
@@ -107,6 +130,14 @@ class OutputFile {
 
 /// Removes every registered temporary now. Async-signal-safe (only unlink(2)).
 void removeTemporaries() noexcept;
+
+/// Whether a file name (without its directory) is an emcalign temporary: `NAME.tmp-PID`, or
+/// `.corrected-PID.h5`, which `check` wrote before. Never an input: a command that lists a
+/// directory skips them, and the event reader refuses one that is not its own process's (a
+/// command reads back only what it writes itself: `check` its corrected events).
+bool isTemporaryName(std::string_view filename);
+/// The process that writes a temporary of that name (0 when it is none).
+long temporaryWriter(std::string_view filename);
 
 /// The name of the temporary of a File target for this process: `<realPath>.tmp-<pid>`.
 std::string temporaryPathFor(const std::string& realPath);

@@ -178,6 +178,15 @@ struct CampaignReport {
 Result<CampaignReport> runCampaign(const CampaignScan& scan, const CampaignModel& model, conddb::Database& db,
                                    const std::string& tag, const CalibrationCampaignOptions& options);
 
+/// Whether `tag` holds `group` made from the same data: false when no IOV of the tag holds
+/// its first run; true when the group's IOV is there and its payload records the digests of
+/// the group's files (`digests`: file → SHA-256), whatever their names now; an error naming
+/// the group otherwise (another IOV over its runs, the same runs from other data, or data of
+/// unrecorded origin). A campaign resuming a tag, and a batch job finding its group stored,
+/// rely on it: the same run numbers are not the same data.
+Result<bool> groupStored(conddb::Database& db, const std::string& tag, const CampaignGroup& group,
+                         const std::map<std::string, std::string>& digests);
+
 /// The IOVs of `groups` already in the tag, by group index; an IOV of the tag that is not
 /// one of the groups' is an error (another plan was run into this tag).
 Result<std::vector<bool>> groupsInTag(conddb::Database& db, const std::string& tag,

@@ -56,6 +56,12 @@ struct SegmentRefit {
   std::vector<RefittedSegment> segments;
 };
 
+/// The data of a refit must be what the tag was made from: every file whose SHA-256 its IOVs
+/// record, and no other (compared by content: the files may have moved). The error names a
+/// file missing, changed or foreign to the tag; warnings name IOVs that record no digests
+/// (stored by hand: nothing to compare them with).
+Result<std::vector<std::string>> checkRefitData(conddb::TagSnapshot& tag, const CampaignScan& scan);
+
 /// Refits every stable period of `trend` (of `series`, the tag's) from the scanned events.
 /// `model` must be the campaign's (the same corrections); `truth` may be null. A payload's
 /// provenance says {"refit": {"tag", "period", "periods", "replaces_iovs", "runs"}}.

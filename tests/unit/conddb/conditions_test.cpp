@@ -3,8 +3,10 @@
 
 #include "emcalign/conddb/conditions.hpp"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <sqlite3.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -251,6 +253,54 @@ TEST_P(Conditions, KillDuringWriteLeavesItConsistent) {
   ASSERT_TRUE(got && got->has_value());
 }
 
+// Raw SQL on the database behind the tool's back (a hand edit, a hostile one).
+void editByHand(const std::string& uri, const std::string& sql) {
+  if (uri.rfind("sqlite:", 0) == 0) {
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(uri.substr(7).c_str(), &db), SQLITE_OK);
+    char* message = nullptr;
+    const int rc = sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &message);
+    EXPECT_EQ(rc, SQLITE_OK) << (message != nullptr ? message : "");
+    sqlite3_free(message);
+    sqlite3_close(db);
+  } else {
+    pqxx::connection c(uri);
+    pqxx::work tx(c);
+    tx.exec(sql);
+    tx.commit();
+  }
+}
+
+TEST_P(Conditions, AnEditedPayloadIsNeverServed) {
+  auto db = create();
+  const Payload a = payloadOf(2.8);
+  ASSERT_TRUE(db->put("t", 1, 10, a, true));
+  editByHand(uri_, "UPDATE emcalign_payloads SET content = replace(content, '\"alpha\":', '\"alpha\":1')");
+  auto got = db->get("t", 5);
+  ASSERT_FALSE(got);
+  EXPECT_THAT(got.error().message, ::testing::HasSubstr("no longer has that hash"));
+  EXPECT_FALSE(db->payload(a.hash()));
+  auto snapshot = TagSnapshot::load(*db, "t");
+  ASSERT_TRUE(snapshot);
+  EXPECT_FALSE(snapshot->at(5));
+}
+
+TEST_P(Conditions, TextWithNulIsRefusedNotCut) {
+  auto db = create();
+  ASSERT_TRUE(db->put("base", 1, 10, payloadOf(2.8), true));
+  const std::string nul("base\0x", 6);
+  EXPECT_FALSE(db->lock(nul));
+  auto tag = db->tag("base");
+  ASSERT_TRUE(tag && tag->has_value());
+  EXPECT_EQ((*tag)->state, TagState::Open) << "a lock of 'base\\0x' locked 'base'";
+  EXPECT_FALSE(db->tag(nul));
+  EXPECT_FALSE(db->iovs(nul));
+  EXPECT_FALSE(db->get(nul, 1));
+  Status described = db->put("other", 1, 10, payloadOf(2.8), true, std::string("before\0after", 12));
+  ASSERT_FALSE(described);
+  EXPECT_THAT(described.error().message, ::testing::HasSubstr("NUL"));
+}
+
 INSTANTIATE_TEST_SUITE_P(Backends, Conditions, ::testing::Values("sqlite", "postgres"),
                          [](const auto& info) { return info.param; });
 
@@ -276,6 +326,45 @@ TEST(ConditionsUri, RefusesWhatIsNotADatabase) {
   EXPECT_NE(nobody.error().message.find("cannot connect"), std::string::npos);
   EXPECT_EQ(nobody.error().message.find("secret"), std::string::npos) << "a password in a message";
   fs::remove_all(dir);
+}
+
+TEST(ConditionsSqlite, TextThatIsNotUtf8OrHoldsEscapesIsReadPrintable) {
+  const fs::path dir = fs::temp_directory_path() / fmt::format("emcalign-conddb-text-{}", ::getpid());
+  fs::create_directories(dir);
+  const std::string uri = "sqlite:" + (dir / "c.db").string();
+  auto db = Database::open(uri, true);
+  ASSERT_TRUE(db) << db.error().message;
+  ASSERT_TRUE((*db)->put("t", 1, 10, payloadOf(2.8), true, "plain"));
+  editByHand(uri, "UPDATE emcalign_tags SET description = CAST(X'6E616976E91B5B324A' AS TEXT)");
+  auto tag = (*db)->tag("t");
+  ASSERT_TRUE(tag && tag->has_value());
+  EXPECT_EQ((*tag)->description, "naiv\\xe9\\x1b[2J");
+  fs::remove_all(dir);
+}
+
+TEST(ConditionsPostgres, ATagAnotherClientHoldsIsBusyAfterTheLockTimeout) {
+  const std::string uri = testing::freshPostgresDatabase();
+  auto db = Database::open(uri, true);
+  ASSERT_TRUE(db) << db.error().message;
+  ASSERT_TRUE((*db)->put("held", 1, 10, payloadOf(2.8), true));
+  // Another client holds the tag's row.
+  pqxx::connection other(uri);
+  pqxx::work holding(other);
+  holding.exec("SELECT state FROM emcalign_tags WHERE name = 'held' FOR UPDATE");
+  ::setenv("PGOPTIONS", "-c lock_timeout=1s", 1);
+  auto writer = Database::open(uri);
+  ::unsetenv("PGOPTIONS");
+  ASSERT_TRUE(writer) << writer.error().message;
+  const auto started = std::chrono::steady_clock::now();
+  Status s = (*writer)->put("held", 11, 20, payloadOf(2.9), false);
+  const auto waited = std::chrono::steady_clock::now() - started;
+  ASSERT_FALSE(s);
+  EXPECT_THAT(s.error().message, ::testing::HasSubstr("tag 'held'"));
+  EXPECT_THAT(s.error().message, ::testing::HasSubstr("busy"));
+  EXPECT_LT(waited, std::chrono::seconds(10));
+  holding.abort();
+  // Free again: the same write goes through.
+  EXPECT_TRUE((*writer)->put("held", 11, 20, payloadOf(2.9), false));
 }
 
 TEST(ConditionsPayload, KeepsTheFitAndRefusesUnusableOnes) {

@@ -29,5 +29,22 @@ TEST(Utf8, RefusesWhatIsNot) {
   EXPECT_FALSE(isValidUtf8("\xF5\x80\x80\x80"));
 }
 
+TEST(Utf8, PrintableEscapesWhatATerminalWouldObey) {
+  EXPECT_EQ(printable("plain text, ünïcode, ψ"), "plain text, ünïcode, ψ");
+  EXPECT_EQ(printable("\x1b]0;owned\a\x1b[2J"), "\\x1b]0;owned\\x07\\x1b[2J");
+  EXPECT_EQ(printable("a\tb\nc\rd\x7f"), "a\\x09b\\x0ac\\x0dd\\x7f");
+  EXPECT_EQ(printable("naiv\xe9"), "naiv\\xe9");  // not UTF-8: the byte, escaped
+  EXPECT_EQ(printable("\xC2\x9B"
+                      "2J"),
+            "\\u009b2J");  // C1 CSI
+  EXPECT_EQ(printable(std::string_view("a\0b", 3)), "a\\x00b");
+  // Whatever goes in, what comes out is valid UTF-8 without control characters.
+  std::string all;
+  for (int c = 0; c < 256; ++c) all += static_cast<char>(c);
+  const std::string out = printable(all);
+  EXPECT_TRUE(isValidUtf8(out));
+  for (unsigned char c : out) EXPECT_FALSE(c < 0x20 || c == 0x7f) << static_cast<int>(c);
+}
+
 }  // namespace
 }  // namespace emcalign

@@ -226,5 +226,70 @@ TEST_F(OutputFileTest, OutputDirectories) {
   EXPECT_THAT(checkOutputDirectory(path("f")).error().message, HasSubstr("not a directory"));
 }
 
+TEST_F(OutputFileTest, AProtectedInputIsNeverReplaced) {
+  std::ofstream(path("events.csv")) << "the input\n";
+  fs::create_symlink("events.csv", path("latest.csv"));
+  ASSERT_TRUE(writeOutputFile(path("other.csv"), "x"));  // protection off: the caller's choice
+  enableInputProtection();
+  protectInput({"--events", path("events.csv")});
+  for (const char* name : {"events.csv", "latest.csv"}) {
+    Status s = writeOutputFile(path(name), "overwritten");
+    ASSERT_FALSE(s) << name;
+    EXPECT_THAT(s.error().message, HasSubstr("same file as the input --events"));
+  }
+  fs::create_hard_link(path("events.csv"), path("hard.csv"));
+  EXPECT_FALSE(writeOutputFile(path("hard.csv"), "overwritten"));
+  EXPECT_FALSE(OutputFile::reserve(path("latest.csv")));  // an HDF5 writer's way in
+  EXPECT_EQ(slurp(path("events.csv")), "the input\n");
+  EXPECT_TRUE(writeOutputFile(path("other.csv"), "y"));  // anything else still written
+  // A name met first without an option takes the option it is given later.
+  protectInput({"", path("other.csv")});
+  protectInput({"--detector", path("other.csv")});
+  EXPECT_THAT(writeOutputFile(path("other.csv"), "z").error().message, HasSubstr("the input --detector"));
+  disableInputProtection();
+  EXPECT_TRUE(writeOutputFile(path("other.csv"), "z"));
+}
+
+TEST_F(OutputFileTest, AnOutputDirectoryHoldingALinkToAnInputIsRefused) {
+  std::ofstream(path("c.db")) << "database";
+  fs::create_directories(path("out/plots"));
+  std::ofstream(path("out/kept.json")) << "{}";
+  const std::vector<NamedPath> inputs = {{"--conditions", path("c.db")}, {"--events", path("out/kept.json")}};
+  // An input inside the output directory, under its own name, is not a planted link.
+  EXPECT_TRUE(checkDirectoryHoldsNoInput({"-o", path("out")}, inputs));
+  fs::create_symlink("../../c.db", path("out/plots/trend.png"));
+  Status s = checkDirectoryHoldsNoInput({"-o", path("out")}, inputs);
+  ASSERT_FALSE(s);
+  EXPECT_THAT(s.error().message, HasSubstr("is a link to the input --conditions"));
+  EXPECT_THAT(s.error().message, HasSubstr("trend.png"));
+  fs::remove(path("out/plots/trend.png"));
+  fs::create_hard_link(path("c.db"), path("out/trend.json"));
+  Status h = checkDirectoryHoldsNoInput({"-o", path("out")}, inputs);
+  ASSERT_FALSE(h);
+  EXPECT_THAT(h.error().message, HasSubstr("hard link"));
+  EXPECT_TRUE(checkDirectoryHoldsNoInput({"-o", path("absent")}, inputs));
+}
+
+TEST_F(OutputFileTest, TemporaryNames) {
+  for (const char* name : {"r.json.tmp-123", "corrected.h5.tmp-77.tmp-77", ".corrected-4242.h5"}) {
+    EXPECT_TRUE(isTemporaryName(name)) << name;
+  }
+  for (const char* name : {"run_1.h5", ".tmp-12", "r.json.tmp-", "r.json.tmp-12a", "notes.tmp-x.h5", ".corrected-.h5",
+                           ".corrected-12.csv"}) {
+    EXPECT_FALSE(isTemporaryName(name)) << name;
+  }
+  EXPECT_EQ(temporaryWriter("corrected.h5.tmp-77.tmp-78"), 77);
+  EXPECT_EQ(temporaryWriter(".corrected-4242.h5"), 4242);
+}
+
+TEST_F(OutputFileTest, ANestedTemporaryOfADeadWriterIsRemoved) {
+  const pid_t dead = deadPid();
+  std::ofstream(path(fmt::format("corrected.h5.tmp-{}.tmp-{}", dead, dead))) << "half";
+  std::ofstream(path(fmt::format("corrected.h5.tmp-{}", dead))) << "half";
+  auto out = OutputFile::reserve(path("corrected.h5"));
+  ASSERT_TRUE(out) << out.error().message;
+  EXPECT_EQ(entries(), std::vector<std::string>{});
+}
+
 }  // namespace
 }  // namespace emcalign::io

@@ -8,7 +8,9 @@
 
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <limits>
+#include <map>
 
 #include <fmt/format.h>
 #include <gmock/gmock.h>
@@ -181,6 +183,92 @@ TEST_F(CampaignFiles, TagIovsMatchThePlanOrAreRefused) {
   auto refused = groupsInTag(**db, "t", groups);
   ASSERT_FALSE(refused);
   EXPECT_THAT(refused.error().message, HasSubstr("not one of this campaign's groups"));
+}
+
+TEST_F(CampaignFiles, APlanEditedByHandIsRefusedNamingTheGroup) {
+  const auto scan = scanOf(1, 20, 300, [](int) { return 612.5; });
+  const auto groups = planGroups(scan, 1000);
+  CampaignModel model;
+  struct Edit {
+    const char* what;
+    std::function<void(io::Json&)> change;
+    const char* where;
+    const char* says;
+  };
+  const std::vector<Edit> edits = {
+      {"a file twice", [](io::Json& j) { j["groups"][1]["files"].push_back(j["groups"][1]["files"][0]); },
+       "groups[1].files", "listed twice"},
+      {"a file not among the inputs", [](io::Json& j) { j["groups"][1]["files"][0] = "elsewhere.h5"; },
+       "groups[1].files", "not among the inputs"},
+      {"negative runs",
+       [](io::Json& j) {
+         j["groups"][0]["iov"][0] = -5;
+         j["groups"][0]["runs"][0] = -5;
+       },
+       "groups[0].iov[0]", "outside [0"},
+      {"an empty digest", [](io::Json& j) { j["inputs"][2]["sha256"] = ""; }, "inputs[2].sha256", "SHA-256"},
+      {"a digest that is not one", [](io::Json& j) { j["inputs"][2]["sha256"] = std::string(64, 'z'); },
+       "inputs[2].sha256", "SHA-256"},
+      {"an input twice", [](io::Json& j) { j["inputs"].push_back(j["inputs"][0]); }, "inputs[20].file", "listed twice"},
+      {"a negative beam energy", [](io::Json& j) { j["groups"][2]["beam_energy_mev"] = -612.5; },
+       "groups[2].beam_energy_mev", "positive"},
+  };
+  for (const Edit& e : edits) {
+    auto j = planJson(scan, groups, 1000, model);
+    e.change(j);
+    ASSERT_TRUE(io::writeOutputFile(path("edited.json"), j.dump(1)));
+    auto plan = readCampaignPlan(path("edited.json"));
+    ASSERT_FALSE(plan) << e.what;
+    EXPECT_THAT(plan.error().message, HasSubstr(e.where)) << e.what;
+    EXPECT_THAT(plan.error().message, HasSubstr(e.says)) << e.what;
+  }
+}
+
+TEST_F(CampaignFiles, AStoredGroupCountsOnlyWhenItIsFromTheSameData) {
+  const auto scan = scanOf(1, 20, 300, [](int) { return 612.5; });
+  const auto groups = planGroups(scan, 1000);
+  std::map<std::string, std::string> digests;
+  for (std::size_t k = 0; k < scan.files.size(); ++k) digests[scan.files[k]] = fmt::format("{:064x}", k + 1);
+  auto db = conddb::Database::open("sqlite:" + path("c.db"), true);
+  ASSERT_TRUE(db) << db.error().message;
+  const CampaignGroup& g = groups[1];
+  auto stored = groupStored(**db, "t", g, digests);
+  ASSERT_TRUE(stored) << stored.error().message;
+  EXPECT_FALSE(*stored);  // nothing there
+
+  const std::string params = R"({"format": "emcalign-alignment/1", "parameters": {"alpha": 2.8, "beta1": 0,
+    "beta2": 0, "dx": 0.3, "dy": 0, "dz": 0, "dp1": 0, "dp2": 0, "dp3": 0, "dy_rel": 0, "dz_rel": 0, "beta_rel": 0}})";
+  auto payloadFrom = [&](const io::Json& recorded) {
+    auto p = conddb::makePayload(io::Json::parse(params), 60.0 * units::cm, "test",
+                                 recorded.is_null() ? io::Json::object() : io::Json{{"input_sha256", recorded}});
+    EXPECT_TRUE(p) << p.error().message;
+    return *p;
+  };
+  io::Json same = io::Json::object();
+  // Recorded under other names (the files moved): the same data, by content.
+  for (const auto& f : g.files) same["/old/place/" + f] = digests.at(f);
+  ASSERT_TRUE((*db)->put("t", g.iovFirst, g.iovLast, payloadFrom(same), true));
+  stored = groupStored(**db, "t", g, digests);
+  ASSERT_TRUE(stored) << stored.error().message;
+  EXPECT_TRUE(*stored);
+
+  io::Json other = same;
+  other.begin().value() = std::string(64, 'f');
+  ASSERT_TRUE((*db)->put("u", g.iovFirst, g.iovLast, payloadFrom(other), true));
+  auto refused = groupStored(**db, "u", g, digests);
+  ASSERT_FALSE(refused);
+  EXPECT_THAT(refused.error().message, HasSubstr("group 1"));
+  EXPECT_THAT(refused.error().message, HasSubstr("from other data"));
+
+  ASSERT_TRUE((*db)->put("v", g.iovFirst, g.iovLast, payloadFrom(io::Json()), true));
+  auto unknown = groupStored(**db, "v", g, digests);
+  ASSERT_FALSE(unknown);
+  EXPECT_THAT(unknown.error().message, HasSubstr("does not record"));
+
+  ASSERT_TRUE((*db)->put("w", g.iovFirst, g.iovLast + 1, payloadFrom(same), true));
+  auto otherIov = groupStored(**db, "w", g, digests);
+  ASSERT_FALSE(otherIov);
+  EXPECT_THAT(otherIov.error().message, HasSubstr("not this campaign's grouping"));
 }
 
 }  // namespace

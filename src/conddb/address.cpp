@@ -1,0 +1,210 @@
+#include "emcalign/conddb/address.hpp"
+
+#include <algorithm>
+#include <cctype>
+
+#include <fmt/format.h>
+
+namespace emcalign::conddb {
+
+namespace {
+
+constexpr std::string_view kSqlite = "sqlite:";
+constexpr std::string_view kPostgresSchemes[] = {"postgresql://", "postgres://"};
+constexpr std::string_view kPasswordHint =
+    "give the password through libpq's PGPASSFILE (~/.pgpass) or PGPASSWORD, not in the URI";
+constexpr int kConnectTimeoutSeconds = 20;
+// A password shorter than this is not searched for in libpq's messages (it would blank out
+// letters of every word); the URI and its user:password part are, whatever their length.
+constexpr std::size_t kMinSecretToSearch = 4;
+
+std::string_view postgresScheme(std::string_view uri) {
+  for (std::string_view s : kPostgresSchemes) {
+    if (uri.starts_with(s)) return s;
+  }
+  return {};
+}
+
+int hexValue(char c) {
+  if (c >= '0' && c <= '9') return c - '0';
+  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+  return -1;
+}
+
+// %XX decoded (as libpq decodes the parts of a URI); a malformed escape is kept as written.
+std::string percentDecoded(std::string_view s) {
+  std::string out;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    if (s[i] == '%' && i + 2 < s.size() && hexValue(s[i + 1]) >= 0 && hexValue(s[i + 2]) >= 0) {
+      out += static_cast<char>(hexValue(s[i + 1]) * 16 + hexValue(s[i + 2]));
+      i += 2;
+    } else {
+      out += s[i];
+    }
+  }
+  return out;
+}
+
+std::vector<std::string_view> split(std::string_view s, char by) {
+  std::vector<std::string_view> out;
+  std::size_t from = 0;
+  while (true) {
+    const auto at = s.find(by, from);
+    out.push_back(s.substr(from, at == std::string_view::npos ? std::string_view::npos : at - from));
+    if (at == std::string_view::npos) return out;
+    from = at + 1;
+  }
+}
+
+// "name:" at the start, as a URI scheme is written (letters, then letters, digits, + - .).
+std::string_view schemeOf(std::string_view uri) {
+  if (uri.empty() || !std::isalpha(static_cast<unsigned char>(uri[0]))) return {};
+  for (std::size_t i = 1; i < uri.size(); ++i) {
+    const char c = uri[i];
+    if (c == ':') return uri.substr(0, i);
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '+' && c != '-' && c != '.') return {};
+  }
+  return {};
+}
+
+Result<DatabaseAddress> sqliteAddress(std::string path, std::string_view uri) {
+  DatabaseAddress a;
+  a.kind = DatabaseAddress::Kind::Sqlite;
+  if (path.empty()) return Error{fmt::format("'{}': no file in this database address (sqlite:PATH)", uri)};
+  if (path.starts_with(":memory") || path == ":") {
+    return Error{
+        fmt::format("'{}': an in-memory SQLite database vanishes when the command ends, with everything stored in it: "
+                    "give a file (sqlite:PATH)",
+                    uri)};
+  }
+  if (path.starts_with("file:")) {
+    return Error{fmt::format(
+        "'{}': SQLite URI filenames (file:..., with options such as mode=memory or vfs=unix-none) are not "
+        "taken: a memory database or one without locking loses what a campaign stores; give the file's path",
+        uri)};
+  }
+  a.file = std::move(path);
+  a.shown = std::string(kSqlite) + a.file;
+  return a;
+}
+
+}  // namespace
+
+struct AddressParser {
+  static Result<DatabaseAddress> postgres(std::string_view uri, std::string_view scheme);
+};
+
+Result<DatabaseAddress> AddressParser::postgres(std::string_view uri, std::string_view scheme) {
+  DatabaseAddress a;
+  a.kind = DatabaseAddress::Kind::Postgres;
+  const std::string_view rest = uri.substr(scheme.size());
+  // libpq reads user[:password]@ up to the first '@' or '/'.
+  const auto end = rest.find_first_of("@/");
+  std::string_view userinfo, after = rest;
+  if (end != std::string_view::npos && rest[end] == '@') {
+    userinfo = rest.substr(0, end);
+    after = rest.substr(end + 1);
+  }
+  if (after.find('@') != std::string_view::npos) {
+    return Error{fmt::format(
+        "{}…: a '@' or '/' in the user name or password of a URI must be percent-encoded (%40, %2F), or libpq "
+        "reads part of the password as the host or the port; better, {}",
+        scheme, kPasswordHint)};
+  }
+  const auto colon = userinfo.find(':');
+  const std::string_view user = userinfo.substr(0, colon);
+  std::vector<std::string> secrets;
+  auto addSecret = [&](std::string_view raw) {
+    if (raw.empty()) return;
+    secrets.emplace_back(raw);
+    if (std::string decoded = percentDecoded(raw); decoded != raw) secrets.push_back(std::move(decoded));
+  };
+  if (colon != std::string_view::npos) addSecret(userinfo.substr(colon + 1));
+  const auto question = after.find('?');
+  const std::string_view location = after.substr(0, question);
+  std::string shownQuery;
+  if (question != std::string_view::npos) {
+    for (std::string_view param : split(after.substr(question + 1), '&')) {
+      const auto eq = param.find('=');
+      std::string key = percentDecoded(param.substr(0, eq));
+      std::transform(key.begin(), key.end(), key.begin(), [](unsigned char c) { return std::tolower(c); });
+      if (key == "password") {
+        if (eq != std::string_view::npos) addSecret(param.substr(eq + 1));
+        continue;
+      }
+      if (!shownQuery.empty()) shownQuery += '&';
+      shownQuery.append(param);
+    }
+  }
+  a.shown = fmt::format("{}{}{}{}{}{}", scheme, user, user.empty() ? "" : "@", location, shownQuery.empty() ? "" : "?",
+                        shownQuery);
+  a.connection = std::string(uri);
+  if (a.connection.find("connect_timeout=") == std::string::npos) {
+    // A server that does not answer is an error after a while, not a hang.
+    a.connection += question == std::string_view::npos ? "?" : "&";
+    a.connection += fmt::format("connect_timeout={}", kConnectTimeoutSeconds);
+  }
+  if (!secrets.empty() && !userinfo.empty()) secrets.emplace_back(userinfo);
+  a.secrets_ = std::move(secrets);
+  a.raw_ = std::string(uri);
+  return a;
+}
+
+Result<DatabaseAddress> DatabaseAddress::parse(std::string_view uri) {
+  if (uri.empty()) return Error{"an empty database address (sqlite:PATH, a path, or postgresql://…)"};
+  if (const std::string_view scheme = postgresScheme(uri); !scheme.empty()) return AddressParser::postgres(uri, scheme);
+  if (uri.starts_with(kSqlite)) {
+    std::string path(uri.substr(kSqlite.size()));
+    if (path.starts_with("//")) path = path.substr(2);  // sqlite://PATH, sqlite:///absolute
+    return sqliteAddress(std::move(path), uri);
+  }
+  if (const std::string_view scheme = schemeOf(uri); !scheme.empty()) {
+    return Error{fmt::format(
+        "'{}:…': unknown database scheme '{}' (sqlite:PATH, a path, or postgresql://user@host:port/db){}", scheme,
+        scheme, scheme.starts_with("postgres") ? "; a PostgreSQL URI starts with postgresql://" : "")};
+  }
+  if (uri.find('=') != std::string_view::npos) {
+    return Error{fmt::format(
+        "the database address looks like a libpq keyword string (key=value ...; not shown, it may hold a "
+        "password), which emcalign does not take: write postgresql://user@host:port/db, and {} (for an SQLite "
+        "file whose name holds '=': sqlite:PATH)",
+        kPasswordHint)};
+  }
+  return sqliteAddress(std::string(uri), uri);
+}
+
+std::string DatabaseAddress::redact(std::string message) const {
+  auto replaceAll = [&](const std::string& what, const std::string& by) {
+    if (what.empty()) return;
+    for (auto at = message.find(what); at != std::string::npos; at = message.find(what, at + by.size())) {
+      message.replace(at, what.size(), by);
+    }
+  };
+  // The URI as given and as libpq got it first, then user:password, then the password as
+  // written and decoded (longest first, so that a part never hides a longer form).
+  replaceAll(connection, shown);
+  replaceAll(raw_, shown);
+  std::vector<std::string> order = secrets_;
+  std::sort(order.begin(), order.end(), [](const auto& x, const auto& y) { return x.size() > y.size(); });
+  for (const std::string& s : order) {
+    if (s.size() >= kMinSecretToSearch || s.find(':') != std::string::npos) replaceAll(s, "***");
+  }
+  return message;
+}
+
+std::vector<std::string> DatabaseAddress::files() const {
+  if (kind != Kind::Sqlite) return {};
+  return {file, file + "-wal", file + "-shm", file + "-journal"};
+}
+
+std::string shownAddress(std::string_view uri) {
+  if (auto a = DatabaseAddress::parse(uri); a) return a->shown;
+  if (const std::string_view scheme = postgresScheme(uri); !scheme.empty()) return std::string(scheme) + "…";
+  if (!uri.starts_with(kSqlite) && (uri.find('=') != std::string_view::npos || !schemeOf(uri).empty())) {
+    return "(a database address, not shown)";
+  }
+  return std::string(uri);
+}
+
+}  // namespace emcalign::conddb

@@ -98,11 +98,14 @@ int run(const ReportCliOptions& o) {
         fit.inputDigests.emplace_back(named, digest);
       }
     }
-    // The fit's detector: --detector, else the one its result names.
-    std::string detector = o.detector;
+    // The fit's detector: the embedded one, or --detector when the result names a file (which
+    // the report does not open itself: a result can name any file of the system).
+    const std::string detector = o.detector;
     const Json named = j->at("input").value("detector", Json("embedded default"));
     if (detector.empty() && named.is_string() && named.get<std::string>() != "embedded default") {
-      detector = named.get<std::string>();
+      return reportError(Error{fmt::format("{}: the fit used the detector {}: give it with --detector (the report "
+                                           "opens only the files its command line names)",
+                                           o.fit, named.get<std::string>())});
     }
     auto calo = loadCalorimeter(detector);
     if (!calo) return reportError(calo.error());

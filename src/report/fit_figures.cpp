@@ -47,15 +47,24 @@ using io::Json;
 
 // The corrections the result names (or `given`), at the energy a grid was interpolated to.
 Result<calib::ModelCorrections> correctionsOfResult(const Json& corr, const std::string& given) {
-  std::string path = given;
+  // The corrections the result names are named, never opened: a result file can name any file
+  // of the system. The command line gives them (--corrections).
+  std::string named;
   double energy = std::numeric_limits<double>::quiet_NaN();
   if (corr.contains("interpolation")) {
     energy = corr.at("interpolation").at("beam_energy_mev").get<double>() * units::MeV;
-    if (path.empty()) path = corr.at("interpolation").at("directory").get<std::string>();
+    named = corr.at("interpolation").at("directory").get<std::string>();
   }
   for (const char* key : {"response", "nominal_profile", "parting_plane_response"}) {
-    if (path.empty() && corr.contains(key) && corr.at(key).is_string()) path = corr.at(key).get<std::string>();
+    if (named.empty() && corr.contains(key) && corr.at(key).is_string()) named = corr.at(key).get<std::string>();
   }
+  if (!named.empty() && given.empty()) {
+    return Error{fmt::format(
+        "the fit used the corrections {}: give them with --corrections to redraw its figures (the report opens "
+        "only the files its command line names)",
+        named)};
+  }
+  const std::string path = named.empty() ? std::string() : given;
   calib::ModelCorrections c;
   if (path.empty()) {
     c.depthOffset = corr.contains("depth_offset_cm") && corr.at("depth_offset_cm").is_number()

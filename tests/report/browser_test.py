@@ -102,7 +102,8 @@ def main():
         run([E, "simulate", "--period", "period.json", "--no-hits", "-o", "period"], d)
         run([E, "campaign", "period", "--conditions", "sqlite:c.db", "--tag", "t", "--min-events", "4000"], d)
         run([E, "trend", "--conditions", "sqlite:c.db", "--tag", "t", "-o", "tr"], d)
-        run([E, "report", "--fit", "fit.json", "--events", "ee.h5", "--validation", "val", "--trend", "tr",
+        run([E, "report", "--fit", "fit.json", "--events", "ee.h5", "--corrections", grid, "--validation", "val",
+             "--trend", "tr",
              "--conditions", "sqlite:c.db", "--tag", "t", "--checks", "chk-gg", "-o", "report.html"], d)
         page = open(os.path.join(d, "report.html"), encoding="utf-8").read()
         run([E, "report", "--fit", "fit.json", "-o", "fit-only.html"], d)

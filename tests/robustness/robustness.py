@@ -982,6 +982,14 @@ def cases():
         with open(os.path.join(d, "rnamed.html")) as f:
             html = f.read()
         return None if "not taken" in html else "a digest of a file the command line does not name"
+    add(Case(L, "a fit result naming a system file as its detector: not opened",
+             "emcalign report --fit rdet.json -o rdet.html", 1, "give it with --detector",
+             setup=lambda d: edit_json(d, "result.json", "rdet.json",
+                                       lambda j: j["input"].__setitem__("detector", "/etc/shadow"))))
+    add(Case(L, "a fit result naming a system file as its corrections: not opened",
+             "emcalign report --fit rcorr.json --events ev.csv -o rcorr.html", 1, "give them with --corrections",
+             setup=lambda d: edit_json(d, "result.json", "rcorr.json", lambda j: j["input"].__setitem__(
+                 "model_corrections", {"depth_offset_cm": 0.0, "response": "/etc/shadow"}))))
     add(Case(L, "a fit result naming a system file and a FIFO as its inputs",
              "emcalign report --fit rnamed.json -o rnamed.html", 0, setup=result_naming, check=nothing_opened,
              checked="neither opened: no digest taken, no hang"))

@@ -95,7 +95,7 @@ int runGroup(const CampaignCliOptions& o) {
   if (!done) return reportError(done.error());
   if ((*done)[static_cast<std::size_t>(o.group)]) {
     // A retried job: done, if the tag holds this group from the same data.
-    auto same = validation::groupStored(**db, o.tag, g, plan->digests);
+    auto same = validation::groupStored(**db, o.tag, g, plan->digests, *model);
     if (!same) return reportError(same.error());
     fmt::print(reportStream(), "group {} (runs {}-{}) is in tag {} already, from the same data: nothing to do\n",
                g.index, g.iovFirst, g.iovLast, o.tag);
@@ -122,31 +122,10 @@ int runGroup(const CampaignCliOptions& o) {
     return reportError(
         Error{fmt::format("group {} (runs {}-{}): {}", g.index, g.iovFirst, g.iovLast, groupModel.error().message)});
   if (!groupModel->correctionsWarning.empty()) reportWarning(groupModel->correctionsWarning);
-  calib::ProfileFill fill = calib::ProfileFill::empty(groupModel->profile);
-  for (const auto& file : g.files) {
-    auto byRun =
-        calib::fillProfilesByRun(file, groupModel->depthAtEnergy(), groupModel->selection, groupModel->profile);
-    if (!byRun) return reportError(byRun.error());
-    for (std::int32_t run : g.runs) {
-      if (auto it = byRun->find(run); it != byRun->end()) fill.merge(it->second);
-    }
-  }
-  if (!fill.beamEnergies.empty() &&
-      (std::isnan(g.beamEnergy) || fill.beamEnergies.size() != 1 || *fill.beamEnergies.begin() != g.beamEnergy)) {
-    return reportError(Error{fmt::format(
-        "group {} (runs {}-{}): the plan {} says beam energy {}, its events have {:.6g} MeV (the plan was edited?)",
-        g.index, g.iovFirst, g.iovLast, o.plan,
-        std::isnan(g.beamEnergy) ? std::string("none") : fmt::format("{:.6g} MeV", g.beamEnergy),
-        fmt::join(fill.beamEnergies, ", "))});
-  }
-  if (fill.cutFlow.events.back() != g.selected) {
-    return reportError(
-        Error{fmt::format("group {}: {} selected events in its files, the plan counted {} (the files "
-                          "changed since the plan was made?)",
-                          g.index, fill.cutFlow.events.back(), g.selected)});
-  }
+  auto fill = validation::fillPlannedGroup(g, *groupModel);
+  if (!fill) return reportError(Error{fmt::format("{}: {}", o.plan, fill.error().message)});
   auto fit =
-      validation::fitGroup(g, fill, *groupModel, plan->digests,
+      validation::fitGroup(g, *fill, *groupModel, plan->digests,
                            validation::campaignOrigin(g, plan->minEvents, static_cast<int>(plan->groups.size())));
   if (!fit) return reportError(fit.error());
   if (!usable(fit->result.status)) {
@@ -155,7 +134,7 @@ int runGroup(const CampaignCliOptions& o) {
   }
   if (Status s = (*db)->put(o.tag, g.iovFirst, g.iovLast, fit->payload, true, o.description); !s) {
     // The same job run twice at once: the other copy stored the group first.
-    auto same = validation::groupStored(**db, o.tag, g, plan->digests);
+    auto same = validation::groupStored(**db, o.tag, g, plan->digests, *model);
     if (!same || !*same) return reportError(s.error());
     fmt::print(reportStream(), "group {} (runs {}-{}) was stored meanwhile by another job, from the same data: done\n",
                g.index, g.iovFirst, g.iovLast);

@@ -79,7 +79,7 @@ int run(const CheckCliOptions& o) {
   if (ec) return reportError(Error{fmt::format("{}: cannot create the directory: {}", o.output, ec.message())});
   // The corrected events live in a temporary of the output directory, never committed: removed
   // however the check ends (a signal included), and by the next check there after a kill -9.
-  auto scratch = io::OutputFile::reserve((fs::path(o.output) / "corrected.h5").string());
+  auto scratch = io::OutputFile::reserve((fs::path(o.output) / "corrected.h5").string(), io::Placement::InDirectory);
   if (!scratch) return reportError(scratch.error());
   const std::string corrected = (*scratch)->writtenPath();
   ProgressLine progress("check: correcting", 0, "rows");
@@ -142,8 +142,7 @@ int run(const CheckCliOptions& o) {
   json["correction_method"] = std::string(name(report->method));
   json["inputs"] = o.events;
   json["software"] = fmt::format("emcalign {}", kVersion);
-  const fs::path dir(o.output);
-  if (Status s = io::writeOutputFile((dir / "check.json").string(), json.dump(1) + "\n"); !s) {
+  if (Status s = io::writeFileIn(o.output, "check.json", json.dump(1) + "\n"); !s) {
     return reportError(s.error());
   }
   auto png =

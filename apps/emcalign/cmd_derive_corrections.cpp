@@ -166,7 +166,9 @@ int run(const DeriveOptions& cli) {
     if (grid) fmt::print(reportStream(), "{}Beam energy {} MeV:\n", k == 0 ? "" : "\n", energy / units::MeV);
     printReport(*report);
     const std::string text = validation::derivationJson(*report, settingsOf(cli, energy)).dump(2) + "\n";
-    if (Status s = io::writeOutputFile(file, text); !s) return reportError(s.error());
+    if (Status s = io::writeOutputFile(file, text, grid ? io::Placement::InDirectory : io::Placement::Named); !s) {
+      return reportError(s.error());
+    }
     fmt::print(reportStream(), "wrote {} after {:.1f} s\n", file, progress.elapsed());
   }
   progress.finish();

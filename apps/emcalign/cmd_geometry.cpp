@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "common.hpp"
+#include "console.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/geometry/alignment_transform.hpp"
 #include "emcalign/geometry/counter_geometry.hpp"
@@ -155,7 +156,7 @@ int locatePoints(const Calorimeter& calo, const std::string& paramsPath) {
 
 int run(const GeometryOptions& o) {
   if (!o.params.empty() && !o.counters && !o.locate) {
-    fmt::print(stderr, "emcalign: usage error: --params goes with --counters or --locate\n");
+    eprint("emcalign: usage error: --params goes with --counters or --locate\n");
     return kExitUsage;
   }
   auto calo = loadCalorimeter(o.detector);

@@ -83,6 +83,14 @@ int run(const ReportCliOptions& o) {
       return reportError({fmt::format("{}: not a fit result (emcalign fit -o)", o.fit)});
     }
     report::ReportFit fit{.path = o.fit, .result = *j};
+    // The files the result names are never opened, but are inputs all the same: the report is
+    // not written over the fit's events (only their names are looked at, never their content).
+    const Json& recorded = j->at("input");
+    if (recorded.contains("files") && recorded.at("files").is_array()) {
+      for (const auto& f : recorded.at("files")) {
+        if (f.is_string()) io::protectInput({"named by --fit", f.get<std::string>()});
+      }
+    }
     // The digests of the fit's inputs that the command line names (--events): the report
     // opens nothing a result file names by itself (it could name any file of the system).
     if (j->at("input").contains("files") && j->at("input").at("files").is_array()) {
@@ -103,9 +111,10 @@ int run(const ReportCliOptions& o) {
     const std::string detector = o.detector;
     const Json named = j->at("input").value("detector", Json("embedded default"));
     if (detector.empty() && named.is_string() && named.get<std::string>() != "embedded default") {
-      return reportError(Error{fmt::format("{}: the fit used the detector {}: give it with --detector (the report "
-                                           "opens only the files its command line names)",
-                                           o.fit, named.get<std::string>())});
+      return reportError(
+          Error{fmt::format("{}: the fit used the detector {}: give it with --detector (the report "
+                            "opens only the files its command line names)",
+                            o.fit, named.get<std::string>())});
     }
     auto calo = loadCalorimeter(detector);
     if (!calo) return reportError(calo.error());

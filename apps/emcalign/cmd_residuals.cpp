@@ -111,12 +111,11 @@ int run(const ResidualsOptions& o) {
                         {"depth_offset_cm", depth.offset / units::cm},
                         {"samples", json}};
   const auto dir = std::filesystem::path(o.output);
-  if (Status s = io::writeOutputFile((dir / "residuals.json").string(), doc.dump(2) + "\n"); !s)
-    return reportError(s.error());
+  if (Status s = io::writeFileIn(dir.string(), "residuals.json", doc.dump(2) + "\n"); !s) return reportError(s.error());
   const std::string md = "# Residuals of the selected e+e- → e+e- particles (θ_EMC 45°–135°)\n\n" + table +
                          "\nsin Δφ and its means are shown as sin Δφ · 180/π; the φ irregularity is max − min of the "
                          "mean sin Δφ of the 16 φ columns.\n";
-  if (Status s = io::writeOutputFile((dir / "residuals.md").string(), md); !s) return reportError(s.error());
+  if (Status s = io::writeFileIn(dir.string(), "residuals.md", md); !s) return reportError(s.error());
   fmt::print(reportStream(), "{}", table);
   auto pngs = report::writeResidualPlots(o.output, summaries);
   if (!pngs) return reportError(pngs.error());

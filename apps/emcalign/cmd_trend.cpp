@@ -16,6 +16,7 @@
 
 #include "common.hpp"
 #include "emcalign/calib/corrections.hpp"
+#include "emcalign/conddb/calibrations.hpp"
 #include "emcalign/report/trend_plots.hpp"
 #include "emcalign/validation/calibration_campaign.hpp"
 #include "emcalign/validation/period.hpp"
@@ -83,20 +84,10 @@ int refit(const TrendCliOptions& o, const validation::Trend& trend, const std::v
   for (const conddb::Iov& iov : snapshot.iovs()) {
     auto p = snapshot.payload(iov);
     if (!p) return reportError(p.error());
-    const io::Json& alignment = (*p)->content["alignment"];
-    const io::Json recorded = alignment.contains("sigma_sys") && alignment["sigma_sys"].is_object()
-                                  ? alignment["sigma_sys"]
-                                  : io::Json{{"method", "spec"}};  // payloads made before the choice existed
-    const std::string method = recorded.contains("method") && recorded.at("method").is_string()
-                                   ? recorded.at("method").get<std::string>()
-                                   : std::string();
-    const bool value = recorded.contains("value_deg") && recorded.at("value_deg").is_number();
-    auto choice = calib::recordedSigmaSysChoice(method, value ? recorded.at("value_deg").get<double>() : std::nan(""));
+    auto choice = validation::sigmaSysChoiceOf(**p);
     if (!choice) {
-      return reportError(
-          Error{fmt::format("tag {}: the calibration of runs {}-{} has sigma_sys {}: not one a campaign "
-                            "makes ({})",
-                            o.tag, iov.firstRun, iov.lastRun, recorded.dump(), choice.error().message)});
+      return reportError(Error{fmt::format("tag {}: the calibration of runs {}-{} has {}", o.tag, iov.firstRun,
+                                           iov.lastRun, choice.error().message)});
     }
     const io::Json usedSigma = validation::sigmaSysChoiceJson(*choice);
     if (!sigmaSys) {
@@ -132,10 +123,16 @@ int refit(const TrendCliOptions& o, const validation::Trend& trend, const std::v
 
   auto r = validation::refitSegments(trend, series, snapshot, *scan, *model, truth);
   if (!r) return reportError(r.error());
-  if (Status s =
-          db.put(o.tagOut, r->iovs, true, fmt::format("{} refitted by stable period (emcalign trend --refit)", o.tag));
-      !s) {
-    return reportError(s.error());
+  // A rerun (or a batch system's retry) finds its refit stored: nothing to do.
+  auto stored = conddb::tagHolds(db, o.tagOut, r->iovs);
+  if (!stored) return reportError(stored.error());
+  if (*stored) {
+    fmt::print(reportStream(), "tag {} holds this refit already: nothing stored\n", o.tagOut);
+  } else if (Status s = db.put(o.tagOut, r->iovs, true,
+                               fmt::format("{} refitted by stable period (emcalign trend --refit)", o.tag));
+             !s) {
+    auto meanwhile = conddb::tagHolds(db, o.tagOut, r->iovs);  // a copy of this job stored it first
+    if (!meanwhile || !*meanwhile) return reportError(s.error());
   }
   summary = validation::refitJson(*r, snapshot.iovs().size());
   summary["tag_out"] = o.tagOut;
@@ -198,10 +195,8 @@ int run(const TrendCliOptions& o) {
   std::error_code ec;
   fs::create_directories(o.output, ec);
   if (ec) return reportError(Error{fmt::format("{}: cannot create the directory: {}", o.output, ec.message())});
-  const fs::path dir(o.output);
-  if (Status s = io::writeOutputFile((dir / "trend.json").string(), out.dump(1) + "\n"); !s)
-    return reportError(s.error());
-  if (Status s = io::writeOutputFile((dir / "trend.md").string(), md); !s) return reportError(s.error());
+  if (Status s = io::writeFileIn(o.output, "trend.json", out.dump(1) + "\n"); !s) return reportError(s.error());
+  if (Status s = io::writeFileIn(o.output, "trend.md", md); !s) return reportError(s.error());
   auto pngs = report::writeTrendPlots(o.output, figuresOf(trend, *series, truth ? &*truth : nullptr),
                                       fmt::format("tag {}", o.tag));
   if (!pngs) return reportError(pngs.error());

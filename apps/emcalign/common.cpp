@@ -6,6 +6,7 @@
 
 #include <fmt/format.h>
 
+#include "console.hpp"
 #include "emcalign/conddb/address.hpp"
 #include "emcalign/conddb/conditions.hpp"
 #include "emcalign/core/units.hpp"
@@ -20,11 +21,11 @@ std::FILE* gReport = stdout;
 }
 
 int reportError(const Error& error) {
-  fmt::print(stderr, "emcalign: error: {}\n", error.message);
+  eprint("emcalign: error: {}\n", error.message);
   return kExitFailure;
 }
 
-void reportWarning(const std::string& message) { fmt::print(stderr, "emcalign: warning: {}\n", message); }
+void reportWarning(const std::string& message) { eprint("emcalign: warning: {}\n", message); }
 
 std::FILE* reportStream() { return gReport; }
 
@@ -113,10 +114,28 @@ calib::SigmaSysChoice sigmaSysChoice(const std::string& text) {
 Result<std::vector<Vec3>> readPointsFromStdin() {
   static constexpr const char* kColumns[] = {"x_cm", "y_cm", "z_cm"};
   std::vector<Vec3> points;
+  // A line of three numbers is short: a longer one (no newline in megabytes: /dev/zero, a binary
+  // file) is refused before it fills the memory.
+  constexpr std::size_t kMaxLine = std::size_t{1} << 20;
   std::string line;
   long lineNo = 0;
   bool header = false;
-  while (std::getline(std::cin, line)) {
+  auto nextLine = [&]() -> Result<bool> {
+    line.clear();
+    for (int c = std::cin.get(); c != EOF; c = std::cin.get()) {
+      if (c == '\n') return true;
+      if (line.size() == kMaxLine) {
+        return Error{
+            fmt::format("stdin, line {}: longer than {} MiB: not a CSV of points", lineNo + 1, kMaxLine >> 20)};
+      }
+      line += static_cast<char>(c);
+    }
+    return !line.empty();
+  };
+  while (true) {
+    auto more = nextLine();
+    if (!more) return more.error();
+    if (!*more) break;
     ++lineNo;
     if (io::isBlankOrComment(line)) continue;
     const auto fields = io::splitCsvLine(line);

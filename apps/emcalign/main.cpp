@@ -2,6 +2,9 @@
 // This file only wires the subcommands (each lives in cmd_<name>.cpp), the signals and the
 // exit codes of docs/conventions.md.
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <cerrno>
 #include <csignal>
 #include <cstdio>
@@ -13,6 +16,7 @@
 #include <CLI/CLI.hpp>
 
 #include "common.hpp"
+#include "console.hpp"
 #include "emcalign/core/utf8.hpp"
 #include "emcalign/core/version.hpp"
 #include "emcalign/io/output_file.hpp"
@@ -38,19 +42,36 @@ void installSignalHandlers() {
 }
 
 // A command's report or output to standard output that did not arrive (a full disk, a closed
-// pipe that does not raise SIGPIPE) is a failure, not a success.
+// pipe that does not raise SIGPIPE) is a failure, not a success. The command's own work (its
+// files, its database writes) is done by then: the message says what was lost.
 int checkStandardOutput(int exitCode) {
   if (std::fflush(stdout) == 0 && std::ferror(stdout) == 0) return exitCode;
   const int error = errno;
-  fmt::print(stderr, "emcalign: error: standard output: write failed: {}\n",
-             error != 0 ? std::strerror(error) : "an output error");
+  emcalign::app::eprint(
+      "emcalign: error: standard output: write failed: {}: what the command printed there is lost (the files "
+      "and database writes it reports are in place)\n",
+      error != 0 ? std::strerror(error) : "an output error");
   return exitCode == emcalign::app::kExitOk || exitCode == emcalign::app::kExitUnusable ? emcalign::app::kExitFailure
                                                                                         : exitCode;
+}
+
+// Standard input, output and error are open: a command started with one closed (`2>&-`)
+// would otherwise open its first file as that descriptor, and print its messages into it.
+void openStandardDescriptors() {
+  for (int fd = 0; fd <= 2; ++fd) {
+    if (::fcntl(fd, F_GETFD) != -1 || errno != EBADF) continue;
+    const int null = ::open("/dev/null", fd == 0 ? O_RDONLY : O_WRONLY);
+    if (null >= 0 && null != fd) {
+      ::dup2(null, fd);
+      ::close(null);
+    }
+  }
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
+  openStandardDescriptors();
   installSignalHandlers();
   // No output of a command may replace one of its inputs (io/output_file.hpp).
   emcalign::io::enableInputProtection();
@@ -68,10 +89,10 @@ int main(int argc, char** argv) {
   // Paths and names go into JSON (results, attributes), which is UTF-8: say so before any work.
   for (int i = 1; i < argc; ++i) {
     if (!emcalign::isValidUtf8(argv[i])) {
-      fmt::print(stderr,
-                 "emcalign: usage error: argument {} is not valid UTF-8 (file names and values are recorded in "
-                 "JSON, which must be: rename the file)\n",
-                 i);
+      emcalign::app::eprint(
+          "emcalign: usage error: argument {} is not valid UTF-8 (file names and values are recorded in "
+          "JSON, which must be: rename the file)\n",
+          i);
       return emcalign::app::kExitUsage;
     }
   }
@@ -98,12 +119,14 @@ int main(int argc, char** argv) {
     const int code = app.exit(e);
     return code == 0 ? checkStandardOutput(0) : emcalign::app::kExitUsage;
   } catch (const std::system_error& e) {
-    // fmt::print throws when standard output cannot be written (a full disk): not a bug.
-    if (std::ferror(stdout) != 0) return checkStandardOutput(emcalign::app::kExitOk);
-    fmt::print(stderr, "emcalign: internal error: {} (a bug: please report it with the command line)\n", e.what());
+    // fmt::print throws when standard output (or error, for a report sent there) cannot be
+    // written: not a bug, but the command stopped there.
+    if (std::ferror(stdout) != 0) return checkStandardOutput(emcalign::app::kExitFailure);
+    if (std::ferror(stderr) != 0) return emcalign::app::kExitFailure;
+    emcalign::app::eprint("emcalign: internal error: {} (a bug: please report it with the command line)\n", e.what());
     return emcalign::app::kExitInternal;
   } catch (const std::exception& e) {
-    fmt::print(stderr, "emcalign: internal error: {} (a bug: please report it with the command line)\n", e.what());
+    emcalign::app::eprint("emcalign: internal error: {} (a bug: please report it with the command line)\n", e.what());
     return emcalign::app::kExitInternal;
   }
   return checkStandardOutput(exitCode);

@@ -171,3 +171,31 @@ def test_a_fifo_is_refused_at_once_not_waited_on(tmp_path):
     with pytest.raises(emcalign.Error, match="character device"):
         emcalign.Detector("/dev/zero")
     assert time.monotonic() - start < 5
+
+
+def test_an_open_database_is_never_written_over(tmp_path, paper_like, fit_sample):
+    """A Conditions object holds its SQLite file open: no output of the module may replace it or
+    its journals, while it is open (the command-line tool protects every input the same way)."""
+    db_path = tmp_path / "c.db"
+    db = emcalign.Conditions(db_path, create=True)
+    db.put("t", (1, 10), PAPER_LIKE)
+    before = db_path.read_bytes()
+    r = emcalign.fit(fit_sample)
+    for target in (db_path, tmp_path / "c.db-journal", tmp_path / "c.db-wal"):
+        with pytest.raises(emcalign.Error, match="input --conditions"):
+            r.write(target)
+    with pytest.raises(emcalign.Error, match="input --conditions"):
+        emcalign.simulate(paper_like, 10, output=db_path)
+    assert db_path.read_bytes() == before
+    assert not (tmp_path / "c.db-journal").exists()
+    del db
+    import gc
+    gc.collect()
+    r.write(tmp_path / "c.db-journal")  # closed: a file like any other
+    assert (tmp_path / "c.db-journal").exists()
+
+
+def test_a_database_address_with_nul_is_refused(tmp_path):
+    with pytest.raises(emcalign.Error, match="NUL"):
+        emcalign.Conditions(str(tmp_path / "new") + "\x00.db", create=True)
+    assert not (tmp_path / "new").exists()

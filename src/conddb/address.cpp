@@ -129,8 +129,10 @@ Result<DatabaseAddress> AddressParser::postgres(std::string_view uri, std::strin
       const auto eq = param.find('=');
       std::string key = percentDecoded(param.substr(0, eq));
       std::transform(key.begin(), key.end(), key.begin(), [](unsigned char c) { return std::tolower(c); });
-      if (key == "password") {
-        if (eq != std::string_view::npos) addSecret(param.substr(eq + 1));
+      // password, and sslpassword (the passphrase of the client's key); a parameter whose
+      // name is not separated from its value ("password%3Dsecret") is one secret as a whole.
+      if (key.find("password") != std::string::npos) {
+        addSecret(eq != std::string_view::npos ? param.substr(eq + 1) : param);
         continue;
       }
       if (!shownQuery.empty()) shownQuery += '&';
@@ -153,6 +155,9 @@ Result<DatabaseAddress> AddressParser::postgres(std::string_view uri, std::strin
 
 Result<DatabaseAddress> DatabaseAddress::parse(std::string_view uri) {
   if (uri.empty()) return Error{"an empty database address (sqlite:PATH, a path, or postgresql://…)"};
+  if (uri.find('\0') != std::string_view::npos) {
+    return Error{"a database address with a NUL character (it would be cut there): not taken"};
+  }
   if (const std::string_view scheme = postgresScheme(uri); !scheme.empty()) return AddressParser::postgres(uri, scheme);
   if (uri.starts_with(kSqlite)) {
     std::string path(uri.substr(kSqlite.size()));

@@ -73,6 +73,24 @@ io::Json parameterFileOf(const Iov& iov, const Payload& payload, const std::stri
   return file;
 }
 
+Result<bool> tagHolds(Database& db, const std::string& tag, const std::vector<Database::NewIov>& iovs) {
+  auto t = db.tag(tag);
+  if (!t) return t.error();
+  if (!t->has_value()) return false;
+  auto stored = db.iovs(tag);
+  if (!stored) return stored.error();
+  bool same = stored->size() == iovs.size();
+  for (std::size_t k = 0; same && k < iovs.size(); ++k) {
+    same = (*stored)[k].firstRun == iovs[k].firstRun && (*stored)[k].lastRun == iovs[k].lastRun &&
+           (*stored)[k].payload == iovs[k].payload.hash();
+  }
+  if (!same) {
+    return Error{
+        fmt::format("{}: tag '{}' exists already, with other IOVs or calibrations: write to a new tag", db.uri(), tag)};
+  }
+  return true;
+}
+
 Result<RunCalibration> calibrationAt(Database& db, const std::string& tag, std::int64_t run) {
   auto got = db.get(tag, run);
   if (!got) return got.error();

@@ -103,7 +103,11 @@ class SqlDatabase final : public Database {
     auto rows = db_->query("SELECT name, description, state, created FROM emcalign_tags ORDER BY name");
     if (!rows) return rows.error();
     std::vector<Tag> out;
-    for (const Row& r : *rows) out.push_back(tagOf(r));
+    for (const Row& r : *rows) {
+      auto t = tagOf(r);
+      if (!t) return t.error();
+      out.push_back(std::move(*t));
+    }
     return out;
   }
 
@@ -112,7 +116,9 @@ class SqlDatabase final : public Database {
     auto rows = db_->query("SELECT name, description, state, created FROM emcalign_tags WHERE name = $1", {name});
     if (!rows) return rows.error();
     if (rows->empty()) return std::optional<Tag>();
-    return std::optional<Tag>(tagOf((*rows)[0]));
+    auto t = tagOf((*rows)[0]);
+    if (!t) return t.error();
+    return std::optional<Tag>(std::move(*t));
   }
 
   Status put(const std::string& tag, const std::vector<NewIov>& iovs, bool createTag,
@@ -147,6 +153,10 @@ class SqlDatabase final : public Database {
       if (toText((*state)[0][0]) == "locked") {
         return Error{
             fmt::format("{}: tag '{}' is locked: its IOVs never change (write to a new tag)", db_->uri(), tag)};
+      }
+      if (toText((*state)[0][0]) != "open") {  // edited by hand: written to only when surely open
+        return Error{fmt::format("{}: tag '{}' has the state '{}', neither open nor locked: not written", db_->uri(),
+                                 tag, printable(toText((*state)[0][0])))};
       }
       const std::string now = utcNow();
       for (const NewIov& n : iovs) {
@@ -185,6 +195,12 @@ class SqlDatabase final : public Database {
           {tag, run});
       if (!rows) return rows.error();
       if (rows->empty()) return Out();
+      if (rows->size() > 1) {
+        return Error{
+            fmt::format("{}: tag '{}': {} IOVs hold run {}: they overlap (the database was edited behind "
+                        "emcalign's back?)",
+                        db_->uri(), tag, rows->size(), run)};
+      }
       const Row& r = (*rows)[0];
       auto payload = verifiedPayload(toText(r[2]), toText(r[4]));
       if (!payload) return payload.error();
@@ -198,7 +214,18 @@ class SqlDatabase final : public Database {
         "SELECT first_run, last_run, payload, inserted FROM emcalign_iovs WHERE tag = $1 ORDER BY first_run", {tag});
     if (!rows) return rows.error();
     std::vector<Iov> out;
-    for (const Row& r : *rows) out.push_back({toInt(r[0]), toInt(r[1]), toText(r[2]), printable(toText(r[3]))});
+    for (const Row& r : *rows) {
+      Iov iov{toInt(r[0]), toInt(r[1]), toText(r[2]), printable(toText(r[3]))};
+      // Written by emcalign, the IOVs of a tag never overlap; by hand, they might.
+      if (iov.firstRun > iov.lastRun || (!out.empty() && iov.firstRun <= out.back().lastRun)) {
+        return Error{fmt::format("{}: tag '{}': the IOV {}-{} {} (the database was edited behind emcalign's back?)",
+                                 db_->uri(), tag, iov.firstRun, iov.lastRun,
+                                 iov.firstRun > iov.lastRun
+                                     ? "runs backwards"
+                                     : fmt::format("overlaps the IOV {}-{}", out.back().firstRun, out.back().lastRun))};
+      }
+      out.push_back(std::move(iov));
+    }
     return out;
   }
 
@@ -226,9 +253,16 @@ class SqlDatabase final : public Database {
  private:
   // Text read back is made printable (a database edited by hand may hold anything: bytes that
   // are not UTF-8, terminal escapes): core/utf8.hpp.
-  static Tag tagOf(const Row& r) {
-    return {printable(toText(r[0])), printable(toText(r[1])),
-            toText(r[2]) == "locked" ? TagState::Locked : TagState::Open, printable(toText(r[3]))};
+  Result<Tag> tagOf(const Row& r) const {
+    const std::string state = toText(r[2]);
+    if (state != "open" && state != "locked") {
+      return Error{
+          fmt::format("{}: tag '{}' has the state '{}', neither open nor locked (the database was edited "
+                      "behind emcalign's back?)",
+                      db_->uri(), printable(toText(r[0])), printable(state))};
+    }
+    return Tag{printable(toText(r[0])), printable(toText(r[1])), state == "locked" ? TagState::Locked : TagState::Open,
+               printable(toText(r[3]))};
   }
 
   // A payload as stored under `hash`: its content must still have that hash (every read

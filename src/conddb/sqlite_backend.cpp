@@ -20,7 +20,15 @@ constexpr int kBusyTimeoutMs = 120000;
 
 class Sqlite final : public SqlBackend {
  public:
-  Sqlite(sqlite3* db, std::string uri) : db_(db), uri_(std::move(uri)) {}
+  // While it is open, the database and its journals are inputs no output may replace or
+  // create (io::InputGuard), in the command-line tool and in Python alike.
+  Sqlite(sqlite3* db, std::string uri, const std::string& path)
+      : db_(db),
+        uri_(std::move(uri)),
+        guard_({{"--conditions", path},
+                {"--conditions", path + "-wal"},
+                {"--conditions", path + "-shm"},
+                {"--conditions", path + "-journal"}}) {}
   ~Sqlite() override { sqlite3_close_v2(db_); }
 
   Status beginWrite() override { return run("BEGIN IMMEDIATE"); }
@@ -62,8 +70,11 @@ class Sqlite final : public SqlBackend {
       }
       Row row;
       for (int c = 0; c < sqlite3_column_count(stmt); ++c) {
+        // The whole value, NUL bytes included (a text edited by hand is not cut there).
         const auto* t = sqlite3_column_text(stmt, c);
-        row.push_back(t == nullptr ? std::nullopt : std::optional<std::string>(reinterpret_cast<const char*>(t)));
+        const auto bytes = static_cast<std::size_t>(sqlite3_column_bytes(stmt, c));
+        row.push_back(t == nullptr ? std::nullopt
+                                   : std::optional<std::string>(std::string(reinterpret_cast<const char*>(t), bytes)));
       }
       rows.push_back(std::move(row));
     }
@@ -118,6 +129,7 @@ class Sqlite final : public SqlBackend {
 
   sqlite3* db_;
   std::string uri_;
+  io::InputGuard guard_;
 };
 
 }  // namespace
@@ -130,6 +142,15 @@ Result<std::unique_ptr<SqlBackend>> openSqlite(const std::string& path, bool cre
     return Error{fmt::format("{}: no such database (create one with: emcalign conditions init {})", uri, uri)};
   }
   if (exists && !S_ISREG(st.st_mode)) return Error{fmt::format("{}: not a regular file", uri)};
+  // SQLite opens its journals itself: one that is a FIFO or a device would block it or take
+  // the database's writes.
+  for (const char* suffix : {"-wal", "-shm", "-journal"}) {
+    struct stat companion {};
+    if (::lstat((path + suffix).c_str(), &companion) == 0 && !S_ISREG(companion.st_mode)) {
+      return Error{
+          fmt::format("{}: {}{} is not a regular file (a journal SQLite writes): remove it", uri, path, suffix)};
+    }
+  }
   sqlite3* db = nullptr;
   const int flags = SQLITE_OPEN_READWRITE | (create ? SQLITE_OPEN_CREATE : 0) | SQLITE_OPEN_FULLMUTEX;
   if (sqlite3_open_v2(path.c_str(), &db, flags, nullptr) != SQLITE_OK) {
@@ -137,16 +158,12 @@ Result<std::unique_ptr<SqlBackend>> openSqlite(const std::string& path, bool cre
     sqlite3_close_v2(db);
     return Error{fmt::format("{}: cannot open: {}", uri, why)};
   }
-  auto s = std::make_unique<Sqlite>(db, uri);
+  auto s = std::make_unique<Sqlite>(db, uri, path);
   sqlite3_busy_timeout(db, kBusyTimeoutMs);
   if (Status st2 = s->checkApplication(); !st2) return st2.error();
   if (Status st2 = s->run("PRAGMA journal_mode = WAL"); !st2) return st2.error();
   if (Status st2 = s->run("PRAGMA synchronous = FULL"); !st2) return st2.error();
   if (Status st2 = s->run("PRAGMA foreign_keys = ON"); !st2) return st2.error();
-  // The database and its journals are inputs of the command: no output may replace them.
-  for (const std::string& f : {path, path + "-wal", path + "-shm", path + "-journal"}) {
-    io::protectInput({"--conditions", f});
-  }
   return std::unique_ptr<SqlBackend>(std::move(s));
 }
 

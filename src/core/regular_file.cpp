@@ -1,7 +1,9 @@
 #include "emcalign/core/regular_file.hpp"
 
 #include <fcntl.h>
+#include <linux/magic.h>
 #include <sys/stat.h>
+#include <sys/vfs.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -43,6 +45,12 @@ Result<RegularFile> RegularFile::open(const std::string& path) {
     ::close(fd);
     return Error{fmt::format("{}: is {}, not a regular file: refusing to read it (it could block or never end)", path,
                              kindOf(st.st_mode))};
+  }
+  // The kernel's files look regular, but may block (/proc/kmsg) or never end.
+  struct statfs fs {};
+  if (::fstatfs(fd, &fs) == 0 && (fs.f_type == PROC_SUPER_MAGIC || fs.f_type == SYSFS_MAGIC)) {
+    ::close(fd);
+    return Error{fmt::format("{}: a file of the kernel's /proc or /sys, not data: refusing to read it", path)};
   }
   const int flags = ::fcntl(fd, F_GETFL);
   if (flags >= 0) ::fcntl(fd, F_SETFL, flags & ~O_NONBLOCK);

@@ -24,7 +24,7 @@ constexpr std::size_t kCsvFlushBytes = std::size_t{1} << 20;
 class CsvWriter final : public EventWriter {
  public:
   static Result<std::unique_ptr<EventWriter>> create(const std::string& path, const WriterOptions& options) {
-    auto out = OutputFile::open(path);
+    auto out = OutputFile::open(path, options.placement);
     if (!out) return out.error();
     auto w = std::unique_ptr<CsvWriter>(new CsvWriter(path, std::move(*out)));
     for (const auto& [key, value] : options.attributes) {

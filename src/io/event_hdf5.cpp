@@ -209,7 +209,7 @@ Hid creationList(hid_t cls) {
 class Hdf5Writer final : public EventWriter {
  public:
   static Result<std::unique_ptr<EventWriter>> create(const std::string& path, const WriterOptions& options) {
-    auto out = OutputFile::reserve(path);
+    auto out = OutputFile::reserve(path, options.placement);
     if (!out) return out.error();
     Hdf5Quiet quiet;
     auto w = std::unique_ptr<Hdf5Writer>(new Hdf5Writer(path, std::move(*out), options.withTruth, options.withHits));

@@ -103,14 +103,25 @@ std::atomic<unsigned> gStreamTemporaries{0};
 
 // ------------------------------------------------------------------- the protected inputs
 
+// An input no output may replace: its identity when it exists (device and inode, so that
+// links and hard links are seen through) and its name (a file that does not exist yet, as a
+// database's journal, must not be created by an output either). Entries of a guard (owner >
+// 0) hold while the guard lives, whether or not the protection is on; the command's (owner 0)
+// only while it is on.
 struct ProtectedInput {
   NamedPath name;
-  dev_t dev;
-  ino_t ino;
+  std::string absolute;  // the name, absolute and normalised
+  bool exists = false;
+  dev_t dev{};
+  ino_t ino{};
+  std::uint64_t owner = 0;              // 0: the command's; else the InputGuard's id
+  bool directory = false;               // a directory whose files are read as data: nothing is created in it
+  std::vector<std::string> extensions;  // directory: the names ending so are its data
 };
 std::mutex gProtectedMutex;
 std::atomic<bool> gProtecting{false};
 std::vector<ProtectedInput> gProtected;  // guarded by gProtectedMutex
+std::atomic<std::uint64_t> gGuards{0};
 
 // The file an existing path is (following links): a regular file's device and inode.
 bool fileIdentity(const std::string& path, dev_t& dev, ino_t& ino) {
@@ -119,6 +130,15 @@ bool fileIdentity(const std::string& path, dev_t& dev, ino_t& ino) {
   dev = st.st_dev;
   ino = st.st_ino;
   return true;
+}
+
+// A path's name, absolute: links in its directories resolved (an output may reach the file
+// through another directory), not a link that is the last component (that is another name).
+std::string normalised(const std::string& p) {
+  std::error_code ec;
+  const fs::path absolute = fs::absolute(p, ec).lexically_normal();
+  const fs::path directory = fs::weakly_canonical(absolute.parent_path(), ec);
+  return ec ? absolute.string() : (directory / absolute.filename()).lexically_normal().string();
 }
 
 std::string describe(const NamedPath& input) {
@@ -130,6 +150,24 @@ Error overwritesInput(const std::string& output, const NamedPath& input) {
       fmt::format("{}: is the same file as the input {}: refusing to overwrite an input", output, describe(input))};
 }
 
+void addProtected(const NamedPath& input, std::uint64_t owner, bool directory,
+                  std::vector<std::string> extensions = {}) {
+  if (input.path.empty() || input.path == "-") return;
+  ProtectedInput p{input, normalised(input.path), false, {}, {}, owner, directory, std::move(extensions)};
+  if (!directory) p.exists = fileIdentity(input.path, p.dev, p.ino);
+  const std::lock_guard lock(gProtectedMutex);
+  for (auto& q : gProtected) {
+    const bool same = q.directory == directory && q.owner == owner &&
+                      (p.exists && q.exists ? q.dev == p.dev && q.ino == p.ino : q.absolute == p.absolute);
+    if (!same) continue;
+    if (q.name.option.empty()) q.name = input;  // the option it was given with names it best
+    return;
+  }
+  gProtected.push_back(std::move(p));
+}
+
+bool applies(const ProtectedInput& p) { return p.owner != 0 || gProtecting.load(); }
+
 }  // namespace
 
 void enableInputProtection() { gProtecting.store(true); }
@@ -137,31 +175,42 @@ void enableInputProtection() { gProtecting.store(true); }
 void disableInputProtection() {
   gProtecting.store(false);
   const std::lock_guard lock(gProtectedMutex);
-  gProtected.clear();
+  std::erase_if(gProtected, [](const ProtectedInput& p) { return p.owner == 0; });
 }
 
 void protectInput(const NamedPath& input) {
-  if (!gProtecting.load()) return;
-  dev_t dev{};
-  ino_t ino{};
-  if (!fileIdentity(input.path, dev, ino)) return;
+  if (gProtecting.load()) addProtected(input, 0, false);
+}
+
+void protectInputDirectory(const NamedPath& directory, const std::vector<std::string>& extensions) {
+  if (gProtecting.load()) addProtected(directory, 0, true, extensions);
+}
+
+InputGuard::InputGuard(const std::vector<NamedPath>& files) : id_(++gGuards) {
+  for (const auto& f : files) addProtected(f, id_, false);
+}
+
+InputGuard::~InputGuard() {
   const std::lock_guard lock(gProtectedMutex);
-  for (auto& p : gProtected) {
-    if (p.dev != dev || p.ino != ino) continue;
-    if (p.name.option.empty()) p.name = input;  // the option it was given with names it best
-    return;
-  }
-  gProtected.push_back({input, dev, ino});
+  std::erase_if(gProtected, [this](const ProtectedInput& p) { return p.owner == id_; });
 }
 
 std::optional<NamedPath> protectedInputAt(const std::string& path) {
-  if (!gProtecting.load()) return std::nullopt;
   dev_t dev{};
   ino_t ino{};
-  if (!fileIdentity(path, dev, ino)) return std::nullopt;
+  const bool exists = fileIdentity(path, dev, ino);
+  const std::string absolute = normalised(path);
+  const std::string parent = fs::path(absolute).parent_path().string();
   const std::lock_guard lock(gProtectedMutex);
   for (const auto& p : gProtected) {
-    if (p.dev == dev && p.ino == ino) return p.name;
+    if (!applies(p)) continue;
+    if (p.directory) {
+      const bool data = std::any_of(p.extensions.begin(), p.extensions.end(),
+                                    [&](const std::string& e) { return absolute.ends_with(e); });
+      if (!exists && data && parent == p.absolute) return p.name;  // a new file among the data
+      continue;
+    }
+    if ((exists && p.exists && p.dev == dev && p.ino == ino) || p.absolute == absolute) return p.name;
   }
   return std::nullopt;
 }
@@ -173,19 +222,17 @@ Status checkDirectoryHoldsNoInput(const NamedPath& directory, const std::vector<
     dev_t dev;
     ino_t ino;
   };
-  auto normalised = [](const std::string& p) {
-    std::error_code ec;
-    return fs::absolute(p, ec).lexically_normal().string();
-  };
   std::vector<Known> known;
   for (const auto& i : inputs) {
     dev_t dev{};
     ino_t ino{};
     if (fileIdentity(i.path, dev, ino)) known.push_back({i, normalised(i.path), dev, ino});
   }
-  if (gProtecting.load()) {
+  {
     const std::lock_guard lock(gProtectedMutex);
-    for (const auto& p : gProtected) known.push_back({p.name, normalised(p.name.path), p.dev, p.ino});
+    for (const auto& p : gProtected) {
+      if (applies(p) && p.exists) known.push_back({p.name, p.absolute, p.dev, p.ino});
+    }
   }
   std::error_code ec;
   if (known.empty() || !fs::is_directory(directory.path, ec)) return {};
@@ -244,7 +291,7 @@ std::string temporaryPathFor(const std::string& realPath) {
   return fmt::format("{}.tmp-{}", realPath, static_cast<long>(::getpid()));
 }
 
-Result<OutputTarget> resolveOutput(const std::string& path) {
+Result<OutputTarget> resolveOutput(const std::string& path, Placement placement) {
   if (path.empty()) return Error{"an output name is empty"};
   if (path == "-") return OutputTarget{path, path, OutputKind::Stdout};
   struct stat link {};
@@ -259,6 +306,11 @@ Result<OutputTarget> resolveOutput(const std::string& path) {
     if (!S_ISDIR(d.st_mode)) return Error{fmt::format("{}: cannot write here: '{}' is not a directory", path, dir)};
     if (::access(dir.c_str(), W_OK) != 0) {
       return Error{fmt::format("{}: cannot create a file in '{}': {}", path, dir, reason(errno))};
+    }
+    if (auto input = protectedInputAt(path)) {
+      return Error{fmt::format("{}: {} the input {}: refusing to write there", path,
+                               fs::is_directory(input->path) ? "would be read as data of" : "is a file of",
+                               describe(*input))};
     }
     return OutputTarget{path, path, OutputKind::File};
   }
@@ -276,6 +328,12 @@ Result<OutputTarget> resolveOutput(const std::string& path) {
     return Error{fmt::format("{}: cannot use as an output: {}", path, reason(error))};
   }
   if (S_ISDIR(st.st_mode)) return Error{fmt::format("{}: is a directory (an output file name is expected)", path)};
+  if ((S_ISCHR(st.st_mode) || S_ISFIFO(st.st_mode)) && placement == Placement::InDirectory) {
+    return Error{
+        fmt::format("{}: is {}: the files a command writes into its output directory are regular files "
+                    "(remove it, or write elsewhere)",
+                    path, S_ISFIFO(st.st_mode) ? "a FIFO" : "a device")};
+  }
   if (S_ISCHR(st.st_mode) || S_ISFIFO(st.st_mode)) return OutputTarget{path, path, OutputKind::Stream};
   if (S_ISBLK(st.st_mode)) return Error{fmt::format("{}: is a block device: refusing to write to it", path)};
   if (!S_ISREG(st.st_mode))
@@ -372,8 +430,8 @@ Status checkDistinct(const std::vector<NamedPath>& outputs, const std::vector<Na
 
 // ------------------------------------------------------------------------------ OutputFile
 
-Result<std::unique_ptr<OutputFile>> OutputFile::reserve(const std::string& path) {
-  auto target = resolveOutput(path);
+Result<std::unique_ptr<OutputFile>> OutputFile::reserve(const std::string& path, Placement placement) {
+  auto target = resolveOutput(path, placement);
   if (!target) return target.error();
   auto out = std::unique_ptr<OutputFile>(new OutputFile());
   out->target_ = *target;
@@ -402,8 +460,8 @@ Result<std::unique_ptr<OutputFile>> OutputFile::reserve(const std::string& path)
   return out;
 }
 
-Result<std::unique_ptr<OutputFile>> OutputFile::open(const std::string& path) {
-  auto target = resolveOutput(path);
+Result<std::unique_ptr<OutputFile>> OutputFile::open(const std::string& path, Placement placement) {
+  auto target = resolveOutput(path, placement);
   if (!target) return target.error();
   if (target->kind == OutputKind::Stdout) {
     auto out = std::unique_ptr<OutputFile>(new OutputFile());
@@ -420,9 +478,9 @@ Result<std::unique_ptr<OutputFile>> OutputFile::open(const std::string& path) {
     if (out->stream_ == nullptr) return Error{fmt::format("{}: cannot open for writing: {}", path, reason(errno))};
     return out;
   }
-  auto out = reserve(path);
+  auto out = reserve(path, placement);
   if (!out) return out.error();
-  const int fd = ::open((*out)->written_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+  const int fd = ::open((*out)->written_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC | O_NOFOLLOW, 0666);
   if (fd < 0) {
     const int error = errno;
     (*out)->temporary_ = false;  // not ours to remove (it may be another writer's)
@@ -519,8 +577,12 @@ OutputFile::~OutputFile() {
   }
 }
 
-Status writeOutputFile(const std::string& path, std::string_view content) {
-  auto out = OutputFile::open(path);
+Status writeFileIn(const std::string& dir, const std::string& name, std::string_view content) {
+  return writeOutputFile((fs::path(dir) / name).string(), content, Placement::InDirectory);
+}
+
+Status writeOutputFile(const std::string& path, std::string_view content, Placement placement) {
+  auto out = OutputFile::open(path, placement);
   if (!out) return out.error();
   if (!content.empty() && std::fwrite(content.data(), 1, content.size(), (*out)->stream()) != content.size()) {
     return Error{fmt::format("{}: write failed: {}", path, reason(errno))};

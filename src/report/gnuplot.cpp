@@ -1,6 +1,11 @@
 #include "gnuplot.hpp"
 
+#include <fcntl.h>
+#include <poll.h>
+#include <spawn.h>
+#include <sys/socket.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cctype>
 #include <cerrno>
@@ -9,6 +14,7 @@
 #include <string_view>
 #include <system_error>
 #include <utility>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -19,17 +25,6 @@
 namespace emcalign::report::detail {
 
 namespace fs = std::filesystem;
-
-std::string shellQuote(const std::string& s) {
-  std::string out = "'";
-  for (char c : s) {
-    if (c == '\'')
-      out += "'\\''";
-    else
-      out += c;
-  }
-  return out + "'";
-}
 
 // Keeps text that is safe inside a double-quoted gnuplot string in enhanced mode.
 std::string plainText(const std::string& s) {
@@ -80,65 +75,133 @@ std::string terminalHeader(const std::string& pngName, int width, int height) {
 }
 
 Status writeFile(const fs::path& dir, const std::string& name, const std::string& content) {
-  return io::writeOutputFile((dir / name).string(), content);
+  return io::writeFileIn(dir.string(), name, content);
 }
 
-// Runs `gnuplot -d NAME.gp` in `dir`; gnuplot's messages go into the error. gnuplot does not
-// write NAME.png itself (it would follow a link planted there, and leave half a figure when
-// killed): it draws into the temporary of that output (io/output_file.hpp), which is renamed
-// into place when gnuplot succeeds. The script it runs is NAME.gp with that output, kept in a
-// temporary beside it; NAME.gp as written still draws NAME.png when a user runs it.
+namespace {
+
+struct Ran {
+  int status = -1;       // as waitpid gives it; -1: could not start
+  int startError = 0;    // errno when it could not start
+  std::string out, err;  // its standard output and error
+};
+
+// Runs `argv` in `cwd` with `input` on its standard input, capturing its standard output and
+// error (poll on the three pipes: no deadlock whatever their sizes).
+Ran runCapturing(const std::vector<std::string>& argv, const std::string& cwd, std::string_view input) {
+  Ran r;
+  // Its standard input is a socket, not a pipe: a gnuplot that exits before reading all of it
+  // gets EPIPE without a SIGPIPE (MSG_NOSIGNAL), which would end this process.
+  int in[2], out[2], err[2];
+  if (::socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, in) != 0) {
+    r.startError = errno;
+    return r;
+  }
+  if (::pipe2(out, O_CLOEXEC) != 0 || ::pipe2(err, O_CLOEXEC) != 0) {
+    r.startError = errno;
+    return r;
+  }
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_adddup2(&actions, in[0], 0);
+  posix_spawn_file_actions_adddup2(&actions, out[1], 1);
+  posix_spawn_file_actions_adddup2(&actions, err[1], 2);
+  posix_spawn_file_actions_addchdir_np(&actions, cwd.c_str());
+  std::vector<char*> args;
+  for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+  pid_t pid = 0;
+  const int spawned = ::posix_spawnp(&pid, args[0], &actions, nullptr, args.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  ::close(in[0]);
+  ::close(out[1]);
+  ::close(err[1]);
+  if (spawned != 0) {
+    r.startError = spawned;
+    ::close(in[1]);
+    ::close(out[0]);
+    ::close(err[0]);
+    return r;
+  }
+  std::size_t written = 0;
+  if (input.empty()) {
+    ::close(in[1]);
+    in[1] = -1;
+  }
+  char buffer[1 << 16];
+  while (out[0] >= 0 || err[0] >= 0) {
+    pollfd fds[3] = {{in[1], POLLOUT, 0}, {out[0], POLLIN, 0}, {err[0], POLLIN, 0}};
+    if (::poll(fds, 3, -1) < 0) {
+      if (errno == EINTR) continue;
+      break;
+    }
+    if (in[1] >= 0 && (fds[0].revents & (POLLOUT | POLLERR | POLLHUP)) != 0) {
+      const ssize_t n = ::send(in[1], input.data() + written, input.size() - written, MSG_NOSIGNAL | MSG_DONTWAIT);
+      if (n > 0) written += static_cast<std::size_t>(n);
+      if (n < 0 && errno != EAGAIN && errno != EINTR) written = input.size();  // it stopped reading
+      if (written == input.size()) {
+        ::close(in[1]);
+        in[1] = -1;
+      }
+    }
+    for (int k : {1, 2}) {
+      int& fd = k == 1 ? out[0] : err[0];
+      if (fd < 0 || (fds[k].revents & (POLLIN | POLLERR | POLLHUP)) == 0) continue;
+      const ssize_t n = ::read(fd, buffer, sizeof buffer);
+      if (n > 0) {
+        (k == 1 ? r.out : r.err).append(buffer, static_cast<std::size_t>(n));
+      } else if (n == 0 || (errno != EINTR && errno != EAGAIN)) {
+        ::close(fd);
+        fd = -1;
+      }
+    }
+  }
+  if (in[1] >= 0) ::close(in[1]);
+  while (::waitpid(pid, &r.status, 0) < 0 && errno == EINTR) {
+  }
+  return r;
+}
+
+}  // namespace
+
+// Runs NAME.gp in `dir`; gnuplot's messages go into the error. gnuplot opens no file to write:
+// it is given the script on its standard input with its output set to the standard output,
+// and the figure it prints is written as DIR/NAME.png by the output rules (io/output_file.hpp:
+// through a temporary, never onto an input, a link planted there or a FIFO). NAME.gp as written
+// still draws NAME.png when a user runs it.
 Status runGnuplot(const fs::path& dir, const std::string& name) {
-  const std::string script = name + ".gp";
-  const std::string png = (dir / (name + ".png")).string();
-  auto text = RegularFile::open((dir / script).string());
+  const std::string script = (dir / (name + ".gp")).string();
+  const std::string png = name + ".png";
+  auto text = RegularFile::open(script);
   if (!text) return text.error();
   auto content = text->readAll(io::kMaxInputFileBytes);
   if (!content) return content.error();
-  auto output = io::OutputFile::reserve(png);
-  if (!output) return output.error();
-  const std::string setOutput = fmt::format("set output '{}.png'\n", name);
+  const std::string setOutput = fmt::format("set output '{}'\n", png);
   const auto at = content->find(setOutput);
-  if (at == std::string::npos) return Error{fmt::format("{}: no line {}", (dir / script).string(), setOutput)};
-  std::string target = fs::absolute((*output)->writtenPath()).string();
-  std::string quotedTarget;
-  for (char c : target) quotedTarget += c == '\'' ? std::string("''") : std::string(1, c);
-  content->replace(at, setOutput.size(), fmt::format("set output '{}'\n", quotedTarget));
-  auto run = io::OutputFile::open((dir / ("." + script)).string());  // never committed: removed afterwards
-  if (!run) return run.error();
-  if (std::fwrite(content->data(), 1, content->size(), (*run)->stream()) != content->size() ||
-      std::fflush((*run)->stream()) != 0) {
-    return Error{fmt::format("{}: write failed: {}", (*run)->writtenPath(), std::strerror(errno))};
-  }
-  const std::string command = fmt::format("cd {} && gnuplot -d {} 2>&1", shellQuote(dir.string()),
-                                          shellQuote(fs::path((*run)->writtenPath()).filename().string()));
-  std::FILE* pipe = popen(command.c_str(), "r");
-  if (pipe == nullptr)
-    return Error{fmt::format("{}: cannot start gnuplot: {}", (dir / script).string(), std::strerror(errno))};
-  std::string said;
-  char buffer[4096];
-  std::size_t got = 0;
-  while ((got = std::fread(buffer, 1, sizeof buffer, pipe)) > 0) said.append(buffer, got);
-  const int status = pclose(pipe);
+  if (at == std::string::npos) return Error{fmt::format("{}: no line {}", script, setOutput)};
+  content->replace(at, setOutput.size(), "set output  # the standard output, which emcalign writes to the file\n");
+  const Ran ran = runCapturing({"gnuplot", "-d"}, dir.string(), *content);
+  std::string said = ran.err;
   while (!said.empty() && (said.back() == '\n' || said.back() == ' ')) said.pop_back();
   if (said.size() > 2000) said = said.substr(0, 2000) + " …";
-  if (status == -1)
-    return Error{fmt::format("{}: running gnuplot failed: {}", (dir / script).string(), std::strerror(errno))};
-  if (WIFEXITED(status) && WEXITSTATUS(status) == 127)
-    return Error{
-        fmt::format("gnuplot was not found (needed to draw {}): {}; the shell said: {}", png, kInstallHint, said)};
-  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
-    return Error{fmt::format(
-        "gnuplot failed on {} ({}): {}\n(gnuplot with the pngcairo terminal is needed; {})", (dir / script).string(),
-        WIFEXITED(status) ? fmt::format("exit status {}", WEXITSTATUS(status)) : std::string("killed by a signal"),
-        said, kInstallHint)};
+  if (ran.status == -1 && (ran.startError == ENOENT || ran.startError == EACCES)) {
+    return Error{fmt::format("gnuplot was not found (needed to draw {}): {}", (dir / png).string(), kInstallHint)};
   }
-  std::error_code ec;
-  const auto size = fs::file_size((*output)->writtenPath(), ec);
-  if (ec || size == 0)
-    return Error{fmt::format("gnuplot ran {} but drew no {}.png{}", (dir / script).string(), name,
-                             said.empty() ? "" : ": " + said)};
-  return (*output)->commit();
+  if (ran.status == -1) {
+    return Error{fmt::format("{}: cannot start gnuplot: {}", script, std::strerror(ran.startError))};
+  }
+  if (!WIFEXITED(ran.status) || WEXITSTATUS(ran.status) != 0) {
+    return Error{fmt::format("gnuplot failed on {} ({}): {}\n(gnuplot with the pngcairo terminal is needed; {})",
+                             script,
+                             WIFEXITED(ran.status) ? fmt::format("exit status {}", WEXITSTATUS(ran.status))
+                                                   : std::string("killed by a signal"),
+                             said, kInstallHint)};
+  }
+  static constexpr std::string_view kPngSignature = "\x89PNG\r\n\x1a\n";
+  if (!std::string_view(ran.out).starts_with(kPngSignature)) {
+    return Error{fmt::format("gnuplot ran {} but drew no PNG{}", script, said.empty() ? "" : ": " + said)};
+  }
+  return io::writeFileIn(dir.string(), png, ran.out);
 }
 
 Status createPlotDirectory(const fs::path& dir) {

@@ -13,8 +13,6 @@ namespace emcalign::report::detail {
 
 inline constexpr const char* kInstallHint = "install it with `apt-get install gnuplot-nox` (scripts/install-deps does)";
 
-/// A shell word: the text in single quotes.
-std::string shellQuote(const std::string& s);
 /// Keeps text that is safe inside a double-quoted gnuplot string in enhanced mode.
 std::string plainText(const std::string& s);
 /// Enhanced-text label of a quantity: a leading Greek letter's name becomes the letter, and
@@ -24,7 +22,7 @@ std::string quantityLabel(const std::string& name);
 std::string terminalHeader(const std::string& pngName, int width, int height);
 /// Writes dir/name (io/output_file.hpp rules).
 Status writeFile(const std::filesystem::path& dir, const std::string& name, const std::string& content);
-/// Runs `gnuplot -d NAME.gp` in `dir`; gnuplot's messages go into the error.
+/// Draws dir/NAME.png with gnuplot from dir/NAME.gp; gnuplot's messages go into the error.
 Status runGnuplot(const std::filesystem::path& dir, const std::string& name);
 Status createPlotDirectory(const std::filesystem::path& dir);
 

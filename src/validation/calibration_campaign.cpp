@@ -95,9 +95,19 @@ Result<std::vector<std::string>> eventFilesIn(const std::vector<std::string>& in
         const std::string ext = e.path().extension().string();
         // Hidden files and temporaries (a command writing or killed there) are not data.
         if (name.starts_with(".") || io::isTemporaryName(name)) continue;
-        if (e.is_regular_file() && (ext == ".h5" || ext == ".hdf5" || ext == ".csv"))
-          found.push_back(e.path().string());
+        if (ext != ".h5" && ext != ".hdf5" && ext != ".csv") continue;
+        std::error_code kind;
+        if (!e.is_regular_file(kind)) {
+          // A run that cannot be read is not left out silently: its IOV would be calibrated
+          // without it (a link to a tape not mounted, a FIFO).
+          return Error{fmt::format("{}: not a regular file ({}): an event file of the directory that cannot be read",
+                                   e.path().string(),
+                                   e.is_symlink(kind) ? "a link to nothing" : "a FIFO, device or directory")};
+        }
+        found.push_back(e.path().string());
       }
+      io::protectInputDirectory({"", in},
+                                {".h5", ".hdf5", ".csv"});  // a file written into it would be read as data next time
       if (ec) return Error{fmt::format("{}: cannot list the directory: {}", in, ec.message())};
       if (found.empty()) return Error{fmt::format("{}: no event files (*.h5, *.hdf5, *.csv) in this directory", in)};
       std::sort(found.begin(), found.end());
@@ -421,6 +431,12 @@ Result<CampaignPlan> readCampaignPlan(const std::string& path) {
       const std::string file = in.string("file"), sha = in.string("sha256");
       if (!isSha256(sha)) in.fail(in.pathOf("sha256"), "expected the file's SHA-256 (64 hexadecimal digits)");
       if (!plan.digests.emplace(file, sha).second) in.fail(in.pathOf("file"), "the file is listed twice");
+      for (const auto& [other, otherSha] : plan.digests) {
+        if (other != file && otherSha == sha) {
+          in.fail(in.pathOf("sha256"),
+                  fmt::format("the same content as {}: a copy, whose events would count twice", other));
+        }
+      }
     }
     const Json& groups = top.at("groups");
     if (!groups.is_array() || groups.empty()) top.fail("groups", "expected a non-empty list");
@@ -535,8 +551,57 @@ Result<GroupFit> fitGroup(const CampaignGroup& g, const calib::ProfileFill& fill
   return GroupFit{std::move(*result), std::move(resultJson), std::move(*payload)};
 }
 
+Result<calib::ProfileFill> fillPlannedGroup(const CampaignGroup& g, const CampaignModel& model) {
+  const std::string group = fmt::format("group {} (runs {}-{})", g.index, g.iovFirst, g.iovLast);
+  auto distinct = eventFilesIn(g.files);  // the same file by two names is refused
+  if (!distinct) return Error{fmt::format("{}: {}", group, distinct.error().message)};
+  calib::ProfileFill fill = calib::ProfileFill::empty(model.profile);
+  std::vector<std::map<std::int32_t, io::EventNumbers>> eventsOf(g.files.size());
+  for (std::size_t k = 0; k < g.files.size(); ++k) {
+    auto byRun =
+        calib::fillProfilesByRun(g.files[k], model.depthAtEnergy(), model.selection, model.profile, &eventsOf[k]);
+    if (!byRun) return byRun.error();
+    for (std::int32_t run : g.runs) {
+      if (auto it = byRun->find(run); it != byRun->end()) fill.merge(it->second);
+    }
+  }
+  if (Status s = eachEventOnce(g.files, std::vector<std::string>(g.files.size()), eventsOf); !s) {
+    return Error{fmt::format("{}: {}", group, s.error().message)};
+  }
+  if (!fill.beamEnergies.empty() &&
+      (std::isnan(g.beamEnergy) || fill.beamEnergies.size() != 1 || *fill.beamEnergies.begin() != g.beamEnergy)) {
+    return Error{fmt::format("{}: the plan says beam energy {}, its events have {:.6g} MeV (the plan was edited?)",
+                             group,
+                             std::isnan(g.beamEnergy) ? std::string("none") : fmt::format("{:.6g} MeV", g.beamEnergy),
+                             fmt::join(fill.beamEnergies, ", "))};
+  }
+  if (fill.cutFlow.events.back() != g.selected) {
+    return Error{
+        fmt::format("{}: {} selected events in its files, the plan counted {} (the files changed since the "
+                    "plan was made, or the plan was edited?)",
+                    group, fill.cutFlow.events.back(), g.selected)};
+  }
+  return fill;
+}
+
+Result<calib::SigmaSysChoice> sigmaSysChoiceOf(const conddb::Payload& payload) {
+  const Json alignment = payload.content.value("alignment", Json::object());
+  const Json recorded = alignment.is_object() && alignment.contains("sigma_sys") && alignment["sigma_sys"].is_object()
+                            ? alignment["sigma_sys"]
+                            : Json{{"method", "spec"}};  // payloads made before the choice existed
+  const std::string method = recorded.contains("method") && recorded.at("method").is_string()
+                                 ? recorded.at("method").get<std::string>()
+                                 : std::string();
+  const bool value = recorded.contains("value_deg") && recorded.at("value_deg").is_number();
+  auto choice = calib::recordedSigmaSysChoice(method, value ? recorded.at("value_deg").get<double>() : std::nan(""));
+  if (!choice) {
+    return Error{fmt::format("sigma_sys {}: not one a campaign makes ({})", recorded.dump(), choice.error().message)};
+  }
+  return choice;
+}
+
 Result<bool> groupStored(conddb::Database& db, const std::string& tag, const CampaignGroup& g,
-                         const std::map<std::string, std::string>& digests) {
+                         const std::map<std::string, std::string>& digests, const CampaignModel& model) {
   auto got = db.get(tag, g.iovFirst);
   if (!got) return got.error();
   if (!got->has_value()) return false;
@@ -556,7 +621,7 @@ Result<bool> groupStored(conddb::Database& db, const std::string& tag, const Cam
     }
     expected.insert(it->second);
   }
-  const Json& provenance = payload.content.contains("provenance") ? payload.content["provenance"] : Json();
+  const Json provenance = payload.content.value("provenance", Json::object());
   const Json recorded = provenance.is_object() ? provenance.value("input_sha256", Json()) : Json();
   if (recorded.is_object()) {
     for (const auto& [file, sha] : recorded.items()) {
@@ -574,6 +639,25 @@ Result<bool> groupStored(conddb::Database& db, const std::string& tag, const Cam
         fmt::format("{}: tag '{}' holds its runs from other data (the SHA-256 of the files it was made from "
                     "differ from those of {}): the same run numbers, another data set; write to a new tag",
                     group, tag, g.files.size() == 1 ? g.files.front() : fmt::format("its {} files", g.files.size()))};
+  }
+  // One tag, one model: the same corrections (by digest) and the same choice of σ_sys.
+  const std::string usedCorrections = provenance.is_object() ? provenance.value("corrections_sha256", "") : "";
+  if (usedCorrections != model.correctionsSha256) {
+    auto what = [](const std::string& sha) {
+      return sha.empty() ? std::string("without corrections") : fmt::format("with corrections {}…", sha.substr(0, 12));
+    };
+    return Error{
+        fmt::format("{}: tag '{}' holds it fitted {}, this campaign fits {}: one tag holds one model; write "
+                    "to a new tag",
+                    group, tag, what(usedCorrections), what(model.correctionsSha256))};
+  }
+  auto usedSigma = sigmaSysChoiceOf(payload);
+  if (!usedSigma) return Error{fmt::format("{}: tag '{}': {}", group, tag, usedSigma.error().message)};
+  if (sigmaSysChoiceJson(*usedSigma) != sigmaSysChoiceJson(model.sigmaSys)) {
+    return Error{
+        fmt::format("{}: tag '{}' holds it fitted with sigma_sys {}, this campaign with {}: one tag holds "
+                    "one model; write to a new tag",
+                    group, tag, sigmaSysChoiceJson(*usedSigma).dump(), sigmaSysChoiceJson(model.sigmaSys).dump())};
   }
   return true;
 }
@@ -622,7 +706,7 @@ Result<CampaignReport> runCampaign(const CampaignScan& scan, const CampaignModel
   // The groups stored already must be from this data (before any fit).
   for (std::size_t k = 0; k < groups.size(); ++k) {
     if (!(*done)[k]) continue;
-    auto same = groupStored(db, tag, groups[k], digests);
+    auto same = groupStored(db, tag, groups[k], digests, model);
     if (!same) return same.error();
   }
 
@@ -660,7 +744,7 @@ Result<CampaignReport> runCampaign(const CampaignScan& scan, const CampaignModel
             status = std::string(name(fit->result.status));
           } else if (Status s = db.put(tag, g.iovFirst, g.iovLast, fit->payload, true, o.description); !s) {
             // Another process may have stored this very group meanwhile (a batch retry).
-            if (auto same = groupStored(db, tag, g, digests); same && *same) {
+            if (auto same = groupStored(db, tag, g, digests, model); same && *same) {
               ++report.resumed;
               status = "stored by another process";
             } else {

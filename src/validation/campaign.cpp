@@ -304,7 +304,9 @@ Result<Table> runCampaign(const geometry::Calorimeter& calo, const CampaignOptio
     if (!fit) return Error{fmt::format("sample {}: {}", i, fit.error().message)};
     s.fit = std::move(*fit);
     s.selectedEvents = filler.fill().cutFlow.events.back();
-    if (Status w = io::writeOutputFile(path, sampleJson(s, o).dump(1) + "\n"); !w) return w.error();
+    if (Status w = io::writeOutputFile(path, sampleJson(s, o).dump(1) + "\n", io::Placement::InDirectory); !w) {
+      return w.error();
+    }
     // Tabulate what the file holds (file units), so that a resumed campaign, which reads
     // its finished samples back, gives the same table to the last digit.
     auto stored = readSample(path, i, o, r1);
@@ -313,10 +315,10 @@ Result<Table> runCampaign(const geometry::Calorimeter& calo, const CampaignOptio
     if (progress) progress(i + 1, o.samples);
   }
   Table table = tabulate(samples, o.events, r1);
-  if (Status w = io::writeOutputFile((fs::path(dir) / "table.json").string(), tableJson(table).dump(2) + "\n"); !w) {
+  if (Status w = io::writeFileIn(dir, "table.json", tableJson(table).dump(2) + "\n"); !w) {
     return w.error();
   }
-  if (Status w = io::writeOutputFile((fs::path(dir) / "table.md").string(), tableMarkdown(table)); !w) {
+  if (Status w = io::writeFileIn(dir, "table.md", tableMarkdown(table)); !w) {
     return w.error();
   }
   if (auto plots = report::writeCampaignPlots((fs::path(dir) / "plots").string(), campaignSeries(samples, r1));

@@ -356,7 +356,7 @@ Status claimPeriodDirectory(const std::string& dir, const PeriodScenario& s, con
       return Error{fmt::format("{}: holds run files but no period.json: choose another directory", dir)};
     }
   }
-  return io::writeOutputFile(statePath, state.dump(2) + "\n");
+  return io::writeOutputFile(statePath, state.dump(2) + "\n", io::Placement::InDirectory);
 }
 
 // The runs still to simulate, cut into pieces of at most kPiece events: simulated in
@@ -483,6 +483,7 @@ class PeriodPipeline {
     io::WriterOptions wo;
     wo.withTruth = true;
     wo.withHits = o_.hits;
+    wo.placement = io::Placement::InDirectory;
     const Json settings = {{"software", fmt::format("emcalign {}", kVersion)},
                            {"period", s_.name},
                            {"run", r.run},
@@ -541,9 +542,7 @@ Result<PeriodReport> simulatePeriod(const PeriodScenario& s, const geometry::Cal
   if (Status p = pipeline.run(); !p) return p.error();
 
   const double r1 = calo.description().r1();
-  if (Status w =
-          io::writeOutputFile((fs::path(dir) / "truth.json").string(), periodTruthJson(s, runs, r1).dump(1) + "\n");
-      !w) {
+  if (Status w = io::writeFileIn(dir, "truth.json", periodTruthJson(s, runs, r1).dump(1) + "\n"); !w) {
     return w.error();
   }
   return report;

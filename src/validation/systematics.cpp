@@ -85,7 +85,7 @@ Result<calib::ModelCorrections> reverseCorrections(const geometry::Calorimeter& 
   auto report = deriveCorrections(calo, d, simulatedEventsProgress(eventsDone));
   if (!report) return report.error();
   const Json content = derivationJson(*report, settings);
-  if (Status s = io::writeOutputFile(file, content.dump(2) + "\n"); !s) return s.error();
+  if (Status s = io::writeOutputFile(file, content.dump(2) + "\n", io::Placement::InDirectory); !s) return s.error();
   return calib::parseCorrections(content, file);
 }
 
@@ -274,11 +274,10 @@ Result<SystematicsTable> runSystematics(const geometry::Calorimeter& calo, const
     row.systematic = std::sqrt(sum2);
     t.rows.push_back(std::move(row));
   }
-  if (Status s = io::writeOutputFile((fs::path(dir) / "systematics.json").string(), systematicsJson(t).dump(2) + "\n");
-      !s) {
+  if (Status s = io::writeFileIn(dir, "systematics.json", systematicsJson(t).dump(2) + "\n"); !s) {
     return s.error();
   }
-  if (Status s = io::writeOutputFile((fs::path(dir) / "systematics.md").string(), systematicsMarkdown(t)); !s) {
+  if (Status s = io::writeFileIn(dir, "systematics.md", systematicsMarkdown(t)); !s) {
     return s.error();
   }
   if (Status s = drawSystematics(t, dir); !s) return s.error();

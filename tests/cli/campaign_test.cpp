@@ -309,10 +309,14 @@ TEST_F(CampaignCli, TrendFindsTheStepAndRefitsTheStablePeriods) {
     const double truth = dx["truth"].get<double>();
     EXPECT_NEAR(dx["value"].get<double>(), truth, 0.15 * truth + 0.02);
   }
-  // The refit needs the campaign's corrections, and a new tag name.
+  // Run again (a batch system's retry), the refit finds itself stored and exits 0; into a tag
+  // that holds anything else, it is refused.
   r = run(fmt::format("trend --conditions {} --tag t -o {} --refit {} --tag-out t.seg", uri, path("tr2"), events()));
+  EXPECT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_THAT(r.out + r.err, HasSubstr("tag t.seg holds this refit already"));
+  r = run(fmt::format("trend --conditions {} --tag t -o {} --refit {} --tag-out t", uri, path("tr3"), events()));
   EXPECT_EQ(r.exitCode, 1);
-  EXPECT_THAT(r.err, HasSubstr("t.seg"));
+  EXPECT_THAT(r.err, HasSubstr("tag 't' exists already"));
 }
 
 }  // namespace

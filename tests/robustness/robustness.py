@@ -331,6 +331,33 @@ def cases():
              setup=lambda d: (planted("PL/profile_phi.png", "ev.csv")(d), s9(d)), check=c9,
              checked="events unchanged"))
 
+    add(Case(F, "the report over the events its fit names (not read, still an input)",
+             "emcalign report --fit result.json -o ev.csv", 1, "same file as the input named by --fit",
+             setup=lambda d: (s9(d)), check=c9, checked="events unchanged"))
+    add(Case(F, "a result written into the corrections grid it reads",
+             "emcalign fit ev.csv --corrections GRW -o GRW/ee-700MeV.json", 1, "would be read as data of the input",
+             setup=lambda d: (shutil.rmtree(os.path.join(d, "GRW"), ignore_errors=True),
+                              shutil.copytree(os.path.join(SOURCE, "data", "corrections", "ee-40-140deg"),
+                                              os.path.join(d, "GRW"))),
+             check=lambda d, r: "written into the grid" if os.path.exists(os.path.join(d, "GRW", "ee-700MeV.json"))
+             else None, checked="nothing written into the grid"))
+    add(Case(F, "a parameter file as the database's journal (not there yet)",
+             "emcalign conditions get c.db --tag t --run 1 -o c.db-journal", 1, "is a file of the input",
+             setup=db_unchanged_setup(), check=c_db, checked="database unchanged"))
+
+    def fifo_at(name):
+        def setup(d):
+            os.makedirs(os.path.dirname(os.path.join(d, name)), exist_ok=True)
+            if not os.path.exists(os.path.join(d, name)):
+                os.mkfifo(os.path.join(d, name))
+        return setup
+    add(Case(F, "a FIFO planted where a trend writes trend.json (it would block)",
+             "emcalign trend --conditions camp.db --tag c -o TF", 1, "TF/trend.json: is a FIFO",
+             setup=fifo_at("TF/trend.json")))
+    add(Case(F, "a FIFO planted where a figure goes", "emcalign fit ev.csv -o r.json --plots PF", 1,
+             "is a FIFO: the files a command writes into its output directory are regular files",
+             setup=fifo_at("PF/profile_phi.png")))
+
     # ---- Crashes ---------------------------------------------------------------------------
     C = "Crashes"
 
@@ -705,6 +732,33 @@ def cases():
              check=printed("\\x1b]0;owned\\x07\\x1b[2J", ["\x1b", "\x07"]),
              checked="control characters printed escaped"))
 
+    def by_hand(sql):
+        def setup(d):
+            import sqlite3
+            conditions_db(d)
+            c = sqlite3.connect(os.path.join(d, "c.db"))
+            c.executescript(sql)
+            c.commit()
+            c.close()
+        return setup
+    add(Case(D, "IOVs made to overlap by hand", "emcalign conditions get c.db --tag t --run 5 -o got.json", 1,
+             "overlap", setup=by_hand("INSERT INTO emcalign_iovs SELECT tag, 5, 20, payload, inserted FROM "
+                                      "emcalign_iovs WHERE tag = 't';")))
+    add(Case(D, "a state that is neither open nor locked", "emcalign conditions put c.db --tag done --runs 50-60 p.json",
+             1, "neither open nor locked", setup=by_hand("PRAGMA ignore_check_constraints = ON; UPDATE emcalign_tags "
+                                                         "SET state = 'LOCKED' WHERE name = 'done';")))
+    add(Case(D, "a description holding a NUL byte", "emcalign conditions list c.db", 0,
+             setup=described("'before' || char(0) || 'after'"), check=printed("before\\x00after", ["\x00"]),
+             checked="printed whole, escaped: before\\x00after"))
+
+    def fifo_journal(d):
+        conditions_db(d)
+        shutil.copy(os.path.join(d, "c.db"), os.path.join(d, "j.db"))
+        if not os.path.exists(os.path.join(d, "j.db-journal")):
+            os.mkfifo(os.path.join(d, "j.db-journal"))
+    add(Case(D, "a FIFO as the database's journal (SQLite would block on it)", "emcalign conditions list j.db", 1,
+             "j.db-journal is not a regular file", setup=fifo_journal))
+
     # ---- Periods, campaigns and trends ---------------------------------------------------------
     P = "Periods, campaigns and trends"
 
@@ -899,7 +953,7 @@ def cases():
                  j["groups"][0]["files"][0]))))
     add(Case(X, "a plan edited by hand: a beam energy the events do not have",
              "emcalign campaign --plan energy.json --group 0 --conditions p2.db --tag p", 1,
-             "the plan energy.json says beam energy 700 MeV",
+             "the plan says beam energy 700 MeV",
              setup=edited_plan("energy.json", lambda j: j["groups"][0].__setitem__("beam_energy_mev", 700.0)),
              check=nothing_stored("p2.db"), checked="nothing stored"))
     add(Case(X, "a plan edited by hand: an IOV of negative runs",
@@ -908,6 +962,45 @@ def cases():
     add(Case(X, "a plan edited by hand: an empty digest",
              "emcalign campaign --plan nodigest.json --group 0 --conditions p4.db --tag p", 1,
              "inputs[0].sha256", setup=edited_plan("nodigest.json", lambda j: j["inputs"][0].__setitem__("sha256", ""))))
+
+    def copy_in_plan(d):
+        plan(d)
+        shutil.copy(os.path.join(d, "period", "run_000001.h5"), os.path.join(d, "copy1.h5"))
+
+        def change(j):
+            sha = j["inputs"][0]["sha256"]
+            j["inputs"].append({"file": os.path.join(d, "copy1.h5"), "sha256": sha})
+            j["groups"][0]["files"].append(os.path.join(d, "copy1.h5"))
+        edit_json(d, "plan.json", "copyplan.json", change)
+    add(Case(X, "a plan edited by hand: a copy of a run file added to a group",
+             "emcalign campaign --plan copyplan.json --group 0 --conditions p6.db --tag p", 1, "the same content as",
+             setup=copy_in_plan, check=nothing_stored("p6.db"), checked="nothing stored"))
+
+    def corrected_plan(d):
+        runner_binary_run(d, ["campaign", "period", "--plan", "cplan.json", "--min-events", "1500", "--corrections",
+                              "c.json"])
+    add(Case(X, "a batch job of another model (corrections) into a tag of the campaign's",
+             "emcalign campaign --plan cplan.json --group 1 --conditions camp.db --tag c", 1, "one tag holds one model",
+             setup=lambda d: (corrected_plan(d), keep_tag(d)), check=tag_kept, checked="tag unchanged"))
+    add(Case(X, "a campaign resuming a tag with another sigma_sys",
+             "emcalign campaign period --conditions camp.db --tag c --min-events 1500 --sigma-sys 0.5", 1,
+             "one tag holds one model", setup=keep_tag, check=tag_kept, checked="tag unchanged"))
+
+    def unreadable_run(d, target):
+        os.symlink("/nonexistent/tape/run_000007.h5", os.path.join(target, "run_000007.h5"))
+    add(Case(X, "a run file of the directory that cannot be read (a link to a tape not mounted)",
+             "emcalign campaign PU --conditions m5.db --tag m --min-events 1500", 1, "a link to nothing",
+             setup=period_copy("PU", unreadable_run), check=nothing_stored("m5.db"), checked="nothing stored"))
+
+    def refit_twice(runner, command):
+        first = runner.shell(command)
+        if first.code != 0:
+            return first
+        return runner.shell(command)
+    add(Case(X, "a refit run again (a batch system's retry): nothing to do",
+             "emcalign trend --conditions camp.db --tag c -o trr --refit period --tag-out again", 0, run=refit_twice,
+             check=lambda d, r: None if "holds this refit already" in r.out + r.err else "not recognised as done",
+             checked="the second run stores nothing and exits 0"))
 
     def three_at_once(runner, command):
         script = ("for i in 1 2 3; do " + command + " & done; rc=0; for j in 1 2 3; do wait -n || rc=1; done; "
@@ -970,6 +1063,12 @@ def cases():
     add(Case(L, "a percent-encoded password parameter", "emcalign conditions list "
              "'postgresql://me@127.0.0.1:1/db?pass%77ord=hunter2secret'", 1, "cannot connect",
              check=hides("hunter2secret"), checked="the password is not shown"))
+    add(Case(L, "the passphrase of the client's key (sslpassword)", "emcalign conditions list "
+             "'postgresql://me@127.0.0.1:1/db?sslpassword=hunter2secret'", 1, "cannot connect",
+             check=hides("hunter2secret"), checked="not shown"))
+    add(Case(L, "a password parameter without its '='", "emcalign conditions list "
+             "'postgresql://me@127.0.0.1:1/db?password%3Dhunter2secret'", 1, "postgresql://me@127.0.0.1:1/db",
+             check=hides("hunter2secret"), checked="not shown"))
     add(Case(L, "a libpq keyword string", "emcalign conditions init 'host=127.0.0.1 password=hunter2secret dbname=x'",
              1, "keyword string", check=hides("hunter2secret"), checked="not shown, no file created"))
 
@@ -1010,6 +1109,15 @@ def cases():
     add(Case(Q, "the counter table to a full disk", "emcalign geometry --counters > /dev/full", 1,
              "standard output: write failed: No space left on device"))
 
+    add(Case(Q, "standard error on a full disk: the fit is done all the same", "emcalign fit ev.csv -o e1.json 2>/dev/full",
+             0, check=lambda d, r: None if os.path.exists(os.path.join(d, "e1.json")) else "no result written",
+             checked="the result is written, no abort"))
+    add(Case(Q, "standard error closed", "emcalign fit ev.csv -o e2.json 2>&-", 0,
+             check=lambda d, r: None if os.path.exists(os.path.join(d, "e2.json")) else "no result written",
+             checked="the result is written, no abort"))
+    add(Case(Q, "a refusal with standard error on a full disk", "emcalign conditions list missing.db 2>/dev/full", 1,
+             checked="exit 1, no abort", check=lambda d, r: None))
+
     # ---- Hangs on what is not a file (issue 28) -------------------------------------------------
     N = "Hangs on what is not a file"
 
@@ -1029,6 +1137,15 @@ def cases():
     add(Case(N, "/dev/zero as the detector", "emcalign geometry --detector /dev/zero", 1,
              "is a character device, not a regular file"))
 
+    add(Case(N, "a file of the kernel's /proc as the detector (/proc/kmsg would block)",
+             "emcalign geometry --detector /proc/self/status", 1, "a file of the kernel's /proc or /sys"))
+    add(Case(N, "points without a newline on standard input (/dev/zero)",
+             "emcalign transform --params p.json < /dev/zero", 1, "longer than 1 MiB"))
+    add(Case(N, "a FIFO among the files of a corrections grid", "emcalign fit ev.csv --corrections GF -o r.json", 1,
+             "not a regular file", setup=lambda d: (shutil.rmtree(os.path.join(d, "GF"), ignore_errors=True),
+                                                   shutil.copytree(os.path.join(SOURCE, "data", "corrections",
+                                                                                "ee-40-140deg"), os.path.join(d, "GF")),
+                                                   os.mkfifo(os.path.join(d, "GF", "zz.json")))))
     def fifo_in_plan(d):
         plan(d)
         fifo("fe.h5")(d)
@@ -1145,7 +1262,10 @@ def shown_line(case, result, directory):
 
 def run_case(case, runner):
     if case.setup:
-        case.setup(runner.dir)
+        try:
+            case.setup(runner.dir)
+        except (OSError, KeyError, subprocess.CalledProcessError, json.JSONDecodeError) as e:
+            return None, [f"the case's setup failed: {e!r}"]
     try:
         if case.run:
             result = case.run(runner, case.command)

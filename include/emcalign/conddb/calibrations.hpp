@@ -43,6 +43,11 @@ struct RunCalibration {
   Iov iov;
   io::Json parameterFile;  ///< parameterFileOf
 };
+/// Whether `tag` holds exactly these IOVs (the same runs, the same payloads): false when the tag
+/// does not exist; an error when it holds anything else. A job that writes a whole tag (a refit)
+/// and finds it written, by its own earlier run or a copy of it, has nothing to do.
+Result<bool> tagHolds(Database& db, const std::string& tag, const std::vector<Database::NewIov>& iovs);
+
 /// The calibration valid for `run`; the error says whether the tag or the IOV is missing.
 Result<RunCalibration> calibrationAt(Database& db, const std::string& tag, std::int64_t run);
 

@@ -73,6 +73,7 @@
 
 #include "emcalign/core/event_record.hpp"
 #include "emcalign/core/result.hpp"
+#include "emcalign/io/output_file.hpp"
 
 namespace emcalign::io {
 
@@ -94,6 +95,9 @@ struct WriterOptions {
   /// (compact JSON is fine). `open` refuses anything else.
   std::vector<std::pair<std::string, std::string>> attributes;
   bool withHits = false;  ///< HDF5 only; ignored (no hits written) for CSV
+  /// A file a command writes inside its output directory (a period's runs): a FIFO or a device
+  /// there is refused (io/output_file.hpp).
+  Placement placement = Placement::Named;
 };
 
 /// Writes `path` by the rules of io/output_file.hpp: through the temporary `<path>.tmp-<pid>`

@@ -22,6 +22,7 @@
 //    SIGPIPE handler. A temporary left by a process that no longer runs (kill -9, a crash)
 //    is removed the next time the same target is written.
 
+#include <cstdint>
 #include <cstdio>
 #include <memory>
 #include <optional>
@@ -40,6 +41,15 @@ enum class OutputKind {
   File,    ///< a regular file or a new name: written through a temporary and a rename
 };
 
+/// Who named an output. A user names the outputs of the command line, and may name a device or
+/// a FIFO (`-o /dev/null`, `-o >(gzip > f)`); a command names the files it writes into its
+/// output directories, and those are regular files: a FIFO or a device planted there (which
+/// would block the command, or swallow its results) is refused.
+enum class Placement {
+  Named,        ///< an output of the command line
+  InDirectory,  ///< a file a command writes inside an output directory
+};
+
 struct OutputTarget {
   std::string path;      ///< as given (used in messages)
   std::string realPath;  ///< File: the file that is replaced (links resolved); else `path`
@@ -47,7 +57,7 @@ struct OutputTarget {
 };
 
 /// Classifies an output path by the rules above; the error says why it is refused.
-Result<OutputTarget> resolveOutput(const std::string& path);
+Result<OutputTarget> resolveOutput(const std::string& path, Placement placement = Placement::Named);
 
 /// An output directory (figures, a campaign): it must be a directory or not exist yet (it is
 /// then created with its parents when written); a file or a dangling link is refused.
@@ -76,8 +86,26 @@ void enableInputProtection();
 void disableInputProtection();
 /// Adds an input (a file that does not exist, "-" or an empty name is skipped).
 void protectInput(const NamedPath& input);
-/// The protected input that `path` is (through links), or none.
+/// Adds a directory whose files the command reads as data (a corrections grid: *.json, a
+/// directory of event files: *.h5, *.hdf5, *.csv): no output may create a file there whose name
+/// ends in one of `extensions` (it would be read with them next time).
+void protectInputDirectory(const NamedPath& directory, const std::vector<std::string>& extensions);
+/// The protected input that `path` is (through links), or, for a file that does not exist,
+/// the protected name or data directory it would land in; none otherwise.
 std::optional<NamedPath> protectedInputAt(const std::string& path);
+
+/// Files no output may replace or create while the guard lives, whether or not the protection
+/// is on: an open database's file and journals (Python holds one open while it writes files).
+class InputGuard {
+ public:
+  explicit InputGuard(const std::vector<NamedPath>& files);
+  ~InputGuard();
+  InputGuard(const InputGuard&) = delete;
+  InputGuard& operator=(const InputGuard&) = delete;
+
+ private:
+  std::uint64_t id_;
+};
 
 /// An output directory that exists must hold no file that is an input of the command under
 /// another name (a link or a hard link planted as `DIR/trend.json` → the database): an output
@@ -86,7 +114,9 @@ std::optional<NamedPath> protectedInputAt(const std::string& path);
 Status checkDirectoryHoldsNoInput(const NamedPath& directory, const std::vector<NamedPath>& inputs, int maxDepth = 3);
 
 /// Writes `content` to `path` by the rules above.
-Status writeOutputFile(const std::string& path, std::string_view content);
+Status writeOutputFile(const std::string& path, std::string_view content, Placement placement = Placement::Named);
+/// `dir/name`, a file a command writes inside its output directory (Placement::InDirectory).
+Status writeFileIn(const std::string& dir, const std::string& name, std::string_view content);
 
 /// An output written in pieces (event files): a temporary for a File target (stale
 /// temporaries of the same target removed first), the target itself for a Stream, the
@@ -96,12 +126,12 @@ class OutputFile {
  public:
   /// Opens for writing with stdio (binary). For a File target the temporary is created
   /// exclusively: an existing `<path>.tmp-<pid>` of this process is an error.
-  static Result<std::unique_ptr<OutputFile>> open(const std::string& path);
+  static Result<std::unique_ptr<OutputFile>> open(const std::string& path, Placement placement = Placement::Named);
   /// For writers that must create the file themselves (HDF5 needs a seekable file): only
   /// reserves and registers the temporary name, which is in the target's directory for a
   /// File target and in the system's temporary directory for a Stream or "-" (its content
   /// is copied to the target by `commit()`).
-  static Result<std::unique_ptr<OutputFile>> reserve(const std::string& path);
+  static Result<std::unique_ptr<OutputFile>> reserve(const std::string& path, Placement placement = Placement::Named);
   ~OutputFile();
   OutputFile(const OutputFile&) = delete;
   OutputFile& operator=(const OutputFile&) = delete;

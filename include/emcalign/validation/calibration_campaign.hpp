@@ -142,6 +142,12 @@ Result<CampaignPlan> readCampaignPlan(const std::string& path);
 /// A σ_sys choice as a plan records it: {"method"} and, when fixed, "value_deg".
 io::Json sigmaSysChoiceJson(const calib::SigmaSysChoice& choice);
 
+/// The fill of one group of a plan (a batch job): its files read one by one (model: the
+/// group's, CampaignModel::at), its runs kept. The files must be distinct and hold each event
+/// once, and their selected events must have the plan's beam energy and count: an error names
+/// the group (a plan edited by hand, or files changed since it was made).
+Result<calib::ProfileFill> fillPlannedGroup(const CampaignGroup& group, const CampaignModel& model);
+
 /// One group fitted: its result file (SPEC §3) and the payload to store.
 struct GroupFit {
   calib::FitResult result;
@@ -178,14 +184,19 @@ struct CampaignReport {
 Result<CampaignReport> runCampaign(const CampaignScan& scan, const CampaignModel& model, conddb::Database& db,
                                    const std::string& tag, const CalibrationCampaignOptions& options);
 
-/// Whether `tag` holds `group` made from the same data: false when no IOV of the tag holds
-/// its first run; true when the group's IOV is there and its payload records the digests of
-/// the group's files (`digests`: file → SHA-256), whatever their names now; an error naming
-/// the group otherwise (another IOV over its runs, the same runs from other data, or data of
-/// unrecorded origin). A campaign resuming a tag, and a batch job finding its group stored,
-/// rely on it: the same run numbers are not the same data.
+/// The σ_sys choice a stored calibration was fitted with (its payload's "sigma_sys"; SPEC's for
+/// payloads made before the choice was recorded); an error for one no campaign makes.
+Result<calib::SigmaSysChoice> sigmaSysChoiceOf(const conddb::Payload& payload);
+
+/// Whether `tag` holds `group` made from the same data the same way: false when no IOV of the
+/// tag holds its first run; true when the group's IOV is there, its payload records the
+/// digests of the group's files (`digests`: file → SHA-256, compared by content whatever the
+/// names now), and it was fitted with `model`'s corrections (by digest) and σ_sys choice; an
+/// error naming the group otherwise (another IOV over its runs, the same runs from other
+/// data or of unrecorded origin, other corrections or σ_sys). A campaign resuming a tag, and a
+/// batch job finding its group stored, rely on it: one tag is one consistent calibration.
 Result<bool> groupStored(conddb::Database& db, const std::string& tag, const CampaignGroup& group,
-                         const std::map<std::string, std::string>& digests);
+                         const std::map<std::string, std::string>& digests, const CampaignModel& model);
 
 /// The IOVs of `groups` already in the tag, by group index; an IOV of the tag that is not
 /// one of the groups' is an error (another plan was run into this tag).

@@ -75,7 +75,10 @@ TEST(DatabaseAddress, ShowsAServerWithoutItsPassword) {
                         Case{"postgresql://calib@host/snd?PASSWORD=hunter2", "postgresql://calib@host/snd", true},
                         Case{"postgresql://calib:hun%2Fter2@host/snd", "postgresql://calib@host/snd", true},
                         Case{"postgresql://calib:pa?ss@host/snd", "postgresql://calib@host/snd", true},
-                        Case{"postgresql:///snd", "postgresql:///snd", false}}) {
+                        Case{"postgresql:///snd", "postgresql:///snd", false},
+                        Case{"postgresql://calib@host/snd?sslpassword=keyPass9&sslmode=require",
+                             "postgresql://calib@host/snd?sslmode=require", true},
+                        Case{"postgresql://calib@host/snd?password%3Dhunter2", "postgresql://calib@host/snd", true}}) {
     auto a = DatabaseAddress::parse(c.uri);
     ASSERT_TRUE(a) << c.uri << ": " << a.error().message;
     EXPECT_EQ(a->kind, DatabaseAddress::Kind::Postgres);
@@ -112,6 +115,11 @@ TEST(DatabaseAddress, RedactsEveryFormOfThePasswordInAMessage) {
   auto plain = DatabaseAddress::parse("postgresql://calib@host/snd");
   ASSERT_TRUE(plain);
   EXPECT_EQ(plain->redact("could not connect to server"), "could not connect to server");
+}
+
+TEST(DatabaseAddress, RefusesANul) {
+  EXPECT_FALSE(DatabaseAddress::parse(std::string_view("c.db\0postgresql://x", 20)));
+  EXPECT_FALSE(DatabaseAddress::parse(std::string_view("new\0.db", 7)));
 }
 
 TEST(DatabaseAddress, ShownAddressOfWhatDoesNotParse) {

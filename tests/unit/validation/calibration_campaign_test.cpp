@@ -33,7 +33,7 @@ CampaignScan scanOf(std::int32_t first, std::int32_t last, std::int64_t selected
   for (std::int32_t r = first; r <= last; ++r) {
     if (std::find(missing.begin(), missing.end(), r) != missing.end()) continue;
     scan.files.push_back(fmt::format("run_{}.h5", r));
-    scan.digests.push_back(std::string(64, 'a'));
+    scan.digests.push_back(fmt::format("{:064x}", r));  // each file its own content
     CampaignRun run;
     run.run = r;
     run.beamEnergy = energy(r);
@@ -232,7 +232,8 @@ TEST_F(CampaignFiles, AStoredGroupCountsOnlyWhenItIsFromTheSameData) {
   auto db = conddb::Database::open("sqlite:" + path("c.db"), true);
   ASSERT_TRUE(db) << db.error().message;
   const CampaignGroup& g = groups[1];
-  auto stored = groupStored(**db, "t", g, digests);
+  const CampaignModel model;  // no corrections, SPEC's sigma_sys
+  auto stored = groupStored(**db, "t", g, digests, model);
   ASSERT_TRUE(stored) << stored.error().message;
   EXPECT_FALSE(*stored);  // nothing there
 
@@ -248,25 +249,37 @@ TEST_F(CampaignFiles, AStoredGroupCountsOnlyWhenItIsFromTheSameData) {
   // Recorded under other names (the files moved): the same data, by content.
   for (const auto& f : g.files) same["/old/place/" + f] = digests.at(f);
   ASSERT_TRUE((*db)->put("t", g.iovFirst, g.iovLast, payloadFrom(same), true));
-  stored = groupStored(**db, "t", g, digests);
+  stored = groupStored(**db, "t", g, digests, model);
   ASSERT_TRUE(stored) << stored.error().message;
   EXPECT_TRUE(*stored);
 
   io::Json other = same;
   other.begin().value() = std::string(64, 'f');
   ASSERT_TRUE((*db)->put("u", g.iovFirst, g.iovLast, payloadFrom(other), true));
-  auto refused = groupStored(**db, "u", g, digests);
+  auto refused = groupStored(**db, "u", g, digests, model);
   ASSERT_FALSE(refused);
   EXPECT_THAT(refused.error().message, HasSubstr("group 1"));
   EXPECT_THAT(refused.error().message, HasSubstr("from other data"));
 
   ASSERT_TRUE((*db)->put("v", g.iovFirst, g.iovLast, payloadFrom(io::Json()), true));
-  auto unknown = groupStored(**db, "v", g, digests);
+  auto unknown = groupStored(**db, "v", g, digests, model);
   ASSERT_FALSE(unknown);
   EXPECT_THAT(unknown.error().message, HasSubstr("does not record"));
 
+  // The same data fitted another way (other corrections, another sigma_sys): not this tag's model.
+  CampaignModel corrected;
+  corrected.correctionsSha256 = std::string(64, 'c');
+  auto otherCorrections = groupStored(**db, "t", g, digests, corrected);
+  ASSERT_FALSE(otherCorrections);
+  EXPECT_THAT(otherCorrections.error().message, HasSubstr("without corrections, this campaign fits with corrections"));
+  CampaignModel automatic;
+  automatic.setSigmaSys(calib::SigmaSysChoice::automatic());
+  auto otherSigma = groupStored(**db, "t", g, digests, automatic);
+  ASSERT_FALSE(otherSigma);
+  EXPECT_THAT(otherSigma.error().message, HasSubstr("sigma_sys"));
+
   ASSERT_TRUE((*db)->put("w", g.iovFirst, g.iovLast + 1, payloadFrom(same), true));
-  auto otherIov = groupStored(**db, "w", g, digests);
+  auto otherIov = groupStored(**db, "w", g, digests, model);
   ASSERT_FALSE(otherIov);
   EXPECT_THAT(otherIov.error().message, HasSubstr("not this campaign's grouping"));
 }

@@ -9,8 +9,8 @@
 
 #include "emcalign/core/sha256.hpp"
 #include "emcalign/core/units.hpp"
+#include "emcalign/io/data_directory.hpp"
 #include "emcalign/io/event_file.hpp"
-#include "emcalign/io/output_file.hpp"
 
 namespace emcalign::calib {
 
@@ -21,23 +21,7 @@ namespace {
 
 // The *.json files of a directory, by name.
 Result<std::vector<std::string>> jsonFilesIn(const std::string& dir) {
-  std::vector<std::string> files;
-  std::error_code ec;
-  for (const auto& e : fs::directory_iterator(dir, ec)) {
-    const std::string name = e.path().filename().string();
-    if (e.path().extension() != ".json" || name.starts_with(".")) continue;  // hidden files are not the grid's
-    std::error_code kind;
-    if (!e.is_regular_file(kind)) {
-      // A grid point that cannot be read is not left out silently (a dangling link, a FIFO).
-      return Error{fmt::format("{}: not a regular file ({}): a corrections grid holds corrections files only",
-                               e.path().string(),
-                               e.is_symlink(kind) ? "a link to nothing" : "a FIFO, device or directory")};
-    }
-    files.push_back(e.path().string());
-  }
-  if (ec) return Error{fmt::format("{}: cannot list the directory: {}", dir, ec.message())};
-  std::sort(files.begin(), files.end());
-  return files;
+  return io::dataFilesIn(dir, {".json"}, "a corrections file", "--corrections");
 }
 
 Result<std::string> directoryDigest(const std::string& dir, const std::vector<std::string>& files) {
@@ -202,7 +186,6 @@ Result<CorrectionsGrid> CorrectionsGrid::read(const std::string& path) {
   }
   auto files = jsonFilesIn(path);
   if (!files) return files.error();
-  io::protectInputDirectory({"--corrections", path}, {".json"});  // a file written into it would join the grid
   auto digest = directoryDigest(path, *files);
   if (!digest) return digest.error();
   if (files->size() < 2) {

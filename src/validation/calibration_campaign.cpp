@@ -18,6 +18,7 @@
 #include "emcalign/core/sha256.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/core/version.hpp"
+#include "emcalign/io/data_directory.hpp"
 #include "emcalign/io/output_file.hpp"
 #include "emcalign/io/strict_json.hpp"
 
@@ -89,29 +90,10 @@ Result<std::vector<std::string>> eventFilesIn(const std::vector<std::string>& in
   for (const auto& in : inputs) {
     std::error_code ec;
     if (fs::is_directory(in, ec)) {
-      std::vector<std::string> found;
-      for (const auto& e : fs::directory_iterator(in, ec)) {
-        const std::string name = e.path().filename().string();
-        const std::string ext = e.path().extension().string();
-        // Hidden files and temporaries (a command writing or killed there) are not data.
-        if (name.starts_with(".") || io::isTemporaryName(name)) continue;
-        if (ext != ".h5" && ext != ".hdf5" && ext != ".csv") continue;
-        std::error_code kind;
-        if (!e.is_regular_file(kind)) {
-          // A run that cannot be read is not left out silently: its IOV would be calibrated
-          // without it (a link to a tape not mounted, a FIFO).
-          return Error{fmt::format("{}: not a regular file ({}): an event file of the directory that cannot be read",
-                                   e.path().string(),
-                                   e.is_symlink(kind) ? "a link to nothing" : "a FIFO, device or directory")};
-        }
-        found.push_back(e.path().string());
-      }
-      io::protectInputDirectory({"", in},
-                                {".h5", ".hdf5", ".csv"});  // a file written into it would be read as data next time
-      if (ec) return Error{fmt::format("{}: cannot list the directory: {}", in, ec.message())};
-      if (found.empty()) return Error{fmt::format("{}: no event files (*.h5, *.hdf5, *.csv) in this directory", in)};
-      std::sort(found.begin(), found.end());
-      files.insert(files.end(), found.begin(), found.end());
+      auto listed = io::dataFilesIn(in, {".h5", ".hdf5", ".csv"}, "an event file");
+      if (!listed) return listed.error();
+      if (listed->empty()) return Error{fmt::format("{}: no event files (*.h5, *.hdf5, *.csv) in this directory", in)};
+      files.insert(files.end(), listed->begin(), listed->end());
     } else {
       if (io::isTemporaryName(fs::path(in).filename().string())) {
         return Error{

@@ -82,8 +82,7 @@ int runGroup(const CampaignCliOptions& o) {
                                                                      : "with other ones (" + plan->corrections + ")")});
     }
   }
-  if (!o.sigmaSys.empty() &&
-      validation::sigmaSysChoiceJson(sigmaSysChoice(o.sigmaSys)) != validation::sigmaSysChoiceJson(plan->sigmaSys)) {
+  if (!o.sigmaSys.empty() && !calib::sameChoice(sigmaSysChoice(o.sigmaSys), plan->sigmaSys)) {
     return reportError(Error{fmt::format("--sigma-sys {}: the plan {} was made with sigma_sys {}", o.sigmaSys, o.plan,
                                          validation::sigmaSysChoiceJson(plan->sigmaSys).dump())});
   }

@@ -83,14 +83,8 @@ int run(const ReportCliOptions& o) {
       return reportError({fmt::format("{}: not a fit result (emcalign fit -o)", o.fit)});
     }
     report::ReportFit fit{.path = o.fit, .result = *j};
-    // The files the result names are never opened, but are inputs all the same: the report is
-    // not written over the fit's events (only their names are looked at, never their content).
-    const Json& recorded = j->at("input");
-    if (recorded.contains("files") && recorded.at("files").is_array()) {
-      for (const auto& f : recorded.at("files")) {
-        if (f.is_string()) io::protectInput({"named by --fit", f.get<std::string>()});
-      }
-    }
+    // The files the result names are never opened, but are inputs all the same.
+    for (const auto& f : report::filesNamedIn(*j)) io::protectInput({"named by --fit", f});
     // The digests of the fit's inputs that the command line names (--events): the report
     // opens nothing a result file names by itself (it could name any file of the system).
     if (j->at("input").contains("files") && j->at("input").at("files").is_array()) {
@@ -142,11 +136,13 @@ int run(const ReportCliOptions& o) {
   if (!o.validation.empty()) {
     auto v = report::readValidationDirectory(o.validation);
     if (!v) return reportError(v.error());
+    for (const auto& f : report::filesNamedIn(v->table)) io::protectInput({"named by --validation", f});
     in.validation = std::move(*v);
   }
   if (!o.trend.empty()) {
     auto t = report::readTrendDirectory(o.trend);
     if (!t) return reportError(t.error());
+    for (const auto& f : report::filesNamedIn(t->trend)) io::protectInput({"named by --trend", f});
     in.trend = std::move(*t);
   }
   if (!o.conditions.empty()) {
@@ -165,6 +161,7 @@ int run(const ReportCliOptions& o) {
   for (const auto& dir : o.checks) {
     auto c = report::readCheckDirectory(dir);
     if (!c) return reportError(c.error());
+    for (const auto& f : report::filesNamedIn(c->check)) io::protectInput({"named by --checks", f});
     in.checks.push_back(std::move(*c));
   }
   auto page = report::calibrationReport(in);

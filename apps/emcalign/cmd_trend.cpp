@@ -80,7 +80,7 @@ int refit(const TrendCliOptions& o, const validation::Trend& trend, const std::v
   if (!model) return reportError(model.error());
   // The refit uses the corrections and the sigma_sys the campaign used (every IOV's, the
   // corrections by their digest).
-  std::optional<io::Json> sigmaSys;
+  std::optional<calib::SigmaSysChoice> sigmaSys;
   for (const conddb::Iov& iov : snapshot.iovs()) {
     auto p = snapshot.payload(iov);
     if (!p) return reportError(p.error());
@@ -89,15 +89,14 @@ int refit(const TrendCliOptions& o, const validation::Trend& trend, const std::v
       return reportError(Error{fmt::format("tag {}: the calibration of runs {}-{} has {}", o.tag, iov.firstRun,
                                            iov.lastRun, choice.error().message)});
     }
-    const io::Json usedSigma = validation::sigmaSysChoiceJson(*choice);
     if (!sigmaSys) {
-      sigmaSys = usedSigma;
+      sigmaSys = *choice;
       model->setSigmaSys(*choice);
-    } else if (*sigmaSys != usedSigma) {
-      return reportError(
-          Error{fmt::format("tag {}: its IOVs were fitted with different sigma_sys ({} and {}): no "
-                            "refit comparable with all of them",
-                            o.tag, sigmaSys->dump(), usedSigma.dump())});
+    } else if (!calib::sameChoice(*sigmaSys, *choice)) {
+      return reportError(Error{fmt::format(
+          "tag {}: its IOVs were fitted with different sigma_sys ({} and {}): no "
+          "refit comparable with all of them",
+          o.tag, validation::sigmaSysChoiceJson(*sigmaSys).dump(), validation::sigmaSysChoiceJson(*choice).dump())});
     }
     const io::Json& provenance = (*p)->content["provenance"];
     const std::string used = provenance.value("corrections", ""), usedSha = provenance.value("corrections_sha256", "");

@@ -117,6 +117,7 @@ Result<std::vector<Vec3>> readPointsFromStdin() {
   // A line of three numbers is short: a longer one (no newline in megabytes: /dev/zero, a binary
   // file) is refused before it fills the memory.
   constexpr std::size_t kMaxLine = std::size_t{1} << 20;
+  constexpr std::size_t kMaxPoints = 1'000'000;
   std::string line;
   long lineNo = 0;
   bool header = false;
@@ -158,6 +159,11 @@ Result<std::vector<Vec3>> readPointsFromStdin() {
                                  io::quoted(fields[static_cast<std::size_t>(i)]))};
       }
       p[i] = *v * units::cm;
+    }
+    // All are read before any is printed (a bad line at the end prints nothing): a bound keeps
+    // an endless input (`yes`) from taking the memory.
+    if (points.size() == kMaxPoints) {
+      return Error{fmt::format("stdin: more than {} points: give them in pieces", kMaxPoints)};
     }
     points.push_back(p);
   }

@@ -1,9 +1,15 @@
 #pragma once
-// Printing to standard error that never throws: a message or a progress line that cannot be
-// shown (stderr closed, redirected to a full disk) must not end a command that otherwise
-// succeeds, nor turn its refusal into an abort.
+// Printing to standard error that never throws nor kills: a message or a progress line that
+// cannot be shown (stderr closed, redirected to a full disk, a pipe whose reader is gone) must
+// not end a command that otherwise succeeds, nor turn its refusal into an abort. (A closed
+// pipe on standard output still ends the command with SIGPIPE, as `| head` expects.)
 
+#include <pthread.h>
+#include <signal.h>
+
+#include <cerrno>
 #include <cstdio>
+#include <ctime>
 #include <string>
 #include <utility>
 
@@ -11,11 +17,26 @@
 
 namespace emcalign::app {
 
+/// Writes `text` to stderr; a SIGPIPE this raises (the reader of a pipe gone) is taken back.
+inline void writeToStderr(const std::string& text) noexcept {
+  sigset_t pipe, old;
+  sigemptyset(&pipe);
+  sigaddset(&pipe, SIGPIPE);
+  pthread_sigmask(SIG_BLOCK, &pipe, &old);
+  const std::size_t written = std::fwrite(text.data(), 1, text.size(), stderr);
+  if (written < text.size() || std::fflush(stderr) != 0) {
+    const timespec none{0, 0};
+    while (sigtimedwait(&pipe, nullptr, &none) > 0) {  // the SIGPIPE of this write, pending: taken
+    }
+    std::clearerr(stderr);
+  }
+  pthread_sigmask(SIG_SETMASK, &old, nullptr);
+}
+
 template <typename... T>
 void eprint(fmt::format_string<T...> format, T&&... args) noexcept {
   try {
-    const std::string text = fmt::format(format, std::forward<T>(args)...);
-    [[maybe_unused]] const std::size_t written = std::fwrite(text.data(), 1, text.size(), stderr);
+    writeToStderr(fmt::format(format, std::forward<T>(args)...));
   } catch (...) {  // out of memory formatting a message: nothing more can be said
   }
 }

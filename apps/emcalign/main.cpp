@@ -41,29 +41,37 @@ void installSignalHandlers() {
   std::signal(SIGXFSZ, SIG_IGN);
 }
 
+// Standard output was closed when the command started (`>&-`).
+bool gStdoutClosed = false;
+
 // A command's report or output to standard output that did not arrive (a full disk, a closed
-// pipe that does not raise SIGPIPE) is a failure, not a success. The command's own work (its
-// files, its database writes) is done by then: the message says what was lost.
+// descriptor) is a failure, not a success. The command's own work (its files, its database
+// writes) is done by then: the message says what was lost. A command that failed already said
+// why (its output to standard output among it, if that was the failure).
 int checkStandardOutput(int exitCode) {
   if (std::fflush(stdout) == 0 && std::ferror(stdout) == 0) return exitCode;
   const int error = errno;
+  if (exitCode != emcalign::app::kExitOk && exitCode != emcalign::app::kExitUnusable) return exitCode;
   emcalign::app::eprint(
-      "emcalign: error: standard output: write failed: {}: what the command printed there is lost (the files "
-      "and database writes it reports are in place)\n",
-      error != 0 ? std::strerror(error) : "an output error");
-  return exitCode == emcalign::app::kExitOk || exitCode == emcalign::app::kExitUnusable ? emcalign::app::kExitFailure
-                                                                                        : exitCode;
+      "emcalign: error: standard output: {}: what the command printed there is lost (the files and database writes "
+      "it reports are in place)\n",
+      gStdoutClosed ? std::string("closed")
+                    : fmt::format("write failed: {}", error != 0 ? std::strerror(error) : "an output error"));
+  return emcalign::app::kExitFailure;
 }
 
 // Standard input, output and error are open: a command started with one closed (`2>&-`)
 // would otherwise open its first file as that descriptor, and print its messages into it.
+// Input and error are opened on /dev/null; output on /dev/null for reading only, so that what
+// is printed there fails as a write to a closed descriptor does (EBADF).
 void openStandardDescriptors() {
   for (int fd = 0; fd <= 2; ++fd) {
     if (::fcntl(fd, F_GETFD) != -1 || errno != EBADF) continue;
-    const int null = ::open("/dev/null", fd == 0 ? O_RDONLY : O_WRONLY);
-    if (null >= 0 && null != fd) {
-      ::dup2(null, fd);
-      ::close(null);
+    if (fd == 1) gStdoutClosed = true;
+    const int opened = ::open("/dev/null", fd == 2 ? O_WRONLY : O_RDONLY);
+    if (opened >= 0 && opened != fd) {
+      ::dup2(opened, fd);
+      ::close(opened);
     }
   }
 }
@@ -121,7 +129,7 @@ int main(int argc, char** argv) {
   } catch (const std::system_error& e) {
     // fmt::print throws when standard output (or error, for a report sent there) cannot be
     // written: not a bug, but the command stopped there.
-    if (std::ferror(stdout) != 0) return checkStandardOutput(emcalign::app::kExitFailure);
+    if (std::ferror(stdout) != 0) return checkStandardOutput(emcalign::app::kExitOk);
     if (std::ferror(stderr) != 0) return emcalign::app::kExitFailure;
     emcalign::app::eprint("emcalign: internal error: {} (a bug: please report it with the command line)\n", e.what());
     return emcalign::app::kExitInternal;

@@ -28,6 +28,14 @@ std::string_view name(SigmaSysMethod m) {
   return "?";
 }
 
+bool sameChoice(const SigmaSysChoice& a, const SigmaSysChoice& b) {
+  const bool autoA = a.method == SigmaSysMethod::Auto, autoB = b.method == SigmaSysMethod::Auto;
+  if (autoA || autoB) return autoA && autoB;
+  const double va = a.method == SigmaSysMethod::Spec ? kSpecSigmaSys : a.value;
+  const double vb = b.method == SigmaSysMethod::Spec ? kSpecSigmaSys : b.value;
+  return std::abs(va - vb) <= 1e-12 * kSpecSigmaSys;
+}
+
 Status SigmaSysChoice::validate() const {
   if (method == SigmaSysMethod::Saved)
     return Error{"sigma_sys: 'saved profile' is not a choice for profiles filled here"};

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <filesystem>
 
 #include <fmt/format.h>
 
@@ -23,6 +24,48 @@ std::string_view postgresScheme(std::string_view uri) {
     if (uri.starts_with(s)) return s;
   }
   return {};
+}
+
+// libpq's connection parameters whose values are not secrets: shown as given. Any other
+// parameter's value is not shown (a misspelled "passwd", "pwd", "pass" would be a password).
+bool isHarmless(std::string_view key) {
+  static constexpr std::string_view kShown[] = {"host",
+                                                "hostaddr",
+                                                "port",
+                                                "dbname",
+                                                "user",
+                                                "connect_timeout",
+                                                "client_encoding",
+                                                "options",
+                                                "application_name",
+                                                "fallback_application_name",
+                                                "keepalives",
+                                                "keepalives_idle",
+                                                "keepalives_interval",
+                                                "keepalives_count",
+                                                "tcp_user_timeout",
+                                                "replication",
+                                                "gssencmode",
+                                                "sslmode",
+                                                "requiressl",
+                                                "sslcompression",
+                                                "sslcert",
+                                                "sslkey",
+                                                "sslrootcert",
+                                                "sslcrl",
+                                                "sslcrldir",
+                                                "sslsni",
+                                                "requirepeer",
+                                                "ssl_min_protocol_version",
+                                                "ssl_max_protocol_version",
+                                                "krbsrvname",
+                                                "gsslib",
+                                                "service",
+                                                "target_session_attrs",
+                                                "load_balance_hosts",
+                                                "channel_binding",
+                                                "passfile"};
+  return std::find(std::begin(kShown), std::end(kShown), key) != std::end(kShown);
 }
 
 int hexValue(char c) {
@@ -131,12 +174,17 @@ Result<DatabaseAddress> AddressParser::postgres(std::string_view uri, std::strin
       std::transform(key.begin(), key.end(), key.begin(), [](unsigned char c) { return std::tolower(c); });
       // password, and sslpassword (the passphrase of the client's key); a parameter whose
       // name is not separated from its value ("password%3Dsecret") is one secret as a whole.
-      if (key.find("password") != std::string::npos) {
+      if (key.find("password") != std::string::npos || eq == std::string_view::npos) {
         addSecret(eq != std::string_view::npos ? param.substr(eq + 1) : param);
         continue;
       }
       if (!shownQuery.empty()) shownQuery += '&';
-      shownQuery.append(param);
+      if (isHarmless(key)) {
+        shownQuery.append(param);
+      } else {  // a misspelled password ("passwd", "pwd") is shown as such, not with its value
+        addSecret(param.substr(eq + 1));
+        shownQuery += std::string(param.substr(0, eq)) + "=…";
+      }
     }
   }
   a.shown = fmt::format("{}{}{}{}{}{}", scheme, user, user.empty() ? "" : "@", location, shownQuery.empty() ? "" : "?",
@@ -200,7 +248,14 @@ std::string DatabaseAddress::redact(std::string message) const {
 
 std::vector<std::string> DatabaseAddress::files() const {
   if (kind != Kind::Sqlite) return {};
-  return {file, file + "-wal", file + "-shm", file + "-journal"};
+  std::vector<std::string> out = {file, file + "-wal", file + "-shm", file + "-journal"};
+  // Given through a link, SQLite keeps its journals beside the file the link points to.
+  std::error_code ec;
+  const auto real = std::filesystem::canonical(file, ec);
+  if (!ec && real != std::filesystem::absolute(file, ec).lexically_normal()) {
+    for (const char* suffix : {"", "-wal", "-shm", "-journal"}) out.push_back(real.string() + suffix);
+  }
+  return out;
 }
 
 std::string shownAddress(std::string_view uri) {

@@ -1,5 +1,6 @@
 // The semantics of the conditions database, once, for every SQL engine (sql_backend.hpp).
 
+#include <charconv>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -52,8 +53,37 @@ void holdWriteForTests() {
   std::this_thread::sleep_for(std::chrono::seconds(60));
 }
 
-std::int64_t toInt(const std::optional<std::string>& s) { return s ? std::stoll(*s) : 0; }
 std::string toText(const std::optional<std::string>& s) { return s ? *s : std::string(); }
+
+// A run number as stored: an integer, 0 or more. Anything else (2.5, 'x', -5: a database edited
+// by hand) is an error, not a number read as well as it goes.
+Result<std::int64_t> runOf(const std::optional<std::string>& s, const std::string& uri, const std::string& tag) {
+  std::int64_t run = -1;
+  const std::string text = s.value_or("");
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), run);
+  if (text.empty() || ec != std::errc() || end != text.data() + text.size() || run < 0) {
+    return Error{
+        fmt::format("{}: tag '{}': the run '{}' of an IOV is not a run number (the database was edited behind "
+                    "emcalign's back?)",
+                    uri, tag, printable(text).substr(0, 32))};
+  }
+  return run;
+}
+
+std::int64_t toInt(const std::optional<std::string>& s) {
+  std::int64_t x = 0;
+  if (s) std::from_chars(s->data(), s->data() + s->size(), x);
+  return x;
+}
+
+// The IOV of a row (first_run, last_run, payload, inserted), its runs checked.
+Result<Iov> iovOf(const Row& r, const std::string& uri, const std::string& tag) {
+  auto first = runOf(r[0], uri, tag);
+  if (!first) return first.error();
+  auto last = runOf(r[1], uri, tag);
+  if (!last) return last.error();
+  return Iov{*first, *last, toText(r[2]), printable(toText(r[3]))};
+}
 
 class SqlDatabase final : public Database {
  public:
@@ -204,7 +234,9 @@ class SqlDatabase final : public Database {
       const Row& r = (*rows)[0];
       auto payload = verifiedPayload(toText(r[2]), toText(r[4]));
       if (!payload) return payload.error();
-      return Out(std::pair{Iov{toInt(r[0]), toInt(r[1]), toText(r[2]), printable(toText(r[3]))}, std::move(*payload)});
+      auto iov = iovOf(r, db_->uri(), tag);
+      if (!iov) return iov.error();
+      return Out(std::pair{std::move(*iov), std::move(*payload)});
     });
   }
 
@@ -215,7 +247,9 @@ class SqlDatabase final : public Database {
     if (!rows) return rows.error();
     std::vector<Iov> out;
     for (const Row& r : *rows) {
-      Iov iov{toInt(r[0]), toInt(r[1]), toText(r[2]), printable(toText(r[3]))};
+      auto read = iovOf(r, db_->uri(), tag);
+      if (!read) return read.error();
+      Iov iov = std::move(*read);
       // Written by emcalign, the IOVs of a tag never overlap; by hand, they might.
       if (iov.firstRun > iov.lastRun || (!out.empty() && iov.firstRun <= out.back().lastRun)) {
         return Error{fmt::format("{}: tag '{}': the IOV {}-{} {} (the database was edited behind emcalign's back?)",

@@ -6,6 +6,9 @@
 #include <sqlite3.h>
 #include <sys/stat.h>
 
+#include <filesystem>
+#include <vector>
+
 #include <fmt/format.h>
 
 #include "emcalign/io/output_file.hpp"
@@ -18,17 +21,21 @@ namespace {
 constexpr int kApplicationId = 0x454D4341;  // "EMCA"
 constexpr int kBusyTimeoutMs = 120000;
 
+// The database and its journals, by the name given and the name of the file a link points to.
+std::vector<io::NamedPath> filesOf(const std::vector<std::string>& bases) {
+  std::vector<io::NamedPath> files;
+  for (const std::string& base : bases) {
+    for (const char* suffix : {"", "-wal", "-shm", "-journal"}) files.push_back({"--conditions", base + suffix});
+  }
+  return files;
+}
+
 class Sqlite final : public SqlBackend {
  public:
   // While it is open, the database and its journals are inputs no output may replace or
   // create (io::InputGuard), in the command-line tool and in Python alike.
-  Sqlite(sqlite3* db, std::string uri, const std::string& path)
-      : db_(db),
-        uri_(std::move(uri)),
-        guard_({{"--conditions", path},
-                {"--conditions", path + "-wal"},
-                {"--conditions", path + "-shm"},
-                {"--conditions", path + "-journal"}}) {}
+  Sqlite(sqlite3* db, std::string uri, const std::vector<std::string>& bases)
+      : db_(db), uri_(std::move(uri)), guard_(filesOf(bases)) {}
   ~Sqlite() override { sqlite3_close_v2(db_); }
 
   Status beginWrite() override { return run("BEGIN IMMEDIATE"); }
@@ -142,13 +149,19 @@ Result<std::unique_ptr<SqlBackend>> openSqlite(const std::string& path, bool cre
     return Error{fmt::format("{}: no such database (create one with: emcalign conditions init {})", uri, uri)};
   }
   if (exists && !S_ISREG(st.st_mode)) return Error{fmt::format("{}: not a regular file", uri)};
-  // SQLite opens its journals itself: one that is a FIFO or a device would block it or take
-  // the database's writes.
-  for (const char* suffix : {"-wal", "-shm", "-journal"}) {
-    struct stat companion {};
-    if (::lstat((path + suffix).c_str(), &companion) == 0 && !S_ISREG(companion.st_mode)) {
-      return Error{
-          fmt::format("{}: {}{} is not a regular file (a journal SQLite writes): remove it", uri, path, suffix)};
+  // SQLite opens its journals itself, next to the file a link points to: one that is a FIFO or
+  // a device would block it or take the database's writes.
+  std::error_code ec;
+  const std::string real = exists ? std::filesystem::canonical(path, ec).string() : path;
+  const std::vector<std::string> bases =
+      ec || real == path ? std::vector<std::string>{path} : std::vector<std::string>{path, real};
+  for (const std::string& base : bases) {
+    for (const char* suffix : {"-wal", "-shm", "-journal"}) {
+      struct stat companion {};
+      if (::lstat((base + suffix).c_str(), &companion) == 0 && !S_ISREG(companion.st_mode)) {
+        return Error{
+            fmt::format("{}: {}{} is not a regular file (a journal SQLite writes): remove it", uri, base, suffix)};
+      }
     }
   }
   sqlite3* db = nullptr;
@@ -158,7 +171,7 @@ Result<std::unique_ptr<SqlBackend>> openSqlite(const std::string& path, bool cre
     sqlite3_close_v2(db);
     return Error{fmt::format("{}: cannot open: {}", uri, why)};
   }
-  auto s = std::make_unique<Sqlite>(db, uri, path);
+  auto s = std::make_unique<Sqlite>(db, uri, bases);
   sqlite3_busy_timeout(db, kBusyTimeoutMs);
   if (Status st2 = s->checkApplication(); !st2) return st2.error();
   if (Status st2 = s->run("PRAGMA journal_mode = WAL"); !st2) return st2.error();

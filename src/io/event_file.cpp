@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
@@ -11,6 +12,7 @@
 
 #include <fmt/format.h>
 
+#include "emcalign/core/regular_file.hpp"
 #include "emcalign/io/output_file.hpp"
 #include "event_file_internal.hpp"
 
@@ -21,9 +23,10 @@ const char* const kCsvHeader =
     "phi_emc_rad,theta_emc_rad";
 
 EventFormat formatOf(const std::string& path) {
-  constexpr std::string_view kCsv = ".csv";
   if (path == "-") return EventFormat::Csv;
-  return std::string_view(path).ends_with(kCsv) ? EventFormat::Csv : EventFormat::Hdf5;
+  std::string tail = path.size() >= 4 ? path.substr(path.size() - 4) : path;  // ".csv", also ".CSV"
+  for (char& c : tail) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return tail == ".csv" ? EventFormat::Csv : EventFormat::Hdf5;
 }
 
 namespace {
@@ -334,10 +337,18 @@ Result<std::unique_ptr<EventReader>> EventReader::open(std::vector<std::string> 
       if (errno == ENOENT) return Error{fmt::format("{}: no such file", path)};
       return Error{fmt::format("{}: cannot open: {}", path, std::strerror(errno))};
     }
-    if (!S_ISREG(st.st_mode)) return Error{fmt::format("{}: not a regular file", path)};
+    if (!S_ISREG(st.st_mode)) {
+      return Error{fmt::format("{}: not a regular file{}", path,
+                               S_ISFIFO(st.st_mode) ? " but a pipe (a <(...) or a FIFO): emcalign reads event files "
+                                                      "it can open again; write the events to a file first"
+                                                    : "")};
+    }
     if (::access(path.c_str(), R_OK) != 0) {
       return Error{fmt::format("{}: cannot read: {}", path, std::strerror(errno))};
     }
+    // Opened once the way every input is (core/regular_file.hpp): a file of /proc that would
+    // block (/proc/kmsg) is refused here, before a reader waits on it.
+    if (auto checked = RegularFile::open(path); !checked) return checked.error();
     for (std::size_t j = 0; j < ids.size(); ++j) {
       if (ids[j] == std::pair{st.st_dev, st.st_ino}) {
         return Error{

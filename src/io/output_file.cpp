@@ -294,6 +294,13 @@ std::string temporaryPathFor(const std::string& realPath) {
 Result<OutputTarget> resolveOutput(const std::string& path, Placement placement) {
   if (path.empty()) return Error{"an output name is empty"};
   if (path == "-") return OutputTarget{path, path, OutputKind::Stdout};
+  if (const long writer = temporaryWriter(fs::path(path).filename().string());
+      writer > 0 && writer != static_cast<long>(::getpid())) {
+    return Error{
+        fmt::format("{}: a name emcalign gives its temporaries (removed as stale by a later run): choose "
+                    "another",
+                    path)};
+  }
   struct stat link {};
   if (::lstat(path.c_str(), &link) != 0) {
     const int error = errno;
@@ -311,6 +318,15 @@ Result<OutputTarget> resolveOutput(const std::string& path, Placement placement)
       return Error{fmt::format("{}: {} the input {}: refusing to write there", path,
                                fs::is_directory(input->path) ? "would be read as data of" : "is a file of",
                                describe(*input))};
+    }
+    return OutputTarget{path, path, OutputKind::File};
+  }
+  if (S_ISLNK(link.st_mode) && placement == Placement::InDirectory) {
+    // A file a command names inside its output directory is the command's: a link found there
+    // (planted by whoever can write into the directory) is replaced, never written through.
+    const std::string dir = parentOf(path);
+    if (::access(dir.c_str(), W_OK) != 0) {
+      return Error{fmt::format("{}: cannot create a file in '{}': {}", path, dir, reason(errno))};
     }
     return OutputTarget{path, path, OutputKind::File};
   }
@@ -585,7 +601,8 @@ Status writeOutputFile(const std::string& path, std::string_view content, Placem
   auto out = OutputFile::open(path, placement);
   if (!out) return out.error();
   if (!content.empty() && std::fwrite(content.data(), 1, content.size(), (*out)->stream()) != content.size()) {
-    return Error{fmt::format("{}: write failed: {}", path, reason(errno))};
+    return Error{
+        fmt::format("{}: write failed: {}", path == "-" ? std::string("standard output") : path, reason(errno))};
   }
   return (*out)->commit();
 }

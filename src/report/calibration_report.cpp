@@ -6,6 +6,7 @@
 
 #include <fmt/format.h>
 
+#include "emcalign/conddb/address.hpp"
 #include "emcalign/core/paper.hpp"
 #include "emcalign/core/version.hpp"
 #include "emcalign/report/html.hpp"
@@ -468,6 +469,30 @@ Result<std::string> guarded(const std::string& source, F&& build) {
 }
 
 }  // namespace
+
+std::vector<std::string> filesNamedIn(const Json& document) {
+  std::vector<std::string> found;
+  const auto visit = [&](const auto& self, const Json& j, int depth) -> void {
+    if (depth > 16) return;
+    if (j.is_object() || j.is_array()) {
+      for (const auto& v : j) self(self, v, depth + 1);
+      return;
+    }
+    if (!j.is_string()) return;
+    const std::string& text = j.get_ref<const std::string&>();
+    if (text.empty() || text.size() > 4096 || text.find('\n') != std::string::npos) return;
+    std::error_code ec;
+    if (text.starts_with("sqlite:")) {  // a database, as trend.json and check.json record it
+      if (auto address = conddb::DatabaseAddress::parse(text); address && fs::is_regular_file(address->file, ec)) {
+        for (auto& f : address->files()) found.push_back(std::move(f));
+      }
+    } else if (fs::is_regular_file(text, ec)) {
+      found.push_back(text);
+    }
+  };
+  visit(visit, document, 0);
+  return found;
+}
 
 Result<ReportValidation> readValidationDirectory(const std::string& dir) {
   auto j = readJsonIn(dir, "table.json");

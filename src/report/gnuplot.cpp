@@ -7,8 +7,11 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cerrno>
+#include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <string_view>
@@ -18,8 +21,6 @@
 
 #include <fmt/format.h>
 
-#include "emcalign/core/regular_file.hpp"
-#include "emcalign/io/json_files.hpp"
 #include "emcalign/io/output_file.hpp"
 
 namespace emcalign::report::detail {
@@ -80,15 +81,19 @@ Status writeFile(const fs::path& dir, const std::string& name, const std::string
 
 namespace {
 
+// A figure takes gnuplot a second; a data file that never ends (a FIFO) would take for ever.
+constexpr int kGnuplotSeconds = 120;
+
 struct Ran {
-  int status = -1;       // as waitpid gives it; -1: could not start
-  int startError = 0;    // errno when it could not start
-  std::string out, err;  // its standard output and error
+  bool timedOut = false;  // killed after the time allowed
+  int status = -1;        // as waitpid gives it; -1: could not start
+  int startError = 0;     // errno when it could not start
+  std::string out, err;   // its standard output and error
 };
 
 // Runs `argv` in `cwd` with `input` on its standard input, capturing its standard output and
 // error (poll on the three pipes: no deadlock whatever their sizes).
-Ran runCapturing(const std::vector<std::string>& argv, const std::string& cwd, std::string_view input) {
+Ran runCapturing(const std::vector<std::string>& argv, const std::string& cwd, std::string_view input, int seconds) {
   Ran r;
   // Its standard input is a socket, not a pipe: a gnuplot that exits before reading all of it
   // gets EPIPE without a SIGPIPE (MSG_NOSIGNAL), which would end this process.
@@ -129,9 +134,17 @@ Ran runCapturing(const std::vector<std::string>& argv, const std::string& cwd, s
     in[1] = -1;
   }
   char buffer[1 << 16];
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(seconds);
   while (out[0] >= 0 || err[0] >= 0) {
+    const auto left =
+        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+    if (left.count() <= 0) {
+      ::kill(pid, SIGKILL);
+      r.timedOut = true;
+      break;
+    }
     pollfd fds[3] = {{in[1], POLLOUT, 0}, {out[0], POLLIN, 0}, {err[0], POLLIN, 0}};
-    if (::poll(fds, 3, -1) < 0) {
+    if (::poll(fds, 3, static_cast<int>(std::min<long long>(left.count(), 1000))) < 0) {
       if (errno == EINTR) continue;
       break;
     }
@@ -156,7 +169,9 @@ Ran runCapturing(const std::vector<std::string>& argv, const std::string& cwd, s
       }
     }
   }
-  if (in[1] >= 0) ::close(in[1]);
+  for (int fd : {in[1], out[0], err[0]}) {
+    if (fd >= 0) ::close(fd);
+  }
   while (::waitpid(pid, &r.status, 0) < 0 && errno == EINTR) {
   }
   return r;
@@ -164,42 +179,44 @@ Ran runCapturing(const std::vector<std::string>& argv, const std::string& cwd, s
 
 }  // namespace
 
-// Runs NAME.gp in `dir`; gnuplot's messages go into the error. gnuplot opens no file to write:
-// it is given the script on its standard input with its output set to the standard output,
-// and the figure it prints is written as DIR/NAME.png by the output rules (io/output_file.hpp:
-// through a temporary, never onto an input, a link planted there or a FIFO). NAME.gp as written
-// still draws NAME.png when a user runs it.
-Status runGnuplot(const fs::path& dir, const std::string& name) {
-  const std::string script = (dir / (name + ".gp")).string();
+// Draws DIR/NAME.png from `script` (the text of DIR/NAME.gp, as written); gnuplot's messages
+// go into the error. gnuplot opens no file to write, and runs the script from memory (never
+// read back from the directory, where it could have been swapped): it is given on gnuplot's
+// standard input with the output set to the standard output, and the figure printed there is
+// written as DIR/NAME.png by the output rules (io/output_file.hpp). gnuplot reads the data
+// files of the directory; one that never ends (a FIFO swapped in) stops it after
+// kGnuplotSeconds.
+Status runGnuplot(const fs::path& dir, const std::string& name, std::string script) {
+  const std::string source = (dir / (name + ".gp")).string();
   const std::string png = name + ".png";
-  auto text = RegularFile::open(script);
-  if (!text) return text.error();
-  auto content = text->readAll(io::kMaxInputFileBytes);
-  if (!content) return content.error();
   const std::string setOutput = fmt::format("set output '{}'\n", png);
-  const auto at = content->find(setOutput);
-  if (at == std::string::npos) return Error{fmt::format("{}: no line {}", script, setOutput)};
-  content->replace(at, setOutput.size(), "set output  # the standard output, which emcalign writes to the file\n");
-  const Ran ran = runCapturing({"gnuplot", "-d"}, dir.string(), *content);
+  const auto at = script.find(setOutput);
+  if (at == std::string::npos) return Error{fmt::format("{}: no line {}", source, setOutput)};
+  script.replace(at, setOutput.size(), "set output  # the standard output, which emcalign writes to the file\n");
+  const Ran ran = runCapturing({"gnuplot", "-d"}, dir.string(), script, kGnuplotSeconds);
   std::string said = ran.err;
   while (!said.empty() && (said.back() == '\n' || said.back() == ' ')) said.pop_back();
   if (said.size() > 2000) said = said.substr(0, 2000) + " …";
+  if (ran.timedOut) {
+    return Error{fmt::format("gnuplot did not finish {} within {} s (a data file of {} that never ends?): stopped",
+                             source, kGnuplotSeconds, dir.string())};
+  }
   if (ran.status == -1 && (ran.startError == ENOENT || ran.startError == EACCES)) {
     return Error{fmt::format("gnuplot was not found (needed to draw {}): {}", (dir / png).string(), kInstallHint)};
   }
   if (ran.status == -1) {
-    return Error{fmt::format("{}: cannot start gnuplot: {}", script, std::strerror(ran.startError))};
+    return Error{fmt::format("{}: cannot start gnuplot: {}", source, std::strerror(ran.startError))};
   }
   if (!WIFEXITED(ran.status) || WEXITSTATUS(ran.status) != 0) {
     return Error{fmt::format("gnuplot failed on {} ({}): {}\n(gnuplot with the pngcairo terminal is needed; {})",
-                             script,
+                             source,
                              WIFEXITED(ran.status) ? fmt::format("exit status {}", WEXITSTATUS(ran.status))
                                                    : std::string("killed by a signal"),
                              said, kInstallHint)};
   }
   static constexpr std::string_view kPngSignature = "\x89PNG\r\n\x1a\n";
   if (!std::string_view(ran.out).starts_with(kPngSignature)) {
-    return Error{fmt::format("gnuplot ran {} but drew no PNG{}", script, said.empty() ? "" : ": " + said)};
+    return Error{fmt::format("gnuplot ran {} but drew no PNG{}", source, said.empty() ? "" : ": " + said)};
   }
   return io::writeFileIn(dir.string(), png, ran.out);
 }
@@ -216,7 +233,7 @@ Result<std::vector<std::string>> drawFigures(const fs::path& out, const std::vec
   std::vector<std::string> written;
   for (const auto& f : figures) {
     if (auto st = writeFile(out, f.name + ".gp", f.script); !st) return st.error();
-    if (auto st = runGnuplot(out, f.name); !st) return st.error();
+    if (auto st = runGnuplot(out, f.name, f.script); !st) return st.error();
     written.push_back((out / (f.name + ".png")).string());
   }
   return written;

@@ -22,8 +22,9 @@ std::string quantityLabel(const std::string& name);
 std::string terminalHeader(const std::string& pngName, int width, int height);
 /// Writes dir/name (io/output_file.hpp rules).
 Status writeFile(const std::filesystem::path& dir, const std::string& name, const std::string& content);
-/// Draws dir/NAME.png with gnuplot from dir/NAME.gp; gnuplot's messages go into the error.
-Status runGnuplot(const std::filesystem::path& dir, const std::string& name);
+/// Draws dir/NAME.png with gnuplot from `script` (dir/NAME.gp's text, run from memory);
+/// gnuplot's messages go into the error.
+Status runGnuplot(const std::filesystem::path& dir, const std::string& name, std::string script);
 Status createPlotDirectory(const std::filesystem::path& dir);
 
 struct Figure {

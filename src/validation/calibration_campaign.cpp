@@ -635,7 +635,7 @@ Result<bool> groupStored(conddb::Database& db, const std::string& tag, const Cam
   }
   auto usedSigma = sigmaSysChoiceOf(payload);
   if (!usedSigma) return Error{fmt::format("{}: tag '{}': {}", group, tag, usedSigma.error().message)};
-  if (sigmaSysChoiceJson(*usedSigma) != sigmaSysChoiceJson(model.sigmaSys)) {
+  if (!calib::sameChoice(*usedSigma, model.sigmaSys)) {
     return Error{
         fmt::format("{}: tag '{}' holds it fitted with sigma_sys {}, this campaign with {}: one tag holds "
                     "one model; write to a new tag",

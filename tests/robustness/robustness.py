@@ -358,6 +358,33 @@ def cases():
              "is a FIFO: the files a command writes into its output directory are regular files",
              setup=fifo_at("PF/profile_phi.png")))
 
+    s10, c10 = unchanged("camp.db")
+    add(Case(F, "the report over the database its trend names", "emcalign report --trend TR2 -o camp.db", 1,
+             "same file as the input named by --trend",
+             setup=lambda d: (trend_dir("TR2")(d), s10(d)), check=c10, checked="database unchanged"))
+
+    def victim_link(link):
+        def setup(d):
+            write(d, "victim.txt", "keep me\n")
+            os.makedirs(os.path.dirname(os.path.join(d, link)), exist_ok=True)
+            if os.path.lexists(os.path.join(d, link)):
+                os.unlink(os.path.join(d, link))
+            os.symlink(os.path.join(d, "victim.txt"), os.path.join(d, link))
+        return setup
+
+    def victim_kept(link):
+        def check(d, r):
+            with open(os.path.join(d, "victim.txt")) as f:
+                if f.read() != "keep me\n":
+                    return "the link's target was written"
+            return None if not os.path.islink(os.path.join(d, link)) else "the link is still there"
+        return check
+    add(Case(F, "a link planted at a file a command names in its output directory: replaced, not followed",
+             "emcalign trend --conditions camp.db --tag c -o TV", 0, setup=victim_link("TV/trend.md"),
+             check=victim_kept("TV/trend.md"), checked="victim.txt unchanged; TV/trend.md is the trend's own file"))
+    add(Case(F, "an output named as emcalign names its temporaries", "emcalign fit ev.csv -o keep.json.tmp-999999", 1,
+             "a name emcalign gives its temporaries"))
+
     # ---- Crashes ---------------------------------------------------------------------------
     C = "Crashes"
 
@@ -759,6 +786,20 @@ def cases():
     add(Case(D, "a FIFO as the database's journal (SQLite would block on it)", "emcalign conditions list j.db", 1,
              "j.db-journal is not a regular file", setup=fifo_journal))
 
+    add(Case(D, "a run that is not a number, written by hand", "emcalign conditions list c.db --tag t", 1,
+             "is not a run number", setup=by_hand("UPDATE emcalign_iovs SET last_run = 'x' WHERE tag = 't';")))
+
+    def linked_journal(d):
+        conditions_db(d)
+        shutil.copy(os.path.join(d, "c.db"), os.path.join(d, "real.db"))
+        if os.path.lexists(os.path.join(d, "lnk.db")):
+            os.unlink(os.path.join(d, "lnk.db"))
+        os.symlink("real.db", os.path.join(d, "lnk.db"))
+        if not os.path.exists(os.path.join(d, "real.db-journal")):
+            os.mkfifo(os.path.join(d, "real.db-journal"))
+    add(Case(D, "a database given through a link, a FIFO as the journal beside its file",
+             "emcalign conditions list lnk.db", 1, "real.db-journal is not a regular file", setup=linked_journal))
+
     # ---- Periods, campaigns and trends ---------------------------------------------------------
     P = "Periods, campaigns and trends"
 
@@ -1002,6 +1043,9 @@ def cases():
              check=lambda d, r: None if "holds this refit already" in r.out + r.err else "not recognised as done",
              checked="the second run stores nothing and exits 0"))
 
+    add(Case(X, "a campaign resumed with the default sigma_sys spelt out (0.2)",
+             "emcalign campaign period --conditions camp.db --tag c --min-events 1500 --sigma-sys 0.2", 0,
+             setup=keep_tag, check=tag_kept, checked="nothing to do, tag unchanged"))
     def three_at_once(runner, command):
         script = ("for i in 1 2 3; do " + command + " & done; rc=0; for j in 1 2 3; do wait -n || rc=1; done; "
                   "exit $rc")
@@ -1069,6 +1113,9 @@ def cases():
     add(Case(L, "a password parameter without its '='", "emcalign conditions list "
              "'postgresql://me@127.0.0.1:1/db?password%3Dhunter2secret'", 1, "postgresql://me@127.0.0.1:1/db",
              check=hides("hunter2secret"), checked="not shown"))
+    add(Case(L, "a misspelled password parameter (passwd)", "emcalign conditions list "
+             "'postgresql://me@127.0.0.1:1/db?passwd=hunter2secret'", 1, "passwd=…",
+             check=hides("hunter2secret"), checked="its value not shown"))
     add(Case(L, "a libpq keyword string", "emcalign conditions init 'host=127.0.0.1 password=hunter2secret dbname=x'",
              1, "keyword string", check=hides("hunter2secret"), checked="not shown, no file created"))
 
@@ -1118,6 +1165,12 @@ def cases():
     add(Case(Q, "a refusal with standard error on a full disk", "emcalign conditions list missing.db 2>/dev/full", 1,
              checked="exit 1, no abort", check=lambda d, r: None))
 
+    add(Case(Q, "standard error to a pipe whose reader is gone", "emcalign fit ev.csv -o e3.json 2>&1 >/dev/null | true",
+             0, check=lambda d, r: None if os.path.exists(os.path.join(d, "e3.json")) else "no result written",
+             checked="the result is written, the command not killed"))
+    add(Case(Q, "the result to a closed standard output", "emcalign fit ev.csv -o - >&-", 1,
+             "standard output"))
+
     # ---- Hangs on what is not a file (issue 28) -------------------------------------------------
     N = "Hangs on what is not a file"
 
@@ -1127,13 +1180,13 @@ def cases():
                 os.mkfifo(os.path.join(d, name))
         return setup
     add(Case(N, "a FIFO as the alignment", "emcalign export --alignment fa.json --format json -o pl.json", 1,
-             "is a FIFO (named pipe), not a regular file", setup=fifo("fa.json")))
+             "is a FIFO (named pipe", setup=fifo("fa.json")))
     add(Case(N, "a FIFO as the fit result of a report", "emcalign report --fit fa.json -o r.html", 1,
-             "is a FIFO (named pipe), not a regular file", setup=fifo("fa.json")))
+             "is a FIFO (named pipe", setup=fifo("fa.json")))
     add(Case(N, "a FIFO as a campaign's plan", "emcalign campaign --plan fa.json --group 0 --conditions camp.db --tag c",
-             1, "is a FIFO (named pipe), not a regular file", setup=fifo("fa.json")))
+             1, "is a FIFO (named pipe", setup=fifo("fa.json")))
     add(Case(N, "a FIFO as a trend's truth", "emcalign trend --conditions camp.db --tag c --truth fa.json -o trf", 1,
-             "is a FIFO (named pipe), not a regular file", setup=fifo("fa.json")))
+             "is a FIFO (named pipe", setup=fifo("fa.json")))
     add(Case(N, "/dev/zero as the detector", "emcalign geometry --detector /dev/zero", 1,
              "is a character device, not a regular file"))
 
@@ -1146,6 +1199,13 @@ def cases():
                                                    shutil.copytree(os.path.join(SOURCE, "data", "corrections",
                                                                                 "ee-40-140deg"), os.path.join(d, "GF")),
                                                    os.mkfifo(os.path.join(d, "GF", "zz.json")))))
+    add(Case(N, "an event file that is a link into /proc", "ln -sf /proc/self/status lst.csv && emcalign fit lst.csv "
+             "-o r.json", 1, "a file of the kernel's /proc or /sys"))
+    add(Case(N, "an endless stream of points on standard input",
+             "(echo x_cm,y_cm,z_cm; yes 40,0,0) | emcalign transform --params p.json > /dev/null", 1,
+             "more than 1000000 points"))
+    add(Case(N, "events from a process substitution (a pipe)", "emcalign fit <(cat ev.csv) -o r.json", 1,
+             "write the events to a file first"))
     def fifo_in_plan(d):
         plan(d)
         fifo("fe.h5")(d)
@@ -1155,7 +1215,7 @@ def cases():
             j["groups"][0]["files"] = [os.path.join(d, "fe.h5")]
         edit_json(d, "plan.json", "fifo-plan.json", change)
     add(Case(N, "a FIFO among a plan's files", "emcalign campaign --plan fifo-plan.json --group 0 --conditions p5.db "
-             "--tag p", 1, "is a FIFO (named pipe), not a regular file", setup=fifo_in_plan))
+             "--tag p", 1, "is a FIFO (named pipe", setup=fifo_in_plan))
 
     # ---- Physics checks ------------------------------------------------------------------------
     K = "Physics checks"

@@ -49,6 +49,10 @@ struct SigmaSysChoice {
   [[nodiscard]] bool keepsEventPairs() const { return method == SigmaSysMethod::Auto; }
 };
 
+/// Whether two choices fit alike: both auto, or the same value (SPEC's is 0.2°, as a fixed
+/// 0.2° is: `--sigma-sys 0.2` spells out the default).
+bool sameChoice(const SigmaSysChoice& a, const SigmaSysChoice& b);
+
 /// The choice a plan or a result records: its method's name ("spec", "fixed", "auto") and,
 /// for "fixed", the value in degrees. Another name ("saved profile" included: not a choice)
 /// or a bad value is an error saying which.

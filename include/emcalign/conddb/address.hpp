@@ -41,8 +41,8 @@ struct DatabaseAddress {
   bool hasPassword() const { return !secrets_.empty(); }
   /// `message` with every form of the password replaced by "***" and the URI by `shown`.
   std::string redact(std::string message) const;
-  /// Sqlite: the file and its journals (-wal, -shm, -journal), which no output may replace;
-  /// none for a server.
+  /// Sqlite: the file and its journals (-wal, -shm, -journal), which no output may replace,
+  /// also beside the file a link points to; none for a server.
   std::vector<std::string> files() const;
 
  private:

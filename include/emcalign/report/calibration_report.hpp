@@ -63,6 +63,12 @@ struct ReportCheck {
   std::string figure;  ///< dir/acollinearity.png or dir/chi2.png (empty: none)
 };
 
+/// The files a document the report reads names (a fit's events, corrections and detector; a
+/// check's events; the database a trend or a check was made from, with its journals): files
+/// that exist, found by name only (never opened). They are inputs of the report all the same:
+/// it is never written over them (io::protectInput).
+std::vector<std::string> filesNamedIn(const io::Json& document);
+
 struct ReportInputs {
   std::string title = "EMC geometric calibration";
   std::optional<ReportFit> fit;

@@ -78,7 +78,9 @@ TEST(DatabaseAddress, ShowsAServerWithoutItsPassword) {
                         Case{"postgresql:///snd", "postgresql:///snd", false},
                         Case{"postgresql://calib@host/snd?sslpassword=keyPass9&sslmode=require",
                              "postgresql://calib@host/snd?sslmode=require", true},
-                        Case{"postgresql://calib@host/snd?password%3Dhunter2", "postgresql://calib@host/snd", true}}) {
+                        Case{"postgresql://calib@host/snd?password%3Dhunter2", "postgresql://calib@host/snd", true},
+                        Case{"postgresql://calib@host/snd?passwd=hunter2&sslmode=require",
+                             "postgresql://calib@host/snd?passwd=…&sslmode=require", true}}) {
     auto a = DatabaseAddress::parse(c.uri);
     ASSERT_TRUE(a) << c.uri << ": " << a.error().message;
     EXPECT_EQ(a->kind, DatabaseAddress::Kind::Postgres);

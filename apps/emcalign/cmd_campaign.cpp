@@ -21,6 +21,7 @@
 #include "emcalign/core/sha256.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/validation/calibration_campaign.hpp"
+#include "emcalign/validation/trend.hpp"
 #include "progress.hpp"
 
 namespace emcalign::app {
@@ -47,6 +48,9 @@ void printGroups(const std::vector<validation::CampaignGroup>& groups, std::int6
   fmt::print(reportStream(), "plan: {} groups of at least {} selected events ({} selected in all){}\n", groups.size(),
              minEvents, selected,
              shortGroups > 0 ? fmt::format("; {} short (an energy point with fewer)", shortGroups) : "");
+  if (const std::string few = validation::tooFewIovsForTrend(groups.size(), selected); !few.empty()) {
+    reportWarning(few);
+  }
 }
 
 // One group of a plan (a batch job): read its files, keep its runs, fit, store.

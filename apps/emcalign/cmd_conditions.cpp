@@ -7,7 +7,11 @@
 //   conditions list URI [--tag T] [--json]
 //   conditions lock URI --tag T
 //   conditions copy FROM TO --tag T [--as T2]
+//   conditions retire URI --tag T [--reason TEXT]
+//   conditions diff URI --tag A --tag B [--json]
+//   conditions export URI --tag T -o T.csv
 #include <charconv>
+#include <cmath>
 #include <memory>
 #include <string>
 #include <vector>
@@ -17,6 +21,7 @@
 #include "common.hpp"
 #include "emcalign/conddb/calibrations.hpp"
 #include "emcalign/conddb/conditions.hpp"
+#include "emcalign/conddb/tag_tables.hpp"
 #include "emcalign/core/utf8.hpp"
 
 namespace emcalign::app {
@@ -26,7 +31,8 @@ namespace {
 using io::Json;
 
 struct ConditionsOptions {
-  std::string uri, target, tag, as, runs, result, description, output;
+  std::string uri, target, tag, as, runs, result, description, output, reason;
+  std::vector<std::string> tags;  // conditions diff: the two tags
   std::int64_t run = 0;
   bool json = false;
 };
@@ -88,6 +94,70 @@ int runGet(const ConditionsOptions& o) {
   return kExitOk;
 }
 
+// A mistake withdrawn: the tag kept and listed, never served again.
+int runRetire(const ConditionsOptions& o) {
+  auto db = conddb::Database::open(o.uri);
+  if (!db) return reportError(db.error());
+  if (Status s = (*db)->retire(o.tag, o.reason); !s) return reportError(s.error());
+  fmt::print("{}: tag {} retired: kept and listed as retired; get, correct, simulate, trend and campaign refuse it\n",
+             (*db)->uri(), o.tag);
+  return kExitOk;
+}
+
+// Tag A against tag B, IOV by IOV: each parameter's difference in σ.
+int runDiff(const ConditionsOptions& o) {
+  if (o.tags.size() != 2) return reportError(Error{"conditions diff: give two tags, --tag A --tag B"});
+  auto db = conddb::Database::open(o.uri);
+  if (!db) return reportError(db.error());
+  auto d = conddb::diffTags(**db, o.tags[0], o.tags[1]);
+  if (!d) return reportError(d.error());
+  if (o.json) {
+    fmt::print("{}\n", conddb::tagDiffJson(*d).dump(2));
+    return kExitOk;
+  }
+  const auto& names = conddb::storedNames();
+  fmt::print("{}: tag {} against tag {}, (a - b) / sqrt(error_a^2 + error_b^2) of each parameter\n", (*db)->uri(),
+             d->tagA, d->tagB);
+  fmt::print("{:>17}", "runs");
+  for (const auto& n : names) fmt::print(" {:>8}", n);
+  fmt::print("\n");
+  int beyond3 = 0;
+  for (const auto& p : d->pairs) {
+    fmt::print("{:>17}", fmt::format("{}-{}", p.firstRun, p.lastRun));
+    if (p.samePayload()) {
+      fmt::print("  the same payload\n");
+      continue;
+    }
+    for (double z : p.z) {
+      fmt::print(" {:>8}", std::isfinite(z) ? fmt::format("{:+.1f}", z) : std::string("-"));
+      beyond3 += std::isfinite(z) && std::abs(z) >= 3.0 ? 1 : 0;
+    }
+    fmt::print("\n");
+  }
+  for (const auto& [f, l] : d->onlyA) fmt::print("runs {}-{}: only in tag {}\n", f, l, d->tagA);
+  for (const auto& [f, l] : d->onlyB) fmt::print("runs {}-{}: only in tag {}\n", f, l, d->tagB);
+  fmt::print(
+      "{} IOV pairs, {} differences of 3 sigma or more (the errors of one fit each, not independent when "
+      "the tags fitted the same events)\n",
+      d->pairs.size(), beyond3);
+  return kExitOk;
+}
+
+// A tag as CSV, one row per IOV.
+int runExport(const ConditionsOptions& o) {
+  if (Status s = checkOutputs({{"-o", o.output}}, {}, conditionsInputs(o.uri, "database")); !s) {
+    return reportError(s.error());
+  }
+  auto db = conddb::Database::open(o.uri);
+  if (!db) return reportError(db.error());
+  auto csv = conddb::tagCsv(**db, o.tag);
+  if (!csv) return reportError(csv.error());
+  if (Status s = io::writeOutputFile(o.output, *csv); !s) return reportError(s.error());
+  fmt::print(reportStream(), "{}: tag {}: one row per IOV -> {}\n", (*db)->uri(), o.tag,
+             o.output == "-" ? "standard output" : o.output);
+  return kExitOk;
+}
+
 int runList(const ConditionsOptions& o) {
   auto db = conddb::Database::open(o.uri);
   if (!db) return reportError(db.error());
@@ -114,19 +184,26 @@ int runList(const ConditionsOptions& o) {
   const Json& t = listed.front();
   fmt::print("tag {} ({}), created {}{}\n", o.tag, t["state"].get<std::string>(), t["created"].get<std::string>(),
              t["description"].get<std::string>().empty() ? "" : ": " + t["description"].get<std::string>());
-  fmt::print("{:>10} {:>10} {:>9} {:>12} {:<12} {:<12} {}\n", "first_run", "last_run", "events", "chi2/ndf", "status",
-             "payload", "inserted");
+  if (t.contains("retired")) fmt::print("retired {}\n", t["retired"].get<std::string>());
+  fmt::print("{:>10} {:>10} {:>9} {:>12} {:>12} {:<12} {:<12} {}\n", "first_run", "last_run", "events", "chi2/ndf",
+             "stat. only", "status", "payload", "inserted");
   for (const Json& i : t["iovs"]) {
-    const std::string chi2 = i.contains("chi2") && i.contains("ndf") && i["chi2"].is_number() && i["ndf"].is_number()
+    const bool ndf = i.contains("ndf") && i["ndf"].is_number();
+    const std::string chi2 = i.contains("chi2") && ndf && i["chi2"].is_number()
                                  ? fmt::format("{:.1f}/{}", i["chi2"].get<double>(), i["ndf"].get<std::int64_t>())
                                  : "-";
+    // sigma_sys auto makes chi2/ndf 1: the chi2 with the statistical errors alone beside it.
+    const std::string stat =
+        i.contains("chi2_statistical_errors") && i["chi2_statistical_errors"].is_number() && ndf
+            ? fmt::format("{:.1f}/{}", i["chi2_statistical_errors"].get<double>(), i["ndf"].get<std::int64_t>())
+            : "-";
     const std::string events = i.contains("selected_events") ? printable(i["selected_events"].dump()) : "-";
     // Text of a payload is printed escaped: a database can hold anything (core/utf8.hpp).
     const std::string status =
         i.contains("status") && i["status"].is_string() ? printable(i["status"].get<std::string>()) : "-";
-    fmt::print("{:>10} {:>10} {:>9} {:>12} {:<12} {:<12} {}\n", i["first_run"].get<std::int64_t>(),
-               i["last_run"].get<std::int64_t>(), events, chi2, status, i["payload"].get<std::string>().substr(0, 12),
-               i["inserted"].get<std::string>());
+    fmt::print("{:>10} {:>10} {:>9} {:>12} {:>12} {:<12} {:<12} {}\n", i["first_run"].get<std::int64_t>(),
+               i["last_run"].get<std::int64_t>(), events, chi2, stat, status,
+               i["payload"].get<std::string>().substr(0, 12), i["inserted"].get<std::string>());
   }
   return kExitOk;
 }
@@ -230,6 +307,28 @@ void addConditionsCommand(CLI::App& app, int& exitCode) {
   addTag(*copy, o->tag)->required();
   copy->add_option("--as", o->as, "name of the copy (default: the same)")->check(tagName());
   copy->callback([o, &exitCode] { exitCode = runCopy(*o); });
+
+  auto* retire = cmd->add_subcommand(
+      "retire",
+      "Withdraw an open tag made by mistake: kept and listed as retired, never served again (a locked tag "
+      "is never retired)");
+  addUri(*retire, o->uri);
+  addTag(*retire, o->tag)->required();
+  retire->add_option("--reason", o->reason, "why, recorded with the date (shown by conditions list)");
+  retire->callback([o, &exitCode] { exitCode = runRetire(*o); });
+
+  auto* diff = cmd->add_subcommand("diff", "Compare two tags IOV by IOV: each parameter's difference in sigma");
+  addUri(*diff, o->uri);
+  diff->add_option("--tag", o->tags, "the two tags: --tag A --tag B")->required()->check(tagName());
+  diff->add_flag("--json", o->json, "JSON: every pair of IOVs with both values, errors, difference and z");
+  diff->callback([o, &exitCode] { exitCode = runDiff(*o); });
+
+  auto* exportTag = cmd->add_subcommand(
+      "export", "Write a tag as CSV: one row per IOV (runs, status, chi2, every parameter and its error)");
+  addUri(*exportTag, o->uri);
+  addTag(*exportTag, o->tag)->required();
+  exportTag->add_option("-o,--output", o->output, "CSV file ('-': standard output)")->required();
+  exportTag->callback([o, &exitCode] { exitCode = runExport(*o); });
 }
 
 }  // namespace emcalign::app

@@ -1,6 +1,7 @@
 // emcalign correct: event files in, the same events out with the EMC directions corrected by
 // an alignment (SPEC §9, §11; apply/correct.hpp, docs/apply.md).
 
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
@@ -28,6 +29,7 @@ struct CorrectCliOptions {
   double depthOffset = apply::CorrectOptions{}.depth.offset / units::cm;
   std::string detector;
   std::string output;
+  std::string compression = "lz4";
 };
 
 int run(const CorrectCliOptions& o) {
@@ -37,7 +39,11 @@ int run(const CorrectCliOptions& o) {
   for (auto& c : conditionsInputs(o.conditions)) inputs.push_back(std::move(c));
   inputs.push_back({"--corrections", o.corrections});
   inputs.push_back({"--detector", o.detector});
-  if (Status s = checkOutputs({{"-o", o.output}}, {}, inputs); !s) return reportError(s.error());
+  // -o DIR/ (or an existing directory): one corrected file per input, under its own name.
+  const bool intoDirectory = o.output.ends_with('/') || std::filesystem::is_directory(o.output);
+  const std::vector<io::NamedPath> output = {{"-o", o.output}};
+  const Status checked = intoDirectory ? checkOutputs({}, output, inputs) : checkOutputs(output, {}, inputs);
+  if (!checked) return reportError(checked.error());
   auto calo = loadCalorimeter(o.detector);
   if (!calo) return reportError(calo.error());
   // One alignment for every event, or each run's own from a conditions tag.
@@ -45,21 +51,30 @@ int run(const CorrectCliOptions& o) {
   if (!source) return reportError(source.error());
   for (const auto& w : source->warnings) reportWarning(w);
 
+  if (intoDirectory) {
+    std::error_code ec;
+    std::filesystem::create_directories(o.output, ec);
+    if (ec) return reportError(Error{fmt::format("-o {}: cannot create the directory: {}", o.output, ec.message())});
+  }
   auto made = apply::correctOptionsOf(o.method, o.depthOffset * units::cm, o.corrections, *calo);
   if (!made) return reportError(made.error());
   apply::CorrectOptions& options = *made;
+  options.compression = o.compression == "deflate" ? io::Compression::Deflate : io::Compression::Lz4;
   options.description = apply::correctionRecord(source->description, o.method, options, o.events, o.corrections).dump();
   ProgressLine progress("correct", 0, "rows");
   options.progress = [&](std::int64_t rows) { progress.update(rows); };
-  auto report = apply::correctFiles(o.events, o.output, *calo, source->alignmentOf(), options);
+  auto report = intoDirectory ? apply::correctEachInto(o.events, o.output, *calo, source->alignmentOf(), options)
+                              : apply::correctFiles(o.events, o.output, *calo, source->alignmentOf(), options);
   progress.finish();
   if (!report) return reportError(report.error());
-  const std::string iovs = source->byRun ? fmt::format(" with {} IOV{} of tag {}", report->alignments,
-                                                       report->alignments == 1 ? "" : "s", o.tag)
-                                         : "";
+  const int used = source->byRun && intoDirectory ? source->byRun->used() : report->alignments;
+  std::string iovs;
+  if (source->byRun) iovs = fmt::format(" with {} IOV{} of tag {}", used, used == 1 ? "" : "s", o.tag);
+  std::string target = o.output;
+  if (intoDirectory) target += fmt::format(" ({} files, one per input)", o.events.size());
   fmt::print(reportStream(), "correct ({}): {} events, {} rows, {} clusters corrected{}{}{} in {:.1f} s -> {}\n",
              name(report->method), report->events, report->rows, report->clusters, iovs,
-             report->truth ? ", truth copied" : "", report->hits ? ", hits copied" : "", progress.elapsed(), o.output);
+             report->truth ? ", truth copied" : "", report->hits ? ", hits copied" : "", progress.elapsed(), target);
   return kExitOk;
 }
 
@@ -81,13 +96,15 @@ void addCorrectCommand(CLI::App& app, int& exitCode) {
   cmd->add_option("--tag", o->tag, "the tag of --conditions")->needs(conditions);
   conditions->needs(cmd->get_option("--tag"));
 
-  cmd->add_option("--method", o->method,
-                  "clusters (SPEC 9: the point at R(E, theta) moved by the alignment), hits (each cluster rebuilt "
-                  "from its counters at their aligned centres; files with hits) or auto (hits when present)")
+  cmd->add_option(
+         "--method", o->method,
+         "clusters (docs/apply.md: the point at R(E, theta) moved by the alignment), hits (each cluster rebuilt "
+         "from its counters at their aligned centres; files with hits) or auto (hits when present)")
       ->check(CLI::IsMember({"auto", "hits", "clusters"}));
   auto* offset =
       cmd->add_option("--depth-offset", o->depthOffset,
-                      fmt::format("cm added to R(E, theta) by the cluster method (default {}, SPEC)", o->depthOffset))
+                      fmt::format("cm added to R(E, theta) by the cluster method (default {}: the paper's formula)",
+                                  o->depthOffset))
           ->check(finiteIn(-calib::kMaxDepthOffset, calib::kMaxDepthOffset));
   cmd->add_option("--corrections", o->corrections,
                   "take the depth offset of the cluster method from a corrections file (emcalign derive-corrections), "
@@ -95,8 +112,13 @@ void addCorrectCommand(CLI::App& app, int& exitCode) {
       ->check(CLI::ExistingPath)
       ->excludes(offset);
   addDetectorOption(*cmd, o->detector);
+  cmd->add_option("--compression", o->compression,
+                  "HDF5 compression: lz4 (default, fast; h5py reads it with Debian's hdf5-filter-plugin or pip's "
+                  "hdf5plugin) or deflate (every HDF5 reader has it: for files sent to others)")
+      ->check(CLI::IsMember({"lz4", "deflate"}));
   cmd->add_option("-o,--output", o->output,
-                  "output file: .csv for CSV, anything else HDF5; '-': CSV to standard output")
+                  "output file: .csv for CSV, anything else HDF5; '-': CSV to standard output; a directory (DIR/ "
+                  "or an existing one): one corrected file per input, under its own name (a period's runs)")
       ->required();
   cmd->callback([o, &exitCode] {
     if (o->alignment.empty() && o->conditions.empty()) {

@@ -41,7 +41,7 @@ struct FitCliOptions {
 };
 
 void printCutFlow(const calib::ProfileFill& fill) {
-  fmt::print(reportStream(), "Selection (SPEC §7), events:\n");
+  fmt::print(reportStream(), "Selection (docs/fit.md), events:\n");
   for (std::size_t k = 0; k < calib::CutFlow::kNames.size(); ++k) {
     fmt::print(reportStream(), "  {:<24} {:>10}\n", calib::CutFlow::kNames[k], fill.cutFlow.events[k]);
   }
@@ -91,10 +91,23 @@ void printResult(const calib::FitResult& r, const calib::SystematicErrors* syste
     fmt::print(reportStream(), "\nsigma_sys: as in the saved profile's errors");
   } else {
     fmt::print(reportStream(), "\nsigma_sys = {:.4f} deg ({})", s.value / units::deg,
-               s.method == calib::SigmaSysMethod::Spec ? "SPEC's default" : "set by hand");
+               s.method == calib::SigmaSysMethod::Spec ? "the paper's default" : "set by hand");
   }
   fmt::print(reportStream(), "\nstatus: {}\n", name(r.status));
   for (const auto& w : r.warnings) reportWarning(w);
+}
+
+// A simulated sample: the fit against the truth its files carry, the first thing a
+// physicist checks.
+void printAgainstTruth(const std::vector<calib::TruthRow>& rows) {
+  fmt::print(reportStream(),
+             "\nagainst the truth of the files (truth_parameters):\n{:<10} {:>12} {:>12} {:>12} {:>7}\n", "parameter",
+             "fit", "truth", "fit-truth", "pull");
+  for (const auto& r : rows) {
+    const double pull = r.pull();
+    fmt::print(reportStream(), "{:<10} {:>12} {:>12} {:>12} {:>7} {}\n", r.name, fixed5(r.fit), fixed5(r.truth),
+               fixed5(r.difference()), std::isfinite(pull) ? fmt::format("{:+.2f}", pull) : std::string("-"), r.unit);
+  }
 }
 
 // The figures; with event input, a second pass corrects each selected particle's EMC
@@ -172,6 +185,13 @@ int run(const FitCliOptions& o) {
   auto fitted = job->fit(*data);
   if (!fitted) return reportError(fitted.error());
   printResult(fitted->result, job->corrections() ? job->corrections()->corrections.systematics.get() : nullptr);
+  for (const auto& n : job->notes(*data, *fitted)) fmt::print(reportStream(), "note: {}\n", n);
+  if (auto w = calib::rangeWarning(fitted->result)) reportWarning(*w);
+  if (auto truth = job->againstTruth(*fitted); !truth) {
+    reportWarning(fmt::format("no comparison with the truth: {}", truth.error().message));
+  } else if (*truth) {
+    printAgainstTruth(**truth);
+  }
   if (!o.profileOut.empty()) {
     if (Status s = io::writeOutputFile(o.profileOut, calib::profileCsv(fitted->bins)); !s) {
       return reportError(s.error());
@@ -191,14 +211,15 @@ void addFitCommand(CLI::App& app, int& exitCode) {
   auto o = std::make_shared<FitCliOptions>();
   auto* cmd = app.add_subcommand("fit", "Fit the 12 alignment parameters to e+e- -> e+e- events or a saved profile");
   addVersionFlag(*cmd);
-  auto* events = cmd->add_option("events", o->events, "event files (HDF5 or .csv, SPEC §6)")->check(CLI::ExistingFile);
+  auto* events =
+      cmd->add_option("events", o->events, "event files (HDF5 or .csv, docs/simulation.md)")->check(CLI::ExistingFile);
   auto* profileIn = cmd->add_option("--profile-in", o->profileIn, "fit a saved profile (CSV) instead of events")
                         ->check(CLI::ExistingFile);
   events->excludes(profileIn);
   cmd->add_option("--profile-out", o->profileOut,
                   "write the 160 bins: i_phi,i_theta,n,phi_mean_rad,theta_mean_rad,e_mean_mev,y_phi,sigma_phi,"
                   "y_theta,sigma_theta");
-  cmd->add_option("-o,--output", o->output, "result file (JSON, SPEC §3)")->required();
+  cmd->add_option("-o,--output", o->output, "result file (JSON, docs/fit.md)")->required();
   cmd->add_option("--plots", o->plots,
                   "draw the paper's figures (PNG, gnuplot) into this directory: profiles with the fitted "
                   "curves, and the residual distributions before and after the correction");

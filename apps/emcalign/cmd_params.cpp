@@ -68,7 +68,7 @@ void addParamsCommand(CLI::App& app, int& exitCode) {
   auto opts = std::make_shared<ShowOptions>();
   auto* show = cmd->add_subcommand("show", "Print both parameter sets (fit set and physical set) of a file");
   addVersionFlag(*show);
-  show->add_option("file", opts->file, "alignment parameter file (JSON, SPEC §3)")
+  show->add_option("file", opts->file, "alignment parameter file (JSON, docs/conventions.md)")
       ->required()
       ->check(CLI::ExistingFile);
   addDetectorOption(*show, opts->detector);

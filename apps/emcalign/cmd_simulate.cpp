@@ -34,6 +34,7 @@ struct SimulateOptions {
   std::optional<double> beamEnergy;  // none: the process default
   std::string detector;
   std::string deadCounters;  // empty: default list; "none": no dead counters
+  std::string compression = "lz4";
   int threads = 0;
   int run = sim::SimulationOptions{}.run;
   std::string output;
@@ -71,6 +72,7 @@ validation::SimulateRequest requestOf(const SimulateOptions& cli, const sim::Sim
   r.events = cli.events;
   r.threads = cli.threads;
   r.hits = !cli.noHits;
+  r.compression = cli.compression == "deflate" ? io::Compression::Deflate : io::Compression::Lz4;
   r.ideal = cli.ideal;
   r.off = cli.off;
   r.detectorName = cli.detector.empty() ? "embedded default" : cli.detector;
@@ -105,6 +107,7 @@ int runPeriod(const SimulateOptions& cli) {
   validation::PeriodOptions o;
   if (Status s = realism(cli, o.simulation); !s) return reportError(s.error());
   o.hits = !cli.noHits;
+  o.compression = cli.compression == "deflate" ? io::Compression::Deflate : io::Compression::Lz4;
   o.threads = cli.threads;
   o.settings = validation::simulationSettings(requestOf(cli, o.simulation));
   for (const char* perRun : {"process", "events", "seed", "run", "beam_energy_mev", "theta_range_deg", "software"}) {
@@ -168,6 +171,18 @@ int run(const SimulateOptions& cli) {
   if (!report) return reportError(report.error());
   fmt::print(reportStream(), "simulate: {} events, {} particle rows, {:.1f} s -> {}\n", report->events, report->rows,
              progress.elapsed(), cli.output);
+  const std::int64_t empty = report->events - report->eventsWritten;
+  if (empty > 0) {
+    fmt::print(reportStream(),
+               "note: {} of the {} events ({:.1f} %) have no reconstructed particle and are not in the file{}\n", empty,
+               report->events, 100.0 * static_cast<double>(empty) / static_cast<double>(report->events),
+               !cli.thetaMinDeg && !cli.thetaMaxDeg && cli.process == "ee"
+                   ? fmt::format("; theta {:g}-{:g} deg is the generator's default: the fit's profiles use 45-135 "
+                                 "deg and the shipped corrections were derived at 40-140 deg (--theta-min 40 "
+                                 "--theta-max 140)",
+                                 o.generator.thetaMin / units::deg, o.generator.thetaMax / units::deg)
+                   : std::string());
+  }
   return 0;
 }
 
@@ -189,10 +204,11 @@ void addSimulateCommand(CLI::App& app, int& exitCode) {
   cmd->add_option("--seed", o->seed,
                   "random seed, 0 to 2^64 - 1 (the same seed gives the same file on any thread count)")
       ->check(unsigned64());
-  auto* params = cmd->add_option("--params", o->params,
-                                 "truth alignment: a parameter file (JSON, SPEC §3), a fit result or a placements "
-                                 "file (emcalign export)")
-                     ->check(CLI::ExistingFile);
+  auto* params =
+      cmd->add_option("--params", o->params,
+                      "truth alignment: a parameter file (JSON, docs/conventions.md), a fit result or a placements "
+                      "file (emcalign export)")
+          ->check(CLI::ExistingFile);
   auto* conditions = cmd->add_option("--conditions", o->conditions,
                                      "instead of --params: a conditions database; the truth is the IOV of --tag "
                                      "that contains --run")
@@ -234,6 +250,10 @@ void addSimulateCommand(CLI::App& app, int& exitCode) {
   cmd->add_flag("--no-hits", o->noHits,
                 "leave out the counters of each cluster (HDF5 writes them by default, for emcalign correct --method "
                 "hits; CSV never has them)");
+  cmd->add_option("--compression", o->compression,
+                  "HDF5 compression: lz4 (default, fast; h5py reads it with Debian's hdf5-filter-plugin or pip's "
+                  "hdf5plugin) or deflate (every HDF5 reader has it: for files sent to others)")
+      ->check(CLI::IsMember({"lz4", "deflate"}));
   cmd->add_option("-o,--output", o->output,
                   "output file: .csv for CSV, anything else HDF5 (with truth); '-' writes CSV to standard output")
       ->required();

@@ -86,7 +86,7 @@ void addTransformCommand(CLI::App& app, int& exitCode) {
                                  "Apply the alignment transform to points read as CSV x_cm,y_cm,z_cm on stdin "
                                  "(forward: nominal EMC -> actual position in the TS frame)");
   addVersionFlag(*cmd);
-  cmd->add_option("--params", opts->params, "alignment parameter file (JSON, SPEC §3)")
+  cmd->add_option("--params", opts->params, "alignment parameter file (JSON, docs/conventions.md)")
       ->required()
       ->check(CLI::ExistingFile);
   addDetectorOption(*cmd, opts->detector);

@@ -1,11 +1,12 @@
 // emcalign trend: the time evolution of a tag's calibrations — every parameter against run
-// (the paper's Fig. 8), the steps the data demand and the drifts inside stable periods
+// (the paper's Fig. 7), the steps the data demand and the drifts inside stable periods
 // (validation/trend.hpp), and, with --refit, one calibration per stable period written as
 // a new tag (docs/campaign.md).
 
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <memory>
 #include <optional>
@@ -34,6 +35,7 @@ using io::Json;
 struct TrendCliOptions {
   std::string conditions, tag, output, truth, tagOut, corrections, detector;
   std::vector<std::string> refit;
+  std::vector<std::int64_t> boundaries;
   int threads = validation::ScanOptions{}.threads;
   int minSegment = static_cast<int>(validation::TrendOptions{}.minSegment);
 };
@@ -59,6 +61,7 @@ std::vector<report::TrendFigure> figuresOf(const validation::Trend& t,
     for (const auto& st : t.steps) {
       if (st.parameter == s.parameter) f.steps.push_back(static_cast<double>(st.firstRunAfter));
     }
+    for (const auto& b : t.boundaries) f.boundaries.push_back(static_cast<double>(b.run));
     if (truth != nullptr) {
       if (auto it = truth->byParameter.find(s.parameter); it != truth->byParameter.end()) {
         for (const auto& [run, value] : it->second) f.truth.emplace_back(static_cast<double>(run), value);
@@ -177,6 +180,7 @@ int run(const TrendCliOptions& o) {
   }
   validation::TrendOptions to;
   to.minSegment = static_cast<std::size_t>(o.minSegment);
+  to.boundaries = o.boundaries;
   const validation::Trend trend = validation::analyseTrend(*series, to);
 
   Json out = validation::trendJson(trend, *series);
@@ -205,17 +209,28 @@ int run(const TrendCliOptions& o) {
   fmt::print(reportStream(), "trend of tag {}: {} IOVs, {} steps, {} drifts flagged, {} stable periods{}\n", o.tag,
              trend.iovs, trend.steps.size(), trend.drifts.size(), trend.segments.size() - transitions,
              transitions > 0 ? fmt::format(" and {} IOVs straddling a step", transitions) : std::string());
+  if (trend.steps.empty() || !trend.inconsistencies.empty()) {
+    fmt::print(reportStream(), "  {}\n", validation::trendVerdict(trend));
+  }
   for (const auto& s : trend.steps) {
-    fmt::print(
-        reportStream(), "  step  {:<8} at run {:>6}: {:+.4f} ± {:.4f} {} (z {:.1f}){}\n", s.parameter, s.firstRunAfter,
-        s.size, s.error, s.unit, s.z(),
-        s.withinIov ? fmt::format(", inside IOV {}-{}", s.withinIov->first, s.withinIov->second) : std::string());
+    fmt::print(reportStream(), "  step  {:<8} at run {:>6}: {:+.4f} ± {:.4f} {} (z {:.1f}){}{}\n", s.parameter,
+               s.firstRunAfter, s.size, s.error, s.unit, s.z(),
+               s.withinIov ? fmt::format(", inside IOV {}-{}", s.withinIov->first, s.withinIov->second) : std::string(),
+               s.known ? ", a known boundary" : "");
+  }
+  for (const auto& b : trend.boundaries) {
+    if (!b.measurable) {
+      reportWarning(fmt::format("--boundaries {}: no IOV on one side of it, nothing measured there", b.run));
+    } else if (b.changed.empty()) {
+      fmt::print(reportStream(), "  known boundary at run {}: nothing changed by {} σ or more (largest {}, z {:.1f})\n",
+                 b.run, trend.options.stepZ, b.largest, b.largestZ);
+    }
   }
   for (const auto& d : trend.drifts) {
     fmt::print(reportStream(), "  drift {:<8} runs {}-{}: {:+.3g} ± {:.2g} {}/run (z {:.1f})\n", d.parameter,
                d.firstRun, d.lastRun, d.slopePerRun, d.error, d.unit, d.z);
   }
-  fmt::print(reportStream(), "wrote {}/trend.json, trend.md and {} figures (fig8.png, trend_all.png, trend_*.png)\n",
+  fmt::print(reportStream(), "wrote {}/trend.json, trend.md and {} figures (fig7.png, trend_all.png, trend_*.png)\n",
              o.output, pngs->size());
   return kExitOk;
 }
@@ -246,6 +261,11 @@ void addTrendCommand(CLI::App& app, int& exitCode) {
   cmd->add_option("--min-segment", o->minSegment,
                   fmt::format("IOVs per stable segment at least (default {})", o->minSegment))
       ->check(integerIn(2, 1000));
+  cmd->add_option("--boundaries", o->boundaries,
+                  "known boundaries (the logbook's reassemblies): the first run after each, comma-separated; every "
+                  "parameter is cut there and its change measured")
+      ->delimiter(',')
+      ->check(CLI::Range(std::int64_t{0}, std::int64_t{std::numeric_limits<std::int32_t>::max()}));
   cmd->add_option("--threads", o->threads, "worker threads for --refit (0: all cores)")
       ->check(integerIn(0, kMaxThreads));
   addDetectorOption(*cmd, o->detector);

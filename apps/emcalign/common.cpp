@@ -100,7 +100,7 @@ CLI::Option* addSigmaSysOption(CLI::App& cmd, std::string& text) {
       .add_option("--sigma-sys", text,
                   fmt::format("systematic error added in quadrature to every profile bin: DEG, or 'auto' to "
                               "estimate it from the profiles (chi2/ndf = 1 after the fit; docs/fit.md). Default {} "
-                              "(SPEC, the paper's data)",
+                              "(the paper's data)",
                               calib::kSpecSigmaSys / units::deg))
       ->check(autoOrDegrees);
 }

@@ -1,6 +1,6 @@
 // emcalign: geometric calibration of a two-hemisphere EM calorimeter relative to a tracker.
-// This file only wires the subcommands (each lives in cmd_<name>.cpp), the signals and the
-// exit codes of docs/conventions.md.
+// This file only wires the subcommands (each adds itself from cmd_<name>.cpp), the signals and
+// the exit codes of docs/conventions.md.
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -15,6 +15,7 @@
 #include <fmt/format.h>
 #include <CLI/CLI.hpp>
 
+#include "arguments.hpp"
 #include "common.hpp"
 #include "console.hpp"
 #include "emcalign/core/utf8.hpp"
@@ -120,6 +121,10 @@ int main(int argc, char** argv) {
   emcalign::app::addTrendCommand(app, exitCode);
   emcalign::app::addCheckCommand(app, exitCode);
   emcalign::app::addReportCommand(app, exitCode);
+  if (auto mistyped = emcalign::app::mistypedArgument(app, argc, argv)) {
+    emcalign::app::eprint("emcalign: usage error: {}\nRun with --help for more information.\n", *mistyped);
+    return emcalign::app::kExitUsage;
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

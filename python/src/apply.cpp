@@ -132,7 +132,7 @@ void bindApply(py::module_& m) {
         "Returns {method, events, rows, clusters, truth, hits, alignments, warnings}.");
   m.def("correct_directions", &correctDirections, py::arg("parameters"), py::arg("phi"), py::arg("theta"),
         py::arg("energy"), py::arg("detector") = py::none(), py::arg("depth_offset") = 0.0,
-        "SPEC §9's cluster correction on columns: (phi, theta) rad and energy MeV of clusters in the nominal "
+        "The cluster correction (docs/apply.md) on columns: (phi, theta) rad and energy MeV of clusters in the nominal "
         "frame -> (phi', theta') in the TS frame; a row of NaN energy (no cluster) is left as it is. depth_offset: cm");
 }
 

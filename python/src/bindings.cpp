@@ -33,7 +33,7 @@ std::string pathString(const Path& path) {
 
 geometry::AlignmentParameters parametersOf(const Array& values) {
   if (values.ndim() != 1 || values.shape(0) != static_cast<py::ssize_t>(kNumParams)) {
-    raise(Error{"parameters: expected 12 values (the fit set of SPEC §3, native units)"});
+    raise(Error{"parameters: expected 12 values (the fit set of docs/conventions.md, native units)"});
   }
   geometry::AlignmentParameters eta;
   for (std::size_t k = 0; k < kNumParams; ++k) eta.values[static_cast<Eigen::Index>(k)] = values.at(k);

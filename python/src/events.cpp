@@ -156,7 +156,7 @@ std::vector<ParticleRow> rowsOf(const py::dict& events) {
 
 namespace {
 
-// SPEC §7's selection on the rows of `events`: per row, the index (1..5, CutFlow::kNames) of
+// The selection (docs/fit.md) on the rows of `events`: per row, the index (1..5, CutFlow::kNames) of
 // the first cut its event fails, 0 when the event is selected. An event is its consecutive
 // rows of one (run, event).
 py::array_t<int> selectRows(const py::dict& events, const calib::SelectionOptions& options) {
@@ -179,7 +179,7 @@ py::array_t<int> selectRows(const py::dict& events, const calib::SelectionOption
 
 void bindEvents(py::module_& m) {
   m.def("read_events", &readEvents, py::arg("paths"), py::arg("truth") = true, py::arg("hits") = true,
-        "the rows of event files (HDF5 or CSV, SPEC §6) as a dict of numpy columns, with 'truth' and 'hits' "
+        "the rows of event files (HDF5 or CSV, docs/simulation.md) as a dict of numpy columns, with 'truth' and 'hits' "
         "dicts when the files have them");
 
   std::vector<std::string> cuts;
@@ -203,8 +203,8 @@ void bindEvents(py::module_& m) {
       py::arg("events"), py::kw_only(), py::arg("beam_energy") = py::none(), py::arg("max_abs_z0") = py::none(),
       py::arg("max_abs_rho") = py::none(), py::arg("min_energy_fraction") = py::none(),
       py::arg("max_energy_fraction") = py::none(), py::arg("max_acollinearity_deg") = py::none(),
-      "SPEC §7's selection on the rows of read_events: per row, the index in CUTS of the first cut its event "
-      "fails, 0 when selected. A cut not given is SPEC's (z0, rho in cm; energies as fractions of the beam "
+      "The selection (docs/fit.md) on the rows of read_events: per row, the index in CUTS of the first cut its event "
+      "fails, 0 when selected. A cut not given is the paper's (z0, rho in cm; energies as fractions of the beam "
       "energy, MeV).");
 }
 

@@ -18,7 +18,9 @@ struct Fit {
   calib::FitData data;
   calib::FitOutcome outcome;
   std::optional<calib::CorrectionsAt> corrections;
-  std::vector<io::NamedPath> inputs;  ///< what a file written must not replace
+  std::vector<std::string> notes;                     ///< calib/fit_notes.hpp
+  std::optional<std::vector<calib::TruthRow>> truth;  ///< the fit against its files' truth
+  std::vector<io::NamedPath> inputs;                  ///< what a file written must not replace
   [[nodiscard]] const calib::FitResult& result() const { return outcome.result; }
   [[nodiscard]] std::string json() const { return outcome.resultJson.dump(2) + "\n"; }
   // Writes one of the fit's files, never over one of its inputs.
@@ -34,12 +36,13 @@ struct Fit {
 std::optional<calib::SigmaSysChoice> sigmaSysOf(const py::object& sigmaSys, std::string& text) {
   if (sigmaSys.is_none()) return std::nullopt;
   if (py::isinstance<py::str>(sigmaSys)) {
-    if (sigmaSys.cast<std::string>() != "auto") raise(Error{"sigma_sys: None (SPEC's 0.2 deg), 'auto' or degrees"});
+    if (sigmaSys.cast<std::string>() != "auto")
+      raise(Error{"sigma_sys: None (the paper's 0.2 deg), 'auto' or degrees"});
     text = "auto";
     return calib::SigmaSysChoice::automatic();
   }
   if (PyBool_Check(sigmaSys.ptr()) || !PyNumber_Check(sigmaSys.ptr())) {
-    throw py::type_error("sigma_sys: None (SPEC's 0.2 deg), 'auto' or a number of degrees");
+    throw py::type_error("sigma_sys: None (the paper's 0.2 deg), 'auto' or a number of degrees");
   }
   const double deg = PyFloat_AsDouble(sigmaSys.ptr());
   if (deg == -1.0 && PyErr_Occurred()) throw py::error_already_set();
@@ -73,6 +76,13 @@ Fit fit(const std::optional<Paths>& paths, const Detector* given, const py::obje
     auto data = job ? job->load() : Result<calib::FitData>(job.error());
     auto fitted = data ? job->fit(*data) : Result<calib::FitOutcome>(data.error());
     if (fitted) {
+      out.notes = job->notes(*data, *fitted);
+      if (auto w = calib::rangeWarning(fitted->result)) out.notes.push_back(*w);
+      if (auto truth = job->againstTruth(*fitted); truth) {
+        out.truth = std::move(*truth);
+      } else {
+        out.notes.push_back("no comparison with the truth: " + truth.error().message);
+      }
       out.data = std::move(*data);
       out.outcome = std::move(*fitted);
       out.corrections = job->corrections();
@@ -179,12 +189,29 @@ void bindFit(py::module_& m) {
       .def_property_readonly(
           "warnings", [](const Fit& f) { return f.result().warnings; }, "the fit's warnings (in the result file)")
       .def_property_readonly(
+          "notes", [](const Fit& f) { return f.notes; },
+          "what to know beside the numbers: the model and its known biases, sigma_sys dominating the errors, "
+          "few particles in the profiles (docs/fit.md)")
+      .def_property_readonly(
+          "against_truth",
+          [](const Fit& f) -> py::object {
+            if (!f.truth) return py::none();
+            py::dict d;
+            for (const auto& r : *f.truth) {
+              d[py::str(r.name)] = py::make_tuple(r.fit, r.truth, r.difference(), r.pull(), r.unit);
+            }
+            return d;
+          },
+          "a simulated sample's fit against the truth its files carry: {name: (fit, truth, fit - truth, pull, "
+          "unit)} in file units (deg, cm), or None (data, a profile, files of several truths)")
+      .def_property_readonly(
           "input_warnings", [](const Fit& f) { return f.data.warnings; },
           "warnings about the input: corrections used away from the sample's beam energy")
       .def_property_readonly(
           "sigma_sys", [](const Fit& f) { return f.result().sigmaSys.value; },
           "rad (NaN for a saved profile: its errors are the totals it was written with)")
-      .def_property_readonly("cut_flow", &cutFlowOf, "{cut: events} of SPEC §7 (None for a saved profile)")
+      .def_property_readonly("cut_flow", &cutFlowOf,
+                             "{cut: events} of the selection (docs/fit.md) (None for a saved profile)")
       .def_property_readonly("corrections", &correctionsOf,
                              "the model corrections used: {path, depth_offset_cm, parting_plane, nominal_profile, "
                              "response, interpolation}, or None")
@@ -209,7 +236,8 @@ void bindFit(py::module_& m) {
         py::arg("beam_energy") = py::none(), py::arg("depth_offset") = 0.0, py::arg("corrections") = py::none(),
         py::arg("profile") = py::none(),
         "selects, fills the profiles and fits, as emcalign fit does: event files (paths), or a saved profile "
-        "(profile=, paths None), on the detector given (None: the embedded one). sigma_sys: None for SPEC's 0.2 deg, "
+        "(profile=, paths None), on the detector given (None: the embedded one). sigma_sys: None for the paper's 0.2 "
+        "deg, "
         "'auto', or degrees; beam_energy: MeV, None for "
         "each event's; depth_offset: cm; corrections: a corrections file or grid directory (emcalign "
         "derive-corrections)");

@@ -33,7 +33,7 @@ geometry::AlignmentTransform transformOf(const Detector& d, const Array& values)
                                                      geometry::AlignmentRadii::of(d.calorimeter().description())));
 }
 
-// The counters as columns (SPEC §2 indexing): layer, ring, iphi, hemisphere, the
+// The counters as columns (docs/conventions.md indexing): layer, ring, iphi, hemisphere, the
 // mid-angles θ, φ (rad) and the nominal centre (N, 3), cm.
 py::dict counters(const Detector& d) {
   const geometry::Calorimeter& calo = d.calorimeter();
@@ -136,7 +136,7 @@ void bindGeometry(py::module_& m) {
       .def(py::init<std::optional<Path>>(), py::arg("path") = py::none())
       .def_property_readonly("size", [](const Detector& d) { return d.calorimeter().size(); })
       .def_property_readonly("r1", &Detector::r1)
-      .def("counters", &counters, "the counters as numpy columns (SPEC §2 indexing)")
+      .def("counters", &counters, "the counters as numpy columns (docs/conventions.md indexing)")
       .def("aligned_centres", &alignedCentres, py::arg("parameters"),
            "the counter centres (N, 3) in the TS frame placed by an alignment (native units)")
       .def("locate", &locate, py::arg("points"),
@@ -158,7 +158,7 @@ void bindGeometry(py::module_& m) {
         check(io::writeOutputFile(pathString(path), j.dump(2) + "\n"));
       },
       py::arg("path"), py::arg("parameters"), py::arg("detector"),
-      "writes a parameter file (SPEC §3: file units, with the physical set)");
+      "writes a parameter file (docs/conventions.md: file units, with the physical set)");
   m.def(
       "to_physical",
       [](const Array& values, double r1) {
@@ -172,7 +172,7 @@ void bindGeometry(py::module_& m) {
       "from_physical",
       [](const Array& values, double r1) {
         if (values.ndim() != 1 || values.shape(0) != static_cast<py::ssize_t>(kNumParams)) {
-          raise(Error{"physical: expected 12 values (SPEC §3, native units)"});
+          raise(Error{"physical: expected 12 values (docs/conventions.md, native units)"});
         }
         geometry::PhysicalParameters phys;
         for (std::size_t k = 0; k < kNumParams; ++k) phys.values[k] = values.at(k);
@@ -185,14 +185,16 @@ void bindGeometry(py::module_& m) {
          std::optional<int> hemisphere) { return transformPoints(d, values, points, true, support, hemisphere); },
       py::arg("detector"), py::arg("parameters"), py::arg("points"), py::arg("support") = "inner",
       py::arg("hemisphere") = py::none(),
-      "nominal EMC frame -> TS frame (SPEC §4) for (N, 3) points; hemisphere: of each point's x unless given");
+      "nominal EMC frame -> TS frame (docs/conventions.md) for (N, 3) points; hemisphere: of each point's x unless "
+      "given");
   m.def(
       "inverse",
       [](const Detector& d, const Array& values, const Array& points, int hemisphere, const std::string& support) {
         return transformPoints(d, values, points, false, support, hemisphere);
       },
       py::arg("detector"), py::arg("parameters"), py::arg("points"), py::arg("hemisphere"),
-      py::arg("support") = "inner", "TS frame -> nominal EMC frame (SPEC §4) for (N, 3) points of one hemisphere");
+      py::arg("support") = "inner",
+      "TS frame -> nominal EMC frame (docs/conventions.md) for (N, 3) points of one hemisphere");
 }
 
 }  // namespace emcalign::python

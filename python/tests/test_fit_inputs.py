@@ -80,3 +80,20 @@ def test_refused_profile_fits_give_the_cli_messages(tmp_path, fit_sample):
 
 def test_paths_may_be_pathlib_and_a_single_path(fit_sample):
     assert emcalign.fit(fit_sample).json == emcalign.fit([str(fit_sample)]).json
+
+
+def test_fit_notes_and_the_truth_are_the_cli_report(tmp_path, fit_sample):
+    """The notes and the comparison with the truth a simulated file carries, as the CLI prints them."""
+    r = emcalign.fit(str(fit_sample))
+    assert any("without corrections" in n for n in r.notes)
+    truth = r.against_truth
+    assert truth is not None and set(emcalign.PARAMETERS) <= set(truth)
+    fit, true, difference, pull, unit = truth["dx"]
+    assert true == pytest.approx(0.3) and unit == "cm"
+    assert difference == pytest.approx(fit - true)
+    # the CLI prints the same row
+    report = cli("fit", fit_sample, "-o", tmp_path / "r.json")
+    row = next(line for line in report.splitlines() if line.startswith("dx ") and "%.5f" % true in line)
+    assert "%+.2f" % pull in row
+    corrected = emcalign.fit(str(fit_sample), corrections=CORRECTIONS)
+    assert not any("without corrections" in n for n in corrected.notes)

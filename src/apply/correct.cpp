@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <limits>
 #include <map>
 #include <set>
@@ -217,6 +218,8 @@ Result<CorrectReport> correctFiles(const std::vector<std::string>& inputs, const
   const bool hdf5 = io::formatOf(output) == io::EventFormat::Hdf5;
   wo.withTruth = *first && (*reader)->truth() != nullptr && hdf5;
   wo.withHits = hits && hdf5;
+  wo.compression = o.compression;
+  wo.placement = o.placement;
   wo.attributes = (*reader)->attributes();
   std::erase_if(wo.attributes, [](const auto& a) { return a.first == "correction"; });
   wo.attributes.emplace_back("correction", o.description);
@@ -256,6 +259,39 @@ Result<CorrectReport> correctFiles(const std::vector<std::string>& inputs, const
   if (Status s = (*writer)->close(); !s) return s.error();
   report.alignments = alignments.used();
   return report;
+}
+
+Result<CorrectReport> correctEachInto(const std::vector<std::string>& inputs, const std::string& directory,
+                                      const geometry::Calorimeter& calo, const AlignmentOfRun& alignmentOf,
+                                      const CorrectOptions& options,
+                                      const std::function<void(const std::string&)>& done) {
+  std::map<std::string, std::string> byName;
+  for (const auto& in : inputs) {
+    const std::string name = std::filesystem::path(in).filename().string();
+    if (auto [it, fresh] = byName.emplace(name, in); !fresh) {
+      return Error{fmt::format("{} and {} have the same name: their corrected files in {} would be one", it->second, in,
+                               directory)};
+    }
+  }
+  CorrectOptions o = options;
+  o.placement = io::Placement::InDirectory;
+  CorrectReport total;
+  bool first = true;
+  for (const auto& in : inputs) {
+    const std::string out = (std::filesystem::path(directory) / std::filesystem::path(in).filename()).string();
+    auto r = correctFiles({in}, out, calo, alignmentOf, o);
+    if (!r) return r.error();
+    if (first) total.method = r->method;
+    total.events += r->events;
+    total.rows += r->rows;
+    total.clusters += r->clusters;
+    total.truth = first ? r->truth : total.truth && r->truth;
+    total.hits = first ? r->hits : total.hits && r->hits;
+    total.alignments = first ? r->alignments : std::max(total.alignments, r->alignments);
+    first = false;
+    if (done) done(out);
+  }
+  return total;
 }
 
 }  // namespace emcalign::apply

@@ -30,7 +30,7 @@ using io::Json;
 Result<PartingPlaneResponse> PartingPlaneResponse::create(std::vector<double> plusWeight) {
   const int n = static_cast<int>(plusWeight.size());
   if (n < 4 || n % 4 != 0) {
-    return Error{fmt::format("parting-plane response: {} phi columns; need a multiple of 4 (SPEC: 16)", n)};
+    return Error{fmt::format("parting-plane response: {} phi columns; need a multiple of 4 (the profiles have 16)", n)};
   }
   for (int k = 0; k < n; ++k) {
     const double w = plusWeight[static_cast<std::size_t>(k)];
@@ -213,6 +213,7 @@ Status FitResponse::validate() const {
 
 Result<ModelCorrections> parseCorrections(const Json& j, std::string_view source) {
   if (!j.is_object()) return Error{fmt::format("{}: expected a JSON object", source)};
+  if (Status kind = io::expectFormat(j, kCorrectionsFormat, "a corrections file", source); !kind) return kind.error();
   for (const auto& [key, value] : j.items()) {
     if (key != "format" && key != "beam_energy_mev" && key != "depth_offset_cm" && key != "parting_plane" &&
         key != "nominal_profile" && key != "response" && key != "systematic_errors" && key != "derived_from") {

@@ -7,7 +7,36 @@
 
 #include <fmt/format.h>
 
+#include "emcalign/core/units.hpp"
+#include "emcalign/io/event_file.hpp"
+#include "emcalign/io/json_files.hpp"
+
 namespace emcalign::calib {
+
+Result<std::string> thetaRangeWarning(const std::vector<std::string>& events, const ModelCorrections& corrections,
+                                      const std::string& correctionsPath) {
+  const io::Json settings = corrections.derivedFrom.value("settings", io::Json::object());
+  const io::Json derived = settings.value("theta_range_deg", io::Json());
+  if (events.empty() || !derived.is_array() || derived.size() != 2) return std::string();
+  auto simulation = io::commonAttribute(events, "simulation");
+  if (!simulation) return simulation.error();
+  if (!*simulation) return std::string();  // data, or runs simulated differently: nothing to compare
+  auto j = io::parseJson(**simulation, fmt::format("{}: its simulation attribute", events.front()));
+  if (!j || !j->is_object()) return std::string();
+  const io::Json sample = j->value("theta_range_deg", io::Json());
+  if (!sample.is_array() || sample.size() != 2 || !sample[0].is_number() || !sample[1].is_number() ||
+      !derived[0].is_number() || !derived[1].is_number()) {
+    return std::string();
+  }
+  const double s0 = sample[0].get<double>(), s1 = sample[1].get<double>();
+  const double d0 = derived[0].get<double>(), d1 = derived[1].get<double>();
+  if (std::abs(s0 - d0) < 1e-6 && std::abs(s1 - d1) < 1e-6) return std::string();
+  return fmt::format(
+      "{}: derived from samples simulated at theta {:g}-{:g} deg, this sample at {:g}-{:g} deg: the corrections "
+      "describe the detector as the derivation saw it (simulate --theta-min {:g} --theta-max {:g}, or derive them "
+      "at this range)",
+      correctionsPath, d0, d1, s0, s1, d0, d1);
+}
 
 Status FitRequest::validate() const {
   if (events.empty() == profileIn.empty()) return Error{"give event files or a saved profile (one of them)"};
@@ -111,6 +140,9 @@ Result<FitData> FitJob::load() const {
     auto warning = checkSampleEnergies(*corrections_, data.fill->beamEnergies);
     if (!warning) return warning.error();
     if (!warning->empty()) data.warnings.push_back(std::move(*warning));
+    auto theta = thetaRangeWarning(request_.events, corrections_->corrections, request_.corrections);
+    if (!theta) return theta.error();
+    if (!theta->empty()) data.warnings.push_back(std::move(*theta));
   }
   return data;
 }
@@ -146,6 +178,39 @@ Result<FitOutcome> FitJob::fit(const FitData& data) const {
   }
   out.resultJson = fitResultJson(out.result, input);
   return out;
+}
+
+std::vector<std::string> FitJob::notes(const FitData& data, const FitOutcome& outcome) const {
+  FitModel model;
+  model.corrected = corrections_.has_value();
+  model.corrections = request_.corrections;
+  model.depthOffset = request_.depthOffset;
+  std::vector<std::string> notes = fitNotes(outcome.result, model);
+  if (data.fill && data.fill->particlesSelected > 0 && 2 * data.fill->particlesInRange < data.fill->particlesSelected) {
+    notes.push_back(fmt::format(
+        "only {:.0f} % of the selected particles ({} of {}) lie in the profiles' {:g}-{:g} deg of theta: the sample "
+        "spans a wider theta than the fit uses (emcalign simulate's default is 10-170 deg; the shipped corrections "
+        "were derived at 40-140 deg: --theta-min 40 --theta-max 140)",
+        100.0 * static_cast<double>(data.fill->particlesInRange) / static_cast<double>(data.fill->particlesSelected),
+        data.fill->particlesInRange, data.fill->particlesSelected, profile_.thetaMin / units::deg,
+        profile_.thetaMax / units::deg));
+  }
+  return notes;
+}
+
+Result<std::optional<std::vector<TruthRow>>> FitJob::againstTruth(const FitOutcome& outcome) const {
+  if (request_.events.empty()) return std::optional<std::vector<TruthRow>>();
+  auto attribute = io::commonAttribute(request_.events, "truth_parameters");
+  if (!attribute) return attribute.error();
+  if (!*attribute) return std::optional<std::vector<TruthRow>>();
+  const std::string source = fmt::format("{}: its truth_parameters", request_.events.front());
+  auto json = io::parseJson(**attribute, source);
+  if (!json) return json.error();
+  auto truth = io::parseAlignment(*json, geometry_.radii.r1, source);
+  if (!truth) return truth.error();
+  auto rows = compareWithTruth(outcome.result, *truth, geometry_.radii.r1);
+  if (!rows) return rows.error();
+  return std::optional<std::vector<TruthRow>>(std::move(*rows));
 }
 
 }  // namespace emcalign::calib

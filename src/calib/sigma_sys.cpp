@@ -202,7 +202,7 @@ Result<FitResult> fitProfiles(const Profiles& profiles, const FitGeometry& geome
   if (result.sigmaSys.value > kLargeSigmaSys) {
     result.warnings.push_back(fmt::format(
         "sigma_sys auto = {:.3f} deg: the profiles scatter about the model far beyond their statistics (chi2/ndf = "
-        "{:.1f}/{} with the statistical errors alone; SPEC's 0.2 deg describes the paper's data): a detector or "
+        "{:.1f}/{} with the statistical errors alone; the default 0.2 deg describes the paper's data): a detector or "
         "reconstruction effect the model lacks",
         result.sigmaSys.value / units::deg, *chi2Stat, ndf));
   }

@@ -118,14 +118,23 @@ Result<io::Json> tagJson(Database& db, const Tag& tag) {
     for (const char* key : {"status", "chi2", "ndf"}) {
       if (a.contains(key)) i[key] = a[key];
     }
+    // With sigma_sys auto χ²/ndf is 1 by construction: the χ² with the statistical errors
+    // alone is what tells one IOV from another.
+    if (a.contains("sigma_sys") && a["sigma_sys"].is_object()) {
+      const Json& s = a["sigma_sys"];
+      if (s.contains("method") && s["method"].is_string()) i["sigma_sys_method"] = s["method"];
+      if (s.contains("chi2_statistical_errors")) i["chi2_statistical_errors"] = s["chi2_statistical_errors"];
+    }
     if (p->content.contains("selected_events")) i["selected_events"] = p->content["selected_events"];
     iovs.push_back(std::move(i));
   }
-  return Json{{"tag", tag.name},
-              {"state", name(tag.state)},
-              {"description", tag.description},
-              {"created", tag.created},
-              {"iovs", iovs}};
+  Json out{{"tag", tag.name},
+           {"state", name(tag.state)},
+           {"description", tag.description},
+           {"created", tag.created},
+           {"iovs", iovs}};
+  if (tag.state == TagState::Retired) out["retired"] = tag.retired;
+  return out;
 }
 
 Result<std::vector<io::Json>> listTags(Database& db, const std::string& tag) {

@@ -9,7 +9,17 @@ namespace emcalign::conddb {
 
 using io::Json;
 
-std::string_view name(TagState s) { return s == TagState::Open ? "open" : "locked"; }
+std::string_view name(TagState s) {
+  switch (s) {
+    case TagState::Open:
+      return "open";
+    case TagState::Locked:
+      return "locked";
+    case TagState::Retired:
+      return "retired";
+  }
+  return "?";
+}
 
 Status checkTagName(std::string_view tag) {
   if (tag.empty() || tag.size() > 100) {

@@ -16,6 +16,8 @@ namespace emcalign::conddb::detail {
 
 namespace {
 
+using io::Json;
+
 constexpr const char* kSchema[] = {
     "CREATE TABLE IF NOT EXISTS emcalign_meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)",
     "CREATE TABLE IF NOT EXISTS emcalign_tags (name TEXT PRIMARY KEY, description TEXT NOT NULL, "
@@ -130,7 +132,7 @@ class SqlDatabase final : public Database {
   }
 
   Result<std::vector<Tag>> tags() override {
-    auto rows = db_->query("SELECT name, description, state, created FROM emcalign_tags ORDER BY name");
+    auto rows = db_->query(std::string(kTagColumns) + " ORDER BY t.name");
     if (!rows) return rows.error();
     std::vector<Tag> out;
     for (const Row& r : *rows) {
@@ -143,7 +145,7 @@ class SqlDatabase final : public Database {
 
   Result<std::optional<Tag>> tag(const std::string& name) override {
     if (Status s = checkTagName(name); !s) return s.error();
-    auto rows = db_->query("SELECT name, description, state, created FROM emcalign_tags WHERE name = $1", {name});
+    auto rows = db_->query(std::string(kTagColumns) + " WHERE t.name = $1", {name});
     if (!rows) return rows.error();
     if (rows->empty()) return std::optional<Tag>();
     auto t = tagOf((*rows)[0]);
@@ -188,6 +190,7 @@ class SqlDatabase final : public Database {
         return Error{fmt::format("{}: tag '{}' has the state '{}', neither open nor locked: not written", db_->uri(),
                                  tag, printable(toText((*state)[0][0])))};
       }
+      if (Status s = notRetired(tag); !s) return s;
       const std::string now = utcNow();
       for (const NewIov& n : iovs) {
         // Checked against the IOVs stored before and those of this same write.
@@ -219,6 +222,7 @@ class SqlDatabase final : public Database {
     using Out = std::optional<std::pair<Iov, Payload>>;
     if (Status s = checkTagName(tag); !s) return s.error();
     return inTransaction(*db_, false, [&]() -> Result<Out> {
+      if (Status s = notRetired(tag); !s) return s.error();
       auto rows = db_->query(
           "SELECT i.first_run, i.last_run, i.payload, i.inserted, p.content FROM emcalign_iovs i JOIN "
           "emcalign_payloads p ON p.hash = i.payload WHERE i.tag = $1 AND i.first_run <= $2 AND i.last_run >= $2",
@@ -273,6 +277,7 @@ class SqlDatabase final : public Database {
   Status lock(const std::string& tag) override {
     if (Status s = checkTagName(tag); !s) return s;
     return inTransaction(*db_, true, [&]() -> Status {
+      if (Status s = notRetired(tag); !s) return s;
       auto rows = db_->query("UPDATE emcalign_tags SET state = 'locked' WHERE name = $1", {tag});
       if (!rows) return rows.error();
       auto exists = db_->query("SELECT state FROM emcalign_tags WHERE name = $1", {tag});
@@ -282,9 +287,56 @@ class SqlDatabase final : public Database {
     });
   }
 
+  Status retire(const std::string& tag, const std::string& reason) override {
+    if (Status s = checkTagName(tag); !s) return s;
+    if (Status s = checkText(reason, "the reason"); !s) return s;
+    return inTransaction(*db_, true, [&]() -> Status {
+      auto state =
+          db_->query(fmt::format("SELECT state FROM emcalign_tags WHERE name = $1{}", db_->forUpdate()), {tag});
+      if (!state) return state.error();
+      if (state->empty()) return Error{fmt::format("{}: no tag '{}'", db_->uri(), tag)};
+      if (toText((*state)[0][0]) == "locked") {
+        return Error{fmt::format(
+            "{}: tag '{}' is locked: a published calibration is never withdrawn (store the corrected one under a "
+            "new tag, and point the users at it)",
+            db_->uri(), tag)};
+      }
+      const Json mark = {{"retired", utcNow()}, {"reason", reason}};
+      auto r = db_->query("INSERT INTO emcalign_meta (key, value) VALUES ($1, $2) ON CONFLICT (key) DO NOTHING",
+                          {std::string(kRetiredPrefix) + tag, mark.dump()});
+      if (!r) return r.error();
+      return {};
+    });
+  }
+
   const std::string& uri() const override { return db_->uri(); }
 
  private:
+  static constexpr const char* kRetiredPrefix = "retired:";
+  // A tag's row with its retirement mark, if any (the columns tagOf reads).
+  static constexpr const char* kTagColumns =
+      "SELECT t.name, t.description, t.state, t.created, m.value FROM emcalign_tags t LEFT JOIN emcalign_meta m ON "
+      "m.key = 'retired:' || t.name";
+
+  // Lookups and writes refuse a retired tag, naming when and why it was retired.
+  Status notRetired(const std::string& tag) const {
+    auto mark = db_->query("SELECT value FROM emcalign_meta WHERE key = $1", {std::string(kRetiredPrefix) + tag});
+    if (!mark) return mark.error();
+    if (mark->empty()) return {};
+    return Error{
+        fmt::format("{}: tag '{}' was retired ({}): it is kept and listed, but never served or written "
+                    "to",
+                    db_->uri(), tag, retiredNote(toText((*mark)[0][0])))};
+  }
+
+  // "2026-12-02T01:02:03Z: the wrong corrections" from a mark's JSON.
+  static std::string retiredNote(const std::string& text) {
+    const Json j = Json::parse(text, nullptr, false);
+    if (!j.is_object()) return "?";
+    const std::string when = j.value("retired", std::string("?")), why = j.value("reason", std::string());
+    return printable(why.empty() ? when : when + ": " + why);
+  }
+
   // Text read back is made printable (a database edited by hand may hold anything: bytes that
   // are not UTF-8, terminal escapes): core/utf8.hpp.
   Result<Tag> tagOf(const Row& r) const {
@@ -295,8 +347,22 @@ class SqlDatabase final : public Database {
                       "behind emcalign's back?)",
                       db_->uri(), printable(toText(r[0])), printable(state))};
     }
-    return Tag{printable(toText(r[0])), printable(toText(r[1])), state == "locked" ? TagState::Locked : TagState::Open,
-               printable(toText(r[3]))};
+    Tag t{printable(toText(r[0])),
+          printable(toText(r[1])),
+          state == "locked" ? TagState::Locked : TagState::Open,
+          printable(toText(r[3])),
+          {}};
+    if (r.size() > 4 && r[4]) {
+      if (t.state == TagState::Locked) {
+        return Error{
+            fmt::format("{}: tag '{}' is locked and retired at once (the database was edited behind "
+                        "emcalign's back?)",
+                        db_->uri(), t.name)};
+      }
+      t.state = TagState::Retired;
+      t.retired = retiredNote(*r[4]);
+    }
+    return t;
   }
 
   // A payload as stored under `hash`: its content must still have that hash (every read

@@ -7,11 +7,15 @@
 
 namespace emcalign::conddb {
 
-Result<TagSnapshot> TagSnapshot::load(Database& db, const std::string& tag) {
+Result<TagSnapshot> TagSnapshot::load(Database& db, const std::string& tag, bool allowRetired) {
   auto t = db.tag(tag);
   if (!t) return t.error();
   if (!t->has_value()) {
     return Error{fmt::format("{}: no tag '{}' (the tags: emcalign conditions list {})", db.uri(), tag, db.uri())};
+  }
+  if ((*t)->state == TagState::Retired && !allowRetired) {
+    return Error{fmt::format("{}: tag '{}' was retired ({}): it is kept and listed, but never served", db.uri(), tag,
+                             (*t)->retired)};
   }
   auto iovs = db.iovs(tag);
   if (!iovs) return iovs.error();

@@ -57,13 +57,47 @@ Status checkPlausible(const AlignmentParameters& eta) {
                          : p == Param::BetaRel ? kMaxTiltDeg
                                                : std::sin(kMaxTiltDeg * units::deg) / units::deg;
     if (!(std::abs(v) <= limit)) {
+      const std::string other = otherAngleUnits(v, limit);
       return Error{
           fmt::format("{} = {:.6g} deg is beyond the plausible ±{:.4g} deg of an alignment: angles are in "
-                      "degrees (given in radians, arcminutes or arcseconds?)",
-                      name(p), v, limit)};
+                      "degrees{}",
+                      name(p), v, limit, other.empty() ? std::string() : " (" + other + ")")};
     }
   }
   return {};
+}
+
+std::string otherAngleUnits(double v, double limit) {
+  // What the number would be in degrees if the file's author wrote it in another unit.
+  static const std::pair<const char*, double> kUnits[] = {{"mrad", 0.001 / units::deg * units::rad},
+                                                          {"arcmin", 1.0 / 60.0},
+                                                          {"arcsec", 1.0 / 3600.0},
+                                                          {"rad", 1.0 / units::deg}};
+  std::vector<std::string> plausible;
+  for (const auto& [unit, toDeg] : kUnits) {
+    const double d = v * toDeg;
+    if (std::isfinite(d) && std::abs(d) <= limit && std::abs(d) >= 1e-3) {
+      plausible.push_back(fmt::format("in {} it is {:.4g} deg", unit, d));
+    }
+  }
+  return plausible.empty() ? std::string() : fmt::format("written in another unit? {}", fmt::join(plausible, ", "));
+}
+
+std::vector<std::string> unitWarnings(const AlignmentParameters& eta) {
+  // Inside the plausible limits, but beyond any alignment the tool was validated for
+  // (calib::validatedRanges: |α| ≤ 5°, β ≤ 0.5°, |β_rel| ≤ 0.2°) by a factor that another
+  // unit explains.
+  std::vector<std::string> out;
+  for (Param p : {Param::Alpha, Param::Beta1, Param::Beta2, Param::BetaRel}) {
+    const double v = eta[p] / AlignmentParameters::fileUnit(p);
+    const double typical = p == Param::Alpha ? 5.0 : p == Param::BetaRel ? 1.0 : 2.0;
+    if (!(std::abs(v) > typical)) continue;
+    const std::string other = otherAngleUnits(v, typical);
+    if (other.empty()) continue;
+    out.push_back(fmt::format("{} = {:.6g} deg is larger than alignments are ({} deg at most in the validation); {}",
+                              name(p), v, typical, other));
+  }
+  return out;
 }
 
 Result<PhysicalParameters> toPhysical(const AlignmentParameters& eta, double r1) {

@@ -23,6 +23,7 @@ bool edgePassed(const std::pair<double, double>& edge, double u, double v) {
 
 DetectorDescription DetectorDescription::sndDefault() {
   DetectorDescription d;
+  // The name is part of the description's digest, which plans and tags record: never reworded.
   d.name = "SND-like default (SPEC §2)";
   d.layers = {SphericalShell{32.8, 40.3}, SphericalShell{40.3, 52.7}, SphericalShell{53.7, 68.5}};
   d.supports = {SphericalShell{52.7, 53.7}, SphericalShell{68.5, 69.5}};

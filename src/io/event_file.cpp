@@ -309,6 +309,12 @@ class EventReaderImpl final : public EventReader {
 
 // ============================================================================ public API
 
+Result<Compression> compressionFromName(std::string_view name) {
+  if (name == "lz4") return Compression::Lz4;
+  if (name == "deflate") return Compression::Deflate;
+  return Error{fmt::format("compression '{}': lz4 or deflate", name)};
+}
+
 Result<std::unique_ptr<EventWriter>> EventWriter::open(const std::string& path, WriterOptions options) {
   const EventFormat format = formatOf(path);
   if (auto s = checkAttributes(path, options.attributes, format); !s) return s.error();
@@ -374,6 +380,20 @@ Result<double> firstBeamEnergy(const std::vector<std::string>& paths) {
                                    : fmt::format("no events in the {} files ({}, ...)", paths.size(), paths[0])};
   }
   return rows.front().beamEnergy;
+}
+
+Result<std::optional<std::string>> commonAttribute(const std::vector<std::string>& paths, const std::string& key) {
+  std::optional<std::string> common;
+  for (const auto& path : paths) {
+    auto reader = EventReader::open({path}, ReaderOptions{.blockRows = 1, .truth = false, .hits = false});
+    if (!reader) return reader.error();
+    const auto& attributes = (*reader)->attributes();
+    const auto it = std::find_if(attributes.begin(), attributes.end(), [&](const auto& a) { return a.first == key; });
+    if (it == attributes.end()) return std::optional<std::string>();
+    if (common && *common != it->second) return std::optional<std::string>();
+    common = it->second;
+  }
+  return common;
 }
 
 }  // namespace emcalign::io

@@ -212,7 +212,8 @@ class Hdf5Writer final : public EventWriter {
     auto out = OutputFile::reserve(path, options.placement);
     if (!out) return out.error();
     Hdf5Quiet quiet;
-    auto w = std::unique_ptr<Hdf5Writer>(new Hdf5Writer(path, std::move(*out), options.withTruth, options.withHits));
+    auto w = std::unique_ptr<Hdf5Writer>(
+        new Hdf5Writer(path, std::move(*out), options.withTruth, options.withHits, options.compression));
     if (auto s = w->createFile(options.attributes); !s) return s.error();
     return std::unique_ptr<EventWriter>(std::move(w));
   }
@@ -263,11 +264,12 @@ class Hdf5Writer final : public EventWriter {
   }
 
  private:
-  Hdf5Writer(std::string path, std::unique_ptr<OutputFile> out, bool withTruth, bool withHits)
+  Hdf5Writer(std::string path, std::unique_ptr<OutputFile> out, bool withTruth, bool withHits, Compression compression)
       : path_(std::move(path)),
         out_(std::move(out)),
         tmp_(out_->writtenPath()),
         withTruth_(withTruth),
+        compression_(compression),
         withHits_(withHits) {
     rows_.reserve(kChunkRows);
     if (withTruth_) truth_.reserve(kChunkRows);
@@ -287,7 +289,7 @@ class Hdf5Writer final : public EventWriter {
   Status hdf5Error(std::string_view what) { return fail(fmt::format("{}: {}: {}", path_, what, hdf5Reason())); }
 
   Status createFile(const Attributes& attributes) {
-    if (H5Zfilter_avail(kLz4Filter) <= 0) {
+    if (compression_ == Compression::Lz4 && H5Zfilter_avail(kLz4Filter) <= 0) {
       H5Eclear2(H5E_DEFAULT);
       return Error{
           fmt::format("{}: HDF5 cannot load its LZ4 filter (32004), which event files are compressed with: "
@@ -314,8 +316,13 @@ class Hdf5Writer final : public EventWriter {
     Hid gcpl = creationList(H5P_GROUP_CREATE);
     Hid dcpl = creationList(H5P_DATASET_CREATE);
     const hsize_t chunk = kChunkRows;
+    // The byte shuffle first, then the compression (the order of the filters is the order set).
+    auto compress = [&] {
+      return compression_ == Compression::Lz4 ? H5Pset_filter(dcpl.get(), kLz4Filter, H5Z_FLAG_MANDATORY, 0, nullptr)
+                                              : H5Pset_deflate(dcpl.get(), 4);
+    };
     if (!gcpl.valid() || !dcpl.valid() || H5Pset_chunk(dcpl.get(), 1, &chunk) < 0 || H5Pset_shuffle(dcpl.get()) < 0 ||
-        H5Pset_filter(dcpl.get(), kLz4Filter, H5Z_FLAG_MANDATORY, 0, nullptr) < 0) {
+        compress() < 0) {
       return hdf5Error("cannot set up the dataset-creation properties");
     }
     events_ = Hid(H5Gcreate2(file_.get(), kEventsGroup, H5P_DEFAULT, gcpl.get(), H5P_DEFAULT), H5Gclose);
@@ -505,6 +512,7 @@ class Hdf5Writer final : public EventWriter {
   std::unique_ptr<OutputFile> out_;  // destroyed uncommitted: its temporary is removed
   std::string tmp_;
   bool withTruth_;
+  Compression compression_;
   Hid file_;
   Hid events_;
   Hid truthGroup_;

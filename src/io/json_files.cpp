@@ -81,7 +81,58 @@ std::optional<std::size_t> tooDeep(std::string_view text) {
 
 }  // namespace
 
+namespace {
+
+// What a file that is not JSON looks like, by its first bytes (empty: nothing known).
+std::string nonJsonKind(std::string_view text) {
+  if (text.starts_with("\x89HDF\r\n\x1a\n")) return "an HDF5 file (an event file?)";
+  if (text.starts_with("\x89PNG")) return "a PNG image";
+  if (text.starts_with("SQLite format 3")) return "an SQLite database (a conditions database?)";
+  if (text.starts_with("event,") || text.starts_with("# truth_parameters") || text.starts_with("# simulation")) {
+    return "a CSV event file";
+  }
+  if (text.starts_with("<?xml") || text.starts_with("<gdml")) return "an XML file (GDML placements?)";
+  return {};
+}
+
+}  // namespace
+
+std::string describeFile(const json& j) {
+  if (!j.is_object() || !j.contains("format") || !j["format"].is_string()) return {};
+  const std::string f = j["format"].get<std::string>();
+  if (f == kAlignmentFormat) return j.contains("chi2") || j.contains("errors") ? "a fit result" : "a parameter file";
+  static const std::pair<std::string_view, std::string_view> kinds[] = {
+      {"emcalign-campaign-plan/1", "a campaign plan (campaign --plan)"},
+      {"emcalign-corrections/1", "a corrections file (derive-corrections)"},
+      {"emcalign-detector/1", "a detector description (geometry --description)"},
+      {"emcalign-payload/1", "a conditions payload"},
+      {"emcalign-period-state/1", "a period simulation's state"},
+      {"emcalign-period-truth/1", "a period's truth (simulate --period)"},
+      {"emcalign-period/1", "a period scenario (simulate --period)"},
+      {"emcalign-placements/1", "a placements file (export)"},
+      {"emcalign-trend/1", "a trend (trend.json)"},
+      {"emcalign-validation-ranges/1", "a ranges file (validate --ranges)"},
+      {"emcalign-validation-sample/1", "a validation sample's result"}};
+  for (const auto& [format, what] : kinds) {
+    if (f == format) return std::string(what);
+  }
+  return f.starts_with("emcalign-") ? fmt::format("an emcalign file of format {}", f) : std::string();
+}
+
+Status expectFormat(const json& j, std::string_view format, std::string_view expected, std::string_view source) {
+  if (j.is_object() && j.contains("format") && j["format"].is_string() && j["format"].get<std::string>() == format) {
+    return {};
+  }
+  const std::string kind = describeFile(j);
+  if (kind.empty()) return {};  // the reader's own checks name what is wrong
+  return Error{
+      fmt::format("{}: this is {}, not {} (its format: {})", source, kind, expected, j["format"].get<std::string>())};
+}
+
 Result<json> parseJson(std::string_view text, std::string_view source) {
+  if (const std::string kind = nonJsonKind(text); !kind.empty()) {
+    return Error{fmt::format("{}: this is {}, not a JSON file", source, kind)};
+  }
   if (text.size() > kMaxJsonBytes) {
     return Error{fmt::format("{}: {} bytes is too large for an emcalign JSON file (at most {} MiB)", source,
                              text.size(), kMaxJsonBytes >> 20)};
@@ -162,6 +213,9 @@ Result<std::string> readOwnOutput(const std::string& path, std::size_t maxBytes)
 Result<DetectorDescription> parseDetectorDescription(const json& j, std::string_view source) {
   return guarded([&]() -> DetectorDescription {
     using units::deg;
+    if (Status kind = expectFormat(j, kDetectorFormat, "a detector description", source); !kind) {
+      throw strict::BadInput{kind.error().message};
+    }
     StrictObject top(j, "", source);
     top.allowOnly({"format", "name", "layers", "support_spheres", "theta_min_deg", "theta_max_deg", "counters_per_ring",
                    "shower"});
@@ -246,6 +300,9 @@ json toJson(const DetectorDescription& d) {
 
 Result<AlignmentFile> parseAlignmentFile(const json& j, double r1, std::string_view source, AlignmentUse use) {
   return guarded([&]() -> AlignmentFile {
+    if (Status kind = expectFormat(j, kAlignmentFormat, "a parameter file or a fit result", source); !kind) {
+      throw strict::BadInput{kind.error().message};
+    }
     StrictObject top(j, "", source);
     // The parameter keys, plus what a fit result adds (SPEC §3), read elsewhere.
     top.allowOnly({"format", "units", "parameters", "physical", "errors", "systematic_errors", "covariance", "derived",
@@ -328,6 +385,7 @@ Result<AlignmentFile> parseAlignmentFile(const json& j, double r1, std::string_v
       if (Status st = geometry::checkPlausible(file.parameters); !st) {
         throw BadInput{fmt::format("{}: {}{}", source, fromFit ? "" : "(from \"physical\") ", st.error().message)};
       }
+      for (auto& w : geometry::unitWarnings(file.parameters)) file.warnings.push_back(fmt::format("{}: {}", source, w));
     }
     for (auto& w : geometry::warnings(file.parameters)) file.warnings.push_back(fmt::format("{}: {}", source, w));
     return file;

@@ -107,7 +107,7 @@ Result<std::string> fitSection(const ReportFit& f) {
     if (!systematic) return std::vector<std::string>{label(name), v, e, unit};
     return std::vector<std::string>{label(name), v, e, finite(syst) ? withError(syst, syst).second : "—", unit};
   };
-  html::Table params{.caption = "The fit's set (SPEC §3)", .header = header()};
+  html::Table params{.caption = "The fit's set (docs/conventions.md)", .header = header()};
   params.numeric =
       systematic ? std::vector<bool>{false, true, true, true, false} : std::vector<bool>{false, true, true, false};
   for (const auto& name : kFitParams) {
@@ -160,7 +160,7 @@ Result<std::string> fitSection(const ReportFit& f) {
   }
 
   if (r.contains("stages") && r.at("stages").is_array()) {
-    html::Table stages{.caption = "The staged fit (SPEC §8)",
+    html::Table stages{.caption = "The staged fit (docs/fit.md)",
                        .header = {"stage", "free parameters", "χ²", "iterations", "converged"}};
     stages.numeric = {true, false, true, true, false};
     for (const auto& s : r.at("stages")) {
@@ -291,7 +291,27 @@ Result<std::string> trendSection(const std::optional<ReportTrend>& tr, const std
                                 ? runs(s.at("within_iov")[0], s.at("within_iov")[1])
                                 : "between IOVs"});
     }
-    body += steps.rows.empty() ? html::paragraph("No step found.") : html::table(steps);
+    // The trend's own verdict: never "no step" where it could not tell (an older trend.json
+    // has none: its steps are shown as they are).
+    if (t.contains("verdict") && t.at("verdict").is_string()) {
+      body += "<p><strong>" + html::escape(t.at("verdict").get<std::string>()) + "</strong></p>\n";
+    } else if (steps.rows.empty()) {
+      body += html::paragraph(
+          "No step found (this trend.json is from an older emcalign, which did not say whether it had the IOVs to "
+          "tell: run emcalign trend again).");
+    }
+    if (!steps.rows.empty()) body += html::table(steps);
+    html::Table inconsistent{.caption = "Segments their model does not fit (not resolved as a step or a drift)",
+                             .header = {"parameter", "runs", "IOVs", "model", "χ²/ndf", "p-value", "why"}};
+    inconsistent.numeric = {false, false, true, false, true, true, false};
+    for (const auto& i : t.value("inconsistent", Json::array())) {
+      inconsistent.rows.push_back(
+          {html::escape(symbol(i.at("parameter").get<std::string>())), runs(i.at("first_run"), i.at("last_run")),
+           text(i.at("iovs")), text(i.at("model")), number(i.at("chi2"), "{:.1f}") + "/" + text(i.at("ndf")),
+           number(i.at("p_value"), "{:.2g}"),
+           i.value("too_few_iovs", false) ? "too few IOVs to locate a step" : "neither a step nor a drift"});
+    }
+    if (!inconsistent.rows.empty()) body += html::table(inconsistent);
     html::Table drifts{.caption = "Drifts found", .header = {"parameter", "runs", "slope per run", "±", "z"}};
     drifts.numeric = {false, false, true, true, true};
     for (const auto& d : t.at("drifts")) {
@@ -300,7 +320,13 @@ Result<std::string> trendSection(const std::optional<ReportTrend>& tr, const std
                              number(d.at("slope_per_run"), "{:.3g}") + " " + text(d.value("unit", Json(""))),
                              number(d.at("error"), "{:.2g}"), number(d.at("z"), "{:.1f}")});
     }
-    body += drifts.rows.empty() ? html::paragraph("No drift found.") : html::table(drifts);
+    const bool driftsTested = t.value("method", Json::object()).value("drift_tests", 1) > 0;
+    if (!drifts.rows.empty()) {
+      body += html::table(drifts);
+    } else {
+      body += html::paragraph(driftsTested ? "No drift found."
+                                           : "Drifts not tested: no segment has the IOVs a slope test needs.");
+    }
     html::Table segments{.caption = "Stable periods", .header = {"runs", "IOVs", "note"}};
     segments.numeric = {false, true, false};
     for (const auto& s : t.at("segments")) {
@@ -315,9 +341,10 @@ Result<std::string> trendSection(const std::optional<ReportTrend>& tr, const std
     body += html::table(segments);
     for (const auto& png : tr->figures) {
       const std::string stem = fs::path(png).stem().string();
-      auto fig = html::figure(
-          png, stem == "fig8" ? "α, dx, μ and ψ against run, with the steps and drifts found: the paper's Fig. 7."
-                              : "Every parameter against run.");
+      auto fig =
+          html::figure(png, stem == "fig7" || stem == "fig8"
+                                ? "α, dx, μ and ψ against run, with the steps and drifts found: the paper's Fig. 7."
+                                : "Every parameter against run.");
       if (!fig) return fig.error();
       body += *fig;
     }
@@ -509,7 +536,9 @@ Result<ReportTrend> readTrendDirectory(const std::string& dir) {
   if (!j->is_object() || j->value("format", std::string()) != "emcalign-trend/1") {
     return Error{fmt::format("{}/trend.json: not a trend (emcalign trend)", dir)};
   }
-  return ReportTrend{dir, std::move(*j), existing(dir, {"fig8.png", "trend_all.png"})};
+  // fig7.png (fig8.png from an older trend: the one the directory has, never both).
+  const std::string four = fs::exists(fs::path(dir) / "fig7.png") ? "fig7.png" : "fig8.png";
+  return ReportTrend{dir, std::move(*j), existing(dir, {four, "trend_all.png"})};
 }
 
 Result<ReportCheck> readCheckDirectory(const std::string& dir) {
@@ -560,7 +589,7 @@ Result<std::string> calibrationReport(const ReportInputs& in) {
   for (std::size_t k = 0; k < sources.size(); ++k) subtitle += (k ? ", " : "") + sources[k];
   return html::page(in.title, subtitle + ".", sections,
                     fmt::format("Written by emcalign {} (emcalign report). Values in degrees and centimetres; the "
-                                "paper: the SND EMC geometric calibration (SPEC §10).",
+                                "paper: the SND EMC geometric calibration (Korol & Melnikova, NIM A 847 (2017) 179).",
                                 kVersion));
 }
 

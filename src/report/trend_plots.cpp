@@ -1,7 +1,9 @@
 #include "emcalign/report/trend_plots.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <iterator>
+#include <limits>
 
 #include <fmt/format.h>
 
@@ -57,18 +59,47 @@ std::string panel(const TrendFigure& f, bool key, int fontSize) {
     s += fmt::format("set arrow from {:.1f}, graph 0 to {:.1f}, graph 1 nohead lw 1.5 dt 2 lc rgb '#d62728'\n", x - 0.5,
                      x - 0.5);
   }
+  for (double x : f.boundaries) {
+    s += fmt::format("set arrow from {:.1f}, graph 0 to {:.1f}, graph 1 nohead lw 1 dt 3 lc rgb '#7f7f7f'\n", x - 0.5,
+                     x - 0.5);
+  }
   if (key) {
-    s += "set key top left Left reverse samplen 2 font ',10' opaque\n";
+    s += "set key tmargin right horizontal Left reverse samplen 2 font ',10'\n";
   } else {
     s += "unset key\n";
   }
+  // The range holds every error bar whole (gnuplot's autoscale clips them).
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  auto take = [&](double y) {
+    if (std::isfinite(y)) {
+      lo = std::min(lo, y);
+      hi = std::max(hi, y);
+    }
+  };
+  for (const auto& p : f.points) {
+    take(p.y - p.error);
+    take(p.y + p.error);
+  }
+  for (const auto& l : f.segments) {
+    take(l.y0);
+    take(l.y1);
+  }
+  for (const auto& [x, y] : f.truth) take(y);
+  if (lo <= hi) {
+    const double pad = hi > lo ? 0.06 * (hi - lo) : std::max(1e-6, 0.1 * std::abs(hi));
+    s += fmt::format("set yrange [{:.8g}:{:.8g}]\n", lo - pad, hi + pad);
+  } else {
+    s += "set autoscale y\n";
+  }
+  const bool drift = std::any_of(f.segments.begin(), f.segments.end(), [](const auto& l) { return l.drift; });
+  const bool stable = std::any_of(f.segments.begin(), f.segments.end(), [](const auto& l) { return !l.drift; });
   const std::string data = fmt::format("'trend_{}.dat'", f.parameter);
   s += fmt::format(
       "plot {0} index 2 using 1:2 with steps lw 1.2 lc rgb '#555555' title '{1}', \\\n"
       "     {0} index 0 using 1:2:4:5:($2-$3):($2+$3) with xyerrorbars pt 7 ps 0.35 lc rgb '#1f77b4' title 'IOVs', \\\n"
-      "     {0} index 1 using 1:($3 == 0 ? $2 : NaN) with lines lw 2 lc rgb '#2ca02c' title 'stable segments', \\\n"
-      "     {0} index 1 using 1:($3 == 1 ? $2 : NaN) with lines lw 2.5 dt 2 lc rgb '#ff7f0e' title 'drift'\n",
-      data, f.truth.empty() ? "" : "truth");
+      "     {0} index 1 using 1:($3 == 0 ? $2 : NaN) with lines lw 2 lc rgb '#2ca02c' title '{2}', \\\n"
+      "     {0} index 1 using 1:($3 == 1 ? $2 : NaN) with lines lw 2.5 dt 2 lc rgb '#ff7f0e' title '{3}'\n",
+      data, f.truth.empty() ? "" : "truth", stable ? "stable segments" : "", drift ? "drift" : "");
   return s;
 }
 
@@ -93,21 +124,21 @@ Result<std::vector<std::string>> writeTrendPlots(const std::string& dir, const s
     s += panel(f, true, 12);
     scripts.push_back({"trend_" + f.parameter, s});
   }
-  // The paper's Fig. 8: α, dx, μ, ψ.
+  // The paper's Fig. 7: α, dx, μ, ψ.
   std::vector<const TrendFigure*> four;
   for (const char* p : {"alpha", "dx", "mu", "psi"}) {
     auto it = std::find_if(figures.begin(), figures.end(), [&](const TrendFigure& f) { return f.parameter == p; });
     if (it != figures.end()) four.push_back(&*it);
   }
   if (!four.empty()) {
-    std::string s = terminalHeader("fig8", 1600, 1000) + common();
+    std::string s = terminalHeader("fig7", 1600, 1000) + common();
     s += fmt::format(
-        "set multiplot layout 2,2 title \"{}: the time evolution of α, dx, μ, ψ (the paper's Fig. 8)\" "
+        "set multiplot layout 2,2 title \"{}: the time evolution of α, dx, μ, ψ (the paper's Fig. 7)\" "
         "font ',14'\n",
         plainText(title));
     for (std::size_t k = 0; k < four.size(); ++k) s += panel(*four[k], k == 0, 11);
     s += "unset multiplot\n";
-    scripts.push_back({"fig8", s});
+    scripts.push_back({"fig7", s});
   }
   {
     // Two to a row, 1400 px wide: legible where a page shows it at its width (emcalign report).

@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "emcalign/calib/calibration.hpp"
+#include "emcalign/calib/fit_notes.hpp"
 #include "emcalign/core/paper.hpp"
 #include "emcalign/core/statistics.hpp"
 #include "emcalign/core/units.hpp"
@@ -52,19 +53,7 @@ std::uint64_t sampleSeed(std::uint64_t seed, int index) {
 
 Ranges Ranges::defaults() {
   Ranges r;
-  auto set = [&](Physical p, double lo, double hi) { r.physical[index(p)] = {lo, hi}; };
-  set(Physical::Alpha, 0.0, 5.0 * deg);
-  set(Physical::Beta, 0.0, 0.5 * deg);
-  set(Physical::Psi, 0.0, 180.0 * deg);
-  set(Physical::Dx, -0.5, 0.5);
-  set(Physical::Dy, -0.5, 0.5);
-  set(Physical::Dz, -0.5, 0.5);
-  set(Physical::Mu, 0.0, 10.0 * deg);  // capped by asin(dx_rel/R1) ≈ 0.53° at most
-  set(Physical::Tau, -180.0 * deg, 180.0 * deg);
-  set(Physical::DxRel, 0.0, 0.5);
-  set(Physical::DyRel, -0.2, 0.2);
-  set(Physical::DzRel, -0.2, 0.2);
-  set(Physical::BetaRel, -0.2 * deg, 0.2 * deg);
+  r.physical = calib::validatedRanges();  // the ranges the fit's notes check against
   return r;
 }
 
@@ -479,7 +468,7 @@ std::string tableMarkdown(const Table& t) {
       "# Validation: {} samples × {} events\n\n"
       "bias = mean of (fit − truth), spread = its standard deviation, ± = spread/√samples; pulls = (fit − "
       "truth)/error; slope = of (fit − truth) against truth. sigma_sys of the fits: {}. Paper: Korol & Melnikova, "
-      "Table 1 (SPEC §10).\n\n"
+      "Table 1.\n\n"
       "| parameter | unit | bias | ± | spread | pull mean | pull width | slope | paper bias | paper spread |\n"
       "|---|---|---|---|---|---|---|---|---|---|\n",
       t.samples, t.events,
@@ -497,7 +486,7 @@ std::string tableMarkdown(const Table& t) {
     md += fmt::format("| {} | {} | {:.4g} | {:.2g} | {:.4g} | {:.3f} | {:.3f} ± {:.3f} | {} | {} | {} |\n", r.name,
                       r.unit, r.bias, r.biasError, r.spread, r.pullMean, r.pullWidth, r.pullWidthError, slope, pb, ps);
   }
-  md += "\nMean correlation matrix (rows and columns in SPEC order):\n\n|   |";
+  md += "\nMean correlation matrix (rows and columns in the order of the fit set):\n\n|   |";
   for (auto n : kParamNames) md += fmt::format(" {} |", n);
   md += "\n|---|";
   for (std::size_t k = 0; k < kNumParams; ++k) md += "---|";

@@ -112,6 +112,9 @@ Result<PeriodScenario> parsePeriodScenario(const Json& j, double r1, std::string
   try {
     PeriodScenario s;
     s.source = j;
+    if (Status kind = io::expectFormat(j, kPeriodFormat, "a period scenario", source); !kind) {
+      throw io::strict::BadInput{kind.error().message};
+    }
     StrictObject top(j, "", source);
     top.allowOnly({"format", "name", "description", "first_run", "runs", "events_per_run", "seed", "theta_range_deg",
                    "beam_energy_mev", "segments", "drift", "missing_runs", "comment"});
@@ -483,6 +486,7 @@ class PeriodPipeline {
     io::WriterOptions wo;
     wo.withTruth = true;
     wo.withHits = o_.hits;
+    wo.compression = o_.compression;
     wo.placement = io::Placement::InDirectory;
     const Json settings = {{"software", fmt::format("emcalign {}", kVersion)},
                            {"period", s_.name},

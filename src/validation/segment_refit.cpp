@@ -298,7 +298,7 @@ std::string refitMarkdown(const SegmentRefit& r, std::size_t iovsBefore, const s
       "Tag {}: {} IOVs instead of {}. Each stable period is fitted from all its events; a period with a "
       "drift keeps its IOVs, and so does an IOV straddling a step.\n\n"
       "The precision gained, three ways. *Quoted*: the fit's errors, which carry σ_sys = 0.2° per profile bin "
-      "(SPEC §7); σ_sys does not shrink with events and already dominates a group of ~50 000, so the quoted "
+      "(docs/fit.md); σ_sys does not shrink with events and already dominates a group of ~50 000, so the quoted "
       "error barely moves. *Statistical*: the same fits with σ_sys = 0, the part that shrinks as 1/√N. "
       "*Observed*: the RMS of the replaced IOVs about their mean, what they really scatter by",
       tagOut, r.iovs.size(), iovsBefore);

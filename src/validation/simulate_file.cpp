@@ -38,17 +38,23 @@ Result<SimulateReport> simulateFile(const geometry::Calorimeter& calo, const geo
   io::WriterOptions wo;
   wo.withTruth = true;
   wo.withHits = request.hits;
+  wo.compression = request.compression;
   wo.attributes = {{"truth_parameters", io::alignmentToJson(truth).dump()},
                    {"simulation", simulationSettings(request).dump()}};
   auto writer = io::EventWriter::open(output, wo);
   if (!writer) return writer.error();
   SimulateReport report;
   report.events = request.events;
+  std::int64_t lastEvent = -1;
   const Status done = simulation->run(
       request.events, request.threads,
       [&](std::span<const ParticleRow> r, std::span<const TruthRow> t, std::span<const Hit> h) {
         if (request.interrupted && request.interrupted()) return Status{Error{kInterrupted}};
         report.rows += static_cast<std::int64_t>(r.size());
+        for (std::size_t k = 0; k < r.size(); ++k) {  // rows of an event are contiguous, in event order
+          if (k == 0 ? r[0].event != lastEvent : r[k].event != r[k - 1].event) ++report.eventsWritten;
+        }
+        if (!r.empty()) lastEvent = r.back().event;
         return (*writer)->append(r, t, h);
       },
       [&](std::int64_t n) {

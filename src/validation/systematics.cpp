@@ -332,7 +332,7 @@ std::string systematicsMarkdown(const SystematicsTable& t) {
       "Each quantity's column: the largest effect of its variations (file units): |mean of fit(variation) − "
       "fit(nominal)|, or for a pattern drawn per sample (gains, dead counters) the root mean square of the "
       "differences{}. systematic = their quadrature sum. Nominal bias ± its statistical error, and the spread of "
-      "the fits, beside the paper's Table 1 bias (SPEC §10).\n\n| parameter | unit | nominal bias | spread |",
+      "the fits, beside the paper's Table 1 bias.\n\n| parameter | unit | nominal bias | spread |",
       t.samples, t.events, t.reverse.is_null() ? "" : "; the reverse shifts count too");
   for (const auto& q : t.quantities) md += fmt::format(" {} |", q);
   md += " **systematic** | paper bias |\n|---|---|---|---|";

@@ -10,6 +10,7 @@
 #include <Eigen/Dense>
 
 #include "emcalign/core/parameters.hpp"
+#include "emcalign/core/special_functions.hpp"
 
 namespace emcalign::validation {
 
@@ -246,6 +247,67 @@ LineFit fitLine(const TrendSeries& s, std::size_t begin, std::size_t end, double
 
 namespace {
 
+// A known change and the boundary run that makes it.
+struct KnownChange {
+  Change change;
+  std::int64_t run = 0;
+};
+
+std::vector<KnownChange> knownChangesWithRuns(const TrendSeries& s, std::vector<std::int64_t> boundaries) {
+  std::sort(boundaries.begin(), boundaries.end());
+  std::vector<KnownChange> out;
+  const std::size_t n = s.points.size();
+  for (std::int64_t b : boundaries) {
+    const auto it = std::lower_bound(s.points.begin(), s.points.end(), b,
+                                     [](const TrendPoint& p, std::int64_t r) { return p.firstRun < r; });
+    const auto i = static_cast<std::size_t>(it - s.points.begin());
+    if (i == 0 || i >= n) continue;  // before the series, or with nothing after it
+    const bool transition = s.points[i - 1].lastRun >= b;
+    const std::size_t previousStart = out.empty() ? 0 : out.back().change.start;
+    // Each side keeps at least one IOV: a boundary in the IOV after another's is not a cut.
+    if (i - (transition ? 1 : 0) <= previousStart) continue;
+    out.push_back({{i, transition}, b});
+  }
+  return out;
+}
+
+}  // namespace
+
+std::vector<Change> knownChanges(const TrendSeries& s, const std::vector<std::int64_t>& boundaries) {
+  std::vector<Change> out;
+  for (const auto& k : knownChangesWithRuns(s, boundaries)) out.push_back(k.change);
+  return out;
+}
+
+namespace {
+
+// The changes of a series with its known ones imposed: optimal partitioning inside each
+// stretch between known boundaries.
+std::vector<Change> changesWithKnown(const TrendSeries& s, double scale, double penalty, double transitionPenalty,
+                                     const TrendOptions& o) {
+  const std::vector<Change> known = knownChanges(s, o.boundaries);
+  if (known.empty()) return changePoints(s, scale, penalty, transitionPenalty, o.minSegment);
+  std::vector<Change> out;
+  std::size_t lo = 0;
+  auto stretch = [&](std::size_t begin, std::size_t end) {
+    TrendSeries part{
+        s.parameter,
+        s.unit,
+        {s.points.begin() + static_cast<std::ptrdiff_t>(begin), s.points.begin() + static_cast<std::ptrdiff_t>(end)}};
+    for (Change c : changePoints(part, scale, penalty, transitionPenalty, o.minSegment)) {
+      c.start += begin;
+      out.push_back(c);
+    }
+  };
+  for (const Change& c : known) {
+    stretch(lo, c.start - (c.transition ? 1 : 0));
+    out.push_back(c);
+    lo = c.start;
+  }
+  stretch(lo, s.points.size());
+  return out;
+}
+
 // One series cut into segments, each fitted with a constant and (if long enough) a line.
 SeriesAnalysis analyseSeries(const TrendSeries& s, const TrendOptions& o, double penalty, double transitionPenalty) {
   SeriesAnalysis a;
@@ -254,7 +316,7 @@ SeriesAnalysis analyseSeries(const TrendSeries& s, const TrendOptions& o, double
   const std::size_t n = s.points.size();
   if (n == 0) return a;
   a.errorScale = errorScale(s);
-  a.changes = changePoints(s, a.errorScale, penalty, transitionPenalty, o.minSegment);
+  a.changes = changesWithKnown(s, a.errorScale, penalty, transitionPenalty, o);
   for (std::size_t k = 0; k <= a.changes.size(); ++k) {
     SegmentTest seg;
     seg.begin = k == 0 ? 0 : a.changes[k - 1].start;
@@ -289,24 +351,42 @@ std::vector<TrendDrift> flagDrifts(const std::vector<TrendSeries>& series, std::
 }
 
 // Steps: the jump between neighbouring segments' models at their boundary (at a transition
-// IOV's middle), not explained by a drift's knee (see the header).
-std::vector<TrendStep> findSteps(const TrendSeries& s, const SeriesAnalysis& a, const TrendOptions& o) {
+// IOV's middle), not explained by a drift's knee (see the header). At a known boundary the
+// jump is measured whatever its size (into `atKnown`) and reported as a step from stepZ σ.
+std::vector<TrendStep> findSteps(const TrendSeries& s, const SeriesAnalysis& a, const TrendOptions& o,
+                                 std::vector<TrendStep>& atKnown) {
   std::vector<TrendStep> steps;
   const auto& segs = a.segments;
+  const std::vector<KnownChange> known = knownChangesWithRuns(s, o.boundaries);
   for (std::size_t j = 1; j < segs.size(); ++j) {
     const std::size_t i = segs[j].begin;
     const bool transition = a.changes[j - 1].transition;
+    const auto k =
+        std::find_if(known.begin(), known.end(), [&](const KnownChange& c) { return c.change == a.changes[j - 1]; });
     const TrendPoint& tp = s.points[i - 1];
     const double xb = transition ? tp.x() : static_cast<double>(s.points[i].firstRun) - 0.5;
     const LineFit &l0 = segs[j - 1].stepModel(), &l1 = segs[j].stepModel();
     const double before = l0.value(xb), after = l1.value(xb);
-    TrendStep step{s.parameter, s.unit, i, s.points[i].firstRun, after - before, std::hypot(l0.error(xb), l1.error(xb)),
+    TrendStep step{s.parameter,
+                   s.unit,
+                   k != known.end(),
+                   i,
+                   s.points[i].firstRun,
+                   after - before,
+                   std::hypot(l0.error(xb), l1.error(xb)),
                    std::nullopt};
+    if (step.known) {
+      step.firstRunAfter = k->run;
+      if (transition) step.withinIov = std::pair{tp.firstRun, tp.lastRun};
+      atKnown.push_back(step);
+      if (std::abs(step.z()) >= o.stepZ) steps.push_back(step);
+      continue;
+    }
     if (!(std::abs(step.z()) >= o.stepZ)) continue;
     if (o.kneeTest && segs[j - 1].isLine() && segs[j].isLine()) {
       const std::size_t skip = transition ? i - 1 : std::numeric_limits<std::size_t>::max();
       const double knee = kneeChi2(s, segs[j - 1].begin, segs[j].end, skip, a.errorScale);
-      if (knee - (l0.chi2 + l1.chi2) < o.stepZ * o.stepZ) continue;
+      if (knee - (segs[j - 1].line.chi2 + segs[j].line.chi2) < o.stepZ * o.stepZ) continue;
     }
     if (transition) {
       // The IOV's value is before·f + after·(1 − f), f the share of its runs before the step.
@@ -322,7 +402,9 @@ std::vector<TrendStep> findSteps(const TrendSeries& s, const SeriesAnalysis& a, 
 
 // Stable periods: steps at neighbouring IOVs (chained) are one change of the detector. A
 // change with a step inside an IOV makes that IOV a transition of its own (the strongest
-// such step's); otherwise the strongest step's IOV starts the next period.
+// such step's); otherwise the strongest step's IOV starts the next period. A known boundary
+// always starts a period (its straddling IOV a transition), and takes the place of a change
+// found at its IOV or the next.
 std::vector<TrendSegment> stablePeriods(const Trend& t, const std::vector<TrendSeries>& series) {
   const TrendSeries* reference = nullptr;  // a series with every IOV (the 12 parameters have)
   for (const auto& s : series) {
@@ -339,7 +421,9 @@ std::vector<TrendSegment> stablePeriods(const Trend& t, const std::vector<TrendS
     const TrendStep* step;
   };
   std::vector<Place> places;
-  for (const auto& st : t.steps) places.push_back({iovOf(st.withinIov ? st.withinIov->first : st.firstRunAfter), &st});
+  for (const auto& st : t.steps) {
+    if (!st.known) places.push_back({iovOf(st.withinIov ? st.withinIov->first : st.firstRunAfter), &st});
+  }
   std::sort(places.begin(), places.end(), [](const Place& a, const Place& b) { return a.iov < b.iov; });
   std::vector<std::vector<Place>> clusters;
   for (const Place& p : places) {
@@ -349,8 +433,17 @@ std::vector<TrendSegment> stablePeriods(const Trend& t, const std::vector<TrendS
       clusters.push_back({p});
     }
   }
-  std::vector<std::size_t> bounds = {0}, transitions;
-  std::map<std::size_t, std::vector<std::string>> stepsAt;  // by the IOV where a period starts
+  struct Cut {
+    std::size_t iov;  // where the next period starts, or the transition IOV
+    bool transition;
+    std::vector<std::string> names;
+    bool known;
+  };
+  std::vector<Cut> cuts;
+  for (const auto& b : t.boundaries) {
+    if (!b.measurable) continue;
+    cuts.push_back({iovOf(b.withinIov ? b.withinIov->first : b.run), b.withinIov.has_value(), b.changed, true});
+  }
   auto stronger = [](const Place& a, const Place& b) { return std::abs(a.step->z()) < std::abs(b.step->z()); };
   for (const auto& c : clusters) {
     std::vector<std::string> names;
@@ -360,17 +453,31 @@ std::vector<TrendSegment> stablePeriods(const Trend& t, const std::vector<TrendS
       if (p.step->withinIov && (cut == nullptr || !cut->step->withinIov || stronger(*cut, p))) cut = &p;
     }
     if (cut == nullptr) cut = &*std::max_element(c.begin(), c.end(), stronger);
-    if (cut->iov == 0 || cut->iov >= t.iovs || cut->iov <= bounds.back()) continue;
-    bounds.push_back(cut->iov);
-    stepsAt[cut->iov] = names;
-    if (cut->step->withinIov && cut->iov + 1 < t.iovs) {
-      transitions.push_back(cut->iov);
-      bounds.push_back(cut->iov + 1);
-      stepsAt[cut->iov + 1] = names;
+    const bool nearKnown = std::any_of(cuts.begin(), cuts.end(), [&](const Cut& k) {
+      return k.known && cut->iov + 1 >= k.iov && cut->iov <= k.iov + 1;
+    });
+    if (!nearKnown) cuts.push_back({cut->iov, cut->step->withinIov.has_value(), names, false});
+  }
+  std::sort(cuts.begin(), cuts.end(), [](const Cut& a, const Cut& b) { return a.iov < b.iov; });
+  std::vector<std::size_t> bounds = {0}, transitions, known;
+  std::map<std::size_t, std::vector<std::string>> stepsAt;  // by the IOV where a period starts
+  for (const Cut& c : cuts) {
+    if (c.iov == 0 || c.iov >= t.iovs || c.iov <= bounds.back()) continue;
+    bounds.push_back(c.iov);
+    stepsAt[c.iov] = c.names;
+    if (c.known) known.push_back(c.iov);
+    if (c.transition && c.iov + 1 < t.iovs) {
+      transitions.push_back(c.iov);
+      bounds.push_back(c.iov + 1);
+      stepsAt[c.iov + 1] = c.names;
+      if (c.known) known.push_back(c.iov + 1);
     }
   }
   bounds.push_back(t.iovs);
   std::vector<TrendSegment> out;
+  auto add = [](std::vector<std::string>& names, const std::string& n) {
+    if (std::find(names.begin(), names.end(), n) == names.end()) names.push_back(n);
+  };
   for (std::size_t k = 0; k + 1 < bounds.size(); ++k) {
     TrendSegment seg;
     seg.begin = bounds[k];
@@ -378,15 +485,87 @@ std::vector<TrendSegment> stablePeriods(const Trend& t, const std::vector<TrendS
     seg.firstRun = reference->points[seg.begin].firstRun;
     seg.lastRun = reference->points[seg.end - 1].lastRun;
     seg.transition = std::find(transitions.begin(), transitions.end(), seg.begin) != transitions.end();
+    seg.afterKnownBoundary = std::find(known.begin(), known.end(), seg.begin) != known.end();
     if (auto it = stepsAt.find(seg.begin); it != stepsAt.end()) seg.stepsAtStart = it->second;
-    for (const auto& d : t.drifts) {
-      const bool overlaps = d.firstRun <= seg.lastRun && d.lastRun >= seg.firstRun;
-      if (!seg.transition && overlaps &&
-          std::find(seg.drifting.begin(), seg.drifting.end(), d.parameter) == seg.drifting.end()) {
-        seg.drifting.push_back(d.parameter);
+    if (!seg.transition) {
+      for (const auto& d : t.drifts) {
+        if (d.firstRun <= seg.lastRun && d.lastRun >= seg.firstRun) add(seg.drifting, d.parameter);
+      }
+      for (const auto& i : t.inconsistencies) {
+        if (i.firstRun <= seg.lastRun && i.lastRun >= seg.firstRun) add(seg.inconsistent, i.parameter);
       }
     }
     out.push_back(std::move(seg));
+  }
+  return out;
+}
+
+// Segments whose model the χ² rejects (Bonferroni over every segment tested).
+std::vector<TrendInconsistency> testSegments(const Trend& t, const std::vector<TrendSeries>& series, int& tests) {
+  struct Tested {
+    std::size_t series;
+    const SegmentTest* segment;
+    double chi2;
+    int ndf;
+  };
+  std::vector<Tested> tested;
+  for (std::size_t k = 0; k < series.size(); ++k) {
+    for (const auto& seg : t.series[k].segments) {
+      const LineFit& m = seg.model();
+      const int ndf = static_cast<int>(seg.end - seg.begin) - (&m == &seg.line ? 2 : 1);
+      if (ndf >= 1) tested.push_back({k, &seg, m.chi2, ndf});
+    }
+  }
+  tests = static_cast<int>(tested.size());
+  std::vector<TrendInconsistency> out;
+  for (const auto& x : tested) {
+    const double p = chi2PValue(x.chi2, x.ndf);
+    if (!(p * tests < t.options.driftAlpha)) continue;
+    const auto& s = series[x.series];
+    out.push_back({s.parameter, s.unit, s.points[x.segment->begin].firstRun, s.points[x.segment->end - 1].lastRun,
+                   x.segment->end - x.segment->begin, x.chi2, x.ndf, p, &x.segment->model() == &x.segment->line,
+                   s.points.size() < 2 * t.options.minSegment});
+  }
+  return out;
+}
+
+// What changed at each known boundary, from every series' jump measured there.
+std::vector<KnownBoundary> summariseBoundaries(const Trend& t, const std::vector<TrendStep>& atKnown) {
+  std::vector<std::int64_t> runs = t.options.boundaries;
+  std::sort(runs.begin(), runs.end());
+  runs.erase(std::unique(runs.begin(), runs.end()), runs.end());
+  std::vector<KnownBoundary> out;
+  for (std::int64_t run : runs) {
+    KnownBoundary b;
+    b.run = run;
+    b.measurable = false;
+    for (const auto& st : atKnown) {
+      if (st.firstRunAfter != run) continue;
+      b.measurable = true;
+      if (st.withinIov) b.withinIov = st.withinIov;
+      if (std::abs(st.z()) >= t.options.stepZ) b.changed.push_back(st.parameter);
+      if (std::abs(st.z()) > std::abs(b.largestZ)) {
+        b.largestZ = st.z();
+        b.largest = st.parameter;
+      }
+    }
+    out.push_back(std::move(b));
+  }
+  return out;
+}
+
+// Transition IOVs of a series that no stable period shows as one.
+std::vector<SetAsideIov> setAsideIovs(const Trend& t, const std::vector<TrendSeries>& series) {
+  std::vector<SetAsideIov> out;
+  for (std::size_t k = 0; k < series.size(); ++k) {
+    for (const Change& c : t.series[k].changes) {
+      if (!c.transition) continue;
+      const TrendPoint& p = series[k].points[c.start - 1];
+      const bool shown = std::any_of(t.segments.begin(), t.segments.end(), [&](const TrendSegment& g) {
+        return g.transition && g.firstRun == p.firstRun && g.lastRun == p.lastRun;
+      });
+      if (!shown) out.push_back({series[k].parameter, p.firstRun, p.lastRun});
+    }
   }
   return out;
 }
@@ -410,10 +589,14 @@ Trend analyseTrend(const std::vector<TrendSeries>& series, const TrendOptions& o
     for (const auto& seg : t.series.back().segments) t.tests += seg.isLine() && seg.line.varB > 0.0 ? 1 : 0;
   }
   t.drifts = flagDrifts(series, t.series, t.tests, o.driftAlpha);
+  std::vector<TrendStep> atKnown;
   for (std::size_t k = 0; k < series.size(); ++k) {
-    for (auto& step : findSteps(series[k], t.series[k], o)) t.steps.push_back(std::move(step));
+    for (auto& step : findSteps(series[k], t.series[k], o, atKnown)) t.steps.push_back(std::move(step));
   }
+  t.inconsistencies = testSegments(t, series, t.consistencyTests);
+  t.boundaries = summariseBoundaries(t, atKnown);
   t.segments = stablePeriods(t, series);
+  t.setAside = setAsideIovs(t, series);
   std::sort(t.steps.begin(), t.steps.end(), [](const TrendStep& a, const TrendStep& b) {
     return a.firstRunAfter != b.firstRunAfter ? a.firstRunAfter < b.firstRunAfter : a.parameter < b.parameter;
   });
@@ -424,6 +607,7 @@ Json trendJson(const Trend& t, const std::vector<TrendSeries>& series) {
   Json steps = Json::array(), drifts = Json::array(), segments = Json::array(), list = Json::array();
   for (const auto& s : t.steps) {
     steps.push_back({{"parameter", s.parameter},
+                     {"known_boundary", s.known},
                      {"first_run_after", s.firstRunAfter},
                      {"size", s.size},
                      {"error", s.error},
@@ -446,8 +630,34 @@ Json trendJson(const Trend& t, const std::vector<TrendSeries>& series) {
                         {"last_run", s.lastRun},
                         {"iovs", s.end - s.begin},
                         {"transition", s.transition},
+                        {"after_known_boundary", s.afterKnownBoundary},
                         {"steps_at_start", s.stepsAtStart},
-                        {"drifting", s.drifting}});
+                        {"drifting", s.drifting},
+                        {"inconsistent", s.inconsistent}});
+  }
+  Json inconsistent = Json::array(), boundaries = Json::array(), setAside = Json::array();
+  for (const auto& i : t.inconsistencies) {
+    inconsistent.push_back({{"parameter", i.parameter},
+                            {"unit", i.unit},
+                            {"first_run", i.firstRun},
+                            {"last_run", i.lastRun},
+                            {"iovs", i.iovs},
+                            {"model", i.line ? "line" : "constant"},
+                            {"chi2", i.chi2},
+                            {"ndf", i.ndf},
+                            {"p_value", i.pValue},
+                            {"too_few_iovs", i.unsplittable}});
+  }
+  for (const auto& b : t.boundaries) {
+    boundaries.push_back({{"run", b.run},
+                          {"within_iov", b.withinIov ? Json::array({b.withinIov->first, b.withinIov->second}) : Json()},
+                          {"measurable", b.measurable},
+                          {"changed", b.changed},
+                          {"largest_change", b.largest.empty() ? Json() : Json(b.largest)},
+                          {"largest_z", b.largestZ}});
+  }
+  for (const auto& a : t.setAside) {
+    setAside.push_back({{"parameter", a.parameter}, {"first_run", a.firstRun}, {"last_run", a.lastRun}});
   }
   for (std::size_t k = 0; k < t.series.size(); ++k) {
     const auto& a = t.series[k];
@@ -495,12 +705,74 @@ Json trendJson(const Trend& t, const std::vector<TrendSeries>& series) {
         {"knee_test", t.options.kneeTest},
         {"drift_test", "slope against 0 in each segment of a line, Bonferroni over all segments tested"},
         {"drift_alpha", t.options.driftAlpha},
-        {"drift_tests", t.tests}}},
+        {"drift_tests", t.tests},
+        {"consistency_test",
+         "chi2 of each segment's model (a line where its slope is significant), Bonferroni over all segments "
+         "tested, family-wise rate drift_alpha"},
+        {"consistency_tests", t.consistencyTests},
+        {"known_boundaries", t.options.boundaries}}},
       {"iovs", t.iovs},
+      {"resolvable", t.resolvable()},
+      {"verdict", trendVerdict(t)},
       {"steps", steps},
+      {"inconsistent", inconsistent},
+      {"known_boundaries", boundaries},
+      {"set_aside", setAside},
       {"drifts", drifts},
       {"segments", segments},
       {"series", list}};
+}
+
+namespace {
+
+std::string inconsistencyText(const TrendInconsistency& i) {
+  return fmt::format("{} (runs {}-{}: χ² {:.1f}/{}, p = {:.2g})", i.parameter, i.firstRun, i.lastRun, i.chi2, i.ndf,
+                     i.pValue);
+}
+
+}  // namespace
+
+std::string tooFewIovsForTrend(std::size_t iovs, std::int64_t selectedEvents, const TrendOptions& options) {
+  const std::size_t needed = 2 * std::max<std::size_t>(options.minSegment, 1);
+  if (iovs >= needed) return {};
+  constexpr std::int64_t kWanted = 6;
+  const std::int64_t perIov = std::max<std::int64_t>(1000, selectedEvents / kWanted / 1000 * 1000);
+  return fmt::format(
+      "the grouping leaves {} IOV{}: a trend (emcalign trend) locates a step only from {} ({} on each side); "
+      "--min-events {} would give about {}, each with a larger error",
+      iovs, iovs == 1 ? "" : "s", needed, needed / 2, perIov, kWanted);
+}
+
+std::string trendVerdict(const Trend& t) {
+  std::vector<std::string> bad;
+  for (const auto& i : t.inconsistencies) bad.push_back(inconsistencyText(i));
+  if (!t.steps.empty()) {
+    return fmt::format(
+        "{} step{} found{}", t.steps.size(), t.steps.size() == 1 ? "" : "s",
+        bad.empty() ? std::string() : fmt::format("; not explained by them or by a drift: {}", fmt::join(bad, "; ")));
+  }
+  if (!t.resolvable()) {
+    const std::string few = fmt::format("Too few IOVs to locate a step: {} IOV{}, and a step needs {} on each side",
+                                        t.iovs, t.iovs == 1 ? "" : "s", t.options.minSegment);
+    if (t.iovs < 2) return few + ".";
+    return bad.empty() ? few + "; no parameter differs between them more than its errors allow."
+                       : few + fmt::format(
+                                   ". Inconsistent with one value: {}. Calibrate in smaller groups (campaign "
+                                   "--min-events) to see where it changes.",
+                                   fmt::join(bad, "; "));
+  }
+  if (!bad.empty()) {
+    return fmt::format("No step located, but not constant within a segment: {}.", fmt::join(bad, "; "));
+  }
+  if (!t.setAside.empty()) {
+    std::vector<std::string> iovs;
+    for (const auto& a : t.setAside) iovs.push_back(fmt::format("runs {}-{} ({})", a.firstRun, a.lastRun, a.parameter));
+    return fmt::format(
+        "No step confirmed, but {} set aside between segments (a change inside, too small to confirm, or an "
+        "outlier): {}.",
+        iovs.size() == 1 ? "an IOV was" : "IOVs were", fmt::join(iovs, "; "));
+  }
+  return "No step: no parameter changed between IOVs more than its errors allow.";
 }
 
 std::string trendMarkdown(const Trend& t, const std::vector<TrendSeries>& series, const std::string& source) {
@@ -518,22 +790,54 @@ std::string trendMarkdown(const Trend& t, const std::vector<TrendSeries>& series
       "partitioning, a straight line per segment, penalty {:.1f} per change), and each segment's slope "
       "was tested against zero ({} tests, Bonferroni).\n\n",
       t.iovs, first, last, t.penalty, t.tests);
-  if (t.steps.empty()) {
-    md += "**No step**: no parameter changed between IOVs more than its errors allow.\n\n";
-  } else {
-    md += fmt::format("## {} steps\n\n| first run after | parameter | size | error | z |\n|---|---|---|---|---|\n",
-                      t.steps.size());
+  md += fmt::format("**{}**\n\n", trendVerdict(t));
+  if (!t.steps.empty()) {
+    md += "## Steps\n\n| first run after | parameter | size | error | z |\n|---|---|---|---|---|\n";
     for (const auto& s : t.steps) {
-      const std::string where =
-          s.withinIov ? fmt::format("≈ {} (inside IOV {}-{})", s.firstRunAfter, s.withinIov->first, s.withinIov->second)
-                      : fmt::format("{}", s.firstRunAfter);
+      std::string where = s.known       ? fmt::format("{} (known boundary)", s.firstRunAfter)
+                          : s.withinIov ? fmt::format("≈ {}", s.firstRunAfter)
+                                        : fmt::format("{}", s.firstRunAfter);
+      if (s.withinIov) where += fmt::format(" (inside IOV {}-{})", s.withinIov->first, s.withinIov->second);
       md += fmt::format("| {} | {} | {:+.4f} {} | {:.4f} | {:.1f} |\n", where, s.parameter, s.size, s.unit, s.error,
                         s.z());
     }
     md += "\n";
   }
-  md += fmt::format("## {} stable periods\n\n", std::count_if(t.segments.begin(), t.segments.end(),
-                                                              [](const TrendSegment& g) { return !g.transition; }));
+  if (!t.inconsistencies.empty()) {
+    md += fmt::format(
+        "## {} segment{} inconsistent with {} model\n\nEach segment's model (one value, or a line where the slope "
+        "is significant) tested by its χ² ({} segments tested, Bonferroni at {}):\n\n"
+        "| parameter | runs | IOVs | model | χ²/ndf | p-value | why unresolved |\n|---|---|---|---|---|---|---|\n",
+        t.inconsistencies.size(), t.inconsistencies.size() == 1 ? "" : "s",
+        t.inconsistencies.size() == 1 ? "its" : "their", t.consistencyTests, t.options.driftAlpha);
+    for (const auto& i : t.inconsistencies) {
+      md += fmt::format("| {} | {}-{} | {} | {} | {:.1f}/{} | {:.2g} | {} |\n", i.parameter, i.firstRun, i.lastRun,
+                        i.iovs, i.line ? "line" : "constant", i.chi2, i.ndf, i.pValue,
+                        i.unsplittable ? fmt::format("too few IOVs to locate a step (a step needs {} on each side)",
+                                                     t.options.minSegment)
+                                       : "neither a step nor a drift explains it: look at its IOVs");
+    }
+    md += "\n";
+  }
+  if (!t.boundaries.empty()) {
+    md += "## Known boundaries\n\n";
+    for (const auto& b : t.boundaries) {
+      const std::string where =
+          b.withinIov ? fmt::format(" (inside IOV {}-{}, set aside)", b.withinIov->first, b.withinIov->second) : "";
+      if (!b.measurable) {
+        md += fmt::format("- run {}{}: no IOV on one side of it, nothing measured\n", b.run, where);
+      } else if (b.changed.empty()) {
+        md += fmt::format("- run {}{}: no parameter changed by {} σ or more (largest: {}, z = {:.1f})\n", b.run, where,
+                          t.options.stepZ, b.largest, b.largestZ);
+      } else {
+        md += fmt::format("- run {}{}: changed {}\n", b.run, where, fmt::join(b.changed, ", "));
+      }
+    }
+    md += "\n";
+  }
+  const auto periods =
+      std::count_if(t.segments.begin(), t.segments.end(), [](const TrendSegment& g) { return !g.transition; });
+  md += fmt::format("## {} stable period{}\n\n", periods, periods == 1 ? "" : "s");
   for (const auto& s : t.segments) {
     if (s.transition) {
       md += fmt::format(
@@ -542,14 +846,35 @@ std::string trendMarkdown(const Trend& t, const std::vector<TrendSeries>& series
           s.firstRun, s.lastRun, fmt::join(s.stepsAtStart, ", "));
       continue;
     }
+    std::string after;
+    if (s.afterKnownBoundary) {
+      after = fmt::format(", after a known boundary{}",
+                          s.stepsAtStart.empty() ? "" : fmt::format(" (changed: {})", fmt::join(s.stepsAtStart, ", ")));
+    } else if (!s.stepsAtStart.empty()) {
+      after = fmt::format(", after a change of {}", fmt::join(s.stepsAtStart, ", "));
+    }
     md += fmt::format(
-        "- runs {}-{} ({} IOVs){}{}\n", s.firstRun, s.lastRun, s.end - s.begin,
-        s.stepsAtStart.empty() ? "" : fmt::format(", after a change of {}", fmt::join(s.stepsAtStart, ", ")),
-        s.drifting.empty() ? "" : fmt::format("; **drifting: {}**", fmt::join(s.drifting, ", ")));
+        "- runs {}-{} ({} IOV{}){}{}{}\n", s.firstRun, s.lastRun, s.end - s.begin, s.end - s.begin == 1 ? "" : "s",
+        after, s.drifting.empty() ? "" : fmt::format("; **drifting: {}**", fmt::join(s.drifting, ", ")),
+        s.inconsistent.empty() ? "" : fmt::format("; **inconsistent: {}**", fmt::join(s.inconsistent, ", ")));
   }
   md += "\n";
-  if (t.drifts.empty()) {
+  if (!t.setAside.empty()) {
+    md +=
+        "IOVs set aside from a parameter's segments (their value lies between the neighbours': a change "
+        "inside them, too small to confirm as a step):\n\n";
+    for (const auto& a : t.setAside) md += fmt::format("- runs {}-{}: {}\n", a.firstRun, a.lastRun, a.parameter);
+    md += "\n";
+  }
+  if (t.tests == 0) {
+    md += fmt::format("**Drifts not tested**: no segment has the {} IOVs a slope test needs.\n", kMinLinePoints);
+  } else if (t.drifts.empty() && t.inconsistencies.empty()) {
     md += "**No drift**: within every stable period the parameters are constant within their errors.\n";
+  } else if (t.drifts.empty()) {
+    md += fmt::format(
+        "**No drift flagged** in the {} segments long enough for a slope test; the inconsistent segments above are "
+        "not constant all the same.\n",
+        t.tests);
   } else {
     md +=
         "## Drifts (steady changes: check the reconstruction, or the detector)\n\n"

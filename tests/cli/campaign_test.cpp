@@ -286,7 +286,7 @@ TEST_F(CampaignCli, TrendFindsTheStepAndRefitsTheStablePeriods) {
   EXPECT_NEAR(t["steps"][0]["size"].get<double>(), 0.5, 5.0 * t["steps"][0]["error"].get<double>());
   EXPECT_TRUE(t["drifts"].empty()) << t["drifts"].dump();
   // (no trend_psi.png: β = 0 in this period, so its tilt has no direction)
-  for (const char* f : {"trend.md", "fig8.png", "trend_all.png", "trend_dx.png", "trend_beta.png"}) {
+  for (const char* f : {"trend.md", "fig7.png", "trend_all.png", "trend_dx.png", "trend_beta.png"}) {
     EXPECT_GT(fs::file_size(dir_ / "tr" / f), 1000u) << f;
   }
   EXPECT_THAT(emcalign::testing::slurp(path("tr/trend.md")), HasSubstr("## Refit"));

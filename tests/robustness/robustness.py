@@ -679,6 +679,23 @@ def cases():
     def db_setup(d):
         conditions_db(d)
         unchanged_db[0](d)
+    # The tools a conditions-database user expects (issue 29): retire, diff, export.
+    def retired_copy(d):
+        shutil.copy(os.path.join(d, "camp.db"), os.path.join(d, "ret.db"))
+        runner_binary_run(d, ["conditions", "retire", "ret.db", "--tag", "c", "--reason", "made with the wrong runs"])
+    add(Case(D, "a retired tag asked for a run", "emcalign conditions get ret.db --tag c --run 2 -o got.json", 1,
+             "was retired", setup=retired_copy, check=lambda d, r: "got.json written" if os.path.exists(os.path.join(d, "got.json")) else None,
+             checked="nothing written"))
+
+    def locked_copy(d):
+        shutil.copy(os.path.join(d, "camp.db"), os.path.join(d, "lck.db"))
+        runner_binary_run(d, ["conditions", "lock", "lck.db", "--tag", "c"])
+    add(Case(D, "retiring a locked tag", "emcalign conditions retire lck.db --tag c", 1,
+             "a published calibration is never withdrawn", setup=locked_copy))
+    s_export, c_export = unchanged("camp.db")
+    add(Case(D, "an export written over its database", "emcalign conditions export camp.db --tag c -o camp.db", 1,
+             "camp.db", setup=s_export, check=c_export, checked="database unchanged"))
+    add(Case(D, "a diff with one tag", "emcalign conditions diff camp.db --tag c", 1, "give two tags"))
     add(Case(D, "a database that does not exist", "emcalign conditions list missing.db", 1, "no such database",
              check=lambda d, r: "missing.db was created" if os.path.exists(os.path.join(d, "missing.db")) else None,
              checked="not created"))
@@ -810,6 +827,25 @@ def cases():
 
     def nothing_at(name):
         return lambda d, r: f"{name} was created" if os.path.exists(os.path.join(d, name)) else None
+
+    # Too few IOVs to locate a step: the trend says so and names dx, never "No step" (issue 29).
+    def stepped_period(d):
+        write(d, "stepped.json", json.dumps({
+            "format": "emcalign-period/1", "first_run": 1, "runs": 6, "events_per_run": 4000, "seed": 3,
+            "theta_range_deg": [40, 140], "beam_energy_mev": [{"from_run": 1, "value": 612.5}],
+            "segments": [{"from_run": 1, "parameters": {"dx": -0.2}}, {"from_run": 4, "parameters": {"dx": 0.1}}]}))
+        runner_binary_run(d, ["simulate", "--period", "stepped.json", "-o", "stepped", "--no-hits"])
+        runner_binary_run(d, ["campaign", "stepped", "--conditions", "st.db", "--tag", "s", "--min-events", "7000"])
+
+    def no_false_no_step(d, r):
+        with open(os.path.join(d, "TS", "trend.md")) as f:
+            md = f.read()
+        if "No step" in md:
+            return "trend.md says No step"
+        return None if "Too few IOVs to locate a step" in md and "| dx |" in md else "dx not named as inconsistent"
+    add(Case(P, "a step in a period of too few IOVs for a trend", "emcalign trend --conditions st.db --tag s -o TS", 0,
+             setup=stepped_period, check=no_false_no_step,
+             checked="trend.md says too few IOVs and names dx, never 'No step'"))
     add(Case(P, "an unknown key in a period scenario", "emcalign simulate --period typo.json -o typo", 1,
              "key 'runz'", setup=scenario("typo.json", lambda j: j.update(runz=6)), check=nothing_at("typo"),
              checked="nothing created"))
@@ -1236,7 +1272,7 @@ def cases():
              check=lambda d, r: "out.h5 written" if os.path.exists(os.path.join(d, "out.h5")) else None,
              checked="nothing written"))
     add(Case(K, "a check without a process", "emcalign check ev.h5 --alignment p.json -o chk", 2,
-             "subcommand is required"))
+             "unknown command 'ev.h5' for emcalign check"))
     add(Case(K, "a check into a file", "emcalign check 3pi ev.h5 --alignment p.json -o ev.csv", 1, "ev.csv"))
     add(Case(K, "a 3pi check of e+e- -> e+e- events: nothing selected", "emcalign check 3pi ev.h5 --alignment p.json "
              "-o chk3", 1, "no event passes the e+e- -> pi+ pi- pi0 selection", check=nothing_left("chk3"),
@@ -1259,6 +1295,27 @@ def cases():
     M = "Messages and exit codes"
     add(Case(M, "an unknown option", "emcalign fit ev.csv -o r.json --bogus", 2, "usage error"))
     add(Case(M, "a missing required option", "emcalign simulate --events 10 --params p.json", 2, "--output is required"))
+    # A newcomer's everyday mistakes (issue 29): named as what they are.
+    add(Case(M, "a mistyped option that takes a value (--plot)", "emcalign fit ev.csv -o r.json --plot pl", 2,
+             "unknown option --plot for emcalign fit (did you mean --plots?)"))
+    add(Case(M, "an option's name cut short (--min-event)", "emcalign campaign period --conditions q.db --tag q "
+             "--min-event 6000", 2, "(did you mean --min-events?)",
+             check=lambda d, r: "q.db created" if os.path.exists(os.path.join(d, "q.db")) else None,
+             checked="no database created"))
+    add(Case(M, "a mistyped command", "emcalign conditions lst", 2, "unknown command 'lst' for emcalign conditions "
+             "(did you mean list?)"))
+    add(Case(M, "a fit result as corrections", "emcalign fit ev.csv --corrections result.json -o r2.json", 1,
+             "this is a fit result, not a corrections file"))
+    add(Case(M, "a corrections file as the truth", "emcalign simulate --events 10 --params c.json -o s.h5", 1,
+             "this is a corrections file (derive-corrections), not a parameter file or a fit result"))
+    add(Case(M, "an event file as the alignment", "emcalign correct ev.h5 --alignment ev.h5 -o cc.h5", 1,
+             "this is an HDF5 file (an event file?), not a JSON file"))
+    add(Case(M, "alpha 52.4 in a file that says degrees", "emcalign params show a52.json", 1,
+             "in mrad it is 3.002 deg, in arcmin it is 0.8733 deg",
+             setup=lambda d: edit_json(d, "p.json", "a52.json", lambda j: j["parameters"].__setitem__("alpha", 52.4))))
+    add(Case(M, "alpha 25 in a file that says degrees (plausible, but larger than alignments are)",
+             "emcalign params show a25.json", 0, "larger than alignments are",
+             setup=lambda d: edit_json(d, "p.json", "a25.json", lambda j: j["parameters"].__setitem__("alpha", 25.0))))
 
     def huge_field(d):
         comments, header, rows = csv_parts(d, "ev.csv")
@@ -1316,6 +1373,7 @@ def shown_line(case, result, directory):
             line = line.replace(directory + "/", "").replace(directory, ".")
             line = re.sub(r"tmp-\d+", "tmp-PID", line)
             line = re.sub(r"emcalign-\d+-\d+\.tmp", "emcalign-PID-N.tmp", line)
+            line = re.sub(r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\dZ", "DATE", line)
             return line
     return None
 

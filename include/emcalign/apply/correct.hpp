@@ -44,6 +44,10 @@ struct CorrectOptions {
   /// W0 of the logarithmic weights of the hits method: the reconstruction's (sim's default,
   /// SND-like).
   double logWeightW0 = 3.5;
+  io::Compression compression = io::Compression::Lz4;  ///< of an HDF5 output
+  /// Named (the output given), or InDirectory (a file the command writes inside an output
+  /// directory: a FIFO or a device there is refused; io/output_file.hpp).
+  io::Placement placement = io::Placement::Named;
   /// Recorded as the output's "correction" attribute (compact JSON, made by the caller).
   std::string description;
   /// Small blocks: the reader process prepares the next while this one is written.
@@ -89,5 +93,14 @@ Result<CorrectReport> correctFiles(const std::vector<std::string>& inputs, const
 Result<CorrectReport> correctFiles(const std::vector<std::string>& inputs, const std::string& output,
                                    const geometry::Calorimeter& calo, const AlignmentOfRun& alignmentOf,
                                    const CorrectOptions& options);
+
+/// Each input into `directory` under its own name (a period's run files stay one file per
+/// run), each event with the alignment of its run; the reports summed (alignments: the most
+/// any file used). Two inputs of the same name are refused before any work. `done` is called
+/// after each file with its output path.
+Result<CorrectReport> correctEachInto(const std::vector<std::string>& inputs, const std::string& directory,
+                                      const geometry::Calorimeter& calo, const AlignmentOfRun& alignmentOf,
+                                      const CorrectOptions& options,
+                                      const std::function<void(const std::string&)>& done = {});
 
 }  // namespace emcalign::apply

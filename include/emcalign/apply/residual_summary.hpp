@@ -1,6 +1,6 @@
 #pragma once
 // How well the EMC directions of a set of events agree with their tracks: the numbers and
-// distributions by which the paper judges its correction (section 4, Fig. 6: "a common
+// distributions by which the paper judges its correction (section 4, Fig. 8: "a common
 // azimuthal bias of about 3° and an irregularity of about 1° removed").
 //
 // The particles are those of the e+e- → e+e- selection (SPEC §7) with θ_EMC inside the

@@ -21,6 +21,7 @@
 #include "emcalign/calib/calibration.hpp"
 #include "emcalign/calib/corrections_grid.hpp"
 #include "emcalign/calib/fit.hpp"
+#include "emcalign/calib/fit_notes.hpp"
 #include "emcalign/calib/profiles.hpp"
 #include "emcalign/calib/sigma_sys.hpp"
 #include "emcalign/core/result.hpp"
@@ -61,6 +62,12 @@ struct FitOutcome {
   io::Json resultJson;           ///< the result file (SPEC §3)
 };
 
+/// A warning when corrections derived from samples simulated at one θ range are used on a
+/// sample simulated at another (their derived_from settings against the files' "simulation"
+/// attribute); empty when they agree or either is not known (data).
+Result<std::string> thetaRangeWarning(const std::vector<std::string>& events, const ModelCorrections& corrections,
+                                      const std::string& correctionsPath);
+
 class FitJob {
  public:
   /// Checks the request and loads its corrections: the error names the file or the option.
@@ -78,6 +85,13 @@ class FitJob {
   Result<FitData> load() const;
   /// Fits what `load` gave.
   Result<FitOutcome> fit(const FitData& data) const;
+  /// What a physicist must know of the fit beside its numbers: the model and its known
+  /// biases, σ_sys dominating the errors (calib/fit_notes.hpp).
+  /// A sample most of whose selected particles lie outside the profiles' θ range is said.
+  [[nodiscard]] std::vector<std::string> notes(const FitData& data, const FitOutcome& outcome) const;
+  /// The fit against the truth its event files carry (simulated samples: every file with
+  /// the same "truth_parameters"); none for data, a profile, or files of several truths.
+  Result<std::optional<std::vector<TruthRow>>> againstTruth(const FitOutcome& outcome) const;
 
  private:
   FitRequest request_;

@@ -37,7 +37,10 @@ namespace emcalign::conddb {
 inline constexpr int kSchemaVersion = 1;
 inline constexpr std::string_view kPayloadFormat = "emcalign-payload/1";
 
-enum class TagState { Open, Locked };
+/// Open: IOVs may be added. Locked: never changes again. Retired: an open tag withdrawn (a
+/// mistake): kept and listed, never served to a lookup, never written to (its mark is a row
+/// "retired:TAG" of emcalign_meta: no schema change).
+enum class TagState { Open, Locked, Retired };
 std::string_view name(TagState s);
 
 struct Tag {
@@ -45,6 +48,7 @@ struct Tag {
   std::string description;
   TagState state = TagState::Open;
   std::string created;  ///< UTC, ISO 8601
+  std::string retired;  ///< Retired: "when: why"
 };
 
 struct Iov {
@@ -109,8 +113,11 @@ class Database {
   /// The IOVs of a tag by first run.
   virtual Result<std::vector<Iov>> iovs(const std::string& tag) = 0;
   virtual Result<Payload> payload(const std::string& hash) = 0;
-  /// Locks a tag: no IOV is added to it afterwards.
+  /// Locks a tag: no IOV is added to it afterwards (refused for a retired tag).
   virtual Status lock(const std::string& tag) = 0;
+  /// Retires an open tag (refused for a locked one: a published calibration is never
+  /// withdrawn); retiring a retired tag again changes nothing.
+  virtual Status retire(const std::string& tag, const std::string& reason) = 0;
 
   /// The URI it was opened with (for messages), without any password.
   virtual const std::string& uri() const = 0;
@@ -120,8 +127,9 @@ class Database {
 /// of a job that needs the calibration of many runs (correct, simulate, trend).
 class TagSnapshot {
  public:
-  /// Fails when the tag does not exist.
-  static Result<TagSnapshot> load(Database& db, const std::string& tag);
+  /// Fails when the tag does not exist, or is retired (unless `allowRetired`: a table of it,
+  /// a comparison, never a lookup).
+  static Result<TagSnapshot> load(Database& db, const std::string& tag, bool allowRetired = false);
   const Tag& tag() const { return tag_; }
   const std::vector<Iov>& iovs() const { return iovs_; }
   /// The IOV containing `run`, or null.

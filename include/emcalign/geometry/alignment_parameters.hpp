@@ -161,6 +161,12 @@ Status validate(const AlignmentParameters& eta, double r1);
 /// ≤ sin 10°), |beta_rel| ≤ 10°, every length within ±10 cm. Beyond, the likely mistake is
 /// a unit (radians or arcminutes for degrees, mm for cm), and the message says so.
 Status checkPlausible(const AlignmentParameters& eta);
+/// "written in another unit? in mrad it is 3.003 deg, in arcmin 0.8733 deg": the units in
+/// which an angle `v` given in degrees would lie within ±limit deg; empty when none.
+std::string otherAngleUnits(double v, double limit);
+/// Angles inside the plausible limits but larger than alignments are (|α| > 5°, |β1|, |β2| >
+/// 2°, |β_rel| > 1°) by a factor another unit explains: a warning each, naming the units.
+std::vector<std::string> unitWarnings(const AlignmentParameters& eta);
 
 /// Human-readable notes on a parameter set that is valid but suspicious: negative gaps
 /// (the hemispheres overlap), for printing as warnings by the caller. With `errors` (a

@@ -45,6 +45,13 @@ inline constexpr std::size_t kMaxInputFileBytes = std::size_t{64} << 20;
 /// Parses JSON text, rejecting duplicate keys, nesting deeper than 64 levels and texts
 /// above 64 MiB; `source` names the input in messages.
 Result<Json> parseJson(std::string_view text, std::string_view source);
+/// What an emcalign JSON file is, by its "format": "a fit result", "a corrections file
+/// (derive-corrections)", …; empty when it has no emcalign format.
+std::string describeFile(const Json& j);
+/// Fails, naming what the file is, when `j` is an emcalign file of another format than
+/// `format` ("c.json: this is a fit result (format …), not a corrections file"). A file
+/// without an emcalign format passes: the reader's own checks name what is wrong.
+Status expectFormat(const Json& j, std::string_view format, std::string_view expected, std::string_view source);
 
 /// An integer of a JSON document within [lo, hi] (never wrapped or truncated: 1e10, 2^32 + 16,
 /// 16.0 and "16" are errors naming the source and the key).

@@ -12,9 +12,8 @@
 //     its steps, drifts and stable periods, and a conditions tag's IOVs;
 //  4. the physics checks (`emcalign check`'s check.json and figure: the paper's Figs. 9–10)
 //     beside the paper's improvements.
-// (The paper's figures: 5 the fit results, 7 the time evolution, 8 the e+e- → e+e- residuals
-// before and after, 9 and 10 the γγ and π+π−π0 checks; elsewhere in the project the time
-// evolution's figure is still called "fig8", after the issue that asked for it.)
+// (The paper's figures: 5 the fit results, 6 data against simulation, 7 the time evolution,
+// 8 the e+e- → e+e- residuals before and after, 9 and 10 the γγ and π+π−π0 checks; README.)
 // A section appears when its input is given. The report module reads the files' JSON, not
 // the modules that wrote them, so it draws nothing itself but the tables.
 
@@ -49,7 +48,7 @@ struct ReportValidation {
 struct ReportTrend {
   std::string dir;
   io::Json trend;                    ///< dir/trend.json
-  std::vector<std::string> figures;  ///< dir/fig8.png, dir/trend_all.png, those that exist
+  std::vector<std::string> figures;  ///< dir/fig7.png (fig8.png from older trends), dir/trend_all.png, those that exist
 };
 
 struct ReportConditions {

@@ -4,7 +4,7 @@
 // correction, with the truth or with fitted parameters, a nominal detector for reference.
 //
 //  - residuals.png: the Δφ and Δθ distributions of every sample, normalised to unit area,
-//    over ±8° (the paper's Fig. 6: a correction moves the Δφ peak from ~3° to 0 and narrows
+//    over ±8° (the paper's Fig. 8: a correction moves the Δφ peak from ~3° to 0 and narrows
 //    it). Mean and rms in the key.
 //  - residual_columns.png: the mean sin Δφ (·180/π) in each of the 16 φ columns against φ:
 //    the irregularity a misalignment leaves, and what remains after the correction.

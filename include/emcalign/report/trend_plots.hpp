@@ -1,9 +1,9 @@
 #pragma once
-// Figures of a tag's time evolution (validation/trend.hpp; the paper's Fig. 8):
+// Figures of a tag's time evolution (validation/trend.hpp; the paper's Fig. 7):
 //  - trend_<parameter>.png: the parameter of every IOV against run (the error bar, and the
 //    IOV's run range as a horizontal bar), the fitted segments (dashed where a drift is
 //    flagged), the steps as vertical lines, the truth when known (a simulated period);
-//  - fig8.png: α, dx, μ and ψ, the paper's four panels;
+//  - fig7.png: α, dx, μ and ψ, the paper's four panels;
 //  - trend_all.png: every parameter on one page.
 // Data: trend_<parameter>.dat (gnuplot index 0: points, 1: segment lines, 2: truth).
 
@@ -27,6 +27,7 @@ struct TrendFigure {
   };
   std::vector<Line> segments;
   std::vector<double> steps;                     ///< run of each step (the first run after)
+  std::vector<double> boundaries;                ///< known boundaries (first run after), dotted
   std::vector<std::pair<double, double>> truth;  ///< (run, value), when known
 };
 

@@ -34,6 +34,7 @@
 #include "emcalign/core/result.hpp"
 #include "emcalign/geometry/alignment_parameters.hpp"
 #include "emcalign/geometry/detector.hpp"
+#include "emcalign/io/event_file.hpp"
 #include "emcalign/io/json_files.hpp"
 #include "emcalign/sim/simulation.hpp"
 
@@ -92,8 +93,9 @@ struct PeriodRun {
 std::vector<PeriodRun> planPeriod(const PeriodScenario& s);
 
 struct PeriodOptions {
-  sim::SimulationOptions simulation;  ///< theta range, beam energy, run and seed set per run
-  bool hits = true;                   ///< counter hits in the files
+  sim::SimulationOptions simulation;                   ///< theta range, beam energy, run and seed set per run
+  bool hits = true;                                    ///< counter hits in the files
+  io::Compression compression = io::Compression::Lz4;  ///< of the run files
   /// How the simulation was set (realism switches, the detector): kept in DIR/period.json
   /// and each run file; resuming with other settings is refused.
   io::Json settings = io::Json::object();

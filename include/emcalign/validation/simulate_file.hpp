@@ -11,6 +11,7 @@
 #include "emcalign/core/result.hpp"
 #include "emcalign/geometry/alignment_parameters.hpp"
 #include "emcalign/geometry/detector.hpp"
+#include "emcalign/io/event_file.hpp"
 #include "emcalign/io/json_files.hpp"
 #include "emcalign/sim/simulation.hpp"
 
@@ -19,8 +20,9 @@ namespace emcalign::validation {
 struct SimulateRequest {
   sim::SimulationOptions options;  ///< process, beam energy, θ range, seed, run, realism
   std::int64_t events = 0;
-  int threads = 0;   ///< 0: all cores (the file does not depend on it)
-  bool hits = true;  ///< each cluster's counters (HDF5 only)
+  int threads = 0;                                     ///< 0: all cores (the file does not depend on it)
+  bool hits = true;                                    ///< each cluster's counters (HDF5 only)
+  io::Compression compression = io::Compression::Lz4;  ///< HDF5 only
   /// For the record: `--ideal` and the effects switched off by name (already applied to
   /// `options`), and the detector ("embedded default" or a description's path).
   bool ideal = false;
@@ -39,6 +41,9 @@ io::Json simulationSettings(const SimulateRequest& request);
 struct SimulateReport {
   std::int64_t events = 0;
   std::int64_t rows = 0;  ///< particle rows written
+  /// Events with at least one row (an event whose particles all left the calorimeter's
+  /// acceptance, or were not reconstructed, has none and is not in the file).
+  std::int64_t eventsWritten = 0;
 };
 
 /// The error of an interrupted simulation (SimulateRequest::interrupted).

@@ -1,5 +1,5 @@
 #pragma once
-// The time evolution of the calibration (docs/campaign.md; the paper's Fig. 8): each
+// The time evolution of the calibration (docs/campaign.md; the paper's Fig. 7): each
 // parameter of a tag's IOVs against run, cut into stable segments where the data demand a
 // step, with a slope test inside each segment (the paper's quality control: "steady changes
 // indicate incorrect reconstruction").
@@ -26,9 +26,20 @@
 // when no continuous broken line through both (a drift's knee anywhere in them) fits within
 // Δχ² < 9 of the two lines. A change without a jump (a drift starting, an outlier set aside)
 // is left to the drift test.
+// A step's size is measured between the segments' models: flat segments unless a slope is
+// significant (a drift, or BIC's preference), so that a slope the data do not demand does
+// not bend the size.
 // Drifts. In every segment of at least kMinLinePoints points, the fitted slope against zero:
 // flagged when its two-sided p-value times the number of segments tested (all parameters) is
 // below 0.01 (Bonferroni).
+// What the method cannot resolve is said, never taken for "no step". Every segment's model
+// (its constant, or its line where the slope is significant) is tested by its χ²: a segment
+// it rejects (p-value × segments tested < 0.01) is reported as inconsistent — in a series too
+// short to split (fewer than 2 × minSegment IOVs: a step needs minSegment on each side), "too
+// few IOVs to locate a step"; otherwise something neither a step nor a drift explains.
+// Known boundaries (the logbook's reassemblies): each series is cut there whatever the data
+// say (an IOV straddling one is left out of both sides), the change is measured at every
+// boundary and reported, significant or not.
 
 #include <cstdint>
 #include <optional>
@@ -86,13 +97,14 @@ struct SegmentTest {
   const LineFit& model() const { return drift || sloped ? line : constant; }
   /// Long enough for a line (and a drift test).
   bool isLine() const { return end - begin >= kMinLinePoints; }
-  /// The model a step is measured on: the line of the cost where there is one, so that a
-  /// drift starting inside the segment makes no jump.
-  const LineFit& stepModel() const { return isLine() ? line : constant; }
+  /// The model a step is measured on: the segment's own (a line only where its slope is
+  /// significant); whether a drift's knee explains the change is tested on the lines.
+  const LineFit& stepModel() const { return model(); }
 };
 
 struct TrendStep {
   std::string parameter, unit;
+  bool known = false;              ///< at a known boundary (TrendOptions::boundaries)
   std::size_t index = 0;           ///< the first point after the step
   std::int64_t firstRunAfter = 0;  ///< inside a transition IOV: the run its mixture points to
   double size = 0.0, error = 0.0;  ///< after − before, at the boundary
@@ -122,6 +134,35 @@ struct SeriesAnalysis {
   std::vector<SegmentTest> segments;
 };
 
+/// A segment of one series that its model does not fit (see the top of this file).
+struct TrendInconsistency {
+  std::string parameter, unit;
+  std::int64_t firstRun = 0, lastRun = 0;
+  std::size_t iovs = 0;
+  double chi2 = 0.0;
+  int ndf = 0;
+  double pValue = 1.0;
+  bool line = false;          ///< the model was a line (a significant slope), not a constant
+  bool unsplittable = false;  ///< the series is too short for a step to be located at all
+};
+
+/// A known boundary (the first run after it) and what changed there.
+struct KnownBoundary {
+  std::int64_t run = 0;
+  std::optional<std::pair<std::int64_t, std::int64_t>> withinIov;  ///< the IOV that straddles it
+  std::vector<std::string> changed;  ///< parameters whose change there is at least stepZ σ
+  std::string largest;               ///< the parameter with the largest |z| there (all series)
+  double largestZ = 0.0;
+  bool measurable = true;  ///< false when no series has IOVs on both sides of it
+};
+
+/// An IOV left out of one series' segments (between two of them), reported whether or not
+/// a step was found there.
+struct SetAsideIov {
+  std::string parameter;
+  std::int64_t firstRun = 0, lastRun = 0;
+};
+
 /// A stable period: between steps (steps of different parameters within one IOV of each
 /// other are one reassembly).
 struct TrendSegment {
@@ -130,8 +171,10 @@ struct TrendSegment {
   /// One IOV straddling a step (its runs before and after the change mixed): not a stable
   /// period; its runs should be calibrated again, split where the detector changed.
   bool transition = false;
+  bool afterKnownBoundary = false;        ///< it starts at (or straddles) a known boundary
   std::vector<std::string> stepsAtStart;  ///< parameters that stepped where it starts (or inside it)
   std::vector<std::string> drifting;      ///< parameters with a flagged drift inside it
+  std::vector<std::string> inconsistent;  ///< parameters with an inconsistent segment inside it
 };
 
 struct TrendOptions {
@@ -142,6 +185,8 @@ struct TrendOptions {
   std::optional<double> transitionPenalty;  ///< default ln n (the mixture's fraction)
   /// Require a step to beat a continuous broken line (off: only for comparisons).
   bool kneeTest = true;
+  /// Known boundaries: the first run after each (the logbook's reassemblies), ascending.
+  std::vector<std::int64_t> boundaries;
 };
 
 struct Trend {
@@ -150,16 +195,26 @@ struct Trend {
   std::vector<TrendStep> steps;
   std::vector<TrendDrift> drifts;  ///< the flagged ones
   std::vector<TrendSegment> segments;
+  std::vector<TrendInconsistency> inconsistencies;
+  std::vector<KnownBoundary> boundaries;
+  std::vector<SetAsideIov> setAside;
   std::size_t iovs = 0;
   double penalty = 0.0;            ///< per change (the largest over the series)
   double transitionPenalty = 0.0;  ///< more for a transition IOV
   int tests = 0;                   ///< segments tested for a drift
+  int consistencyTests = 0;        ///< segments whose χ² was tested
+  /// A step can be located at all: at least 2 × minSegment IOVs.
+  bool resolvable() const { return iovs >= 2 * options.minSegment; }
 };
 
 /// The change points of one series (optimal partitioning, see above); `scale` multiplies
 /// the errors; a transition costs `penalty` + `transitionPenalty`.
 std::vector<Change> changePoints(const TrendSeries& s, double scale, double penalty, double transitionPenalty,
                                  std::size_t minSegment);
+/// The changes a series must have at known boundaries (first runs after each): a new
+/// segment at the first IOV that starts at or after the boundary, the IOV before it a
+/// transition when it straddles the boundary. Boundaries outside the series give none.
+std::vector<Change> knownChanges(const TrendSeries& s, const std::vector<std::int64_t>& boundaries);
 /// s of the top of this file (1 with fewer than 6 points, or when it cannot be estimated).
 double errorScale(const TrendSeries& s);
 /// Weighted least squares of points [begin, end): a line, or a constant (`withSlope` false).
@@ -170,6 +225,11 @@ Trend analyseTrend(const std::vector<TrendSeries>& series, const TrendOptions& o
 /// trend.json: {"format", "steps": [{"parameter", "first_run_after", "size", "error", "z",
 /// "unit", "within_iov"}], "drifts": [...], "segments": [...], "series": [...]}.
 io::Json trendJson(const Trend& t, const std::vector<TrendSeries>& series);
+/// A campaign's warning when its grouping leaves fewer IOVs than a trend needs to locate a
+/// step (2 × minSegment), with the --min-events that would give 6; empty otherwise.
+std::string tooFewIovsForTrend(std::size_t iovs, std::int64_t selectedEvents, const TrendOptions& options = {});
+/// What the trend can say of steps, in one sentence: never "no step" where it cannot tell.
+std::string trendVerdict(const Trend& t);
 /// trend.md: the same in words.
 std::string trendMarkdown(const Trend& t, const std::vector<TrendSeries>& series, const std::string& source);
 

@@ -147,6 +147,41 @@ TEST_P(Conditions, RefusesOverlapsLockedTagsAndBadRanges) {
   EXPECT_EQ(iovs->size(), 3U);  // nothing refused was half-written
 }
 
+// A tag made by mistake is retired: kept and listed, never served or written to again; a
+// locked tag is never retired.
+TEST_P(Conditions, ARetiredTagIsKeptListedAndNeverServed) {
+  auto db = create();
+  const Payload a = payloadOf(2.8);
+  ASSERT_TRUE(db->put("wrong", 1, 10, a, true));
+  ASSERT_TRUE(db->put("good", 1, 10, a, true));
+  ASSERT_TRUE(db->lock("good"));
+  ASSERT_TRUE(db->get("wrong", 5));
+  ASSERT_TRUE(db->retire("wrong", "the wrong corrections"));
+  EXPECT_TRUE(db->retire("wrong", "again"));  // nothing changes
+  auto got = db->get("wrong", 5);
+  ASSERT_FALSE(got);
+  EXPECT_NE(got.error().message.find("was retired"), std::string::npos) << got.error().message;
+  EXPECT_NE(got.error().message.find("the wrong corrections"), std::string::npos) << got.error().message;
+  EXPECT_FALSE(db->put("wrong", 11, 20, a, false));
+  EXPECT_FALSE(db->lock("wrong"));
+  auto tag = open()->tag("wrong");
+  ASSERT_TRUE(tag && tag->has_value());
+  EXPECT_EQ((*tag)->state, TagState::Retired);
+  EXPECT_NE((*tag)->retired.find("the wrong corrections"), std::string::npos);
+  EXPECT_FALSE(TagSnapshot::load(*db, "wrong"));
+  auto kept = TagSnapshot::load(*db, "wrong", true);
+  ASSERT_TRUE(kept);
+  EXPECT_EQ(kept->iovs().size(), 1U);
+  Status locked = db->retire("good", "no");
+  ASSERT_FALSE(locked);
+  EXPECT_NE(locked.error().message.find("is locked"), std::string::npos);
+  EXPECT_TRUE(db->get("good", 5));
+  EXPECT_FALSE(db->retire("nope", ""));
+  auto tags = db->tags();
+  ASSERT_TRUE(tags);
+  EXPECT_EQ(tags->size(), 2U);
+}
+
 TEST_P(Conditions, OpenChecksTheSchema) {
   auto fresh = Database::open(uri_);  // no emcalign tables yet (PostgreSQL) or no file (SQLite)
   ASSERT_FALSE(fresh);

@@ -125,5 +125,23 @@ TEST(AlignmentParameters, NegativeGapIsAWarning) {
   EXPECT_TRUE(warnings(testing::paperLike()).empty());
 }
 
+// An angle too large in degrees: the units in which it would be an alignment are named.
+TEST(AlignmentParameters, AnAngleInAnotherUnitIsNamed) {
+  auto eta = testing::paperLike();
+  eta[Param::Alpha] = 52.4 * deg;
+  const Status s = checkPlausible(eta);
+  ASSERT_FALSE(s);
+  EXPECT_NE(s.error().message.find("in mrad it is 3.002 deg"), std::string::npos) << s.error().message;
+  EXPECT_NE(s.error().message.find("in arcmin it is 0.8733 deg"), std::string::npos);
+  EXPECT_EQ(s.error().message.find("in rad"), std::string::npos);  // radians would be larger still
+  eta[Param::Alpha] = 25.0 * deg;                                  // plausible, but larger than any alignment validated
+  EXPECT_TRUE(checkPlausible(eta));
+  const auto w = unitWarnings(eta);
+  ASSERT_EQ(w.size(), 1u);
+  EXPECT_NE(w[0].find("alpha = 25 deg"), std::string::npos);
+  EXPECT_TRUE(unitWarnings(testing::paperLike()).empty());
+  EXPECT_EQ(otherAngleUnits(1e9, 30.0), "");
+}
+
 }  // namespace
 }  // namespace emcalign::geometry

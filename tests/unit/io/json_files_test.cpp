@@ -277,5 +277,28 @@ TEST(AtomicWrite, WritesWholeFileAndLeavesNoTemporary) {
   fs::remove_all(dir);
 }
 
+// A file of the wrong kind is named by what it is, not by the first key that does not fit.
+TEST(JsonFiles, AFileOfAnotherKindIsNamed) {
+  const Json result = {{"format", "emcalign-alignment/1"}, {"chi2", 1.0}, {"parameters", Json::object()}};
+  EXPECT_EQ(describeFile(result), "a fit result");
+  EXPECT_EQ(describeFile(Json{{"format", "emcalign-alignment/1"}}), "a parameter file");
+  EXPECT_EQ(describeFile(Json{{"format", "emcalign-corrections/1"}}), "a corrections file (derive-corrections)");
+  EXPECT_EQ(describeFile(Json{{"format", "something else"}}), "");
+  EXPECT_EQ(describeFile(Json::array()), "");
+  const Status s = expectFormat(result, "emcalign-corrections/1", "a corrections file", "r.json");
+  ASSERT_FALSE(s);
+  EXPECT_EQ(s.error().message,
+            "r.json: this is a fit result, not a corrections file (its format: emcalign-alignment/1)");
+  EXPECT_TRUE(expectFormat(result, "emcalign-alignment/1", "a fit result", "r.json"));
+  EXPECT_TRUE(expectFormat(Json{{"alpha", 1}}, "emcalign-corrections/1", "x", "x.json"));  // its reader says
+  // Not JSON at all: an HDF5 or an SQLite file is named.
+  auto h5 = parseJson(std::string("\x89HDF\r\n\x1a\n\0\0", 10), "ev.h5");
+  ASSERT_FALSE(h5);
+  EXPECT_NE(h5.error().message.find("an HDF5 file"), std::string::npos);
+  auto db = parseJson("SQLite format 3", "c.db");
+  ASSERT_FALSE(db);
+  EXPECT_NE(db.error().message.find("an SQLite database"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace emcalign::io

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <random>
+#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -181,6 +182,149 @@ TEST(Trend, ATransitionSeenByOneParameterIsKept) {
   EXPECT_EQ(t.segments[1].firstRun, 301);
   EXPECT_EQ(t.segments[2].firstRun, 311);
   EXPECT_EQ(t.segments[2].stepsAtStart.size(), 2u);
+}
+
+// Too few IOVs to locate a step (2 × min-segment): the trend says so, and names a parameter
+// its one value cannot describe, instead of "no step" (issue 29: two IOVs 26σ apart).
+TEST(Trend, TooFewIovsIsSaidAndAnInconsistentSeriesNamed) {
+  for (std::size_t n : {2u, 3u}) {
+    TrendSeries dx{"dx", "cm", {}}, alpha{"alpha", "deg", {}};
+    for (std::size_t i = 0; i < n; ++i) {
+      const auto first = static_cast<std::int64_t>(10 * i + 101);
+      dx.points.push_back({first, first + 9, i == 0 ? -0.196 : -0.075, 0.004});
+      alpha.points.push_back({first, first + 9, 2.8 + 0.01 * static_cast<double>(i % 2), 0.03});
+    }
+    const Trend t = analyseTrend({alpha, dx});
+    EXPECT_FALSE(t.resolvable());
+    EXPECT_TRUE(t.steps.empty());
+    ASSERT_EQ(t.inconsistencies.size(), 1u) << n;
+    EXPECT_EQ(t.inconsistencies[0].parameter, "dx");
+    EXPECT_TRUE(t.inconsistencies[0].unsplittable);
+    EXPECT_EQ(t.inconsistencies[0].ndf, static_cast<int>(n) - 1);
+    EXPECT_GT(t.inconsistencies[0].chi2, 400.0);
+    const std::string verdict = trendVerdict(t);
+    EXPECT_NE(verdict.find("Too few IOVs to locate a step"), std::string::npos) << verdict;
+    EXPECT_NE(verdict.find("dx"), std::string::npos) << verdict;
+    EXPECT_EQ(verdict.find("No step"), std::string::npos) << verdict;
+    const std::string md = trendMarkdown(t, {alpha, dx}, "test");
+    EXPECT_EQ(md.find("No step"), std::string::npos) << md;
+    EXPECT_NE(md.find("Drifts not tested"), std::string::npos) << md;
+    EXPECT_EQ(md.find("No drift"), std::string::npos) << md;
+    EXPECT_EQ(trendJson(t, {alpha, dx}).at("inconsistent").size(), 1u);
+    ASSERT_EQ(t.segments.size(), 1u);
+    EXPECT_EQ(t.segments[0].inconsistent, std::vector<std::string>{"dx"});
+  }
+  // Consistent values: too few IOVs is still said, with no parameter blamed.
+  TrendSeries flat{"dx", "cm", {{1, 10, 0.1, 0.01}, {11, 20, 0.105, 0.01}, {21, 30, 0.098, 0.01}}};
+  const Trend t = analyseTrend({flat});
+  EXPECT_TRUE(t.inconsistencies.empty());
+  EXPECT_NE(trendVerdict(t).find("Too few IOVs"), std::string::npos);
+  EXPECT_NE(trendVerdict(t).find("no parameter differs"), std::string::npos);
+}
+
+// Enough IOVs to locate a step, but values that no step (two IOVs on each side) explains:
+// reported, not "no step".
+TEST(Trend, ASegmentItsModelDoesNotFitIsReported) {
+  const TrendSeries s{"dx", "cm", {{1, 10, 0.3, 0.01}, {11, 20, 0.4, 0.01}, {21, 30, 0.4, 0.01}, {31, 40, 0.3, 0.01}}};
+  const Trend t = analyseTrend({s});
+  EXPECT_TRUE(t.resolvable());
+  EXPECT_TRUE(t.steps.empty());
+  ASSERT_FALSE(t.inconsistencies.empty());
+  EXPECT_FALSE(t.inconsistencies[0].unsplittable);
+  EXPECT_NE(trendVerdict(t).find("No step located, but"), std::string::npos) << trendVerdict(t);
+}
+
+// An outlier in a long series is set aside between two segments (a "transition" without a
+// step): said in the verdict and the text, never silent.
+TEST(Trend, AnIovSetAsideIsReported) {
+  std::mt19937_64 rng(11);
+  auto s = series(20, 0.01, rng, [](std::size_t) { return 0.3; });
+  s.points[9].value += 0.1;
+  const Trend t = analyseTrend({s});
+  EXPECT_TRUE(t.steps.empty());
+  ASSERT_EQ(t.setAside.size(), 1u);
+  EXPECT_EQ(t.setAside[0].firstRun, 91);
+  EXPECT_NE(trendVerdict(t).find("runs 91-100"), std::string::npos) << trendVerdict(t);
+  EXPECT_NE(trendMarkdown(t, {s}, "test").find("- runs 91-100: dx"), std::string::npos);
+}
+
+TEST(Trend, NoiseAloneGetsACleanVerdict) {
+  std::mt19937_64 rng(14);
+  // Noise alone: a clean verdict, and the χ² test is passed by (nearly) every noise series.
+  int flagged = 0, remarked = 0;
+  for (int k = 0; k < 200; ++k) {
+    const auto n = series(40, 0.01, rng, [](std::size_t) { return 0.3; });
+    const Trend u = analyseTrend({n});
+    flagged += u.inconsistencies.empty() ? 0 : 1;
+    if (u.steps.empty() && u.inconsistencies.empty() && u.setAside.empty()) {
+      EXPECT_EQ(trendVerdict(u), "No step: no parameter changed between IOVs more than its errors allow.");
+    } else {
+      ++remarked;
+    }
+  }
+  EXPECT_LE(flagged, 6) << "of 200 noise series";
+  EXPECT_LE(remarked, 10) << "of 200 noise series";
+}
+
+// A step between segments whose slopes are not significant is measured between their means,
+// not between lines bent by noise (issue 29: +0.132 ± 0.010 from lines for a true +0.150).
+TEST(Trend, AStepBetweenFlatSegmentsIsTheDifferenceOfTheirMeans) {
+  std::mt19937_64 rng(12);
+  for (int k = 0; k < 20; ++k) {
+    const auto s = series(16, 0.005, rng, [](std::size_t i) { return i < 8 ? -0.2 : -0.05; });
+    const Trend t = analyseTrend({s});
+    ASSERT_EQ(t.steps.size(), 1u);
+    const auto& segs = t.series[0].segments;
+    ASSERT_EQ(segs.size(), 2u);
+    if (segs[0].drift || segs[0].sloped || segs[1].drift || segs[1].sloped) continue;
+    EXPECT_NEAR(t.steps[0].size, segs[1].constant.a - segs[0].constant.a, 1e-12);
+    EXPECT_NEAR(t.steps[0].size, 0.15, 4.0 * t.steps[0].error);
+  }
+}
+
+// Known boundaries: the series is cut there whatever the data say; what changed is reported,
+// and a boundary inside an IOV makes it a transition.
+TEST(Trend, KnownBoundariesAreCutAndMeasured) {
+  std::mt19937_64 rng(13);
+  const auto dx = series(
+      30, 0.01, rng, [](std::size_t i) { return i < 15 ? 0.25 : 0.40; }, "dx");
+  const auto alpha = series(
+      30, 0.01, rng, [](std::size_t) { return 2.9; }, "alpha");
+  TrendOptions o;
+  o.boundaries = {151, 75, 100000};  // at IOV 15; inside IOV 7 (runs 71-80); after the series
+  const Trend t = analyseTrend({alpha, dx}, o);
+  ASSERT_EQ(t.boundaries.size(), 3u);
+  EXPECT_EQ(t.boundaries[0].run, 75);
+  ASSERT_TRUE(t.boundaries[0].withinIov.has_value());
+  EXPECT_EQ(t.boundaries[0].withinIov->first, 71);
+  EXPECT_TRUE(t.boundaries[0].changed.empty());
+  EXPECT_TRUE(t.boundaries[0].measurable);
+  EXPECT_EQ(t.boundaries[1].run, 151);
+  EXPECT_EQ(t.boundaries[1].changed, std::vector<std::string>{"dx"});
+  EXPECT_FALSE(t.boundaries[2].measurable);
+  ASSERT_EQ(t.steps.size(), 1u);
+  EXPECT_TRUE(t.steps[0].known);
+  EXPECT_EQ(t.steps[0].firstRunAfter, 151);
+  EXPECT_NEAR(t.steps[0].size, 0.15, 4.0 * t.steps[0].error);
+  // Periods: 1-70, the transition 71-80, 81-150, 151-300.
+  ASSERT_EQ(t.segments.size(), 4u);
+  EXPECT_TRUE(t.segments[1].transition);
+  EXPECT_EQ(t.segments[1].firstRun, 71);
+  EXPECT_TRUE(t.segments[2].afterKnownBoundary);
+  EXPECT_EQ(t.segments[3].firstRun, 151);
+  EXPECT_TRUE(t.segments[3].afterKnownBoundary);
+  const auto changes = knownChanges(dx, {75, 151});
+  ASSERT_EQ(changes.size(), 2u);
+  EXPECT_EQ(changes[0], (Change{8, true}));
+  EXPECT_EQ(changes[1], (Change{15, false}));
+  const std::string md = trendMarkdown(t, {alpha, dx}, "test");
+  EXPECT_NE(md.find("run 75 (inside IOV 71-80, set aside): no parameter changed"), std::string::npos) << md;
+}
+
+TEST(Trend, ACampaignIsWarnedWhenItsIovsAreTooFewForATrend) {
+  EXPECT_NE(tooFewIovsForTrend(3, 160000).find("3 IOVs"), std::string::npos);
+  EXPECT_NE(tooFewIovsForTrend(3, 160000).find("--min-events 26000"), std::string::npos);
+  EXPECT_TRUE(tooFewIovsForTrend(4, 160000).empty());
 }
 
 }  // namespace

@@ -1,0 +1,59 @@
+#pragma once
+// Two tools conditions-database users expect (CMS conddb's diff and list, Belle II
+// b2conditionsdb's iov listing): a tag compared with another IOV by IOV, parameter by
+// parameter in σ, and a tag as a table of one row per IOV.
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "emcalign/conddb/conditions.hpp"
+#include "emcalign/core/parameters.hpp"
+#include "emcalign/core/result.hpp"
+#include "emcalign/io/json_files.hpp"
+
+namespace emcalign::conddb {
+
+/// One parameter of a payload, in file units (deg, cm); error NaN when the payload has none.
+struct StoredValue {
+  double value = 0.0, error = 0.0;
+};
+
+/// The 12 fit parameters of a payload with their errors, then the five derived ones (β, ψ, μ,
+/// τ, dx_rel; NaN where the payload has none). Fails naming the IOV when a parameter is
+/// missing.
+Result<std::vector<StoredValue>> storedValues(const Payload& payload, const Iov& iov, const std::string& tag);
+/// The names of storedValues' entries, and their units.
+const std::vector<std::string>& storedNames();
+const std::vector<std::string>& storedUnits();
+
+/// Where the IOVs of two tags overlap: the runs both cover with one IOV each.
+struct IovPair {
+  std::int64_t firstRun = 0, lastRun = 0;  ///< the overlap
+  Iov a, b;
+  std::vector<StoredValue> valuesA, valuesB;
+  /// (a − b)/√(σa² + σb²) of each entry (NaN without errors); ψ and τ modulo 360°.
+  std::vector<double> z;
+  bool samePayload() const { return a.payload == b.payload; }
+};
+
+struct TagDiff {
+  std::string tagA, tagB;
+  std::vector<IovPair> pairs;
+  /// Runs of one tag that the other does not cover: (first, last) of each stretch.
+  std::vector<std::pair<std::int64_t, std::int64_t>> onlyA, onlyB;
+};
+
+/// Tag `a` against tag `b` of the same database.
+Result<TagDiff> diffTags(Database& db, const std::string& a, const std::string& b);
+/// {"tag_a", "tag_b", "pairs": [{"first_run", "last_run", "iov_a", "iov_b", "same_payload",
+/// "parameters": {name: {"a", "error_a", "b", "error_b", "difference", "z", "unit"}}}],
+/// "only_a", "only_b"}.
+io::Json tagDiffJson(const TagDiff& d);
+
+/// A tag as CSV, one row per IOV: first_run, last_run, payload, inserted, status, chi2, ndf,
+/// chi2_statistical_errors, sigma_sys_method, selected_events, then each of the 17 entries
+/// and its error (`alpha`, `alpha_error`, …; unit in the header's comment line).
+Result<std::string> tagCsv(Database& db, const std::string& tag);
+
+}  // namespace emcalign::conddb

@@ -1,0 +1,122 @@
+#include "emcalign/calib/fit_notes.hpp"
+
+#include <cmath>
+#include <limits>
+
+#include <fmt/format.h>
+
+#include "emcalign/core/units.hpp"
+
+namespace emcalign::calib {
+
+namespace {
+
+using geometry::AlignmentParameters;
+using geometry::PhysicalParameters;
+
+bool isDirection(Physical p) { return p == Physical::Psi || p == Physical::Tau; }
+
+// "0.5" rather than "0.500000": a range or value as a physicist writes it.
+std::string short4(double v) { return fmt::format("{:.4g}", v); }
+
+}  // namespace
+
+std::array<std::pair<double, double>, kNumParams> validatedRanges() {
+  std::array<std::pair<double, double>, kNumParams> r{};
+  auto set = [&](Physical p, double lo, double hi) { r[index(p)] = {lo, hi}; };
+  const double deg = units::deg;
+  set(Physical::Alpha, 0.0, 5.0 * deg);
+  set(Physical::Beta, 0.0, 0.5 * deg);
+  set(Physical::Psi, 0.0, 180.0 * deg);
+  set(Physical::Dx, -0.5, 0.5);
+  set(Physical::Dy, -0.5, 0.5);
+  set(Physical::Dz, -0.5, 0.5);
+  set(Physical::Mu, 0.0, 10.0 * deg);  // capped by asin(dx_rel/R1) ≈ 0.53° at most
+  set(Physical::Tau, -180.0 * deg, 180.0 * deg);
+  set(Physical::DxRel, 0.0, 0.5);
+  set(Physical::DyRel, -0.2, 0.2);
+  set(Physical::DzRel, -0.2, 0.2);
+  set(Physical::BetaRel, -0.2 * deg, 0.2 * deg);
+  return r;
+}
+
+std::vector<std::string> fitNotes(const FitResult& result, const FitModel& model) {
+  std::vector<std::string> notes;
+  if (!model.corrected && model.depthOffset == 0.0) {
+    notes.push_back(
+        "model: the paper's (docs/fit.md), without corrections. In the tool's SND-like simulation it fits the gaps "
+        "dp1-dp3 about 0.15 cm low, dx_rel 0.08 cm low and the shifts' scale 8-12 % low (100 samples, "
+        "docs/validation.md). For that simulated detector fit with --corrections "
+        "data/corrections/ee-612.5MeV-40-140deg.json (or the grid data/corrections/ee-40-140deg); for your own "
+        "detector derive them with emcalign derive-corrections from its simulation.");
+  } else if (!model.corrected) {
+    notes.push_back(fmt::format(
+        "model: the paper's with a shower-depth offset of {:+.2f} cm and no other correction: the depth fixes the "
+        "scale of the shifts, the gaps keep most of their bias (docs/validation.md); --corrections gives all four",
+        model.depthOffset / units::cm));
+  }
+  const SigmaSysUsed& s = result.sigmaSys;
+  const bool fixed = s.method == SigmaSysMethod::Spec || s.method == SigmaSysMethod::Fixed;
+  if (fixed && result.ndf > 0 && result.chi2 < 0.5 * result.ndf) {
+    notes.push_back(fmt::format(
+        "chi2/ndf = {:.1f}/{}: sigma_sys = {} deg ({}) dominates the bin errors, so the errors quoted are those of "
+        "data with the paper's non-uniformity, not this sample's own; --sigma-sys auto sets sigma_sys from the "
+        "sample's scatter (chi2/ndf = 1; docs/validation.md, \"Honest errors\")",
+        result.chi2, result.ndf, short4(s.value / units::deg),
+        s.method == SigmaSysMethod::Spec ? "the paper's default" : "set by hand"));
+  }
+  return notes;
+}
+
+std::optional<std::string> rangeWarning(const FitResult& result) {
+  const auto ranges = validatedRanges();
+  std::vector<std::string> outside;
+  for (std::size_t k = 0; k < kNumParams; ++k) {
+    const auto p = static_cast<Physical>(k);
+    if (isDirection(p) || p == Physical::Mu) continue;  // μ: bounded by the gap, dx_rel says it
+    const double v = result.derived[p].value;
+    if (!std::isfinite(v)) continue;
+    const auto [lo, hi] = ranges[k];
+    const double e = std::isfinite(result.derived[p].error) ? result.derived[p].error : 0.0;
+    if (v >= lo - 2.0 * e && v <= hi + 2.0 * e) continue;  // a truth at the edge, fitted just beyond
+    const double unit = PhysicalParameters::fileUnit(p);
+    const auto u = fileUnitName(dimension(p));
+    outside.push_back(fmt::format("{} = {} {} (range [{}, {}] {})", name(p), short4(v / unit), u, short4(lo / unit),
+                                  short4(hi / unit), u));
+  }
+  if (outside.empty()) return std::nullopt;
+  return fmt::format(
+      "outside the ranges over which the model and its corrections were validated: {}. The fit's biases there "
+      "are not known (docs/validation.md); if the sample was simulated, check the units of its truth (a length "
+      "in mm under a cm header is 10 times too large)",
+      fmt::join(outside, ", "));
+}
+
+double TruthRow::pull() const {
+  if (!(error > 0.0) || !std::isfinite(error)) return std::numeric_limits<double>::quiet_NaN();
+  double d = difference();
+  if (name == "psi" || name == "tau") d -= 360.0 * std::round(d / 360.0);
+  return d / error;
+}
+
+Result<std::vector<TruthRow>> compareWithTruth(const FitResult& result, const AlignmentParameters& truth, double r1) {
+  auto phys = geometry::toPhysical(truth, r1);
+  if (!phys) return Error{fmt::format("the truth: {}", phys.error().message)};
+  std::vector<TruthRow> rows;
+  for (Param p : kAllParams) {
+    const double unit = AlignmentParameters::fileUnit(p);
+    rows.push_back({std::string(name(p)), std::string(fileUnitName(dimension(p))), result.parameters[p] / unit,
+                    result.errors[p] / unit, truth[p] / unit});
+  }
+  for (Physical p : kDerivedParams) {
+    // A direction is defined only where its magnitude is not 0.
+    if (p == Physical::Psi && (*phys)[Physical::Beta] == 0.0) continue;
+    if (p == Physical::Tau && (*phys)[Physical::Mu] == 0.0) continue;
+    const double unit = PhysicalParameters::fileUnit(p);
+    rows.push_back({std::string(name(p)), std::string(fileUnitName(dimension(p))), result.derived[p].value / unit,
+                    result.derived[p].error / unit, (*phys)[p] / unit});
+  }
+  return rows;
+}
+
+}  // namespace emcalign::calib

@@ -1,0 +1,200 @@
+#include "emcalign/conddb/tag_tables.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <fmt/format.h>
+
+namespace emcalign::conddb {
+
+namespace {
+
+using io::Json;
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+double numberOr(const Json& j, const char* key) {
+  return j.is_object() && j.contains(key) && j[key].is_number() ? j[key].get<double>() : kNaN;
+}
+
+std::string csvNumber(double v) { return std::isfinite(v) ? fmt::format("{:.10g}", v) : std::string(); }
+
+}  // namespace
+
+const std::vector<std::string>& storedNames() {
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> n;
+    for (Param p : kAllParams) n.emplace_back(name(p));
+    for (Physical p : kDerivedParams) n.emplace_back(name(p));
+    return n;
+  }();
+  return names;
+}
+
+const std::vector<std::string>& storedUnits() {
+  static const std::vector<std::string> units = [] {
+    std::vector<std::string> u;
+    for (Param p : kAllParams) u.emplace_back(fileUnitName(dimension(p)));
+    for (Physical p : kDerivedParams) u.emplace_back(fileUnitName(dimension(p)));
+    return u;
+  }();
+  return units;
+}
+
+Result<std::vector<StoredValue>> storedValues(const Payload& payload, const Iov& iov, const std::string& tag) {
+  const Json& a = payload.content.value("alignment", Json::object());
+  const Json parameters = a.value("parameters", Json::object()), errors = a.value("errors", Json::object());
+  const Json derived = a.value("derived", Json::object());
+  std::vector<StoredValue> out;
+  for (Param p : kAllParams) {
+    const std::string n(name(p));
+    const double v = numberOr(parameters, n.c_str());
+    if (!std::isfinite(v)) {
+      return Error{
+          fmt::format("tag {} IOV {}-{}: parameter {} is missing or not a number", tag, iov.firstRun, iov.lastRun, n)};
+    }
+    out.push_back({v, numberOr(errors, n.c_str())});
+  }
+  for (Physical p : kDerivedParams) {
+    const Json d = derived.value(std::string(name(p)), Json::object());
+    out.push_back({numberOr(d, "value"), numberOr(d, "error")});
+  }
+  return out;
+}
+
+Result<TagDiff> diffTags(Database& db, const std::string& a, const std::string& b) {
+  auto sa = TagSnapshot::load(db, a, true);
+  if (!sa) return sa.error();
+  auto sb = TagSnapshot::load(db, b, true);
+  if (!sb) return sb.error();
+  TagDiff d{a, b, {}, {}, {}};
+  // Runs of one tag the other's IOVs do not cover, as stretches.
+  auto uncovered = [](const std::vector<Iov>& mine, TagSnapshot& other) {
+    std::vector<std::pair<std::int64_t, std::int64_t>> out;
+    for (const Iov& i : mine) {
+      std::int64_t run = i.firstRun;
+      while (run <= i.lastRun) {
+        const Iov* o = other.find(run);
+        if (o != nullptr) {
+          if (o->lastRun >= i.lastRun) break;
+          run = o->lastRun + 1;
+          continue;
+        }
+        // The next IOV of the other tag that starts inside this one, if any.
+        std::int64_t next = i.lastRun + 1;
+        for (const Iov& x : other.iovs()) {
+          if (x.firstRun > run && x.firstRun <= i.lastRun) next = std::min(next, x.firstRun);
+        }
+        if (!out.empty() && out.back().second + 1 == run) {
+          out.back().second = next - 1;
+        } else {
+          out.emplace_back(run, next - 1);
+        }
+        run = next;
+      }
+    }
+    return out;
+  };
+  d.onlyA = uncovered(sa->iovs(), *sb);
+  d.onlyB = uncovered(sb->iovs(), *sa);
+  for (const Iov& ia : sa->iovs()) {
+    for (const Iov& ib : sb->iovs()) {
+      const std::int64_t first = std::max(ia.firstRun, ib.firstRun), last = std::min(ia.lastRun, ib.lastRun);
+      if (first > last) continue;
+      auto pa = sa->payload(ia);
+      if (!pa) return pa.error();
+      auto pb = sb->payload(ib);
+      if (!pb) return pb.error();
+      auto va = storedValues(**pa, ia, a);
+      if (!va) return va.error();
+      auto vb = storedValues(**pb, ib, b);
+      if (!vb) return vb.error();
+      IovPair pair{first, last, ia, ib, std::move(*va), std::move(*vb), {}};
+      const auto& names = storedNames();
+      for (std::size_t k = 0; k < names.size(); ++k) {
+        double diff = pair.valuesA[k].value - pair.valuesB[k].value;
+        if (names[k] == "psi" || names[k] == "tau") diff -= 360.0 * std::round(diff / 360.0);
+        const double e = std::hypot(pair.valuesA[k].error, pair.valuesB[k].error);
+        pair.z.push_back(e > 0.0 ? diff / e : (diff == 0.0 ? 0.0 : kNaN));
+      }
+      d.pairs.push_back(std::move(pair));
+    }
+  }
+  return d;
+}
+
+Json tagDiffJson(const TagDiff& d) {
+  Json pairs = Json::array();
+  const auto& names = storedNames();
+  const auto& units = storedUnits();
+  auto iovJson = [](const Iov& i) {
+    return Json{{"first_run", i.firstRun}, {"last_run", i.lastRun}, {"payload", i.payload}};
+  };
+  auto number = [](double v) { return std::isfinite(v) ? Json(v) : Json(); };
+  for (const auto& p : d.pairs) {
+    Json params = Json::object();
+    for (std::size_t k = 0; k < names.size(); ++k) {
+      params[names[k]] = {{"a", number(p.valuesA[k].value)},
+                          {"error_a", number(p.valuesA[k].error)},
+                          {"b", number(p.valuesB[k].value)},
+                          {"error_b", number(p.valuesB[k].error)},
+                          {"difference", number(p.valuesA[k].value - p.valuesB[k].value)},
+                          {"z", number(p.z[k])},
+                          {"unit", units[k]}};
+    }
+    pairs.push_back({{"first_run", p.firstRun},
+                     {"last_run", p.lastRun},
+                     {"iov_a", iovJson(p.a)},
+                     {"iov_b", iovJson(p.b)},
+                     {"same_payload", p.samePayload()},
+                     {"parameters", params}});
+  }
+  auto stretches = [](const auto& v) {
+    Json out = Json::array();
+    for (const auto& [f, l] : v) out.push_back(Json::array({f, l}));
+    return out;
+  };
+  return {{"tag_a", d.tagA},
+          {"tag_b", d.tagB},
+          {"pairs", pairs},
+          {"only_a", stretches(d.onlyA)},
+          {"only_b", stretches(d.onlyB)}};
+}
+
+Result<std::string> tagCsv(Database& db, const std::string& tag) {
+  auto snapshot = TagSnapshot::load(db, tag, true);
+  if (!snapshot) return snapshot.error();
+  const auto& names = storedNames();
+  const auto& units = storedUnits();
+  std::string units_line = "# units:";
+  for (std::size_t k = 0; k < names.size(); ++k) units_line += fmt::format(" {}={}", names[k], units[k]);
+  std::string csv = fmt::format("# emcalign conditions export: tag {} of {}\n{}\n", tag, db.uri(), units_line);
+  csv += "first_run,last_run,payload,inserted,status,chi2,ndf,chi2_statistical_errors,sigma_sys_method,selected_events";
+  for (const auto& n : names) csv += fmt::format(",{},{}_error", n, n);
+  csv += "\n";
+  for (const Iov& iov : snapshot->iovs()) {
+    auto p = snapshot->payload(iov);
+    if (!p) return p.error();
+    auto values = storedValues(**p, iov, tag);
+    if (!values) return values.error();
+    const Json& a = (*p)->content.value("alignment", Json::object());
+    const Json sigma = a.value("sigma_sys", Json::object());
+    const std::string status = a.contains("status") && a["status"].is_string() ? a["status"].get<std::string>() : "";
+    const std::string method =
+        sigma.contains("method") && sigma["method"].is_string() ? sigma["method"].get<std::string>() : "";
+    const Json events = (*p)->content.value("selected_events", Json());
+    csv += fmt::format("{},{},{},{},{},{},{},{},{},{}", iov.firstRun, iov.lastRun, iov.payload, iov.inserted,
+                       // The status is free text of a payload: kept out of the CSV's structure.
+                       status.find_first_of(",\"\n\r") == std::string::npos ? status : std::string("?"),
+                       csvNumber(numberOr(a, "chi2")), csvNumber(numberOr(a, "ndf")),
+                       csvNumber(numberOr(sigma, "chi2_statistical_errors")),
+                       method.find_first_of(",\"\n\r") == std::string::npos ? method : std::string("?"),
+                       events.is_number_integer() ? std::to_string(events.get<std::int64_t>()) : std::string());
+    for (const auto& v : *values) csv += fmt::format(",{},{}", csvNumber(v.value), csvNumber(v.error));
+    csv += "\n";
+  }
+  return csv;
+}
+
+}  // namespace emcalign::conddb

@@ -1,0 +1,102 @@
+// conditions diff and export: two tags compared IOV by IOV in σ, a tag as CSV.
+
+#include "emcalign/conddb/tag_tables.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include "emcalign/geometry/detector.hpp"
+#include "test_support.hpp"
+
+namespace emcalign::conddb {
+namespace {
+
+namespace fs = std::filesystem;
+using io::Json;
+
+double r1() { return geometry::DetectorDescription::sndDefault().r1(); }
+
+// A fit result with α = `alpha` deg, every error 0.01 (deg or cm), σ_sys auto.
+Payload resultWith(double alpha) {
+  auto eta = geometry::testing::paperLike();
+  eta[Param::Alpha] = alpha * units::deg;
+  Json j = io::alignmentToJson(eta);
+  Json errors = Json::object();
+  for (Param p : kAllParams) errors[std::string(name(p))] = 0.01;
+  j["errors"] = errors;
+  j["chi2"] = 308.0;
+  j["ndf"] = 308;
+  j["status"] = "converged";
+  j["sigma_sys"] = {{"method", "auto"}, {"value_deg", 0.05}, {"chi2_statistical_errors", 512.5}};
+  auto p = makePayload(j, r1(), "test", Json{{"note", "unit test"}});
+  EXPECT_TRUE(p) << p.error().message;
+  return *p;
+}
+
+class TagTables : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / fmt::format("emcalign-tag-tables-{}", ::getpid());
+    fs::create_directories(dir_);
+    auto db = Database::open("sqlite:" + (dir_ / "c.db").string(), true);
+    ASSERT_TRUE(db) << db.error().message;
+    db_ = std::move(*db);
+    ASSERT_TRUE(db_->put("a", 1, 10, resultWith(3.0), true));
+    ASSERT_TRUE(db_->put("a", 11, 20, resultWith(3.1), false));
+    ASSERT_TRUE(db_->put("b", 1, 15, resultWith(3.0), true));
+    ASSERT_TRUE(db_->put("b", 21, 30, resultWith(3.0), false));
+  }
+  void TearDown() override {
+    db_.reset();
+    fs::remove_all(dir_);
+  }
+  fs::path dir_;
+  std::unique_ptr<Database> db_;
+};
+
+TEST_F(TagTables, DiffPairsTheOverlappingIovsAndGivesEachParameterInSigma) {
+  auto d = diffTags(*db_, "a", "b");
+  ASSERT_TRUE(d) << d.error().message;
+  ASSERT_EQ(d->pairs.size(), 2u);
+  EXPECT_EQ(d->pairs[0].firstRun, 1);
+  EXPECT_EQ(d->pairs[0].lastRun, 10);
+  EXPECT_TRUE(d->pairs[0].samePayload());
+  EXPECT_EQ(d->pairs[1].firstRun, 11);
+  EXPECT_EQ(d->pairs[1].lastRun, 15);
+  EXPECT_FALSE(d->pairs[1].samePayload());
+  EXPECT_NEAR(d->pairs[1].z[0], 0.1 / std::hypot(0.01, 0.01), 1e-6);  // alpha
+  EXPECT_NEAR(d->pairs[1].z[3], 0.0, 1e-12);                          // dx
+  ASSERT_EQ(d->onlyA.size(), 1u);
+  EXPECT_EQ(d->onlyA[0], (std::pair<std::int64_t, std::int64_t>{16, 20}));
+  ASSERT_EQ(d->onlyB.size(), 1u);
+  EXPECT_EQ(d->onlyB[0], (std::pair<std::int64_t, std::int64_t>{21, 30}));
+  const Json j = tagDiffJson(*d);
+  EXPECT_NEAR(j["pairs"][1]["parameters"]["alpha"]["difference"].get<double>(), 0.1, 1e-9);
+  EXPECT_FALSE(diffTags(*db_, "a", "nope"));
+}
+
+TEST_F(TagTables, ExportHasOneRowPerIovWithEveryParameterAndItsError) {
+  auto csv = tagCsv(*db_, "a");
+  ASSERT_TRUE(csv) << csv.error().message;
+  std::istringstream in(*csv);
+  std::string line;
+  std::vector<std::string> lines;
+  while (std::getline(in, line)) lines.push_back(line);
+  ASSERT_EQ(lines.size(), 5u);  // two comments, the header, two IOVs
+  EXPECT_EQ(lines[2].rfind("first_run,last_run,payload,inserted,status,chi2,ndf,chi2_statistical_errors", 0), 0u);
+  EXPECT_NE(lines[2].find(",alpha,alpha_error,"), std::string::npos);
+  EXPECT_NE(lines[2].find(",dx_rel,dx_rel_error"), std::string::npos);
+  EXPECT_EQ(lines[3].rfind("1,10,", 0), 0u);
+  EXPECT_NE(lines[3].find(",converged,308,308,512.5,auto,"), std::string::npos) << lines[3];
+  EXPECT_NE(lines[4].find(",3.1,0.01,"), std::string::npos) << lines[4];
+  EXPECT_FALSE(tagCsv(*db_, "nope"));
+}
+
+}  // namespace
+}  // namespace emcalign::conddb

@@ -1,0 +1,54 @@
+"""A newcomer's first hour (issue 29), through the command line: what it says and writes."""
+
+import json
+
+import pytest
+
+import emcalign
+from cli_helpers import PAPER_LIKE, cli
+
+
+def test_a_default_theta_range_is_said(tmp_path):
+    """simulate's default theta (10-170 deg) leaves events without rows: the count and the hint are printed."""
+    out = cli("simulate", "--params", PAPER_LIKE, "--events", "3000", "--seed", "3", "--no-hits", "-o",
+              tmp_path / "ee.h5")
+    note = next(line for line in out.splitlines() if line.startswith("note:"))
+    assert "have no reconstructed particle" in note and "--theta-min 40 --theta-max 140" in note
+    narrow = cli("simulate", "--params", PAPER_LIKE, "--events", "3000", "--seed", "3", "--no-hits",
+                 "--theta-min", "40", "--theta-max", "140", "-o", tmp_path / "ee40.h5")
+    assert "--theta-min 40" not in narrow
+
+
+def test_deflate_files_read_back_the_same(tmp_path):
+    """--compression deflate: another filter, the same rows."""
+    for compression in ("lz4", "deflate"):
+        cli("simulate", "--params", PAPER_LIKE, "--events", "500", "--seed", "5", "--compression", compression,
+            "-o", tmp_path / f"{compression}.h5")
+    lz4 = emcalign.read_events(str(tmp_path / "lz4.h5"))
+    deflate = emcalign.read_events(str(tmp_path / "deflate.h5"))
+    for column in ("event", "phi_emc_rad", "energy_mev"):
+        assert (lz4[column] == deflate[column]).all()
+    assert (tmp_path / "lz4.h5").read_bytes() != (tmp_path / "deflate.h5").read_bytes()
+    h5py = pytest.importorskip("h5py")
+    with h5py.File(tmp_path / "deflate.h5", "r") as f:
+        assert f["events"]["phi_emc_rad"].compression == "gzip"
+
+
+def test_a_period_is_corrected_one_file_per_run(tmp_path):
+    """correct --conditions -o DIR/: one corrected file per run file, under its own name."""
+    period = tmp_path / "period.json"
+    period.write_text(json.dumps({
+        "format": "emcalign-period/1", "first_run": 7, "runs": 3, "events_per_run": 1500, "seed": 2,
+        "theta_range_deg": [40, 140], "beam_energy_mev": [{"from_run": 7, "value": 612.5}],
+        "segments": [{"from_run": 7, "parameters": {"alpha": 2.8, "dx": 0.3}}]}))
+    cli("simulate", "--period", period, "-o", tmp_path / "runs", "--no-hits")
+    db = tmp_path / "c.db"
+    cli("campaign", tmp_path / "runs", "--conditions", db, "--tag", "t", "--min-events", "1000")
+    runs = sorted(str(p) for p in (tmp_path / "runs").glob("run_*.h5"))
+    out = cli("correct", *runs, "--conditions", db, "--tag", "t", "-o", str(tmp_path / "corrected") + "/")
+    assert "(3 files, one per input)" in out
+    for run in runs:
+        corrected = tmp_path / "corrected" / run.rsplit("/", 1)[1]
+        before, after = emcalign.read_events(run), emcalign.read_events(str(corrected))
+        assert (before["event"] == after["event"]).all() and (before["run"] == after["run"]).all()
+        assert (before["phi_emc_rad"] != after["phi_emc_rad"]).any()

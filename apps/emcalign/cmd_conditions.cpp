@@ -158,6 +158,10 @@ int runExport(const ConditionsOptions& o) {
   return kExitOk;
 }
 
+// A tag's state as a person reads it: "retired" for an open tag with its retirement mark
+// (the JSON keeps SPEC §11's "open"|"locked" and adds "retired").
+std::string stateOf(const Json& t) { return t.contains("retired") ? "retired" : t["state"].get<std::string>(); }
+
 int runList(const ConditionsOptions& o) {
   auto db = conddb::Database::open(o.uri);
   if (!db) return reportError(db.error());
@@ -176,13 +180,13 @@ int runList(const ConditionsOptions& o) {
       const std::string runs = iovs.empty() ? "-"
                                             : fmt::format("{}-{}", iovs.front()["first_run"].get<std::int64_t>(),
                                                           iovs.back()["last_run"].get<std::int64_t>());
-      fmt::print("{:<24} {:<7} {:>6} {:>17}  {}\n", t["tag"].get<std::string>(), t["state"].get<std::string>(),
-                 iovs.size(), runs, t["description"].get<std::string>());
+      fmt::print("{:<24} {:<7} {:>6} {:>17}  {}\n", t["tag"].get<std::string>(), stateOf(t), iovs.size(), runs,
+                 t["description"].get<std::string>());
     }
     return kExitOk;
   }
   const Json& t = listed.front();
-  fmt::print("tag {} ({}), created {}{}\n", o.tag, t["state"].get<std::string>(), t["created"].get<std::string>(),
+  fmt::print("tag {} ({}), created {}{}\n", o.tag, stateOf(t), t["created"].get<std::string>(),
              t["description"].get<std::string>().empty() ? "" : ": " + t["description"].get<std::string>());
   if (t.contains("retired")) fmt::print("retired {}\n", t["retired"].get<std::string>());
   fmt::print("{:>10} {:>10} {:>9} {:>12} {:>12} {:<12} {:<12} {}\n", "first_run", "last_run", "events", "chi2/ndf",

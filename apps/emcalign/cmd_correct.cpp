@@ -29,7 +29,7 @@ struct CorrectCliOptions {
   double depthOffset = apply::CorrectOptions{}.depth.offset / units::cm;
   std::string detector;
   std::string output;
-  std::string compression = "lz4";
+  io::Compression compression = io::Compression::Lz4;
 };
 
 int run(const CorrectCliOptions& o) {
@@ -59,7 +59,7 @@ int run(const CorrectCliOptions& o) {
   auto made = apply::correctOptionsOf(o.method, o.depthOffset * units::cm, o.corrections, *calo);
   if (!made) return reportError(made.error());
   apply::CorrectOptions& options = *made;
-  options.compression = o.compression == "deflate" ? io::Compression::Deflate : io::Compression::Lz4;
+  options.compression = o.compression;
   options.description = apply::correctionRecord(source->description, o.method, options, o.events, o.corrections).dump();
   ProgressLine progress("correct", 0, "rows");
   options.progress = [&](std::int64_t rows) { progress.update(rows); };
@@ -112,10 +112,7 @@ void addCorrectCommand(CLI::App& app, int& exitCode) {
       ->check(CLI::ExistingPath)
       ->excludes(offset);
   addDetectorOption(*cmd, o->detector);
-  cmd->add_option("--compression", o->compression,
-                  "HDF5 compression: lz4 (default, fast; h5py reads it with Debian's hdf5-filter-plugin or pip's "
-                  "hdf5plugin) or deflate (every HDF5 reader has it: for files sent to others)")
-      ->check(CLI::IsMember({"lz4", "deflate"}));
+  addCompressionOption(*cmd, o->compression);
   cmd->add_option("-o,--output", o->output,
                   "output file: .csv for CSV, anything else HDF5; '-': CSV to standard output; a directory (DIR/ "
                   "or an existing one): one corrected file per input, under its own name (a period's runs)")

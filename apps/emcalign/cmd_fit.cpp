@@ -187,7 +187,7 @@ int run(const FitCliOptions& o) {
   printResult(fitted->result, job->corrections() ? job->corrections()->corrections.systematics.get() : nullptr);
   for (const auto& n : job->notes(*data, *fitted)) fmt::print(reportStream(), "note: {}\n", n);
   if (auto w = calib::rangeWarning(fitted->result)) reportWarning(*w);
-  if (auto truth = job->againstTruth(*fitted); !truth) {
+  if (auto truth = job->againstTruth(*data, *fitted); !truth) {
     reportWarning(fmt::format("no comparison with the truth: {}", truth.error().message));
   } else if (*truth) {
     printAgainstTruth(**truth);

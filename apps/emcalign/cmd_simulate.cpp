@@ -34,7 +34,7 @@ struct SimulateOptions {
   std::optional<double> beamEnergy;  // none: the process default
   std::string detector;
   std::string deadCounters;  // empty: default list; "none": no dead counters
-  std::string compression = "lz4";
+  io::Compression compression = io::Compression::Lz4;
   int threads = 0;
   int run = sim::SimulationOptions{}.run;
   std::string output;
@@ -72,7 +72,7 @@ validation::SimulateRequest requestOf(const SimulateOptions& cli, const sim::Sim
   r.events = cli.events;
   r.threads = cli.threads;
   r.hits = !cli.noHits;
-  r.compression = cli.compression == "deflate" ? io::Compression::Deflate : io::Compression::Lz4;
+  r.compression = cli.compression;
   r.ideal = cli.ideal;
   r.off = cli.off;
   r.detectorName = cli.detector.empty() ? "embedded default" : cli.detector;
@@ -107,7 +107,7 @@ int runPeriod(const SimulateOptions& cli) {
   validation::PeriodOptions o;
   if (Status s = realism(cli, o.simulation); !s) return reportError(s.error());
   o.hits = !cli.noHits;
-  o.compression = cli.compression == "deflate" ? io::Compression::Deflate : io::Compression::Lz4;
+  o.compression = cli.compression;
   o.threads = cli.threads;
   o.settings = validation::simulationSettings(requestOf(cli, o.simulation));
   for (const char* perRun : {"process", "events", "seed", "run", "beam_energy_mev", "theta_range_deg", "software"}) {
@@ -250,10 +250,7 @@ void addSimulateCommand(CLI::App& app, int& exitCode) {
   cmd->add_flag("--no-hits", o->noHits,
                 "leave out the counters of each cluster (HDF5 writes them by default, for emcalign correct --method "
                 "hits; CSV never has them)");
-  cmd->add_option("--compression", o->compression,
-                  "HDF5 compression: lz4 (default, fast; h5py reads it with Debian's hdf5-filter-plugin or pip's "
-                  "hdf5plugin) or deflate (every HDF5 reader has it: for files sent to others)")
-      ->check(CLI::IsMember({"lz4", "deflate"}));
+  addCompressionOption(*cmd, o->compression);
   cmd->add_option("-o,--output", o->output,
                   "output file: .csv for CSV, anything else HDF5 (with truth); '-' writes CSV to standard output")
       ->required();

@@ -3,6 +3,7 @@
 #include <charconv>
 #include <iostream>
 #include <limits>
+#include <map>
 
 #include <fmt/format.h>
 
@@ -23,6 +24,16 @@ std::FILE* gReport = stdout;
 int reportError(const Error& error) {
   eprint("emcalign: error: {}\n", error.message);
   return kExitFailure;
+}
+
+CLI::Option* addCompressionOption(CLI::App& cmd, io::Compression& compression) {
+  static const std::map<std::string, io::Compression> kNames = {{"lz4", io::Compression::Lz4},
+                                                                {"deflate", io::Compression::Deflate}};
+  return cmd
+      .add_option("--compression", compression,
+                  "HDF5 compression: lz4 (default, fast; h5py reads it with Debian's hdf5-filter-plugin or pip's "
+                  "hdf5plugin) or deflate (every HDF5 reader has it: for files sent to others)")
+      ->transform(CLI::CheckedTransformer(kNames));
 }
 
 void reportWarning(const std::string& message) { eprint("emcalign: warning: {}\n", message); }

@@ -15,6 +15,7 @@
 #include "emcalign/core/result.hpp"
 #include "emcalign/geometry/alignment_parameters.hpp"
 #include "emcalign/geometry/detector.hpp"
+#include "emcalign/io/event_file.hpp"
 #include "emcalign/io/json_files.hpp"
 #include "emcalign/io/output_file.hpp"
 #include "emcalign/sim/simulation.hpp"
@@ -38,6 +39,9 @@ inline constexpr int kExitInternal = 4;
 /// than any machine has, are typing mistakes.
 using sim::kMaxEvents;
 inline constexpr std::int64_t kMaxThreads = sim::kMaxThreads;
+
+/// --compression lz4|deflate of the commands that write HDF5 event files (io/event_file.hpp).
+CLI::Option* addCompressionOption(CLI::App& cmd, io::Compression& compression);
 
 /// Prints "emcalign: error: <message>" on stderr and returns kExitFailure.
 int reportError(const Error& error);

@@ -78,7 +78,7 @@ Fit fit(const std::optional<Paths>& paths, const Detector* given, const py::obje
     if (fitted) {
       out.notes = job->notes(*data, *fitted);
       if (auto w = calib::rangeWarning(fitted->result)) out.notes.push_back(*w);
-      if (auto truth = job->againstTruth(*fitted); truth) {
+      if (auto truth = job->againstTruth(*data, *fitted); truth) {
         out.truth = std::move(*truth);
       } else {
         out.notes.push_back("no comparison with the truth: " + truth.error().message);

@@ -13,24 +13,20 @@
 
 namespace emcalign::calib {
 
-Result<std::string> thetaRangeWarning(const std::vector<std::string>& events, const ModelCorrections& corrections,
-                                      const std::string& correctionsPath) {
+std::string thetaRangeWarning(const std::optional<std::string>& simulation, const ModelCorrections& corrections,
+                              const std::string& correctionsPath) {
   const io::Json settings = corrections.derivedFrom.value("settings", io::Json::object());
   const io::Json derived = settings.value("theta_range_deg", io::Json());
-  if (events.empty() || !derived.is_array() || derived.size() != 2) return std::string();
-  auto simulation = io::commonAttribute(events, "simulation");
-  if (!simulation) return simulation.error();
-  if (!*simulation) return std::string();  // data, or runs simulated differently: nothing to compare
-  auto j = io::parseJson(**simulation, fmt::format("{}: its simulation attribute", events.front()));
-  if (!j || !j->is_object()) return std::string();
-  const io::Json sample = j->value("theta_range_deg", io::Json());
+  if (!simulation || !derived.is_array() || derived.size() != 2) return {};  // data, or not recorded
+  const io::Json j = io::Json::parse(*simulation, nullptr, false);
+  const io::Json sample = j.is_object() ? j.value("theta_range_deg", io::Json()) : io::Json();
   if (!sample.is_array() || sample.size() != 2 || !sample[0].is_number() || !sample[1].is_number() ||
       !derived[0].is_number() || !derived[1].is_number()) {
-    return std::string();
+    return {};
   }
   const double s0 = sample[0].get<double>(), s1 = sample[1].get<double>();
   const double d0 = derived[0].get<double>(), d1 = derived[1].get<double>();
-  if (std::abs(s0 - d0) < 1e-6 && std::abs(s1 - d1) < 1e-6) return std::string();
+  if (std::abs(s0 - d0) < 1e-6 && std::abs(s1 - d1) < 1e-6) return {};
   return fmt::format(
       "{}: derived from samples simulated at theta {:g}-{:g} deg, this sample at {:g}-{:g} deg: the corrections "
       "describe the detector as the derivation saw it (simulate --theta-min {:g} --theta-max {:g}, or derive them "
@@ -140,9 +136,15 @@ Result<FitData> FitJob::load() const {
     auto warning = checkSampleEnergies(*corrections_, data.fill->beamEnergies);
     if (!warning) return warning.error();
     if (!warning->empty()) data.warnings.push_back(std::move(*warning));
-    auto theta = thetaRangeWarning(request_.events, corrections_->corrections, request_.corrections);
-    if (!theta) return theta.error();
-    if (!theta->empty()) data.warnings.push_back(std::move(*theta));
+  }
+  // What a simulated sample says of itself, read once for the warning below and the truth.
+  auto attributes = io::commonAttributes(request_.events, {"truth_parameters", "simulation"});
+  if (!attributes) return attributes.error();
+  data.truthAttribute = (*attributes)["truth_parameters"];
+  data.simulationAttribute = (*attributes)["simulation"];
+  if (corrections_) {
+    std::string theta = thetaRangeWarning(data.simulationAttribute, corrections_->corrections, request_.corrections);
+    if (!theta.empty()) data.warnings.push_back(std::move(theta));
   }
   return data;
 }
@@ -198,13 +200,11 @@ std::vector<std::string> FitJob::notes(const FitData& data, const FitOutcome& ou
   return notes;
 }
 
-Result<std::optional<std::vector<TruthRow>>> FitJob::againstTruth(const FitOutcome& outcome) const {
-  if (request_.events.empty()) return std::optional<std::vector<TruthRow>>();
-  auto attribute = io::commonAttribute(request_.events, "truth_parameters");
-  if (!attribute) return attribute.error();
-  if (!*attribute) return std::optional<std::vector<TruthRow>>();
+Result<std::optional<std::vector<TruthRow>>> FitJob::againstTruth(const FitData& data,
+                                                                  const FitOutcome& outcome) const {
+  if (!data.truthAttribute) return std::optional<std::vector<TruthRow>>();
   const std::string source = fmt::format("{}: its truth_parameters", request_.events.front());
-  auto json = io::parseJson(**attribute, source);
+  auto json = io::parseJson(*data.truthAttribute, source);
   if (!json) return json.error();
   auto truth = io::parseAlignment(*json, geometry_.radii.r1, source);
   if (!truth) return truth.error();

@@ -14,8 +14,6 @@ namespace {
 using geometry::AlignmentParameters;
 using geometry::PhysicalParameters;
 
-bool isDirection(Physical p) { return p == Physical::Psi || p == Physical::Tau; }
-
 // "0.5" rather than "0.500000": a range or value as a physicist writes it.
 std::string short4(double v) { return fmt::format("{:.4g}", v); }
 
@@ -94,9 +92,7 @@ std::optional<std::string> rangeWarning(const FitResult& result) {
 
 double TruthRow::pull() const {
   if (!(error > 0.0) || !std::isfinite(error)) return std::numeric_limits<double>::quiet_NaN();
-  double d = difference();
-  if (name == "psi" || name == "tau") d -= 360.0 * std::round(d / 360.0);
-  return d / error;
+  return parameterDifference(name, fit, truth) / error;
 }
 
 Result<std::vector<TruthRow>> compareWithTruth(const FitResult& result, const AlignmentParameters& truth, double r1) {

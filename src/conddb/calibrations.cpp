@@ -128,8 +128,11 @@ Result<io::Json> tagJson(Database& db, const Tag& tag) {
     if (p->content.contains("selected_events")) i["selected_events"] = p->content["selected_events"];
     iovs.push_back(std::move(i));
   }
+  // "state" stays "open"|"locked" for every tag (a retired tag is an open one with its mark):
+  // readers of list --json that know only those two keep working.
+  const TagState shown = tag.state == TagState::Retired ? TagState::Open : tag.state;
   Json out{{"tag", tag.name},
-           {"state", name(tag.state)},
+           {"state", name(shown)},
            {"description", tag.description},
            {"created", tag.created},
            {"iovs", iovs}};

@@ -132,7 +132,7 @@ class SqlDatabase final : public Database {
   }
 
   Result<std::vector<Tag>> tags() override {
-    auto rows = db_->query(std::string(kTagColumns) + " ORDER BY t.name");
+    auto rows = db_->query(tagColumns() + " ORDER BY t.name");
     if (!rows) return rows.error();
     std::vector<Tag> out;
     for (const Row& r : *rows) {
@@ -145,7 +145,7 @@ class SqlDatabase final : public Database {
 
   Result<std::optional<Tag>> tag(const std::string& name) override {
     if (Status s = checkTagName(name); !s) return s.error();
-    auto rows = db_->query(std::string(kTagColumns) + " WHERE t.name = $1", {name});
+    auto rows = db_->query(tagColumns() + " WHERE t.name = $1", {name});
     if (!rows) return rows.error();
     if (rows->empty()) return std::optional<Tag>();
     auto t = tagOf((*rows)[0]);
@@ -314,9 +314,12 @@ class SqlDatabase final : public Database {
  private:
   static constexpr const char* kRetiredPrefix = "retired:";
   // A tag's row with its retirement mark, if any (the columns tagOf reads).
-  static constexpr const char* kTagColumns =
-      "SELECT t.name, t.description, t.state, t.created, m.value FROM emcalign_tags t LEFT JOIN emcalign_meta m ON "
-      "m.key = 'retired:' || t.name";
+  static std::string tagColumns() {
+    return fmt::format(
+        "SELECT t.name, t.description, t.state, t.created, m.value FROM emcalign_tags t LEFT JOIN emcalign_meta m "
+        "ON m.key = '{}' || t.name",
+        kRetiredPrefix);
+  }
 
   // Lookups and writes refuse a retired tag, naming when and why it was retired.
   Status notRetired(const std::string& tag) const {

@@ -113,8 +113,7 @@ Result<TagDiff> diffTags(Database& db, const std::string& a, const std::string& 
       IovPair pair{first, last, ia, ib, std::move(*va), std::move(*vb), {}};
       const auto& names = storedNames();
       for (std::size_t k = 0; k < names.size(); ++k) {
-        double diff = pair.valuesA[k].value - pair.valuesB[k].value;
-        if (names[k] == "psi" || names[k] == "tau") diff -= 360.0 * std::round(diff / 360.0);
+        const double diff = parameterDifference(names[k], pair.valuesA[k].value, pair.valuesB[k].value);
         const double e = std::hypot(pair.valuesA[k].error, pair.valuesB[k].error);
         pair.z.push_back(e > 0.0 ? diff / e : (diff == 0.0 ? 0.0 : kNaN));
       }
@@ -139,7 +138,7 @@ Json tagDiffJson(const TagDiff& d) {
                           {"error_a", number(p.valuesA[k].error)},
                           {"b", number(p.valuesB[k].value)},
                           {"error_b", number(p.valuesB[k].error)},
-                          {"difference", number(p.valuesA[k].value - p.valuesB[k].value)},
+                          {"difference", number(parameterDifference(names[k], p.valuesA[k].value, p.valuesB[k].value))},
                           {"z", number(p.z[k])},
                           {"unit", units[k]}};
     }

@@ -309,12 +309,6 @@ class EventReaderImpl final : public EventReader {
 
 // ============================================================================ public API
 
-Result<Compression> compressionFromName(std::string_view name) {
-  if (name == "lz4") return Compression::Lz4;
-  if (name == "deflate") return Compression::Deflate;
-  return Error{fmt::format("compression '{}': lz4 or deflate", name)};
-}
-
 Result<std::unique_ptr<EventWriter>> EventWriter::open(const std::string& path, WriterOptions options) {
   const EventFormat format = formatOf(path);
   if (auto s = checkAttributes(path, options.attributes, format); !s) return s.error();
@@ -382,16 +376,22 @@ Result<double> firstBeamEnergy(const std::vector<std::string>& paths) {
   return rows.front().beamEnergy;
 }
 
-Result<std::optional<std::string>> commonAttribute(const std::vector<std::string>& paths, const std::string& key) {
-  std::optional<std::string> common;
-  for (const auto& path : paths) {
-    auto reader = EventReader::open({path}, ReaderOptions{.blockRows = 1, .truth = false, .hits = false});
+Result<std::map<std::string, std::optional<std::string>>> commonAttributes(const std::vector<std::string>& paths,
+                                                                           const std::vector<std::string>& keys) {
+  std::map<std::string, std::optional<std::string>> common;
+  std::map<std::string, bool> differ;  // a file lacks the key, or two values differ
+  for (std::size_t f = 0; f < paths.size(); ++f) {
+    auto reader = EventReader::open({paths[f]}, ReaderOptions{.blockRows = 1, .truth = false, .hits = false});
     if (!reader) return reader.error();
     const auto& attributes = (*reader)->attributes();
-    const auto it = std::find_if(attributes.begin(), attributes.end(), [&](const auto& a) { return a.first == key; });
-    if (it == attributes.end()) return std::optional<std::string>();
-    if (common && *common != it->second) return std::optional<std::string>();
-    common = it->second;
+    for (const auto& key : keys) {
+      const auto it = std::find_if(attributes.begin(), attributes.end(), [&](const auto& a) { return a.first == key; });
+      if (it == attributes.end() || (f > 0 && common[key] != it->second)) differ[key] = true;
+      if (f == 0 && it != attributes.end()) common[key] = it->second;
+    }
+  }
+  for (const auto& key : keys) {
+    if (differ[key] || paths.empty()) common[key] = std::nullopt;
   }
   return common;
 }

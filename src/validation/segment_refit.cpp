@@ -51,12 +51,6 @@ std::string ratio(double a, double b) {
 
 int digitsOf(const std::string& unit) { return unit == "cm" ? 4 : 3; }
 
-// a − b, for a direction (ψ, τ) the nearest turn.
-double difference(const std::string& parameter, double a, double b) {
-  const double d = a - b;
-  return parameter == "psi" || parameter == "tau" ? d - 360.0 * std::round(d / 360.0) : d;
-}
-
 double rms(const std::vector<double>& v) {
   double ss = 0.0;
   int n = 0;
@@ -86,7 +80,7 @@ RefitPrecision precisionOf(const TrendSeries& series, std::int64_t first, std::i
     values.push_back(pt.value);
     errors.push_back(pt.error);
     if (truth != nullptr)
-      offTruth.push_back(difference(p.parameter, pt.value, truth->mean(p.parameter, pt.firstRun, pt.lastRun)));
+      offTruth.push_back(parameterDifference(p.parameter, pt.value, truth->mean(p.parameter, pt.firstRun, pt.lastRun)));
   }
   p.quotedBefore = median(errors);
   if (values.size() >= 2) {
@@ -281,7 +275,7 @@ Json refitJson(const SegmentRefit& r, std::size_t iovsBefore) {
                 {"scatter_before", io::numberOrNull(p.scatter)}};
       if (std::isfinite(p.truth)) {
         q["truth"] = p.truth;
-        q["refit_minus_truth"] = io::numberOrNull(difference(p.parameter, p.value, p.truth));
+        q["refit_minus_truth"] = io::numberOrNull(parameterDifference(p.parameter, p.value, p.truth));
         q["rms_before_minus_truth"] = io::numberOrNull(p.truthRmsBefore);
       }
       precision[p.parameter] = q;
@@ -340,7 +334,7 @@ std::string refitMarkdown(const SegmentRefit& r, std::size_t iovsBefore, const s
                          number(p.scatter, d));
       if (withTruth) {
         row += fmt::format(" {} → {} |", number(p.truthRmsBefore, d),
-                           number(difference(p.parameter, p.value, p.truth), d));
+                           number(parameterDifference(p.parameter, p.value, p.truth), d));
       }
       md += row + "\n";
     }

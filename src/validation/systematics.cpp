@@ -101,9 +101,8 @@ void widen(double& envelope, double effect) {
   if (!(envelope >= effect)) envelope = effect;
 }
 
-// ψ and τ, the directions of tilts drawn near zero: their error depends on the tilt, so they
-// have no systematic error of their own to carry or draw.
-bool isDirection(const std::string& name) { return name == "psi" || name == "tau"; }
+// ψ and τ (isDirection), the directions of tilts drawn near zero: their error depends on the
+// tilt, so they have no systematic error of their own to carry or draw.
 
 // The heat map of the study (report/systematics_plot.hpp).
 Status drawSystematics(const SystematicsTable& t, const std::string& dir) {

@@ -147,7 +147,7 @@ Result<std::vector<TrendSeries>> seriesOfTag(conddb::TagSnapshot& tag) {
       if ((n == "psi" && !significant("beta")) || (n == "tau" && !significant("mu"))) continue;
       auto& points = out[kNumParams + k].points;
       double value = *v;
-      if ((n == "psi" || n == "tau") && !points.empty()) {
+      if (isDirection(n) && !points.empty()) {
         // An angle: the turn nearest the previous point, so that ±180° is no step.
         value -= 360.0 * std::round((value - points.back().value) / 360.0);
       }

@@ -53,6 +53,9 @@ struct FitData {
   std::vector<ProfileBin> bins;  ///< of a saved profile (marked used)
   /// Warnings to show before the result: corrections used away from the sample's energy.
   std::vector<std::string> warnings;
+  /// The "truth_parameters" and "simulation" attributes common to every event file (a
+  /// simulated sample's), read once; none for data, a profile, or files that differ.
+  std::optional<std::string> truthAttribute, simulationAttribute;
 };
 
 /// The fit and its files.
@@ -63,10 +66,10 @@ struct FitOutcome {
 };
 
 /// A warning when corrections derived from samples simulated at one θ range are used on a
-/// sample simulated at another (their derived_from settings against the files' "simulation"
-/// attribute); empty when they agree or either is not known (data).
-Result<std::string> thetaRangeWarning(const std::vector<std::string>& events, const ModelCorrections& corrections,
-                                      const std::string& correctionsPath);
+/// sample simulated at another (their derived_from settings against the sample's
+/// "simulation" attribute); empty when they agree or either is not known (data).
+std::string thetaRangeWarning(const std::optional<std::string>& simulation, const ModelCorrections& corrections,
+                              const std::string& correctionsPath);
 
 class FitJob {
  public:
@@ -91,7 +94,7 @@ class FitJob {
   [[nodiscard]] std::vector<std::string> notes(const FitData& data, const FitOutcome& outcome) const;
   /// The fit against the truth its event files carry (simulated samples: every file with
   /// the same "truth_parameters"); none for data, a profile, or files of several truths.
-  Result<std::optional<std::vector<TruthRow>>> againstTruth(const FitOutcome& outcome) const;
+  Result<std::optional<std::vector<TruthRow>>> againstTruth(const FitData& data, const FitOutcome& outcome) const;
 
  private:
   FitRequest request_;

@@ -48,8 +48,9 @@ std::optional<std::string> rangeWarning(const FitResult& result);
 struct TruthRow {
   std::string name, unit;
   double fit = 0.0, error = 0.0, truth = 0.0;
-  [[nodiscard]] double difference() const { return fit - truth; }
-  /// (fit − truth)/error; NaN when the error is not known. ψ and τ are compared modulo 360°.
+  /// fit − truth; ψ and τ modulo 360° (the nearest turn).
+  [[nodiscard]] double difference() const { return parameterDifference(name, fit, truth); }
+  /// (fit − truth)/error; NaN when the error is not known.
   [[nodiscard]] double pull() const;
 };
 

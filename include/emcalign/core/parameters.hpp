@@ -3,6 +3,7 @@
 // of SPEC §3. Code indexes them through this enum, never through a bare number.
 
 #include <array>
+#include <cmath>
 #include <cstddef>
 #include <optional>
 #include <string_view>
@@ -95,6 +96,16 @@ inline constexpr std::array<Physical, kNumParams> kAllPhysical = {
 /// (SPEC §3), in the order files and tables list them.
 inline constexpr std::array<Physical, 5> kDerivedParams = {Physical::Beta, Physical::Psi, Physical::Mu, Physical::Tau,
                                                            Physical::DxRel};
+
+/// ψ and τ: directions, defined modulo 360° (and only where their magnitude β, μ is not 0).
+constexpr bool isDirection(Physical p) { return p == Physical::Psi || p == Physical::Tau; }
+/// The same by name ("psi", "tau"), for tables keyed by name.
+constexpr bool isDirection(std::string_view name) { return name == "psi" || name == "tau"; }
+/// a − b of a parameter in file units (deg, cm): for a direction, the nearest turn.
+inline double parameterDifference(std::string_view name, double a, double b) {
+  const double d = a - b;
+  return isDirection(name) ? d - 360.0 * std::round(d / 360.0) : d;
+}
 
 inline std::optional<Physical> physicalFromName(std::string_view n) {
   for (Physical p : kAllPhysical) {

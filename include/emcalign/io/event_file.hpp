@@ -65,11 +65,11 @@
 // during every call (and restored after); its reason is put into the returned message.
 
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <optional>
 #include <span>
 #include <string>
-#include <string_view>
 #include <vector>
 
 #include "emcalign/core/event_record.hpp"
@@ -90,8 +90,6 @@ enum class EventFormat { Csv, Hdf5 };
 /// hdf5-filter-plugin or pip's hdf5plugin to read it), or shuffle + deflate (every HDF5
 /// reader has it: for files sent to others; 10 % smaller, written 2× slower).
 enum class Compression { Lz4, Deflate };
-/// "lz4" or "deflate".
-Result<Compression> compressionFromName(std::string_view name);
 EventFormat formatOf(const std::string& path);
 
 struct WriterOptions {
@@ -145,9 +143,11 @@ struct ReaderOptions {
 /// before it is read (a corrections grid interpolates to it). Fails when there is no event.
 Result<double> firstBeamEnergy(const std::vector<std::string>& paths);
 
-/// The value of attribute `key` when every file has it, the same (a simulated sample's
-/// "truth_parameters"); none when a file lacks it or two differ (the runs of a period).
-Result<std::optional<std::string>> commonAttribute(const std::vector<std::string>& paths, const std::string& key);
+/// For each of `keys`, the value of that attribute when every file has it, the same (a
+/// simulated sample's "truth_parameters"); none when a file lacks it or two differ (the runs
+/// of a period). Each file is opened once.
+Result<std::map<std::string, std::optional<std::string>>> commonAttributes(const std::vector<std::string>& paths,
+                                                                           const std::vector<std::string>& keys);
 
 /// Streams rows from one or several files in order. `open` checks that every file exists
 /// (a missing last file is reported at once, not after reading the others) and opens the

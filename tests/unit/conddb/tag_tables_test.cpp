@@ -2,6 +2,8 @@
 
 #include "emcalign/conddb/tag_tables.hpp"
 
+#include "emcalign/conddb/calibrations.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -96,6 +98,19 @@ TEST_F(TagTables, ExportHasOneRowPerIovWithEveryParameterAndItsError) {
   EXPECT_NE(lines[3].find(",converged,308,308,512.5,auto,"), std::string::npos) << lines[3];
   EXPECT_NE(lines[4].find(",3.1,0.01,"), std::string::npos) << lines[4];
   EXPECT_FALSE(tagCsv(*db_, "nope"));
+}
+
+// SPEC §11: list --json keeps "state": "open"|"locked"; a retired tag adds "retired".
+TEST_F(TagTables, ARetiredTagIsListedOpenWithItsMark) {
+  ASSERT_TRUE(db_->retire("b", "the wrong runs"));
+  auto listed = listTags(*db_, "b");
+  ASSERT_TRUE(listed) << listed.error().message;
+  EXPECT_EQ(listed->front()["state"], "open");
+  EXPECT_NE(listed->front()["retired"].get<std::string>().find("the wrong runs"), std::string::npos);
+  auto a = listTags(*db_, "a");
+  ASSERT_TRUE(a);
+  EXPECT_FALSE(a->front().contains("retired"));
+  EXPECT_TRUE(diffTags(*db_, "a", "b"));  // a comparison reads a retired tag
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include "bindings.hpp"
 #include "emcalign/conddb/calibrations.hpp"
 #include "emcalign/conddb/conditions.hpp"
+#include "emcalign/conddb/tag_tables.hpp"
 
 namespace emcalign::python {
 
@@ -89,6 +90,16 @@ class Conditions {
 
   void lock(const std::string& tag) { check(db_->lock(tag)); }
 
+  void retire(const std::string& tag, const std::string& reason) { check(db_->retire(tag, reason)); }
+
+  // Two tags IOV by IOV, as conditions diff --json shows them.
+  py::object diff(const std::string& a, const std::string& b) {
+    return pythonOf(conddb::tagDiffJson(unwrap(conddb::diffTags(*db_, a, b))));
+  }
+
+  // A tag as the CSV text conditions export writes (pandas.read_csv(io.StringIO(text), comment="#")).
+  std::string exportCsv(const std::string& tag) { return unwrap(conddb::tagCsv(*db_, tag)); }
+
  private:
   std::unique_ptr<conddb::Database> db_;
 };
@@ -119,7 +130,15 @@ void bindConditions(py::module_& m) {
            py::arg("detector") = py::none(),
            "stores a fit result or parameter file for runs (first, last) or one run (the tag is created if new): "
            "{payload, new_tag, warnings}")
-      .def("lock", &Conditions::lock, py::arg("tag"), "locks a tag: its IOVs never change again");
+      .def("lock", &Conditions::lock, py::arg("tag"), "locks a tag: its IOVs never change again")
+      .def("retire", &Conditions::retire, py::arg("tag"), py::arg("reason") = "",
+           "retires an open tag made by mistake: kept and listed with its mark, never served again "
+           "(a locked tag is never retired)")
+      .def("diff", &Conditions::diff, py::arg("a"), py::arg("b"),
+           "two tags IOV by IOV, as conditions diff --json: {tag_a, tag_b, pairs: [{first_run, last_run, "
+           "parameters: {name: {a, error_a, b, error_b, difference, z, unit}}, ...}], only_a, only_b}")
+      .def("export", &Conditions::exportCsv, py::arg("tag"),
+           "a tag as CSV text, one row per IOV, as conditions export writes it");
 }
 
 }  // namespace emcalign::python

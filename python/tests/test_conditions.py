@@ -62,3 +62,28 @@ def test_refusals_are_the_cli_messages(tmp_path, database):
         db.put("v", (5, 4), result)
     with pytest.raises(emcalign.Error):
         emcalign.Conditions(f"sqlite:{tmp_path / 'missing.sqlite'}")
+
+
+def test_diff_export_and_retire_are_the_cli_ones(tmp_path, database):
+    uri, db, result = database
+    db.put("u", (1, 20), result, description="one IOV of the fit")
+    assert db.diff("t", "u") == json.loads(cli("conditions", "diff", uri, "--tag", "t", "--tag", "u", "--json"))
+    pairs = db.diff("t", "u")["pairs"]
+    assert [(p["first_run"], p["last_run"]) for p in pairs] == [(1, 10), (11, 20)]
+    assert pairs[1]["same_payload"] and pairs[1]["parameters"]["dx"]["difference"] == 0.0
+    exported = tmp_path / "t.csv"
+    cli("conditions", "export", uri, "--tag", "t", "-o", exported)
+    assert db.export("t") == exported.read_text()
+    rows = [line for line in db.export("t").splitlines() if not line.startswith("#")]
+    assert len(rows) == 3 and rows[0].startswith("first_run,last_run,")  # a header and one row per IOV
+    db.retire("u", "stored by mistake")
+    listed = db.tag("u")
+    assert listed["state"] == "open" and "stored by mistake" in listed["retired"]
+    with pytest.raises(emcalign.Error, match="retired") as ours:
+        db.get("u", 3)
+    assert str(ours.value) == cli_error("conditions", "get", uri, "--tag", "u", "--run", 3, "-o", tmp_path / "x.json")
+    assert db.diff("t", "u")["pairs"]  # a retired tag can still be compared
+    db.lock("t")
+    with pytest.raises(emcalign.Error) as ours:
+        db.retire("t")
+    assert str(ours.value) == cli_error("conditions", "retire", uri, "--tag", "t")

@@ -52,3 +52,57 @@ def test_a_period_is_corrected_one_file_per_run(tmp_path):
         before, after = emcalign.read_events(run), emcalign.read_events(str(corrected))
         assert (before["event"] == after["event"]).all() and (before["run"] == after["run"]).all()
         assert (before["phi_emc_rad"] != after["phi_emc_rad"]).any()
+
+
+# The figure of the paper each number names (README, "The paper's figures"), and words one
+# of them stands near wherever the tree cites it.
+FIGURES = {
+    5: ("profile", "ȳ", "y_phi", "y_theta", "fitted model"),
+    6: ("simulation", "mc", "data against"),
+    7: ("trend", "time evolution", "against run", "run"),
+    8: ("before and after", "before/after", "correct", "residual"),
+    9: ("γγ", "gg", "acollinearity"),
+    10: ("3π", "3pi", "π+π−π0", "kinematic"),
+}
+
+
+def test_one_numbering_of_the_papers_figures():
+    """Every 'Fig. N' in the README, the docs, the sources and the scripts names the figure the README's table gives."""
+    import re
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    table = dict(re.findall(r"^\| Fig\. (\d+) \| ([^|]+) \|", (root / "README.md").read_text(), re.M))
+    assert sorted(map(int, table)) == sorted(FIGURES)
+    files = [root / "README.md", *(root / "docs").glob("*.md"), *(root / "scripts").iterdir()]
+    for sub in ("src", "include", "apps", "python"):
+        files += [p for p in (root / sub).rglob("*") if p.suffix in (".cpp", ".hpp", ".py", ".gp")]
+    wrong = []
+    for path in files:
+        if not path.is_file():
+            continue
+        text = path.read_text(errors="replace")
+        for m in re.finditer(r"\b[Ff]ig(?:ure|\.) (\d+)\b", text):
+            n = int(m.group(1))
+            near = text[max(0, m.start() - 300):m.end() + 200].lower()
+            if n not in FIGURES or not any(word in near for word in FIGURES[n]):
+                wrong.append(f"{path.relative_to(root)}: {text[m.start():m.end() + 40]!r}")
+    assert not wrong, "\n".join(wrong)
+
+
+def test_user_facing_text_cites_the_docs_not_spec():
+    """SPEC.md lives outside the repository: strings a user reads cite docs/ or the paper."""
+    import re
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    allowed = {'"SND-like default (SPEC §2)"'}  # the embedded detector's name, part of its digest
+    cited = []
+    for sub in ("src", "apps", "python/src"):
+        for path in (root / sub).rglob("*.[ch]pp"):
+            for n, line in enumerate(path.read_text().splitlines(), 1):
+                code = line.split("//")[0] if not line.lstrip().startswith('"') else line
+                for literal in re.findall(r'"(?:[^"\\]|\\.)*"', code):
+                    if "SPEC" in literal and literal not in allowed:
+                        cited.append(f"{path.relative_to(root)}:{n}: {literal}")
+    assert not cited, "\n".join(cited)

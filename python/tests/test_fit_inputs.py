@@ -95,5 +95,9 @@ def test_fit_notes_and_the_truth_are_the_cli_report(tmp_path, fit_sample):
     report = cli("fit", fit_sample, "-o", tmp_path / "r.json")
     row = next(line for line in report.splitlines() if line.startswith("dx ") and "%.5f" % true in line)
     assert "%+.2f" % pull in row
+    # the result keeps the notes the CLI printed (the report shows them)
+    printed = [line[len("note: "):] for line in report.splitlines() if line.startswith("note: ")]
+    assert printed and json.loads((tmp_path / "r.json").read_text())["notes"] == printed
+    assert json.loads(r.json)["notes"] == printed
     corrected = emcalign.fit(str(fit_sample), corrections=CORRECTIONS)
     assert not any("without corrections" in n for n in corrected.notes)

@@ -179,6 +179,10 @@ Result<FitOutcome> FitJob::fit(const FitData& data) const {
     if (!data.fill) input.partingPlane = input.nominalProfile = request_.profileIn + " (written with " + path + ")";
   }
   out.resultJson = fitResultJson(out.result, input);
+  // What a physicist must know of this fit travels with it (the report shows it).
+  std::vector<std::string> said = notes(data, out);
+  if (auto w = rangeWarning(out.result)) said.push_back(*w);
+  out.resultJson["notes"] = said;
   return out;
 }
 

@@ -307,7 +307,7 @@ Result<AlignmentFile> parseAlignmentFile(const json& j, double r1, std::string_v
     // The parameter keys, plus what a fit result adds (SPEC §3), read elsewhere.
     top.allowOnly({"format", "units", "parameters", "physical", "errors", "systematic_errors", "covariance", "derived",
                    "chi2", "ndf", "p_value", "stages", "status", "warnings", "input", "software", "correlation",
-                   "sigma_sys"});
+                   "sigma_sys", "notes"});
     if (top.has("format") && top.string("format") != kAlignmentFormat) {
       top.fail("format", fmt::format("expected \"{}\"", kAlignmentFormat));
     }

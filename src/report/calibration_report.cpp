@@ -93,6 +93,13 @@ Result<std::string> fitSection(const ReportFit& f) {
     for (const auto& w : warnings) items.push_back(w.get<std::string>());
     body += "<h3>Warnings</h3>\n" + html::list(items, "warn");
   }
+  // The model the fit used and what it is known to do (docs/fit.md, "Notes"); results written
+  // by older versions carry none.
+  if (r.contains("notes") && r.at("notes").is_array() && !r.at("notes").empty()) {
+    std::vector<std::string> items;
+    for (const auto& n : r.at("notes")) items.push_back(plain(n));
+    body += "<h3>Notes: the model and what it is known to do</h3>\n" + html::list(items, "");
+  }
 
   // The systematic errors of the model corrections (docs/systematics.md), when they carry them.
   const Json* systematic =

@@ -290,6 +290,19 @@ TEST_F(CampaignCli, TrendFindsTheStepAndRefitsTheStablePeriods) {
     EXPECT_GT(fs::file_size(dir_ / "tr" / f), 1000u) << f;
   }
   EXPECT_THAT(emcalign::testing::slurp(path("tr/trend.md")), HasSubstr("## Refit"));
+  // The logbook's boundaries: at run 9 the step is found as a known one; at run 17 nothing
+  // changed, and the trend says so rather than keeping quiet.
+  r = run(fmt::format("trend --conditions {} --tag t -o {} --boundaries 9,17", uri, path("known")));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_THAT(r.out + r.err, HasSubstr("known boundary at run 17: nothing changed"));
+  const json known = json::parse(emcalign::testing::slurp(path("known/trend.json")));
+  EXPECT_EQ(known["method"]["known_boundaries"], json::array({9, 17}));
+  ASSERT_EQ(known["known_boundaries"].size(), 2u) << known["known_boundaries"].dump();
+  EXPECT_EQ(known["known_boundaries"][0]["changed"], json::array({"dx"})) << known["known_boundaries"].dump();
+  EXPECT_TRUE(known["known_boundaries"][1]["changed"].empty()) << known["known_boundaries"].dump();
+  ASSERT_EQ(known["steps"].size(), 1u) << known["steps"].dump();
+  EXPECT_TRUE(known["steps"][0]["known_boundary"].get<bool>());
+  EXPECT_NEAR(known["steps"][0]["size"].get<double>(), 0.5, 5.0 * known["steps"][0]["error"].get<double>());
   // The refit: one IOV per stable period (and the IOV straddling the step kept), tiling 1-24.
   const json seg = list(uri, "t.seg");
   ASSERT_LT(seg["iovs"].size(), 11u);

@@ -139,6 +139,25 @@ TEST(CalibrationReport, SystematicErrorsGetTheirOwnColumn) {
   EXPECT_EQ(plain->find("systematic"), std::string::npos);
 }
 
+// The fit's notes (the model it used and what it is known to do) stand under its status;
+// a result of an older version, without notes, gets no empty heading.
+TEST(CalibrationReport, TheFitsNotesSayWhichModelItUsed) {
+  Json r = fitResult();
+  r["notes"] = {"the paper's model <without corrections>: dp1-dp3 about 0.15 cm low"};
+  ReportInputs in;
+  in.fit = ReportFit{.path = "r.json", .result = r};
+  auto page = calibrationReport(in);
+  ASSERT_TRUE(page.ok()) << page.error().message;
+  EXPECT_NE(page->find("<h3>Notes: the model and what it is known to do</h3>"), std::string::npos);
+  EXPECT_NE(page->find("<li>the paper&#39;s model &lt;without corrections&gt;: dp1-dp3 about 0.15 cm low</li>"),
+            std::string::npos)
+      << *page;
+  in.fit->result.erase("notes");
+  auto older = calibrationReport(in);
+  ASSERT_TRUE(older.ok()) << older.error().message;
+  EXPECT_EQ(older->find("Notes:"), std::string::npos);
+}
+
 TEST(CalibrationReport, NullsAndMarkupInTheInputsStayText) {
   Json r = fitResult();
   r["chi2"] = nullptr;  // a failed fit

@@ -138,9 +138,9 @@ int run(const ValidateOptions& cli) {
   fmt::print(reportStream(), "{:<10} {:>4} {:>11} {:>9} {:>10} {:>9} {:>15} {:>18}\n", "parameter", "unit", "bias", "±",
              "spread", "pull mean", "pull width", "slope");
   for (const auto& r : table->rows) {
-    fmt::print(reportStream(),
-               "{:<10} {:>4} {:>11.4g} {:>9.2g} {:>10.4g} {:>9.3f} {:>7.3f} ± {:.3f} {:>+9.4f} ± {:.4f}\n", r.name,
-               r.unit, r.bias, r.biasError, r.spread, r.pullMean, r.pullWidth, r.pullWidthError, r.slope, r.slopeError);
+    fmt::print(reportStream(), "{:<10} {:>4} {:>11.4g} {:>9.2g} {:>10.4g} {:>9.3f} {:>7.3f} ± {:.3f} {:>18}\n", r.name,
+               r.unit, r.bias, r.biasError, r.spread, r.pullMean, r.pullWidth, r.pullWidthError,
+               validation::slopeText(r));
   }
   fmt::print(reportStream(), "sigma_sys of the fits: median {:.4f} deg ({:.4f} to {:.4f})\n", table->sigmaSysMedian,
              table->sigmaSysMin, table->sigmaSysMax);

@@ -170,13 +170,13 @@ std::string samplesFile(const std::vector<Quantity>& qs) {
                  "# file units. fit - truth is the shortest angular difference for angles that wrap;\n"
                  "# pull = (fit - truth)/error, NaN without a finite positive error.\n");
   for (std::size_t k = 0; k < qs.size(); ++k)
-    fmt::format_to(put, "#   index {}: {} [{}]{}\n", k, plainText(qs[k].series->name), plainText(qs[k].series->unit),
-                   qs[k].series->angleWraps ? " (wraps at 360 deg)" : "");
+    fmt::format_to(put, "#   index {}: {} [{}]{}\n", k, commentText(qs[k].series->name),
+                   commentText(qs[k].series->unit), qs[k].series->angleWraps ? " (wraps at 360 deg)" : "");
   fmt::format_to(put, "# columns: 1 truth  2 fit  3 error  4 fit-truth  5 pull\n");
   for (std::size_t k = 0; k < qs.size(); ++k) {
     const Quantity& q = qs[k];
     const CampaignSeries& s = *q.series;
-    fmt::format_to(put, "{}# index {}: {}\n", k > 0 ? "\n\n" : "", k, plainText(s.name));
+    fmt::format_to(put, "{}# index {}: {}\n", k > 0 ? "\n\n" : "", k, commentText(s.name));
     for (std::size_t i = 0; i < s.truth.size(); ++i)
       fmt::format_to(put, "{} {} {} {} {}\n", dataNumber(s.truth[i]), dataNumber(s.fit[i]), dataNumber(s.error[i]),
                      dataNumber(q.diff[i]), dataNumber(q.pull[i]));
@@ -194,7 +194,7 @@ std::string pullsFile(const std::vector<Quantity>& qs) {
   for (std::size_t k = 0; k < qs.size(); ++k) {
     const Histogram& h = qs[k].pulls;
     fmt::format_to(std::back_inserter(out), "{}# index {}: {}\n", k > 0 ? "\n\n" : "", k,
-                   plainText(qs[k].series->name));
+                   commentText(qs[k].series->name));
     for (int i = 0; i < static_cast<int>(h.counts.size()); ++i)
       fmt::format_to(std::back_inserter(out), "{:.6g} {:.6g}\n", h.binCenter(i), h.counts[static_cast<std::size_t>(i)]);
   }
@@ -249,7 +249,7 @@ std::string pullsScript(const std::string& name, const std::vector<Quantity>& qs
       -kPullLimit, kPullLimit, std::max(1.0, std::ceil(1.2 * yMax)));
   for (int k = 0; k < n; ++k) {
     const Quantity& q = qs[static_cast<std::size_t>(k)];
-    s += fmt::format("\n# ---- {} (index {} of the pulls)\n", plainText(q.series->name), k);
+    s += fmt::format("\n# ---- {} (index {} of the pulls)\n", commentText(q.series->name), k);
     s += g.panel(k, "(fit − truth)/σ_{fit}", fmt::format("samples / {:.2g}", q.pulls.binWidth()));
     std::string title;
     if (q.pullStats.n == 0) {
@@ -285,9 +285,9 @@ std::string residualsVsTruthScript(const std::string& name, const std::vector<Qu
   s += "set format x '%g'; set mxtics 2\n";
   for (int k = 0; k < n; ++k) {
     const Quantity& q = qs[static_cast<std::size_t>(k)];
-    const std::string unit = plainText(q.series->unit);
+    const std::string unit = literalText(q.series->unit);
     const Range x = axisRange(q.truth), y = axisRange(q.residual);
-    s += fmt::format("\n# ---- {} (index {} of the samples)\n", plainText(q.series->name), k);
+    s += fmt::format("\n# ---- {} (index {} of the samples)\n", commentText(q.series->name), k);
     s += g.panel(k, fmt::format("truth  [{}]", unit), fmt::format("fit − truth  [{}]", unit));
     // Angles that wrap span up to 360°: tics at multiples of 45° or 90°.
     const double span = x.hi - x.lo;

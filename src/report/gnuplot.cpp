@@ -27,11 +27,27 @@ namespace emcalign::report::detail {
 
 namespace fs = std::filesystem;
 
-// Keeps text that is safe inside a double-quoted gnuplot string in enhanced mode.
-std::string plainText(const std::string& s) {
+std::string commentText(const std::string& s) {
+  std::string out;
+  for (char c : s) out += static_cast<unsigned char>(c) < 0x20 || c == '\x7f' ? ' ' : c;
+  return out;
+}
+
+std::string literalText(const std::string& s) {
   std::string out;
   for (char c : s) {
-    if (std::isalnum(static_cast<unsigned char>(c)) || c == ' ' || c == '.' || c == ',' || c == '-') out += c;
+    if (static_cast<unsigned char>(c) < 0x20 || c == '\x7f') {
+      out += ' ';
+    } else if (c == '"') {
+      out += "\\\"";
+    } else if (c == '\\') {
+      out += "\\\\\\\\";  // a backslash for enhanced text, each doubled for the string
+    } else if (std::string_view("_^@&~{}").find(c) != std::string_view::npos) {
+      out += "\\\\";  // enhanced text's escape, doubled for the double-quoted string
+      out += c;
+    } else {
+      out += c;
+    }
   }
   return out;
 }

@@ -13,8 +13,12 @@ namespace emcalign::report::detail {
 
 inline constexpr const char* kInstallHint = "install it with `apt-get install gnuplot-nox` (scripts/install-deps does)";
 
-/// Keeps text that is safe inside a double-quoted gnuplot string in enhanced mode.
-std::string plainText(const std::string& s);
+/// Text a user gave (a sample's name, a tag, a file), shown literally inside a double-quoted
+/// gnuplot string in enhanced mode: `mc_nominal` stays mc_nominal, never mc with a
+/// subscript n; quotes and backslashes stay themselves; control characters become spaces.
+std::string literalText(const std::string& s);
+/// Text for a `#` comment line of a script or data file: control characters become spaces.
+std::string commentText(const std::string& s);
 /// Enhanced-text label of a quantity: a leading Greek letter's name becomes the letter, and
 /// trailing digits and a "_suffix" a subscript ("beta1" → β_{1}, "dx_rel" → dx_{rel}).
 std::string quantityLabel(const std::string& name);

@@ -34,7 +34,7 @@ std::string histogramsData(const std::vector<LabelledSummary>& samples) {
       nPhi += s.dPhiCounts[static_cast<std::size_t>(i)];
       nTheta += s.dThetaCounts[static_cast<std::size_t>(i)];
     }
-    fmt::format_to(std::back_inserter(out), "{}# {}\n", k > 0 ? "\n\n" : "", plainText(samples[k].label));
+    fmt::format_to(std::back_inserter(out), "{}# {}\n", k > 0 ? "\n\n" : "", commentText(samples[k].label));
     for (int i = 0; i < S::kBins; ++i) {
       const auto b = static_cast<std::size_t>(i);
       fmt::format_to(std::back_inserter(out), "{:.6g} {:.6g} {:.6g}\n", -S::kRangeDeg + (i + 0.5) * width,
@@ -50,7 +50,7 @@ std::string columnsData(const std::vector<LabelledSummary>& samples) {
   fmt::format_to(std::back_inserter(out),
                  "# emcalign residuals: mean sin(dphi)*180/pi per phi column. columns: 1 phi centre (deg)");
   for (std::size_t k = 0; k < samples.size(); ++k) {
-    fmt::format_to(std::back_inserter(out), "  {} {}", k + 2, plainText(samples[k].label));
+    fmt::format_to(std::back_inserter(out), "  {} {}", k + 2, commentText(samples[k].label));
   }
   fmt::format_to(std::back_inserter(out), "\n");
   for (int c = 0; c < S::kColumns; ++c) {
@@ -86,7 +86,7 @@ std::string residualsScript(const std::vector<LabelledSummary>& samples) {
       items += fmt::format(
           "{}data index {} using 1:{} with histeps lw 2 lc rgb '{}' title \"{}: mean {:+.3f}°, rms "
           "{:.3f}°\"",
-          k > 0 ? ", \\\n     " : "plot ", k, p.column, colour(k), plainText(samples[k].label), mean, rms);
+          k > 0 ? ", \\\n     " : "plot ", k, p.column, colour(k), literalText(samples[k].label), mean, rms);
     }
     s += items + "\n";
   }
@@ -105,7 +105,7 @@ std::string columnsScript(const std::vector<LabelledSummary>& samples) {
   std::string items;
   for (std::size_t k = 0; k < samples.size(); ++k) {
     items += fmt::format("{}data using 1:{} with linespoints pt 7 ps 0.8 lw 1.5 lc rgb '{}' title \"{} ({:.3f}°)\"",
-                         k > 0 ? ", \\\n     " : "plot ", k + 2, colour(k), plainText(samples[k].label),
+                         k > 0 ? ", \\\n     " : "plot ", k + 2, colour(k), literalText(samples[k].label),
                          samples[k].summary.irregularityDeg);
   }
   return s + items + "\n";

@@ -26,7 +26,7 @@ std::string axisName(const std::string& p) {
   for (const auto& [k, v] : names) {
     if (p == k) return v;
   }
-  return plainText(p);
+  return literalText(p);
 }
 
 std::string dataOf(const TrendFigure& f) {
@@ -34,7 +34,7 @@ std::string dataOf(const TrendFigure& f) {
   fmt::format_to(std::back_inserter(out),
                  "# emcalign trend of {} ({}): index 0 the IOVs (columns: middle run, value, error, first run, last "
                  "run), index 1 the segments' lines, index 2 the truth\n",
-                 plainText(f.parameter), f.unit);
+                 commentText(f.parameter), f.unit);
   for (const auto& p : f.points) {
     fmt::format_to(std::back_inserter(out), "{:.1f} {:.8g} {:.6g} {:.0f} {:.0f}\n", p.x, p.y, p.error, p.firstRun,
                    p.lastRun);
@@ -119,7 +119,7 @@ Result<std::vector<std::string>> writeTrendPlots(const std::string& dir, const s
   for (const auto& f : figures) {
     if (Status s = writeFile(out, fmt::format("trend_{}.dat", f.parameter), dataOf(f)); !s) return s.error();
     std::string s = terminalHeader("trend_" + f.parameter, 1400, 560) + common();
-    s += fmt::format("set title \"{}: {} against run ({} IOVs, {} steps)\" font ',13'\n", plainText(title),
+    s += fmt::format("set title \"{}: {} against run ({} IOVs, {} steps)\" font ',13'\n", literalText(title),
                      axisName(f.parameter), f.points.size(), f.steps.size());
     s += panel(f, true, 12);
     scripts.push_back({"trend_" + f.parameter, s});
@@ -135,7 +135,7 @@ Result<std::vector<std::string>> writeTrendPlots(const std::string& dir, const s
     s += fmt::format(
         "set multiplot layout 2,2 title \"{}: the time evolution of α, dx, μ, ψ (the paper's Fig. 7)\" "
         "font ',14'\n",
-        plainText(title));
+        literalText(title));
     for (std::size_t k = 0; k < four.size(); ++k) s += panel(*four[k], k == 0, 11);
     s += "unset multiplot\n";
     scripts.push_back({"fig7", s});
@@ -147,7 +147,7 @@ Result<std::vector<std::string>> writeTrendPlots(const std::string& dir, const s
     std::string s = terminalHeader("trend_all", 1400, 330 * rows) + common();
     s += "set xlabel ''\nset format x '%.0f'\nset tics font ',10'\n";
     s += fmt::format("set multiplot layout {},{} title \"{}: every parameter against run\" font ',15'\n", rows, columns,
-                     plainText(title));
+                     literalText(title));
     for (std::size_t k = 0; k < figures.size(); ++k) s += panel(figures[k], false, 10);
     s += "unset multiplot\n";
     scripts.push_back({"trend_all", s});

@@ -12,6 +12,7 @@
 #include "emcalign/calib/calibration.hpp"
 #include "emcalign/calib/fit_notes.hpp"
 #include "emcalign/core/paper.hpp"
+#include "emcalign/core/parameters.hpp"
 #include "emcalign/core/statistics.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/report/campaign_plots.hpp"
@@ -463,6 +464,11 @@ Json tableJson(const Table& t) {
               {"mean_correlation", {{"order", kParamNames}, {"matrix", corr}}}};
 }
 
+std::string slopeText(const TableRow& r) {
+  if (std::isfinite(r.slope)) return fmt::format("{:+.4f} ± {:.4f}", r.slope, r.slopeError);
+  return isDirection(r.name) ? "— (a direction)" : "— (the truth does not vary)";
+}
+
 std::string tableMarkdown(const Table& t) {
   std::string md = fmt::format(
       "# Validation: {} samples × {} events\n\n"
@@ -481,8 +487,7 @@ std::string tableMarkdown(const Table& t) {
       pb = fmt::format("{:.3g}", p->bias);
       ps = fmt::format("{:.3g}", p->spread);
     }
-    const std::string slope =
-        std::isfinite(r.slope) ? fmt::format("{:+.4f} ± {:.4f}", r.slope, r.slopeError) : std::string("—");
+    const std::string slope = slopeText(r);
     md += fmt::format("| {} | {} | {:.4g} | {:.2g} | {:.4g} | {:.3f} | {:.3f} ± {:.3f} | {} | {} | {} |\n", r.name,
                       r.unit, r.bias, r.biasError, r.spread, r.pullMean, r.pullWidth, r.pullWidthError, slope, pb, ps);
   }

@@ -116,5 +116,8 @@ Table tabulate(const std::vector<SampleResult>& samples, std::int64_t events, do
 io::Json tableJson(const Table& table);
 /// Markdown with the paper's Table 1 numbers in adjacent columns.
 std::string tableMarkdown(const Table& table);
+/// A row's slope as a table shows it: "+0.0123 ± 0.0045", "— (a direction)" for ψ and τ
+/// (a direction has no scale), "— (the truth does not vary)" otherwise without one.
+std::string slopeText(const TableRow& row);
 
 }  // namespace emcalign::validation

@@ -5,6 +5,7 @@
 #include "emcalign/report/campaign_plots.hpp"
 #include "emcalign/report/fit_plots.hpp"
 #include "emcalign/report/histogram.hpp"
+#include "emcalign/report/residual_plots.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -191,6 +192,24 @@ TEST_F(PlotTest, WritesFourPngFiguresWithTheirDataAndScripts) {
   for (const char* data :
        {"profile_bins.dat", "profile_model_vs_phi.dat", "profile_model_vs_theta.dat", "residuals_before_after.dat"})
     EXPECT_TRUE(fs::exists(dir_ / "plots" / data)) << data;
+}
+
+// A sample's name is the user's text: mc_nominal is drawn as mc_nominal (not mc with a
+// subscript n), and quotes, backslashes and braces neither break the script nor vanish.
+TEST_F(PlotTest, UserTextIsDrawnLiterally) {
+  apply::ResidualSummary s;
+  s.particles = 100;
+  s.dPhiCounts.assign(apply::ResidualSummary::kBins, 1.0);
+  s.dThetaCounts.assign(apply::ResidualSummary::kBins, 1.0);
+  s.columnMeanDeg.fill(0.5);
+  s.columnEntries.fill(6);
+  auto r = writeResidualPlots(dir_.string(), {{"mc_nominal", s}, {"run^2 \"@data\" {x}\\", s}});
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  std::ifstream in(dir_ / "residuals.gp");
+  const std::string script((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(script.find("title \"mc\\\\_nominal: mean"), std::string::npos) << script;
+  EXPECT_NE(script.find("title \"run\\\\^2 \\\"\\\\@data\\\" \\\\{x\\\\}\\\\\\\\: mean"), std::string::npos) << script;
+  EXPECT_GT(fs::file_size(dir_ / "residuals.png"), 10000u);
 }
 
 TEST_F(PlotTest, WithoutResidualsDrawsTheThreeProfileFigures) {

@@ -12,11 +12,14 @@
 //   conditions export URI --tag T -o T.csv
 #include <charconv>
 #include <cmath>
+#include <filesystem>
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "common.hpp"
 #include "emcalign/conddb/calibrations.hpp"
@@ -29,6 +32,7 @@ namespace emcalign::app {
 namespace {
 
 using io::Json;
+namespace fs = std::filesystem;
 
 struct ConditionsOptions {
   std::string uri, target, tag, as, runs, result, description, output, reason;
@@ -118,6 +122,21 @@ int runDiff(const ConditionsOptions& o) {
   const auto& names = conddb::storedNames();
   fmt::print("{}: tag {} against tag {}, (a - b) / sqrt(error_a^2 + error_b^2) of each parameter\n", (*db)->uri(),
              d->tagA, d->tagB);
+  // The models the two tags were fitted with: differences that are the models', not the detector's.
+  std::set<std::string> modelsA, modelsB;
+  for (const auto& p : d->pairs) {
+    modelsA.insert(p.modelA.empty() ? "not said" : p.modelA);
+    modelsB.insert(p.modelB.empty() ? "not said" : p.modelB);
+  }
+  if (!d->pairs.empty()) {
+    fmt::print("models: tag {}: {}; tag {}: {}\n", d->tagA, printable(fmt::format("{}", fmt::join(modelsA, " | "))),
+               d->tagB, printable(fmt::format("{}", fmt::join(modelsB, " | "))));
+    if (modelsA != modelsB) {
+      fmt::print(
+          "  the models differ: differences common to every IOV (the gaps dp1-dp3, dx_rel, the shifts' scale) are "
+          "the models' (docs/validation.md), not the detector's\n");
+    }
+  }
   fmt::print("{:>17}", "runs");
   for (const auto& n : names) fmt::print(" {:>8}", n);
   fmt::print("\n");
@@ -162,6 +181,21 @@ int runExport(const ConditionsOptions& o) {
 // (the JSON keeps SPEC §11's "open"|"locked" and adds "retired").
 std::string stateOf(const Json& t) { return t.contains("retired") ? "retired" : t["state"].get<std::string>(); }
 
+// The model of a tag's IOVs (Payload::model): "paper's model", the corrections' file name,
+// "mixed" when they differ, "-" when the payloads do not say; `brief` for a column.
+std::string modelSummary(const Json& iovs, bool brief = true) {
+  std::set<std::string> models;
+  for (const Json& i : iovs) models.insert(i.value("model", std::string()));
+  if (models.empty() || (models.size() == 1 && models.begin()->empty())) return "-";
+  if (models.size() > 1) {
+    return brief ? std::string("mixed") : printable(fmt::format("mixed: {}", fmt::join(models, " | ")));
+  }
+  const std::string& m = *models.begin();
+  if (!brief) return printable(m);
+  if (m.rfind("corrections ", 0) == 0) return printable(fs::path(m.substr(12)).filename().string());
+  return m.rfind("the paper's model", 0) == 0 ? "paper's model" : printable(m);
+}
+
 int runList(const ConditionsOptions& o) {
   auto db = conddb::Database::open(o.uri);
   if (!db) return reportError(db.error());
@@ -174,14 +208,14 @@ int runList(const ConditionsOptions& o) {
     return kExitOk;
   }
   if (o.tag.empty()) {
-    fmt::print("{:<24} {:<7} {:>6} {:>17}  {}\n", "tag", "state", "IOVs", "runs", "description");
+    fmt::print("{:<24} {:<7} {:>6} {:>17}  {:<28} {}\n", "tag", "state", "IOVs", "runs", "model", "description");
     for (const Json& t : listed) {
       const Json& iovs = t["iovs"];
       const std::string runs = iovs.empty() ? "-"
                                             : fmt::format("{}-{}", iovs.front()["first_run"].get<std::int64_t>(),
                                                           iovs.back()["last_run"].get<std::int64_t>());
-      fmt::print("{:<24} {:<7} {:>6} {:>17}  {}\n", t["tag"].get<std::string>(), stateOf(t), iovs.size(), runs,
-                 t["description"].get<std::string>());
+      fmt::print("{:<24} {:<7} {:>6} {:>17}  {:<28} {}\n", t["tag"].get<std::string>(), stateOf(t), iovs.size(), runs,
+                 modelSummary(iovs), t["description"].get<std::string>());
     }
     return kExitOk;
   }
@@ -189,6 +223,7 @@ int runList(const ConditionsOptions& o) {
   fmt::print("tag {} ({}), created {}{}\n", o.tag, stateOf(t), t["created"].get<std::string>(),
              t["description"].get<std::string>().empty() ? "" : ": " + t["description"].get<std::string>());
   if (t.contains("retired")) fmt::print("retired {}\n", t["retired"].get<std::string>());
+  fmt::print("model: {}\n", modelSummary(t["iovs"], false));
   fmt::print("{:>10} {:>10} {:>9} {:>12} {:>12} {:<12} {:<12} {}\n", "first_run", "last_run", "events", "chi2/ndf",
              "stat. only", "status", "payload", "inserted");
   for (const Json& i : t["iovs"]) {

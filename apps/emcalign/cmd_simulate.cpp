@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "common.hpp"
+#include "emcalign/calib/fit_notes.hpp"
 #include "emcalign/conddb/calibrations.hpp"
 #include "emcalign/core/sha256.hpp"
 #include "emcalign/core/units.hpp"
@@ -156,6 +157,7 @@ int run(const SimulateOptions& cli) {
     truthParameters = truthFile->parameters;
   }
   const geometry::AlignmentParameters* truth = &truthParameters;
+  if (auto w = calib::truthRangeWarning(truthParameters, calo->description().r1())) reportWarning(*w);
 
   sim::SimulationOptions o;
   if (Status st = realism(cli, o); !st) return reportError(st.error());

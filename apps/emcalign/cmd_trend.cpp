@@ -40,38 +40,6 @@ struct TrendCliOptions {
   int minSegment = static_cast<int>(validation::TrendOptions{}.minSegment);
 };
 
-std::vector<report::TrendFigure> figuresOf(const validation::Trend& t,
-                                           const std::vector<validation::TrendSeries>& series,
-                                           const validation::PeriodTruth* truth) {
-  std::vector<report::TrendFigure> figures;
-  for (std::size_t k = 0; k < series.size(); ++k) {
-    const auto& s = series[k];
-    if (s.points.empty()) continue;
-    report::TrendFigure f;
-    f.parameter = s.parameter;
-    f.unit = s.unit;
-    for (const auto& p : s.points) {
-      f.points.push_back({p.x(), p.value, p.error, static_cast<double>(p.firstRun), static_cast<double>(p.lastRun)});
-    }
-    for (const auto& seg : t.series[k].segments) {
-      const double x0 = static_cast<double>(s.points[seg.begin].firstRun);
-      const double x1 = static_cast<double>(s.points[seg.end - 1].lastRun);
-      f.segments.push_back({x0, seg.model().value(x0), x1, seg.model().value(x1), seg.drift});
-    }
-    for (const auto& st : t.steps) {
-      if (st.parameter == s.parameter) f.steps.push_back(static_cast<double>(st.firstRunAfter));
-    }
-    for (const auto& b : t.boundaries) f.boundaries.push_back(static_cast<double>(b.run));
-    if (truth != nullptr) {
-      if (auto it = truth->byParameter.find(s.parameter); it != truth->byParameter.end()) {
-        for (const auto& [run, value] : it->second) f.truth.emplace_back(static_cast<double>(run), value);
-      }
-    }
-    figures.push_back(std::move(f));
-  }
-  return figures;
-}
-
 // --refit: the campaign's model (its corrections), the events scanned, one calibration per
 // stable period (validation/segment_refit.hpp), written as the new tag in one transaction.
 int refit(const TrendCliOptions& o, const validation::Trend& trend, const std::vector<validation::TrendSeries>& series,
@@ -186,7 +154,11 @@ int run(const TrendCliOptions& o) {
   Json out = validation::trendJson(trend, *series);
   out["conditions"] = (*db)->uri();
   out["tag"] = o.tag;
-  std::string md = validation::trendMarkdown(trend, *series, fmt::format("tag {} of {}", o.tag, (*db)->uri()));
+  auto models = validation::modelsOfTag(*snapshot);
+  if (!models) return reportError(models.error());
+  out["models"] = *models;
+  std::string md = validation::trendMarkdown(
+      trend, *series, {fmt::format("tag {} of {}", o.tag, (*db)->uri()), *models, truth ? &*truth : nullptr});
   if (!o.tagOut.empty()) {
     Json summary;
     if (int rc = refit(o, trend, *series, *snapshot, **db, *calo, truth ? &*truth : nullptr, summary, md);
@@ -200,16 +172,23 @@ int run(const TrendCliOptions& o) {
   if (ec) return reportError(Error{fmt::format("{}: cannot create the directory: {}", o.output, ec.message())});
   if (Status s = io::writeFileIn(o.output, "trend.json", out.dump(1) + "\n"); !s) return reportError(s.error());
   if (Status s = io::writeFileIn(o.output, "trend.md", md); !s) return reportError(s.error());
-  auto pngs = report::writeTrendPlots(o.output, figuresOf(trend, *series, truth ? &*truth : nullptr),
+  auto pngs = report::writeTrendPlots(o.output, validation::trendFigures(trend, *series, truth ? &*truth : nullptr),
                                       fmt::format("tag {}", o.tag));
   if (!pngs) return reportError(pngs.error());
 
-  const auto transitions = std::count_if(trend.segments.begin(), trend.segments.end(),
-                                         [](const validation::TrendSegment& s) { return s.transition; });
-  fmt::print(reportStream(), "trend of tag {}: {} IOVs, {} steps, {} drifts flagged, {} stable periods{}\n", o.tag,
-             trend.iovs, trend.steps.size(), trend.drifts.size(), trend.segments.size() - transitions,
-             transitions > 0 ? fmt::format(" and {} IOVs straddling a step", transitions) : std::string());
-  if (trend.steps.empty() || !trend.inconsistencies.empty()) {
+  const auto count = [&](auto keep) { return std::count_if(trend.segments.begin(), trend.segments.end(), keep); };
+  const auto transitions = count([](const validation::TrendSegment& s) { return s.transition; });
+  const auto stable = count([](const validation::TrendSegment& s) { return s.stable(); });
+  const auto plural = [](std::size_t n, const char* one, const char* many) {
+    return fmt::format("{} {}", n, n == 1 ? one : many);
+  };
+  fmt::print(
+      reportStream(), "trend of tag {}: {}, {}, {} flagged, {} of {} stable{}\n", o.tag,
+      plural(trend.iovs, "IOV", "IOVs"), plural(trend.steps.size(), "step", "steps"),
+      plural(trend.drifts.size(), "drift", "drifts"), stable, plural(trend.segments.size(), "period", "periods"),
+      transitions > 0 ? fmt::format(" ({} straddling a step)", plural(transitions, "IOV", "IOVs")) : std::string());
+  if (const std::string m = validation::modelsText(*models); !m.empty()) fmt::print(reportStream(), "  {}\n", m);
+  if (trend.steps.empty() || !trend.inconsistencies.empty() || !trend.edges.empty()) {
     fmt::print(reportStream(), "  {}\n", validation::trendVerdict(trend));
   }
   for (const auto& s : trend.steps) {
@@ -217,6 +196,11 @@ int run(const TrendCliOptions& o) {
                s.firstRunAfter, s.size, s.error, s.unit, s.z(),
                s.withinIov ? fmt::format(", inside IOV {}-{}", s.withinIov->first, s.withinIov->second) : std::string(),
                s.known ? ", a known boundary" : "");
+  }
+  for (const auto& e : trend.edges) {
+    fmt::print(reportStream(),
+               "  edge  {:<8} {} IOV {}-{}: departs by {:+.4g} ± {:.2g} {} (z {:.1f}), seen in one IOV only\n",
+               e.parameter, e.atEnd ? "last" : "first", e.firstRun, e.lastRun, e.departure, e.error, e.unit, e.z());
   }
   for (const auto& b : trend.boundaries) {
     if (!b.measurable) {

@@ -4,6 +4,7 @@
 #include <limits>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "emcalign/core/units.hpp"
 
@@ -63,30 +64,81 @@ std::vector<std::string> fitNotes(const FitResult& result, const FitModel& model
         result.chi2, result.ndf, short4(s.value / units::deg),
         s.method == SigmaSysMethod::Spec ? "the paper's default" : "set by hand"));
   }
+  // β and μ are magnitudes: at a true 0 they still come out positive, and their directions
+  // ψ and τ are then undefined.
+  std::vector<std::string> nearZero;
+  for (const auto& [magnitude, direction] :
+       {std::pair{Physical::Beta, Physical::Psi}, std::pair{Physical::Mu, Physical::Tau}}) {
+    const auto& m = result.derived[magnitude];
+    if (std::isfinite(m.value) && std::isfinite(m.error) && m.error > 0.0 && std::abs(m.value) < 3.0 * m.error) {
+      nearZero.push_back(fmt::format("{} = {} ± {} deg ({} undefined)", name(magnitude), short4(m.value / units::deg),
+                                     short4(m.error / units::deg), name(direction)));
+    }
+  }
+  if (!nearZero.empty()) {
+    notes.push_back(fmt::format(
+        "{}: within 3 sigma of 0. A magnitude is >= 0 by definition, so at a true 0 it comes out about one error "
+        "above it, and its direction is undefined (the fit set's beta1, beta2 and dp1-dp3 they come from stay "
+        "unbiased)",
+        fmt::join(nearZero, "; ")));
+  }
   return notes;
 }
 
-std::optional<std::string> rangeWarning(const FitResult& result) {
+namespace {
+
+// "dx = -2 cm (range [-0.5, 0.5] cm)" for each physical parameter outside validatedRanges() by
+// more than twice its error (none: by anything).
+std::vector<std::string> outsideValidated(const std::array<double, kNumParams>& values,
+                                          const std::array<double, kNumParams>& errors) {
   const auto ranges = validatedRanges();
   std::vector<std::string> outside;
   for (std::size_t k = 0; k < kNumParams; ++k) {
     const auto p = static_cast<Physical>(k);
     if (isDirection(p) || p == Physical::Mu) continue;  // μ: bounded by the gap, dx_rel says it
-    const double v = result.derived[p].value;
+    const double v = values[k];
     if (!std::isfinite(v)) continue;
     const auto [lo, hi] = ranges[k];
-    const double e = std::isfinite(result.derived[p].error) ? result.derived[p].error : 0.0;
+    const double e = std::isfinite(errors[k]) ? errors[k] : 0.0;
     if (v >= lo - 2.0 * e && v <= hi + 2.0 * e) continue;  // a truth at the edge, fitted just beyond
     const double unit = PhysicalParameters::fileUnit(p);
     const auto u = fileUnitName(dimension(p));
     outside.push_back(fmt::format("{} = {} {} (range [{}, {}] {})", name(p), short4(v / unit), u, short4(lo / unit),
                                   short4(hi / unit), u));
   }
+  return outside;
+}
+
+}  // namespace
+
+std::vector<std::string> outsideValidatedRanges(const FitResult& result) {
+  std::array<double, kNumParams> values{}, errors{};
+  for (std::size_t k = 0; k < kNumParams; ++k) {
+    values[k] = result.derived[static_cast<Physical>(k)].value;
+    errors[k] = result.derived[static_cast<Physical>(k)].error;
+  }
+  return outsideValidated(values, errors);
+}
+
+std::optional<std::string> rangeWarning(const FitResult& result) {
+  const auto outside = outsideValidatedRanges(result);
   if (outside.empty()) return std::nullopt;
   return fmt::format(
       "outside the ranges over which the model and its corrections were validated: {}. The fit's biases there "
       "are not known (docs/validation.md); if the sample was simulated, check the units of its truth (a length "
       "in mm under a cm header is 10 times too large)",
+      fmt::join(outside, ", "));
+}
+
+std::optional<std::string> truthRangeWarning(const geometry::AlignmentParameters& truth, double r1) {
+  auto physical = geometry::toPhysical(truth, r1);
+  if (!physical) return std::nullopt;  // refused elsewhere, with its own message
+  const auto outside = outsideValidated(physical->values, {});
+  if (outside.empty()) return std::nullopt;
+  return fmt::format(
+      "the truth lies outside the ranges over which the fit and its corrections were validated: {}. A fit of this "
+      "sample has biases nobody measured (docs/validation.md); check the units (a length in mm under a cm header "
+      "is 10 times too large)",
       fmt::join(outside, ", "));
 }
 

@@ -126,6 +126,7 @@ Result<io::Json> tagJson(Database& db, const Tag& tag) {
       if (s.contains("chi2_statistical_errors")) i["chi2_statistical_errors"] = s["chi2_statistical_errors"];
     }
     if (p->content.contains("selected_events")) i["selected_events"] = p->content["selected_events"];
+    i["model"] = p->model();
     iovs.push_back(std::move(i));
   }
   // "state" stays "open"|"locked" for every tag (a retired tag is an open one with its mark):

@@ -40,6 +40,24 @@ Json Payload::parameterFile() const {
   return out;
 }
 
+std::string Payload::model() const {
+  const Json provenance = content.value("provenance", Json::object());
+  if (provenance.contains("corrections") && provenance["corrections"].is_string() &&
+      !provenance["corrections"].get<std::string>().empty()) {
+    return "corrections " + provenance["corrections"].get<std::string>();
+  }
+  if (!provenance.contains("model_corrections") || !provenance["model_corrections"].is_object()) return {};
+  const Json& c = provenance["model_corrections"];
+  for (const char* key : {"response", "parting_plane_response", "nominal_profile"}) {
+    if (c.contains(key) && c[key].is_string()) return "corrections " + c[key].get<std::string>();
+  }
+  const Json offset = c.value("depth_offset_cm", Json());
+  if (offset.is_number() && offset.get<double>() != 0.0) {
+    return fmt::format("the paper's model, depth offset {:+.3g} cm", offset.get<double>());
+  }
+  return "the paper's model";
+}
+
 Result<Payload> makePayload(const Json& in, double r1, std::string_view source, Json provenance) {
   // The parameters must read as an input (a usable fit result, plausible values).
   auto file = io::parseAlignmentFile(in, r1, source);
@@ -47,7 +65,7 @@ Result<Payload> makePayload(const Json& in, double r1, std::string_view source, 
   Json alignment = io::alignmentToJson(file->parameters);
   // What a fit result says about its parameters travels with them.
   for (const char* key : {"errors", "systematic_errors", "covariance", "correlation", "derived", "chi2", "ndf",
-                          "p_value", "status", "warnings", "sigma_sys"}) {
+                          "p_value", "status", "warnings", "notes", "sigma_sys"}) {
     if (in.contains(key)) alignment[key] = in[key];
   }
   Json p = Json{{"format", kPayloadFormat}, {"alignment", alignment}};

@@ -110,7 +110,7 @@ Result<TagDiff> diffTags(Database& db, const std::string& a, const std::string& 
       if (!va) return va.error();
       auto vb = storedValues(**pb, ib, b);
       if (!vb) return vb.error();
-      IovPair pair{first, last, ia, ib, std::move(*va), std::move(*vb), {}};
+      IovPair pair{first, last, ia, ib, std::move(*va), std::move(*vb), {}, (*pa)->model(), (*pb)->model()};
       const auto& names = storedNames();
       for (std::size_t k = 0; k < names.size(); ++k) {
         const double diff = parameterDifference(names[k], pair.valuesA[k].value, pair.valuesB[k].value);
@@ -147,6 +147,8 @@ Json tagDiffJson(const TagDiff& d) {
                      {"iov_a", iovJson(p.a)},
                      {"iov_b", iovJson(p.b)},
                      {"same_payload", p.samePayload()},
+                     {"model_a", p.modelA},
+                     {"model_b", p.modelB},
                      {"parameters", params}});
   }
   auto stretches = [](const auto& v) {
@@ -169,7 +171,9 @@ Result<std::string> tagCsv(Database& db, const std::string& tag) {
   std::string units_line = "# units:";
   for (std::size_t k = 0; k < names.size(); ++k) units_line += fmt::format(" {}={}", names[k], units[k]);
   std::string csv = fmt::format("# emcalign conditions export: tag {} of {}\n{}\n", tag, db.uri(), units_line);
-  csv += "first_run,last_run,payload,inserted,status,chi2,ndf,chi2_statistical_errors,sigma_sys_method,selected_events";
+  csv +=
+      "first_run,last_run,payload,inserted,status,chi2,ndf,chi2_statistical_errors,sigma_sys_method,selected_events,"
+      "model";
   for (const auto& n : names) csv += fmt::format(",{},{}_error", n, n);
   csv += "\n";
   for (const Iov& iov : snapshot->iovs()) {
@@ -183,13 +187,16 @@ Result<std::string> tagCsv(Database& db, const std::string& tag) {
     const std::string method =
         sigma.contains("method") && sigma["method"].is_string() ? sigma["method"].get<std::string>() : "";
     const Json events = (*p)->content.value("selected_events", Json());
-    csv += fmt::format("{},{},{},{},{},{},{},{},{},{}", iov.firstRun, iov.lastRun, iov.payload, iov.inserted,
+    const std::string model = (*p)->model();
+    csv += fmt::format("{},{},{},{},{},{},{},{},{},{},{}", iov.firstRun, iov.lastRun, iov.payload, iov.inserted,
                        // The status is free text of a payload: kept out of the CSV's structure.
                        status.find_first_of(",\"\n\r") == std::string::npos ? status : std::string("?"),
                        csvNumber(numberOr(a, "chi2")), csvNumber(numberOr(a, "ndf")),
                        csvNumber(numberOr(sigma, "chi2_statistical_errors")),
                        method.find_first_of(",\"\n\r") == std::string::npos ? method : std::string("?"),
-                       events.is_number_integer() ? std::to_string(events.get<std::int64_t>()) : std::string());
+                       events.is_number_integer() ? std::to_string(events.get<std::int64_t>()) : std::string(),
+                       // A path of the user's, kept out of the CSV's structure too.
+                       model.find_first_of(",\"\n\r") == std::string::npos ? model : std::string("?"));
     for (const auto& v : *values) csv += fmt::format(",{},{}", csvNumber(v.value), csvNumber(v.error));
     csv += "\n";
   }

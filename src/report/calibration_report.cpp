@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "emcalign/conddb/address.hpp"
 #include "emcalign/core/paper.hpp"
@@ -298,6 +299,15 @@ Result<std::string> trendSection(const std::optional<ReportTrend>& tr, const std
                                 ? runs(s.at("within_iov")[0], s.at("within_iov")[1])
                                 : "between IOVs"});
     }
+    // The models the IOVs were fitted with (a trend.json of an older emcalign does not say).
+    if (t.contains("models") && t.at("models").is_array()) {
+      std::vector<std::string> models;
+      for (const auto& m : t.at("models")) {
+        if (m.is_string() && !m.get<std::string>().empty()) models.push_back(m.get<std::string>());
+      }
+      if (!models.empty())
+        body += html::paragraph(fmt::format("The IOVs were fitted with {}.", fmt::join(models, "; ")));
+    }
     // The trend's own verdict: never "no step" where it could not tell (an older trend.json
     // has none: its steps are shown as they are).
     if (t.contains("verdict") && t.at("verdict").is_string()) {
@@ -334,15 +344,20 @@ Result<std::string> trendSection(const std::optional<ReportTrend>& tr, const std
       body += html::paragraph(driftsTested ? "No drift found."
                                            : "Drifts not tested: no segment has the IOVs a slope test needs.");
     }
-    html::Table segments{.caption = "Stable periods", .header = {"runs", "IOVs", "note"}};
+    html::Table segments{.caption = "Periods between the changes found", .header = {"runs", "IOVs", "note"}};
     segments.numeric = {false, true, false};
     for (const auto& s : t.at("segments")) {
       std::string note = s.value("transition", false) ? "straddles a step" : "";
-      if (s.contains("drifting") && !s.at("drifting").empty()) {
-        std::string names;
-        for (const auto& p : s.at("drifting")) names += (names.empty() ? "" : ", ") + symbol(p.get<std::string>());
-        note += (note.empty() ? "" : "; ") + html::escape("drifting: " + names);
-      }
+      const auto names = [&](const char* key, const std::string& what) {
+        if (!s.contains(key) || !s.at(key).is_array() || s.at(key).empty()) return;
+        std::string list;
+        for (const auto& p : s.at(key)) list += (list.empty() ? "" : ", ") + symbol(p.get<std::string>());
+        note += (note.empty() ? "" : "; ") + html::escape(what + list);
+      };
+      names("drifting", "drifting: ");
+      names("inconsistent", "not stable, inconsistent with one value: ");
+      names("departing", "an IOV at an end departing (a step or an outlier): ");
+      if (note.empty() && s.value("stable", false)) note = "stable";
       segments.rows.push_back({runs(s.at("first_run"), s.at("last_run")), text(s.at("iovs")), note});
     }
     body += html::table(segments);

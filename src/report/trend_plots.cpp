@@ -31,18 +31,21 @@ std::string axisName(const std::string& p) {
 
 std::string dataOf(const TrendFigure& f) {
   fmt::memory_buffer out;
-  fmt::format_to(std::back_inserter(out),
-                 "# emcalign trend of {} ({}): index 0 the IOVs (columns: middle run, value, error, first run, last "
-                 "run), index 1 the segments' lines, index 2 the truth\n",
-                 commentText(f.parameter), f.unit);
+  fmt::format_to(
+      std::back_inserter(out),
+      "# emcalign trend of {} ({}): index 0 the IOVs (columns: middle run, value, error, first run, last "
+      "run), index 1 the segments' lines (third column: 0 consistent, 1 a drift, 2 inconsistent with its model), "
+      "index 2 the truth\n",
+      commentText(f.parameter), f.unit);
   for (const auto& p : f.points) {
     fmt::format_to(std::back_inserter(out), "{:.1f} {:.8g} {:.6g} {:.0f} {:.0f}\n", p.x, p.y, p.error, p.firstRun,
                    p.lastRun);
   }
   fmt::format_to(std::back_inserter(out), "\n\n");
   for (const auto& l : f.segments) {
-    fmt::format_to(std::back_inserter(out), "{:.1f} {:.8g} {}\n{:.1f} {:.8g} {}\n\n", l.x0, l.y0, l.drift ? 1 : 0, l.x1,
-                   l.y1, l.drift ? 1 : 0);
+    const int kind = l.inconsistent ? 2 : l.drift ? 1 : 0;
+    fmt::format_to(std::back_inserter(out), "{:.1f} {:.8g} {}\n{:.1f} {:.8g} {}\n\n", l.x0, l.y0, kind, l.x1, l.y1,
+                   kind);
   }
   fmt::format_to(std::back_inserter(out), "\n");
   if (f.truth.empty()) fmt::format_to(std::back_inserter(out), "NaN NaN\n");
@@ -92,14 +95,19 @@ std::string panel(const TrendFigure& f, bool key, int fontSize) {
     s += "set autoscale y\n";
   }
   const bool drift = std::any_of(f.segments.begin(), f.segments.end(), [](const auto& l) { return l.drift; });
-  const bool stable = std::any_of(f.segments.begin(), f.segments.end(), [](const auto& l) { return !l.drift; });
+  const bool consistent =
+      std::any_of(f.segments.begin(), f.segments.end(), [](const auto& l) { return !l.drift && !l.inconsistent; });
+  const bool inconsistent =
+      std::any_of(f.segments.begin(), f.segments.end(), [](const auto& l) { return l.inconsistent; });
   const std::string data = fmt::format("'trend_{}.dat'", f.parameter);
   s += fmt::format(
       "plot {0} index 2 using 1:2 with steps lw 1.2 lc rgb '#555555' title '{1}', \\\n"
       "     {0} index 0 using 1:2:4:5:($2-$3):($2+$3) with xyerrorbars pt 7 ps 0.35 lc rgb '#1f77b4' title 'IOVs', \\\n"
       "     {0} index 1 using 1:($3 == 0 ? $2 : NaN) with lines lw 2 lc rgb '#2ca02c' title '{2}', \\\n"
-      "     {0} index 1 using 1:($3 == 1 ? $2 : NaN) with lines lw 2.5 dt 2 lc rgb '#ff7f0e' title '{3}'\n",
-      data, f.truth.empty() ? "" : "truth", stable ? "stable segments" : "", drift ? "drift" : "");
+      "     {0} index 1 using 1:($3 == 1 ? $2 : NaN) with lines lw 2.5 dt 2 lc rgb '#ff7f0e' title '{3}', \\\n"
+      "     {0} index 1 using 1:($3 == 2 ? $2 : NaN) with lines lw 2.5 dt 3 lc rgb '#d62728' title '{4}'\n",
+      data, f.truth.empty() ? "" : "truth", consistent ? "segments" : "", drift ? "drift" : "",
+      inconsistent ? "inconsistent (χ²)" : "");
   return s;
 }
 
@@ -132,10 +140,13 @@ Result<std::vector<std::string>> writeTrendPlots(const std::string& dir, const s
   }
   if (!four.empty()) {
     std::string s = terminalHeader("fig7", 1600, 1000) + common();
+    std::vector<std::string> shown;
+    for (const TrendFigure* f : four) shown.push_back(axisName(f->parameter));
+    // ψ is absent where β is within 3σ of 0 in every IOV (its direction undefined): said.
+    const bool noPsi = four.back()->parameter != "psi";
     s += fmt::format(
-        "set multiplot layout 2,2 title \"{}: the time evolution of α, dx, μ, ψ (the paper's Fig. 7)\" "
-        "font ',14'\n",
-        literalText(title));
+        "set multiplot layout 2,2 title \"{}: the time evolution of {} (the paper's Fig. 7){}\" font ',14'\n",
+        literalText(title), fmt::join(shown, ", "), noPsi ? "; ψ undefined: β within 3σ of 0 in every IOV" : "");
     for (std::size_t k = 0; k < four.size(); ++k) s += panel(*four[k], k == 0, 11);
     s += "unset multiplot\n";
     scripts.push_back({"fig7", s});

@@ -15,6 +15,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include "emcalign/calib/fit_notes.hpp"
 #include "emcalign/core/sha256.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/core/version.hpp"
@@ -516,6 +517,11 @@ Result<GroupFit> fitGroup(const CampaignGroup& g, const calib::ProfileFill& fill
   input.systematics = model.systematics;
   input.systematicsSource = model.corrections;
   Json resultJson = calib::fitResultJson(*result, input);
+  // What a physicist must know of the fit travels with it (as emcalign fit's result).
+  std::vector<std::string> notes = calib::fitNotes(
+      *result, {.corrected = !model.corrections.empty(), .corrections = model.corrections, .depthOffset = 0.0});
+  if (auto w = calib::rangeWarning(*result)) notes.push_back(*w);
+  resultJson["notes"] = notes;
   Json sha = Json::object();
   for (const auto& f : g.files) {
     if (auto it = digests.find(f); it != digests.end() && !it->second.empty()) sha[f] = it->second;
@@ -692,8 +698,10 @@ Result<CampaignReport> runCampaign(const CampaignScan& scan, const CampaignModel
     if (!same) return same.error();
   }
 
-  std::mutex dbMutex;                  // one connection, one transaction at a time
-  std::set<std::string> corrWarnings;  // a single corrections file away from its energy
+  std::mutex dbMutex;                                   // one connection, one transaction at a time
+  std::set<std::string> corrWarnings;                   // a single corrections file away from its energy
+  std::map<int, std::vector<std::string>> fitWarnings;  // by group: in group order, whatever the threads
+  std::map<int, std::string> outsideRanges;             // groups fitted outside the validated ranges
   int finished = 0;
   const int threads = o.threads > 0 ? o.threads : tbb::this_task_arena::max_concurrency();
   tbb::task_arena arena(threads);
@@ -738,8 +746,13 @@ Result<CampaignReport> runCampaign(const CampaignScan& scan, const CampaignModel
             ++report.fitted;
             status = std::string(name(fit->result.status));
             if (fit->result.status == FitStatus::PoorFit) {
-              report.warnings.push_back(fmt::format("group {} (runs {}-{}): poor fit (chi2/ndf {:.1f}/{})", g.index,
-                                                    g.iovFirst, g.iovLast, fit->result.chi2, fit->result.ndf));
+              fitWarnings[g.index].push_back(fmt::format("group {} (runs {}-{}): poor fit (chi2/ndf {:.1f}/{})",
+                                                         g.index, g.iovFirst, g.iovLast, fit->result.chi2,
+                                                         fit->result.ndf));
+            }
+            if (auto outside = calib::outsideValidatedRanges(fit->result); !outside.empty()) {
+              outsideRanges[g.index] =
+                  fmt::format("group {} (runs {}-{}): {}", g.index, g.iovFirst, g.iovLast, fmt::join(outside, ", "));
             }
           }
           ++finished;
@@ -747,6 +760,17 @@ Result<CampaignReport> runCampaign(const CampaignScan& scan, const CampaignModel
         },
         tbb::simple_partitioner());
   });
+  for (auto& [index, warnings] : fitWarnings)
+    report.warnings.insert(report.warnings.end(), warnings.begin(), warnings.end());
+  if (!outsideRanges.empty()) {
+    std::vector<std::string> groupsOutside;
+    for (const auto& [index, text] : outsideRanges) groupsOutside.push_back(text);
+    report.warnings.push_back(fmt::format(
+        "{} of the groups fitted outside the ranges over which the model and its corrections were validated "
+        "(their biases there are not known, docs/validation.md; a simulated truth in mm under a cm header is "
+        "the usual mistake): {}",
+        groupsOutside.size(), fmt::join(groupsOutside, "; ")));
+  }
   report.warnings.insert(report.warnings.end(), corrWarnings.begin(), corrWarnings.end());
   for (const CampaignGroup& g : groups) {
     if (g.isShort) {

@@ -274,9 +274,19 @@ TEST_F(CampaignCli, TrendFindsTheStepAndRefitsTheStablePeriods) {
   const std::string uri = "sqlite:" + path("c.db");
   auto r = run(fmt::format("campaign {} --conditions {} --tag t --min-events 4000", events(), uri));
   ASSERT_EQ(r.exitCode, 0) << r.err;
+  // dx = 0.8 cm after run 9 lies beyond the validated ±0.5 cm: each such group is warned of.
+  EXPECT_THAT(r.err, HasSubstr("groups fitted outside the ranges over which the model and its corrections were "
+                               "validated"));
+  EXPECT_THAT(r.err, HasSubstr("; group 10 (runs 23-24): dx = 0.7"));
+  // The model each IOV was fitted with is listed, and its notes travel in the payload.
+  EXPECT_EQ(list(uri, "t")["iovs"][0]["model"], "the paper's model");
+  EXPECT_THAT(run(fmt::format("conditions list {}", uri)).out, HasSubstr("paper's model"));
+  EXPECT_THAT(run(fmt::format("conditions export {} --tag t -o -", uri)).out, HasSubstr(",model,"));
   r = run(fmt::format("trend --conditions {} --tag t -o {} --truth {} --refit {} --tag-out t.seg", uri, path("tr"),
                       (*period_ / "p" / "truth.json").string(), events()));
   ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_THAT(r.out + r.err, HasSubstr("The IOVs were fitted with the paper's model."));
+  EXPECT_THAT(emcalign::testing::slurp(path("tr/trend.md")), HasSubstr("| true size |"));
   const json t = json::parse(emcalign::testing::slurp(path("tr/trend.json")));
   EXPECT_EQ(t["format"], "emcalign-trend/1");
   ASSERT_EQ(t["steps"].size(), 1u) << t["steps"].dump();

@@ -43,6 +43,11 @@ std::vector<std::string> fitNotes(const FitResult& result, const FitModel& model
 /// naming each, its value and the range; none when all are inside. `emcalign fit` prints it
 /// as a warning; the result file's `warnings` (SPEC §3) keep the fit's own.
 std::optional<std::string> rangeWarning(const FitResult& result);
+/// The parameters rangeWarning names: "dx = -2 cm (range [-0.5, 0.5] cm)" each.
+std::vector<std::string> outsideValidatedRanges(const FitResult& result);
+/// The same for a truth about to be simulated (no errors: any value outside); none inside,
+/// or when the parameters have no physical set (refused elsewhere).
+std::optional<std::string> truthRangeWarning(const geometry::AlignmentParameters& truth, double r1);
 
 /// One row of the fit against a known truth (file units).
 struct TruthRow {

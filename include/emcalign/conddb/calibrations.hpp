@@ -53,7 +53,7 @@ Result<RunCalibration> calibrationAt(Database& db, const std::string& tag, std::
 
 /// A tag as `conditions list --json` shows it: {"tag", "state", "description", "created",
 /// "iovs": [{"first_run", "last_run", "payload", "inserted", "status", "chi2", "ndf",
-/// "selected_events"}]}.
+/// "selected_events", "model" (Payload::model)}]}.
 Result<io::Json> tagJson(Database& db, const Tag& tag);
 /// Every tag as tagJson gives it, or only `tag` when not empty (an error when it does not exist).
 Result<std::vector<io::Json>> listTags(Database& db, const std::string& tag = {});

@@ -65,6 +65,10 @@ struct Payload {
   std::string hash() const;
   /// The parameter file of this calibration (SPEC §3: parameters, errors, covariance, …).
   io::Json parameterFile() const;
+  /// The model of the fit behind it, in words: "the paper's model" (with "depth offset …"
+  /// when one was set), "corrections PATH"; "" when the payload does not say (a parameter
+  /// file stored without its fit).
+  std::string model() const;
 };
 
 /// A payload from a fit result (SPEC §3) or a parameter file, with its provenance (free JSON

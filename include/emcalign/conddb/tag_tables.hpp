@@ -34,6 +34,7 @@ struct IovPair {
   std::vector<StoredValue> valuesA, valuesB;
   /// (a − b)/√(σa² + σb²) of each entry (NaN without errors); ψ and τ modulo 360°.
   std::vector<double> z;
+  std::string modelA, modelB;  ///< Payload::model of each
   bool samePayload() const { return a.payload == b.payload; }
 };
 
@@ -46,7 +47,7 @@ struct TagDiff {
 
 /// Tag `a` against tag `b` of the same database.
 Result<TagDiff> diffTags(Database& db, const std::string& a, const std::string& b);
-/// {"tag_a", "tag_b", "pairs": [{"first_run", "last_run", "iov_a", "iov_b", "same_payload",
+/// {"tag_a", "tag_b", "pairs": [{"first_run", "last_run", "iov_a", "iov_b", "same_payload", "model_a", "model_b",
 /// "parameters": {name: {"a", "error_a", "b", "error_b", "difference", "z", "unit"}}}],
 /// "only_a", "only_b"}.
 io::Json tagDiffJson(const TagDiff& d);

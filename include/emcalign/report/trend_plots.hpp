@@ -24,6 +24,7 @@ struct TrendFigure {
   struct Line {
     double x0, y0, x1, y1;
     bool drift;
+    bool inconsistent = false;  ///< its χ² rejects it: drawn as what it is, not as stable
   };
   std::vector<Line> segments;
   std::vector<double> steps;                     ///< run of each step (the first run after)

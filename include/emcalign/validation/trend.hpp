@@ -40,6 +40,15 @@
 // Known boundaries (the logbook's reassemblies): each series is cut there whatever the data
 // say (an IOV straddling one is left out of both sides), the change is measured at every
 // boundary and reported, significant or not.
+// Edges. A change one IOV before the end of a series (or after its start) leaves one IOV on
+// its side: too few for a segment, so the partitioning cannot cut there, and the segment's
+// line bends towards that IOV — a "drift" no run shows. The first and the last IOV are
+// therefore tested against the model of the rest of their segment: left out when that lowers
+// the χ² by more than a change's penalty, the rest is consistent with its model (χ² p-value
+// at least 0.01) and the IOV departs from it with a two-sided p-value below 0.01 / (2 ×
+// series). Such an IOV is reported as what it is — a change at the
+// end of the tag seen in one IOV, a step or an outlier that later runs will tell apart — and
+// never as a drift.
 
 #include <cstdint>
 #include <optional>
@@ -50,6 +59,8 @@
 #include "emcalign/conddb/conditions.hpp"
 #include "emcalign/core/result.hpp"
 #include "emcalign/io/json_files.hpp"
+#include "emcalign/report/trend_plots.hpp"
+#include "emcalign/validation/period.hpp"
 
 namespace emcalign::validation {
 
@@ -130,6 +141,7 @@ struct Change {
 struct SeriesAnalysis {
   std::string parameter, unit;
   double errorScale = 1.0;
+  double penalty = 0.0;         ///< per change
   std::vector<Change> changes;  ///< every change found
   std::vector<SegmentTest> segments;
 };
@@ -163,6 +175,15 @@ struct SetAsideIov {
   std::int64_t firstRun = 0, lastRun = 0;
 };
 
+/// An IOV at either end of a series that departs from the rest of its segment (see the top).
+struct TrendEdge {
+  std::string parameter, unit;
+  std::int64_t firstRun = 0, lastRun = 0;  ///< the IOV
+  bool atEnd = true;                       ///< the last IOV of the series (else the first)
+  double departure = 0.0, error = 0.0;     ///< its value − the rest's model there
+  double z() const { return error > 0.0 ? departure / error : 0.0; }
+};
+
 /// A stable period: between steps (steps of different parameters within one IOV of each
 /// other are one reassembly).
 struct TrendSegment {
@@ -175,6 +196,11 @@ struct TrendSegment {
   std::vector<std::string> stepsAtStart;  ///< parameters that stepped where it starts (or inside it)
   std::vector<std::string> drifting;      ///< parameters with a flagged drift inside it
   std::vector<std::string> inconsistent;  ///< parameters with an inconsistent segment inside it
+  /// An IOV at the tag's first or last that departs from the IOVs beside it (TrendEdge): the
+  /// parameters that do; not a stable period.
+  std::vector<std::string> departing;
+  /// Neither a transition nor an edge, and nothing inside it drifting or inconsistent.
+  bool stable() const { return !transition && departing.empty() && drifting.empty() && inconsistent.empty(); }
 };
 
 struct TrendOptions {
@@ -198,6 +224,7 @@ struct Trend {
   std::vector<TrendInconsistency> inconsistencies;
   std::vector<KnownBoundary> boundaries;
   std::vector<SetAsideIov> setAside;
+  std::vector<TrendEdge> edges;
   std::size_t iovs = 0;
   double penalty = 0.0;            ///< per change (the largest over the series)
   double transitionPenalty = 0.0;  ///< more for a transition IOV
@@ -230,7 +257,22 @@ io::Json trendJson(const Trend& t, const std::vector<TrendSeries>& series);
 std::string tooFewIovsForTrend(std::size_t iovs, std::int64_t selectedEvents, const TrendOptions& options = {});
 /// What the trend can say of steps, in one sentence: never "no step" where it cannot tell.
 std::string trendVerdict(const Trend& t);
+/// What trend.md says beside the trend itself.
+struct TrendText {
+  std::string source;                  ///< "tag T of URI"
+  std::vector<std::string> models;     ///< the IOVs' models (conddb::Payload::model), distinct
+  const PeriodTruth* truth = nullptr;  ///< a simulated period's: every step and edge beside its true size
+};
 /// trend.md: the same in words.
-std::string trendMarkdown(const Trend& t, const std::vector<TrendSeries>& series, const std::string& source);
+std::string trendMarkdown(const Trend& t, const std::vector<TrendSeries>& series, const TrendText& text);
+/// The models of a tag's IOVs (conddb::Payload::model), distinct, in IOV order.
+Result<std::vector<std::string>> modelsOfTag(conddb::TagSnapshot& tag);
+/// What trend.md says of the models: which, and what the paper's model is known to do to
+/// the sizes it measures ("" when the payloads do not say).
+std::string modelsText(const std::vector<std::string>& models);
+/// The figures of a trend (report/trend_plots.hpp): every series with points, its segments'
+/// models (drifting and inconsistent ones marked), steps, known boundaries and the truth.
+std::vector<report::TrendFigure> trendFigures(const Trend& t, const std::vector<TrendSeries>& series,
+                                              const PeriodTruth* truth = nullptr);
 
 }  // namespace emcalign::validation

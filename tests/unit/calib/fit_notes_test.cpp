@@ -46,6 +46,30 @@ TEST(FitNotes, SayWhichModelAndWhatItDoes) {
   EXPECT_NE(depth[0].find("+4.00 cm"), std::string::npos);
 }
 
+// β and μ are magnitudes: near 0 (within 3σ) they are said to be biased up, their
+// directions undefined.
+TEST(FitNotes, AMagnitudeNearZeroIsSaidToBeBiasedUp) {
+  const FitModel corrected{.corrected = true, .corrections = "c.json", .depthOffset = 0.0};
+  FitResult r = resultAt(geometry::testing::paperLike());
+  r.derived[Physical::Mu] = {0.025 * units::deg, 0.02 * units::deg};
+  const auto notes = fitNotes(r, corrected);
+  ASSERT_EQ(notes.size(), 1u);
+  EXPECT_NE(notes[0].find("mu = 0.025 ± 0.02 deg (tau undefined)"), std::string::npos) << notes[0];
+  EXPECT_NE(notes[0].find("one error above it"), std::string::npos);
+  EXPECT_EQ(notes[0].find("beta ="), std::string::npos) << "beta is far from 0 in the paper-like set";
+}
+
+// A truth about to be simulated in the wrong unit is named before any event is made.
+TEST(FitNotes, ATruthOutsideTheValidatedRangesIsNamed) {
+  EXPECT_FALSE(truthRangeWarning(geometry::testing::paperLike(), r1()));
+  auto eta = geometry::testing::paperLike();
+  eta[Param::Dx] = -2.0;
+  const auto w = truthRangeWarning(eta, r1());
+  ASSERT_TRUE(w);
+  EXPECT_NE(w->find("dx = -2 cm (range [-0.5, 0.5] cm)"), std::string::npos) << *w;
+  EXPECT_NE(w->find("mm under a cm header"), std::string::npos);
+}
+
 TEST(FitNotes, SigmaSysDominatingTheErrorsIsSaid) {
   FitResult r = resultAt(geometry::testing::paperLike());
   r.chi2 = 23.9;

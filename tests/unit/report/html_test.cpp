@@ -221,6 +221,16 @@ TEST(CalibrationReport, TheValidationStandsBesideTable1AndTheTrendListsItsFindin
   EXPECT_NE(page->find("No step found (this trend.json is from an older emcalign"), std::string::npos);
   EXPECT_NE(page->find("<td>5–9</td>"), std::string::npos);
   EXPECT_NE(page->find("Time evolution (the paper&#39;s Fig. 7)"), std::string::npos);
+  EXPECT_EQ(page->find("The IOVs were fitted with"), std::string::npos) << "an older trend.json does not say";
+  // A newer trend: its models, and the periods as what they are (stable, or an edge departing).
+  in.trend->trend["models"] = {"the paper's model"};
+  in.trend->trend["segments"] = {{{"first_run", 1}, {"last_run", 20}, {"iovs", 10}, {"stable", true}},
+                                 {{"first_run", 21}, {"last_run", 22}, {"iovs", 1}, {"departing", {"dx"}}}};
+  auto newer = calibrationReport(in);
+  ASSERT_TRUE(newer.ok()) << newer.error().message;
+  EXPECT_NE(newer->find("The IOVs were fitted with the paper&#39;s model."), std::string::npos);
+  EXPECT_NE(newer->find("<td>1–20</td><td class=\"num\">10</td><td>stable</td>"), std::string::npos) << *newer;
+  EXPECT_NE(newer->find("an IOV at an end departing (a step or an outlier): dx"), std::string::npos);
 }
 
 TEST(CalibrationReport, RefusesNothingAndNamesWhatIsMissing) {

@@ -141,7 +141,10 @@ TEST(Trend, ShortSeries) {
   // Three points: too few for two segments.
   const auto three = series(3, 0.01, rng, [](std::size_t i) { return i < 1 ? 0.0 : 1.0; });
   EXPECT_TRUE(changePoints(three, 1.0, 10.0, 2.0, 2).empty());
-  EXPECT_EQ(analyseTrend({three}).segments.size(), 1u);
+  // (the first IOV departs from the two after it: an edge, a period of its own)
+  const Trend short3 = analyseTrend({three});
+  ASSERT_EQ(short3.segments.size(), 2u);
+  EXPECT_EQ(short3.segments[0].departing, std::vector<std::string>{"dx"});
   // Seven IOVs (a period cut into groups of 50 000): a step is still found, between constants.
   const auto seven = series(7, 0.01, rng, [](std::size_t i) { return i < 3 ? 0.3 : 0.45; });
   const Trend t = analyseTrend({seven});
@@ -187,7 +190,7 @@ TEST(Trend, ATransitionSeenByOneParameterIsKept) {
 // Too few IOVs to locate a step (2 × min-segment): the trend says so, and names a parameter
 // its one value cannot describe, instead of "no step" (issue 29: two IOVs 26σ apart).
 TEST(Trend, TooFewIovsIsSaidAndAnInconsistentSeriesNamed) {
-  for (std::size_t n : {2u, 3u}) {
+  for (std::size_t n : {2u}) {
     TrendSeries dx{"dx", "cm", {}}, alpha{"alpha", "deg", {}};
     for (std::size_t i = 0; i < n; ++i) {
       const auto first = static_cast<std::int64_t>(10 * i + 101);
@@ -206,7 +209,7 @@ TEST(Trend, TooFewIovsIsSaidAndAnInconsistentSeriesNamed) {
     EXPECT_NE(verdict.find("Too few IOVs to locate a step"), std::string::npos) << verdict;
     EXPECT_NE(verdict.find("dx"), std::string::npos) << verdict;
     EXPECT_EQ(verdict.find("No step"), std::string::npos) << verdict;
-    const std::string md = trendMarkdown(t, {alpha, dx}, "test");
+    const std::string md = trendMarkdown(t, {alpha, dx}, {"test"});
     EXPECT_EQ(md.find("No step"), std::string::npos) << md;
     EXPECT_NE(md.find("Drifts not tested"), std::string::npos) << md;
     EXPECT_EQ(md.find("No drift"), std::string::npos) << md;
@@ -214,12 +217,71 @@ TEST(Trend, TooFewIovsIsSaidAndAnInconsistentSeriesNamed) {
     ASSERT_EQ(t.segments.size(), 1u);
     EXPECT_EQ(t.segments[0].inconsistent, std::vector<std::string>{"dx"});
   }
+  // Three IOVs, the first apart from the two after it: the edge is named, still not "no step".
+  {
+    TrendSeries dx{"dx", "cm", {{101, 110, -0.196, 0.004}, {111, 120, -0.075, 0.004}, {121, 130, -0.0752, 0.004}}};
+    const Trend t = analyseTrend({dx});
+    EXPECT_FALSE(t.resolvable());
+    ASSERT_EQ(t.edges.size(), 1u);
+    EXPECT_FALSE(t.edges[0].atEnd);
+    EXPECT_NEAR(t.edges[0].departure, -0.121, 0.002);
+    const std::string verdict = trendVerdict(t);
+    EXPECT_NE(verdict.find("Too few IOVs to locate a step"), std::string::npos) << verdict;
+    EXPECT_NE(verdict.find("dx in the first IOV (runs 101-110)"), std::string::npos) << verdict;
+    EXPECT_EQ(verdict.find("No step"), std::string::npos) << verdict;
+    EXPECT_EQ(verdict.find("no parameter differs"), std::string::npos) << verdict;
+  }
   // Consistent values: too few IOVs is still said, with no parameter blamed.
   TrendSeries flat{"dx", "cm", {{1, 10, 0.1, 0.01}, {11, 20, 0.105, 0.01}, {21, 30, 0.098, 0.01}}};
   const Trend t = analyseTrend({flat});
   EXPECT_TRUE(t.inconsistencies.empty());
   EXPECT_NE(trendVerdict(t).find("Too few IOVs"), std::string::npos);
   EXPECT_NE(trendVerdict(t).find("no parameter differs"), std::string::npos);
+}
+
+// A step one IOV before the end (issue 29: dx 0.30 -> 0.45 in the last of 12 IOVs) is an
+// edge, not a drift: no drift flagged, the segment before it stable, the IOV named.
+TEST(Trend, AStepInTheLastIovIsAnEdgeNotADrift) {
+  std::mt19937_64 rng(29);
+  const auto dx = series(12, 0.01, rng, [](std::size_t i) { return i < 11 ? 0.30 : 0.45; });
+  const auto alpha = series(
+      12, 0.02, rng, [](std::size_t) { return 2.9; }, "alpha");
+  const Trend t = analyseTrend({alpha, dx});
+  EXPECT_TRUE(t.drifts.empty());
+  EXPECT_TRUE(t.steps.empty());
+  EXPECT_TRUE(t.inconsistencies.empty());
+  ASSERT_EQ(t.edges.size(), 1u);
+  EXPECT_EQ(t.edges[0].parameter, "dx");
+  EXPECT_TRUE(t.edges[0].atEnd);
+  EXPECT_EQ(t.edges[0].firstRun, 111);
+  EXPECT_NEAR(t.edges[0].departure, 0.15, 0.05);
+  ASSERT_EQ(t.segments.size(), 2u);
+  EXPECT_TRUE(t.segments[0].stable());
+  EXPECT_EQ(t.segments[1].departing, std::vector<std::string>{"dx"});
+  EXPECT_FALSE(t.segments[1].stable());
+  const std::string md = trendMarkdown(t, {alpha, dx}, {"test"});
+  EXPECT_NE(md.find("## An IOV at an end of the tag departs"), std::string::npos) << md;
+  EXPECT_EQ(md.find("## Drifts"), std::string::npos) << md;
+  EXPECT_EQ(md.find("No step:"), std::string::npos) << md;
+  EXPECT_EQ(trendJson(t, {alpha, dx}).at("edges").size(), 1u);
+  // The figure: the segment ends before the edge IOV, flat.
+  const auto figures = trendFigures(t, {alpha, dx});
+  ASSERT_EQ(figures.size(), 2u);
+  ASSERT_FALSE(figures[1].segments.empty());
+  EXPECT_EQ(figures[1].segments.back().x1, 110.0);
+  for (const auto& l : figures[1].segments) {
+    EXPECT_FALSE(l.drift);
+    EXPECT_NEAR(l.y0, 0.30, 0.02);
+    EXPECT_NEAR(l.y1, 0.30, 0.02);
+  }
+  // In noise alone, no edge.
+  std::mt19937_64 quiet(30);
+  int found = 0;
+  for (int k = 0; k < 200; ++k) {
+    const auto flat = series(12, 0.01, quiet, [](std::size_t) { return 0.3; });
+    found += analyseTrend({flat}).edges.empty() ? 0 : 1;
+  }
+  EXPECT_LE(found, 6) << "edges in 200 series of noise";
 }
 
 // Enough IOVs to locate a step, but values that no step (two IOVs on each side) explains:
@@ -245,7 +307,7 @@ TEST(Trend, AnIovSetAsideIsReported) {
   ASSERT_EQ(t.setAside.size(), 1u);
   EXPECT_EQ(t.setAside[0].firstRun, 91);
   EXPECT_NE(trendVerdict(t).find("runs 91-100"), std::string::npos) << trendVerdict(t);
-  EXPECT_NE(trendMarkdown(t, {s}, "test").find("- runs 91-100: dx"), std::string::npos);
+  EXPECT_NE(trendMarkdown(t, {s}, {"test"}).find("- runs 91-100: dx"), std::string::npos);
 }
 
 TEST(Trend, NoiseAloneGetsACleanVerdict) {
@@ -317,7 +379,7 @@ TEST(Trend, KnownBoundariesAreCutAndMeasured) {
   ASSERT_EQ(changes.size(), 2u);
   EXPECT_EQ(changes[0], (Change{8, true}));
   EXPECT_EQ(changes[1], (Change{15, false}));
-  const std::string md = trendMarkdown(t, {alpha, dx}, "test");
+  const std::string md = trendMarkdown(t, {alpha, dx}, {"test"});
   EXPECT_NE(md.find("run 75 (inside IOV 71-80, set aside): no parameter changed"), std::string::npos) << md;
 }
 

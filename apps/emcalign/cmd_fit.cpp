@@ -101,12 +101,12 @@ void printResult(const calib::FitResult& r, const calib::SystematicErrors* syste
 // physicist checks.
 void printAgainstTruth(const std::vector<calib::TruthRow>& rows) {
   fmt::print(reportStream(),
-             "\nagainst the truth of the files (truth_parameters):\n{:<10} {:>12} {:>12} {:>12} {:>7}\n", "parameter",
-             "fit", "truth", "fit-truth", "pull");
+             "\nagainst the truth of the files (truth_parameters):\n{:<10} {:>12} {:>12} {:>12} {:<4} {:>7}\n",
+             "parameter", "fit", "truth", "fit-truth", "unit", "pull");
   for (const auto& r : rows) {
     const double pull = r.pull();
-    fmt::print(reportStream(), "{:<10} {:>12} {:>12} {:>12} {:>7} {}\n", r.name, fixed5(r.fit), fixed5(r.truth),
-               fixed5(r.difference()), std::isfinite(pull) ? fmt::format("{:+.2f}", pull) : std::string("-"), r.unit);
+    fmt::print(reportStream(), "{:<10} {:>12} {:>12} {:>12} {:<4} {:>7}\n", r.name, fixed5(r.fit), fixed5(r.truth),
+               fixed5(r.difference()), r.unit, std::isfinite(pull) ? fmt::format("{:+.2f}", pull) : std::string("-"));
   }
 }
 
@@ -123,7 +123,8 @@ Status drawPlots(const FitCliOptions& o, const calib::FitJob& job, const calib::
     data = std::move(*filled);
   }
   auto written =
-      report::writeFitPlots(o.plots, fitted.bins, job.geometry(), fitted.result, data ? &data->residuals : nullptr);
+      report::writeFitPlots(o.plots, fitted.bins, job.geometry(), fitted.result, data ? &data->residuals : nullptr,
+                            report::fitModelText(job.geometry(), job.profileOptions(), o.corrections));
   if (!written) return written.error();
   for (const auto& png : *written) fmt::print(reportStream(), "wrote {}\n", png);
   return {};

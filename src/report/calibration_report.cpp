@@ -1,6 +1,7 @@
 #include "emcalign/report/calibration_report.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 
@@ -106,8 +107,9 @@ Result<std::string> fitSection(const ReportFit& f) {
   const Json* systematic =
       r.contains("systematic_errors") && r.at("systematic_errors").is_object() ? &r.at("systematic_errors") : nullptr;
   const auto header = [&] {
-    return systematic ? std::vector<std::string>{"parameter", "value", "statistical", "systematic", "unit"}
-                      : std::vector<std::string>{"parameter", "value", "error", "unit"};
+    // The fit's error holds σ_sys's share (stat ⊕ sys of each bin): not "statistical".
+    return systematic ? std::vector<std::string>{"parameter", "value", "fit error", "systematic (corrections)", "unit"}
+                      : std::vector<std::string>{"parameter", "value", "fit error", "unit"};
   };
   const auto row = [&](const std::string& name, const Json& value, const Json& error, const Json& syst,
                        const std::string& unit) {
@@ -202,7 +204,14 @@ Result<std::string> fitSection(const ReportFit& f) {
   prov.rows.push_back({"detector", text(in.value("detector", Json("?")))});
   if (in.contains("model_corrections")) {
     const Json& c = in.at("model_corrections");
-    std::string corr = fmt::format("depth offset {} cm", number(c.value("depth_offset_cm", Json()), "{:+.3f}"));
+    const bool none = !c.value("depth_offset_cm", Json(0.0)).is_number() ||
+                      c.value("depth_offset_cm", Json(0.0)).get<double>() == 0.0;
+    static constexpr std::array<const char*, 3> kFiles = {"parting_plane_response", "nominal_profile", "response"};
+    const bool anyFile = std::any_of(kFiles.begin(), kFiles.end(),
+                                     [&](const char* key) { return c.contains(key) && c.at(key).is_string(); });
+    std::string corr = none && !anyFile
+                           ? std::string("none: the paper's model (docs/fit.md, \"What the fit tells you\")")
+                           : fmt::format("depth offset {} cm", number(c.value("depth_offset_cm", Json()), "{:+.3f}"));
     for (const char* key : {"parting_plane_response", "nominal_profile", "response"}) {
       if (c.contains(key) && c.at(key).is_string())
         corr += fmt::format("; {}: <code>{}</code>", key, html::escape(c.at(key).get<std::string>()));

@@ -106,6 +106,7 @@ Result<ResultModel> modelOfResult(const Json& result, std::string_view source, c
     m.geometry = calib::FitGeometry::of(calo.description());
     m.geometry.apply(*c);
     m.profile.apply(*c);
+    m.corrections = corrections;
     m.sigmaSys = numberOr(result.value("sigma_sys", Json::object()), "value_deg", 0.2) * units::deg;
     if (!std::isfinite(m.sigmaSys)) m.sigmaSys = 0.2 * units::deg;
     // The fit's selection: its one beam energy (an override, or the sample's own), else each event's.
@@ -155,7 +156,8 @@ Result<std::vector<std::string>> redrawFitFigures(const ResultModel& m, const st
   selection.beamEnergy = m.selection;
   auto data = fitFigureData(events, m.geometry, selection, m.profile, m.fit.parameters);
   if (!data) return data.error();
-  return writeFitPlots(dir, data->fill.profiles.bins(m.sigmaSys), m.geometry, m.fit, &data->residuals);
+  return writeFitPlots(dir, data->fill.profiles.bins(m.sigmaSys), m.geometry, m.fit, &data->residuals,
+                       fitModelText(m.geometry, m.profile, m.corrections));
 }
 
 }  // namespace emcalign::report

@@ -46,9 +46,10 @@ bool hasEntries(const calib::ProfileBin& b) {
 
 double finiteOrZero(double x) { return std::isfinite(x) ? x : 0.0; }
 
-std::string fitSummary(const calib::FitResult& fit) {
+std::string fitSummary(const calib::FitResult& fit, const std::string& model) {
   std::string s = fmt::format("χ^2/ndf = {:.1f}/{}", fit.chi2, fit.ndf);
   s += fmt::format(" ({})", name(fit.status));
+  if (!model.empty()) s += "; " + literalText(model);
   return s;
 }
 
@@ -67,6 +68,7 @@ struct ProfileData {
   double energy = 0.0;  // MeV, entry-weighted mean over all bins
   // f at each bin's own means (what the χ² compares), in the order of `bins`.
   std::vector<geometry::AngularResidual> atBins;
+  std::string model;  // fitModelText, said after the fit's χ²
 };
 
 Result<ProfileData> summarise(const std::vector<calib::ProfileBin>& bins, const calib::FitGeometry& geometry,
@@ -237,7 +239,7 @@ std::string profileVsPhiScript(const std::string& name, bool phiResidual, const 
   std::string s = scriptHeader(name, g.width, g.height);
   s += fmt::format("model = '{}'\n", kModelVsPhiFile);
   s += multiplotStart(fmt::format("{} profiles against φ_{{EMC}}, per θ_{{EMC}} slice — fit {}",
-                                  phiResidual ? "sin Δφ" : "Δθ", fitSummary(fit)),
+                                  phiResidual ? "sin Δφ" : "Δθ", fitSummary(fit, d.model)),
                       fmt::format("error bars: the σ of the χ^2 (stat ⊕ sys); curves at the slice's mean θ_{{EMC}} and "
                                   "E = {:.0f} MeV, broken where the hemispheres meet (90°, 270°)",
                                   d.energy));
@@ -296,7 +298,7 @@ std::string profileVsThetaScript(const std::string& name, const std::vector<cali
   std::string s = scriptHeader(name, g.width, g.height);
   s += fmt::format("model = '{}'\n", kModelVsThetaFile);
   s += multiplotStart(
-      fmt::format("sin Δφ and Δθ profiles against θ_{{EMC}}, per φ_{{EMC}} slice — fit {}", fitSummary(fit)),
+      fmt::format("sin Δφ and Δθ profiles against θ_{{EMC}}, per φ_{{EMC}} slice — fit {}", fitSummary(fit, d.model)),
       fmt::format("error bars: the σ of the χ^2 (stat ⊕ sys); curves at the slice's mean φ_{{EMC}} and "
                   "E = {:.0f} MeV; (+), (−): hemisphere, cos φ_{{EMC}} ≥ 0 or < 0; panel χ^2 / number of "
                   "terms (both residuals)",
@@ -396,14 +398,15 @@ std::string histogramKey(const char* when, const Histogram& h) {
   return s;
 }
 
-std::string residualsScript(const std::string& name, const ResidualHistograms& r, const calib::FitResult& fit) {
+std::string residualsScript(const std::string& name, const ResidualHistograms& r, const calib::FitResult& fit,
+                            const std::string& model) {
   std::string s = scriptHeader(name, 1600, 650);
   s += "hist = 'residuals_before_after.dat'\n";
   s += fmt::format(
       "set multiplot layout 1,2 title \"Residuals of the selected particles before (filled) and "
       "after (open) "
       "the correction — fit {}\" font ',14' margins 0.07,0.98,0.13,0.86 spacing 0.08,0.1\n",
-      fitSummary(fit));
+      fitSummary(fit, model));
   s += "set grid lc rgb '#e0e0e0' lt 1\nset tics front\nset style fill solid 0.45 noborder\n"
        "set key top left reverse Left samplen 2 font ',11'\n";
   struct Panel {
@@ -432,12 +435,26 @@ std::string residualsScript(const std::string& name, const ResidualHistograms& r
 
 }  // namespace
 
+std::string fitModelText(const calib::FitGeometry& geometry, const calib::ProfileOptions& profile,
+                         const std::string& corrections) {
+  std::vector<std::string> on;
+  if (geometry.depth.offset != 0.0)
+    on.push_back(fmt::format("depth offset {:+.2f} cm", geometry.depth.offset / units::cm));
+  if (profile.partingPlane) on.push_back("parting-plane response");
+  if (profile.nominalProfile) on.push_back("nominal pattern subtracted");
+  if (geometry.response) on.push_back("fit response");
+  if (on.empty()) return "the paper's model, no corrections";
+  if (corrections.empty()) return fmt::format("the paper's model with {}", fmt::join(on, ", "));
+  return fmt::format("corrections {}: {}", fs::path(corrections).filename().string(), fmt::join(on, ", "));
+}
+
 Result<std::vector<std::string>> writeFitPlots(const std::string& dir, const std::vector<calib::ProfileBin>& bins,
                                                const calib::FitGeometry& geometry, const calib::FitResult& fit,
-                                               const ResidualHistograms* residuals) {
+                                               const ResidualHistograms* residuals, const std::string& model) {
   auto summary = summarise(bins, geometry, fit);
   if (!summary) return summary.error();
-  const ProfileData& d = *summary;
+  ProfileData& d = *summary;
+  d.model = model;
 
   const fs::path out(dir);
   if (auto st = createPlotDirectory(out); !st) return st.error();
@@ -492,7 +509,7 @@ Result<std::vector<std::string>> writeFitPlots(const std::string& dir, const std
                         what, h->counts.size(), h->low, h->high)};
     }
     if (auto st = writeFile(out, "residuals_before_after.dat", histogramsFile(*residuals)); !st) return st.error();
-    figures.push_back({"residuals_before_after", residualsScript("residuals_before_after", *residuals, fit)});
+    figures.push_back({"residuals_before_after", residualsScript("residuals_before_after", *residuals, fit, model)});
   }
 
   return drawFigures(out, figures);

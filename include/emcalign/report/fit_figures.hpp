@@ -42,6 +42,7 @@ struct ResultModel {
   /// The fit's selection energy: its one recorded beam energy (an override or the sample's
   /// own), else none (each event's).
   std::optional<double> selection;
+  std::string corrections;  ///< the corrections file given (empty: none)
 };
 Result<ResultModel> modelOfResult(const io::Json& result, std::string_view source, const geometry::Calorimeter& calo,
                                   const std::string& corrections);

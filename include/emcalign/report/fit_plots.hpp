@@ -44,12 +44,19 @@
 
 namespace emcalign::report {
 
+/// The model a fit used, for a figure's subtitle: "the paper's model, no corrections", or
+/// "corrections FILE: depth offset +0.30 cm, parting-plane response, nominal pattern
+/// subtracted, fit response" (what of them is on).
+std::string fitModelText(const calib::FitGeometry& geometry, const calib::ProfileOptions& profile,
+                         const std::string& corrections);
+
 /// Writes the figures listed in the header comment into `dir` (created if missing) and
 /// returns the paths of the PNG files written (dir/NAME.png). `residuals` may be null
-/// (then residuals_before_after.png is not drawn). Fails when no bin has entries, when a
+/// (then residuals_before_after.png is not drawn); `model` (fitModelText), when given, is said
+/// under each title. Fails when no bin has entries, when a
 /// file cannot be written, or when gnuplot is missing or fails.
 Result<std::vector<std::string>> writeFitPlots(const std::string& dir, const std::vector<calib::ProfileBin>& bins,
                                                const calib::FitGeometry& geometry, const calib::FitResult& fit,
-                                               const ResidualHistograms* residuals);
+                                               const ResidualHistograms* residuals, const std::string& model = {});
 
 }  // namespace emcalign::report

@@ -128,7 +128,8 @@ TEST(CalibrationReport, SystematicErrorsGetTheirOwnColumn) {
   in.fit = ReportFit{.path = "r.json", .result = r};
   auto page = calibrationReport(in);
   ASSERT_TRUE(page.ok()) << page.error().message;
-  EXPECT_NE(page->find("<th class=\"num\">statistical</th><th class=\"num\">systematic</th>"), std::string::npos);
+  EXPECT_NE(page->find("<th class=\"num\">fit error</th><th class=\"num\">systematic (corrections)</th>"),
+            std::string::npos);
   EXPECT_NE(page->find("<td class=\"num\">0.100</td><td class=\"num\">0.012</td><td class=\"num\">0.0047</td>"),
             std::string::npos);
   EXPECT_NE(page->find("<td class=\"num\">0.0021</td>"), std::string::npos);
@@ -152,6 +153,12 @@ TEST(CalibrationReport, TheFitsNotesSayWhichModelItUsed) {
   EXPECT_NE(page->find("<li>the paper&#39;s model &lt;without corrections&gt;: dp1-dp3 about 0.15 cm low</li>"),
             std::string::npos)
       << *page;
+  // Without corrections the provenance says so, not "depth offset +0.000 cm".
+  in.fit->result["input"]["model_corrections"] = {{"depth_offset_cm", 0.0}};
+  auto plain = calibrationReport(in);
+  ASSERT_TRUE(plain.ok()) << plain.error().message;
+  EXPECT_NE(plain->find("none: the paper's model"), std::string::npos);
+  in.fit->result["input"].erase("model_corrections");
   in.fit->result.erase("notes");
   auto older = calibrationReport(in);
   ASSERT_TRUE(older.ok()) << older.error().message;

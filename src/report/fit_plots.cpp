@@ -46,11 +46,22 @@ bool hasEntries(const calib::ProfileBin& b) {
 
 double finiteOrZero(double x) { return std::isfinite(x) ? x : 0.0; }
 
-std::string fitSummary(const calib::FitResult& fit, const std::string& model) {
+std::string fitSummary(const calib::FitResult& fit) {
   std::string s = fmt::format("χ^2/ndf = {:.1f}/{}", fit.chi2, fit.ndf);
   s += fmt::format(" ({})", name(fit.status));
-  if (!model.empty()) s += "; " + literalText(model);
   return s;
+}
+
+// The footnote of a figure: the model the fit used ("" without one).
+std::string modelNote(const std::string& model) {
+  return model.empty() ? std::string() : "model: " + literalText(model);
+}
+
+// A grid with room for the model's footnote when there is one.
+GridLayout withFootnote(const std::string& model) {
+  GridLayout layout;
+  if (!model.empty()) layout.bottom += Grid::kFootnotePx;
+  return layout;
 }
 
 // Mean of a quantity over the bins of a slice, weighted by the entries.
@@ -235,14 +246,15 @@ std::string scriptHeader(const std::string& pngName, int width, int height) {
 // The profile against φ of one residual (Δφ or Δθ), one panel per θ slice.
 std::string profileVsPhiScript(const std::string& name, bool phiResidual, const std::vector<calib::ProfileBin>& bins,
                                const ProfileData& d, const calib::FitResult& fit, Range yRange) {
-  const Grid g(d.nTheta, 5, 1900, 300);
+  const Grid g(d.nTheta, 5, 1900, 300, withFootnote(d.model));
   std::string s = scriptHeader(name, g.width, g.height);
   s += fmt::format("model = '{}'\n", kModelVsPhiFile);
-  s += multiplotStart(fmt::format("{} profiles against φ_{{EMC}}, per θ_{{EMC}} slice — fit {}",
-                                  phiResidual ? "sin Δφ" : "Δθ", fitSummary(fit, d.model)),
-                      fmt::format("error bars: the σ of the χ^2 (stat ⊕ sys); curves at the slice's mean θ_{{EMC}} and "
-                                  "E = {:.0f} MeV, broken where the hemispheres meet (90°, 270°)",
-                                  d.energy));
+  s += multiplotStart(
+      fmt::format("{} profiles against φ_{{EMC}}, per θ_{{EMC}} slice — fit {}", phiResidual ? "sin Δφ" : "Δθ",
+                  fitSummary(fit)),
+      fmt::format("error bars: the σ of the χ^2 (stat ⊕ sys); curves at the slice's mean θ_{{EMC}} and "
+                  "E = {:.0f} MeV, broken where the hemispheres meet (90°, 270°)",
+                  d.energy));
   s += fmt::format(
       "set xrange [0:360]; set xtics 0,90,360; set mxtics 3\n"
       "set yrange [{:.6g}:{:.6g}]\n"
@@ -286,6 +298,7 @@ std::string profileVsPhiScript(const std::string& name, bool phiResidual, const 
   legend.push_back("keyentry with lines ls 3 title 'fit'");
   legend.push_back("keyentry with lines ls 4 title 'η = 0'");
   s += g.legend(legend);
+  s += g.footnote(modelNote(d.model));
   s += "unset multiplot\n";
   return s;
 }
@@ -294,11 +307,12 @@ std::string profileVsPhiScript(const std::string& name, bool phiResidual, const 
 std::string profileVsThetaScript(const std::string& name, const std::vector<calib::ProfileBin>& bins,
                                  const ProfileData& d, const calib::FitResult& fit, double thetaLoDeg,
                                  double thetaHiDeg, Range yRange) {
-  const Grid g(d.nPhi, static_cast<int>(std::ceil(std::sqrt(static_cast<double>(d.nPhi)))), 1700, 250);
+  const Grid g(d.nPhi, static_cast<int>(std::ceil(std::sqrt(static_cast<double>(d.nPhi)))), 1700, 250,
+               withFootnote(d.model));
   std::string s = scriptHeader(name, g.width, g.height);
   s += fmt::format("model = '{}'\n", kModelVsThetaFile);
   s += multiplotStart(
-      fmt::format("sin Δφ and Δθ profiles against θ_{{EMC}}, per φ_{{EMC}} slice — fit {}", fitSummary(fit, d.model)),
+      fmt::format("sin Δφ and Δθ profiles against θ_{{EMC}}, per φ_{{EMC}} slice — fit {}", fitSummary(fit)),
       fmt::format("error bars: the σ of the χ^2 (stat ⊕ sys); curves at the slice's mean φ_{{EMC}} and "
                   "E = {:.0f} MeV; (+), (−): hemisphere, cos φ_{{EMC}} ≥ 0 or < 0; panel χ^2 / number of "
                   "terms (both residuals)",
@@ -347,6 +361,7 @@ std::string profileVsThetaScript(const std::string& name, const std::vector<cali
   if (anyLeftOut) legend.push_back("keyentry with yerrorbars ls 2 title 'left out of the χ^2'");
   legend.push_back("keyentry with lines ls 4 title 'η = 0'");
   s += g.legend(legend);
+  s += g.footnote(modelNote(d.model));
   s += "unset multiplot\n";
   return s;
 }
@@ -405,8 +420,8 @@ std::string residualsScript(const std::string& name, const ResidualHistograms& r
   s += fmt::format(
       "set multiplot layout 1,2 title \"Residuals of the selected particles before (filled) and "
       "after (open) "
-      "the correction — fit {}\" font ',14' margins 0.07,0.98,0.13,0.86 spacing 0.08,0.1\n",
-      fitSummary(fit, model));
+      "the correction — fit {}{}\" font ',14' margins 0.07,0.98,0.13,0.84 spacing 0.08,0.1\n",
+      fitSummary(fit), model.empty() ? std::string() : "\\n{/=11 model: " + literalText(model) + "}");
   s += "set grid lc rgb '#e0e0e0' lt 1\nset tics front\nset style fill solid 0.45 noborder\n"
        "set key top left reverse Left samplen 2 font ',11'\n";
   struct Panel {
@@ -440,8 +455,8 @@ std::string fitModelText(const calib::FitGeometry& geometry, const calib::Profil
   std::vector<std::string> on;
   if (geometry.depth.offset != 0.0)
     on.push_back(fmt::format("depth offset {:+.2f} cm", geometry.depth.offset / units::cm));
-  if (profile.partingPlane) on.push_back("parting-plane response");
-  if (profile.nominalProfile) on.push_back("nominal pattern subtracted");
+  if (profile.partingPlane) on.push_back("parting plane");
+  if (profile.nominalProfile) on.push_back("nominal pattern");
   if (geometry.response) on.push_back("fit response");
   if (on.empty()) return "the paper's model, no corrections";
   if (corrections.empty()) return fmt::format("the paper's model with {}", fmt::join(on, ", "));

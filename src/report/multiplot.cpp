@@ -52,6 +52,20 @@ std::string Grid::panel(int k, const std::string& xlabel, const std::string& yla
       bottom ? "\"" + xlabel + "\" offset 0,0.3" : "''");
 }
 
+std::string Grid::footnote(const std::string& text) const {
+  if (text.empty()) return {};
+  return fmt::format(
+      "\n# ---- footnote: an axis-less full-width strip under the panels\n"
+      "unset border; unset tics; unset grid; unset xlabel; unset ylabel; unset title; unset arrow; unset key\n"
+      "set lmargin at screen 0.02; set rmargin at screen 0.98\n"
+      "set tmargin at screen {:.4f}; set bmargin at screen 0\n"
+      "set xrange [0:1]; set yrange [0:1]\n"
+      "set label 99 \"{}\" at graph 0.5, graph 0.5 center font ',11'\n"
+      "plot NaN notitle\n"
+      "unset label 99\n",
+      static_cast<double>(kFootnotePx) / height, text);
+}
+
 std::string Grid::legend(const std::vector<std::string>& entries) const {
   return fmt::format(
       "\n# ---- legend: an axis-less full-width plot holding only the key\n"

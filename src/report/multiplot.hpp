@@ -52,6 +52,10 @@ struct Grid {
   std::string panel(int k, const std::string& xlabel, const std::string& ylabel) const;
   /// The header strip's key: `entries` are gnuplot `keyentry` plot items.
   std::string legend(const std::vector<std::string>& entries) const;
+  /// A line of text in a strip under the panels (reserve kFootnotePx more in the bottom
+  /// margin); "" for none. `text` is enhanced text, safe in a double-quoted string.
+  std::string footnote(const std::string& text) const;
+  static constexpr int kFootnotePx = 24;
 };
 
 /// `set multiplot` with a title and a smaller subtitle line, and the settings every panel shares.

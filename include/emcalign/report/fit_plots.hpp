@@ -45,8 +45,8 @@
 namespace emcalign::report {
 
 /// The model a fit used, for a figure's subtitle: "the paper's model, no corrections", or
-/// "corrections FILE: depth offset +0.30 cm, parting-plane response, nominal pattern
-/// subtracted, fit response" (what of them is on).
+/// "corrections FILE: depth offset +0.30 cm, parting plane, nominal pattern, fit response"
+/// (what of them is on).
 std::string fitModelText(const calib::FitGeometry& geometry, const calib::ProfileOptions& profile,
                          const std::string& corrections);
 

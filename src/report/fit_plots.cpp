@@ -249,12 +249,11 @@ std::string profileVsPhiScript(const std::string& name, bool phiResidual, const 
   const Grid g(d.nTheta, 5, 1900, 300, withFootnote(d.model));
   std::string s = scriptHeader(name, g.width, g.height);
   s += fmt::format("model = '{}'\n", kModelVsPhiFile);
-  s += multiplotStart(
-      fmt::format("{} profiles against φ_{{EMC}}, per θ_{{EMC}} slice — fit {}", phiResidual ? "sin Δφ" : "Δθ",
-                  fitSummary(fit)),
-      fmt::format("error bars: the σ of the χ^2 (stat ⊕ sys); curves at the slice's mean θ_{{EMC}} and "
-                  "E = {:.0f} MeV, broken where the hemispheres meet (90°, 270°)",
-                  d.energy));
+  s += multiplotStart(fmt::format("{} profiles against φ_{{EMC}}, per θ_{{EMC}} slice — fit {}",
+                                  phiResidual ? "sin Δφ" : "Δθ", fitSummary(fit)),
+                      fmt::format("error bars: the σ of the χ^2 (stat ⊕ sys); curves at the slice's mean θ_{{EMC}} and "
+                                  "E = {:.0f} MeV, broken where the hemispheres meet (90°, 270°)",
+                                  d.energy));
   s += fmt::format(
       "set xrange [0:360]; set xtics 0,90,360; set mxtics 3\n"
       "set yrange [{:.6g}:{:.6g}]\n"

@@ -1,0 +1,114 @@
+// emcalign compare: data against simulation, as the paper judges its simulation (its
+// Fig. 6): the residual distributions and the profiles of both samples, each with the χ² of
+// their difference (apply/mc_comparison.hpp, report/compare_plots.hpp; docs/apply.md).
+
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "common.hpp"
+#include "emcalign/apply/mc_comparison.hpp"
+#include "emcalign/calib/corrections.hpp"
+#include "emcalign/core/units.hpp"
+#include "emcalign/core/version.hpp"
+#include "emcalign/geometry/shower_depth.hpp"
+#include "emcalign/report/compare_plots.hpp"
+
+namespace emcalign::app {
+
+namespace {
+
+struct CompareOptions {
+  std::vector<std::string> data, mc;
+  double beamEnergy = 0.0;
+  double sigmaSys = 0.0;  // deg
+  std::string corrections, detector, output;
+};
+
+int run(const CompareOptions& o) {
+  std::vector<io::NamedPath> inputs = {{"--corrections", o.corrections}, {"--detector", o.detector}};
+  for (const auto& f : o.data) inputs.push_back({"--data", f});
+  for (const auto& f : o.mc) inputs.push_back({"--mc", f});
+  for (const auto& d : o.data) {
+    for (const auto& m : o.mc) {
+      std::error_code ec;
+      if (std::filesystem::equivalent(d, m, ec)) {
+        return reportError(
+            Error{fmt::format("{} is given as data and as MC: a comparison of a sample with itself", d)});
+      }
+    }
+  }
+  if (Status s = checkOutputs({}, {{"-o", o.output}}, inputs); !s) return reportError(s.error());
+  auto calo = loadCalorimeter(o.detector);
+  if (!calo) return reportError(calo.error());
+  auto depth = geometry::ShowerDepth::of(calo->description());
+  if (!o.corrections.empty()) {
+    auto c = calib::readCorrections(o.corrections);
+    if (!c) return reportError(c.error());
+    depth.offset = c->depthOffset;
+  }
+  calib::SelectionOptions selection;
+  if (o.beamEnergy > 0.0) selection.beamEnergy = o.beamEnergy * units::MeV;
+  apply::ComparisonOptions options;
+  options.sigmaSys = o.sigmaSys * units::deg;
+  auto data = apply::comparedParticlesOf(o.data, depth, selection, options);
+  if (!data) return reportError(Error{"--data: " + data.error().message});
+  auto mc = apply::comparedParticlesOf(o.mc, depth, selection, options);
+  if (!mc) return reportError(Error{"--mc: " + mc.error().message});
+  auto c = apply::compareParticles(*data, *mc, options);
+  if (!c) return reportError(c.error());
+
+  std::error_code ec;
+  std::filesystem::create_directories(o.output, ec);
+  if (ec) return reportError(Error{fmt::format("{}: cannot create the directory: {}", o.output, ec.message())});
+  io::Json json = apply::comparisonJson(*c);
+  json["software"] = fmt::format("emcalign {}", kVersion);
+  json["data"]["files"] = o.data;
+  json["mc"]["files"] = o.mc;
+  json["depth_offset_cm"] = depth.offset / units::cm;
+  if (Status s = io::writeFileIn(o.output, "compare.json", json.dump(1) + "\n"); !s) return reportError(s.error());
+  if (Status s = io::writeFileIn(o.output, "compare.md", apply::comparisonMarkdown(*c, o.data, o.mc)); !s) {
+    return reportError(s.error());
+  }
+  auto png = report::writeComparePlot(o.output, *c);
+  if (!png) return reportError(png.error());
+  fmt::print(reportStream(), "compare: data {} particles ({} events), MC {} particles ({} events)\n", c->dataParticles,
+             c->dataEvents, c->mcParticles, c->mcEvents);
+  for (const auto& d : c->distributions) {
+    fmt::print(reportStream(), "  {:<14} chi2/ndf = {:8.1f}/{:<4} p-value {:.3g}\n", d.name, d.chi2, d.ndf, d.pValue);
+  }
+  fmt::print(reportStream(), "  {:<14} chi2/ndf = {:8.1f}/{:<4} p-value {:.3g}: {}\n", "all together", c->chi2, c->ndf,
+             c->pValue,
+             c->pValue >= 0.01 ? "the MC describes the data within both samples' statistics"
+                               : "the MC does not describe the data");
+  fmt::print(reportStream(), "wrote {}/compare.json, compare.md, compare.png\n", o.output);
+  return kExitOk;
+}
+
+}  // namespace
+
+void addCompareCommand(CLI::App& app, int& exitCode) {
+  auto o = std::make_shared<CompareOptions>();
+  auto* cmd = app.add_subcommand(
+      "compare",
+      "Compare data with simulation: the residual distributions and the profiles, each with the chi2 of their "
+      "difference and its p-value (the paper's MC-against-data figure)");
+  addVersionFlag(*cmd);
+  cmd->add_option("--data", o->data, "event files of the data")->required()->check(CLI::ExistingFile);
+  cmd->add_option("--mc", o->mc, "event files of the simulation")->required()->check(CLI::ExistingFile);
+  cmd->add_option("--beam-energy", o->beamEnergy, "beam energy for the selection, MeV (default: from the files)")
+      ->check(finiteIn(10.0, 10000.0));
+  cmd->add_option("--sigma-sys", o->sigmaSys,
+                  "deg added in quadrature to each profile mean's error (a known non-uniformity; default 0)")
+      ->check(finiteIn(0.0, 10.0));
+  cmd->add_option("--corrections", o->corrections, "take the shower-depth offset from a corrections file")
+      ->check(CLI::ExistingFile);
+  addDetectorOption(*cmd, o->detector);
+  cmd->add_option("-o,--output", o->output, "output directory: compare.json, compare.md, compare.png")->required();
+  cmd->callback([o, &exitCode] { exitCode = run(*o); });
+}
+
+}  // namespace emcalign::app

@@ -92,13 +92,16 @@ int runGroup(const CampaignCliOptions& o) {
   }
   model->setSigmaSys(plan->sigmaSys);
   const validation::CampaignGroup& g = plan->groups[static_cast<std::size_t>(o.group)];
-  auto db = conddb::Database::open(o.conditions, true);
-  if (!db) return reportError(db.error());
-  auto done = validation::groupsInTag(**db, o.tag, plan->groups);
+  // A new database is created when the group is fitted, to store it. Kept even if the put
+  // fails: the other jobs of the plan may be storing into it at the same time.
+  DatabaseToWrite target(o.conditions, DatabaseToWrite::IfLeftEmpty::Keep);
+  if (Status s = target.prepare(); !s) return reportError(s.error());
+  auto done = target.existing() == nullptr ? Result<std::vector<bool>>(std::vector<bool>(plan->groups.size(), false))
+                                           : validation::groupsInTag(*target.existing(), o.tag, plan->groups);
   if (!done) return reportError(done.error());
   if ((*done)[static_cast<std::size_t>(o.group)]) {
     // A retried job: done, if the tag holds this group from the same data.
-    auto same = validation::groupStored(**db, o.tag, g, plan->digests, *model);
+    auto same = validation::groupStored(*target.existing(), o.tag, g, plan->digests, *model);
     if (!same) return reportError(same.error());
     fmt::print(reportStream(), "group {} (runs {}-{}) is in tag {} already, from the same data: nothing to do\n",
                g.index, g.iovFirst, g.iovLast, o.tag);
@@ -135,6 +138,8 @@ int runGroup(const CampaignCliOptions& o) {
     return reportError(Error{fmt::format("group {} (runs {}-{}): the fit's status is '{}': not stored", g.index,
                                          g.iovFirst, g.iovLast, name(fit->result.status))});
   }
+  auto db = target.create();
+  if (!db) return reportError(db.error());
   if (Status s = (*db)->put(o.tag, g.iovFirst, g.iovLast, fit->payload, true, o.description); !s) {
     // The same job run twice at once: the other copy stored the group first.
     auto same = validation::groupStored(**db, o.tag, g, plan->digests, *model);
@@ -168,11 +173,11 @@ int run(const CampaignCliOptions& o) {
   auto model = validation::campaignModel(o.corrections, o.detector, *calo);
   if (!model) return reportError(model.error());
   model->setSigmaSys(sigmaSysChoice(o.sigmaSys));
-  std::unique_ptr<conddb::Database> db;
+  // A new database is created once the files are read and planned, not before: a campaign
+  // refused for its inputs leaves none behind (nor one whose every group failed).
+  DatabaseToWrite target(o.conditions);
   if (!planOnly) {
-    auto opened = conddb::Database::open(o.conditions, true);
-    if (!opened) return reportError(opened.error());
-    db = std::move(*opened);
+    if (Status s = target.prepare(); !s) return reportError(s.error());
   }
 
   ProgressLine scanning("campaign: reading", static_cast<std::int64_t>(files->size()), "files");
@@ -196,20 +201,22 @@ int run(const CampaignCliOptions& o) {
     return kExitOk;
   }
 
+  auto db = target.create();
+  if (!db) return reportError(db.error());
   ProgressLine fitting("campaign: fitting", static_cast<std::int64_t>(groups.size()), "groups");
   validation::CalibrationCampaignOptions co;
   co.minEvents = o.minEvents;
   co.threads = o.threads;
   co.description = o.description;
   co.progress = [&](int done, int, const validation::CampaignGroup&, const std::string&) { fitting.update(done); };
-  auto report = validation::runCampaign(*scan, *model, *db, o.tag, co);
+  auto report = validation::runCampaign(*scan, *model, **db, o.tag, co);
   fitting.finish();
   if (!report) return reportError(report.error());
   for (const auto& w : report->warnings) reportWarning(w);
   for (const auto& f : report->failures) reportWarning(f);
   fmt::print(
       reportStream(), "campaign: {} groups: {} fitted and stored, {} in tag {} already, {} failed ({:.1f} s) -> {}\n",
-      report->groups, report->fitted, report->resumed, o.tag, report->failures.size(), fitting.elapsed(), db->uri());
+      report->groups, report->fitted, report->resumed, o.tag, report->failures.size(), fitting.elapsed(), (*db)->uri());
   if (!report->failures.empty()) {
     return reportError(
         Error{fmt::format("{} of {} groups were not stored: the IOVs do not tile the runs (see the "

@@ -231,7 +231,10 @@ int runCopy(const ConditionsOptions& o) {
     if (!p) return reportError(p.error());
     iovs.push_back({iov.firstRun, iov.lastRun, **p});
   }
-  auto to = conddb::Database::open(o.target, true);
+  // A new target is created only now, and removed again if the copy fails before storing.
+  DatabaseToWrite target(o.target);
+  if (Status s = target.prepare(); !s) return reportError(s.error());
+  auto to = target.create();
   if (!to) return reportError(to.error());
   const std::string name = o.as.empty() ? o.tag : o.as;
   if (auto existing = (*to)->tag(name); !existing || existing->has_value()) {

@@ -228,6 +228,23 @@ TEST_P(ConditionsCli, CorrectAndSimulateByRun) {
     ASSERT_EQ(together[i].phiEmc, joined[i].phiEmc) << i;
     ASSERT_EQ(together[i].thetaEmc, joined[i].thetaEmc) << i;
   }
+  // A directory of event files, as campaign takes one: every file corrected by its run's IOV,
+  // one corrected file per input (it was refused: "File is actually a directory").
+  fs::create_directories(path("period"));
+  fs::copy_file(path("r3.h5"), path("period/r3.h5"));
+  fs::copy_file(path("r7.h5"), path("period/r7.h5"));
+  auto directory = run(fmt::format("correct {} --conditions {} --tag t -o {}/", path("period"), uri_, path("PC")));
+  ASSERT_EQ(directory.exitCode, 0) << directory.err;
+  EXPECT_NE(directory.out.find("(2 files, one per input)"), std::string::npos) << directory.out;
+  for (int r : {3, 7}) {
+    const auto one = rows(path(fmt::format("c{}.h5", r)));
+    const auto fromDirectory = rows(path(fmt::format("PC/r{}.h5", r)));
+    ASSERT_EQ(fromDirectory.size(), one.size());
+    for (std::size_t i = 0; i < one.size(); ++i) {
+      if (std::isnan(one[i].phiEmc)) continue;
+      ASSERT_EQ(fromDirectory[i].phiEmc, one[i].phiEmc) << r << " " << i;
+    }
+  }
   // The same simulation, whichever way the truth was given.
   EXPECT_EQ(rows(path("r3.h5")).size(), rows(path("d3.h5")).size());
   EXPECT_EQ(rows(path("r7.h5"))[5].phiEmc, rows(path("d7.h5"))[5].phiEmc);

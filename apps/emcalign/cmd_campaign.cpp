@@ -19,6 +19,7 @@
 #include "emcalign/calib/corrections.hpp"
 #include "emcalign/calib/corrections_grid.hpp"
 #include "emcalign/core/sha256.hpp"
+#include "emcalign/core/text.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/validation/calibration_campaign.hpp"
 #include "emcalign/validation/trend.hpp"
@@ -45,8 +46,8 @@ void printGroups(const std::vector<validation::CampaignGroup>& groups, std::int6
     selected += g.selected;
     shortGroups += g.isShort;
   }
-  fmt::print(reportStream(), "plan: {} groups of at least {} selected events ({} selected in all){}\n", groups.size(),
-             minEvents, selected,
+  fmt::print(reportStream(), "plan: {} of at least {} ({} selected in all){}\n", counted(groups.size(), "group"),
+             counted(minEvents, "selected event"), selected,
              shortGroups > 0 ? fmt::format("; {} short (an energy point with fewer)", shortGroups) : "");
   if (const std::string few = validation::tooFewIovsForTrend(groups.size(), selected); !few.empty()) {
     reportWarning(few);
@@ -148,9 +149,9 @@ int runGroup(const CampaignCliOptions& o) {
                g.index, g.iovFirst, g.iovLast);
     return kExitOk;
   }
-  fmt::print(reportStream(), "group {} (runs {}-{}, {} selected events): {}, chi2/ndf {:.1f}/{} -> {} tag {}\n",
-             g.index, g.iovFirst, g.iovLast, g.selected, name(fit->result.status), fit->result.chi2, fit->result.ndf,
-             (*db)->uri(), o.tag);
+  fmt::print(reportStream(), "group {} (runs {}-{}, {}): {}, chi2/ndf {:.1f}/{} -> {} tag {}\n", g.index, g.iovFirst,
+             g.iovLast, counted(g.selected, "selected event"), name(fit->result.status), fit->result.chi2,
+             fit->result.ndf, (*db)->uri(), o.tag);
   return kExitOk;
 }
 
@@ -188,8 +189,8 @@ int run(const CampaignCliOptions& o) {
   scanning.finish();
   if (!scan) return reportError(scan.error());
   const auto groups = validation::planGroups(*scan, o.minEvents);
-  fmt::print(reportStream(), "read {} files, {} runs ({}-{}) in {:.1f} s\n", files->size(), scan->runs.size(),
-             scan->runs.front().run, scan->runs.back().run, scanning.elapsed());
+  fmt::print(reportStream(), "read {}, {} ({}-{}) in {:.1f} s\n", counted(files->size(), "file"),
+             counted(scan->runs.size(), "run"), scan->runs.front().run, scan->runs.back().run, scanning.elapsed());
   printGroups(groups, o.minEvents);
   if (planOnly) {
     const io::Json plan = validation::planJson(*scan, groups, o.minEvents, *model);
@@ -214,14 +215,14 @@ int run(const CampaignCliOptions& o) {
   if (!report) return reportError(report.error());
   for (const auto& w : report->warnings) reportWarning(w);
   for (const auto& f : report->failures) reportWarning(f);
-  fmt::print(
-      reportStream(), "campaign: {} groups: {} fitted and stored, {} in tag {} already, {} failed ({:.1f} s) -> {}\n",
-      report->groups, report->fitted, report->resumed, o.tag, report->failures.size(), fitting.elapsed(), (*db)->uri());
+  fmt::print(reportStream(), "campaign: {}: {} fitted and stored, {} in tag {} already, {} failed ({:.1f} s) -> {}\n",
+             counted(report->groups, "group"), report->fitted, report->resumed, o.tag, report->failures.size(),
+             fitting.elapsed(), (*db)->uri());
   if (!report->failures.empty()) {
-    return reportError(
-        Error{fmt::format("{} of {} groups were not stored: the IOVs do not tile the runs (see the "
-                          "warnings; a rerun fits only the missing groups)",
-                          report->failures.size(), report->groups)});
+    return reportError(Error{fmt::format(
+        "{} of {} {} not stored: the IOVs do not tile the runs (see the "
+        "warnings; a rerun fits only the missing groups)",
+        report->failures.size(), counted(report->groups, "group"), report->failures.size() == 1 ? "was" : "were")});
   }
   return kExitOk;
 }

@@ -13,6 +13,7 @@
 #include "emcalign/apply/correct.hpp"
 #include "emcalign/calib/corrections.hpp"
 #include "emcalign/conddb/calibrations.hpp"
+#include "emcalign/core/text.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/validation/calibration_campaign.hpp"
 #include "progress.hpp"
@@ -73,11 +74,11 @@ int run(const CorrectCliOptions& o) {
   if (!report) return reportError(report.error());
   const int used = source->byRun && intoDirectory ? source->byRun->used() : report->alignments;
   std::string iovs;
-  if (source->byRun) iovs = fmt::format(" with {} IOV{} of tag {}", used, used == 1 ? "" : "s", o.tag);
+  if (source->byRun) iovs = fmt::format(" with {} of tag {}", counted(used, "IOV"), o.tag);
   std::string target = o.output;
-  if (intoDirectory) target += fmt::format(" ({} files, one per input)", events->size());
-  fmt::print(reportStream(), "correct ({}): {} events, {} rows, {} clusters corrected{}{}{} in {:.1f} s -> {}\n",
-             name(report->method), report->events, report->rows, report->clusters, iovs,
+  if (intoDirectory) target += fmt::format(" ({}, one per input)", counted(events->size(), "file"));
+  fmt::print(reportStream(), "correct ({}): {}, {}, {} corrected{}{}{} in {:.1f} s -> {}\n", name(report->method),
+             counted(report->events, "event"), counted(report->rows, "row"), counted(report->clusters, "cluster"), iovs,
              report->truth ? ", truth copied" : "", report->hits ? ", hits copied" : "", progress.elapsed(), target);
   return kExitOk;
 }

@@ -18,6 +18,7 @@
 #include "common.hpp"
 #include "emcalign/calib/corrections.hpp"
 #include "emcalign/conddb/calibrations.hpp"
+#include "emcalign/core/text.hpp"
 #include "emcalign/report/trend_plots.hpp"
 #include "emcalign/validation/calibration_campaign.hpp"
 #include "emcalign/validation/period.hpp"
@@ -139,15 +140,16 @@ int refit(const TrendCliOptions& o, const validation::Trend& trend, const std::v
   summary = validation::refitJson(*r, snapshot.iovs().size());
   summary["tag_out"] = o.tagOut;
   markdown += validation::refitMarkdown(*r, snapshot.iovs().size(), o.tagOut);
-  fmt::print(reportStream(), "refit: {} IOVs instead of {} -> {} tag {}\n", r->iovs.size(), snapshot.iovs().size(),
-             db.uri(), o.tagOut);
+  fmt::print(reportStream(), "refit: {} instead of {} -> {} tag {}\n", counted(r->iovs.size(), "IOV"),
+             snapshot.iovs().size(), db.uri(), o.tagOut);
   for (const auto& seg : r->segments) {
     if (!seg.drifting.empty() || seg.transition) continue;
     for (const auto& p : seg.precision) {
       if (p.parameter != "dx") continue;
       fmt::print(reportStream(),
-                 "  runs {}-{}: {} events; dx error quoted {:.4f} -> {:.4f} cm, statistical {:.4f} -> {:.4f} cm\n",
-                 seg.firstRun, seg.lastRun, seg.selected, p.quotedBefore, p.quotedAfter, p.statBefore, p.statAfter);
+                 "  runs {}-{}: {}; dx error quoted {:.4f} -> {:.4f} cm, statistical {:.4f} -> {:.4f} cm\n",
+                 seg.firstRun, seg.lastRun, counted(seg.selected, "event"), p.quotedBefore, p.quotedAfter, p.statBefore,
+                 p.statAfter);
     }
   }
   return kExitOk;
@@ -206,9 +208,10 @@ int run(const TrendCliOptions& o) {
 
   const auto transitions = std::count_if(trend.segments.begin(), trend.segments.end(),
                                          [](const validation::TrendSegment& s) { return s.transition; });
-  fmt::print(reportStream(), "trend of tag {}: {} IOVs, {} steps, {} drifts flagged, {} stable periods{}\n", o.tag,
-             trend.iovs, trend.steps.size(), trend.drifts.size(), trend.segments.size() - transitions,
-             transitions > 0 ? fmt::format(" and {} IOVs straddling a step", transitions) : std::string());
+  fmt::print(reportStream(), "trend of tag {}: {}, {}, {} flagged, {}{}\n", o.tag, counted(trend.iovs, "IOV"),
+             counted(trend.steps.size(), "step"), counted(trend.drifts.size(), "drift"),
+             counted(static_cast<std::ptrdiff_t>(trend.segments.size()) - transitions, "stable period"),
+             transitions > 0 ? fmt::format(" and {} straddling a step", counted(transitions, "IOV")) : std::string());
   if (trend.steps.empty() || !trend.inconsistencies.empty()) {
     fmt::print(reportStream(), "  {}\n", validation::trendVerdict(trend));
   }
@@ -230,8 +233,8 @@ int run(const TrendCliOptions& o) {
     fmt::print(reportStream(), "  drift {:<8} runs {}-{}: {:+.3g} ± {:.2g} {}/run (z {:.1f})\n", d.parameter,
                d.firstRun, d.lastRun, d.slopePerRun, d.error, d.unit, d.z);
   }
-  fmt::print(reportStream(), "wrote {}/trend.json, trend.md and {} figures (fig7.png, trend_all.png, trend_*.png)\n",
-             o.output, pngs->size());
+  fmt::print(reportStream(), "wrote {}/trend.json, trend.md and {} (fig7.png, trend_all.png, trend_*.png)\n", o.output,
+             counted(pngs->size(), "figure"));
   return kExitOk;
 }
 

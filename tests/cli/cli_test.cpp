@@ -216,6 +216,14 @@ TEST_F(Cli, ParamsShowGivesBothSets) {
   for (const char* n : {"alpha", "beta1", "dp3", "beta_rel", "psi", "mu", "tau", "dx_rel"}) {
     EXPECT_NE(table.out.find(n), std::string::npos) << n;
   }
+  // A value that rounds to zero is printed 0, without a sign (it read -0.000000).
+  CmdResult tiny =
+      run("params show " + paramsFile(R"("alpha": 3.0, "beta1": 0, "beta2": -1e-9, "dx": 0.3, "dy": 0, "dz": 0,
+                                     "dp1": 0.4, "dp2": 0.4, "dp3": 0.4, "dy_rel": 0, "dz_rel": -1e-9,
+                                     "beta_rel": 0)"));
+  ASSERT_EQ(tiny.exitCode, 0) << tiny.err;
+  EXPECT_EQ(tiny.out.find("-0.000000"), std::string::npos) << tiny.out;
+  EXPECT_NE(tiny.out.find(" 0.000000  cm      dz_rel           0.000000  cm"), std::string::npos) << tiny.out;
 }
 
 TEST_F(Cli, ParamsRefusesBadFilesAndWarnsOnOverlap) {

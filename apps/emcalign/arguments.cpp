@@ -44,12 +44,15 @@ std::optional<std::string> nearest(const std::string& typed, const std::vector<s
   return best;
 }
 
+// "emcalign conditions", or "emcalign" for the root (whose name is empty).
 std::string path(const CLI::App& app) {
-  std::string p = app.get_name();
-  for (const CLI::App* a = app.get_parent(); a != nullptr; a = a->get_parent()) {
-    p = a->get_name().empty() ? p : a->get_name() + " " + p;
+  std::string p = "emcalign";
+  std::vector<std::string> names;
+  for (const CLI::App* a = &app; a != nullptr; a = a->get_parent()) {
+    if (!a->get_name().empty()) names.push_back(a->get_name());
   }
-  return "emcalign " + p;
+  for (auto it = names.rbegin(); it != names.rend(); ++it) p += " " + *it;
+  return p;
 }
 
 std::vector<std::string> optionNames(const CLI::App& app, bool longNames) {

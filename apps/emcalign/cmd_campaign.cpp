@@ -19,6 +19,7 @@
 #include "emcalign/calib/corrections.hpp"
 #include "emcalign/calib/corrections_grid.hpp"
 #include "emcalign/core/sha256.hpp"
+#include "emcalign/core/text.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/validation/calibration_campaign.hpp"
 #include "emcalign/validation/trend.hpp"
@@ -45,8 +46,8 @@ void printGroups(const std::vector<validation::CampaignGroup>& groups, std::int6
     selected += g.selected;
     shortGroups += g.isShort;
   }
-  fmt::print(reportStream(), "plan: {} groups of at least {} selected events ({} selected in all){}\n", groups.size(),
-             minEvents, selected,
+  fmt::print(reportStream(), "plan: {} of at least {} ({} selected in all){}\n", counted(groups.size(), "group"),
+             counted(minEvents, "selected event"), selected,
              shortGroups > 0 ? fmt::format("; {} short (an energy point with fewer)", shortGroups) : "");
   if (const std::string few = validation::tooFewIovsForTrend(groups.size(), selected); !few.empty()) {
     reportWarning(few);
@@ -92,13 +93,16 @@ int runGroup(const CampaignCliOptions& o) {
   }
   model->setSigmaSys(plan->sigmaSys);
   const validation::CampaignGroup& g = plan->groups[static_cast<std::size_t>(o.group)];
-  auto db = conddb::Database::open(o.conditions, true);
-  if (!db) return reportError(db.error());
-  auto done = validation::groupsInTag(**db, o.tag, plan->groups);
+  // A new database is created when the group is fitted, to store it. Kept even if the put
+  // fails: the other jobs of the plan may be storing into it at the same time.
+  DatabaseToWrite target(o.conditions, DatabaseToWrite::IfLeftEmpty::Keep);
+  if (Status s = target.prepare(); !s) return reportError(s.error());
+  auto done = target.existing() == nullptr ? Result<std::vector<bool>>(std::vector<bool>(plan->groups.size(), false))
+                                           : validation::groupsInTag(*target.existing(), o.tag, plan->groups);
   if (!done) return reportError(done.error());
   if ((*done)[static_cast<std::size_t>(o.group)]) {
     // A retried job: done, if the tag holds this group from the same data.
-    auto same = validation::groupStored(**db, o.tag, g, plan->digests, *model);
+    auto same = validation::groupStored(*target.existing(), o.tag, g, plan->digests, *model);
     if (!same) return reportError(same.error());
     fmt::print(reportStream(), "group {} (runs {}-{}) is in tag {} already, from the same data: nothing to do\n",
                g.index, g.iovFirst, g.iovLast, o.tag);
@@ -135,6 +139,8 @@ int runGroup(const CampaignCliOptions& o) {
     return reportError(Error{fmt::format("group {} (runs {}-{}): the fit's status is '{}': not stored", g.index,
                                          g.iovFirst, g.iovLast, name(fit->result.status))});
   }
+  auto db = target.create();
+  if (!db) return reportError(db.error());
   if (Status s = (*db)->put(o.tag, g.iovFirst, g.iovLast, fit->payload, true, o.description); !s) {
     // The same job run twice at once: the other copy stored the group first.
     auto same = validation::groupStored(**db, o.tag, g, plan->digests, *model);
@@ -143,9 +149,9 @@ int runGroup(const CampaignCliOptions& o) {
                g.index, g.iovFirst, g.iovLast);
     return kExitOk;
   }
-  fmt::print(reportStream(), "group {} (runs {}-{}, {} selected events): {}, chi2/ndf {:.1f}/{} -> {} tag {}\n",
-             g.index, g.iovFirst, g.iovLast, g.selected, name(fit->result.status), fit->result.chi2, fit->result.ndf,
-             (*db)->uri(), o.tag);
+  fmt::print(reportStream(), "group {} (runs {}-{}, {}): {}, chi2/ndf {:.1f}/{} -> {} tag {}\n", g.index, g.iovFirst,
+             g.iovLast, counted(g.selected, "selected event"), name(fit->result.status), fit->result.chi2,
+             fit->result.ndf, (*db)->uri(), o.tag);
   return kExitOk;
 }
 
@@ -168,11 +174,11 @@ int run(const CampaignCliOptions& o) {
   auto model = validation::campaignModel(o.corrections, o.detector, *calo);
   if (!model) return reportError(model.error());
   model->setSigmaSys(sigmaSysChoice(o.sigmaSys));
-  std::unique_ptr<conddb::Database> db;
+  // A new database is created once the files are read and planned, not before: a campaign
+  // refused for its inputs leaves none behind (nor one whose every group failed).
+  DatabaseToWrite target(o.conditions);
   if (!planOnly) {
-    auto opened = conddb::Database::open(o.conditions, true);
-    if (!opened) return reportError(opened.error());
-    db = std::move(*opened);
+    if (Status s = target.prepare(); !s) return reportError(s.error());
   }
 
   ProgressLine scanning("campaign: reading", static_cast<std::int64_t>(files->size()), "files");
@@ -183,8 +189,8 @@ int run(const CampaignCliOptions& o) {
   scanning.finish();
   if (!scan) return reportError(scan.error());
   const auto groups = validation::planGroups(*scan, o.minEvents);
-  fmt::print(reportStream(), "read {} files, {} runs ({}-{}) in {:.1f} s\n", files->size(), scan->runs.size(),
-             scan->runs.front().run, scan->runs.back().run, scanning.elapsed());
+  fmt::print(reportStream(), "read {}, {} ({}-{}) in {:.1f} s\n", counted(files->size(), "file"),
+             counted(scan->runs.size(), "run"), scan->runs.front().run, scan->runs.back().run, scanning.elapsed());
   printGroups(groups, o.minEvents);
   if (planOnly) {
     const io::Json plan = validation::planJson(*scan, groups, o.minEvents, *model);
@@ -196,25 +202,27 @@ int run(const CampaignCliOptions& o) {
     return kExitOk;
   }
 
+  auto db = target.create();
+  if (!db) return reportError(db.error());
   ProgressLine fitting("campaign: fitting", static_cast<std::int64_t>(groups.size()), "groups");
   validation::CalibrationCampaignOptions co;
   co.minEvents = o.minEvents;
   co.threads = o.threads;
   co.description = o.description;
   co.progress = [&](int done, int, const validation::CampaignGroup&, const std::string&) { fitting.update(done); };
-  auto report = validation::runCampaign(*scan, *model, *db, o.tag, co);
+  auto report = validation::runCampaign(*scan, *model, **db, o.tag, co);
   fitting.finish();
   if (!report) return reportError(report.error());
   for (const auto& w : report->warnings) reportWarning(w);
   for (const auto& f : report->failures) reportWarning(f);
-  fmt::print(
-      reportStream(), "campaign: {} groups: {} fitted and stored, {} in tag {} already, {} failed ({:.1f} s) -> {}\n",
-      report->groups, report->fitted, report->resumed, o.tag, report->failures.size(), fitting.elapsed(), db->uri());
+  fmt::print(reportStream(), "campaign: {}: {} fitted and stored, {} in tag {} already, {} failed ({:.1f} s) -> {}\n",
+             counted(report->groups, "group"), report->fitted, report->resumed, o.tag, report->failures.size(),
+             fitting.elapsed(), (*db)->uri());
   if (!report->failures.empty()) {
-    return reportError(
-        Error{fmt::format("{} of {} groups were not stored: the IOVs do not tile the runs (see the "
-                          "warnings; a rerun fits only the missing groups)",
-                          report->failures.size(), report->groups)});
+    return reportError(Error{fmt::format(
+        "{} of {} {} not stored: the IOVs do not tile the runs (see the "
+        "warnings; a rerun fits only the missing groups)",
+        report->failures.size(), counted(report->groups, "group"), report->failures.size() == 1 ? "was" : "were")});
   }
   return kExitOk;
 }

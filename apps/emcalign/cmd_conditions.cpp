@@ -25,6 +25,7 @@
 #include "emcalign/conddb/calibrations.hpp"
 #include "emcalign/conddb/conditions.hpp"
 #include "emcalign/conddb/tag_tables.hpp"
+#include "emcalign/core/text.hpp"
 #include "emcalign/core/utf8.hpp"
 
 namespace emcalign::app {
@@ -63,7 +64,8 @@ int runInit(const ConditionsOptions& o) {
   if (!db) return reportError(db.error());
   auto tags = (*db)->tags();
   if (!tags) return reportError(tags.error());
-  fmt::print("{}: conditions database, schema {} ({} tags)\n", (*db)->uri(), conddb::kSchemaVersion, tags->size());
+  fmt::print("{}: conditions database, schema {} ({})\n", (*db)->uri(), conddb::kSchemaVersion,
+             counted(tags->size(), "tag"));
   return kExitOk;
 }
 
@@ -138,7 +140,7 @@ int runDiff(const ConditionsOptions& o) {
     }
   }
   fmt::print("{:>17}", "runs");
-  for (const auto& n : names) fmt::print(" {:>8}", n);
+  for (const auto& n : names) fmt::print(" {:>8} ", n);  // the last column of a cell: its mark
   fmt::print("\n");
   int beyond3 = 0;
   for (const auto& p : d->pairs) {
@@ -148,17 +150,21 @@ int runDiff(const ConditionsOptions& o) {
       continue;
     }
     for (double z : p.z) {
-      fmt::print(" {:>8}", std::isfinite(z) ? fmt::format("{:+.1f}", z) : std::string("-"));
-      beyond3 += std::isfinite(z) && std::abs(z) >= 3.0 ? 1 : 0;
+      // Two decimals cut toward zero, so that a cell reads 3.00 or more exactly when it is
+      // counted (rounded, -2.996 would read -3.00); the counted cells are marked too.
+      const bool counted3 = std::isfinite(z) && std::abs(z) >= 3.0;
+      fmt::print(" {:>8}{}", std::isfinite(z) ? fixed(std::trunc(z * 100.0) / 100.0, 2, true) : std::string("-"),
+                 counted3 ? "*" : " ");
+      beyond3 += counted3 ? 1 : 0;
     }
     fmt::print("\n");
   }
   for (const auto& [f, l] : d->onlyA) fmt::print("runs {}-{}: only in tag {}\n", f, l, d->tagA);
   for (const auto& [f, l] : d->onlyB) fmt::print("runs {}-{}: only in tag {}\n", f, l, d->tagB);
   fmt::print(
-      "{} IOV pairs, {} differences of 3 sigma or more (the errors of one fit each, not independent when "
-      "the tags fitted the same events)\n",
-      d->pairs.size(), beyond3);
+      "{}, {} of 3 sigma or more (marked *; the errors of one fit each, not independent when the tags fitted the "
+      "same events)\n",
+      counted(d->pairs.size(), "IOV pair"), counted(beyond3, "difference"));
   return kExitOk;
 }
 
@@ -266,7 +272,10 @@ int runCopy(const ConditionsOptions& o) {
     if (!p) return reportError(p.error());
     iovs.push_back({iov.firstRun, iov.lastRun, **p});
   }
-  auto to = conddb::Database::open(o.target, true);
+  // A new target is created only now, and removed again if the copy fails before storing.
+  DatabaseToWrite target(o.target);
+  if (Status s = target.prepare(); !s) return reportError(s.error());
+  auto to = target.create();
   if (!to) return reportError(to.error());
   const std::string name = o.as.empty() ? o.tag : o.as;
   if (auto existing = (*to)->tag(name); !existing || existing->has_value()) {
@@ -281,7 +290,7 @@ int runCopy(const ConditionsOptions& o) {
   if (snapshot->tag().state == conddb::TagState::Locked) {
     if (Status s = (*to)->lock(name); !s) return reportError(s.error());
   }
-  fmt::print("{} {} -> {} {}: {} IOVs{}\n", (*from)->uri(), o.tag, (*to)->uri(), name, iovs.size(),
+  fmt::print("{} {} -> {} {}: {}{}\n", (*from)->uri(), o.tag, (*to)->uri(), name, counted(iovs.size(), "IOV"),
              snapshot->tag().state == conddb::TagState::Locked ? " (locked, as the original)" : "");
   return kExitOk;
 }

@@ -13,7 +13,9 @@
 #include "emcalign/apply/correct.hpp"
 #include "emcalign/calib/corrections.hpp"
 #include "emcalign/conddb/calibrations.hpp"
+#include "emcalign/core/text.hpp"
 #include "emcalign/core/units.hpp"
+#include "emcalign/validation/calibration_campaign.hpp"
 #include "progress.hpp"
 
 namespace emcalign::app {
@@ -33,8 +35,11 @@ struct CorrectCliOptions {
 };
 
 int run(const CorrectCliOptions& o) {
+  // A directory gives every event file in it, as for campaign.
+  auto events = validation::eventFilesIn(o.events);
+  if (!events) return reportError(events.error());
   std::vector<io::NamedPath> inputs;
-  for (const auto& e : o.events) inputs.push_back({"", e});
+  for (const auto& e : *events) inputs.push_back({"", e});
   inputs.push_back({"--alignment", o.alignment});
   for (auto& c : conditionsInputs(o.conditions)) inputs.push_back(std::move(c));
   inputs.push_back({"--corrections", o.corrections});
@@ -60,20 +65,20 @@ int run(const CorrectCliOptions& o) {
   if (!made) return reportError(made.error());
   apply::CorrectOptions& options = *made;
   options.compression = o.compression;
-  options.description = apply::correctionRecord(source->description, o.method, options, o.events, o.corrections).dump();
+  options.description = apply::correctionRecord(source->description, o.method, options, *events, o.corrections).dump();
   ProgressLine progress("correct", 0, "rows");
   options.progress = [&](std::int64_t rows) { progress.update(rows); };
-  auto report = intoDirectory ? apply::correctEachInto(o.events, o.output, *calo, source->alignmentOf(), options)
-                              : apply::correctFiles(o.events, o.output, *calo, source->alignmentOf(), options);
+  auto report = intoDirectory ? apply::correctEachInto(*events, o.output, *calo, source->alignmentOf(), options)
+                              : apply::correctFiles(*events, o.output, *calo, source->alignmentOf(), options);
   progress.finish();
   if (!report) return reportError(report.error());
   const int used = source->byRun && intoDirectory ? source->byRun->used() : report->alignments;
   std::string iovs;
-  if (source->byRun) iovs = fmt::format(" with {} IOV{} of tag {}", used, used == 1 ? "" : "s", o.tag);
+  if (source->byRun) iovs = fmt::format(" with {} of tag {}", counted(used, "IOV"), o.tag);
   std::string target = o.output;
-  if (intoDirectory) target += fmt::format(" ({} files, one per input)", o.events.size());
-  fmt::print(reportStream(), "correct ({}): {} events, {} rows, {} clusters corrected{}{}{} in {:.1f} s -> {}\n",
-             name(report->method), report->events, report->rows, report->clusters, iovs,
+  if (intoDirectory) target += fmt::format(" ({}, one per input)", counted(events->size(), "file"));
+  fmt::print(reportStream(), "correct ({}): {}, {}, {} corrected{}{}{} in {:.1f} s -> {}\n", name(report->method),
+             counted(report->events, "event"), counted(report->rows, "row"), counted(report->clusters, "cluster"), iovs,
              report->truth ? ", truth copied" : "", report->hits ? ", hits copied" : "", progress.elapsed(), target);
   return kExitOk;
 }
@@ -86,7 +91,11 @@ void addCorrectCommand(CLI::App& app, int& exitCode) {
                                  "Correct the EMC directions of event files with an alignment (the same rows out, "
                                  "only phi_emc_rad and theta_emc_rad changed)");
   addVersionFlag(*cmd);
-  cmd->add_option("events", o->events, "event files (HDF5 or .csv)")->required()->check(CLI::ExistingFile);
+  cmd->add_option("events", o->events,
+                  "event files (HDF5 or .csv), or a directory of them (every *.h5, *.hdf5 and *.csv in it, as for "
+                  "campaign)")
+      ->required()
+      ->check(CLI::ExistingPath);
   auto* alignment = cmd->add_option("--alignment", o->alignment, "a parameter file, a fit result or a placements file")
                         ->check(CLI::ExistingFile);
   auto* conditions = cmd->add_option("--conditions", o->conditions,

@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 
 #include "common.hpp"
+#include "emcalign/core/text.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/io/json_files.hpp"
 #include "emcalign/validation/derive_corrections.hpp"
@@ -174,10 +175,10 @@ int run(const DeriveOptions& cli) {
   progress.finish();
   if (grid) {
     fmt::print(reportStream(),
-               "grid {}: {} beam energies, {} to {} MeV, {} derived in {:.1f} s (use: emcalign fit "
+               "grid {}: {}, {} to {} MeV, {} derived in {:.1f} s (use: emcalign fit "
                "--corrections {})\n",
-               cli.output, energies.size(), energies.front() / units::MeV, energies.back() / units::MeV, todo.size(),
-               progress.elapsed(), cli.output);
+               cli.output, counted(energies.size(), "beam energy", "beam energies"), energies.front() / units::MeV,
+               energies.back() / units::MeV, todo.size(), progress.elapsed(), cli.output);
   } else {
     fmt::print(reportStream(), "use: emcalign fit --corrections {}\n", cli.output);
   }

@@ -15,6 +15,7 @@
 #include "common.hpp"
 #include "emcalign/calib/calibration.hpp"
 #include "emcalign/calib/fit_job.hpp"
+#include "emcalign/core/text.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/geometry/shower_depth.hpp"
 #include "emcalign/io/json_files.hpp"
@@ -46,13 +47,13 @@ void printCutFlow(const calib::ProfileFill& fill) {
     fmt::print(reportStream(), "  {:<24} {:>10}\n", calib::CutFlow::kNames[k], fill.cutFlow.events[k]);
   }
   fmt::print(reportStream(),
-             "Particles: {} selected, {} in the profiles (45-135 deg), {} tracks missing the sphere R(E, theta)\n",
-             fill.particlesSelected, fill.particlesInRange, fill.trackMisses);
+             "Particles: {} selected, {} in the profiles (45-135 deg), {} missing the sphere R(E, theta)\n",
+             fill.particlesSelected, fill.particlesInRange, counted(fill.trackMisses, "track"));
 }
 
 // Five decimals, or five significant digits for a value a diverged fit made huge (never 300
 // digits of fixed notation).
-std::string fixed5(double v) { return std::abs(v) < 1e6 ? fmt::format("{:.5f}", v) : fmt::format("{:.5g}", v); }
+std::string fixed5(double v) { return std::abs(v) < 1e6 ? fixed(v, 5) : fmt::format("{:.5g}", v); }
 
 // The parameters with their statistical errors, and the systematic ones when the
 // corrections carry them (docs/systematics.md).
@@ -76,17 +77,17 @@ void printResult(const calib::FitResult& r, const calib::SystematicErrors* syste
     fmt::print(reportStream(), "{:<10} {:>12} ± {:<10}{} {}\n", name(p), fixed5(v.value / unit), fixed5(v.error / unit),
                syst(name(p)), fileUnitName(dimension(p)));
   }
-  fmt::print(reportStream(), "\nchi2/ndf = {:.2f}/{} (p-value {:.3g}), {} bins used; stages chi2:", r.chi2, r.ndf,
-             r.pValue, r.binsUsed);
+  fmt::print(reportStream(), "\nchi2/ndf = {:.2f}/{} (p-value {:.3g}), {} used; stages chi2:", r.chi2, r.ndf, r.pValue,
+             counted(r.binsUsed, "bin"));
   for (const auto& s : r.stages) fmt::print(reportStream(), " {:.1f}", s.chi2);
   const auto& s = r.sigmaSys;
   if (s.method == calib::SigmaSysMethod::Auto) {
     fmt::print(reportStream(),
                "\nsigma_sys = {:.4f} deg (auto: chi2/ndf = 1; 68% interval {:.4f}-{}; chi2/ndf = {:.1f}/{} with the "
-               "statistical errors alone, p-value {:.3g}; {} fits)",
+               "statistical errors alone, p-value {:.3g}; {})",
                s.value / units::deg, s.lower / units::deg,
                std::isfinite(s.upper) ? fmt::format("{:.4f}", s.upper / units::deg) : std::string("unbounded"),
-               s.chi2Stat, r.ndf, s.pValueStat, s.fits);
+               s.chi2Stat, r.ndf, s.pValueStat, counted(s.fits, "fit"));
   } else if (s.method == calib::SigmaSysMethod::Saved) {
     fmt::print(reportStream(), "\nsigma_sys: as in the saved profile's errors");
   } else {
@@ -106,7 +107,7 @@ void printAgainstTruth(const std::vector<calib::TruthRow>& rows) {
   for (const auto& r : rows) {
     const double pull = r.pull();
     fmt::print(reportStream(), "{:<10} {:>12} {:>12} {:>12} {:<4} {:>7}\n", r.name, fixed5(r.fit), fixed5(r.truth),
-               fixed5(r.difference()), r.unit, std::isfinite(pull) ? fmt::format("{:+.2f}", pull) : std::string("-"));
+               fixed5(r.difference()), r.unit, std::isfinite(pull) ? fixed(pull, 2, true) : std::string("-"));
   }
 }
 

@@ -10,6 +10,7 @@
 
 #include "common.hpp"
 #include "console.hpp"
+#include "emcalign/core/text.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/geometry/alignment_transform.hpp"
 #include "emcalign/geometry/counter_geometry.hpp"
@@ -69,8 +70,9 @@ Json summaryJson(const Calorimeter& calo) {
 void printSummary(const Calorimeter& calo) {
   const auto& d = calo.description();
   fmt::print("Detector: {}\n", d.name);
-  fmt::print("Counters: {} ({} per layer, {} rings of {:.4g} deg from {:.4g} to {:.4g} deg)\n", calo.size(),
-             calo.countersPerLayer(), d.ringCount(), d.ringWidth() / deg, d.thetaMin / deg, d.thetaMax / deg);
+  fmt::print("Counters: {} ({} per layer, {} of {:.4g} deg from {:.4g} to {:.4g} deg)\n", calo.size(),
+             calo.countersPerLayer(), counted(d.ringCount(), "ring"), d.ringWidth() / deg, d.thetaMin / deg,
+             d.thetaMax / deg);
   fmt::print("  {:<22} {:>10} {:>10}\n", "shell", "r_in, cm", "r_out, cm");
   const char* names[] = {"layer 1", "layer 2", "support sphere 1", "layer 3", "support sphere 2"};
   const SphericalShell* shells[] = {&d.layers[0], &d.layers[1], &d.supports[0], &d.layers[2], &d.supports[1]};

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "common.hpp"
+#include "emcalign/core/text.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/geometry/alignment_transform.hpp"
 #include "emcalign/io/json_files.hpp"
@@ -43,9 +44,9 @@ int runShow(const ShowOptions& o) {
   for (std::size_t i = 0; i < kNumParams; ++i) {
     const auto p = kAllParams[i];
     const auto q = static_cast<Physical>(i);
-    fmt::print("{:<10} {:>14.6f}  {:<4}    {:<10} {:>14.6f}  {:<4}\n", name(p),
-               (*eta)[p] / AlignmentParameters::fileUnit(p), unitName(dimension(p)), name(q),
-               (*phys)[q] / PhysicalParameters::fileUnit(q), unitName(dimension(q)));
+    fmt::print("{:<10} {:>14}  {:<4}    {:<10} {:>14}  {:<4}\n", name(p),
+               fixed((*eta)[p] / AlignmentParameters::fileUnit(p), 6), unitName(dimension(p)), name(q),
+               fixed((*phys)[q] / PhysicalParameters::fileUnit(q), 6), unitName(dimension(q)));
   }
   fmt::print(
       "(beta1, beta2 are sin(beta)cos(psi), sin(beta)sin(psi) written in degrees; "
@@ -53,8 +54,8 @@ int runShow(const ShowOptions& o) {
       r1 / units::cm);
   auto t = AlignmentTransform::create(*eta, AlignmentRadii::of(calo->description()));
   if (t && t->layer3RuleActive()) {
-    fmt::print("Layer 3: dx_rel - R_p3*sin(mu) < 0, so layer 3 uses mu3 = asin(dx_rel/R_p3) = {:.6f} deg\n",
-               std::asin((*phys)[Physical::DxRel] / calo->description().rp3()) / units::deg);
+    fmt::print("Layer 3: dx_rel - R_p3*sin(mu) < 0, so layer 3 uses mu3 = asin(dx_rel/R_p3) = {} deg\n",
+               fixed(std::asin((*phys)[Physical::DxRel] / calo->description().rp3()) / units::deg, 6));
   }
   return 0;
 }

@@ -13,6 +13,7 @@
 #include "emcalign/calib/fit_notes.hpp"
 #include "emcalign/conddb/calibrations.hpp"
 #include "emcalign/core/sha256.hpp"
+#include "emcalign/core/text.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/io/json_files.hpp"
 #include "emcalign/sim/generators.hpp"
@@ -118,20 +119,20 @@ int runPeriod(const SimulateOptions& cli) {
   const auto runs = validation::planPeriod(*scenario);
   std::int64_t total = 0;
   for (const auto& r : runs) total += r.events;
-  fmt::print(reportStream(),
-             "simulate --period {}: runs {}-{} ({} runs), {} events, {} beam energies, {} segments, {} drifts -> {}\n",
-             cli.period, scenario->firstRun, scenario->lastRun(), runs.size(), total, scenario->beamEnergy.size(),
-             scenario->segments.size(), scenario->drifts.size(), cli.output);
+  fmt::print(reportStream(), "simulate --period {}: runs {}-{} ({}), {}, {}, {}, {} -> {}\n", cli.period,
+             scenario->firstRun, scenario->lastRun(), counted(runs.size(), "run"), counted(total, "event"),
+             counted(scenario->beamEnergy.size(), "beam energy", "beam energies"),
+             counted(scenario->segments.size(), "segment"), counted(scenario->drifts.size(), "drift"), cli.output);
   ProgressLine progress("simulate", static_cast<std::int64_t>(runs.size()), "runs");
   o.progress = [&](std::int64_t done, std::int64_t, std::int64_t) { progress.update(done); };
   auto report = validation::simulatePeriod(*scenario, *calo, cli.output, o);
   progress.finish();
   if (!report) return reportError(report.error());
   fmt::print(reportStream(),
-             "simulate: {} runs ({} there already), {} events simulated ({} in the period), {} particle rows, "
+             "simulate: {} ({} there already), {} simulated ({} in the period), {}, "
              "{:.1f} s -> {}/run_*.h5, {}/truth.json\n",
-             report->runs, report->resumed, report->simulated, report->events, report->rows, progress.elapsed(),
-             cli.output, cli.output);
+             counted(report->runs, "run"), report->resumed, counted(report->simulated, "event"), report->events,
+             counted(report->rows, "particle row"), progress.elapsed(), cli.output, cli.output);
   return kExitOk;
 }
 
@@ -171,8 +172,8 @@ int run(const SimulateOptions& cli) {
                                          [&](std::int64_t n) { progress.update(n); });
   progress.finish();
   if (!report) return reportError(report.error());
-  fmt::print(reportStream(), "simulate: {} events, {} particle rows, {:.1f} s -> {}\n", report->events, report->rows,
-             progress.elapsed(), cli.output);
+  fmt::print(reportStream(), "simulate: {}, {}, {:.1f} s -> {}\n", counted(report->events, "event"),
+             counted(report->rows, "particle row"), progress.elapsed(), cli.output);
   const std::int64_t empty = report->events - report->eventsWritten;
   if (empty > 0) {
     fmt::print(reportStream(),

@@ -18,6 +18,7 @@
 #include "common.hpp"
 #include "emcalign/calib/corrections.hpp"
 #include "emcalign/conddb/calibrations.hpp"
+#include "emcalign/core/text.hpp"
 #include "emcalign/report/trend_plots.hpp"
 #include "emcalign/validation/calibration_campaign.hpp"
 #include "emcalign/validation/period.hpp"
@@ -107,15 +108,16 @@ int refit(const TrendCliOptions& o, const validation::Trend& trend, const std::v
   summary = validation::refitJson(*r, snapshot.iovs().size());
   summary["tag_out"] = o.tagOut;
   markdown += validation::refitMarkdown(*r, snapshot.iovs().size(), o.tagOut);
-  fmt::print(reportStream(), "refit: {} IOVs instead of {} -> {} tag {}\n", r->iovs.size(), snapshot.iovs().size(),
-             db.uri(), o.tagOut);
+  fmt::print(reportStream(), "refit: {} instead of {} -> {} tag {}\n", counted(r->iovs.size(), "IOV"),
+             snapshot.iovs().size(), db.uri(), o.tagOut);
   for (const auto& seg : r->segments) {
     if (!seg.drifting.empty() || seg.transition) continue;
     for (const auto& p : seg.precision) {
       if (p.parameter != "dx") continue;
       fmt::print(reportStream(),
-                 "  runs {}-{}: {} events; dx error quoted {:.4f} -> {:.4f} cm, statistical {:.4f} -> {:.4f} cm\n",
-                 seg.firstRun, seg.lastRun, seg.selected, p.quotedBefore, p.quotedAfter, p.statBefore, p.statAfter);
+                 "  runs {}-{}: {}; dx error quoted {:.4f} -> {:.4f} cm, statistical {:.4f} -> {:.4f} cm\n",
+                 seg.firstRun, seg.lastRun, counted(seg.selected, "event"), p.quotedBefore, p.quotedAfter, p.statBefore,
+                 p.statAfter);
     }
   }
   return kExitOk;
@@ -179,14 +181,10 @@ int run(const TrendCliOptions& o) {
   const auto count = [&](auto keep) { return std::count_if(trend.segments.begin(), trend.segments.end(), keep); };
   const auto transitions = count([](const validation::TrendSegment& s) { return s.transition; });
   const auto stable = count([](const validation::TrendSegment& s) { return s.stable(); });
-  const auto plural = [](std::size_t n, const char* one, const char* many) {
-    return fmt::format("{} {}", n, n == 1 ? one : many);
-  };
-  fmt::print(
-      reportStream(), "trend of tag {}: {}, {}, {} flagged, {} of {} stable{}\n", o.tag,
-      plural(trend.iovs, "IOV", "IOVs"), plural(trend.steps.size(), "step", "steps"),
-      plural(trend.drifts.size(), "drift", "drifts"), stable, plural(trend.segments.size(), "period", "periods"),
-      transitions > 0 ? fmt::format(" ({} straddling a step)", plural(transitions, "IOV", "IOVs")) : std::string());
+  fmt::print(reportStream(), "trend of tag {}: {}, {}, {} flagged, {} of {} stable{}\n", o.tag,
+             counted(trend.iovs, "IOV"), counted(trend.steps.size(), "step"), counted(trend.drifts.size(), "drift"),
+             stable, counted(trend.segments.size(), "period"),
+             transitions > 0 ? fmt::format(" ({} straddling a step)", counted(transitions, "IOV")) : std::string());
   if (const std::string m = validation::modelsText(*models); !m.empty()) fmt::print(reportStream(), "  {}\n", m);
   if (trend.steps.empty() || !trend.inconsistencies.empty() || !trend.edges.empty()) {
     fmt::print(reportStream(), "  {}\n", validation::trendVerdict(trend));
@@ -214,8 +212,8 @@ int run(const TrendCliOptions& o) {
     fmt::print(reportStream(), "  drift {:<8} runs {}-{}: {:+.3g} ± {:.2g} {}/run (z {:.1f})\n", d.parameter,
                d.firstRun, d.lastRun, d.slopePerRun, d.error, d.unit, d.z);
   }
-  fmt::print(reportStream(), "wrote {}/trend.json, trend.md and {} figures (fig7.png, trend_all.png, trend_*.png)\n",
-             o.output, pngs->size());
+  fmt::print(reportStream(), "wrote {}/trend.json, trend.md and {} (fig7.png, trend_all.png, trend_*.png)\n", o.output,
+             counted(pngs->size(), "figure"));
   return kExitOk;
 }
 

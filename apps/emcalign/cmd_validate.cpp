@@ -11,6 +11,7 @@
 
 #include "common.hpp"
 #include "emcalign/calib/corrections_grid.hpp"
+#include "emcalign/core/text.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/core/version.hpp"
 #include "emcalign/validation/campaign.hpp"
@@ -138,14 +139,14 @@ int run(const ValidateOptions& cli) {
   fmt::print(reportStream(), "{:<10} {:>4} {:>11} {:>9} {:>10} {:>9} {:>15} {:>18}\n", "parameter", "unit", "bias", "±",
              "spread", "pull mean", "pull width", "slope");
   for (const auto& r : table->rows) {
-    fmt::print(reportStream(), "{:<10} {:>4} {:>11.4g} {:>9.2g} {:>10.4g} {:>9.3f} {:>7.3f} ± {:.3f} {:>18}\n", r.name,
-               r.unit, r.bias, r.biasError, r.spread, r.pullMean, r.pullWidth, r.pullWidthError,
+    fmt::print(reportStream(), "{:<10} {:>4} {:>11.4g} {:>9.2g} {:>10.4g} {:>9} {:>7.3f} ± {:.3f} {:>18}\n", r.name,
+               r.unit, r.bias, r.biasError, r.spread, fixed(r.pullMean, 3), r.pullWidth, r.pullWidthError,
                validation::slopeText(r));
   }
   fmt::print(reportStream(), "sigma_sys of the fits: median {:.4f} deg ({:.4f} to {:.4f})\n", table->sigmaSysMedian,
              table->sigmaSysMin, table->sigmaSysMax);
-  fmt::print(reportStream(), "{} samples × {} events in {:.1f} s; wrote {}/table.json, table.md, plots/, samples/\n",
-             table->samples, table->events, progress.elapsed(), cli.output);
+  fmt::print(reportStream(), "{} × {} in {:.1f} s; wrote {}/table.json, table.md, plots/, samples/\n",
+             counted(table->samples, "sample"), counted(table->events, "event"), progress.elapsed(), cli.output);
   return 0;
 }
 
@@ -261,15 +262,16 @@ int runSystematics(const ValidateOptions& cli) {
             ? std::string()
             : fmt::format("{:.4f} ({})", *largest,
                           table->quantities[static_cast<std::size_t>(largest - r.envelope.begin())]);
-    fmt::print(reportStream(), "{:<10} {:>4} {:>+9.4f} ± {:<7.4f} {:>9.4f} {:>11.4f}  {}\n", r.name, r.unit, r.bias,
-               r.biasError, r.spread, r.systematic, which);
+    fmt::print(reportStream(), "{:<10} {:>4} {:>9} ± {:<7.4f} {:>9.4f} {:>11.4f}  {}\n", r.name, r.unit,
+               fixed(r.bias, 4, true), r.biasError, r.spread, r.systematic, which);
   }
   const std::size_t campaigns = table->variations.size() + 1;
   fmt::print(reportStream(),
-             "{} campaigns{} × {} samples × {} events in {:.1f} s; wrote {}/systematics.json, systematics.md, "
+             "{} campaigns{} × {} × {} in {:.1f} s; wrote {}/systematics.json, systematics.md, "
              "plots/systematics.png, nominal/, one directory per variation{}\n",
              campaigns, cli.reverse ? fmt::format(" (and {} derivations with their campaigns)", campaigns) : "",
-             table->samples, table->events, progress.elapsed(), cli.output, cli.reverse ? ", reverse/" : "");
+             counted(table->samples, "sample"), counted(table->events, "event"), progress.elapsed(), cli.output,
+             cli.reverse ? ", reverse/" : "");
   if (!cli.writeCorrections.empty()) {
     if (Status s = writeCorrectionsWithErrors(cli, o.campaign, *table); !s) return reportError(s.error());
     if (cli.writeCorrections == "-") {

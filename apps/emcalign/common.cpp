@@ -1,6 +1,11 @@
 #include "common.hpp"
 
+#include <unistd.h>
+
+#include <cerrno>
 #include <charconv>
+#include <cstring>
+#include <filesystem>
 #include <iostream>
 #include <limits>
 #include <map>
@@ -46,6 +51,52 @@ std::vector<io::NamedPath> conditionsInputs(const std::string& uri, const std::s
   if (!address) return out;  // refused with its reason when opened
   for (const std::string& f : address->files()) out.push_back({option, f});
   return out;
+}
+
+DatabaseToWrite::DatabaseToWrite(std::string uri, IfLeftEmpty ifLeftEmpty)
+    : uri_(std::move(uri)), ifLeftEmpty_(ifLeftEmpty) {}
+
+Status DatabaseToWrite::prepare() {
+  const std::string file = conddb::sqliteFileOf(uri_);
+  std::error_code ec;
+  if (file.empty() || std::filesystem::exists(std::filesystem::symlink_status(file, ec))) {
+    // As it always was: a server's database, or an existing file, gets the schema if it has none.
+    auto db = conddb::Database::open(uri_, true);
+    if (!db) return db.error();
+    db_ = std::move(*db);
+    return {};
+  }
+  const std::filesystem::path dir = std::filesystem::path(file).parent_path();
+  const std::string shown = dir.empty() ? std::string(".") : dir.string();
+  if (!std::filesystem::is_directory(dir.empty() ? "." : dir, ec)) {
+    return Error{fmt::format("sqlite:{}: cannot create the database: the directory {} does not exist", file, shown)};
+  }
+  if (::access(shown.c_str(), W_OK | X_OK) != 0) {
+    return Error{fmt::format("sqlite:{}: cannot create the database in {}: {}", file, shown, std::strerror(errno))};
+  }
+  return {};
+}
+
+Result<conddb::Database*> DatabaseToWrite::create() {
+  if (db_) return db_.get();
+  const std::string file = conddb::sqliteFileOf(uri_);
+  std::error_code ec;
+  const bool existed = file.empty() || std::filesystem::exists(std::filesystem::symlink_status(file, ec));
+  auto db = conddb::Database::open(uri_, true);
+  if (!db) return db.error();
+  db_ = std::move(*db);
+  created_ = !existed;
+  return db_.get();
+}
+
+DatabaseToWrite::~DatabaseToWrite() {
+  if (!created_ || ifLeftEmpty_ != IfLeftEmpty::Remove || !db_) return;
+  auto tags = db_->tags();
+  if (!tags || !tags->empty()) return;
+  db_.reset();  // closed before its file goes
+  const std::string file = conddb::sqliteFileOf(uri_);
+  std::error_code ec;
+  for (const char* suffix : {"", "-wal", "-shm", "-journal"}) std::filesystem::remove(file + suffix, ec);
 }
 
 Status checkOutputs(const std::vector<io::NamedPath>& files, const std::vector<io::NamedPath>& directories,

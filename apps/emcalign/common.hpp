@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <cstdio>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -12,6 +13,7 @@
 
 #include "emcalign/apply/placements.hpp"
 #include "emcalign/calib/sigma_sys.hpp"
+#include "emcalign/conddb/conditions.hpp"
 #include "emcalign/core/result.hpp"
 #include "emcalign/geometry/alignment_parameters.hpp"
 #include "emcalign/geometry/detector.hpp"
@@ -61,6 +63,37 @@ Status checkOutputs(const std::vector<io::NamedPath>& files, const std::vector<i
 /// The files of a conditions database (an SQLite file and its journals; none for a server), as
 /// inputs of a command: no output may replace them.
 std::vector<io::NamedPath> conditionsInputs(const std::string& uri, const std::string& option = "--conditions");
+
+/// A conditions database a command stores into, created only when there is something to
+/// store: a command refused for its inputs leaves no new, empty database behind.
+///   DatabaseToWrite target(uri);
+///   target.prepare();   // before the work: an existing database (a server's) opened, so
+///                       // that a wrong address is refused at once; for a new SQLite file,
+///                       // its directory checked
+///   …                   // read and check the inputs, fit
+///   target.create();    // the database, its SQLite file created now when new
+/// With IfLeftEmpty::Remove, a file this command created is removed again when the command
+/// ends without a tag in it (a campaign whose every group failed). Not for jobs that may
+/// create the same file at once (campaign --group): another one may be storing into it.
+class DatabaseToWrite {
+ public:
+  enum class IfLeftEmpty { Remove, Keep };
+  explicit DatabaseToWrite(std::string uri, IfLeftEmpty ifLeftEmpty = IfLeftEmpty::Remove);
+  DatabaseToWrite(const DatabaseToWrite&) = delete;
+  DatabaseToWrite& operator=(const DatabaseToWrite&) = delete;
+  ~DatabaseToWrite();
+
+  Status prepare();
+  /// The database when it exists (after prepare or create), else null: nothing stored in it yet.
+  conddb::Database* existing() { return db_.get(); }
+  Result<conddb::Database*> create();
+
+ private:
+  std::string uri_;
+  IfLeftEmpty ifLeftEmpty_;
+  std::unique_ptr<conddb::Database> db_;
+  bool created_ = false;  // the SQLite file did not exist before create()
+};
 
 /// The detector of `--detector FILE`, or the embedded default when the path is empty.
 using io::loadCalorimeter;

@@ -19,11 +19,16 @@ import emcalign
 from cli_helpers import CLI, PAPER_LIKE, cli
 
 
-def test_a_message_quoting_bytes_of_a_binary_file_is_kept(sample):
-    h5, _ = sample
+def test_a_message_quoting_bytes_of_a_binary_file_is_kept(tmp_path, sample):
+    binary = tmp_path / "binary.csv"
+    binary.write_bytes(b"\x89\xfe\xff not a profile\n")
     with pytest.raises(emcalign.Error) as e:
-        emcalign.fit(profile=h5)  # an HDF5 file given as a profile (CSV): the message quotes its bytes
-    assert str(e.value).startswith(str(h5)) and "\\x89HDF" in str(e.value)
+        emcalign.fit(profile=binary)  # bytes of no known kind as a profile (CSV): the message quotes them
+    assert str(e.value).startswith(str(binary)) and "\\x89" in str(e.value)
+    # A file of a known kind is named instead.
+    h5, _ = sample
+    with pytest.raises(emcalign.Error, match=r"this is an HDF5 file \(an event file\?\), not a profile CSV"):
+        emcalign.fit(profile=h5)
 
 
 def test_paths_that_are_not_utf8_are_refused(tmp_path, sample):

@@ -1,4 +1,5 @@
 #include "emcalign/calib/fit.hpp"
+#include "emcalign/core/text.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -205,9 +206,9 @@ Result<std::vector<BinPoint>> fitPoints(const std::vector<ProfileBin>& bins, con
   }
   if (2 * static_cast<int>(points.size()) <= kN) {
     return Error{
-        fmt::format("only {} profile bins have at least 10 entries: the 12 parameters need at least 7 "
+        fmt::format("only {} {} at least 10 entries: the 12 parameters need at least 7 "
                     "(are there selected e+e- -> e+e- events at 45-135 deg?)",
-                    points.size())};
+                    counted(points.size(), "profile bin"), points.size() == 1 ? "has" : "have")};
   }
   return points;
 }
@@ -331,8 +332,10 @@ void judge(const std::vector<ProfileBin>& bins, FitResult& result) {
   if (!result.binsLeftOut.empty()) {
     std::string list;
     for (const auto& [i, j] : result.binsLeftOut) list += fmt::format("{}({},{})", list.empty() ? "" : " ", i, j);
-    result.warnings.push_back(fmt::format("{} of {} profile bins have fewer than 10 entries and are left out: {}",
-                                          result.binsLeftOut.size(), bins.size(), list));
+    result.warnings.push_back(fmt::format("{} of {} {} fewer than 10 entries and {} left out: {}",
+                                          result.binsLeftOut.size(), bins.size(), nounFor(bins.size(), "profile bin"),
+                                          result.binsLeftOut.size() == 1 ? "has" : "have",
+                                          result.binsLeftOut.size() == 1 ? "is" : "are", list));
   }
 }
 

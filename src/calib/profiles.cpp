@@ -16,6 +16,7 @@
 #include <fmt/format.h>
 
 #include "emcalign/io/csv.hpp"
+#include "emcalign/io/file_kind.hpp"
 #include "emcalign/io/json_files.hpp"
 
 namespace emcalign::calib {
@@ -350,12 +351,22 @@ Status parseBinValues(const ProfileLine& line, const ProfileOptions& options, Pr
   return {};
 }
 
+// A file of another kind given as a profile (an event file, a fit result, …), named by what it is.
+Error notAProfile(const std::string& path, const std::string& kind) {
+  return Error{fmt::format("{}: this is {}, not a profile CSV (fit --profile-out)", path, kind)};
+}
+
 }  // namespace
 
 Result<std::vector<ProfileBin>> readProfileCsv(const std::string& path, const ProfileOptions& options) {
   if (Status s = options.validate(); !s) return s.error();
   auto content = io::readTextFile(path);
-  if (!content) return content.error();
+  if (!content) {
+    if (const std::string kind = io::describeFileAt(path); !kind.empty() && kind != io::kProfileCsvKind) {
+      return notAProfile(path, kind);
+    }
+    return content.error();
+  }
   std::istringstream in(*content);
   const int bins = options.phiBins * options.thetaBins;
   std::vector<int> lineOfBin(static_cast<std::size_t>(bins), 0);
@@ -376,6 +387,9 @@ Result<std::vector<ProfileBin>> readProfileCsv(const std::string& path, const Pr
       bool names = f.size() == kRequiredColumns || f.size() == kAllColumns;
       for (std::size_t k = 0; names && k < f.size(); ++k) names = f[k] == kColumns[k];
       if (!names) {
+        if (const std::string kind = io::describeContent(*content); !kind.empty() && kind != io::kProfileCsvKind) {
+          return notAProfile(path, kind);
+        }
         return Error{fmt::format("{}: line {}: header: expected '{}' (optionally followed by ',plus_weight'), got {}",
                                  path, lineNo, kHeader, io::quoted(text))};
       }

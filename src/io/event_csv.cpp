@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "emcalign/io/csv.hpp"
+#include "emcalign/io/file_kind.hpp"
 #include "emcalign/io/output_file.hpp"
 #include "event_file_internal.hpp"
 
@@ -225,9 +226,14 @@ std::optional<std::string> parseIntegerField(std::string_view field, std::int64_
   return notANumber(field);
 }
 
+// The first names of a list, then how many in all: a message never lists fifty columns.
 std::string quotedList(const std::vector<std::string_view>& names) {
+  constexpr std::size_t kShown = 6;
   std::string out;
-  for (auto n : names) out += fmt::format("{}{}", out.empty() ? "" : ", ", quoted(n));
+  for (std::size_t k = 0; k < names.size() && k < kShown; ++k) {
+    out += fmt::format("{}{}", k == 0 ? "" : ", ", quoted(names[k]));
+  }
+  if (names.size() > kShown) out += fmt::format(", … ({} in all)", names.size());
   return out;
 }
 
@@ -249,6 +255,10 @@ std::optional<std::string> checkHeader(const std::vector<std::string_view>& fiel
                                           fields.begin() + static_cast<std::ptrdiff_t>(i)) {
       extra.push_back(f);
     }
+  }
+  if (missing.size() == kColumnNames.size()) {  // a header of something else: what it has, briefly
+    return fmt::format("header: none of an event file's columns ('{}', '{}', '{}', …); this one has {}",
+                       kColumnNames[0], kColumnNames[1], kColumnNames[2], quotedList(fields));
   }
   std::string what;
   if (missing.size() == 1 && extra.size() == 1) {
@@ -375,7 +385,13 @@ class CsvSource final : public RowSource {
         }
         continue;
       }
-      if (auto e = checkHeader(splitCsvLine(line))) return Error{fmt::format("{}: {}", location(), *e)};
+      if (auto e = checkHeader(splitCsvLine(line))) {
+        // Another of emcalign's files (a conditions export, a profile, …) is named as what it is.
+        if (const std::string kind = describeFileAt(path_); !kind.empty() && kind != kCsvEventFileKind) {
+          return Error{fmt::format("{}: this is {}, not an event file", path_, kind)};
+        }
+        return Error{fmt::format("{}: {}", location(), *e)};
+      }
       return {};
     }
   }

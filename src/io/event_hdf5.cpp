@@ -7,6 +7,7 @@
 
 #include <fmt/format.h>
 
+#include "emcalign/io/file_kind.hpp"
 #include "emcalign/io/output_file.hpp"
 #include "event_file_internal.hpp"
 
@@ -598,6 +599,12 @@ class Hdf5Source final : public RowSource {
     const htri_t isHdf5 = H5Fis_hdf5(path_.c_str());
     if (isHdf5 <= 0) {
       H5Eclear2(H5E_DEFAULT);
+      const std::string kind = describeFileAt(path_);
+      if (kind == kCsvEventFileKind) {
+        return error(
+            "this is a CSV event file: name it *.csv (event files are HDF5 unless the name ends with \".csv\")");
+      }
+      if (!kind.empty()) return error(fmt::format("this is {}, not an event file", kind));
       return error(
           "not an HDF5 file (no HDF5 signature; event files are HDF5 unless the name ends with "
           "\".csv\")");

@@ -19,6 +19,7 @@
 
 #include "emcalign/core/regular_file.hpp"
 #include "emcalign/core/units.hpp"
+#include "emcalign/io/file_kind.hpp"
 #include "emcalign/io/output_file.hpp"
 #include "emcalign/io/strict_json.hpp"
 
@@ -81,22 +82,6 @@ std::optional<std::size_t> tooDeep(std::string_view text) {
 
 }  // namespace
 
-namespace {
-
-// What a file that is not JSON looks like, by its first bytes (empty: nothing known).
-std::string nonJsonKind(std::string_view text) {
-  if (text.starts_with("\x89HDF\r\n\x1a\n")) return "an HDF5 file (an event file?)";
-  if (text.starts_with("\x89PNG")) return "a PNG image";
-  if (text.starts_with("SQLite format 3")) return "an SQLite database (a conditions database?)";
-  if (text.starts_with("event,") || text.starts_with("# truth_parameters") || text.starts_with("# simulation")) {
-    return "a CSV event file";
-  }
-  if (text.starts_with("<?xml") || text.starts_with("<gdml")) return "an XML file (GDML placements?)";
-  return {};
-}
-
-}  // namespace
-
 std::string describeFile(const json& j) {
   if (!j.is_object() || !j.contains("format") || !j["format"].is_string()) return {};
   const std::string f = j["format"].get<std::string>();
@@ -130,7 +115,7 @@ Status expectFormat(const json& j, std::string_view format, std::string_view exp
 }
 
 Result<json> parseJson(std::string_view text, std::string_view source) {
-  if (const std::string kind = nonJsonKind(text); !kind.empty()) {
+  if (const std::string kind = describeNonJson(text); !kind.empty()) {
     return Error{fmt::format("{}: this is {}, not a JSON file", source, kind)};
   }
   if (text.size() > kMaxJsonBytes) {

@@ -1,4 +1,5 @@
 #include "emcalign/report/calibration_report.hpp"
+#include "emcalign/core/text.hpp"
 
 #include <algorithm>
 #include <array>
@@ -37,6 +38,10 @@ bool finite(const Json& v) { return v.is_number() && std::isfinite(v.get<double>
 // A JSON value as plain text (for captions, which html::table escapes), and escaped.
 std::string plain(const Json& v) { return v.is_string() ? v.get<std::string>() : v.dump(); }
 std::string text(const Json& v) { return html::escape(plain(v)); }
+// "1 IOV", "3 IOVs": a count of a JSON file with its noun (a value that is not a count, as it is).
+std::string countedText(const Json& v, std::string_view singular) {
+  return v.is_number_integer() ? counted(v.get<std::int64_t>(), singular) : fmt::format("{} {}s", text(v), singular);
+}
 
 // A parameter as a physicist reads it, with its file name where that differs.
 std::string label(const std::string& name) {
@@ -245,11 +250,11 @@ Result<std::string> fitSection(const ReportFit& f) {
 Result<std::string> validationSection(const ReportValidation& v) {
   const Json& t = v.table;
   std::string body = fmt::format(
-      "<p>Campaign <code>{}</code>: {} samples of {} events, truths drawn over the expected "
+      "<p>Campaign <code>{}</code>: {} of {}, truths drawn over the expected "
       "ranges, each fitted like data (<code>emcalign validate</code>). bias = mean of (fit − "
       "truth), spread = its standard deviation, pulls = (fit − truth)/error; slope = of "
       "(fit − truth) against truth. Beside: the paper's Table 1.</p>\n",
-      html::escape(v.dir), text(t.at("samples")), text(t.at("events")));
+      html::escape(v.dir), countedText(t.at("samples"), "sample"), countedText(t.at("events"), "event"));
   html::Table table{.caption = "Validation beside the paper's Table 1",
                     .header = {"parameter", "unit", "bias", "±", "spread", "pull mean", "pull width", "slope",
                                "paper: bias", "paper: spread"}};
@@ -293,9 +298,9 @@ Result<std::string> trendSection(const std::optional<ReportTrend>& tr, const std
   if (tr) {
     const Json& t = tr->trend;
     body += fmt::format(
-        "<p>Tag <code>{}</code> of <code>{}</code>: {} IOVs (<code>emcalign trend</code>, directory "
+        "<p>Tag <code>{}</code> of <code>{}</code>: {} (<code>emcalign trend</code>, directory "
         "<code>{}</code>).</p>\n",
-        text(t.value("tag", Json("?"))), text(t.value("conditions", Json("?"))), text(t.at("iovs")),
+        text(t.value("tag", Json("?"))), text(t.value("conditions", Json("?"))), countedText(t.at("iovs"), "IOV"),
         html::escape(tr->dir));
     html::Table steps{.caption = "Steps found",
                       .header = {"parameter", "first run after", "size", "±", "unit", "z", "IOV"}};
@@ -394,8 +399,8 @@ Result<std::string> trendSection(const std::optional<ReportTrend>& tr, const std
                                : "",
                            text(i.value("inserted", Json("")))});
     }
-    body += fmt::format("<details><summary>The {} IOVs of tag {}</summary>\n{}</details>\n", cond->iovs.size(),
-                        html::escape(cond->tag), html::table(iovs));
+    body += fmt::format("<details><summary>The {} of tag {}</summary>\n{}</details>\n",
+                        counted(cond->iovs.size(), "IOV"), html::escape(cond->tag), html::table(iovs));
   }
   return body;
 }
@@ -470,15 +475,15 @@ std::vector<std::string> summary(const ReportInputs& in) {
       lo = std::min(lo, row.at("pull_width").get<double>());
       hi = std::max(hi, row.at("pull_width").get<double>());
     }
-    lines.push_back(fmt::format("The validation: {} samples of {} events; pull widths {:.2f} to {:.2f}.",
-                                plain(in.validation->table.at("samples")), plain(in.validation->table.at("events")), lo,
-                                hi));
+    lines.push_back(fmt::format("The validation: {} of {}; pull widths {:.2f} to {:.2f}.",
+                                countedText(in.validation->table.at("samples"), "sample"),
+                                countedText(in.validation->table.at("events"), "event"), lo, hi));
   }
   if (in.trend) {
     const Json& t = in.trend->trend;
-    lines.push_back(fmt::format("The time evolution: {} IOVs, {} step(s), {} drift(s), {} stable period(s).",
-                                plain(t.at("iovs")), t.at("steps").size(), t.at("drifts").size(),
-                                t.at("segments").size()));
+    lines.push_back(fmt::format("The time evolution: {}, {}, {}, {}.", countedText(t.at("iovs"), "IOV"),
+                                counted(t.at("steps").size(), "step"), counted(t.at("drifts").size(), "drift"),
+                                counted(t.at("segments").size(), "stable period")));
   }
   for (const auto& c : in.checks) {
     const Json& j = c.check;

@@ -1,4 +1,5 @@
 #include "emcalign/report/trend_plots.hpp"
+#include "emcalign/core/text.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -127,8 +128,8 @@ Result<std::vector<std::string>> writeTrendPlots(const std::string& dir, const s
   for (const auto& f : figures) {
     if (Status s = writeFile(out, fmt::format("trend_{}.dat", f.parameter), dataOf(f)); !s) return s.error();
     std::string s = terminalHeader("trend_" + f.parameter, 1400, 560) + common();
-    s += fmt::format("set title \"{}: {} against run ({} IOVs, {} steps)\" font ',13'\n", literalText(title),
-                     axisName(f.parameter), f.points.size(), f.steps.size());
+    s += fmt::format("set title \"{}: {} against run ({}, {})\" font ',13'\n", literalText(title),
+                     axisName(f.parameter), counted(f.points.size(), "IOV"), counted(f.steps.size(), "step"));
     s += panel(f, true, 12);
     scripts.push_back({"trend_" + f.parameter, s});
   }

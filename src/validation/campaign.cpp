@@ -1,4 +1,5 @@
 #include "emcalign/validation/campaign.hpp"
+#include "emcalign/core/text.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -471,13 +472,13 @@ std::string slopeText(const TableRow& r) {
 
 std::string tableMarkdown(const Table& t) {
   std::string md = fmt::format(
-      "# Validation: {} samples × {} events\n\n"
+      "# Validation: {} × {}\n\n"
       "bias = mean of (fit − truth), spread = its standard deviation, ± = spread/√samples; pulls = (fit − "
       "truth)/error; slope = of (fit − truth) against truth. sigma_sys of the fits: {}. Paper: Korol & Melnikova, "
       "Table 1.\n\n"
       "| parameter | unit | bias | ± | spread | pull mean | pull width | slope | paper bias | paper spread |\n"
       "|---|---|---|---|---|---|---|---|---|---|\n",
-      t.samples, t.events,
+      counted(t.samples, "sample"), counted(t.events, "event"),
       t.sigmaSysMin == t.sigmaSysMax
           ? fmt::format("{:.4g} deg", t.sigmaSysMedian)
           : fmt::format("median {:.4g} deg ({:.4g} to {:.4g})", t.sigmaSysMedian, t.sigmaSysMin, t.sigmaSysMax));

@@ -1,4 +1,5 @@
 #include "emcalign/validation/segment_refit.hpp"
+#include "emcalign/core/text.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -289,13 +290,13 @@ Json refitJson(const SegmentRefit& r, std::size_t iovsBefore) {
 std::string refitMarkdown(const SegmentRefit& r, std::size_t iovsBefore, const std::string& tagOut) {
   std::string md = fmt::format(
       "\n## Refit: one calibration per stable period\n\n"
-      "Tag {}: {} IOVs instead of {}. Each stable period is fitted from all its events; a period with a "
+      "Tag {}: {} instead of {}. Each stable period is fitted from all its events; a period with a "
       "drift keeps its IOVs, and so does an IOV straddling a step.\n\n"
       "The precision gained, three ways. *Quoted*: the fit's errors, which carry σ_sys = 0.2° per profile bin "
       "(docs/fit.md); σ_sys does not shrink with events and already dominates a group of ~50 000, so the quoted "
       "error barely moves. *Statistical*: the same fits with σ_sys = 0, the part that shrinks as 1/√N. "
       "*Observed*: the RMS of the replaced IOVs about their mean, what they really scatter by",
-      tagOut, r.iovs.size(), iovsBefore);
+      tagOut, counted(r.iovs.size(), "IOV"), iovsBefore);
   bool withTruth = false;
   for (const auto& s : r.segments) {
     for (const auto& p : s.precision) withTruth = withTruth || std::isfinite(p.truth);
@@ -312,12 +313,12 @@ std::string refitMarkdown(const SegmentRefit& r, std::size_t iovsBefore, const s
       continue;
     }
     if (!s.drifting.empty()) {
-      md += fmt::format("\n### Runs {}-{}: {} IOVs kept (drifting: {})\n", s.firstRun, s.lastRun, s.end - s.begin,
-                        fmt::join(s.drifting, ", "));
+      md += fmt::format("\n### Runs {}-{}: {} kept (drifting: {})\n", s.firstRun, s.lastRun,
+                        counted(s.end - s.begin, "IOV"), fmt::join(s.drifting, ", "));
       continue;
     }
-    md += fmt::format("\n### Runs {}-{}: {} IOVs → 1; {} selected events (median {} per IOV before)\n\n", s.firstRun,
-                      s.lastRun, s.end - s.begin, s.selected, s.medianSelectedBefore);
+    md += fmt::format("\n### Runs {}-{}: {} → 1; {} (median {} per IOV before)\n\n", s.firstRun, s.lastRun,
+                      counted(s.end - s.begin, "IOV"), counted(s.selected, "selected event"), s.medianSelectedBefore);
     md +=
         withTruth
             ? "| parameter | refit | truth | quoted error before → after | statistical error before → after | "

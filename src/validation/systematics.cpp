@@ -1,4 +1,5 @@
 #include "emcalign/validation/systematics.hpp"
+#include "emcalign/core/text.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -108,8 +109,8 @@ void widen(double& envelope, double effect) {
 Status drawSystematics(const SystematicsTable& t, const std::string& dir) {
   report::SystematicsFigure f;
   f.title = "Systematic shifts: the simulation varied";
-  f.subtitle =
-      fmt::format("{} paired samples × {} events; cells: shift / spread of the nominal fits", t.samples, t.events);
+  f.subtitle = fmt::format("{} × {}; cells: shift / spread of the nominal fits", counted(t.samples, "paired sample"),
+                           counted(t.events, "event"));
   std::vector<const SystematicsRow*> shown;
   for (const auto& r : t.rows) {
     if (isDirection(r.name)) continue;
@@ -327,12 +328,13 @@ Json systematicsJson(const SystematicsTable& t) {
 
 std::string systematicsMarkdown(const SystematicsTable& t) {
   std::string md = fmt::format(
-      "# Systematic shifts: {} paired samples × {} events per variation\n\n"
+      "# Systematic shifts: {} × {} per variation\n\n"
       "Each quantity's column: the largest effect of its variations (file units): |mean of fit(variation) − "
       "fit(nominal)|, or for a pattern drawn per sample (gains, dead counters) the root mean square of the "
       "differences{}. systematic = their quadrature sum. Nominal bias ± its statistical error, and the spread of "
       "the fits, beside the paper's Table 1 bias.\n\n| parameter | unit | nominal bias | spread |",
-      t.samples, t.events, t.reverse.is_null() ? "" : "; the reverse shifts count too");
+      counted(t.samples, "paired sample"), counted(t.events, "event"),
+      t.reverse.is_null() ? "" : "; the reverse shifts count too");
   for (const auto& q : t.quantities) md += fmt::format(" {} |", q);
   md += " **systematic** | paper bias |\n|---|---|---|---|";
   for (std::size_t q = 0; q < t.quantities.size(); ++q) md += "---|";

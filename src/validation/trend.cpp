@@ -1,4 +1,5 @@
 #include "emcalign/validation/trend.hpp"
+#include "emcalign/core/text.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -1120,10 +1121,10 @@ std::string trendMarkdown(const Trend& t, const std::vector<TrendSeries>& series
     }
   }
   md += fmt::format(
-      "{} IOVs, runs {}-{}. Each parameter's series was cut where the data demand a step (optimal "
+      "{}, runs {}-{}. Each parameter's series was cut where the data demand a step (optimal "
       "partitioning, a straight line per segment, penalty {:.1f} per change), and each segment's slope "
-      "was tested against zero ({} tests, Bonferroni).\n\n",
-      t.iovs, first, last, t.penalty, t.tests);
+      "was tested against zero ({}, Bonferroni).\n\n",
+      counted(t.iovs, "IOV"), first, last, t.penalty, counted(t.tests, "test"));
   if (const std::string m = modelsText(text.models); !m.empty()) md += m + "\n\n";
   md += fmt::format("**{}**\n\n", trendVerdict(t));
   md += stepsSection(t, series, truth);
@@ -1131,10 +1132,10 @@ std::string trendMarkdown(const Trend& t, const std::vector<TrendSeries>& series
   if (!t.inconsistencies.empty()) {
     md += fmt::format(
         "## {} segment{} inconsistent with {} model\n\nEach segment's model (one value, or a line where the slope "
-        "is significant) tested by its χ² ({} segments tested, Bonferroni at {}):\n\n"
+        "is significant) tested by its χ² ({} tested, Bonferroni at {}):\n\n"
         "| parameter | runs | IOVs | model | χ²/ndf | p-value | why unresolved |\n|---|---|---|---|---|---|---|\n",
         t.inconsistencies.size(), t.inconsistencies.size() == 1 ? "" : "s",
-        t.inconsistencies.size() == 1 ? "its" : "their", t.consistencyTests, t.options.driftAlpha);
+        t.inconsistencies.size() == 1 ? "its" : "their", counted(t.consistencyTests, "segment"), t.options.driftAlpha);
     for (const auto& i : t.inconsistencies) {
       md += fmt::format("| {} | {}-{} | {} | {} | {:.1f}/{} | {:.2g} | {} |\n", i.parameter, i.firstRun, i.lastRun,
                         i.iovs, i.line ? "line" : "constant", i.chi2, i.ndf, i.pValue,

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -82,6 +83,43 @@ TEST_F(Cli, VersionAndHelpEverywhere) {
   EXPECT_NE(none.exitCode, 0);
   CmdResult unknown = run("frobnicate");
   EXPECT_NE(unknown.exitCode, 0);
+}
+
+// The README's command table lists every command (systematics was missing), and every option
+// it shows for a command is one the command has.
+TEST_F(Cli, TheReadmeListsEveryCommandWithRealOptions) {
+  const std::string readme = slurp(fs::path(EMCALIGN_SOURCE_DIR) / "README.md");
+  const std::string help = run("--help").out;
+  std::istringstream commands(help.substr(help.find("Subcommands:")));
+  std::string line;
+  std::getline(commands, line);
+  int listed = 0;
+  while (std::getline(commands, line) && line.starts_with("  ")) {
+    std::istringstream words(line);
+    std::string name;
+    words >> name;
+    EXPECT_NE(readme.find("| `emcalign " + name + " "), std::string::npos) << name << " is not in the README";
+    ++listed;
+  }
+  EXPECT_GE(listed, 16);
+  std::istringstream rows(readme);
+  while (std::getline(rows, line)) {
+    if (!line.starts_with("| `emcalign ")) continue;
+    const std::string usage = line.substr(3, line.find("` |") - 3);  // the first cell
+    std::istringstream words(usage);
+    std::string name, sub;
+    words >> name >> name >> sub;
+    std::string commandHelp = run(name + " --help").out;
+    if (commandHelp.find("Subcommands:") != std::string::npos) {  // params show, check gg\|3pi: the first one's
+      const std::string first = sub.substr(0, sub.find('\\'));
+      commandHelp = run(fmt::format("{} {} --help", name, first)).out;
+    }
+    for (std::size_t at = usage.find("--"); at != std::string::npos; at = usage.find("--", at + 2)) {
+      const std::size_t end = usage.find_first_not_of("abcdefghijklmnopqrstuvwxyz-", at + 2);
+      const std::string option = usage.substr(at, end - at);
+      EXPECT_NE(commandHelp.find(option), std::string::npos) << line << ": " << name << " has no " << option;
+    }
+  }
 }
 
 TEST_F(Cli, GeometryJsonReportsTheSpecDetector) {
@@ -216,6 +254,14 @@ TEST_F(Cli, ParamsShowGivesBothSets) {
   for (const char* n : {"alpha", "beta1", "dp3", "beta_rel", "psi", "mu", "tau", "dx_rel"}) {
     EXPECT_NE(table.out.find(n), std::string::npos) << n;
   }
+  // A value that rounds to zero is printed 0, without a sign (it read -0.000000).
+  CmdResult tiny =
+      run("params show " + paramsFile(R"("alpha": 3.0, "beta1": 0, "beta2": -1e-9, "dx": 0.3, "dy": 0, "dz": 0,
+                                     "dp1": 0.4, "dp2": 0.4, "dp3": 0.4, "dy_rel": 0, "dz_rel": -1e-9,
+                                     "beta_rel": 0)"));
+  ASSERT_EQ(tiny.exitCode, 0) << tiny.err;
+  EXPECT_EQ(tiny.out.find("-0.000000"), std::string::npos) << tiny.out;
+  EXPECT_NE(tiny.out.find(" 0.000000  cm      dz_rel           0.000000  cm"), std::string::npos) << tiny.out;
 }
 
 TEST_F(Cli, ParamsRefusesBadFilesAndWarnsOnOverlap) {

@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -228,12 +229,51 @@ TEST_P(ConditionsCli, CorrectAndSimulateByRun) {
     ASSERT_EQ(together[i].phiEmc, joined[i].phiEmc) << i;
     ASSERT_EQ(together[i].thetaEmc, joined[i].thetaEmc) << i;
   }
+  // A directory of event files, as campaign takes one: every file corrected by its run's IOV,
+  // one corrected file per input (it was refused: "File is actually a directory").
+  fs::create_directories(path("period"));
+  fs::copy_file(path("r3.h5"), path("period/r3.h5"));
+  fs::copy_file(path("r7.h5"), path("period/r7.h5"));
+  auto directory = run(fmt::format("correct {} --conditions {} --tag t -o {}/", path("period"), uri_, path("PC")));
+  ASSERT_EQ(directory.exitCode, 0) << directory.err;
+  EXPECT_NE(directory.out.find("(2 files, one per input)"), std::string::npos) << directory.out;
+  for (int r : {3, 7}) {
+    const auto one = rows(path(fmt::format("c{}.h5", r)));
+    const auto fromDirectory = rows(path(fmt::format("PC/r{}.h5", r)));
+    ASSERT_EQ(fromDirectory.size(), one.size());
+    for (std::size_t i = 0; i < one.size(); ++i) {
+      if (std::isnan(one[i].phiEmc)) continue;
+      ASSERT_EQ(fromDirectory[i].phiEmc, one[i].phiEmc) << r << " " << i;
+    }
+  }
   // The same simulation, whichever way the truth was given.
   EXPECT_EQ(rows(path("r3.h5")).size(), rows(path("d3.h5")).size());
   EXPECT_EQ(rows(path("r7.h5"))[5].phiEmc, rows(path("d7.h5"))[5].phiEmc);
   auto run9 = run(fmt::format("correct {} --conditions {} --tag other -o {}", path("r3.h5"), uri_, path("o.h5")));
   EXPECT_EQ(run9.exitCode, 1);
   EXPECT_FALSE(fs::exists(path("o.h5")));
+}
+
+// conditions diff shows what it counts: z = -2.996 reads -2.99 and is not among the
+// differences of 3 sigma or more (it read "-3.0"); z = +3.02 is, and is marked.
+TEST_P(ConditionsCli, DiffCountsWhatItShows) {
+  ASSERT_EQ(run("conditions init " + uri_).exitCode, 0);
+  const auto withErrors = [&](const std::string& name, double alpha, double dx) {
+    json j = json::parse(emcalign::testing::slurp(params(name, alpha, dx)));
+    for (const auto& [key, value] : j["parameters"].items()) j["errors"][key] = 0.1;
+    std::ofstream(path(name)) << j.dump();
+    return path(name);
+  };
+  const double e = std::sqrt(0.02);  // the error of a difference of two values of error 0.1
+  const std::string a = withErrors("a.json", 2.8, 0.3), b = withErrors("b.json", 2.8 + 2.996 * e, 0.3 - 3.02 * e);
+  ASSERT_EQ(run(fmt::format("conditions put {} --tag a --runs 1-5 {}", uri_, a)).exitCode, 0);
+  ASSERT_EQ(run(fmt::format("conditions put {} --tag b --runs 1-5 {}", uri_, b)).exitCode, 0);
+  auto diff = run(fmt::format("conditions diff {} --tag a --tag b", uri_));
+  ASSERT_EQ(diff.exitCode, 0) << diff.err;
+  EXPECT_NE(diff.out.find("   -2.99 "), std::string::npos) << diff.out;
+  EXPECT_NE(diff.out.find("   +3.02*"), std::string::npos) << diff.out;
+  EXPECT_EQ(diff.out.find("-3.0"), std::string::npos) << diff.out;
+  EXPECT_NE(diff.out.find("1 IOV pair, 1 difference of 3 sigma or more (marked *;"), std::string::npos) << diff.out;
 }
 
 INSTANTIATE_TEST_SUITE_P(Backends, ConditionsCli, ::testing::Values("sqlite", "postgres"),

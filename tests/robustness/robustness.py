@@ -696,6 +696,28 @@ def cases():
     add(Case(D, "an export written over its database", "emcalign conditions export camp.db --tag c -o camp.db", 1,
              "camp.db", setup=s_export, check=c_export, checked="database unchanged"))
     add(Case(D, "a diff with one tag", "emcalign conditions diff camp.db --tag c", 1, "give two tags"))
+
+    def absent(*names):
+        def check(d, r):
+            left = [n for n in names if os.path.exists(os.path.join(d, n))]
+            return f"left behind: {left}" if left else None
+        return check
+    # A refused command leaves nothing: a new database is created only once there is something to store.
+    add(Case(D, "a campaign given a parameter file among its events: no empty database left",
+             "emcalign campaign ev.h5 p.json --conditions sqlite:new1.db --tag t", 1, "not an event file",
+             check=absent("new1.db", "new1.db-wal", "new1.db-shm"), checked="no new1.db created"))
+    add(Case(D, "a batch job whose file changed since the plan: no empty database left",
+             "emcalign campaign --plan changed-plan.json --group 0 --conditions new2.db --tag t", 1,
+             "its SHA-256 is not the plan's", setup=lambda d: (plan(d), edit_json(
+                 d, "plan.json", "changed-plan.json",
+                 lambda j: [i.__setitem__("sha256", f"{k:064x}") for k, i in enumerate(j["inputs"])])),
+             check=absent("new2.db"), checked="no new2.db created"))
+    add(Case(D, "a copy of a tag that does not exist into a new database",
+             "emcalign conditions copy camp.db --tag nope new3.db", 1, "no tag 'nope'", check=absent("new3.db"),
+             checked="no new3.db created"))
+    add(Case(D, "a new database in a directory that does not exist: refused before the files are read",
+             "emcalign campaign period --conditions sqlite:nodir/c.db --tag t", 1,
+             "the directory nodir does not exist"))
     add(Case(D, "a database that does not exist", "emcalign conditions list missing.db", 1, "no such database",
              check=lambda d, r: "missing.db was created" if os.path.exists(os.path.join(d, "missing.db")) else None,
              checked="not created"))
@@ -1304,6 +1326,18 @@ def cases():
              checked="no database created"))
     add(Case(M, "a mistyped command", "emcalign conditions lst", 2, "unknown command 'lst' for emcalign conditions "
              "(did you mean list?)"))
+    add(Case(M, "a mistyped command (top level)", "emcalign fti ev.csv", 2,
+             "unknown command 'fti' for emcalign (did you mean fit?)"))
+    add(Case(M, "an event file as the profile", "emcalign fit --profile-in ev.h5 -o r.json", 1,
+             "ev.h5: this is an HDF5 file (an event file?), not a profile CSV"))
+    add(Case(M, "a parameter file as events", "emcalign fit p.json -o r.json", 1,
+             "p.json: this is a parameter file (its format: emcalign-alignment/1), not an event file"))
+    add(Case(M, "a conditions database as events", "emcalign fit camp.db -o r.json", 1,
+             "camp.db: this is an SQLite database (a conditions database?), not an event file"))
+    add(Case(M, "a conditions export as events", "emcalign fit T.csv -o r.json", 1,
+             "T.csv: this is a conditions export (emcalign conditions export), not an event file",
+             setup=lambda d: runner_binary_run(d, ["conditions", "export", "camp.db", "--tag", "c", "-o", "T.csv"]),
+             check=lambda d, r: short_message(d, r), checked="a short message"))
     add(Case(M, "a fit result as corrections", "emcalign fit ev.csv --corrections result.json -o r2.json", 1,
              "this is a fit result, not a corrections file"))
     add(Case(M, "a corrections file as the truth", "emcalign simulate --events 10 --params c.json -o s.h5", 1,
@@ -1350,8 +1384,10 @@ def cases():
                               "only-gg.h5"])
     add(Case(M, "a campaign whose one group has no selected event: no 'nan MeV'",
              "emcalign campaign only-gg.h5 --conditions g.db --tag g", 1, "none of its events is selected",
-             setup=gg_only, check=lambda d, r: "nan printed" if "nan" in r.err.lower() else None,
-             checked="no nan in the messages"))
+             setup=gg_only, check=lambda d, r: ("nan printed" if "nan" in r.err.lower() else None) or (
+                 "g.db left behind" if os.path.exists(os.path.join(d, "g.db")) else None) or (
+                 None if "1 of 1 group was not stored" in r.err else "not '1 of 1 group was not stored'"),
+             checked="no nan in the messages, no empty g.db left, '1 of 1 group was not stored'"))
 
     def csv_run5(d):
         runner_binary_run(d, ["simulate", "--events", "500", "--run", "5", "--params", "p.json", "-o", "ev5.csv"])

@@ -23,6 +23,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
+using ::testing::Not;
 using units::deg;
 
 // A complete 16 x 10 profile with plausible values, as a fit writes it.
@@ -139,6 +140,19 @@ TEST_F(ProfileCsv, LongFieldsAreNotEchoed) {
   const std::string message = errorWith(2, [](auto& f) { f[3] = std::string(10'000'000, '7'); });
   EXPECT_LT(message.size(), 300u);
   EXPECT_THAT(message, HasSubstr("(10000000 characters)"));
+}
+
+// A file of another kind is named by what it is, never by its raw bytes ("got '\x89HDF'").
+TEST_F(ProfileCsv, FilesOfAnotherKindAreNamed) {
+  const std::string hdf5 = errorOf(std::string("\x89HDF\r\n\x1a\n", 8) + std::string(64, '\0') + "\n");
+  EXPECT_THAT(hdf5, HasSubstr("this is an HDF5 file (an event file?), not a profile CSV (fit --profile-out)"));
+  EXPECT_THAT(hdf5, Not(HasSubstr("HDF'")));
+  EXPECT_THAT(errorOf(R"({"format": "emcalign-alignment/1", "parameters": {}})"
+                      "\n"),
+              HasSubstr("this is a parameter file (its format: emcalign-alignment/1), not a profile CSV"));
+  EXPECT_THAT(errorOf("run,event,beam_energy_mev,muon_veto\n"), HasSubstr("this is a CSV event file, not a profile"));
+  // A profile with a wrong header is still told what its header should be.
+  EXPECT_THAT(errorWith(1, [](auto& f) { f[2] = "entries"; }), HasSubstr("header: expected 'i_phi,i_theta,n,"));
 }
 
 TEST_F(ProfileCsv, ACutFileIsRefused) {

@@ -35,6 +35,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kPi = std::numbers::pi;
@@ -932,10 +933,15 @@ TEST_F(EventFile, MissingAndNonHdf5FilesFail) {
   ASSERT_FALSE(r.ok());
   EXPECT_THAT(r.error().message, HasSubstr("nothing.csv: no such file"));
 
-  writeBytes(path("text.h5"), std::string(kCsvHeader) + "\n");
+  writeBytes(path("text.h5"), "hello\n");
   r = EventReader::open({path("text.h5")});
   ASSERT_FALSE(r.ok());
   EXPECT_THAT(r.error().message, HasSubstr("text.h5: not an HDF5 file"));
+  // A CSV event file under another name is named as one.
+  writeBytes(path("events.txt"), std::string(kCsvHeader) + "\n");
+  r = EventReader::open({path("events.txt")});
+  ASSERT_FALSE(r.ok());
+  EXPECT_THAT(r.error().message, HasSubstr("events.txt: this is a CSV event file: name it *.csv"));
 
   // A missing second file is found before the first is read.
   ASSERT_TRUE(writeFile(path("good.csv"), sampleRows(2)).ok());
@@ -945,6 +951,40 @@ TEST_F(EventFile, MissingAndNonHdf5FilesFail) {
 
   EXPECT_FALSE(EventReader::open({}).ok());
   EXPECT_FALSE(EventReader::open({path("good.csv")}, ReaderOptions{0}).ok());
+}
+
+// Another of emcalign's files given as events is named by what it is, never by the raw
+// bytes or the columns it lacks.
+TEST_F(EventFile, FilesOfAnotherKindAreNamed) {
+  const auto message = [&](const std::string& name, const std::string& content) {
+    writeBytes(path(name), content);
+    auto r = EventReader::open({path(name)});
+    return r.ok() ? std::string("opened") : r.error().message;
+  };
+  EXPECT_THAT(message("truth.json", R"({"format": "emcalign-alignment/1", "parameters": {"alpha": 1}})"),
+              HasSubstr("truth.json: this is a parameter file (its format: emcalign-alignment/1), not an event file"));
+  EXPECT_THAT(message("result.json", R"({"format": "emcalign-alignment/1", "errors": {}})"),
+              HasSubstr("this is a fit result (its format: emcalign-alignment/1), not an event file"));
+  EXPECT_THAT(message("c.db", std::string("SQLite format 3\0", 16) + std::string(100, '\0')),
+              HasSubstr("c.db: this is an SQLite database (a conditions database?), not an event file"));
+  const std::string exported =
+      "# emcalign conditions export: tag t of sqlite:c.db\n# units: alpha=deg\n"
+      "first_run,last_run,payload,inserted,status,chi2,ndf,chi2_statistical_errors,sigma_sys_method,"
+      "selected_events,alpha,alpha_error\n1,4,abc,DATE,converged,1,1,1,paper,10,2.8,0.1\n";
+  const std::string conditions = message("T.csv", exported);
+  EXPECT_THAT(conditions,
+              HasSubstr("T.csv: this is a conditions export (emcalign conditions export), not an event file"));
+  // Its comment lines gone, it is still known by its header.
+  EXPECT_THAT(message("T2.csv", exported.substr(exported.find("first_run"))), HasSubstr("this is a conditions export"));
+  EXPECT_THAT(message("prof.csv", "i_phi,i_theta,n,phi_mean_rad\n"), HasSubstr("this is a profile CSV"));
+  // A header with nothing in common: what it has, briefly, not 50 columns.
+  std::string wide = "a0";
+  for (int k = 1; k < 50; ++k) wide += fmt::format(",a{}", k);
+  const std::string other = message("other.csv", wide + "\n");
+  EXPECT_THAT(other, HasSubstr("other.csv: line 1: header: none of an event file's columns"));
+  EXPECT_THAT(other, HasSubstr("'a5', … (50 in all)"));
+  EXPECT_THAT(other, Not(HasSubstr("'a6'")));
+  EXPECT_LT(other.size(), 250U) << other;
 }
 
 TEST_F(EventFile, ReaderErrorIsSticky) {

@@ -29,9 +29,10 @@ class CompareCli : public ::testing::Test {
     return emcalign::testing::runEmcalign(dir_, args);
   }
   void simulate(const std::string& params, int seed, const std::string& out) {
-    const auto r = run(fmt::format("simulate --params {} --events 20000 --seed {} --theta-min 40 --theta-max 140 "
-                                   "--no-hits -o {}",
-                                   params, seed, path(out)));
+    const auto r =
+        run(fmt::format("simulate --params {} --events 20000 --seed {} --theta-min 40 --theta-max 140 "
+                        "--no-hits -o {}",
+                        params, seed, path(out)));
     ASSERT_EQ(r.exitCode, 0) << r.err;
   }
   fs::path dir_;

@@ -1,6 +1,6 @@
 // emcalign report: one self-contained HTML page of a calibration (report/calibration_report.hpp):
 //   report [--fit RESULT.json [--events EVENTS...] [--corrections C]] [--validation DIR]
-//          [--trend DIR] [--conditions URI --tag T] [--checks DIR...] [--title T] -o report.html
+//          [--compare DIR] [--trend DIR] [--conditions URI --tag T] [--checks DIR...] [--title T] -o report.html
 
 #include <algorithm>
 #include <filesystem>
@@ -28,7 +28,7 @@ namespace fs = std::filesystem;
 using io::Json;
 
 struct ReportCliOptions {
-  std::string fit, corrections, validation, trend, conditions, tag, detector, title, output;
+  std::string fit, corrections, validation, compare, trend, conditions, tag, detector, title, output;
   std::vector<std::string> events, checks;
 };
 
@@ -68,6 +68,7 @@ int run(const ReportCliOptions& o) {
   };
   inside("--validation", o.validation, "table.json");
   inside("--trend", o.trend, "trend.json");
+  inside("--compare", o.compare, "compare.json");
   for (const auto& c : o.checks) inside("--checks", c, "check.json");
   if (Status s = checkOutputs({{"-o", o.output}}, {}, inputs); !s) return reportError(s.error());
   if (!o.events.empty() && o.fit.empty()) return reportError({"--events draws the figures of a fit: give --fit"});
@@ -139,6 +140,12 @@ int run(const ReportCliOptions& o) {
     for (const auto& f : report::filesNamedIn(v->table)) io::protectInput({"named by --validation", f});
     in.validation = std::move(*v);
   }
+  if (!o.compare.empty()) {
+    auto c = report::readCompareDirectory(o.compare);
+    if (!c) return reportError(c.error());
+    for (const auto& f : report::filesNamedIn(c->compare)) io::protectInput({"named by --compare", f});
+    in.compare = std::move(*c);
+  }
   if (!o.trend.empty()) {
     auto t = report::readTrendDirectory(o.trend);
     if (!t) return reportError(t.error());
@@ -191,6 +198,8 @@ void addReportCommand(CLI::App& app, int& exitCode) {
       ->check(CLI::ExistingPath)
       ->needs(fit);
   cmd->add_option("--validation", o->validation, "a validation campaign's directory (emcalign validate -o)")
+      ->check(CLI::ExistingDirectory);
+  cmd->add_option("--compare", o->compare, "a comparison of data with simulation (emcalign compare -o)")
       ->check(CLI::ExistingDirectory);
   cmd->add_option("--trend", o->trend, "a trend's directory (emcalign trend -o)")->check(CLI::ExistingDirectory);
   auto* conditions = cmd->add_option("--conditions", o->conditions, "a conditions database: the IOVs of --tag");

@@ -247,6 +247,43 @@ Result<std::string> fitSection(const ReportFit& f) {
   return body;
 }
 
+Result<std::string> compareSection(const ReportCompare& c) {
+  const Json& j = c.compare;
+  const double p = j.at("p_value").get<double>();
+  std::string body = fmt::format(
+      "<p>Data: {} particles ({} events); MC: {} particles ({} events). All distributions together: χ²/ndf = "
+      "{}/{}, p-value <span class=\"{}\">{}</span> — {}.</p>\n",
+      text(j.at("data").value("particles", Json("?"))), text(j.at("data").value("events", Json("?"))),
+      text(j.at("mc").value("particles", Json("?"))), text(j.at("mc").value("events", Json("?"))),
+      number(j.at("chi2"), "{:.1f}"), text(j.at("ndf")), p >= 0.01 ? "good" : "bad", number(j.at("p_value"), "{:.3g}"),
+      p >= 0.01 ? "the simulation describes the data within the statistical errors of both"
+                : "the simulation does not describe the data");
+  html::Table t{.caption = "Each distribution: the χ² of data − MC with both samples' covariance (docs/apply.md)",
+                .header = {"distribution", "χ²/ndf", "p-value", "largest |pull|"}};
+  t.numeric = {false, true, true, true};
+  for (const auto& d : j.at("distributions")) {
+    double largest = 0.0;
+    for (const auto& b : d.value("bins", Json::array())) {
+      if (b.contains("pull") && b.at("pull").is_number())
+        largest = std::max(largest, std::abs(b.at("pull").get<double>()));
+    }
+    const double pd = d.at("p_value").get<double>();
+    t.rows.push_back(
+        {"<code>" + text(d.at("name")) + "</code>", number(d.at("chi2"), "{:.1f}") + "/" + text(d.at("ndf")),
+         fmt::format("<span class=\"{}\">{}</span>", pd >= 0.01 ? "good" : "bad", number(d.at("p_value"), "{:.3g}")),
+         fmt::format("{:.1f}", largest)});
+  }
+  body += html::table(t);
+  if (!c.figure.empty()) {
+    auto fig = html::figure(c.figure,
+                            "Δφ and Δθ of the data (points) and the MC (open, scaled to the data's particles) with "
+                            "the pulls under them, and the pulls of the 16×10 profile means: the paper's Fig. 6.");
+    if (!fig) return fig.error();
+    body += *fig;
+  }
+  return body;
+}
+
 Result<std::string> validationSection(const ReportValidation& v) {
   const Json& t = v.table;
   std::string body = fmt::format(
@@ -481,9 +518,17 @@ std::vector<std::string> summary(const ReportInputs& in) {
   }
   if (in.trend) {
     const Json& t = in.trend->trend;
+    // A newer trend says which periods are stable; an older one called them all so.
+    std::size_t stable = 0;
+    for (const auto& g : t.at("segments")) stable += g.value("stable", !g.contains("departing")) ? 1 : 0;
     lines.push_back(fmt::format("The time evolution: {}, {}, {}, {}.", countedText(t.at("iovs"), "IOV"),
                                 counted(t.at("steps").size(), "step"), counted(t.at("drifts").size(), "drift"),
-                                counted(t.at("segments").size(), "stable period")));
+                                counted(stable, "stable period")));
+  }
+  if (in.compare) {
+    const Json& c = in.compare->compare;
+    lines.push_back(fmt::format("MC against data: χ²/ndf = {}/{}, p-value {}.", number(c.at("chi2"), "{:.1f}"),
+                                plain(c.at("ndf")), number(c.at("p_value"), "{:.3g}")));
   }
   for (const auto& c : in.checks) {
     const Json& j = c.check;
@@ -577,6 +622,16 @@ Result<ReportTrend> readTrendDirectory(const std::string& dir) {
   return ReportTrend{dir, std::move(*j), existing(dir, {four, "trend_all.png"})};
 }
 
+Result<ReportCompare> readCompareDirectory(const std::string& dir) {
+  auto j = readJsonIn(dir, "compare.json");
+  if (!j) return j.error();
+  if (!j->is_object() || j->value("format", std::string()) != "emcalign-compare/1") {
+    return Error{fmt::format("{}/compare.json: not a comparison of data with simulation (emcalign compare)", dir)};
+  }
+  const auto figures = existing(dir, {"compare.png"});
+  return ReportCompare{dir, std::move(*j), figures.empty() ? std::string() : figures.front()};
+}
+
 Result<ReportCheck> readCheckDirectory(const std::string& dir) {
   auto j = readJsonIn(dir, "check.json");
   if (!j) return j.error();
@@ -602,6 +657,12 @@ Result<std::string> calibrationReport(const ReportInputs& in) {
     sections.push_back({"validation", "Validation on simulation (the paper's Table 1)", *body});
     sources.push_back(in.validation->dir);
   }
+  if (in.compare) {
+    auto body = guarded(in.compare->dir + "/compare.json", [&] { return compareSection(*in.compare); });
+    if (!body) return body.error();
+    sections.push_back({"mc-against-data", "MC against data (the paper's Fig. 6)", *body});
+    sources.push_back(in.compare->dir);
+  }
   if (in.trend || in.conditions) {
     auto body = guarded(in.trend ? in.trend->dir + "/trend.json" : in.conditions->uri,
                         [&] { return trendSection(in.trend, in.conditions); });
@@ -615,7 +676,8 @@ Result<std::string> calibrationReport(const ReportInputs& in) {
     sections.push_back({"checks", "Physics checks (the paper's Figs. 9–10)", *body});
     for (const auto& c : in.checks) sources.push_back(c.dir);
   }
-  if (sections.empty()) return Error{"nothing to report: give --fit, --validation, --trend, --conditions or --checks"};
+  if (sections.empty())
+    return Error{"nothing to report: give --fit, --validation, --compare, --trend, --conditions or --checks"};
   if (sections.size() > 1) {
     auto lines = guarded("the summary", [&]() -> Result<std::string> { return html::list(summary(in)); });
     if (!lines) return lines.error();

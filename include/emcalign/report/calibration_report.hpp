@@ -68,9 +68,17 @@ struct ReportCheck {
 /// it is never written over them (io::protectInput).
 std::vector<std::string> filesNamedIn(const io::Json& document);
 
+/// A comparison of data with simulation (emcalign compare -o DIR).
+struct ReportCompare {
+  std::string dir;
+  io::Json compare;    ///< dir/compare.json
+  std::string figure;  ///< dir/compare.png, when it exists
+};
+
 struct ReportInputs {
   std::string title = "EMC geometric calibration";
   std::optional<ReportFit> fit;
+  std::optional<ReportCompare> compare;
   std::optional<ReportValidation> validation;
   std::optional<ReportTrend> trend;
   std::optional<ReportConditions> conditions;
@@ -82,6 +90,7 @@ struct ReportInputs {
 Result<ReportValidation> readValidationDirectory(const std::string& dir);
 Result<ReportTrend> readTrendDirectory(const std::string& dir);
 Result<ReportCheck> readCheckDirectory(const std::string& dir);
+Result<ReportCompare> readCompareDirectory(const std::string& dir);
 
 /// The page. Fails when no section has an input, or when an input lacks what its section
 /// shows (the error names the file and the key).

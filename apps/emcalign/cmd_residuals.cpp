@@ -66,13 +66,9 @@ int run(const ResidualsOptions& o) {
   if (Status s = checkOutputs({}, {{"-o", o.output}}, inputs); !s) return reportError(s.error());
   auto calo = loadCalorimeter(o.detector);
   if (!calo) return reportError(calo.error());
-  auto depth = geometry::ShowerDepth::of(calo->description());
-  depth.offset = o.depthOffset * units::cm;
-  if (!o.corrections.empty()) {
-    auto c = calib::readCorrections(o.corrections);
-    if (!c) return reportError(c.error());
-    depth.offset = c->depthOffset;
-  }
+  auto shower = showerDepthOf(*calo, o.depthOffset, o.corrections);
+  if (!shower) return reportError(shower.error());
+  const geometry::ShowerDepth depth = *shower;
   calib::SelectionOptions selection;
   if (o.beamEnergy > 0.0) selection.beamEnergy = o.beamEnergy * units::MeV;
 

@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 
 #include "console.hpp"
+#include "emcalign/calib/corrections.hpp"
 #include "emcalign/conddb/address.hpp"
 #include "emcalign/conddb/conditions.hpp"
 #include "emcalign/core/units.hpp"
@@ -272,6 +273,18 @@ CLI::Validator unsigned64() {
         return {};
       },
       "INTEGER in [0, 2^64 - 1]");
+}
+
+Result<geometry::ShowerDepth> showerDepthOf(const geometry::Calorimeter& calo, double offsetCm,
+                                            const std::string& corrections) {
+  auto depth = geometry::ShowerDepth::of(calo.description());
+  depth.offset = offsetCm * units::cm;
+  if (!corrections.empty()) {
+    auto c = calib::readCorrections(corrections);
+    if (!c) return c.error();
+    depth.offset = c->depthOffset;
+  }
+  return depth;
 }
 
 }  // namespace emcalign::app

@@ -17,6 +17,7 @@
 #include "emcalign/core/result.hpp"
 #include "emcalign/geometry/alignment_parameters.hpp"
 #include "emcalign/geometry/detector.hpp"
+#include "emcalign/geometry/shower_depth.hpp"
 #include "emcalign/io/event_file.hpp"
 #include "emcalign/io/json_files.hpp"
 #include "emcalign/io/output_file.hpp"
@@ -97,6 +98,10 @@ class DatabaseToWrite {
 
 /// The detector of `--detector FILE`, or the embedded default when the path is empty.
 using io::loadCalorimeter;
+/// The shower depth R(E, θ) of a detector, moved by `offsetCm`, or by the depth offset of a
+/// corrections file when one is given (its error names the file).
+Result<geometry::ShowerDepth> showerDepthOf(const geometry::Calorimeter& calo, double offsetCm,
+                                            const std::string& corrections);
 
 /// An alignment from a parameter file, a fit result or a placements file (apply/placements.hpp).
 using apply::loadAlignment;

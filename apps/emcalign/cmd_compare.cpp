@@ -3,6 +3,7 @@
 // their difference (apply/mc_comparison.hpp, report/compare_plots.hpp; docs/apply.md).
 
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -12,6 +13,7 @@
 #include "common.hpp"
 #include "emcalign/apply/mc_comparison.hpp"
 #include "emcalign/calib/corrections.hpp"
+#include "emcalign/core/sha256.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/core/version.hpp"
 #include "emcalign/geometry/shower_depth.hpp"
@@ -42,6 +44,21 @@ int run(const CompareOptions& o) {
     }
   }
   if (Status s = checkOutputs({}, {{"-o", o.output}}, inputs); !s) return reportError(s.error());
+  // A copy of the data given as MC is the same sample: its χ² would be 0.
+  std::map<std::string, std::string> dataDigests;  // SHA-256 → file
+  for (const auto& d : o.data) {
+    auto digest = sha256OfFile(d);
+    if (!digest) return reportError(digest.error());
+    dataDigests.emplace(*digest, d);
+  }
+  for (const auto& m : o.mc) {
+    auto digest = sha256OfFile(m);
+    if (!digest) return reportError(digest.error());
+    if (auto it = dataDigests.find(*digest); it != dataDigests.end()) {
+      return reportError(Error{fmt::format(
+          "--mc {} holds the same bytes as --data {}: a comparison of a sample with itself", m, it->second)});
+    }
+  }
   auto calo = loadCalorimeter(o.detector);
   if (!calo) return reportError(calo.error());
   auto shower = showerDepthOf(*calo, 0.0, o.corrections);

@@ -66,6 +66,12 @@ TEST_F(CompareCli, ATwinAgreesANominalDetectorDoesNot) {
   EXPECT_EQ(r.exitCode, 1);
   EXPECT_THAT(r.err, HasSubstr("given as data and as MC"));
   EXPECT_FALSE(fs::exists(path("self")));
+  // A copy is the same sample.
+  fs::copy_file(path("data.h5"), path("copy.h5"));
+  r = run(fmt::format("compare --data {} --mc {} -o {}", path("data.h5"), path("copy.h5"), path("copy")));
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_THAT(r.err, HasSubstr("holds the same bytes as --data"));
+  EXPECT_FALSE(fs::exists(path("copy")));
 }
 
 }  // namespace

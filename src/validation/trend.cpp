@@ -365,7 +365,7 @@ std::vector<TrendEdge> findEdges(const std::vector<TrendSeries>& series, std::ve
       const double error = std::hypot(a.errorScale * p.error, m.error(p.x()));
       if (!(error > 0.0) || !(seg.model().chi2 - m.chi2 > a.penalty)) continue;
       // The rest must be one segment: data that no single model fits stay an inconsistency.
-      const int ndf = static_cast<int>(rest.end - rest.begin) - (&m == &rest.line ? 2 : 1);
+      const int ndf = rest.modelNdf();
       if (ndf >= 1 && chi2PValue(m.chi2, ndf) < o.driftAlpha) continue;
       if (!(normalTwoSided(departure / error) * tests < o.driftAlpha)) continue;
       out.push_back({s.parameter, s.unit, p.firstRun, p.lastRun, atEnd, departure, error});
@@ -565,7 +565,7 @@ std::vector<TrendInconsistency> testSegments(const Trend& t, const std::vector<T
   for (std::size_t k = 0; k < series.size(); ++k) {
     for (const auto& seg : t.series[k].segments) {
       const LineFit& m = seg.model();
-      const int ndf = static_cast<int>(seg.end - seg.begin) - (&m == &seg.line ? 2 : 1);
+      const int ndf = seg.modelNdf();
       if (ndf >= 1) tested.push_back({k, &seg, m.chi2, ndf});
     }
   }

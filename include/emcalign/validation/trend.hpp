@@ -106,6 +106,8 @@ struct SegmentTest {
                         ///< weak to flag, but the better model of the segment's ends
   /// The segment's model, as the figures draw it.
   const LineFit& model() const { return drift || sloped ? line : constant; }
+  /// The degrees of freedom of model()'s χ²: points less its parameters.
+  int modelNdf() const { return static_cast<int>(end - begin) - (drift || sloped ? 2 : 1); }
   /// Long enough for a line (and a drift test).
   bool isLine() const { return end - begin >= kMinLinePoints; }
   /// The model a step is measured on: the segment's own (a line only where its slope is

@@ -10,12 +10,15 @@
 #include <fmt/format.h>
 
 #include "common.hpp"
+#include "emcalign/apply/dead_counters.hpp"
 #include "emcalign/calib/fit_notes.hpp"
 #include "emcalign/conddb/calibrations.hpp"
 #include "emcalign/core/sha256.hpp"
 #include "emcalign/core/text.hpp"
 #include "emcalign/core/units.hpp"
+#include "emcalign/io/file_kind.hpp"
 #include "emcalign/io/json_files.hpp"
+#include "emcalign/io/random_trigger_file.hpp"
 #include "emcalign/sim/generators.hpp"
 #include "emcalign/sim/simulation.hpp"
 #include "emcalign/validation/period.hpp"
@@ -35,7 +38,8 @@ struct SimulateOptions {
   std::string period;                // a whole period (validation/period.hpp) into the directory -o
   std::optional<double> beamEnergy;  // none: the process default
   std::string detector;
-  std::string deadCounters;  // empty: default list; "none": no dead counters
+  std::string deadCounters;      // empty: default list; "none": no dead counters
+  std::string backgroundEvents;  // a random-trigger file merged instead of the Poisson background
   io::Compression compression = io::Compression::Lz4;
   int threads = 0;
   int run = sim::SimulationOptions{}.run;
@@ -48,23 +52,22 @@ struct SimulateOptions {
   bool noHits = false;
 };
 
-Result<std::vector<int>> parseCounterList(const std::string& text) {
-  std::vector<int> out;
-  std::stringstream ss(text);
-  std::string item;
-  while (std::getline(ss, item, ',')) {
-    if (item.empty()) continue;
-    std::size_t used = 0;
-    int v = -1;
-    try {
-      v = std::stoi(item, &used);
-    } catch (const std::exception&) {
-      used = 0;
+// --dead-counters: "none", a list, or @FILE (dead-counters -o FILE, or a list in a file).
+Result<std::vector<int>> deadCounterList(const std::string& text) {
+  if (text.starts_with("@")) {
+    const std::string path = text.substr(1);
+    auto content = io::readTextFile(path);
+    if (!content) return Error{fmt::format("--dead-counters: {}", content.error().message)};
+    auto list = apply::parseCounterList(*content, fmt::format("--dead-counters @{}", path));
+    if (const std::string kind = io::describeFileAt(path); !list && !kind.empty()) {
+      return Error{
+          fmt::format("--dead-counters @{}: this is {}, not a list of counters (emcalign dead-counters -o "
+                      "FILE writes one)",
+                      path, kind)};
     }
-    if (used != item.size()) return Error{fmt::format("--dead-counters: '{}' is not a counter index", item)};
-    out.push_back(v);
+    return list;
   }
-  return out;
+  return apply::parseCounterList(text, "--dead-counters");
 }
 
 // The record of the command line (its switches already applied to `o`).
@@ -78,7 +81,36 @@ validation::SimulateRequest requestOf(const SimulateOptions& cli, const sim::Sim
   r.ideal = cli.ideal;
   r.off = cli.off;
   r.detectorName = cli.detector.empty() ? "embedded default" : cli.detector;
+  r.backgroundName = cli.backgroundEvents;
   return r;
+}
+
+// --background-events: the recorded events into `o`, their digest into `request`; a warning
+// when a run has more events than there are recorded ones (`eventsPerRun`: the most in a run).
+Status loadBackground(const SimulateOptions& cli, const geometry::Calorimeter& calo, std::int64_t eventsPerRun,
+                      sim::SimulationOptions& o, validation::SimulateRequest* request = nullptr) {
+  if (cli.backgroundEvents.empty()) return {};
+  auto events = io::readRandomTriggerFile(cli.backgroundEvents, calo.size());
+  if (!events) return Error{fmt::format("--background-events: {}", events.error().message)};
+  const auto n = static_cast<std::int64_t>(events->size());
+  if (eventsPerRun > n) {
+    reportWarning(fmt::format(
+        "--background-events {}: {} for {} simulated: each is merged into up to {} events (reused "
+        "cyclically, in an order drawn from the seed); record more random triggers for independent background",
+        cli.backgroundEvents, counted(n, "recorded event"), counted(eventsPerRun, "event"),
+        (eventsPerRun + n - 1) / n));
+  }
+  if (!o.emc.beamBackground) {
+    reportWarning(fmt::format("--background-events {} is not merged: --off background switches the background off",
+                              cli.backgroundEvents));
+  }
+  o.recordedBackground = std::make_shared<const RandomTriggerEvents>(std::move(*events));
+  if (request != nullptr) {
+    auto digest = sha256OfFile(cli.backgroundEvents);
+    if (!digest) return digest.error();
+    request->backgroundSha256 = *digest;
+  }
+  return {};
 }
 
 // The realism switches and dead counters of the command line.
@@ -89,12 +121,34 @@ Status realism(const SimulateOptions& cli, sim::SimulationOptions& o) {
     if (cli.deadCounters == "none") {
       o.emc.deadCounters.clear();
     } else {
-      auto list = parseCounterList(cli.deadCounters);
+      auto list = deadCounterList(cli.deadCounters);
       if (!list) return list.error();
       o.emc.deadCounters = *list;
     }
   }
   return {};
+}
+
+// simulate --process random-trigger: background-only events into a random-trigger file.
+int runRandomTrigger(const SimulateOptions& cli) {
+  if (Status s = checkOutputs({{"-o", cli.output}}, {}, {{"--detector", cli.detector}}); !s) {
+    return reportError(s.error());
+  }
+  auto calo = loadCalorimeter(cli.detector);
+  if (!calo) return reportError(calo.error());
+  sim::SimulationOptions o;
+  if (Status st = realism(cli, o); !st) return reportError(st.error());
+  o.seed = cli.seed;
+  o.run = cli.run;
+  ProgressLine progress("simulate", cli.events, "events");
+  auto report = validation::simulateRandomTriggerFile(*calo, requestOf(cli, o), cli.output,
+                                                      [&](std::int64_t n) { progress.update(n); });
+  progress.finish();
+  if (!report) return reportError(report.error());
+  fmt::print(reportStream(), "simulate: {} ({} with hits), {}, {:.1f} s -> {}\n",
+             counted(report->events, "random-trigger event"), report->eventsWritten,
+             counted(report->rows, "counter hit"), progress.elapsed(), cli.output);
+  return kExitOk;
 }
 
 // simulate --period: every run of a period into the directory -o (validation/period.hpp).
@@ -111,14 +165,20 @@ int runPeriod(const SimulateOptions& cli) {
   o.hits = !cli.noHits;
   o.compression = cli.compression;
   o.threads = cli.threads;
-  o.settings = validation::simulationSettings(requestOf(cli, o.simulation));
+  const auto runs = validation::planPeriod(*scenario);
+  std::int64_t total = 0, mostInRun = 0;
+  for (const auto& r : runs) {
+    total += r.events;
+    mostInRun = std::max(mostInRun, r.events);
+  }
+  auto request = requestOf(cli, o.simulation);
+  if (Status s = loadBackground(cli, *calo, mostInRun, o.simulation, &request); !s) return reportError(s.error());
+  request.options = o.simulation;
+  o.settings = validation::simulationSettings(request);
   for (const char* perRun : {"process", "events", "seed", "run", "beam_energy_mev", "theta_range_deg", "software"}) {
     o.settings.erase(perRun);  // set by the scenario for each run, or not a setting
   }
   o.settings["detector_sha256"] = sha256(io::toJson(calo->description()).dump());
-  const auto runs = validation::planPeriod(*scenario);
-  std::int64_t total = 0;
-  for (const auto& r : runs) total += r.events;
   fmt::print(reportStream(), "simulate --period {}: runs {}-{} ({}), {}, {}, {}, {} -> {}\n", cli.period,
              scenario->firstRun, scenario->lastRun(), counted(runs.size(), "run"), counted(total, "event"),
              counted(scenario->beamEnergy.size(), "beam energy", "beam energies"),
@@ -137,7 +197,8 @@ int runPeriod(const SimulateOptions& cli) {
 }
 
 int run(const SimulateOptions& cli) {
-  std::vector<io::NamedPath> inputs = {{"--params", cli.params}, {"--detector", cli.detector}};
+  std::vector<io::NamedPath> inputs = {
+      {"--params", cli.params}, {"--detector", cli.detector}, {"--background-events", cli.backgroundEvents}};
   for (auto& c : conditionsInputs(cli.conditions)) inputs.push_back(std::move(c));
   if (Status s = checkOutputs({{"-o", cli.output}}, {}, inputs); !s) {
     return reportError(s.error());
@@ -167,9 +228,12 @@ int run(const SimulateOptions& cli) {
   }
   o.seed = cli.seed;
   o.run = cli.run;
+  auto request = requestOf(cli, o);
+  if (Status s = loadBackground(cli, *calo, cli.events, o, &request); !s) return reportError(s.error());
+  request.options = o;
   ProgressLine progress("simulate", cli.events, "events");
-  auto report = validation::simulateFile(*calo, *truth, requestOf(cli, o), cli.output,
-                                         [&](std::int64_t n) { progress.update(n); });
+  auto report =
+      validation::simulateFile(*calo, *truth, request, cli.output, [&](std::int64_t n) { progress.update(n); });
   progress.finish();
   if (!report) return reportError(report.error());
   fmt::print(reportStream(), "simulate: {}, {}, {:.1f} s -> {}\n", counted(report->events, "event"),
@@ -195,8 +259,10 @@ void addSimulateCommand(CLI::App& app, int& exitCode) {
   auto o = std::make_shared<SimulateOptions>();
   auto* cmd = app.add_subcommand("simulate", "Simulate reconstructed events for a known (truth) misalignment");
   addVersionFlag(*cmd);
-  cmd->add_option("--process", o->process, "ee (e+e- -> e+e-), gg (e+e- -> gamma gamma), 3pi (e+e- -> pi+pi-pi0)")
-      ->check(CLI::IsMember({"ee", "gg", "3pi"}));
+  cmd->add_option("--process", o->process,
+                  "ee (e+e- -> e+e-), gg (e+e- -> gamma gamma), 3pi (e+e- -> pi+pi-pi0), or random-trigger: "
+                  "background-only events (their fired counters) for --background-events")
+      ->check(CLI::IsMember({"ee", "gg", "3pi", "random-trigger"}));
   auto* events =
       cmd->add_option("--events", o->events, "number of events (at most 1e10)")->check(integerIn(0, kMaxEvents));
   cmd->add_option("--period", o->period,
@@ -237,7 +303,13 @@ void addSimulateCommand(CLI::App& app, int& exitCode) {
       ->check(finiteIn(0.0, 180.0));
   addDetectorOption(*cmd, o->detector);
   cmd->add_option("--dead-counters", o->deadCounters,
-                  "comma-separated dead counter indices, or 'none' (default: a few, docs/simulation.md)");
+                  "comma-separated dead counter indices, @FILE (a list in a file: emcalign dead-counters -o FILE), or "
+                  "'none' (default: a few, docs/simulation.md)");
+  cmd->add_option("--background-events", o->backgroundEvents,
+                  "recorded beam background: a random-trigger file (simulate --process random-trigger, or converted "
+                  "from an experiment's random triggers, docs/simulation.md); one of its events is merged into "
+                  "each simulated event before clustering, instead of the Poisson model")
+      ->check(CLI::ExistingFile);
   cmd->add_option("--threads", o->threads, "worker threads (0: all cores)")->check(integerIn(0, kMaxThreads));
   cmd->add_option("--run", o->run, "run number written in every row")
       ->check(integerIn(std::numeric_limits<std::int32_t>::min(), std::numeric_limits<std::int32_t>::max()));
@@ -266,6 +338,19 @@ void addSimulateCommand(CLI::App& app, int& exitCode) {
         }
       }
       exitCode = runPeriod(*o);
+      return;
+    }
+    if (o->process == "random-trigger") {
+      for (const char* collision : {"--params", "--conditions", "--beam-energy", "--theta-min", "--theta-max",
+                                    "--point-showers", "--no-hits", "--background-events", "--compression"}) {
+        if (cmd->count(collision) > 0) {
+          throw CLI::ValidationError(collision,
+                                     "does not apply to --process random-trigger (no collision is "
+                                     "simulated: only the beam background and the noise)");
+        }
+      }
+      if (cmd->count("--events") == 0) throw CLI::RequiredError("--events");
+      exitCode = runRandomTrigger(*o);
       return;
     }
     if (o->params.empty() && o->conditions.empty()) {

@@ -146,6 +146,7 @@ void addExportCommand(CLI::App& app, int& exitCode);
 void addCorrectCommand(CLI::App& app, int& exitCode);
 void addResidualsCommand(CLI::App& app, int& exitCode);
 void addCompareCommand(CLI::App& app, int& exitCode);
+void addDeadCountersCommand(CLI::App& app, int& exitCode);
 void addConditionsCommand(CLI::App& app, int& exitCode);
 void addCampaignCommand(CLI::App& app, int& exitCode);
 void addTrendCommand(CLI::App& app, int& exitCode);

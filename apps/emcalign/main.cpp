@@ -116,6 +116,7 @@ int main(int argc, char** argv) {
   emcalign::app::addCorrectCommand(app, exitCode);
   emcalign::app::addResidualsCommand(app, exitCode);
   emcalign::app::addCompareCommand(app, exitCode);
+  emcalign::app::addDeadCountersCommand(app, exitCode);
   emcalign::app::addExportCommand(app, exitCode);
   emcalign::app::addConditionsCommand(app, exitCode);
   emcalign::app::addCampaignCommand(app, exitCode);

@@ -208,5 +208,9 @@ void leaveHdf5LockAfterFork();
 Result<std::unique_ptr<RowSource>> openIsolated(const std::string& path,
                                                 const std::function<Result<std::unique_ptr<RowSource>>()>& open,
                                                 double timeoutSeconds);
+/// `read` run in a child process as openIsolated's source is, for a file read at once (a
+/// random-trigger file): its bytes, or its error; a crash or a silence is an error naming `path`.
+Result<std::string> readIsolated(const std::string& path, const std::function<Result<std::string>()>& read,
+                                 double timeoutSeconds);
 
 }  // namespace emcalign::io::detail

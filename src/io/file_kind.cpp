@@ -14,11 +14,12 @@ namespace emcalign::io {
 namespace {
 
 // emcalign's CSV files by the start of their header line.
-constexpr std::array<std::pair<std::string_view, std::string_view>, 4> kCsvHeaders{{
+constexpr std::array<std::pair<std::string_view, std::string_view>, 5> kCsvHeaders{{
     {"run,event,beam_energy_mev,", kCsvEventFileKind},
     {"i_phi,i_theta,n,", kProfileCsvKind},
     {"first_run,last_run,payload,", "a conditions export (emcalign conditions export)"},
     {"index,layer,ring,iphi,", "a counters CSV (geometry --counters)"},
+    {"run,event,counter,energy_mev,", kRandomTriggerCsvKind},
 }};
 
 // The first line that is neither blank nor a comment, within the text given.
@@ -36,6 +37,7 @@ std::string_view firstDataLine(std::string_view text) {
 
 std::string_view csvKind(std::string_view text) {
   if (text.starts_with("# emcalign conditions export")) return kCsvHeaders[2].second;
+  if (text.starts_with("# format: emcalign-random-trigger/")) return kRandomTriggerCsvKind;
   // The attribute comments a simulated event file starts with (its header may lie beyond the text given).
   if (text.starts_with("# truth_parameters:") || text.starts_with("# simulation:")) return kCsvEventFileKind;
   std::string header;  // its fields trimmed, each followed by a comma; the start is enough

@@ -17,6 +17,7 @@
 //       the hits of these rows in row order
 //   'E' an error message (the source's own text); the child then exits
 //   'Z' the end of the file
+//   'D' (readIsolated) the whole answer of a reader that reads a file at once
 // The child never returns into the caller's code: it leaves with _exit (no atexit handlers,
 // no flush of the parent's stdio buffers it inherited).
 
@@ -280,6 +281,17 @@ class IsolatedSource final : public RowSource {
     return true;
   }
 
+  // readIsolated's one answer: the bytes ('D') or the child's error ('E').
+  Result<std::string> answer() {
+    char kind = 0;
+    std::string payload;
+    if (Status s = receive(kind, payload); !s) return s.error();
+    reap(false);
+    if (kind == 'E') return Error{payload};
+    if (kind != 'D') return protocolError().error();
+    return payload;
+  }
+
   bool hasTruth() const override { return hasTruth_; }
   bool hasHits() const override { return hasHits_; }
   const Attributes& attributes() const override { return attributes_; }
@@ -402,9 +414,11 @@ Hdf5Lock::~Hdf5Lock() {
 
 void leaveHdf5LockAfterFork() { gForkedReader = true; }
 
-Result<std::unique_ptr<RowSource>> openIsolated(const std::string& path,
-                                                const std::function<Result<std::unique_ptr<RowSource>>()>& open,
-                                                double timeoutSeconds) {
+namespace {
+
+// Forks the reader: the child runs `child(fd)` (which never returns) with the write end of
+// the pipe; the parent gets the child's pid and the read end.
+Result<std::pair<pid_t, int>> forkReader(const std::string& path, const std::function<void(int)>& child) {
   int fds[2];
   if (::pipe2(fds, O_CLOEXEC) != 0) {
     return Error{fmt::format("{}: cannot start the HDF5 reader process: {}", path, std::strerror(errno))};
@@ -412,31 +426,57 @@ Result<std::unique_ptr<RowSource>> openIsolated(const std::string& path,
   std::fflush(nullptr);  // nothing buffered is written twice
   std::optional<Hdf5Lock> noThreadInHdf5;
   noThreadInHdf5.emplace();
-  const pid_t child = ::fork();
-  if (child == 0) {
+  const pid_t pid = ::fork();
+  if (pid == 0) {
     leaveHdf5LockAfterFork();  // the mutex was copied held: the child, alone, never takes it
   } else {
-    noThreadInHdf5.reset();  // (the child never returns from runChild: nothing to release there)
+    noThreadInHdf5.reset();  // (the child never returns from `child`: nothing to release there)
   }
-  if (child < 0) {
+  if (pid < 0) {
     const int error = errno;
     ::close(fds[0]);
     ::close(fds[1]);
     return Error{fmt::format("{}: cannot start the HDF5 reader process: {}", path, std::strerror(error))};
   }
-  if (child == 0) {
+  if (pid == 0) {
     ::close(fds[0]);
     ::signal(SIGPIPE, SIG_DFL);  // the parent gave up: just end
     // A crash is reported by the parent from the wait status: no handler of the parent's
     // (the app's cleanup, a sanitizer's report) runs in the child.
     for (int s : {SIGINT, SIGTERM, SIGHUP, SIGFPE, SIGSEGV, SIGBUS, SIGILL, SIGABRT}) ::signal(s, SIG_DFL);
-    runChild(fds[1], open);
+    child(fds[1]);
+    ::_exit(0);
   }
   ::close(fds[1]);
   ::fcntl(fds[0], F_SETPIPE_SZ, 1 << 20);  // fewer switches between the processes; a smaller pipe works too
-  auto source = std::make_unique<IsolatedSource>(path, child, fds[0], timeoutSeconds);
+  return std::pair{pid, fds[0]};
+}
+
+}  // namespace
+
+Result<std::unique_ptr<RowSource>> openIsolated(const std::string& path,
+                                                const std::function<Result<std::unique_ptr<RowSource>>()>& open,
+                                                double timeoutSeconds) {
+  auto forked = forkReader(path, [&open](int fd) { runChild(fd, open); });
+  if (!forked) return forked.error();
+  auto source = std::make_unique<IsolatedSource>(path, forked->first, forked->second, timeoutSeconds);
   if (Status s = source->start(); !s) return s.error();
   return std::unique_ptr<RowSource>(std::move(source));
+}
+
+Result<std::string> readIsolated(const std::string& path, const std::function<Result<std::string>()>& read,
+                                 double timeoutSeconds) {
+  auto forked = forkReader(path, [&read](int fd) {
+    auto bytes = read();
+    if (bytes) {
+      send(fd, 'D', *bytes);
+    } else {
+      send(fd, 'E', bytes.error().message);
+    }
+  });
+  if (!forked) return forked.error();
+  IsolatedSource channel(path, forked->first, forked->second, timeoutSeconds);
+  return channel.answer();
 }
 
 }  // namespace emcalign::io::detail

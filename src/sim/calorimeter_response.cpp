@@ -61,7 +61,9 @@ ActualPlacement::ActualPlacement(const geometry::AlignmentTransform& truth, cons
 CounterHits::CounterHits(int counters)
     : energy_(static_cast<std::size_t>(counters), 0.0),
       contrib_(static_cast<std::size_t>(counters), std::array<float, kMaxSources>{}),
-      nominalMoment_(static_cast<std::size_t>(counters), Vec3::Zero()) {
+      nominalMoment_(static_cast<std::size_t>(counters), Vec3::Zero()),
+      recorded_(static_cast<std::size_t>(counters), 0.0),
+      hasRecorded_(static_cast<std::size_t>(counters), 0) {
   touched_.reserve(256);
   fired_.reserve(256);
   sourceSum_.fill(Vec3::Zero());
@@ -72,6 +74,8 @@ void CounterHits::clear() {
     energy_[static_cast<std::size_t>(c)] = 0.0;
     contrib_[static_cast<std::size_t>(c)].fill(0.0f);
     nominalMoment_[static_cast<std::size_t>(c)].setZero();
+    recorded_[static_cast<std::size_t>(c)] = 0.0;
+    hasRecorded_[static_cast<std::size_t>(c)] = 0;
   }
   touched_.clear();
   fired_.clear();
@@ -97,6 +101,16 @@ void CounterHits::addToSource(int source, double energy, const Vec3& moment) {
   sourceEnergy_[static_cast<std::size_t>(source)] += energy;
 }
 
+void CounterHits::addRecorded(int counter, double energy, const Vec3& centre) {
+  const auto c = static_cast<std::size_t>(counter);
+  if (energy_[c] == 0.0 && hasRecorded_[c] == 0) touched_.push_back(counter);
+  recorded_[c] += energy;
+  hasRecorded_[c] = 1;
+  nominalMoment_[c] += energy * centre;
+  contrib_[c][kBackground] += static_cast<float>(energy);
+  addToSource(kBackground, energy, energy * centre);
+}
+
 void CounterHits::digitize(const EmcOptions& o, std::span<const double> gains, Rng& rng) {
   // Only counters with a deposit get noise: with σ = 0.3 MeV and a 2 MeV threshold a
   // noise-only counter fires with probability ~1e-11.
@@ -104,7 +118,11 @@ void CounterHits::digitize(const EmcOptions& o, std::span<const double> gains, R
   for (int c : touched_) {
     double& e = energy_[static_cast<std::size_t>(c)];
     if (!gains.empty()) e *= gains[static_cast<std::size_t>(c)];
-    if (o.noise) e += o.noiseSigma * rng.normal();
+    if (hasRecorded_[static_cast<std::size_t>(c)] != 0) {
+      e += recorded_[static_cast<std::size_t>(c)];
+    } else if (o.noise) {
+      e += o.noiseSigma * rng.normal();
+    }
     if (e >= o.counterThreshold) fired_.push_back(c);
   }
 }
@@ -391,6 +409,14 @@ void CalorimeterResponse::background(CounterHits& hits, Rng& rng) const {
     if (isDead(c)) continue;
     const Vec3 centre = calo_->counter(c).centre();
     hits.add(c, CounterHits::kBackground, rng.exponential(o.backgroundMeanEnergy), centre, centre);
+  }
+}
+
+void CalorimeterResponse::mergeRecorded(CounterHits& hits, std::span<const Hit> recorded) const {
+  if (!options_.beamBackground) return;
+  for (const Hit& h : recorded) {
+    if (isDead(h.counter)) continue;
+    hits.addRecorded(h.counter, h.energy, calo_->counter(h.counter).centre());
   }
 }
 

@@ -17,7 +17,9 @@ namespace emcalign::sim {
 
 namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-}
+// The random stream of the order of the recorded background: beyond any event index.
+constexpr std::uint64_t kBackgroundOrderStream = ~std::uint64_t{0};
+}  // namespace
 
 void SimulationOptions::setIdealised() {
   generator.radiation = false;
@@ -86,6 +88,20 @@ Status SimulationOptions::validate(int counters) const {
   if (!(muonVetoEfficiency >= 0.0 && muonVetoEfficiency <= 1.0)) {
     return Error{"muon veto efficiency must be in [0, 1]"};
   }
+  if (recordedBackground) {
+    if (recordedBackground->empty()) return Error{"the recorded beam background has no event"};
+    if (recordedBackground->size() > std::numeric_limits<std::uint32_t>::max()) {
+      return Error{"the recorded beam background has more events than the simulation can use"};
+    }
+    for (const Hit& h : recordedBackground->allHits()) {
+      if (h.counter < 0 || h.counter >= counters || !(h.energy >= 0.0)) {
+        return Error{
+            fmt::format("the recorded beam background has a hit in counter {} ({} MeV): not a counter of "
+                        "this detector (0..{}) or not an energy",
+                        h.counter, h.energy, counters - 1)};
+      }
+    }
+  }
   return {};
 }
 
@@ -101,6 +117,17 @@ Result<Simulation> Simulation::create(const geometry::Calorimeter& calorimeter,
   sim.neighbours_ = std::make_shared<const CounterNeighbours>(calorimeter);
   sim.nominal_ = std::make_shared<const geometry::CounterGeometry>(geometry::CounterGeometry::nominal(calorimeter));
   sim.tracking_ = TrackingSystem(sim.options_.tracking);
+  if (const auto& recorded = sim.options_.recordedBackground) {
+    // A permutation drawn from the seed (Fisher–Yates), on a stream no event uses.
+    auto& order = sim.backgroundOrder_;
+    order.resize(recorded->size());
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<std::uint32_t>(i);
+    Rng rng(sim.options_.seed, kBackgroundOrderStream);
+    for (std::size_t i = order.size(); i > 1; --i) {
+      const auto j = static_cast<std::size_t>(rng.uniform() * static_cast<double>(i));
+      std::swap(order[i - 1], order[std::min(j, i - 1)]);
+    }
+  }
   return sim;
 }
 
@@ -162,7 +189,11 @@ void Simulation::simulateEvent(std::int64_t index, EventScratch& scratch, std::v
       response_->shower(hits, k, particle.energy, true, ev.vertex, d, rng);
     }
   }
-  response_->background(hits, rng);
+  if (o.recordedBackground) {
+    response_->mergeRecorded(hits, o.recordedBackground->hits(static_cast<std::size_t>(recordedEventOf(index))));
+  } else {
+    response_->background(hits, rng);
+  }
   hits.digitize(o.emc, response_->gains(), rng);
   findClusters(hits, *nominal_, *neighbours_, o.reconstruction, scratch.clusters, rng, scratch.clusterList);
   // A cluster row carries the cluster's counters (when the caller keeps hits).
@@ -292,6 +323,54 @@ Status Simulation::run(std::int64_t events, int threads, const Sink& sink, const
     if (progress) progress(last);
   }
   return drain();
+}
+
+std::int64_t Simulation::recordedEventOf(std::int64_t index) const {
+  if (backgroundOrder_.empty() || index < 0) return -1;
+  return backgroundOrder_[static_cast<std::size_t>(index % static_cast<std::int64_t>(backgroundOrder_.size()))];
+}
+
+void Simulation::randomTriggerEvent(std::int64_t index, EventScratch& scratch, std::vector<Hit>& out) const {
+  Rng rng(options_.seed, static_cast<std::uint64_t>(index));
+  CounterHits& hits = scratch.hits;
+  hits.clear();
+  out.clear();
+  response_->background(hits, rng);
+  hits.digitize(options_.emc, response_->gains(), rng);
+  for (int c : hits.fired()) out.push_back({c, hits.energy(c)});
+}
+
+Result<RandomTriggerEvents> Simulation::randomTrigger(std::int64_t events, int threads,
+                                                      const Progress& progress) const {
+  if (events < 0) return Error{"the number of events must not be negative"};
+  if (static_cast<std::uint64_t>(events) > kMaxRandomTriggerEvents) {
+    return Error{fmt::format("a random-trigger file holds at most {} events", kMaxRandomTriggerEvents)};
+  }
+  const int concurrency = threads > 0 ? threads : tbb::this_task_arena::max_concurrency();
+  tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(concurrency));
+  tbb::enumerable_thread_specific<EventScratch> scratch([this] { return EventScratch(calo_->size()); });
+  constexpr std::int64_t kChunk = 4096;
+  RandomTriggerEvents out;
+  std::vector<std::vector<std::vector<Hit>>> chunks;
+  for (std::int64_t first = 0; first < events; first += 64 * kChunk) {
+    const std::int64_t last = std::min(events, first + 64 * kChunk);
+    const auto nChunks = static_cast<std::size_t>((last - first + kChunk - 1) / kChunk);
+    chunks.assign(nChunks, {});
+    tbb::parallel_for(std::size_t{0}, nChunks, [&](std::size_t c) {
+      EventScratch& s = scratch.local();
+      const std::int64_t begin = first + static_cast<std::int64_t>(c) * kChunk;
+      const std::int64_t end = std::min(last, begin + kChunk);
+      auto& chunk = chunks[c];
+      chunk.resize(static_cast<std::size_t>(end - begin));
+      for (std::int64_t i = begin; i < end; ++i) randomTriggerEvent(i, s, chunk[static_cast<std::size_t>(i - begin)]);
+    });
+    std::int64_t index = first;
+    for (const auto& chunk : chunks) {
+      for (const auto& hits : chunk) out.append(options_.run, index++, hits);
+    }
+    if (progress) progress(last);
+  }
+  return out;
 }
 
 }  // namespace emcalign::sim

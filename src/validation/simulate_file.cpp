@@ -5,13 +5,73 @@
 #include "emcalign/core/units.hpp"
 #include "emcalign/core/version.hpp"
 #include "emcalign/io/event_file.hpp"
+#include "emcalign/io/random_trigger_file.hpp"
 
 namespace emcalign::validation {
 
-io::Json simulationSettings(const SimulateRequest& request) {
+namespace {
+
+io::Json backgroundSettings(const SimulateRequest& request) {
   const sim::SimulationOptions& o = request.options;
+  if (o.recordedBackground) {
+    return {{"model", "recorded"},
+            {"file", request.backgroundName},
+            {"sha256", request.backgroundSha256},
+            {"events", o.recordedBackground->size()}};
+  }
+  return {{"model", "poisson"},
+          {"hits_per_event", o.emc.backgroundHitsPerEvent},
+          {"mean_energy_mev", o.emc.backgroundMeanEnergy}};
+}
+
+io::Json offList(const SimulateRequest& request) {
   io::Json off = io::Json::array();
   for (const auto& e : request.off) off.push_back(e);
+  return off;
+}
+
+}  // namespace
+
+io::Json randomTriggerSettings(const SimulateRequest& request) {
+  const sim::SimulationOptions& o = request.options;
+  return io::Json{{"software", fmt::format("emcalign {}", kVersion)},
+                  {"process", "random-trigger"},
+                  {"events", request.events},
+                  {"seed", o.seed},
+                  {"run", o.run},
+                  {"off", offList(request)},
+                  {"dead_counters", o.emc.deadCountersOn ? o.emc.deadCounters : std::vector<int>{}},
+                  {"background", backgroundSettings(request)},
+                  {"noise_mev", o.emc.noise ? o.emc.noiseSigma : 0.0},
+                  {"counter_threshold_mev", o.emc.counterThreshold},
+                  {"detector", request.detectorName}};
+}
+
+Result<SimulateReport> simulateRandomTriggerFile(const geometry::Calorimeter& calo, const SimulateRequest& request,
+                                                 const std::string& output,
+                                                 const std::function<void(std::int64_t)>& progress) {
+  if (request.options.recordedBackground) {
+    return Error{"random-trigger events are made from the Poisson model of the background, not from recorded ones"};
+  }
+  auto simulation = sim::Simulation::create(calo, geometry::AlignmentParameters{}, request.options);
+  if (!simulation) return simulation.error();
+  auto events = simulation->randomTrigger(request.events, request.threads, [&](std::int64_t n) {
+    if (progress) progress(n);
+  });
+  if (!events) return events.error();
+  if (Status s = io::writeRandomTriggerFile(output, *events, {{"simulation", randomTriggerSettings(request).dump()}});
+      !s) {
+    return s.error();
+  }
+  SimulateReport report;
+  report.events = request.events;
+  report.rows = static_cast<std::int64_t>(events->allHits().size());
+  for (std::size_t i = 0; i < events->size(); ++i) report.eventsWritten += events->hits(i).empty() ? 0 : 1;
+  return report;
+}
+
+io::Json simulationSettings(const SimulateRequest& request) {
+  const sim::SimulationOptions& o = request.options;
   return io::Json{
       {"software", fmt::format("emcalign {}", kVersion)},
       {"process", sim::name(o.generator.process)},
@@ -24,8 +84,9 @@ io::Json simulationSettings(const SimulateRequest& request) {
       {"vertex_sigma_cm", {o.generator.vertexSigma.x(), o.generator.vertexSigma.y(), o.generator.vertexSigma.z()}},
       {"ideal", request.ideal},
       {"point_showers", o.emc.pointShowers},
-      {"off", off},
+      {"off", offList(request)},
       {"dead_counters", o.emc.deadCountersOn ? o.emc.deadCounters : std::vector<int>{}},
+      {"background", backgroundSettings(request)},
       {"cosmic_fraction", o.cosmicFraction},
       {"detector", request.detectorName}};
 }

@@ -81,6 +81,90 @@ TEST_F(Simulate, FilesReadBackWithTruthAndSettings) {
   EXPECT_TRUE(hasSettings);
 }
 
+// Recorded beam background: random-trigger files are the same on 1 and 2 threads in both
+// formats; merged into a simulation they give the same bytes on 1 and 2 threads, another
+// file than the Poisson model, and the record names the file by its digest.
+TEST_F(Simulate, RandomTriggerFilesAndTheirMergeAreTheSameOnAnyThreadCount) {
+  for (const char* ext : {".h5", ".csv"}) {
+    const std::string a = out(std::string("rt1") + ext), b = out(std::string("rt2") + ext);
+    ASSERT_EQ(run("simulate --process random-trigger --events 20000 --seed 3 --threads 1 -o " + a), 0);
+    ASSERT_EQ(run("simulate --process random-trigger --events 20000 --seed 3 --threads 2 -o " + b), 0);
+    EXPECT_TRUE(bytes(a) == bytes(b)) << ext;
+  }
+  const std::string rt = out("rt1.h5");
+  const std::string base = "simulate --events 4000 --seed 7 --params " + params_;
+  ASSERT_EQ(run(base + " --threads 1 --background-events " + rt + " -o " + out("m1.h5")), 0);
+  ASSERT_EQ(run(base + " --threads 2 --background-events " + rt + " -o " + out("m2.h5")), 0);
+  ASSERT_EQ(run(base + " -o " + out("poisson.h5")), 0);
+  EXPECT_TRUE(bytes(out("m1.h5")) == bytes(out("m2.h5")));
+  EXPECT_FALSE(bytes(out("m1.h5")) == bytes(out("poisson.h5")));
+  auto reader = emcalign::io::EventReader::open({out("m1.h5")});
+  ASSERT_TRUE(reader.ok());
+  std::string settings;
+  for (const auto& [k, v] : (*reader)->attributes()) {
+    if (k == "simulation") settings = v;
+  }
+  const auto background = nlohmann::json::parse(settings).at("background");
+  EXPECT_EQ(background.at("model"), "recorded");
+  EXPECT_EQ(background.at("events"), 20000);
+  EXPECT_EQ(background.at("sha256").get<std::string>().size(), 64u);
+
+  // Fewer recorded events than simulated: reused, with a warning that says so.
+  std::string err;
+  ASSERT_EQ(run("simulate --process random-trigger --events 1000 -o " + out("few.csv")), 0);
+  ASSERT_EQ(run(base + " --background-events " + out("few.csv") + " -o " + out("m3.h5"), &err), 0);
+  EXPECT_NE(err.find("1000 recorded events for 4000 events simulated: each is merged into up to 4 events"),
+            std::string::npos)
+      << err;
+  // What does not apply is refused by name; an event file is not a random-trigger file.
+  EXPECT_EQ(run("simulate --process random-trigger --events 10 --params " + params_ + " -o " + out("x.h5"), &err), 2);
+  EXPECT_NE(err.find("--params"), std::string::npos) << err;
+  EXPECT_NE(run(base + " --background-events " + out("poisson.h5") + " -o " + out("y.h5"), &err), 0);
+  EXPECT_NE(err.find("this is an event file (it has /events), not a random-trigger file"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(out("x.h5")));
+  EXPECT_FALSE(fs::exists(out("y.h5")));
+}
+
+// Dead counters from data: the counters a simulation left dead are found from its hits (and
+// no other), written as a list `simulate --dead-counters @FILE` takes; a sample too small to
+// tell calls none dead; a file without hits is refused.
+TEST_F(Simulate, DeadCountersAreFoundFromTheDataAndTakenByTheSimulation) {
+  std::string err;
+  ASSERT_EQ(
+      run("simulate --events 30000 --seed 4 --dead-counters 51,700,1500 --params " + params_ + " -o " + out("data.h5")),
+      0);
+  ASSERT_EQ(run("dead-counters " + out("data.h5") + " -o " + out("dead.txt"), &err), 0) << err;
+  const std::string list = bytes(out("dead.txt"));
+  EXPECT_NE(list.find("\n51,700,1500\n"), std::string::npos) << list;
+  ASSERT_EQ(
+      run("simulate --events 10 --dead-counters @" + out("dead.txt") + " --params " + params_ + " -o " + out("mc.h5")),
+      0);
+  auto reader = emcalign::io::EventReader::open({out("mc.h5")});
+  ASSERT_TRUE(reader.ok());
+  for (const auto& [k, v] : (*reader)->attributes()) {
+    if (k == "simulation") {
+      EXPECT_EQ(nlohmann::json::parse(v).at("dead_counters"), nlohmann::json::parse("[51,700,1500]"));
+    }
+  }
+  // 300 events: every counter expects a few hits at most; none is called dead.
+  ASSERT_EQ(run("simulate --events 300 --seed 4 --params " + params_ + " -o " + out("small.h5")), 0);
+  ASSERT_EQ(run("dead-counters " + out("small.h5") + " -o " + out("small.txt")), 0);
+  const std::string small = bytes(out("small.txt"));
+  EXPECT_NE(small.find("# undecided"), std::string::npos) << small;
+  EXPECT_EQ(small.substr(small.rfind("@FILE\n")), "@FILE\n\n") << "a dead counter in 300 events";
+  // Refused: a file without hits, an event file as the list.
+  ASSERT_EQ(run("simulate --events 300 --no-hits --params " + params_ + " -o " + out("nohits.h5")), 0);
+  EXPECT_EQ(run("dead-counters " + out("nohits.h5") + " -o " + out("x.txt"), &err), 1);
+  EXPECT_NE(err.find("has no hits"), std::string::npos) << err;
+  EXPECT_EQ(
+      run("simulate --events 10 --dead-counters @" + out("small.h5") + " --params " + params_ + " -o " + out("y.h5"),
+          &err),
+      1);
+  EXPECT_NE(err.find("this is an HDF5 file"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(out("x.txt")));
+  EXPECT_FALSE(fs::exists(out("y.h5")));
+}
+
 TEST_F(Simulate, RefusedInputLeavesNoFile) {
   std::string err;
   const std::string target = out("bad.h5");

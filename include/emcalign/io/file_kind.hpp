@@ -28,5 +28,6 @@ std::string describeFileAt(const std::string& path);
 /// else is wrong with one).
 inline constexpr std::string_view kCsvEventFileKind = "a CSV event file";
 inline constexpr std::string_view kProfileCsvKind = "a profile CSV (fit --profile-out)";
+inline constexpr std::string_view kRandomTriggerCsvKind = "a random-trigger CSV (simulate --process random-trigger)";
 
 }  // namespace emcalign::io

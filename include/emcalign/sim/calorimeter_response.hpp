@@ -27,6 +27,7 @@
 #include <span>
 #include <vector>
 
+#include "emcalign/core/event_record.hpp"
 #include "emcalign/core/random.hpp"
 #include "emcalign/core/result.hpp"
 #include "emcalign/core/types.hpp"
@@ -115,8 +116,13 @@ class CounterHits {
   /// energy and Σ energy·where (`moment`), which a shower adds once for all its spots.
   void addToCounter(int counter, int source, double energy, const Vec3& nominal);
   void addToSource(int source, double energy, const Vec3& moment);
-  /// Adds noise and applies the threshold; afterwards `fired()` lists counters above it.
-  /// Noise and threshold; `gains` (one per counter, or empty) scale each counter first.
+  /// Adds a counter's energy as a random-trigger event recorded it (source kBackground, at
+  /// the counter's centre `centre`): a measured energy, which digitize neither scales by a
+  /// gain nor gives noise (the record has the counter's noise). After every deposit.
+  void addRecorded(int counter, double energy, const Vec3& centre);
+  /// Noise and threshold; afterwards `fired()` lists counters above the threshold. `gains`
+  /// (one per counter, or empty) scale each counter's deposits first; a counter with a
+  /// recorded energy gets it added and no noise of its own.
   void digitize(const EmcOptions& o, std::span<const double> gains, Rng& rng);
 
   double energy(int counter) const { return energy_[static_cast<std::size_t>(counter)]; }
@@ -134,6 +140,8 @@ class CounterHits {
   std::vector<double> energy_;
   std::vector<std::array<float, kMaxSources>> contrib_;
   std::vector<Vec3> nominalMoment_;
+  std::vector<double> recorded_;           ///< addRecorded's energy per counter
+  std::vector<std::uint8_t> hasRecorded_;  ///< whether a counter has one
   std::vector<int> touched_;
   std::vector<int> fired_;
   std::array<Vec3, kMaxSources> sourceSum_;
@@ -156,8 +164,11 @@ class CalorimeterResponse {
   /// Ionisation (and, for pions, a possible nuclear interaction) along the line.
   void track(CounterHits& hits, int source, double kineticEnergy, bool hadron, const Vec3& point, const Vec3& direction,
              Rng& rng) const;
-  /// Beam-background hits in random counters.
+  /// Beam-background hits in random counters (the Poisson model; EmcOptions::beamBackground).
   void background(CounterHits& hits, Rng& rng) const;
+  /// A recorded random-trigger event's counters added to the event (instead of `background`;
+  /// nothing when EmcOptions::beamBackground is off); those of dead counters are dropped.
+  void mergeRecorded(CounterHits& hits, std::span<const Hit> recorded) const;
 
   /// Counter containing a TS-frame point of the actual detector, or -1 (gap, support
   /// sphere, dead counter, outside). `hint` is tried first (the hemisphere a shower entered).

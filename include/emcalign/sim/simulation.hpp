@@ -17,6 +17,7 @@
 
 #include "emcalign/core/event_record.hpp"
 #include "emcalign/core/random.hpp"
+#include "emcalign/core/random_trigger.hpp"
 #include "emcalign/core/result.hpp"
 #include "emcalign/geometry/alignment_parameters.hpp"
 #include "emcalign/geometry/alignment_transform.hpp"
@@ -42,6 +43,12 @@ struct SimulationOptions {
   double muonVetoEfficiency = 0.99;  ///< for cosmic muons (assumed); collisions never fire it
   std::int32_t run = 1;
   std::uint64_t seed = 1;
+  /// Recorded beam background: each event gets one of these random-trigger events merged
+  /// into its counters before clustering (CalorimeterResponse::mergeRecorded) instead of the
+  /// Poisson model; in an order drawn from the seed (a permutation), reused cyclically when
+  /// there are fewer than events. None: the Poisson model (EmcOptions). `--off background`
+  /// switches either off.
+  std::shared_ptr<const RandomTriggerEvents> recordedBackground;
 
   /// Switches every realism effect off: no radiation, background, dead counters, noise,
   /// energy smearing, shower fluctuations, layer-3 offset, cosmics, multiple scattering;
@@ -103,6 +110,18 @@ class Simulation {
   /// Simulates events [0, events) on `threads` threads (0: all cores).
   Status run(std::int64_t events, int threads, const Sink& sink, const Progress& progress = {}) const;
 
+  /// The recorded event that event `index` gets (SimulationOptions::recordedBackground), or
+  /// −1 when there is none.
+  [[nodiscard]] std::int64_t recordedEventOf(std::int64_t index) const;
+
+  /// What a random trigger records in event `index`: the counters the beam background (the
+  /// Poisson model of EmcOptions) and the noise fire above the counter threshold, as `hits`
+  /// (cleared first; none is a quiet event). The same Rng(seed, index) stream as events.
+  void randomTriggerEvent(std::int64_t index, EventScratch& scratch, std::vector<Hit>& hits) const;
+  /// Random-trigger events [0, events) on `threads` threads, run and event numbers of the
+  /// options; the same on any thread count.
+  Result<RandomTriggerEvents> randomTrigger(std::int64_t events, int threads, const Progress& progress = {}) const;
+
  private:
   Simulation() = default;
   void cosmic(Rng& rng, GeneratedEvent& event) const;
@@ -113,6 +132,7 @@ class Simulation {
   std::shared_ptr<const CounterNeighbours> neighbours_;
   std::shared_ptr<const geometry::CounterGeometry> nominal_;  ///< what the reconstruction knows
   TrackingSystem tracking_{TrackingOptions{}};
+  std::vector<std::uint32_t> backgroundOrder_;  ///< the recorded events in the order they are used
 };
 
 }  // namespace emcalign::sim

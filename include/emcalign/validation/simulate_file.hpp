@@ -28,6 +28,10 @@ struct SimulateRequest {
   bool ideal = false;
   std::vector<std::string> off;
   std::string detectorName = "embedded default";
+  /// The recorded beam background (options.recordedBackground), for the record: its file as
+  /// given and its SHA-256.
+  std::string backgroundName;
+  std::string backgroundSha256;
   /// Asked after each block of events: true stops the simulation (an error "interrupted",
   /// no file left). None: it runs to the end.
   std::function<bool()> interrupted;
@@ -35,7 +39,9 @@ struct SimulateRequest {
 
 /// The "simulation" attribute: {"software", "process", "events", "seed", "run",
 /// "beam_energy_mev", "beam_energy_spread_mev", "theta_range_deg", "vertex_sigma_cm",
-/// "ideal", "point_showers", "off", "dead_counters", "cosmic_fraction", "detector"}.
+/// "ideal", "point_showers", "off", "dead_counters", "background", "cosmic_fraction", "detector"};
+/// "background" is the Poisson model's {"model": "poisson", "hits_per_event", "mean_energy_mev"}
+/// or {"model": "recorded", "file", "sha256", "events"}.
 io::Json simulationSettings(const SimulateRequest& request);
 
 struct SimulateReport {
@@ -48,6 +54,18 @@ struct SimulateReport {
 
 /// The error of an interrupted simulation (SimulateRequest::interrupted).
 inline constexpr const char* kInterrupted = "interrupted";
+
+/// The "simulation" attribute of a random-trigger file: {"software", "process":
+/// "random-trigger", "events", "seed", "run", "off", "dead_counters", "background", "noise_mev",
+/// "counter_threshold_mev", "detector"}.
+io::Json randomTriggerSettings(const SimulateRequest& request);
+
+/// Simulates `request.events` random-trigger events of `calo` (the beam background's Poisson
+/// model and the noise, sim::Simulation::randomTrigger) into the random-trigger file `output`
+/// (io/random_trigger_file.hpp). The report counts events; rows are the hits.
+Result<SimulateReport> simulateRandomTriggerFile(const geometry::Calorimeter& calo, const SimulateRequest& request,
+                                                 const std::string& output,
+                                                 const std::function<void(std::int64_t)>& progress = {});
 
 /// Simulates `request.events` events of `calo` misaligned by `truth` into `output` (.csv:
 /// CSV, "-": CSV on standard output, else HDF5; no partial file on failure). `progress` is

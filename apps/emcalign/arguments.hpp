@@ -15,7 +15,7 @@ namespace emcalign::app {
 /// option and command of the line is known.
 std::optional<std::string> mistypedArgument(CLI::App& app, int argc, char** argv);
 
-/// The Levenshtein distance of two names (for "did you mean").
+/// The edit distance of two names, a swap of neighbouring letters one edit (for "did you mean").
 std::size_t editDistance(const std::string& a, const std::string& b);
 
 }  // namespace emcalign::app

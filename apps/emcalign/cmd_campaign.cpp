@@ -215,9 +215,18 @@ int run(const CampaignCliOptions& o) {
   if (!report) return reportError(report.error());
   for (const auto& w : report->warnings) reportWarning(w);
   for (const auto& f : report->failures) reportWarning(f);
-  fmt::print(reportStream(), "campaign: {}: {} fitted and stored, {} in tag {} already, {} failed ({:.1f} s) -> {}\n",
+  // The model every IOV was fitted with, said with the result (conditions list shows it too).
+  const std::string sigma = model->sigmaSys.method == calib::SigmaSysMethod::Auto
+                                ? std::string("auto")
+                                : fmt::format("{:g} deg", model->sigmaSys.value / units::deg);
+  fmt::print(reportStream(),
+             "campaign: {}: {} fitted and stored, {} in tag {} already, {} failed ({:.1f} s) -> {}\n"
+             "  model: {}; sigma_sys {}\n",
              counted(report->groups, "group"), report->fitted, report->resumed, o.tag, report->failures.size(),
-             fitting.elapsed(), (*db)->uri());
+             fitting.elapsed(), (*db)->uri(),
+             model->corrections.empty() ? std::string("the paper's model (no corrections)")
+                                        : "corrections " + model->corrections,
+             sigma);
   if (!report->failures.empty()) {
     return reportError(Error{fmt::format(
         "{} of {} {} not stored: the IOVs do not tile the runs (see the "

@@ -104,9 +104,9 @@ int run(const CheckCliOptions& o) {
                          fixed(number(side, w + "_rms_deg"), 3));
     };
     panels.push_back({"Δφ = |φ_1 − φ_2| − 180°  [deg]", -6.0, 6.0, 60, check->dphi[0], check->dphi[1],
-                      label("before", b, "dphi"), label("after", a, "dphi"), 0});
+                      label("before", b, "dphi"), label("after", a, "dphi"), 0, "deg"});
     panels.push_back({"Δθ = θ_1 + θ_2 − 180°  [deg]", -15.0, 15.0, 60, check->dtheta[0], check->dtheta[1],
-                      label("before", b, "dtheta"), label("after", a, "dtheta"), 0});
+                      label("before", b, "dtheta"), label("after", a, "dtheta"), 0, "deg"});
     figure = "acollinearity";
     summary = fmt::format("check gg: {} of {} events selected; Δφ core width {}° -> {}° ({}% better), Δθ {}° -> {}°",
                           json["selected"].get<std::int64_t>(), check->cutFlow.events.front(),

@@ -84,7 +84,13 @@ int run(const CompareOptions& o) {
   json["mc"]["files"] = o.mc;
   json["depth_offset_cm"] = depth.offset / units::cm;
   if (Status s = io::writeFileIn(o.output, "compare.json", json.dump(1) + "\n"); !s) return reportError(s.error());
-  if (Status s = io::writeFileIn(o.output, "compare.md", apply::comparisonMarkdown(*c, o.data, o.mc)); !s) {
+  if (Status s = io::writeFileIn(
+          o.output, "compare.md",
+          apply::comparisonMarkdown(*c, o.data, o.mc,
+                                    o.corrections.empty() ? fmt::format("R(E, θ) {:+.3g} cm", depth.offset / units::cm)
+                                                          : fmt::format("R(E, θ) {:+.3g} cm of {}",
+                                                                        depth.offset / units::cm, o.corrections)));
+      !s) {
     return reportError(s.error());
   }
   auto png = report::writeComparePlot(o.output, *c);

@@ -13,6 +13,7 @@
 #include <charconv>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <set>
 #include <string>
@@ -110,6 +111,23 @@ int runRetire(const ConditionsOptions& o) {
   return kExitOk;
 }
 
+// The σ_sys of the IOVs: "auto (0.012-0.015 deg)", "0.2 deg", "mixed: …", or "-" (not said).
+std::string sigmaSysSummary(const Json& iovs) {
+  std::set<std::string> methods;
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (const Json& i : iovs) {
+    methods.insert(i.value("sigma_sys_method", std::string()));
+    if (i.contains("sigma_sys_deg") && i["sigma_sys_deg"].is_number()) {
+      lo = std::min(lo, i["sigma_sys_deg"].get<double>());
+      hi = std::max(hi, i["sigma_sys_deg"].get<double>());
+    }
+  }
+  if (methods.empty() || (methods.size() == 1 && methods.begin()->empty()) || !(lo <= hi)) return "-";
+  const std::string values = lo == hi ? fmt::format("{:.3g} deg", lo) : fmt::format("{:.3g}-{:.3g} deg", lo, hi);
+  if (methods.size() > 1) return printable(fmt::format("mixed ({}): {}", fmt::join(methods, ", "), values));
+  return *methods.begin() == "auto" ? "auto (" + values + ")" : values;
+}
+
 // Tag A against tag B, IOV by IOV: each parameter's difference in σ.
 int runDiff(const ConditionsOptions& o) {
   if (o.tags.size() != 2) return reportError(Error{"conditions diff: give two tags, --tag A --tag B"});
@@ -131,12 +149,25 @@ int runDiff(const ConditionsOptions& o) {
     modelsB.insert(p.modelB.empty() ? "not said" : p.modelB);
   }
   if (!d->pairs.empty()) {
-    fmt::print("models: tag {}: {}; tag {}: {}\n", d->tagA, printable(fmt::format("{}", fmt::join(modelsA, " | "))),
-               d->tagB, printable(fmt::format("{}", fmt::join(modelsB, " | "))));
+    // σ_sys sets the errors the pulls below are in units of: said beside the models.
+    std::string sigmaA = "-", sigmaB = "-";
+    if (auto a = conddb::listTags(**db, d->tagA); a && !a->empty()) sigmaA = sigmaSysSummary(a->front()["iovs"]);
+    if (auto b = conddb::listTags(**db, d->tagB); b && !b->empty()) sigmaB = sigmaSysSummary(b->front()["iovs"]);
+    fmt::print("models: tag {}: {}, sigma_sys {}; tag {}: {}, sigma_sys {}\n", d->tagA,
+               printable(fmt::format("{}", fmt::join(modelsA, " | "))), sigmaA, d->tagB,
+               printable(fmt::format("{}", fmt::join(modelsB, " | "))), sigmaB);
+    const auto paper = [](const std::set<std::string>& m) {
+      return std::any_of(m.begin(), m.end(), [](const std::string& x) { return x.starts_with("the paper's model"); });
+    };
     if (modelsA != modelsB) {
-      fmt::print(
-          "  the models differ: differences common to every IOV (the gaps dp1-dp3, dx_rel, the shifts' scale) are "
-          "the models' (docs/validation.md), not the detector's\n");
+      fmt::print("  the models differ: {}\n",
+                 paper(modelsA) != paper(modelsB)
+                     ? "differences common to every IOV (the gaps dp1-dp3, dx_rel, the shifts' scale) are the paper's "
+                       "model's against the corrections' (docs/validation.md), not the detector's"
+                     : "differences common to every IOV are the models', not the detector's");
+    }
+    if (sigmaA != sigmaB) {
+      fmt::print("  sigma_sys differs: the errors, and the pulls in their units, are not alike in the two tags\n");
     }
   }
   fmt::print("{:>17}", "runs");
@@ -214,14 +245,15 @@ int runList(const ConditionsOptions& o) {
     return kExitOk;
   }
   if (o.tag.empty()) {
-    fmt::print("{:<24} {:<7} {:>6} {:>17}  {:<28} {}\n", "tag", "state", "IOVs", "runs", "model", "description");
+    fmt::print("{:<24} {:<7} {:>6} {:>17}  {:<28} {:<22} {}\n", "tag", "state", "IOVs", "runs", "model", "sigma_sys",
+               "description");
     for (const Json& t : listed) {
       const Json& iovs = t["iovs"];
       const std::string runs = iovs.empty() ? "-"
                                             : fmt::format("{}-{}", iovs.front()["first_run"].get<std::int64_t>(),
                                                           iovs.back()["last_run"].get<std::int64_t>());
-      fmt::print("{:<24} {:<7} {:>6} {:>17}  {:<28} {}\n", t["tag"].get<std::string>(), stateOf(t), iovs.size(), runs,
-                 modelSummary(iovs), t["description"].get<std::string>());
+      fmt::print("{:<24} {:<7} {:>6} {:>17}  {:<28} {:<22} {}\n", t["tag"].get<std::string>(), stateOf(t), iovs.size(),
+                 runs, modelSummary(iovs), sigmaSysSummary(iovs), t["description"].get<std::string>());
     }
     return kExitOk;
   }
@@ -229,7 +261,7 @@ int runList(const ConditionsOptions& o) {
   fmt::print("tag {} ({}), created {}{}\n", o.tag, stateOf(t), t["created"].get<std::string>(),
              t["description"].get<std::string>().empty() ? "" : ": " + t["description"].get<std::string>());
   if (t.contains("retired")) fmt::print("retired {}\n", t["retired"].get<std::string>());
-  fmt::print("model: {}\n", modelSummary(t["iovs"], false));
+  fmt::print("model: {}; sigma_sys: {}\n", modelSummary(t["iovs"], false), sigmaSysSummary(t["iovs"]));
   fmt::print("{:>10} {:>10} {:>9} {:>12} {:>12} {:<12} {:<12} {}\n", "first_run", "last_run", "events", "chi2/ndf",
              "stat. only", "status", "payload", "inserted");
   for (const Json& i : t["iovs"]) {

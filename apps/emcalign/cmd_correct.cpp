@@ -77,9 +77,26 @@ int run(const CorrectCliOptions& o) {
   if (source->byRun) iovs = fmt::format(" with {} of tag {}", counted(used, "IOV"), o.tag);
   std::string target = o.output;
   if (intoDirectory) target += fmt::format(" ({}, one per input)", counted(events->size(), "file"));
-  fmt::print(reportStream(), "correct ({}): {}, {}, {} corrected{}{}{} in {:.1f} s -> {}\n", name(report->method),
-             counted(report->events, "event"), counted(report->rows, "row"), counted(report->clusters, "cluster"), iovs,
-             report->truth ? ", truth copied" : "", report->hits ? ", hits copied" : "", progress.elapsed(), target);
+  // The cluster method moves each cluster at a shower depth: the fit's, or the result is biased.
+  std::string depth;
+  if (report->method == apply::CorrectionMethod::Clusters) {
+    depth = o.corrections.empty() ? fmt::format(" at R(E, theta) {:+.3g} cm", options.depth.offset / units::cm)
+                                  : fmt::format(" at the depth of {}", o.corrections);
+    if (o.corrections.empty()) {
+      for (const auto& [model, offset] : source->fittedDepths) {
+        if (std::abs(offset - options.depth.offset / units::cm) <= 0.01) continue;
+        reportWarning(fmt::format(
+            "the alignment was fitted with {} (shower depth R(E, theta) {:+.3g} cm); the cluster method moved the "
+            "clusters at R(E, theta) {:+.3g} cm, which biases the directions: give --corrections with the fit's "
+            "corrections (or --depth-offset), or use --method hits, which needs no depth",
+            model, offset, options.depth.offset / units::cm));
+      }
+    }
+  }
+  fmt::print(reportStream(), "correct ({}{}): {}, {}, {} corrected{}{}{} in {:.1f} s -> {}\n", name(report->method),
+             depth, counted(report->events, "event"), counted(report->rows, "row"),
+             counted(report->clusters, "cluster"), iovs, report->truth ? ", truth copied" : "",
+             report->hits ? ", hits copied" : "", progress.elapsed(), target);
   return kExitOk;
 }
 

@@ -77,7 +77,11 @@ void printResult(const calib::FitResult& r, const calib::SystematicErrors* syste
     fmt::print(reportStream(), "{:<10} {:>12} ± {:<10}{} {}\n", name(p), fixed5(v.value / unit), fixed5(v.error / unit),
                syst(name(p)), fileUnitName(dimension(p)));
   }
-  fmt::print(reportStream(), "\nchi2/ndf = {:.2f}/{} (p-value {:.3g}), {} used; stages chi2:", r.chi2, r.ndf, r.pValue,
+  fmt::print(reportStream(), "\nchi2/ndf = {:.2f}/{} ({}), {} used; stages chi2:", r.chi2, r.ndf,
+             r.sigmaSys.method == calib::SigmaSysMethod::Auto
+                 ? std::string("sigma_sys auto makes it 1: no test; the test is the chi2 with the statistical errors "
+                               "alone, below")
+                 : fmt::format("p-value {:.3g}", r.pValue),
              counted(r.binsUsed, "bin"));
   for (const auto& s : r.stages) fmt::print(reportStream(), " {:.1f}", s.chi2);
   const auto& s = r.sigmaSys;
@@ -89,7 +93,9 @@ void printResult(const calib::FitResult& r, const calib::SystematicErrors* syste
                std::isfinite(s.upper) ? fmt::format("{:.4f}", s.upper / units::deg) : std::string("unbounded"),
                s.chi2Stat, r.ndf, s.pValueStat, counted(s.fits, "fit"));
   } else if (s.method == calib::SigmaSysMethod::Saved) {
-    fmt::print(reportStream(), "\nsigma_sys: as in the saved profile's errors");
+    fmt::print(reportStream(),
+               "\nsigma_sys: as in the saved profile's errors (its sigma_phi, sigma_theta hold whatever sigma_sys the "
+               "fit that wrote it added; the file does not record its value)");
   } else {
     fmt::print(reportStream(), "\nsigma_sys = {:.4f} deg ({})", s.value / units::deg,
                s.method == calib::SigmaSysMethod::Spec ? "the paper's default" : "set by hand");
@@ -100,10 +106,12 @@ void printResult(const calib::FitResult& r, const calib::SystematicErrors* syste
 
 // A simulated sample: the fit against the truth its files carry, the first thing a
 // physicist checks.
-void printAgainstTruth(const std::vector<calib::TruthRow>& rows) {
+void printAgainstTruth(const std::vector<calib::TruthRow>& rows, bool systematics) {
   fmt::print(reportStream(),
-             "\nagainst the truth of the files (truth_parameters):\n{:<10} {:>12} {:>12} {:>12} {:<4} {:>7}\n",
-             "parameter", "fit", "truth", "fit-truth", "unit", "pull");
+             "\nagainst the truth of the files (truth_parameters); pull = (fit - truth) / the fit error{}:\n"
+             "{:<10} {:>12} {:>12} {:>12} {:<4} {:>7}\n",
+             systematics ? " (the stat column; the systematic errors left out)" : "", "parameter", "fit", "truth",
+             "fit-truth", "unit", "pull");
   for (const auto& r : rows) {
     const double pull = r.pull();
     fmt::print(reportStream(), "{:<10} {:>12} {:>12} {:>12} {:<4} {:>7}\n", r.name, fixed5(r.fit), fixed5(r.truth),
@@ -192,7 +200,8 @@ int run(const FitCliOptions& o) {
   if (auto truth = job->againstTruth(*data, *fitted); !truth) {
     reportWarning(fmt::format("no comparison with the truth: {}", truth.error().message));
   } else if (*truth) {
-    printAgainstTruth(**truth);
+    printAgainstTruth(**truth,
+                      job->corrections().has_value() && job->corrections()->corrections.systematics != nullptr);
   }
   if (!o.profileOut.empty()) {
     if (Status s = io::writeOutputFile(o.profileOut, calib::profileCsv(fitted->bins)); !s) {

@@ -209,8 +209,9 @@ int run(const TrendCliOptions& o) {
     }
   }
   for (const auto& d : trend.drifts) {
-    fmt::print(reportStream(), "  drift {:<8} runs {}-{}: {:+.3g} ± {:.2g} {}/run (z {:.1f})\n", d.parameter,
-               d.firstRun, d.lastRun, d.slopePerRun, d.error, d.unit, d.z);
+    fmt::print(reportStream(), "  drift {:<8} runs {}-{}: {:+.3g} ± {:.2g} {}/run (z {:.1f}){}\n", d.parameter,
+               d.firstRun, d.lastRun, d.slopePerRun, d.error, d.unit, d.z,
+               d.orStep ? " — " + validation::stepAlternativeText(trend, d) : std::string());
   }
   fmt::print(reportStream(), "wrote {}/trend.json, trend.md and {} (fig7.png, trend_all.png, trend_*.png)\n", o.output,
              counted(pngs->size(), "figure"));

@@ -360,10 +360,15 @@ Json comparisonJson(const Comparison& c) {
 }
 
 std::string comparisonMarkdown(const Comparison& c, const std::vector<std::string>& dataFiles,
-                               const std::vector<std::string>& mcFiles) {
+                               const std::vector<std::string>& mcFiles, const std::string& depth) {
   std::string md = fmt::format(
       "# MC against data\n\nData: {} ({} events, {} particles in 45-135 deg). MC: {} ({} events, {} particles).\n\n",
       fmt::join(dataFiles, ", "), c.dataEvents, c.dataParticles, fmt::join(mcFiles, ", "), c.mcEvents, c.mcParticles);
+  md += fmt::format("Errors: the statistical errors of both samples{}. Residuals at the shower depth {}.\n\n",
+                    c.options.sigmaSys > 0.0 ? fmt::format(", and σ_sys = {:g} deg added to each profile mean",
+                                                           c.options.sigmaSys * 180.0 / std::numbers::pi)
+                                             : std::string(" alone (σ_sys 0)"),
+                    depth.empty() ? std::string("R(E, θ) of the paper") : depth);
   const bool agree = c.pValue >= 0.01;
   md += fmt::format("**All together: χ²/ndf = {:.1f}/{}, p-value {:.3g}: {}.**\n\n", c.chi2, c.ndf, c.pValue,
                     agree ? "the simulation describes the data within the statistical errors of both"

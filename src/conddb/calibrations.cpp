@@ -124,6 +124,7 @@ Result<io::Json> tagJson(Database& db, const Tag& tag) {
       const Json& s = a["sigma_sys"];
       if (s.contains("method") && s["method"].is_string()) i["sigma_sys_method"] = s["method"];
       if (s.contains("chi2_statistical_errors")) i["chi2_statistical_errors"] = s["chi2_statistical_errors"];
+      if (s.contains("value_deg") && s["value_deg"].is_number()) i["sigma_sys_deg"] = s["value_deg"];
     }
     if (p->content.contains("selected_events")) i["selected_events"] = p->content["selected_events"];
     i["model"] = p->model();
@@ -175,6 +176,21 @@ Result<TagAlignments> TagAlignments::open(const std::string& uri, const std::str
   return c;
 }
 
+Result<std::vector<std::pair<std::string, double>>> TagAlignments::fittedDepths() {
+  std::vector<std::pair<std::string, double>> out;
+  for (const Iov& iov : snapshot_->iovs()) {
+    auto p = snapshot_->payload(iov);
+    if (!p) return p.error();
+    const io::Json provenance = (*p)->content.value("provenance", io::Json::object());
+    if (!provenance.is_object() || !provenance.contains("model_corrections")) continue;
+    const io::Json& c = provenance["model_corrections"];
+    const io::Json offset = c.is_object() ? c.value("depth_offset_cm", io::Json(0.0)) : io::Json(0.0);
+    std::pair<std::string, double> d{(*p)->model(), offset.is_number() ? offset.get<double>() : 0.0};
+    if (std::find(out.begin(), out.end(), d) == out.end()) out.push_back(std::move(d));
+  }
+  return out;
+}
+
 Result<geometry::AlignmentParameters> TagAlignments::parametersOf(std::int64_t run) {
   auto at = snapshot_->at(run);
   if (!at) return at.error();
@@ -214,6 +230,9 @@ Result<AlignmentSource> AlignmentSource::open(const std::string& alignment, cons
     if (!c) return c.error();
     a.byRun = std::make_shared<TagAlignments>(std::move(*c));
     a.description = {{"conditions", a.byRun->uri()}, {"tag", tag}};
+    auto depths = a.byRun->fittedDepths();
+    if (!depths) return depths.error();
+    a.fittedDepths = std::move(*depths);
     return a;
   }
   auto file = apply::loadAlignment(alignment, calo);
@@ -224,6 +243,19 @@ Result<AlignmentSource> AlignmentSource::open(const std::string& alignment, cons
   if (!transform) return transform.error();
   a.one = std::make_shared<const geometry::AlignmentTransform>(std::move(*transform));
   a.description = {{"file", alignment}, {"parameters", io::alignmentToJson(file->parameters)["parameters"]}};
+  // A fit result says its model: input.model_corrections (absent: the paper's, no offset).
+  if (auto text = io::readTextFile(alignment); text) {
+    const io::Json j = io::Json::parse(*text, nullptr, false);
+    if (j.is_object() && j.contains("input") && j["input"].is_object() && j.contains("chi2")) {
+      const io::Json& input = j["input"];
+      const io::Json c = input.value("model_corrections", io::Json::object());
+      const io::Json offset = c.is_object() ? c.value("depth_offset_cm", io::Json(0.0)) : io::Json(0.0);
+      const io::Json response = c.is_object() ? c.value("response", io::Json()) : io::Json();
+      a.fittedDepths.emplace_back(
+          response.is_string() ? "corrections " + response.get<std::string>() : std::string("the paper's model"),
+          offset.is_number() ? offset.get<double>() : 0.0);
+    }
+  }
   return a;
 }
 

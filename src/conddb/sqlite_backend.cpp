@@ -6,11 +6,14 @@
 #include <sqlite3.h>
 #include <sys/stat.h>
 
+#include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <vector>
 
 #include <fmt/format.h>
 
+#include "emcalign/io/file_kind.hpp"
 #include "emcalign/io/output_file.hpp"
 #include "sql_backend.hpp"
 
@@ -149,6 +152,22 @@ Result<std::unique_ptr<SqlBackend>> openSqlite(const std::string& path, bool cre
     return Error{fmt::format("{}: no such database (create one with: emcalign conditions init {})", uri, uri)};
   }
   if (exists && !S_ISREG(st.st_mode)) return Error{fmt::format("{}: not a regular file", uri)};
+  // A file of another kind is named by what it is, before SQLite reads it.
+  if (exists && st.st_size > 0) {
+    char head[16] = {};
+    if (std::FILE* f = std::fopen(path.c_str(), "rb")) {
+      const std::size_t got = std::fread(head, 1, sizeof head, f);
+      std::fclose(f);
+      if (got < sizeof head || std::memcmp(head, "SQLite format 3", 16) != 0) {
+        const std::string kind = io::describeFileAt(path);
+        return Error{fmt::format("{}: {}{}", uri,
+                                 kind.empty()
+                                     ? std::string("not a conditions database (not an SQLite file)")
+                                     : fmt::format("this is {}, not a conditions database (an SQLite file)", kind),
+                                 create ? ": conditions init creates a new one, give it a new file name" : "")};
+      }
+    }
+  }
   // SQLite opens its journals itself, next to the file a link points to: one that is a FIFO or
   // a device would block it or take the database's writes.
   std::error_code ec;

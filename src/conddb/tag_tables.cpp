@@ -172,8 +172,8 @@ Result<std::string> tagCsv(Database& db, const std::string& tag) {
   for (std::size_t k = 0; k < names.size(); ++k) units_line += fmt::format(" {}={}", names[k], units[k]);
   std::string csv = fmt::format("# emcalign conditions export: tag {} of {}\n{}\n", tag, db.uri(), units_line);
   csv +=
-      "first_run,last_run,payload,inserted,status,chi2,ndf,chi2_statistical_errors,sigma_sys_method,selected_events,"
-      "model";
+      "first_run,last_run,payload,inserted,status,chi2,ndf,chi2_statistical_errors,sigma_sys_method,sigma_sys_deg,"
+      "selected_events,model";
   for (const auto& n : names) csv += fmt::format(",{},{}_error", n, n);
   csv += "\n";
   for (const Iov& iov : snapshot->iovs()) {
@@ -188,12 +188,13 @@ Result<std::string> tagCsv(Database& db, const std::string& tag) {
         sigma.contains("method") && sigma["method"].is_string() ? sigma["method"].get<std::string>() : "";
     const Json events = (*p)->content.value("selected_events", Json());
     const std::string model = (*p)->model();
-    csv += fmt::format("{},{},{},{},{},{},{},{},{},{},{}", iov.firstRun, iov.lastRun, iov.payload, iov.inserted,
+    csv += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{}", iov.firstRun, iov.lastRun, iov.payload, iov.inserted,
                        // The status is free text of a payload: kept out of the CSV's structure.
                        status.find_first_of(",\"\n\r") == std::string::npos ? status : std::string("?"),
                        csvNumber(numberOr(a, "chi2")), csvNumber(numberOr(a, "ndf")),
                        csvNumber(numberOr(sigma, "chi2_statistical_errors")),
                        method.find_first_of(",\"\n\r") == std::string::npos ? method : std::string("?"),
+                       csvNumber(numberOr(sigma, "value_deg")),
                        events.is_number_integer() ? std::to_string(events.get<std::int64_t>()) : std::string(),
                        // A path of the user's, kept out of the CSV's structure too.
                        model.find_first_of(",\"\n\r") == std::string::npos ? model : std::string("?"));

@@ -82,16 +82,31 @@ const std::vector<std::string> kFitCaptions = {
     "Δφ and Δθ of the selected particles before (filled) and after (open) the correction with the fitted "
     "parameters: the paper's Fig. 8."};
 
+// A fit's χ² in words: with σ_sys auto, χ²/ndf is 1 by construction and tests nothing; the
+// test is the χ² with the statistical errors alone (plain text: the caller escapes nothing).
+std::string fitChi2Text(const Json& r) {
+  const Json sigma = r.value("sigma_sys", Json::object());
+  if (sigma.value("method", std::string()) == "auto" && sigma.contains("chi2_statistical_errors")) {
+    return fmt::format(
+        "χ²/ndf = {}/{} (σ_sys auto = {} deg makes it 1: no test); with the statistical errors alone {}/{}, p-value "
+        "{}",
+        number(r.at("chi2"), "{:.1f}"), plain(r.at("ndf")), number(sigma.value("value_deg", Json()), "{:.4f}"),
+        number(sigma.at("chi2_statistical_errors"), "{:.1f}"), plain(r.at("ndf")),
+        number(sigma.value("p_value_statistical_errors", Json()), "{:.3g}"));
+  }
+  return fmt::format("χ²/ndf = {}/{} (p-value {})", number(r.at("chi2"), "{:.1f}"), plain(r.at("ndf")),
+                     number(r.value("p_value", Json()), "{:.3g}"));
+}
+
 Result<std::string> fitSection(const ReportFit& f) {
   const Json& r = f.result;
   std::string body;
   const std::string status = r.at("status").get<std::string>();
   const bool converged = status == "converged";
   body += fmt::format(
-      "<p>Result <code>{}</code>: status <span class=\"{}\">{}</span>; χ²/ndf = {}/{} (p-value {}); "
+      "<p>Result <code>{}</code>: status <span class=\"{}\">{}</span>; {}; "
       "{} profile bins used.</p>\n",
-      html::escape(f.path), converged ? "good" : "bad", html::escape(status), number(r.at("chi2"), "{:.1f}"),
-      text(r.at("ndf")), number(r.value("p_value", Json()), "{:.3g}"),
+      html::escape(f.path), converged ? "good" : "bad", html::escape(status), html::escape(fitChi2Text(r)),
       text(r.at("input").value("bins_used", Json("?"))));
   if (!f.detector.empty()) body += html::paragraph("Detector: " + f.detector);
   const Json& warnings = r.at("warnings");
@@ -380,13 +395,17 @@ Result<std::string> trendSection(const std::optional<ReportTrend>& tr, const std
            i.value("too_few_iovs", false) ? "too few IOVs to locate a step" : "neither a step nor a drift"});
     }
     if (!inconsistent.rows.empty()) body += html::table(inconsistent);
-    html::Table drifts{.caption = "Drifts found", .header = {"parameter", "runs", "slope per run", "±", "z"}};
-    drifts.numeric = {false, false, true, true, true};
+    html::Table drifts{.caption = "Drifts found",
+                       .header = {"parameter", "runs", "slope per run", "±", "z", "or a step?"}};
+    drifts.numeric = {false, false, true, true, true, false};
     for (const auto& d : t.at("drifts")) {
+      const Json orStep = d.value("or_step", Json());
       drifts.rows.push_back({html::escape(symbol(d.at("parameter").get<std::string>())),
                              runs(d.at("first_run"), d.at("last_run")),
                              number(d.at("slope_per_run"), "{:.3g}") + " " + text(d.value("unit", Json(""))),
-                             number(d.at("error"), "{:.2g}"), number(d.at("z"), "{:.1f}")});
+                             number(d.at("error"), "{:.2g}"), number(d.at("z"), "{:.1f}"),
+                             orStep.is_object() ? html::escape(orStep.value("text", std::string()))
+                                                : std::string("no: a step does not fit")});
     }
     const bool driftsTested = t.value("method", Json::object()).value("drift_tests", 1) > 0;
     if (!drifts.rows.empty()) {
@@ -483,6 +502,20 @@ Result<std::string> checksSection(const std::vector<ReportCheck>& checks) {
                         text(a.value("not_converged", Json("—"))), "", ""});
     }
     body += html::table(t);
+    // What the events were corrected with: the alignment and the method (check.json records them).
+    const Json alignment = j.value("alignment", Json());
+    std::string with;
+    if (alignment.is_object() && alignment.contains("file")) {
+      with = "the alignment <code>" + html::escape(plain(alignment["file"])) + "</code>";
+    } else if (alignment.is_object() && alignment.contains("tag")) {
+      with = "each run's IOV of tag <code>" + html::escape(plain(alignment["tag"])) + "</code> of <code>" +
+             html::escape(plain(alignment.value("conditions", Json("?")))) + "</code>";
+    }
+    if (!with.empty()) {
+      body += fmt::format(
+          "<p>Corrected with {}, method {}.</p>\n", with,
+          html::escape(j.contains("correction_method") ? plain(j["correction_method"]) : std::string("not said")));
+    }
     if (!c.figure.empty()) {
       auto fig = html::figure(
           c.figure,
@@ -501,8 +534,7 @@ std::vector<std::string> summary(const ReportInputs& in) {
   std::vector<std::string> lines;
   if (in.fit) {
     const Json& r = in.fit->result;
-    lines.push_back(fmt::format("The fit: {}, χ²/ndf = {}/{}, {} warning(s).", plain(r.at("status")),
-                                number(r.at("chi2"), "{:.1f}"), plain(r.at("ndf")),
+    lines.push_back(fmt::format("The fit: {}, {}, {} warning(s).", plain(r.at("status")), fitChi2Text(r),
                                 r.value("warnings", Json::array()).size()));
   }
   if (in.validation) {

@@ -55,8 +55,8 @@ std::string scriptOf(const std::string& name, const std::string& title, const st
   for (std::size_t k = 0; k < panels.size(); ++k) {
     const auto& p = panels[k];
     const double width = (p.high - p.low) / p.bins;
-    s += fmt::format("\nset xlabel \"{}\"\nset ylabel \"events / {:.3g}\"\nset xrange [{}:{}]\n", p.xlabel, width,
-                     p.low, p.high);
+    s += fmt::format("\nset xlabel \"{}\"\nset ylabel \"events / {:.3g}{}\"\nset xrange [{}:{}]\n", p.xlabel, width,
+                     p.unit.empty() ? std::string() : " " + p.unit, p.low, p.high);
     s += fmt::format(
         "plot data index {} using 1:2 with boxes lc rgb '#1f77b4' title \"{}\", \\\n"
         "     data index {} using 1:3 with histeps lw 2 lc rgb '#d62728' title \"{}\"",

@@ -6,6 +6,8 @@
 
 #include <fmt/format.h>
 
+#include "emcalign/calib/profiles.hpp"
+#include "emcalign/core/units.hpp"
 #include "gnuplot.hpp"
 
 namespace emcalign::report {
@@ -33,7 +35,7 @@ std::string dataOf(const apply::Comparison& c) {
   fmt::format_to(put,
                  "# emcalign compare: index 0 dphi, 1 dtheta (columns: centre, low, high [deg], data, data error, MC, "
                  "MC error [particles/deg, MC scaled to the data's particles], pull); index 2 profile_phi, 3 "
-                 "profile_theta (columns: i_phi, i_theta, pull)\n");
+                 "profile_theta (columns: the bin's phi_EMC and theta_EMC centres [deg], pull)\n");
   const double n = static_cast<double>(c.dataParticles);
   for (std::size_t k = 0; k < 2; ++k) {
     for (const auto& b : c.distributions[k].bins) {
@@ -52,7 +54,14 @@ std::string dataOf(const apply::Comparison& c) {
     for (int i = 0; i < c.options.profilePhiBins; ++i) {
       for (int j = 0; j < c.options.profileThetaBins; ++j) {
         const double p = pulls[static_cast<std::size_t>(i * c.options.profileThetaBins + j)];
-        fmt::format_to(put, "{} {} {}\n", i, j, std::isfinite(p) ? fmt::format("{:.4g}", p) : std::string("NaN"));
+        // The bin's centre in degrees: φ_EMC over [0, 360), θ_EMC over the profiles' range.
+        const calib::ProfileOptions profile;
+        const double phi = (i + 0.5) * 360.0 / c.options.profilePhiBins;
+        const double theta =
+            (profile.thetaMin + (j + 0.5) * (profile.thetaMax - profile.thetaMin) / c.options.profileThetaBins) /
+            units::deg;
+        fmt::format_to(put, "{:.4g} {:.4g} {}\n", phi, theta,
+                       std::isfinite(p) ? fmt::format("{:.4g}", p) : std::string("NaN"));
       }
       fmt::format_to(put, "\n");
     }
@@ -71,7 +80,7 @@ std::string scriptOf(const apply::Comparison& c, const std::string& dataLabel, c
   s += "set grid lc rgb '#e0e0e0' lt 1\nset tics front\n";
   const char* xlabels[] = {"Δφ = φ_{TS} − φ_{EMC}  [deg]", "Δθ = θ_{TS} − θ_{EMC}  [deg]"};
   // Two columns of a distribution over its pulls (left two thirds), two pull maps (right).
-  const double colW = 0.30, left = 0.06, gap = 0.05;
+  const double colW = 0.29, left = 0.06, gap = 0.07;
   for (std::size_t k = 0; k < 2; ++k) {
     const auto& d = c.distributions[k];
     const double x0 = left + static_cast<double>(k) * (colW + gap), x1 = x0 + colW;
@@ -95,22 +104,22 @@ std::string scriptOf(const apply::Comparison& c, const std::string& dataLabel, c
         "unset arrow 1; set ytics autofreq\n",
         xlabels[k], centreOf(c, k) - c.options.rangeDeg, centreOf(c, k) + c.options.rangeDeg, k);
   }
-  // The profile pulls: i_phi across, i_theta up.
+  // The profile pulls: φ_EMC across, θ_EMC up.
   const char* maps[] = {"ȳ_φ profile: pulls per bin", "ȳ_θ profile: pulls per bin"};
   for (std::size_t k = 0; k < 2; ++k) {
     const auto& d = c.distributions[2 + k];
     const double y1 = k == 0 ? 0.90 : 0.45, y0 = y1 - 0.33;
     s += fmt::format(
-        "\n# ---- {}\nset lmargin at screen 0.74; set rmargin at screen 0.93\n"
+        "\n# ---- {}\nset lmargin at screen 0.755; set rmargin at screen 0.93\n"
         "set tmargin at screen {:.3f}; set bmargin at screen {:.3f}\n"
         "set title \"{} (χ^2/ndf = {:.1f}/{}, p = {:.3g})\" font ',11'\n"
-        "set xrange [-0.5:{}]; set yrange [-0.5:{}]; set xtics 0,4,{}; set ytics 0,3,{}\n"
-        "set xlabel 'i_{{φ}}'; set ylabel 'i_{{θ}}'\nunset grid\n"
+        "set xrange [0:360]; set yrange [{:.4g}:{:.4g}]; set xtics 0,90,360; set ytics 45,18,135\n"
+        "set xlabel 'φ_{{EMC}} [deg]'; set ylabel 'θ_{{EMC}} [deg]' offset 1.2,0\nunset grid\n"
         "set palette defined (-4 '#2166ac', -2 '#92c5de', 0 '#ffffff', 2 '#f4a582', 4 '#b2182b')\n"
         "set cbrange [-4:4]; set cbtics 2 font ',9'\n"
         "plot data index {} using 1:2:3 with image notitle\n",
-        d.name, y1, y0, maps[k], d.chi2, d.ndf, d.pValue, c.options.profilePhiBins - 0.5,
-        c.options.profileThetaBins - 0.5, c.options.profilePhiBins - 1, c.options.profileThetaBins - 1, 2 + k);
+        d.name, y1, y0, maps[k], d.chi2, d.ndf, d.pValue, calib::ProfileOptions{}.thetaMin / units::deg,
+        calib::ProfileOptions{}.thetaMax / units::deg, 2 + k);
   }
   return s + "unset multiplot\n";
 }

@@ -96,6 +96,7 @@ std::string panel(const TrendFigure& f, bool key, int fontSize) {
     s += "set autoscale y\n";
   }
   const bool drift = std::any_of(f.segments.begin(), f.segments.end(), [](const auto& l) { return l.drift; });
+  const bool orStep = std::any_of(f.segments.begin(), f.segments.end(), [](const auto& l) { return l.orStep; });
   const bool consistent =
       std::any_of(f.segments.begin(), f.segments.end(), [](const auto& l) { return !l.drift && !l.inconsistent; });
   const bool inconsistent =
@@ -106,9 +107,13 @@ std::string panel(const TrendFigure& f, bool key, int fontSize) {
       "     {0} index 0 using 1:2:4:5:($2-$3):($2+$3) with xyerrorbars pt 7 ps 0.35 lc rgb '#1f77b4' title 'IOVs', \\\n"
       "     {0} index 1 using 1:($3 == 0 ? $2 : NaN) with lines lw 2 lc rgb '#2ca02c' title '{2}', \\\n"
       "     {0} index 1 using 1:($3 == 1 ? $2 : NaN) with lines lw 2.5 dt 2 lc rgb '#ff7f0e' title '{3}', \\\n"
-      "     {0} index 1 using 1:($3 == 2 ? $2 : NaN) with lines lw 2.5 dt 3 lc rgb '#d62728' title '{4}'\n",
-      data, f.truth.empty() ? "" : "truth", consistent ? "segments" : "", drift ? "drift" : "",
-      inconsistent ? "inconsistent (χ²)" : "");
+      "     {0} index 1 using 1:($3 == 2 ? $2 : NaN) with lines lw 2.5 dt 3 lc rgb '#d62728' title '{4}'",
+      data, f.truth.empty() ? "" : "truth", consistent ? "segments" : "",
+      drift ? (orStep ? "drift or step" : "drift") : "", inconsistent ? "inconsistent (χ²)" : "");
+  // The vertical lines in the key too.
+  if (!f.steps.empty()) s += ", \\\n     NaN with lines lw 1.5 dt 2 lc rgb '#d62728' title 'step'";
+  if (!f.boundaries.empty()) s += ", \\\n     NaN with lines lw 1 dt 3 lc rgb '#7f7f7f' title 'known boundary'";
+  s += "\n";
   return s;
 }
 
@@ -148,7 +153,7 @@ Result<std::vector<std::string>> writeTrendPlots(const std::string& dir, const s
     s += fmt::format(
         "set multiplot layout 2,2 title \"{}: the time evolution of {} (the paper's Fig. 7){}\" font ',14'\n",
         literalText(title), fmt::join(shown, ", "), noPsi ? "; ψ undefined: β within 3σ of 0 in every IOV" : "");
-    for (std::size_t k = 0; k < four.size(); ++k) s += panel(*four[k], k == 0, 11);
+    for (std::size_t k = 0; k < four.size(); ++k) s += panel(*four[k], true, 11);
     s += "unset multiplot\n";
     scripts.push_back({"fig7", s});
   }
@@ -158,8 +163,12 @@ Result<std::vector<std::string>> writeTrendPlots(const std::string& dir, const s
     const int rows = static_cast<int>((figures.size() + columns - 1) / columns);
     std::string s = terminalHeader("trend_all", 1400, 330 * rows) + common();
     s += "set xlabel ''\nset format x '%.0f'\nset tics font ',10'\n";
-    s += fmt::format("set multiplot layout {},{} title \"{}: every parameter against run\" font ',15'\n", rows, columns,
-                     literalText(title));
+    s += fmt::format(
+        "set multiplot layout {},{} title \"{}: every parameter against run\\n{{/*0.7 points: IOVs with their "
+        "errors; grey steps: the truth; green: segments; orange dashed: a drift (two constants: a step that fits as "
+        "well); red dotted: inconsistent (χ²); red "
+        "dashed verticals: steps; grey dotted: known boundaries}}\" font ',15'\n",
+        rows, columns, literalText(title));
     for (std::size_t k = 0; k < figures.size(); ++k) s += panel(figures[k], false, 10);
     s += "unset multiplot\n";
     scripts.push_back({"trend_all", s});

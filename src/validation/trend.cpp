@@ -376,17 +376,60 @@ std::vector<TrendEdge> findEdges(const std::vector<TrendSeries>& series, std::ve
 }
 
 // Drifts: every segment's slope, Bonferroni over all segments tested.
+// The best single step inside a drift's segment: two constants of at least minSegment points,
+// the point between them possibly set aside (at the transition penalty); reported when its
+// χ² (with that penalty) is within a change's penalty of the line's.
+std::optional<StepAlternative> stepAlternative(const TrendSeries& s, const SegmentTest& seg, const SeriesAnalysis& a,
+                                               double transitionPenalty, std::size_t minSegment) {
+  const std::size_t m = std::max<std::size_t>(minSegment, 1);
+  std::optional<StepAlternative> best;
+  double bestCost = std::numeric_limits<double>::infinity();
+  for (std::size_t i = seg.begin + m; i + m <= seg.end; ++i) {
+    for (const bool transition : {false, true}) {
+      const std::size_t firstEnd = transition ? i - 1 : i;
+      if (firstEnd < seg.begin + m) continue;
+      const LineFit before = fitLine(s, seg.begin, firstEnd, a.errorScale, false);
+      const LineFit after = fitLine(s, i, seg.end, a.errorScale, false);
+      const double chi2 = before.chi2 + after.chi2;
+      const double cost = chi2 + (transition ? transitionPenalty : 0.0);
+      if (!(cost < bestCost)) continue;
+      bestCost = cost;
+      StepAlternative alt;
+      alt.firstRunAfter = s.points[i].firstRun;
+      alt.before = before.a;
+      alt.after = after.a;
+      alt.size = after.a - before.a;
+      alt.error = std::sqrt(before.varA + after.varA);
+      alt.chi2Step = chi2;
+      alt.chi2Line = seg.line.chi2;
+      alt.nearFirstRun = s.points[transition ? i - 2 : i - 1].firstRun;
+      alt.nearLastRun = s.points[i].lastRun;
+      if (transition) {
+        const TrendPoint& tp = s.points[i - 1];
+        const double fraction = std::clamp((tp.value - after.a) / (before.a - after.a), 0.0, 1.0);
+        const double runs = static_cast<double>(tp.lastRun) - static_cast<double>(tp.firstRun) + 1.0;
+        alt.firstRunAfter = tp.firstRun + static_cast<std::int64_t>(std::llround(fraction * runs));
+        alt.withinIov = std::pair{tp.firstRun, tp.lastRun};
+      }
+      best = alt;
+    }
+  }
+  if (!best || !(bestCost - seg.line.chi2 < a.penalty)) return std::nullopt;
+  return best;
+}
+
 std::vector<TrendDrift> flagDrifts(const std::vector<TrendSeries>& series, std::vector<SeriesAnalysis>& analyses,
-                                   int tests, double alpha) {
+                                   int tests, const TrendOptions& o, double transitionPenalty) {
   std::vector<TrendDrift> drifts;
   for (std::size_t k = 0; k < series.size(); ++k) {
     for (auto& seg : analyses[k].segments) {
       if (!seg.isLine() || !(seg.line.varB > 0.0)) continue;
-      seg.drift = seg.pValue * tests < alpha;
+      seg.drift = seg.pValue * tests < o.driftAlpha;
       if (!seg.drift) continue;
       const auto& s = series[k];
       drifts.push_back({s.parameter, s.unit, s.points[seg.begin].firstRun, s.points[seg.end - 1].lastRun, seg.line.b,
-                        std::sqrt(seg.line.varB), seg.slopeZ, seg.pValue});
+                        std::sqrt(seg.line.varB), seg.slopeZ, seg.pValue,
+                        stepAlternative(s, seg, analyses[k], transitionPenalty, o.minSegment)});
     }
   }
   return drifts;
@@ -461,15 +504,19 @@ std::vector<TrendSegment> stablePeriods(const Trend& t, const std::vector<TrendS
   struct Place {
     std::size_t iov;  // the transition IOV, or the first IOV after the step
     const TrendStep* step;
+    // In half IOVs: 2·iov for a step before IOV iov, 2·iov + 1 for one inside it. Two places
+    // at most 2 apart (steps at neighbouring boundaries, a step beside the IOV that straddles
+    // another) are one change; a step an IOV away from a straddling IOV is not.
+    std::size_t position() const { return 2 * iov + (step->withinIov ? 1 : 0); }
   };
   std::vector<Place> places;
   for (const auto& st : t.steps) {
     if (!st.known) places.push_back({iovOf(st.withinIov ? st.withinIov->first : st.firstRunAfter), &st});
   }
-  std::sort(places.begin(), places.end(), [](const Place& a, const Place& b) { return a.iov < b.iov; });
+  std::sort(places.begin(), places.end(), [](const Place& a, const Place& b) { return a.position() < b.position(); });
   std::vector<std::vector<Place>> clusters;
   for (const Place& p : places) {
-    if (!clusters.empty() && p.iov <= clusters.back().back().iov + 1) {
+    if (!clusters.empty() && p.position() <= clusters.back().back().position() + 2) {
       clusters.back().push_back(p);
     } else {
       clusters.push_back({p});
@@ -535,6 +582,7 @@ std::vector<TrendSegment> stablePeriods(const Trend& t, const std::vector<TrendS
     seg.firstRun = reference->points[seg.begin].firstRun;
     seg.lastRun = reference->points[seg.end - 1].lastRun;
     seg.transition = std::find(transitions.begin(), transitions.end(), seg.begin) != transitions.end();
+    seg.resolvable = t.resolvable();
     seg.afterKnownBoundary = std::find(known.begin(), known.end(), seg.begin) != known.end();
     if (auto it = stepsAt.find(seg.begin); it != stepsAt.end()) seg.stepsAtStart = it->second;
     if (auto it = departingAt.find(seg.begin); it != departingAt.end() && seg.end - seg.begin == 1) {
@@ -644,7 +692,7 @@ Trend analyseTrend(const std::vector<TrendSeries>& series, const TrendOptions& o
   for (const auto& a : t.series) {
     for (const auto& seg : a.segments) t.tests += seg.isLine() && seg.line.varB > 0.0 ? 1 : 0;
   }
-  t.drifts = flagDrifts(series, t.series, t.tests, o.driftAlpha);
+  t.drifts = flagDrifts(series, t.series, t.tests, o, t.transitionPenalty);
   std::vector<TrendStep> atKnown;
   for (std::size_t k = 0; k < series.size(); ++k) {
     for (auto& step : findSteps(series[k], t.series[k], o, atKnown)) t.steps.push_back(std::move(step));
@@ -672,14 +720,25 @@ Json trendJson(const Trend& t, const std::vector<TrendSeries>& series) {
                      {"within_iov", s.withinIov ? Json::array({s.withinIov->first, s.withinIov->second}) : Json()}});
   }
   for (const auto& d : t.drifts) {
-    drifts.push_back({{"parameter", d.parameter},
-                      {"first_run", d.firstRun},
-                      {"last_run", d.lastRun},
-                      {"slope_per_run", d.slopePerRun},
-                      {"error", d.error},
-                      {"z", d.z},
-                      {"p_value", d.pValue},
-                      {"unit", d.unit + "/run"}});
+    drifts.push_back(
+        {{"parameter", d.parameter},
+         {"first_run", d.firstRun},
+         {"last_run", d.lastRun},
+         {"slope_per_run", d.slopePerRun},
+         {"error", d.error},
+         {"z", d.z},
+         {"p_value", d.pValue},
+         {"unit", d.unit + "/run"},
+         {"or_step", d.orStep ? Json{{"first_run_after", d.orStep->firstRunAfter},
+                                     {"within_iov", d.orStep->withinIov ? Json::array({d.orStep->withinIov->first,
+                                                                                       d.orStep->withinIov->second})
+                                                                        : Json()},
+                                     {"size", d.orStep->size},
+                                     {"error", d.orStep->error},
+                                     {"chi2_step", d.orStep->chi2Step},
+                                     {"chi2_drift", d.orStep->chi2Line},
+                                     {"text", stepAlternativeText(t, d)}}
+                              : Json()}});
   }
   for (const auto& s : t.segments) {
     segments.push_back({{"first_run", s.firstRun},
@@ -803,6 +862,27 @@ std::string inconsistencyText(const TrendInconsistency& i) {
 }
 
 }  // namespace
+
+std::string stepAlternativeText(const Trend& t, const TrendDrift& d) {
+  if (!d.orStep) return {};
+  const StepAlternative& a = *d.orStep;
+  std::vector<std::string> others;  // parameters that step there too: the same change, most likely
+  for (const auto& st : t.steps) {
+    if (st.parameter != d.parameter && st.firstRunAfter >= a.nearFirstRun && st.firstRunAfter <= a.nearLastRun &&
+        std::find(others.begin(), others.end(), st.parameter) == others.end()) {
+      others.push_back(st.parameter);
+    }
+  }
+  const std::string step = fmt::format(
+      "{:+.4g} ± {:.2g} {} at {}run {}{}{}", a.size, a.error, d.unit, a.withinIov ? "≈ " : "", a.firstRunAfter,
+      a.withinIov ? fmt::format(" (inside IOV {}-{})", a.withinIov->first, a.withinIov->second) : std::string(),
+      others.empty() ? std::string()
+                     : fmt::format(", where {} step{}", fmt::join(others, ", "), others.size() == 1 ? "s" : ""));
+  return fmt::format(
+      "{} (χ² {:.1f} for the step, {:.1f} for the drift): these IOVs cannot tell a drift from a step; more IOVs (a "
+      "smaller campaign --min-events) or the logbook's boundaries (trend --boundaries) will",
+      a.preferred() ? "a step fits better: " + step : "or a step of " + step, a.chi2Step, a.chi2Line);
+}
 
 std::string tooFewIovsForTrend(std::size_t iovs, std::int64_t selectedEvents, const TrendOptions& options) {
   const std::size_t needed = 2 * std::max<std::size_t>(options.minSegment, 1);
@@ -963,11 +1043,21 @@ std::string periodsSection(const Trend& t) {
           s.firstRun, s.lastRun, fmt::join(s.stepsAtStart, ", "));
       continue;
     }
+    // The drifting parameters, those whose drift a step explains as well marked.
+    std::vector<std::string> drifting;
+    for (const auto& name : s.drifting) {
+      const bool orStep = std::any_of(t.drifts.begin(), t.drifts.end(), [&](const TrendDrift& d) {
+        return d.parameter == name && d.orStep && d.firstRun <= s.lastRun && d.lastRun >= s.firstRun;
+      });
+      drifting.push_back(orStep ? name + " (or a step: see Drifts)" : name);
+    }
+    const std::string driftState =
+        drifting.empty() ? std::string() : fmt::format("; **drifting: {}**", fmt::join(drifting, ", "));
     if (!s.departing.empty()) {
       md += fmt::format(
           "- runs {}-{} (1 IOV): **departs from the IOVs beside it in {}** — at an end of the tag, seen in one IOV "
-          "only: a step or an outlier\n",
-          s.firstRun, s.lastRun, fmt::join(s.departing, ", "));
+          "only: a step or an outlier{}\n",
+          s.firstRun, s.lastRun, fmt::join(s.departing, ", "), driftState);
       continue;
     }
     std::string after;
@@ -978,7 +1068,13 @@ std::string periodsSection(const Trend& t) {
       after = fmt::format(", after a change of {}", fmt::join(s.stepsAtStart, ", "));
     }
     std::string state = s.stable() ? ": stable" : "";
-    if (!s.drifting.empty()) state += fmt::format("; **drifting: {}**", fmt::join(s.drifting, ", "));
+    if (!s.resolvable && s.drifting.empty() && s.inconsistent.empty()) {
+      state = fmt::format(
+          ": consistent with one value, but not called stable: {} IOVs are too few to locate a step ({} on each side) "
+          "or to test a drift ({})",
+          s.end - s.begin, t.options.minSegment, kMinLinePoints);
+    }
+    state += driftState;
     if (!s.inconsistent.empty()) {
       state += fmt::format("; **not stable: {} inconsistent with one value**", fmt::join(s.inconsistent, ", "));
     }
@@ -996,7 +1092,7 @@ std::string periodsSection(const Trend& t) {
   return md;
 }
 
-std::string driftsSection(const Trend& t) {
+std::string driftsSection(const Trend& t, const std::vector<TrendSeries>& series, const PeriodTruth* truth) {
   std::string md;
   if (t.tests == 0) {
     md += fmt::format("**Drifts not tested**: no segment has the {} IOVs a slope test needs.\n", kMinLinePoints);
@@ -1008,13 +1104,32 @@ std::string driftsSection(const Trend& t) {
         "not constant all the same.\n",
         t.tests);
   } else {
-    md +=
-        "## Drifts (steady changes: check the reconstruction, or the detector)\n\n"
-        "| parameter | runs | slope per run | per 100 runs | z | p-value |\n|---|---|---|---|---|---|\n";
+    md += "## Drifts (steady changes: check the reconstruction, or the detector)\n\n" +
+          fmt::format(
+              "| parameter | runs | slope per run | per 100 runs | z | p-value | or a step? |{}\n"
+              "|---|---|---|---|---|---|---|{}\n",
+              truth ? " change over the runs: drift's line / true |" : "", truth ? "---|" : "");
     for (const auto& d : t.drifts) {
-      md += fmt::format("| {} | {}-{} | {:+.3g} ± {:.2g} {}/run | {:+.4f} {} | {:.1f} | {:.2g} |\n", d.parameter,
+      std::string truthCell;
+      if (truth) {
+        // The true change from the drift's first IOV to its last, beside the line's.
+        const TrendSeries* ser = seriesNamed(series, d.parameter);
+        truthCell = " — |";
+        if (ser != nullptr) {
+          const auto first = std::find_if(ser->points.begin(), ser->points.end(),
+                                          [&](const TrendPoint& p) { return p.firstRun == d.firstRun; });
+          const auto last = std::find_if(ser->points.begin(), ser->points.end(),
+                                         [&](const TrendPoint& p) { return p.lastRun == d.lastRun; });
+          if (first != ser->points.end() && last != ser->points.end()) {
+            truthCell = fmt::format(" {:+.4g} / {} |", d.slopePerRun * (last->x() - first->x()),
+                                    trueChange(truth, d.parameter, *first, *last));
+          }
+        }
+      }
+      md += fmt::format("| {} | {}-{} | {:+.3g} ± {:.2g} {}/run | {:+.4f} {} | {:.1f} | {:.2g} | {} |{}\n", d.parameter,
                         d.firstRun, d.lastRun, d.slopePerRun, d.error, d.unit, 100.0 * d.slopePerRun, d.unit, d.z,
-                        d.pValue);
+                        d.pValue, d.orStep ? stepAlternativeText(t, d) : std::string("no: a step does not fit"),
+                        truthCell);
     }
   }
   // Slopes the figures draw (a line fits better by BIC) that the drift test does not flag.
@@ -1162,7 +1277,7 @@ std::string trendMarkdown(const Trend& t, const std::vector<TrendSeries>& series
     md += "\n";
   }
   md += periodsSection(t);
-  md += driftsSection(t);
+  md += driftsSection(t, series, text.truth);
   md += "\n" + sensitivitySection(t, series);
   md += "## Notes\n\n" + directionsNote(t, series);
   return md;
@@ -1186,7 +1301,19 @@ std::vector<report::TrendFigure> trendFigures(const Trend& t, const std::vector<
         return i.parameter == s.parameter && i.firstRun == firstRun && i.lastRun == lastRun;
       });
       const auto x0 = static_cast<double>(firstRun), x1 = static_cast<double>(lastRun);
-      f.segments.push_back({x0, seg.model().value(x0), x1, seg.model().value(x1), seg.drift, inconsistent});
+      const auto drift = std::find_if(t.drifts.begin(), t.drifts.end(), [&](const TrendDrift& d) {
+        return seg.drift && d.parameter == s.parameter && d.firstRun == firstRun;
+      });
+      const StepAlternative* alt = drift != t.drifts.end() && drift->orStep ? &*drift->orStep : nullptr;
+      if (alt != nullptr && alt->preferred()) {
+        // A step that fits better than the drift is drawn as what it is: its two constants.
+        const auto at = static_cast<double>(alt->firstRunAfter) - 0.5;
+        f.segments.push_back({x0, alt->before, at, alt->before, true, inconsistent, true});
+        f.segments.push_back({at, alt->after, x1, alt->after, true, inconsistent, true});
+        continue;
+      }
+      f.segments.push_back(
+          {x0, seg.model().value(x0), x1, seg.model().value(x1), seg.drift, inconsistent, alt != nullptr});
     }
     for (const auto& st : t.steps) {
       if (st.parameter == s.parameter) f.steps.push_back(static_cast<double>(st.firstRunAfter));

@@ -110,3 +110,37 @@ TEST_F(Correct, MisuseIsRefusedWithoutOutput) {
 }
 
 }  // namespace
+
+namespace {
+
+// The cluster method moves clusters at a shower depth: an alignment fitted with a depth offset
+// (the shipped corrections') and corrected at another is warned of, naming the fit's model;
+// the summary says which depth was used (issue 29: the tag's model silently ignored).
+TEST_F(Correct, TheClusterMethodSaysItsDepthAndWarnsOfAnotherThanTheFits) {
+  const std::string grid = std::string(EMCALIGN_SOURCE_DIR) + "/data/corrections/ee-40-140deg";
+  ASSERT_EQ(
+      run("simulate --events 20000 --seed 5 --theta-min 40 --theta-max 140 --params " + truth_ + " -o " + path("ev.h5"))
+          .exitCode,
+      0);
+  ASSERT_EQ(run("fit " + path("ev.h5") + " --corrections " + grid + " -o " + path("fit.json")).exitCode, 0);
+  auto plain =
+      run("correct " + path("ev.h5") + " --alignment " + path("fit.json") + " --method clusters -o " + path("c1.h5"));
+  ASSERT_EQ(plain.exitCode, 0) << plain.err;
+  EXPECT_NE(plain.out.find("clusters at R(E, theta) +0 cm"), std::string::npos) << plain.out;
+  EXPECT_NE(plain.err.find("the alignment was fitted with corrections " + grid + " (shower depth R(E, theta) +4."),
+            std::string::npos)
+      << plain.err;
+  auto matched = run("correct " + path("ev.h5") + " --alignment " + path("fit.json") +
+                     " --method clusters --corrections " + grid + " -o " + path("c2.h5"));
+  ASSERT_EQ(matched.exitCode, 0) << matched.err;
+  EXPECT_NE(matched.out.find("clusters at the depth of " + grid), std::string::npos) << matched.out;
+  EXPECT_EQ(matched.err.find("warning"), std::string::npos) << matched.err;
+  // The paper's model (no offset) corrected at its own depth: nothing to warn of.
+  ASSERT_EQ(run("fit " + path("ev.h5") + " -o " + path("paper.json")).exitCode, 0);
+  auto paper =
+      run("correct " + path("ev.h5") + " --alignment " + path("paper.json") + " --method clusters -o " + path("c3.h5"));
+  ASSERT_EQ(paper.exitCode, 0);
+  EXPECT_EQ(paper.err.find("warning"), std::string::npos) << paper.err;
+}
+
+}  // namespace

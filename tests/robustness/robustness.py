@@ -1326,6 +1326,8 @@ def cases():
              checked="no database created"))
     add(Case(M, "a mistyped command", "emcalign conditions lst", 2, "unknown command 'lst' for emcalign conditions "
              "(did you mean list?)"))
+    add(Case(M, "two letters of a command swapped", "emcalign conditions lsit", 2,
+             "unknown command 'lsit' for emcalign conditions (did you mean list?)"))
     add(Case(M, "a mistyped command (top level)", "emcalign fti ev.csv", 2,
              "unknown command 'fti' for emcalign (did you mean fit?)"))
     add(Case(M, "an event file as the profile", "emcalign fit --profile-in ev.h5 -o r.json", 1,

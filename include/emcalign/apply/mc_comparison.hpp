@@ -104,6 +104,6 @@ Result<std::vector<ComparedParticle>> comparedParticlesOf(const std::vector<std:
 io::Json comparisonJson(const Comparison& c);
 /// compare.md: the verdict and a table per distribution.
 std::string comparisonMarkdown(const Comparison& c, const std::vector<std::string>& dataFiles,
-                               const std::vector<std::string>& mcFiles);
+                               const std::vector<std::string>& mcFiles, const std::string& depth = "");
 
 }  // namespace emcalign::apply

@@ -67,6 +67,9 @@ class TagAlignments {
   /// run and the tag.
   Result<std::shared_ptr<const geometry::AlignmentTransform>> transformOf(std::int64_t run);
   Result<geometry::AlignmentParameters> parametersOf(std::int64_t run);
+  /// The distinct (model, depth offset in cm) of the tag's IOVs whose payloads record their
+  /// fit's model corrections (AlignmentSource::fittedDepths).
+  Result<std::vector<std::pair<std::string, double>>> fittedDepths();
   /// The IOVs used so far.
   [[nodiscard]] int used() const { return static_cast<int>(transforms_.size()); }
   [[nodiscard]] const std::string& uri() const { return db_->uri(); }
@@ -87,6 +90,11 @@ struct AlignmentSource {
   /// For the outputs: {"file", "parameters"} or {"conditions", "tag"}.
   io::Json description;
   std::vector<std::string> warnings;  ///< of the alignment file
+  /// The shower depths the alignment was fitted with, distinct: (the model in words, the
+  /// depth offset added to R(E, θ) in cm) of the fit result, or of every IOV of the tag;
+  /// empty when the file or the payloads do not say (a parameter file). The cluster method
+  /// of `correct` moves each cluster at a depth: another than the fit's biases it.
+  std::vector<std::pair<std::string, double>> fittedDepths;
   [[nodiscard]] apply::AlignmentOfRun alignmentOf() const;
   /// The file `alignment`, or when `conditions` is not empty the tag `tag` of that database.
   static Result<AlignmentSource> open(const std::string& alignment, const std::string& conditions,

@@ -20,6 +20,7 @@ struct BeforeAfterPanel {
   std::vector<double> before, after;
   std::string beforeLabel, afterLabel;  ///< the key (with the numbers to show; gnuplot enhanced text)
   int chi2Ndf = 0;                      ///< > 0: draw the χ² density of this ndf, scaled
+  std::string unit;                     ///< of the x axis ("deg"), in the y label's bin width
 };
 
 /// Writes NAME.png (the panels side by side) into `dir`; its path.

@@ -25,6 +25,7 @@ struct TrendFigure {
     double x0, y0, x1, y1;
     bool drift;
     bool inconsistent = false;  ///< its χ² rejects it: drawn as what it is, not as stable
+    bool orStep = false;        ///< a drift that a step explains as well (validation::TrendDrift::orStep)
   };
   std::vector<Line> segments;
   std::vector<double> steps;                     ///< run of each step (the first run after)

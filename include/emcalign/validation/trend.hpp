@@ -126,10 +126,26 @@ struct TrendStep {
   double z() const { return error > 0.0 ? size / error : 0.0; }
 };
 
+/// A step that explains a drift's IOVs about as well as the drift (see TrendDrift::orStep).
+struct StepAlternative {
+  std::int64_t firstRunAfter = 0;  ///< inside a set-aside IOV: the run its mixture points to
+  std::optional<std::pair<std::int64_t, std::int64_t>> withinIov;
+  double before = 0.0, after = 0.0;       ///< the two constants
+  double size = 0.0, error = 0.0;         ///< after − before
+  double chi2Step = 0.0, chi2Line = 0.0;  ///< of the step's two constants, of the drift's line
+  /// The runs of the IOVs on either side of it: a step of another parameter there is the same change.
+  std::int64_t nearFirstRun = 0, nearLastRun = 0;
+  bool preferred() const { return chi2Step < chi2Line; }  ///< the step fits better than the drift
+};
+
 struct TrendDrift {
   std::string parameter, unit;
   std::int64_t firstRun = 0, lastRun = 0;
   double slopePerRun = 0.0, error = 0.0, z = 0.0, pValue = 1.0;
+  /// The best single step in the drift's IOVs (two constants, the IOV between them possibly
+  /// set aside), when its χ² is within a change's penalty of the line's: these IOVs cannot
+  /// tell a drift from a step, and both are reported. None: a step does not fit (a drift).
+  std::optional<StepAlternative> orStep;
 };
 
 /// A change of a series: a new segment starts at point `start`; with `transition`, point
@@ -201,8 +217,14 @@ struct TrendSegment {
   /// An IOV at the tag's first or last that departs from the IOVs beside it (TrendEdge): the
   /// parameters that do; not a stable period.
   std::vector<std::string> departing;
-  /// Neither a transition nor an edge, and nothing inside it drifting or inconsistent.
-  bool stable() const { return !transition && departing.empty() && drifting.empty() && inconsistent.empty(); }
+  /// Whether the trend could locate a step at all (Trend::resolvable): a period of a trend
+  /// too short for that is never called stable (nothing was tested but one value).
+  bool resolvable = true;
+  /// Neither a transition nor an edge, nothing inside it drifting or inconsistent, and a
+  /// trend long enough to have looked for steps.
+  bool stable() const {
+    return resolvable && !transition && departing.empty() && drifting.empty() && inconsistent.empty();
+  }
 };
 
 struct TrendOptions {
@@ -257,6 +279,9 @@ io::Json trendJson(const Trend& t, const std::vector<TrendSeries>& series);
 /// A campaign's warning when its grouping leaves fewer IOVs than a trend needs to locate a
 /// step (2 × minSegment), with the --min-events that would give 6; empty otherwise.
 std::string tooFewIovsForTrend(std::size_t iovs, std::int64_t selectedEvents, const TrendOptions& options = {});
+/// A drift's step alternative in words ("a step fits better: … at run …, where beta1 steps
+/// (χ² …): these IOVs cannot tell a drift from a step; …"), "" without one.
+std::string stepAlternativeText(const Trend& t, const TrendDrift& d);
 /// What the trend can say of steps, in one sentence: never "no step" where it cannot tell.
 std::string trendVerdict(const Trend& t);
 /// What trend.md says beside the trend itself.

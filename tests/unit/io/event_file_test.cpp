@@ -969,7 +969,7 @@ TEST_F(EventFile, FilesOfAnotherKindAreNamed) {
               HasSubstr("c.db: this is an SQLite database (a conditions database?), not an event file"));
   const std::string exported =
       "# emcalign conditions export: tag t of sqlite:c.db\n# units: alpha=deg\n"
-      "first_run,last_run,payload,inserted,status,chi2,ndf,chi2_statistical_errors,sigma_sys_method,"
+      "first_run,last_run,payload,inserted,status,chi2,ndf,chi2_statistical_errors,sigma_sys_method,sigma_sys_deg,"
       "selected_events,alpha,alpha_error\n1,4,abc,DATE,converged,1,1,1,paper,10,2.8,0.1\n";
   const std::string conditions = message("T.csv", exported);
   EXPECT_THAT(conditions,

@@ -3,9 +3,11 @@
 
 #include "emcalign/validation/trend.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -231,12 +233,83 @@ TEST(Trend, TooFewIovsIsSaidAndAnInconsistentSeriesNamed) {
     EXPECT_EQ(verdict.find("No step"), std::string::npos) << verdict;
     EXPECT_EQ(verdict.find("no parameter differs"), std::string::npos) << verdict;
   }
-  // Consistent values: too few IOVs is still said, with no parameter blamed.
+  // Consistent values: too few IOVs is still said, with no parameter blamed, and the one
+  // period is not called stable (issue 29: "1 of 1 period stable" beside "too few IOVs").
   TrendSeries flat{"dx", "cm", {{1, 10, 0.1, 0.01}, {11, 20, 0.105, 0.01}, {21, 30, 0.098, 0.01}}};
   const Trend t = analyseTrend({flat});
   EXPECT_TRUE(t.inconsistencies.empty());
   EXPECT_NE(trendVerdict(t).find("Too few IOVs"), std::string::npos);
   EXPECT_NE(trendVerdict(t).find("no parameter differs"), std::string::npos);
+  ASSERT_EQ(t.segments.size(), 1u);
+  EXPECT_FALSE(t.segments[0].stable());
+  const std::string md = trendMarkdown(t, {flat}, {"test"});
+  EXPECT_NE(md.find("(0 stable)"), std::string::npos) << md;
+  EXPECT_NE(md.find("consistent with one value, but not called stable"), std::string::npos) << md;
+  EXPECT_FALSE(trendJson(t, {flat}).at("segments")[0].at("stable").get<bool>());
+}
+
+// A short series whose step the error scale blurs (issue 29's newcomer period: dx 0.40 ->
+// 0.30 at run 161, 6 IOVs after a step at 83, the scatter/error scale 5.5 from the steps
+// themselves): the partitioning keeps one line, flagged as a drift; a step fits it far better
+// and is reported beside it (where beta1 steps too), never a drift alone. A true drift over
+// 12 IOVs gets no step alternative.
+TEST(Trend, ADriftThatAStepFitsAsWellIsReportedAsEither) {
+  TrendSeries dx{"dx", "cm", {}}, beta1{"beta1", "deg", {}};
+  const std::vector<std::tuple<std::int64_t, std::int64_t, double, double, double>> iovs = {
+      {1, 22, 0.2485, 0.0037, 0.1877},    {23, 47, 0.2507, 0.0033, 0.2014},    {48, 69, 0.2489, 0.0034, 0.1763},
+      {70, 91, 0.3271, 0.0035, 0.1958},   {92, 120, 0.4004, 0.0034, 0.2071},   {121, 141, 0.3998, 0.0036, 0.1920},
+      {142, 162, 0.3891, 0.0035, 0.1535}, {163, 183, 0.3022, 0.0039, -0.1208}, {184, 204, 0.2915, 0.0035, -0.0910},
+      {205, 240, 0.3024, 0.0027, -0.0965}};
+  for (const auto& [first, last, x, e, b] : iovs) {
+    dx.points.push_back({first, last, x, e});
+    beta1.points.push_back({first, last, b, 0.01});
+  }
+  const Trend t = analyseTrend({beta1, dx});
+  ASSERT_EQ(t.drifts.size(), 1u);
+  const TrendDrift& d = t.drifts[0];
+  EXPECT_EQ(d.parameter, "dx");
+  ASSERT_TRUE(d.orStep.has_value());
+  EXPECT_TRUE(d.orStep->preferred());
+  EXPECT_EQ(d.orStep->firstRunAfter, 163);
+  EXPECT_NEAR(d.orStep->size, -0.097, 0.005);
+  EXPECT_LT(d.orStep->chi2Step, 1.0);
+  const std::string text = stepAlternativeText(t, d);
+  EXPECT_NE(text.find("a step fits better: -0.09"), std::string::npos) << text;
+  EXPECT_NE(text.find("where beta1 steps"), std::string::npos) << text;
+  EXPECT_NE(trendMarkdown(t, {beta1, dx}, {"test"}).find("drifting: dx (or a step"), std::string::npos);
+  EXPECT_FALSE(trendJson(t, {beta1, dx}).at("drifts")[0].at("or_step").is_null());
+  // The figure draws the step's two constants, not the line.
+  for (const auto& f : trendFigures(t, {beta1, dx})) {
+    if (f.parameter != "dx") continue;
+    const auto drawn = std::count_if(f.segments.begin(), f.segments.end(), [](const auto& l) { return l.orStep; });
+    EXPECT_EQ(drawn, 2);
+  }
+
+  std::mt19937_64 rng(31);
+  const auto drift = series(12, 0.003, rng, [](std::size_t i) { return 0.3 + 0.01 * static_cast<double>(i); });
+  const Trend u = analyseTrend({drift});
+  ASSERT_EQ(u.drifts.size(), 1u);
+  EXPECT_FALSE(u.drifts[0].orStep.has_value()) << stepAlternativeText(u, u.drifts[0]);
+}
+
+// A step of one parameter an IOV away from the IOV that straddles another's change is a change
+// of its own: the periods start at both, and none that holds a step is called stable (issue
+// 29: beta_rel's step at run 48 inside "runs 1-69: stable", blamed on dx's change at 70-91).
+TEST(Trend, AStepAnIovAwayFromATransitionStartsItsOwnPeriod) {
+  std::mt19937_64 rng(48);
+  const auto dx = series(
+      30, 0.003, rng, [](std::size_t i) { return i < 12    ? 0.25
+                                                 : i == 12 ? 0.30
+                                                           : 0.40; }, "dx");
+  const auto beta = series(
+      30, 0.003, rng, [](std::size_t i) { return i < 11 ? 0.08 : 0.12; }, "beta_rel");
+  const Trend t = analyseTrend({dx, beta});
+  ASSERT_EQ(t.steps.size(), 2u);
+  std::vector<std::int64_t> starts;
+  for (const auto& g : t.segments) starts.push_back(g.firstRun);
+  EXPECT_EQ(starts, (std::vector<std::int64_t>{1, 111, 121, 131})) << trendMarkdown(t, {dx, beta}, {"test"});
+  EXPECT_EQ(t.segments[1].stepsAtStart, std::vector<std::string>{"beta_rel"});
+  EXPECT_TRUE(t.segments[2].transition);
 }
 
 // A step one IOV before the end (issue 29: dx 0.30 -> 0.45 in the last of 12 IOVs) is an

@@ -104,7 +104,7 @@ int run(const CompareOptions& o) {
              c->pValue,
              c->pValue >= 0.01 ? "the MC describes the data within both samples' statistics"
                                : "the MC does not describe the data");
-  fmt::print(reportStream(), "wrote {}/compare.json, compare.md, compare.png\n", o.output);
+  fmt::print(reportStream(), "wrote {}/compare.json, compare.md, compare.png, compare_profiles.png\n", o.output);
   return kExitOk;
 }
 
@@ -127,7 +127,7 @@ void addCompareCommand(CLI::App& app, int& exitCode) {
   cmd->add_option("--corrections", o->corrections, "take the shower-depth offset from a corrections file")
       ->check(CLI::ExistingFile);
   addDetectorOption(*cmd, o->detector);
-  cmd->add_option("-o,--output", o->output, "output directory: compare.json, compare.md, compare.png")->required();
+  cmd->add_option("-o,--output", o->output, "output directory: compare.json, compare.md, compare.png, compare_profiles.png")->required();
   cmd->callback([o, &exitCode] { exitCode = run(*o); });
 }
 

@@ -83,7 +83,11 @@ int run(const CorrectCliOptions& o) {
     depth = o.corrections.empty() ? fmt::format(" at R(E, theta) {:+.3g} cm", options.depth.offset / units::cm)
                                   : fmt::format(" at the depth of {}", o.corrections);
     if (o.corrections.empty()) {
-      for (const auto& [model, offset] : source->fittedDepths) {
+      // With a tag: the depths of the IOVs the events were corrected with.
+      auto depths = source->byRun ? source->byRun->fittedDepths()
+                                  : Result<std::vector<std::pair<std::string, double>>>(source->fittedDepths);
+      if (!depths) return reportError(depths.error());
+      for (const auto& [model, offset] : *depths) {
         if (std::abs(offset - options.depth.offset / units::cm) <= 0.01) continue;
         reportWarning(fmt::format(
             "the alignment was fitted with {} (shower depth R(E, theta) {:+.3g} cm); the cluster method moved the "

@@ -190,10 +190,14 @@ int run(const TrendCliOptions& o) {
     fmt::print(reportStream(), "  {}\n", validation::trendVerdict(trend));
   }
   for (const auto& s : trend.steps) {
-    fmt::print(reportStream(), "  step  {:<8} at run {:>6}: {:+.4f} ± {:.4f} {} (z {:.1f}){}{}\n", s.parameter,
+    fmt::print(reportStream(), "  step  {:<8} at run {:>6}: {:+.4f} ± {:.4f} {} (z {:.1f}){}{}{}\n", s.parameter,
                s.firstRunAfter, s.size, s.error, s.unit, s.z(),
                s.withinIov ? fmt::format(", inside IOV {}-{}", s.withinIov->first, s.withinIov->second) : std::string(),
-               s.known ? ", a known boundary" : "");
+               s.known ? ", a known boundary" : "",
+               s.insteadOfDrift ? fmt::format(", where other parameters step; a drift fits worse (χ² {:.1f} against "
+                                              "{:.1f})",
+                                              s.insteadOfDrift->second, s.insteadOfDrift->first)
+                                : std::string());
   }
   for (const auto& e : trend.edges) {
     fmt::print(reportStream(),

@@ -8,6 +8,7 @@
 #include "bindings.hpp"
 #include "emcalign/apply/cluster_correction.hpp"
 #include "emcalign/apply/correct.hpp"
+#include "emcalign/apply/mc_comparison.hpp"
 #include "emcalign/calib/corrections.hpp"
 #include "emcalign/conddb/calibrations.hpp"
 #include "emcalign/core/units.hpp"
@@ -120,9 +121,70 @@ py::tuple correctDirections(const Array& values, const Array& phi, const Array& 
   return py::make_tuple(phiOut, thetaOut);
 }
 
+// The particles of a sample for compare: event files, or a dict of event columns.
+std::vector<apply::ComparedParticle> comparedOf(const py::object& sample, const char* name,
+                                                const geometry::ShowerDepth& depth,
+                                                const calib::SelectionOptions& selection,
+                                                const apply::ComparisonOptions& options) {
+  if (py::isinstance<py::dict>(sample)) {
+    const std::vector<ParticleRow> rows = rowsOf(sample.cast<py::dict>());
+    Result<std::vector<apply::ComparedParticle>> particles = Error{""};
+    {
+      py::gil_scoped_release release;  // (an error is raised below, with the GIL held)
+      particles = apply::comparedParticlesOfRows(rows, name, depth, selection, options);
+    }
+    return unwrap(std::move(particles));
+  }
+  const std::vector<std::string> files = stringsOf(sample.cast<Paths>());
+  Result<std::vector<apply::ComparedParticle>> particles = Error{""};
+  {
+    py::gil_scoped_release release;
+    particles = apply::comparedParticlesOf(files, depth, selection, options);
+  }
+  if (!particles) raise(Error{fmt::format("{}: {}", name, particles.error().message)});
+  return std::move(*particles);
+}
+
+py::object compareSamples(const py::object& data, const py::object& mc, const Detector* given,
+                          std::optional<double> sigmaSys, std::optional<double> beamEnergy, double depthOffset,
+                          const std::optional<Path>& corrections) {
+  const Detector& detector = detectorOr(given);
+  if (!py::isinstance<py::dict>(data) && !py::isinstance<py::dict>(mc) &&
+      stringsOf(data.cast<Paths>()) == stringsOf(mc.cast<Paths>())) {
+    raise(Error{"compare: data and mc are the same files: a comparison of a sample with itself"});
+  }
+  geometry::ShowerDepth depth = geometry::ShowerDepth::of(detector.calorimeter().description());
+  depth.offset = depthOffset * units::cm;
+  if (corrections) depth.offset = unwrap(calib::readCorrections(pathString(*corrections))).depthOffset;
+  calib::SelectionOptions selection;
+  if (beamEnergy) selection.beamEnergy = *beamEnergy;
+  apply::ComparisonOptions options;
+  if (sigmaSys) {
+    if (!(std::isfinite(*sigmaSys) && *sigmaSys >= 0.0 && *sigmaSys <= 5.0)) {
+      raise(Error{fmt::format("compare: sigma_sys {} deg: expected 0 to 5 deg", *sigmaSys)});
+    }
+    options.sigmaSys = *sigmaSys * units::deg;
+  }
+  const auto d = comparedOf(data, "data", depth, selection, options);
+  const auto m = comparedOf(mc, "mc", depth, selection, options);
+  Result<apply::Comparison> c = Error{""};
+  {
+    py::gil_scoped_release release;
+    c = apply::compareParticles(d, m, options);
+  }
+  return pythonOf(apply::comparisonJson(unwrap(std::move(c))));
+}
+
 }  // namespace
 
 void bindApply(py::module_& m) {
+  m.def("compare", &compareSamples, py::arg("data"), py::arg("mc"), py::arg("detector") = py::none(), py::kw_only(),
+        py::arg("sigma_sys") = py::none(), py::arg("beam_energy") = py::none(), py::arg("depth_offset") = 0.0,
+        py::arg("corrections") = py::none(),
+        "data against simulation as emcalign compare does: data and mc each event files or a dict of event columns "
+        "(as read_events gives; checked as a file's rows); sigma_sys: degrees added to each profile mean (None: 0); "
+        "beam_energy MeV; depth_offset cm, or corrections= (a file). Returns compare.json as a dict: p_value, chi2, "
+        "ndf, distributions [{name, chi2, ndf, p_value, bins}]");
   m.def("correct", &correctFiles, py::arg("paths"), py::arg("output"), py::arg("detector") = py::none(), py::kw_only(),
         py::arg("alignment") = py::none(), py::arg("conditions") = py::none(), py::arg("tag") = py::none(),
         py::arg("method") = "auto", py::arg("depth_offset") = 0.0, py::arg("corrections") = py::none(),

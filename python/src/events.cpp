@@ -124,7 +124,6 @@ std::vector<ParticleRow> rowsOf(const py::dict& events) {
   const auto energy = columnOf(events, "energy_mev", n);
   const auto phiEmc = columnOf(events, "phi_emc_rad", n), thetaEmc = columnOf(events, "theta_emc_rad", n);
   std::vector<ParticleRow> rows(n);
-  std::set<std::pair<std::int32_t, std::int64_t>> ended;
   for (std::size_t i = 0; i < n; ++i) {
     ParticleRow& r = rows[i];
     r.run = static_cast<std::int32_t>(run[i]);
@@ -139,18 +138,10 @@ std::vector<ParticleRow> rowsOf(const py::dict& events) {
     r.energy = energy[i];
     r.phiEmc = phiEmc[i];
     r.thetaEmc = thetaEmc[i];
-    // An event is its rows together: one met again after another began is an error, not
-    // a second event (as the files' readers say).
-    if (i > 0 && !sameEvent(r, rows[i - 1])) {
-      ended.insert({rows[i - 1].run, rows[i - 1].event});
-      if (ended.count({r.run, r.event}) != 0) {
-        raise(
-            Error{fmt::format("events: row {} (run {}, event {}) belongs to an event whose rows ended earlier: the "
-                              "rows of an event must be together, as read_events gives them",
-                              i, r.run, r.event)});
-      }
-    }
   }
+  // The rules a file's rows obey (io/event_file.hpp): values, an event's rows together, each
+  // event once.
+  check(io::checkRowsInMemory(rows, "events"));
   return rows;
 }
 

@@ -50,15 +50,21 @@ std::optional<calib::SigmaSysChoice> sigmaSysOf(const py::object& sigmaSys, std:
   return calib::SigmaSysChoice::fixed(deg * units::deg);
 }
 
-Fit fit(const std::optional<Paths>& paths, const Detector* given, const py::object& sigmaSys,
-        std::optional<double> beamEnergy, double depthOffset, const std::optional<Path>& corrections,
-        const std::optional<Path>& profile) {
+Fit fit(const py::object& paths, const Detector* given, const py::object& sigmaSys, std::optional<double> beamEnergy,
+        double depthOffset, const std::optional<Path>& corrections, const std::optional<Path>& profile) {
   const Detector& detector = detectorOr(given);
   calib::FitRequest request;
-  if (paths) request.events = stringsOf(*paths);
+  // Event files, or the columns of events in memory (read_events' dict, an ntuple's).
+  if (py::isinstance<py::dict>(paths)) {
+    request.rows = std::make_shared<const std::vector<ParticleRow>>(rowsOf(paths.cast<py::dict>()));
+  } else if (!paths.is_none()) {
+    request.events = stringsOf(paths.cast<Paths>());
+  }
   if (profile) request.profileIn = pathString(*profile);
-  if (request.events.empty() == request.profileIn.empty()) {
-    raise(Error{"fit: give event files (paths) or a saved profile (profile=), one of them"});
+  if ((request.events.empty() && !request.rows) == request.profileIn.empty()) {
+    raise(
+        Error{"fit: give event files or a dict of event columns (paths), or a saved profile (profile=), one of "
+              "them"});
   }
   request.detectorName = detector.source();
   request.depthOffset = depthOffset * units::cm;
@@ -235,7 +241,8 @@ void bindFit(py::module_& m) {
   m.def("fit", &fit, py::arg("paths") = py::none(), py::arg("detector") = py::none(), py::arg("sigma_sys") = py::none(),
         py::arg("beam_energy") = py::none(), py::arg("depth_offset") = 0.0, py::arg("corrections") = py::none(),
         py::arg("profile") = py::none(),
-        "selects, fills the profiles and fits, as emcalign fit does: event files (paths), or a saved profile "
+        "selects, fills the profiles and fits, as emcalign fit does: event files (paths) or a dict of event columns "
+        "(as read_events gives, checked as a file's rows), or a saved profile "
         "(profile=, paths None), on the detector given (None: the embedded one). sigma_sys: None for the paper's 0.2 "
         "deg, "
         "'auto', or degrees; beam_energy: MeV, None for "

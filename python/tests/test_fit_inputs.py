@@ -6,7 +6,7 @@ import math
 import pytest
 
 import emcalign
-from cli_helpers import CORRECTIONS, GRID, cli, cli_error
+from cli_helpers import CORRECTIONS, GRID, PAPER_LIKE, cli, cli_error
 
 
 @pytest.mark.parametrize("corrections", [CORRECTIONS, GRID], ids=["file", "grid"])
@@ -101,3 +101,43 @@ def test_fit_notes_and_the_truth_are_the_cli_report(tmp_path, fit_sample):
     assert json.loads(r.json)["notes"] == printed
     corrected = emcalign.fit(str(fit_sample), corrections=CORRECTIONS)
     assert not any("without corrections" in n for n in corrected.notes)
+
+
+def test_fit_and_compare_take_the_columns_of_an_ntuple(tmp_path, fit_sample):
+    """Data from the user's own framework (issue 30): a dict of numpy columns, as an ntuple's
+    branches give them, fits to the file's result and compares as the file does; the rows get
+    the checks a file's rows get."""
+    import numpy as np
+
+    ev = emcalign.read_events(fit_sample, truth=False, hits=False)
+    from_file = emcalign.fit(str(fit_sample))
+    # an ntuple's branches: plain float64 arrays, the event number too
+    ntuple = {k: np.asarray(v, dtype=np.float64) for k, v in ev.items()}
+    from_dict = emcalign.fit(ntuple)
+    np.testing.assert_array_equal(from_dict.parameters, from_file.parameters)
+    np.testing.assert_array_equal(from_dict.errors, from_file.errors)
+    assert json.loads(from_dict.json)["input"]["files"] == ["events"]
+    assert from_dict.against_truth is None and from_file.against_truth is not None  # rows carry no truth
+
+    # the same checks as a file's rows: a value out of range, two samples concatenated
+    bad = dict(ntuple, theta_emc_rad=np.where(np.arange(len(ntuple["run"])) == 7, 4.0, ntuple["theta_emc_rad"]))
+    with pytest.raises(emcalign.Error, match=r"events: row 7 \(run \d+, event \d+\): column 'theta_emc_rad'"):
+        emcalign.fit(bad)
+    twice = {k: np.concatenate([v, v]) for k, v in ntuple.items()}
+    with pytest.raises(emcalign.Error, match="appears again"):
+        emcalign.fit(twice)
+
+    # compare: a dict against a file, the same numbers as two files
+    mc = tmp_path / "mc.h5"
+    cli("simulate", "--params", PAPER_LIKE, "--events", "40000", "--seed", "12",
+        "--theta-min", "40", "--theta-max", "140", "--no-hits", "-o", mc)
+    by_files = emcalign.compare(str(fit_sample), str(mc))
+    by_dict = emcalign.compare(ntuple, str(mc))
+    assert by_dict["p_value"] == by_files["p_value"] and by_dict["chi2"] == by_files["chi2"]
+    assert [d["name"] for d in by_dict["distributions"]][:4] == ["dphi", "dtheta", "profile_phi", "profile_theta"]
+    assert 0.0 <= by_dict["p_value"] <= 1.0
+    cli_out = tmp_path / "cmp"
+    cli("compare", "--data", fit_sample, "--mc", mc, "-o", cli_out)
+    assert json.loads((cli_out / "compare.json").read_text())["chi2"] == pytest.approx(by_files["chi2"], rel=1e-12)
+    with pytest.raises(emcalign.Error, match="the same files"):
+        emcalign.compare(str(fit_sample), str(fit_sample))

@@ -62,7 +62,7 @@ def test_select_takes_event_numbers_exactly_and_whole_events(fit_sample):
     as_float = dict(ev, event=ev["event"].astype(float))
     np.testing.assert_array_equal(emcalign.select(as_float), cut)
     shuffled = {k: v[np.random.default_rng(0).permutation(len(v))] for k, v in ev.items()}
-    with pytest.raises(emcalign.Error, match="rows of an event must be together"):
+    with pytest.raises(emcalign.Error, match="appears again: each event must appear once, its rows together"):
         emcalign.select(shuffled)
     with pytest.raises(emcalign.Error, match="run"):
         emcalign.select(dict(ev, run=np.where(np.arange(len(cut)) == 5, np.nan, ev["run"])))

@@ -278,10 +278,12 @@ Result<Comparison> compareParticles(const std::vector<ComparedParticle>& data, c
   return out;
 }
 
-Result<std::vector<ComparedParticle>> comparedParticlesOf(const std::vector<std::string>& files,
-                                                          const geometry::ShowerDepth& depth,
-                                                          const calib::SelectionOptions& selection,
-                                                          const ComparisonOptions& o, std::int64_t* selectedEvents) {
+namespace {
+
+// The particles a fill visits (fillProfiles of files or of rows), binned as the profiles.
+template <typename Fill>
+Result<std::vector<ComparedParticle>> comparedParticles(const ComparisonOptions& o, std::int64_t* selectedEvents,
+                                                        const Fill& fillWith) {
   const calib::ProfileOptions profile;
   std::vector<ComparedParticle> out;
   std::int64_t event = -1;
@@ -289,7 +291,7 @@ Result<std::vector<ComparedParticle>> comparedParticlesOf(const std::vector<std:
   std::int64_t lastEvent = 0;
   bool first = true;
   const double thetaSpan = profile.thetaMax - profile.thetaMin;
-  const auto visit = [&](const ParticleRow& row, const calib::ParticleResidual& y) {
+  const calib::ParticleVisitor visit = [&](const ParticleRow& row, const calib::ParticleResidual& y) {
     if (first || row.run != lastRun || row.event != lastEvent) ++event;
     first = false;
     lastRun = row.run;
@@ -309,10 +311,29 @@ Result<std::vector<ComparedParticle>> comparedParticlesOf(const std::vector<std:
     p.bin = iPhi * o.profileThetaBins + iTheta;
     out.push_back(p);
   };
-  auto fill = calib::fillProfiles(files, depth, selection, profile, visit);
+  auto fill = fillWith(profile, visit);
   if (!fill) return fill.error();
   if (selectedEvents != nullptr) *selectedEvents = fill->cutFlow.events.back();
   return out;
+}
+
+}  // namespace
+
+Result<std::vector<ComparedParticle>> comparedParticlesOf(const std::vector<std::string>& files,
+                                                          const geometry::ShowerDepth& depth,
+                                                          const calib::SelectionOptions& selection,
+                                                          const ComparisonOptions& o, std::int64_t* selectedEvents) {
+  return comparedParticles(o, selectedEvents, [&](const calib::ProfileOptions& profile, const auto& visit) {
+    return calib::fillProfiles(files, depth, selection, profile, visit);
+  });
+}
+
+Result<std::vector<ComparedParticle>> comparedParticlesOfRows(
+    std::span<const ParticleRow> rows, const std::string& source, const geometry::ShowerDepth& depth,
+    const calib::SelectionOptions& selection, const ComparisonOptions& o, std::int64_t* selectedEvents) {
+  return comparedParticles(o, selectedEvents, [&](const calib::ProfileOptions& profile, const auto& visit) {
+    return calib::fillProfilesOfRows(rows, source, depth, selection, profile, visit);
+  });
 }
 
 Json comparisonJson(const Comparison& c) {

@@ -26,36 +26,60 @@ constexpr double kChi2Tail = 20.0;  // χ²(2) > 20: p < 5e-5, the tail of non-G
 using EventVisitor = std::function<Status(std::span<const ParticleRow> before, std::span<const ParticleRow> after)>;
 
 // Reads `before` and `after` in step and hands over each event of both.
+// Events one by one from a reader, whatever its blocks (a reader's block never spans two
+// files, so several input files and the one corrected file cut their blocks differently).
+class EventCursor {
+ public:
+  explicit EventCursor(std::unique_ptr<io::EventReader> reader) : reader_(std::move(reader)) {}
+  // The next event's rows (a view into the current block), empty at the end.
+  Result<std::span<const ParticleRow>> next() {
+    if (pos_ == rows_.size()) {
+      auto more = reader_->next(rows_);
+      if (!more) return more.error();
+      pos_ = 0;
+      if (!*more) {
+        rows_.clear();
+        return std::span<const ParticleRow>();
+      }
+    }
+    std::size_t end = pos_ + 1;
+    while (end < rows_.size() && sameEvent(rows_[end], rows_[pos_])) ++end;
+    const auto event = std::span<const ParticleRow>(rows_).subspan(pos_, end - pos_);
+    pos_ = end;
+    return event;
+  }
+
+ private:
+  std::unique_ptr<io::EventReader> reader_;
+  std::vector<ParticleRow> rows_;
+  std::size_t pos_ = 0;
+};
+
 Status forEachEventPair(const std::vector<std::string>& before, const std::vector<std::string>& after,
                         const EventVisitor& visit) {
   auto a = io::EventReader::open(before);
   if (!a) return a.error();
   auto b = io::EventReader::open(after);
   if (!b) return b.error();
-  std::vector<ParticleRow> ra, rb;
+  EventCursor ca(std::move(*a)), cb(std::move(*b));
   for (;;) {
-    auto moreA = (*a)->next(ra);
-    if (!moreA) return moreA.error();
-    auto moreB = (*b)->next(rb);
-    if (!moreB) return moreB.error();
-    if (*moreA != *moreB || ra.size() != rb.size()) {
+    auto ea = ca.next();
+    if (!ea) return ea.error();
+    auto eb = cb.next();
+    if (!eb) return eb.error();
+    if (ea->empty() != eb->empty() || ea->size() != eb->size()) {
       return Error{
           "the corrected events are not the same events as the uncorrected ones (another file, or another "
           "order)"};
     }
-    if (!*moreA) return {};
-    for (std::size_t i = 0; i < ra.size();) {
-      std::size_t j = i;
-      while (j < ra.size() && sameEvent(ra[j], ra[i])) ++j;
-      for (std::size_t k = i; k < j; ++k) {
-        if (!sameEvent(rb[k], ra[k])) {
-          return Error{fmt::format("run {} event {}: the corrected file holds run {} event {} at its place", ra[k].run,
-                                   ra[k].event, rb[k].run, rb[k].event)};
-        }
+    if (ea->empty()) return {};
+    for (std::size_t k = 0; k < ea->size(); ++k) {
+      if (!sameEvent((*eb)[k], (*ea)[k])) {
+        return Error{fmt::format("run {} event {}: the corrected file holds run {} event {} at its place", (*ea)[k].run,
+                                 (*ea)[k].event, (*eb)[k].run, (*eb)[k].event)};
       }
-      if (Status s = visit(std::span(ra).subspan(i, j - i), std::span(rb).subspan(i, j - i)); !s) return s;
-      i = j;
     }
+    if (Status s = visit(*ea, *eb); !s) return s;
   }
 }
 

@@ -84,6 +84,17 @@ Result<ProfileFill> fillProfiles(const std::vector<std::string>& files, const ge
   return std::move(filler.fill());
 }
 
+Result<ProfileFill> fillProfilesOfRows(std::span<const ParticleRow> rows, const std::string& source,
+                                       const geometry::ShowerDepth& depth, const SelectionOptions& selection,
+                                       const ProfileOptions& profile, const ParticleVisitor& visit) {
+  if (Status s = profile.validate(); !s) return s.error();
+  if (Status s = io::checkRowsInMemory(rows, source); !s) return s.error();
+  ProfileFiller filler(depth, selection, profile, visit);
+  filler.addEvents(rows);
+  if (Status s = filler.checkSelected(); !s) return Error{fmt::format("{}: {}", source, s.error().message)};
+  return std::move(filler.fill());
+}
+
 void ProfileFill::merge(const ProfileFill& other) {
   for (std::size_t k = 0; k < cutFlow.events.size(); ++k) cutFlow.events[k] += other.cutFlow.events[k];
   cutFlow.rows += other.cutFlow.rows;

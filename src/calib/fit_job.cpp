@@ -35,7 +35,9 @@ std::string thetaRangeWarning(const std::optional<std::string>& simulation, cons
 }
 
 Status FitRequest::validate() const {
-  if (events.empty() == profileIn.empty()) return Error{"give event files or a saved profile (one of them)"};
+  if ((events.empty() ? 0 : 1) + (profileIn.empty() ? 0 : 1) + (rows ? 1 : 0) != 1) {
+    return Error{"give event files, events in memory or a saved profile (one of them)"};
+  }
   if (beamEnergy && !(std::isfinite(*beamEnergy) && *beamEnergy > 0.0)) {
     return Error{fmt::format("beam energy {} MeV: expected a positive energy", *beamEnergy)};
   }
@@ -61,6 +63,10 @@ Result<CorrectionsAt> correctionsOf(const FitRequest& r) {
                       r.corrections, r.profileIn)};
     }
     return grid->at(energy.value_or(std::numeric_limits<double>::quiet_NaN()));
+  }
+  if (r.rows) {
+    if (r.rows->empty()) return Error{fmt::format("{}: no row", r.rowsName)};
+    return grid->at(energy.value_or(r.rows->front().beamEnergy * units::MeV));
   }
   return correctionsForSample(*grid, r.events, energy);
 }
@@ -128,7 +134,9 @@ Result<FitData> FitJob::load() const {
     if (corrections_ && !corrections_->warning.empty()) data.warnings.push_back(corrections_->warning);
     return data;
   }
-  auto filled = fillProfiles(request_.events, geometry_.depth, selectionOf(request_), profile_);
+  auto filled = request_.rows ? fillProfilesOfRows(*request_.rows, request_.rowsName, geometry_.depth,
+                                                   selectionOf(request_), profile_)
+                              : fillProfiles(request_.events, geometry_.depth, selectionOf(request_), profile_);
   if (!filled) return filled.error();
   data.fill = std::move(*filled);
   if (corrections_) {
@@ -137,6 +145,7 @@ Result<FitData> FitJob::load() const {
     if (!warning) return warning.error();
     if (!warning->empty()) data.warnings.push_back(std::move(*warning));
   }
+  if (request_.rows) return data;  // rows carry no attributes: no truth, no simulation settings
   // What a simulated sample says of itself, read once for the warning below and the truth.
   auto attributes = io::commonAttributes(request_.events, {"truth_parameters", "simulation"});
   if (!attributes) return attributes.error();
@@ -159,7 +168,7 @@ Result<FitOutcome> FitJob::fit(const FitData& data) const {
   input.depthOffset = geometry_.depth.offset;
   if (data.fill) {
     out.bins = fittedBins(data.fill->profiles, out.result.sigmaSys);
-    input.files = request_.events;
+    input.files = request_.rows ? std::vector<std::string>{request_.rowsName} : request_.events;
     input.fill = &*data.fill;
   } else {
     out.bins = data.bins;

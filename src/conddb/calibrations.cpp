@@ -179,6 +179,7 @@ Result<TagAlignments> TagAlignments::open(const std::string& uri, const std::str
 Result<std::vector<std::pair<std::string, double>>> TagAlignments::fittedDepths() {
   std::vector<std::pair<std::string, double>> out;
   for (const Iov& iov : snapshot_->iovs()) {
+    if (!transforms_.empty() && transforms_.count(iov.firstRun) == 0) continue;  // only the IOVs used, once used
     auto p = snapshot_->payload(iov);
     if (!p) return p.error();
     const io::Json provenance = (*p)->content.value("provenance", io::Json::object());

@@ -1,5 +1,6 @@
 #include <algorithm>
 #include <cmath>
+#include <set>
 
 #include <fmt/format.h>
 
@@ -151,3 +152,38 @@ Status checkAppend(const std::string& path, std::span<const ParticleRow> rows, s
 }
 
 }  // namespace emcalign::io::detail
+
+namespace emcalign::io {
+
+Status checkRowsInMemory(std::span<const ParticleRow> rows, const std::string& source) {
+  constexpr int kMaxRowsPerEvent = 1000;
+  detail::EventConsistency consistency;
+  std::set<std::pair<std::int32_t, std::int64_t>> seen;
+  int eventRows = 0;
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const ParticleRow& r = rows[i];
+    const auto where = [&] { return fmt::format("{}: row {} (run {}, event {})", source, i, r.run, r.event); };
+    auto issue = detail::checkRow(r);
+    if (!issue) issue = consistency.check(r);
+    if (issue) return Error{fmt::format("{}: column '{}': {}", where(), issue->column, issue->what)};
+    if (i > 0 && sameEvent(r, rows[i - 1])) {
+      if (++eventRows > kMaxRowsPerEvent) {
+        return Error{
+            fmt::format("{}: the event has more than {} rows: an event holds a handful of particles (are "
+                        "the run and event columns filled?)",
+                        where(), kMaxRowsPerEvent)};
+      }
+      continue;
+    }
+    eventRows = 1;
+    if (!seen.insert({r.run, r.event}).second) {
+      return Error{
+          fmt::format("{}: the event appears again: each event must appear once, its rows together (are "
+                      "two samples concatenated, or the rows not in event order?)",
+                      where())};
+    }
+  }
+  return {};
+}
+
+}  // namespace emcalign::io

@@ -124,6 +124,57 @@ std::string scriptOf(const apply::Comparison& c, const std::string& dataLabel, c
   return s + "unset multiplot\n";
 }
 
+// compare_profiles.dat: one block per (profile, θ slice): the 16 φ bins' centre [deg], the
+// data's mean and error, the MC's mean and error [deg]; index 0-9 ȳ_φ, 10-19 ȳ_θ.
+std::string profileSlicesOf(const apply::Comparison& c) {
+  fmt::memory_buffer out;
+  auto put = std::back_inserter(out);
+  fmt::format_to(put,
+                 "# emcalign compare: the profiles per theta_EMC slice; index k < {0}: y_phi of slice k, index {0} + "
+                 "k: y_theta of slice k (columns: phi_EMC centre [deg], data, data error, MC, MC error [deg])\n",
+                 c.options.profileThetaBins);
+  for (std::size_t k = 2; k < 4; ++k) {
+    for (int j = 0; j < c.options.profileThetaBins; ++j) {
+      bool any = false;
+      for (const auto& b : c.distributions[k].bins) {
+        const int bin = static_cast<int>(b.low);
+        if (bin % c.options.profileThetaBins != j) continue;
+        const double phi = (bin / c.options.profileThetaBins + 0.5) * 360.0 / c.options.profilePhiBins;
+        fmt::format_to(put, "{:.4g} {:.6g} {:.4g} {:.6g} {:.4g}\n", phi, b.data, b.dataError, b.mc, b.mcError);
+        any = true;
+      }
+      if (!any) fmt::format_to(put, "NaN NaN NaN NaN NaN\n");
+      fmt::format_to(put, "\n\n");
+    }
+  }
+  return fmt::to_string(out);
+}
+
+std::string profileSlicesScript(const apply::Comparison& c, const std::string& dataLabel, const std::string& mcLabel) {
+  const int slices = c.options.profileThetaBins;
+  const calib::ProfileOptions profile;
+  const double width = (profile.thetaMax - profile.thetaMin) / units::deg / slices;
+  std::string s = terminalHeader("compare_profiles", 2000, 1500);
+  s += "data = 'compare_profiles.dat'\n";
+  s += fmt::format(
+      "set multiplot layout 4,{} title \"MC against data per θ_{{EMC}} slice: the profiles ȳ_φ (rows 1-2) and ȳ_θ "
+      "(rows 3-4) against φ_{{EMC}}; {} filled, {} open\" font ',15'\n",
+      (slices + 1) / 2, literalText(dataLabel), literalText(mcLabel));
+  s += "set grid lc rgb '#e0e0e0' lt 1\nset tics front font ',9'\nset xrange [0:360]; set xtics 0,90,360\n"
+       "set key top right font ',8' samplen 1\n";
+  for (int k = 0; k < 2 * slices; ++k) {
+    const int j = k % slices;
+    const double lo = profile.thetaMin / units::deg + j * width;
+    s += fmt::format(
+        "set title \"{} at θ_{{EMC}} {:g}-{:g}°\" font ',10'\nset ylabel '{} [deg]' font ',9'\n{}"
+        "plot data index {} using 1:2:3 with yerrorbars pt 7 ps 0.5 lc rgb '#1f77b4' title '{}', \\\n"
+        "     data index {} using 1:4:5 with yerrorbars pt 6 ps 0.7 lc rgb '#d62728' title '{}'\n",
+        k < slices ? "ȳ_φ" : "ȳ_θ", lo, lo + width, k < slices ? "ȳ_φ" : "ȳ_θ", k == 0 ? "" : "unset key\n", k,
+        k == 0 ? literalText(dataLabel) : "", k, k == 0 ? literalText(mcLabel) : "");
+  }
+  return s + "unset multiplot\n";
+}
+
 }  // namespace
 
 Result<std::string> writeComparePlot(const std::string& dir, const apply::Comparison& comparison,
@@ -132,7 +183,9 @@ Result<std::string> writeComparePlot(const std::string& dir, const apply::Compar
   const fs::path out(dir);
   if (Status s = createPlotDirectory(out); !s) return s.error();
   if (Status s = writeFile(out, "compare.dat", dataOf(comparison)); !s) return s.error();
-  auto pngs = drawFigures(out, {{"compare", scriptOf(comparison, dataLabel, mcLabel)}});
+  if (Status s = writeFile(out, "compare_profiles.dat", profileSlicesOf(comparison)); !s) return s.error();
+  auto pngs = drawFigures(out, {{"compare", scriptOf(comparison, dataLabel, mcLabel)},
+                                {"compare_profiles", profileSlicesScript(comparison, dataLabel, mcLabel)}});
   if (!pngs) return pngs.error();
   return pngs->front();
 }

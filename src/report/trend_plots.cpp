@@ -164,10 +164,10 @@ Result<std::vector<std::string>> writeTrendPlots(const std::string& dir, const s
     std::string s = terminalHeader("trend_all", 1400, 330 * rows) + common();
     s += "set xlabel ''\nset format x '%.0f'\nset tics font ',10'\n";
     s += fmt::format(
-        "set multiplot layout {},{} title \"{}: every parameter against run\\n{{/*0.7 points: IOVs with their "
-        "errors; grey steps: the truth; green: segments; orange dashed: a drift (two constants: a step that fits as "
-        "well); red dotted: inconsistent (χ²); red "
-        "dashed verticals: steps; grey dotted: known boundaries}}\" font ',15'\n",
+        "set multiplot layout {},{} title \"{}: every parameter against run\\n{{/*0.65 points: the IOVs with their "
+        "errors; grey: the truth; green: segments; orange dashed: a drift (or a step's two constants)}}\\n"
+        "{{/*0.65 red dotted: inconsistent with its model (χ²); red dashed verticals: steps; grey dotted: known "
+        "boundaries}}\" font ',15'\n",
         rows, columns, literalText(title));
     for (std::size_t k = 0; k < figures.size(); ++k) s += panel(figures[k], false, 10);
     s += "unset multiplot\n";

@@ -404,6 +404,8 @@ std::optional<StepAlternative> stepAlternative(const TrendSeries& s, const Segme
       alt.chi2Line = seg.line.chi2;
       alt.nearFirstRun = s.points[transition ? i - 2 : i - 1].firstRun;
       alt.nearLastRun = s.points[i].lastRun;
+      alt.index = i;
+      alt.transition = transition;
       if (transition) {
         const TrendPoint& tp = s.points[i - 1];
         const double fraction = std::clamp((tp.value - after.a) / (before.a - after.a), 0.0, 1.0);
@@ -689,13 +691,61 @@ Trend analyseTrend(const std::vector<TrendSeries>& series, const TrendOptions& o
     t.series.push_back(analyseSeries(s, o, penalty, transition));
   }
   t.edges = findEdges(series, t.series, o);
-  for (const auto& a : t.series) {
-    for (const auto& seg : a.segments) t.tests += seg.isLine() && seg.line.varB > 0.0 ? 1 : 0;
-  }
-  t.drifts = flagDrifts(series, t.series, t.tests, o, t.transitionPenalty);
   std::vector<TrendStep> atKnown;
-  for (std::size_t k = 0; k < series.size(); ++k) {
-    for (auto& step : findSteps(series[k], t.series[k], o, atKnown)) t.steps.push_back(std::move(step));
+  const auto driftsAndSteps = [&] {
+    t.tests = 0;
+    for (const auto& a : t.series) {
+      for (const auto& seg : a.segments) t.tests += seg.isLine() && seg.line.varB > 0.0 ? 1 : 0;
+    }
+    t.drifts = flagDrifts(series, t.series, t.tests, o, t.transitionPenalty);
+    atKnown.clear();
+    t.steps.clear();
+    for (std::size_t k = 0; k < series.size(); ++k) {
+      for (auto& step : findSteps(series[k], t.series[k], o, atKnown)) t.steps.push_back(std::move(step));
+    }
+  };
+  driftsAndSteps();
+  // A drift that a step fits better, where other parameters step (the same change of the
+  // detector), is that step: its segment is cut there and everything found again.
+  struct Promoted {
+    std::string parameter;
+    StepAlternative step;
+  };
+  std::vector<Promoted> promoted;
+  for (const TrendDrift& d : t.drifts) {
+    if (!d.orStep || !d.orStep->preferred()) continue;
+    const bool elsewhere = std::any_of(t.steps.begin(), t.steps.end(), [&](const TrendStep& st) {
+      return st.parameter != d.parameter && st.firstRunAfter >= d.orStep->nearFirstRun &&
+             st.firstRunAfter <= d.orStep->nearLastRun;
+    });
+    if (!elsewhere) continue;
+    for (std::size_t k = 0; k < series.size(); ++k) {
+      if (series[k].parameter != d.parameter) continue;
+      SeriesAnalysis& a = t.series[k];
+      for (std::size_t j = 0; j < a.segments.size(); ++j) {
+        const SegmentTest seg = a.segments[j];
+        if (!seg.drift || series[k].points[seg.begin].firstRun != d.firstRun) continue;
+        const StepAlternative& alt = *d.orStep;
+        const std::size_t firstEnd = alt.transition ? alt.index - 1 : alt.index;
+        a.segments[j] = fitSegment(series[k], seg.begin, firstEnd, a.errorScale);
+        a.segments.insert(a.segments.begin() + static_cast<std::ptrdiff_t>(j) + 1,
+                          fitSegment(series[k], alt.index, seg.end, a.errorScale));
+        a.changes.insert(a.changes.begin() + static_cast<std::ptrdiff_t>(j), Change{alt.index, alt.transition});
+        promoted.push_back({d.parameter, alt});
+        break;
+      }
+    }
+  }
+  if (!promoted.empty()) {
+    driftsAndSteps();
+    for (auto& st : t.steps) {
+      for (const auto& p : promoted) {
+        if (st.parameter == p.parameter && st.firstRunAfter >= p.step.nearFirstRun &&
+            st.firstRunAfter <= p.step.nearLastRun) {
+          st.insteadOfDrift = std::pair{p.step.chi2Step, p.step.chi2Line};
+        }
+      }
+    }
   }
   t.inconsistencies = testSegments(t, series, t.consistencyTests);
   t.boundaries = summariseBoundaries(t, atKnown);
@@ -717,7 +767,10 @@ Json trendJson(const Trend& t, const std::vector<TrendSeries>& series) {
                      {"error", s.error},
                      {"z", s.z()},
                      {"unit", s.unit},
-                     {"within_iov", s.withinIov ? Json::array({s.withinIov->first, s.withinIov->second}) : Json()}});
+                     {"within_iov", s.withinIov ? Json::array({s.withinIov->first, s.withinIov->second}) : Json()},
+                     {"instead_of_drift", s.insteadOfDrift ? Json{{"chi2_step", s.insteadOfDrift->first},
+                                                                  {"chi2_drift", s.insteadOfDrift->second}}
+                                                           : Json()}});
   }
   for (const auto& d : t.drifts) {
     drifts.push_back(
@@ -909,7 +962,7 @@ std::string edgesSentence(const Trend& t) {
   for (const auto& e : t.edges) items.push_back(edgeText(e));
   return fmt::format(
       " An IOV at an end of the tag departs from the ones beside it: {}. A change seen in one IOV only: a step "
-      "or an outlier, which the next runs' calibrations will tell apart (not a drift).",
+      "or an outlier, or the start of a drift, which the next runs' calibrations will tell apart.",
       fmt::join(items, "; "));
 }
 
@@ -989,6 +1042,10 @@ std::string stepsSection(const Trend& t, const std::vector<TrendSeries>& series,
                         : s.withinIov ? fmt::format("≈ {}", s.firstRunAfter)
                                       : fmt::format("{}", s.firstRunAfter);
     if (s.withinIov) where += fmt::format(" (inside IOV {}-{})", s.withinIov->first, s.withinIov->second);
+    if (s.insteadOfDrift) {
+      where += fmt::format(" (a drift fits worse: χ² {:.1f} against {:.1f}; other parameters step here)",
+                           s.insteadOfDrift->second, s.insteadOfDrift->first);
+    }
     std::string truthCell;
     if (truth) {
       const TrendSeries* ser = seriesNamed(series, s.parameter);

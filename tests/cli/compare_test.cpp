@@ -1,6 +1,7 @@
 // emcalign compare: data against simulation (SPEC §12): a twin simulation agrees, a nominal
 // detector does not, and the outputs are those the interface names.
 
+#include <algorithm>
 #include <filesystem>
 #include <string>
 
@@ -54,6 +55,10 @@ TEST_F(CompareCli, ATwinAgreesANominalDetectorDoesNot) {
   }
   EXPECT_EQ(names, (std::vector<std::string>{"dphi", "dtheta", "profile_phi", "profile_theta"}));
   EXPECT_GT(fs::file_size(path("twin/compare.png")), 20000u);
+  // The profiles per theta slice, data and MC side by side: ten slices of each profile.
+  EXPECT_GT(fs::file_size(path("twin/compare_profiles.png")), 50000u);
+  const std::string slices = emcalign::testing::slurp(path("twin/compare_profiles.dat"));
+  EXPECT_GT(std::count(slices.begin(), slices.end(), '\n'), 300);
   EXPECT_THAT(emcalign::testing::slurp(path("twin/compare.md")), HasSubstr("within the statistical errors of both"));
   r = run(fmt::format("compare --data {} --mc {} -o {}", path("data.h5"), path("nominal.h5"), path("nominal")));
   ASSERT_EQ(r.exitCode, 0) << r.err;

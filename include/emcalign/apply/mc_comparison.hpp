@@ -27,6 +27,7 @@
 
 #include <cstdint>
 #include <limits>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -98,6 +99,14 @@ Result<std::vector<ComparedParticle>> comparedParticlesOf(const std::vector<std:
                                                           const calib::SelectionOptions& selection,
                                                           const ComparisonOptions& options = {},
                                                           std::int64_t* selectedEvents = nullptr);
+
+/// As comparedParticlesOf, from rows in memory (checked as a file's rows; `source` names them).
+Result<std::vector<ComparedParticle>> comparedParticlesOfRows(std::span<const ParticleRow> rows,
+                                                              const std::string& source,
+                                                              const geometry::ShowerDepth& depth,
+                                                              const calib::SelectionOptions& selection,
+                                                              const ComparisonOptions& options = {},
+                                                              std::int64_t* selectedEvents = nullptr);
 
 /// compare.json (SPEC §12): {"format", "p_value", "chi2", "ndf", "distributions": [{"name",
 /// "chi2", "ndf", "p_value", "bins": [...]}], "data", "mc", "options"}.

@@ -67,6 +67,12 @@ Result<ProfileFill> fillProfiles(const std::vector<std::string>& files, const ge
                                  const SelectionOptions& selection, const ProfileOptions& profile = {},
                                  const ParticleVisitor& visit = {});
 
+/// As fillProfiles, from rows in memory (whole events, each event's rows together), checked
+/// first by the rules of the event files (io::checkRowsInMemory; `source` names them).
+Result<ProfileFill> fillProfilesOfRows(std::span<const ParticleRow> rows, const std::string& source,
+                                       const geometry::ShowerDepth& depth, const SelectionOptions& selection,
+                                       const ProfileOptions& profile = {}, const ParticleVisitor& visit = {});
+
 /// The profiles of each run of a file (rows of one run contiguous or not), for a campaign
 /// that groups runs: run → its fill. A run's residuals are built at the depth of the beam
 /// energy of its first row (the selection's when it overrides the files'); an error of

@@ -14,6 +14,7 @@
 // column) needs the same corrections again for the depth offset, and one written without
 // cannot take them; a grid of corrections needs the beam energy, which a profile does not say.
 
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -32,7 +33,10 @@ namespace emcalign::calib {
 
 struct FitRequest {
   std::vector<std::string> events;  ///< event files (SPEC §6), or
-  std::string profileIn;            ///< a saved profile (profileCsv), not both
+  std::string profileIn;            ///< a saved profile (profileCsv), or
+  /// rows in memory (the Python module's numpy columns), checked as a file's; one of the three
+  std::shared_ptr<const std::vector<ParticleRow>> rows;
+  std::string rowsName = "events";  ///< the rows' name in messages and in the result's input
   /// The detector as the result file names it: a description's path, or "embedded default".
   std::string detectorName = "embedded default";
   double depthOffset = 0.0;                ///< added to R(E, θ), native length; corrections bring their own
@@ -42,7 +46,7 @@ struct FitRequest {
   /// The text of the choice for messages ("auto", "0.15"): how the user spelled it.
   std::string sigmaSysText;
 
-  /// Events or a profile (one of them), a positive beam energy, a valid σ_sys.
+  /// Events, rows or a profile (one of them), a positive beam energy, a valid σ_sys.
   Status validate() const;
 };
 

@@ -68,7 +68,8 @@ class TagAlignments {
   Result<std::shared_ptr<const geometry::AlignmentTransform>> transformOf(std::int64_t run);
   Result<geometry::AlignmentParameters> parametersOf(std::int64_t run);
   /// The distinct (model, depth offset in cm) of the tag's IOVs whose payloads record their
-  /// fit's model corrections (AlignmentSource::fittedDepths).
+  /// fit's model corrections (AlignmentSource::fittedDepths): of the IOVs used so far, or of
+  /// all before any is.
   Result<std::vector<std::pair<std::string, double>>> fittedDepths();
   /// The IOVs used so far.
   [[nodiscard]] int used() const { return static_cast<int>(transforms_.size()); }

@@ -139,6 +139,13 @@ struct ReaderOptions {
   bool hits = true;
 };
 
+/// The rules above for rows that never were a file (the Python module's numpy columns, an
+/// experiment's ntuple): each row's values, the rows of an event contiguous with one beam
+/// energy and muon veto, at most 1000 of them, each event once. The error names `source`, the
+/// row (0-based), its run and event and the column: "events: row 12 (run 1, event 7): column
+/// 'theta_emc_rad': …".
+Status checkRowsInMemory(std::span<const ParticleRow> rows, const std::string& source);
+
 /// The beam energy of the first event of the files (MeV): what a sample of one energy is at,
 /// before it is read (a corrections grid interpolates to it). Fails when there is no event.
 Result<double> firstBeamEnergy(const std::vector<std::string>& paths);

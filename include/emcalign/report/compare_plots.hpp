@@ -12,7 +12,8 @@
 
 namespace emcalign::report {
 
-/// Writes compare.png (with its data and script) into `dir` (created if missing); its path.
+/// Writes compare.png and compare_profiles.png (the profiles per θ slice, data and MC; each
+/// with its data and script) into `dir` (created if missing); compare.png's path.
 Result<std::string> writeComparePlot(const std::string& dir, const apply::Comparison& comparison,
                                      const std::string& dataLabel = "data", const std::string& mcLabel = "MC");
 

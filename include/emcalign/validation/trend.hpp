@@ -31,7 +31,10 @@
 // not bend the size.
 // Drifts. In every segment of at least kMinLinePoints points, the fitted slope against zero:
 // flagged when its two-sided p-value times the number of segments tested (all parameters) is
-// below 0.01 (Bonferroni).
+// below 0.01 (Bonferroni). A flagged drift is also fitted with the best single step inside it;
+// a step within a change's penalty of the line is reported beside the drift ("cannot tell"),
+// and one that fits better where other parameters step (the same reassembly) replaces it: the
+// segment is cut there and the step reported as a step.
 // What the method cannot resolve is said, never taken for "no step". Every segment's model
 // (its constant, or its line where the slope is significant) is tested by its χ²: a segment
 // it rejects (p-value × segments tested < 0.01) is reported as inconsistent — in a series too
@@ -123,6 +126,9 @@ struct TrendStep {
   double size = 0.0, error = 0.0;  ///< after − before, at the boundary
   /// The IOV that straddles the step (a transition), if any.
   std::optional<std::pair<std::int64_t, std::int64_t>> withinIov;
+  /// A step found as a drift's better fit where other parameters step too (the same change of
+  /// the detector): the χ² of the step's constants and of the drift's line it replaced.
+  std::optional<std::pair<double, double>> insteadOfDrift;
   double z() const { return error > 0.0 ? size / error : 0.0; }
 };
 
@@ -135,6 +141,8 @@ struct StepAlternative {
   double chi2Step = 0.0, chi2Line = 0.0;  ///< of the step's two constants, of the drift's line
   /// The runs of the IOVs on either side of it: a step of another parameter there is the same change.
   std::int64_t nearFirstRun = 0, nearLastRun = 0;
+  std::size_t index = 0;                                  ///< the first point after it
+  bool transition = false;                                ///< point index − 1 set aside (it straddles the step)
   bool preferred() const { return chi2Step < chi2Line; }  ///< the step fits better than the drift
 };
 
@@ -220,10 +228,11 @@ struct TrendSegment {
   /// Whether the trend could locate a step at all (Trend::resolvable): a period of a trend
   /// too short for that is never called stable (nothing was tested but one value).
   bool resolvable = true;
-  /// Neither a transition nor an edge, nothing inside it drifting or inconsistent, and a
-  /// trend long enough to have looked for steps.
+  /// Neither a transition nor an edge, nothing inside it drifting or inconsistent, a trend
+  /// long enough to have looked for steps, and two IOVs at least (one tests nothing).
   bool stable() const {
-    return resolvable && !transition && departing.empty() && drifting.empty() && inconsistent.empty();
+    return resolvable && end - begin >= 2 && !transition && departing.empty() && drifting.empty() &&
+           inconsistent.empty();
   }
 };
 

@@ -127,7 +127,9 @@ void addCompareCommand(CLI::App& app, int& exitCode) {
   cmd->add_option("--corrections", o->corrections, "take the shower-depth offset from a corrections file")
       ->check(CLI::ExistingFile);
   addDetectorOption(*cmd, o->detector);
-  cmd->add_option("-o,--output", o->output, "output directory: compare.json, compare.md, compare.png, compare_profiles.png")->required();
+  cmd->add_option("-o,--output", o->output,
+                  "output directory: compare.json, compare.md, compare.png, compare_profiles.png")
+      ->required();
   cmd->callback([o, &exitCode] { exitCode = run(*o); });
 }
 

@@ -6,9 +6,16 @@
 
 #include "emcalign/core/units.hpp"
 #include "emcalign/geometry/alignment_parameters.hpp"
+#include "emcalign/geometry/detector.hpp"
 #include "emcalign/geometry/track.hpp"
 
 namespace emcalign::geometry::testing {
+
+/// The embedded SND-like detector, made once for all the tests of a program.
+inline const Calorimeter& sndCalorimeter() {
+  static const Calorimeter calo = *Calorimeter::create(DetectorDescription::sndDefault());
+  return calo;
+}
 
 /// A random, realistic-to-large parameter set: angles of a few degrees, shifts up to 1 cm,
 /// gaps in [−0.5, 1] cm (so both overlaps and the layer-3 rule occur).

@@ -12,10 +12,7 @@
 namespace emcalign::geometry {
 namespace {
 
-const Calorimeter& snd() {
-  static const Calorimeter calo = *Calorimeter::create(DetectorDescription::sndDefault());
-  return calo;
-}
+const Calorimeter& snd() { return testing::sndCalorimeter(); }
 
 AlignmentTransform transformOf(const AlignmentParameters& eta) {
   return *AlignmentTransform::create(eta, AlignmentRadii::of(snd().description()));

@@ -9,6 +9,8 @@
 
 #include <gtest/gtest.h>
 
+#include "test_support.hpp"
+
 #include "emcalign/core/units.hpp"
 #include "emcalign/geometry/residual_model.hpp"
 #include "emcalign/sim/simulation.hpp"
@@ -21,10 +23,7 @@ using geometry::Calorimeter;
 using geometry::DetectorDescription;
 using units::deg;
 
-const Calorimeter& calorimeter() {
-  static const Calorimeter calo = *Calorimeter::create(DetectorDescription::sndDefault());
-  return calo;
-}
+const Calorimeter& calorimeter() { return geometry::testing::sndCalorimeter(); }
 
 // Half-width of the central 68.3% of the values: a Gaussian σ robust to tails.
 double robustSigma(std::vector<double> v) {

@@ -13,6 +13,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "test_support.hpp"
+
 #include "emcalign/core/units.hpp"
 
 namespace emcalign::sim {
@@ -24,10 +26,7 @@ using geometry::DetectorDescription;
 using geometry::TrackLine;
 using units::deg;
 
-const Calorimeter& calorimeter() {
-  static const Calorimeter calo = *Calorimeter::create(DetectorDescription::sndDefault());
-  return calo;
-}
+const Calorimeter& calorimeter() { return geometry::testing::sndCalorimeter(); }
 
 const CounterGeometry& nominal() {
   static const CounterGeometry g = CounterGeometry::nominal(calorimeter());

@@ -9,6 +9,8 @@
 
 #include <gtest/gtest.h>
 
+#include "test_support.hpp"
+
 #include "emcalign/core/units.hpp"
 #include "emcalign/sim/simulation.hpp"
 
@@ -20,10 +22,7 @@ using geometry::Calorimeter;
 using geometry::DetectorDescription;
 using units::deg;
 
-const Calorimeter& calorimeter() {
-  static const Calorimeter calo = *Calorimeter::create(DetectorDescription::sndDefault());
-  return calo;
-}
+const Calorimeter& calorimeter() { return geometry::testing::sndCalorimeter(); }
 
 struct BackgroundPhotons {
   double count = 0.0;      // photon rows made by the background alone (truth pdg 0)

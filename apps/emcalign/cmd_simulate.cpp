@@ -38,7 +38,8 @@ struct SimulateOptions {
   std::string period;                // a whole period (validation/period.hpp) into the directory -o
   std::optional<double> beamEnergy;  // none: the process default
   std::string detector;
-  std::string deadCounters;      // empty: default list; "none": no dead counters
+  std::string deadCounters;  // empty: default list; "none": no dead counters
+  bool deadCountersGiven = false;
   std::string backgroundEvents;  // a random-trigger file merged instead of the Poisson background
   io::Compression compression = io::Compression::Lz4;
   int threads = 0;
@@ -117,12 +118,19 @@ Status loadBackground(const SimulateOptions& cli, const geometry::Calorimeter& c
 Status realism(const SimulateOptions& cli, sim::SimulationOptions& o) {
   if (Status s = applyRealismSwitches(o, cli.ideal, cli.off); !s) return s;
   if (cli.pointShowers) o.emc.pointShowers = true;
+  if (cli.deadCountersGiven && cli.deadCounters.empty()) {
+    return Error{"--dead-counters: empty: give counter indices, @FILE, or 'none'"};
+  }
   if (!cli.deadCounters.empty()) {
     if (cli.deadCounters == "none") {
       o.emc.deadCounters.clear();
     } else {
       auto list = deadCounterList(cli.deadCounters);
       if (!list) return list.error();
+      if (list->empty()) {
+        reportWarning(
+            fmt::format("--dead-counters {}: lists no counter: the simulation has no dead counter", cli.deadCounters));
+      }
       o.emc.deadCounters = *list;
     }
   }
@@ -330,6 +338,7 @@ void addSimulateCommand(CLI::App& app, int& exitCode) {
                   "output file: .csv for CSV, anything else HDF5 (with truth); '-' writes CSV to standard output")
       ->required();
   cmd->callback([o, cmd, &exitCode] {
+    o->deadCountersGiven = cmd->count("--dead-counters") > 0;
     if (!o->period.empty()) {
       for (const char* single : {"--params", "--conditions", "--run", "--beam-energy", "--theta-min", "--theta-max",
                                  "--seed", "--process"}) {
@@ -350,6 +359,12 @@ void addSimulateCommand(CLI::App& app, int& exitCode) {
         }
       }
       if (cmd->count("--events") == 0) throw CLI::RequiredError("--events");
+      if (o->events < 1) throw CLI::ValidationError("--events", "a random-trigger file needs at least one event");
+      const bool noBackground = std::find(o->off.begin(), o->off.end(), "background") != o->off.end();
+      if (o->ideal || noBackground) {
+        throw CLI::ValidationError(o->ideal ? "--ideal" : "--off background",
+                                   "switches the beam background off: a random trigger would record nothing");
+      }
       exitCode = runRandomTrigger(*o);
       return;
     }

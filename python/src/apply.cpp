@@ -127,7 +127,12 @@ std::vector<apply::ComparedParticle> comparedOf(const py::object& sample, const 
                                                 const calib::SelectionOptions& selection,
                                                 const apply::ComparisonOptions& options) {
   if (py::isinstance<py::dict>(sample)) {
-    const std::vector<ParticleRow> rows = rowsOf(sample.cast<py::dict>());
+    std::vector<ParticleRow> rows;
+    try {
+      rows = rowsOf(sample.cast<py::dict>());
+    } catch (py::error_already_set& e) {  // said of the argument it is in
+      raise(Error{fmt::format("{}: {}", name, py::str(e.value()).cast<std::string>())});
+    }
     Result<std::vector<apply::ComparedParticle>> particles = Error{""};
     {
       py::gil_scoped_release release;  // (an error is raised below, with the GIL held)
@@ -135,7 +140,7 @@ std::vector<apply::ComparedParticle> comparedOf(const py::object& sample, const 
     }
     return unwrap(std::move(particles));
   }
-  const std::vector<std::string> files = stringsOf(sample.cast<Paths>());
+  const std::vector<std::string> files = stringsOf(pathsOf(sample, name));
   Result<std::vector<apply::ComparedParticle>> particles = Error{""};
   {
     py::gil_scoped_release release;
@@ -150,7 +155,7 @@ py::object compareSamples(const py::object& data, const py::object& mc, const De
                           const std::optional<Path>& corrections) {
   const Detector& detector = detectorOr(given);
   if (!py::isinstance<py::dict>(data) && !py::isinstance<py::dict>(mc) &&
-      stringsOf(data.cast<Paths>()) == stringsOf(mc.cast<Paths>())) {
+      stringsOf(pathsOf(data, "data")) == stringsOf(pathsOf(mc, "mc"))) {
     raise(Error{"compare: data and mc are the same files: a comparison of a sample with itself"});
   }
   geometry::ShowerDepth depth = geometry::ShowerDepth::of(detector.calorimeter().description());

@@ -46,6 +46,15 @@ Array arrayOf(const geometry::ParamVector& v) {
   return out;
 }
 
+Paths pathsOf(const py::object& object, const char* name) {
+  try {
+    return object.cast<Paths>();
+  } catch (const py::cast_error&) {
+    raise(Error{fmt::format("{}: event files (a path, or a list of paths) or a dict of event columns, not {}", name,
+                            py::str(py::type::of(object).attr("__name__")).cast<std::string>())});
+  }
+}
+
 py::object pythonOf(const io::Json& j) { return py::module_::import("json").attr("loads")(j.dump()); }
 
 namespace {

@@ -35,6 +35,9 @@ using Paths = std::variant<Path, std::vector<Path>>;
 /// several (at least one).
 std::string pathString(const Path& path);
 std::vector<std::string> stringsOf(const Paths& paths);
+/// `object` as event files (a path or a list of paths); anything else raises emcalign.Error
+/// naming the argument `name` and what it takes.
+Paths pathsOf(const py::object& object, const char* name);
 
 /// Raises `emcalign.Error` with the error's message (the exception made in the module init).
 [[noreturn]] void raise(const Error& e);

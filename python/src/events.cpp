@@ -81,8 +81,13 @@ std::vector<std::int64_t> integerColumnOf(const py::dict& events, const char* ke
     const auto d = Array::ensure(a);
     for (std::size_t i = 0; i < n; ++i) {
       const double v = d.data()[i];
-      if (!(std::isfinite(v) && v == std::floor(v) && v >= static_cast<double>(lo) && v <= static_cast<double>(hi) &&
-            std::abs(v) < 9007199254740992.0)) {
+      if (std::isfinite(v) && std::abs(v) >= 9007199254740992.0) {
+        raise(
+            Error{fmt::format("events: row {}: {} {} is a float beyond 2^53, where floats hold no exact integer: "
+                              "give the column as integers (int64)",
+                              i, key, v)});
+      }
+      if (!(std::isfinite(v) && v == std::floor(v) && v >= static_cast<double>(lo) && v <= static_cast<double>(hi))) {
         raise(Error{fmt::format("events: row {}: {} {} is not an integer in [{}, {}]", i, key, v, lo, hi)});
       }
       out[i] = static_cast<std::int64_t>(v);

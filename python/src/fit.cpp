@@ -58,7 +58,7 @@ Fit fit(const py::object& paths, const Detector* given, const py::object& sigmaS
   if (py::isinstance<py::dict>(paths)) {
     request.rows = std::make_shared<const std::vector<ParticleRow>>(rowsOf(paths.cast<py::dict>()));
   } else if (!paths.is_none()) {
-    request.events = stringsOf(paths.cast<Paths>());
+    request.events = stringsOf(pathsOf(paths, "paths"));
   }
   if (profile) request.profileIn = pathString(*profile);
   if ((request.events.empty() && !request.rows) == request.profileIn.empty()) {

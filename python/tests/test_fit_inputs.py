@@ -141,3 +141,9 @@ def test_fit_and_compare_take_the_columns_of_an_ntuple(tmp_path, fit_sample):
     assert json.loads((cli_out / "compare.json").read_text())["chi2"] == pytest.approx(by_files["chi2"], rel=1e-12)
     with pytest.raises(emcalign.Error, match="the same files"):
         emcalign.compare(str(fit_sample), str(fit_sample))
+    # the same events however given (a dict, a copy of it, the file): refused, not p = 1
+    for data, same in ((ntuple, dict(ntuple)), (str(fit_sample), ntuple)):
+        with pytest.raises(emcalign.Error, match="the same particles: a comparison of a sample with itself"):
+            emcalign.compare(data, same)
+    with pytest.raises(emcalign.Error, match="mc: event files .* or a dict of event columns, not NoneType"):
+        emcalign.compare(ntuple, None)

@@ -49,6 +49,10 @@ Result<CounterOccupancy> countCounterHits(const std::vector<std::string>& paths,
       ++out.hits[static_cast<std::size_t>(h.counter)];
     }
   }
+  if (out.events == 0 || out.clusterRows == 0) {
+    return Error{fmt::format("{}: no cluster in the events: no counter can be told dead or alive",
+                             paths.size() == 1 ? paths.front() : paths.front() + " …")};
+  }
   return out;
 }
 
@@ -100,10 +104,11 @@ Result<std::vector<int>> parseCounterList(const std::string& text, const std::st
   while (from < text.size()) {
     std::size_t end = text.find('\n', from);
     if (end == std::string::npos) end = text.size();
-    const std::string_view line(text.data() + from, end - from);
+    std::string_view line(text.data() + from, end - from);
     from = end + 1;
     ++lineNumber;
     if (io::isBlankOrComment(line)) continue;
+    line = line.substr(0, line.find('#'));  // a comment after the counters
     std::size_t at = 0;
     while (at < line.size()) {
       const std::size_t stop = line.find_first_of(", \t\r", at);
@@ -123,6 +128,8 @@ Result<std::vector<int>> parseCounterList(const std::string& text, const std::st
       out.push_back(v);
     }
   }
+  std::sort(out.begin(), out.end());  // a counter listed twice is one dead counter
+  out.erase(std::unique(out.begin(), out.end()), out.end());
   return out;
 }
 

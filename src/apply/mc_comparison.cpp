@@ -168,6 +168,14 @@ Status checkOptions(const ComparisonOptions& o) {
 Result<Comparison> compareParticles(const std::vector<ComparedParticle>& data, const std::vector<ComparedParticle>& mc,
                                     const ComparisonOptions& given) {
   if (Status s = checkOptions(given); !s) return s.error();
+  // The same particles on both sides (a sample, a copy of it, the same events read twice): its
+  // χ² would be 0 and its p-value 1, whatever the simulation.
+  const auto same = [](const ComparedParticle& a, const ComparedParticle& b) {
+    return a.event == b.event && a.bin == b.bin && a.yPhi == b.yPhi && a.yTheta == b.yTheta;
+  };
+  if (!data.empty() && data.size() == mc.size() && std::equal(data.begin(), data.end(), mc.begin(), same)) {
+    return Error{"the data and the MC are the same particles: a comparison of a sample with itself"};
+  }
   ComparisonOptions o = given;
   if (!data.empty()) {
     double phi = 0.0, theta = 0.0;

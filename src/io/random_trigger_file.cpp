@@ -30,7 +30,9 @@ constexpr hsize_t kChunk = 16384;
 // A CSV file of the largest allowed size: 40 M hits of ~25 characters.
 constexpr std::size_t kMaxCsvBytes = std::size_t{1} << 30;
 
-bool isCsv(const std::string& path) { return path.size() >= 4 && path.compare(path.size() - 4, 4, ".csv") == 0; }
+bool isCsv(const std::string& path) {
+  return path == "-" || (path.size() >= 4 && path.compare(path.size() - 4, 4, ".csv") == 0);
+}
 
 // ------------------------------------------------------------------------------- writing
 
@@ -267,6 +269,8 @@ Result<std::string> readHdf5Columns(const std::string& path) {
   }
   Hid file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
   if (!file.valid()) return Error{fmt::format("{}: cannot open the HDF5 file: {}", path, detail::hdf5Reason())};
+  const bool hasFormat = H5Aexists(file.get(), "format") > 0;
+  H5Eclear2(H5E_DEFAULT);
   const auto format = stringAttribute(file.get(), "format");
   if (!format || *format != kRandomTriggerFormat) {
     const bool eventFile = H5Lexists(file.get(), "/events", H5P_DEFAULT) > 0;
@@ -276,7 +280,11 @@ Result<std::string> readHdf5Columns(const std::string& path) {
     return Error{
         fmt::format("{}: not a random-trigger file: its root attribute 'format' is {}, not '{}' "
                     "(docs/simulation.md, \"Recorded beam background\")",
-                    path, format ? io::quoted(*format) : std::string("missing"), kRandomTriggerFormat)};
+                    path,
+                    format      ? io::quoted(*format)
+                    : hasFormat ? std::string("not a string")
+                                : std::string("missing"),
+                    kRandomTriggerFormat)};
   }
   Columns c;
   const std::string g = std::string("/") + kGroup + "/";
@@ -308,6 +316,7 @@ Result<Columns> readCsvColumns(const std::string& path) {
   if (!text) return text.error();
   Columns c;
   std::string_view rest = *text;
+  if (rest.starts_with("\xEF\xBB\xBF")) rest.remove_prefix(3);  // a UTF-8 byte-order mark
   std::size_t lineNumber = 0;
   bool header = false;
   bool lastEmpty = false;  // the current event was given as an event without hits
@@ -346,6 +355,9 @@ Result<Columns> readCsvColumns(const std::string& path) {
     if (Status s = integer(fields[1], "event", event); !s) return s.error();
     const bool sameEvent = !c.run.empty() && c.run.back() == run && c.event.back() == event;
     const bool noHit = fields[2].empty() && fields[3].empty();
+    if (sameEvent && noHit && lastEmpty) {
+      return Error{at(fmt::format("run {} event {} is given twice without hits", run, event))};
+    }
     if (sameEvent && (noHit || lastEmpty)) {
       return Error{at(fmt::format("run {} event {} is given both without hits and with hits", run, event))};
     }
@@ -412,9 +424,11 @@ Result<RandomTriggerEvents> checked(const std::string& path, const Columns& c, i
         return Error{fmt::format("{}: counter {} does not exist (the detector has counters 0..{})", record(i), counter,
                                  counters - 1)};
       }
-      if (!(std::isfinite(c.energy[k]) && c.energy[k] >= 0.0)) {
+      if (!(std::isfinite(c.energy[k]) && c.energy[k] >= 0.0 && c.energy[k] <= kMaxRandomTriggerEnergyMev)) {
         return Error{
-            fmt::format("{}: counter {}: energy_mev {} is not a finite energy >= 0", record(i), counter, c.energy[k])};
+            fmt::format("{}: counter {}: energy_mev {} is not an energy in [0, {:g}] MeV (a beam-background "
+                        "hit; keV or eV given as MeV?)",
+                        record(i), counter, c.energy[k], kMaxRandomTriggerEnergyMev)};
       }
       auto& last = seen[static_cast<std::size_t>(counter)];
       if (last == static_cast<std::int32_t>(i)) {

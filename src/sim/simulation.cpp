@@ -94,7 +94,7 @@ Status SimulationOptions::validate(int counters) const {
       return Error{"the recorded beam background has more events than the simulation can use"};
     }
     for (const Hit& h : recordedBackground->allHits()) {
-      if (h.counter < 0 || h.counter >= counters || !(h.energy >= 0.0)) {
+      if (h.counter < 0 || h.counter >= counters || !(h.energy >= 0.0 && h.energy <= kMaxRandomTriggerEnergyMev)) {
         return Error{
             fmt::format("the recorded beam background has a hit in counter {} ({} MeV): not a counter of "
                         "this detector (0..{}) or not an energy",

@@ -123,6 +123,11 @@ TEST_F(Simulate, RandomTriggerFilesAndTheirMergeAreTheSameOnAnyThreadCount) {
   EXPECT_NE(err.find("this is an event file (it has /events), not a random-trigger file"), std::string::npos) << err;
   EXPECT_FALSE(fs::exists(out("x.h5")));
   EXPECT_FALSE(fs::exists(out("y.h5")));
+  // A random trigger of nothing (no event, no background) is refused, not written.
+  EXPECT_EQ(run("simulate --process random-trigger --events 0 -o " + out("z.h5"), &err), 2);
+  EXPECT_EQ(run("simulate --process random-trigger --events 10 --ideal -o " + out("z.h5"), &err), 2);
+  EXPECT_NE(err.find("a random trigger would record nothing"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(out("z.h5")));
 }
 
 // Dead counters from data: the counters a simulation left dead are found from its hits (and
@@ -152,6 +157,23 @@ TEST_F(Simulate, DeadCountersAreFoundFromTheDataAndTakenByTheSimulation) {
   const std::string small = bytes(out("small.txt"));
   EXPECT_NE(small.find("# undecided"), std::string::npos) << small;
   EXPECT_EQ(small.substr(small.rfind("@FILE\n")), "@FILE\n\n") << "a dead counter in 300 events";
+  // A hand-written list: comments after the counters, a counter twice; an empty one is said.
+  std::ofstream(out("hand.txt")) << "# from the logbook\n700, 51 # replaced in May\n51\n";
+  ASSERT_EQ(run("simulate --events 10 --dead-counters @" + out("hand.txt") + " --params " + params_ + " -o " +
+                out("hand.h5")),
+            0);
+  auto handReader = emcalign::io::EventReader::open({out("hand.h5")});
+  ASSERT_TRUE(handReader.ok());
+  for (const auto& [k, v] : (*handReader)->attributes()) {
+    if (k == "simulation") EXPECT_EQ(nlohmann::json::parse(v).at("dead_counters"), nlohmann::json::parse("[51,700]"));
+  }
+  std::ofstream(out("none.txt")) << "# nothing dead\n";
+  ASSERT_EQ(
+      run("simulate --events 10 --dead-counters @" + out("none.txt") + " --params " + params_ + " -o " + out("none.h5"),
+          &err),
+      0);
+  EXPECT_NE(err.find("lists no counter"), std::string::npos) << err;
+  EXPECT_EQ(run("simulate --events 10 --dead-counters '' --params " + params_ + " -o " + out("e.h5"), &err), 1);
   // Refused: a file without hits, an event file as the list.
   ASSERT_EQ(run("simulate --events 300 --no-hits --params " + params_ + " -o " + out("nohits.h5")), 0);
   EXPECT_EQ(run("dead-counters " + out("nohits.h5") + " -o " + out("x.txt"), &err), 1);

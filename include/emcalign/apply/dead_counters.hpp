@@ -52,8 +52,8 @@ std::string deadCountersText(const DeadCounters& found, const CounterOccupancy& 
                              const DeadCounterOptions& options, const std::string& sources);
 
 /// The counters of a dead-counter list: comma-, space- or newline-separated indices, '#'
-/// comment lines skipped (what deadCountersText writes, or a hand-written list). `source`
-/// names the input in messages.
+/// comment lines and the rest of a line after '#' skipped (what deadCountersText writes, or a
+/// hand-written list), in ascending order, each once. `source` names the input in messages.
 Result<std::vector<int>> parseCounterList(const std::string& text, const std::string& source);
 
 }  // namespace emcalign::apply

@@ -16,6 +16,9 @@ namespace emcalign {
 /// The most events and hits a set of random-trigger events holds (it is held in memory whole).
 inline constexpr std::size_t kMaxRandomTriggerEvents = 10'000'000;
 inline constexpr std::size_t kMaxRandomTriggerHits = 40'000'000;
+/// The largest energy one counter of a random trigger may read, MeV (twice the largest beam
+/// energy: beyond, a unit mistake, which would overflow the clustering's sums).
+inline constexpr double kMaxRandomTriggerEnergyMev = 10'000.0;
 
 /// Recorded events in order, each with its run and event number and its fired counters
 /// (an event may have none: a quiet trigger is an event too).

@@ -2,7 +2,8 @@
 // Random-trigger files: recorded beam background for the simulation (core/random_trigger.hpp),
 // written by `emcalign simulate --process random-trigger` and converted by users from their
 // experiment's random-trigger runs (docs/simulation.md, "Recorded beam background"). The
-// format is chosen by the name, as for event files: ".csv" is CSV, anything else HDF5.
+// format is chosen by the name, as for event files: ".csv" (and "-", standard output) is CSV,
+// anything else HDF5.
 //
 // HDF5 (root attribute "format" = "emcalign-random-trigger/1", a variable-length string;
 // other string attributes are kept as metadata; datasets 1-D, any layout and filter HDF5 reads):
@@ -18,9 +19,9 @@
 //
 // What every file must satisfy (the reader refuses it naming the file, the event and the
 // field): an event (run, event) appears once; a counter is in [0, counters) of the detector
-// and appears at most once in an event; an energy is finite and ≥ 0; at most kMaxRandomTriggerEvents
-// events and kMaxRandomTriggerHits hits (the whole file is held in memory). HDF5 is read in a child process as
-// event files are (io/event_file.hpp).
+// and appears at most once in an event; an energy is in [0, kMaxRandomTriggerEnergyMev]; at most
+// kMaxRandomTriggerEvents events and kMaxRandomTriggerHits hits (the whole file is held in memory). HDF5 is read in a
+// child process as event files are (io/event_file.hpp).
 
 #include <string>
 #include <utility>

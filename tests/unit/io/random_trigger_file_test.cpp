@@ -74,6 +74,11 @@ TEST_F(RandomTriggerFile, BothFormatsReadBackWhatWasWrittenQuietEventsIncluded) 
     expectSame(sample(), *back);
     EXPECT_TRUE(back->hits(1).empty());
   }
+  // A byte-order mark before the header (a spreadsheet's export) is no obstacle.
+  auto bom =
+      readRandomTriggerFile(write("bom.csv", "\xEF\xBB\xBFrun,event,counter,energy_mev\n3,10,5,4.25\n"), kCounters);
+  ASSERT_TRUE(bom.ok()) << bom.error().message;
+  EXPECT_EQ(bom->size(), 1u);
   // A detector with fewer counters refuses the file naming the counter.
   auto small = readRandomTriggerFile(path("rt.h5"), 1000);
   ASSERT_FALSE(small.ok());
@@ -84,9 +89,11 @@ TEST_F(RandomTriggerFile, CsvRulesNameTheEventAndTheField) {
   const std::string head = "run,event,counter,energy_mev\n";
   const std::vector<std::pair<std::string, std::string>> cases = {
       {head + "1,1,5,2.0\n1,1,5,3.0\n", "run 1 event 1: counter 5 appears twice in the event"},
-      {head + "1,1,5,-2.0\n", "run 1 event 1: counter 5: energy_mev -2 is not a finite energy >= 0"},
+      {head + "1,1,5,-2.0\n", "run 1 event 1: counter 5: energy_mev -2 is not an energy in [0, 10000] MeV"},
       {head + "1,1,5,nan\n", "line 2: energy_mev 'nan' is not a finite number"},
       {head + "1,1,2000,2.0\n", "counter 2000 does not exist (the detector has counters 0..1631)"},
+      {head + "1,1,5,1e308\n", "energy_mev 1e+308 is not an energy in [0, 10000] MeV"},
+      {head + "1,1,,\n1,1,,\n", "run 1 event 1 is given twice without hits"},
       {head + "1,1,5,2.0\n1,2,,\n1,1,6,2.0\n", "run 1 event 1 appears twice"},
       {head + "1,1,,\n1,1,6,2.0\n", "line 3: run 1 event 1 is given both without hits and with hits"},
       {head + "1,1.5,5,2.0\n", "line 2: event '1.5' is not an integer"},

@@ -283,8 +283,6 @@ class EventReaderImpl final : public EventReader {
     return e;
   }
 
-  static constexpr int kMaxRowsPerEvent = 1000;
-
   std::vector<std::string> paths_;
   ReaderOptions options_;
   std::size_t index_ = 0;

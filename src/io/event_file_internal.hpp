@@ -102,6 +102,9 @@ constexpr const char* kHitEnergy = "energy_mev";  // in /hits
 
 // ------------------------------------------------------------------------ row validation
 
+// The most rows one event may have (an event holds a handful of particles).
+constexpr int kMaxRowsPerEvent = 1000;
+
 // A refused value: which column and why (the caller adds file and line/record).
 struct Issue {
   std::string_view column;

@@ -156,7 +156,6 @@ Status checkAppend(const std::string& path, std::span<const ParticleRow> rows, s
 namespace emcalign::io {
 
 Status checkRowsInMemory(std::span<const ParticleRow> rows, const std::string& source) {
-  constexpr int kMaxRowsPerEvent = 1000;
   detail::EventConsistency consistency;
   std::set<std::pair<std::int32_t, std::int64_t>> seen;
   int eventRows = 0;
@@ -167,11 +166,11 @@ Status checkRowsInMemory(std::span<const ParticleRow> rows, const std::string& s
     if (!issue) issue = consistency.check(r);
     if (issue) return Error{fmt::format("{}: column '{}': {}", where(), issue->column, issue->what)};
     if (i > 0 && sameEvent(r, rows[i - 1])) {
-      if (++eventRows > kMaxRowsPerEvent) {
+      if (++eventRows > detail::kMaxRowsPerEvent) {
         return Error{
             fmt::format("{}: the event has more than {} rows: an event holds a handful of particles (are "
                         "the run and event columns filled?)",
-                        where(), kMaxRowsPerEvent)};
+                        where(), detail::kMaxRowsPerEvent)};
       }
       continue;
     }

@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 
 #include "emcalign/io/csv.hpp"
+#include "emcalign/io/event_file.hpp"
 #include "emcalign/io/file_kind.hpp"
 #include "emcalign/io/json_files.hpp"
 #include "emcalign/io/output_file.hpp"
@@ -30,9 +31,8 @@ constexpr hsize_t kChunk = 16384;
 // A CSV file of the largest allowed size: 40 M hits of ~25 characters.
 constexpr std::size_t kMaxCsvBytes = std::size_t{1} << 30;
 
-bool isCsv(const std::string& path) {
-  return path == "-" || (path.size() >= 4 && path.compare(path.size() - 4, 4, ".csv") == 0);
-}
+// The event files' rule (io::formatOf): ".csv" in any case, or "-", is CSV.
+bool isCsv(const std::string& path) { return formatOf(path) == EventFormat::Csv; }
 
 // ------------------------------------------------------------------------------- writing
 

@@ -376,6 +376,14 @@ std::vector<TrendEdge> findEdges(const std::vector<TrendSeries>& series, std::ve
 }
 
 // Drifts: every segment's slope, Bonferroni over all segments tested.
+// The first run after a step inside the IOV `tp`: its value is before·f + after·(1 − f), f
+// the share of its runs before the step.
+std::int64_t runTheMixturePointsTo(const TrendPoint& tp, double before, double after) {
+  const double fraction = std::clamp((tp.value - after) / (before - after), 0.0, 1.0);
+  const double runs = static_cast<double>(tp.lastRun) - static_cast<double>(tp.firstRun) + 1.0;
+  return tp.firstRun + static_cast<std::int64_t>(std::llround(fraction * runs));
+}
+
 // The best single step inside a drift's segment: two constants of at least minSegment points,
 // the point between them possibly set aside (at the transition penalty); reported when its
 // χ² (with that penalty) is within a change's penalty of the line's.
@@ -408,9 +416,7 @@ std::optional<StepAlternative> stepAlternative(const TrendSeries& s, const Segme
       alt.transition = transition;
       if (transition) {
         const TrendPoint& tp = s.points[i - 1];
-        const double fraction = std::clamp((tp.value - after.a) / (before.a - after.a), 0.0, 1.0);
-        const double runs = static_cast<double>(tp.lastRun) - static_cast<double>(tp.firstRun) + 1.0;
-        alt.firstRunAfter = tp.firstRun + static_cast<std::int64_t>(std::llround(fraction * runs));
+        alt.firstRunAfter = runTheMixturePointsTo(tp, before.a, after.a);
         alt.withinIov = std::pair{tp.firstRun, tp.lastRun};
       }
       best = alt;
@@ -476,10 +482,7 @@ std::vector<TrendStep> findSteps(const TrendSeries& s, const SeriesAnalysis& a, 
       if (knee - (segs[j - 1].line.chi2 + segs[j].line.chi2) < o.stepZ * o.stepZ) continue;
     }
     if (transition) {
-      // The IOV's value is before·f + after·(1 − f), f the share of its runs before the step.
-      const double fraction = std::clamp((tp.value - after) / (before - after), 0.0, 1.0);
-      const double runs = static_cast<double>(tp.lastRun) - static_cast<double>(tp.firstRun) + 1.0;
-      step.firstRunAfter = tp.firstRun + static_cast<std::int64_t>(std::llround(fraction * runs));
+      step.firstRunAfter = runTheMixturePointsTo(tp, before, after);
       step.withinIov = std::pair{tp.firstRun, tp.lastRun};
     }
     steps.push_back(step);

@@ -22,7 +22,6 @@ Result<CounterOccupancy> countCounterHits(const std::vector<std::string>& paths,
   CounterOccupancy out;
   out.hits.assign(static_cast<std::size_t>(calo.size()), 0);
   std::vector<ParticleRow> rows;
-  std::string lastPath;
   while (true) {
     auto more = (*reader)->next(rows);
     if (!more) return more.error();
@@ -37,10 +36,9 @@ Result<CounterOccupancy> countCounterHits(const std::vector<std::string>& paths,
                       path)};
     }
     for (std::size_t i = 0; i < rows.size(); ++i) {
-      if (i == 0 ? path != lastPath || out.events == 0 : !sameEvent(rows[i], rows[i - 1])) ++out.events;
+      if (i == 0 || !sameEvent(rows[i], rows[i - 1])) ++out.events;  // a block holds whole events
       if (rows[i].hasCluster()) ++out.clusterRows;
     }
-    lastPath = path;
     for (const Hit& h : *hits) {
       if (h.counter < 0 || h.counter >= calo.size()) {
         return Error{fmt::format("{}: a cluster has counter {}, which the detector does not have (0..{})", path,

@@ -2,8 +2,8 @@
 // (validation/calibration_campaign.hpp, docs/campaign.md).
 //
 //   campaign DIR|FILES... --conditions URI --tag T [--min-events N] [--threads N] [--corrections C.json|GRID]
-//   campaign DIR|FILES... --plan PLAN.json [--min-events N]          the job list, nothing fitted
-//   campaign --plan PLAN.json --group K --conditions URI --tag T      one group of it (a batch job)
+//   campaign DIR|FILES... [--conditions URI --tag T] --plan PLAN.json   the job list, nothing fitted
+//   campaign --plan PLAN.json --group K [--conditions URI --tag T]     one group of it (= task PLAN K)
 
 #include <algorithm>
 #include <cmath>
@@ -23,6 +23,8 @@
 #include "emcalign/core/units.hpp"
 #include "emcalign/validation/calibration_campaign.hpp"
 #include "emcalign/validation/trend.hpp"
+#include "emcalign/conddb/address.hpp"
+#include "planned.hpp"
 #include "progress.hpp"
 
 namespace emcalign::app {
@@ -54,109 +56,165 @@ void printGroups(const std::vector<validation::CampaignGroup>& groups, std::int6
   }
 }
 
-// One group of a plan (a batch job): read its files, keep its runs, fit, store.
-// The job uses the plan's detector and corrections; given again, they must be the same.
-int runGroup(const CampaignCliOptions& o) {
-  auto plan = validation::readCampaignPlan(o.plan);
-  if (!plan) return reportError(plan.error());
-  if (o.group >= static_cast<int>(plan->groups.size())) {
-    return reportError(
-        Error{fmt::format("--group {}: the plan {} has groups 0 to {}", o.group, o.plan, plan->groups.size() - 1)});
+// The plan's campaign, with the conditions and tag its groups go to: the plan's, or those given
+// to --group (a plan made without them); given again, they must be the plan's.
+Result<validation::CampaignPlan> plannedCampaign(const io::Json& data, const std::string& source,
+                                                 const CampaignCliOptions& o) {
+  auto plan = validation::parseCampaignPlan(data, source);
+  if (!plan) return plan.error();
+  if (plan->conditions.empty()) {
+    if (o.conditions.empty() || o.tag.empty()) {
+      return Error{fmt::format("{}: the plan was made without --conditions and --tag: run its groups with "
+                               "emcalign campaign --plan {} --group K --conditions URI --tag T",
+                               source, source)};
+    }
+    plan->conditions = o.conditions;
+    plan->tag = o.tag;
+    plan->description = o.description;
+  } else if (o.group >= 0 && ((!o.conditions.empty() && conddb::shownAddress(o.conditions) != plan->conditions) ||
+                              (!o.tag.empty() && o.tag != plan->tag))) {
+    return Error{fmt::format("--conditions/--tag: the plan {} stores into {} tag {}", source, plan->conditions,
+                             plan->tag)};
   }
+  return plan;
+}
+
+// The job of a plan's campaign (a task, or --group), checked against what is given again.
+Result<std::unique_ptr<validation::PlannedJob>> plannedJob(const io::Json& data, const std::string& source,
+                                                           const CampaignCliOptions& o) {
+  const bool given = !data.contains("conditions");  // the database and tag given to this task
+  auto plan = plannedCampaign(data, source, o);
+  if (!plan) return plan.error();
   const std::string planDetector = plan->detector == "embedded default" ? std::string() : plan->detector;
   if (!o.detector.empty() && o.detector != planDetector) {
-    return reportError(Error{
-        fmt::format("--detector {}: the plan {} was made with the {} detector", o.detector, o.plan, plan->detector)});
-  }
-  auto calo = loadCalorimeter(planDetector);
-  if (!calo) return reportError(calo.error());
-  auto model = validation::campaignModel(plan->corrections, planDetector, *calo);
-  if (!model) return reportError(model.error());
-  if (model->correctionsSha256 != plan->correctionsSha256) {
-    return reportError(
-        Error{fmt::format("{}: its SHA-256 is not the plan's: the corrections changed since the plan {} "
-                          "was made",
-                          plan->corrections, o.plan)});
+    return Error{
+        fmt::format("--detector {}: the plan {} was made with the {} detector", o.detector, source, plan->detector)};
   }
   if (!o.corrections.empty()) {
     auto given = calib::correctionsDigest(o.corrections);
-    if (!given) return reportError(given.error());
+    if (!given) return given.error();
     if (*given != plan->correctionsSha256) {
-      return reportError(Error{fmt::format("--corrections {}: the plan {} was made {}", o.corrections, o.plan,
-                                           plan->corrections.empty() ? std::string("without corrections")
-                                                                     : "with other ones (" + plan->corrections + ")")});
+      return Error{fmt::format("--corrections {}: the plan {} was made {}", o.corrections, source,
+                               plan->corrections.empty() ? std::string("without corrections")
+                                                         : "with other ones (" + plan->corrections + ")")};
     }
   }
   if (!o.sigmaSys.empty() && !calib::sameChoice(sigmaSysChoice(o.sigmaSys), plan->sigmaSys)) {
-    return reportError(Error{fmt::format("--sigma-sys {}: the plan {} was made with sigma_sys {}", o.sigmaSys, o.plan,
-                                         validation::sigmaSysChoiceJson(plan->sigmaSys).dump())});
+    return Error{fmt::format("--sigma-sys {}: the plan {} was made with sigma_sys {}", o.sigmaSys, source,
+                             validation::sigmaSysChoiceJson(plan->sigmaSys).dump())};
   }
-  model->setSigmaSys(plan->sigmaSys);
-  const validation::CampaignGroup& g = plan->groups[static_cast<std::size_t>(o.group)];
-  // A new database is created when the group is fitted, to store it. Kept even if the put
-  // fails: the other jobs of the plan may be storing into it at the same time.
-  DatabaseToWrite target(o.conditions, DatabaseToWrite::IfLeftEmpty::Keep);
-  if (Status s = target.prepare(); !s) return reportError(s.error());
-  auto done = target.existing() == nullptr ? Result<std::vector<bool>>(std::vector<bool>(plan->groups.size(), false))
-                                           : validation::groupsInTag(*target.existing(), o.tag, plan->groups);
-  if (!done) return reportError(done.error());
-  if ((*done)[static_cast<std::size_t>(o.group)]) {
-    // A retried job: done, if the tag holds this group from the same data.
-    auto same = validation::groupStored(*target.existing(), o.tag, g, plan->digests, *model);
-    if (!same) return reportError(same.error());
-    fmt::print(reportStream(), "group {} (runs {}-{}) is in tag {} already, from the same data: nothing to do\n",
-               g.index, g.iovFirst, g.iovLast, o.tag);
-    return kExitOk;
+  auto calo = loadCalorimeter(planDetector);
+  if (!calo) return calo.error();
+  auto model = validation::planModel(*plan, *calo);
+  if (!model) return Error{fmt::format("{}: {}", source, model.error().message)};
+  std::string key = given ? fmt::format("{} tag {}", conddb::shownAddress(plan->conditions), plan->tag) : "";
+  return validation::calibrationCampaignJob(std::move(*plan), std::move(*model), data, std::move(key));
+}
+
+// campaign --plan P --group K: task K of the plan (as emcalign task P K), with the conditions
+// and tag given here when the plan was made without them.
+int runGroup(const CampaignCliOptions& o) {
+  auto plan = validation::readPlan(o.plan);
+  if (!plan) return reportError(plan.error());
+  if (plan->command != "campaign") {
+    return reportError(Error{fmt::format("--plan {}: a plan of emcalign {}, not of a campaign", o.plan, plan->command)});
   }
-  // The files must be those the plan was made from (the plan has a digest of each).
-  for (const auto& file : g.files) {
-    auto it = plan->digests.find(file);
-    if (it == plan->digests.end()) {
-      return reportError(
-          Error{fmt::format("group {}: its file {} is not among the inputs of the plan {}", g.index, file, o.plan)});
-    }
-    auto digest = sha256OfFile(file);
-    if (!digest) return reportError(digest.error());
-    if (*digest != it->second) {
-      return reportError(
-          Error{fmt::format("{}: its SHA-256 is not the plan's: the file changed since the plan {} was "
-                            "made (make the plan again)",
-                            file, o.plan)});
-    }
-  }
-  auto groupModel = model->at(g.beamEnergy);
-  if (!groupModel)
+  if (o.group >= static_cast<int>(plan->tasks.size())) {
     return reportError(
-        Error{fmt::format("group {} (runs {}-{}): {}", g.index, g.iovFirst, g.iovLast, groupModel.error().message)});
-  if (!groupModel->correctionsWarning.empty()) reportWarning(groupModel->correctionsWarning);
-  auto fill = validation::fillPlannedGroup(g, *groupModel);
-  if (!fill) return reportError(Error{fmt::format("{}: {}", o.plan, fill.error().message)});
-  auto fit =
-      validation::fitGroup(g, *fill, *groupModel, plan->digests,
-                           validation::campaignOrigin(g, plan->minEvents, static_cast<int>(plan->groups.size())));
-  if (!fit) return reportError(fit.error());
-  if (!usable(fit->result.status)) {
-    return reportError(Error{fmt::format("group {} (runs {}-{}): the fit's status is '{}': not stored", g.index,
-                                         g.iovFirst, g.iovLast, name(fit->result.status))});
+        Error{fmt::format("--group {}: the plan {} has groups 0 to {}", o.group, o.plan, plan->tasks.size() - 1)});
   }
-  auto db = target.create();
-  if (!db) return reportError(db.error());
-  if (Status s = (*db)->put(o.tag, g.iovFirst, g.iovLast, fit->payload, true, o.description); !s) {
-    // The same job run twice at once: the other copy stored the group first.
-    auto same = validation::groupStored(**db, o.tag, g, plan->digests, *model);
-    if (!same || !*same) return reportError(s.error());
-    fmt::print(reportStream(), "group {} (runs {}-{}) was stored meanwhile by another job, from the same data: done\n",
-               g.index, g.iovFirst, g.iovLast);
-    return kExitOk;
-  }
-  fmt::print(reportStream(), "group {} (runs {}-{}, {}): {}, chi2/ndf {:.1f}/{} -> {} tag {}\n", g.index, g.iovFirst,
-             g.iovLast, counted(g.selected, "selected event"), name(fit->result.status), fit->result.chi2,
-             fit->result.ndf, (*db)->uri(), o.tag);
+  auto job = plannedJob(plan->data, o.plan, o);
+  if (!job) return reportError(job.error());
+  auto ran = validation::runPlannedTask(*plan, **job, static_cast<std::size_t>(o.group), reportStream());
+  if (!ran) return reportError(ran.error());
   return kExitOk;
 }
 
+// The model said with a campaign's result (conditions list shows it too).
+std::string modelText(const validation::CampaignModel& model) {
+  const std::string sigma = model.sigmaSys.method == calib::SigmaSysMethod::Auto
+                                ? std::string("auto")
+                                : fmt::format("{:g} deg", model.sigmaSys.value / units::deg);
+  return fmt::format("model: {}; sigma_sys {}",
+                     model.corrections.empty() ? std::string("the paper's model (no corrections)")
+                                               : "corrections " + model.corrections,
+                     sigma);
+}
+
+// emcalign finish of a campaign's plan: every group in the tag, from the plan's data.
+int finishCampaign(const CampaignCliOptions& o) {
+  const validation::Plan& p = *planContext().plan;
+  auto plan = plannedCampaign(p.data, p.path, o);
+  if (!plan) return reportError(plan.error());
+  auto calo = loadCalorimeter(plan->detector == "embedded default" ? std::string() : plan->detector);
+  if (!calo) return reportError(calo.error());
+  auto model = validation::planModel(*plan, *calo);
+  if (!model) return reportError(model.error());
+  auto db = conddb::Database::open(plan->conditions);
+  if (!db) return reportError(db.error());
+  for (const auto& g : plan->groups) {
+    auto same = validation::groupStored(**db, plan->tag, g, plan->digests, *model);
+    if (!same) return reportError(same.error());
+    if (!*same) {
+      return reportError(Error{fmt::format("group {} (runs {}-{}) is not in tag {}: its task's IOV was removed?",
+                                           g.index, g.iovFirst, g.iovLast, plan->tag)});
+    }
+  }
+  fmt::print(reportStream(), "campaign: {} stored by the plan's tasks in tag {} -> {}\n  {}\n",
+             counted(plan->groups.size(), "group"), plan->tag, (*db)->uri(), modelText(*model));
+  return kExitOk;
+}
+
+// campaign --plan P: the scan and the groups (the job list); the plan keeps them, with the
+// conditions and tag when given (never a password: libpq reads it from PGPASSFILE/PGPASSWORD).
+Result<std::unique_ptr<validation::PlannedJob>> newPlanJob(const CampaignCliOptions& o) {
+  std::string conditions;
+  if (!o.conditions.empty()) {
+    auto address = conddb::DatabaseAddress::parse(o.conditions);
+    if (!address) return address.error();
+    if (address->hasPassword()) {
+      return Error{fmt::format("--conditions {}: a plan never holds a password: give it to libpq in PGPASSFILE "
+                               "(~/.pgpass) or PGPASSWORD, and the address without it",
+                               address->shown)};
+    }
+    conditions = address->kind == conddb::DatabaseAddress::Kind::Sqlite
+                     ? "sqlite:" + fs::absolute(address->file).lexically_normal().string()
+                     : address->shown;
+  }
+  auto calo = loadCalorimeter(o.detector);
+  if (!calo) return calo.error();
+  auto files = validation::eventFilesIn(o.inputs);
+  if (!files) return files.error();
+  std::vector<io::NamedPath> inputs = {{"--corrections", o.corrections}, {"--detector", o.detector}};
+  for (const auto& f : *files) inputs.push_back({"", f});
+  for (auto& c : conditionsInputs(o.conditions)) inputs.push_back(std::move(c));
+  if (Status s = checkOutputs({{"--plan", o.plan}}, {}, inputs); !s) return s.error();
+  auto model = validation::campaignModel(o.corrections, o.detector, *calo);
+  if (!model) return model.error();
+  model->setSigmaSys(sigmaSysChoice(o.sigmaSys));
+  ProgressLine scanning("campaign: reading", static_cast<std::int64_t>(files->size()), "files");
+  validation::ScanOptions so;
+  so.threads = o.threads;
+  so.progress = [&](std::size_t done, std::size_t) { scanning.update(static_cast<std::int64_t>(done)); };
+  auto scan = validation::scanRuns(*files, *model, so);
+  scanning.finish();
+  if (!scan) return scan.error();
+  const auto groups = validation::planGroups(*scan, o.minEvents);
+  fmt::print(reportStream(), "read {}, {} ({}-{}) in {:.1f} s\n", counted(files->size(), "file"),
+             counted(scan->runs.size(), "run"), scan->runs.front().run, scan->runs.back().run, scanning.elapsed());
+  printGroups(groups, o.minEvents);
+  io::Json data = validation::planJson(*scan, groups, o.minEvents, *model);
+  if (!conditions.empty()) {
+    data["conditions"] = conditions;
+    data["tag"] = o.tag;
+    data["description"] = o.description;
+  }
+  auto plan = validation::parseCampaignPlan(data, o.plan);
+  if (!plan) return plan.error();
+  return validation::calibrationCampaignJob(std::move(*plan), std::move(*model), std::move(data));
+}
+
 int run(const CampaignCliOptions& o) {
-  if (o.group >= 0) return runGroup(o);
   auto calo = loadCalorimeter(o.detector);
   if (!calo) return reportError(calo.error());
 
@@ -165,21 +223,14 @@ int run(const CampaignCliOptions& o) {
   std::vector<io::NamedPath> inputs = {{"--corrections", o.corrections}, {"--detector", o.detector}};
   for (const auto& f : *files) inputs.push_back({"", f});
   for (auto& c : conditionsInputs(o.conditions)) inputs.push_back(std::move(c));
-  const bool planOnly = !o.plan.empty();
-  if (Status s = checkOutputs(planOnly ? std::vector<io::NamedPath>{{"--plan", o.plan}} : std::vector<io::NamedPath>{},
-                              {}, inputs);
-      !s) {
-    return reportError(s.error());
-  }
+  if (Status s = checkOutputs({}, {}, inputs); !s) return reportError(s.error());
   auto model = validation::campaignModel(o.corrections, o.detector, *calo);
   if (!model) return reportError(model.error());
   model->setSigmaSys(sigmaSysChoice(o.sigmaSys));
   // A new database is created once the files are read and planned, not before: a campaign
   // refused for its inputs leaves none behind (nor one whose every group failed).
   DatabaseToWrite target(o.conditions);
-  if (!planOnly) {
-    if (Status s = target.prepare(); !s) return reportError(s.error());
-  }
+  if (Status s = target.prepare(); !s) return reportError(s.error());
 
   ProgressLine scanning("campaign: reading", static_cast<std::int64_t>(files->size()), "files");
   validation::ScanOptions so;
@@ -192,16 +243,6 @@ int run(const CampaignCliOptions& o) {
   fmt::print(reportStream(), "read {}, {} ({}-{}) in {:.1f} s\n", counted(files->size(), "file"),
              counted(scan->runs.size(), "run"), scan->runs.front().run, scan->runs.back().run, scanning.elapsed());
   printGroups(groups, o.minEvents);
-  if (planOnly) {
-    const io::Json plan = validation::planJson(*scan, groups, o.minEvents, *model);
-    if (Status s = io::writeOutputFile(o.plan, plan.dump(1) + "\n"); !s) return reportError(s.error());
-    fmt::print(reportStream(),
-               "wrote the job list {}: run group K with\n  emcalign campaign --plan {} --group K "
-               "--conditions URI --tag T\n",
-               o.plan, o.plan);
-    return kExitOk;
-  }
-
   auto db = target.create();
   if (!db) return reportError(db.error());
   ProgressLine fitting("campaign: fitting", static_cast<std::int64_t>(groups.size()), "groups");
@@ -215,18 +256,10 @@ int run(const CampaignCliOptions& o) {
   if (!report) return reportError(report.error());
   for (const auto& w : report->warnings) reportWarning(w);
   for (const auto& f : report->failures) reportWarning(f);
-  // The model every IOV was fitted with, said with the result (conditions list shows it too).
-  const std::string sigma = model->sigmaSys.method == calib::SigmaSysMethod::Auto
-                                ? std::string("auto")
-                                : fmt::format("{:g} deg", model->sigmaSys.value / units::deg);
   fmt::print(reportStream(),
-             "campaign: {}: {} fitted and stored, {} in tag {} already, {} failed ({:.1f} s) -> {}\n"
-             "  model: {}; sigma_sys {}\n",
+             "campaign: {}: {} fitted and stored, {} in tag {} already, {} failed ({:.1f} s) -> {}\n  {}\n",
              counted(report->groups, "group"), report->fitted, report->resumed, o.tag, report->failures.size(),
-             fitting.elapsed(), (*db)->uri(),
-             model->corrections.empty() ? std::string("the paper's model (no corrections)")
-                                        : "corrections " + model->corrections,
-             sigma);
+             fitting.elapsed(), (*db)->uri(), modelText(*model));
   if (!report->failures.empty()) {
     return reportError(Error{fmt::format(
         "{} of {} {} not stored: the IOVs do not tile the runs (see the "
@@ -259,28 +292,37 @@ void addCampaignCommand(CLI::App& app, int& exitCode) {
       ->check(CLI::ExistingPath);
   addSigmaSysOption(*cmd, o->sigmaSys);
   cmd->add_option("--plan", o->plan,
-                  "with inputs: write the groups as a job list (JSON) and stop; with --group: the job list to run "
-                  "from");
+                  "with inputs: write the groups as a job list PLAN.json and stop (its tasks store into --conditions "
+                  "and --tag when given: emcalign batch submit, or task PLAN K, then finish PLAN; docs/cluster.md); "
+                  "with --group: the job list to run from");
   cmd->add_option("--group", o->group, "run only this group of --plan (a batch array job)")
       ->check(integerIn(0, 10'000'000));
   cmd->add_option("--description", o->description, "description of a new tag");
   addDetectorOption(*cmd, o->detector);
   cmd->callback([o, cmd, conditions, &exitCode] {
     const bool group = cmd->count("--group") > 0;
-    if (group) {
-      if (o->plan.empty()) throw CLI::RequiredError("--plan (with --group)");
-      if (!o->inputs.empty()) throw CLI::ExcludesError("--group", "inputs (the plan names the files)");
-    } else if (o->inputs.empty()) {
-      throw CLI::RequiredError("inputs (a directory or event files)");
+    if (planContext().mode == PlanContext::Mode::Direct) {
+      if (group) {
+        if (o->plan.empty()) throw CLI::RequiredError("--plan (with --group)");
+        if (!o->inputs.empty()) throw CLI::ExcludesError("--group", "inputs (the plan names the files)");
+        exitCode = runGroup(*o);
+        return;
+      }
+      if (o->inputs.empty()) throw CLI::RequiredError("inputs (a directory or event files)");
+      if (o->plan.empty() && (conditions->count() == 0 || o->tag.empty())) {
+        throw CLI::RequiredError("--conditions URI and --tag T");
+      }
+      if (!o->plan.empty() && (conditions->count() > 0) != !o->tag.empty()) {
+        throw CLI::RequiredError("--conditions URI and --tag T together (or neither, with --plan)");
+      }
     }
-    const bool planOnly = !o->plan.empty() && !group;
-    if (!planOnly && (conditions->count() == 0 || o->tag.empty())) {
-      throw CLI::RequiredError("--conditions URI and --tag T");
-    }
-    if (!group && !o->plan.empty() && conditions->count() > 0) {
-      throw CLI::ExcludesError("--plan (writing the job list)", "--conditions");
-    }
-    exitCode = run(*o);
+    exitCode = runPlannable(
+        "campaign", o->plan,
+        [o](const io::Json& data) -> Result<std::unique_ptr<validation::PlannedJob>> {
+          if (planContext().mode == PlanContext::Mode::Direct) return newPlanJob(*o);
+          return plannedJob(data, planContext().plan->path, *o);
+        },
+        [o] { return run(*o); }, [o] { return finishCampaign(*o); });
   });
 }
 

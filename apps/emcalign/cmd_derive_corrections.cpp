@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -16,6 +17,7 @@
 #include "emcalign/core/units.hpp"
 #include "emcalign/io/json_files.hpp"
 #include "emcalign/validation/derive_corrections.hpp"
+#include "planned.hpp"
 #include "progress.hpp"
 
 namespace emcalign::app {
@@ -39,6 +41,7 @@ struct DeriveOptions {
   std::vector<std::string> off;
   std::string detector;
   std::string output;
+  std::string plan;  ///< --plan: the job list, nothing run
 };
 
 // What the file records under derived_from.settings: a rerun into a grid keeps a point
@@ -98,28 +101,39 @@ void printReport(const validation::DerivationReport& report) {
   }
 }
 
-int run(const DeriveOptions& cli) {
-  validation::DerivationOptions o;
-  std::vector<double> energies;
+// The derivation of the command line, checked: its options, the energies, the detector.
+struct Derivation {
+  validation::DerivationOptions options;
+  std::vector<double> energies;  ///< sorted
+  bool grid = false;
+  std::optional<geometry::Calorimeter> calo;
+};
+
+Result<Derivation> derivationOf(const DeriveOptions& cli) {
+  Derivation d;
+  validation::DerivationOptions& o = d.options;
+  std::vector<double>& energies = d.energies;
   for (double e : cli.beamEnergies) energies.push_back(e * units::MeV);
   if (energies.empty()) energies.push_back(o.simulation.generator.beamEnergy);
   std::sort(energies.begin(), energies.end());
   if (std::adjacent_find(energies.begin(), energies.end()) != energies.end()) {
-    return reportError({"--beam-energy: an energy is given twice"});
+    return Error{"--beam-energy: an energy is given twice"};
   }
   const bool grid = energies.size() > 1;
+  d.grid = grid;
   // The output is checked before hours of simulation, not after.
   const std::vector<io::NamedPath> output = {{"-o", cli.output}};
   if (Status s = checkOutputs(grid ? std::vector<io::NamedPath>{} : output,
                               grid ? output : std::vector<io::NamedPath>{}, {{"--detector", cli.detector}});
       !s) {
-    return reportError(s.error());
+    return s.error();
   }
   if (cli.thetaMinDeg >= cli.thetaMaxDeg) {
-    return reportError({fmt::format("--theta-min {} must be below --theta-max {}", cli.thetaMinDeg, cli.thetaMaxDeg)});
+    return Error{fmt::format("--theta-min {} must be below --theta-max {}", cli.thetaMinDeg, cli.thetaMaxDeg)};
   }
   auto calo = loadCalorimeter(cli.detector);
-  if (!calo) return reportError(calo.error());
+  if (!calo) return calo.error();
+  d.calo = std::move(*calo);
   o.events = cli.events;
   o.seed = cli.seed;
   o.threads = cli.threads;
@@ -127,14 +141,52 @@ int run(const DeriveOptions& cli) {
   o.gap = cli.gap * units::cm;
   o.responseEvents = cli.responseEvents;
   o.responseSamples = cli.responseSamples;
-  if (Status s = applyRealismSwitches(o.simulation, cli.ideal, cli.off); !s) return reportError(s.error());
+  if (Status s = applyRealismSwitches(o.simulation, cli.ideal, cli.off); !s) return s.error();
   o.simulation.generator.thetaMin = cli.thetaMinDeg * units::deg;
   o.simulation.generator.thetaMax = cli.thetaMaxDeg * units::deg;
+  return d;
+}
+
+// The points of the derivation: a grid's in its directory (those done with the same settings
+// marked), or the one file.
+Result<std::vector<validation::GridPoint>> pointsOf(const DeriveOptions& cli, const Derivation& d) {
+  if (!d.grid) {
+    return std::vector<validation::GridPoint>{
+        {d.energies.front(), cli.output, validation::derivedWith(cli.output, settingsOf(cli, d.energies.front()))}};
+  }
+  return validation::planGrid(cli.output, d.energies, [&](double e) { return settingsOf(cli, e); });
+}
+
+// The merge of a plan's tasks: every point derived by its task, nothing derived here.
+int finish(const DeriveOptions& cli) {
+  auto d = derivationOf(cli);
+  if (!d) return reportError(d.error());
+  auto points = pointsOf(cli, *d);
+  if (!points) return reportError(points.error());
+  for (const auto& p : *points) {
+    if (!p.done) {
+      return reportError(
+          Error{fmt::format("{}: not derived with this plan's settings (its task's output was removed or replaced)",
+                            p.file)});
+    }
+    fmt::print(reportStream(), "{}: derived at {} MeV by the plan's task\n", p.file, p.beamEnergy / units::MeV);
+  }
+  fmt::print(reportStream(), "use: emcalign fit --corrections {}\n", cli.output);
+  return kExitOk;
+}
+
+int run(const DeriveOptions& cli) {
+  auto d = derivationOf(cli);
+  if (!d) return reportError(d.error());
+  validation::DerivationOptions& o = d->options;
+  const std::vector<double>& energies = d->energies;
+  const bool grid = d->grid;
+  const geometry::Calorimeter* calo = &*d->calo;
 
   // A grid's points not yet derived with these settings (an interrupted grid resumes).
   std::vector<validation::GridPoint> todo = {{energies.front(), cli.output, false}};
   if (grid) {
-    auto points = validation::planGrid(cli.output, energies, [&](double e) { return settingsOf(cli, e); });
+    auto points = pointsOf(cli, *d);
     if (!points) return reportError(points.error());
     todo.clear();
     for (auto& p : *points) {
@@ -227,7 +279,24 @@ void addDeriveCorrectionsCommand(CLI::App& app, int& exitCode) {
   cmd->add_option("-o,--output", o->output,
                   "corrections file (JSON, emcalign-corrections/1), or the grid's directory with several energies")
       ->required();
-  cmd->callback([o, &exitCode] { exitCode = run(*o); });
+  addPlanOption(*cmd, o->plan);
+  cmd->callback([o, &exitCode] {
+    exitCode = runPlannable(
+        "derive-corrections", o->plan,
+        [o](const io::Json&) -> Result<std::unique_ptr<validation::PlannedJob>> {
+          auto d = derivationOf(*o);
+          if (!d) return d.error();
+          auto points = pointsOf(*o, *d);
+          if (!points) return points.error();
+          std::vector<io::Json> settings;
+          for (const auto& p : *points) settings.push_back(settingsOf(*o, p.beamEnergy));
+          std::vector<std::string> inputs;
+          if (!o->detector.empty()) inputs.push_back(std::filesystem::absolute(o->detector).string());
+          return validation::derivationJob(std::move(*d->calo), d->options, std::move(*points), std::move(settings),
+                                           d->grid, std::move(inputs));
+        },
+        [o] { return run(*o); }, [o] { return finish(*o); });
+  });
 }
 
 }  // namespace emcalign::app

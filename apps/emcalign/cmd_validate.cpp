@@ -18,6 +18,7 @@
 #include "emcalign/validation/derive_corrections.hpp"
 #include "emcalign/validation/systematics.hpp"
 #include "emcalign/validation/variations.hpp"
+#include "planned.hpp"
 #include "progress.hpp"
 
 namespace emcalign::app {
@@ -48,6 +49,7 @@ struct ValidateOptions {
   validation::DerivationOptions derivation = reverseDefaults();  ///< its derivations
   std::string writeCorrections;  ///< systematics: a copy of --corrections with the systematic errors
   std::string output;
+  std::string plan;  ///< --plan: the job list, nothing run
 
   // The reverse study's derivations: a third of the shipped file's statistics (10⁶ events per
   // sample, 100 response samples of 50 000), enough for shifts measured by pairing (every
@@ -127,10 +129,21 @@ Result<validation::CampaignOptions> campaignOptionsOf(const ValidateOptions& cli
   return o;
 }
 
-int run(const ValidateOptions& cli) {
+// The files a study reads, for its tasks' logs.
+std::vector<std::string> inputsOf(const ValidateOptions& cli) {
+  std::vector<std::string> in;
+  for (const auto& f : {cli.ranges, cli.corrections, cli.detector}) {
+    if (!f.empty()) in.push_back(std::filesystem::absolute(f).lexically_normal().string());
+  }
+  return in;
+}
+
+// The campaign as given, or (finishing) merged from its plan's samples.
+int run(const ValidateOptions& cli, bool finishing) {
   std::optional<geometry::Calorimeter> calo;
   auto made = campaignOptionsOf(cli, calo);
   if (!made) return reportError(made.error());
+  made->onlyFinished = finishing;
   const validation::CampaignOptions& o = *made;
   ProgressLine progress("validate", cli.samples, "samples");
   auto table = validation::runCampaign(*calo, o, cli.output, [&](int done, int) { progress.update(done); });
@@ -231,13 +244,13 @@ Status checkWriteCorrections(const ValidateOptions& cli, const validation::Campa
                       {{"--corrections", cli.corrections}});
 }
 
-// emcalign systematics: the nominal campaign and one per variation, paired (validation/systematics.hpp).
-int runSystematics(const ValidateOptions& cli) {
-  std::optional<geometry::Calorimeter> calo;
+// The study of the command line, checked (its outputs, --write-corrections).
+Result<validation::SystematicsOptions> systematicsOptionsOf(const ValidateOptions& cli,
+                                                            std::optional<geometry::Calorimeter>& calo) {
   auto made = campaignOptionsOf(cli, calo);
-  if (!made) return reportError(made.error());
+  if (!made) return made.error();
   if (!cli.writeCorrections.empty()) {
-    if (Status s = checkWriteCorrections(cli, *made); !s) return reportError(s.error());
+    if (Status s = checkWriteCorrections(cli, *made); !s) return s.error();
   }
   validation::SystematicsOptions o;
   o.campaign = std::move(*made);
@@ -246,6 +259,17 @@ int runSystematics(const ValidateOptions& cli) {
     o.reverse = cli.derivation;
     o.reverse->threads = cli.threads;
   }
+  return o;
+}
+
+// emcalign systematics: the nominal campaign and one per variation, paired (validation/systematics.hpp);
+// finishing: merged from its plan's tasks.
+int runSystematics(const ValidateOptions& cli, bool finishing) {
+  std::optional<geometry::Calorimeter> calo;
+  auto made = systematicsOptionsOf(cli, calo);
+  if (!made) return reportError(made.error());
+  validation::SystematicsOptions& o = *made;
+  o.campaign.onlyFinished = finishing;
   ProgressLine progress("systematics", 0, "events");  // the study knows its total
   auto table = validation::runSystematics(*calo, o, cli.output, [&](std::int64_t done, std::int64_t total) {
     progress.setTotal(total);
@@ -337,7 +361,18 @@ void addValidateCommand(CLI::App& app, int& exitCode) {
                   "the detector's model")
       ->check(CLI::IsMember(variationNames()));
   cmd->add_option("-o,--output", o->output, "campaign directory (a rerun resumes it)")->required();
-  cmd->callback([o, &exitCode] { exitCode = run(*o); });
+  addPlanOption(*cmd, o->plan);
+  cmd->callback([o, &exitCode] {
+    exitCode = runPlannable(
+        "validate", o->plan,
+        [o](const io::Json&) -> Result<std::unique_ptr<validation::PlannedJob>> {
+          std::optional<geometry::Calorimeter> calo;
+          auto made = campaignOptionsOf(*o, calo);
+          if (!made) return made.error();
+          return validation::validationJob(std::move(*calo), std::move(*made), o->output, inputsOf(*o));
+        },
+        [o] { return run(*o, false); }, [o] { return run(*o, true); });
+  });
 
   auto s = std::make_shared<ValidateOptions>();
   s->samples = 40;  // 40 paired samples measure a shift to a fraction of a fit's spread
@@ -372,7 +407,18 @@ void addValidateCommand(CLI::App& app, int& exitCode) {
                   "study directory: nominal/, one campaign per variation, systematics.json "
                   "and .md (a rerun resumes it)")
       ->required();
-  sys->callback([s, &exitCode] { exitCode = runSystematics(*s); });
+  addPlanOption(*sys, s->plan);
+  sys->callback([s, &exitCode] {
+    exitCode = runPlannable(
+        "systematics", s->plan,
+        [s](const io::Json&) -> Result<std::unique_ptr<validation::PlannedJob>> {
+          std::optional<geometry::Calorimeter> calo;
+          auto made = systematicsOptionsOf(*s, calo);
+          if (!made) return made.error();
+          return validation::systematicsJob(std::move(*calo), std::move(*made), s->output, inputsOf(*s));
+        },
+        [s] { return runSystematics(*s, false); }, [s] { return runSystematics(*s, true); });
+  });
 }
 
 }  // namespace emcalign::app

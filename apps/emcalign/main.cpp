@@ -18,6 +18,7 @@
 #include "arguments.hpp"
 #include "common.hpp"
 #include "console.hpp"
+#include "planned.hpp"
 #include "emcalign/core/utf8.hpp"
 #include "emcalign/core/version.hpp"
 #include "emcalign/io/output_file.hpp"
@@ -106,23 +107,8 @@ int main(int argc, char** argv) {
     }
   }
   int exitCode = 0;
-  emcalign::app::addGeometryCommand(app, exitCode);
-  emcalign::app::addParamsCommand(app, exitCode);
-  emcalign::app::addTransformCommand(app, exitCode);
-  emcalign::app::addSimulateCommand(app, exitCode);
-  emcalign::app::addFitCommand(app, exitCode);
-  emcalign::app::addValidateCommand(app, exitCode);
-  emcalign::app::addDeriveCorrectionsCommand(app, exitCode);
-  emcalign::app::addCorrectCommand(app, exitCode);
-  emcalign::app::addResidualsCommand(app, exitCode);
-  emcalign::app::addCompareCommand(app, exitCode);
-  emcalign::app::addDeadCountersCommand(app, exitCode);
-  emcalign::app::addExportCommand(app, exitCode);
-  emcalign::app::addConditionsCommand(app, exitCode);
-  emcalign::app::addCampaignCommand(app, exitCode);
-  emcalign::app::addTrendCommand(app, exitCode);
-  emcalign::app::addCheckCommand(app, exitCode);
-  emcalign::app::addReportCommand(app, exitCode);
+  emcalign::app::addAllCommands(app, exitCode);
+  emcalign::app::setCommandLine(argc, argv);
   if (auto mistyped = emcalign::app::mistypedArgument(app, argc, argv)) {
     emcalign::app::eprint("emcalign: usage error: {}\nRun with --help for more information.\n", *mistyped);
     return emcalign::app::kExitUsage;

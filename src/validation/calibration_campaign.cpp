@@ -16,6 +16,7 @@
 #include <tbb/task_arena.h>
 
 #include "emcalign/calib/fit_notes.hpp"
+#include "emcalign/conddb/address.hpp"
 #include "emcalign/core/sha256.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/core/version.hpp"
@@ -377,20 +378,22 @@ Json planJson(const CampaignScan& scan, const std::vector<CampaignGroup>& groups
           {"groups", list}};
 }
 
-Result<CampaignPlan> readCampaignPlan(const std::string& path) {
-  auto text = io::readTextFile(path);
-  if (!text) return text.error();
-  auto j = io::parseJson(*text, path);
-  if (!j) return j.error();
+Result<CampaignPlan> parseCampaignPlan(const Json& data, const std::string& path) {
+  const Json* j = &data;
   try {
     using io::strict::StrictObject;
-    StrictObject top(*j, "", path);
+    StrictObject top(*j, "data", path);
     top.allowOnly({"format", "software", "min_events", "corrections", "corrections_sha256", "detector", "sigma_sys",
-                   "inputs", "groups"});
+                   "inputs", "groups", "conditions", "tag", "description"});
     if (top.string("format") != kCampaignPlanFormat) {
       top.fail("format", fmt::format("expected \"{}\"", kCampaignPlanFormat));
     }
     CampaignPlan plan;
+    if (top.has("conditions")) {
+      plan.conditions = top.string("conditions");
+      plan.tag = top.string("tag");
+      plan.description = top.string("description");
+    }
     auto n = io::integerIn(top.at("min_events"), 1, std::numeric_limits<std::int64_t>::max(), path, "min_events");
     if (!n) return n.error();
     plan.minEvents = *n;
@@ -479,6 +482,133 @@ Result<CampaignPlan> readCampaignPlan(const std::string& path) {
   } catch (const io::strict::BadInput& e) {
     return Error{e.message};
   }
+}
+
+Result<CampaignModel> planModel(const CampaignPlan& plan, const geometry::Calorimeter& calo) {
+  const std::string detector = plan.detector == "embedded default" ? std::string() : plan.detector;
+  auto model = campaignModel(plan.corrections, detector, calo);
+  if (!model) return model.error();
+  if (model->correctionsSha256 != plan.correctionsSha256) {
+    return Error{fmt::format("{}: its SHA-256 is not the plan's: the corrections changed since the plan was made",
+                             plan.corrections)};
+  }
+  model->setSigmaSys(plan.sigmaSys);
+  return model;
+}
+
+Result<std::string> storePlannedGroup(const CampaignPlan& plan, const CampaignModel& model, int index,
+                                      const std::string& uri, const std::string& tag, const std::string& description) {
+  if (index < 0 || index >= static_cast<int>(plan.groups.size())) {
+    return Error{fmt::format("group {}: the plan has groups 0 to {}", index, plan.groups.size() - 1)};
+  }
+  const CampaignGroup& g = plan.groups[static_cast<std::size_t>(index)];
+  // A new SQLite file is created when the group is fitted, to store it; kept even if the put
+  // fails: the plan's other tasks may be storing into it at the same time.
+  std::unique_ptr<conddb::Database> db;
+  const std::string file = conddb::sqliteFileOf(uri);
+  std::error_code ec;
+  if (file.empty() || fs::exists(fs::symlink_status(file, ec))) {
+    auto opened = conddb::Database::open(uri, true);
+    if (!opened) return opened.error();
+    db = std::move(*opened);
+    auto done = groupsInTag(*db, tag, plan.groups);
+    if (!done) return done.error();
+    if ((*done)[static_cast<std::size_t>(index)]) {
+      // A retried task: done, if the tag holds this group from the same data.
+      auto same = groupStored(*db, tag, g, plan.digests, model);
+      if (!same) return same.error();
+      return fmt::format("group {} (runs {}-{}) is in tag {} already, from the same data: nothing to do", g.index,
+                         g.iovFirst, g.iovLast, tag);
+    }
+  }
+  // The files must be those the plan was made from (the plan has a digest of each).
+  for (const auto& f : g.files) {
+    auto it = plan.digests.find(f);
+    if (it == plan.digests.end()) return Error{fmt::format("group {}: its file {} is not among the plan's inputs", g.index, f)};
+    auto digest = sha256OfFile(f);
+    if (!digest) return digest.error();
+    if (*digest != it->second) {
+      return Error{fmt::format("{}: its SHA-256 is not the plan's: the file changed since the plan was made (make "
+                               "the plan again)",
+                               f)};
+    }
+  }
+  auto groupModel = model.at(g.beamEnergy);
+  if (!groupModel) {
+    return Error{fmt::format("group {} (runs {}-{}): {}", g.index, g.iovFirst, g.iovLast, groupModel.error().message)};
+  }
+  std::string said;
+  if (!groupModel->correctionsWarning.empty()) said = "warning: " + groupModel->correctionsWarning + "\n";
+  auto fill = fillPlannedGroup(g, *groupModel);
+  if (!fill) return fill.error();
+  auto fit = fitGroup(g, *fill, *groupModel, plan.digests,
+                      campaignOrigin(g, plan.minEvents, static_cast<int>(plan.groups.size())));
+  if (!fit) return fit.error();
+  if (!usable(fit->result.status)) {
+    return Error{fmt::format("group {} (runs {}-{}): the fit's status is '{}': not stored", g.index, g.iovFirst,
+                             g.iovLast, name(fit->result.status))};
+  }
+  if (!db) {
+    auto opened = conddb::Database::open(uri, true);
+    if (!opened) return opened.error();
+    db = std::move(*opened);
+  }
+  if (Status s = db->put(tag, g.iovFirst, g.iovLast, fit->payload, true, description); !s) {
+    // The same task run twice at once: the other copy stored the group first.
+    auto same = groupStored(*db, tag, g, plan.digests, model);
+    if (!same || !*same) return s.error();
+    return said + fmt::format("group {} (runs {}-{}) was stored meanwhile by another task, from the same data: done",
+                              g.index, g.iovFirst, g.iovLast);
+  }
+  return said + fmt::format("group {} (runs {}-{}, {} selected events): {}, chi2/ndf {:.1f}/{} -> {} tag {}", g.index,
+                            g.iovFirst, g.iovLast, g.selected, name(fit->result.status), fit->result.chi2,
+                            fit->result.ndf, db->uri(), tag);
+}
+
+namespace {
+
+// Each group of the plan a task, stored into the plan's tag.
+class CalibrationCampaignJob final : public PlannedJob {
+ public:
+  CalibrationCampaignJob(CampaignPlan plan, CampaignModel model, Json data, std::string key)
+      : plan_(std::move(plan)), model_(std::move(model)), data_(std::move(data)), key_(std::move(key)) {}
+
+  std::vector<PlannedTask> tasks() const override {
+    std::vector<PlannedTask> t;
+    for (const auto& g : plan_.groups) {
+      t.push_back({fmt::format("group {} (runs {}-{}, {} selected events)", g.index, g.iovFirst, g.iovLast, g.selected),
+                   {fmt::format("{} tag {}: the IOV {}-{}", conddb::shownAddress(plan_.conditions), plan_.tag,
+                                g.iovFirst, g.iovLast)},
+                   g.files});
+    }
+    return t;
+  }
+  Status runTask(std::size_t k, const std::function<void(const std::string&)>& say) const override {
+    if (plan_.conditions.empty() || plan_.tag.empty()) {
+      return Error{"the plan was made without --conditions and --tag: run its groups with emcalign campaign --plan "
+                   "PLAN --group K --conditions URI --tag T"};
+    }
+    auto r = storePlannedGroup(plan_, model_, static_cast<int>(k), plan_.conditions, plan_.tag, plan_.description);
+    if (!r) return r.error();
+    say(*r);
+    return {};
+  }
+  Json data() const override { return data_; }
+  std::string recordKey() const override { return key_; }
+
+ private:
+  CampaignPlan plan_;
+  CampaignModel model_;
+  Json data_;
+  std::string key_;
+};
+
+}  // namespace
+
+std::unique_ptr<PlannedJob> calibrationCampaignJob(CampaignPlan plan, CampaignModel model, io::Json data,
+                                                   std::string recordKey) {
+  return std::make_unique<CalibrationCampaignJob>(std::move(plan), std::move(model), std::move(data),
+                                                  std::move(recordKey));
 }
 
 Json sigmaSysChoiceJson(const calib::SigmaSysChoice& c) {

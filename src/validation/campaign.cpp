@@ -246,6 +246,123 @@ std::vector<report::CampaignSeries> campaignSeries(const std::vector<SampleResul
 
 }  // namespace
 
+namespace {
+
+std::string samplePath(const std::string& dir, int i) {
+  return (fs::path(dir) / "samples" / fmt::format("sample_{:04d}.json", i)).string();
+}
+
+// What every sample of a campaign is fitted with.
+struct SampleModel {
+  calib::FitGeometry geometry;
+  calib::ProfileOptions profile;
+};
+
+Result<SampleModel> sampleModelOf(const geometry::Calorimeter& calo, const CampaignOptions& o) {
+  SampleModel m{calib::FitGeometry::of(calo.description()), {}};
+  m.geometry.apply(o.corrections);
+  m.profile.apply(o.corrections);
+  m.profile.eventPairs = o.sigmaSys.keepsEventPairs();
+  if (Status s = m.profile.validate(); !s) return Error{fmt::format("the corrections: {}", s.error().message)};
+  return m;
+}
+
+// Sample i: read back when its file is there (a file of another campaign is an error), else —
+// unless only finished samples may be used — simulated, fitted and written, and read back, so
+// that a resumed campaign, which reads its finished samples, gives the same table to the last
+// digit.
+Result<SampleResult> sampleOf(const geometry::Calorimeter& calo, const CampaignOptions& o, const SampleModel& m,
+                              const std::string& dir, int i) {
+  const double r1 = calo.description().r1();
+  const std::string path = samplePath(dir, i);
+  if (fs::exists(path)) {
+    if (auto done = readSample(path, i, o, r1)) return std::move(*done);
+    return Error{
+        fmt::format("{} is not a finished sample of this campaign (another seed, number of events or "
+                    "simulation setting?): use another directory, or remove it",
+                    path)};
+  }
+  if (o.onlyFinished) return Error{fmt::format("{}: missing (its task has not run)", path)};
+  std::error_code ec;
+  fs::create_directories(fs::path(dir) / "samples", ec);
+  if (ec) return Error{fmt::format("{}: cannot create the directory: {}", dir, ec.message())};
+  Rng truthRng(o.seed, static_cast<std::uint64_t>(i));
+  SampleResult s;
+  s.index = i;
+  s.truth = drawTruth(o.ranges, r1, truthRng);
+  sim::SimulationOptions so = o.simulation;
+  so.seed = sampleSeed(o.seed, i);
+  if (o.samplePattern) o.samplePattern(so, so.seed, calo.size());
+  auto simulation = sim::Simulation::create(calo, s.truth, so);
+  if (!simulation) return simulation.error();
+  calib::ProfileFiller filler(m.geometry.depth, calib::SelectionOptions{}, m.profile);
+  const Status run = simulation->run(
+      o.events, o.threads, [&](std::span<const ParticleRow> rows, std::span<const TruthRow>, std::span<const Hit>) {
+        filler.addEvents(rows);
+        return Status{};
+      });
+  if (!run) return run.error();
+  if (Status sel = filler.checkSelected(); !sel) return Error{fmt::format("sample {}: {}", i, sel.error().message)};
+  auto fit = calib::fitProfiles(filler.fill().profiles, m.geometry, o.sigmaSys);
+  if (!fit) return Error{fmt::format("sample {}: {}", i, fit.error().message)};
+  s.fit = std::move(*fit);
+  s.selectedEvents = filler.fill().cutFlow.events.back();
+  if (Status w = io::writeOutputFile(path, sampleJson(s, o).dump(1) + "\n", io::Placement::InDirectory); !w) {
+    return w.error();
+  }
+  auto stored = readSample(path, i, o, r1);
+  if (!stored) return Error{fmt::format("{}: written but not readable back", path)};
+  return std::move(*stored);
+}
+
+}  // namespace
+
+Status runSample(const geometry::Calorimeter& calo, const CampaignOptions& o, const std::string& dir, int i) {
+  if (Status s = o.validate(); !s) return s.error();
+  if (i < 0 || i >= o.samples) return Error{fmt::format("sample {}: the campaign has samples 0 to {}", i, o.samples - 1)};
+  auto m = sampleModelOf(calo, o);
+  if (!m) return m.error();
+  auto s = sampleOf(calo, o, *m, dir, i);
+  if (!s) return s.error();
+  return {};
+}
+
+std::string sampleFile(const std::string& dir, int i) { return samplePath(dir, i); }
+
+namespace {
+
+class ValidationJob final : public PlannedJob {
+ public:
+  ValidationJob(geometry::Calorimeter calo, CampaignOptions o, std::string dir, std::vector<std::string> inputs)
+      : calo_(std::move(calo)), o_(std::move(o)), dir_(std::move(dir)), inputs_(std::move(inputs)) {}
+
+  std::vector<PlannedTask> tasks() const override {
+    std::vector<PlannedTask> t;
+    for (int i = 0; i < o_.samples; ++i) {
+      t.push_back({fmt::format("sample {} of the campaign {} ({} events)", i, dir_, o_.events),
+                   {fs::absolute(samplePath(dir_, i)).lexically_normal().string()},
+                   inputs_});
+    }
+    return t;
+  }
+  Status runTask(std::size_t k, const std::function<void(const std::string&)>&) const override {
+    return runSample(calo_, o_, dir_, static_cast<int>(k));
+  }
+
+ private:
+  geometry::Calorimeter calo_;
+  CampaignOptions o_;
+  std::string dir_;
+  std::vector<std::string> inputs_;
+};
+
+}  // namespace
+
+std::unique_ptr<PlannedJob> validationJob(geometry::Calorimeter calo, CampaignOptions options, std::string dir,
+                                          std::vector<std::string> inputs) {
+  return std::make_unique<ValidationJob>(std::move(calo), std::move(options), std::move(dir), std::move(inputs));
+}
+
 Result<Table> runCampaign(const geometry::Calorimeter& calo, const CampaignOptions& o, const std::string& dir,
                           const CampaignProgress& progress, std::vector<SampleResult>* samplesOut) {
   if (Status s = o.validate(); !s) return s.error();
@@ -253,56 +370,13 @@ Result<Table> runCampaign(const geometry::Calorimeter& calo, const CampaignOptio
   fs::create_directories(fs::path(dir) / "samples", ec);
   if (ec) return Error{fmt::format("{}: cannot create the directory: {}", dir, ec.message())};
   const double r1 = calo.description().r1();
-  auto geometry = calib::FitGeometry::of(calo.description());
-  geometry.apply(o.corrections);
-  calib::ProfileOptions profileOptions;
-  profileOptions.apply(o.corrections);
-  profileOptions.eventPairs = o.sigmaSys.keepsEventPairs();
-  if (Status s = profileOptions.validate(); !s) return Error{fmt::format("the corrections: {}", s.error().message)};
-
+  auto model = sampleModelOf(calo, o);
+  if (!model) return model.error();
   std::vector<SampleResult> samples;
   for (int i = 0; i < o.samples; ++i) {
-    const std::string path = (fs::path(dir) / "samples" / fmt::format("sample_{:04d}.json", i)).string();
-    if (fs::exists(path)) {
-      if (auto done = readSample(path, i, o, r1)) {
-        samples.push_back(std::move(*done));
-        if (progress) progress(i + 1, o.samples);
-        continue;
-      }
-      return Error{
-          fmt::format("{} is not a finished sample of this campaign (another seed, number of events or "
-                      "simulation setting?): use another directory, or remove it",
-                      path)};
-    }
-    Rng truthRng(o.seed, static_cast<std::uint64_t>(i));
-    SampleResult s;
-    s.index = i;
-    s.truth = drawTruth(o.ranges, r1, truthRng);
-    sim::SimulationOptions so = o.simulation;
-    so.seed = sampleSeed(o.seed, i);
-    if (o.samplePattern) o.samplePattern(so, so.seed, calo.size());
-    auto simulation = sim::Simulation::create(calo, s.truth, so);
-    if (!simulation) return simulation.error();
-    calib::ProfileFiller filler(geometry.depth, calib::SelectionOptions{}, profileOptions);
-    const Status run = simulation->run(
-        o.events, o.threads, [&](std::span<const ParticleRow> rows, std::span<const TruthRow>, std::span<const Hit>) {
-          filler.addEvents(rows);
-          return Status{};
-        });
-    if (!run) return run.error();
-    if (Status sel = filler.checkSelected(); !sel) return Error{fmt::format("sample {}: {}", i, sel.error().message)};
-    auto fit = calib::fitProfiles(filler.fill().profiles, geometry, o.sigmaSys);
-    if (!fit) return Error{fmt::format("sample {}: {}", i, fit.error().message)};
-    s.fit = std::move(*fit);
-    s.selectedEvents = filler.fill().cutFlow.events.back();
-    if (Status w = io::writeOutputFile(path, sampleJson(s, o).dump(1) + "\n", io::Placement::InDirectory); !w) {
-      return w.error();
-    }
-    // Tabulate what the file holds (file units), so that a resumed campaign, which reads
-    // its finished samples back, gives the same table to the last digit.
-    auto stored = readSample(path, i, o, r1);
-    if (!stored) return Error{fmt::format("{}: written but not readable back", path)};
-    samples.push_back(std::move(*stored));
+    auto s = sampleOf(calo, o, *model, dir, i);
+    if (!s) return s.error();
+    samples.push_back(std::move(*s));
     if (progress) progress(i + 1, o.samples);
   }
   Table table = tabulate(samples, o.events, r1);

@@ -14,6 +14,7 @@
 #include "emcalign/calib/corrections_grid.hpp"
 #include "emcalign/core/random.hpp"
 #include "emcalign/core/units.hpp"
+#include "emcalign/io/output_file.hpp"
 #include "emcalign/geometry/residual_model.hpp"
 #include "emcalign/validation/campaign.hpp"
 
@@ -498,6 +499,16 @@ Json derivationJson(const DerivationReport& r, const Json& settings) {
   return calib::correctionsJson(c);
 }
 
+bool derivedWith(const std::string& file, const Json& settings) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(file, ec)) return false;
+  // This command's own output of an earlier run: unreadable or other settings, derived again.
+  auto text = io::readOwnOutput(file);
+  auto j = text ? io::parseJson(*text, file) : Result<Json>(text.error());
+  auto c = j ? calib::parseCorrections(*j, file) : Result<calib::ModelCorrections>(j.error());
+  return c && c->derivedFrom.is_object() && c->derivedFrom.value("settings", Json()) == settings;
+}
+
 Result<std::vector<GridPoint>> planGrid(const std::string& dir, const std::vector<double>& energies,
                                         const std::function<Json(double beamEnergy)>& settingsAt) {
   namespace fs = std::filesystem;
@@ -506,13 +517,7 @@ Result<std::vector<GridPoint>> planGrid(const std::string& dir, const std::vecto
   for (double e : energies) {
     GridPoint p{e, (fs::path(dir) / calib::gridPointName(e)).string(), false};
     std::error_code ec;
-    if (fs::is_regular_file(p.file, ec)) {
-      // This command's own output of an earlier run: unreadable or other settings, derived again.
-      auto text = io::readOwnOutput(p.file);
-      auto j = text ? io::parseJson(*text, p.file) : Result<Json>(text.error());
-      auto c = j ? calib::parseCorrections(*j, p.file) : Result<calib::ModelCorrections>(j.error());
-      p.done = c && c->derivedFrom.is_object() && c->derivedFrom.value("settings", Json()) == settingsAt(e);
-    }
+    p.done = derivedWith(p.file, settingsAt(e));
     names.insert(fs::path(p.file).filename().string());
     points.push_back(std::move(p));
   }
@@ -530,6 +535,71 @@ Result<std::vector<GridPoint>> planGrid(const std::string& dir, const std::vecto
   }
   if (ec) return Error{fmt::format("{}: cannot list the directory: {}", dir, ec.message())};
   return points;
+}
+
+namespace {
+
+// Each energy point a task: derived and written unless its file holds corrections derived with
+// the same settings.
+class DerivationJob final : public PlannedJob {
+ public:
+  DerivationJob(geometry::Calorimeter calo, DerivationOptions o, std::vector<GridPoint> points,
+                std::vector<Json> settings, bool grid, std::vector<std::string> inputs)
+      : calo_(std::move(calo)),
+        o_(std::move(o)),
+        points_(std::move(points)),
+        settings_(std::move(settings)),
+        grid_(grid),
+        inputs_(std::move(inputs)) {}
+
+  std::vector<PlannedTask> tasks() const override {
+    std::vector<PlannedTask> t;
+    for (const auto& p : points_) {
+      t.push_back({fmt::format("the corrections at {} MeV ({} events per sample, {} response samples of {})",
+                               p.beamEnergy / units::MeV, o_.events, o_.responseSamples, o_.responseEvents),
+                   {std::filesystem::absolute(p.file).lexically_normal().string()},
+                   inputs_});
+    }
+    return t;
+  }
+
+  Status runTask(std::size_t k, const std::function<void(const std::string&)>& say) const override {
+    const GridPoint& p = points_[k];
+    if (derivedWith(p.file, settings_[k])) {
+      say(fmt::format("{} holds corrections derived with the same settings: kept", p.file));
+      return {};
+    }
+    if (grid_) {
+      std::error_code ec;
+      std::filesystem::create_directories(std::filesystem::path(p.file).parent_path(), ec);
+      if (ec) return Error{fmt::format("{}: cannot create the directory: {}", p.file, ec.message())};
+    }
+    DerivationOptions o = o_;
+    o.simulation.generator.beamEnergy = p.beamEnergy;
+    auto report = deriveCorrections(calo_, o);
+    if (!report) return Error{fmt::format("at {} MeV: {}", p.beamEnergy / units::MeV, report.error().message)};
+    say(fmt::format("depth offset {:+.3f} ± {:.3f} cm", report->corrections.depthOffset / units::cm,
+                    report->depthOffsetError / units::cm));
+    return io::writeOutputFile(p.file, derivationJson(*report, settings_[k]).dump(2) + "\n",
+                               grid_ ? io::Placement::InDirectory : io::Placement::Named);
+  }
+
+ private:
+  geometry::Calorimeter calo_;
+  DerivationOptions o_;
+  std::vector<GridPoint> points_;
+  std::vector<Json> settings_;
+  bool grid_;
+  std::vector<std::string> inputs_;
+};
+
+}  // namespace
+
+std::unique_ptr<PlannedJob> derivationJob(geometry::Calorimeter calo, DerivationOptions options,
+                                          std::vector<GridPoint> points, std::vector<io::Json> settings, bool grid,
+                                          std::vector<std::string> inputs) {
+  return std::make_unique<DerivationJob>(std::move(calo), std::move(options), std::move(points), std::move(settings),
+                                         grid, std::move(inputs));
 }
 
 }  // namespace emcalign::validation

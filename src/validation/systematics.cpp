@@ -12,6 +12,7 @@
 #include "emcalign/core/units.hpp"
 #include "emcalign/io/output_file.hpp"
 #include "emcalign/report/systematics_plot.hpp"
+#include "emcalign/validation/task_plan.hpp"
 
 namespace emcalign::validation {
 
@@ -77,6 +78,7 @@ Result<calib::ModelCorrections> reverseCorrections(const geometry::Calorimeter& 
     }
     return calib::parseCorrections(*j, file);
   }
+  if (campaign.onlyFinished) return Error{fmt::format("{}: missing (its task has not run)", file)};
   d.simulation = campaign.simulation;
   if (v != nullptr) {
     v->apply(d.simulation);
@@ -88,6 +90,27 @@ Result<calib::ModelCorrections> reverseCorrections(const geometry::Calorimeter& 
   const Json content = derivationJson(*report, settings);
   if (Status s = io::writeOutputFile(file, content.dump(2) + "\n", io::Placement::InDirectory); !s) return s.error();
   return calib::parseCorrections(content, file);
+}
+
+// The reverse study's corrections of `name` ("nominal" or a variation's), and the campaign
+// fitting the nominal samples with them.
+std::string reverseCorrectionsFile(const std::string& dir, const std::string& name) {
+  return (fs::path(dir) / "reverse" / "corrections" / (name + ".json")).string();
+}
+CampaignOptions reverseCampaign(const CampaignOptions& nominal, calib::ModelCorrections corrections,
+                                const std::string& name) {
+  CampaignOptions o = nominal;
+  o.corrections = std::move(corrections);
+  o.settings["corrections"] = {{"reverse", name}, {"fnv1a", calib::correctionsDigest(o.corrections)}};
+  return o;
+}
+
+std::vector<const Variation*> variationsOf(const SystematicsOptions& options) {
+  std::vector<const Variation*> v = options.variations;
+  if (v.empty()) {
+    for (const auto& each : variations()) v.push_back(&each);
+  }
+  return v;
 }
 
 // A row's quantity index of variation j.
@@ -160,10 +183,7 @@ CampaignOptions withVariation(CampaignOptions options, const Variation& variatio
 Result<SystematicsTable> runSystematics(const geometry::Calorimeter& calo, const SystematicsOptions& options,
                                         const std::string& dir, const SystematicsProgress& progress) {
   SystematicsTable t;
-  t.variations = options.variations;
-  if (t.variations.empty()) {
-    for (const auto& v : variations()) t.variations.push_back(&v);
-  }
+  t.variations = variationsOf(options);
   const CampaignOptions& nominalOptions = options.campaign;
   t.samples = nominalOptions.samples;
   t.events = nominalOptions.events;
@@ -213,7 +233,7 @@ Result<SystematicsTable> runSystematics(const geometry::Calorimeter& calo, const
   if (options.reverse) {
     const fs::path base = fs::path(dir) / "reverse";
     std::error_code ec;
-    fs::create_directories(base / "corrections", ec);
+    if (!nominalOptions.onlyFinished) fs::create_directories(base / "corrections", ec);
     if (ec)
       return Error{fmt::format("{}: cannot create the directory: {}", (base / "corrections").string(), ec.message())};
     std::vector<SampleResult> reference;
@@ -221,12 +241,10 @@ Result<SystematicsTable> runSystematics(const geometry::Calorimeter& calo, const
       const Variation* v = j == 0 ? nullptr : t.variations[j - 1];
       const std::string name = v ? v->name : "nominal";
       auto corrections = reverseCorrections(calo, *options.reverse, nominalOptions, v,
-                                            (base / "corrections" / (name + ".json")).string(), derivationProgress);
+                                            reverseCorrectionsFile(dir, name), derivationProgress);
       if (!corrections) return Error{fmt::format("the reverse study, {}: {}", name, corrections.error().message)};
       finished += derivationEvents;
-      CampaignOptions o = nominalOptions;
-      o.corrections = std::move(*corrections);
-      o.settings["corrections"] = {{"reverse", name}, {"fnv1a", calib::correctionsDigest(o.corrections)}};
+      const CampaignOptions o = reverseCampaign(nominalOptions, std::move(*corrections), name);
       std::vector<SampleResult> fitted;
       auto table = runCampaign(calo, o, (base / name).string(), campaignProgress, &fitted);
       if (!table) return Error{fmt::format("the reverse study, {}: {}", name, table.error().message)};
@@ -411,6 +429,103 @@ Json systematicErrorsJson(const SystematicsTable& t, const calib::ModelCorrectio
   Json components = {{"simulation variations", variationsPart}};
   for (const auto& [key, values] : statisticsPart.items()) components["derivation statistics: " + key] = values;
   return {{"errors", errors}, {"components", components}, {"study", study}};
+}
+
+namespace {
+
+// The study as a plan's tasks: the reverse derivations first (the longest), then every sample
+// of every campaign. A reverse campaign's sample needs its derivation: it takes the
+// derivation's lock and derives it itself when no task has yet (the work of the derivation's
+// own task, which then finds it done).
+class SystematicsJob final : public PlannedJob {
+ public:
+  SystematicsJob(geometry::Calorimeter calo, SystematicsOptions o, std::string dir, std::vector<std::string> inputs)
+      : calo_(std::move(calo)), o_(std::move(o)), dir_(std::move(dir)), inputs_(std::move(inputs)) {
+    variations_ = variationsOf(o_);
+    forward_.push_back({"nominal", nullptr});
+    for (const Variation* v : variations_) forward_.push_back({v->name, v});
+  }
+
+  std::vector<PlannedTask> tasks() const override {
+    std::vector<PlannedTask> t;
+    const int n = o_.campaign.samples;
+    if (o_.reverse) {
+      for (const auto& [name, v] : forward_) {
+        t.push_back({fmt::format("the reverse study's corrections derived with {}", v ? name : "no variation"),
+                     {absolute(reverseCorrectionsFile(dir_, name))},
+                     inputs_});
+      }
+    }
+    for (const auto& [name, v] : forward_) {
+      for (int i = 0; i < n; ++i) {
+        t.push_back({fmt::format("sample {} of {}/{}", i, dir_, name), {absolute(sampleFile(dirOf(name), i))}, inputs_});
+      }
+    }
+    if (o_.reverse) {
+      for (const auto& [name, v] : forward_) {
+        for (int i = 0; i < n; ++i) {
+          t.push_back({fmt::format("sample {} of {}/reverse/{}", i, dir_, name),
+                       {absolute(sampleFile(reverseDirOf(name), i))},
+                       inputs_});
+        }
+      }
+    }
+    return t;
+  }
+
+  Status runTask(std::size_t k, const std::function<void(const std::string&)>& say) const override {
+    const auto n = static_cast<std::size_t>(o_.campaign.samples);
+    const std::size_t derivations = o_.reverse ? forward_.size() : 0;
+    if (k < derivations) {
+      auto c = corrections(k, say);
+      return c ? Status{} : Status{c.error()};
+    }
+    k -= derivations;
+    if (k < forward_.size() * n) {
+      const auto& [name, v] = forward_[k / n];
+      const CampaignOptions o = v ? withVariation(o_.campaign, *v) : o_.campaign;
+      return runSample(calo_, o, dirOf(name), static_cast<int>(k % n));
+    }
+    k -= forward_.size() * n;
+    auto c = corrections(k / n, say);
+    if (!c) return c.error();
+    const CampaignOptions o = reverseCampaign(o_.campaign, std::move(*c), forward_[k / n].first);
+    return runSample(calo_, o, reverseDirOf(forward_[k / n].first), static_cast<int>(k % n));
+  }
+
+ private:
+  static std::string absolute(const std::string& p) { return fs::absolute(p).lexically_normal().string(); }
+  std::string dirOf(const std::string& name) const { return (fs::path(dir_) / name).string(); }
+  std::string reverseDirOf(const std::string& name) const { return (fs::path(dir_) / "reverse" / name).string(); }
+
+  // Derivation j's corrections, derived under its lock when not yet there.
+  Result<calib::ModelCorrections> corrections(std::size_t j, const std::function<void(const std::string&)>& say) const {
+    const auto& [name, v] = forward_[j];
+    const std::string file = reverseCorrectionsFile(dir_, name);
+    std::error_code ec;
+    fs::create_directories(fs::path(file).parent_path(), ec);
+    if (ec) return Error{fmt::format("{}: cannot create the directory: {}", fs::path(file).parent_path().string(), ec.message())};
+    if (!fs::exists(file)) say(fmt::format("the reverse study's corrections {}: waiting for them, or deriving them", file));
+    const FileLock lock(file + ".lock");
+    if (!lock.error().empty()) return Error{lock.error()};
+    auto c = reverseCorrections(calo_, *o_.reverse, o_.campaign, v, file, [](std::int64_t) {});
+    if (!c) return Error{fmt::format("the reverse study, {}: {}", name, c.error().message)};
+    return c;
+  }
+
+  geometry::Calorimeter calo_;
+  SystematicsOptions o_;
+  std::string dir_;
+  std::vector<std::string> inputs_;
+  std::vector<const Variation*> variations_;
+  std::vector<std::pair<std::string, const Variation*>> forward_;  // nominal, then each variation
+};
+
+}  // namespace
+
+std::unique_ptr<PlannedJob> systematicsJob(geometry::Calorimeter calo, SystematicsOptions options, std::string dir,
+                                           std::vector<std::string> inputs) {
+  return std::make_unique<SystematicsJob>(std::move(calo), std::move(options), std::move(dir), std::move(inputs));
 }
 
 }  // namespace emcalign::validation

@@ -119,6 +119,7 @@ AccountingStorageType=accounting_storage/none
 JobAcctGatherType=jobacct_gather/none
 SchedulerType=sched/backfill
 MinJobAge=600
+DefMemPerCPU=1024
 NodeName={host} CPUs={cpus} RealMemory={max(512, memory_mb() - 1024)} State=UNKNOWN
 PartitionName=test Nodes={host} Default=YES MaxTime=INFINITE State=UP
 """

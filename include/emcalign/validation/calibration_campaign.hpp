@@ -34,6 +34,7 @@
 #include "emcalign/core/result.hpp"
 #include "emcalign/geometry/detector.hpp"
 #include "emcalign/io/json_files.hpp"
+#include "emcalign/validation/task_plan.hpp"
 
 namespace emcalign::validation {
 
@@ -137,8 +138,27 @@ struct CampaignPlan {
   std::vector<CampaignGroup> groups;
   std::string corrections, correctionsSha256, detector;
   calib::SigmaSysChoice sigmaSys;  ///< SPEC's when the plan does not say (plans made before)
+  /// Where its groups are stored (the address without password) and how a new tag is
+  /// described; empty: given to each group's job (campaign --plan P --group K --conditions …).
+  std::string conditions, tag, description;
 };
-Result<CampaignPlan> readCampaignPlan(const std::string& path);
+/// The campaign's part of a plan (Plan::data): the keys of planJson, plus "conditions", "tag"
+/// and "description" when the plan was made with them.
+Result<CampaignPlan> parseCampaignPlan(const io::Json& data, const std::string& path);
+/// The model of a plan's fits on this detector: its corrections (the same file, by SHA-256) and σ_sys.
+Result<CampaignModel> planModel(const CampaignPlan& plan, const geometry::Calorimeter& calo);
+/// One group of a plan fitted and stored into `tag` of `uri` (a batch task): nothing when the
+/// tag holds it from the same data already (groupStored); its files checked against the plan's
+/// digests first; a copy of the same task storing it first is not an error. Returns what it
+/// did, in words.
+Result<std::string> storePlannedGroup(const CampaignPlan& plan, const CampaignModel& model, int group,
+                                      const std::string& uri, const std::string& tag, const std::string& description);
+/// The campaign as a plan's tasks (`campaign --plan` with --conditions and --tag): group K is
+/// task K (storePlannedGroup into the plan's tag). `data`: the plan's part that parsePlan read;
+/// `recordKey`: the database and tag when given to the task rather than by the plan
+/// (PlannedJob::recordKey).
+std::unique_ptr<PlannedJob> calibrationCampaignJob(CampaignPlan plan, CampaignModel model, io::Json data,
+                                                   std::string recordKey = {});
 /// A σ_sys choice as a plan records it: {"method"} and, when fixed, "value_deg".
 io::Json sigmaSysChoiceJson(const calib::SigmaSysChoice& choice);
 

@@ -10,6 +10,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -23,6 +24,7 @@
 #include "emcalign/geometry/detector.hpp"
 #include "emcalign/io/json_files.hpp"
 #include "emcalign/sim/simulation.hpp"
+#include "emcalign/validation/task_plan.hpp"
 
 namespace emcalign::validation {
 
@@ -66,6 +68,9 @@ struct CampaignOptions {
   /// Describes the settings (simulation switches, ranges, detector): stored in every sample
   /// so that a rerun resumes only a campaign made with the same settings.
   io::Json settings = io::Json::object();
+  /// Use the samples already in the directory only (the merge of a plan's tasks): a missing
+  /// one is an error, never simulated.
+  bool onlyFinished = false;
   Status validate() const;
 };
 
@@ -109,6 +114,17 @@ using CampaignProgress = std::function<void(int done, int total)>;
 /// `samples`, when given, receives the finished samples (as the table saw them).
 Result<Table> runCampaign(const geometry::Calorimeter& calo, const CampaignOptions& options, const std::string& dir,
                           const CampaignProgress& progress = {}, std::vector<SampleResult>* samples = nullptr);
+
+/// Sample i of the campaign into dir/samples/ (a plan's task): kept when it is there from the
+/// same campaign, else simulated, fitted and written.
+Status runSample(const geometry::Calorimeter& calo, const CampaignOptions& options, const std::string& dir, int i);
+/// dir/samples/sample_NNNN.json
+std::string sampleFile(const std::string& dir, int i);
+
+/// The campaign as a plan's tasks (`validate --plan`): task i is sample i (runSample); the
+/// merge is runCampaign with onlyFinished. `inputs`: the files the campaign reads, for the logs.
+std::unique_ptr<PlannedJob> validationJob(geometry::Calorimeter calo, CampaignOptions options, std::string dir,
+                                          std::vector<std::string> inputs);
 
 /// The table from finished samples.
 Table tabulate(const std::vector<SampleResult>& samples, std::int64_t events, double r1);

@@ -21,6 +21,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -31,6 +32,7 @@
 #include "emcalign/geometry/detector.hpp"
 #include "emcalign/sim/simulation.hpp"
 #include "emcalign/validation/campaign.hpp"
+#include "emcalign/validation/task_plan.hpp"
 
 namespace emcalign::validation {
 
@@ -116,5 +118,16 @@ struct GridPoint {
 /// directory is the grid `fit --corrections DIR` reads, so it must hold the one asked for.
 Result<std::vector<GridPoint>> planGrid(const std::string& dir, const std::vector<double>& energies,
                                         const std::function<io::Json(double beamEnergy)>& settingsAt);
+
+/// Whether `file` holds corrections derived with `settings` (derived_from.settings): a rerun,
+/// or a plan's task, keeps it.
+bool derivedWith(const std::string& file, const io::Json& settings);
+
+/// The derivation as a plan's tasks (`derive-corrections --plan`): each energy point a task,
+/// writing its file (`grid`: inside the grid's directory) with `settings[k]` recorded; a point
+/// already derived with them is kept. The merge is the command run on the points done.
+std::unique_ptr<PlannedJob> derivationJob(geometry::Calorimeter calo, DerivationOptions options,
+                                          std::vector<GridPoint> points, std::vector<io::Json> settings, bool grid,
+                                          std::vector<std::string> inputs);
 
 }  // namespace emcalign::validation

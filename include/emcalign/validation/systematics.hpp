@@ -26,6 +26,7 @@
 // shifts. A study needs 2 samples at least.
 
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -90,6 +91,12 @@ using SystematicsProgress = std::function<void(std::int64_t done, std::int64_t t
 /// Runs (or resumes) the campaigns into `dir` and writes the table.
 Result<SystematicsTable> runSystematics(const geometry::Calorimeter& calo, const SystematicsOptions& options,
                                         const std::string& dir, const SystematicsProgress& progress = {});
+
+/// The study as a plan's tasks (`systematics --plan`): each sample of each campaign, and with
+/// the reverse study each derivation and each sample of its campaign; the merge is
+/// runSystematics with campaign.onlyFinished. `inputs`: the files it reads, for the logs.
+std::unique_ptr<PlannedJob> systematicsJob(geometry::Calorimeter calo, SystematicsOptions options, std::string dir,
+                                           std::vector<std::string> inputs);
 
 /// {"samples", "events", "variations": [{"name", "quantity", "change", "why", "pattern"}],
 /// "reverse": {derivation settings} or null, "parameters": {name: {"unit", "bias",

@@ -1,0 +1,356 @@
+// The fan-out on the command line: --plan of the heavy commands, emcalign task, finish and
+// batch (planned.hpp; the runner is validation/task_plan.hpp, Slurm validation/slurm.hpp).
+
+#include "planned.hpp"
+
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include "common.hpp"
+#include "emcalign/core/text.hpp"
+#include "emcalign/io/output_file.hpp"
+#include "emcalign/validation/slurm.hpp"
+
+namespace emcalign::app {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+std::vector<std::string> gCommandLine;
+PlanContext gContext;
+
+// The running command's arguments after its name, without --plan (a plan records them).
+std::vector<std::string> commandArguments() {
+  std::vector<std::string> out;
+  for (std::size_t i = 2; i < gCommandLine.size(); ++i) {
+    const std::string& a = gCommandLine[i];
+    if (a == "--plan") {
+      ++i;  // and its value
+      continue;
+    }
+    if (a.rfind("--plan=", 0) == 0) continue;
+    out.push_back(a);
+  }
+  return out;
+}
+
+// The plan's command line, run again in the plan's directory in `mode`: the command's own
+// options are parsed and checked as when the plan was made, and its callback runs the task or
+// the merge (runPlannable).
+int runFromPlan(const validation::Plan& plan, PlanContext::Mode mode, std::size_t task) {
+  if (::chdir(plan.directory.c_str()) != 0) {
+    return reportError(Error{fmt::format("{}: cannot enter the plan's directory {}: {}", plan.path, plan.directory,
+                                         std::strerror(errno))});
+  }
+  std::vector<std::string> args = {"emcalign", plan.command};
+  args.insert(args.end(), plan.arguments.begin(), plan.arguments.end());
+  // A batch task uses the CPUs the batch system gave it (the result does not depend on them).
+  if (const char* cpus = std::getenv("SLURM_CPUS_PER_TASK"); cpus != nullptr && mode == PlanContext::Mode::Task) {
+    const int n = std::atoi(cpus);
+    if (n > 0) {
+      args.push_back("--threads");
+      args.push_back(std::to_string(n));
+    }
+  }
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  gContext = {mode, &plan, task};
+  int exitCode = 0;
+  CLI::App app;
+  app.allow_config_extras(false);
+  addAllCommands(app, exitCode);
+  app.require_subcommand(1);
+  try {
+    app.parse(static_cast<int>(argv.size()), argv.data());
+  } catch (const CLI::ParseError& e) {
+    return reportError(Error{fmt::format("{}: its command line (emcalign {} {}) is refused: {}", plan.path,
+                                         plan.command, fmt::join(plan.arguments, " "), e.what())});
+  }
+  return exitCode;
+}
+
+Result<validation::Plan> planToRun(const std::string& path) {
+  auto plan = validation::readPlan(path);
+  if (!plan) return plan.error();
+  io::protectInput({"PLAN", path});
+  return plan;
+}
+
+// The tasks of a plan not done, in order.
+std::vector<std::size_t> missingTasks(const validation::Plan& plan) {
+  std::vector<std::size_t> missing;
+  const auto states = validation::taskStates(plan);
+  for (std::size_t k = 0; k < states.size(); ++k) {
+    if (!states[k].done) missing.push_back(k);
+  }
+  return missing;
+}
+
+std::int64_t jobNumber(const std::string& id) { return std::stoll(id); }
+
+int batchStatus(const std::string& path, bool json) {
+  auto text = io::readTextFile(path);
+  if (!text) return reportError(text.error());
+  auto plan = validation::parsePlan(*text, path);
+  if (!plan) return reportError(plan.error());
+  const auto states = validation::taskStates(*plan);
+  std::vector<std::size_t> done, missing;
+  io::Json logs = io::Json::object();
+  for (std::size_t k = 0; k < states.size(); ++k) {
+    (states[k].done ? done : missing).push_back(k);
+    if (!states[k].done && !states[k].log.empty()) logs[std::to_string(k)] = {{"log", states[k].log},
+                                                                             {"last_line", states[k].lastLine}};
+  }
+  if (json) {
+    fmt::print("{}\n", io::Json{{"tasks", states.size()},
+                                {"done", done},
+                                {"missing", missing},
+                                {"logs_of_missing", logs},
+                                {"finished", validation::finished(*plan)}}
+                           .dump(1));
+  } else {
+    fmt::print(reportStream(), "{} ({}, {}): {} done, {} missing{}{}\n", plan->path, plan->command,
+               counted(states.size(), "task"), done.size(), missing.size(),
+               missing.empty() ? "" : ": " + validation::taskRanges(missing),
+               validation::finished(*plan) ? "; merged (emcalign finish ended well)" : "");
+    for (const auto& [k, log] : logs.items()) {
+      fmt::print(reportStream(), "  task {} started but did not end well: {}\n    {}\n", k,
+                 log["log"].get<std::string>(), log["last_line"].get<std::string>());
+    }
+    if (!missing.empty()) {
+      fmt::print(reportStream(), "run the missing tasks: emcalign batch submit {} --missing\n", plan->path);
+    }
+  }
+  return missing.empty() ? kExitOk : kExitFailure;
+}
+
+struct SubmitOptions {
+  std::string plan;
+  bool missing = false, wait = false, json = false;
+  std::vector<std::string> sbatchArguments;
+};
+
+int batchSubmit(const SubmitOptions& o) {
+  // With --json, standard output is the JSON's; the report goes to standard error.
+  std::FILE* report = o.json ? stderr : reportStream();
+  auto plan = planToRun(o.plan);
+  if (!plan) return reportError(plan.error());
+  std::vector<std::size_t> tasks;
+  if (o.missing) {
+    tasks = missingTasks(*plan);
+    if (tasks.empty()) {
+      fmt::print(report, "{}: every task is done{}\n", plan->path,
+                 validation::finished(*plan) ? " and merged: nothing to submit" : ": run emcalign finish " + plan->path);
+      if (o.json) fmt::print("{}\n", io::Json{{"array_job", nullptr}, {"finish_job", nullptr}}.dump());
+      return kExitOk;
+    }
+  }
+  auto submitted = validation::submitToSlurm(*plan, tasks, o.sbatchArguments);
+  if (!submitted) return reportError(submitted.error());
+  const std::string which = tasks.empty() ? fmt::format("all {}", plan->tasks.size())
+                                          : fmt::format("{} of {}: {}", tasks.size(), plan->tasks.size(),
+                                                        validation::taskRanges(tasks));
+  fmt::print(report,
+             "submitted the job array {} (tasks {}) and the merge job {} after it; logs in {}\n"
+             "follow it: emcalign batch status {}\n",
+             submitted->arrayJob, which, submitted->finishJob, plan->workDirectory(), plan->path);
+  if (o.json) {
+    fmt::print("{}\n", io::Json{{"array_job", jobNumber(submitted->arrayJob)},
+                                {"finish_job", jobNumber(submitted->finishJob)}}
+                           .dump());
+    std::fflush(stdout);
+  }
+  if (!o.wait) return kExitOk;
+  auto status = validation::waitForFinish(*plan, *submitted,
+                                          [](const std::string& line) { fmt::print(stderr, "{}\n", line); });
+  if (!status) return reportError(status.error());
+  if (*status == 0) {
+    fmt::print(report, "the merge job {} ended well: the plan's outputs are written\n", submitted->finishJob);
+    return kExitOk;
+  }
+  reportError(Error{fmt::format("the merge job {} did not end well (exit status {}): see {} and emcalign batch status {}",
+                                submitted->finishJob, *status, plan->finishLog(), plan->path)});
+  return *status;
+}
+
+int batchScript(const std::string& path, const std::string& output, bool missing) {
+  auto plan = planToRun(path);
+  if (!plan) return reportError(plan.error());
+  if (Status s = checkOutputs({{"-o", output}}, {}, {{"PLAN", path}}); !s) return reportError(s.error());
+  std::vector<std::size_t> tasks;
+  if (missing) {
+    tasks = missingTasks(*plan);
+    if (tasks.empty()) return reportError(Error{fmt::format("{}: every task is done: no job array to write", path)});
+  }
+  if (Status s = io::writeOutputFile(output, validation::jobArrayScript(*plan, tasks)); !s) {
+    return reportError(s.error());
+  }
+  if (output != "-") {
+    fmt::print(reportStream(), "wrote {}: the job array of {} (submit it with sbatch {}; the merge: see its header)\n",
+               output, tasks.empty() ? counted(plan->tasks.size(), "task") : validation::taskRanges(tasks), output);
+  }
+  return kExitOk;
+}
+
+}  // namespace
+
+void setCommandLine(int argc, char** argv) { gCommandLine.assign(argv, argv + argc); }
+
+const PlanContext& planContext() { return gContext; }
+
+CLI::Option* addPlanOption(CLI::App& cmd, std::string& path) {
+  return cmd.add_option("--plan", path,
+                        "write the job list PLAN.json and run nothing: its tasks run with emcalign batch submit "
+                        "PLAN.json (Slurm) or emcalign task PLAN.json K, then emcalign finish PLAN.json "
+                        "(docs/cluster.md)");
+}
+
+int runPlannable(const std::string& command, const std::string& planPath, const JobMaker& makeJob,
+                 const std::function<int()>& run, const std::function<int()>& finish) {
+  switch (gContext.mode) {
+    case PlanContext::Mode::Task: {
+      auto job = makeJob(gContext.plan->data);
+      if (!job) return reportError(job.error());
+      auto ran = validation::runPlannedTask(*gContext.plan, **job, gContext.task, reportStream());
+      if (!ran) return reportError(ran.error());
+      return kExitOk;
+    }
+    case PlanContext::Mode::Finish: {
+      if (Status s = validation::checkAllTasksDone(*gContext.plan); !s) return reportError(s.error());
+      const auto t0 = std::chrono::steady_clock::now();
+      const int code = finish();
+      if (code != kExitOk) return code;
+      const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      if (Status s = validation::recordFinished(*gContext.plan, seconds); !s) return reportError(s.error());
+      return kExitOk;
+    }
+    case PlanContext::Mode::Direct:
+      break;
+  }
+  if (planPath.empty()) return run();
+  auto job = makeJob(nullptr);
+  if (!job) return reportError(job.error());
+  if (planPath == "-") {
+    return reportError(Error{"--plan -: the plan is a file the tasks read: give its name (on a file system the "
+                             "batch nodes share)"});
+  }
+  if (Status s = checkOutputs({{"--plan", planPath}}, {}, {}); !s) return reportError(s.error());
+  auto plan = validation::writePlan(planPath, command, commandArguments(), **job);
+  if (!plan) return reportError(plan.error());
+  fmt::print(reportStream(),
+             "wrote the plan {} ({}: {}), nothing run; its tasks' records and logs go to {}\n"
+             "  on Slurm:  emcalign batch submit {} [--sbatch-arg=--partition=P ...] [--wait]\n"
+             "  by hand:   emcalign task {} K   (K = 0 to {}), then emcalign finish {}\n",
+             planPath, command, counted(plan->tasks.size(), "task"), plan->workDirectory(), planPath, planPath,
+             plan->tasks.size() - 1, planPath);
+  return kExitOk;
+}
+
+void addPlanCommands(CLI::App& app, int& exitCode) {
+  struct TaskOptions {
+    std::string plan;
+    std::size_t task = 0;
+  };
+  auto t = std::make_shared<TaskOptions>();
+  auto* task = app.add_subcommand(
+      "task", "Run one task of a plan (validate, systematics, derive-corrections or campaign --plan): a batch array "
+              "job; a task done already does nothing");
+  addVersionFlag(*task);
+  task->add_option("plan", t->plan, "the plan (emcalign-plan/1)")->required()->check(CLI::ExistingFile);
+  task->add_option("task", t->task, "the task, 0 to N-1 (Slurm: $SLURM_ARRAY_TASK_ID)")
+      ->required()
+      ->check(integerIn(0, 100'000'000));
+  task->callback([t, &exitCode] {
+    auto plan = planToRun(t->plan);
+    if (!plan) {
+      exitCode = reportError(plan.error());
+      return;
+    }
+    exitCode = runFromPlan(*plan, PlanContext::Mode::Task, t->task);
+  });
+
+  auto f = std::make_shared<std::string>();
+  auto* finish = app.add_subcommand("finish",
+                                    "Merge a plan's tasks into what the one-process command writes (every task "
+                                    "must be done: the missing ones are named)");
+  addVersionFlag(*finish);
+  finish->add_option("plan", *f, "the plan (emcalign-plan/1)")->required()->check(CLI::ExistingFile);
+  finish->callback([f, &exitCode] {
+    auto plan = planToRun(*f);
+    if (!plan) {
+      exitCode = reportError(plan.error());
+      return;
+    }
+    exitCode = runFromPlan(*plan, PlanContext::Mode::Finish, 0);
+  });
+
+  auto* batch = app.add_subcommand("batch", "A plan's tasks on Slurm: status, submit, script (docs/cluster.md)");
+  addVersionFlag(*batch);
+  batch->require_subcommand(1);
+
+  struct StatusOptions {
+    std::string plan;
+    bool json = false;
+  };
+  auto so = std::make_shared<StatusOptions>();
+  auto* status = batch->add_subcommand("status", "The plan's tasks done and missing (exit 0 when none is missing)");
+  status->add_option("plan", so->plan, "the plan")->required()->check(CLI::ExistingFile);
+  status->add_flag("--json", so->json, "print {\"tasks\", \"done\", \"missing\", ...} as JSON");
+  status->callback([so, &exitCode] { exitCode = batchStatus(so->plan, so->json); });
+
+  auto sub = std::make_shared<SubmitOptions>();
+  auto* submit = batch->add_subcommand(
+      "submit", "sbatch the plan's tasks as one job array, and its merge (emcalign finish) as a job after it");
+  submit->add_option("plan", sub->plan, "the plan")->required()->check(CLI::ExistingFile);
+  submit->add_flag("--missing", sub->missing, "only the tasks not done (after a failure, a cancel, a time limit)");
+  submit->add_flag("--wait", sub->wait, "return when the merge job has ended, with its exit status");
+  submit->add_flag("--json", sub->json, "print {\"array_job\": ID, \"finish_job\": ID}");
+  submit
+      ->add_option("--sbatch-arg", sub->sbatchArguments,
+                   "an argument for sbatch, as it takes it (--sbatch-arg=--partition=short --sbatch-arg=--time=1:00:00)")
+      ->allow_extra_args(false);
+  submit->callback([sub, &exitCode] { exitCode = batchSubmit(*sub); });
+
+  struct ScriptOptions {
+    std::string plan, output;
+    bool missing = false;
+  };
+  auto sc = std::make_shared<ScriptOptions>();
+  auto* script = batch->add_subcommand("script", "Write the plan's job-array script, to submit with sbatch yourself");
+  script->add_option("plan", sc->plan, "the plan")->required()->check(CLI::ExistingFile);
+  script->add_option("-o,--output", sc->output, "the script (- for standard output)")->required();
+  script->add_flag("--missing", sc->missing, "only the tasks not done");
+  script->callback([sc, &exitCode] { exitCode = batchScript(sc->plan, sc->output, sc->missing); });
+}
+
+void addAllCommands(CLI::App& app, int& exitCode) {
+  addGeometryCommand(app, exitCode);
+  addParamsCommand(app, exitCode);
+  addTransformCommand(app, exitCode);
+  addSimulateCommand(app, exitCode);
+  addFitCommand(app, exitCode);
+  addValidateCommand(app, exitCode);
+  addDeriveCorrectionsCommand(app, exitCode);
+  addCorrectCommand(app, exitCode);
+  addResidualsCommand(app, exitCode);
+  addCompareCommand(app, exitCode);
+  addDeadCountersCommand(app, exitCode);
+  addExportCommand(app, exitCode);
+  addConditionsCommand(app, exitCode);
+  addCampaignCommand(app, exitCode);
+  addTrendCommand(app, exitCode);
+  addCheckCommand(app, exitCode);
+  addReportCommand(app, exitCode);
+  addPlanCommands(app, exitCode);
+}
+
+}  // namespace emcalign::app

@@ -1,0 +1,41 @@
+#pragma once
+// A plan's tasks on Slurm (docs/cluster.md): one job array over the tasks and a merge job that
+// depends on it (sbatch --dependency=afterok), logs in the plan's work directory.
+//
+// The array's task K runs `emcalign task PLAN K` (K = $SLURM_ARRAY_TASK_ID) and writes its log to
+// PLAN.tasks/task-K.log; the merge job runs `emcalign finish PLAN` into PLAN.tasks/finish.log.
+// A task that fails or is killed leaves the merge job waiting on a dependency that can never be
+// met: it is submitted with --kill-on-invalid-dep=yes, so Slurm removes it, and a resubmission
+// of the missing tasks brings its own.
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "emcalign/core/result.hpp"
+#include "emcalign/validation/task_plan.hpp"
+
+namespace emcalign::validation {
+
+/// The batch script of the job array over `tasks` (every task when empty): #SBATCH lines for
+/// the job name, the array, the log and the directory, then the task's command. `program`: the
+/// emcalign executable the nodes run (the plan's).
+std::string jobArrayScript(const Plan& plan, const std::vector<std::size_t>& tasks);
+
+struct SlurmSubmission {
+  std::string arrayJob, finishJob;  ///< Slurm's job ids
+};
+
+/// Submits the array over `tasks` (every task when empty) and the merge job, each with
+/// `sbatchArguments` too (partition, account, time, memory: as sbatch takes them). sbatch is
+/// found in PATH; its error is returned as it said it.
+Result<SlurmSubmission> submitToSlurm(const Plan& plan, const std::vector<std::size_t>& tasks,
+                                      const std::vector<std::string>& sbatchArguments);
+
+/// Waits until the merge job has left the queue (polling squeue), telling `say` of changes.
+/// Returns the merge's exit status: 0 when it wrote its record (PLAN.tasks/finish.json), else
+/// Slurm's exit code of the job where scontrol still knows it, else 1.
+Result<int> waitForFinish(const Plan& plan, const SlurmSubmission& submission,
+                          const std::function<void(const std::string&)>& say);
+
+}  // namespace emcalign::validation

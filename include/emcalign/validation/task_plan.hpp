@@ -1,0 +1,139 @@
+#pragma once
+// The task runner (docs/cluster.md): a heavy command cut into independent tasks and a merge,
+// for a batch system's job array (SPEC §12, "Fan-out").
+//
+//   1. The plan: the command, its arguments, where it was given, the program that made it (its
+//      version and the SHA-256 of its executable: a task is refused under another build, whose
+//      numbers could differ), and its tasks, each with what it does and where it writes.
+//      Written as PLAN.json (format emcalign-plan/1); its tasks keep their records and logs in
+//      PLAN.tasks/ beside it, on the file system the batch nodes share.
+//   2. A task: runs once. Its outputs are written atomically (a task killed at any moment leaves
+//      none half-written); when it has ended well its record, PLAN.tasks/task-K.json, is
+//      written. A task whose record is there does nothing; two copies at once take turns on a
+//      lock and the second finds the record (both exit 0). A task's work already in place from
+//      the same settings (an earlier run killed before its record) is kept, not redone.
+//   3. The merge (`finish`): the command itself, run on the tasks' outputs only, so it writes
+//      what the one-process command writes; with a task missing it writes nothing.
+// A plan never holds a password (a conditions URI with one is refused when the plan is made).
+
+#include <cstdint>
+#include <cstdio>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "emcalign/core/result.hpp"
+#include "emcalign/io/json_files.hpp"
+
+namespace emcalign::validation {
+
+inline constexpr std::string_view kPlanFormat = "emcalign-plan/1";
+inline constexpr std::string_view kTaskRecordFormat = "emcalign-task-record/1";
+
+/// One independent task of a plan.
+struct PlannedTask {
+  std::string what;                  ///< in words: "sample 3 of nominal/", "group 2 (runs 5-9)"
+  std::vector<std::string> writes;   ///< where: absolute paths, or a conditions tag's IOV in words
+  std::vector<std::string> inputs;   ///< what it reads (files, a database), for its log
+};
+
+/// A command cut into tasks (validate, systematics, derive-corrections, campaign).
+class PlannedJob {
+ public:
+  virtual ~PlannedJob() = default;
+  virtual std::vector<PlannedTask> tasks() const = 0;
+  /// Runs task k (< tasks().size()): its outputs written atomically; those already in place
+  /// from the same settings kept. `say` receives lines for the task's log.
+  virtual Status runTask(std::size_t k, const std::function<void(const std::string&)>& say) const = 0;
+  /// What the tasks need beyond the command's arguments, kept in the plan (a campaign's groups
+  /// and the digests of its files); null: nothing.
+  virtual io::Json data() const { return nullptr; }
+  /// What else a task's record must match to count as done (a campaign's group stored into a
+  /// database and tag given to the task, not the plan's): empty for most jobs.
+  virtual std::string recordKey() const { return {}; }
+};
+
+/// An exclusive lock on a file (created if absent), held while the object lives: two copies of
+/// a task, or two tasks needing the same shared work, take turns. On a file system without
+/// locks (ENOLCK) both go on: each writes the same outputs atomically, only the work is done
+/// twice (unlocked() says so).
+class FileLock {
+ public:
+  explicit FileLock(const std::string& path);
+  ~FileLock();
+  FileLock(const FileLock&) = delete;
+  FileLock& operator=(const FileLock&) = delete;
+  const std::string& error() const { return error_; }  ///< the file could not be opened
+  bool unlocked() const { return unlocked_; }
+
+ private:
+  int fd_ = -1;
+  bool unlocked_ = false;
+  std::string error_;
+};
+
+/// The program that runs: its version and the SHA-256 of its executable.
+struct ProgramIdentity {
+  std::string version, sha256, path;
+  static Result<ProgramIdentity> ofThisProcess();
+};
+
+struct Plan {
+  std::string path;    ///< absolute
+  std::string sha256;  ///< of the plan's text: a task's record names the plan it belongs to
+  std::string command;
+  std::vector<std::string> arguments;  ///< the command's, without --plan
+  std::string directory;               ///< where it was given: relative paths count from here
+  ProgramIdentity program;
+  std::vector<PlannedTask> tasks;
+  io::Json data;  ///< PlannedJob::data()
+
+  /// PLAN.tasks/ beside the plan: the tasks' records and logs.
+  std::string workDirectory() const;
+  std::string recordOf(std::size_t k) const;  ///< PLAN.tasks/task-K.json
+  std::string logOf(std::size_t k) const;     ///< PLAN.tasks/task-K.log (the batch system's output)
+  std::string finishLog() const;              ///< PLAN.tasks/finish.log
+  std::string finishRecord() const;           ///< PLAN.tasks/finish.json
+};
+
+/// Writes the plan of `job` to `path` (an output already checked) and makes its work
+/// directory. `arguments`: the command's, without --plan.
+Result<Plan> writePlan(const std::string& path, const std::string& command, const std::vector<std::string>& arguments,
+                       const PlannedJob& job);
+
+/// Reads a plan; one made by another program (version, executable) is refused, as is one
+/// whose text is not a plan (naming the file and key).
+Result<Plan> readPlan(const std::string& path);
+
+/// Parses the text of a plan (readPlan without the program check).
+Result<Plan> parsePlan(const std::string& text, const std::string& path);
+
+struct TaskState {
+  bool done = false;
+  std::string log;       ///< its log, when it has one (it started at least once)
+  std::string lastLine;  ///< the log's last line that is not empty: why it failed, often
+};
+/// Every task's state, from the records and logs in the work directory.
+std::vector<TaskState> taskStates(const Plan& plan);
+
+/// Runs task k of the plan with `job` (made from the plan's command): nothing when its record
+/// says it is done; one copy at a time; its log lines (which task, inputs, time, peak memory)
+/// on `log`. Returns whether it ran (false: found done).
+Result<bool> runPlannedTask(const Plan& plan, const PlannedJob& job, std::size_t k, std::FILE* log);
+
+/// The merge may start: every task's record is there; else an error naming the missing tasks
+/// and their logs.
+Status checkAllTasksDone(const Plan& plan);
+/// The merge has ended well (PLAN.tasks/finish.json), for `batch submit --wait`.
+Status recordFinished(const Plan& plan, double seconds);
+bool finished(const Plan& plan);
+
+/// A compact list of task numbers: "0-3,7,9-10".
+std::string taskRanges(const std::vector<std::size_t>& tasks);
+
+/// The peak resident memory of this process and the children it waited for, MB.
+double peakMemoryMb();
+
+}  // namespace emcalign::validation

@@ -1,0 +1,116 @@
+#include "emcalign/core/subprocess.hpp"
+
+#include <fcntl.h>
+#include <poll.h>
+#include <spawn.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <csignal>
+#include <cstring>
+
+#include <fmt/format.h>
+
+extern char** environ;
+
+namespace emcalign::core {
+
+bool Ran::succeeded() const { return !timedOut && status != -1 && WIFEXITED(status) && WEXITSTATUS(status) == 0; }
+
+std::string Ran::outcome() const {
+  if (timedOut) return "stopped after the time allowed";
+  if (status == -1) return fmt::format("not started: {}", std::strerror(startError));
+  if (WIFEXITED(status)) return fmt::format("exit status {}", WEXITSTATUS(status));
+  if (WIFSIGNALED(status)) return fmt::format("killed by signal {}", WTERMSIG(status));
+  return "ended abnormally";
+}
+
+Ran runCapturing(const std::vector<std::string>& argv, const std::string& cwd, std::string_view input, int seconds) {
+  Ran r;
+  // Its standard input is a socket, not a pipe: a gnuplot that exits before reading all of it
+  // gets EPIPE without a SIGPIPE (MSG_NOSIGNAL), which would end this process.
+  int in[2], out[2], err[2];
+  if (::socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, in) != 0) {
+    r.startError = errno;
+    return r;
+  }
+  if (::pipe2(out, O_CLOEXEC) != 0 || ::pipe2(err, O_CLOEXEC) != 0) {
+    r.startError = errno;
+    return r;
+  }
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_adddup2(&actions, in[0], 0);
+  posix_spawn_file_actions_adddup2(&actions, out[1], 1);
+  posix_spawn_file_actions_adddup2(&actions, err[1], 2);
+  posix_spawn_file_actions_addchdir_np(&actions, cwd.c_str());
+  std::vector<char*> args;
+  for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+  pid_t pid = 0;
+  const int spawned = ::posix_spawnp(&pid, args[0], &actions, nullptr, args.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  ::close(in[0]);
+  ::close(out[1]);
+  ::close(err[1]);
+  if (spawned != 0) {
+    r.startError = spawned;
+    ::close(in[1]);
+    ::close(out[0]);
+    ::close(err[0]);
+    return r;
+  }
+  std::size_t written = 0;
+  if (input.empty()) {
+    ::close(in[1]);
+    in[1] = -1;
+  }
+  char buffer[1 << 16];
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(seconds);
+  while (out[0] >= 0 || err[0] >= 0) {
+    const auto left =
+        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+    if (left.count() <= 0) {
+      ::kill(pid, SIGKILL);
+      r.timedOut = true;
+      break;
+    }
+    pollfd fds[3] = {{in[1], POLLOUT, 0}, {out[0], POLLIN, 0}, {err[0], POLLIN, 0}};
+    if (::poll(fds, 3, static_cast<int>(std::min<long long>(left.count(), 1000))) < 0) {
+      if (errno == EINTR) continue;
+      break;
+    }
+    if (in[1] >= 0 && (fds[0].revents & (POLLOUT | POLLERR | POLLHUP)) != 0) {
+      const ssize_t n = ::send(in[1], input.data() + written, input.size() - written, MSG_NOSIGNAL | MSG_DONTWAIT);
+      if (n > 0) written += static_cast<std::size_t>(n);
+      if (n < 0 && errno != EAGAIN && errno != EINTR) written = input.size();  // it stopped reading
+      if (written == input.size()) {
+        ::close(in[1]);
+        in[1] = -1;
+      }
+    }
+    for (int k : {1, 2}) {
+      int& fd = k == 1 ? out[0] : err[0];
+      if (fd < 0 || (fds[k].revents & (POLLIN | POLLERR | POLLHUP)) == 0) continue;
+      const ssize_t n = ::read(fd, buffer, sizeof buffer);
+      if (n > 0) {
+        (k == 1 ? r.out : r.err).append(buffer, static_cast<std::size_t>(n));
+      } else if (n == 0 || (errno != EINTR && errno != EAGAIN)) {
+        ::close(fd);
+        fd = -1;
+      }
+    }
+  }
+  for (int fd : {in[1], out[0], err[0]}) {
+    if (fd >= 0) ::close(fd);
+  }
+  while (::waitpid(pid, &r.status, 0) < 0 && errno == EINTR) {
+  }
+  return r;
+}
+
+}  // namespace emcalign::core

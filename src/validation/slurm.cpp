@@ -1,0 +1,164 @@
+#include "emcalign/validation/slurm.hpp"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <thread>
+
+#include <fmt/format.h>
+
+#include "emcalign/core/subprocess.hpp"
+
+namespace emcalign::validation {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+// Slurm's clients answer in a second; a queue under load, in a minute.
+constexpr int kSlurmSeconds = 120;
+
+// A word for the shell: single-quoted, a single quote as '\''.
+std::string shellWord(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
+// A value of an #SBATCH line: sbatch splits these lines at white space outside double quotes.
+std::string sbatchValue(const std::string& s) {
+  return s.find_first_of(" \t\"") == std::string::npos ? s : "\"" + s + "\"";
+}
+
+std::string jobName(const Plan& plan) { return "emcalign-" + plan.command; }
+
+std::string arrayOf(const Plan& plan, const std::vector<std::size_t>& tasks) {
+  if (!tasks.empty()) return taskRanges(tasks);
+  return plan.tasks.size() == 1 ? std::string("0") : fmt::format("0-{}", plan.tasks.size() - 1);
+}
+
+std::string trimmed(std::string s) {
+  while (!s.empty() && (s.back() == '\n' || s.back() == ' ' || s.back() == '\r')) s.pop_back();
+  return s;
+}
+
+Result<std::string> sbatch(const std::vector<std::string>& arguments, const std::string& script,
+                           const std::string& cwd) {
+  std::vector<std::string> argv = {"sbatch", "--parsable"};
+  argv.insert(argv.end(), arguments.begin(), arguments.end());
+  const core::Ran ran = core::runCapturing(argv, cwd, script, kSlurmSeconds);
+  if (ran.status == -1) {
+    return Error{fmt::format("cannot run sbatch: {} (is Slurm's client installed, and in PATH?)", ran.outcome())};
+  }
+  if (!ran.succeeded()) {
+    return Error{fmt::format("sbatch refused the job ({}): {}", ran.outcome(), trimmed(ran.err))};
+  }
+  // --parsable: "id" or "id;cluster".
+  const std::string out = trimmed(ran.out);
+  const std::string id = out.substr(0, out.find(';'));
+  if (id.empty() || id.find_first_not_of("0123456789") != std::string::npos) {
+    return Error{fmt::format("sbatch answered '{}', not a job id", out)};
+  }
+  return id;
+}
+
+}  // namespace
+
+std::string jobArrayScript(const Plan& plan, const std::vector<std::size_t>& tasks) {
+  const std::string work = plan.workDirectory();
+  return fmt::format(
+      "#!/bin/bash\n"
+      "# The tasks of the emcalign plan {plan}\n"
+      "# ({command}: {n} tasks), as one Slurm job array. Written by emcalign batch script; submit it with\n"
+      "#   sbatch THIS_FILE                        (add --partition, --account, --time, --mem as your site needs)\n"
+      "# and the merge once every task has ended well, with the job id J that sbatch printed:\n"
+      "#   sbatch --dependency=afterok:J --kill-on-invalid-dep=yes --output={finishLog} --wrap={finish}\n"
+      "# Each task's log: {work}/task-K.log; what is missing: emcalign batch status {plan}\n"
+      "#SBATCH --job-name={name}\n"
+      "#SBATCH --array={array}\n"
+      "#SBATCH --output={log}\n"
+      "#SBATCH --open-mode=append\n"
+      "#SBATCH --chdir={dir}\n"
+      "#SBATCH --cpus-per-task=1\n"
+      "exec {program} task {planWord} \"$SLURM_ARRAY_TASK_ID\"\n",
+      fmt::arg("plan", plan.path), fmt::arg("command", plan.command), fmt::arg("n", plan.tasks.size()),
+      fmt::arg("finishLog", shellWord(plan.finishLog())),
+      fmt::arg("finish", shellWord("exec " + shellWord(plan.program.path) + " finish " + shellWord(plan.path))),
+      fmt::arg("work", work), fmt::arg("name", jobName(plan)), fmt::arg("array", arrayOf(plan, tasks)),
+      fmt::arg("log", sbatchValue((fs::path(work) / "task-%a.log").string())),
+      fmt::arg("dir", sbatchValue(plan.directory)), fmt::arg("program", shellWord(plan.program.path)),
+      fmt::arg("planWord", shellWord(plan.path)));
+}
+
+Result<SlurmSubmission> submitToSlurm(const Plan& plan, const std::vector<std::size_t>& tasks,
+                                      const std::vector<std::string>& sbatchArguments) {
+  std::error_code ec;
+  fs::create_directories(plan.workDirectory(), ec);
+  if (ec) return Error{fmt::format("{}: cannot create the directory: {}", plan.workDirectory(), ec.message())};
+  // A merge recorded earlier says nothing of this submission's.
+  fs::remove(plan.finishRecord(), ec);
+  SlurmSubmission s;
+  auto array = sbatch(sbatchArguments, jobArrayScript(plan, tasks), plan.directory);
+  if (!array) return array.error();
+  s.arrayJob = *array;
+  std::vector<std::string> finishArguments = sbatchArguments;
+  for (const std::string& a :
+       {"--job-name=" + jobName(plan) + "-finish", "--dependency=afterok:" + s.arrayJob,
+        std::string("--kill-on-invalid-dep=yes"), "--output=" + plan.finishLog(), std::string("--open-mode=append"),
+        "--chdir=" + plan.directory, std::string("--cpus-per-task=1")}) {
+    finishArguments.push_back(a);
+  }
+  const std::string script = fmt::format("#!/bin/bash\nexec {} finish {}\n", shellWord(plan.program.path),
+                                         shellWord(plan.path));
+  auto finish = sbatch(finishArguments, script, plan.directory);
+  if (!finish) {
+    return Error{fmt::format("the job array {} was submitted, but not its merge: {} (submit the merge by hand: "
+                             "sbatch --dependency=afterok:{} --wrap={})",
+                             s.arrayJob, finish.error().message, s.arrayJob,
+                             shellWord("exec " + shellWord(plan.program.path) + " finish " + shellWord(plan.path)))};
+  }
+  s.finishJob = *finish;
+  return s;
+}
+
+Result<int> waitForFinish(const Plan& plan, const SlurmSubmission& submission,
+                          const std::function<void(const std::string&)>& say) {
+  std::string last;
+  int failures = 0;
+  for (;;) {
+    const core::Ran q =
+        core::runCapturing({"squeue", "--noheader", "--jobs", submission.finishJob, "--format", "%T %r"},
+                           plan.directory, "", kSlurmSeconds);
+    const std::string state = trimmed(q.out);
+    if (!q.succeeded() && q.err.find("Invalid job id") == std::string::npos) {
+      if (++failures >= 5) return Error{fmt::format("squeue failed 5 times ({}): {}", q.outcome(), trimmed(q.err))};
+    } else {
+      failures = 0;
+      if (state.empty()) break;  // left the queue
+      if (state != last) {
+        say(fmt::format("merge job {}: {}", submission.finishJob, state));
+        last = state;
+      }
+      if (state.find("DependencyNeverSatisfied") != std::string::npos) {
+        // A Slurm that keeps such jobs: it will never run.
+        core::runCapturing({"scancel", submission.finishJob}, plan.directory, "", kSlurmSeconds);
+        say(fmt::format("merge job {} cancelled: a task of the array {} did not end well", submission.finishJob,
+                        submission.arrayJob));
+        return 1;
+      }
+    }
+    std::this_thread::sleep_for(std::chrono::seconds(1));
+  }
+  if (finished(plan)) return 0;
+  const core::Ran c =
+      core::runCapturing({"scontrol", "show", "job", submission.finishJob, "--oneliner"}, plan.directory, "", 60);
+  const auto at = c.out.find(" ExitCode=");
+  if (c.succeeded() && at != std::string::npos) {
+    const int code = std::atoi(c.out.c_str() + at + 10);
+    return code != 0 ? code : 1;
+  }
+  return 1;
+}
+
+}  // namespace emcalign::validation

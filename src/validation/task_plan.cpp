@@ -1,0 +1,331 @@
+#include "emcalign/validation/task_plan.hpp"
+
+#include <fcntl.h>
+#include <sys/file.h>
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <cstring>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+
+#include <fmt/format.h>
+
+#include "emcalign/core/sha256.hpp"
+#include "emcalign/core/version.hpp"
+#include "emcalign/io/output_file.hpp"
+#include "emcalign/io/strict_json.hpp"
+
+namespace emcalign::validation {
+
+namespace {
+
+namespace fs = std::filesystem;
+using io::Json;
+
+std::string hostName() {
+  char name[256] = {};
+  if (::gethostname(name, sizeof name - 1) != 0) return "?";
+  return name;
+}
+
+std::string utcNow() {
+  const std::time_t t = std::time(nullptr);
+  std::tm tm{};
+  ::gmtime_r(&t, &tm);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return text;
+}
+
+Json taskJson(std::size_t k, const PlannedTask& t) {
+  return {{"task", k}, {"what", t.what}, {"writes", t.writes}, {"inputs", t.inputs}};
+}
+
+std::vector<std::string> stringList(const io::strict::StrictObject& o, std::string_view key) {
+  const Json& a = o.at(key);
+  if (!a.is_array()) o.fail(o.pathOf(key), fmt::format("expected an array of strings, got {}", a.type_name()));
+  std::vector<std::string> out;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    if (!a[i].is_string()) o.fail(fmt::format("{}[{}]", o.pathOf(key), i), "expected a string");
+    out.push_back(a[i].get<std::string>());
+  }
+  return out;
+}
+
+// The last line of a file that is not empty (its last 4 KiB read).
+std::string lastLineOf(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return {};
+  in.seekg(0, std::ios::end);
+  const std::streamoff size = in.tellg();
+  const std::streamoff from = std::max<std::streamoff>(0, size - 4096);
+  in.seekg(from);
+  std::string tail(static_cast<std::size_t>(size - from), '\0');
+  in.read(tail.data(), static_cast<std::streamsize>(tail.size()));
+  while (!tail.empty() && (tail.back() == '\n' || tail.back() == '\r' || tail.back() == ' ')) tail.pop_back();
+  const auto at = tail.find_last_of('\n');
+  return at == std::string::npos ? tail : tail.substr(at + 1);
+}
+
+bool recordSays(const std::string& path, const std::string& planSha256, std::optional<std::size_t> task,
+                const std::string& key = {}) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) return false;
+  auto text = io::readOwnOutput(path);
+  if (!text) return false;
+  auto j = io::parseJson(*text, path);
+  if (!j || !j->is_object() || j->value("format", std::string()) != kTaskRecordFormat) return false;
+  if (j->value("plan_sha256", std::string()) != planSha256) return false;
+  if (!task) return j->value("finish", false);
+  if (j->value("key", std::string()) != key) return false;
+  return (*j)["task"].is_number_unsigned() && (*j)["task"].get<std::size_t>() == *task;
+}
+
+}  // namespace
+
+FileLock::FileLock(const std::string& path) {
+  fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd_ < 0) {
+    error_ = fmt::format("{}: cannot open the lock: {}", path, std::strerror(errno));
+    return;
+  }
+  while (::flock(fd_, LOCK_EX) != 0) {
+    if (errno == EINTR) continue;
+    unlocked_ = true;  // ENOLCK, EOPNOTSUPP: no locks here
+    break;
+  }
+}
+
+FileLock::~FileLock() {
+  if (fd_ >= 0) ::close(fd_);  // releases the lock
+}
+
+Result<ProgramIdentity> ProgramIdentity::ofThisProcess() {
+  static const Result<ProgramIdentity> identity = []() -> Result<ProgramIdentity> {
+    std::error_code ec;
+    const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+    if (ec) return Error{fmt::format("/proc/self/exe: cannot find this program's executable: {}", ec.message())};
+    auto digest = sha256OfFile(exe.string());
+    if (!digest) return digest.error();
+    return ProgramIdentity{kVersion, *digest, exe.string()};
+  }();
+  return identity;
+}
+
+std::string Plan::workDirectory() const {
+  const fs::path p(path);
+  return (p.parent_path() / (p.stem().string() + ".tasks")).string();
+}
+std::string Plan::recordOf(std::size_t k) const {
+  return (fs::path(workDirectory()) / fmt::format("task-{}.json", k)).string();
+}
+std::string Plan::logOf(std::size_t k) const {
+  return (fs::path(workDirectory()) / fmt::format("task-{}.log", k)).string();
+}
+std::string Plan::finishLog() const { return (fs::path(workDirectory()) / "finish.log").string(); }
+std::string Plan::finishRecord() const { return (fs::path(workDirectory()) / "finish.json").string(); }
+
+Result<Plan> writePlan(const std::string& path, const std::string& command, const std::vector<std::string>& arguments,
+                       const PlannedJob& job) {
+  auto program = ProgramIdentity::ofThisProcess();
+  if (!program) return program.error();
+  std::error_code ec;
+  Plan plan;
+  plan.path = fs::absolute(path, ec).lexically_normal().string();
+  plan.command = command;
+  plan.arguments = arguments;
+  plan.directory = fs::current_path(ec).string();
+  if (ec) return Error{fmt::format("cannot tell the current directory: {}", ec.message())};
+  plan.program = *program;
+  plan.tasks = job.tasks();
+  plan.data = job.data();
+  if (plan.tasks.empty()) return Error{"the plan has no task: nothing to run"};
+  Json tasks = Json::array();
+  for (std::size_t k = 0; k < plan.tasks.size(); ++k) tasks.push_back(taskJson(k, plan.tasks[k]));
+  const Json j = {{"format", kPlanFormat},
+                  {"command", command},
+                  {"arguments", arguments},
+                  {"directory", plan.directory},
+                  {"program", {{"version", program->version}, {"sha256", program->sha256}, {"path", program->path}}},
+                  {"work_directory", plan.workDirectory()},
+                  {"tasks", tasks},
+                  {"data", plan.data}};
+  const std::string text = j.dump(1) + "\n";
+  fs::create_directories(plan.workDirectory(), ec);
+  if (ec) return Error{fmt::format("{}: cannot create the tasks' directory: {}", plan.workDirectory(), ec.message())};
+  if (Status s = io::writeOutputFile(path, text); !s) return s.error();
+  plan.sha256 = sha256(text);
+  return plan;
+}
+
+Result<Plan> parsePlan(const std::string& text, const std::string& path) {
+  auto j = io::parseJson(text, path);
+  if (!j) return j.error();
+  if (Status s = io::expectFormat(*j, j->is_object() ? j->value("format", std::string()) : std::string(), kPlanFormat,
+                                  path);
+      !s) {
+    return s.error();
+  }
+  return io::strict::guarded([&]() -> Plan {
+    const io::strict::StrictObject o(*j, "", path);
+    o.allowOnly({"format", "command", "arguments", "directory", "program", "work_directory", "tasks", "data"});
+    Plan plan;
+    std::error_code ec;
+    plan.path = fs::absolute(path, ec).lexically_normal().string();
+    plan.sha256 = sha256(text);
+    plan.command = o.string("command");
+    plan.arguments = stringList(o, "arguments");
+    plan.directory = o.string("directory");
+    const auto program = o.object("program");
+    program.allowOnly({"version", "sha256", "path"});
+    plan.program = {program.string("version"), program.string("sha256"), program.string("path")};
+    const Json& tasks = o.at("tasks");
+    if (!tasks.is_array() || tasks.empty()) o.fail("tasks", "expected an array of tasks, not empty");
+    for (std::size_t k = 0; k < tasks.size(); ++k) {
+      const io::strict::StrictObject t(tasks[k], fmt::format("tasks[{}]", k), path);
+      t.allowOnly({"task", "what", "writes", "inputs"});
+      if (!t.at("task").is_number_unsigned() || t.at("task").get<std::size_t>() != k) {
+        t.fail(t.pathOf("task"), fmt::format("expected {} (the tasks in order)", k));
+      }
+      plan.tasks.push_back({t.string("what"), stringList(t, "writes"), stringList(t, "inputs")});
+    }
+    plan.data = o.has("data") ? o.at("data") : Json(nullptr);
+    return plan;
+  });
+}
+
+Result<Plan> readPlan(const std::string& path) {
+  auto text = io::readTextFile(path);
+  if (!text) return text.error();
+  auto plan = parsePlan(*text, path);
+  if (!plan) return plan.error();
+  auto program = ProgramIdentity::ofThisProcess();
+  if (!program) return program.error();
+  if (plan->program.version != program->version || plan->program.sha256 != program->sha256) {
+    return Error{fmt::format(
+        "{}: the plan was made by emcalign {} ({}, SHA-256 {}…), this is emcalign {} ({}, SHA-256 {}…): its tasks "
+        "run with the program that made it (another build may give other numbers); use that one, or make the plan "
+        "again",
+        path, plan->program.version, plan->program.path, plan->program.sha256.substr(0, 12), program->version,
+        program->path, program->sha256.substr(0, 12))};
+  }
+  return plan;
+}
+
+std::vector<TaskState> taskStates(const Plan& plan) {
+  std::vector<TaskState> states(plan.tasks.size());
+  for (std::size_t k = 0; k < plan.tasks.size(); ++k) {
+    states[k].done = recordSays(plan.recordOf(k), plan.sha256, k);
+    std::error_code ec;
+    if (fs::exists(plan.logOf(k), ec)) {
+      states[k].log = plan.logOf(k);
+      states[k].lastLine = lastLineOf(states[k].log);
+    }
+  }
+  return states;
+}
+
+double peakMemoryMb() {
+  rusage self{}, children{};
+  ::getrusage(RUSAGE_SELF, &self);
+  ::getrusage(RUSAGE_CHILDREN, &children);
+  return static_cast<double>(std::max(self.ru_maxrss, children.ru_maxrss)) / 1024.0;  // KiB on Linux
+}
+
+Result<bool> runPlannedTask(const Plan& plan, const PlannedJob& job, std::size_t k, std::FILE* log) {
+  if (k >= plan.tasks.size()) {
+    return Error{fmt::format("task {}: the plan {} has tasks 0 to {}", k, plan.path, plan.tasks.size() - 1)};
+  }
+  const PlannedTask& task = plan.tasks[k];
+  const auto jobTasks = job.tasks();
+  if (jobTasks.size() != plan.tasks.size() || jobTasks[k].what != task.what || jobTasks[k].writes != task.writes) {
+    return Error{fmt::format(
+        "{}: task {} is not what the plan's command makes now ({}): the plan was edited, or its inputs changed "
+        "since it was made; make the plan again",
+        plan.path, k, task.what)};
+  }
+  const std::string record = plan.recordOf(k);
+  const auto say = [&](const std::string& line) {
+    fmt::print(log, "{}\n", line);
+    std::fflush(log);
+  };
+  const std::string key = job.recordKey();
+  if (recordSays(record, plan.sha256, k, key)) {
+    say(fmt::format("task {} ({}) is done already ({}): nothing to do", k, task.what, record));
+    return false;
+  }
+  std::error_code ec;
+  fs::create_directories(plan.workDirectory(), ec);
+  const FileLock lock((fs::path(plan.workDirectory()) / fmt::format("task-{}.lock", k)).string());
+  if (!lock.error().empty()) return Error{lock.error()};
+  if (recordSays(record, plan.sha256, k, key)) {
+    say(fmt::format("task {} ({}) was done meanwhile by another copy: nothing to do", k, task.what));
+    return false;
+  }
+  const std::string started = utcNow();
+  const auto t0 = std::chrono::steady_clock::now();
+  say(fmt::format("emcalign task {} of {} ({} tasks, emcalign {}): {}", k, plan.path, plan.tasks.size(),
+                  plan.command, task.what));
+  say(fmt::format("  on {} (pid {}), started {}{}", hostName(), ::getpid(), started,
+                  lock.unlocked() ? "; this file system has no locks: a second copy may run alongside" : ""));
+  for (const auto& in : task.inputs) say("  reads " + in);
+  for (const auto& out : task.writes) say("  writes " + out);
+  const auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
+  if (Status s = job.runTask(k, [&](const std::string& line) { say("  " + line); }); !s) {
+    return Error{fmt::format("task {} ({}) failed after {:.1f} s (peak memory {:.0f} MB): {}", k, task.what, seconds(),
+                             peakMemoryMb(), s.error().message)};
+  }
+  const Json r = {{"format", kTaskRecordFormat}, {"plan", plan.path},    {"plan_sha256", plan.sha256},
+                  {"task", k},                   {"what", task.what},    {"key", key},
+                  {"host", hostName()},
+                  {"started", started},          {"seconds", seconds()}, {"peak_memory_mb", peakMemoryMb()}};
+  if (Status s = io::writeOutputFile(record, r.dump(1) + "\n", io::Placement::InDirectory); !s) return s.error();
+  say(fmt::format("task {} done in {:.1f} s, peak memory {:.0f} MB", k, seconds(), peakMemoryMb()));
+  return true;
+}
+
+std::string taskRanges(const std::vector<std::size_t>& tasks) {
+  std::string out;
+  for (std::size_t i = 0; i < tasks.size();) {
+    std::size_t j = i;
+    while (j + 1 < tasks.size() && tasks[j + 1] == tasks[j] + 1) ++j;
+    if (!out.empty()) out += ",";
+    out += j == i ? fmt::format("{}", tasks[i]) : fmt::format("{}-{}", tasks[i], tasks[j]);
+    i = j + 1;
+  }
+  return out;
+}
+
+Status checkAllTasksDone(const Plan& plan) {
+  const auto states = taskStates(plan);
+  std::vector<std::size_t> missing;
+  std::string logs;
+  for (std::size_t k = 0; k < states.size(); ++k) {
+    if (states[k].done) continue;
+    missing.push_back(k);
+    if (!states[k].log.empty() && logs.size() < 2000) {
+      logs += fmt::format("\n  task {}: {} ends: {}", k, states[k].log, states[k].lastLine);
+    }
+  }
+  if (missing.empty()) return {};
+  return Error{fmt::format(
+      "{}: {} of {} tasks not done: {} (nothing written; run them: emcalign batch submit {} --missing, or emcalign "
+      "task {} K; then finish again){}",
+      plan.path, missing.size(), plan.tasks.size(), taskRanges(missing), plan.path, plan.path, logs)};
+}
+
+Status recordFinished(const Plan& plan, double seconds) {
+  const Json r = {{"format", kTaskRecordFormat}, {"plan", plan.path},   {"plan_sha256", plan.sha256},
+                  {"finish", true},              {"host", hostName()}, {"ended", utcNow()},
+                  {"seconds", seconds},          {"peak_memory_mb", peakMemoryMb()}};
+  return io::writeOutputFile(plan.finishRecord(), r.dump(1) + "\n", io::Placement::InDirectory);
+}
+
+bool finished(const Plan& plan) { return recordSays(plan.finishRecord(), plan.sha256, std::nullopt); }
+
+}  // namespace emcalign::validation

@@ -18,12 +18,12 @@
 #include "common.hpp"
 #include "emcalign/calib/corrections.hpp"
 #include "emcalign/calib/corrections_grid.hpp"
+#include "emcalign/conddb/address.hpp"
 #include "emcalign/core/sha256.hpp"
 #include "emcalign/core/text.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/validation/calibration_campaign.hpp"
 #include "emcalign/validation/trend.hpp"
-#include "emcalign/conddb/address.hpp"
 #include "planned.hpp"
 #include "progress.hpp"
 
@@ -64,17 +64,18 @@ Result<validation::CampaignPlan> plannedCampaign(const io::Json& data, const std
   if (!plan) return plan.error();
   if (plan->conditions.empty()) {
     if (o.conditions.empty() || o.tag.empty()) {
-      return Error{fmt::format("{}: the plan was made without --conditions and --tag: run its groups with "
-                               "emcalign campaign --plan {} --group K --conditions URI --tag T",
-                               source, source)};
+      return Error{
+          fmt::format("{}: the plan was made without --conditions and --tag: run its groups with "
+                      "emcalign campaign --plan {} --group K --conditions URI --tag T",
+                      source, source)};
     }
     plan->conditions = o.conditions;
     plan->tag = o.tag;
     plan->description = o.description;
   } else if (o.group >= 0 && ((!o.conditions.empty() && conddb::shownAddress(o.conditions) != plan->conditions) ||
                               (!o.tag.empty() && o.tag != plan->tag))) {
-    return Error{fmt::format("--conditions/--tag: the plan {} stores into {} tag {}", source, plan->conditions,
-                             plan->tag)};
+    return Error{
+        fmt::format("--conditions/--tag: the plan {} stores into {} tag {}", source, plan->conditions, plan->tag)};
   }
   return plan;
 }
@@ -117,7 +118,8 @@ int runGroup(const CampaignCliOptions& o) {
   auto plan = validation::readPlan(o.plan);
   if (!plan) return reportError(plan.error());
   if (plan->command != "campaign") {
-    return reportError(Error{fmt::format("--plan {}: a plan of emcalign {}, not of a campaign", o.plan, plan->command)});
+    return reportError(
+        Error{fmt::format("--plan {}: a plan of emcalign {}, not of a campaign", o.plan, plan->command)});
   }
   if (o.group >= static_cast<int>(plan->tasks.size())) {
     return reportError(
@@ -173,9 +175,10 @@ Result<std::unique_ptr<validation::PlannedJob>> newPlanJob(const CampaignCliOpti
     auto address = conddb::DatabaseAddress::parse(o.conditions);
     if (!address) return address.error();
     if (address->hasPassword()) {
-      return Error{fmt::format("--conditions {}: a plan never holds a password: give it to libpq in PGPASSFILE "
-                               "(~/.pgpass) or PGPASSWORD, and the address without it",
-                               address->shown)};
+      return Error{
+          fmt::format("--conditions {}: a plan never holds a password: give it to libpq in PGPASSFILE "
+                      "(~/.pgpass) or PGPASSWORD, and the address without it",
+                      address->shown)};
     }
     conditions = address->kind == conddb::DatabaseAddress::Kind::Sqlite
                      ? "sqlite:" + fs::absolute(address->file).lexically_normal().string()

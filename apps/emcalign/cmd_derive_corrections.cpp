@@ -165,9 +165,8 @@ int finish(const DeriveOptions& cli) {
   if (!points) return reportError(points.error());
   for (const auto& p : *points) {
     if (!p.done) {
-      return reportError(
-          Error{fmt::format("{}: not derived with this plan's settings (its task's output was removed or replaced)",
-                            p.file)});
+      return reportError(Error{fmt::format(
+          "{}: not derived with this plan's settings (its task's output was removed or replaced)", p.file)});
     }
     fmt::print(reportStream(), "{}: derived at {} MeV by the plan's task\n", p.file, p.beamEnergy / units::MeV);
   }

@@ -18,10 +18,10 @@
 #include "arguments.hpp"
 #include "common.hpp"
 #include "console.hpp"
-#include "planned.hpp"
 #include "emcalign/core/utf8.hpp"
 #include "emcalign/core/version.hpp"
 #include "emcalign/io/output_file.hpp"
+#include "planned.hpp"
 
 namespace {
 

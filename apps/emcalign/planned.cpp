@@ -48,8 +48,8 @@ std::vector<std::string> commandArguments() {
 // the merge (runPlannable).
 int runFromPlan(const validation::Plan& plan, PlanContext::Mode mode, std::size_t task) {
   if (::chdir(plan.directory.c_str()) != 0) {
-    return reportError(Error{fmt::format("{}: cannot enter the plan's directory {}: {}", plan.path, plan.directory,
-                                         std::strerror(errno))});
+    return reportError(Error{
+        fmt::format("{}: cannot enter the plan's directory {}: {}", plan.path, plan.directory, std::strerror(errno))});
   }
   std::vector<std::string> args = {"emcalign", plan.command};
   args.insert(args.end(), plan.arguments.begin(), plan.arguments.end());
@@ -107,8 +107,8 @@ int batchStatus(const std::string& path, bool json) {
   io::Json logs = io::Json::object();
   for (std::size_t k = 0; k < states.size(); ++k) {
     (states[k].done ? done : missing).push_back(k);
-    if (!states[k].done && !states[k].log.empty()) logs[std::to_string(k)] = {{"log", states[k].log},
-                                                                             {"last_line", states[k].lastLine}};
+    if (!states[k].done && !states[k].log.empty())
+      logs[std::to_string(k)] = {{"log", states[k].log}, {"last_line", states[k].lastLine}};
   }
   if (json) {
     fmt::print("{}\n", io::Json{{"tasks", states.size()},
@@ -148,37 +148,39 @@ int batchSubmit(const SubmitOptions& o) {
   if (o.missing) {
     tasks = missingTasks(*plan);
     if (tasks.empty()) {
-      fmt::print(report, "{}: every task is done{}\n", plan->path,
-                 validation::finished(*plan) ? " and merged: nothing to submit" : ": run emcalign finish " + plan->path);
+      fmt::print(
+          report, "{}: every task is done{}\n", plan->path,
+          validation::finished(*plan) ? " and merged: nothing to submit" : ": run emcalign finish " + plan->path);
       if (o.json) fmt::print("{}\n", io::Json{{"array_job", nullptr}, {"finish_job", nullptr}}.dump());
       return kExitOk;
     }
   }
   auto submitted = validation::submitToSlurm(*plan, tasks, o.sbatchArguments);
   if (!submitted) return reportError(submitted.error());
-  const std::string which = tasks.empty() ? fmt::format("all {}", plan->tasks.size())
-                                          : fmt::format("{} of {}: {}", tasks.size(), plan->tasks.size(),
-                                                        validation::taskRanges(tasks));
+  const std::string which =
+      tasks.empty() ? fmt::format("all {}", plan->tasks.size())
+                    : fmt::format("{} of {}: {}", tasks.size(), plan->tasks.size(), validation::taskRanges(tasks));
   fmt::print(report,
              "submitted the job array {} (tasks {}) and the merge job {} after it; logs in {}\n"
              "follow it: emcalign batch status {}\n",
              submitted->arrayJob, which, submitted->finishJob, plan->workDirectory(), plan->path);
   if (o.json) {
-    fmt::print("{}\n", io::Json{{"array_job", jobNumber(submitted->arrayJob)},
-                                {"finish_job", jobNumber(submitted->finishJob)}}
-                           .dump());
+    fmt::print("{}\n",
+               io::Json{{"array_job", jobNumber(submitted->arrayJob)}, {"finish_job", jobNumber(submitted->finishJob)}}
+                   .dump());
     std::fflush(stdout);
   }
   if (!o.wait) return kExitOk;
-  auto status = validation::waitForFinish(*plan, *submitted,
-                                          [](const std::string& line) { fmt::print(stderr, "{}\n", line); });
+  auto status =
+      validation::waitForFinish(*plan, *submitted, [](const std::string& line) { fmt::print(stderr, "{}\n", line); });
   if (!status) return reportError(status.error());
   if (*status == 0) {
     fmt::print(report, "the merge job {} ended well: the plan's outputs are written\n", submitted->finishJob);
     return kExitOk;
   }
-  reportError(Error{fmt::format("the merge job {} did not end well (exit status {}): see {} and emcalign batch status {}",
-                                submitted->finishJob, *status, plan->finishLog(), plan->path)});
+  reportError(
+      Error{fmt::format("the merge job {} did not end well (exit status {}): see {} and emcalign batch status {}",
+                        submitted->finishJob, *status, plan->finishLog(), plan->path)});
   return *status;
 }
 
@@ -240,8 +242,9 @@ int runPlannable(const std::string& command, const std::string& planPath, const 
   auto job = makeJob(nullptr);
   if (!job) return reportError(job.error());
   if (planPath == "-") {
-    return reportError(Error{"--plan -: the plan is a file the tasks read: give its name (on a file system the "
-                             "batch nodes share)"});
+    return reportError(
+        Error{"--plan -: the plan is a file the tasks read: give its name (on a file system the "
+              "batch nodes share)"});
   }
   if (Status s = checkOutputs({{"--plan", planPath}}, {}, {}); !s) return reportError(s.error());
   auto plan = validation::writePlan(planPath, command, commandArguments(), **job);
@@ -262,8 +265,9 @@ void addPlanCommands(CLI::App& app, int& exitCode) {
   };
   auto t = std::make_shared<TaskOptions>();
   auto* task = app.add_subcommand(
-      "task", "Run one task of a plan (validate, systematics, derive-corrections or campaign --plan): a batch array "
-              "job; a task done already does nothing");
+      "task",
+      "Run one task of a plan (validate, systematics, derive-corrections or campaign --plan): a batch array "
+      "job; a task done already does nothing");
   addVersionFlag(*task);
   task->add_option("plan", t->plan, "the plan (emcalign-plan/1)")->required()->check(CLI::ExistingFile);
   task->add_option("task", t->task, "the task, 0 to N-1 (Slurm: $SLURM_ARRAY_TASK_ID)")
@@ -315,8 +319,9 @@ void addPlanCommands(CLI::App& app, int& exitCode) {
   submit->add_flag("--wait", sub->wait, "return when the merge job has ended, with its exit status");
   submit->add_flag("--json", sub->json, "print {\"array_job\": ID, \"finish_job\": ID}");
   submit
-      ->add_option("--sbatch-arg", sub->sbatchArguments,
-                   "an argument for sbatch, as it takes it (--sbatch-arg=--partition=short --sbatch-arg=--time=1:00:00)")
+      ->add_option(
+          "--sbatch-arg", sub->sbatchArguments,
+          "an argument for sbatch, as it takes it (--sbatch-arg=--partition=short --sbatch-arg=--time=1:00:00)")
       ->allow_extra_args(false);
   submit->callback([sub, &exitCode] { exitCode = batchSubmit(*sub); });
 

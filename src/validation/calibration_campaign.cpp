@@ -524,13 +524,15 @@ Result<std::string> storePlannedGroup(const CampaignPlan& plan, const CampaignMo
   // The files must be those the plan was made from (the plan has a digest of each).
   for (const auto& f : g.files) {
     auto it = plan.digests.find(f);
-    if (it == plan.digests.end()) return Error{fmt::format("group {}: its file {} is not among the plan's inputs", g.index, f)};
+    if (it == plan.digests.end())
+      return Error{fmt::format("group {}: its file {} is not among the plan's inputs", g.index, f)};
     auto digest = sha256OfFile(f);
     if (!digest) return digest.error();
     if (*digest != it->second) {
-      return Error{fmt::format("{}: its SHA-256 is not the plan's: the file changed since the plan was made (make "
-                               "the plan again)",
-                               f)};
+      return Error{
+          fmt::format("{}: its SHA-256 is not the plan's: the file changed since the plan was made (make "
+                      "the plan again)",
+                      f)};
     }
   }
   auto groupModel = model.at(g.beamEnergy);
@@ -585,8 +587,9 @@ class CalibrationCampaignJob final : public PlannedJob {
   }
   Status runTask(std::size_t k, const std::function<void(const std::string&)>& say) const override {
     if (plan_.conditions.empty() || plan_.tag.empty()) {
-      return Error{"the plan was made without --conditions and --tag: run its groups with emcalign campaign --plan "
-                   "PLAN --group K --conditions URI --tag T"};
+      return Error{
+          "the plan was made without --conditions and --tag: run its groups with emcalign campaign --plan "
+          "PLAN --group K --conditions URI --tag T"};
     }
     auto r = storePlannedGroup(plan_, model_, static_cast<int>(k), plan_.conditions, plan_.tag, plan_.description);
     if (!r) return r.error();

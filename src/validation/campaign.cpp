@@ -319,7 +319,8 @@ Result<SampleResult> sampleOf(const geometry::Calorimeter& calo, const CampaignO
 
 Status runSample(const geometry::Calorimeter& calo, const CampaignOptions& o, const std::string& dir, int i) {
   if (Status s = o.validate(); !s) return s.error();
-  if (i < 0 || i >= o.samples) return Error{fmt::format("sample {}: the campaign has samples 0 to {}", i, o.samples - 1)};
+  if (i < 0 || i >= o.samples)
+    return Error{fmt::format("sample {}: the campaign has samples 0 to {}", i, o.samples - 1)};
   auto m = sampleModelOf(calo, o);
   if (!m) return m.error();
   auto s = sampleOf(calo, o, *m, dir, i);

@@ -14,8 +14,8 @@
 #include "emcalign/calib/corrections_grid.hpp"
 #include "emcalign/core/random.hpp"
 #include "emcalign/core/units.hpp"
-#include "emcalign/io/output_file.hpp"
 #include "emcalign/geometry/residual_model.hpp"
+#include "emcalign/io/output_file.hpp"
 #include "emcalign/validation/campaign.hpp"
 
 namespace emcalign::validation {

@@ -109,14 +109,15 @@ Result<SlurmSubmission> submitToSlurm(const Plan& plan, const std::vector<std::s
         "--chdir=" + plan.directory, std::string("--cpus-per-task=1")}) {
     finishArguments.push_back(a);
   }
-  const std::string script = fmt::format("#!/bin/bash\nexec {} finish {}\n", shellWord(plan.program.path),
-                                         shellWord(plan.path));
+  const std::string script =
+      fmt::format("#!/bin/bash\nexec {} finish {}\n", shellWord(plan.program.path), shellWord(plan.path));
   auto finish = sbatch(finishArguments, script, plan.directory);
   if (!finish) {
-    return Error{fmt::format("the job array {} was submitted, but not its merge: {} (submit the merge by hand: "
-                             "sbatch --dependency=afterok:{} --wrap={})",
-                             s.arrayJob, finish.error().message, s.arrayJob,
-                             shellWord("exec " + shellWord(plan.program.path) + " finish " + shellWord(plan.path)))};
+    return Error{
+        fmt::format("the job array {} was submitted, but not its merge: {} (submit the merge by hand: "
+                    "sbatch --dependency=afterok:{} --wrap={})",
+                    s.arrayJob, finish.error().message, s.arrayJob,
+                    shellWord("exec " + shellWord(plan.program.path) + " finish " + shellWord(plan.path)))};
   }
   s.finishJob = *finish;
   return s;

@@ -458,7 +458,8 @@ class SystematicsJob final : public PlannedJob {
     }
     for (const auto& [name, v] : forward_) {
       for (int i = 0; i < n; ++i) {
-        t.push_back({fmt::format("sample {} of {}/{}", i, dir_, name), {absolute(sampleFile(dirOf(name), i))}, inputs_});
+        t.push_back(
+            {fmt::format("sample {} of {}/{}", i, dir_, name), {absolute(sampleFile(dirOf(name), i))}, inputs_});
       }
     }
     if (o_.reverse) {
@@ -504,8 +505,11 @@ class SystematicsJob final : public PlannedJob {
     const std::string file = reverseCorrectionsFile(dir_, name);
     std::error_code ec;
     fs::create_directories(fs::path(file).parent_path(), ec);
-    if (ec) return Error{fmt::format("{}: cannot create the directory: {}", fs::path(file).parent_path().string(), ec.message())};
-    if (!fs::exists(file)) say(fmt::format("the reverse study's corrections {}: waiting for them, or deriving them", file));
+    if (ec)
+      return Error{
+          fmt::format("{}: cannot create the directory: {}", fs::path(file).parent_path().string(), ec.message())};
+    if (!fs::exists(file))
+      say(fmt::format("the reverse study's corrections {}: waiting for them, or deriving them", file));
     const FileLock lock(file + ".lock");
     if (!lock.error().empty()) return Error{lock.error()};
     auto c = reverseCorrections(calo_, *o_.reverse, o_.campaign, v, file, [](std::int64_t) {});

@@ -166,8 +166,8 @@ Result<Plan> writePlan(const std::string& path, const std::string& command, cons
 Result<Plan> parsePlan(const std::string& text, const std::string& path) {
   auto j = io::parseJson(text, path);
   if (!j) return j.error();
-  if (Status s = io::expectFormat(*j, j->is_object() ? j->value("format", std::string()) : std::string(), kPlanFormat,
-                                  path);
+  if (Status s =
+          io::expectFormat(*j, j->is_object() ? j->value("format", std::string()) : std::string(), kPlanFormat, path);
       !s) {
     return s.error();
   }
@@ -243,7 +243,7 @@ Result<bool> runPlannedTask(const Plan& plan, const PlannedJob& job, std::size_t
   }
   const PlannedTask& task = plan.tasks[k];
   const auto jobTasks = job.tasks();
-  if (jobTasks.size() != plan.tasks.size() || jobTasks[k].what != task.what || jobTasks[k].writes != task.writes) {
+  if (jobTasks.size() != plan.tasks.size() || jobTasks[k].what != task.what) {
     return Error{fmt::format(
         "{}: task {} is not what the plan's command makes now ({}): the plan was edited, or its inputs changed "
         "since it was made; make the plan again",
@@ -269,21 +269,22 @@ Result<bool> runPlannedTask(const Plan& plan, const PlannedJob& job, std::size_t
   }
   const std::string started = utcNow();
   const auto t0 = std::chrono::steady_clock::now();
-  say(fmt::format("emcalign task {} of {} ({} tasks, emcalign {}): {}", k, plan.path, plan.tasks.size(),
-                  plan.command, task.what));
+  say(fmt::format("emcalign task {} of {} ({} tasks, emcalign {}): {}", k, plan.path, plan.tasks.size(), plan.command,
+                  task.what));
   say(fmt::format("  on {} (pid {}), started {}{}", hostName(), ::getpid(), started,
                   lock.unlocked() ? "; this file system has no locks: a second copy may run alongside" : ""));
   for (const auto& in : task.inputs) say("  reads " + in);
   for (const auto& out : task.writes) say("  writes " + out);
   const auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
   if (Status s = job.runTask(k, [&](const std::string& line) { say("  " + line); }); !s) {
-    return Error{fmt::format("task {} ({}) failed after {:.1f} s (peak memory {:.0f} MB): {}", k, task.what, seconds(),
-                             peakMemoryMb(), s.error().message)};
+    say(fmt::format("task {} failed after {:.1f} s, peak memory {:.0f} MB", k, seconds(), peakMemoryMb()));
+    return Error{fmt::format("task {} ({}): {}", k, task.what, s.error().message)};
   }
-  const Json r = {{"format", kTaskRecordFormat}, {"plan", plan.path},    {"plan_sha256", plan.sha256},
-                  {"task", k},                   {"what", task.what},    {"key", key},
-                  {"host", hostName()},
-                  {"started", started},          {"seconds", seconds()}, {"peak_memory_mb", peakMemoryMb()}};
+  const Json r = {{"format", kTaskRecordFormat}, {"plan", plan.path},
+                  {"plan_sha256", plan.sha256},  {"task", k},
+                  {"what", task.what},           {"key", key},
+                  {"host", hostName()},          {"started", started},
+                  {"seconds", seconds()},        {"peak_memory_mb", peakMemoryMb()}};
   if (Status s = io::writeOutputFile(record, r.dump(1) + "\n", io::Placement::InDirectory); !s) return s.error();
   say(fmt::format("task {} done in {:.1f} s, peak memory {:.0f} MB", k, seconds(), peakMemoryMb()));
   return true;
@@ -320,8 +321,9 @@ Status checkAllTasksDone(const Plan& plan) {
 }
 
 Status recordFinished(const Plan& plan, double seconds) {
-  const Json r = {{"format", kTaskRecordFormat}, {"plan", plan.path},   {"plan_sha256", plan.sha256},
-                  {"finish", true},              {"host", hostName()}, {"ended", utcNow()},
+  const Json r = {{"format", kTaskRecordFormat}, {"plan", plan.path},
+                  {"plan_sha256", plan.sha256},  {"finish", true},
+                  {"host", hostName()},          {"ended", utcNow()},
                   {"seconds", seconds},          {"peak_memory_mb", peakMemoryMb()}};
   return io::writeOutputFile(plan.finishRecord(), r.dump(1) + "\n", io::Placement::InDirectory);
 }

@@ -108,8 +108,9 @@ TEST_F(CampaignCli, PlanFannedOutToParallelProcessesAgainstPostgres) {
   auto r = run(fmt::format("campaign {} --plan {} --min-events 4000", events(), path("plan.json")));
   ASSERT_EQ(r.exitCode, 0) << r.err;
   const json plan = json::parse(emcalign::testing::slurp(path("plan.json")));
-  ASSERT_EQ(plan["format"], "emcalign-campaign-plan/1");
-  const std::size_t groups = plan["groups"].size();
+  ASSERT_EQ(plan["format"], "emcalign-plan/1");
+  ASSERT_EQ(plan["command"], "campaign");
+  const std::size_t groups = plan["data"]["groups"].size();
   ASSERT_EQ(groups, 11u);
   std::string script = "set -u\n";
   for (std::size_t k = 0; k < groups; ++k) {
@@ -167,7 +168,7 @@ TEST_F(CampaignCli, SigmaSysIsEveryGroupsAndThePlansAndTheRefitsToo) {
   r = run(fmt::format("campaign {} --plan {} --min-events 4000 --sigma-sys 0.1", events(), path("plan.json")));
   ASSERT_EQ(r.exitCode, 0) << r.err;
   const json plan = json::parse(emcalign::testing::slurp(path("plan.json")));
-  EXPECT_EQ(plan["sigma_sys"], json::parse(R"({"method": "fixed", "value_deg": 0.1})"));
+  EXPECT_EQ(plan["data"]["sigma_sys"], json::parse(R"({"method": "fixed", "value_deg": 0.1})"));
   r = run(fmt::format("campaign --plan {} --group 0 --conditions {} --tag f --sigma-sys auto", path("plan.json"), uri));
   EXPECT_EQ(r.exitCode, 1);
   EXPECT_THAT(r.err, HasSubstr("the plan"));

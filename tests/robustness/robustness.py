@@ -710,7 +710,7 @@ def cases():
              "emcalign campaign --plan changed-plan.json --group 0 --conditions new2.db --tag t", 1,
              "its SHA-256 is not the plan's", setup=lambda d: (plan(d), edit_json(
                  d, "plan.json", "changed-plan.json",
-                 lambda j: [i.__setitem__("sha256", f"{k:064x}") for k, i in enumerate(j["inputs"])])),
+                 lambda j: [i.__setitem__("sha256", f"{k:064x}") for k, i in enumerate(j["data"]["inputs"])])),
              check=absent("new2.db"), checked="no new2.db created"))
     add(Case(D, "a copy of a tag that does not exist into a new database",
              "emcalign conditions copy camp.db --tag nope new3.db", 1, "no tag 'nope'", check=absent("new3.db"),
@@ -913,7 +913,7 @@ def cases():
 
     def sigma_plan(d):
         plan(d)
-        edit_json(d, "plan.json", "sigma.json", lambda j: j.__setitem__("sigma_sys", {"method": "fixed", "value_deg": -1}))
+        edit_json(d, "plan.json", "sigma.json", lambda j: j["data"].__setitem__("sigma_sys", {"method": "fixed", "value_deg": -1}))
     add(Case(P, "a plan with a negative sigma_sys", "emcalign campaign --plan sigma.json --group 0 --conditions "
              "camp.db --tag s", 1, "sigma.json: key 'sigma_sys.value_deg'", setup=sigma_plan))
     add(Case(P, "a batch job with another --sigma-sys than its plan's", "emcalign campaign --plan plan.json --group 0 "
@@ -922,7 +922,7 @@ def cases():
 
     def gap_plan(d):
         plan(d)
-        edit_json(d, "plan.json", "gap.json", lambda j: j["groups"][1]["iov"].__setitem__(0, j["groups"][1]["iov"][0] + 1))
+        edit_json(d, "plan.json", "gap.json", lambda j: j["data"]["groups"][1]["iov"].__setitem__(0, j["data"]["groups"][1]["iov"][0] + 1))
     add(Case(P, "a plan with a gap between two IOVs", "emcalign campaign --plan gap.json --group 0 --conditions "
              "camp.db --tag g", 1, "without a gap", setup=gap_plan))
 
@@ -1044,7 +1044,7 @@ def cases():
     def edited_plan(name, change):
         def setup(d):
             plan(d)
-            edit_json(d, "plan.json", name, change)
+            edit_json(d, "plan.json", name, lambda j: change(j["data"]))
         return setup
     add(Case(X, "a plan edited by hand: a group lists a file twice",
              "emcalign campaign --plan twice.json --group 0 --conditions p1.db --tag p", 1,
@@ -1067,6 +1067,7 @@ def cases():
         shutil.copy(os.path.join(d, "period", "run_000001.h5"), os.path.join(d, "copy1.h5"))
 
         def change(j):
+            j = j["data"]
             sha = j["inputs"][0]["sha256"]
             j["inputs"].append({"file": os.path.join(d, "copy1.h5"), "sha256": sha})
             j["groups"][0]["files"].append(os.path.join(d, "copy1.h5"))
@@ -1269,6 +1270,7 @@ def cases():
         fifo("fe.h5")(d)
 
         def change(j):
+            j = j["data"]
             j["inputs"].append({"file": os.path.join(d, "fe.h5"), "sha256": "0" * 64})
             j["groups"][0]["files"] = [os.path.join(d, "fe.h5")]
         edit_json(d, "plan.json", "fifo-plan.json", change)

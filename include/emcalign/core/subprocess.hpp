@@ -15,9 +15,9 @@ struct Ran {
   std::string out, err;   ///< its standard output and error
 
   /// Started, ended by itself with exit status 0.
-  bool succeeded() const;
+  [[nodiscard]] bool succeeded() const;
   /// "exit status N", "killed by signal N", "not started: <reason>", "stopped after the time allowed".
-  std::string outcome() const;
+  [[nodiscard]] std::string outcome() const;
 };
 
 /// Runs `argv` (argv[0] looked up in PATH) in `cwd` with `input` on its standard input,

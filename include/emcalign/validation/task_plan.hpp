@@ -34,9 +34,9 @@ inline constexpr std::string_view kTaskRecordFormat = "emcalign-task-record/1";
 
 /// One independent task of a plan.
 struct PlannedTask {
-  std::string what;                  ///< in words: "sample 3 of nominal/", "group 2 (runs 5-9)"
-  std::vector<std::string> writes;   ///< where: absolute paths, or a conditions tag's IOV in words
-  std::vector<std::string> inputs;   ///< what it reads (files, a database), for its log
+  std::string what;                 ///< in words: "sample 3 of nominal/", "group 2 (runs 5-9)"
+  std::vector<std::string> writes;  ///< where: absolute paths, or a conditions tag's IOV in words
+  std::vector<std::string> inputs;  ///< what it reads (files, a database), for its log
 };
 
 /// A command cut into tasks (validate, systematics, derive-corrections, campaign).

@@ -138,8 +138,7 @@ TEST_F(CampaignFiles, PlanIsReadBackAsWritten) {
   const auto groups = planGroups(scan, 1000);
   CampaignModel model;
   model.corrections = "c.json";
-  ASSERT_TRUE(io::writeOutputFile(path("plan.json"), planJson(scan, groups, 1000, model).dump(1)));
-  auto plan = readCampaignPlan(path("plan.json"));
+  auto plan = parseCampaignPlan(planJson(scan, groups, 1000, model), "plan.json");
   ASSERT_TRUE(plan) << plan.error().message;
   EXPECT_EQ(plan->minEvents, 1000);
   EXPECT_EQ(plan->corrections, "c.json");
@@ -156,8 +155,7 @@ TEST_F(CampaignFiles, PlanIsReadBackAsWritten) {
   // A plan with a gap between two IOVs is refused, naming the group.
   auto j = planJson(scan, groups, 1000, model);
   j["groups"][2]["iov"][0] = j["groups"][2]["iov"][0].get<int>() + 1;
-  ASSERT_TRUE(io::writeOutputFile(path("bad.json"), j.dump(1)));
-  auto bad = readCampaignPlan(path("bad.json"));
+  auto bad = parseCampaignPlan(j, "bad.json");
   ASSERT_FALSE(bad);
   EXPECT_THAT(bad.error().message, HasSubstr("groups[2]"));
   EXPECT_THAT(bad.error().message, HasSubstr("without a gap"));
@@ -216,8 +214,7 @@ TEST_F(CampaignFiles, APlanEditedByHandIsRefusedNamingTheGroup) {
   for (const Edit& e : edits) {
     auto j = planJson(scan, groups, 1000, model);
     e.change(j);
-    ASSERT_TRUE(io::writeOutputFile(path("edited.json"), j.dump(1)));
-    auto plan = readCampaignPlan(path("edited.json"));
+    auto plan = parseCampaignPlan(j, "edited.json");
     ASSERT_FALSE(plan) << e.what;
     EXPECT_THAT(plan.error().message, HasSubstr(e.where)) << e.what;
     EXPECT_THAT(plan.error().message, HasSubstr(e.says)) << e.what;

@@ -1,0 +1,179 @@
+// The fan-out without a batch system (issue 31; the same on a real Slurm: tests/slurm/fanout_test.py):
+// a plan's tasks run by hand, its status and merge, a task killed mid-way, a plan under
+// another program, a password in a plan, the job-array script.
+
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <thread>
+
+#include <fmt/format.h>
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "cli_support.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using ::testing::HasSubstr;
+using ::testing::Not;
+
+class PlanCli : public ::testing::Test {
+ protected:
+  void SetUp() override { dir_ = emcalign::testing::freshTestDirectory("emcalign_plan_cli"); }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string path(const std::string& n) const { return (dir_ / n).string(); }
+  emcalign::testing::CommandResult run(const std::string& args) const {
+    return emcalign::testing::runEmcalign(dir_, args);
+  }
+  std::string slurp(const std::string& n) const { return emcalign::testing::slurp(path(n)); }
+  fs::path dir_;
+};
+
+constexpr const char* kValidate = "validate --samples 3 --events 3000 --seed 4";
+
+TEST_F(PlanCli, TasksByHandStatusAndTheMergeEqualTheOneProcessCommand) {
+  auto r = run(fmt::format("{} -o {} --plan {}", kValidate, path("fan"), path("plan.json")));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("3 tasks"));
+  EXPECT_FALSE(fs::exists(path("fan/samples/sample_0000.json"))) << "--plan runs nothing";
+  const json plan = json::parse(slurp("plan.json"));
+  EXPECT_EQ(plan["format"], "emcalign-plan/1");
+  EXPECT_EQ(plan["command"], "validate");
+  ASSERT_EQ(plan["tasks"].size(), 3u);
+  EXPECT_EQ(plan["tasks"][1]["writes"][0], path("fan/samples/sample_0001.json"));
+  for (const auto& a : plan["arguments"]) EXPECT_NE(a, "--plan");
+
+  r = run(fmt::format("batch status {} --json", path("plan.json")));
+  EXPECT_EQ(r.exitCode, 1);
+  json status = json::parse(r.out);
+  EXPECT_EQ(status["tasks"], 3);
+  EXPECT_EQ(status["missing"], json::parse("[0, 1, 2]"));
+
+  r = run(fmt::format("task {} 1", path("plan.json")));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("task 1 of"));
+  EXPECT_THAT(r.out, HasSubstr("peak memory"));
+  r = run(fmt::format("task {} 1", path("plan.json")));  // a retry: nothing to do
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("done already"));
+  r = run(fmt::format("task {} 3", path("plan.json")));
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_THAT(r.err, HasSubstr("tasks 0 to 2"));
+
+  // The merge with tasks missing writes nothing and names them.
+  r = run(fmt::format("finish {}", path("plan.json")));
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_THAT(r.err, HasSubstr("2 of 3 tasks not done: 0,2"));
+  EXPECT_FALSE(fs::exists(path("fan/table.json")));
+
+  for (int k : {0, 2}) ASSERT_EQ(run(fmt::format("task {} {}", path("plan.json"), k)).exitCode, 0);
+  r = run(fmt::format("batch status {}", path("plan.json")));
+  EXPECT_EQ(r.exitCode, 0) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("3 done, 0 missing"));
+  r = run(fmt::format("finish {}", path("plan.json")));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("bias"));  // the one-process command's report
+  status = json::parse(run(fmt::format("batch status {} --json", path("plan.json"))).out);
+  EXPECT_EQ(status["finished"], true);
+
+  r = run(fmt::format("{} -o {}", kValidate, path("one")));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  for (const char* f : {"table.json", "table.md", "samples/sample_0002.json"}) {
+    EXPECT_EQ(slurp(fmt::format("fan/{}", f)), slurp(fmt::format("one/{}", f))) << f;
+  }
+}
+
+TEST_F(PlanCli, AKilledTaskLeavesNothingAndShowsAsMissing) {
+  auto r = run(fmt::format("validate --samples 1 --events 20000000 --threads 1 -o {} --plan {}", path("fan"),
+                           path("plan.json")));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    ::execl(EMCALIGN_BINARY, EMCALIGN_BINARY, "task", path("plan.json").c_str(), "0", static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  ::kill(pid, SIGKILL);  // as a batch system's time or memory limit
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFSIGNALED(status)) << "the task ended before it was killed";
+  EXPECT_FALSE(fs::exists(path("plan.tasks/task-0.json")));
+  EXPECT_FALSE(fs::exists(path("fan/samples/sample_0000.json")));
+  if (fs::exists(path("fan/samples"))) {
+    for (const auto& e : fs::directory_iterator(path("fan/samples"))) ADD_FAILURE() << "left: " << e.path();
+  }
+  r = run(fmt::format("batch status {} --json", path("plan.json")));
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_EQ(json::parse(r.out)["missing"], json::parse("[0]"));
+}
+
+TEST_F(PlanCli, APlanRunsOnlyUnderTheProgramThatMadeIt) {
+  ASSERT_EQ(run(fmt::format("{} -o {} --plan {}", kValidate, path("fan"), path("plan.json"))).exitCode, 0);
+  json plan = json::parse(slurp("plan.json"));
+  plan["program"]["sha256"] = std::string(64, '0');
+  std::ofstream(path("other.json")) << plan.dump(1);
+  auto r = run(fmt::format("task {} 0", path("other.json")));
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_THAT(r.err, HasSubstr("the plan was made by emcalign"));
+  EXPECT_FALSE(fs::exists(path("fan/samples/sample_0000.json")));
+
+  // Not a plan, or a task edited by hand: refused, naming the file and key.
+  std::ofstream(path("junk.json")) << R"({"format": "emcalign-plan/1", "command": "validate"})";
+  r = run(fmt::format("task {} 0", path("junk.json")));
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_THAT(r.err, HasSubstr("junk.json"));
+  EXPECT_THAT(r.err, HasSubstr("arguments"));
+  plan = json::parse(slurp("plan.json"));
+  plan["tasks"][0]["what"] = "sample 9";
+  std::ofstream(path("edited.json")) << plan.dump(1);
+  r = run(fmt::format("task {} 0", path("edited.json")));
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_THAT(r.err, HasSubstr("not what the plan's command makes now"));
+}
+
+TEST_F(PlanCli, APlanNeverHoldsAPassword) {
+  fs::create_directories(path("period"));
+  auto r = run(fmt::format("campaign {} --conditions postgresql://alice:s3cret@127.0.0.1:1/db --tag t --plan {}",
+                           path("period"), path("plan.json")));
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_THAT(r.err, HasSubstr("never holds a password"));
+  EXPECT_THAT(r.err, Not(HasSubstr("s3cret")));
+  EXPECT_FALSE(fs::exists(path("plan.json")));
+  // --plan - is refused: the tasks read the plan.
+  r = run(fmt::format("{} -o {} --plan -", kValidate, path("fan")));
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_THAT(r.err, HasSubstr("give its name"));
+}
+
+TEST_F(PlanCli, TheJobArrayScriptAndAMissingSbatch) {
+  ASSERT_EQ(run(fmt::format("{} -o {} --plan {}", kValidate, path("fan"), path("plan.json"))).exitCode, 0);
+  ASSERT_EQ(run(fmt::format("task {} 1", path("plan.json"))).exitCode, 0);
+  auto r = run(fmt::format("batch script {} -o {}", path("plan.json"), path("job.sh")));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  std::string script = slurp("job.sh");
+  EXPECT_THAT(script, HasSubstr("#SBATCH --array=0-2\n"));
+  EXPECT_THAT(script, HasSubstr(fmt::format("#SBATCH --output={}/plan.tasks/task-%a.log", dir_.string())));
+  EXPECT_THAT(script, HasSubstr(fmt::format("'{}' task '{}' \"$SLURM_ARRAY_TASK_ID\"", EMCALIGN_BINARY,
+                                            path("plan.json"))));
+  EXPECT_THAT(script, HasSubstr("--dependency=afterok:J"));
+  r = run(fmt::format("batch script {} --missing -o {}", path("plan.json"), path("missing.sh")));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_THAT(slurp("missing.sh"), HasSubstr("#SBATCH --array=0,2\n"));
+  // No Slurm here: said so, nothing left behind.
+  r = run(fmt::format("--version >/dev/null; PATH=/nonexistent {} batch submit {}", EMCALIGN_BINARY,
+                      path("plan.json")));
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_THAT(r.err, HasSubstr("cannot run sbatch"));
+}
+
+}  // namespace

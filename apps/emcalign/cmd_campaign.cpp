@@ -174,6 +174,13 @@ Result<std::unique_ptr<validation::PlannedJob>> newPlanJob(const CampaignCliOpti
   if (!o.conditions.empty()) {
     auto address = conddb::DatabaseAddress::parse(o.conditions);
     if (!address) return address.error();
+    if (address->kind == conddb::DatabaseAddress::Kind::Sqlite) {
+      reportWarning(
+          fmt::format("--conditions {}: an SQLite file takes the writes of one machine only (its journal "
+                      "needs one host): run this plan's tasks on one node, or store into the PostgreSQL "
+                      "server",
+                      address->shown));
+    }
     if (address->hasPassword()) {
       return Error{
           fmt::format("--conditions {}: a plan never holds a password: give it to libpq in PGPASSFILE "

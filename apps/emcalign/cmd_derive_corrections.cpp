@@ -283,6 +283,9 @@ void addDeriveCorrectionsCommand(CLI::App& app, int& exitCode) {
     exitCode = runPlannable(
         "derive-corrections", o->plan,
         [o](const io::Json&) -> Result<std::unique_ptr<validation::PlannedJob>> {
+          if (!o->plan.empty() && o->output == "-") {
+            return Error{"-o -: a plan's tasks write files the merge finds: give the corrections file's name"};
+          }
           auto d = derivationOf(*o);
           if (!d) return d.error();
           auto points = pointsOf(*o, *d);

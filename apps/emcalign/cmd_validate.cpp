@@ -412,6 +412,9 @@ void addValidateCommand(CLI::App& app, int& exitCode) {
     exitCode = runPlannable(
         "systematics", s->plan,
         [s](const io::Json&) -> Result<std::unique_ptr<validation::PlannedJob>> {
+          if (!s->plan.empty() && s->writeCorrections == "-") {
+            return Error{"--write-corrections -: the merge of a plan runs as a batch job: give a file's name"};
+          }
           std::optional<geometry::Calorimeter> calo;
           auto made = systematicsOptionsOf(*s, calo);
           if (!made) return made.error();

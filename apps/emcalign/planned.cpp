@@ -28,18 +28,28 @@ namespace fs = std::filesystem;
 std::vector<std::string> gCommandLine;
 PlanContext gContext;
 
-// The running command's arguments after its name, without --plan (a plan records them).
-std::vector<std::string> commandArguments() {
+// `arguments` without the option `name` and its value (`--name V` or `--name=V`).
+std::vector<std::string> without(const std::vector<std::string>& arguments, const std::string& name) {
   std::vector<std::string> out;
-  for (std::size_t i = 2; i < gCommandLine.size(); ++i) {
-    const std::string& a = gCommandLine[i];
-    if (a == "--plan") {
+  for (std::size_t i = 0; i < arguments.size(); ++i) {
+    const std::string& a = arguments[i];
+    if (a == name) {
       ++i;  // and its value
       continue;
     }
-    if (a.rfind("--plan=", 0) == 0) continue;
+    if (a.rfind(name + "=", 0) == 0) continue;
     out.push_back(a);
   }
+  return out;
+}
+
+// The running command's arguments after its name, without --plan (a plan records them).
+Result<std::vector<std::string>> commandArguments() {
+  const std::vector<std::string> all(gCommandLine.begin() + std::min<std::ptrdiff_t>(2, std::ssize(gCommandLine)),
+                                     gCommandLine.end());
+  const auto out = without(all, "--plan");
+  const bool separate = std::find(all.begin(), all.end(), "--plan") != all.end();
+  if (all.size() - out.size() != (separate ? 2U : 1U)) return Error{"--plan: give it once, as --plan PLAN.json"};
   return out;
 }
 
@@ -52,29 +62,30 @@ int runFromPlan(const validation::Plan& plan, PlanContext::Mode mode, std::size_
         fmt::format("{}: cannot enter the plan's directory {}: {}", plan.path, plan.directory, std::strerror(errno))});
   }
   std::vector<std::string> args = {"emcalign", plan.command};
-  args.insert(args.end(), plan.arguments.begin(), plan.arguments.end());
   // A batch task uses the CPUs the batch system gave it (the result does not depend on them).
-  if (const char* cpus = std::getenv("SLURM_CPUS_PER_TASK"); cpus != nullptr && mode == PlanContext::Mode::Task) {
-    const int n = std::atoi(cpus);
-    if (n > 0) {
-      args.push_back("--threads");
-      args.push_back(std::to_string(n));
-    }
+  const char* cpus = std::getenv("SLURM_CPUS_PER_TASK");
+  const int n = cpus != nullptr && mode == PlanContext::Mode::Task ? std::atoi(cpus) : 0;
+  const std::vector<std::string> arguments = n > 0 ? without(plan.arguments, "--threads") : plan.arguments;
+  args.insert(args.end(), arguments.begin(), arguments.end());
+  if (n > 0) {
+    args.push_back("--threads");
+    args.push_back(std::to_string(n));
   }
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(a.data());
   gContext = {mode, &plan, task};
   int exitCode = 0;
   CLI::App app;
-  app.allow_config_extras(false);
   addAllCommands(app, exitCode);
   app.require_subcommand(1);
   try {
     app.parse(static_cast<int>(argv.size()), argv.data());
   } catch (const CLI::ParseError& e) {
+    gContext = {};
     return reportError(Error{fmt::format("{}: its command line (emcalign {} {}) is refused: {}", plan.path,
                                          plan.command, fmt::join(plan.arguments, " "), e.what())});
   }
+  gContext = {};
   return exitCode;
 }
 
@@ -144,30 +155,41 @@ int batchSubmit(const SubmitOptions& o) {
   std::FILE* report = o.json ? stderr : reportStream();
   auto plan = planToRun(o.plan);
   if (!plan) return reportError(plan.error());
+  if (plan->command == "campaign" && !plan->data.contains("conditions")) {
+    return reportError(
+        Error{fmt::format("{}: the plan was made without --conditions and --tag: its tasks do not "
+                          "know where to store; make it with them (or run campaign --plan {} --group "
+                          "K --conditions URI --tag T yourself)",
+                          plan->path, plan->path)});
+  }
   std::vector<std::size_t> tasks;
   if (o.missing) {
     tasks = missingTasks(*plan);
-    if (tasks.empty()) {
-      fmt::print(
-          report, "{}: every task is done{}\n", plan->path,
-          validation::finished(*plan) ? " and merged: nothing to submit" : ": run emcalign finish " + plan->path);
+    if (tasks.empty() && validation::finished(*plan)) {
+      fmt::print(report, "{}: every task is done and merged: nothing to submit\n", plan->path);
       if (o.json) fmt::print("{}\n", io::Json{{"array_job", nullptr}, {"finish_job", nullptr}}.dump());
       return kExitOk;
     }
   }
-  auto submitted = validation::submitToSlurm(*plan, tasks, o.sbatchArguments);
+  // Every task done but not merged: the merge alone.
+  const bool mergeOnly = o.missing && tasks.empty();
+  auto submitted = validation::submitToSlurm(*plan, tasks, o.sbatchArguments, !mergeOnly);
   if (!submitted) return reportError(submitted.error());
-  const std::string which =
-      tasks.empty() ? fmt::format("all {}", plan->tasks.size())
-                    : fmt::format("{} of {}: {}", tasks.size(), plan->tasks.size(), validation::taskRanges(tasks));
-  fmt::print(report,
-             "submitted the job array {} (tasks {}) and the merge job {} after it; logs in {}\n"
-             "follow it: emcalign batch status {}\n",
-             submitted->arrayJob, which, submitted->finishJob, plan->workDirectory(), plan->path);
+  if (mergeOnly) {
+    fmt::print(report, "every task is done: submitted the merge job {}; its log: {}\n", submitted->finishJob,
+               plan->finishLog());
+  } else {
+    const std::string which =
+        tasks.empty() ? fmt::format("all {}", plan->tasks.size())
+                      : fmt::format("{} of {}: {}", tasks.size(), plan->tasks.size(), validation::taskRanges(tasks));
+    fmt::print(report,
+               "submitted the job array {} (tasks {}) and the merge job {} after it; logs in {}\n"
+               "follow it: emcalign batch status {}\n",
+               submitted->arrayJob, which, submitted->finishJob, plan->workDirectory(), plan->path);
+  }
   if (o.json) {
-    fmt::print("{}\n",
-               io::Json{{"array_job", jobNumber(submitted->arrayJob)}, {"finish_job", jobNumber(submitted->finishJob)}}
-                   .dump());
+    const io::Json array = mergeOnly ? io::Json(nullptr) : io::Json(jobNumber(submitted->arrayJob));
+    fmt::print("{}\n", io::Json{{"array_job", array}, {"finish_job", jobNumber(submitted->finishJob)}}.dump());
     std::fflush(stdout);
   }
   if (!o.wait) return kExitOk;
@@ -247,7 +269,9 @@ int runPlannable(const std::string& command, const std::string& planPath, const 
               "batch nodes share)"});
   }
   if (Status s = checkOutputs({{"--plan", planPath}}, {}, {}); !s) return reportError(s.error());
-  auto plan = validation::writePlan(planPath, command, commandArguments(), **job);
+  auto arguments = commandArguments();
+  if (!arguments) return reportError(arguments.error());
+  auto plan = validation::writePlan(planPath, command, *arguments, **job);
   if (!plan) return reportError(plan.error());
   fmt::print(reportStream(),
              "wrote the plan {} ({}: {}), nothing run; its tasks' records and logs go to {}\n"
@@ -277,6 +301,13 @@ void addPlanCommands(CLI::App& app, int& exitCode) {
     auto plan = planToRun(t->plan);
     if (!plan) {
       exitCode = reportError(plan.error());
+      return;
+    }
+    // A retry of a task done: nothing to do, whatever has changed around it since.
+    if (validation::taskDone(*plan, t->task)) {
+      fmt::print(reportStream(), "task {} ({}) is done already ({}): nothing to do\n", t->task,
+                 plan->tasks[t->task].what, plan->recordOf(t->task));
+      exitCode = kExitOk;
       return;
     }
     exitCode = runFromPlan(*plan, PlanContext::Mode::Task, t->task);

@@ -585,7 +585,8 @@ class CalibrationCampaignJob final : public PlannedJob {
     }
     return t;
   }
-  Status runTask(std::size_t k, const std::function<void(const std::string&)>& say) const override {
+  Status runTask(std::size_t k, const TaskContext& context) const override {
+    const auto& say = context.say;
     if (plan_.conditions.empty() || plan_.tag.empty()) {
       return Error{
           "the plan was made without --conditions and --tag: run its groups with emcalign campaign --plan "

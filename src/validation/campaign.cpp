@@ -346,7 +346,7 @@ class ValidationJob final : public PlannedJob {
     }
     return t;
   }
-  Status runTask(std::size_t k, const std::function<void(const std::string&)>&) const override {
+  Status runTask(std::size_t k, const TaskContext&) const override {
     return runSample(calo_, o_, dir_, static_cast<int>(k));
   }
 

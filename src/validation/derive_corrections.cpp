@@ -563,7 +563,8 @@ class DerivationJob final : public PlannedJob {
     return t;
   }
 
-  Status runTask(std::size_t k, const std::function<void(const std::string&)>& say) const override {
+  Status runTask(std::size_t k, const TaskContext& context) const override {
+    const auto& say = context.say;
     const GridPoint& p = points_[k];
     if (derivedWith(p.file, settings_[k])) {
       say(fmt::format("{} holds corrections derived with the same settings: kept", p.file));

@@ -33,6 +33,13 @@ std::string sbatchValue(const std::string& s) {
 
 std::string jobName(const Plan& plan) { return "emcalign-" + plan.command; }
 
+// A path for sbatch's --output, where '%' starts a pattern (%a: the array index).
+std::string outputPattern(const std::string& path) {
+  std::string out;
+  for (char c : path) out += c == '%' ? std::string("%%") : std::string(1, c);
+  return out;
+}
+
 std::string arrayOf(const Plan& plan, const std::vector<std::size_t>& tasks) {
   if (!tasks.empty()) return taskRanges(tasks);
   return plan.tasks.size() == 1 ? std::string("0") : fmt::format("0-{}", plan.tasks.size() - 1);
@@ -83,31 +90,57 @@ std::string jobArrayScript(const Plan& plan, const std::vector<std::size_t>& tas
       "#SBATCH --cpus-per-task=1\n"
       "exec {program} task {planWord} \"$SLURM_ARRAY_TASK_ID\"\n",
       fmt::arg("plan", plan.path), fmt::arg("command", plan.command), fmt::arg("n", plan.tasks.size()),
-      fmt::arg("finishLog", shellWord(plan.finishLog())),
+      fmt::arg("finishLog", shellWord(outputPattern(plan.finishLog()))),
       fmt::arg("finish", shellWord("exec " + shellWord(plan.program.path) + " finish " + shellWord(plan.path))),
       fmt::arg("work", work), fmt::arg("name", jobName(plan)), fmt::arg("array", arrayOf(plan, tasks)),
-      fmt::arg("log", sbatchValue((fs::path(work) / "task-%a.log").string())),
-      fmt::arg("dir", sbatchValue(plan.directory)), fmt::arg("program", shellWord(plan.program.path)),
-      fmt::arg("planWord", shellWord(plan.path)));
+      fmt::arg("log", sbatchValue(outputPattern(work) + "/task-%a.log")), fmt::arg("dir", sbatchValue(plan.directory)),
+      fmt::arg("program", shellWord(plan.program.path)), fmt::arg("planWord", shellWord(plan.path)));
 }
 
+namespace {
+
+// The largest array index this Slurm takes (MaxArraySize − 1; its default 1001 where
+// scontrol does not say).
+std::size_t largestArrayIndex(const std::string& cwd) {
+  const core::Ran c = core::runCapturing({"scontrol", "show", "config"}, cwd, "", kSlurmSeconds);
+  const auto at = c.out.find("MaxArraySize");
+  if (!c.succeeded() || at == std::string::npos) return 1000;
+  const auto eq = c.out.find('=', at);
+  const long size = eq == std::string::npos ? 0 : std::atol(c.out.c_str() + eq + 1);
+  return size > 0 ? static_cast<std::size_t>(size - 1) : 1000;
+}
+
+}  // namespace
+
 Result<SlurmSubmission> submitToSlurm(const Plan& plan, const std::vector<std::size_t>& tasks,
-                                      const std::vector<std::string>& sbatchArguments) {
+                                      const std::vector<std::string>& sbatchArguments, bool withArray) {
   std::error_code ec;
   fs::create_directories(plan.workDirectory(), ec);
   if (ec) return Error{fmt::format("{}: cannot create the directory: {}", plan.workDirectory(), ec.message())};
   // A merge recorded earlier says nothing of this submission's.
   fs::remove(plan.finishRecord(), ec);
   SlurmSubmission s;
-  auto array = sbatch(sbatchArguments, jobArrayScript(plan, tasks), plan.directory);
-  if (!array) return array.error();
-  s.arrayJob = *array;
+  if (withArray) {
+    const std::size_t last = tasks.empty() ? plan.tasks.size() - 1 : tasks.back();
+    if (const std::size_t largest = largestArrayIndex(plan.directory); last > largest) {
+      return Error{
+          fmt::format("{}: task {} is beyond this Slurm's largest array index {} (MaxArraySize): submit the "
+                      "plan in parts with emcalign batch script, or ask for a larger MaxArraySize",
+                      plan.path, last, largest)};
+    }
+    auto array = sbatch(sbatchArguments, jobArrayScript(plan, tasks), plan.directory);
+    if (!array) return array.error();
+    s.arrayJob = *array;
+  }
   std::vector<std::string> finishArguments = sbatchArguments;
   for (const std::string& a :
-       {"--job-name=" + jobName(plan) + "-finish", "--dependency=afterok:" + s.arrayJob,
-        std::string("--kill-on-invalid-dep=yes"), "--output=" + plan.finishLog(), std::string("--open-mode=append"),
-        "--chdir=" + plan.directory, std::string("--cpus-per-task=1")}) {
+       {"--job-name=" + jobName(plan) + "-finish", "--output=" + outputPattern(plan.finishLog()),
+        std::string("--open-mode=append"), "--chdir=" + plan.directory, std::string("--cpus-per-task=1")}) {
     finishArguments.push_back(a);
+  }
+  if (withArray) {
+    finishArguments.push_back("--dependency=afterok:" + s.arrayJob);
+    finishArguments.push_back("--kill-on-invalid-dep=yes");
   }
   const std::string script =
       fmt::format("#!/bin/bash\nexec {} finish {}\n", shellWord(plan.program.path), shellWord(plan.path));
@@ -127,6 +160,7 @@ Result<int> waitForFinish(const Plan& plan, const SlurmSubmission& submission,
                           const std::function<void(const std::string&)>& say) {
   std::string last;
   int failures = 0;
+  const auto start = std::chrono::steady_clock::now();
   for (;;) {
     const core::Ran q =
         core::runCapturing({"squeue", "--noheader", "--jobs", submission.finishJob, "--format", "%T %r"},
@@ -149,17 +183,27 @@ Result<int> waitForFinish(const Plan& plan, const SlurmSubmission& submission,
         return 1;
       }
     }
-    std::this_thread::sleep_for(std::chrono::seconds(1));
+    // Every second for a minute, then every 10 s: a long study does not load the controller.
+    const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    std::this_thread::sleep_for(std::chrono::seconds(waited < 60.0 ? 1 : 10));
   }
-  if (finished(plan)) return 0;
   const core::Ran c =
       core::runCapturing({"scontrol", "show", "job", submission.finishJob, "--oneliner"}, plan.directory, "", 60);
-  const auto at = c.out.find(" ExitCode=");
-  if (c.succeeded() && at != std::string::npos) {
-    const int code = std::atoi(c.out.c_str() + at + 10);
-    return code != 0 ? code : 1;
+  const auto field = [&](const std::string& key) -> std::string {
+    const auto at = c.out.find(" " + key + "=");
+    if (!c.succeeded() || at == std::string::npos) return {};
+    const auto from = at + key.size() + 2;
+    return c.out.substr(from, c.out.find(' ', from) - from);
+  };
+  const std::string jobState = field("JobState"), exitCode = field("ExitCode");
+  // The merge's record, as the shared file system shows it (give it a few seconds).
+  for (int i = 0; i < 10 && !finished(plan); ++i) {
+    if (jobState != "COMPLETED" && !jobState.empty()) break;
+    std::this_thread::sleep_for(std::chrono::seconds(1));
   }
-  return 1;
+  if (finished(plan) || (jobState == "COMPLETED" && exitCode == "0:0")) return 0;
+  const int code = exitCode.empty() ? 0 : std::atoi(exitCode.c_str());
+  return code != 0 ? code : 1;
 }
 
 }  // namespace emcalign::validation

@@ -474,11 +474,11 @@ class SystematicsJob final : public PlannedJob {
     return t;
   }
 
-  Status runTask(std::size_t k, const std::function<void(const std::string&)>& say) const override {
+  Status runTask(std::size_t k, const TaskContext& context) const override {
     const auto n = static_cast<std::size_t>(o_.campaign.samples);
     const std::size_t derivations = o_.reverse ? forward_.size() : 0;
     if (k < derivations) {
-      auto c = corrections(k, say);
+      auto c = corrections(k, context);
       return c ? Status{} : Status{c.error()};
     }
     k -= derivations;
@@ -488,7 +488,7 @@ class SystematicsJob final : public PlannedJob {
       return runSample(calo_, o, dirOf(name), static_cast<int>(k % n));
     }
     k -= forward_.size() * n;
-    auto c = corrections(k / n, say);
+    auto c = corrections(k / n, context);
     if (!c) return c.error();
     const CampaignOptions o = reverseCampaign(o_.campaign, std::move(*c), forward_[k / n].first);
     return runSample(calo_, o, reverseDirOf(forward_[k / n].first), static_cast<int>(k % n));
@@ -500,7 +500,7 @@ class SystematicsJob final : public PlannedJob {
   std::string reverseDirOf(const std::string& name) const { return (fs::path(dir_) / "reverse" / name).string(); }
 
   // Derivation j's corrections, derived under its lock when not yet there.
-  Result<calib::ModelCorrections> corrections(std::size_t j, const std::function<void(const std::string&)>& say) const {
+  Result<calib::ModelCorrections> corrections(std::size_t j, const TaskContext& context) const {
     const auto& [name, v] = forward_[j];
     const std::string file = reverseCorrectionsFile(dir_, name);
     std::error_code ec;
@@ -508,9 +508,12 @@ class SystematicsJob final : public PlannedJob {
     if (ec)
       return Error{
           fmt::format("{}: cannot create the directory: {}", fs::path(file).parent_path().string(), ec.message())};
-    if (!fs::exists(file))
-      say(fmt::format("the reverse study's corrections {}: waiting for them, or deriving them", file));
-    const FileLock lock(file + ".lock");
+    if (!fs::exists(file)) {
+      context.say(fmt::format("the reverse study's corrections {}: waiting for them, or deriving them", file));
+    }
+    // The lock lives in the plan's work directory: the study's directory holds what the
+    // one-process study writes, nothing else.
+    const FileLock lock((fs::path(context.workDirectory) / ("reverse-" + name + ".lock")).string());
     if (!lock.error().empty()) return Error{lock.error()};
     auto c = reverseCorrections(calo_, *o_.reverse, o_.campaign, v, file, [](std::int64_t) {});
     if (!c) return Error{fmt::format("the reverse study, {}: {}", name, c.error().message)};

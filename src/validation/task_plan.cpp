@@ -72,8 +72,10 @@ std::string lastLineOf(const std::string& path) {
   return at == std::string::npos ? tail : tail.substr(at + 1);
 }
 
+// Whether the record at `path` says this plan's task (or, with none, its merge) ended well,
+// with `key` (none: any).
 bool recordSays(const std::string& path, const std::string& planSha256, std::optional<std::size_t> task,
-                const std::string& key = {}) {
+                const std::optional<std::string>& key = std::string()) {
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) return false;
   auto text = io::readOwnOutput(path);
@@ -82,8 +84,16 @@ bool recordSays(const std::string& path, const std::string& planSha256, std::opt
   if (!j || !j->is_object() || j->value("format", std::string()) != kTaskRecordFormat) return false;
   if (j->value("plan_sha256", std::string()) != planSha256) return false;
   if (!task) return j->value("finish", false);
-  if (j->value("key", std::string()) != key) return false;
+  if (key && j->value("key", std::string()) != *key) return false;
   return (*j)["task"].is_number_unsigned() && (*j)["task"].get<std::size_t>() == *task;
+}
+
+// The files a task writes are all there (its other outputs, a database's IOV, are the merge's
+// to check): a record whose outputs were removed since does not count.
+bool outputsThere(const PlannedTask& task) {
+  std::error_code ec;
+  return std::all_of(task.writes.begin(), task.writes.end(),
+                     [&](const std::string& w) { return w.empty() || w.front() != '/' || fs::is_regular_file(w, ec); });
 }
 
 }  // namespace
@@ -145,6 +155,14 @@ Result<Plan> writePlan(const std::string& path, const std::string& command, cons
   plan.tasks = job.tasks();
   plan.data = job.data();
   if (plan.tasks.empty()) return Error{"the plan has no task: nothing to run"};
+  for (const std::string& p : {plan.path, plan.directory}) {
+    if (std::any_of(p.begin(), p.end(), [](char c) { return c == '"' || (c >= 0 && c < 0x20) || c == 0x7f; })) {
+      return Error{
+          fmt::format("{}: a plan's path and directory go into batch scripts: rename it without control "
+                      "characters or '\"'",
+                      p)};
+    }
+  }
   Json tasks = Json::array();
   for (std::size_t k = 0; k < plan.tasks.size(); ++k) tasks.push_back(taskJson(k, plan.tasks[k]));
   const Json j = {{"format", kPlanFormat},
@@ -159,6 +177,14 @@ Result<Plan> writePlan(const std::string& path, const std::string& command, cons
   fs::create_directories(plan.workDirectory(), ec);
   if (ec) return Error{fmt::format("{}: cannot create the tasks' directory: {}", plan.workDirectory(), ec.message())};
   if (Status s = io::writeOutputFile(path, text); !s) return s.error();
+  // The records and logs of an earlier plan at this path say nothing of this one.
+  for (const auto& e : fs::directory_iterator(plan.workDirectory(), ec)) {
+    const std::string name = e.path().filename().string();
+    const bool ours = (name.rfind("task-", 0) == 0 || name.rfind("finish.", 0) == 0) &&
+                      (e.path().extension() == ".json" || e.path().extension() == ".log");
+    std::error_code ignored;
+    if (ours && e.is_regular_file(ignored)) fs::remove(e.path(), ignored);
+  }
   plan.sha256 = sha256(text);
   return plan;
 }
@@ -179,6 +205,10 @@ Result<Plan> parsePlan(const std::string& text, const std::string& path) {
     plan.path = fs::absolute(path, ec).lexically_normal().string();
     plan.sha256 = sha256(text);
     plan.command = o.string("command");
+    if (std::find(std::begin(kPlannedCommands), std::end(kPlannedCommands), plan.command) ==
+        std::end(kPlannedCommands)) {
+      o.fail("command", "expected validate, systematics, derive-corrections or campaign");
+    }
     plan.arguments = stringList(o, "arguments");
     plan.directory = o.string("directory");
     const auto program = o.object("program");
@@ -217,10 +247,15 @@ Result<Plan> readPlan(const std::string& path) {
   return plan;
 }
 
+bool taskDone(const Plan& plan, std::size_t k) {
+  return k < plan.tasks.size() && recordSays(plan.recordOf(k), plan.sha256, k, std::nullopt) &&
+         outputsThere(plan.tasks[k]);
+}
+
 std::vector<TaskState> taskStates(const Plan& plan) {
   std::vector<TaskState> states(plan.tasks.size());
   for (std::size_t k = 0; k < plan.tasks.size(); ++k) {
-    states[k].done = recordSays(plan.recordOf(k), plan.sha256, k);
+    states[k].done = taskDone(plan, k);
     std::error_code ec;
     if (fs::exists(plan.logOf(k), ec)) {
       states[k].log = plan.logOf(k);
@@ -255,7 +290,7 @@ Result<bool> runPlannedTask(const Plan& plan, const PlannedJob& job, std::size_t
     std::fflush(log);
   };
   const std::string key = job.recordKey();
-  if (recordSays(record, plan.sha256, k, key)) {
+  if (recordSays(record, plan.sha256, k, key) && outputsThere(task)) {
     say(fmt::format("task {} ({}) is done already ({}): nothing to do", k, task.what, record));
     return false;
   }
@@ -263,7 +298,7 @@ Result<bool> runPlannedTask(const Plan& plan, const PlannedJob& job, std::size_t
   fs::create_directories(plan.workDirectory(), ec);
   const FileLock lock((fs::path(plan.workDirectory()) / fmt::format("task-{}.lock", k)).string());
   if (!lock.error().empty()) return Error{lock.error()};
-  if (recordSays(record, plan.sha256, k, key)) {
+  if (recordSays(record, plan.sha256, k, key) && outputsThere(task)) {
     say(fmt::format("task {} ({}) was done meanwhile by another copy: nothing to do", k, task.what));
     return false;
   }
@@ -276,7 +311,8 @@ Result<bool> runPlannedTask(const Plan& plan, const PlannedJob& job, std::size_t
   for (const auto& in : task.inputs) say("  reads " + in);
   for (const auto& out : task.writes) say("  writes " + out);
   const auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
-  if (Status s = job.runTask(k, [&](const std::string& line) { say("  " + line); }); !s) {
+  const TaskContext context{[&](const std::string& line) { say("  " + line); }, plan.workDirectory()};
+  if (Status s = job.runTask(k, context); !s) {
     say(fmt::format("task {} failed after {:.1f} s, peak memory {:.0f} MB", k, seconds(), peakMemoryMb()));
     return Error{fmt::format("task {} ({}): {}", k, task.what, s.error().message)};
   }

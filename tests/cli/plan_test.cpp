@@ -41,7 +41,7 @@ class PlanCli : public ::testing::Test {
 constexpr const char* kValidate = "validate --samples 3 --events 3000 --seed 4";
 
 TEST_F(PlanCli, TasksByHandStatusAndTheMergeEqualTheOneProcessCommand) {
-  auto r = run(fmt::format("{} -o {} --plan {}", kValidate, path("fan"), path("plan.json")));
+  auto r = run(fmt::format("{} --threads 2 -o {} --plan {}", kValidate, path("fan"), path("plan.json")));
   ASSERT_EQ(r.exitCode, 0) << r.err;
   EXPECT_THAT(r.out, HasSubstr("3 tasks"));
   EXPECT_FALSE(fs::exists(path("fan/samples/sample_0000.json"))) << "--plan runs nothing";
@@ -75,7 +75,10 @@ TEST_F(PlanCli, TasksByHandStatusAndTheMergeEqualTheOneProcessCommand) {
   EXPECT_THAT(r.err, HasSubstr("2 of 3 tasks not done: 0,2"));
   EXPECT_FALSE(fs::exists(path("fan/table.json")));
 
-  for (int k : {0, 2}) ASSERT_EQ(run(fmt::format("task {} {}", path("plan.json"), k)).exitCode, 0);
+  // A task on Slurm uses its CPUs (SLURM_CPUS_PER_TASK) instead of the plan's --threads.
+  r = run(fmt::format("--version >/dev/null; SLURM_CPUS_PER_TASK=1 {} task {} 0", EMCALIGN_BINARY, path("plan.json")));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  ASSERT_EQ(run(fmt::format("task {} 2", path("plan.json"))).exitCode, 0);
   r = run(fmt::format("batch status {}", path("plan.json")));
   EXPECT_EQ(r.exitCode, 0) << r.out;
   EXPECT_THAT(r.out, HasSubstr("3 done, 0 missing"));
@@ -90,6 +93,17 @@ TEST_F(PlanCli, TasksByHandStatusAndTheMergeEqualTheOneProcessCommand) {
   for (const char* f : {"table.json", "table.md", "samples/sample_0002.json"}) {
     EXPECT_EQ(slurp(fmt::format("fan/{}", f)), slurp(fmt::format("one/{}", f))) << f;
   }
+  // A task whose output was removed since is missing again, and runs again.
+  fs::remove(path("fan/samples/sample_0001.json"));
+  status = json::parse(run(fmt::format("batch status {} --json", path("plan.json"))).out);
+  EXPECT_EQ(status["missing"], json::parse("[1]"));
+  r = run(fmt::format("task {} 1", path("plan.json")));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("done in"));
+  EXPECT_EQ(slurp("fan/samples/sample_0001.json"), slurp("one/samples/sample_0001.json"));
+  // The plan made again at the same path: the records of the first are gone.
+  ASSERT_EQ(run(fmt::format("{} -o {} --plan {}", kValidate, path("fan"), path("plan.json"))).exitCode, 0);
+  EXPECT_FALSE(fs::exists(path("plan.tasks/task-1.json")));
 }
 
 TEST_F(PlanCli, AKilledTaskLeavesNothingAndShowsAsMissing) {
@@ -149,6 +163,11 @@ TEST_F(PlanCli, APlanNeverHoldsAPassword) {
   EXPECT_THAT(r.err, HasSubstr("never holds a password"));
   EXPECT_THAT(r.err, Not(HasSubstr("s3cret")));
   EXPECT_FALSE(fs::exists(path("plan.json")));
+  // An SQLite file is warned of: the tasks of several machines cannot write it at once.
+  r = run(fmt::format("campaign {} --conditions sqlite:{} --tag t --plan {}", path("period"), path("c.db"),
+                      path("plan.json")));
+  EXPECT_THAT(r.err, HasSubstr("one node, or store into the PostgreSQL server"));
+  EXPECT_FALSE(fs::exists(path("c.db")));
   // --plan - is refused: the tasks read the plan.
   r = run(fmt::format("{} -o {} --plan -", kValidate, path("fan")));
   EXPECT_EQ(r.exitCode, 1);
@@ -163,15 +182,15 @@ TEST_F(PlanCli, TheJobArrayScriptAndAMissingSbatch) {
   std::string script = slurp("job.sh");
   EXPECT_THAT(script, HasSubstr("#SBATCH --array=0-2\n"));
   EXPECT_THAT(script, HasSubstr(fmt::format("#SBATCH --output={}/plan.tasks/task-%a.log", dir_.string())));
-  EXPECT_THAT(script, HasSubstr(fmt::format("'{}' task '{}' \"$SLURM_ARRAY_TASK_ID\"", EMCALIGN_BINARY,
-                                            path("plan.json"))));
+  EXPECT_THAT(script,
+              HasSubstr(fmt::format("'{}' task '{}' \"$SLURM_ARRAY_TASK_ID\"", EMCALIGN_BINARY, path("plan.json"))));
   EXPECT_THAT(script, HasSubstr("--dependency=afterok:J"));
   r = run(fmt::format("batch script {} --missing -o {}", path("plan.json"), path("missing.sh")));
   ASSERT_EQ(r.exitCode, 0) << r.err;
   EXPECT_THAT(slurp("missing.sh"), HasSubstr("#SBATCH --array=0,2\n"));
   // No Slurm here: said so, nothing left behind.
-  r = run(fmt::format("--version >/dev/null; PATH=/nonexistent {} batch submit {}", EMCALIGN_BINARY,
-                      path("plan.json")));
+  r = run(
+      fmt::format("--version >/dev/null; PATH=/nonexistent {} batch submit {}", EMCALIGN_BINARY, path("plan.json")));
   EXPECT_EQ(r.exitCode, 1);
   EXPECT_THAT(r.err, HasSubstr("cannot run sbatch"));
 }

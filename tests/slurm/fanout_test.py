@@ -110,12 +110,12 @@ def case_validate(c):
 
 
 def case_cancel(c):
-    args = ["validate", "--samples", "4", "--events", "400000", "--seed", "11"]
+    args = ["validate", "--samples", "3", "--events", "300000", "--seed", "11"]
     c.run(*args, "-o", "fan", "--plan", "plan.json")
     r = c.run("batch", "submit", "plan.json", "--json")
     ids = json.loads(r.stdout)
     array = ids["array_job"]
-    # Cancel task 1 while it runs, and task 3 before it starts.
+    # Cancel task 1 while it runs, and task 2 before it starts (the node runs two at once).
     deadline = time.time() + 120
     while time.time() < deadline:
         q = c.slurm("squeue", "-h", "-j", str(array), "-r", "-o", "%i %T").stdout.split("\n")
@@ -126,13 +126,13 @@ def case_cancel(c):
         raise Failed(f"task 1 never ran: {q}")
     time.sleep(1.0)  # into its simulation
     c.slurm("scancel", f"{array}_1")
-    c.slurm("scancel", f"{array}_3")
+    c.slurm("scancel", f"{array}_2")
     deadline = time.time() + 300
     while c.slurm("squeue", "-h").stdout.strip() and time.time() < deadline:
         time.sleep(0.5)
     check(not c.slurm("squeue", "-h").stdout.strip(), "the queue did not drain (the merge job left waiting?)")
     j = c.status("plan.json")
-    check(j["missing"] == [1, 3] and j["done"] == [0, 2], f"status after the cancel: {j}")
+    check(j["missing"] == [1, 2] and j["done"] == [0], f"status after the cancel: {j}")
     check("1" in j["logs_of_missing"] and "CANCELLED" in j["logs_of_missing"]["1"]["last_line"],
           f"the cancelled task's log: {j['logs_of_missing']}")
     check(not os.path.exists(os.path.join(c.top, "fan", "table.json")), "the merge ran with tasks missing")
@@ -140,11 +140,11 @@ def case_cancel(c):
           "the cancelled task left its sample")
     c.no_temporaries("fan")
     r = c.run("finish", "plan.json", ok=False)
-    check(r.returncode == 1 and "1,3" in r.stderr, f"finish with tasks missing: exit {r.returncode}: {r.stderr}")
+    check(r.returncode == 1 and "1-2" in r.stderr, f"finish with tasks missing: exit {r.returncode}: {r.stderr}")
     c.submit("plan.json", "--missing")
     check(c.status("plan.json")["missing"] == [], "tasks still missing after --missing")
     c.run(*args, "--threads", "2", "-o", "one")
-    c.same_files("fan", "one", ["table.json", "table.md"] + [f"samples/sample_{i:04d}.json" for i in range(4)])
+    c.same_files("fan", "one", ["table.json", "table.md"] + [f"samples/sample_{i:04d}.json" for i in range(3)])
 
 
 def case_twice(c):
@@ -155,7 +155,8 @@ def case_twice(c):
     out = [x.communicate(timeout=600) for x in p]
     check(all(x.returncode == 0 for x in p), f"two copies of task 0: {[x.returncode for x in p]} {out}")
     said = " ".join(o[0] for o in out)
-    check("done in" in said and "meanwhile by another copy" in said, f"two copies of task 0 said: {said}")
+    check(said.count("done in") == 1 and ("meanwhile by another copy" in said or "done already" in said),
+          f"two copies of task 0 said: {said}")
     c.run("task", "plan.json", "1")
     c.run("finish", "plan.json")
     c.run(*args, "-o", "one")
@@ -204,16 +205,16 @@ def case_derive(c):
 
 def case_systematics(c):
     c.run("derive-corrections", "--events", "30000", "--response-samples", "0", "-o", "c.json")
-    args = ["systematics", "--samples", "2", "--events", "5000", "--variations", "gains-2pc,tmax-up",
+    args = ["systematics", "--samples", "2", "--events", "5000", "--variations", "tmax-up",
             "--corrections", "c.json", "--reverse", "--reverse-events", "20000", "--reverse-response-samples", "0"]
     c.run(*args, "-o", "fan", "--plan", "plan.json")
     plan = json.load(open(os.path.join(c.top, "plan.json")))
-    check(len(plan["tasks"]) == 3 + 3 * 2 + 3 * 2, f"{len(plan['tasks'])} tasks")
+    check(len(plan["tasks"]) == 2 + 2 * 2 + 2 * 2, f"{len(plan['tasks'])} tasks")
     c.submit("plan.json")
     c.run(*args, "-o", "one")
     c.same_files("fan", "one", ["systematics.json", "systematics.md", "plots/systematics.png",
                                 "reverse/corrections/nominal.json", "reverse/corrections/tmax-up.json",
-                                "nominal/table.json", "reverse/gains-2pc/table.json"])
+                                "nominal/table.json", "reverse/tmax-up/table.json"])
 
 
 def main():

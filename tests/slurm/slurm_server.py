@@ -92,7 +92,8 @@ def start(state_path):
     wait_for("munged's pid file", lambda: os.path.exists(f"{munge_dir}/munged.pid"), 10)
     state["pids"]["munged"] = int(open(f"{munge_dir}/munged.pid").read().split()[0])
     host = socket.gethostname().split(".")[0]
-    cpus = os.cpu_count() or 1
+    # EMCALIGN_SLURM_CPUS: a node of fewer CPUs than the machine (bench/cluster_fanout.sh).
+    cpus = int(os.environ.get("EMCALIGN_SLURM_CPUS", "0")) or os.cpu_count() or 1
     conf = f"""# A private single-node Slurm of the emcalign tests (tests/slurm/slurm_server.py)
 ClusterName=emcalign-test
 SlurmctldHost={host}

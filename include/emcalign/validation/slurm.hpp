@@ -18,23 +18,25 @@
 namespace emcalign::validation {
 
 /// The batch script of the job array over `tasks` (every task when empty): #SBATCH lines for
-/// the job name, the array, the log and the directory, then the task's command. `program`: the
-/// emcalign executable the nodes run (the plan's).
+/// the job name, the array, the log and the directory, then the task's command with the
+/// plan's emcalign executable.
 std::string jobArrayScript(const Plan& plan, const std::vector<std::size_t>& tasks);
 
 struct SlurmSubmission {
   std::string arrayJob, finishJob;  ///< Slurm's job ids
 };
 
-/// Submits the array over `tasks` (every task when empty) and the merge job, each with
-/// `sbatchArguments` too (partition, account, time, memory: as sbatch takes them). sbatch is
-/// found in PATH; its error is returned as it said it.
+/// Submits the array over `tasks` (every task when empty) and the merge job after it (without
+/// `withArray`: the merge alone), each with `sbatchArguments` too (partition, account, time,
+/// memory: as sbatch takes them). sbatch is found in PATH; its error is returned as it said it.
+/// A task number beyond the Slurm's MaxArraySize is refused before anything is submitted.
 Result<SlurmSubmission> submitToSlurm(const Plan& plan, const std::vector<std::size_t>& tasks,
-                                      const std::vector<std::string>& sbatchArguments);
+                                      const std::vector<std::string>& sbatchArguments, bool withArray = true);
 
-/// Waits until the merge job has left the queue (polling squeue), telling `say` of changes.
-/// Returns the merge's exit status: 0 when it wrote its record (PLAN.tasks/finish.json), else
-/// Slurm's exit code of the job where scontrol still knows it, else 1.
+/// Waits until the merge job has left the queue (polling squeue, every second at first, then
+/// less often), telling `say` of changes. Returns the merge's exit status: 0 when it wrote its
+/// record (PLAN.tasks/finish.json; a shared file system is given 10 s to show it) or Slurm says
+/// COMPLETED with exit code 0, else Slurm's exit code where scontrol still knows the job, else 1.
 Result<int> waitForFinish(const Plan& plan, const SlurmSubmission& submission,
                           const std::function<void(const std::string&)>& say);
 

@@ -39,14 +39,23 @@ struct PlannedTask {
   std::vector<std::string> inputs;  ///< what it reads (files, a database), for its log
 };
 
+/// Where a task runs: lines for its log, and the plan's work directory (for its locks).
+struct TaskContext {
+  std::function<void(const std::string&)> say;
+  std::string workDirectory;
+};
+
+/// The commands a plan can hold.
+inline constexpr std::string_view kPlannedCommands[] = {"validate", "systematics", "derive-corrections", "campaign"};
+
 /// A command cut into tasks (validate, systematics, derive-corrections, campaign).
 class PlannedJob {
  public:
   virtual ~PlannedJob() = default;
   virtual std::vector<PlannedTask> tasks() const = 0;
   /// Runs task k (< tasks().size()): its outputs written atomically; those already in place
-  /// from the same settings kept. `say` receives lines for the task's log.
-  virtual Status runTask(std::size_t k, const std::function<void(const std::string&)>& say) const = 0;
+  /// from the same settings kept.
+  virtual Status runTask(std::size_t k, const TaskContext& context) const = 0;
   /// What the tasks need beyond the command's arguments, kept in the plan (a campaign's groups
   /// and the digests of its files); null: nothing.
   virtual io::Json data() const { return nullptr; }
@@ -99,7 +108,9 @@ struct Plan {
 };
 
 /// Writes the plan of `job` to `path` (an output already checked) and makes its work
-/// directory. `arguments`: the command's, without --plan.
+/// directory, emptied of the records and logs of an earlier plan there. `arguments`: the
+/// command's, without --plan. A path or directory holding a control character or '"' is
+/// refused (they go into batch scripts).
 Result<Plan> writePlan(const std::string& path, const std::string& command, const std::vector<std::string>& arguments,
                        const PlannedJob& job);
 
@@ -111,12 +122,15 @@ Result<Plan> readPlan(const std::string& path);
 Result<Plan> parsePlan(const std::string& text, const std::string& path);
 
 struct TaskState {
+  /// Its record is there (of this plan; with any key) and every file it writes exists.
   bool done = false;
   std::string log;       ///< its log, when it has one (it started at least once)
   std::string lastLine;  ///< the log's last line that is not empty: why it failed, often
 };
 /// Every task's state, from the records and logs in the work directory.
 std::vector<TaskState> taskStates(const Plan& plan);
+/// Task k's record is there (any key) with the files it writes.
+bool taskDone(const Plan& plan, std::size_t k);
 
 /// Runs task k of the plan with `job` (made from the plan's command): nothing when its record
 /// says it is done; one copy at a time; its log lines (which task, inputs, time, peak memory)

@@ -167,6 +167,44 @@ int finishCampaign(const CampaignCliOptions& o) {
   return kExitOk;
 }
 
+// The campaign's files read once (their runs, selected events and digests) and grouped; the
+// groups printed. `outputs`: the command's file outputs (the plan), checked against its inputs;
+// `target`: the database to store into, checked before the files are read.
+struct ScannedCampaign {
+  validation::CampaignModel model;
+  validation::CampaignScan scan;
+  std::vector<validation::CampaignGroup> groups;
+};
+Result<ScannedCampaign> scanCampaign(const CampaignCliOptions& o, const std::vector<io::NamedPath>& outputs,
+                                     DatabaseToWrite* target) {
+  auto calo = loadCalorimeter(o.detector);
+  if (!calo) return calo.error();
+  auto files = validation::eventFilesIn(o.inputs);
+  if (!files) return files.error();
+  std::vector<io::NamedPath> inputs = {{"--corrections", o.corrections}, {"--detector", o.detector}};
+  for (const auto& f : *files) inputs.push_back({"", f});
+  for (auto& c : conditionsInputs(o.conditions)) inputs.push_back(std::move(c));
+  if (Status s = checkOutputs(outputs, {}, inputs); !s) return s.error();
+  auto model = validation::campaignModel(o.corrections, o.detector, *calo);
+  if (!model) return model.error();
+  model->setSigmaSys(sigmaSysChoice(o.sigmaSys));
+  if (target != nullptr) {
+    if (Status s = target->prepare(); !s) return s.error();
+  }
+  ProgressLine scanning("campaign: reading", static_cast<std::int64_t>(files->size()), "files");
+  validation::ScanOptions so;
+  so.threads = o.threads;
+  so.progress = [&](std::size_t done, std::size_t) { scanning.update(static_cast<std::int64_t>(done)); };
+  auto scan = validation::scanRuns(*files, *model, so);
+  scanning.finish();
+  if (!scan) return scan.error();
+  auto groups = validation::planGroups(*scan, o.minEvents);
+  fmt::print(reportStream(), "read {}, {} ({}-{}) in {:.1f} s\n", counted(files->size(), "file"),
+             counted(scan->runs.size(), "run"), scan->runs.front().run, scan->runs.back().run, scanning.elapsed());
+  printGroups(groups, o.minEvents);
+  return ScannedCampaign{std::move(*model), std::move(*scan), std::move(groups)};
+}
+
 // campaign --plan P: the scan and the groups (the job list); the plan keeps them, with the
 // conditions and tag when given (never a password: libpq reads it from PGPASSFILE/PGPASSWORD).
 Result<std::unique_ptr<validation::PlannedJob>> newPlanJob(const CampaignCliOptions& o) {
@@ -191,29 +229,10 @@ Result<std::unique_ptr<validation::PlannedJob>> newPlanJob(const CampaignCliOpti
                      ? "sqlite:" + fs::absolute(address->file).lexically_normal().string()
                      : address->shown;
   }
-  auto calo = loadCalorimeter(o.detector);
-  if (!calo) return calo.error();
-  auto files = validation::eventFilesIn(o.inputs);
-  if (!files) return files.error();
-  std::vector<io::NamedPath> inputs = {{"--corrections", o.corrections}, {"--detector", o.detector}};
-  for (const auto& f : *files) inputs.push_back({"", f});
-  for (auto& c : conditionsInputs(o.conditions)) inputs.push_back(std::move(c));
-  if (Status s = checkOutputs({{"--plan", o.plan}}, {}, inputs); !s) return s.error();
-  auto model = validation::campaignModel(o.corrections, o.detector, *calo);
-  if (!model) return model.error();
-  model->setSigmaSys(sigmaSysChoice(o.sigmaSys));
-  ProgressLine scanning("campaign: reading", static_cast<std::int64_t>(files->size()), "files");
-  validation::ScanOptions so;
-  so.threads = o.threads;
-  so.progress = [&](std::size_t done, std::size_t) { scanning.update(static_cast<std::int64_t>(done)); };
-  auto scan = validation::scanRuns(*files, *model, so);
-  scanning.finish();
-  if (!scan) return scan.error();
-  const auto groups = validation::planGroups(*scan, o.minEvents);
-  fmt::print(reportStream(), "read {}, {} ({}-{}) in {:.1f} s\n", counted(files->size(), "file"),
-             counted(scan->runs.size(), "run"), scan->runs.front().run, scan->runs.back().run, scanning.elapsed());
-  printGroups(groups, o.minEvents);
-  io::Json data = validation::planJson(*scan, groups, o.minEvents, *model);
+  auto scanned = scanCampaign(o, {{"--plan", o.plan}}, nullptr);
+  if (!scanned) return scanned.error();
+  const auto& [model, scan, groups] = *scanned;
+  io::Json data = validation::planJson(scan, groups, o.minEvents, model);
   if (!conditions.empty()) {
     data["conditions"] = conditions;
     data["tag"] = o.tag;
@@ -221,38 +240,18 @@ Result<std::unique_ptr<validation::PlannedJob>> newPlanJob(const CampaignCliOpti
   }
   auto plan = validation::parseCampaignPlan(data, o.plan);
   if (!plan) return plan.error();
-  return validation::calibrationCampaignJob(std::move(*plan), std::move(*model), std::move(data));
+  return validation::calibrationCampaignJob(std::move(*plan), model, std::move(data));
 }
 
 int run(const CampaignCliOptions& o) {
-  auto calo = loadCalorimeter(o.detector);
-  if (!calo) return reportError(calo.error());
-
-  auto files = validation::eventFilesIn(o.inputs);
-  if (!files) return reportError(files.error());
-  std::vector<io::NamedPath> inputs = {{"--corrections", o.corrections}, {"--detector", o.detector}};
-  for (const auto& f : *files) inputs.push_back({"", f});
-  for (auto& c : conditionsInputs(o.conditions)) inputs.push_back(std::move(c));
-  if (Status s = checkOutputs({}, {}, inputs); !s) return reportError(s.error());
-  auto model = validation::campaignModel(o.corrections, o.detector, *calo);
-  if (!model) return reportError(model.error());
-  model->setSigmaSys(sigmaSysChoice(o.sigmaSys));
   // A new database is created once the files are read and planned, not before: a campaign
   // refused for its inputs leaves none behind (nor one whose every group failed).
   DatabaseToWrite target(o.conditions);
-  if (Status s = target.prepare(); !s) return reportError(s.error());
-
-  ProgressLine scanning("campaign: reading", static_cast<std::int64_t>(files->size()), "files");
-  validation::ScanOptions so;
-  so.threads = o.threads;
-  so.progress = [&](std::size_t done, std::size_t) { scanning.update(static_cast<std::int64_t>(done)); };
-  auto scan = validation::scanRuns(*files, *model, so);
-  scanning.finish();
-  if (!scan) return reportError(scan.error());
-  const auto groups = validation::planGroups(*scan, o.minEvents);
-  fmt::print(reportStream(), "read {}, {} ({}-{}) in {:.1f} s\n", counted(files->size(), "file"),
-             counted(scan->runs.size(), "run"), scan->runs.front().run, scan->runs.back().run, scanning.elapsed());
-  printGroups(groups, o.minEvents);
+  auto scanned = scanCampaign(o, {}, &target);
+  if (!scanned) return reportError(scanned.error());
+  const validation::CampaignModel* model = &scanned->model;
+  const validation::CampaignScan* scan = &scanned->scan;
+  const auto& groups = scanned->groups;
   auto db = target.create();
   if (!db) return reportError(db.error());
   ProgressLine fitting("campaign: fitting", static_cast<std::int64_t>(groups.size()), "groups");

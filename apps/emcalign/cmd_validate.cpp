@@ -49,7 +49,8 @@ struct ValidateOptions {
   validation::DerivationOptions derivation = reverseDefaults();  ///< its derivations
   std::string writeCorrections;  ///< systematics: a copy of --corrections with the systematic errors
   std::string output;
-  std::string plan;  ///< --plan: the job list, nothing run
+  std::string plan;        ///< --plan: the job list, nothing run
+  int samplesPerTask = 0;  ///< --samples-per-task of a plan (0: one, or more within 1000 tasks)
 
   // The reverse study's derivations: a third of the shipped file's statistics (10⁶ events per
   // sample, 100 response samples of 50 000), enough for shifts measured by pairing (every
@@ -341,6 +342,10 @@ void addCampaignOptions(CLI::App& cmd, ValidateOptions& o) {
       ->check(CLI::ExistingPath)
       ->excludes(depthOffset);
   addSigmaSysOption(cmd, o.sigmaSys);
+  cmd.add_option("--samples-per-task", o.samplesPerTask,
+                 "with --plan: samples per task (default 1, or as many as keep the plan within 1000 tasks; a "
+                 "batch system spends a few seconds on each task: more samples per task for short samples)")
+      ->check(integerIn(1, 100000));
 }
 
 std::vector<std::string> variationNames() {
@@ -369,7 +374,8 @@ void addValidateCommand(CLI::App& app, int& exitCode) {
           std::optional<geometry::Calorimeter> calo;
           auto made = campaignOptionsOf(*o, calo);
           if (!made) return made.error();
-          return validation::validationJob(std::move(*calo), std::move(*made), o->output, inputsOf(*o));
+          return validation::validationJob(std::move(*calo), std::move(*made), o->output, inputsOf(*o),
+                                           o->samplesPerTask);
         },
         [o] { return run(*o, false); }, [o] { return run(*o, true); });
   });
@@ -418,7 +424,8 @@ void addValidateCommand(CLI::App& app, int& exitCode) {
           std::optional<geometry::Calorimeter> calo;
           auto made = systematicsOptionsOf(*s, calo);
           if (!made) return made.error();
-          return validation::systematicsJob(std::move(*calo), std::move(*made), s->output, inputsOf(*s));
+          return validation::systematicsJob(std::move(*calo), std::move(*made), s->output, inputsOf(*s),
+                                            s->samplesPerTask);
         },
         [s] { return runSystematics(*s, false); }, [s] { return runSystematics(*s, true); });
   });

@@ -334,20 +334,30 @@ namespace {
 
 class ValidationJob final : public PlannedJob {
  public:
-  ValidationJob(geometry::Calorimeter calo, CampaignOptions o, std::string dir, std::vector<std::string> inputs)
-      : calo_(std::move(calo)), o_(std::move(o)), dir_(std::move(dir)), inputs_(std::move(inputs)) {}
+  ValidationJob(geometry::Calorimeter calo, CampaignOptions o, std::string dir, std::vector<std::string> inputs,
+                int samplesPerTask)
+      : calo_(std::move(calo)),
+        o_(std::move(o)),
+        dir_(std::move(dir)),
+        inputs_(std::move(inputs)),
+        blocks_(sampleBlocks(o_.samples, samplesPerTask, 1, 0)) {}
 
   std::vector<PlannedTask> tasks() const override {
     std::vector<PlannedTask> t;
-    for (int i = 0; i < o_.samples; ++i) {
-      t.push_back({fmt::format("sample {} of the campaign {} ({} events)", i, dir_, o_.events),
-                   {fs::absolute(samplePath(dir_, i)).lexically_normal().string()},
-                   inputs_});
+    for (const SampleBlock& b : blocks_) {
+      PlannedTask task{
+          fmt::format("{} of the campaign {} ({} events each)", samplesText(b), dir_, o_.events), {}, inputs_};
+      for (int i = b.first; i <= b.last; ++i)
+        task.writes.push_back(fs::absolute(samplePath(dir_, i)).lexically_normal().string());
+      t.push_back(std::move(task));
     }
     return t;
   }
   Status runTask(std::size_t k, const TaskContext&) const override {
-    return runSample(calo_, o_, dir_, static_cast<int>(k));
+    for (int i = blocks_[k].first; i <= blocks_[k].last; ++i) {
+      if (Status s = runSample(calo_, o_, dir_, i); !s) return s;
+    }
+    return {};
   }
 
  private:
@@ -355,13 +365,15 @@ class ValidationJob final : public PlannedJob {
   CampaignOptions o_;
   std::string dir_;
   std::vector<std::string> inputs_;
+  std::vector<SampleBlock> blocks_;
 };
 
 }  // namespace
 
 std::unique_ptr<PlannedJob> validationJob(geometry::Calorimeter calo, CampaignOptions options, std::string dir,
-                                          std::vector<std::string> inputs) {
-  return std::make_unique<ValidationJob>(std::move(calo), std::move(options), std::move(dir), std::move(inputs));
+                                          std::vector<std::string> inputs, int samplesPerTask) {
+  return std::make_unique<ValidationJob>(std::move(calo), std::move(options), std::move(dir), std::move(inputs),
+                                         samplesPerTask);
 }
 
 Result<Table> runCampaign(const geometry::Calorimeter& calo, const CampaignOptions& o, const std::string& dir,

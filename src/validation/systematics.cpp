@@ -439,16 +439,21 @@ namespace {
 // own task, which then finds it done).
 class SystematicsJob final : public PlannedJob {
  public:
-  SystematicsJob(geometry::Calorimeter calo, SystematicsOptions o, std::string dir, std::vector<std::string> inputs)
+  SystematicsJob(geometry::Calorimeter calo, SystematicsOptions o, std::string dir, std::vector<std::string> inputs,
+                 int samplesPerTask)
       : calo_(std::move(calo)), o_(std::move(o)), dir_(std::move(dir)), inputs_(std::move(inputs)) {
     variations_ = variationsOf(o_);
     forward_.push_back({"nominal", nullptr});
     for (const Variation* v : variations_) forward_.push_back({v->name, v});
+    const int derivations = o_.reverse ? static_cast<int>(forward_.size()) : 0;
+    const int campaigns = static_cast<int>(forward_.size()) * (o_.reverse ? 2 : 1);
+    blocks_ = sampleBlocks(o_.campaign.samples, samplesPerTask, campaigns, derivations);
   }
 
+  // The tasks in order: the reverse derivations, then each forward campaign's blocks of
+  // samples, then each reverse campaign's.
   std::vector<PlannedTask> tasks() const override {
     std::vector<PlannedTask> t;
-    const int n = o_.campaign.samples;
     if (o_.reverse) {
       for (const auto& [name, v] : forward_) {
         t.push_back({fmt::format("the reverse study's corrections derived with {}", v ? name : "no variation"),
@@ -456,18 +461,13 @@ class SystematicsJob final : public PlannedJob {
                      inputs_});
       }
     }
-    for (const auto& [name, v] : forward_) {
-      for (int i = 0; i < n; ++i) {
-        t.push_back(
-            {fmt::format("sample {} of {}/{}", i, dir_, name), {absolute(sampleFile(dirOf(name), i))}, inputs_});
-      }
-    }
-    if (o_.reverse) {
+    for (int reverse = 0; reverse <= (o_.reverse ? 1 : 0); ++reverse) {
       for (const auto& [name, v] : forward_) {
-        for (int i = 0; i < n; ++i) {
-          t.push_back({fmt::format("sample {} of {}/reverse/{}", i, dir_, name),
-                       {absolute(sampleFile(reverseDirOf(name), i))},
-                       inputs_});
+        const std::string campaign = reverse != 0 ? reverseDirOf(name) : dirOf(name);
+        for (const SampleBlock& b : blocks_) {
+          PlannedTask task{fmt::format("{} of {}", samplesText(b), campaign), {}, inputs_};
+          for (int i = b.first; i <= b.last; ++i) task.writes.push_back(absolute(sampleFile(campaign, i)));
+          t.push_back(std::move(task));
         }
       }
     }
@@ -475,23 +475,28 @@ class SystematicsJob final : public PlannedJob {
   }
 
   Status runTask(std::size_t k, const TaskContext& context) const override {
-    const auto n = static_cast<std::size_t>(o_.campaign.samples);
     const std::size_t derivations = o_.reverse ? forward_.size() : 0;
     if (k < derivations) {
       auto c = corrections(k, context);
       return c ? Status{} : Status{c.error()};
     }
     k -= derivations;
-    if (k < forward_.size() * n) {
-      const auto& [name, v] = forward_[k / n];
-      const CampaignOptions o = v ? withVariation(o_.campaign, *v) : o_.campaign;
-      return runSample(calo_, o, dirOf(name), static_cast<int>(k % n));
+    const std::size_t campaign = k / blocks_.size();
+    const SampleBlock& b = blocks_[k % blocks_.size()];
+    const bool reverse = campaign >= forward_.size();
+    const auto& [name, v] = forward_[campaign % forward_.size()];
+    CampaignOptions o;
+    if (reverse) {
+      auto c = corrections(campaign % forward_.size(), context);
+      if (!c) return c.error();
+      o = reverseCampaign(o_.campaign, std::move(*c), name);
+    } else {
+      o = v ? withVariation(o_.campaign, *v) : o_.campaign;
     }
-    k -= forward_.size() * n;
-    auto c = corrections(k / n, context);
-    if (!c) return c.error();
-    const CampaignOptions o = reverseCampaign(o_.campaign, std::move(*c), forward_[k / n].first);
-    return runSample(calo_, o, reverseDirOf(forward_[k / n].first), static_cast<int>(k % n));
+    for (int i = b.first; i <= b.last; ++i) {
+      if (Status s = runSample(calo_, o, reverse ? reverseDirOf(name) : dirOf(name), i); !s) return s;
+    }
+    return {};
   }
 
  private:
@@ -526,13 +531,15 @@ class SystematicsJob final : public PlannedJob {
   std::vector<std::string> inputs_;
   std::vector<const Variation*> variations_;
   std::vector<std::pair<std::string, const Variation*>> forward_;  // nominal, then each variation
+  std::vector<SampleBlock> blocks_;                                // of each campaign
 };
 
 }  // namespace
 
 std::unique_ptr<PlannedJob> systematicsJob(geometry::Calorimeter calo, SystematicsOptions options, std::string dir,
-                                           std::vector<std::string> inputs) {
-  return std::make_unique<SystematicsJob>(std::move(calo), std::move(options), std::move(dir), std::move(inputs));
+                                           std::vector<std::string> inputs, int samplesPerTask) {
+  return std::make_unique<SystematicsJob>(std::move(calo), std::move(options), std::move(dir), std::move(inputs),
+                                          samplesPerTask);
 }
 
 }  // namespace emcalign::validation

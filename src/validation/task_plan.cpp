@@ -326,6 +326,22 @@ Result<bool> runPlannedTask(const Plan& plan, const PlannedJob& job, std::size_t
   return true;
 }
 
+std::vector<SampleBlock> sampleBlocks(int samples, int perTask, int campaigns, int otherTasks) {
+  int per = perTask;
+  if (per <= 0) {
+    const long long total = static_cast<long long>(samples) * std::max(campaigns, 1);
+    const long long room = std::max(1, kMaxPlanTasks - otherTasks);
+    per = static_cast<int>(std::max(1LL, (total + room - 1) / room));
+  }
+  std::vector<SampleBlock> blocks;
+  for (int first = 0; first < samples; first += per) blocks.push_back({first, std::min(samples, first + per) - 1});
+  return blocks;
+}
+
+std::string samplesText(const SampleBlock& b) {
+  return b.first == b.last ? fmt::format("sample {}", b.first) : fmt::format("samples {}-{}", b.first, b.last);
+}
+
 std::string taskRanges(const std::vector<std::size_t>& tasks) {
   std::string out;
   for (std::size_t i = 0; i < tasks.size();) {

@@ -106,6 +106,26 @@ TEST_F(PlanCli, TasksByHandStatusAndTheMergeEqualTheOneProcessCommand) {
   EXPECT_FALSE(fs::exists(path("plan.tasks/task-1.json")));
 }
 
+// Slurm takes arrays of 1001 tasks by default: a larger study is cut into blocks of samples, and
+// short samples can be grouped (each task costs the batch system seconds).
+TEST_F(PlanCli, SamplesAreGroupedIntoTasksWithinAThousand) {
+  auto r = run(fmt::format("validate --samples 1500 --events 1000 -o {} --plan {}", path("big"), path("big.json")));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  json plan = json::parse(slurp("big.json"));
+  ASSERT_EQ(plan["tasks"].size(), 750u);
+  EXPECT_EQ(plan["tasks"][749]["what"],
+            fmt::format("samples 1498-1499 of the campaign {} (1000 events each)", path("big")));
+  r = run(fmt::format("{} --samples-per-task 2 -o {} --plan {}", kValidate, path("fan"), path("plan.json")));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  plan = json::parse(slurp("plan.json"));
+  ASSERT_EQ(plan["tasks"].size(), 2u);
+  EXPECT_EQ(plan["tasks"][0]["writes"].size(), 2u);
+  for (int k : {0, 1}) ASSERT_EQ(run(fmt::format("task {} {}", path("plan.json"), k)).exitCode, 0);
+  ASSERT_EQ(run(fmt::format("finish {}", path("plan.json"))).exitCode, 0);
+  ASSERT_EQ(run(fmt::format("{} -o {}", kValidate, path("one"))).exitCode, 0);
+  EXPECT_EQ(slurp("fan/table.json"), slurp("one/table.json"));
+}
+
 TEST_F(PlanCli, AKilledTaskLeavesNothingAndShowsAsMissing) {
   auto r = run(fmt::format("validate --samples 1 --events 20000000 --threads 1 -o {} --plan {}", path("fan"),
                            path("plan.json")));

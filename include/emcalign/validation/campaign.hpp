@@ -121,10 +121,11 @@ Status runSample(const geometry::Calorimeter& calo, const CampaignOptions& optio
 /// dir/samples/sample_NNNN.json
 std::string sampleFile(const std::string& dir, int i);
 
-/// The campaign as a plan's tasks (`validate --plan`): task i is sample i (runSample); the
-/// merge is runCampaign with onlyFinished. `inputs`: the files the campaign reads, for the logs.
+/// The campaign as a plan's tasks (`validate --plan`): each task `samplesPerTask` samples
+/// (runSample; 0: one, or more to keep within kMaxPlanTasks); the merge is runCampaign with
+/// onlyFinished. `inputs`: the files the campaign reads, for the logs.
 std::unique_ptr<PlannedJob> validationJob(geometry::Calorimeter calo, CampaignOptions options, std::string dir,
-                                          std::vector<std::string> inputs);
+                                          std::vector<std::string> inputs, int samplesPerTask = 0);
 
 /// The table from finished samples.
 Table tabulate(const std::vector<SampleResult>& samples, std::int64_t events, double r1);

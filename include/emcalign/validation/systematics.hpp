@@ -94,9 +94,10 @@ Result<SystematicsTable> runSystematics(const geometry::Calorimeter& calo, const
 
 /// The study as a plan's tasks (`systematics --plan`): each sample of each campaign, and with
 /// the reverse study each derivation and each sample of its campaign; the merge is
-/// runSystematics with campaign.onlyFinished. `inputs`: the files it reads, for the logs.
+/// runSystematics with campaign.onlyFinished. `inputs`: the files it reads, for the logs;
+/// `samplesPerTask`: as validationJob's (0: one, or more to keep within kMaxPlanTasks).
 std::unique_ptr<PlannedJob> systematicsJob(geometry::Calorimeter calo, SystematicsOptions options, std::string dir,
-                                           std::vector<std::string> inputs);
+                                           std::vector<std::string> inputs, int samplesPerTask = 0);
 
 /// {"samples", "events", "variations": [{"name", "quantity", "change", "why", "pattern"}],
 /// "reverse": {derivation settings} or null, "parameters": {name: {"unit", "bias",

@@ -144,6 +144,20 @@ Status checkAllTasksDone(const Plan& plan);
 Status recordFinished(const Plan& plan, double seconds);
 bool finished(const Plan& plan);
 
+/// The tasks a plan is cut into at most by default: Slurm's default MaxArraySize is 1001.
+inline constexpr int kMaxPlanTasks = 1000;
+
+/// Samples [first, last] of a campaign, one task's.
+struct SampleBlock {
+  int first = 0, last = 0;
+};
+/// `campaigns` campaigns of `samples` samples each, cut into tasks of `perTask` samples (0: one
+/// each, or as many as keep the plan within kMaxPlanTasks with `otherTasks` tasks besides): the
+/// blocks of one campaign.
+std::vector<SampleBlock> sampleBlocks(int samples, int perTask, int campaigns, int otherTasks);
+/// "sample 3" or "samples 0-3".
+std::string samplesText(const SampleBlock& block);
+
 /// A compact list of task numbers: "0-3,7,9-10".
 std::string taskRanges(const std::vector<std::size_t>& tasks);
 

@@ -11,9 +11,11 @@
 #include <string_view>
 #include <variant>
 #include <vector>
+#include "emcalign/core/clock.hpp"
 
 #include "emcalign/conddb/address.hpp"
 #include "emcalign/conddb/conditions.hpp"
+#include "emcalign/core/clock.hpp"
 
 namespace emcalign::conddb::detail {
 
@@ -51,7 +53,6 @@ Status checkSchemaOf(Database& db);
 /// "base\0x" locking "base").
 Status checkParams(const std::vector<Param>& params, const std::string& uri);
 
-/// The current time, UTC, ISO 8601 to the second.
-std::string utcNow();
+using emcalign::utcNow;  // core/clock.hpp
 
 }  // namespace emcalign::conddb::detail

@@ -396,15 +396,6 @@ class SqlDatabase final : public Database {
 
 }  // namespace
 
-std::string utcNow() {
-  const std::time_t now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
-  std::tm tm{};
-  gmtime_r(&now, &tm);
-  char text[32];
-  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return text;
-}
-
 Status checkParams(const std::vector<Param>& params, const std::string& uri) {
   for (const Param& p : params) {
     if (std::holds_alternative<std::string>(p) && std::get<std::string>(p).find('\0') != std::string::npos) {

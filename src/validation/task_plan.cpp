@@ -15,6 +15,7 @@
 
 #include <fmt/format.h>
 
+#include "emcalign/core/clock.hpp"
 #include "emcalign/core/sha256.hpp"
 #include "emcalign/core/version.hpp"
 #include "emcalign/io/output_file.hpp"
@@ -31,15 +32,6 @@ std::string hostName() {
   char name[256] = {};
   if (::gethostname(name, sizeof name - 1) != 0) return "?";
   return name;
-}
-
-std::string utcNow() {
-  const std::time_t t = std::time(nullptr);
-  std::tm tm{};
-  ::gmtime_r(&t, &tm);
-  char text[32];
-  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return text;
 }
 
 Json taskJson(std::size_t k, const PlannedTask& t) {

@@ -298,6 +298,12 @@ TEST_F(EventFile, Hdf5RoundTripWithTruthIsExact) {
 // reported unreadable after the timeout). Every open below has 10 s; an open normally takes
 // milliseconds.
 TEST_F(EventFile, Hdf5ReadWhileAnotherThreadWrites) {
+#if defined(__SANITIZE_ADDRESS__)
+  // GCC 12's libasan does not hold its allocator's lock across fork (LLVM's runtime does
+  // since 2024): a fork while the writing thread allocates leaves the child waiting for it
+  // forever (google/sanitizers#1814). glibc's malloc is fork-safe; the release stage runs this.
+  GTEST_SKIP() << "ASan's allocator is not fork-safe in GCC 12";
+#endif
   const auto rows = sampleRows(3000);
   const auto truth = sampleTruth(rows.size());
   ASSERT_TRUE(writeFile(path("in.h5"), rows, {true, kAttributes}, truth).ok());

@@ -4,6 +4,7 @@
 // or over a grid of them (calib/corrections_grid.hpp).
 
 #include <algorithm>
+#include <chrono>
 #include <filesystem>
 #include <memory>
 #include <optional>
@@ -41,7 +42,8 @@ struct DeriveOptions {
   std::vector<std::string> off;
   std::string detector;
   std::string output;
-  std::string plan;  ///< --plan: the job list, nothing run
+  std::string plan;        ///< --plan: the job list, nothing run
+  int samplesPerTask = 0;  ///< response samples per task of a plan (0: one, or more within 1000 tasks)
 };
 
 // What the file records under derived_from.settings: a rerun into a grid keeps a point
@@ -157,24 +159,10 @@ Result<std::vector<validation::GridPoint>> pointsOf(const DeriveOptions& cli, co
   return validation::planGrid(cli.output, d.energies, [&](double e) { return settingsOf(cli, e); });
 }
 
-// The merge of a plan's tasks: every point derived by its task, nothing derived here.
-int finish(const DeriveOptions& cli) {
-  auto d = derivationOf(cli);
-  if (!d) return reportError(d.error());
-  auto points = pointsOf(cli, *d);
-  if (!points) return reportError(points.error());
-  for (const auto& p : *points) {
-    if (!p.done) {
-      return reportError(Error{fmt::format(
-          "{}: not derived with this plan's settings (its task's output was removed or replaced)", p.file)});
-    }
-    fmt::print(reportStream(), "{}: derived at {} MeV by the plan's task\n", p.file, p.beamEnergy / units::MeV);
-  }
-  fmt::print(reportStream(), "use: emcalign fit --corrections {}\n", cli.output);
-  return kExitOk;
-}
-
-int run(const DeriveOptions& cli) {
+// Derives the points not yet derived with these settings (an interrupted grid resumes) and
+// writes each: simulated here, or (`fromTasks`, the merge of a plan) made from the files its
+// tasks wrote, the same numbers.
+int run(const DeriveOptions& cli, bool fromTasks) {
   auto d = derivationOf(cli);
   if (!d) return reportError(d.error());
   validation::DerivationOptions& o = d->options;
@@ -182,18 +170,14 @@ int run(const DeriveOptions& cli) {
   const bool grid = d->grid;
   const geometry::Calorimeter* calo = &*d->calo;
 
-  // A grid's points not yet derived with these settings (an interrupted grid resumes).
-  std::vector<validation::GridPoint> todo = {{energies.front(), cli.output, false}};
-  if (grid) {
-    auto points = pointsOf(cli, *d);
-    if (!points) return reportError(points.error());
-    todo.clear();
-    for (auto& p : *points) {
-      if (p.done) {
-        fmt::print(reportStream(), "kept {} (derived with the same settings)\n", p.file);
-      } else {
-        todo.push_back(std::move(p));
-      }
+  auto points = pointsOf(cli, *d);
+  if (!points) return reportError(points.error());
+  std::vector<validation::GridPoint> todo;
+  for (auto& p : *points) {
+    if (p.done && (grid || fromTasks)) {
+      fmt::print(reportStream(), "kept {} (derived with the same settings)\n", p.file);
+    } else {
+      todo.push_back(std::move(p));
     }
   }
   if (grid) {
@@ -201,17 +185,25 @@ int run(const DeriveOptions& cli) {
     std::filesystem::create_directories(cli.output, ec);
     if (ec) return reportError({fmt::format("-o {}: cannot create the directory: {}", cli.output, ec.message())});
   }
-  const std::int64_t perPoint = 3 * cli.events + cli.responseSamples * cli.responseEvents;
-  ProgressLine progress("derive-corrections", static_cast<std::int64_t>(todo.size()) * perPoint, "events");
+  const std::int64_t perPoint = fromTasks ? 0 : 3 * cli.events + cli.responseSamples * cli.responseEvents;
+  std::optional<ProgressLine> progress;
+  if (!fromTasks) progress.emplace("derive-corrections", static_cast<std::int64_t>(todo.size()) * perPoint, "events");
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
   for (std::size_t k = 0; k < todo.size(); ++k) {
     const double energy = todo[k].beamEnergy;
     const std::string& file = todo[k].file;
     o.simulation.generator.beamEnergy = energy;
     const std::int64_t before = static_cast<std::int64_t>(k) * perPoint;  // events of the points done
-    auto report = validation::deriveCorrections(
-        *calo, o, validation::simulatedEventsProgress([&](std::int64_t done) { progress.update(before + done); }));
+    auto report =
+        fromTasks ? validation::mergeDerivation(
+                        *calo, o, validation::derivationTaskDirectory(planWorkDirectory(cli.plan), energy),
+                        settingsOf(cli, energy))
+                  : validation::deriveCorrections(*calo, o, validation::simulatedEventsProgress([&](std::int64_t done) {
+                      progress->update(before + done);
+                    }));
     if (!report) {
-      progress.finish();
+      if (progress) progress->finish();
       return reportError(grid ? Error{fmt::format("at {} MeV: {}", energy / units::MeV, report.error().message)}
                               : report.error());
     }
@@ -221,15 +213,15 @@ int run(const DeriveOptions& cli) {
     if (Status s = io::writeOutputFile(file, text, grid ? io::Placement::InDirectory : io::Placement::Named); !s) {
       return reportError(s.error());
     }
-    fmt::print(reportStream(), "wrote {} after {:.1f} s\n", file, progress.elapsed());
+    fmt::print(reportStream(), "wrote {} after {:.1f} s\n", file, elapsed());
   }
-  progress.finish();
+  if (progress) progress->finish();
   if (grid) {
     fmt::print(reportStream(),
                "grid {}: {}, {} to {} MeV, {} derived in {:.1f} s (use: emcalign fit "
                "--corrections {})\n",
                cli.output, counted(energies.size(), "beam energy", "beam energies"), energies.front() / units::MeV,
-               energies.back() / units::MeV, todo.size(), progress.elapsed(), cli.output);
+               energies.back() / units::MeV, todo.size(), elapsed(), cli.output);
   } else {
     fmt::print(reportStream(), "use: emcalign fit --corrections {}\n", cli.output);
   }
@@ -279,6 +271,11 @@ void addDeriveCorrectionsCommand(CLI::App& app, int& exitCode) {
                   "corrections file (JSON, emcalign-corrections/1), or the grid's directory with several energies")
       ->required();
   addPlanOption(*cmd, o->plan);
+  cmd->add_option("--samples-per-task", o->samplesPerTask,
+                  "with --plan: response samples per task (default 1, or as many as keep the plan within 1000 "
+                  "tasks; a batch system spends a few seconds on each task: more samples per task for short "
+                  "samples)")
+      ->check(integerIn(1, 100000));
   cmd->callback([o, &exitCode] {
     exitCode = runPlannable(
         "derive-corrections", o->plan,
@@ -295,9 +292,9 @@ void addDeriveCorrectionsCommand(CLI::App& app, int& exitCode) {
           std::vector<std::string> inputs;
           if (!o->detector.empty()) inputs.push_back(std::filesystem::absolute(o->detector).string());
           return validation::derivationJob(std::move(*d->calo), d->options, std::move(*points), std::move(settings),
-                                           d->grid, std::move(inputs));
+                                           std::move(inputs), planWorkDirectory(o->plan), o->samplesPerTask);
         },
-        [o] { return run(*o); }, [o] { return finish(*o); });
+        [o] { return run(*o, false); }, [o] { return run(*o, true); });
   });
 }
 

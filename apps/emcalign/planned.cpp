@@ -231,6 +231,10 @@ void setCommandLine(int argc, char** argv) { gCommandLine.assign(argv, argv + ar
 
 const PlanContext& planContext() { return gContext; }
 
+std::string planWorkDirectory(const std::string& planOption) {
+  return gContext.plan != nullptr ? gContext.plan->workDirectory() : validation::planWorkDirectory(planOption);
+}
+
 CLI::Option* addPlanOption(CLI::App& cmd, std::string& path) {
   return cmd.add_option("--plan", path,
                         "write the job list PLAN.json and run nothing: its tasks run with emcalign batch submit "

@@ -31,6 +31,8 @@ struct PlanContext {
   std::size_t task = 0;
 };
 const PlanContext& planContext();
+/// The work directory of the plan being written (`planOption`, --plan) or run (a task, the merge).
+std::string planWorkDirectory(const std::string& planOption);
 
 /// The job of a command, made from its options (and, for a task or the merge, the plan's data).
 using JobMaker = std::function<Result<std::unique_ptr<validation::PlannedJob>>(const io::Json& planData)>;

@@ -3,9 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <numbers>
+#include <optional>
 #include <set>
+#include <stdexcept>
 
 #include <fmt/format.h>
 #include <Eigen/Cholesky>
@@ -15,7 +18,9 @@
 #include "emcalign/core/random.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/geometry/residual_model.hpp"
+#include "emcalign/io/event_file.hpp"
 #include "emcalign/io/output_file.hpp"
+#include "emcalign/io/strict_json.hpp"
 #include "emcalign/validation/campaign.hpp"
 
 namespace emcalign::validation {
@@ -72,17 +77,28 @@ Status simulateInto(const geometry::Calorimeter& calo, const DerivationOptions& 
   return {};
 }
 
-Result<Sample> simulate(const geometry::Calorimeter& calo, const DerivationOptions& o, const AlignmentParameters& truth,
-                        int k, std::string_view stage, const DerivationProgress& progress) {
+// The three samples (N, S, G): their names (progress, the fan-out's files) and placements.
+constexpr std::string_view kSampleNames[3] = {"nominal", "shift", "gap"};
+
+AlignmentParameters sampleTruth(const DerivationOptions& o, int k) {
+  AlignmentParameters t;
+  if (k == 1) t[Param::Dx] = t[Param::Dy] = t[Param::Dz] = o.shift;
+  if (k == 2) t[Param::Dp1] = t[Param::Dp2] = t[Param::Dp3] = 2.0 * o.gap;
+  return t;
+}
+
+Result<Sample> simulateSample(const geometry::Calorimeter& calo, const DerivationOptions& o, int k,
+                              const DerivationProgress& progress) {
   Sample s;
-  s.truth = truth;
+  s.truth = sampleTruth(o, k);
   // The residuals at the nominal depth only decide which tracks reach the EMC; the rows are
   // kept and their residuals rebuilt at every depth tried.
   calib::ProfileFiller filler(
       geometry::ShowerDepth::of(calo.description()), calib::SelectionOptions{}, {},
       [&](const ParticleRow& row, const calib::ParticleResidual&) { s.particles.push_back(row); });
   const std::uint64_t seed = Rng(o.seed ^ 0xC0EEC7ULL, static_cast<std::uint64_t>(k)).next();
-  if (Status st = simulateInto(calo, o, truth, seed, o.events, filler, stage, progress); !st) return st.error();
+  const std::string stage = fmt::format("simulate {}", kSampleNames[k]);
+  if (Status st = simulateInto(calo, o, s.truth, seed, o.events, filler, stage, progress); !st) return st.error();
   s.selectedEvents = filler.fill().cutFlow.events.back();
   return s;
 }
@@ -187,37 +203,58 @@ double goldenMinimum(F&& f, double a, double b, double tolerance) {
 
 namespace {
 
-// The response over the validation ranges: `responseSamples` samples with truths drawn as
-// `emcalign validate` draws them, each fitted with the corrections of the report so far
-// (statistical errors), and η̂ regressed on η with a constant.
-Result<calib::FitResponse> measureResponse(const geometry::Calorimeter& calo, const DerivationOptions& o,
-                                           DerivationReport& report, const DerivationProgress& progress) {
+// Response sample i: its truth drawn over the validation ranges as `emcalign validate` draws
+// them (then the simulation's seed from the same stream).
+struct ResponseDraw {
+  AlignmentParameters truth;
+  std::uint64_t seed = 0;
+};
+ResponseDraw responseDraw(const geometry::Calorimeter& calo, const DerivationOptions& o, int i) {
+  Rng rng(o.seed ^ 0x2E5905EULL, static_cast<std::uint64_t>(i));
+  ResponseDraw d;
+  d.truth = drawTruth(o.responseRanges, calo.description().r1(), rng);
+  d.seed = rng.next();
+  return d;
+}
+
+// Response sample i simulated and fitted with the first stage's corrections (statistical
+// errors): the fitted parameters.
+Result<geometry::ParamVector> fitResponseSample(const geometry::Calorimeter& calo, const DerivationOptions& o,
+                                                const calib::ModelCorrections& firstStage, int i,
+                                                const DerivationProgress& progress) {
   calib::FitGeometry g = calib::FitGeometry::of(calo.description());
-  g.apply(report.corrections);
+  g.apply(firstStage);
   calib::ProfileOptions po;
-  po.partingPlane = report.corrections.partingPlane;
-  po.nominalProfile = report.corrections.nominalProfile;
+  po.partingPlane = firstStage.partingPlane;
+  po.nominalProfile = firstStage.nominalProfile;
+  const std::string stage = fmt::format("simulate response sample {}", i);
+  const ResponseDraw draw = responseDraw(calo, o, i);
+  calib::ProfileFiller filler(g.depth, calib::SelectionOptions{}, po);
+  if (Status st = simulateInto(calo, o, draw.truth, draw.seed, o.responseEvents, filler, stage, progress); !st) {
+    return st.error();
+  }
+  auto fit = calib::fitProfiles(filler.fill().profiles.bins(0.0), g);
+  if (!fit) return Error{fmt::format("{}: {}", stage, fit.error().message)};
+  if (!usable(fit->status)) {
+    return Error{fmt::format("{}: the fit's status is '{}'", stage, emcalign::name(fit->status))};
+  }
+  return fit->parameters.values;
+}
+
+// The response over the validation ranges: η̂ of the response samples regressed on their η
+// with a constant (calib/corrections.hpp, 4.), into the report with its errors.
+Status regressResponse(const geometry::Calorimeter& calo, const DerivationOptions& o,
+                       const std::vector<geometry::ParamVector>& fitted, DerivationReport& report) {
   const int n = o.responseSamples;
   constexpr int kCols = 2 * static_cast<int>(kNumParams) + 1;  // 1, η, η·dx_rel
   Eigen::MatrixXd x(n, kCols), y(n, static_cast<int>(kNumParams));
   for (int i = 0; i < n; ++i) {
-    const std::string stage = fmt::format("simulate response sample {}", i);
-    Rng truthRng(o.seed ^ 0x2E5905EULL, static_cast<std::uint64_t>(i));
-    const AlignmentParameters truth = drawTruth(o.responseRanges, calo.description().r1(), truthRng);
-    calib::ProfileFiller filler(g.depth, calib::SelectionOptions{}, po);
-    if (Status st = simulateInto(calo, o, truth, truthRng.next(), o.responseEvents, filler, stage, progress); !st) {
-      return st.error();
-    }
-    auto fit = calib::fitProfiles(filler.fill().profiles.bins(0.0), g);
-    if (!fit) return Error{fmt::format("{}: {}", stage, fit.error().message)};
-    if (!usable(fit->status)) {
-      return Error{fmt::format("{}: the fit's status is '{}'", stage, emcalign::name(fit->status))};
-    }
+    const AlignmentParameters truth = responseDraw(calo, o, i).truth;
     const double dxRel = (truth[Param::Dp1] + truth[Param::Dp2] + truth[Param::Dp3]) / 6.0;
     x(i, 0) = 1.0;
     x.row(i).segment(1, kNumParams) = truth.values.transpose();
     x.row(i).tail(kNumParams) = dxRel * truth.values.transpose();
-    y.row(i) = fit->parameters.values.transpose();
+    y.row(i) = fitted[static_cast<std::size_t>(i)].transpose();
   }
   // Least squares: y = x·B, B = (xᵀx)⁻¹xᵀy; row 0 of B is c, then Rᵀ, then Gᵀ. Errors from
   // the residual scatter of each fitted parameter.
@@ -247,7 +284,8 @@ Result<calib::FitResponse> measureResponse(const geometry::Calorimeter& calo, co
                     "more --response-samples or --response-events)",
                     s.error().message, kCols)};
   }
-  return response;
+  report.corrections.response = std::make_shared<const calib::FitResponse>(response);
+  return {};
 }
 
 }  // namespace
@@ -366,60 +404,80 @@ Status closureFits(const Sample& shifted, const Sample& gapped, const calib::Fit
 
 }  // namespace
 
-Result<DerivationReport> deriveCorrections(const geometry::Calorimeter& calo, const DerivationOptions& o,
-                                           const DerivationProgress& progress) {
-  if (Status s = o.validate(); !s) return s.error();
-  const calib::FitGeometry nominalGeometry = calib::FitGeometry::of(calo.description());
+namespace {
 
-  AlignmentParameters zero, shift, gap;
-  shift[Param::Dx] = shift[Param::Dy] = shift[Param::Dz] = o.shift;
-  gap[Param::Dp1] = gap[Param::Dp2] = gap[Param::Dp3] = 2.0 * o.gap;
-  auto nominal = simulate(calo, o, zero, 0, "simulate nominal", progress);
-  if (!nominal) return nominal.error();
-  auto shifted = simulate(calo, o, shift, 1, "simulate shift", progress);
-  if (!shifted) return shifted.error();
-  auto gapped = simulate(calo, o, gap, 2, "simulate gap", progress);
-  if (!gapped) return gapped.error();
-
+// The depth, the parting plane and the nominal profile from the three samples (N, S, G).
+Result<DerivationReport> firstStage(const calib::FitGeometry& nominalGeometry, const DerivationOptions& o,
+                                    const std::vector<Sample>& samples) {
+  const Sample &nominal = samples[0], &shifted = samples[1], &gapped = samples[2];
   DerivationReport report;
-  report.selectedEvents[0] = nominal->selectedEvents;
-  report.selectedEvents[1] = shifted->selectedEvents;
-  report.selectedEvents[2] = gapped->selectedEvents;
-
-  if (progress) progress("depth", 0, 1);
-  if (Status s = deriveDepth(*shifted, *nominal, nominalGeometry, o, report); !s) return s.error();
-  if (progress) progress("depth", 1, 1);
+  for (int k = 0; k < 3; ++k) report.selectedEvents[k] = samples[static_cast<std::size_t>(k)].selectedEvents;
+  if (Status s = deriveDepth(shifted, nominal, nominalGeometry, o, report); !s) return s.error();
 
   geometry::ShowerDepth depth = nominalGeometry.depth;
   depth.offset = report.corrections.depthOffset;
   calib::ProfileOptions po;
   po.sigmaSys = 0.0;
-  const auto gb = profileOf(*gapped, depth, po), nb = profileOf(*nominal, depth, po);
-  if (Status s = derivePartingPlane(gb, nb, gap, depth, nominalGeometry.radii, report); !s) return s.error();
+  const auto gb = profileOf(gapped, depth, po), nb = profileOf(nominal, depth, po);
+  if (Status s = derivePartingPlane(gb, nb, gapped.truth, depth, nominalGeometry.radii, report); !s) return s.error();
 
   auto nominalProfile = nominalProfileOf(nb, po);
   if (!nominalProfile) return nominalProfile.error();
   report.corrections.nominalProfile = std::make_shared<const calib::NominalProfile>(std::move(*nominalProfile));
+  return report;
+}
 
-  // Step 4, the fit's response, with the corrections so far.
+// The rest, with the first stage in `report`: the response from the response samples' fitted
+// parameters, the errors of the nominal profile, the closure fits.
+Status lastStage(const geometry::Calorimeter& calo, const calib::FitGeometry& nominalGeometry,
+                 const DerivationOptions& o, const std::vector<Sample>& samples,
+                 const std::vector<geometry::ParamVector>& responseFits, DerivationReport& report,
+                 const DerivationProgress& progress) {
   if (o.responseSamples > 0) {
-    auto response = measureResponse(calo, o, report, progress);
-    if (!response) return response.error();
-    report.corrections.response = std::make_shared<const calib::FitResponse>(*response);
+    if (Status s = regressResponse(calo, o, responseFits, report); !s) return s;
   }
-
   // The nominal profile's statistical noise is common to every fit that uses the file: the
   // errors of a fit to it alone (statistical σ), with the model the file makes, are that
   // systematic error, per parameter.
   calib::FitGeometry corrected = nominalGeometry;
   corrected.apply(report.corrections);
-  auto noise = calib::fitProfiles(nb, corrected);
+  calib::ProfileOptions po;
+  po.sigmaSys = 0.0;
+  geometry::ShowerDepth depth = nominalGeometry.depth;
+  depth.offset = report.corrections.depthOffset;
+  auto noise = calib::fitProfiles(profileOf(samples[0], depth, po), corrected);
   if (!noise) return Error{fmt::format("fit of the nominal profile: {}", noise.error().message)};
   report.nominalProfileErrors = noise->errors;
 
   if (progress) progress("closure fits", 0, 1);
-  if (Status s = closureFits(*shifted, *gapped, nominalGeometry, o, report); !s) return s.error();
+  if (Status s = closureFits(samples[1], samples[2], nominalGeometry, o, report); !s) return s;
   if (progress) progress("closure fits", 1, 1);
+  return {};
+}
+
+}  // namespace
+
+Result<DerivationReport> deriveCorrections(const geometry::Calorimeter& calo, const DerivationOptions& o,
+                                           const DerivationProgress& progress) {
+  if (Status s = o.validate(); !s) return s.error();
+  const calib::FitGeometry nominalGeometry = calib::FitGeometry::of(calo.description());
+  std::vector<Sample> samples;
+  for (int k = 0; k < 3; ++k) {
+    auto sample = simulateSample(calo, o, k, progress);
+    if (!sample) return sample.error();
+    samples.push_back(std::move(*sample));
+  }
+  if (progress) progress("depth", 0, 1);
+  auto report = firstStage(nominalGeometry, o, samples);
+  if (!report) return report.error();
+  if (progress) progress("depth", 1, 1);
+  std::vector<geometry::ParamVector> responseFits;
+  for (int i = 0; i < o.responseSamples; ++i) {
+    auto fitted = fitResponseSample(calo, o, report->corrections, i, progress);
+    if (!fitted) return fitted.error();
+    responseFits.push_back(*fitted);
+  }
+  if (Status s = lastStage(calo, nominalGeometry, o, samples, responseFits, *report, progress); !s) return s.error();
   return report;
 }
 
@@ -537,70 +595,434 @@ Result<std::vector<GridPoint>> planGrid(const std::string& dir, const std::vecto
   return points;
 }
 
+std::string derivationTaskDirectory(const std::string& workDirectory, double beamEnergy) {
+  return (std::filesystem::path(workDirectory) /
+          ("derive-" + std::filesystem::path(calib::gridPointName(beamEnergy)).stem().string()))
+      .string();
+}
+
 namespace {
 
-// Each energy point a task: derived and written unless its file holds corrections derived with
-// the same settings.
+namespace fs = std::filesystem;
+
+// ------------------------------------------------------------------ the fan-out's files
+// Each holds the point's settings (derived_from.settings of the corrections file): a file of
+// other settings (an earlier plan at the same path) is done again by a task, refused by the
+// merge. Every number is written as JSON's shortest exact form or as HDF5 doubles, so the
+// merge computes what one process computes.
+
+constexpr std::string_view kResponseFormat = "emcalign-derive-response/1";
+
+std::string sampleFile(const std::string& dir, int k) {
+  return (fs::path(dir) / fmt::format("{}.h5", kSampleNames[k])).string();
+}
+std::string firstStageFile(const std::string& dir) { return (fs::path(dir) / "first-stage.json").string(); }
+std::string responseFile(const std::string& dir, const SampleBlock& b) {
+  return (fs::path(dir) / fmt::format("response-{}-{}.json", b.first, b.last)).string();
+}
+
+Status writeSample(const std::string& file, int k, const Sample& s, const Json& settings) {
+  io::WriterOptions wo;
+  wo.attributes = {{"derivation_sample", std::string(kSampleNames[k])},
+                   {"selected_events", std::to_string(s.selectedEvents)},
+                   {"settings", settings.dump()}};
+  wo.placement = io::Placement::InDirectory;
+  auto writer = io::EventWriter::open(file, wo);
+  if (!writer) return writer.error();
+  if (Status st = (*writer)->append(s.particles, {}); !st) return st;
+  return (*writer)->close();
+}
+
+// The sample in `file` if it holds sample k of `settings`; nullopt if it holds another.
+Result<std::optional<Sample>> readSample(const std::string& file, const DerivationOptions& o, int k,
+                                         const Json& settings) {
+  io::ReaderOptions ro;
+  ro.truth = false;
+  ro.hits = false;
+  auto reader = io::EventReader::open({file}, ro);
+  if (!reader) return reader.error();
+  std::map<std::string, std::string> attributes((*reader)->attributes().begin(), (*reader)->attributes().end());
+  if (attributes["derivation_sample"] != kSampleNames[k] || attributes["settings"] != settings.dump()) {
+    return std::optional<Sample>();
+  }
+  Sample s;
+  s.truth = sampleTruth(o, k);
+  try {
+    std::size_t used = 0;
+    s.selectedEvents = std::stoll(attributes["selected_events"], &used);
+    if (used != attributes["selected_events"].size()) throw std::invalid_argument("trailing text");
+  } catch (const std::exception&) {
+    return Error{fmt::format("{}: attribute 'selected_events': expected an integer, got '{}'", file,
+                             attributes["selected_events"])};
+  }
+  std::vector<ParticleRow> block;
+  for (;;) {
+    auto more = (*reader)->next(block);
+    if (!more) return more.error();
+    if (!*more) break;
+    s.particles.insert(s.particles.end(), block.begin(), block.end());
+  }
+  return std::optional<Sample>(std::move(s));
+}
+
+double numberOrNan(const Json& j) { return j.is_null() ? std::nan("") : j.get<double>(); }
+
+// The first stage in `file` (a corrections file with the report so far under derived_from)
+// if it holds `settings`; nullopt if it holds others.
+Result<std::optional<DerivationReport>> readFirstStage(const std::string& file, const Json& settings) {
+  auto text = io::readOwnOutput(file);
+  if (!text) return text.error();
+  auto j = io::parseJson(*text, file);
+  if (!j) return j.error();
+  auto c = calib::parseCorrections(*j, file);
+  if (!c) return c.error();
+  if (!c->derivedFrom.is_object() || c->derivedFrom.value("settings", Json()) != settings) {
+    return std::optional<DerivationReport>();
+  }
+  return io::strict::guarded([&] {
+    const io::strict::StrictObject from(c->derivedFrom, "derived_from", file);
+    DerivationReport r;
+    r.corrections = *c;
+    r.corrections.derivedFrom = Json();
+    r.depthOffsetError = numberOrNan(from.at("depth_offset_error_cm")) * units::cm;
+    r.depthChi2 = from.number("depth_chi2");
+    r.depthBins = from.at("depth_bins").get<int>();
+    r.columnWeights = from.at("column_plus_weight_measured").get<std::vector<double>>();
+    r.columnWeightErrors = from.at("column_plus_weight_error").get<std::vector<double>>();
+    const io::strict::StrictObject selected = from.object("selected_events");
+    for (int k = 0; k < 3; ++k) r.selectedEvents[k] = selected.at(kSampleNames[k]).get<std::int64_t>();
+    return std::optional<DerivationReport>(std::move(r));
+  });
+}
+
+// The fitted parameters of the response samples in `file`, by sample, if it holds `settings`.
+Result<std::map<int, geometry::ParamVector>> readResponseFile(const std::string& file, const Json& settings) {
+  auto text = io::readOwnOutput(file);
+  if (!text) return text.error();
+  auto j = io::parseJson(*text, file);
+  if (!j) return j.error();
+  return io::strict::guarded([&] {
+    const io::strict::StrictObject top(*j, "", file);
+    top.allowOnly({"format", "settings", "samples"});
+    if (top.string("format") != kResponseFormat) top.fail("format", fmt::format("expected '{}'", kResponseFormat));
+    std::map<int, geometry::ParamVector> fits;
+    if (top.at("settings") != settings) return fits;
+    const Json& samples = top.at("samples");
+    if (!samples.is_array()) top.fail("samples", "expected an array");
+    for (std::size_t n = 0; n < samples.size(); ++n) {
+      const io::strict::StrictObject one(samples[n], fmt::format("samples[{}]", n), file);
+      one.allowOnly({"sample", "truth", "fitted"});
+      const Json& fitted = one.at("fitted");
+      if (!fitted.is_array() || fitted.size() != kNumParams) one.fail(one.pathOf("fitted"), "expected 12 numbers");
+      geometry::ParamVector v;
+      for (std::size_t p = 0; p < kNumParams; ++p) {
+        v[static_cast<Eigen::Index>(p)] = one.numberValue(fitted[p], fmt::format("{}[{}]", one.pathOf("fitted"), p));
+      }
+      fits[one.at("sample").get<int>()] = v;
+    }
+    return fits;
+  });
+}
+
+// ------------------------------------------------------------------ one point's work
+
+// The point's work in its task directory: each piece read from its file when there with these
+// settings, otherwise (`make`) done under the piece's lock and written, or (the merge) refused.
+class PointWork {
+ public:
+  PointWork(const geometry::Calorimeter& calo, const DerivationOptions& o, std::string dir, const Json& settings,
+            bool make)
+      : calo_(calo), o_(o), dir_(std::move(dir)), settings_(settings), make_(make) {}
+
+  Result<Sample> sample(int k, const std::function<void(const std::string&)>& say) const {
+    const std::string file = sampleFile(dir_, k);
+    std::optional<FileLock> lock;
+    if (make_) {
+      if (Status s = makeDirectory(); !s) return s.error();
+      lock.emplace(file + ".lock");
+      if (!lock->error().empty()) return Error{lock->error()};
+    }
+    std::error_code ec;
+    if (fs::exists(file, ec)) {
+      auto read = readSample(file, o_, k, settings_);
+      if (!read && !make_) return read.error();
+      if (read && *read) return std::move(**read);
+    }
+    if (!make_) return missing(file);
+    say(fmt::format("simulating the {} sample ({} events) into {}", kSampleNames[k], o_.events, file));
+    auto s = simulateSample(calo_, o_, k, {});
+    if (!s) return s.error();
+    if (Status st = writeSample(file, k, *s, settings_); !st) return st.error();
+    return s;
+  }
+
+  Result<std::vector<Sample>> samples(const std::function<void(const std::string&)>& say) const {
+    std::vector<Sample> all;
+    for (int k = 0; k < 3; ++k) {
+      auto s = sample(k, say);
+      if (!s) return s.error();
+      all.push_back(std::move(*s));
+    }
+    return all;
+  }
+
+  Result<DerivationReport> first(const std::function<void(const std::string&)>& say) const {
+    const std::string file = firstStageFile(dir_);
+    std::optional<FileLock> lock;
+    if (make_) {
+      if (Status s = makeDirectory(); !s) return s.error();
+      lock.emplace(file + ".lock");
+      if (!lock->error().empty()) return Error{lock->error()};
+    }
+    std::error_code ec;
+    if (fs::exists(file, ec)) {
+      auto read = readFirstStage(file, settings_);
+      if (!read && !make_) return read.error();
+      if (read && *read) return std::move(**read);
+    }
+    if (!make_) return missing(file);
+    auto all = samples(say);
+    if (!all) return all.error();
+    say(fmt::format("the first stage (depth, parting plane, nominal profile) into {}", file));
+    auto report = firstStage(calib::FitGeometry::of(calo_.description()), o_, *all);
+    if (!report) return report.error();
+    if (Status st =
+            io::writeOutputFile(file, derivationJson(*report, settings_).dump(2) + "\n", io::Placement::InDirectory);
+        !st) {
+      return st.error();
+    }
+    return report;
+  }
+
+  Status response(const SampleBlock& block, const std::function<void(const std::string&)>& say) const {
+    const std::string file = responseFile(dir_, block);
+    std::error_code ec;
+    if (fs::exists(file, ec)) {
+      auto read = readResponseFile(file, settings_);
+      bool whole = static_cast<bool>(read);
+      for (int i = block.first; whole && i <= block.last; ++i) whole = read->contains(i);
+      if (whole) return {};
+    }
+    auto stage = first(say);
+    if (!stage) return stage.error();
+    Json samples = Json::array();
+    for (int i = block.first; i <= block.last; ++i) {
+      auto fitted = fitResponseSample(calo_, o_, stage->corrections, i, {});
+      if (!fitted) return fitted.error();
+      Json f = Json::array(), t = Json::array();
+      const AlignmentParameters truth = responseDraw(calo_, o_, i).truth;
+      for (Param p : kAllParams) {
+        f.push_back((*fitted)[p]);
+        t.push_back(truth[p]);
+      }
+      samples.push_back({{"sample", i}, {"truth", t}, {"fitted", f}});
+    }
+    say(fmt::format("response {} fitted into {}", samplesText(block), file));
+    const Json out = {{"format", kResponseFormat}, {"settings", settings_}, {"samples", samples}};
+    return io::writeOutputFile(file, out.dump(2) + "\n", io::Placement::InDirectory);
+  }
+
+  // The merge: every response sample from the files of these settings.
+  Result<std::vector<geometry::ParamVector>> responseFits() const {
+    std::map<int, geometry::ParamVector> fits;
+    std::error_code ec;
+    for (const auto& entry : fs::directory_iterator(dir_, ec)) {
+      const std::string name = entry.path().filename().string();
+      if (name.rfind("response-", 0) != 0 || entry.path().extension() != ".json") continue;
+      auto read = readResponseFile(entry.path().string(), settings_);
+      if (!read) return read.error();
+      fits.merge(*read);
+    }
+    if (ec) return Error{fmt::format("{}: cannot list the directory: {}", dir_, ec.message())};
+    std::vector<geometry::ParamVector> out;
+    std::vector<std::size_t> absent;
+    for (int i = 0; i < o_.responseSamples; ++i) {
+      const auto it = fits.find(i);
+      if (it == fits.end()) {
+        absent.push_back(static_cast<std::size_t>(i));
+      } else {
+        out.push_back(it->second);
+      }
+    }
+    if (!absent.empty()) {
+      return Error{
+          fmt::format("{}: response samples {} are not there with these settings (their tasks' "
+                      "response-*.json files)",
+                      dir_, taskRanges(absent))};
+    }
+    return out;
+  }
+
+ private:
+  Status makeDirectory() const {
+    std::error_code ec;
+    fs::create_directories(dir_, ec);
+    if (ec) return Error{fmt::format("{}: cannot create the directory: {}", dir_, ec.message())};
+    return {};
+  }
+  Error missing(const std::string& file) const {
+    return Error{
+        fmt::format("{}: not there with this plan's settings (its task's output was removed or replaced)", file)};
+  }
+
+  const geometry::Calorimeter& calo_;
+  const DerivationOptions& o_;
+  std::string dir_;
+  const Json& settings_;
+  bool make_;
+};
+
+// The tasks of each point not yet derived: its three samples, its first stage, its response
+// samples in blocks; a point already derived: one task that keeps it.
 class DerivationJob final : public PlannedJob {
  public:
   DerivationJob(geometry::Calorimeter calo, DerivationOptions o, std::vector<GridPoint> points,
-                std::vector<Json> settings, bool grid, std::vector<std::string> inputs)
+                std::vector<Json> settings, std::vector<std::string> inputs, std::string workDirectory,
+                int samplesPerTask)
       : calo_(std::move(calo)),
         o_(std::move(o)),
         points_(std::move(points)),
         settings_(std::move(settings)),
-        grid_(grid),
-        inputs_(std::move(inputs)) {}
+        inputs_(std::move(inputs)),
+        work_(std::move(workDirectory)) {
+    std::size_t todo = 0;
+    for (const auto& p : points_) todo += p.done ? 0 : 1;
+    const int others = static_cast<int>(points_.size() + 3 * todo);
+    blocks_ = o_.responseSamples > 0 ? sampleBlocks(o_.responseSamples, samplesPerTask,
+                                                    static_cast<int>(std::max<std::size_t>(todo, 1)), others)
+                                     : std::vector<SampleBlock>{};
+    for (std::size_t p = 0; p < points_.size(); ++p) {
+      if (points_[p].done) {
+        refs_.push_back({p, Kind::Kept, 0, {}});
+        continue;
+      }
+      for (int k = 0; k < 3; ++k) refs_.push_back({p, Kind::Sample, k, {}});
+      refs_.push_back({p, Kind::FirstStage, 0, {}});
+      for (const auto& b : blocks_) refs_.push_back({p, Kind::Response, 0, b});
+    }
+  }
 
   std::vector<PlannedTask> tasks() const override {
     std::vector<PlannedTask> t;
-    for (const auto& p : points_) {
-      t.push_back({fmt::format("the corrections at {} MeV ({} events per sample, {} response samples of {})",
-                               p.beamEnergy / units::MeV, o_.events, o_.responseSamples, o_.responseEvents),
-                   {std::filesystem::absolute(p.file).lexically_normal().string()},
-                   inputs_});
+    for (const auto& r : refs_) {
+      const GridPoint& p = points_[r.point];
+      const double mev = p.beamEnergy / units::MeV;
+      const std::string dir = directoryOf(r.point);
+      switch (r.kind) {
+        case Kind::Kept:
+          t.push_back({fmt::format("the corrections at {} MeV: derived with these settings already, kept", mev),
+                       {absolute(p.file)},
+                       inputs_});
+          break;
+        case Kind::Sample:
+          t.push_back({fmt::format("the {} sample at {} MeV ({} events)", kSampleNames[r.sample], mev, o_.events),
+                       {sampleFile(dir, r.sample)},
+                       inputs_});
+          break;
+        case Kind::FirstStage:
+          t.push_back({fmt::format("the first stage at {} MeV (depth, parting plane, nominal profile)", mev),
+                       {firstStageFile(dir)},
+                       inputs_});
+          break;
+        case Kind::Response:
+          t.push_back(
+              {fmt::format("response {} at {} MeV ({} events each)", samplesText(r.block), mev, o_.responseEvents),
+               {responseFile(dir, r.block)},
+               inputs_});
+          break;
+      }
     }
     return t;
   }
 
   Status runTask(std::size_t k, const TaskContext& context) const override {
-    const auto& say = context.say;
-    const GridPoint& p = points_[k];
-    if (derivedWith(p.file, settings_[k])) {
-      say(fmt::format("{} holds corrections derived with the same settings: kept", p.file));
+    const Ref& r = refs_[k];
+    const GridPoint& p = points_[r.point];
+    if (derivedWith(p.file, settings_[r.point])) {
+      context.say(fmt::format("{} holds corrections derived with the same settings: kept", p.file));
       return {};
     }
-    if (grid_) {
-      std::error_code ec;
-      std::filesystem::create_directories(std::filesystem::path(p.file).parent_path(), ec);
-      if (ec) return Error{fmt::format("{}: cannot create the directory: {}", p.file, ec.message())};
+    if (r.kind == Kind::Kept) {
+      return Error{fmt::format("{}: no longer holds the corrections derived with this plan's settings", p.file)};
     }
     DerivationOptions o = o_;
     o.simulation.generator.beamEnergy = p.beamEnergy;
-    auto report = deriveCorrections(calo_, o);
-    if (!report) return Error{fmt::format("at {} MeV: {}", p.beamEnergy / units::MeV, report.error().message)};
-    say(fmt::format("depth offset {:+.3f} ± {:.3f} cm", report->corrections.depthOffset / units::cm,
-                    report->depthOffsetError / units::cm));
-    return io::writeOutputFile(p.file, derivationJson(*report, settings_[k]).dump(2) + "\n",
-                               grid_ ? io::Placement::InDirectory : io::Placement::Named);
+    const PointWork work(calo_, o, directoryOf(r.point), settings_[r.point], true);
+    Status done;
+    switch (r.kind) {
+      case Kind::Sample: {
+        auto s = work.sample(r.sample, context.say);
+        done = s ? Status{} : Status{s.error()};
+        break;
+      }
+      case Kind::FirstStage: {
+        auto f = work.first(context.say);
+        if (f) {
+          context.say(fmt::format("depth offset {:+.3f} ± {:.3f} cm", f->corrections.depthOffset / units::cm,
+                                  f->depthOffsetError / units::cm));
+        }
+        done = f ? Status{} : Status{f.error()};
+        break;
+      }
+      case Kind::Response:
+        done = work.response(r.block, context.say);
+        break;
+      case Kind::Kept:
+        break;
+    }
+    if (!done) return Error{fmt::format("at {} MeV: {}", p.beamEnergy / units::MeV, done.error().message)};
+    return {};
   }
 
  private:
+  enum class Kind { Kept, Sample, FirstStage, Response };
+  struct Ref {
+    std::size_t point;
+    Kind kind;
+    int sample;
+    SampleBlock block;
+  };
+  static std::string absolute(const std::string& p) { return fs::absolute(p).lexically_normal().string(); }
+  std::string directoryOf(std::size_t point) const { return derivationTaskDirectory(work_, points_[point].beamEnergy); }
+
   geometry::Calorimeter calo_;
   DerivationOptions o_;
   std::vector<GridPoint> points_;
   std::vector<Json> settings_;
-  bool grid_;
   std::vector<std::string> inputs_;
+  std::string work_;
+  std::vector<SampleBlock> blocks_;
+  std::vector<Ref> refs_;
 };
 
 }  // namespace
 
 std::unique_ptr<PlannedJob> derivationJob(geometry::Calorimeter calo, DerivationOptions options,
-                                          std::vector<GridPoint> points, std::vector<io::Json> settings, bool grid,
-                                          std::vector<std::string> inputs) {
+                                          std::vector<GridPoint> points, std::vector<io::Json> settings,
+                                          std::vector<std::string> inputs, std::string workDirectory,
+                                          int samplesPerTask) {
   return std::make_unique<DerivationJob>(std::move(calo), std::move(options), std::move(points), std::move(settings),
-                                         grid, std::move(inputs));
+                                         std::move(inputs), std::move(workDirectory), samplesPerTask);
+}
+
+Result<DerivationReport> mergeDerivation(const geometry::Calorimeter& calo, const DerivationOptions& o,
+                                         const std::string& directory, const Json& settings) {
+  if (Status s = o.validate(); !s) return s.error();
+  const PointWork work(calo, o, directory, settings, false);
+  auto report = work.first([](const std::string&) {});
+  if (!report) return report.error();
+  auto samples = work.samples([](const std::string&) {});
+  if (!samples) return samples.error();
+  std::vector<geometry::ParamVector> fits;
+  if (o.responseSamples > 0) {
+    auto read = work.responseFits();
+    if (!read) return read.error();
+    fits = std::move(*read);
+  }
+  if (Status s = lastStage(calo, calib::FitGeometry::of(calo.description()), o, *samples, fits, *report, {}); !s) {
+    return s.error();
+  }
+  return report;
 }
 
 }  // namespace emcalign::validation

@@ -119,10 +119,13 @@ Result<ProgramIdentity> ProgramIdentity::ofThisProcess() {
   return identity;
 }
 
-std::string Plan::workDirectory() const {
-  const fs::path p(path);
+std::string planWorkDirectory(const std::string& planPath) {
+  std::error_code ec;
+  const fs::path p = fs::absolute(planPath, ec).lexically_normal();
   return (p.parent_path() / (p.stem().string() + ".tasks")).string();
 }
+
+std::string Plan::workDirectory() const { return planWorkDirectory(path); }
 std::string Plan::recordOf(std::size_t k) const {
   return (fs::path(workDirectory()) / fmt::format("task-{}.json", k)).string();
 }

@@ -126,6 +126,50 @@ TEST_F(PlanCli, SamplesAreGroupedIntoTasksWithinAThousand) {
   EXPECT_EQ(slurp("fan/table.json"), slurp("one/table.json"));
 }
 
+// derive-corrections within one energy: its three samples, its first stage and its response
+// samples as tasks; a response task run first does the first stage (and the samples) itself,
+// the others then read them; the merge writes the bytes of one process.
+TEST_F(PlanCli, ADerivationFansOutIntoSamplesFirstStageAndResponseBlocks) {
+  constexpr const char* kDerive =
+      "derive-corrections --ideal --events 20000 --response-samples 50 --response-events 5000 --seed 4 --threads 2";
+  auto r = run(fmt::format("{} --samples-per-task 20 -o {} --plan {}", kDerive, path("fan.json"), path("plan.json")));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const json plan = json::parse(slurp("plan.json"));
+  ASSERT_EQ(plan["tasks"].size(), 3u + 1u + 3u) << "nominal, shift, gap, the first stage, responses 0-19, 20-39, 40-49";
+  EXPECT_THAT(plan["tasks"][6]["what"].get<std::string>(), HasSubstr("response samples 40-49"));
+  const std::string work = path("plan.tasks/derive-ee-612.5MeV");
+  EXPECT_EQ(plan["tasks"][0]["writes"][0], work + "/nominal.h5");
+
+  r = run(fmt::format("finish {}", path("plan.json")));
+  EXPECT_EQ(r.exitCode, 1) << "nothing done yet";
+  EXPECT_FALSE(fs::exists(path("fan.json")));
+  for (int k : {5, 6, 4, 3, 2, 1, 0}) {
+    r = run(fmt::format("task {} {}", path("plan.json"), k));
+    ASSERT_EQ(r.exitCode, 0) << "task " << k << ": " << r.err;
+  }
+  for (const char* f : {"nominal.h5", "shift.h5", "gap.h5", "first-stage.json", "response-0-19.json",
+                        "response-20-39.json", "response-40-49.json"}) {
+    EXPECT_TRUE(fs::exists(work + "/" + f)) << f;
+  }
+  r = run(fmt::format("finish {}", path("plan.json")));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  ASSERT_EQ(run(fmt::format("{} -o {}", kDerive, path("one.json"))).exitCode, 0);
+  EXPECT_EQ(slurp("fan.json"), slurp("one.json")) << "the merge computes what one process computes";
+
+  // A sample removed after the merge: the task shows as missing again, and the merge of a point
+  // not yet written refuses to go on without it.
+  fs::remove(path("fan.json"));
+  fs::remove(work + "/shift.h5");
+  r = run(fmt::format("batch status {} --json", path("plan.json")));
+  EXPECT_EQ(json::parse(r.out)["missing"], json::parse("[1]"));
+  r = run(fmt::format("finish {}", path("plan.json")));
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_FALSE(fs::exists(path("fan.json")));
+  ASSERT_EQ(run(fmt::format("task {} 1", path("plan.json"))).exitCode, 0);
+  ASSERT_EQ(run(fmt::format("finish {}", path("plan.json"))).exitCode, 0);
+  EXPECT_EQ(slurp("fan.json"), slurp("one.json"));
+}
+
 TEST_F(PlanCli, AKilledTaskLeavesNothingAndShowsAsMissing) {
   auto r = run(fmt::format("validate --samples 1 --events 20000000 --threads 1 -o {} --plan {}", path("fan"),
                            path("plan.json")));

@@ -7,7 +7,8 @@ run in one process.
 
 CASE: validate, cancel (a running task cancelled with scancel and the plan completed with
 --missing), twice (one task run twice at once), campaign (into PostgreSQL: the same payload
-hashes), derive (a two-energy corrections grid), systematics (with the reverse study).
+hashes), derive (a two-energy corrections grid: each point's samples, first stage and
+response blocks as tasks), systematics (with the reverse study).
 Exit 0 when every check holds; the first that fails is printed.
 """
 import filecmp
@@ -196,8 +197,11 @@ def case_campaign(c):
 
 
 def case_derive(c):
-    args = ["derive-corrections", "--events", "30000", "--response-samples", "0", "--beam-energy", "500,700"]
-    c.run(*args, "-o", "fan", "--plan", "plan.json")
+    args = ["derive-corrections", "--ideal", "--events", "20000", "--response-samples", "50",
+            "--response-events", "5000", "--beam-energy", "500,700"]
+    c.run(*args, "--samples-per-task", "25", "-o", "fan", "--plan", "plan.json")
+    plan = json.load(open(os.path.join(c.top, "plan.json")))
+    check(len(plan["tasks"]) == 2 * (3 + 1 + 2), f"{len(plan['tasks'])} tasks")
     c.submit("plan.json")
     c.run(*args, "-o", "one")
     c.same_files("fan", "one", ["ee-500MeV.json", "ee-700MeV.json"])

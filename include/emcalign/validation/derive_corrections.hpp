@@ -123,11 +123,26 @@ Result<std::vector<GridPoint>> planGrid(const std::string& dir, const std::vecto
 /// or a plan's task, keeps it.
 bool derivedWith(const std::string& file, const io::Json& settings);
 
-/// The derivation as a plan's tasks (`derive-corrections --plan`): each energy point a task,
-/// writing its file (`grid`: inside the grid's directory) with `settings[k]` recorded; a point
-/// already derived with them is kept. The merge is the command run on the points done.
+/// The derivation as a plan's tasks (`derive-corrections --plan`), per energy point: its three
+/// samples (each its selected particles, an HDF5 event file), the first stage made from them
+/// (depth, parting plane, nominal profile: a corrections file), and its response samples in
+/// blocks of `samplesPerTask` (0: as many as keep the plan within kMaxPlanTasks), each fitted
+/// with the first stage. They write into derivationTaskDirectory(workDirectory, E), each file
+/// with `settings[k]`; a task that needs another's work waits on that work's lock, or does it.
+/// A point whose file holds corrections derived with its settings is one task that keeps it.
+/// The merge is mergeDerivation.
 std::unique_ptr<PlannedJob> derivationJob(geometry::Calorimeter calo, DerivationOptions options,
-                                          std::vector<GridPoint> points, std::vector<io::Json> settings, bool grid,
-                                          std::vector<std::string> inputs);
+                                          std::vector<GridPoint> points, std::vector<io::Json> settings,
+                                          std::vector<std::string> inputs, std::string workDirectory,
+                                          int samplesPerTask);
+
+/// Where a plan's tasks derive the point at `beamEnergy`: WORK/derive-ee-<E>MeV.
+std::string derivationTaskDirectory(const std::string& workDirectory, double beamEnergy);
+
+/// The merge of a point's tasks (`emcalign finish`): the report deriveCorrections gives, from the
+/// files the tasks wrote in `directory` with `settings` (the same numbers: every file holds
+/// them exactly). A file missing, unreadable or of other settings is an error naming it.
+Result<DerivationReport> mergeDerivation(const geometry::Calorimeter& calo, const DerivationOptions& options,
+                                         const std::string& directory, const io::Json& settings);
 
 }  // namespace emcalign::validation

@@ -89,6 +89,9 @@ struct ProgramIdentity {
   static Result<ProgramIdentity> ofThisProcess();
 };
 
+/// PLAN.tasks/ beside the plan at `planPath`, absolute: the tasks' records, logs and shared work.
+std::string planWorkDirectory(const std::string& planPath);
+
 struct Plan {
   std::string path;    ///< absolute
   std::string sha256;  ///< of the plan's text: a task's record names the plan it belongs to

@@ -154,13 +154,26 @@ int finishCampaign(const CampaignCliOptions& o) {
   if (!model) return reportError(model.error());
   auto db = conddb::Database::open(plan->conditions);
   if (!db) return reportError(db.error());
-  for (const auto& g : plan->groups) {
+  // An IOV removed since its task stored it: the task's record goes, so that the task counts as
+  // missing and runs again.
+  std::vector<std::size_t> gone;
+  std::vector<std::string> named;
+  for (std::size_t k = 0; k < plan->groups.size(); ++k) {  // task k stores group k
+    const auto& g = plan->groups[k];
     auto same = validation::groupStored(**db, plan->tag, g, plan->digests, *model);
     if (!same) return reportError(same.error());
     if (!*same) {
-      return reportError(Error{fmt::format("group {} (runs {}-{}) is not in tag {}: its task's IOV was removed?",
-                                           g.index, g.iovFirst, g.iovLast, plan->tag)});
+      if (Status s = validation::forgetTask(p, k); !s) return reportError(s.error());
+      gone.push_back(k);
+      named.push_back(fmt::format("group {} (runs {}-{})", g.index, g.iovFirst, g.iovLast));
     }
+  }
+  if (!gone.empty()) {
+    return reportError(
+        Error{fmt::format("{} not in tag {} (removed since their tasks stored them): tasks {} count as missing again; "
+                          "emcalign batch submit {} --missing (or emcalign task {} K) stores them again",
+                          fmt::join(named, ", "), plan->tag, validation::taskRanges(gone), shellArgument(p.path),
+                          shellArgument(p.path))});
   }
   fmt::print(reportStream(), "campaign: {} stored by the plan's tasks in tag {} -> {}\n  {}\n",
              counted(plan->groups.size(), "group"), plan->tag, (*db)->uri(), modelText(*model));
@@ -326,7 +339,7 @@ void addCampaignCommand(CLI::App& app, int& exitCode) {
       }
     }
     exitCode = runPlannable(
-        "campaign", o->plan,
+        "campaign", o->plan, o->inputs,
         [o](const io::Json& data) -> Result<std::unique_ptr<validation::PlannedJob>> {
           if (planContext().mode == PlanContext::Mode::Direct) return newPlanJob(*o);
           return plannedJob(data, planContext().plan->path, *o);

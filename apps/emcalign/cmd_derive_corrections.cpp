@@ -278,7 +278,7 @@ void addDeriveCorrectionsCommand(CLI::App& app, int& exitCode) {
       ->check(integerIn(1, 100000));
   cmd->callback([o, &exitCode] {
     exitCode = runPlannable(
-        "derive-corrections", o->plan,
+        "derive-corrections", o->plan, {o->output},
         [o](const io::Json&) -> Result<std::unique_ptr<validation::PlannedJob>> {
           if (!o->plan.empty() && o->output == "-") {
             return Error{"-o -: a plan's tasks write files the merge finds: give the corrections file's name"};

@@ -369,7 +369,7 @@ void addValidateCommand(CLI::App& app, int& exitCode) {
   addPlanOption(*cmd, o->plan);
   cmd->callback([o, &exitCode] {
     exitCode = runPlannable(
-        "validate", o->plan,
+        "validate", o->plan, {o->output, o->corrections},
         [o](const io::Json&) -> Result<std::unique_ptr<validation::PlannedJob>> {
           std::optional<geometry::Calorimeter> calo;
           auto made = campaignOptionsOf(*o, calo);
@@ -416,7 +416,7 @@ void addValidateCommand(CLI::App& app, int& exitCode) {
   addPlanOption(*sys, s->plan);
   sys->callback([s, &exitCode] {
     exitCode = runPlannable(
-        "systematics", s->plan,
+        "systematics", s->plan, {s->output, s->writeCorrections, s->corrections},
         [s](const io::Json&) -> Result<std::unique_ptr<validation::PlannedJob>> {
           if (!s->plan.empty() && s->writeCorrections == "-") {
             return Error{"--write-corrections -: the merge of a plan runs as a batch job: give a file's name"};

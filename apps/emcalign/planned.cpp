@@ -129,12 +129,20 @@ int batchStatus(const std::string& path, bool json) {
                                 {"finished", validation::finished(*plan)}}
                            .dump(1));
   } else {
+    const bool merged = validation::finished(*plan);
+    std::string merge;
+    if (merged) {
+      merge = missing.empty() ? "; merged (emcalign finish ended well)"
+                              : "; merged once, before the missing tasks' outputs went: merge again after them";
+    } else if (const auto failed = validation::failedMerge(*plan); !failed.log.empty()) {
+      merge = fmt::format("; the merge has not ended well: {} (last line: {})", failed.log, failed.lastLine);
+    }
     fmt::print(reportStream(), "{} ({}, {}): {} done, {} missing{}{}\n", plan->path, plan->command,
                counted(states.size(), "task"), done.size(), missing.size(),
-               missing.empty() ? "" : ": " + validation::taskRanges(missing),
-               validation::finished(*plan) ? "; merged (emcalign finish ended well)" : "");
+               missing.empty() ? "" : ": " + validation::taskRanges(missing), merge);
     for (const auto& [k, log] : logs.items()) {
-      fmt::print(reportStream(), "  task {} started but did not end well: {}\n    {}\n", k,
+      fmt::print(reportStream(),
+                 "  task {} is missing (failed, stopped, or its outputs removed since); its log {}:\n    {}\n", k,
                  log["log"].get<std::string>(), log["last_line"].get<std::string>());
     }
     if (!missing.empty()) {
@@ -200,9 +208,18 @@ int batchSubmit(const SubmitOptions& o) {
     fmt::print(report, "the merge job {} ended well: the plan's outputs are written\n", submitted->finishJob);
     return kExitOk;
   }
-  reportError(
-      Error{fmt::format("the merge job {} did not end well (exit status {}): see {} and emcalign batch status {}",
-                        submitted->finishJob, *status, plan->finishLog(), plan->path)});
+  // Slurm cancels a merge whose tasks failed before it starts: then it has no log.
+  const auto missing = missingTasks(*plan);
+  if (std::error_code ec; !missing.empty() && !std::filesystem::exists(plan->finishLog(), ec)) {
+    reportError(Error{fmt::format(
+        "tasks {} did not end well, so the merge job {} never ran: emcalign batch status {} shows their logs; "
+        "then emcalign batch submit {} --missing",
+        validation::taskRanges(missing), submitted->finishJob, shellArgument(plan->path), shellArgument(plan->path))});
+  } else {
+    reportError(
+        Error{fmt::format("the merge job {} did not end well (exit status {}): see {} and emcalign batch status {}",
+                          submitted->finishJob, *status, plan->finishLog(), shellArgument(plan->path))});
+  }
   return *status;
 }
 
@@ -242,8 +259,42 @@ CLI::Option* addPlanOption(CLI::App& cmd, std::string& path) {
                         "(docs/cluster.md)");
 }
 
-int runPlannable(const std::string& command, const std::string& planPath, const JobMaker& makeJob,
-                 const std::function<int()>& run, const std::function<int()>& finish) {
+namespace {
+
+// Whether `inner` is `outer` or lies inside it, links resolved as far as the paths exist.
+bool within(const std::string& inner, const std::string& outer) {
+  std::error_code ec;
+  const auto a = std::filesystem::weakly_canonical(std::filesystem::absolute(inner), ec);
+  const auto b = std::filesystem::weakly_canonical(std::filesystem::absolute(outer), ec);
+  if (ec) return false;
+  auto i = a.begin();
+  for (auto j = b.begin(); j != b.end(); ++j, ++i) {
+    if (j->empty() && std::next(j) == b.end()) break;  // a trailing separator
+    if (i == a.end() || *i != *j) return false;
+  }
+  return true;
+}
+
+// A plan (and its work directory) neither is nor lies inside one of the command's outputs or
+// input directories.
+Status planBesideOutputs(const std::string& planPath, const std::vector<std::string>& outputs) {
+  const std::string work = validation::planWorkDirectory(planPath);
+  for (const auto& out : outputs) {
+    if (out.empty() || out == "-") continue;
+    if (within(planPath, out) || within(work, out) || within(out, work)) {
+      return Error{fmt::format(
+          "--plan {}: the plan and its work directory {} would be inside {}, an output or input of the command, "
+          "which holds what the command writes or reads and nothing else: put the plan beside it",
+          planPath, work, out)};
+    }
+  }
+  return {};
+}
+
+}  // namespace
+
+int runPlannable(const std::string& command, const std::string& planPath, const std::vector<std::string>& outputs,
+                 const JobMaker& makeJob, const std::function<int()>& run, const std::function<int()>& finish) {
   switch (gContext.mode) {
     case PlanContext::Mode::Task: {
       auto job = makeJob(gContext.plan->data);
@@ -257,6 +308,7 @@ int runPlannable(const std::string& command, const std::string& planPath, const 
       const auto t0 = std::chrono::steady_clock::now();
       const int code = finish();
       if (code != kExitOk) return code;
+      for (const auto& w : validation::taskWarnings(*gContext.plan)) reportWarning(w);
       const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       if (Status s = validation::recordFinished(*gContext.plan, seconds); !s) return reportError(s.error());
       return kExitOk;
@@ -273,6 +325,7 @@ int runPlannable(const std::string& command, const std::string& planPath, const 
               "batch nodes share)"});
   }
   if (Status s = checkOutputs({{"--plan", planPath}}, {}, {}); !s) return reportError(s.error());
+  if (Status s = planBesideOutputs(planPath, outputs); !s) return reportError(s.error());
   auto arguments = commandArguments();
   if (!arguments) return reportError(arguments.error());
   auto plan = validation::writePlan(planPath, command, *arguments, **job);
@@ -281,8 +334,8 @@ int runPlannable(const std::string& command, const std::string& planPath, const 
              "wrote the plan {} ({}: {}), nothing run; its tasks' records and logs go to {}\n"
              "  on Slurm:  emcalign batch submit {} [--sbatch-arg=--partition=P ...] [--wait]\n"
              "  by hand:   emcalign task {} K   (K = 0 to {}), then emcalign finish {}\n",
-             planPath, command, counted(plan->tasks.size(), "task"), plan->workDirectory(), planPath, planPath,
-             plan->tasks.size() - 1, planPath);
+             planPath, command, counted(plan->tasks.size(), "task"), plan->workDirectory(), shellArgument(planPath),
+             shellArgument(planPath), plan->tasks.size() - 1, shellArgument(planPath));
   return kExitOk;
 }
 

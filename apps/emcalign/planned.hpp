@@ -39,8 +39,11 @@ using JobMaker = std::function<Result<std::unique_ptr<validation::PlannedJob>>(c
 
 /// Runs a plannable command: `run(false)` as given; with `planPath` its plan written (nothing
 /// run); as a task, task K of the job; as the merge, `finish()` once every task is done.
-int runPlannable(const std::string& command, const std::string& planPath, const JobMaker& makeJob,
-                 const std::function<int()>& run, const std::function<int()>& finish);
+/// `outputs`: the command's outputs (-o ...) and input directories: a plan and its work
+/// directory may be neither one of them nor inside one (they hold what the command writes or
+/// reads, nothing else).
+int runPlannable(const std::string& command, const std::string& planPath, const std::vector<std::string>& outputs,
+                 const JobMaker& makeJob, const std::function<int()>& run, const std::function<int()>& finish);
 
 /// --plan PLAN.json of a plannable command.
 CLI::Option* addPlanOption(CLI::App& cmd, std::string& path);

@@ -496,7 +496,7 @@ Result<CampaignModel> planModel(const CampaignPlan& plan, const geometry::Calori
   return model;
 }
 
-Result<std::string> storePlannedGroup(const CampaignPlan& plan, const CampaignModel& model, int index,
+Result<StoredGroup> storePlannedGroup(const CampaignPlan& plan, const CampaignModel& model, int index,
                                       const std::string& uri, const std::string& tag, const std::string& description) {
   if (index < 0 || index >= static_cast<int>(plan.groups.size())) {
     return Error{fmt::format("group {}: the plan has groups 0 to {}", index, plan.groups.size() - 1)};
@@ -517,8 +517,9 @@ Result<std::string> storePlannedGroup(const CampaignPlan& plan, const CampaignMo
       // A retried task: done, if the tag holds this group from the same data.
       auto same = groupStored(*db, tag, g, plan.digests, model);
       if (!same) return same.error();
-      return fmt::format("group {} (runs {}-{}) is in tag {} already, from the same data: nothing to do", g.index,
-                         g.iovFirst, g.iovLast, tag);
+      return StoredGroup{fmt::format("group {} (runs {}-{}) is in tag {} already, from the same data: nothing to do",
+                                     g.index, g.iovFirst, g.iovLast, tag),
+                         {}};
     }
   }
   // The files must be those the plan was made from (the plan has a digest of each).
@@ -539,8 +540,8 @@ Result<std::string> storePlannedGroup(const CampaignPlan& plan, const CampaignMo
   if (!groupModel) {
     return Error{fmt::format("group {} (runs {}-{}): {}", g.index, g.iovFirst, g.iovLast, groupModel.error().message)};
   }
-  std::string said;
-  if (!groupModel->correctionsWarning.empty()) said = "warning: " + groupModel->correctionsWarning + "\n";
+  StoredGroup stored;
+  if (!groupModel->correctionsWarning.empty()) stored.warnings.push_back(groupModel->correctionsWarning);
   auto fill = fillPlannedGroup(g, *groupModel);
   if (!fill) return fill.error();
   auto fit = fitGroup(g, *fill, *groupModel, plan.digests,
@@ -549,6 +550,17 @@ Result<std::string> storePlannedGroup(const CampaignPlan& plan, const CampaignMo
   if (!usable(fit->result.status)) {
     return Error{fmt::format("group {} (runs {}-{}): the fit's status is '{}': not stored", g.index, g.iovFirst,
                              g.iovLast, name(fit->result.status))};
+  }
+  const std::string group = fmt::format("group {} (runs {}-{})", g.index, g.iovFirst, g.iovLast);
+  if (fit->result.status == FitStatus::PoorFit) {
+    stored.warnings.push_back(
+        fmt::format("{}: poor fit (chi2/ndf {:.1f}/{})", group, fit->result.chi2, fit->result.ndf));
+  }
+  if (auto outside = calib::outsideValidatedRanges(fit->result); !outside.empty()) {
+    stored.warnings.push_back(fmt::format(
+        "{}: fitted outside the ranges over which the model and its corrections were validated (its biases there "
+        "are not known, docs/validation.md; a simulated truth in mm under a cm header is the usual mistake): {}",
+        group, fmt::join(outside, ", ")));
   }
   if (!db) {
     auto opened = conddb::Database::open(uri, true);
@@ -559,12 +571,13 @@ Result<std::string> storePlannedGroup(const CampaignPlan& plan, const CampaignMo
     // The same task run twice at once: the other copy stored the group first.
     auto same = groupStored(*db, tag, g, plan.digests, model);
     if (!same || !*same) return s.error();
-    return said + fmt::format("group {} (runs {}-{}) was stored meanwhile by another task, from the same data: done",
-                              g.index, g.iovFirst, g.iovLast);
+    stored.said = fmt::format("{} was stored meanwhile by another task, from the same data: done", group);
+    return stored;
   }
-  return said + fmt::format("group {} (runs {}-{}, {} selected events): {}, chi2/ndf {:.1f}/{} -> {} tag {}", g.index,
-                            g.iovFirst, g.iovLast, g.selected, name(fit->result.status), fit->result.chi2,
-                            fit->result.ndf, db->uri(), tag);
+  stored.said =
+      fmt::format("group {} (runs {}-{}, {} selected events): {}, chi2/ndf {:.1f}/{} -> {} tag {}", g.index, g.iovFirst,
+                  g.iovLast, g.selected, name(fit->result.status), fit->result.chi2, fit->result.ndf, db->uri(), tag);
+  return stored;
 }
 
 namespace {
@@ -579,8 +592,11 @@ class CalibrationCampaignJob final : public PlannedJob {
     std::vector<PlannedTask> t;
     for (const auto& g : plan_.groups) {
       t.push_back({fmt::format("group {} (runs {}-{}, {} selected events)", g.index, g.iovFirst, g.iovLast, g.selected),
-                   {fmt::format("{} tag {}: the IOV {}-{}", conddb::shownAddress(plan_.conditions), plan_.tag,
-                                g.iovFirst, g.iovLast)},
+                   {plan_.conditions.empty() || plan_.tag.empty()
+                        ? fmt::format("the IOV {}-{} of the database and tag given to the task (--conditions, --tag)",
+                                      g.iovFirst, g.iovLast)
+                        : fmt::format("{} tag {}: the IOV {}-{}", conddb::shownAddress(plan_.conditions), plan_.tag,
+                                      g.iovFirst, g.iovLast)},
                    g.files});
     }
     return t;
@@ -594,7 +610,8 @@ class CalibrationCampaignJob final : public PlannedJob {
     }
     auto r = storePlannedGroup(plan_, model_, static_cast<int>(k), plan_.conditions, plan_.tag, plan_.description);
     if (!r) return r.error();
-    say(*r);
+    for (const auto& w : r->warnings) context.warn(w);
+    say(r->said);
     return {};
   }
   Json data() const override { return data_; }

@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "emcalign/core/subprocess.hpp"
+#include "emcalign/core/text.hpp"
 
 namespace emcalign::validation {
 
@@ -18,13 +19,6 @@ namespace fs = std::filesystem;
 
 // Slurm's clients answer in a second; a queue under load, in a minute.
 constexpr int kSlurmSeconds = 120;
-
-// A word for the shell: single-quoted, a single quote as '\''.
-std::string shellWord(const std::string& s) {
-  std::string out = "'";
-  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return out + "'";
-}
 
 // A value of an #SBATCH line: sbatch splits these lines at white space outside double quotes.
 std::string sbatchValue(const std::string& s) {
@@ -124,9 +118,10 @@ Result<SlurmSubmission> submitToSlurm(const Plan& plan, const std::vector<std::s
     const std::size_t last = tasks.empty() ? plan.tasks.size() - 1 : tasks.back();
     if (const std::size_t largest = largestArrayIndex(plan.directory); last > largest) {
       return Error{
-          fmt::format("{}: task {} is beyond this Slurm's largest array index {} (MaxArraySize): submit the "
-                      "plan in parts with emcalign batch script, or ask for a larger MaxArraySize",
-                      plan.path, last, largest)};
+          fmt::format("{}: task {} is beyond this Slurm's largest array index {} (MaxArraySize): make the plan "
+                      "again with more samples per task (--samples-per-task) so that it has at most {} tasks, or "
+                      "ask the cluster's administrators for a larger MaxArraySize",
+                      plan.path, last, largest, largest + 1)};
     }
     auto array = sbatch(sbatchArguments, jobArrayScript(plan, tasks), plan.directory);
     if (!array) return array.error();
@@ -167,7 +162,10 @@ Result<int> waitForFinish(const Plan& plan, const SlurmSubmission& submission,
                            plan.directory, "", kSlurmSeconds);
     const std::string state = trimmed(q.out);
     if (!q.succeeded() && q.err.find("Invalid job id") == std::string::npos) {
-      if (++failures >= 5) return Error{fmt::format("squeue failed 5 times ({}): {}", q.outcome(), trimmed(q.err))};
+      if (++failures >= 5) {
+        const std::string why = trimmed(q.err);
+        return Error{fmt::format("squeue failed 5 times ({}){}", q.outcome(), why.empty() ? "" : ": " + why)};
+      }
     } else {
       failures = 0;
       if (state.empty()) break;  // left the queue

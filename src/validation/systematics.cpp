@@ -466,6 +466,8 @@ class SystematicsJob final : public PlannedJob {
         const std::string campaign = reverse != 0 ? reverseDirOf(name) : dirOf(name);
         for (const SampleBlock& b : blocks_) {
           PlannedTask task{fmt::format("{} of {}", samplesText(b), campaign), {}, inputs_};
+          // A reverse sample fits with its derivation's corrections (instead of --corrections).
+          if (reverse != 0) task.inputs.push_back(absolute(reverseCorrectionsFile(dir_, name)));
           for (int i = b.first; i <= b.last; ++i) task.writes.push_back(absolute(sampleFile(campaign, i)));
           t.push_back(std::move(task));
         }

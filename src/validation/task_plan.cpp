@@ -65,9 +65,11 @@ std::string lastLineOf(const std::string& path) {
 }
 
 // Whether the record at `path` says this plan's task (or, with none, its merge) ended well,
-// with `key` (none: any).
+// with `key` (none: any), and (`outputs`) whether the files the task writes are there as it
+// wrote them (their sizes: a file removed or truncated since does not count; a database's IOV
+// is the merge's to check).
 bool recordSays(const std::string& path, const std::string& planSha256, std::optional<std::size_t> task,
-                const std::optional<std::string>& key = std::string()) {
+                const std::optional<std::string>& key = std::string(), const PlannedTask* outputs = nullptr) {
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) return false;
   auto text = io::readOwnOutput(path);
@@ -77,15 +79,25 @@ bool recordSays(const std::string& path, const std::string& planSha256, std::opt
   if (j->value("plan_sha256", std::string()) != planSha256) return false;
   if (!task) return j->value("finish", false);
   if (key && j->value("key", std::string()) != *key) return false;
-  return (*j)["task"].is_number_unsigned() && (*j)["task"].get<std::size_t>() == *task;
+  if (!(*j)["task"].is_number_unsigned() || (*j)["task"].get<std::size_t>() != *task) return false;
+  if (outputs == nullptr) return true;
+  const Json bytes = j->value("bytes", Json::object());
+  for (const std::string& w : outputs->writes) {
+    if (w.empty() || w.front() != '/') continue;
+    if (!fs::is_regular_file(w, ec)) return false;
+    if (bytes.is_object() && bytes.contains(w) && bytes[w] != fs::file_size(w, ec)) return false;
+  }
+  return true;
 }
 
-// The files a task writes are all there (its other outputs, a database's IOV, are the merge's
-// to check): a record whose outputs were removed since does not count.
-bool outputsThere(const PlannedTask& task) {
+// The sizes of the files a task wrote, for its record.
+Json writtenBytes(const PlannedTask& task) {
+  Json bytes = Json::object();
   std::error_code ec;
-  return std::all_of(task.writes.begin(), task.writes.end(),
-                     [&](const std::string& w) { return w.empty() || w.front() != '/' || fs::is_regular_file(w, ec); });
+  for (const std::string& w : task.writes) {
+    if (!w.empty() && w.front() == '/' && fs::is_regular_file(w, ec)) bytes[w] = fs::file_size(w, ec);
+  }
+  return bytes;
 }
 
 }  // namespace
@@ -135,6 +147,31 @@ std::string Plan::logOf(std::size_t k) const {
 std::string Plan::finishLog() const { return (fs::path(workDirectory()) / "finish.log").string(); }
 std::string Plan::finishRecord() const { return (fs::path(workDirectory()) / "finish.json").string(); }
 
+namespace {
+
+// --plan replaces an earlier plan only: any other file there (an input of another command, a
+// study's output, notes) is refused.
+Status replacesOnlyAPlan(const std::string& path) {
+  std::error_code ec;
+  const auto status = fs::symlink_status(path, ec);
+  if (ec || status.type() == fs::file_type::not_found) return {};
+  const auto refuse = [&](const std::string& what) {
+    return Error{
+        fmt::format("--plan {}: {}, not a plan: --plan replaces only an earlier plan (emcalign-plan/1); "
+                    "remove it or give another name",
+                    path, what)};
+  };
+  if (status.type() != fs::file_type::regular) return refuse("this exists and is not a regular file");
+  auto text = io::readOwnOutput(path);
+  auto j = text ? io::parseJson(*text, path) : Result<Json>(text.error());
+  if (!j || !j->is_object() || j->value("format", Json()) != kPlanFormat) {
+    return refuse("this file exists and holds something else");
+  }
+  return {};
+}
+
+}  // namespace
+
 Result<Plan> writePlan(const std::string& path, const std::string& command, const std::vector<std::string>& arguments,
                        const PlannedJob& job) {
   auto program = ProgramIdentity::ofThisProcess();
@@ -151,13 +188,22 @@ Result<Plan> writePlan(const std::string& path, const std::string& command, cons
   plan.data = job.data();
   if (plan.tasks.empty()) return Error{"the plan has no task: nothing to run"};
   for (const std::string& p : {plan.path, plan.directory}) {
-    if (std::any_of(p.begin(), p.end(), [](char c) { return c == '"' || (c >= 0 && c < 0x20) || c == 0x7f; })) {
+    // sbatch takes '\' in --output as an escape: the logs would go elsewhere.
+    if (std::any_of(p.begin(), p.end(),
+                    [](char c) { return c == '"' || c == '\\' || (c >= 0 && c < 0x20) || c == 0x7f; })) {
       return Error{
           fmt::format("{}: a plan's path and directory go into batch scripts: rename it without control "
-                      "characters or '\"'",
+                      "characters, '\"' or '\\'",
                       p)};
     }
   }
+  if (plan.workDirectory() == plan.path) {
+    return Error{
+        fmt::format("{}: a plan's tasks keep their records in PLAN.tasks beside it: name the plan "
+                    "PLAN.json, not PLAN.tasks",
+                    path)};
+  }
+  if (Status s = replacesOnlyAPlan(plan.path); !s) return s.error();
   Json tasks = Json::array();
   for (std::size_t k = 0; k < plan.tasks.size(); ++k) tasks.push_back(taskJson(k, plan.tasks[k]));
   const Json j = {{"format", kPlanFormat},
@@ -187,14 +233,11 @@ Result<Plan> writePlan(const std::string& path, const std::string& command, cons
 Result<Plan> parsePlan(const std::string& text, const std::string& path) {
   auto j = io::parseJson(text, path);
   if (!j) return j.error();
-  if (Status s =
-          io::expectFormat(*j, j->is_object() ? j->value("format", std::string()) : std::string(), kPlanFormat, path);
-      !s) {
-    return s.error();
-  }
+  if (Status s = io::expectFormat(*j, kPlanFormat, "a plan (emcalign-plan/1)", path); !s) return s.error();
   return io::strict::guarded([&]() -> Plan {
     const io::strict::StrictObject o(*j, "", path);
     o.allowOnly({"format", "command", "arguments", "directory", "program", "work_directory", "tasks", "data"});
+    if (o.string("format") != kPlanFormat) o.fail("format", fmt::format("expected \"{}\"", kPlanFormat));
     Plan plan;
     std::error_code ec;
     plan.path = fs::absolute(path, ec).lexically_normal().string();
@@ -243,8 +286,38 @@ Result<Plan> readPlan(const std::string& path) {
 }
 
 bool taskDone(const Plan& plan, std::size_t k) {
-  return k < plan.tasks.size() && recordSays(plan.recordOf(k), plan.sha256, k, std::nullopt) &&
-         outputsThere(plan.tasks[k]);
+  return k < plan.tasks.size() && recordSays(plan.recordOf(k), plan.sha256, k, std::nullopt, &plan.tasks[k]);
+}
+
+Status forgetTask(const Plan& plan, std::size_t k) {
+  std::error_code ec;
+  for (const std::string& record : {plan.recordOf(k), plan.finishRecord()}) {
+    fs::remove(record, ec);
+    if (ec) return Error{fmt::format("{}: cannot remove the record: {}", record, ec.message())};
+  }
+  return {};
+}
+
+std::vector<std::string> taskWarnings(const Plan& plan) {
+  std::vector<std::string> out;
+  for (std::size_t k = 0; k < plan.tasks.size(); ++k) {
+    auto text = io::readOwnOutput(plan.recordOf(k));
+    auto j = text ? io::parseJson(*text, plan.recordOf(k)) : Result<Json>(text.error());
+    if (!j || !j->is_object() || !(*j)["warnings"].is_array()) continue;
+    for (const auto& w : (*j)["warnings"]) {
+      if (w.is_string()) out.push_back(fmt::format("task {}: {}", k, w.get<std::string>()));
+    }
+  }
+  return out;
+}
+
+TaskState failedMerge(const Plan& plan) {
+  TaskState state;
+  std::error_code ec;
+  if (finished(plan) || !fs::exists(plan.finishLog(), ec)) return state;
+  state.log = plan.finishLog();
+  state.lastLine = lastLineOf(state.log);
+  return state;
 }
 
 std::vector<TaskState> taskStates(const Plan& plan) {
@@ -273,7 +346,17 @@ Result<bool> runPlannedTask(const Plan& plan, const PlannedJob& job, std::size_t
   }
   const PlannedTask& task = plan.tasks[k];
   const auto jobTasks = job.tasks();
-  if (jobTasks.size() != plan.tasks.size() || jobTasks[k].what != task.what) {
+  // The files it writes and reads too (a database's IOV, in words, is the record key's to check:
+  // a campaign's plan may leave the database to the task).
+  const auto files = [](const std::vector<std::string>& paths) {
+    std::vector<std::string> out;
+    for (const auto& p : paths) {
+      if (!p.empty() && p.front() == '/') out.push_back(p);
+    }
+    return out;
+  };
+  if (jobTasks.size() != plan.tasks.size() || jobTasks[k].what != task.what ||
+      files(jobTasks[k].writes) != files(task.writes) || files(jobTasks[k].inputs) != files(task.inputs)) {
     return Error{fmt::format(
         "{}: task {} is not what the plan's command makes now ({}): the plan was edited, or its inputs changed "
         "since it was made; make the plan again",
@@ -285,7 +368,7 @@ Result<bool> runPlannedTask(const Plan& plan, const PlannedJob& job, std::size_t
     std::fflush(log);
   };
   const std::string key = job.recordKey();
-  if (recordSays(record, plan.sha256, k, key) && outputsThere(task)) {
+  if (recordSays(record, plan.sha256, k, key, &task)) {
     say(fmt::format("task {} ({}) is done already ({}): nothing to do", k, task.what, record));
     return false;
   }
@@ -293,7 +376,7 @@ Result<bool> runPlannedTask(const Plan& plan, const PlannedJob& job, std::size_t
   fs::create_directories(plan.workDirectory(), ec);
   const FileLock lock((fs::path(plan.workDirectory()) / fmt::format("task-{}.lock", k)).string());
   if (!lock.error().empty()) return Error{lock.error()};
-  if (recordSays(record, plan.sha256, k, key) && outputsThere(task)) {
+  if (recordSays(record, plan.sha256, k, key, &task)) {
     say(fmt::format("task {} ({}) was done meanwhile by another copy: nothing to do", k, task.what));
     return false;
   }
@@ -306,7 +389,12 @@ Result<bool> runPlannedTask(const Plan& plan, const PlannedJob& job, std::size_t
   for (const auto& in : task.inputs) say("  reads " + in);
   for (const auto& out : task.writes) say("  writes " + out);
   const auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
-  const TaskContext context{[&](const std::string& line) { say("  " + line); }, plan.workDirectory()};
+  std::vector<std::string> warnings;
+  const TaskContext context{[&](const std::string& line) { say("  " + line); }, plan.workDirectory(),
+                            [&](const std::string& w) {
+                              say("  warning: " + w);
+                              warnings.push_back(w);
+                            }};
   if (Status s = job.runTask(k, context); !s) {
     say(fmt::format("task {} failed after {:.1f} s, peak memory {:.0f} MB", k, seconds(), peakMemoryMb()));
     return Error{fmt::format("task {} ({}): {}", k, task.what, s.error().message)};
@@ -315,7 +403,8 @@ Result<bool> runPlannedTask(const Plan& plan, const PlannedJob& job, std::size_t
                   {"plan_sha256", plan.sha256},  {"task", k},
                   {"what", task.what},           {"key", key},
                   {"host", hostName()},          {"started", started},
-                  {"seconds", seconds()},        {"peak_memory_mb", peakMemoryMb()}};
+                  {"seconds", seconds()},        {"peak_memory_mb", peakMemoryMb()},
+                  {"bytes", writtenBytes(task)}, {"warnings", warnings}};
   if (Status s = io::writeOutputFile(record, r.dump(1) + "\n", io::Placement::InDirectory); !s) return s.error();
   say(fmt::format("task {} done in {:.1f} s, peak memory {:.0f} MB", k, seconds(), peakMemoryMb()));
   return true;

@@ -238,6 +238,65 @@ TEST_F(PlanCli, APlanNeverHoldsAPassword) {
   EXPECT_THAT(r.err, HasSubstr("give its name"));
 }
 
+// --plan writes a plan and nothing else: not over another file, not inside the command's
+// output or input directories, not with a name its work directory would take, not where sbatch
+// would read a path otherwise; a task given something else than a plan says so.
+TEST_F(PlanCli, APlanReplacesOnlyAPlanAndStaysBesideTheOutputs) {
+  { std::ofstream(path("notes.txt")) << "my notes\n"; }
+  auto r = run(fmt::format("{} -o {} --plan {}", kValidate, path("fan"), path("notes.txt")));
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_THAT(r.err, HasSubstr("not a plan: --plan replaces only an earlier plan"));
+  EXPECT_EQ(slurp("notes.txt"), "my notes\n");
+  fs::create_directories(path("fan"));
+  r = run(fmt::format("{} -o {} --plan {}", kValidate, path("fan"), path("fan/plan.json")));
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_THAT(r.err, HasSubstr("put the plan beside it"));
+  EXPECT_TRUE(fs::is_empty(path("fan")));
+  r = run(fmt::format("{} -o {} --plan {}", kValidate, path("fan"), path("w.tasks")));
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_THAT(r.err, HasSubstr("name the plan PLAN.json, not PLAN.tasks"));
+  EXPECT_FALSE(fs::exists(path("w.tasks")));
+  fs::create_directories(path("back\\slash"));
+  r = run(fmt::format("{} -o {} --plan '{}'", kValidate, path("fan"), path("back\\slash/plan.json")));
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_THAT(r.err, HasSubstr("rename it without control characters"));
+  EXPECT_TRUE(fs::is_empty(path("back\\slash")));
+
+  // A plan made again replaces the earlier one; a task given another file says what it is.
+  ASSERT_EQ(run(fmt::format("{} -o {} --plan {}", kValidate, path("fan"), path("plan.json"))).exitCode, 0);
+  ASSERT_EQ(run(fmt::format("{} -o {} --plan {}", kValidate, path("fan"), path("plan.json"))).exitCode, 0);
+  r = run(fmt::format("task {} 0", path("notes.txt")));
+  EXPECT_EQ(r.exitCode, 1);
+  r = run(fmt::format("task {} 0", path("plan.json")));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  r = run(fmt::format("task {} 0", path("plan.tasks/task-0.json")));
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_THAT(r.err, HasSubstr("not a plan"));
+
+  // A sample truncated after its task ran: the task is missing again; it does not replace what
+  // it cannot tell is its own (another study's sample?) but names it; removed, it runs again.
+  const std::string sample = path("fan/samples/sample_0000.json");
+  fs::resize_file(sample, fs::file_size(sample) / 2);
+  r = run(fmt::format("batch status {} --json", path("plan.json")));
+  EXPECT_EQ(json::parse(r.out)["missing"], json::parse("[0, 1, 2]"));
+  r = run(fmt::format("task {} 0", path("plan.json")));
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_THAT(r.err, HasSubstr(sample + " is not a finished sample of this campaign"));
+  fs::remove(sample);
+  ASSERT_EQ(run(fmt::format("task {} 0", path("plan.json"))).exitCode, 0);
+  EXPECT_EQ(json::parse(run(fmt::format("batch status {} --json", path("plan.json"))).out)["missing"],
+            json::parse("[1, 2]"));
+
+  // A task whose outputs were edited in the plan is refused: the log would name other files.
+  json plan = json::parse(slurp("plan.json"));
+  plan["tasks"][1]["writes"][0] = path("elsewhere.json");
+  std::ofstream(path("edited.json")) << plan.dump(1);
+  r = run(fmt::format("task {} 1", path("edited.json")));
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_THAT(r.err, HasSubstr("not what the plan's command makes now"));
+  EXPECT_FALSE(fs::exists(path("elsewhere.json")));
+}
+
 TEST_F(PlanCli, TheJobArrayScriptAndAMissingSbatch) {
   ASSERT_EQ(run(fmt::format("{} -o {} --plan {}", kValidate, path("fan"), path("plan.json"))).exitCode, 0);
   ASSERT_EQ(run(fmt::format("task {} 1", path("plan.json"))).exitCode, 0);

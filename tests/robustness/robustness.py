@@ -1270,6 +1270,7 @@ def cases():
         fifo("fe.h5")(d)
 
         def change(j):
+            j["tasks"][0]["inputs"] = [os.path.join(d, "fe.h5")]  # the task reads what its group holds
             j = j["data"]
             j["inputs"].append({"file": os.path.join(d, "fe.h5"), "sha256": "0" * 64})
             j["groups"][0]["files"] = [os.path.join(d, "fe.h5")]

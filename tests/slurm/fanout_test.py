@@ -186,14 +186,38 @@ def case_campaign(c):
     n = len(plan["tasks"])
     check(n >= 4, f"{n} groups")
     c.submit("plan.json")
-    r = c.run("finish", "plan.json")  # again: the same, nothing to do
-    c.run("campaign", "period", "--conditions", "sqlite:one.db", "--tag", "fan", "--min-events", "4000")
-    fan = json.loads(c.run("conditions", "list", pg, "--tag", "fan", "--json").stdout)
-    one = json.loads(c.run("conditions", "list", "sqlite:one.db", "--tag", "fan", "--json").stdout)
-    check(len(fan["iovs"]) == n and len(one["iovs"]) == n, f"IOVs: {len(fan['iovs'])}, {len(one['iovs'])}, {n}")
-    for a, b in zip(fan["iovs"], one["iovs"]):
-        check((a["first_run"], a["last_run"], a["payload"]) == (b["first_run"], b["last_run"], b["payload"]),
-              f"IOV {a['first_run']}-{a['last_run']}: payload {a['payload']} against {b['payload']} in one process")
+    merge = c.run("finish", "plan.json")  # again: the same, nothing to do
+    one_process = c.run("campaign", "period", "--conditions", "sqlite:one.db", "--tag", "fan", "--min-events", "4000")
+    # The one-process warnings of the groups (a poor fit, a fit outside the validated ranges) come
+    # with the merge too, each group's from its task's record (this period's small groups fit
+    # outside the validated ranges).
+    check("outside the ranges" in one_process.stderr, f"no warning to compare: {one_process.stderr}")
+    for text in ("poor fit", "outside the ranges"):
+        check((text in one_process.stderr) == (text in merge.stderr),
+              f"'{text}': one process\n{one_process.stderr}\nthe merge\n{merge.stderr}")
+
+    def same_payloads():
+        fan = json.loads(c.run("conditions", "list", pg, "--tag", "fan", "--json").stdout)
+        one = json.loads(c.run("conditions", "list", "sqlite:one.db", "--tag", "fan", "--json").stdout)
+        check(len(fan["iovs"]) == n and len(one["iovs"]) == n, f"IOVs: {len(fan['iovs'])}, {len(one['iovs'])}, {n}")
+        for a, b in zip(fan["iovs"], one["iovs"]):
+            check((a["first_run"], a["last_run"], a["payload"]) == (b["first_run"], b["last_run"], b["payload"]),
+                  f"IOV {a['first_run']}-{a['last_run']}: payload {a['payload']} against {b['payload']} in one process")
+        return fan
+
+    fan = same_payloads()
+    # An IOV removed from the database after the merge: the merge finds it gone, its task counts as
+    # missing again, and --missing stores it again.
+    gone = fan["iovs"][1]
+    r = subprocess.run(["psql", pg, "-q", "-c",
+                        f"DELETE FROM emcalign_iovs WHERE tag = 'fan' AND first_run = {gone['first_run']}"],
+                       capture_output=True, text=True)
+    check(r.returncode == 0, f"psql: {r.stderr}")
+    r = c.run("finish", "plan.json", ok=False)
+    check(r.returncode == 1 and "count as missing again" in r.stderr, f"finish of a removed IOV: {r.stderr}")
+    check(c.status("plan.json")["missing"] == [1], "the removed IOV's task is not missing")
+    c.submit("plan.json", "--missing")
+    same_payloads()
 
 
 def case_derive(c):

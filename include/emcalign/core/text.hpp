@@ -1,7 +1,7 @@
 #pragma once
 // Numbers and counts in the words of a message: "1 group" but "2 groups", and a value that
 // rounds to zero printed as 0.000, never -0.000 (a negative zero, or -1e-12 of a
-// conversion, is not a negative value to a reader).
+// conversion, is not a negative value to a reader); words for the shell.
 
 #include <concepts>
 #include <string>
@@ -32,6 +32,22 @@ inline std::string fixed(double v, int decimals, bool sign = false) {
   std::string s = sign ? fmt::format("{:+.{}f}", v, decimals) : fmt::format("{:.{}f}", v, decimals);
   if ((s.starts_with('-') || s.starts_with('+')) && s.find_first_not_of("+-0.") == std::string::npos) s.erase(0, 1);
   return s;
+}
+
+/// A word for the shell, single-quoted (a single quote as '\''): for scripts.
+inline std::string shellWord(std::string_view s) {
+  std::string out = "'";
+  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
+/// A word for a command line shown to a user: as it is when the shell takes it so, quoted
+/// otherwise (a path with a space).
+inline std::string shellArgument(std::string_view s) {
+  const bool plain = !s.empty() && s.find_first_not_of(
+                                       "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz"
+                                       "0123456789_./-+:=,@%") == std::string_view::npos;
+  return plain ? std::string(s) : shellWord(s);
 }
 
 }  // namespace emcalign

@@ -150,8 +150,13 @@ Result<CampaignModel> planModel(const CampaignPlan& plan, const geometry::Calori
 /// One group of a plan fitted and stored into `tag` of `uri` (a batch task): nothing when the
 /// tag holds it from the same data already (groupStored); its files checked against the plan's
 /// digests first; a copy of the same task storing it first is not an error. Returns what it
-/// did, in words.
-Result<std::string> storePlannedGroup(const CampaignPlan& plan, const CampaignModel& model, int group,
+/// did, in words, and the warnings the one-process campaign gives of this group (a poor fit,
+/// a fit outside the validated ranges, corrections used away from their energy).
+struct StoredGroup {
+  std::string said;
+  std::vector<std::string> warnings;
+};
+Result<StoredGroup> storePlannedGroup(const CampaignPlan& plan, const CampaignModel& model, int group,
                                       const std::string& uri, const std::string& tag, const std::string& description);
 /// The campaign as a plan's tasks (`campaign --plan` with --conditions and --tag): group K is
 /// task K (storePlannedGroup into the plan's tag). `data`: the plan's part that parsePlan read;

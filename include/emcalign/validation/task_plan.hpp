@@ -39,10 +39,12 @@ struct PlannedTask {
   std::vector<std::string> inputs;  ///< what it reads (files, a database), for its log
 };
 
-/// Where a task runs: lines for its log, and the plan's work directory (for its locks).
+/// Where a task runs: lines for its log, the plan's work directory (for its locks), and its
+/// warnings (in its log and record: the merge repeats them, as the one-process command gives them).
 struct TaskContext {
   std::function<void(const std::string&)> say;
   std::string workDirectory;
+  std::function<void(const std::string&)> warn = [](const std::string&) {};
 };
 
 /// The commands a plan can hold.
@@ -132,8 +134,16 @@ struct TaskState {
 };
 /// Every task's state, from the records and logs in the work directory.
 std::vector<TaskState> taskStates(const Plan& plan);
+/// The warnings the tasks recorded, each as "task K: …", in task order.
+std::vector<std::string> taskWarnings(const Plan& plan);
+/// The merge's log when it ran without ending well (its record absent): empty otherwise.
+TaskState failedMerge(const Plan& plan);
 /// Task k's record is there (any key) with the files it writes.
 bool taskDone(const Plan& plan, std::size_t k);
+/// Task k's record removed, and the merge's: the merge found the task's output gone (a
+/// campaign's IOV removed from the database), so the task counts as missing and `batch submit
+/// --missing` runs it, and the merge, again.
+Status forgetTask(const Plan& plan, std::size_t k);
 
 /// Runs task k of the plan with `job` (made from the plan's command): nothing when its record
 /// says it is done; one copy at a time; its log lines (which task, inputs, time, peak memory)

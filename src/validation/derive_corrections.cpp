@@ -736,24 +736,15 @@ class PointWork {
 
   Result<Sample> sample(int k, const std::function<void(const std::string&)>& say) const {
     const std::string file = sampleFile(dir_, k);
-    std::optional<FileLock> lock;
-    if (make_) {
-      if (Status s = makeDirectory(); !s) return s.error();
-      lock.emplace(file + ".lock");
-      if (!lock->error().empty()) return Error{lock->error()};
-    }
-    std::error_code ec;
-    if (fs::exists(file, ec)) {
-      auto read = readSample(file, o_, k, settings_);
-      if (!read && !make_) return read.error();
-      if (read && *read) return std::move(**read);
-    }
-    if (!make_) return missing(file);
-    say(fmt::format("simulating the {} sample ({} events) into {}", kSampleNames[k], o_.events, file));
-    auto s = simulateSample(calo_, o_, k, {});
-    if (!s) return s.error();
-    if (Status st = writeSample(file, k, *s, settings_); !st) return st.error();
-    return s;
+    return readOrMake<Sample>(
+        file, [&] { return readSample(file, o_, k, settings_); },
+        [&]() -> Result<Sample> {
+          say(fmt::format("simulating the {} sample ({} events) into {}", kSampleNames[k], o_.events, file));
+          auto s = simulateSample(calo_, o_, k, {});
+          if (!s) return s.error();
+          if (Status st = writeSample(file, k, *s, settings_); !st) return st.error();
+          return s;
+        });
   }
 
   Result<std::vector<Sample>> samples(const std::function<void(const std::string&)>& say) const {
@@ -768,30 +759,21 @@ class PointWork {
 
   Result<DerivationReport> first(const std::function<void(const std::string&)>& say) const {
     const std::string file = firstStageFile(dir_);
-    std::optional<FileLock> lock;
-    if (make_) {
-      if (Status s = makeDirectory(); !s) return s.error();
-      lock.emplace(file + ".lock");
-      if (!lock->error().empty()) return Error{lock->error()};
-    }
-    std::error_code ec;
-    if (fs::exists(file, ec)) {
-      auto read = readFirstStage(file, settings_);
-      if (!read && !make_) return read.error();
-      if (read && *read) return std::move(**read);
-    }
-    if (!make_) return missing(file);
-    auto all = samples(say);
-    if (!all) return all.error();
-    say(fmt::format("the first stage (depth, parting plane, nominal profile) into {}", file));
-    auto report = firstStage(calib::FitGeometry::of(calo_.description()), o_, *all);
-    if (!report) return report.error();
-    if (Status st =
-            io::writeOutputFile(file, derivationJson(*report, settings_).dump(2) + "\n", io::Placement::InDirectory);
-        !st) {
-      return st.error();
-    }
-    return report;
+    return readOrMake<DerivationReport>(
+        file, [&] { return readFirstStage(file, settings_); },
+        [&]() -> Result<DerivationReport> {
+          auto all = samples(say);
+          if (!all) return all.error();
+          say(fmt::format("the first stage (depth, parting plane, nominal profile) into {}", file));
+          auto report = firstStage(calib::FitGeometry::of(calo_.description()), o_, *all);
+          if (!report) return report.error();
+          if (Status st = io::writeOutputFile(file, derivationJson(*report, settings_).dump(2) + "\n",
+                                              io::Placement::InDirectory);
+              !st) {
+            return st.error();
+          }
+          return report;
+        });
   }
 
   Status response(const SampleBlock& block, const std::function<void(const std::string&)>& say) const {
@@ -854,6 +836,26 @@ class PointWork {
   }
 
  private:
+  // The piece in `file`: read when it is there with these settings (`read` gives nullopt for
+  // other settings); otherwise made and written under its lock (`make`), or, for the merge,
+  // refused.
+  template <typename T, typename Read, typename Make>
+  Result<T> readOrMake(const std::string& file, Read&& read, Make&& make) const {
+    std::optional<FileLock> lock;
+    if (make_) {
+      if (Status s = makeDirectory(); !s) return s.error();
+      lock.emplace(file + ".lock");
+      if (!lock->error().empty()) return Error{lock->error()};
+    }
+    std::error_code ec;
+    if (fs::exists(file, ec)) {
+      Result<std::optional<T>> got = read();
+      if (!got && !make_) return got.error();
+      if (got && *got) return std::move(**got);
+    }
+    if (!make_) return missing(file);
+    return make();
+  }
   Status makeDirectory() const {
     std::error_code ec;
     fs::create_directories(dir_, ec);

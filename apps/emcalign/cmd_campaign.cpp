@@ -170,10 +170,11 @@ int finishCampaign(const CampaignCliOptions& o) {
   }
   if (!gone.empty()) {
     return reportError(
-        Error{fmt::format("{} not in tag {} (removed since their tasks stored them): tasks {} count as missing again; "
-                          "emcalign batch submit {} --missing (or emcalign task {} K) stores them again",
-                          fmt::join(named, ", "), plan->tag, validation::taskRanges(gone), shellArgument(p.path),
-                          shellArgument(p.path))});
+        Error{fmt::format("{} not in tag {} (removed since stored): {} {} missing again; emcalign batch submit {} "
+                          "--missing (or emcalign task {} K) stores it again",
+                          fmt::join(named, ", "), plan->tag, gone.size() == 1 ? "task" : "tasks",
+                          validation::taskRanges(gone) + (gone.size() == 1 ? " counts as" : " count as"),
+                          shellArgument(p.path), shellArgument(p.path))});
   }
   fmt::print(reportStream(), "campaign: {} stored by the plan's tasks in tag {} -> {}\n  {}\n",
              counted(plan->groups.size(), "group"), plan->tag, (*db)->uri(), modelText(*model));

@@ -135,11 +135,21 @@ int batchStatus(const std::string& path, bool json) {
       merge = missing.empty() ? "; merged (emcalign finish ended well)"
                               : "; merged once, before the missing tasks' outputs went: merge again after them";
     } else if (const auto failed = validation::failedMerge(*plan); !failed.log.empty()) {
-      merge = fmt::format("; the merge has not ended well: {} (last line: {})", failed.log, failed.lastLine);
+      merge = fmt::format("; not merged (the last merge job's log {} ends: {})", failed.log, failed.lastLine);
     }
     fmt::print(reportStream(), "{} ({}, {}): {} done, {} missing{}{}\n", plan->path, plan->command,
                counted(states.size(), "task"), done.size(), missing.size(),
                missing.empty() ? "" : ": " + validation::taskRanges(missing), merge);
+    for (std::size_t k : missing) {
+      for (const auto& w : plan->tasks[k].writes) {
+        if (std::error_code ec; !w.empty() && w.front() == '/' && std::filesystem::exists(w, ec)) {
+          fmt::print(reportStream(),
+                     "  task {}: {} is there but not as the task wrote it (changed since, or another run's): "
+                     "the task will not replace what it cannot tell is its own; remove it, then run the task\n",
+                     k, w);
+        }
+      }
+    }
     for (const auto& [k, log] : logs.items()) {
       fmt::print(reportStream(),
                  "  task {} is missing (failed, stopped, or its outputs removed since); its log {}:\n    {}\n", k,
@@ -211,10 +221,11 @@ int batchSubmit(const SubmitOptions& o) {
   // Slurm cancels a merge whose tasks failed before it starts: then it has no log.
   const auto missing = missingTasks(*plan);
   if (std::error_code ec; !missing.empty() && !std::filesystem::exists(plan->finishLog(), ec)) {
-    reportError(Error{fmt::format(
-        "tasks {} did not end well, so the merge job {} never ran: emcalign batch status {} shows their logs; "
-        "then emcalign batch submit {} --missing",
-        validation::taskRanges(missing), submitted->finishJob, shellArgument(plan->path), shellArgument(plan->path))});
+    reportError(
+        Error{fmt::format("{} {} not end well, so the merge job {} never ran: emcalign batch status {} shows the logs; "
+                          "then emcalign batch submit {} --missing",
+                          missing.size() == 1 ? "task" : "tasks", validation::taskRanges(missing) + " did",
+                          submitted->finishJob, shellArgument(plan->path), shellArgument(plan->path))});
   } else {
     reportError(
         Error{fmt::format("the merge job {} did not end well (exit status {}): see {} and emcalign batch status {}",
@@ -281,7 +292,13 @@ Status planBesideOutputs(const std::string& planPath, const std::vector<std::str
   const std::string work = validation::planWorkDirectory(planPath);
   for (const auto& out : outputs) {
     if (out.empty() || out == "-") continue;
-    if (within(planPath, out) || within(work, out) || within(out, work)) {
+    if (within(out, work)) {
+      return Error{
+          fmt::format("{}: inside the work directory {} of the plan {}, where the tasks keep their "
+                      "records: put it elsewhere",
+                      out, work, planPath)};
+    }
+    if (within(planPath, out) || within(work, out)) {
       return Error{fmt::format(
           "--plan {}: the plan and its work directory {} would be inside {}, an output or input of the command, "
           "which holds what the command writes or reads and nothing else: put the plan beside it",
@@ -304,6 +321,8 @@ int runPlannable(const std::string& command, const std::string& planPath, const 
       return kExitOk;
     }
     case PlanContext::Mode::Finish: {
+      // Merged no more until this merge ends well (a merge that fails says so in batch status).
+      if (Status s = validation::forgetMerge(*gContext.plan); !s) return reportError(s.error());
       if (Status s = validation::checkAllTasksDone(*gContext.plan); !s) return reportError(s.error());
       const auto t0 = std::chrono::steady_clock::now();
       const int code = finish();

@@ -298,6 +298,13 @@ Status forgetTask(const Plan& plan, std::size_t k) {
   return {};
 }
 
+Status forgetMerge(const Plan& plan) {
+  std::error_code ec;
+  fs::remove(plan.finishRecord(), ec);
+  if (ec) return Error{fmt::format("{}: cannot remove the record: {}", plan.finishRecord(), ec.message())};
+  return {};
+}
+
 std::vector<std::string> taskWarnings(const Plan& plan) {
   std::vector<std::string> out;
   for (std::size_t k = 0; k < plan.tasks.size(); ++k) {

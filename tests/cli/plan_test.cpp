@@ -279,6 +279,8 @@ TEST_F(PlanCli, APlanReplacesOnlyAPlanAndStaysBesideTheOutputs) {
   fs::resize_file(sample, fs::file_size(sample) / 2);
   r = run(fmt::format("batch status {} --json", path("plan.json")));
   EXPECT_EQ(json::parse(r.out)["missing"], json::parse("[0, 1, 2]"));
+  r = run(fmt::format("batch status {}", path("plan.json")));
+  EXPECT_THAT(r.out, HasSubstr(fmt::format("task 0: {} is there but not as the task wrote it", sample)));
   r = run(fmt::format("task {} 0", path("plan.json")));
   EXPECT_EQ(r.exitCode, 1);
   EXPECT_THAT(r.err, HasSubstr(sample + " is not a finished sample of this campaign"));

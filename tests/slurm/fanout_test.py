@@ -214,7 +214,7 @@ def case_campaign(c):
                        capture_output=True, text=True)
     check(r.returncode == 0, f"psql: {r.stderr}")
     r = c.run("finish", "plan.json", ok=False)
-    check(r.returncode == 1 and "count as missing again" in r.stderr, f"finish of a removed IOV: {r.stderr}")
+    check(r.returncode == 1 and "task 1 counts as missing again" in r.stderr, f"finish of a removed IOV: {r.stderr}")
     check(c.status("plan.json")["missing"] == [1], "the removed IOV's task is not missing")
     c.submit("plan.json", "--missing")
     same_payloads()

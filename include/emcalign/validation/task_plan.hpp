@@ -134,6 +134,8 @@ struct TaskState {
 };
 /// Every task's state, from the records and logs in the work directory.
 std::vector<TaskState> taskStates(const Plan& plan);
+/// The merge's record removed (a merge starts: the plan is merged again only when it ends well).
+Status forgetMerge(const Plan& plan);
 /// The warnings the tasks recorded, each as "task K: …", in task order.
 std::vector<std::string> taskWarnings(const Plan& plan);
 /// The merge's log when it ran without ending well (its record absent): empty otherwise.

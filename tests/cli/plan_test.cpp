@@ -131,7 +131,7 @@ TEST_F(PlanCli, SamplesAreGroupedIntoTasksWithinAThousand) {
 // the others then read them; the merge writes the bytes of one process.
 TEST_F(PlanCli, ADerivationFansOutIntoSamplesFirstStageAndResponseBlocks) {
   constexpr const char* kDerive =
-      "derive-corrections --ideal --events 20000 --response-samples 50 --response-events 5000 --seed 4 --threads 2";
+      "derive-corrections --ideal --events 10000 --response-samples 50 --response-events 2000 --seed 4 --threads 2";
   auto r = run(fmt::format("{} --samples-per-task 20 -o {} --plan {}", kDerive, path("fan.json"), path("plan.json")));
   ASSERT_EQ(r.exitCode, 0) << r.err;
   const json plan = json::parse(slurp("plan.json"));

@@ -30,7 +30,7 @@ EOF
 "$bin" simulate --period period.json -o period --no-hits >/dev/null 2>&1
 declare -A study
 study[validate]="validate --samples 50 --events 50000"
-study[derive]="derive-corrections --beam-energy 500,700,900 --events 200000 --response-samples 50 --response-events 20000 --samples-per-task 10"
+study[derive]="derive-corrections --beam-energy 500,700,900 --events 200000 --response-samples 100 --response-events 20000 --samples-per-task 10"
 study[systematics]="systematics --samples 10 --events 50000 --variations gains-2pc,tmax-up,dead-double --corrections c.json --reverse --reverse-events 200000 --reverse-response-samples 0"
 study[campaign]="campaign period --min-events 50000"
 order=(validate derive systematics campaign)
@@ -65,8 +65,12 @@ same() { # the outputs of run A and run B of a study are the same
 
 declare -A t1 t2 s1 s2 tasks mean longest memory
 for name in "${order[@]}"; do
-  start=$(now); "$bin" ${study[$name]} $(output "$name" "$name-t1") --threads 1 >/dev/null 2>&1; t1[$name]=$(elapsed "$start")
-  start=$(now); "$bin" ${study[$name]} $(output "$name" "$name-t2") --threads 2 >/dev/null 2>&1; t2[$name]=$(elapsed "$start")
+  for threads in 1 2; do
+    start=$(now)
+    "$bin" ${study[$name]} $(output "$name" "$name-t$threads") --threads $threads >"$name-t$threads.log" 2>&1 ||
+      { echo "$name with $threads threads failed: $work/$name-t$threads.log" >&2; exit 1; }
+    if [ "$threads" = 1 ]; then t1[$name]=$(elapsed "$start"); else t2[$name]=$(elapsed "$start"); fi
+  done
   same "$name" "$name-t1" "$name-t2" || { echo "$name: 1 and 2 threads differ" >&2; exit 1; }
 done
 

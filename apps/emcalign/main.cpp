@@ -1,6 +1,7 @@
 // emcalign: geometric calibration of a two-hemisphere EM calorimeter relative to a tracker.
-// This file only wires the subcommands (each adds itself from cmd_<name>.cpp), the signals and
-// the exit codes of docs/conventions.md.
+// This file only wires the subcommands (each adds itself from cmd_<name>.cpp; task, finish and
+// batch from planned.cpp, which also wires the --plan of the four commands that fan out), the
+// signals and the exit codes of docs/conventions.md.
 
 #include <fcntl.h>
 #include <unistd.h>

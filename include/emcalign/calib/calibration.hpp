@@ -106,9 +106,10 @@ struct FitInput {
   std::string systematicsSource;  ///< the corrections file or grid they came from
 };
 
-/// How σ_sys was chosen, as the result file says it: {"method": "spec"|"fixed"|"auto",
-/// "value_deg"} and, for auto, "interval_deg" [lower, upper] (68 %; upper null when
-/// unbounded), "chi2_statistical_errors", "p_value_statistical_errors", "fits".
+/// How σ_sys was chosen, as the result file says it: {"method": name(SigmaSysMethod) ("spec",
+/// "fixed", "auto", or "saved profile": a saved profile's bins carry their total σ, value null),
+/// "value_deg", "event_pair_correlations"} and, for auto, "interval_deg" [lower, upper] (68 %;
+/// upper null when unbounded), "chi2_statistical_errors", "p_value_statistical_errors", "fits".
 io::Json sigmaSysJson(const SigmaSysUsed& sigmaSys);
 
 /// The fit-result file of SPEC §3 (file units: deg, cm).

@@ -86,7 +86,7 @@ Result<std::unique_ptr<validation::PlannedJob>> plannedJob(const io::Json& data,
   const bool given = !data.contains("conditions");  // the database and tag given to this task
   auto plan = plannedCampaign(data, source, o);
   if (!plan) return plan.error();
-  const std::string planDetector = plan->detector == "embedded default" ? std::string() : plan->detector;
+  const std::string planDetector = io::detectorPath(plan->detector);
   if (!o.detector.empty() && o.detector != planDetector) {
     return Error{
         fmt::format("--detector {}: the plan {} was made with the {} detector", o.detector, source, plan->detector)};
@@ -148,7 +148,7 @@ int finishCampaign(const CampaignCliOptions& o) {
   const validation::Plan& p = *planContext().plan;
   auto plan = plannedCampaign(p.data, p.path, o);
   if (!plan) return reportError(plan.error());
-  auto calo = loadCalorimeter(plan->detector == "embedded default" ? std::string() : plan->detector);
+  auto calo = loadCalorimeter(io::detectorPath(plan->detector));
   if (!calo) return reportError(calo.error());
   auto model = validation::planModel(*plan, *calo);
   if (!model) return reportError(model.error());

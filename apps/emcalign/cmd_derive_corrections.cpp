@@ -59,7 +59,7 @@ io::Json settingsOf(const DeriveOptions& cli, double beamEnergy) {
           {"gap_cm", cli.gap},
           {"response_samples", cli.responseSamples},
           {"response_events_per_sample", cli.responseEvents},
-          {"detector", cli.detector.empty() ? "embedded default" : cli.detector}};
+          {"detector", io::detectorName(cli.detector)}};
 }
 
 void printReport(const validation::DerivationReport& report) {

@@ -164,7 +164,7 @@ calib::FitRequest requestOf(const FitCliOptions& o) {
   calib::FitRequest r;
   r.events = o.events;
   r.profileIn = o.profileIn;
-  r.detectorName = o.detector.empty() ? "embedded default" : o.detector;
+  r.detectorName = io::detectorName(o.detector);
   r.depthOffset = o.depthOffset * units::cm;
   r.corrections = o.corrections;
   if (o.beamEnergy > 0.0) r.beamEnergy = o.beamEnergy;

@@ -104,8 +104,8 @@ int run(const ReportCliOptions& o) {
     // The fit's detector: the embedded one, or --detector when the result names a file (which
     // the report does not open itself: a result can name any file of the system).
     const std::string detector = o.detector;
-    const Json named = j->at("input").value("detector", Json("embedded default"));
-    if (detector.empty() && named.is_string() && named.get<std::string>() != "embedded default") {
+    const Json named = j->at("input").value("detector", Json(io::kEmbeddedDetector));
+    if (detector.empty() && named.is_string() && named.get<std::string>() != io::kEmbeddedDetector) {
       return reportError(
           Error{fmt::format("{}: the fit used the detector {}: give it with --detector (the report "
                             "opens only the files its command line names)",

@@ -81,7 +81,7 @@ validation::SimulateRequest requestOf(const SimulateOptions& cli, const sim::Sim
   r.compression = cli.compression;
   r.ideal = cli.ideal;
   r.off = cli.off;
-  r.detectorName = cli.detector.empty() ? "embedded default" : cli.detector;
+  r.detectorName = io::detectorName(cli.detector);
   r.backgroundName = cli.backgroundEvents;
   return r;
 }

@@ -121,7 +121,7 @@ Result<validation::CampaignOptions> campaignOptionsOf(const ValidateOptions& cli
                 {"theta_range_deg", {cli.thetaMinDeg, cli.thetaMaxDeg}},
                 {"ranges", ranges},
                 {"mu_below_gapless", o.ranges.muBelowGapless},
-                {"detector", cli.detector.empty() ? "embedded default" : cli.detector}};
+                {"detector", io::detectorName(cli.detector)}};
   // Only when given, so that a campaign directory made before the option resumes.
   if (!cli.sigmaSys.empty()) o.settings["sigma_sys"] = cli.sigmaSys;
   if (cli.beamEnergy > 0.0) o.settings["beam_energy_mev"] = cli.beamEnergy;

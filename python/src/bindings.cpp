@@ -108,7 +108,8 @@ py::dict eventColumns(const std::vector<ParticleRow>& rows, const std::vector<Tr
 }
 
 Detector::Detector(const std::optional<Path>& path)
-    : source_(path ? pathString(*path) : "embedded default"), calo_(unwrap(io::loadCalorimeter(path ? source_ : ""))) {}
+    : source_(path ? pathString(*path) : std::string(io::kEmbeddedDetector)),
+      calo_(unwrap(io::loadCalorimeter(path ? source_ : ""))) {}
 
 const Detector& detectorOr(const Detector* detector) {
   if (detector != nullptr) return *detector;

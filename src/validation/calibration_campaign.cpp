@@ -131,7 +131,7 @@ Result<CampaignModel> campaignModel(const std::string& corrections, const std::s
                                     const geometry::Calorimeter& calo) {
   CampaignModel m;
   m.geometry = calib::FitGeometry::of(calo.description());
-  m.detector = detector.empty() ? "embedded default" : detector;
+  m.detector = io::detectorName(detector);
   if (!corrections.empty()) {
     auto grid = calib::CorrectionsGrid::read(corrections);
     if (!grid) return grid.error();
@@ -485,7 +485,7 @@ Result<CampaignPlan> parseCampaignPlan(const Json& data, const std::string& path
 }
 
 Result<CampaignModel> planModel(const CampaignPlan& plan, const geometry::Calorimeter& calo) {
-  const std::string detector = plan.detector == "embedded default" ? std::string() : plan.detector;
+  const std::string detector = io::detectorPath(plan.detector);
   auto model = campaignModel(plan.corrections, detector, calo);
   if (!model) return model.error();
   if (model->correctionsSha256 != plan.correctionsSha256) {

@@ -38,7 +38,7 @@ struct FitRequest {
   std::shared_ptr<const std::vector<ParticleRow>> rows;
   std::string rowsName = "events";  ///< the rows' name in messages and in the result's input
   /// The detector as the result file names it: a description's path, or "embedded default".
-  std::string detectorName = "embedded default";
+  std::string detectorName = std::string(io::kEmbeddedDetector);
   double depthOffset = 0.0;                ///< added to R(E, θ), native length; corrections bring their own
   std::string corrections;                 ///< a corrections file or grid directory (empty: none)
   std::optional<double> beamEnergy;        ///< MeV: the selection's and the grid's (none: the files')

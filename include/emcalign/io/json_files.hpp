@@ -74,6 +74,13 @@ Result<geometry::DetectorDescription> readDetectorDescription(const std::string&
 /// The calorimeter of a description file (`--detector FILE`), or the embedded SND-like one
 /// when the path is empty; a description the calorimeter refuses is named by its path.
 Result<geometry::Calorimeter> loadCalorimeter(const std::string& path);
+/// How files and settings name the detector: a description's path, or this for the embedded one.
+inline constexpr std::string_view kEmbeddedDetector = "embedded default";
+/// The name recorded for `path` (empty: the embedded detector), and the path of a recorded name.
+inline std::string detectorName(const std::string& path) {
+  return path.empty() ? std::string(kEmbeddedDetector) : path;
+}
+inline std::string detectorPath(const std::string& name) { return name == kEmbeddedDetector ? std::string() : name; }
 Json toJson(const geometry::DetectorDescription& d);
 
 /// How strictly an alignment is read.

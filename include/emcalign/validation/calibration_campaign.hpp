@@ -79,7 +79,7 @@ struct CampaignModel {
   std::string correctionsWarning;
   /// The systematic errors the corrections carry (a grid's interpolated by at()); none: none.
   std::shared_ptr<const calib::SystematicErrors> systematics;
-  std::string detector = "embedded default";
+  std::string detector = std::string(io::kEmbeddedDetector);
   calib::SigmaSysChoice sigmaSys;  ///< of every group's fit (calib/sigma_sys.hpp)
   /// Sets σ_sys and whether the profiles keep the event pairs it needs.
   void setSigmaSys(const calib::SigmaSysChoice& choice) {

@@ -27,7 +27,7 @@ struct SimulateRequest {
   /// `options`), and the detector ("embedded default" or a description's path).
   bool ideal = false;
   std::vector<std::string> off;
-  std::string detectorName = "embedded default";
+  std::string detectorName = std::string(io::kEmbeddedDetector);
   /// The recorded beam background (options.recordedBackground), for the record: its file as
   /// given and its SHA-256.
   std::string backgroundName;

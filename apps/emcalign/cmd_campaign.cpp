@@ -102,7 +102,7 @@ Result<std::unique_ptr<validation::PlannedJob>> plannedJob(const io::Json& data,
   }
   if (!o.sigmaSys.empty() && !calib::sameChoice(sigmaSysChoice(o.sigmaSys), plan->sigmaSys)) {
     return Error{fmt::format("--sigma-sys {}: the plan {} was made with sigma_sys {}", o.sigmaSys, source,
-                             validation::sigmaSysChoiceJson(plan->sigmaSys).dump())};
+                             calib::sigmaSysChoiceJson(plan->sigmaSys).dump())};
   }
   auto calo = loadCalorimeter(planDetector);
   if (!calo) return calo.error();

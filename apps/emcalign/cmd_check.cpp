@@ -30,28 +30,11 @@ namespace {
 namespace fs = std::filesystem;
 
 struct CheckCliOptions {
-  std::string process;  // "gg" or "3pi"
+  apply::CheckProcess process = apply::CheckProcess::GammaGamma;
   std::vector<std::string> events;
   std::string alignment, conditions, tag, corrections, detector, output;
   std::string method = std::string(apply::name(apply::CorrectOptions{}.method));
 };
-
-std::string fixed(double v, int digits) { return std::isfinite(v) ? fmt::format("{:.{}f}", v, digits) : "—"; }
-
-// A number of check.json, NaN where it is null (nothing to measure) or absent.
-double number(const io::Json& side, const std::string& key) {
-  return side.contains(key) && side.at(key).is_number() ? side.at(key).get<double>() : NAN;
-}
-
-// Fails when no event passed the selection: there is nothing to compare.
-Status anySelected(const apply::CheckCutFlow& flow, const std::string& process) {
-  if (!flow.events.empty() && flow.events.back() > 0) return {};
-  std::string text;
-  for (std::size_t k = 0; k < flow.names.size() && k < flow.events.size(); ++k) {
-    text += fmt::format("{}{} {}", k ? ", " : "", flow.names[k], flow.events[k]);
-  }
-  return Error{fmt::format("no event passes the {} selection ({}): nothing to check", process, text)};
-}
 
 int run(const CheckCliOptions& o) {
   std::vector<io::NamedPath> inputs;
@@ -69,11 +52,9 @@ int run(const CheckCliOptions& o) {
   auto made = apply::correctOptionsOf(o.method, 0.0, o.corrections, *calo);
   if (!made) return reportError(made.error());
   apply::CorrectOptions& options = *made;
-  options.description = io::Json{{"software", fmt::format("emcalign {}", kVersion)},
-                                 {"alignment", source->description},
-                                 {"method", o.method},
-                                 {"purpose", "emcalign check " + o.process}}
-                            .dump();
+  io::Json record = apply::correctionRecord(source->description, o.method, options, o.events, o.corrections);
+  record["purpose"] = fmt::format("emcalign check {}", name(o.process));
+  options.description = record.dump();
   std::error_code ec;
   fs::create_directories(o.output, ec);
   if (ec) return reportError(Error{fmt::format("{}: cannot create the directory: {}", o.output, ec.message())});
@@ -89,54 +70,21 @@ int run(const CheckCliOptions& o) {
   if (!report) return reportError(report.error());
 
   io::Json json;
-  std::vector<report::BeforeAfterPanel> panels;
-  std::string figure, summary;
-  if (o.process == "gg") {
+  report::CheckFigure figure;
+  if (o.process == apply::CheckProcess::GammaGamma) {
     auto check = apply::checkGammaGamma(o.events, {corrected});
     if (!check) return reportError(check.error());
-    if (Status st = anySelected(check->cutFlow, "e+e- -> gamma gamma"); !st) return reportError(st.error());
+    if (Status st = check->cutFlow.requireSelected(o.process); !st) return reportError(st.error());
     json = apply::checkJson(*check);
-    const auto& b = json["before"];
-    const auto& a = json["after"];
-    auto label = [](const char* when, const io::Json& side, const char* what) {
-      const std::string w(what);
-      return fmt::format("{}: σ_{{core}} {}°, rms {}°", when, fixed(number(side, w + "_width_deg"), 3),
-                         fixed(number(side, w + "_rms_deg"), 3));
-    };
-    panels.push_back({"Δφ = |φ_1 − φ_2| − 180°  [deg]", -6.0, 6.0, 60, check->dphi[0], check->dphi[1],
-                      label("before", b, "dphi"), label("after", a, "dphi"), 0, "deg"});
-    panels.push_back({"Δθ = θ_1 + θ_2 − 180°  [deg]", -15.0, 15.0, 60, check->dtheta[0], check->dtheta[1],
-                      label("before", b, "dtheta"), label("after", a, "dtheta"), 0, "deg"});
-    figure = "acollinearity";
-    summary = fmt::format("check gg: {} of {} events selected; Δφ core width {}° -> {}° ({}% better), Δθ {}° -> {}°",
-                          json["selected"].get<std::int64_t>(), check->cutFlow.events.front(),
-                          fixed(number(b, "dphi_width_deg"), 3), fixed(number(a, "dphi_width_deg"), 3),
-                          fixed(number(json["improvement_percent"], "dphi_width"), 1),
-                          fixed(number(b, "dtheta_width_deg"), 3), fixed(number(a, "dtheta_width_deg"), 3));
+    figure = report::checkFigure(*check, json);
   } else {
     // The kinematic fit's R(E, θ), of each event's beam energy with a corrections grid.
     auto check = apply::checkThreePion(o.events, {corrected},
                                        options.depthAt ? options.depthAt : geometry::atEveryEnergy(options.depth));
     if (!check) return reportError(check.error());
-    if (Status st = anySelected(check->cutFlow, "e+e- -> pi+ pi- pi0"); !st) return reportError(st.error());
+    if (Status st = check->cutFlow.requireSelected(o.process); !st) return reportError(st.error());
     json = apply::checkJson(*check);
-    std::array<std::vector<double>, 2> chi2;
-    for (std::size_t k = 0; k < 2; ++k) {
-      for (const auto& f : check->fits[k]) {
-        if (f.converged) chi2[k].push_back(f.chi2);
-      }
-    }
-    const auto& b = json["before"];
-    const auto& a = json["after"];
-    panels.push_back({"χ^2 of the kinematic fit (ndf 2)", 0.0, 30.0, 60, chi2[0], chi2[1],
-                      fmt::format("before: mean {}", fixed(number(b, "chi2_mean"), 2)),
-                      fmt::format("after: mean {}", fixed(number(a, "chi2_mean"), 2)), 2});
-    figure = "chi2";
-    summary = fmt::format("check 3pi: {} of {} events selected; mean χ² {} -> {} ({}% lower); not converged {} / {}",
-                          json["selected"].get<std::int64_t>(), check->cutFlow.events.front(),
-                          fixed(number(b, "chi2_mean"), 3), fixed(number(a, "chi2_mean"), 3),
-                          fixed(number(json["improvement_percent"], "chi2_mean"), 1),
-                          b["not_converged"].get<std::int64_t>(), a["not_converged"].get<std::int64_t>());
+    figure = report::checkFigure(*check, json);
   }
   json["alignment"] = source->description;
   json["correction_method"] = std::string(name(report->method));
@@ -145,20 +93,16 @@ int run(const CheckCliOptions& o) {
   if (Status s = io::writeFileIn(o.output, "check.json", json.dump(1) + "\n"); !s) {
     return reportError(s.error());
   }
-  auto png =
-      report::writeBeforeAfterPlot(o.output, figure,
-                                   o.process == "gg" ? "e+e- → γγ: acollinearity before and after the correction"
-                                                     : "e+e- → π+π−π0: kinematic fit before and after the correction",
-                                   panels);
+  auto png = report::writeBeforeAfterPlot(o.output, figure.name, figure.title, figure.panels);
   if (!png) return reportError(png.error());
-  fmt::print(reportStream(), "{}\nwrote {}/check.json and {}\n", summary, o.output, *png);
+  fmt::print(reportStream(), "{}\nwrote {}/check.json and {}\n", figure.summary, o.output, *png);
   return kExitOk;
 }
 
-void addProcess(CLI::App& parent, const std::string& process, const std::string& help, int& exitCode) {
+void addProcess(CLI::App& parent, apply::CheckProcess process, const std::string& help, int& exitCode) {
   auto o = std::make_shared<CheckCliOptions>();
   o->process = process;
-  auto* cmd = parent.add_subcommand(process, help);
+  auto* cmd = parent.add_subcommand(std::string(name(process)), help);
   addVersionFlag(*cmd);
   cmd->add_option("events", o->events, "event files (HDF5 or .csv)")->required()->check(CLI::ExistingFile);
   auto* alignment = cmd->add_option("--alignment", o->alignment, "a parameter file, a fit result or a placements file")
@@ -192,11 +136,11 @@ void addCheckCommand(CLI::App& app, int& exitCode) {
                                  "correction (the paper, section 5)");
   addVersionFlag(*cmd);
   cmd->require_subcommand(1);
-  addProcess(*cmd, "gg",
+  addProcess(*cmd, apply::CheckProcess::GammaGamma,
              "e+e- → γγ: the acollinearity Δφ, Δθ of the paper's selection, its core width before and "
              "after",
              exitCode);
-  addProcess(*cmd, "3pi",
+  addProcess(*cmd, apply::CheckProcess::ThreePion,
              "e+e- → π+π−π0: the 2C kinematic fit (energy and momentum, no π0 mass), its χ² before and "
              "after",
              exitCode);

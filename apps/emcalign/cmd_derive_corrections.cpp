@@ -246,7 +246,7 @@ void addDeriveCorrectionsCommand(CLI::App& app, int& exitCode) {
                               "points already derived with the same settings)",
                               validation::DerivationOptions{}.simulation.generator.beamEnergy / units::MeV))
       ->delimiter(',')
-      ->check(finiteIn(sim::kMinBeamEnergy / units::MeV, sim::kMaxBeamEnergy / units::MeV));
+      ->check(finiteIn(kMinBeamEnergy / units::MeV, kMaxBeamEnergy / units::MeV));
   cmd->add_option("--theta-min", o->thetaMinDeg,
                   fmt::format("generated polar range of the leptons, deg (default {})", o->thetaMinDeg))
       ->check(finiteIn(0.0, 180.0));

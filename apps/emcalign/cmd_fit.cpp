@@ -15,6 +15,7 @@
 #include "common.hpp"
 #include "emcalign/calib/calibration.hpp"
 #include "emcalign/calib/fit_job.hpp"
+#include "emcalign/core/beam_energy.hpp"
 #include "emcalign/core/text.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/geometry/shower_depth.hpp"
@@ -236,7 +237,7 @@ void addFitCommand(CLI::App& app, int& exitCode) {
                   "curves, and the residual distributions before and after the correction");
   cmd->add_option("--beam-energy", o->beamEnergy,
                   "beam energy for the selection and a corrections grid, MeV (default: from the file)")
-      ->check(finiteIn(10.0, 10000.0));
+      ->check(finiteIn(kMinBeamEnergy / units::MeV, kMaxBeamEnergy / units::MeV));
   auto* depthOffset =
       cmd->add_option("--depth-offset", o->depthOffset,
                       fmt::format("cm added to the shower depth R(E, theta) in the residuals and the model (default "

@@ -76,49 +76,15 @@ int run(const ReportCliOptions& o) {
   if (!o.title.empty()) in.title = o.title;
   std::optional<ScratchDirectory> scratch;
   if (!o.fit.empty()) {
-    auto text = io::readTextFile(o.fit);
-    if (!text) return reportError(text.error());
-    auto j = io::parseJson(*text, o.fit);
-    if (!j) return reportError(j.error());
-    if (!j->is_object() || !j->contains("parameters") || !j->contains("chi2") || !j->contains("input")) {
-      return reportError({fmt::format("{}: not a fit result (emcalign fit -o)", o.fit)});
-    }
-    report::ReportFit fit{.path = o.fit, .result = *j};
+    auto read = report::readFitResult(o.fit, o.events, o.detector);
+    if (!read) return reportError(read.error());
+    report::ReportFit& fit = *read;
+    const Json* j = &fit.result;
     // The files the result names are never opened, but are inputs all the same.
     for (const auto& f : report::filesNamedIn(*j)) io::protectInput({"named by --fit", f});
-    // The digests of the fit's inputs that the command line names (--events): the report
-    // opens nothing a result file names by itself (it could name any file of the system).
-    if (j->at("input").contains("files") && j->at("input").at("files").is_array()) {
-      for (const auto& f : j->at("input").at("files")) {
-        if (!f.is_string()) continue;
-        const std::string named = f.get<std::string>();
-        std::string digest;
-        if (std::find(o.events.begin(), o.events.end(), named) != o.events.end()) {
-          auto d = sha256OfFile(named);
-          if (!d) return reportError(d.error());
-          digest = *d;
-        }
-        fit.inputDigests.emplace_back(named, digest);
-      }
-    }
-    // The fit's detector: the embedded one, or --detector when the result names a file (which
-    // the report does not open itself: a result can name any file of the system).
-    const std::string detector = o.detector;
-    const Json named = j->at("input").value("detector", Json(io::kEmbeddedDetector));
-    if (detector.empty() && named.is_string() && named.get<std::string>() != io::kEmbeddedDetector) {
-      return reportError(
-          Error{fmt::format("{}: the fit used the detector {}: give it with --detector (the report "
-                            "opens only the files its command line names)",
-                            o.fit, named.get<std::string>())});
-    }
-    auto calo = loadCalorimeter(detector);
+    auto calo = loadCalorimeter(o.detector);
     if (!calo) return reportError(calo.error());
-    const auto& d = calo->description();
-    fit.detector = fmt::format(
-        "{}{}, {} counters in 3 layers, the EMC from R0 = {:.1f} cm, the hemispheres' support "
-        "sphere at R1 = {:.1f} cm",
-        d.name, detector.empty() ? "" : " (" + detector + ")", 3 * calo->countersPerLayer(), d.r0() / units::cm,
-        d.r1() / units::cm);
+    fit.detector = report::detectorLine(*calo, o.detector);
     if (!o.events.empty()) {
       if (Status s = report::checkEventsOfResult(*j, o.fit, o.events); !s) return reportError(s.error());
       auto model = report::modelOfResult(*j, o.fit, *calo, o.corrections);

@@ -13,6 +13,7 @@
 #include "common.hpp"
 #include "emcalign/apply/residual_summary.hpp"
 #include "emcalign/calib/corrections.hpp"
+#include "emcalign/core/beam_energy.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/core/version.hpp"
 #include "emcalign/geometry/shower_depth.hpp"
@@ -131,7 +132,7 @@ void addResidualsCommand(CLI::App& app, int& exitCode) {
   addVersionFlag(*cmd);
   cmd->add_option("--sample", o->samples, "a sample as NAME=FILE[,FILE...] (repeat for several)")->required();
   cmd->add_option("--beam-energy", o->beamEnergy, "beam energy for the selection, MeV (default: from the files)")
-      ->check(finiteIn(10.0, 10000.0));
+      ->check(finiteIn(kMinBeamEnergy / units::MeV, kMaxBeamEnergy / units::MeV));
   auto* offset = cmd->add_option("--depth-offset", o->depthOffset,
                                  fmt::format("cm added to R(E, theta) (default {})", o->depthOffset))
                      ->check(finiteIn(-calib::kMaxDepthOffset, calib::kMaxDepthOffset));

@@ -182,11 +182,7 @@ int runPeriod(const SimulateOptions& cli) {
   auto request = requestOf(cli, o.simulation);
   if (Status s = loadBackground(cli, *calo, mostInRun, o.simulation, &request); !s) return reportError(s.error());
   request.options = o.simulation;
-  o.settings = validation::simulationSettings(request);
-  for (const char* perRun : {"process", "events", "seed", "run", "beam_energy_mev", "theta_range_deg", "software"}) {
-    o.settings.erase(perRun);  // set by the scenario for each run, or not a setting
-  }
-  o.settings["detector_sha256"] = sha256(io::toJson(calo->description()).dump());
+  o.settings = validation::periodSimulationSettings(request, calo->description());
   fmt::print(reportStream(), "simulate --period {}: runs {}-{} ({}), {}, {}, {}, {} -> {}\n", cli.period,
              scenario->firstRun, scenario->lastRun(), counted(runs.size(), "run"), counted(total, "event"),
              counted(scenario->beamEnergy.size(), "beam energy", "beam energies"),
@@ -297,7 +293,7 @@ void addSimulateCommand(CLI::App& app, int& exitCode) {
          fmt::format("beam energy in MeV (default {} for ee and gg, {} for 3pi)",
                      sim::defaultBeamEnergy(sim::Process::Bhabha) / units::MeV,
                      sim::defaultBeamEnergy(sim::Process::ThreePion) / units::MeV))
-      ->check(finiteIn(sim::kMinBeamEnergy / units::MeV, sim::kMaxBeamEnergy / units::MeV));
+      ->check(finiteIn(kMinBeamEnergy / units::MeV, kMaxBeamEnergy / units::MeV));
   cmd->add_option_function<double>(
          "--theta-min", [o](const double& v) { o->thetaMinDeg = v; },
          fmt::format("lower edge of the generated polar range of the final-state particles, deg (default {}; "

@@ -50,37 +50,7 @@ int refit(const TrendCliOptions& o, const validation::Trend& trend, const std::v
   if (!files) return reportError(files.error());
   auto model = validation::campaignModel(o.corrections, o.detector, calo);
   if (!model) return reportError(model.error());
-  // The refit uses the corrections and the sigma_sys the campaign used (every IOV's, the
-  // corrections by their digest).
-  std::optional<calib::SigmaSysChoice> sigmaSys;
-  for (const conddb::Iov& iov : snapshot.iovs()) {
-    auto p = snapshot.payload(iov);
-    if (!p) return reportError(p.error());
-    auto choice = validation::sigmaSysChoiceOf(**p);
-    if (!choice) {
-      return reportError(Error{fmt::format("tag {}: the calibration of runs {}-{} has {}", o.tag, iov.firstRun,
-                                           iov.lastRun, choice.error().message)});
-    }
-    if (!sigmaSys) {
-      sigmaSys = *choice;
-      model->setSigmaSys(*choice);
-    } else if (!calib::sameChoice(*sigmaSys, *choice)) {
-      return reportError(Error{fmt::format(
-          "tag {}: its IOVs were fitted with different sigma_sys ({} and {}): no "
-          "refit comparable with all of them",
-          o.tag, validation::sigmaSysChoiceJson(*sigmaSys).dump(), validation::sigmaSysChoiceJson(*choice).dump())});
-    }
-    const io::Json& provenance = (*p)->content["provenance"];
-    const std::string used = provenance.value("corrections", ""), usedSha = provenance.value("corrections_sha256", "");
-    const bool same = usedSha.empty() ? used == o.corrections : usedSha == model->correctionsSha256;
-    if (!same) {
-      auto what = [](const std::string& c) { return c.empty() ? std::string("without corrections") : "with " + c; };
-      return reportError(
-          Error{fmt::format("--refit {}: the calibration of runs {}-{} in tag {} was made {} (give the "
-                            "same --corrections, for a refit comparable with them)",
-                            what(o.corrections), iov.firstRun, iov.lastRun, o.tag, what(used))});
-    }
-  }
+  if (Status s = validation::adoptTagSettings(snapshot, *model); !s) return reportError(s.error());
   ProgressLine reading("trend --refit: reading", static_cast<std::int64_t>(files->size()), "files");
   validation::ScanOptions so;
   so.threads = o.threads;

@@ -164,36 +164,12 @@ int run(const ValidateOptions& cli, bool finishing) {
   return 0;
 }
 
-// The corrections file of the study with its systematic errors (calib::SystematicErrors),
-// written to --write-corrections: what `emcalign fit --corrections` then reports beside the
-// statistical errors.
-// The corrections are those the study fitted with (a single file's, as read).
+// The corrections file of the study with its systematic errors, to --write-corrections.
 Status writeCorrectionsWithErrors(const ValidateOptions& cli, const validation::CampaignOptions& campaign,
                                   const validation::SystematicsTable& table) {
-  calib::ModelCorrections corrections = campaign.corrections;
-  io::Json conditions = campaign.settings;  // the simulation, ranges, σ_sys and detector of the study
-  conditions.erase("corrections");
-  conditions["beam_energy_mev"] = campaign.simulation.generator.beamEnergy / units::MeV;
-  std::vector<std::string> names;
-  for (const auto* v : table.variations) names.push_back(v->name);
-  const io::Json study = {
-      {"command", "emcalign systematics"},
-      {"software", fmt::format("emcalign {}", kVersion)},
-      {"samples", table.samples},
-      {"events", table.events},
-      {"seed", cli.seed},
-      {"conditions", conditions},
-      {"variations", names},
-      {"reverse", table.reverse},
-      {"combination",
-       "per parameter the quadrature sum over the varied quantities of the largest effect of each (a pattern's "
-       "root mean square; the reverse shifts included), in quadrature with the derivation's statistical errors"},
-      {"corrections_fnv1a", calib::correctionsDigest(corrections)}};
-  auto systematics =
-      calib::parseSystematicErrors(validation::systematicErrorsJson(table, corrections, study), cli.writeCorrections);
-  if (!systematics) return systematics.error();
-  corrections.systematics = std::make_shared<const calib::SystematicErrors>(std::move(*systematics));
-  return io::writeOutputFile(cli.writeCorrections, calib::correctionsJson(corrections).dump(2) + "\n");
+  auto corrections = validation::correctionsWithSystematics(table, campaign, cli.writeCorrections);
+  if (!corrections) return corrections.error();
+  return io::writeOutputFile(cli.writeCorrections, calib::correctionsJson(*corrections).dump(2) + "\n");
 }
 
 // Whether `path` is `dir` or lies inside it (both made absolute and normal, links resolved
@@ -323,7 +299,7 @@ void addCampaignOptions(CLI::App& cmd, ValidateOptions& o) {
   cmd.add_option("--beam-energy", o.beamEnergy,
                  fmt::format("beam energy of the samples, MeV (default {})",
                              validation::CampaignOptions{}.simulation.generator.beamEnergy / units::MeV))
-      ->check(finiteIn(sim::kMinBeamEnergy / units::MeV, sim::kMaxBeamEnergy / units::MeV));
+      ->check(finiteIn(kMinBeamEnergy / units::MeV, kMaxBeamEnergy / units::MeV));
   cmd.add_option("--theta-min", o.thetaMinDeg,
                  fmt::format("generated polar range of the leptons, deg (default {})", o.thetaMinDeg))
       ->check(finiteIn(0.0, 180.0));

@@ -129,10 +129,31 @@ double improvement(double before, double after) {
 
 }  // namespace
 
+std::string_view name(CheckProcess process) { return process == CheckProcess::GammaGamma ? "gg" : "3pi"; }
+
+std::optional<CheckProcess> checkProcessFromName(std::string_view name) {
+  if (name == "gg") return CheckProcess::GammaGamma;
+  if (name == "3pi") return CheckProcess::ThreePion;
+  return std::nullopt;
+}
+
+std::string_view finalState(CheckProcess process) {
+  return process == CheckProcess::GammaGamma ? "e+e- -> gamma gamma" : "e+e- -> pi+ pi- pi0";
+}
+
 Json CheckCutFlow::json() const {
   Json j = Json::object();
   for (std::size_t k = 0; k < names.size(); ++k) j[names[k]] = events[k];
   return j;
+}
+
+Status CheckCutFlow::requireSelected(CheckProcess process) const {
+  if (!events.empty() && events.back() > 0) return {};
+  std::string text;
+  for (std::size_t k = 0; k < names.size() && k < events.size(); ++k) {
+    text += fmt::format("{}{} {}", k ? ", " : "", names[k], events[k]);
+  }
+  return Error{fmt::format("no event passes the {} selection ({}): nothing to check", finalState(process), text)};
 }
 
 CoreWidth gaussianCore(std::span<const double> values) {
@@ -306,7 +327,7 @@ Json checkJson(const GammaGammaCheck& c) {
     sides[k] = widthJson(phi[k], "dphi");
     sides[k].update(widthJson(theta[k], "dtheta"));
   }
-  return {{"process", "gg"},
+  return {{"process", name(CheckProcess::GammaGamma)},
           {"selected", c.dphi[0].size()},
           {"cut_flow", c.cutFlow.json()},
           {"cut_order", c.cutFlow.names},
@@ -356,7 +377,7 @@ Json checkJson(const ThreePionCheck& c) {
         {"converged", chi2.size()},
         {"not_converged", failed}};
   }
-  return {{"process", "3pi"},
+  return {{"process", name(CheckProcess::ThreePion)},
           {"selected", c.fits[0].size()},
           {"ndf", KinematicFitResult::kNdf},
           {"cut_flow", c.cutFlow.json()},

@@ -9,6 +9,7 @@
 
 #include <Eigen/SVD>
 
+#include "emcalign/core/beam_energy.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/geometry/alignment_parameters.hpp"
 
@@ -229,9 +230,9 @@ Result<ModelCorrections> parseCorrections(const Json& j, std::string_view source
   ModelCorrections c;
   if (j.contains("beam_energy_mev")) {
     const Json& e = j["beam_energy_mev"];
-    if (!e.is_number() || !(e.get<double>() >= kMinCorrectionsEnergy && e.get<double>() <= kMaxCorrectionsEnergy)) {
+    if (!e.is_number() || !(e.get<double>() >= kMinBeamEnergy && e.get<double>() <= kMaxBeamEnergy)) {
       return Error{fmt::format("{}: key 'beam_energy_mev': expected the beam energy in MeV, {} to {}", source,
-                               kMinCorrectionsEnergy / units::MeV, kMaxCorrectionsEnergy / units::MeV)};
+                               kMinBeamEnergy / units::MeV, kMaxBeamEnergy / units::MeV)};
     }
     c.beamEnergy = e.get<double>() * units::MeV;
   }

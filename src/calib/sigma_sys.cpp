@@ -61,6 +61,21 @@ Result<SigmaSysChoice> recordedSigmaSysChoice(std::string_view method, double va
   return c;
 }
 
+io::Json sigmaSysChoiceJson(const SigmaSysChoice& c) {
+  io::Json j = {{"method", std::string(name(c.method))}};
+  if (c.method == SigmaSysMethod::Fixed) j["value_deg"] = c.value / units::deg;
+  return j;
+}
+
+Result<SigmaSysChoice> sigmaSysChoiceFromJson(const io::Json& record) {
+  const bool object = record.is_object();
+  const std::string method = object && record.contains("method") && record.at("method").is_string()
+                                 ? record.at("method").get<std::string>()
+                                 : std::string();
+  const bool value = object && record.contains("value_deg") && record.at("value_deg").is_number();
+  return recordedSigmaSysChoice(method, value ? record.at("value_deg").get<double>() : std::nan(""));
+}
+
 std::vector<ProfileBin> withSigmaSys(std::vector<ProfileBin> bins, double s) {
   for (auto& b : bins) {
     b.sigmaPhi = std::hypot(b.sigmaPhi, s);

@@ -10,7 +10,10 @@
 #include <fmt/ranges.h>
 
 #include "emcalign/conddb/address.hpp"
+#include "emcalign/core/fit_status.hpp"
 #include "emcalign/core/paper.hpp"
+#include "emcalign/core/sha256.hpp"
+#include "emcalign/core/units.hpp"
 #include "emcalign/core/version.hpp"
 #include "emcalign/report/html.hpp"
 
@@ -98,11 +101,12 @@ std::string fitChi2Text(const Json& r) {
                      number(r.value("p_value", Json()), "{:.3g}"));
 }
 
-Result<std::string> fitSection(const ReportFit& f) {
+// The result's status, detector, warnings and notes.
+std::string fitSummary(const ReportFit& f) {
   const Json& r = f.result;
   std::string body;
   const std::string status = r.at("status").get<std::string>();
-  const bool converged = status == "converged";
+  const bool converged = fitStatusFromName(status) == FitStatus::Converged;
   body += fmt::format(
       "<p>Result <code>{}</code>: status <span class=\"{}\">{}</span>; {}; "
       "{} profile bins used.</p>\n",
@@ -123,6 +127,12 @@ Result<std::string> fitSection(const ReportFit& f) {
     body += "<h3>Notes: the model and what it is known to do</h3>\n" + html::list(items, "");
   }
 
+  return body;
+}
+
+// The fit's set and the physical set, with the corrections' systematic errors when it has them.
+std::string parameterTables(const Json& r) {
+  std::string body;
   // The systematic errors of the model corrections (docs/systematics.md), when they carry them.
   const Json* systematic =
       r.contains("systematic_errors") && r.at("systematic_errors").is_object() ? &r.at("systematic_errors") : nullptr;
@@ -162,6 +172,12 @@ Result<std::string> fitSection(const ReportFit& f) {
   }
   body += "</div>\n";
 
+  return body;
+}
+
+// The correlation matrix as a heat map.
+std::string correlationMap(const Json& r) {
+  std::string body;
   if (r.contains("correlation") && r.at("correlation").is_array()) {
     std::vector<std::string> labels;
     for (const auto& n : kFitParams) labels.push_back(symbol(n));
@@ -175,6 +191,12 @@ Result<std::string> fitSection(const ReportFit& f) {
             html::heatMap(labels, m, "Correlation matrix of the fit (red positive, blue negative)");
   }
 
+  return body;
+}
+
+// σ_sys as the fit used it (and, for auto, how it was found).
+std::string sigmaSysParagraph(const Json& r) {
+  std::string body;
   if (r.contains("sigma_sys")) {
     const Json& s = r.at("sigma_sys");
     std::string line = fmt::format("σ_sys of every bin: {} deg ({}", number(s.value("value_deg", Json())),
@@ -189,6 +211,12 @@ Result<std::string> fitSection(const ReportFit& f) {
     body += html::paragraph(line + ").");
   }
 
+  return body;
+}
+
+// The stages of the fit.
+std::string stagesTable(const Json& r) {
+  std::string body;
   if (r.contains("stages") && r.at("stages").is_array()) {
     html::Table stages{.caption = "The staged fit (docs/fit.md)",
                        .header = {"stage", "free parameters", "χ²", "iterations", "converged"}};
@@ -202,6 +230,12 @@ Result<std::string> fitSection(const ReportFit& f) {
     body += html::table(stages);
   }
 
+  return body;
+}
+
+// The figures drawn from the events.
+Result<std::string> fitFigures(const ReportFit& f) {
+  std::string body;
   if (!f.figures.empty()) {
     body += "<h3>Profiles and residuals</h3>\n";
     for (std::size_t k = 0; k < f.figures.size(); ++k) {
@@ -211,7 +245,38 @@ Result<std::string> fitSection(const ReportFit& f) {
       body += *fig;
     }
   }
-  // Provenance.
+  return body;
+}
+
+// The model corrections of the provenance: none (the paper's model), or the depth offset,
+// the files and a grid's interpolation.
+std::string modelCorrectionsText(const Json& c) {
+  const bool none =
+      !c.value("depth_offset_cm", Json(0.0)).is_number() || c.value("depth_offset_cm", Json(0.0)).get<double>() == 0.0;
+  static constexpr std::array<const char*, 3> kFiles = {"parting_plane_response", "nominal_profile", "response"};
+  const bool anyFile = std::any_of(kFiles.begin(), kFiles.end(),
+                                   [&](const char* key) { return c.contains(key) && c.at(key).is_string(); });
+  std::string corr = none && !anyFile
+                         ? std::string("none: the paper's model (docs/fit.md, \"What the fit tells you\")")
+                         : fmt::format("depth offset {} cm", number(c.value("depth_offset_cm", Json()), "{:+.3f}"));
+  for (const char* key : {"parting_plane_response", "nominal_profile", "response"}) {
+    if (c.contains(key) && c.at(key).is_string())
+      corr += fmt::format("; {}: <code>{}</code>", key, html::escape(c.at(key).get<std::string>()));
+  }
+  if (c.contains("interpolation")) {
+    const Json& i = c.at("interpolation");
+    corr += fmt::format("; interpolated to {} MeV between", number(i.at("beam_energy_mev"), "{}"));
+    for (const auto& p : i.at("points")) {
+      corr += fmt::format(" {} MeV (×{:.3f})", number(p.at("beam_energy_mev"), "{}"), p.at("weight").get<double>());
+    }
+  }
+  return corr;
+}
+
+// Where the result came from: the inputs (with the digests taken now), detector, model
+// corrections, beam energies, selection and software.
+std::string provenanceTable(const ReportFit& f) {
+  const Json& r = f.result;
   const Json& in = r.at("input");
   html::Table prov{.header = {"item", "value"}};
   for (const auto& [file, digest] : f.inputDigests) {
@@ -223,27 +288,7 @@ Result<std::string> fitSection(const ReportFit& f) {
   }
   prov.rows.push_back({"detector", text(in.value("detector", Json("?")))});
   if (in.contains("model_corrections")) {
-    const Json& c = in.at("model_corrections");
-    const bool none = !c.value("depth_offset_cm", Json(0.0)).is_number() ||
-                      c.value("depth_offset_cm", Json(0.0)).get<double>() == 0.0;
-    static constexpr std::array<const char*, 3> kFiles = {"parting_plane_response", "nominal_profile", "response"};
-    const bool anyFile = std::any_of(kFiles.begin(), kFiles.end(),
-                                     [&](const char* key) { return c.contains(key) && c.at(key).is_string(); });
-    std::string corr = none && !anyFile
-                           ? std::string("none: the paper's model (docs/fit.md, \"What the fit tells you\")")
-                           : fmt::format("depth offset {} cm", number(c.value("depth_offset_cm", Json()), "{:+.3f}"));
-    for (const char* key : {"parting_plane_response", "nominal_profile", "response"}) {
-      if (c.contains(key) && c.at(key).is_string())
-        corr += fmt::format("; {}: <code>{}</code>", key, html::escape(c.at(key).get<std::string>()));
-    }
-    if (c.contains("interpolation")) {
-      const Json& i = c.at("interpolation");
-      corr += fmt::format("; interpolated to {} MeV between", number(i.at("beam_energy_mev"), "{}"));
-      for (const auto& p : i.at("points")) {
-        corr += fmt::format(" {} MeV (×{:.3f})", number(p.at("beam_energy_mev"), "{}"), p.at("weight").get<double>());
-      }
-    }
-    prov.rows.push_back({"model corrections", corr});
+    prov.rows.push_back({"model corrections", modelCorrectionsText(in.at("model_corrections"))});
   }
   if (in.contains("beam_energies_mev") && in.at("beam_energies_mev").is_array()) {
     std::string energies;
@@ -257,9 +302,15 @@ Result<std::string> fitSection(const ReportFit& f) {
     prov.rows.push_back({"selection (events)", flow});
   }
   prov.rows.push_back({"software", text(r.value("software", Json("?")))});
-  body += "<h3>Provenance</h3>\n" + html::table(prov);
+  return "<h3>Provenance</h3>\n" + html::table(prov);
+}
 
-  return body;
+Result<std::string> fitSection(const ReportFit& f) {
+  const Json& r = f.result;
+  auto figures = fitFigures(f);
+  if (!figures) return figures.error();
+  return fitSummary(f) + parameterTables(r) + correlationMap(r) + sigmaSysParagraph(r) + stagesTable(r) + *figures +
+         provenanceTable(f);
 }
 
 Result<std::string> compareSection(const ReportCompare& c) {
@@ -465,11 +516,10 @@ Result<std::string> checksSection(const std::vector<ReportCheck>& checks) {
   std::string body;
   for (const auto& c : checks) {
     const Json& j = c.check;
-    const std::string process = j.at("process").get<std::string>();
     const Json &b = j.at("before"), &a = j.at("after"), &imp = j.at("improvement_percent");
     html::Table t;
     t.numeric = {false, true, true, true, false};
-    if (process == "gg") {
+    if (c.process() == apply::CheckProcess::GammaGamma) {
       body += fmt::format("<h3>e+e- → γγ: acollinearity (<code>{}</code>)</h3>\n", html::escape(c.dir));
       t.caption = fmt::format("{} events selected; the paper: the width improves by {:.0f} %", plain(j.at("selected")),
                               paper::kGammaGammaImprovementPercent);
@@ -519,7 +569,7 @@ Result<std::string> checksSection(const std::vector<ReportCheck>& checks) {
     if (!c.figure.empty()) {
       auto fig = html::figure(
           c.figure,
-          process == "gg"
+          c.process() == apply::CheckProcess::GammaGamma
               ? "Δφ and Δθ of the γγ events before (filled) and after (open) the correction: the paper's Fig. 9."
               : "χ² of the π+π−π0 kinematic fit before and after the correction: the paper's Fig. 10.");
       if (!fig) return fig.error();
@@ -565,7 +615,7 @@ std::vector<std::string> summary(const ReportInputs& in) {
   for (const auto& c : in.checks) {
     const Json& j = c.check;
     const Json imp = j.value("improvement_percent", Json::object());
-    if (j.at("process") == "gg") {
+    if (c.process() == apply::CheckProcess::GammaGamma) {
       lines.push_back(fmt::format("e+e- → γγ: the Δφ core width {} % narrower (the paper: {:.0f} %).",
                                   number(imp.value("dphi_width", Json()), "{:.1f}"),
                                   paper::kGammaGammaImprovementPercent));
@@ -664,13 +714,56 @@ Result<ReportCompare> readCompareDirectory(const std::string& dir) {
   return ReportCompare{dir, std::move(*j), figures.empty() ? std::string() : figures.front()};
 }
 
+Result<ReportFit> readFitResult(const std::string& path, const std::vector<std::string>& events,
+                                const std::string& detectorPath) {
+  auto text = io::readTextFile(path);
+  if (!text) return text.error();
+  auto j = io::parseJson(*text, path);
+  if (!j) return j.error();
+  if (!j->is_object() || !j->contains("parameters") || !j->contains("chi2") || !j->contains("input")) {
+    return Error{fmt::format("{}: not a fit result (emcalign fit -o)", path)};
+  }
+  ReportFit fit{.path = path, .result = *j};
+  const Json& input = j->at("input");
+  if (input.contains("files") && input.at("files").is_array()) {
+    for (const auto& f : input.at("files")) {
+      if (!f.is_string()) continue;
+      const std::string named = f.get<std::string>();
+      std::string digest;
+      if (std::find(events.begin(), events.end(), named) != events.end()) {
+        auto d = sha256OfFile(named);
+        if (!d) return d.error();
+        digest = *d;
+      }
+      fit.inputDigests.emplace_back(named, digest);
+    }
+  }
+  const Json named = input.is_object() ? input.value("detector", Json(io::kEmbeddedDetector)) : Json();
+  if (detectorPath.empty() && named.is_string() && named.get<std::string>() != io::kEmbeddedDetector) {
+    return Error{
+        fmt::format("{}: the fit used the detector {}: give it with --detector (the report "
+                    "opens only the files its command line names)",
+                    path, named.get<std::string>())};
+  }
+  return fit;
+}
+
+std::string detectorLine(const geometry::Calorimeter& calo, const std::string& detectorPath) {
+  const auto& d = calo.description();
+  const int layers = static_cast<int>(d.layers.size());
+  return fmt::format(
+      "{}{}, {} counters in {} layers, the EMC from R0 = {:.1f} cm, the hemispheres' support "
+      "sphere at R1 = {:.1f} cm",
+      d.name, detectorPath.empty() ? "" : " (" + detectorPath + ")", layers * calo.countersPerLayer(), layers,
+      d.r0() / units::cm, d.r1() / units::cm);
+}
+
 Result<ReportCheck> readCheckDirectory(const std::string& dir) {
   auto j = readJsonIn(dir, "check.json");
   if (!j) return j.error();
-  const std::string process = j->is_object() ? j->value("process", std::string()) : std::string();
-  if (process != "gg" && process != "3pi")
-    return Error{fmt::format("{}/check.json: not a physics check (emcalign check)", dir)};
-  const auto figures = existing(dir, {process == "gg" ? "acollinearity.png" : "chi2.png"});
+  const auto process = apply::checkProcessFromName(j->is_object() ? j->value("process", std::string()) : std::string());
+  if (!process) return Error{fmt::format("{}/check.json: not a physics check (emcalign check)", dir)};
+  const auto figures = existing(dir, {*process == apply::CheckProcess::GammaGamma ? "acollinearity.png" : "chi2.png"});
   return ReportCheck{dir, std::move(*j), figures.empty() ? std::string() : figures.front()};
 }
 

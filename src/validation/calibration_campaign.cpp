@@ -373,7 +373,7 @@ Json planJson(const CampaignScan& scan, const std::vector<CampaignGroup>& groups
           {"corrections", model.corrections},
           {"corrections_sha256", model.correctionsSha256},
           {"detector", model.detector},
-          {"sigma_sys", sigmaSysChoiceJson(model.sigmaSys)},
+          {"sigma_sys", calib::sigmaSysChoiceJson(model.sigmaSys)},
           {"inputs", inputs},
           {"groups", list}};
 }
@@ -403,9 +403,9 @@ Result<CampaignPlan> parseCampaignPlan(const Json& data, const std::string& path
     if (top.has("sigma_sys")) {
       StrictObject s(top.at("sigma_sys"), "sigma_sys", path);
       s.allowOnly({"method", "value_deg"});
-      const std::string method = s.string("method");
-      const bool fixed = method == "fixed";
-      auto choice = calib::recordedSigmaSysChoice(method, fixed ? s.number("value_deg") : 0.0);
+      const bool fixed = s.string("method") == "fixed";
+      if (fixed) s.number("value_deg");
+      auto choice = calib::sigmaSysChoiceFromJson(top.at("sigma_sys"));
       if (!choice) s.fail(s.pathOf(fixed ? "value_deg" : "method"), choice.error().message);
       plan.sigmaSys = *choice;
     }
@@ -632,12 +632,6 @@ std::unique_ptr<PlannedJob> calibrationCampaignJob(CampaignPlan plan, CampaignMo
                                                   std::move(recordKey));
 }
 
-Json sigmaSysChoiceJson(const calib::SigmaSysChoice& c) {
-  Json j = {{"method", std::string(calib::name(c.method))}};
-  if (c.method == calib::SigmaSysMethod::Fixed) j["value_deg"] = c.value / units::deg;
-  return j;
-}
-
 Json campaignOrigin(const CampaignGroup& g, std::int64_t minEvents, int groups) {
   return {{"campaign",
            {{"group", g.index},
@@ -728,11 +722,7 @@ Result<calib::SigmaSysChoice> sigmaSysChoiceOf(const conddb::Payload& payload) {
   const Json recorded = alignment.is_object() && alignment.contains("sigma_sys") && alignment["sigma_sys"].is_object()
                             ? alignment["sigma_sys"]
                             : Json{{"method", "spec"}};  // payloads made before the choice existed
-  const std::string method = recorded.contains("method") && recorded.at("method").is_string()
-                                 ? recorded.at("method").get<std::string>()
-                                 : std::string();
-  const bool value = recorded.contains("value_deg") && recorded.at("value_deg").is_number();
-  auto choice = calib::recordedSigmaSysChoice(method, value ? recorded.at("value_deg").get<double>() : std::nan(""));
+  auto choice = calib::sigmaSysChoiceFromJson(recorded);
   if (!choice) {
     return Error{fmt::format("sigma_sys {}: not one a campaign makes ({})", recorded.dump(), choice.error().message)};
   }
@@ -793,10 +783,10 @@ Result<bool> groupStored(conddb::Database& db, const std::string& tag, const Cam
   auto usedSigma = sigmaSysChoiceOf(payload);
   if (!usedSigma) return Error{fmt::format("{}: tag '{}': {}", group, tag, usedSigma.error().message)};
   if (!calib::sameChoice(*usedSigma, model.sigmaSys)) {
-    return Error{
-        fmt::format("{}: tag '{}' holds it fitted with sigma_sys {}, this campaign with {}: one tag holds "
-                    "one model; write to a new tag",
-                    group, tag, sigmaSysChoiceJson(*usedSigma).dump(), sigmaSysChoiceJson(model.sigmaSys).dump())};
+    return Error{fmt::format(
+        "{}: tag '{}' holds it fitted with sigma_sys {}, this campaign with {}: one tag holds "
+        "one model; write to a new tag",
+        group, tag, calib::sigmaSysChoiceJson(*usedSigma).dump(), calib::sigmaSysChoiceJson(model.sigmaSys).dump())};
   }
   return true;
 }

@@ -162,9 +162,9 @@ Result<PeriodScenario> parsePeriodScenario(const Json& j, double r1, std::string
       PeriodScenario::EnergyPoint p;
       p.fromRun = energyRuns[i];
       p.value = e.number("value");
-      if (!(p.value * units::MeV >= sim::kMinBeamEnergy && p.value * units::MeV <= sim::kMaxBeamEnergy)) {
-        e.fail(e.pathOf("value"), fmt::format("a beam energy from {} to {} MeV", sim::kMinBeamEnergy / units::MeV,
-                                              sim::kMaxBeamEnergy / units::MeV));
+      if (!(p.value * units::MeV >= kMinBeamEnergy && p.value * units::MeV <= kMaxBeamEnergy)) {
+        e.fail(e.pathOf("value"), fmt::format("a beam energy from {} to {} MeV", kMinBeamEnergy / units::MeV,
+                                              kMaxBeamEnergy / units::MeV));
       }
       if (e.has("events_per_run"))
         p.eventsPerRun = eventsRange(e.at("events_per_run"), source, path + ".events_per_run");

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <optional>
 #include <set>
 
 #include <fmt/format.h>
@@ -170,6 +171,41 @@ Result<RefittedSegment> refitPeriod(const TrendSegment& seg, std::size_t k, std:
 }
 
 }  // namespace
+
+Status adoptTagSettings(conddb::TagSnapshot& tag, CampaignModel& model) {
+  const std::string& name = tag.tag().name;
+  std::optional<calib::SigmaSysChoice> sigmaSys;
+  for (const conddb::Iov& iov : tag.iovs()) {
+    auto p = tag.payload(iov);
+    if (!p) return p.error();
+    auto choice = sigmaSysChoiceOf(**p);
+    if (!choice) {
+      return Error{fmt::format("tag {}: the calibration of runs {}-{} has {}", name, iov.firstRun, iov.lastRun,
+                               choice.error().message)};
+    }
+    if (!sigmaSys) {
+      sigmaSys = *choice;
+      model.setSigmaSys(*choice);
+    } else if (!calib::sameChoice(*sigmaSys, *choice)) {
+      return Error{
+          fmt::format("tag {}: its IOVs were fitted with different sigma_sys ({} and {}): no "
+                      "refit comparable with all of them",
+                      name, calib::sigmaSysChoiceJson(*sigmaSys).dump(), calib::sigmaSysChoiceJson(*choice).dump())};
+    }
+    const Json provenance = (*p)->content.value("provenance", Json::object());
+    const std::string used = provenance.is_object() ? provenance.value("corrections", "") : "";
+    const std::string usedSha = provenance.is_object() ? provenance.value("corrections_sha256", "") : "";
+    const bool same = usedSha.empty() ? used == model.corrections : usedSha == model.correctionsSha256;
+    if (!same) {
+      auto what = [](const std::string& c) { return c.empty() ? std::string("without corrections") : "with " + c; };
+      return Error{
+          fmt::format("--refit {}: the calibration of runs {}-{} in tag {} was made {} (give the "
+                      "same --corrections, for a refit comparable with them)",
+                      what(model.corrections), iov.firstRun, iov.lastRun, name, what(used))};
+    }
+  }
+  return {};
+}
 
 Result<std::vector<std::string>> checkRefitData(conddb::TagSnapshot& tag, const CampaignScan& scan) {
   std::vector<std::string> warnings;

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include "emcalign/core/sha256.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/core/version.hpp"
 #include "emcalign/io/event_file.hpp"
@@ -89,6 +90,15 @@ io::Json simulationSettings(const SimulateRequest& request) {
       {"background", backgroundSettings(request)},
       {"cosmic_fraction", o.cosmicFraction},
       {"detector", request.detectorName}};
+}
+
+io::Json periodSimulationSettings(const SimulateRequest& request, const geometry::DetectorDescription& detector) {
+  io::Json settings = simulationSettings(request);
+  for (const char* perRun : {"process", "events", "seed", "run", "beam_energy_mev", "theta_range_deg", "software"}) {
+    settings.erase(perRun);
+  }
+  settings["detector_sha256"] = sha256(io::toJson(detector).dump());
+  return settings;
 }
 
 Result<SimulateReport> simulateFile(const geometry::Calorimeter& calo, const geometry::AlignmentParameters& truth,

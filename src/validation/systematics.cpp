@@ -10,6 +10,7 @@
 
 #include "emcalign/core/paper.hpp"
 #include "emcalign/core/units.hpp"
+#include "emcalign/core/version.hpp"
 #include "emcalign/io/output_file.hpp"
 #include "emcalign/report/systematics_plot.hpp"
 #include "emcalign/validation/task_plan.hpp"
@@ -113,12 +114,6 @@ std::vector<const Variation*> variationsOf(const SystematicsOptions& options) {
   return v;
 }
 
-// A row's quantity index of variation j.
-std::size_t quantityOf(const SystematicsTable& t, std::size_t j) {
-  return static_cast<std::size_t>(std::find(t.quantities.begin(), t.quantities.end(), t.variations[j]->quantity) -
-                                  t.quantities.begin());
-}
-
 // Keeps the larger of `envelope` and `effect`; a NaN effect makes it NaN for good (never dropped).
 void widen(double& envelope, double effect) {
   if (std::isnan(envelope)) return;
@@ -180,13 +175,183 @@ CampaignOptions withVariation(CampaignOptions options, const Variation& variatio
   return options;
 }
 
+namespace {
+
+// The events of the whole study and of those finished, for one progress over all its parts.
+class StudyProgress {
+ public:
+  StudyProgress(const SystematicsOptions& options, std::size_t variations, SystematicsProgress report)
+      : eventsPerSample_(options.campaign.events), report_(std::move(report)) {
+    campaignEvents_ = static_cast<std::int64_t>(options.campaign.samples) * options.campaign.events;
+    const auto& r = options.reverse;
+    derivationEvents_ = r ? 3 * r->events + r->responseSamples * r->responseEvents : 0;
+    const auto runs = static_cast<std::int64_t>(variations + 1);
+    total_ = runs * campaignEvents_ * (r ? 2 : 1) + runs * derivationEvents_;
+  }
+  [[nodiscard]] CampaignProgress campaign() const {
+    return [this](int done, int) { show(finished_ + done * eventsPerSample_); };
+  }
+  [[nodiscard]] std::function<void(std::int64_t)> derivation() const {
+    return [this](std::int64_t done) { show(finished_ + done); };
+  }
+  void campaignDone() { finished_ += campaignEvents_; }
+  void derivationDone() { finished_ += derivationEvents_; }
+
+ private:
+  void show(std::int64_t done) const {
+    if (report_) report_(done, total_);
+  }
+  std::int64_t eventsPerSample_, campaignEvents_ = 0, derivationEvents_ = 0, total_ = 0, finished_ = 0;
+  SystematicsProgress report_;
+};
+
+// The forward study: the nominal campaign and one per variation, each variation's samples
+// paired with the nominal ones.
+Status runForward(const geometry::Calorimeter& calo, const SystematicsOptions& options,
+                  const std::vector<const Variation*>& variations, const std::string& dir, StudyProgress& progress,
+                  SystematicShifts& measured) {
+  const CampaignOptions& nominalOptions = options.campaign;
+  std::vector<SampleResult> nominal;
+  auto nominalTable =
+      runCampaign(calo, nominalOptions, (fs::path(dir) / "nominal").string(), progress.campaign(), &nominal);
+  if (!nominalTable) return Error{fmt::format("the nominal campaign: {}", nominalTable.error().message)};
+  progress.campaignDone();
+  measured.nominal = std::move(*nominalTable);
+  const double r1 = calo.description().r1();
+  for (const Variation* v : variations) {
+    const CampaignOptions o = withVariation(nominalOptions, *v);
+    std::vector<SampleResult> varied;
+    auto table = runCampaign(calo, o, (fs::path(dir) / v->name).string(), progress.campaign(), &varied);
+    if (!table) return Error{fmt::format("variation {}: {}", v->name, table.error().message)};
+    progress.campaignDone();
+    measured.shifts.push_back(tabulate(pairedWith(varied, nominal), o.events, r1));
+  }
+  return {};
+}
+
+// The reverse study: the nominal samples fitted with corrections derived with each variation
+// and without, paired with the latter. Returns the derivations' settings.
+Result<Json> runReverse(const geometry::Calorimeter& calo, const SystematicsOptions& options,
+                        const std::vector<const Variation*>& variations, const std::string& dir,
+                        StudyProgress& progress, SystematicShifts& measured) {
+  const CampaignOptions& nominalOptions = options.campaign;
+  const fs::path base = fs::path(dir) / "reverse";
+  std::error_code ec;
+  if (!nominalOptions.onlyFinished) fs::create_directories(base / "corrections", ec);
+  if (ec)
+    return Error{fmt::format("{}: cannot create the directory: {}", (base / "corrections").string(), ec.message())};
+  const double r1 = calo.description().r1();
+  std::vector<SampleResult> reference;
+  for (std::size_t j = 0; j <= variations.size(); ++j) {
+    const Variation* v = j == 0 ? nullptr : variations[j - 1];
+    const std::string name = v ? v->name : "nominal";
+    auto corrections = reverseCorrections(calo, *options.reverse, nominalOptions, v, reverseCorrectionsFile(dir, name),
+                                          progress.derivation());
+    if (!corrections) return Error{fmt::format("the reverse study, {}: {}", name, corrections.error().message)};
+    progress.derivationDone();
+    const CampaignOptions o = reverseCampaign(nominalOptions, std::move(*corrections), name);
+    std::vector<SampleResult> fitted;
+    auto table = runCampaign(calo, o, (base / name).string(), progress.campaign(), &fitted);
+    if (!table) return Error{fmt::format("the reverse study, {}: {}", name, table.error().message)};
+    progress.campaignDone();
+    if (v == nullptr) {
+      measured.reverseNominal = std::move(*table);
+      reference = std::move(fitted);
+    } else {
+      measured.reverseShifts.push_back(tabulate(pairedWith(fitted, reference), o.events, r1));
+    }
+  }
+  Json settings = reverseSettings(*options.reverse, nominalOptions, nullptr);
+  settings.erase("variation");
+  return settings;
+}
+
+// DIR/systematics.json, DIR/systematics.md and the figure.
+Status writeSystematics(const SystematicsTable& t, const std::string& dir) {
+  if (Status s = io::writeFileIn(dir, "systematics.json", systematicsJson(t).dump(2) + "\n"); !s) return s;
+  if (Status s = io::writeFileIn(dir, "systematics.md", systematicsMarkdown(t)); !s) return s;
+  if (Status s = drawSystematics(t, dir); !s) return s;
+  if (t.reverse.is_null()) {  // a study run again without --reverse: no stale data beside its figure
+    std::error_code ec;
+    fs::remove(fs::path(dir) / "plots" / "systematics_reverse.dat", ec);
+  }
+  return {};
+}
+
+// Table k of `tables` (one per variation) has the rows of `nominal`, in its order.
+Status sameRows(const Table& nominal, const std::vector<Table>& tables, std::size_t variations, const char* what) {
+  if (tables.size() != variations) {
+    return Error{fmt::format("{}: {} tables for {}", what, tables.size(), counted(variations, "variation"))};
+  }
+  for (const Table& t : tables) {
+    bool same = t.rows.size() == nominal.rows.size();
+    for (std::size_t k = 0; same && k < t.rows.size(); ++k) same = t.rows[k].name == nominal.rows[k].name;
+    if (!same) return Error{fmt::format("{}: a table's parameters differ from the nominal campaign's", what)};
+  }
+  return {};
+}
+
+}  // namespace
+
+Result<std::vector<SystematicsRow>> combineSystematics(const std::vector<const Variation*>& variations,
+                                                       const std::vector<std::string>& quantities,
+                                                       const SystematicShifts& measured) {
+  if (Status s = sameRows(measured.nominal, measured.shifts, variations.size(), "the shifts"); !s) return s.error();
+  if (measured.reverseNominal) {
+    if (Status s = sameRows(measured.nominal, measured.reverseShifts, variations.size(), "the reverse shifts"); !s)
+      return s.error();
+    if (Status s = sameRows(measured.nominal, {*measured.reverseNominal}, 1, "the reverse nominal fits"); !s)
+      return s.error();
+  }
+  std::vector<std::size_t> quantityOf;
+  for (const Variation* v : variations) {
+    auto q = std::find(quantities.begin(), quantities.end(), v->quantity);
+    if (q == quantities.end())
+      return Error{fmt::format("variation {}: its quantity {} is not listed", v->name, v->quantity)};
+    quantityOf.push_back(static_cast<std::size_t>(q - quantities.begin()));
+  }
+  std::vector<SystematicsRow> rows;
+  for (std::size_t k = 0; k < measured.nominal.rows.size(); ++k) {
+    const TableRow& n = measured.nominal.rows[k];
+    SystematicsRow row;
+    row.name = n.name;
+    row.unit = n.unit;
+    row.bias = n.bias;
+    row.biasError = n.biasError;
+    row.spread = n.spread;
+    row.envelope.assign(quantities.size(), 0.0);
+    for (std::size_t j = 0; j < variations.size(); ++j) {
+      const TableRow& s = measured.shifts[j].rows[k];
+      row.shift.push_back(s.bias);
+      row.shiftError.push_back(s.biasError);
+      row.shiftSpread.push_back(s.spread);
+      row.effect.push_back(variations[j]->pattern != nullptr ? std::hypot(s.bias, s.spread) : std::abs(s.bias));
+      widen(row.envelope[quantityOf[j]], row.effect.back());
+    }
+    if (measured.reverseNominal) {
+      row.reverseBias = measured.reverseNominal->rows[k].bias;
+      row.reverseBiasError = measured.reverseNominal->rows[k].biasError;
+      for (std::size_t j = 0; j < variations.size(); ++j) {
+        const TableRow& s = measured.reverseShifts[j].rows[k];
+        row.reverseShift.push_back(s.bias);
+        row.reverseShiftError.push_back(s.biasError);
+        widen(row.envelope[quantityOf[j]], std::abs(s.bias));
+      }
+    }
+    double sum2 = 0.0;
+    for (double e : row.envelope) sum2 += e * e;
+    row.systematic = std::sqrt(sum2);
+    rows.push_back(std::move(row));
+  }
+  return rows;
+}
+
 Result<SystematicsTable> runSystematics(const geometry::Calorimeter& calo, const SystematicsOptions& options,
                                         const std::string& dir, const SystematicsProgress& progress) {
   SystematicsTable t;
   t.variations = variationsOf(options);
-  const CampaignOptions& nominalOptions = options.campaign;
-  t.samples = nominalOptions.samples;
-  t.events = nominalOptions.events;
+  t.samples = options.campaign.samples;
+  t.events = options.campaign.events;
   if (t.samples < 2) {
     return Error{"a systematic study needs 2 samples at least: a shift's error and a pattern's spread come from them"};
   }
@@ -194,115 +359,22 @@ Result<SystematicsTable> runSystematics(const geometry::Calorimeter& calo, const
     if (Status s = options.reverse->validate(); !s)
       return Error{fmt::format("the reverse study: {}", s.error().message)};
   }
-  const std::int64_t campaignEvents = static_cast<std::int64_t>(nominalOptions.samples) * nominalOptions.events;
-  const std::int64_t derivationEvents =
-      options.reverse ? 3 * options.reverse->events + options.reverse->responseSamples * options.reverse->responseEvents
-                      : 0;
-  const auto runs = static_cast<std::int64_t>(t.variations.size() + 1);
-  const std::int64_t total = runs * campaignEvents * (options.reverse ? 2 : 1) + runs * derivationEvents;
-  std::int64_t finished = 0;  // events of the finished campaigns and derivations
-  const auto campaignProgress = [&](int done, int) {
-    if (progress) progress(finished + done * nominalOptions.events, total);
-  };
-  const auto derivationProgress = [&](std::int64_t done) {
-    if (progress) progress(finished + done, total);
-  };
-
-  std::vector<SampleResult> nominal;
-  auto nominalTable =
-      runCampaign(calo, nominalOptions, (fs::path(dir) / "nominal").string(), campaignProgress, &nominal);
-  if (!nominalTable) return Error{fmt::format("the nominal campaign: {}", nominalTable.error().message)};
-  finished += campaignEvents;
-  const double r1 = calo.description().r1();
-  std::vector<Table> shifts;
   for (const Variation* v : t.variations) {
-    const CampaignOptions o = withVariation(nominalOptions, *v);
-    std::vector<SampleResult> varied;
-    auto table = runCampaign(calo, o, (fs::path(dir) / v->name).string(), campaignProgress, &varied);
-    if (!table) return Error{fmt::format("variation {}: {}", v->name, table.error().message)};
-    finished += campaignEvents;
-    shifts.push_back(tabulate(pairedWith(varied, nominal), o.events, r1));
-    if (std::find(t.quantities.begin(), t.quantities.end(), v->quantity) == t.quantities.end()) {
+    if (std::find(t.quantities.begin(), t.quantities.end(), v->quantity) == t.quantities.end())
       t.quantities.push_back(v->quantity);
-    }
   }
-
-  // The reverse study: the nominal samples fitted with corrections derived with each variation.
-  std::optional<Table> reverseNominal;
-  std::vector<Table> reverseShifts;
+  StudyProgress studyProgress(options, t.variations.size(), progress);
+  SystematicShifts measured;
+  if (Status s = runForward(calo, options, t.variations, dir, studyProgress, measured); !s) return s.error();
   if (options.reverse) {
-    const fs::path base = fs::path(dir) / "reverse";
-    std::error_code ec;
-    if (!nominalOptions.onlyFinished) fs::create_directories(base / "corrections", ec);
-    if (ec)
-      return Error{fmt::format("{}: cannot create the directory: {}", (base / "corrections").string(), ec.message())};
-    std::vector<SampleResult> reference;
-    for (std::size_t j = 0; j <= t.variations.size(); ++j) {
-      const Variation* v = j == 0 ? nullptr : t.variations[j - 1];
-      const std::string name = v ? v->name : "nominal";
-      auto corrections = reverseCorrections(calo, *options.reverse, nominalOptions, v,
-                                            reverseCorrectionsFile(dir, name), derivationProgress);
-      if (!corrections) return Error{fmt::format("the reverse study, {}: {}", name, corrections.error().message)};
-      finished += derivationEvents;
-      const CampaignOptions o = reverseCampaign(nominalOptions, std::move(*corrections), name);
-      std::vector<SampleResult> fitted;
-      auto table = runCampaign(calo, o, (base / name).string(), campaignProgress, &fitted);
-      if (!table) return Error{fmt::format("the reverse study, {}: {}", name, table.error().message)};
-      finished += campaignEvents;
-      if (v == nullptr) {
-        reverseNominal = std::move(*table);
-        reference = std::move(fitted);
-      } else {
-        reverseShifts.push_back(tabulate(pairedWith(fitted, reference), o.events, r1));
-      }
-    }
-    t.reverse = reverseSettings(*options.reverse, nominalOptions, nullptr);
-    t.reverse.erase("variation");
+    auto settings = runReverse(calo, options, t.variations, dir, studyProgress, measured);
+    if (!settings) return settings.error();
+    t.reverse = std::move(*settings);
   }
-
-  for (std::size_t k = 0; k < nominalTable->rows.size(); ++k) {
-    const TableRow& n = nominalTable->rows[k];
-    SystematicsRow row;
-    row.name = n.name;
-    row.unit = n.unit;
-    row.bias = n.bias;
-    row.biasError = n.biasError;
-    row.spread = n.spread;
-    row.envelope.assign(t.quantities.size(), 0.0);
-    for (std::size_t j = 0; j < t.variations.size(); ++j) {
-      const TableRow& s = shifts[j].rows[k];
-      row.shift.push_back(s.bias);
-      row.shiftError.push_back(s.biasError);
-      row.shiftSpread.push_back(s.spread);
-      row.effect.push_back(t.variations[j]->pattern != nullptr ? std::hypot(s.bias, s.spread) : std::abs(s.bias));
-      widen(row.envelope[quantityOf(t, j)], row.effect.back());
-    }
-    if (reverseNominal) {
-      row.reverseBias = reverseNominal->rows[k].bias;
-      row.reverseBiasError = reverseNominal->rows[k].biasError;
-      for (std::size_t j = 0; j < t.variations.size(); ++j) {
-        const TableRow& s = reverseShifts[j].rows[k];
-        row.reverseShift.push_back(s.bias);
-        row.reverseShiftError.push_back(s.biasError);
-        widen(row.envelope[quantityOf(t, j)], std::abs(s.bias));
-      }
-    }
-    double sum2 = 0.0;
-    for (double e : row.envelope) sum2 += e * e;
-    row.systematic = std::sqrt(sum2);
-    t.rows.push_back(std::move(row));
-  }
-  if (Status s = io::writeFileIn(dir, "systematics.json", systematicsJson(t).dump(2) + "\n"); !s) {
-    return s.error();
-  }
-  if (Status s = io::writeFileIn(dir, "systematics.md", systematicsMarkdown(t)); !s) {
-    return s.error();
-  }
-  if (Status s = drawSystematics(t, dir); !s) return s.error();
-  if (t.reverse.is_null()) {  // a study run again without --reverse: no stale data beside its figure
-    std::error_code ec;
-    fs::remove(fs::path(dir) / "plots" / "systematics_reverse.dat", ec);
-  }
+  auto rows = combineSystematics(t.variations, t.quantities, measured);
+  if (!rows) return rows.error();
+  t.rows = std::move(*rows);
+  if (Status s = writeSystematics(t, dir); !s) return s.error();
   return t;
 }
 
@@ -429,6 +501,31 @@ Json systematicErrorsJson(const SystematicsTable& t, const calib::ModelCorrectio
   Json components = {{"simulation variations", variationsPart}};
   for (const auto& [key, values] : statisticsPart.items()) components["derivation statistics: " + key] = values;
   return {{"errors", errors}, {"components", components}, {"study", study}};
+}
+
+Result<calib::ModelCorrections> correctionsWithSystematics(const SystematicsTable& table,
+                                                           const CampaignOptions& campaign,
+                                                           const std::string& destination) {
+  calib::ModelCorrections corrections = campaign.corrections;
+  Json conditions = campaign.settings;  // the simulation, ranges, σ_sys and detector of the study
+  conditions.erase("corrections");
+  conditions["beam_energy_mev"] = campaign.simulation.generator.beamEnergy / units::MeV;
+  std::vector<std::string> names;
+  for (const auto* v : table.variations) names.push_back(v->name);
+  const Json study = {{"command", "emcalign systematics"},
+                      {"software", fmt::format("emcalign {}", kVersion)},
+                      {"samples", table.samples},
+                      {"events", table.events},
+                      {"seed", campaign.seed},
+                      {"conditions", conditions},
+                      {"variations", names},
+                      {"reverse", table.reverse},
+                      {"combination", kSystematicsCombination},
+                      {"corrections_fnv1a", calib::correctionsDigest(corrections)}};
+  auto systematics = calib::parseSystematicErrors(systematicErrorsJson(table, corrections, study), destination);
+  if (!systematics) return systematics.error();
+  corrections.systematics = std::make_shared<const calib::SystematicErrors>(std::move(*systematics));
+  return corrections;
 }
 
 namespace {

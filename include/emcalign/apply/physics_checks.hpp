@@ -20,8 +20,10 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "emcalign/apply/kinematic_fit.hpp"
@@ -32,10 +34,21 @@
 
 namespace emcalign::apply {
 
+/// The two checks: e+e- → γγ ("gg") and e+e- → π+π−π0 ("3pi"), as the command and check.json
+/// name them.
+enum class CheckProcess { GammaGamma, ThreePion };
+std::string_view name(CheckProcess process);
+/// "gg" or "3pi"; nothing for any other name.
+std::optional<CheckProcess> checkProcessFromName(std::string_view name);
+/// How the selection's final state is written: "e+e- -> gamma gamma", "e+e- -> pi+ pi- pi0".
+std::string_view finalState(CheckProcess process);
+
 struct CheckCutFlow {
   std::vector<std::string> names;
   std::vector<std::int64_t> events;  ///< passing each cut, in order
   io::Json json() const;
+  /// An error when no event passed the last cut (nothing to compare), naming each cut's count.
+  [[nodiscard]] Status requireSelected(CheckProcess process) const;
 };
 
 /// A Gaussian fitted to the core of a distribution: binned Poisson likelihood over ±2σ around

@@ -77,9 +77,6 @@ inline constexpr std::string_view kCorrectionsFormat = "emcalign-corrections/1";
 /// The profile bins of SPEC §7 a corrections file belongs to (its tables have these sizes).
 inline constexpr int kProfilePhiBins = 16;
 inline constexpr int kProfileThetaBins = 10;
-/// The beam energies a corrections file can belong to (those the simulation makes).
-inline constexpr double kMinCorrectionsEnergy = 20.0 * units::MeV;
-inline constexpr double kMaxCorrectionsEnergy = 5000.0 * units::MeV;
 /// A depth offset beyond this is a unit mistake (the derived one is ~4 cm; the EMC is 37 cm deep).
 inline constexpr double kMaxDepthOffset = 20.0;  // cm
 /// A depth offset (native length) finite and within ±kMaxDepthOffset, and none beside a

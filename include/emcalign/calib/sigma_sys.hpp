@@ -24,6 +24,7 @@
 #include "emcalign/calib/profiles.hpp"
 #include "emcalign/core/result.hpp"
 #include "emcalign/core/units.hpp"
+#include "emcalign/io/json_files.hpp"
 
 namespace emcalign::calib {
 
@@ -57,6 +58,14 @@ bool sameChoice(const SigmaSysChoice& a, const SigmaSysChoice& b);
 /// for "fixed", the value in degrees. Another name ("saved profile" included: not a choice)
 /// or a bad value is an error saying which.
 Result<SigmaSysChoice> recordedSigmaSysChoice(std::string_view method, double valueDeg);
+
+/// The one schema of a recorded choice (a campaign's plan, a tag's payloads, the messages that
+/// compare them): {"method": "spec" | "auto" | "fixed", "value_deg" (fixed only)}.
+io::Json sigmaSysChoiceJson(const SigmaSysChoice& choice);
+/// The choice of such a record, or of a fit result's "sigma_sys" (calib::sigmaSysJson, whose
+/// other keys say what the fit found): an error as recordedSigmaSysChoice's, the value of a
+/// "fixed" one being wrong when it is not a number.
+Result<SigmaSysChoice> sigmaSysChoiceFromJson(const io::Json& record);
 
 /// The profiles' bins with this σ_sys, fitted; the result records the σ_sys used
 /// (FitResult::sigmaSys). Spec and Fixed fit once; Auto fits until χ²/ndf = 1 (see above),

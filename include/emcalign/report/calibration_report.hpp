@@ -22,7 +22,9 @@
 #include <utility>
 #include <vector>
 
+#include "emcalign/apply/physics_checks.hpp"
 #include "emcalign/core/result.hpp"
+#include "emcalign/geometry/detector.hpp"
 #include "emcalign/io/json_files.hpp"
 
 namespace emcalign::report {
@@ -38,6 +40,16 @@ struct ReportFit {
   /// without events.
   std::vector<std::string> figures = {};
 };
+
+/// A fit result as the report takes it (`report --fit`): read and recognised as one (SPEC §3:
+/// "parameters", "chi2" and "input"), with the SHA-256 of each input it names that `events`
+/// gives too (the report opens nothing a result names by itself: it could name any file of
+/// the system). A result fitted with a detector description needs it given (`detectorPath`;
+/// empty: the embedded detector). The detector line and the figures are left to the caller.
+Result<ReportFit> readFitResult(const std::string& path, const std::vector<std::string>& events,
+                                const std::string& detectorPath);
+/// The detector in a line: its name (and file), counters, layers, R0 and R1.
+std::string detectorLine(const geometry::Calorimeter& calo, const std::string& detectorPath);
 
 struct ReportValidation {
   std::string dir;
@@ -60,6 +72,11 @@ struct ReportCheck {
   std::string dir;
   io::Json check;      ///< dir/check.json
   std::string figure;  ///< dir/acollinearity.png or dir/chi2.png (empty: none)
+  /// As check.json names it (readCheckDirectory refuses another name; "3pi" but for "gg").
+  [[nodiscard]] apply::CheckProcess process() const {
+    const bool gg = check.is_object() && check.contains("process") && check.at("process") == "gg";
+    return gg ? apply::CheckProcess::GammaGamma : apply::CheckProcess::ThreePion;
+  }
 };
 
 /// The files a document the report reads names (a fit's events, corrections and detector; a

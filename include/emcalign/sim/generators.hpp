@@ -36,6 +36,7 @@
 #include <optional>
 #include <string_view>
 
+#include "emcalign/core/beam_energy.hpp"
 #include "emcalign/core/random.hpp"
 #include "emcalign/core/result.hpp"
 #include "emcalign/core/types.hpp"
@@ -63,11 +64,9 @@ inline constexpr double kMinPhotonEnergy = 1.0 * units::MeV;
 /// Largest energy fraction a radiated photon may take from its beam or lepton (assumed).
 inline constexpr double kMaxPhotonFraction = 0.9;
 
-/// The beam energies the generators model, per beam: e+e- → e+e- and γγ in [20, 5000] MeV
-/// (lowest-order QED with leading-log radiation), π+π−π0 up to 1000 MeV (the ρπ model of the
-/// φ region; the VEPP-2000 top).
-inline constexpr double kMinBeamEnergy = 20.0 * units::MeV;
-inline constexpr double kMaxBeamEnergy = 5000.0 * units::MeV;
+/// The beam energies the generators model, per beam: e+e- → e+e- and γγ in kMinBeamEnergy to
+/// kMaxBeamEnergy (core/beam_energy.hpp, lowest-order QED with leading-log radiation),
+/// π+π−π0 up to 1000 MeV (the ρπ model of the φ region; the VEPP-2000 top).
 inline constexpr double kMaxThreePionBeamEnergy = 1000.0 * units::MeV;
 
 struct GeneratorOptions {

@@ -164,8 +164,6 @@ Result<StoredGroup> storePlannedGroup(const CampaignPlan& plan, const CampaignMo
 /// (PlannedJob::recordKey).
 std::unique_ptr<PlannedJob> calibrationCampaignJob(CampaignPlan plan, CampaignModel model, io::Json data,
                                                    std::string recordKey = {});
-/// A σ_sys choice as a plan records it: {"method"} and, when fixed, "value_deg".
-io::Json sigmaSysChoiceJson(const calib::SigmaSysChoice& choice);
 
 /// The fill of one group of a plan (a batch job): its files read one by one (model: the
 /// group's, CampaignModel::at), its runs kept. The files must be distinct and hold each event

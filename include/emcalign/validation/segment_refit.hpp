@@ -56,6 +56,12 @@ struct SegmentRefit {
   std::vector<RefittedSegment> segments;
 };
 
+/// A refit comparable with a tag's calibrations uses what they were made with: `model` takes
+/// the σ_sys every IOV's payload records (payloads made before the choice: SPEC's), an error
+/// when two differ; and every payload's corrections must be the model's (by SHA-256; by the
+/// path for payloads that record none), an error naming the runs and the corrections used.
+Status adoptTagSettings(conddb::TagSnapshot& tag, CampaignModel& model);
+
 /// The data of a refit must be what the tag was made from: every file whose SHA-256 its IOVs
 /// record, and no other (compared by content: the files may have moved). The error names a
 /// file missing, changed or foreign to the tag; warnings name IOVs that record no digests

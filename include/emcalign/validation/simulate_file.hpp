@@ -43,6 +43,11 @@ struct SimulateRequest {
 /// "background" is the Poisson model's {"model": "poisson", "hits_per_event", "mean_energy_mev"}
 /// or {"model": "recorded", "file", "sha256", "events"}.
 io::Json simulationSettings(const SimulateRequest& request);
+/// The settings of a period's simulation (PeriodOptions::settings): simulationSettings without
+/// what the scenario sets for each run or is not a setting ("process", "events", "seed",
+/// "run", "beam_energy_mev", "theta_range_deg", "software"), with the detector's digest
+/// ("detector_sha256", of its description as JSON: a resume on another detector is refused).
+io::Json periodSimulationSettings(const SimulateRequest& request, const geometry::DetectorDescription& detector);
 
 struct SimulateReport {
   std::int64_t events = 0;

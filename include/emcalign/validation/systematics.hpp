@@ -29,6 +29,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "emcalign/calib/corrections.hpp"
@@ -85,6 +86,27 @@ struct SystematicsTable {
   io::Json reverse = nullptr;
 };
 
+/// What the campaigns of a study measured, before they are combined: the nominal campaign's
+/// table, per variation the table of its samples paired with the nominal ones (each row's
+/// bias is the shift, its spread the spread of the differences), and with the reverse study
+/// the nominal samples fitted with the corrections derived without variation and, per
+/// variation, those fitted with its corrections paired with them.
+struct SystematicShifts {
+  Table nominal;
+  std::vector<Table> shifts;
+  std::optional<Table> reverseNominal;  ///< none: no reverse study
+  std::vector<Table> reverseShifts;
+};
+
+/// The combination of the header's rules, the numbers users quote: per parameter of the
+/// nominal table each variation's effect (|shift|, or √(shift² + spread²) for a pattern),
+/// each quantity's envelope (the largest effect of its variations and their reverse shifts;
+/// a NaN stays NaN), the systematic error (their quadrature sum). `quantities` lists every
+/// variation's quantity; the tables must have the nominal table's parameters, one per variation.
+Result<std::vector<SystematicsRow>> combineSystematics(const std::vector<const Variation*>& variations,
+                                                       const std::vector<std::string>& quantities,
+                                                       const SystematicShifts& measured);
+
 /// Called with the events simulated over all campaigns and derivations, and their total.
 using SystematicsProgress = std::function<void(std::int64_t done, std::int64_t total)>;
 
@@ -117,5 +139,21 @@ std::string systematicsMarkdown(const SystematicsTable& table);
 /// dx_rel have the variations' part alone), each part under "components"; `study` says how.
 io::Json systematicErrorsJson(const SystematicsTable& table, const calib::ModelCorrections& corrections,
                               const io::Json& study);
+
+/// How combineSystematics and systematicErrorsJson combine, in words: the "combination" a
+/// corrections file's study records.
+inline constexpr std::string_view kSystematicsCombination =
+    "per parameter the quadrature sum over the varied quantities of the largest effect of each (a pattern's "
+    "root mean square; the reverse shifts included), in quadrature with the derivation's statistical errors";
+
+/// The corrections the study fitted with (`campaign.corrections`, one file's) carrying its
+/// systematic errors (calib::SystematicErrors): what `systematics --write-corrections` writes
+/// (to `destination`, for the messages), and `fit --corrections` then reports beside the
+/// statistical errors. The record of the study: the command, samples, events, seed, its
+/// conditions (the campaign's settings but its corrections, and the beam energy), the
+/// variations, the reverse study, kSystematicsCombination and the corrections' digest.
+Result<calib::ModelCorrections> correctionsWithSystematics(const SystematicsTable& table,
+                                                           const CampaignOptions& campaign,
+                                                           const std::string& destination);
 
 }  // namespace emcalign::validation

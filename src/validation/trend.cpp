@@ -760,154 +760,163 @@ Trend analyseTrend(const std::vector<TrendSeries>& series, const TrendOptions& o
   return t;
 }
 
+namespace {
+
+Json stepJson(const TrendStep& s) {
+  return {{"parameter", s.parameter},
+          {"known_boundary", s.known},
+          {"first_run_after", s.firstRunAfter},
+          {"size", s.size},
+          {"error", s.error},
+          {"z", s.z()},
+          {"unit", s.unit},
+          {"within_iov", s.withinIov ? Json::array({s.withinIov->first, s.withinIov->second}) : Json()},
+          {"instead_of_drift",
+           s.insteadOfDrift ? Json{{"chi2_step", s.insteadOfDrift->first}, {"chi2_drift", s.insteadOfDrift->second}}
+                            : Json()}};
+}
+
+Json driftJson(const Trend& t, const TrendDrift& d) {
+  return {{"parameter", d.parameter},
+          {"first_run", d.firstRun},
+          {"last_run", d.lastRun},
+          {"slope_per_run", d.slopePerRun},
+          {"error", d.error},
+          {"z", d.z},
+          {"p_value", d.pValue},
+          {"unit", d.unit + "/run"},
+          {"or_step", d.orStep ? Json{{"first_run_after", d.orStep->firstRunAfter},
+                                      {"within_iov", d.orStep->withinIov ? Json::array({d.orStep->withinIov->first,
+                                                                                        d.orStep->withinIov->second})
+                                                                         : Json()},
+                                      {"size", d.orStep->size},
+                                      {"error", d.orStep->error},
+                                      {"chi2_step", d.orStep->chi2Step},
+                                      {"chi2_drift", d.orStep->chi2Line},
+                                      {"text", stepAlternativeText(t, d)}}
+                               : Json()}};
+}
+
+Json segmentJson(const TrendSegment& s) {
+  return {{"first_run", s.firstRun},
+          {"last_run", s.lastRun},
+          {"iovs", s.end - s.begin},
+          {"transition", s.transition},
+          {"after_known_boundary", s.afterKnownBoundary},
+          {"steps_at_start", s.stepsAtStart},
+          {"drifting", s.drifting},
+          {"inconsistent", s.inconsistent},
+          {"departing", s.departing},
+          {"stable", s.stable()}};
+}
+
+Json edgeJson(const TrendEdge& e) {
+  return {
+      {"parameter", e.parameter},        {"unit", e.unit},           {"first_run", e.firstRun}, {"last_run", e.lastRun},
+      {"at", e.atEnd ? "end" : "start"}, {"departure", e.departure}, {"error", e.error},        {"z", e.z()}};
+}
+
+Json inconsistencyJson(const TrendInconsistency& i) {
+  return {{"parameter", i.parameter}, {"unit", i.unit},
+          {"first_run", i.firstRun},  {"last_run", i.lastRun},
+          {"iovs", i.iovs},           {"model", i.line ? "line" : "constant"},
+          {"chi2", i.chi2},           {"ndf", i.ndf},
+          {"p_value", i.pValue},      {"too_few_iovs", i.unsplittable}};
+}
+
+Json boundaryJson(const KnownBoundary& b) {
+  return {{"run", b.run},
+          {"within_iov", b.withinIov ? Json::array({b.withinIov->first, b.withinIov->second}) : Json()},
+          {"measurable", b.measurable},
+          {"changed", b.changed},
+          {"largest_change", b.largest.empty() ? Json() : Json(b.largest)},
+          {"largest_z", b.largestZ}};
+}
+
+// A series' analysis `a` of the points `s`: its segments and the IOVs left out as transitions.
+Json seriesJson(const SeriesAnalysis& a, const TrendSeries& s) {
+  Json segs = Json::array();
+  for (const auto& g : a.segments) {
+    const auto& pts = s.points;
+    segs.push_back({{"first_run", pts[g.begin].firstRun},
+                    {"last_run", pts[g.end - 1].lastRun},
+                    {"iovs", g.end - g.begin},
+                    {"mean", g.constant.a},
+                    {"mean_error", std::sqrt(g.constant.varA)},
+                    {"chi2", g.constant.chi2},
+                    {"slope_per_run", g.line.b},
+                    {"slope_error", std::sqrt(g.line.varB)},
+                    {"slope_z", g.slopeZ},
+                    {"drift", g.drift}});
+  }
+  Json transitions = Json::array();
+  for (const Change& c : a.changes) {
+    if (c.transition) {
+      const auto& p = s.points[c.start - 1];
+      transitions.push_back(Json::array({p.firstRun, p.lastRun}));
+    }
+  }
+  return {{"parameter", a.parameter},    {"unit", a.unit},   {"iovs", s.points.size()},
+          {"error_scale", a.errorScale}, {"segments", segs}, {"transition_iovs", transitions}};
+}
+
+// How the trend was analysed: the rules in words and their settings.
+Json methodJson(const Trend& t) {
+  return {
+      {"changes", "optimal partitioning, Gaussian known-variance cost, a straight line per segment"},
+      {"penalty", t.penalty},
+      {"penalty_rule", "(k + 2) ln n, k = 2 (MBIC with a slope)"},
+      {"error_scale_rule", "IOV-to-IOV scatter / quoted error (median |dy|/0.6745), x(1 + 2.3/sqrt(m)), up or down"},
+      {"step_test", "jump between the segments' models >= 3 sigma, and no continuous broken line within chi2 9"},
+      {"transition_penalty", t.transitionPenalty},
+      {"transition_rule", "ln n more for an IOV left out between two segments (straddling a step)"},
+      {"step_z", t.options.stepZ},
+      {"min_segment", t.options.minSegment},
+      {"min_line_points", kMinLinePoints},
+      {"knee_test", t.options.kneeTest},
+      {"drift_test", "slope against 0 in each segment of a line, Bonferroni over all segments tested"},
+      {"drift_alpha", t.options.driftAlpha},
+      {"drift_tests", t.tests},
+      {"consistency_test",
+       "chi2 of each segment's model (a line where its slope is significant), Bonferroni over all segments "
+       "tested, family-wise rate drift_alpha"},
+      {"consistency_tests", t.consistencyTests},
+      {"edge_test",
+       "the first and the last IOV against the rest of their segment: left out when the chi2 drops by more than the "
+       "penalty and p-value x 2 x series < drift_alpha"},
+      {"known_boundaries", t.options.boundaries}};
+}
+
+// Each element of `items` as `json` makes it.
+template <class Items, class ToJson>
+Json arrayOf(const Items& items, ToJson json) {
+  Json out = Json::array();
+  for (const auto& item : items) out.push_back(json(item));
+  return out;
+}
+
+}  // namespace
+
 Json trendJson(const Trend& t, const std::vector<TrendSeries>& series) {
-  Json steps = Json::array(), drifts = Json::array(), segments = Json::array(), list = Json::array();
-  for (const auto& s : t.steps) {
-    steps.push_back({{"parameter", s.parameter},
-                     {"known_boundary", s.known},
-                     {"first_run_after", s.firstRunAfter},
-                     {"size", s.size},
-                     {"error", s.error},
-                     {"z", s.z()},
-                     {"unit", s.unit},
-                     {"within_iov", s.withinIov ? Json::array({s.withinIov->first, s.withinIov->second}) : Json()},
-                     {"instead_of_drift", s.insteadOfDrift ? Json{{"chi2_step", s.insteadOfDrift->first},
-                                                                  {"chi2_drift", s.insteadOfDrift->second}}
-                                                           : Json()}});
-  }
-  for (const auto& d : t.drifts) {
-    drifts.push_back(
-        {{"parameter", d.parameter},
-         {"first_run", d.firstRun},
-         {"last_run", d.lastRun},
-         {"slope_per_run", d.slopePerRun},
-         {"error", d.error},
-         {"z", d.z},
-         {"p_value", d.pValue},
-         {"unit", d.unit + "/run"},
-         {"or_step", d.orStep ? Json{{"first_run_after", d.orStep->firstRunAfter},
-                                     {"within_iov", d.orStep->withinIov ? Json::array({d.orStep->withinIov->first,
-                                                                                       d.orStep->withinIov->second})
-                                                                        : Json()},
-                                     {"size", d.orStep->size},
-                                     {"error", d.orStep->error},
-                                     {"chi2_step", d.orStep->chi2Step},
-                                     {"chi2_drift", d.orStep->chi2Line},
-                                     {"text", stepAlternativeText(t, d)}}
-                              : Json()}});
-  }
-  for (const auto& s : t.segments) {
-    segments.push_back({{"first_run", s.firstRun},
-                        {"last_run", s.lastRun},
-                        {"iovs", s.end - s.begin},
-                        {"transition", s.transition},
-                        {"after_known_boundary", s.afterKnownBoundary},
-                        {"steps_at_start", s.stepsAtStart},
-                        {"drifting", s.drifting},
-                        {"inconsistent", s.inconsistent},
-                        {"departing", s.departing},
-                        {"stable", s.stable()}});
-  }
-  Json inconsistent = Json::array(), boundaries = Json::array(), setAside = Json::array(), edges = Json::array();
-  for (const auto& e : t.edges) {
-    edges.push_back({{"parameter", e.parameter},
-                     {"unit", e.unit},
-                     {"first_run", e.firstRun},
-                     {"last_run", e.lastRun},
-                     {"at", e.atEnd ? "end" : "start"},
-                     {"departure", e.departure},
-                     {"error", e.error},
-                     {"z", e.z()}});
-  }
-  for (const auto& i : t.inconsistencies) {
-    inconsistent.push_back({{"parameter", i.parameter},
-                            {"unit", i.unit},
-                            {"first_run", i.firstRun},
-                            {"last_run", i.lastRun},
-                            {"iovs", i.iovs},
-                            {"model", i.line ? "line" : "constant"},
-                            {"chi2", i.chi2},
-                            {"ndf", i.ndf},
-                            {"p_value", i.pValue},
-                            {"too_few_iovs", i.unsplittable}});
-  }
-  for (const auto& b : t.boundaries) {
-    boundaries.push_back({{"run", b.run},
-                          {"within_iov", b.withinIov ? Json::array({b.withinIov->first, b.withinIov->second}) : Json()},
-                          {"measurable", b.measurable},
-                          {"changed", b.changed},
-                          {"largest_change", b.largest.empty() ? Json() : Json(b.largest)},
-                          {"largest_z", b.largestZ}});
-  }
+  Json list = Json::array();
+  for (std::size_t k = 0; k < t.series.size(); ++k) list.push_back(seriesJson(t.series[k], series[k]));
+  Json setAside = Json::array();
   for (const auto& a : t.setAside) {
     setAside.push_back({{"parameter", a.parameter}, {"first_run", a.firstRun}, {"last_run", a.lastRun}});
   }
-  for (std::size_t k = 0; k < t.series.size(); ++k) {
-    const auto& a = t.series[k];
-    Json segs = Json::array();
-    for (const auto& g : a.segments) {
-      const auto& pts = series[k].points;
-      segs.push_back({{"first_run", pts[g.begin].firstRun},
-                      {"last_run", pts[g.end - 1].lastRun},
-                      {"iovs", g.end - g.begin},
-                      {"mean", g.constant.a},
-                      {"mean_error", std::sqrt(g.constant.varA)},
-                      {"chi2", g.constant.chi2},
-                      {"slope_per_run", g.line.b},
-                      {"slope_error", std::sqrt(g.line.varB)},
-                      {"slope_z", g.slopeZ},
-                      {"drift", g.drift}});
-    }
-    Json transitions = Json::array();
-    for (const Change& c : a.changes) {
-      if (c.transition) {
-        const auto& p = series[k].points[c.start - 1];
-        transitions.push_back(Json::array({p.firstRun, p.lastRun}));
-      }
-    }
-    list.push_back({{"parameter", a.parameter},
-                    {"unit", a.unit},
-                    {"iovs", series[k].points.size()},
-                    {"error_scale", a.errorScale},
-                    {"segments", segs},
-                    {"transition_iovs", transitions}});
-  }
-  return {
-      {"format", kTrendFormat},
-      {"method",
-       {{"changes", "optimal partitioning, Gaussian known-variance cost, a straight line per segment"},
-        {"penalty", t.penalty},
-        {"penalty_rule", "(k + 2) ln n, k = 2 (MBIC with a slope)"},
-        {"error_scale_rule", "IOV-to-IOV scatter / quoted error (median |dy|/0.6745), x(1 + 2.3/sqrt(m)), up or down"},
-        {"step_test", "jump between the segments' models >= 3 sigma, and no continuous broken line within chi2 9"},
-        {"transition_penalty", t.transitionPenalty},
-        {"transition_rule", "ln n more for an IOV left out between two segments (straddling a step)"},
-        {"step_z", t.options.stepZ},
-        {"min_segment", t.options.minSegment},
-        {"min_line_points", kMinLinePoints},
-        {"knee_test", t.options.kneeTest},
-        {"drift_test", "slope against 0 in each segment of a line, Bonferroni over all segments tested"},
-        {"drift_alpha", t.options.driftAlpha},
-        {"drift_tests", t.tests},
-        {"consistency_test",
-         "chi2 of each segment's model (a line where its slope is significant), Bonferroni over all segments "
-         "tested, family-wise rate drift_alpha"},
-        {"consistency_tests", t.consistencyTests},
-        {"edge_test",
-         "the first and the last IOV against the rest of their segment: left out when the chi2 drops by more than the "
-         "penalty and p-value x 2 x series < drift_alpha"},
-        {"known_boundaries", t.options.boundaries}}},
-      {"iovs", t.iovs},
-      {"resolvable", t.resolvable()},
-      {"verdict", trendVerdict(t)},
-      {"steps", steps},
-      {"inconsistent", inconsistent},
-      {"known_boundaries", boundaries},
-      {"set_aside", setAside},
-      {"edges", edges},
-      {"drifts", drifts},
-      {"segments", segments},
-      {"series", list}};
+  return {{"format", kTrendFormat},
+          {"method", methodJson(t)},
+          {"iovs", t.iovs},
+          {"resolvable", t.resolvable()},
+          {"verdict", trendVerdict(t)},
+          {"steps", arrayOf(t.steps, stepJson)},
+          {"inconsistent", arrayOf(t.inconsistencies, inconsistencyJson)},
+          {"known_boundaries", arrayOf(t.boundaries, boundaryJson)},
+          {"set_aside", setAside},
+          {"edges", arrayOf(t.edges, edgeJson)},
+          {"drifts", arrayOf(t.drifts, [&](const TrendDrift& d) { return driftJson(t, d); })},
+          {"segments", arrayOf(t.segments, segmentJson)},
+          {"series", list}};
 }
 
 namespace {

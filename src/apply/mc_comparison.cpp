@@ -34,7 +34,7 @@ int thetaBin(const ComparedParticle& p, const ComparisonOptions& o) {
 struct Merged {
   std::vector<int> first;  // first fine bin of each merged bin
   std::vector<int> of;     // fine bin → merged bin
-  int size() const { return static_cast<int>(first.size()); }
+  [[nodiscard]] int size() const { return static_cast<int>(first.size()); }
 };
 
 Merged mergeBins(const std::vector<std::int64_t>& a, const std::vector<std::int64_t>& b, std::int64_t minEntries) {
@@ -63,9 +63,9 @@ struct Layout {
   Merged phi, theta;
   std::vector<int> usedBins;   // profile bins compared
   std::vector<int> slotOfBin;  // profile bin → index into usedBins, −1 when not compared
-  int size() const { return phi.size() + theta.size() + 2 * static_cast<int>(usedBins.size()); }
-  int thetaOffset() const { return phi.size(); }
-  int profileOffset() const { return phi.size() + theta.size(); }
+  [[nodiscard]] int size() const { return phi.size() + theta.size() + 2 * static_cast<int>(usedBins.size()); }
+  [[nodiscard]] int thetaOffset() const { return phi.size(); }
+  [[nodiscard]] int profileOffset() const { return phi.size() + theta.size(); }
 };
 
 // One sample's quantities and their covariance (the events' influences, see the header).

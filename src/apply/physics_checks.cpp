@@ -173,6 +173,7 @@ CoreWidth gaussianCore(std::span<const double> values) {
   // Start: the median and the MAD (σ of a Gaussian = 1.4826 MAD).
   double mu = median(v);
   std::vector<double> dev;
+  dev.reserve(v.size());
   for (double x : v) dev.push_back(std::abs(x - mu));
   double sigma = 1.4826 * median(dev);
   if (!(sigma > 0.0)) return w;
@@ -356,7 +357,8 @@ Json checkJson(const ThreePionCheck& c) {
         ++failed;
       }
     }
-    means[k] = chi2.empty() ? std::nan("") : std::accumulate(chi2.begin(), chi2.end(), 0.0) / chi2.size();
+    means[k] =
+        chi2.empty() ? std::nan("") : std::accumulate(chi2.begin(), chi2.end(), 0.0) / static_cast<double>(chi2.size());
     medians[k] = median(chi2);
     double truncated = 0.0;
     std::int64_t inCore = 0;
@@ -373,7 +375,7 @@ Json checkJson(const ThreePionCheck& c) {
         {"fraction_above_20",
          io::numberOrNull(chi2.empty() ? std::nan("")
                                        : 1.0 - static_cast<double>(inCore) / static_cast<double>(chi2.size()))},
-        {"p_value_mean", io::numberOrNull(chi2.empty() ? std::nan("") : pSum / chi2.size())},
+        {"p_value_mean", io::numberOrNull(chi2.empty() ? std::nan("") : pSum / static_cast<double>(chi2.size()))},
         {"converged", chi2.size()},
         {"not_converged", failed}};
   }

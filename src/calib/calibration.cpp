@@ -158,20 +158,13 @@ io::Json sigmaSysJson(const SigmaSysUsed& s) {
   return j;
 }
 
-io::Json fitResultJson(const FitResult& r, const FitInput& input) {
-  using geometry::AlignmentParameters;
-  using io::Json;
-  Json j = io::alignmentToJson(r.parameters);
-  Json errors = Json::object();
-  for (Param p : kAllParams) {
-    errors[std::string(name(p))] = io::numberOrNull(r.errors[p] / AlignmentParameters::fileUnit(p));
-  }
-  j["errors"] = errors;
-  if (input.systematics) {
-    Json systematic = Json::object();
-    for (std::string_view p : kParamNames) systematic[std::string(p)] = input.systematics->errors.find(p)->second;
-    j["systematic_errors"] = systematic;
-  }
+namespace {
+
+using geometry::AlignmentParameters;
+using io::Json;
+
+// "covariance" (file units) and "correlation"; a null covariance when the fit has none.
+void addCovariance(const FitResult& r, Json& j) {
   if (r.covariance) {
     Json cov = Json::array(), corr = Json::array();
     for (Param p : kAllParams) {
@@ -188,6 +181,10 @@ io::Json fitResultJson(const FitResult& r, const FitInput& input) {
   } else {
     j["covariance"] = nullptr;
   }
+}
+
+// "derived": the physical parameters with their errors (and systematic errors, when given).
+Json derivedJson(const FitResult& r, const FitInput& input) {
   Json derived = Json::object();
   for (Physical p : kDerivedParams) {
     const double unit = geometry::PhysicalParameters::fileUnit(p);
@@ -199,10 +196,11 @@ io::Json fitResultJson(const FitResult& r, const FitInput& input) {
       derived[std::string(name(p))]["systematic_error"] = it->second;
     }
   }
-  j["derived"] = derived;
-  j["chi2"] = r.chi2;
-  j["ndf"] = r.ndf;
-  j["p_value"] = r.pValue;
+  return derived;
+}
+
+// "stages": each stage's free parameters, χ², iterations and convergence.
+Json stagesJson(const FitResult& r) {
   Json stages = Json::array();
   for (std::size_t k = 0; k < r.stages.size(); ++k) {
     Json free = Json::array();
@@ -213,10 +211,11 @@ io::Json fitResultJson(const FitResult& r, const FitInput& input) {
                       {"iterations", r.stages[k].iterations},
                       {"converged", r.stages[k].converged}});
   }
-  j["stages"] = stages;
-  j["status"] = std::string(name(r.status));
-  j["warnings"] = r.warnings;
-  j["sigma_sys"] = sigmaSysJson(r.sigmaSys);
+  return stages;
+}
+
+// "input": the files, detector, bins, model corrections, selection and eigenvalues.
+Json inputJson(const FitResult& r, const FitInput& input) {
   Json in = {{"files", input.files},
              {"from_profile", input.fromProfile},
              {"detector", input.detector},
@@ -244,7 +243,33 @@ io::Json fitResultJson(const FitResult& r, const FitInput& input) {
   Json eig = Json::array();
   for (double e : r.eigenvalues) eig.push_back(e);
   in["correlation_eigenvalues"] = eig;
-  j["input"] = in;
+  return in;
+}
+
+}  // namespace
+
+io::Json fitResultJson(const FitResult& r, const FitInput& input) {
+  Json j = io::alignmentToJson(r.parameters);
+  Json errors = Json::object();
+  for (Param p : kAllParams) {
+    errors[std::string(name(p))] = io::numberOrNull(r.errors[p] / AlignmentParameters::fileUnit(p));
+  }
+  j["errors"] = errors;
+  if (input.systematics) {
+    Json systematic = Json::object();
+    for (std::string_view p : kParamNames) systematic[std::string(p)] = input.systematics->errors.find(p)->second;
+    j["systematic_errors"] = systematic;
+  }
+  addCovariance(r, j);
+  j["derived"] = derivedJson(r, input);
+  j["chi2"] = r.chi2;
+  j["ndf"] = r.ndf;
+  j["p_value"] = r.pValue;
+  j["stages"] = stagesJson(r);
+  j["status"] = std::string(name(r.status));
+  j["warnings"] = r.warnings;
+  j["sigma_sys"] = sigmaSysJson(r.sigmaSys);
+  j["input"] = inputJson(r, input);
   j["software"] = fmt::format("emcalign {}", kVersion);
   return j;
 }

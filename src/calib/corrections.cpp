@@ -212,7 +212,10 @@ Status FitResponse::validate() const {
   return {};
 }
 
-Result<ModelCorrections> parseCorrections(const Json& j, std::string_view source) {
+namespace {
+
+// The keys of a corrections file: only those it may have, and its format.
+Status checkCorrectionsKeys(const Json& j, std::string_view source) {
   if (!j.is_object()) return Error{fmt::format("{}: expected a JSON object", source)};
   if (Status kind = io::expectFormat(j, kCorrectionsFormat, "a corrections file", source); !kind) return kind.error();
   for (const auto& [key, value] : j.items()) {
@@ -227,6 +230,94 @@ Result<ModelCorrections> parseCorrections(const Json& j, std::string_view source
   if (!j.contains("format") || j["format"] != kCorrectionsFormat) {
     return Error{fmt::format("{}: key 'format': expected \"{}\"", source, kCorrectionsFormat)};
   }
+  return {};
+}
+
+// "parting_plane": {"phi_bins": 16, "plus_weight": [16 numbers]}.
+Result<std::shared_ptr<const PartingPlaneResponse>> parsePartingPlane(const Json& p, std::string_view source) {
+  if (!p.is_object() || p.size() != 2 || !p.contains("phi_bins") || !p.contains("plus_weight")) {
+    return Error{fmt::format("{}: key 'parting_plane': expected {{\"phi_bins\": 16, \"plus_weight\": [...]}}", source)};
+  }
+  auto bins = io::integerIn(p["phi_bins"], kProfilePhiBins, kProfilePhiBins, source, "parting_plane.phi_bins");
+  if (!bins)
+    return Error{fmt::format("{} (the response belongs to the {} phi bins of the profiles)", bins.error().message,
+                             kProfilePhiBins)};
+  if (!p["plus_weight"].is_array() || p["plus_weight"].size() != static_cast<std::size_t>(*bins)) {
+    return Error{fmt::format("{}: key 'parting_plane.plus_weight': expected {} numbers", source, *bins)};
+  }
+  std::vector<double> w;
+  for (const auto& x : p["plus_weight"]) {
+    if (!x.is_number()) return Error{fmt::format("{}: key 'parting_plane.plus_weight': expected numbers", source)};
+    w.push_back(x.get<double>());
+  }
+  auto r = PartingPlaneResponse::create(std::move(w));
+  if (!r) return Error{fmt::format("{}: key 'parting_plane': {}", source, r.error().message)};
+  return std::make_shared<const PartingPlaneResponse>(std::move(*r));
+}
+
+// "nominal_profile": the bins' mean residuals and their errors (numbers or null).
+Result<std::shared_ptr<const NominalProfile>> parseNominalProfile(const Json& p, std::string_view source) {
+  static constexpr const char* kKeys[] = {"phi_bins", "theta_bins", "y_phi", "sigma_phi", "y_theta", "sigma_theta"};
+  if (!p.is_object() || p.size() != 6) {
+    return Error{fmt::format("{}: key 'nominal_profile': expected an object with {}", source, fmt::join(kKeys, ", "))};
+  }
+  for (const char* key : kKeys) {
+    if (!p.contains(key)) return Error{fmt::format("{}: key 'nominal_profile.{}': missing", source, key)};
+  }
+  NominalProfile t;
+  auto phiBins = io::integerIn(p["phi_bins"], kProfilePhiBins, kProfilePhiBins, source, "nominal_profile.phi_bins");
+  auto thetaBins =
+      io::integerIn(p["theta_bins"], kProfileThetaBins, kProfileThetaBins, source, "nominal_profile.theta_bins");
+  if (!phiBins || !thetaBins) {
+    return Error{fmt::format("{} (the nominal profile belongs to the {} x {} bins of the profiles)",
+                             (!phiBins ? phiBins : thetaBins).error().message, kProfilePhiBins, kProfileThetaBins)};
+  }
+  t.phiBins = static_cast<int>(*phiBins);
+  t.thetaBins = static_cast<int>(*thetaBins);
+  for (const char* key : {"y_phi", "sigma_phi", "y_theta", "sigma_theta"}) {
+    if (!p[key].is_array()) return Error{fmt::format("{}: key 'nominal_profile.{}': expected an array", source, key)};
+    std::vector<double>& v = key == std::string_view("y_phi")       ? t.yPhi
+                             : key == std::string_view("sigma_phi") ? t.sigmaPhi
+                             : key == std::string_view("y_theta")   ? t.yTheta
+                                                                    : t.sigmaTheta;
+    for (const auto& x : p[key]) {
+      if (x.is_null()) {
+        v.push_back(std::numeric_limits<double>::quiet_NaN());
+      } else if (x.is_number()) {
+        v.push_back(x.get<double>());
+      } else {
+        return Error{fmt::format("{}: key 'nominal_profile.{}': expected numbers or null", source, key)};
+      }
+    }
+  }
+  if (Status st = t.validate(); !st)
+    return Error{fmt::format("{}: key 'nominal_profile': {}", source, st.error().message)};
+  return std::make_shared<const NominalProfile>(std::move(t));
+}
+
+// Systematic errors belong to the corrections they were measured with (their digest).
+Status checkSystematicsBelong(const ModelCorrections& c, std::string_view source) {
+  if (!c.systematics) return {};
+  if (!c.systematics->study.contains("corrections_fnv1a")) {
+    return Error{fmt::format(
+        "{}: key 'systematic_errors.study.corrections_fnv1a': missing: systematic errors belong to the corrections "
+        "they were measured with (`emcalign systematics --write-corrections` writes them with their digest)",
+        source)};
+  }
+  const Json& measured = c.systematics->study["corrections_fnv1a"];
+  if (const std::string own = correctionsDigest(c); !measured.is_string() || measured.get<std::string>() != own) {
+    return Error{fmt::format(
+        "{}: key 'systematic_errors': measured with other corrections (fnv1a {}, this file's {}): the file was "
+        "changed after `emcalign systematics --write-corrections`; run the study again",
+        source, measured.is_string() ? measured.get<std::string>() : measured.dump(), own)};
+  }
+  return {};
+}
+
+}  // namespace
+
+Result<ModelCorrections> parseCorrections(const Json& j, std::string_view source) {
+  if (Status s = checkCorrectionsKeys(j, source); !s) return s.error();
   ModelCorrections c;
   if (j.contains("beam_energy_mev")) {
     const Json& e = j["beam_energy_mev"];
@@ -248,66 +339,14 @@ Result<ModelCorrections> parseCorrections(const Json& j, std::string_view source
                     source, c.depthOffset / units::cm, kMaxDepthOffset / units::cm)};
   }
   if (j.contains("parting_plane")) {
-    const Json& p = j["parting_plane"];
-    if (!p.is_object() || p.size() != 2 || !p.contains("phi_bins") || !p.contains("plus_weight")) {
-      return Error{
-          fmt::format("{}: key 'parting_plane': expected {{\"phi_bins\": 16, \"plus_weight\": [...]}}", source)};
-    }
-    auto bins = io::integerIn(p["phi_bins"], kProfilePhiBins, kProfilePhiBins, source, "parting_plane.phi_bins");
-    if (!bins)
-      return Error{fmt::format("{} (the response belongs to the {} phi bins of the profiles)", bins.error().message,
-                               kProfilePhiBins)};
-    if (!p["plus_weight"].is_array() || p["plus_weight"].size() != static_cast<std::size_t>(*bins)) {
-      return Error{fmt::format("{}: key 'parting_plane.plus_weight': expected {} numbers", source, *bins)};
-    }
-    std::vector<double> w;
-    for (const auto& x : p["plus_weight"]) {
-      if (!x.is_number()) return Error{fmt::format("{}: key 'parting_plane.plus_weight': expected numbers", source)};
-      w.push_back(x.get<double>());
-    }
-    auto r = PartingPlaneResponse::create(std::move(w));
-    if (!r) return Error{fmt::format("{}: key 'parting_plane': {}", source, r.error().message)};
-    c.partingPlane = std::make_shared<const PartingPlaneResponse>(std::move(*r));
+    auto p = parsePartingPlane(j["parting_plane"], source);
+    if (!p) return p.error();
+    c.partingPlane = std::move(*p);
   }
   if (j.contains("nominal_profile")) {
-    const Json& p = j["nominal_profile"];
-    static constexpr const char* kKeys[] = {"phi_bins", "theta_bins", "y_phi", "sigma_phi", "y_theta", "sigma_theta"};
-    if (!p.is_object() || p.size() != 6) {
-      return Error{
-          fmt::format("{}: key 'nominal_profile': expected an object with {}", source, fmt::join(kKeys, ", "))};
-    }
-    for (const char* key : kKeys) {
-      if (!p.contains(key)) return Error{fmt::format("{}: key 'nominal_profile.{}': missing", source, key)};
-    }
-    NominalProfile t;
-    auto phiBins = io::integerIn(p["phi_bins"], kProfilePhiBins, kProfilePhiBins, source, "nominal_profile.phi_bins");
-    auto thetaBins =
-        io::integerIn(p["theta_bins"], kProfileThetaBins, kProfileThetaBins, source, "nominal_profile.theta_bins");
-    if (!phiBins || !thetaBins) {
-      return Error{fmt::format("{} (the nominal profile belongs to the {} x {} bins of the profiles)",
-                               (!phiBins ? phiBins : thetaBins).error().message, kProfilePhiBins, kProfileThetaBins)};
-    }
-    t.phiBins = static_cast<int>(*phiBins);
-    t.thetaBins = static_cast<int>(*thetaBins);
-    for (const char* key : {"y_phi", "sigma_phi", "y_theta", "sigma_theta"}) {
-      if (!p[key].is_array()) return Error{fmt::format("{}: key 'nominal_profile.{}': expected an array", source, key)};
-      std::vector<double>& v = key == std::string_view("y_phi")       ? t.yPhi
-                               : key == std::string_view("sigma_phi") ? t.sigmaPhi
-                               : key == std::string_view("y_theta")   ? t.yTheta
-                                                                      : t.sigmaTheta;
-      for (const auto& x : p[key]) {
-        if (x.is_null()) {
-          v.push_back(std::numeric_limits<double>::quiet_NaN());
-        } else if (x.is_number()) {
-          v.push_back(x.get<double>());
-        } else {
-          return Error{fmt::format("{}: key 'nominal_profile.{}': expected numbers or null", source, key)};
-        }
-      }
-    }
-    if (Status st = t.validate(); !st)
-      return Error{fmt::format("{}: key 'nominal_profile': {}", source, st.error().message)};
-    c.nominalProfile = std::make_shared<const NominalProfile>(std::move(t));
+    auto p = parseNominalProfile(j["nominal_profile"], source);
+    if (!p) return p.error();
+    c.nominalProfile = std::move(*p);
   }
   if (j.contains("response")) {
     auto r = parseResponse(j["response"], source);
@@ -320,22 +359,7 @@ Result<ModelCorrections> parseCorrections(const Json& j, std::string_view source
     c.systematics = std::make_shared<const SystematicErrors>(std::move(*e));
   }
   if (j.contains("derived_from")) c.derivedFrom = j["derived_from"];
-  // Systematic errors belong to the corrections they were measured with.
-  if (c.systematics) {
-    if (!c.systematics->study.contains("corrections_fnv1a")) {
-      return Error{fmt::format(
-          "{}: key 'systematic_errors.study.corrections_fnv1a': missing: systematic errors belong to the corrections "
-          "they were measured with (`emcalign systematics --write-corrections` writes them with their digest)",
-          source)};
-    }
-    const Json& measured = c.systematics->study["corrections_fnv1a"];
-    if (const std::string own = correctionsDigest(c); !measured.is_string() || measured.get<std::string>() != own) {
-      return Error{fmt::format(
-          "{}: key 'systematic_errors': measured with other corrections (fnv1a {}, this file's {}): the file was "
-          "changed after `emcalign systematics --write-corrections`; run the study again",
-          source, measured.is_string() ? measured.get<std::string>() : measured.dump(), own)};
-    }
-  }
+  if (Status s = checkSystematicsBelong(c, source); !s) return s.error();
   return c;
 }
 

@@ -107,7 +107,7 @@ class Postgres final : public SqlBackend {
     return {};
   }
 
-  std::string_view forUpdate() const override { return " FOR UPDATE"; }
+  [[nodiscard]] std::string_view forUpdate() const override { return " FOR UPDATE"; }
 
   Status serializeSchemaChanges() override {
     // Two `init`s at once would both create the tables; one waits for the other instead.
@@ -123,7 +123,7 @@ class Postgres final : public SqlBackend {
   }
 
   Status afterInit() override { return {}; }
-  const std::string& uri() const override { return uri_; }
+  [[nodiscard]] const std::string& uri() const override { return uri_; }
 
  private:
   Status begin() {

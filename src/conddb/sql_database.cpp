@@ -309,7 +309,7 @@ class SqlDatabase final : public Database {
     });
   }
 
-  const std::string& uri() const override { return db_->uri(); }
+  [[nodiscard]] const std::string& uri() const override { return db_->uri(); }
 
  private:
   static constexpr const char* kRetiredPrefix = "retired:";

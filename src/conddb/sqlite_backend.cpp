@@ -45,9 +45,9 @@ class Sqlite final : public SqlBackend {
   Status beginRead() override { return run("BEGIN"); }
   Status commit() override { return run("COMMIT"); }
   void rollback() noexcept override { sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr); }
-  std::string_view forUpdate() const override { return ""; }
+  [[nodiscard]] std::string_view forUpdate() const override { return ""; }
   Status serializeSchemaChanges() override { return {}; }  // BEGIN IMMEDIATE already does
-  const std::string& uri() const override { return uri_; }
+  [[nodiscard]] const std::string& uri() const override { return uri_; }
 
   Result<std::vector<Row>> query(std::string_view sql, const std::vector<Param>& params) override {
     if (Status s = checkParams(params, uri_); !s) return s.error();
@@ -133,7 +133,7 @@ class Sqlite final : public SqlBackend {
   }
 
  private:
-  Error failure(std::string_view what) const {
+  [[nodiscard]] Error failure(std::string_view what) const {
     return Error{fmt::format("{}: SQLite {}: {}", uri_, what, sqlite3_errmsg(db_))};
   }
 

@@ -29,50 +29,37 @@ std::string Ran::outcome() const {
   return "ended abnormally";
 }
 
-Ran runCapturing(const std::vector<std::string>& argv, const std::string& cwd, std::string_view input, int seconds) {
-  Ran r;
-  // Its standard input is a socket, not a pipe: a gnuplot that exits before reading all of it
-  // gets EPIPE without a SIGPIPE (MSG_NOSIGNAL), which would end this process.
-  int in[2], out[2], err[2];
-  if (::socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, in) != 0) {
-    r.startError = errno;
-    return r;
-  }
-  if (::pipe2(out, O_CLOEXEC) != 0 || ::pipe2(err, O_CLOEXEC) != 0) {
-    r.startError = errno;
-    return r;
-  }
+namespace {
+
+// Starts `argv` in `cwd` with its standard streams on `in`, `out` and `err`: 0 and its pid, or
+// the error number.
+int spawn(const std::vector<std::string>& argv, const std::string& cwd, int in, int out, int err, pid_t& pid) {
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_adddup2(&actions, in[0], 0);
-  posix_spawn_file_actions_adddup2(&actions, out[1], 1);
-  posix_spawn_file_actions_adddup2(&actions, err[1], 2);
+  posix_spawn_file_actions_adddup2(&actions, in, 0);
+  posix_spawn_file_actions_adddup2(&actions, out, 1);
+  posix_spawn_file_actions_adddup2(&actions, err, 2);
   posix_spawn_file_actions_addchdir_np(&actions, cwd.c_str());
   std::vector<char*> args;
   args.reserve(argv.size() + 1);
   for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
   args.push_back(nullptr);
-  pid_t pid = 0;
   const int spawned = ::posix_spawnp(&pid, args[0], &actions, nullptr, args.data(), environ);
   posix_spawn_file_actions_destroy(&actions);
-  ::close(in[0]);
-  ::close(out[1]);
-  ::close(err[1]);
-  if (spawned != 0) {
-    r.startError = spawned;
-    ::close(in[1]);
-    ::close(out[0]);
-    ::close(err[0]);
-    return r;
-  }
+  return spawned;
+}
+
+// Feeds `input` to the child's standard input (`in`) and collects its output and errors (`out`,
+// `err`) until both close, or kills it at the deadline; closes the three.
+void exchange(pid_t pid, int in, int out, int err, std::string_view input, int seconds, Ran& r) {
   std::size_t written = 0;
   if (input.empty()) {
-    ::close(in[1]);
-    in[1] = -1;
+    ::close(in);
+    in = -1;
   }
   char buffer[1 << 16];
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(seconds);
-  while (out[0] >= 0 || err[0] >= 0) {
+  while (out >= 0 || err >= 0) {
     const auto left =
         std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
     if (left.count() <= 0) {
@@ -80,22 +67,22 @@ Ran runCapturing(const std::vector<std::string>& argv, const std::string& cwd, s
       r.timedOut = true;
       break;
     }
-    pollfd fds[3] = {{in[1], POLLOUT, 0}, {out[0], POLLIN, 0}, {err[0], POLLIN, 0}};
+    pollfd fds[3] = {{in, POLLOUT, 0}, {out, POLLIN, 0}, {err, POLLIN, 0}};
     if (::poll(fds, 3, static_cast<int>(std::min<long long>(left.count(), 1000))) < 0) {
       if (errno == EINTR) continue;
       break;
     }
-    if (in[1] >= 0 && (fds[0].revents & (POLLOUT | POLLERR | POLLHUP)) != 0) {
-      const ssize_t n = ::send(in[1], input.data() + written, input.size() - written, MSG_NOSIGNAL | MSG_DONTWAIT);
+    if (in >= 0 && (fds[0].revents & (POLLOUT | POLLERR | POLLHUP)) != 0) {
+      const ssize_t n = ::send(in, input.data() + written, input.size() - written, MSG_NOSIGNAL | MSG_DONTWAIT);
       if (n > 0) written += static_cast<std::size_t>(n);
       if (n < 0 && errno != EAGAIN && errno != EINTR) written = input.size();  // it stopped reading
       if (written == input.size()) {
-        ::close(in[1]);
-        in[1] = -1;
+        ::close(in);
+        in = -1;
       }
     }
     for (int k : {1, 2}) {
-      int& fd = k == 1 ? out[0] : err[0];
+      int& fd = k == 1 ? out : err;
       if (fd < 0 || (fds[k].revents & (POLLIN | POLLERR | POLLHUP)) == 0) continue;
       const ssize_t n = ::read(fd, buffer, sizeof buffer);
       if (n > 0) {
@@ -106,9 +93,45 @@ Ran runCapturing(const std::vector<std::string>& argv, const std::string& cwd, s
       }
     }
   }
-  for (int fd : {in[1], out[0], err[0]}) {
+  for (int fd : {in, out, err}) {
     if (fd >= 0) ::close(fd);
   }
+}
+
+}  // namespace
+
+Ran runCapturing(const std::vector<std::string>& argv, const std::string& cwd, std::string_view input, int seconds) {
+  Ran r;
+  // Its standard input is a socket, not a pipe: a gnuplot that exits before reading all of it
+  // gets EPIPE without a SIGPIPE (MSG_NOSIGNAL), which would end this process.
+  int in[2], out[2], err[2];
+  if (::socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, in) != 0) {
+    r.startError = errno;
+    return r;
+  }
+  if (::pipe2(out, O_CLOEXEC) != 0) {
+    r.startError = errno;
+    for (int fd : in) ::close(fd);
+    return r;
+  }
+  if (::pipe2(err, O_CLOEXEC) != 0) {
+    r.startError = errno;
+    for (int fd : {in[0], in[1], out[0], out[1]}) ::close(fd);
+    return r;
+  }
+  pid_t pid = 0;
+  const int spawned = spawn(argv, cwd, in[0], out[1], err[1], pid);
+  ::close(in[0]);
+  ::close(out[1]);
+  ::close(err[1]);
+  if (spawned != 0) {
+    r.startError = spawned;
+    ::close(in[1]);
+    ::close(out[0]);
+    ::close(err[0]);
+    return r;
+  }
+  exchange(pid, in[1], out[0], err[0], input, seconds, r);
   while (::waitpid(pid, &r.status, 0) < 0 && errno == EINTR) {
   }
   return r;

@@ -163,7 +163,7 @@ class LineReader {
   }
 
   /// 1-based physical number of the line last returned.
-  std::uint64_t lineNumber() const { return lineNumber_; }
+  [[nodiscard]] std::uint64_t lineNumber() const { return lineNumber_; }
 
  private:
   std::string path_;
@@ -356,9 +356,9 @@ class CsvSource final : public RowSource {
     return true;
   }
 
-  bool hasTruth() const override { return false; }
-  const Attributes& attributes() const override { return attributes_; }
-  std::string location() const override { return fmt::format("{}: line {}", path_, lines_.lineNumber()); }
+  [[nodiscard]] bool hasTruth() const override { return false; }
+  [[nodiscard]] const Attributes& attributes() const override { return attributes_; }
+  [[nodiscard]] std::string location() const override { return fmt::format("{}: line {}", path_, lines_.lineNumber()); }
 
  private:
   explicit CsvSource(std::string path) : path_(std::move(path)) {}

@@ -130,8 +130,8 @@ class SeenEvents {
   struct Interval {  // the events first..last of a run
     std::int32_t run;
     std::int64_t first, last;
-    bool holds(std::int32_t r, std::int64_t e) const { return r == run && e >= first && e <= last; }
-    bool before(std::int32_t r, std::int64_t e) const { return run != r ? run < r : last < e; }
+    [[nodiscard]] bool holds(std::int32_t r, std::int64_t e) const { return r == run && e >= first && e <= last; }
+    [[nodiscard]] bool before(std::int32_t r, std::int64_t e) const { return run != r ? run < r : last < e; }
   };
   static constexpr std::size_t kMaxSegments = 64;
   std::vector<std::vector<Interval>> segments_;
@@ -204,13 +204,17 @@ class EventReaderImpl final : public EventReader {
     }
   }
 
-  const std::string& path() const override { return paths_[index_]; }
+  [[nodiscard]] const std::string& path() const override { return paths_[index_]; }
 
-  const std::vector<TruthRow>* truth() const override { return source_ && source_->hasTruth() ? &truth_ : nullptr; }
+  [[nodiscard]] const std::vector<TruthRow>* truth() const override {
+    return source_ && source_->hasTruth() ? &truth_ : nullptr;
+  }
 
-  const std::vector<Hit>* hits() const override { return source_ && source_->hasHits() ? &hits_ : nullptr; }
+  [[nodiscard]] const std::vector<Hit>* hits() const override {
+    return source_ && source_->hasHits() ? &hits_ : nullptr;
+  }
 
-  const Attributes& attributes() const override {
+  [[nodiscard]] const Attributes& attributes() const override {
     static const Attributes kNone;
     return source_ ? source_->attributes() : kNone;
   }
@@ -218,7 +222,7 @@ class EventReaderImpl final : public EventReader {
  private:
   // Read rows in pieces of the block size (not fewer than a few hundred, so a tiny
   // blockRows does not turn into one HDF5 read per row).
-  std::size_t readRows() const { return std::max<std::size_t>(options_.blockRows, 256); }
+  [[nodiscard]] std::size_t readRows() const { return std::max<std::size_t>(options_.blockRows, 256); }
 
   Status openFile(std::size_t index) {
     auto source = openSource(paths_[index], readRows(), options_);
@@ -307,7 +311,7 @@ class EventReaderImpl final : public EventReader {
 
 // ============================================================================ public API
 
-Result<std::unique_ptr<EventWriter>> EventWriter::open(const std::string& path, WriterOptions options) {
+Result<std::unique_ptr<EventWriter>> EventWriter::open(const std::string& path, const WriterOptions& options) {
   const EventFormat format = formatOf(path);
   if (auto s = checkAttributes(path, options.attributes, format); !s) return s.error();
   if (format == EventFormat::Csv) return openCsvWriter(path, options);

@@ -411,10 +411,10 @@ class Hdf5Source final : public RowSource {
     return true;
   }
 
-  bool hasTruth() const override { return hasTruth_; }
-  bool hasHits() const override { return hasHits_; }
-  const Attributes& attributes() const override { return attributes_; }
-  std::string location() const override {
+  [[nodiscard]] bool hasTruth() const override { return hasTruth_; }
+  [[nodiscard]] bool hasHits() const override { return hasHits_; }
+  [[nodiscard]] const Attributes& attributes() const override { return attributes_; }
+  [[nodiscard]] std::string location() const override {
     return fmt::format("{}: record {}", path_, first_ + pos_ - (pos_ > 0 ? 1 : 0));
   }
 
@@ -422,7 +422,7 @@ class Hdf5Source final : public RowSource {
   Hdf5Source(std::string path, std::size_t readRows, const ReaderOptions& options)
       : path_(std::move(path)), readRows_(readRows), wantTruth_(options.truth), wantHits_(options.hits) {}
 
-  Error error(std::string_view what) const { return Error{fmt::format("{}: {}", path_, what)}; }
+  [[nodiscard]] Error error(std::string_view what) const { return Error{fmt::format("{}: {}", path_, what)}; }
 
   Status openFile() {
     const htri_t isHdf5 = H5Fis_hdf5(path_.c_str());
@@ -446,6 +446,7 @@ class Hdf5Source final : public RowSource {
     }
 
     std::vector<std::pair<std::string, Kind>> eventColumns;
+    eventColumns.reserve(kNumCols);
     for (int c = 0; c < kNumCols; ++c) {
       eventColumns.emplace_back(kColumnNames[static_cast<std::size_t>(c)], eventKind(c));
     }
@@ -487,8 +488,7 @@ class Hdf5Source final : public RowSource {
     }
     return {};
   }
-
-  bool linkExists(const std::string& path) const {
+  [[nodiscard]] bool linkExists(const std::string& path) const {
     const htri_t e = H5Lexists(file_.get(), path.c_str(), H5P_DEFAULT);
     if (e < 0) H5Eclear2(H5E_DEFAULT);
     return e > 0;

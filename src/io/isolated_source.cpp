@@ -292,10 +292,10 @@ class IsolatedSource final : public RowSource {
     return payload;
   }
 
-  bool hasTruth() const override { return hasTruth_; }
-  bool hasHits() const override { return hasHits_; }
-  const Attributes& attributes() const override { return attributes_; }
-  std::string location() const override {
+  [[nodiscard]] bool hasTruth() const override { return hasTruth_; }
+  [[nodiscard]] bool hasHits() const override { return hasHits_; }
+  [[nodiscard]] const Attributes& attributes() const override { return attributes_; }
+  [[nodiscard]] std::string location() const override {
     return fmt::format("{}: record {}", path_, delivered_ > 0 ? delivered_ - 1 : 0);
   }
 

@@ -46,7 +46,7 @@ std::string_view finalState(CheckProcess process);
 struct CheckCutFlow {
   std::vector<std::string> names;
   std::vector<std::int64_t> events;  ///< passing each cut, in order
-  io::Json json() const;
+  [[nodiscard]] io::Json json() const;
   /// An error when no event passed the last cut (nothing to compare), naming each cut's count.
   [[nodiscard]] Status requireSelected(CheckProcess process) const;
 };

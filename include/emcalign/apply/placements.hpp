@@ -39,7 +39,7 @@ struct Placement {
   geometry::Hemisphere hemisphere = geometry::Hemisphere::Plus;
   geometry::RigidTransform transform;  ///< p1 = rotation·p0 + translation (cm)
   /// sphere1_plus, sphere1_minus, sphere2_plus, sphere2_minus
-  std::string name() const;
+  [[nodiscard]] std::string name() const;
 };
 
 struct Placements {

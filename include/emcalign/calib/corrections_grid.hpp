@@ -76,7 +76,7 @@ class CorrectionsGrid {
   [[nodiscard]] const std::vector<CorrectionsPoint>& points() const { return points_; }
 
   /// The corrections at `beamEnergy` (MeV). A grid fails outside its energies.
-  Result<CorrectionsAt> at(double beamEnergy) const;
+  [[nodiscard]] Result<CorrectionsAt> at(double beamEnergy) const;
   /// Only their depth offset (cm), at the cost of one interpolation: for every run or event.
   [[nodiscard]] Result<double> depthOffsetAt(double beamEnergy) const;
 

@@ -38,12 +38,12 @@ struct DatabaseAddress {
   /// Parses and checks an address; the error never repeats a password.
   static Result<DatabaseAddress> parse(std::string_view uri);
   /// Whether the address carries a password (a plan or a record must not hold one).
-  bool hasPassword() const { return !secrets_.empty(); }
+  [[nodiscard]] bool hasPassword() const { return !secrets_.empty(); }
   /// `message` with every form of the password replaced by "***" and the URI by `shown`.
-  std::string redact(std::string message) const;
+  [[nodiscard]] std::string redact(std::string message) const;
   /// Sqlite: the file and its journals (-wal, -shm, -journal), which no output may replace,
   /// also beside the file a link points to; none for a server.
-  std::vector<std::string> files() const;
+  [[nodiscard]] std::vector<std::string> files() const;
 
  private:
   friend struct AddressParser;

@@ -62,13 +62,13 @@ struct Iov {
 struct Payload {
   io::Json content;
   /// SHA-256 of the compact dump of `content`.
-  std::string hash() const;
+  [[nodiscard]] std::string hash() const;
   /// The parameter file of this calibration (SPEC §3: parameters, errors, covariance, …).
-  io::Json parameterFile() const;
+  [[nodiscard]] io::Json parameterFile() const;
   /// The model of the fit behind it, in words: "the paper's model" (with "depth offset …"
   /// when one was set), "corrections PATH"; "" when the payload does not say (a parameter
   /// file stored without its fit).
-  std::string model() const;
+  [[nodiscard]] std::string model() const;
 };
 
 /// A payload from a fit result (SPEC §3) or a parameter file, with its provenance (free JSON
@@ -124,7 +124,7 @@ class Database {
   virtual Status retire(const std::string& tag, const std::string& reason) = 0;
 
   /// The URI it was opened with (for messages), without any password.
-  virtual const std::string& uri() const = 0;
+  [[nodiscard]] virtual const std::string& uri() const = 0;
 };
 
 /// The IOVs of one tag read once, with their payloads fetched on demand and kept: the lookups
@@ -134,10 +134,10 @@ class TagSnapshot {
   /// Fails when the tag does not exist, or is retired (unless `allowRetired`: a table of it,
   /// a comparison, never a lookup).
   static Result<TagSnapshot> load(Database& db, const std::string& tag, bool allowRetired = false);
-  const Tag& tag() const { return tag_; }
-  const std::vector<Iov>& iovs() const { return iovs_; }
+  [[nodiscard]] const Tag& tag() const { return tag_; }
+  [[nodiscard]] const std::vector<Iov>& iovs() const { return iovs_; }
   /// The IOV containing `run`, or null.
-  const Iov* find(std::int64_t run) const;
+  [[nodiscard]] const Iov* find(std::int64_t run) const;
   /// The payload of an IOV of this tag.
   Result<const Payload*> payload(const Iov& iov);
   /// The IOV containing `run` with its payload; the error names the run, the tag and the database.

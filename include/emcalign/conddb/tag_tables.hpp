@@ -35,7 +35,7 @@ struct IovPair {
   /// (a − b)/√(σa² + σb²) of each entry (NaN without errors); ψ and τ modulo 360°.
   std::vector<double> z;
   std::string modelA, modelB;  ///< Payload::model of each
-  bool samePayload() const { return a.payload == b.payload; }
+  [[nodiscard]] bool samePayload() const { return a.payload == b.payload; }
 };
 
 struct TagDiff {

@@ -112,7 +112,7 @@ struct WriterOptions {
 /// a FIFO or "-". Memory is bounded: rows are buffered and written in blocks.
 class EventWriter {
  public:
-  static Result<std::unique_ptr<EventWriter>> open(const std::string& path, WriterOptions options);
+  static Result<std::unique_ptr<EventWriter>> open(const std::string& path, const WriterOptions& options);
   virtual ~EventWriter() = default;
   /// Appends rows, checked by the rules above (an event may continue into the next append).
   /// With withTruth (HDF5), `truth` must have one row per row; otherwise it is ignored.
@@ -170,14 +170,14 @@ class EventReader {
   /// cut across two files comes out as two events. After an error every call returns it.
   virtual Result<bool> next(std::vector<ParticleRow>& rows) = 0;
   /// The file the last block came from.
-  virtual const std::string& path() const = 0;
+  [[nodiscard]] virtual const std::string& path() const = 0;
   /// The truth rows matching the last block, when the current file has truth.
-  virtual const std::vector<TruthRow>* truth() const = 0;
+  [[nodiscard]] virtual const std::vector<TruthRow>* truth() const = 0;
   /// The hits of the last block in row order (row i's are the next rows[i].hitCount), when
   /// the current file has hits.
-  virtual const std::vector<Hit>* hits() const = 0;
+  [[nodiscard]] virtual const std::vector<Hit>* hits() const = 0;
   /// Metadata attributes of the file currently read (HDF5 attributes or CSV '# key:' lines).
-  virtual const std::vector<std::pair<std::string, std::string>>& attributes() const = 0;
+  [[nodiscard]] virtual const std::vector<std::pair<std::string, std::string>>& attributes() const = 0;
 };
 
 }  // namespace emcalign::io

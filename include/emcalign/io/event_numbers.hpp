@@ -16,9 +16,9 @@ class EventNumbers {
   /// Adds an event number (again: no change).
   void insert(std::int64_t event);
   /// The smallest event number both sets hold, or none.
-  std::optional<std::int64_t> firstCommon(const EventNumbers& other) const;
-  std::size_t intervals() const { return intervals_.size(); }
-  bool empty() const { return intervals_.empty(); }
+  [[nodiscard]] std::optional<std::int64_t> firstCommon(const EventNumbers& other) const;
+  [[nodiscard]] std::size_t intervals() const { return intervals_.size(); }
+  [[nodiscard]] bool empty() const { return intervals_.empty(); }
 
  private:
   std::map<std::int64_t, std::int64_t> intervals_;  ///< first → last, disjoint, not adjacent

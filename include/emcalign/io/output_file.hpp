@@ -137,10 +137,10 @@ class OutputFile {
   OutputFile& operator=(const OutputFile&) = delete;
 
   /// The stream to write (open() only; null after commit).
-  std::FILE* stream() const { return stream_; }
+  [[nodiscard]] std::FILE* stream() const { return stream_; }
   /// The file being written: the temporary, or the target itself for a direct write.
-  const std::string& writtenPath() const { return written_; }
-  const OutputTarget& target() const { return target_; }
+  [[nodiscard]] const std::string& writtenPath() const { return written_; }
+  [[nodiscard]] const OutputTarget& target() const { return target_; }
   /// Flushes, closes and puts the content in place; the error names the system's reason.
   Status commit();
 

@@ -50,24 +50,24 @@ class StrictObject {
     }
   }
 
-  bool has(std::string_view key) const { return j_.contains(key); }
-  const Json& at(std::string_view key) const {
+  [[nodiscard]] bool has(std::string_view key) const { return j_.contains(key); }
+  [[nodiscard]] const Json& at(std::string_view key) const {
     if (!has(key)) fail(join(path_, key), "missing");
     return j_.at(std::string(key));
   }
-  std::string pathOf(std::string_view key) const { return join(path_, key); }
+  [[nodiscard]] std::string pathOf(std::string_view key) const { return join(path_, key); }
   /// The object at `key`, checked as this one is and named in the same file.
-  StrictObject object(std::string_view key) const { return {at(key), pathOf(key), source_}; }
+  [[nodiscard]] StrictObject object(std::string_view key) const { return {at(key), pathOf(key), source_}; }
 
-  double number(std::string_view key) const { return numberValue(at(key), pathOf(key)); }
-  double number(std::string_view key, double fallback) const { return has(key) ? number(key) : fallback; }
-  std::string string(std::string_view key) const {
+  [[nodiscard]] double number(std::string_view key) const { return numberValue(at(key), pathOf(key)); }
+  [[nodiscard]] double number(std::string_view key, double fallback) const { return has(key) ? number(key) : fallback; }
+  [[nodiscard]] std::string string(std::string_view key) const {
     const Json& v = at(key);
     if (!v.is_string()) fail(pathOf(key), fmt::format("expected a string, got {}", typeName(v)));
     return v.get<std::string>();
   }
 
-  double numberValue(const Json& v, const std::string& where) const {
+  [[nodiscard]] double numberValue(const Json& v, const std::string& where) const {
     if (!v.is_number()) fail(where, fmt::format("expected a number, got {}", typeName(v)));
     const double x = v.get<double>();
     if (!std::isfinite(x)) fail(where, "not a finite number");

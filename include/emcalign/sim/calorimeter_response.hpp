@@ -93,7 +93,7 @@ struct EmcOptions {
 class ActualPlacement {
  public:
   ActualPlacement(const geometry::AlignmentTransform& truth, const Vec3& layer3Offset);
-  const geometry::RigidTransform& placement(geometry::Hemisphere h, geometry::Support s) const {
+  [[nodiscard]] const geometry::RigidTransform& placement(geometry::Hemisphere h, geometry::Support s) const {
     return placements_[(h == geometry::Hemisphere::Plus ? 0 : 1) + (s == geometry::Support::Outer ? 2 : 0)];
   }
 
@@ -125,16 +125,18 @@ class CounterHits {
   /// recorded energy gets it added and no noise of its own.
   void digitize(const EmcOptions& o, std::span<const double> gains, Rng& rng);
 
-  double energy(int counter) const { return energy_[static_cast<std::size_t>(counter)]; }
-  const std::array<float, kMaxSources>& contributions(int counter) const {
+  [[nodiscard]] double energy(int counter) const { return energy_[static_cast<std::size_t>(counter)]; }
+  [[nodiscard]] const std::array<float, kMaxSources>& contributions(int counter) const {
     return contrib_[static_cast<std::size_t>(counter)];
   }
-  const std::vector<int>& fired() const { return fired_; }
+  [[nodiscard]] const std::vector<int>& fired() const { return fired_; }
   /// Σ energy·(nominal-frame position) of the deposits in a counter (idealised directions).
-  const Vec3& nominalMoment(int counter) const { return nominalMoment_[static_cast<std::size_t>(counter)]; }
+  [[nodiscard]] const Vec3& nominalMoment(int counter) const {
+    return nominalMoment_[static_cast<std::size_t>(counter)];
+  }
   /// Energy-weighted centre (TS frame) of what a source deposited; NaN if nothing.
-  Vec3 sourceCentre(int source) const;
-  double sourceEnergy(int source) const { return sourceEnergy_[static_cast<std::size_t>(source)]; }
+  [[nodiscard]] Vec3 sourceCentre(int source) const;
+  [[nodiscard]] double sourceEnergy(int source) const { return sourceEnergy_[static_cast<std::size_t>(source)]; }
 
  private:
   std::vector<double> energy_;
@@ -152,9 +154,9 @@ class CounterHits {
 class CalorimeterResponse {
  public:
   CalorimeterResponse(const geometry::Calorimeter& calo, const geometry::AlignmentTransform& truth, EmcOptions options);
-  const EmcOptions& options() const { return options_; }
-  const geometry::Calorimeter& calorimeter() const { return *calo_; }
-  bool isDead(int counter) const { return dead_[static_cast<std::size_t>(counter)] != 0; }
+  [[nodiscard]] const EmcOptions& options() const { return options_; }
+  [[nodiscard]] const geometry::Calorimeter& calorimeter() const { return *calo_; }
+  [[nodiscard]] bool isDead(int counter) const { return dead_[static_cast<std::size_t>(counter)] != 0; }
   /// The counters' gains (EmcOptions::counterGainSpread), empty when uniform.
   [[nodiscard]] std::span<const double> gains() const { return gains_; }
 
@@ -179,7 +181,7 @@ class CalorimeterResponse {
   // Where the line enters the EMC (actual inner surface) and through which hemisphere.
   double entry(const Vec3& point, const Vec3& direction, geometry::Hemisphere& hemisphere) const;
   void deposit(CounterHits& hits, int source, double energy, const Vec3& where, geometry::Hemisphere hint) const;
-  bool nearCoverage(const Vec3& point) const;
+  [[nodiscard]] bool nearCoverage(const Vec3& point) const;
 
   // A shower spot: at `along` from the shower start on its axis, `radius` off it at the
   // azimuth (cosine, sine) about the axis.
@@ -190,15 +192,17 @@ class CalorimeterResponse {
   // A shower's start, axis and two unit vectors across it, in one frame.
   struct Basis {
     Vec3 start, axis, e1, e2;
-    Vec3 at(const Spot& s) const { return (start + s.along * axis) + s.radius * (s.cosine * e1 + s.sine * e2); }
+    [[nodiscard]] Vec3 at(const Spot& s) const {
+      return (start + s.along * axis) + s.radius * (s.cosine * e1 + s.sine * e2);
+    }
   };
   // The basis in the TS frame and in the nominal frames of the entered hemisphere's two
   // supports (the inner for layers 1–2, the outer for layer 3).
   struct ShowerFrame {
     Basis ts, inner, outer;
   };
-  ShowerFrame showerFrame(geometry::Hemisphere h, const Vec3& start, const Vec3& axis, const Vec3& e1,
-                          const Vec3& e2) const;
+  [[nodiscard]] ShowerFrame showerFrame(geometry::Hemisphere h, const Vec3& start, const Vec3& axis, const Vec3& e1,
+                                        const Vec3& e2) const;
   // The counter of a point that `inner` places in hemisphere h's inner-support frame;
   // `outer()` places it in the frame of h's layer 3. None when the point is not on h's side
   // of the parting plane; −1 when it is, but in no live counter (counterAt's steps).

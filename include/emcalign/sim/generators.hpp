@@ -103,11 +103,11 @@ struct Collision {
   double electronEnergy = 0.0;  ///< MeV, entering the hard process (after ISR)
   double positronEnergy = 0.0;  ///< MeV, entering the hard process (after ISR)
 
-  double energy() const { return electronEnergy + positronEnergy; }
+  [[nodiscard]] double energy() const { return electronEnergy + positronEnergy; }
   /// False when no event could be made (the accept-reject loops give up after 2^20 trials,
   /// which options that pass validate() never reach): the event then has no particles.
-  bool made() const { return std::isfinite(electronEnergy) && std::isfinite(positronEnergy); }
-  double momentumZ() const { return electronEnergy - positronEnergy; }
+  [[nodiscard]] bool made() const { return std::isfinite(electronEnergy) && std::isfinite(positronEnergy); }
+  [[nodiscard]] double momentumZ() const { return electronEnergy - positronEnergy; }
 };
 
 /// One event: vertex and final-state particles (e-, e+ then FSR photons; γ, γ;

@@ -35,8 +35,8 @@ struct GeneratedParticle {
   int pdg = 0;
   Vec3 momentum = Vec3::Zero();  ///< MeV
   double energy = 0.0;           ///< MeV (total)
-  int charge() const;
-  double mass() const;
+  [[nodiscard]] int charge() const;
+  [[nodiscard]] double mass() const;
 };
 
 struct GeneratedEvent {

@@ -57,7 +57,7 @@ std::optional<std::pair<double, double>> clusterDirection(std::span<const Hit> h
 class CounterNeighbours {
  public:
   explicit CounterNeighbours(const geometry::Calorimeter& calo);
-  std::span<const int> of(int counter) const {
+  [[nodiscard]] std::span<const int> of(int counter) const {
     const auto c = static_cast<std::size_t>(counter);
     return {all_.data() + first_[c], all_.data() + first_[c + 1]};
   }

@@ -90,10 +90,10 @@ class Simulation {
   static Result<Simulation> create(const geometry::Calorimeter& calorimeter, const geometry::AlignmentParameters& truth,
                                    SimulationOptions options);
 
-  const SimulationOptions& options() const { return options_; }
-  const geometry::Calorimeter& calorimeter() const { return *calo_; }
-  const CalorimeterResponse& response() const { return *response_; }
-  const TrackingSystem& tracking() const { return tracking_; }
+  [[nodiscard]] const SimulationOptions& options() const { return options_; }
+  [[nodiscard]] const geometry::Calorimeter& calorimeter() const { return *calo_; }
+  [[nodiscard]] const CalorimeterResponse& response() const { return *response_; }
+  [[nodiscard]] const TrackingSystem& tracking() const { return tracking_; }
 
   /// Appends the reconstructed rows of event `index` (and their truth, and — when `hits` is
   /// given — each cluster row's counters, ParticleRow::hitCount of them). An event the

@@ -44,7 +44,7 @@ struct ChargedPath {
 class TrackingSystem {
  public:
   explicit TrackingSystem(TrackingOptions options) : options_(std::move(options)) {}
-  const TrackingOptions& options() const { return options_; }
+  [[nodiscard]] const TrackingOptions& options() const { return options_; }
 
   /// The path after multiple scattering in the beam pipe for a particle of momentum p
   /// (MeV) and speed β leaving the vertex in direction d.

@@ -196,26 +196,8 @@ Status checkWriteCorrections(const ValidateOptions& cli, const validation::Campa
     return Error{fmt::format("--write-corrections {} is inside the study's directory -o {}: write it elsewhere",
                              cli.writeCorrections, cli.output)};
   }
-  if (cli.ideal || cli.pointShowers || !cli.off.empty()) {
-    return Error{
-        "--write-corrections: the errors a corrections file carries are measured with the realistic "
-        "simulation (no --ideal, --point-showers or --off)"};
-  }
-  const calib::ModelCorrections& c = campaign.corrections;
-  const double energy = campaign.simulation.generator.beamEnergy;
-  if (!std::isnan(c.beamEnergy) && std::abs(c.beamEnergy - energy) > 1e-9 * energy) {
-    return Error{
-        fmt::format("--write-corrections: {} was derived at {} MeV, the study would run at {} MeV: its "
-                    "errors are measured at its own energy (--beam-energy {})",
-                    cli.corrections, c.beamEnergy / units::MeV, energy / units::MeV, c.beamEnergy / units::MeV)};
-  }
-  const io::Json settings = c.derivedFrom.is_object() ? c.derivedFrom.value("settings", io::Json()) : io::Json();
-  if (settings.is_object() && settings.contains("theta_range_deg") &&
-      settings["theta_range_deg"] != io::Json{cli.thetaMinDeg, cli.thetaMaxDeg}) {
-    return Error{
-        fmt::format("--write-corrections: {} was derived for the polar range {} deg, the study's is [{}, "
-                    "{}]: give --theta-min and --theta-max as it was derived",
-                    cli.corrections, settings["theta_range_deg"].dump(), cli.thetaMinDeg, cli.thetaMaxDeg)};
+  if (Status s = validation::studyMatchesItsCorrections(campaign, cli.corrections); !s) {
+    return Error{fmt::format("--write-corrections: {}", s.error().message)};
   }
   return checkOutputs({{"--write-corrections", cli.writeCorrections}}, {{"-o", cli.output}},
                       {{"--corrections", cli.corrections}});

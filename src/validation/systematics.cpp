@@ -503,6 +503,36 @@ Json systematicErrorsJson(const SystematicsTable& t, const calib::ModelCorrectio
   return {{"errors", errors}, {"components", components}, {"study", study}};
 }
 
+Status studyMatchesItsCorrections(const CampaignOptions& campaign, const std::string& name) {
+  const Json& settings = campaign.settings;
+  const auto flag = [&](const char* key) { return settings.contains(key) && settings[key] == true; };
+  if (flag("ideal") || flag("point_showers") ||
+      (settings.contains("off") && settings["off"].is_array() && !settings["off"].empty())) {
+    return Error{
+        "the errors a corrections file carries are measured with the realistic simulation (no --ideal, "
+        "--point-showers or --off)"};
+  }
+  const calib::ModelCorrections& c = campaign.corrections;
+  const double energy = campaign.simulation.generator.beamEnergy;
+  if (!std::isnan(c.beamEnergy) && std::abs(c.beamEnergy - energy) > 1e-9 * energy) {
+    return Error{fmt::format(
+        "{} was derived at {} MeV, the study would run at {} MeV: its errors are measured at its own energy "
+        "(--beam-energy {})",
+        name, c.beamEnergy / units::MeV, energy / units::MeV, c.beamEnergy / units::MeV)};
+  }
+  const Json derived = c.derivedFrom.is_object() ? c.derivedFrom.value("settings", Json()) : Json();
+  const Json study = {campaign.simulation.generator.thetaMin / units::deg,
+                      campaign.simulation.generator.thetaMax / units::deg};
+  const Json& given = settings.contains("theta_range_deg") ? settings["theta_range_deg"] : study;
+  if (derived.is_object() && derived.contains("theta_range_deg") && derived["theta_range_deg"] != given) {
+    return Error{fmt::format(
+        "{} was derived for the polar range {} deg, the study's is [{}, {}]: give --theta-min and --theta-max as "
+        "it was derived",
+        name, derived["theta_range_deg"].dump(), given[0].get<double>(), given[1].get<double>())};
+  }
+  return {};
+}
+
 Result<calib::ModelCorrections> correctionsWithSystematics(const SystematicsTable& table,
                                                            const CampaignOptions& campaign,
                                                            const std::string& destination) {

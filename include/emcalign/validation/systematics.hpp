@@ -152,6 +152,12 @@ inline constexpr std::string_view kSystematicsCombination =
 /// statistical errors. The record of the study: the command, samples, events, seed, its
 /// conditions (the campaign's settings but its corrections, and the beam energy), the
 /// variations, the reverse study, kSystematicsCombination and the corrections' digest.
+/// Whether a study measures the systematic errors its corrections (`campaign.corrections`, the
+/// file `name`) may carry: the realistic simulation (no "ideal", "point_showers" or "off" in the
+/// campaign's settings), the beam energy the file was derived at, and the polar range its
+/// derivation recorded. The error says which differs and what to give.
+Status studyMatchesItsCorrections(const CampaignOptions& campaign, const std::string& name);
+
 Result<calib::ModelCorrections> correctionsWithSystematics(const SystematicsTable& table,
                                                            const CampaignOptions& campaign,
                                                            const std::string& destination);

@@ -7,6 +7,8 @@
 
 #include <gtest/gtest.h>
 
+#include "emcalign/core/units.hpp"
+
 namespace emcalign::validation {
 namespace {
 
@@ -113,6 +115,38 @@ TEST(CombineSystematics, TablesOfOtherParametersOrCountsAreRefused) {
   rows = combineSystematics(s.variations, {"a"}, m);
   ASSERT_FALSE(rows);
   EXPECT_NE(rows.error().message.find("quantity g"), std::string::npos) << rows.error().message;
+}
+
+// A study measures the errors of the corrections it fitted with only in their own conditions:
+// the realistic simulation, their beam energy, the polar range they were derived for.
+TEST(StudyOfCorrections, OnlyTheirOwnConditions) {
+  CampaignOptions c;
+  c.settings = {{"ideal", false}, {"point_showers", false}, {"off", io::Json::array()}, {"theta_range_deg", {40, 140}}};
+  c.simulation.generator.beamEnergy = 612.5 * units::MeV;
+  c.corrections.beamEnergy = 612.5 * units::MeV;
+  c.corrections.derivedFrom = {{"settings", {{"theta_range_deg", {40, 140}}}}};
+  EXPECT_TRUE(studyMatchesItsCorrections(c, "ee.json"));
+
+  CampaignOptions off = c;
+  off.settings["off"] = {"noise"};
+  auto s = studyMatchesItsCorrections(off, "ee.json");
+  ASSERT_FALSE(s);
+  EXPECT_NE(s.error().message.find("realistic simulation"), std::string::npos) << s.error().message;
+
+  CampaignOptions energy = c;
+  energy.simulation.generator.beamEnergy = 510.0 * units::MeV;
+  s = studyMatchesItsCorrections(energy, "ee.json");
+  ASSERT_FALSE(s);
+  EXPECT_NE(s.error().message.find("ee.json was derived at 612.5 MeV, the study would run at 510 MeV"),
+            std::string::npos)
+      << s.error().message;
+
+  CampaignOptions theta = c;
+  theta.settings["theta_range_deg"] = {50, 130};
+  s = studyMatchesItsCorrections(theta, "ee.json");
+  ASSERT_FALSE(s);
+  EXPECT_NE(s.error().message.find("polar range [40,140] deg, the study's is [50, 130]"), std::string::npos)
+      << s.error().message;
 }
 
 }  // namespace

@@ -77,8 +77,12 @@ int runPut(const ConditionsOptions& o) {
   if (!calo) return reportError(calo.error());
   auto db = conddb::Database::open(o.uri);
   if (!db) return reportError(db.error());
-  auto put =
-      conddb::putResultFile(**db, o.tag, runs->first, runs->second, o.result, o.description, calo->description().r1());
+  auto put = conddb::putResultFile(**db, {.tag = o.tag,
+                                          .firstRun = runs->first,
+                                          .lastRun = runs->second,
+                                          .path = o.result,
+                                          .description = o.description,
+                                          .r1 = calo->description().r1()});
   if (!put) return reportError(put.error());
   for (const auto& w : put->warnings) reportWarning(w);
   fmt::print("{}: tag {}{}: runs {}-{} <- {} (payload {})\n", (*db)->uri(), o.tag, put->newTag ? " (new)" : "",

@@ -79,8 +79,12 @@ class Conditions {
     }
     check(conddb::checkTagName(tag));
     const double r1 = detectorOr(given).r1();
-    const conddb::PutReport report =
-        unwrap(conddb::putResultFile(*db_, tag, first, last, pathString(path), description, r1));
+    const conddb::PutReport report = unwrap(conddb::putResultFile(*db_, {.tag = tag,
+                                                                         .firstRun = first,
+                                                                         .lastRun = last,
+                                                                         .path = pathString(path),
+                                                                         .description = description,
+                                                                         .r1 = r1}));
     py::dict d;
     d["payload"] = report.payload;
     d["new_tag"] = report.newTag;

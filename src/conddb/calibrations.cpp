@@ -43,8 +43,9 @@ Json inputDigests(const Json& result, const std::string& resultPath, std::vector
 
 }  // namespace
 
-Result<PutReport> putResultFile(Database& db, const std::string& tag, std::int64_t first, std::int64_t last,
-                                const std::string& path, const std::string& description, double r1) {
+Result<PutReport> putResultFile(Database& db, const ResultFileToPut& file) {
+  const std::string& tag = file.tag;
+  const std::string& path = file.path;
   auto text = io::readTextFile(path);
   if (!text) return text.error();
   auto j = io::parseJson(*text, path);
@@ -52,11 +53,11 @@ Result<PutReport> putResultFile(Database& db, const std::string& tag, std::int64
   PutReport report;
   Json provenance = {{"source_sha256", sha256(*text)}, {"put_software", fmt::format("emcalign {}", kVersion)}};
   if (Json d = inputDigests(*j, path, report.warnings); !d.empty()) provenance["input_sha256"] = d;
-  auto payload = makePayload(*j, r1, path, provenance);
+  auto payload = makePayload(*j, file.r1, path, provenance);
   if (!payload) return payload.error();
   auto existed = db.tag(tag);
   if (!existed) return existed.error();
-  if (Status s = db.put(tag, first, last, *payload, true, description); !s) return s.error();
+  if (Status s = db.put(tag, file.firstRun, file.lastRun, *payload, true, file.description); !s) return s.error();
   report.newTag = !existed->has_value();
   report.payload = payload->hash();
   return report;

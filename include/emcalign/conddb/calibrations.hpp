@@ -27,12 +27,20 @@ struct PutReport {
   std::vector<std::string> warnings;  ///< inputs of the result whose digest is not recorded
 };
 
-/// Stores a fit result or a parameter file for runs [first, last] of `tag` (created, open,
-/// with `description` when new). The payload's provenance records the file's SHA-256, this
-/// software, and the SHA-256 of each input file the result names, found as named or beside
-/// the result (one not found is a warning). `r1` is the detector's, for the physical set.
-Result<PutReport> putResultFile(Database& db, const std::string& tag, std::int64_t first, std::int64_t last,
-                                const std::string& path, const std::string& description, double r1);
+/// A result file to store, and where.
+struct ResultFileToPut {
+  std::string tag;
+  std::int64_t firstRun = 0, lastRun = 0;  ///< inclusive
+  std::string path;                        ///< the fit result or parameter file
+  std::string description;                 ///< of the tag, when it is created
+  double r1 = 0.0;                         ///< the detector's, for the physical set (native length)
+};
+
+/// Stores a fit result or a parameter file for runs [firstRun, lastRun] of its tag (created,
+/// open, with its description when new). The payload's provenance records the file's SHA-256,
+/// this software, and the SHA-256 of each input file the result names, found as named or
+/// beside the result (one not found is a warning).
+Result<PutReport> putResultFile(Database& db, const ResultFileToPut& file);
 
 /// The parameter file of a payload (SPEC §3), with where it came from under "input":
 /// {"conditions": URI, "tag", "first_run", "last_run", "payload", "inserted",

@@ -25,6 +25,7 @@ std::string csvNumber(double v) { return std::isfinite(v) ? fmt::format("{:.10g}
 const std::vector<std::string>& storedNames() {
   static const std::vector<std::string> names = [] {
     std::vector<std::string> n;
+    n.reserve(kAllParams.size() + kDerivedParams.size());
     for (Param p : kAllParams) n.emplace_back(name(p));
     for (Physical p : kDerivedParams) n.emplace_back(name(p));
     return n;
@@ -35,6 +36,7 @@ const std::vector<std::string>& storedNames() {
 const std::vector<std::string>& storedUnits() {
   static const std::vector<std::string> units = [] {
     std::vector<std::string> u;
+    u.reserve(kAllParams.size() + kDerivedParams.size());
     for (Param p : kAllParams) u.emplace_back(fileUnitName(dimension(p)));
     for (Physical p : kDerivedParams) u.emplace_back(fileUnitName(dimension(p)));
     return u;

@@ -93,9 +93,9 @@ class TagAlignments {
 
 /// The alignment events are corrected with: one file (a parameter file, a fit result or a
 /// placements file) for every run, or each run's own IOV of a conditions tag.
-// NOLINTNEXTLINE(bugprone-exception-escape): clang-tidy 14 takes nlohmann::json's noexcept move
-// (its assert_invariant) for one that throws; nothing here throws on a move.
-struct AlignmentSource {
+// bugprone-exception-escape: clang-tidy 14 takes nlohmann::json's noexcept move (its
+// assert_invariant) for one that throws; nothing here throws on a move.
+struct AlignmentSource {  // NOLINT(bugprone-exception-escape)
   std::shared_ptr<const geometry::AlignmentTransform> one;
   std::shared_ptr<TagAlignments> byRun;
   /// For the outputs: {"file", "parameters"} or {"conditions", "tag"}.

@@ -23,7 +23,7 @@ namespace {
 // slope of `drift` (per IOV) over the second half.
 TrendSeries make(std::size_t n, double scatter, double step, double drift, std::mt19937_64& rng) {
   std::normal_distribution<double> noise(0.0, scatter);
-  TrendSeries s{"dx", "cm", {}};
+  TrendSeries s{emcalign::Param::Dx, {}};
   for (std::size_t i = 0; i < n; ++i) {
     const auto first = static_cast<std::int64_t>(10 * i + 1);
     double v = noise(rng);

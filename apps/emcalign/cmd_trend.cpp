@@ -83,7 +83,7 @@ int refit(const TrendCliOptions& o, const validation::Trend& trend, const std::v
   for (const auto& seg : r->segments) {
     if (!seg.drifting.empty() || seg.transition) continue;
     for (const auto& p : seg.precision) {
-      if (p.parameter != "dx") continue;
+      if (p.parameter != Param::Dx) continue;
       fmt::print(reportStream(),
                  "  runs {}-{}: {}; dx error quoted {:.4f} -> {:.4f} cm, statistical {:.4f} -> {:.4f} cm\n",
                  seg.firstRun, seg.lastRun, counted(seg.selected, "event"), p.quotedBefore, p.quotedAfter, p.statBefore,
@@ -161,7 +161,7 @@ int run(const TrendCliOptions& o) {
   }
   for (const auto& s : trend.steps) {
     fmt::print(reportStream(), "  step  {:<8} at run {:>6}: {:+.4f} ± {:.4f} {} (z {:.1f}){}{}{}\n", s.parameter,
-               s.firstRunAfter, s.size, s.error, s.unit, s.z(),
+               s.firstRunAfter, s.size, s.error, s.parameter.unit(), s.z(),
                s.withinIov ? fmt::format(", inside IOV {}-{}", s.withinIov->first, s.withinIov->second) : std::string(),
                s.known ? ", a known boundary" : "",
                s.insteadOfDrift ? fmt::format(", where other parameters step; a drift fits worse (χ² {:.1f} against "
@@ -172,19 +172,20 @@ int run(const TrendCliOptions& o) {
   for (const auto& e : trend.edges) {
     fmt::print(reportStream(),
                "  edge  {:<8} {} IOV {}-{}: departs by {:+.4g} ± {:.2g} {} (z {:.1f}), seen in one IOV only\n",
-               e.parameter, e.atEnd ? "last" : "first", e.firstRun, e.lastRun, e.departure, e.error, e.unit, e.z());
+               e.parameter, e.atEnd ? "last" : "first", e.firstRun, e.lastRun, e.departure, e.error, e.parameter.unit(),
+               e.z());
   }
   for (const auto& b : trend.boundaries) {
     if (!b.measurable) {
       reportWarning(fmt::format("--boundaries {}: no IOV on one side of it, nothing measured there", b.run));
     } else if (b.changed.empty()) {
       fmt::print(reportStream(), "  known boundary at run {}: nothing changed by {} σ or more (largest {}, z {:.1f})\n",
-                 b.run, trend.options.stepZ, b.largest, b.largestZ);
+                 b.run, trend.options.stepZ, b.largest ? b.largest->name() : "", b.largestZ);
     }
   }
   for (const auto& d : trend.drifts) {
     fmt::print(reportStream(), "  drift {:<8} runs {}-{}: {:+.3g} ± {:.2g} {}/run (z {:.1f}){}\n", d.parameter,
-               d.firstRun, d.lastRun, d.slopePerRun, d.error, d.unit, d.z,
+               d.firstRun, d.lastRun, d.slopePerRun, d.error, d.parameter.unit(), d.z,
                d.orStep ? " — " + validation::stepAlternativeText(trend, d) : std::string());
   }
   fmt::print(reportStream(), "wrote {}/trend.json, trend.md and {} (fig7.png, trend_all.png, trend_*.png)\n", o.output,

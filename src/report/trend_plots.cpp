@@ -17,18 +17,8 @@ namespace {
 using namespace detail;
 namespace fs = std::filesystem;
 
-// How a parameter is named on an axis.
-std::string axisName(const std::string& p) {
-  static const std::pair<const char*, const char*> names[] = {
-      {"alpha", "α"},         {"beta1", "β_1"},        {"beta2", "β_2"}, {"dx", "dx"},    {"dy", "dy"},
-      {"dz", "dz"},           {"dp1", "dp_1"},         {"dp2", "dp_2"},  {"dp3", "dp_3"}, {"dy_rel", "dy_{rel}"},
-      {"dz_rel", "dz_{rel}"}, {"beta_rel", "β_{rel}"}, {"beta", "β"},    {"psi", "ψ"},    {"mu", "μ"},
-      {"tau", "τ"},           {"dx_rel", "dx_{rel}"}};
-  for (const auto& [k, v] : names) {
-    if (p == k) return v;
-  }
-  return literalText(p);
-}
+// How a parameter is named on an axis ("beta_rel" → β_{rel}).
+std::string axisName(Quantity p) { return quantityLabel(std::string(p.name())); }
 
 std::string dataOf(const TrendFigure& f) {
   fmt::memory_buffer out;
@@ -37,7 +27,7 @@ std::string dataOf(const TrendFigure& f) {
       "# emcalign trend of {} ({}): index 0 the IOVs (columns: middle run, value, error, first run, last "
       "run), index 1 the segments' lines (third column: 0 consistent, 1 a drift, 2 inconsistent with its model), "
       "index 2 the truth\n",
-      commentText(f.parameter), f.unit);
+      commentText(std::string(f.parameter.name())), f.parameter.unit());
   for (const auto& p : f.points) {
     fmt::format_to(std::back_inserter(out), "{:.1f} {:.8g} {:.6g} {:.0f} {:.0f}\n", p.x, p.y, p.error, p.firstRun,
                    p.lastRun);
@@ -57,7 +47,7 @@ std::string dataOf(const TrendFigure& f) {
 // The plot commands of one panel (its data file is trend_<parameter>.dat).
 std::string panel(const TrendFigure& f, bool key, int fontSize) {
   std::string s;
-  s += fmt::format("set ylabel \"{} [{}]\" font ',{}'\n", axisName(f.parameter), f.unit, fontSize);
+  s += fmt::format("set ylabel \"{} [{}]\" font ',{}'\n", axisName(f.parameter), f.parameter.unit(), fontSize);
   s += "unset arrow\n";
   for (double x : f.steps) {
     s += fmt::format("set arrow from {:.1f}, graph 0 to {:.1f}, graph 1 nohead lw 1.5 dt 2 lc rgb '#d62728'\n", x - 0.5,
@@ -132,15 +122,15 @@ Result<std::vector<std::string>> writeTrendPlots(const std::string& dir, const s
   std::vector<Figure> scripts;
   for (const auto& f : figures) {
     if (Status s = writeFile(out, fmt::format("trend_{}.dat", f.parameter), dataOf(f)); !s) return s.error();
-    std::string s = terminalHeader("trend_" + f.parameter, 1400, 560) + common();
+    std::string s = terminalHeader(fmt::format("trend_{}", f.parameter), 1400, 560) + common();
     s += fmt::format("set title \"{}: {} against run ({}, {})\" font ',13'\n", literalText(title),
                      axisName(f.parameter), counted(f.points.size(), "IOV"), counted(f.steps.size(), "step"));
     s += panel(f, true, 12);
-    scripts.push_back({"trend_" + f.parameter, s});
+    scripts.push_back({fmt::format("trend_{}", f.parameter), s});
   }
   // The paper's Fig. 7: α, dx, μ, ψ.
   std::vector<const TrendFigure*> four;
-  for (const char* p : {"alpha", "dx", "mu", "psi"}) {
+  for (Quantity p : {Quantity(Param::Alpha), Quantity(Param::Dx), Quantity(Physical::Mu), Quantity(Physical::Psi)}) {
     auto it = std::find_if(figures.begin(), figures.end(), [&](const TrendFigure& f) { return f.parameter == p; });
     if (it != figures.end()) four.push_back(&*it);
   }
@@ -149,7 +139,7 @@ Result<std::vector<std::string>> writeTrendPlots(const std::string& dir, const s
     std::vector<std::string> shown;
     for (const TrendFigure* f : four) shown.push_back(axisName(f->parameter));
     // ψ is absent where β is within 3σ of 0 in every IOV (its direction undefined): said.
-    const bool noPsi = four.back()->parameter != "psi";
+    const bool noPsi = four.back()->parameter != Physical::Psi;
     s += fmt::format(
         "set multiplot layout 2,2 title \"{}: the time evolution of {} (the paper's Fig. 7){}\" font ',14'\n",
         literalText(title), fmt::join(shown, ", "), noPsi ? "; ψ undefined: β within 3σ of 0 in every IOV" : "");

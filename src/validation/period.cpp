@@ -282,7 +282,7 @@ Json periodTruthJson(const PeriodScenario& s, const std::vector<PeriodRun>& runs
           {"runs", list}};
 }
 
-double PeriodTruth::mean(const std::string& parameter, std::int64_t first, std::int64_t last) const {
+double PeriodTruth::mean(Quantity parameter, std::int64_t first, std::int64_t last) const {
   auto it = byParameter.find(parameter);
   if (it == byParameter.end()) return std::numeric_limits<double>::quiet_NaN();
   double sum = 0.0;
@@ -319,7 +319,9 @@ Result<PeriodTruth> readPeriodTruth(const std::string& path) {
       }
       for (const auto& [name, v] : r[group].items()) {
         if (!v.is_number()) return Error{fmt::format("{}: run {}: {}.{} is not a number", path, run, group, name)};
-        out.byParameter[name].emplace_back(run, v.get<double>());
+        const std::optional<Quantity> q = quantityFromName(name);
+        if (!q) return Error{fmt::format("{}: run {}: {}.{} is not a parameter of SPEC §3", path, run, group, name)};
+        out.byParameter[*q].emplace_back(run, v.get<double>());
       }
     }
     ++k;

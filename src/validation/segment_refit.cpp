@@ -51,7 +51,7 @@ std::string ratio(double a, double b) {
   return std::isfinite(a) && std::isfinite(b) && b > 0.0 ? fmt::format("×{:.1f}", a / b) : std::string("—");
 }
 
-int digitsOf(const std::string& unit) { return unit == "cm" ? 4 : 3; }
+int digitsOf(Quantity q) { return q.dimension() == Dimension::Length ? 4 : 3; }
 
 double rms(const std::vector<double>& v) {
   double ss = 0.0;
@@ -69,9 +69,7 @@ double rms(const std::vector<double>& v) {
 RefitPrecision precisionOf(const TrendSeries& series, std::int64_t first, std::int64_t last,
                            std::pair<double, double> after, double statAfter, std::vector<double> statBefore,
                            const PeriodTruth* truth) {
-  RefitPrecision p;
-  p.parameter = series.parameter;
-  p.unit = series.unit;
+  RefitPrecision p{series.parameter};
   p.value = after.first;
   p.quotedAfter = after.second;
   p.statAfter = statAfter;
@@ -82,7 +80,7 @@ RefitPrecision precisionOf(const TrendSeries& series, std::int64_t first, std::i
     values.push_back(pt.value);
     errors.push_back(pt.error);
     if (truth != nullptr)
-      offTruth.push_back(parameterDifference(p.parameter, pt.value, truth->mean(p.parameter, pt.firstRun, pt.lastRun)));
+      offTruth.push_back(p.parameter.difference(pt.value, truth->mean(p.parameter, pt.firstRun, pt.lastRun)));
   }
   p.quotedBefore = median(errors);
   if (values.size() >= 2) {
@@ -304,7 +302,7 @@ Json refitJson(const SegmentRefit& r, std::size_t iovsBefore) {
     Json precision = Json::object();
     for (const RefitPrecision& p : s.precision) {
       Json q = {{"value", io::numberOrNull(p.value)},
-                {"unit", p.unit},
+                {"unit", p.parameter.unit()},
                 {"quoted_error_before", io::numberOrNull(p.quotedBefore)},
                 {"quoted_error_after", io::numberOrNull(p.quotedAfter)},
                 {"statistical_error_before", io::numberOrNull(p.statBefore)},
@@ -312,10 +310,10 @@ Json refitJson(const SegmentRefit& r, std::size_t iovsBefore) {
                 {"scatter_before", io::numberOrNull(p.scatter)}};
       if (std::isfinite(p.truth)) {
         q["truth"] = p.truth;
-        q["refit_minus_truth"] = io::numberOrNull(parameterDifference(p.parameter, p.value, p.truth));
+        q["refit_minus_truth"] = io::numberOrNull(p.parameter.difference(p.value, p.truth));
         q["rms_before_minus_truth"] = io::numberOrNull(p.truthRmsBefore);
       }
-      precision[p.parameter] = q;
+      precision[std::string(p.parameter.name())] = q;
     }
     j["precision"] = precision;
     segments.push_back(j);
@@ -362,16 +360,16 @@ std::string refitMarkdown(const SegmentRefit& r, std::size_t iovsBefore, const s
             : "| parameter | refit | quoted error before → after | statistical error before → after | gain | "
               "observed scatter before |\n|---|---|---|---|---|---|\n";
     for (const RefitPrecision& p : s.precision) {
-      const int d = digitsOf(p.unit);
-      const std::string u = p.unit == "deg" ? "°" : " cm";
+      const int d = digitsOf(p.parameter);
+      const std::string u = p.parameter.dimension() == Dimension::Angle ? "°" : " cm";
       std::string row = fmt::format("| {} | {}{} |", p.parameter, number(p.value, d), u);
       if (withTruth) row += fmt::format(" {} |", number(p.truth, d));
       row += fmt::format(" {} → {} | {} → {} | {} | {} |", number(p.quotedBefore, d), number(p.quotedAfter, d),
                          number(p.statBefore, d), number(p.statAfter, d), ratio(p.statBefore, p.statAfter),
                          number(p.scatter, d));
       if (withTruth) {
-        row += fmt::format(" {} → {} |", number(p.truthRmsBefore, d),
-                           number(parameterDifference(p.parameter, p.value, p.truth), d));
+        row +=
+            fmt::format(" {} → {} |", number(p.truthRmsBefore, d), number(p.parameter.difference(p.value, p.truth), d));
       }
       md += row + "\n";
     }

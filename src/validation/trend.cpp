@@ -19,8 +19,6 @@ using io::Json;
 
 namespace {
 
-constexpr const char* kDerived[] = {"beta", "psi", "mu", "tau", "dx_rel"};
-
 // Weighted sums of a stretch of points, for the cost of a line in O(1).
 struct Sums {
   std::vector<double> s0, sx, sxx, sy, sxy, syy;
@@ -97,10 +95,8 @@ double LineFit::error(double x) const {
 
 Result<std::vector<TrendSeries>> seriesOfTag(conddb::TagSnapshot& tag) {
   std::vector<TrendSeries> out;
-  for (Param p : kAllParams) {
-    out.push_back({std::string(name(p)), dimension(p) == Dimension::Angle ? "deg" : "cm", {}});
-  }
-  for (const char* d : kDerived) out.push_back({d, std::string(d) == "dx_rel" ? "cm" : "deg", {}});
+  for (Param p : kAllParams) out.push_back({p, {}});
+  for (Physical p : kDerivedParams) out.push_back({p, {}});
   for (const conddb::Iov& iov : tag.iovs()) {
     auto payload = tag.payload(iov);
     if (!payload) return payload.error();
@@ -134,21 +130,24 @@ Result<std::vector<TrendSeries>> seriesOfTag(conddb::TagSnapshot& tag) {
     const Json derived = a.value("derived", Json::object());
     // A direction is defined when its magnitude is: ψ (the tilt's) when β is 3σ from 0, τ
     // (the gap's) when μ is.
-    auto significant = [&](const char* magnitude) {
-      const Json m = derived.value(magnitude, Json::object());
+    auto significant = [&](Physical magnitude) {
+      const Json m = derived.value(std::string(name(magnitude)), Json::object());
       const Json v = m.value("value", Json()), e = m.value("error", Json());
       return v.is_number() && e.is_number() && std::abs(v.get<double>()) >= 3.0 * e.get<double>();
     };
-    for (std::size_t k = 0; k < std::size(kDerived); ++k) {
-      const std::string n = kDerived[k];
+    for (std::size_t k = 0; k < kDerivedParams.size(); ++k) {
+      const Physical p = kDerivedParams[k];
+      const std::string n(name(p));
       const Json d = derived.value(n, Json::object());
       auto v = number(d.value("value", Json()), fmt::format("derived.{}.value", n));
       auto e = number(d.value("error", Json()), fmt::format("derived.{}.error", n));
       if (!v || !e || !(*e > 0.0)) continue;  // an undefined derived value leaves a hole
-      if ((n == "psi" && !significant("beta")) || (n == "tau" && !significant("mu"))) continue;
+      if ((p == Physical::Psi && !significant(Physical::Beta)) || (p == Physical::Tau && !significant(Physical::Mu))) {
+        continue;
+      }
       auto& points = out[kNumParams + k].points;
       double value = *v;
-      if (isDirection(n) && !points.empty()) {
+      if (isDirection(p) && !points.empty()) {
         // An angle: the turn nearest the previous point, so that ±180° is no step.
         value -= 360.0 * std::round((value - points.back().value) / 360.0);
       }
@@ -293,7 +292,6 @@ std::vector<Change> changesWithKnown(const TrendSeries& s, double scale, double 
   auto stretch = [&](std::size_t begin, std::size_t end) {
     TrendSeries part{
         s.parameter,
-        s.unit,
         {s.points.begin() + static_cast<std::ptrdiff_t>(begin), s.points.begin() + static_cast<std::ptrdiff_t>(end)}};
     for (Change c : changePoints(part, scale, penalty, transitionPenalty, o.minSegment)) {
       c.start += begin;
@@ -326,9 +324,7 @@ SegmentTest fitSegment(const TrendSeries& s, std::size_t begin, std::size_t end,
 
 // One series cut into segments, each fitted with a constant and (if long enough) a line.
 SeriesAnalysis analyseSeries(const TrendSeries& s, const TrendOptions& o, double penalty, double transitionPenalty) {
-  SeriesAnalysis a;
-  a.parameter = s.parameter;
-  a.unit = s.unit;
+  SeriesAnalysis a{s.parameter};
   a.penalty = penalty;
   const std::size_t n = s.points.size();
   if (n == 0) return a;
@@ -368,7 +364,7 @@ std::vector<TrendEdge> findEdges(const std::vector<TrendSeries>& series, std::ve
       const int ndf = rest.modelNdf();
       if (ndf >= 1 && chi2PValue(m.chi2, ndf) < o.driftAlpha) continue;
       if (!(normalTwoSided(departure / error) * tests < o.driftAlpha)) continue;
-      out.push_back({s.parameter, s.unit, p.firstRun, p.lastRun, atEnd, departure, error});
+      out.push_back({s.parameter, p.firstRun, p.lastRun, atEnd, departure, error});
       seg = rest;
     }
   }
@@ -435,7 +431,7 @@ std::vector<TrendDrift> flagDrifts(const std::vector<TrendSeries>& series, std::
       seg.drift = seg.pValue * tests < o.driftAlpha;
       if (!seg.drift) continue;
       const auto& s = series[k];
-      drifts.push_back({s.parameter, s.unit, s.points[seg.begin].firstRun, s.points[seg.end - 1].lastRun, seg.line.b,
+      drifts.push_back({s.parameter, s.points[seg.begin].firstRun, s.points[seg.end - 1].lastRun, seg.line.b,
                         std::sqrt(seg.line.varB), seg.slopeZ, seg.pValue,
                         stepAlternative(s, seg, analyses[k], transitionPenalty, o.minSegment)});
     }
@@ -460,13 +456,8 @@ std::vector<TrendStep> findSteps(const TrendSeries& s, const SeriesAnalysis& a, 
     const double xb = transition ? tp.x() : static_cast<double>(s.points[i].firstRun) - 0.5;
     const LineFit &l0 = segs[j - 1].stepModel(), &l1 = segs[j].stepModel();
     const double before = l0.value(xb), after = l1.value(xb);
-    TrendStep step{s.parameter,
-                   s.unit,
-                   k != known.end(),
-                   i,
-                   s.points[i].firstRun,
-                   after - before,
-                   std::hypot(l0.error(xb), l1.error(xb)),
+    TrendStep step{s.parameter,          k != known.end(), i,
+                   s.points[i].firstRun, after - before,   std::hypot(l0.error(xb), l1.error(xb)),
                    std::nullopt};
     if (step.known) {
       step.firstRunAfter = k->run;
@@ -530,7 +521,7 @@ std::vector<TrendSegment> stablePeriods(const Trend& t, const std::vector<TrendS
   struct Cut {
     std::size_t iov;  // where the next period starts, or the transition IOV
     bool transition;
-    std::vector<std::string> names;
+    std::vector<Quantity> names;
     bool known;
   };
   std::vector<Cut> cuts;
@@ -540,7 +531,7 @@ std::vector<TrendSegment> stablePeriods(const Trend& t, const std::vector<TrendS
   }
   auto stronger = [](const Place& a, const Place& b) { return std::abs(a.step->z()) < std::abs(b.step->z()); };
   for (const auto& c : clusters) {
-    std::vector<std::string> names;
+    std::vector<Quantity> names;
     const Place* cut = nullptr;  // the strongest transition, else the strongest step
     for (const Place& p : c) {
       if (std::find(names.begin(), names.end(), p.step->parameter) == names.end()) names.push_back(p.step->parameter);
@@ -553,7 +544,7 @@ std::vector<TrendSegment> stablePeriods(const Trend& t, const std::vector<TrendS
     if (!nearKnown) cuts.push_back({cut->iov, cut->step->withinIov.has_value(), names, false});
   }
   // An IOV at either end that departs from the rest (TrendEdge) is a period of its own.
-  std::map<std::size_t, std::vector<std::string>> departingAt;  // by its IOV
+  std::map<std::size_t, std::vector<Quantity>> departingAt;  // by its IOV
   for (const auto& e : t.edges) {
     auto& names = departingAt[iovOf(e.firstRun)];
     if (std::find(names.begin(), names.end(), e.parameter) == names.end()) names.push_back(e.parameter);
@@ -562,7 +553,7 @@ std::vector<TrendSegment> stablePeriods(const Trend& t, const std::vector<TrendS
   // (stable: at one IOV the known boundaries' and the steps' cuts come before an edge's)
   std::stable_sort(cuts.begin(), cuts.end(), [](const Cut& a, const Cut& b) { return a.iov < b.iov; });
   std::vector<std::size_t> bounds = {0}, transitions, known;
-  std::map<std::size_t, std::vector<std::string>> stepsAt;  // by the IOV where a period starts
+  std::map<std::size_t, std::vector<Quantity>> stepsAt;  // by the IOV where a period starts
   for (const Cut& c : cuts) {
     if (c.iov == 0 || c.iov >= t.iovs || c.iov <= bounds.back()) continue;
     bounds.push_back(c.iov);
@@ -577,7 +568,7 @@ std::vector<TrendSegment> stablePeriods(const Trend& t, const std::vector<TrendS
   }
   bounds.push_back(t.iovs);
   std::vector<TrendSegment> out;
-  auto add = [](std::vector<std::string>& names, const std::string& n) {
+  auto add = [](std::vector<Quantity>& names, const Quantity& n) {
     if (std::find(names.begin(), names.end(), n) == names.end()) names.push_back(n);
   };
   for (std::size_t k = 0; k + 1 < bounds.size(); ++k) {
@@ -628,7 +619,7 @@ std::vector<TrendInconsistency> testSegments(const Trend& t, const std::vector<T
     const double p = chi2PValue(x.chi2, x.ndf);
     if (!(p * tests < t.options.driftAlpha)) continue;
     const auto& s = series[x.series];
-    out.push_back({s.parameter, s.unit, s.points[x.segment->begin].firstRun, s.points[x.segment->end - 1].lastRun,
+    out.push_back({s.parameter, s.points[x.segment->begin].firstRun, s.points[x.segment->end - 1].lastRun,
                    x.segment->end - x.segment->begin, x.chi2, x.ndf, p, &x.segment->model() == &x.segment->line,
                    s.points.size() < 2 * t.options.minSegment});
   }
@@ -711,7 +702,7 @@ Trend analyseTrend(const std::vector<TrendSeries>& series, const TrendOptions& o
   // A drift that a step fits better, where other parameters step (the same change of the
   // detector), is that step: its segment is cut there and everything found again.
   struct Promoted {
-    std::string parameter;
+    Quantity parameter;
     StepAlternative step;
   };
   std::vector<Promoted> promoted;
@@ -769,7 +760,7 @@ Json stepJson(const TrendStep& s) {
           {"size", s.size},
           {"error", s.error},
           {"z", s.z()},
-          {"unit", s.unit},
+          {"unit", s.parameter.unit()},
           {"within_iov", s.withinIov ? Json::array({s.withinIov->first, s.withinIov->second}) : Json()},
           {"instead_of_drift",
            s.insteadOfDrift ? Json{{"chi2_step", s.insteadOfDrift->first}, {"chi2_drift", s.insteadOfDrift->second}}
@@ -784,7 +775,7 @@ Json driftJson(const Trend& t, const TrendDrift& d) {
           {"error", d.error},
           {"z", d.z},
           {"p_value", d.pValue},
-          {"unit", d.unit + "/run"},
+          {"unit", std::string(d.parameter.unit()) + "/run"},
           {"or_step", d.orStep ? Json{{"first_run_after", d.orStep->firstRunAfter},
                                       {"within_iov", d.orStep->withinIov ? Json::array({d.orStep->withinIov->first,
                                                                                         d.orStep->withinIov->second})
@@ -811,13 +802,18 @@ Json segmentJson(const TrendSegment& s) {
 }
 
 Json edgeJson(const TrendEdge& e) {
-  return {
-      {"parameter", e.parameter},        {"unit", e.unit},           {"first_run", e.firstRun}, {"last_run", e.lastRun},
-      {"at", e.atEnd ? "end" : "start"}, {"departure", e.departure}, {"error", e.error},        {"z", e.z()}};
+  return {{"parameter", e.parameter},
+          {"unit", e.parameter.unit()},
+          {"first_run", e.firstRun},
+          {"last_run", e.lastRun},
+          {"at", e.atEnd ? "end" : "start"},
+          {"departure", e.departure},
+          {"error", e.error},
+          {"z", e.z()}};
 }
 
 Json inconsistencyJson(const TrendInconsistency& i) {
-  return {{"parameter", i.parameter}, {"unit", i.unit},
+  return {{"parameter", i.parameter}, {"unit", i.parameter.unit()},
           {"first_run", i.firstRun},  {"last_run", i.lastRun},
           {"iovs", i.iovs},           {"model", i.line ? "line" : "constant"},
           {"chi2", i.chi2},           {"ndf", i.ndf},
@@ -829,7 +825,7 @@ Json boundaryJson(const KnownBoundary& b) {
           {"within_iov", b.withinIov ? Json::array({b.withinIov->first, b.withinIov->second}) : Json()},
           {"measurable", b.measurable},
           {"changed", b.changed},
-          {"largest_change", b.largest.empty() ? Json() : Json(b.largest)},
+          {"largest_change", b.largest ? Json(*b.largest) : Json()},
           {"largest_z", b.largestZ}};
 }
 
@@ -856,8 +852,8 @@ Json seriesJson(const SeriesAnalysis& a, const TrendSeries& s) {
       transitions.push_back(Json::array({p.firstRun, p.lastRun}));
     }
   }
-  return {{"parameter", a.parameter},    {"unit", a.unit},   {"iovs", s.points.size()},
-          {"error_scale", a.errorScale}, {"segments", segs}, {"transition_iovs", transitions}};
+  return {{"parameter", a.parameter},    {"unit", a.parameter.unit()}, {"iovs", s.points.size()},
+          {"error_scale", a.errorScale}, {"segments", segs},           {"transition_iovs", transitions}};
 }
 
 // How the trend was analysed: the rules in words and their settings.
@@ -931,7 +927,7 @@ std::string inconsistencyText(const TrendInconsistency& i) {
 std::string stepAlternativeText(const Trend& t, const TrendDrift& d) {
   if (!d.orStep) return {};
   const StepAlternative& a = *d.orStep;
-  std::vector<std::string> others;  // parameters that step there too: the same change, most likely
+  std::vector<Quantity> others;  // parameters that step there too: the same change, most likely
   for (const auto& st : t.steps) {
     if (st.parameter != d.parameter && st.firstRunAfter >= a.nearFirstRun && st.firstRunAfter <= a.nearLastRun &&
         std::find(others.begin(), others.end(), st.parameter) == others.end()) {
@@ -939,7 +935,8 @@ std::string stepAlternativeText(const Trend& t, const TrendDrift& d) {
     }
   }
   const std::string step = fmt::format(
-      "{:+.4g} ± {:.2g} {} at {}run {}{}{}", a.size, a.error, d.unit, a.withinIov ? "≈ " : "", a.firstRunAfter,
+      "{:+.4g} ± {:.2g} {} at {}run {}{}{}", a.size, a.error, d.parameter.unit(), a.withinIov ? "≈ " : "",
+      a.firstRunAfter,
       a.withinIov ? fmt::format(" (inside IOV {}-{})", a.withinIov->first, a.withinIov->second) : std::string(),
       others.empty() ? std::string()
                      : fmt::format(", where {} step{}", fmt::join(others, ", "), others.size() == 1 ? "s" : ""));
@@ -964,7 +961,8 @@ namespace {
 
 std::string edgeText(const TrendEdge& e) {
   return fmt::format("{} in the {} IOV (runs {}-{}) by {:+.4g} ± {:.2g} {} (z {:.1f})", e.parameter,
-                     e.atEnd ? "last" : "first", e.firstRun, e.lastRun, e.departure, e.error, e.unit, e.z());
+                     e.atEnd ? "last" : "first", e.firstRun, e.lastRun, e.departure, e.error, e.parameter.unit(),
+                     e.z());
 }
 
 // What the edges say, as a sentence to follow the verdict's ("" without one).
@@ -1028,7 +1026,7 @@ double medianError(const TrendSeries& s) {
   return e[e.size() / 2];
 }
 
-const TrendSeries* seriesNamed(const std::vector<TrendSeries>& series, const std::string& name) {
+const TrendSeries* seriesNamed(const std::vector<TrendSeries>& series, Quantity name) {
   for (const auto& s : series) {
     if (s.parameter == name) return &s;
   }
@@ -1036,11 +1034,11 @@ const TrendSeries* seriesNamed(const std::vector<TrendSeries>& series, const std
 }
 
 // The true change between two IOVs of a simulated period ("" when the truth lacks it).
-std::string trueChange(const PeriodTruth* truth, const std::string& parameter, const TrendPoint& before,
+std::string trueChange(const PeriodTruth* truth, Quantity parameter, const TrendPoint& before,
                        const TrendPoint& after) {
   if (truth == nullptr) return {};
-  const double change = parameterDifference(parameter, truth->mean(parameter, after.firstRun, after.lastRun),
-                                            truth->mean(parameter, before.firstRun, before.lastRun));
+  const double change = parameter.difference(truth->mean(parameter, after.firstRun, after.lastRun),
+                                             truth->mean(parameter, before.firstRun, before.lastRun));
   return std::isfinite(change) ? fmt::format("{:+.4g}", change) : std::string("—");
 }
 
@@ -1066,8 +1064,8 @@ std::string stepsSection(const Trend& t, const std::vector<TrendSeries>& series,
                       ? " " + trueChange(truth, s.parameter, ser->points[before], ser->points[s.index]) + " |"
                       : " — |";
     }
-    md += fmt::format("| {} | {} | {:+.4f} {} | {:.4f} | {:.1f} |{}\n", where, s.parameter, s.size, s.unit, s.error,
-                      s.z(), truthCell);
+    md += fmt::format("| {} | {} | {:+.4f} {} | {:.4f} | {:.1f} |{}\n", where, s.parameter, s.size, s.parameter.unit(),
+                      s.error, s.z(), truthCell);
   }
   return md + "\n";
 }
@@ -1094,7 +1092,7 @@ std::string edgesSection(const Trend& t, const std::vector<TrendSeries>& series,
       }
     }
     md += fmt::format("| {} | {} {}-{} | {:+.4g} {} | {:.2g} | {:.1f} |{}\n", e.parameter, e.atEnd ? "last" : "first",
-                      e.firstRun, e.lastRun, e.departure, e.unit, e.error, e.z(), truthCell);
+                      e.firstRun, e.lastRun, e.departure, e.parameter.unit(), e.error, e.z(), truthCell);
   }
   return md + "\n";
 }
@@ -1118,7 +1116,7 @@ std::string periodsSection(const Trend& t) {
       const bool orStep = std::any_of(t.drifts.begin(), t.drifts.end(), [&](const TrendDrift& d) {
         return d.parameter == name && d.orStep && d.firstRun <= s.lastRun && d.lastRun >= s.firstRun;
       });
-      drifting.push_back(orStep ? name + " (or a step: see Drifts)" : name);
+      drifting.push_back(orStep ? fmt::format("{} (or a step: see Drifts)", name) : std::string(name.name()));
     }
     const std::string driftState =
         drifting.empty() ? std::string() : fmt::format("; **drifting: {}**", fmt::join(drifting, ", "));
@@ -1196,9 +1194,9 @@ std::string driftsSection(const Trend& t, const std::vector<TrendSeries>& series
         }
       }
       md += fmt::format("| {} | {}-{} | {:+.3g} ± {:.2g} {}/run | {:+.4f} {} | {:.1f} | {:.2g} | {} |{}\n", d.parameter,
-                        d.firstRun, d.lastRun, d.slopePerRun, d.error, d.unit, 100.0 * d.slopePerRun, d.unit, d.z,
-                        d.pValue, d.orStep ? stepAlternativeText(t, d) : std::string("no: a step does not fit"),
-                        truthCell);
+                        d.firstRun, d.lastRun, d.slopePerRun, d.error, d.parameter.unit(), 100.0 * d.slopePerRun,
+                        d.parameter.unit(), d.z, d.pValue,
+                        d.orStep ? stepAlternativeText(t, d) : std::string("no: a step does not fit"), truthCell);
     }
   }
   // Slopes the figures draw (a line fits better by BIC) that the drift test does not flag.
@@ -1220,15 +1218,16 @@ std::string driftsSection(const Trend& t, const std::vector<TrendSeries>& series
 // What the figures and tables leave out, and why: the directions of magnitudes near 0.
 std::string directionsNote(const Trend& t, const std::vector<TrendSeries>& series) {
   std::string md;
-  for (const auto& [direction, magnitude] : {std::pair{"psi", "beta"}, std::pair{"tau", "mu"}}) {
+  for (const auto& [direction, magnitude] :
+       {std::pair{Physical::Psi, Physical::Beta}, std::pair{Physical::Tau, Physical::Mu}}) {
     const TrendSeries* s = seriesNamed(series, direction);
     const std::size_t n = s ? s->points.size() : 0;
     if (n == t.iovs) continue;
     md += n == 0
               ? fmt::format("- {} is not shown: {} is within 3σ of 0 in every IOV, where its direction is undefined.\n",
-                            direction, magnitude)
-              : fmt::format("- {} is shown for {} of the {} IOVs: those where {} is 3σ from 0.\n", direction, n, t.iovs,
-                            magnitude);
+                            name(direction), name(magnitude))
+              : fmt::format("- {} is shown for {} of the {} IOVs: those where {} is 3σ from 0.\n", name(direction), n,
+                            t.iovs, name(magnitude));
   }
   md += "- β and μ are magnitudes (≥ 0): near a true 0 they come out about one error above it.\n";
   return md;
@@ -1250,9 +1249,9 @@ std::string sensitivitySection(const Trend& t, const std::vector<TrendSeries>& s
     const TrendSeries& s = series[k];
     if (s.points.size() != t.iovs) continue;
     const double e = medianError(s) * t.series[k].errorScale;
-    md += fmt::format("| {} | {:.2g} {} | {:.2f} | {:.2g} {} | {:.2g} {} |\n", s.parameter, medianError(s), s.unit,
-                      t.series[k].errorScale, factor * e * std::sqrt(2.0 / m), s.unit,
-                      factor * e * std::sqrt(2.0 / half), s.unit);
+    md += fmt::format("| {} | {:.2g} {} | {:.2f} | {:.2g} {} | {:.2g} {} |\n", s.parameter, medianError(s),
+                      s.parameter.unit(), t.series[k].errorScale, factor * e * std::sqrt(2.0 / m), s.parameter.unit(),
+                      factor * e * std::sqrt(2.0 / half), s.parameter.unit());
   }
   return md + "\n";
 }
@@ -1338,7 +1337,7 @@ std::string trendMarkdown(const Trend& t, const std::vector<TrendSeries>& series
         md += fmt::format("- run {}{}: no IOV on one side of it, nothing measured\n", b.run, where);
       } else if (b.changed.empty()) {
         md += fmt::format("- run {}{}: no parameter changed by {} σ or more (largest: {}, z = {:.1f})\n", b.run, where,
-                          t.options.stepZ, b.largest, b.largestZ);
+                          t.options.stepZ, b.largest ? b.largest->name() : "", b.largestZ);
       } else {
         md += fmt::format("- run {}{}: changed {}\n", b.run, where, fmt::join(b.changed, ", "));
       }
@@ -1358,9 +1357,7 @@ std::vector<report::TrendFigure> trendFigures(const Trend& t, const std::vector<
   for (std::size_t k = 0; k < series.size(); ++k) {
     const auto& s = series[k];
     if (s.points.empty()) continue;
-    report::TrendFigure f;
-    f.parameter = s.parameter;
-    f.unit = s.unit;
+    report::TrendFigure f{s.parameter};
     for (const auto& p : s.points) {
       f.points.push_back({p.x(), p.value, p.error, static_cast<double>(p.firstRun), static_cast<double>(p.lastRun)});
     }

@@ -6,7 +6,11 @@
 #include <cmath>
 #include <cstddef>
 #include <optional>
+#include <ostream>
+#include <string>
 #include <string_view>
+
+#include <fmt/format.h>
 
 namespace emcalign {
 
@@ -128,4 +132,88 @@ inline constexpr Dimension dimension(Physical p) {
   }
 }
 
+/// One quantity a table or a trend lists: a fit parameter (Param) or one of the physical set
+/// (β, ψ, μ, τ, dx_rel, and those that are fit parameters too, which it holds as the Param).
+/// Its name, file unit and whether it is a direction come from the type, never from a string
+/// typed again; it compares and orders by name, as tables keyed by name did.
+class Quantity {
+ public:
+  constexpr Quantity(Param p) : param_(p) {}  // NOLINT(google-explicit-constructor): a Param is one
+  constexpr Quantity(Physical p) {            // NOLINT(google-explicit-constructor): so is a Physical
+    switch (p) {
+      case Physical::Alpha:
+        param_ = Param::Alpha;
+        break;
+      case Physical::Dx:
+        param_ = Param::Dx;
+        break;
+      case Physical::Dy:
+        param_ = Param::Dy;
+        break;
+      case Physical::Dz:
+        param_ = Param::Dz;
+        break;
+      case Physical::DyRel:
+        param_ = Param::DyRel;
+        break;
+      case Physical::DzRel:
+        param_ = Param::DzRel;
+        break;
+      case Physical::BetaRel:
+        param_ = Param::BetaRel;
+        break;
+      default:
+        physical_ = p;
+    }
+  }
+  /// SPEC §3's name ("dx", "beta_rel", "psi").
+  [[nodiscard]] constexpr std::string_view name() const {
+    return param_ ? emcalign::name(*param_) : emcalign::name(*physical_);
+  }
+  [[nodiscard]] constexpr Dimension dimension() const {
+    return param_ ? emcalign::dimension(*param_) : emcalign::dimension(*physical_);
+  }
+  /// The file unit: "deg" or "cm".
+  [[nodiscard]] constexpr std::string_view unit() const { return fileUnitName(dimension()); }
+  /// ψ or τ: defined modulo 360°.
+  [[nodiscard]] constexpr bool isDirection() const { return physical_ && emcalign::isDirection(*physical_); }
+  /// The fit parameter it is, if it is one.
+  [[nodiscard]] constexpr std::optional<Param> param() const { return param_; }
+  /// a − b in file units: for a direction, the nearest turn.
+  [[nodiscard]] double difference(double a, double b) const {
+    const double d = a - b;
+    return isDirection() ? d - 360.0 * std::round(d / 360.0) : d;
+  }
+  constexpr bool operator==(const Quantity& o) const { return name() == o.name(); }
+  constexpr bool operator<(const Quantity& o) const { return name() < o.name(); }
+
+ private:
+  std::optional<Param> param_;
+  std::optional<Physical> physical_;
+};
+
+/// A Quantity is written as its name in JSON (nlohmann::json finds this by argument lookup).
+template <class Json>
+void to_json(Json& j, const Quantity& q) {
+  j = std::string(q.name());
+}
+
+inline std::ostream& operator<<(std::ostream& os, const Quantity& q) { return os << q.name(); }
+
+/// A name of SPEC §3 (a fit parameter's or a physical one's).
+inline std::optional<Quantity> quantityFromName(std::string_view n) {
+  if (auto p = paramFromName(n)) return Quantity(*p);
+  if (auto p = physicalFromName(n)) return Quantity(*p);
+  return std::nullopt;
+}
+
 }  // namespace emcalign
+
+/// A Quantity is formatted as its name.
+template <>
+struct fmt::formatter<emcalign::Quantity> : fmt::formatter<std::string_view> {
+  template <class Context>
+  auto format(const emcalign::Quantity& q, Context& ctx) const {
+    return fmt::formatter<std::string_view>::format(q.name(), ctx);
+  }
+};

@@ -11,12 +11,13 @@
 #include <utility>
 #include <vector>
 
+#include "emcalign/core/parameters.hpp"
 #include "emcalign/core/result.hpp"
 
 namespace emcalign::report {
 
 struct TrendFigure {
-  std::string parameter, unit;
+  Quantity parameter;  ///< its unit: parameter.unit()
   struct Point {
     double x, y, error, firstRun, lastRun;
   };

@@ -127,9 +127,9 @@ io::Json periodTruthJson(const PeriodScenario& s, const std::vector<PeriodRun>& 
 /// A period's truth read back: every parameter (the 12 and the derived β, ψ, μ, τ, dx_rel, in
 /// file units) against run.
 struct PeriodTruth {
-  std::map<std::string, std::vector<std::pair<std::int64_t, double>>> byParameter;  ///< by run
+  std::map<Quantity, std::vector<std::pair<std::int64_t, double>>> byParameter;  ///< by run
   /// The mean over runs [first, last] that the truth lists (NaN: none, or no such parameter).
-  double mean(const std::string& parameter, std::int64_t first, std::int64_t last) const;
+  double mean(Quantity parameter, std::int64_t first, std::int64_t last) const;
 };
 /// Reads DIR/truth.json (emcalign-period-truth/1); the error names the file and the run.
 Result<PeriodTruth> readPeriodTruth(const std::string& path);

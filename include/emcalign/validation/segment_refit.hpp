@@ -29,7 +29,7 @@ namespace emcalign::validation {
 /// One parameter of a refitted period (file units). NaN where it does not apply.
 struct RefitPrecision {
   static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-  std::string parameter, unit;
+  Quantity parameter;            ///< its unit: parameter.unit()
   double value = kNaN;           ///< the refit
   double quotedBefore = kNaN;    ///< median quoted error of the replaced IOVs
   double quotedAfter = kNaN;     ///< the refit's quoted error
@@ -42,10 +42,10 @@ struct RefitPrecision {
 
 struct RefittedSegment {
   std::int64_t firstRun = 0, lastRun = 0;
-  std::size_t begin = 0, end = 0;     ///< the tag's IOVs [begin, end) it covers
-  std::vector<std::string> drifting;  ///< not empty: not refitted, its IOVs kept
-  bool transition = false;            ///< an IOV straddling a step: kept
-  std::int64_t selected = 0;          ///< selected events of the refit
+  std::size_t begin = 0, end = 0;  ///< the tag's IOVs [begin, end) it covers
+  std::vector<Quantity> drifting;  ///< not empty: not refitted, its IOVs kept
+  bool transition = false;         ///< an IOV straddling a step: kept
+  std::int64_t selected = 0;       ///< selected events of the refit
   std::int64_t medianSelectedBefore = 0;
   std::optional<GroupFit> fit;
   std::vector<RefitPrecision> precision;  ///< the series of the trend, in their order

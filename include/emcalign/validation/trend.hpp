@@ -78,8 +78,7 @@ struct TrendPoint {
 };
 
 struct TrendSeries {
-  std::string parameter;  ///< the 12 fit names, then beta, psi, mu, tau, dx_rel
-  std::string unit;       ///< "deg" or "cm"
+  Quantity parameter;  ///< the 12 fit parameters, then beta, psi, mu, tau, dx_rel
   std::vector<TrendPoint> points;
 };
 
@@ -119,7 +118,7 @@ struct SegmentTest {
 };
 
 struct TrendStep {
-  std::string parameter, unit;
+  Quantity parameter;              ///< its unit: parameter.unit()
   bool known = false;              ///< at a known boundary (TrendOptions::boundaries)
   std::size_t index = 0;           ///< the first point after the step
   std::int64_t firstRunAfter = 0;  ///< inside a transition IOV: the run its mixture points to
@@ -147,7 +146,7 @@ struct StepAlternative {
 };
 
 struct TrendDrift {
-  std::string parameter, unit;
+  Quantity parameter;  ///< its unit: parameter.unit()
   std::int64_t firstRun = 0, lastRun = 0;
   double slopePerRun = 0.0, error = 0.0, z = 0.0, pValue = 1.0;
   /// The best single step in the drift's IOVs (two constants, the IOV between them possibly
@@ -165,7 +164,7 @@ struct Change {
 };
 
 struct SeriesAnalysis {
-  std::string parameter, unit;
+  Quantity parameter;  ///< its unit: parameter.unit()
   double errorScale = 1.0;
   double penalty = 0.0;         ///< per change
   std::vector<Change> changes;  ///< every change found
@@ -174,7 +173,7 @@ struct SeriesAnalysis {
 
 /// A segment of one series that its model does not fit (see the top of this file).
 struct TrendInconsistency {
-  std::string parameter, unit;
+  Quantity parameter;  ///< its unit: parameter.unit()
   std::int64_t firstRun = 0, lastRun = 0;
   std::size_t iovs = 0;
   double chi2 = 0.0;
@@ -188,8 +187,8 @@ struct TrendInconsistency {
 struct KnownBoundary {
   std::int64_t run = 0;
   std::optional<std::pair<std::int64_t, std::int64_t>> withinIov;  ///< the IOV that straddles it
-  std::vector<std::string> changed;  ///< parameters whose change there is at least stepZ σ
-  std::string largest;               ///< the parameter with the largest |z| there (all series)
+  std::vector<Quantity> changed;    ///< parameters whose change there is at least stepZ σ
+  std::optional<Quantity> largest;  ///< the parameter with the largest |z| there (all series)
   double largestZ = 0.0;
   bool measurable = true;  ///< false when no series has IOVs on both sides of it
 };
@@ -197,13 +196,13 @@ struct KnownBoundary {
 /// An IOV left out of one series' segments (between two of them), reported whether or not
 /// a step was found there.
 struct SetAsideIov {
-  std::string parameter;
+  Quantity parameter;
   std::int64_t firstRun = 0, lastRun = 0;
 };
 
 /// An IOV at either end of a series that departs from the rest of its segment (see the top).
 struct TrendEdge {
-  std::string parameter, unit;
+  Quantity parameter;                      ///< its unit: parameter.unit()
   std::int64_t firstRun = 0, lastRun = 0;  ///< the IOV
   bool atEnd = true;                       ///< the last IOV of the series (else the first)
   double departure = 0.0, error = 0.0;     ///< its value − the rest's model there
@@ -218,13 +217,13 @@ struct TrendSegment {
   /// One IOV straddling a step (its runs before and after the change mixed): not a stable
   /// period; its runs should be calibrated again, split where the detector changed.
   bool transition = false;
-  bool afterKnownBoundary = false;        ///< it starts at (or straddles) a known boundary
-  std::vector<std::string> stepsAtStart;  ///< parameters that stepped where it starts (or inside it)
-  std::vector<std::string> drifting;      ///< parameters with a flagged drift inside it
-  std::vector<std::string> inconsistent;  ///< parameters with an inconsistent segment inside it
+  bool afterKnownBoundary = false;     ///< it starts at (or straddles) a known boundary
+  std::vector<Quantity> stepsAtStart;  ///< parameters that stepped where it starts (or inside it)
+  std::vector<Quantity> drifting;      ///< parameters with a flagged drift inside it
+  std::vector<Quantity> inconsistent;  ///< parameters with an inconsistent segment inside it
   /// An IOV at the tag's first or last that departs from the IOVs beside it (TrendEdge): the
   /// parameters that do; not a stable period.
-  std::vector<std::string> departing;
+  std::vector<Quantity> departing;
   /// Whether the trend could locate a step at all (Trend::resolvable): a period of a trend
   /// too short for that is never called stable (nothing was tested but one value).
   bool resolvable = true;

@@ -151,10 +151,10 @@ TEST_F(PeriodSimulation, SameFilesOnAnyThreadCountAndResumes) {
   EXPECT_EQ(files, 12);  // 10 runs, truth.json, period.json
   auto truth = readPeriodTruth((dir_ / "one" / "truth.json").string());
   ASSERT_TRUE(truth) << truth.error().message;
-  EXPECT_NEAR(truth->mean("dx", 100, 103), 0.3, 1e-12);
-  EXPECT_NEAR(truth->mean("dx", 104, 111), 0.5, 1e-12);
-  EXPECT_NEAR(truth->mean("psi", 108, 111), 30.0, 1e-9);
-  EXPECT_TRUE(std::isnan(truth->mean("dx", 102, 102)));  // a missing run
+  EXPECT_NEAR(truth->mean(Param::Dx, 100, 103), 0.3, 1e-12);
+  EXPECT_NEAR(truth->mean(Param::Dx, 104, 111), 0.5, 1e-12);
+  EXPECT_NEAR(truth->mean(Physical::Psi, 108, 111), 30.0, 1e-9);
+  EXPECT_TRUE(std::isnan(truth->mean(Param::Dx, 102, 102)));  // a missing run
 
   // An interrupted period (a run file lost) is completed; the others are kept.
   fs::remove(dir_ / "one" / "run_000105.h5");

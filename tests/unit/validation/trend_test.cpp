@@ -17,9 +17,9 @@ namespace {
 
 // n IOVs of 10 runs each (runs 1-10, 11-20, ...), values from `value(i)` plus N(0, sigma).
 template <class F>
-TrendSeries series(std::size_t n, double sigma, std::mt19937_64& rng, F value, const char* name = "dx") {
+TrendSeries series(std::size_t n, double sigma, std::mt19937_64& rng, F value, Quantity name = Param::Dx) {
   std::normal_distribution<double> noise(0.0, sigma);
-  TrendSeries s{name, "cm", {}};
+  TrendSeries s{name, {}};
   for (std::size_t i = 0; i < n; ++i) {
     const auto first = static_cast<std::int64_t>(10 * i + 1);
     s.points.push_back({first, first + 9, value(i) + noise(rng), sigma});
@@ -41,7 +41,7 @@ TEST(Trend, FindsAStepAtItsIov) {
   ASSERT_EQ(t.segments.size(), 2u);
   EXPECT_EQ(t.segments[0].lastRun, 250);
   EXPECT_EQ(t.segments[1].firstRun, 251);
-  EXPECT_EQ(t.segments[1].stepsAtStart, std::vector<std::string>{"dx"});
+  EXPECT_EQ(t.segments[1].stepsAtStart, std::vector<Quantity>{Param::Dx});
 }
 
 TEST(Trend, AnIovStraddlingAStepIsATransition) {
@@ -80,7 +80,7 @@ TEST(Trend, FlagsADriftAndDoesNotCutIt) {
   EXPECT_LE(t.drifts[0].firstRun, 551);
   EXPECT_EQ(t.drifts[0].lastRun, 800);
   ASSERT_FALSE(t.segments.empty());
-  EXPECT_EQ(t.segments.back().drifting, std::vector<std::string>{"dx"});
+  EXPECT_EQ(t.segments.back().drifting, std::vector<Quantity>{Param::Dx});
 }
 
 // A drift starting inside a series is a knee, not a step: a continuous broken line fits it.
@@ -127,7 +127,7 @@ TEST(Trend, ErrorScaleFollowsTheScatter) {
 }
 
 TEST(Trend, LineFitIsExactOnALine) {
-  TrendSeries s{"dz", "cm", {}};
+  TrendSeries s{Param::Dz, {}};
   for (int i = 0; i < 10; ++i) s.points.push_back({10 * i + 1, 10 * i + 10, 0.1 + 0.002 * (10 * i + 5.5), 0.01});
   const LineFit f = fitLine(s, 0, 10, 1.0, true);
   EXPECT_NEAR(f.b, 0.002, 1e-12);
@@ -146,7 +146,7 @@ TEST(Trend, ShortSeries) {
   // (the first IOV departs from the two after it: an edge, a period of its own)
   const Trend short3 = analyseTrend({three});
   ASSERT_EQ(short3.segments.size(), 2u);
-  EXPECT_EQ(short3.segments[0].departing, std::vector<std::string>{"dx"});
+  EXPECT_EQ(short3.segments[0].departing, std::vector<Quantity>{Param::Dx});
   // Seven IOVs (a period cut into groups of 50 000): a step is still found, between constants.
   const auto seven = series(7, 0.01, rng, [](std::size_t i) { return i < 3 ? 0.3 : 0.45; });
   const Trend t = analyseTrend({seven});
@@ -158,11 +158,11 @@ TEST(Trend, ShortSeries) {
 TEST(Trend, StepsOfSeveralParametersMakeOneBoundary) {
   std::mt19937_64 rng(7);
   const auto dx = series(
-      50, 0.01, rng, [](std::size_t i) { return i < 20 ? 0.3 : 0.4; }, "dx");
+      50, 0.01, rng, [](std::size_t i) { return i < 20 ? 0.3 : 0.4; }, Param::Dx);
   const auto psi = series(
-      50, 1.0, rng, [](std::size_t i) { return i < 20 ? 40.0 : 110.0; }, "psi");
+      50, 1.0, rng, [](std::size_t i) { return i < 20 ? 40.0 : 110.0; }, Physical::Psi);
   const auto alpha = series(
-      50, 0.01, rng, [](std::size_t) { return 2.9; }, "alpha");
+      50, 0.01, rng, [](std::size_t) { return 2.9; }, Param::Alpha);
   const Trend t = analyseTrend({alpha, dx, psi});
   ASSERT_EQ(t.steps.size(), 2u);
   ASSERT_EQ(t.segments.size(), 2u);
@@ -177,9 +177,9 @@ TEST(Trend, ATransitionSeenByOneParameterIsKept) {
   const auto dx = series(
       60, 0.01, rng, [](std::size_t i) { return i < 30    ? 0.25
                                                 : i == 30 ? 0.3
-                                                          : 0.45; }, "dx");
+                                                          : 0.45; }, Param::Dx);
   const auto psi = series(
-      60, 1.0, rng, [](std::size_t i) { return i <= 30 ? 40.0 : 115.0; }, "psi");
+      60, 1.0, rng, [](std::size_t i) { return i <= 30 ? 40.0 : 115.0; }, Physical::Psi);
   const Trend t = analyseTrend({dx, psi});
   ASSERT_EQ(t.steps.size(), 2u);
   ASSERT_EQ(t.segments.size(), 3u);
@@ -193,7 +193,7 @@ TEST(Trend, ATransitionSeenByOneParameterIsKept) {
 // its one value cannot describe, instead of "no step" (issue 29: two IOVs 26σ apart).
 TEST(Trend, TooFewIovsIsSaidAndAnInconsistentSeriesNamed) {
   for (std::size_t n : {2u}) {
-    TrendSeries dx{"dx", "cm", {}}, alpha{"alpha", "deg", {}};
+    TrendSeries dx{Param::Dx, {}}, alpha{Param::Alpha, {}};
     for (std::size_t i = 0; i < n; ++i) {
       const auto first = static_cast<std::int64_t>(10 * i + 101);
       dx.points.push_back({first, first + 9, i == 0 ? -0.196 : -0.075, 0.004});
@@ -203,7 +203,7 @@ TEST(Trend, TooFewIovsIsSaidAndAnInconsistentSeriesNamed) {
     EXPECT_FALSE(t.resolvable());
     EXPECT_TRUE(t.steps.empty());
     ASSERT_EQ(t.inconsistencies.size(), 1u) << n;
-    EXPECT_EQ(t.inconsistencies[0].parameter, "dx");
+    EXPECT_EQ(t.inconsistencies[0].parameter, Param::Dx);
     EXPECT_TRUE(t.inconsistencies[0].unsplittable);
     EXPECT_EQ(t.inconsistencies[0].ndf, static_cast<int>(n) - 1);
     EXPECT_GT(t.inconsistencies[0].chi2, 400.0);
@@ -217,11 +217,11 @@ TEST(Trend, TooFewIovsIsSaidAndAnInconsistentSeriesNamed) {
     EXPECT_EQ(md.find("No drift"), std::string::npos) << md;
     EXPECT_EQ(trendJson(t, {alpha, dx}).at("inconsistent").size(), 1u);
     ASSERT_EQ(t.segments.size(), 1u);
-    EXPECT_EQ(t.segments[0].inconsistent, std::vector<std::string>{"dx"});
+    EXPECT_EQ(t.segments[0].inconsistent, std::vector<Quantity>{Param::Dx});
   }
   // Three IOVs, the first apart from the two after it: the edge is named, still not "no step".
   {
-    TrendSeries dx{"dx", "cm", {{101, 110, -0.196, 0.004}, {111, 120, -0.075, 0.004}, {121, 130, -0.0752, 0.004}}};
+    TrendSeries dx{Param::Dx, {{101, 110, -0.196, 0.004}, {111, 120, -0.075, 0.004}, {121, 130, -0.0752, 0.004}}};
     const Trend t = analyseTrend({dx});
     EXPECT_FALSE(t.resolvable());
     ASSERT_EQ(t.edges.size(), 1u);
@@ -235,7 +235,7 @@ TEST(Trend, TooFewIovsIsSaidAndAnInconsistentSeriesNamed) {
   }
   // Consistent values: too few IOVs is still said, with no parameter blamed, and the one
   // period is not called stable (issue 29: "1 of 1 period stable" beside "too few IOVs").
-  TrendSeries flat{"dx", "cm", {{1, 10, 0.1, 0.01}, {11, 20, 0.105, 0.01}, {21, 30, 0.098, 0.01}}};
+  TrendSeries flat{Param::Dx, {{1, 10, 0.1, 0.01}, {11, 20, 0.105, 0.01}, {21, 30, 0.098, 0.01}}};
   const Trend t = analyseTrend({flat});
   EXPECT_TRUE(t.inconsistencies.empty());
   EXPECT_NE(trendVerdict(t).find("Too few IOVs"), std::string::npos);
@@ -254,7 +254,7 @@ TEST(Trend, TooFewIovsIsSaidAndAnInconsistentSeriesNamed) {
 // and is reported beside it (where beta1 steps too), never a drift alone. A true drift over
 // 12 IOVs gets no step alternative.
 TEST(Trend, ADriftThatAStepFitsAsWellIsReportedAsEither) {
-  TrendSeries dx{"dx", "cm", {}}, beta1{"beta1", "deg", {}};
+  TrendSeries dx{Param::Dx, {}}, beta1{Param::Beta1, {}};
   const std::vector<std::tuple<std::int64_t, std::int64_t, double, double, double>> iovs = {
       {1, 22, 0.2485, 0.0037, 0.1877},    {23, 47, 0.2507, 0.0033, 0.2014},    {48, 69, 0.2489, 0.0034, 0.1763},
       {70, 91, 0.3271, 0.0035, 0.1958},   {92, 120, 0.4004, 0.0034, 0.2071},   {121, 141, 0.3998, 0.0036, 0.1920},
@@ -268,7 +268,7 @@ TEST(Trend, ADriftThatAStepFitsAsWellIsReportedAsEither) {
   const Trend t = analyseTrend({dx});
   ASSERT_EQ(t.drifts.size(), 1u);
   const TrendDrift& d = t.drifts[0];
-  EXPECT_EQ(d.parameter, "dx");
+  EXPECT_EQ(d.parameter, Param::Dx);
   ASSERT_TRUE(d.orStep.has_value());
   EXPECT_TRUE(d.orStep->preferred());
   EXPECT_EQ(d.orStep->firstRunAfter, 163);
@@ -287,8 +287,9 @@ TEST(Trend, ADriftThatAStepFitsAsWellIsReportedAsEither) {
   // after it stable (issue 29's third try: "drifting: dx" where dx was constant).
   const Trend u = analyseTrend({beta1, dx});
   EXPECT_TRUE(u.drifts.empty());
-  const auto step = std::find_if(u.steps.begin(), u.steps.end(),
-                                 [](const TrendStep& st) { return st.parameter == "dx" && st.firstRunAfter == 163; });
+  const auto step = std::find_if(u.steps.begin(), u.steps.end(), [](const TrendStep& st) {
+    return st.parameter == Param::Dx && st.firstRunAfter == 163;
+  });
   ASSERT_NE(step, u.steps.end()) << trendMarkdown(u, {beta1, dx}, {"test"});
   EXPECT_NEAR(step->size, -0.097, 0.005);
   ASSERT_TRUE(step->insteadOfDrift.has_value());
@@ -310,15 +311,15 @@ TEST(Trend, AStepAnIovAwayFromATransitionStartsItsOwnPeriod) {
   const auto dx = series(
       30, 0.003, rng, [](std::size_t i) { return i < 12    ? 0.25
                                                  : i == 12 ? 0.30
-                                                           : 0.40; }, "dx");
+                                                           : 0.40; }, Param::Dx);
   const auto beta = series(
-      30, 0.003, rng, [](std::size_t i) { return i < 11 ? 0.08 : 0.12; }, "beta_rel");
+      30, 0.003, rng, [](std::size_t i) { return i < 11 ? 0.08 : 0.12; }, Param::BetaRel);
   const Trend t = analyseTrend({dx, beta});
   ASSERT_EQ(t.steps.size(), 2u);
   std::vector<std::int64_t> starts;
   for (const auto& g : t.segments) starts.push_back(g.firstRun);
   EXPECT_EQ(starts, (std::vector<std::int64_t>{1, 111, 121, 131})) << trendMarkdown(t, {dx, beta}, {"test"});
-  EXPECT_EQ(t.segments[1].stepsAtStart, std::vector<std::string>{"beta_rel"});
+  EXPECT_EQ(t.segments[1].stepsAtStart, std::vector<Quantity>{Param::BetaRel});
   EXPECT_TRUE(t.segments[2].transition);
 }
 
@@ -328,19 +329,19 @@ TEST(Trend, AStepInTheLastIovIsAnEdgeNotADrift) {
   std::mt19937_64 rng(29);
   const auto dx = series(12, 0.01, rng, [](std::size_t i) { return i < 11 ? 0.30 : 0.45; });
   const auto alpha = series(
-      12, 0.02, rng, [](std::size_t) { return 2.9; }, "alpha");
+      12, 0.02, rng, [](std::size_t) { return 2.9; }, Param::Alpha);
   const Trend t = analyseTrend({alpha, dx});
   EXPECT_TRUE(t.drifts.empty());
   EXPECT_TRUE(t.steps.empty());
   EXPECT_TRUE(t.inconsistencies.empty());
   ASSERT_EQ(t.edges.size(), 1u);
-  EXPECT_EQ(t.edges[0].parameter, "dx");
+  EXPECT_EQ(t.edges[0].parameter, Param::Dx);
   EXPECT_TRUE(t.edges[0].atEnd);
   EXPECT_EQ(t.edges[0].firstRun, 111);
   EXPECT_NEAR(t.edges[0].departure, 0.15, 0.05);
   ASSERT_EQ(t.segments.size(), 2u);
   EXPECT_TRUE(t.segments[0].stable());
-  EXPECT_EQ(t.segments[1].departing, std::vector<std::string>{"dx"});
+  EXPECT_EQ(t.segments[1].departing, std::vector<Quantity>{Param::Dx});
   EXPECT_FALSE(t.segments[1].stable());
   const std::string md = trendMarkdown(t, {alpha, dx}, {"test"});
   EXPECT_NE(md.find("## An IOV at an end of the tag departs"), std::string::npos) << md;
@@ -370,7 +371,7 @@ TEST(Trend, AStepInTheLastIovIsAnEdgeNotADrift) {
 // Enough IOVs to locate a step, but values that no step (two IOVs on each side) explains:
 // reported, not "no step".
 TEST(Trend, ASegmentItsModelDoesNotFitIsReported) {
-  const TrendSeries s{"dx", "cm", {{1, 10, 0.3, 0.01}, {11, 20, 0.4, 0.01}, {21, 30, 0.4, 0.01}, {31, 40, 0.3, 0.01}}};
+  const TrendSeries s{Param::Dx, {{1, 10, 0.3, 0.01}, {11, 20, 0.4, 0.01}, {21, 30, 0.4, 0.01}, {31, 40, 0.3, 0.01}}};
   const Trend t = analyseTrend({s});
   EXPECT_TRUE(t.resolvable());
   EXPECT_TRUE(t.steps.empty());
@@ -432,9 +433,9 @@ TEST(Trend, AStepBetweenFlatSegmentsIsTheDifferenceOfTheirMeans) {
 TEST(Trend, KnownBoundariesAreCutAndMeasured) {
   std::mt19937_64 rng(13);
   const auto dx = series(
-      30, 0.01, rng, [](std::size_t i) { return i < 15 ? 0.25 : 0.40; }, "dx");
+      30, 0.01, rng, [](std::size_t i) { return i < 15 ? 0.25 : 0.40; }, Param::Dx);
   const auto alpha = series(
-      30, 0.01, rng, [](std::size_t) { return 2.9; }, "alpha");
+      30, 0.01, rng, [](std::size_t) { return 2.9; }, Param::Alpha);
   TrendOptions o;
   o.boundaries = {151, 75, 100000};  // at IOV 15; inside IOV 7 (runs 71-80); after the series
   const Trend t = analyseTrend({alpha, dx}, o);
@@ -445,7 +446,7 @@ TEST(Trend, KnownBoundariesAreCutAndMeasured) {
   EXPECT_TRUE(t.boundaries[0].changed.empty());
   EXPECT_TRUE(t.boundaries[0].measurable);
   EXPECT_EQ(t.boundaries[1].run, 151);
-  EXPECT_EQ(t.boundaries[1].changed, std::vector<std::string>{"dx"});
+  EXPECT_EQ(t.boundaries[1].changed, std::vector<Quantity>{Param::Dx});
   EXPECT_FALSE(t.boundaries[2].measurable);
   ASSERT_EQ(t.steps.size(), 1u);
   EXPECT_TRUE(t.steps[0].known);

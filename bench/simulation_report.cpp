@@ -112,11 +112,12 @@ void emc() {
   sim::CalorimeterResponse response(calo(), truth, o);
   sim::CounterHits hits(calo().size());
   Rng rng(2, 0);
-  for (bool photon : {false, true}) {
+  using Showering = sim::CalorimeterResponse::Showering;
+  for (Showering particle : {Showering::Electron, Showering::Photon}) {
     double l12 = 0.0, all = 0.0;
     for (int i = 0; i < 5000; ++i) {
       hits.clear();
-      response.shower(hits, 0, 600.0, photon, Vec3::Zero(),
+      response.shower(hits, 0, 600.0, particle, Vec3::Zero(),
                       geometry::pointAt(1.0, rng.uniform(50.0, 130.0) * deg, rng.uniform(0.0, 6.28)), rng);
       for (int c = 0; c < calo().size(); ++c) {
         all += hits.energy(c);
@@ -124,7 +125,8 @@ void emc() {
       }
     }
     std::printf("showers of 600 MeV %s: %.1f%% of the energy deposited in counters, %.1f%% of that in layers 1-2\n",
-                photon ? "photons" : "electrons", 100.0 * all / (5000 * 600.0), 100.0 * l12 / all);
+                particle == Showering::Photon ? "photons" : "electrons", 100.0 * all / (5000 * 600.0),
+                100.0 * l12 / all);
   }
 }
 

@@ -143,7 +143,6 @@ int runDiff(const ConditionsOptions& o) {
     fmt::print("{}\n", conddb::tagDiffJson(*d).dump(2));
     return kExitOk;
   }
-  const auto& names = conddb::storedNames();
   fmt::print("{}: tag {} against tag {}, (a - b) / sqrt(error_a^2 + error_b^2) of each parameter\n", (*db)->uri(),
              d->tagA, d->tagB);
   // The models the two tags were fitted with: differences that are the models', not the detector's.
@@ -175,7 +174,7 @@ int runDiff(const ConditionsOptions& o) {
     }
   }
   fmt::print("{:>17}", "runs");
-  for (const auto& n : names) fmt::print(" {:>8} ", n);  // the last column of a cell: its mark
+  for (Quantity q : kAllQuantities) fmt::print(" {:>8} ", q);  // the last column of a cell: its mark
   fmt::print("\n");
   int beyond3 = 0;
   for (const auto& p : d->pairs) {

@@ -116,7 +116,7 @@ void printAgainstTruth(const std::vector<calib::TruthRow>& rows, bool systematic
   for (const auto& r : rows) {
     const double pull = r.pull();
     fmt::print(reportStream(), "{:<10} {:>12} {:>12} {:>12} {:<4} {:>7}\n", r.name, fixed5(r.fit), fixed5(r.truth),
-               fixed5(r.difference()), r.unit, std::isfinite(pull) ? fixed(pull, 2, true) : std::string("-"));
+               fixed5(r.difference()), r.name.unit(), std::isfinite(pull) ? fixed(pull, 2, true) : std::string("-"));
   }
 }
 

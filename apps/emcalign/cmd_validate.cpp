@@ -154,7 +154,7 @@ int run(const ValidateOptions& cli, bool finishing) {
              "spread", "pull mean", "pull width", "slope");
   for (const auto& r : table->rows) {
     fmt::print(reportStream(), "{:<10} {:>4} {:>11.4g} {:>9.2g} {:>10.4g} {:>9} {:>7.3f} ± {:.3f} {:>18}\n", r.name,
-               r.unit, r.bias, r.biasError, r.spread, fixed(r.pullMean, 3), r.pullWidth, r.pullWidthError,
+               r.name.unit(), r.bias, r.biasError, r.spread, fixed(r.pullMean, 3), r.pullWidth, r.pullWidthError,
                validation::slopeText(r));
   }
   fmt::print(reportStream(), "sigma_sys of the fits: median {:.4f} deg ({:.4f} to {:.4f})\n", table->sigmaSysMedian,
@@ -245,7 +245,7 @@ int runSystematics(const ValidateOptions& cli, bool finishing) {
             ? std::string()
             : fmt::format("{:.4f} ({})", *largest,
                           table->quantities[static_cast<std::size_t>(largest - r.envelope.begin())]);
-    fmt::print(reportStream(), "{:<10} {:>4} {:>9} ± {:<7.4f} {:>9.4f} {:>11.4f}  {}\n", r.name, r.unit,
+    fmt::print(reportStream(), "{:<10} {:>4} {:>9} ± {:<7.4f} {:>9.4f} {:>11.4f}  {}\n", r.name, r.name.unit(),
                fixed(r.bias, 4, true), r.biasError, r.spread, r.systematic, which);
   }
   const std::size_t campaigns = table->variations.size() + 1;

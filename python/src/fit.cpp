@@ -204,7 +204,8 @@ void bindFit(py::module_& m) {
             if (!f.truth) return py::none();
             py::dict d;
             for (const auto& r : *f.truth) {
-              d[py::str(r.name)] = py::make_tuple(r.fit, r.truth, r.difference(), r.pull(), r.unit);
+              d[py::str(std::string(r.name.name()))] =
+                  py::make_tuple(r.fit, r.truth, r.difference(), r.pull(), std::string(r.name.unit()));
             }
             return d;
           },

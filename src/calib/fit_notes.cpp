@@ -144,7 +144,7 @@ std::optional<std::string> truthRangeWarning(const geometry::AlignmentParameters
 
 double TruthRow::pull() const {
   if (!(error > 0.0) || !std::isfinite(error)) return std::numeric_limits<double>::quiet_NaN();
-  return parameterDifference(name, fit, truth) / error;
+  return difference() / error;
 }
 
 Result<std::vector<TruthRow>> compareWithTruth(const FitResult& result, const AlignmentParameters& truth, double r1) {
@@ -153,16 +153,14 @@ Result<std::vector<TruthRow>> compareWithTruth(const FitResult& result, const Al
   std::vector<TruthRow> rows;
   for (Param p : kAllParams) {
     const double unit = AlignmentParameters::fileUnit(p);
-    rows.push_back({std::string(name(p)), std::string(fileUnitName(dimension(p))), result.parameters[p] / unit,
-                    result.errors[p] / unit, truth[p] / unit});
+    rows.push_back({p, result.parameters[p] / unit, result.errors[p] / unit, truth[p] / unit});
   }
   for (Physical p : kDerivedParams) {
     // A direction is defined only where its magnitude is not 0.
     if (p == Physical::Psi && (*phys)[Physical::Beta] == 0.0) continue;
     if (p == Physical::Tau && (*phys)[Physical::Mu] == 0.0) continue;
     const double unit = PhysicalParameters::fileUnit(p);
-    rows.push_back({std::string(name(p)), std::string(fileUnitName(dimension(p))), result.derived[p].value / unit,
-                    result.derived[p].error / unit, (*phys)[p] / unit});
+    rows.push_back({p, result.derived[p].value / unit, result.derived[p].error / unit, (*phys)[p] / unit});
   }
   return rows;
 }

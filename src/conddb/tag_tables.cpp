@@ -22,28 +22,6 @@ std::string csvNumber(double v) { return std::isfinite(v) ? fmt::format("{:.10g}
 
 }  // namespace
 
-const std::vector<std::string>& storedNames() {
-  static const std::vector<std::string> names = [] {
-    std::vector<std::string> n;
-    n.reserve(kAllParams.size() + kDerivedParams.size());
-    for (Param p : kAllParams) n.emplace_back(name(p));
-    for (Physical p : kDerivedParams) n.emplace_back(name(p));
-    return n;
-  }();
-  return names;
-}
-
-const std::vector<std::string>& storedUnits() {
-  static const std::vector<std::string> units = [] {
-    std::vector<std::string> u;
-    u.reserve(kAllParams.size() + kDerivedParams.size());
-    for (Param p : kAllParams) u.emplace_back(fileUnitName(dimension(p)));
-    for (Physical p : kDerivedParams) u.emplace_back(fileUnitName(dimension(p)));
-    return u;
-  }();
-  return units;
-}
-
 Result<std::vector<StoredValue>> storedValues(const Payload& payload, const Iov& iov, const std::string& tag) {
   const Json& a = payload.content.value("alignment", Json::object());
   const Json parameters = a.value("parameters", Json::object()), errors = a.value("errors", Json::object());
@@ -113,9 +91,8 @@ Result<TagDiff> diffTags(Database& db, const std::string& a, const std::string& 
       auto vb = storedValues(**pb, ib, b);
       if (!vb) return vb.error();
       IovPair pair{first, last, ia, ib, std::move(*va), std::move(*vb), {}, (*pa)->model(), (*pb)->model()};
-      const auto& names = storedNames();
-      for (std::size_t k = 0; k < names.size(); ++k) {
-        const double diff = parameterDifference(names[k], pair.valuesA[k].value, pair.valuesB[k].value);
+      for (std::size_t k = 0; k < kAllQuantities.size(); ++k) {
+        const double diff = kAllQuantities[k].difference(pair.valuesA[k].value, pair.valuesB[k].value);
         const double e = std::hypot(pair.valuesA[k].error, pair.valuesB[k].error);
         pair.z.push_back(e > 0.0 ? diff / e : (diff == 0.0 ? 0.0 : kNaN));
       }
@@ -127,22 +104,21 @@ Result<TagDiff> diffTags(Database& db, const std::string& a, const std::string& 
 
 Json tagDiffJson(const TagDiff& d) {
   Json pairs = Json::array();
-  const auto& names = storedNames();
-  const auto& units = storedUnits();
   auto iovJson = [](const Iov& i) {
     return Json{{"first_run", i.firstRun}, {"last_run", i.lastRun}, {"payload", i.payload}};
   };
   auto number = [](double v) { return std::isfinite(v) ? Json(v) : Json(); };
   for (const auto& p : d.pairs) {
     Json params = Json::object();
-    for (std::size_t k = 0; k < names.size(); ++k) {
-      params[names[k]] = {{"a", number(p.valuesA[k].value)},
-                          {"error_a", number(p.valuesA[k].error)},
-                          {"b", number(p.valuesB[k].value)},
-                          {"error_b", number(p.valuesB[k].error)},
-                          {"difference", number(parameterDifference(names[k], p.valuesA[k].value, p.valuesB[k].value))},
-                          {"z", number(p.z[k])},
-                          {"unit", units[k]}};
+    for (std::size_t k = 0; k < kAllQuantities.size(); ++k) {
+      const Quantity q = kAllQuantities[k];
+      params[std::string(q.name())] = {{"a", number(p.valuesA[k].value)},
+                                       {"error_a", number(p.valuesA[k].error)},
+                                       {"b", number(p.valuesB[k].value)},
+                                       {"error_b", number(p.valuesB[k].error)},
+                                       {"difference", number(q.difference(p.valuesA[k].value, p.valuesB[k].value))},
+                                       {"z", number(p.z[k])},
+                                       {"unit", q.unit()}};
     }
     pairs.push_back({{"first_run", p.firstRun},
                      {"last_run", p.lastRun},
@@ -168,15 +144,13 @@ Json tagDiffJson(const TagDiff& d) {
 Result<std::string> tagCsv(Database& db, const std::string& tag) {
   auto snapshot = TagSnapshot::load(db, tag, true);
   if (!snapshot) return snapshot.error();
-  const auto& names = storedNames();
-  const auto& units = storedUnits();
   std::string units_line = "# units:";
-  for (std::size_t k = 0; k < names.size(); ++k) units_line += fmt::format(" {}={}", names[k], units[k]);
+  for (Quantity q : kAllQuantities) units_line += fmt::format(" {}={}", q, q.unit());
   std::string csv = fmt::format("# emcalign conditions export: tag {} of {}\n{}\n", tag, db.uri(), units_line);
   csv +=
       "first_run,last_run,payload,inserted,status,chi2,ndf,chi2_statistical_errors,sigma_sys_method,sigma_sys_deg,"
       "selected_events,model";
-  for (const auto& n : names) csv += fmt::format(",{},{}_error", n, n);
+  for (Quantity q : kAllQuantities) csv += fmt::format(",{},{}_error", q, q);
   csv += "\n";
   for (const Iov& iov : snapshot->iovs()) {
     auto p = snapshot->payload(iov);

@@ -93,7 +93,7 @@ Range axisRange(const Range& r) {
 
 // One quantity, reduced: fit − truth and pulls per sample, their statistics, the pull
 // histogram and the extent of the points.
-struct Quantity {
+struct Panel {
   const CampaignSeries* series = nullptr;
   std::string label;
   std::vector<double> diff, pull;  // per sample; NaN where not defined
@@ -113,30 +113,26 @@ double medianOfPositive(const std::vector<double>& v) {
   return *mid;
 }
 
-Result<std::vector<Quantity>> reduce(const std::vector<CampaignSeries>& series) {
+Result<std::vector<Panel>> reduce(const std::vector<CampaignSeries>& series) {
   if (series.empty()) return Error{"campaign plots: no quantities to plot"};
-  std::vector<Quantity> out;
+  std::vector<Panel> out;
   for (std::size_t k = 0; k < series.size(); ++k) {
     const CampaignSeries& s = series[k];
-    if (s.name.empty()) return Error{fmt::format("campaign plots: quantity {} (counting from 0) has no name", k)};
     if (s.truth.size() != s.fit.size() || s.truth.size() != s.error.size())
       return Error{
           fmt::format("campaign plots: quantity '{}': truth, fit and error need one value per sample each "
                       "(got {}, {} and {})",
                       s.name, s.truth.size(), s.fit.size(), s.error.size())};
     if (s.truth.empty()) return Error{fmt::format("campaign plots: quantity '{}': no samples", s.name)};
-    if (s.angleWraps && s.unit != "deg")
-      return Error{fmt::format("campaign plots: quantity '{}': an angle that wraps needs unit \"deg\" (got \"{}\")",
-                               s.name, s.unit)};
-    Quantity q;
+    Panel q;
     q.series = &s;
-    q.label = quantityLabel(s.name);
+    q.label = quantityLabel(std::string(s.name.name()));
     // The y range holds the error bars up to 3 median errors: one huge error (ψ or τ of a
     // sample with β or μ near zero) would otherwise squeeze all points onto the zero line.
     const double errorCap = 3.0 * medianOfPositive(s.error);
     for (std::size_t i = 0; i < s.truth.size(); ++i) {
       double d = s.fit[i] - s.truth[i];
-      if (s.angleWraps) d = std::remainder(d, 360.0);  // shortest difference, [−180°, 180°]
+      if (s.name.isDirection()) d = std::remainder(d, 360.0);  // shortest difference, [−180°, 180°]
       const double e = s.error[i];
       const double pull = std::isfinite(e) && e > 0.0 ? d / e : kNaN;
       q.diff.push_back(d);
@@ -162,7 +158,7 @@ Result<std::vector<Quantity>> reduce(const std::vector<CampaignSeries>& series) 
   return out;
 }
 
-std::string samplesFile(const std::vector<Quantity>& qs) {
+std::string samplesFile(const std::vector<Panel>& qs) {
   fmt::memory_buffer out;
   const auto put = std::back_inserter(out);
   fmt::format_to(put,
@@ -170,13 +166,13 @@ std::string samplesFile(const std::vector<Quantity>& qs) {
                  "# file units. fit - truth is the shortest angular difference for angles that wrap;\n"
                  "# pull = (fit - truth)/error, NaN without a finite positive error.\n");
   for (std::size_t k = 0; k < qs.size(); ++k)
-    fmt::format_to(put, "#   index {}: {} [{}]{}\n", k, commentText(qs[k].series->name),
-                   commentText(qs[k].series->unit), qs[k].series->angleWraps ? " (wraps at 360 deg)" : "");
+    fmt::format_to(put, "#   index {}: {} [{}]{}\n", k, commentText(std::string(qs[k].series->name.name())),
+                   qs[k].series->name.unit(), qs[k].series->name.isDirection() ? " (wraps at 360 deg)" : "");
   fmt::format_to(put, "# columns: 1 truth  2 fit  3 error  4 fit-truth  5 pull\n");
   for (std::size_t k = 0; k < qs.size(); ++k) {
-    const Quantity& q = qs[k];
+    const Panel& q = qs[k];
     const CampaignSeries& s = *q.series;
-    fmt::format_to(put, "{}# index {}: {}\n", k > 0 ? "\n\n" : "", k, commentText(s.name));
+    fmt::format_to(put, "{}# index {}: {}\n", k > 0 ? "\n\n" : "", k, commentText(std::string(s.name.name())));
     for (std::size_t i = 0; i < s.truth.size(); ++i)
       fmt::format_to(put, "{} {} {} {} {}\n", dataNumber(s.truth[i]), dataNumber(s.fit[i]), dataNumber(s.error[i]),
                      dataNumber(q.diff[i]), dataNumber(q.pull[i]));
@@ -184,7 +180,7 @@ std::string samplesFile(const std::vector<Quantity>& qs) {
   return fmt::to_string(out);
 }
 
-std::string pullsFile(const std::vector<Quantity>& qs) {
+std::string pullsFile(const std::vector<Panel>& qs) {
   fmt::memory_buffer out;
   fmt::format_to(std::back_inserter(out),
                  "# emcalign validation campaign: histograms of the pulls (fit - truth)/error over "
@@ -194,14 +190,14 @@ std::string pullsFile(const std::vector<Quantity>& qs) {
   for (std::size_t k = 0; k < qs.size(); ++k) {
     const Histogram& h = qs[k].pulls;
     fmt::format_to(std::back_inserter(out), "{}# index {}: {}\n", k > 0 ? "\n\n" : "", k,
-                   commentText(qs[k].series->name));
+                   commentText(std::string(qs[k].series->name.name())));
     for (int i = 0; i < static_cast<int>(h.counts.size()); ++i)
       fmt::format_to(std::back_inserter(out), "{:.6g} {:.6g}\n", h.binCenter(i), h.counts[static_cast<std::size_t>(i)]);
   }
   return fmt::to_string(out);
 }
 
-int sampleCount(const std::vector<Quantity>& qs) {
+int sampleCount(const std::vector<Panel>& qs) {
   std::size_t n = 0;
   for (const auto& q : qs) n = std::max(n, q.series->truth.size());
   return static_cast<int>(n);
@@ -214,10 +210,10 @@ constexpr const char* kCampaignStyles =
     "set style line 4 lc rgb '#4a7ebb'                       # pull histogram\n";
 
 // "; ψ, τ: shortest angular difference" for the quantities that wrap, or "".
-std::string wrapNote(const std::vector<Quantity>& qs) {
+std::string wrapNote(const std::vector<Panel>& qs) {
   std::vector<std::string> labels;
   for (const auto& q : qs)
-    if (q.series->angleWraps) labels.push_back(q.label);
+    if (q.series->name.isDirection()) labels.push_back(q.label);
   if (labels.empty()) return "";
   return fmt::format("; {}: shortest angular difference", fmt::join(labels, ", "));
 }
@@ -225,7 +221,7 @@ std::string wrapNote(const std::vector<Quantity>& qs) {
 // Panel titles of the campaign figures: the quantity in bold, the numbers after it.
 constexpr const char* kCampaignTitleFont = "set title offset 0,-0.3 font ',12'\n";
 
-std::string pullsScript(const std::string& name, const std::vector<Quantity>& qs) {
+std::string pullsScript(const std::string& name, const std::vector<Panel>& qs) {
   const int n = static_cast<int>(qs.size());
   const int cols = campaignColumns(n);
   const Grid::Layout layout{105, 20, 112, 62, 34, 78, true};
@@ -248,8 +244,8 @@ std::string pullsScript(const std::string& name, const std::vector<Quantity>& qs
       "set samples 400\nset style fill solid 0.5 border lc rgb '#2a5e9b'\n",
       -kPullLimit, kPullLimit, std::max(1.0, std::ceil(1.2 * yMax)));
   for (int k = 0; k < n; ++k) {
-    const Quantity& q = qs[static_cast<std::size_t>(k)];
-    s += fmt::format("\n# ---- {} (index {} of the pulls)\n", commentText(q.series->name), k);
+    const Panel& q = qs[static_cast<std::size_t>(k)];
+    s += fmt::format("\n# ---- {} (index {} of the pulls)\n", commentText(std::string(q.series->name.name())), k);
     s += g.panel(k, "(fit − truth)/σ_{fit}", fmt::format("samples / {:.2g}", q.pulls.binWidth()));
     std::string title;
     if (q.pullStats.n == 0) {
@@ -270,7 +266,7 @@ std::string pullsScript(const std::string& name, const std::vector<Quantity>& qs
   return s;
 }
 
-std::string residualsVsTruthScript(const std::string& name, const std::vector<Quantity>& qs) {
+std::string residualsVsTruthScript(const std::string& name, const std::vector<Panel>& qs) {
   const int n = static_cast<int>(qs.size());
   const int cols = campaignColumns(n);
   const Grid::Layout layout{95, 25, 140, 62, 100, 112, false};
@@ -284,17 +280,17 @@ std::string residualsVsTruthScript(const std::string& name, const std::vector<Qu
   s += kCampaignTitleFont;
   s += "set format x '%g'; set mxtics 2\n";
   for (int k = 0; k < n; ++k) {
-    const Quantity& q = qs[static_cast<std::size_t>(k)];
-    const std::string unit = literalText(q.series->unit);
+    const Panel& q = qs[static_cast<std::size_t>(k)];
+    const std::string unit(q.series->name.unit());
     const Range x = axisRange(q.truth), y = axisRange(q.residual);
-    s += fmt::format("\n# ---- {} (index {} of the samples)\n", commentText(q.series->name), k);
+    s += fmt::format("\n# ---- {} (index {} of the samples)\n", commentText(std::string(q.series->name.name())), k);
     s += g.panel(k, fmt::format("truth  [{}]", unit), fmt::format("fit − truth  [{}]", unit));
     // Angles that wrap span up to 360°: tics at multiples of 45° or 90°.
     const double span = x.hi - x.lo;
-    const double xStep = !q.series->angleWraps ? ticStep(span, 4)
-                         : span > 200.0        ? 90.0
-                         : span > 100.0        ? 45.0
-                                               : ticStep(span, 4);
+    const double xStep = !q.series->name.isDirection() ? ticStep(span, 4)
+                         : span > 200.0                ? 90.0
+                         : span > 100.0                ? 45.0
+                                                       : ticStep(span, 4);
     s += fmt::format("set xrange [{:.9g}:{:.9g}]; set xtics {:.9g}\nset yrange [{:.9g}:{:.9g}]\n", x.lo, x.hi, xStep,
                      y.lo, y.hi);
     const MeanWidth& d = q.diffStats;

@@ -231,7 +231,7 @@ double CalorimeterResponse::entry(const Vec3& p, const Vec3& d, Hemisphere& hemi
   return crossing(p, d);
 }
 
-void CalorimeterResponse::shower(CounterHits& hits, int source, double energy, bool photon, const Vec3& point,
+void CalorimeterResponse::shower(CounterHits& hits, int source, double energy, Showering particle, const Vec3& point,
                                  const Vec3& direction, Rng& rng) const {
   const auto& o = options_;
   const auto& m = calo_->description().material;
@@ -258,7 +258,7 @@ void CalorimeterResponse::shower(CounterHits& hits, int source, double energy, b
     return;
   }
 
-  double tMax = std::max(0.3, lnY + (photon ? 0.5 : -0.5) + o.tMaxShift);
+  double tMax = std::max(0.3, lnY + (particle == Showering::Photon ? 0.5 : -0.5) + o.tMaxShift);
   if (o.showerFluctuations) {
     const double sigmaLn = o.tMaxFluctuationScale * std::clamp(1.0 / (1.26 * lnY - 1.4), 0.05, 0.5);
     tMax = std::max(0.3, tMax * std::exp(sigmaLn * rng.normal() - 0.5 * sigmaLn * sigmaLn));
@@ -363,8 +363,8 @@ void CalorimeterResponse::depositSpots(CounterHits& hits, int source, double ene
   hits.addToSource(source, deposited * energy, energy * moment);
 }
 
-void CalorimeterResponse::track(CounterHits& hits, int source, double kineticEnergy, bool hadron, const Vec3& point,
-                                const Vec3& direction, Rng& rng) const {
+void CalorimeterResponse::track(CounterHits& hits, int source, double kineticEnergy, Tracking particle,
+                                const Vec3& point, const Vec3& direction, Rng& rng) const {
   const auto& o = options_;
   Hemisphere h;
   const double s = entry(point, direction, h);
@@ -373,7 +373,7 @@ void CalorimeterResponse::track(CounterHits& hits, int source, double kineticEne
   if (!nearCoverage(start)) return;
   const double thickness = calo_->description().supports[1].rOuter - calo_->description().r0();
   const double length = 1.5 * thickness;  // ample for any slant path through the EMC
-  const double interaction = hadron ? rng.exponential(o.nuclearInteractionLength) : 1e30;
+  const double interaction = particle == Tracking::Pion ? rng.exponential(o.nuclearInteractionLength) : 1e30;
   const double step = 2.0;
   double deposited = 0.0;
   // Counted, not accumulated: a step that no longer changes a huge length cannot hang.

@@ -180,13 +180,15 @@ void Simulation::simulateEvent(std::int64_t index, EventScratch& scratch, std::v
       }
       const int apdg = std::abs(particle.pdg);
       if (apdg == pdg::Electron) {
-        response_->shower(hits, k, particle.energy, false, path.point, path.direction, rng);
+        response_->shower(hits, k, particle.energy, CalorimeterResponse::Showering::Electron, path.point,
+                          path.direction, rng);
       } else {
-        response_->track(hits, k, particle.energy - particle.mass(), apdg == pdg::PiPlus, path.point, path.direction,
-                         rng);
+        const auto kind =
+            apdg == pdg::PiPlus ? CalorimeterResponse::Tracking::Pion : CalorimeterResponse::Tracking::Muon;
+        response_->track(hits, k, particle.energy - particle.mass(), kind, path.point, path.direction, rng);
       }
     } else if (particle.pdg == pdg::Photon) {
-      response_->shower(hits, k, particle.energy, true, ev.vertex, d, rng);
+      response_->shower(hits, k, particle.energy, CalorimeterResponse::Showering::Photon, ev.vertex, d, rng);
     }
   }
   if (o.recordedBackground) {

@@ -404,7 +404,7 @@ Result<CampaignPlan> parseCampaignPlan(const Json& data, const std::string& path
       StrictObject s(top.at("sigma_sys"), "sigma_sys", path);
       s.allowOnly({"method", "value_deg"});
       const bool fixed = s.string("method") == "fixed";
-      if (fixed) s.number("value_deg");
+      if (fixed) (void)s.number("value_deg");  // checked to be a number; the value read below
       auto choice = calib::sigmaSysChoiceFromJson(top.at("sigma_sys"));
       if (!choice) s.fail(s.pathOf(fixed ? "value_deg" : "method"), choice.error().message);
       plan.sigmaSys = *choice;

@@ -35,8 +35,6 @@ double fileUnitOf(Physical p) { return PhysicalParameters::fileUnit(p); }
 
 // The table reports besides the 12 fit parameters the derived quantities kDerivedParams
 // (β, ψ, μ, τ, dx_rel); ψ and τ are angles that wrap.
-bool wraps(Physical p) { return p == Physical::Psi || p == Physical::Tau; }
-
 // The truths of the physical parameters, native units; NaN when the truth has no physical form.
 PhysicalParameters physicalTruth(const AlignmentParameters& truth, double r1) {
   auto phys = geometry::toPhysical(truth, r1);
@@ -220,7 +218,7 @@ std::vector<report::CampaignSeries> campaignSeries(const std::vector<SampleResul
   std::vector<report::CampaignSeries> series;
   for (Param p : kAllParams) {
     const double unit = AlignmentParameters::fileUnit(p);
-    report::CampaignSeries q{std::string(name(p)), dimension(p) == Dimension::Angle ? "deg" : "cm", {}, {}, {}, false};
+    report::CampaignSeries q{p, {}, {}, {}};
     for (const auto& s : samples) {
       q.truth.push_back(s.truth[p] / unit);
       q.fit.push_back(s.fit.parameters[p] / unit);
@@ -232,7 +230,7 @@ std::vector<report::CampaignSeries> campaignSeries(const std::vector<SampleResul
   for (const auto& s : samples) truths.push_back(physicalTruth(s.truth, r1));
   for (Physical p : kDerivedParams) {
     const double unit = fileUnitOf(p);
-    report::CampaignSeries q{std::string(name(p)), std::string(fileUnitName(dimension(p))), {}, {}, {}, wraps(p)};
+    report::CampaignSeries q{p, {}, {}, {}};
     for (std::size_t i = 0; i < samples.size(); ++i) {
       const calib::DerivedValue& fit = samples[i].fit.derived[p];
       q.truth.push_back(truths[i][p] / unit);
@@ -447,19 +445,13 @@ Table tabulate(const std::vector<SampleResult>& samples, std::int64_t events, do
   t.samples = static_cast<int>(samples.size());
   t.events = events;
   struct Acc {
-    std::string name, unit;
+    Quantity name;
     double unitValue;
-    bool angle;  // wraps: shortest angular difference
     std::vector<double> diff, pull, truth;
   };
   std::vector<Acc> acc;
-  for (Param p : kAllParams) {
-    const bool isAngle = dimension(p) == Dimension::Angle;
-    acc.push_back({std::string(name(p)), isAngle ? "deg" : "cm", AlignmentParameters::fileUnit(p), false, {}, {}, {}});
-  }
-  for (Physical p : kDerivedParams) {
-    acc.push_back({std::string(name(p)), std::string(fileUnitName(dimension(p))), fileUnitOf(p), wraps(p), {}, {}, {}});
-  }
+  for (Param p : kAllParams) acc.push_back({p, AlignmentParameters::fileUnit(p), {}, {}, {}});
+  for (Physical p : kDerivedParams) acc.push_back({p, fileUnitOf(p), {}, {}, {}});
   int correlations = 0;
   for (const auto& s : samples) {
     const PhysicalParameters truthPhysical = physicalTruth(s.truth, r1);
@@ -474,10 +466,10 @@ Table tabulate(const std::vector<SampleResult>& samples, std::int64_t events, do
       const Physical p = kDerivedParams[k];
       Acc& a = acc[kNumParams + k];
       double d = s.fit.derived[p].value - truthPhysical[p];
-      if (a.angle) d = std::remainder(d, 2.0 * std::numbers::pi);
+      if (a.name.isDirection()) d = std::remainder(d, 2.0 * std::numbers::pi);  // the shortest difference
       a.diff.push_back(d);
       a.pull.push_back(d / s.fit.derived[p].error);
-      a.truth.push_back(a.angle ? std::nan("") : truthPhysical[p]);
+      a.truth.push_back(a.name.isDirection() ? std::nan("") : truthPhysical[p]);
     }
     if (s.fit.correlation.allFinite() && s.fit.correlation.diagonal().sum() > 0.0) {
       t.meanCorrelation += s.fit.correlation;
@@ -508,9 +500,7 @@ Table tabulate(const std::vector<SampleResult>& samples, std::int64_t events, do
   };
   for (const auto& a : acc) {
     const auto d = meanAndWidth(a.diff), p = meanAndWidth(a.pull);
-    TableRow row;
-    row.name = a.name;
-    row.unit = a.unit;
+    TableRow row{a.name};
     row.bias = d[0] / a.unitValue;
     row.spread = d[1] / a.unitValue;
     row.biasError = d[2] > 0 ? row.spread / std::sqrt(d[2]) : std::nan("");
@@ -529,15 +519,15 @@ Table tabulate(const std::vector<SampleResult>& samples, std::int64_t events, do
 Json tableJson(const Table& t) {
   Json params = Json::object();
   for (const auto& r : t.rows) {
-    params[r.name] = {{"unit", r.unit},
-                      {"bias", r.bias},
-                      {"spread", r.spread},
-                      {"bias_error", r.biasError},
-                      {"pull_mean", r.pullMean},
-                      {"pull_width", r.pullWidth},
-                      {"pull_width_error", io::numberOrNull(r.pullWidthError)},
-                      {"slope", io::numberOrNull(r.slope)},
-                      {"slope_error", io::numberOrNull(r.slopeError)}};
+    params[std::string(r.name.name())] = {{"unit", r.name.unit()},
+                                          {"bias", r.bias},
+                                          {"spread", r.spread},
+                                          {"bias_error", r.biasError},
+                                          {"pull_mean", r.pullMean},
+                                          {"pull_width", r.pullWidth},
+                                          {"pull_width_error", io::numberOrNull(r.pullWidthError)},
+                                          {"slope", io::numberOrNull(r.slope)},
+                                          {"slope_error", io::numberOrNull(r.slopeError)}};
   }
   Json corr = Json::array();
   for (int i = 0; i < static_cast<int>(kNumParams); ++i) {
@@ -554,7 +544,7 @@ Json tableJson(const Table& t) {
 
 std::string slopeText(const TableRow& r) {
   if (std::isfinite(r.slope)) return fmt::format("{:+.4f} ± {:.4f}", r.slope, r.slopeError);
-  return isDirection(r.name) ? "— (a direction)" : "— (the truth does not vary)";
+  return r.name.isDirection() ? "— (a direction)" : "— (the truth does not vary)";
 }
 
 std::string tableMarkdown(const Table& t) {
@@ -571,13 +561,14 @@ std::string tableMarkdown(const Table& t) {
           : fmt::format("median {:.4g} deg ({:.4g} to {:.4g})", t.sigmaSysMedian, t.sigmaSysMin, t.sigmaSysMax));
   for (const auto& r : t.rows) {
     std::string pb = "", ps = "";
-    if (const auto* p = paper::table1(r.name)) {  // SPEC §10
+    if (const auto* p = paper::table1(r.name.name())) {  // SPEC §10
       pb = fmt::format("{:.3g}", p->bias);
       ps = fmt::format("{:.3g}", p->spread);
     }
     const std::string slope = slopeText(r);
     md += fmt::format("| {} | {} | {:.4g} | {:.2g} | {:.4g} | {:.3f} | {:.3f} ± {:.3f} | {} | {} | {} |\n", r.name,
-                      r.unit, r.bias, r.biasError, r.spread, r.pullMean, r.pullWidth, r.pullWidthError, slope, pb, ps);
+                      r.name.unit(), r.bias, r.biasError, r.spread, r.pullMean, r.pullWidth, r.pullWidthError, slope,
+                      pb, ps);
   }
   md += "\nMean correlation matrix (rows and columns in the order of the fit set):\n\n|   |";
   for (auto n : kParamNames) md += fmt::format(" {} |", n);

@@ -320,7 +320,10 @@ Result<PeriodTruth> readPeriodTruth(const std::string& path) {
       for (const auto& [name, v] : r[group].items()) {
         if (!v.is_number()) return Error{fmt::format("{}: run {}: {}.{} is not a number", path, run, group, name)};
         const std::optional<Quantity> q = quantityFromName(name);
-        if (!q) return Error{fmt::format("{}: run {}: {}.{} is not a parameter of SPEC §3", path, run, group, name)};
+        if (!q)
+          return Error{fmt::format(
+              "{}: run {}: {}.{} is not a parameter (the 12 of docs/conventions.md, or beta, psi, mu, tau, dx_rel)",
+              path, run, group, name)};
         out.byParameter[*q].emplace_back(run, v.get<double>());
       }
     }

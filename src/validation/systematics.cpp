@@ -131,9 +131,9 @@ Status drawSystematics(const SystematicsTable& t, const std::string& dir) {
                            counted(t.events, "event"));
   std::vector<const SystematicsRow*> shown;
   for (const auto& r : t.rows) {
-    if (isDirection(r.name)) continue;
+    if (r.name.isDirection()) continue;
     shown.push_back(&r);
-    f.parameters.push_back(r.name);
+    f.parameters.emplace_back(r.name.name());
   }
   const auto cellsOf = [&](const auto& value) {
     std::vector<double> cells;
@@ -313,9 +313,7 @@ Result<std::vector<SystematicsRow>> combineSystematics(const std::vector<const V
   std::vector<SystematicsRow> rows;
   for (std::size_t k = 0; k < measured.nominal.rows.size(); ++k) {
     const TableRow& n = measured.nominal.rows[k];
-    SystematicsRow row;
-    row.name = n.name;
-    row.unit = n.unit;
+    SystematicsRow row{n.name};
     row.bias = n.bias;
     row.biasError = n.biasError;
     row.spread = n.spread;
@@ -395,8 +393,8 @@ Json systematicsJson(const SystematicsTable& t) {
       effects[t.variations[j]->name] = r.effect[j];
     }
     for (std::size_t q = 0; q < t.quantities.size(); ++q) envelopes[t.quantities[q]] = r.envelope[q];
-    Json p = {{"unit", r.unit},     {"bias", r.bias},   {"bias_error", r.biasError},
-              {"spread", r.spread}, {"shifts", shifts}, {"effects", effects}};
+    Json p = {{"unit", r.name.unit()}, {"bias", r.bias},   {"bias_error", r.biasError},
+              {"spread", r.spread},    {"shifts", shifts}, {"effects", effects}};
     if (!t.reverse.is_null()) {
       Json reverse = Json::object();
       for (std::size_t j = 0; j < t.variations.size(); ++j) {
@@ -407,7 +405,7 @@ Json systematicsJson(const SystematicsTable& t) {
     }
     p["envelopes"] = envelopes;
     p["systematic"] = r.systematic;
-    parameters[r.name] = p;
+    parameters[std::string(r.name.name())] = p;
   }
   return {{"samples", t.samples},
           {"events", t.events},
@@ -430,9 +428,9 @@ std::string systematicsMarkdown(const SystematicsTable& t) {
   for (std::size_t q = 0; q < t.quantities.size(); ++q) md += "---|";
   md += "---|---|\n";
   for (const auto& r : t.rows) {
-    md += fmt::format("| {} | {} | {:.4f} ± {:.4f} | {:.4f} |", r.name, r.unit, r.bias, r.biasError, r.spread);
+    md += fmt::format("| {} | {} | {:.4f} ± {:.4f} | {:.4f} |", r.name, r.name.unit(), r.bias, r.biasError, r.spread);
     for (double e : r.envelope) md += fmt::format(" {:.4f} |", e);
-    const auto* p = paper::table1(r.name);
+    const auto* p = paper::table1(r.name.name());
     md += fmt::format(" **{:.4f}** | {} |\n", r.systematic, p ? fmt::format("{:.3g}", p->bias) : std::string());
   }
   const auto shiftTable = [&](const std::string& heading, const auto& cell) {
@@ -468,7 +466,7 @@ std::string systematicsMarkdown(const SystematicsTable& t) {
         });
     md += "\nThe nominal samples fitted with the corrections derived without variation: bias ± error\n\n";
     for (const auto& r : t.rows) {
-      md += fmt::format("- {}: {:+.4f} ± {:.4f} {}\n", r.name, r.reverseBias, r.reverseBiasError, r.unit);
+      md += fmt::format("- {}: {:+.4f} ± {:.4f} {}\n", r.name, r.reverseBias, r.reverseBiasError, r.name.unit());
     }
   }
   return md;
@@ -487,16 +485,17 @@ Json systematicErrorsJson(const SystematicsTable& t, const calib::ModelCorrectio
   Json errors = Json::object(), variationsPart = Json::object();
   Json statisticsPart = Json::object();
   for (const auto& r : t.rows) {
-    if (isDirection(r.name)) continue;
-    variationsPart[r.name] = r.systematic;
+    if (r.name.isDirection()) continue;
+    const std::string name(r.name.name());
+    variationsPart[name] = r.systematic;
     double sum2 = r.systematic * r.systematic;
     for (const auto& [key, values] : statistics) {
-      if (!values->contains(r.name) || !(*values)[r.name].is_number()) continue;
-      const double e = (*values)[r.name].get<double>();
-      statisticsPart[key][r.name] = e;
+      if (!values->contains(name) || !(*values)[name].is_number()) continue;
+      const double e = (*values)[name].get<double>();
+      statisticsPart[key][name] = e;
       sum2 += e * e;
     }
-    errors[r.name] = std::sqrt(sum2);
+    errors[name] = std::sqrt(sum2);
   }
   Json components = {{"simulation variations", variationsPart}};
   for (const auto& [key, values] : statisticsPart.items()) components["derivation statistics: " + key] = values;

@@ -324,7 +324,7 @@ SegmentTest fitSegment(const TrendSeries& s, std::size_t begin, std::size_t end,
 
 // One series cut into segments, each fitted with a constant and (if long enough) a line.
 SeriesAnalysis analyseSeries(const TrendSeries& s, const TrendOptions& o, double penalty, double transitionPenalty) {
-  SeriesAnalysis a{s.parameter};
+  SeriesAnalysis a{.parameter = s.parameter, .changes = {}, .segments = {}};
   a.penalty = penalty;
   const std::size_t n = s.points.size();
   if (n == 0) return a;
@@ -458,7 +458,7 @@ std::vector<TrendStep> findSteps(const TrendSeries& s, const SeriesAnalysis& a, 
     const double before = l0.value(xb), after = l1.value(xb);
     TrendStep step{s.parameter,          k != known.end(), i,
                    s.points[i].firstRun, after - before,   std::hypot(l0.error(xb), l1.error(xb)),
-                   std::nullopt};
+                   std::nullopt,         std::nullopt};
     if (step.known) {
       step.firstRunAfter = k->run;
       if (transition) step.withinIov = std::pair{tp.firstRun, tp.lastRun};
@@ -1357,7 +1357,7 @@ std::vector<report::TrendFigure> trendFigures(const Trend& t, const std::vector<
   for (std::size_t k = 0; k < series.size(); ++k) {
     const auto& s = series[k];
     if (s.points.empty()) continue;
-    report::TrendFigure f{s.parameter};
+    report::TrendFigure f{s.parameter, {}, {}, {}, {}, {}};
     for (const auto& p : s.points) {
       f.points.push_back({p.x(), p.value, p.error, static_cast<double>(p.firstRun), static_cast<double>(p.lastRun)});
     }

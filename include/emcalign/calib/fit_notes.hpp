@@ -51,10 +51,10 @@ std::optional<std::string> truthRangeWarning(const geometry::AlignmentParameters
 
 /// One row of the fit against a known truth (file units).
 struct TruthRow {
-  std::string name, unit;
+  Quantity name;  ///< its unit: name.unit()
   double fit = 0.0, error = 0.0, truth = 0.0;
   /// fit − truth; ψ and τ modulo 360° (the nearest turn).
-  [[nodiscard]] double difference() const { return parameterDifference(name, fit, truth); }
+  [[nodiscard]] double difference() const { return name.difference(fit, truth); }
   /// (fit − truth)/error; NaN when the error is not known.
   [[nodiscard]] double pull() const;
 };

@@ -20,12 +20,9 @@ struct StoredValue {
 };
 
 /// The 12 fit parameters of a payload with their errors, then the five derived ones (β, ψ, μ,
-/// τ, dx_rel; NaN where the payload has none). Fails naming the IOV when a parameter is
-/// missing.
+/// τ, dx_rel; NaN where the payload has none): one per entry of kAllQuantities. Fails naming
+/// the IOV when a parameter is missing.
 Result<std::vector<StoredValue>> storedValues(const Payload& payload, const Iov& iov, const std::string& tag);
-/// The names of storedValues' entries, and their units.
-const std::vector<std::string>& storedNames();
-const std::vector<std::string>& storedUnits();
 
 /// Where the IOVs of two tags overlap: the runs both cover with one IOV each.
 struct IovPair {

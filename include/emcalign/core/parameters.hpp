@@ -103,13 +103,6 @@ inline constexpr std::array<Physical, 5> kDerivedParams = {Physical::Beta, Physi
 
 /// ψ and τ: directions, defined modulo 360° (and only where their magnitude β, μ is not 0).
 constexpr bool isDirection(Physical p) { return p == Physical::Psi || p == Physical::Tau; }
-/// The same by name ("psi", "tau"), for tables keyed by name.
-constexpr bool isDirection(std::string_view name) { return name == "psi" || name == "tau"; }
-/// a − b of a parameter in file units (deg, cm): for a direction, the nearest turn.
-inline double parameterDifference(std::string_view name, double a, double b) {
-  const double d = a - b;
-  return isDirection(name) ? d - 360.0 * std::round(d / 360.0) : d;
-}
 
 inline std::optional<Physical> physicalFromName(std::string_view n) {
   for (Physical p : kAllPhysical) {
@@ -191,6 +184,13 @@ class Quantity {
   std::optional<Param> param_;
   std::optional<Physical> physical_;
 };
+
+/// What tables, trends and the conditions database list: the 12 fit parameters, then the
+/// derived β, ψ, μ, τ, dx_rel (kDerivedParams), in this order.
+inline constexpr std::array<Quantity, kNumParams + kDerivedParams.size()> kAllQuantities = {
+    Param::Alpha,   Param::Beta1,  Param::Beta2, Param::Dx,     Param::Dy,      Param::Dz,
+    Param::Dp1,     Param::Dp2,    Param::Dp3,   Param::DyRel,  Param::DzRel,   Param::BetaRel,
+    Physical::Beta, Physical::Psi, Physical::Mu, Physical::Tau, Physical::DxRel};
 
 /// A Quantity is written as its name in JSON (nlohmann::json finds this by argument lookup).
 template <class Json>

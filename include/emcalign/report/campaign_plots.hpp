@@ -19,7 +19,7 @@
 //    y range holds every point but error bars only up to 3 median errors (a sample with
 //    β or μ near zero has a huge ψ or τ error), so the frame may cut a long bar.
 //
-// For an angle that wraps (`angleWraps`: ψ, τ, in degrees) fit − truth is the shortest
+// For an angle that wraps (a direction, `Quantity::isDirection`: ψ, τ, in degrees) fit − truth is the shortest
 // angular difference, in [−180°, 180°]. Panels follow the order of `series`, up to four to a
 // row (the campaign's 12 fit parameters fill three rows, its 5 derived quantities two more).
 // Data: campaign_samples.dat (per quantity a gnuplot index block: truth, fit, error,
@@ -28,6 +28,7 @@
 #include <string>
 #include <vector>
 
+#include "emcalign/core/parameters.hpp"
 #include "emcalign/core/result.hpp"
 
 namespace emcalign::report {
@@ -35,16 +36,16 @@ namespace emcalign::report {
 /// One quantity of a validation campaign: per sample the truth, the fit and its error
 /// (file units: deg or cm, the same for all three).
 struct CampaignSeries {
-  std::string name;  ///< e.g. "alpha", "dx_rel": shown with Greek letters and subscripts
-  std::string unit;  ///< "deg" or "cm"; "deg" when angleWraps
+  /// Shown with Greek letters and subscripts; its unit: name.unit(); a direction
+  /// (name.isDirection(), ψ and τ) wraps at 360°: fit − truth is the shortest difference.
+  Quantity name;
   std::vector<double> truth, fit, error;
-  bool angleWraps = false;  ///< defined modulo 360°: fit − truth is the shortest difference
 };
 
 /// Writes pulls.png and residuals_vs_truth.png (with their data files and scripts) into
 /// `dir` (created if missing) and returns their paths. Fails when `series` is empty, when a
-/// quantity has no name, no samples, truth/fit/error of different lengths or angleWraps
-/// without unit "deg" (the error names the quantity), when a file cannot be written, or when
+/// quantity has no samples or truth/fit/error of different lengths (the error names the
+/// quantity), when a file cannot be written, or when
 /// gnuplot is missing or fails.
 Result<std::vector<std::string>> writeCampaignPlots(const std::string& dir, const std::vector<CampaignSeries>& series);
 

@@ -160,12 +160,17 @@ class CalorimeterResponse {
   /// The counters' gains (EmcOptions::counterGainSpread), empty when uniform.
   [[nodiscard]] std::span<const double> gains() const { return gains_; }
 
-  /// An electromagnetic shower of an e± (photon = false) or γ along the line p + s·d.
-  void shower(CounterHits& hits, int source, double energy, bool photon, const Vec3& point, const Vec3& direction,
-              Rng& rng) const;
+  /// What showers: an e± or a γ (a γ's shower starts half a radiation length later).
+  enum class Showering { Electron, Photon };
+  /// What leaves a track: a muon, or a pion (which may interact in the crystals).
+  enum class Tracking { Muon, Pion };
+
+  /// An electromagnetic shower of an e± or γ along the line p + s·d.
+  void shower(CounterHits& hits, int source, double energy, Showering particle, const Vec3& point,
+              const Vec3& direction, Rng& rng) const;
   /// Ionisation (and, for pions, a possible nuclear interaction) along the line.
-  void track(CounterHits& hits, int source, double kineticEnergy, bool hadron, const Vec3& point, const Vec3& direction,
-             Rng& rng) const;
+  void track(CounterHits& hits, int source, double kineticEnergy, Tracking particle, const Vec3& point,
+             const Vec3& direction, Rng& rng) const;
   /// Beam-background hits in random counters (the Poisson model; EmcOptions::beamBackground).
   void background(CounterHits& hits, Rng& rng) const;
   /// A recorded random-trigger event's counters added to the event (instead of `background`;

@@ -85,8 +85,7 @@ struct SampleResult {
 /// The quantities the table reports: the 12 fit parameters and the derived μ, dx_rel, β, ψ
 /// (τ is reported too, with the shortest angular difference).
 struct TableRow {
-  std::string name;
-  std::string unit;                                  ///< "deg" or "cm"
+  Quantity name;                                     ///< its unit: name.unit() (deg or cm)
   double bias = 0.0, spread = 0.0, biasError = 0.0;  ///< file units
   double pullMean = 0.0, pullWidth = 0.0;
   double pullWidthError = 0.0;  ///< width/√(2(n − 1)), its standard error for normal pulls

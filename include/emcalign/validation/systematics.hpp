@@ -58,22 +58,21 @@ CampaignOptions withVariation(CampaignOptions options, const Variation& variatio
 
 /// One parameter (the 12 and the derived, as the validation table names them).
 struct SystematicsRow {
-  std::string name;
-  std::string unit;           ///< "deg" or "cm"
-  double bias = 0.0;          ///< nominal campaign: mean of fit − truth (file units)
-  double biasError = 0.0;     ///< its statistical error
-  double spread = 0.0;        ///< nominal campaign: the fits' spread about the truth
-  std::vector<double> shift;  ///< per variation: mean of fit(variation) − fit(nominal)
-  std::vector<double> shiftError;
-  std::vector<double> shiftSpread;  ///< per variation: the spread of fit(variation) − fit(nominal)
-  std::vector<double> effect;       ///< per variation: |shift|, or √(shift² + spread²) for a pattern
+  Quantity name;                ///< its unit: name.unit() (deg or cm)
+  double bias = 0.0;            ///< nominal campaign: mean of fit − truth (file units)
+  double biasError = 0.0;       ///< its statistical error
+  double spread = 0.0;          ///< nominal campaign: the fits' spread about the truth
+  std::vector<double> shift{};  ///< per variation: mean of fit(variation) − fit(nominal)
+  std::vector<double> shiftError{};
+  std::vector<double> shiftSpread{};  ///< per variation: the spread of fit(variation) − fit(nominal)
+  std::vector<double> effect{};       ///< per variation: |shift|, or √(shift² + spread²) for a pattern
   /// The reverse study (empty when not run): the nominal samples fitted with the corrections
   /// derived without variation (bias and its error), and per variation the mean of
   /// fit(its corrections) − fit(the nominal ones) with its error.
   double reverseBias = 0.0, reverseBiasError = 0.0;
-  std::vector<double> reverseShift, reverseShiftError;
-  std::vector<double> envelope;  ///< per quantity: the largest effect of its variations (and reverse shifts)
-  double systematic = 0.0;       ///< quadrature sum of the envelopes
+  std::vector<double> reverseShift{}, reverseShiftError{};
+  std::vector<double> envelope{};  ///< per quantity: the largest effect of its variations (and reverse shifts)
+  double systematic = 0.0;         ///< quadrature sum of the envelopes
 };
 
 struct SystematicsTable {

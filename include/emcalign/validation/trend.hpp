@@ -295,7 +295,7 @@ std::string trendVerdict(const Trend& t);
 /// What trend.md says beside the trend itself.
 struct TrendText {
   std::string source;                  ///< "tag T of URI"
-  std::vector<std::string> models;     ///< the IOVs' models (conddb::Payload::model), distinct
+  std::vector<std::string> models{};   ///< the IOVs' models (conddb::Payload::model), distinct
   const PeriodTruth* truth = nullptr;  ///< a simulated period's: every step and edge beside its true size
 };
 /// trend.md: the same in words.

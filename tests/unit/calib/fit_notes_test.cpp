@@ -108,13 +108,13 @@ TEST(FitNotes, TheFitAgainstItsTruth) {
   ASSERT_TRUE(rows) << rows.error().message;
   ASSERT_EQ(rows->size(), kNumParams + kDerivedParams.size());
   const auto& dx = (*rows)[index(Param::Dx)];
-  EXPECT_EQ(dx.name, "dx");
+  EXPECT_EQ(dx.name, Param::Dx);
   EXPECT_NEAR(dx.difference(), 0.02, 1e-12);
   EXPECT_NEAR(dx.pull(), 2.0, 1e-9);
   // Directions are compared modulo 360°.
-  TruthRow psi{"psi", "deg", 179.0, 1.0, -179.0};
+  TruthRow psi{Physical::Psi, 179.0, 1.0, -179.0};
   EXPECT_NEAR(psi.pull(), -2.0, 1e-9);
-  TruthRow noError{"dx", "cm", 0.3, std::nan(""), 0.3};
+  TruthRow noError{Param::Dx, 0.3, std::nan(""), 0.3};
   EXPECT_TRUE(std::isnan(noError.pull()));
 }
 

@@ -134,7 +134,7 @@ TEST(Calorimeter, ElectronShowersSitMostlyInLayersOneAndTwo) {
   for (int i = 0; i < 2000; ++i) {
     hits.clear();
     const Vec3 d = geometry::pointAt(1.0, rng.uniform(50.0, 130.0) * deg, rng.uniform(0.0, 6.28));
-    response.shower(hits, 0, 600.0, false, Vec3::Zero(), d, rng);
+    response.shower(hits, 0, 600.0, CalorimeterResponse::Showering::Electron, Vec3::Zero(), d, rng);
     for (int c = 0; c < calo.size(); ++c) {
       const double e = hits.energy(c);
       all += e;
@@ -165,7 +165,7 @@ ShowerDepths showerDepths(const EmcOptions& o) {
   for (int i = 0; i < 3000; ++i) {
     hits.clear();
     const Vec3 d = geometry::pointAt(1.0, 90.0 * deg, rng.uniform(0.3, 1.2));  // away from the plane x = 0
-    response.shower(hits, 0, 600.0, false, Vec3::Zero(), d, rng);
+    response.shower(hits, 0, 600.0, CalorimeterResponse::Showering::Electron, Vec3::Zero(), d, rng);
     const Vec3 c = hits.sourceCentre(0);
     if (c.allFinite()) depth.push_back(c.norm());
     all += hits.sourceEnergy(0);

@@ -11,11 +11,11 @@ namespace {
 
 // A direction has no scale: its slope is said to be absent, never printed as "+nan ± nan".
 TEST(CampaignTable, ASlopeIsShownOrItsAbsenceExplained) {
-  TableRow dx{.name = "dx", .unit = "cm", .slope = -0.0812, .slopeError = 0.0153};
+  TableRow dx{.name = Param::Dx, .slope = -0.0812, .slopeError = 0.0153};
   EXPECT_EQ(slopeText(dx), "-0.0812 ± 0.0153");
-  TableRow psi{.name = "psi", .unit = "deg", .slope = std::nan(""), .slopeError = std::nan("")};
+  TableRow psi{.name = Physical::Psi, .slope = std::nan(""), .slopeError = std::nan("")};
   EXPECT_EQ(slopeText(psi), "— (a direction)");
-  TableRow fixed{.name = "dz", .unit = "cm", .slope = std::nan(""), .slopeError = std::nan("")};
+  TableRow fixed{.name = Param::Dz, .slope = std::nan(""), .slopeError = std::nan("")};
   EXPECT_EQ(slopeText(fixed), "— (the truth does not vary)");
   Table t;
   t.samples = 3;

@@ -177,6 +177,17 @@ TEST_F(PeriodSimulation, TruthFileIsReadStrictly) {
   auto t = readPeriodTruth(path);
   ASSERT_FALSE(t);
   EXPECT_THAT(t.error().message, HasSubstr("run 1: parameters.dx is not a number"));
+  std::ofstream(path)
+      << R"({"format": "emcalign-period-truth/1", "runs": [{"run": 1, "parameters": {}, "derived": {"phi": 1}}]})";
+  t = readPeriodTruth(path);
+  ASSERT_FALSE(t);
+  EXPECT_THAT(t.error().message, HasSubstr("run 1: derived.phi is not a parameter"));
+  std::ofstream(path)
+      << R"({"format": "emcalign-period-truth/1", "runs": [{"run": 1, "parameters": {"dx": 0.1}, "derived": {"psi": 30}}]})";
+  t = readPeriodTruth(path);
+  ASSERT_TRUE(t) << t.error().message;
+  EXPECT_DOUBLE_EQ(t->mean(Param::Dx, 1, 1), 0.1);
+  EXPECT_DOUBLE_EQ(t->mean(Physical::Psi, 1, 1), 30.0);
   std::ofstream(path) << R"({"format": "emcalign-alignment/1"})";
   t = readPeriodTruth(path);
   ASSERT_FALSE(t);

@@ -15,16 +15,16 @@ namespace {
 void drawNothing(sim::SimulationOptions&, std::uint64_t, int) {}
 
 // A table of one parameter: bias (the shift, for a paired table) and spread.
-Table oneRow(const std::string& name, double bias, double spread, double biasError = 0.01) {
+Table oneRow(Quantity name, double bias, double spread, double biasError = 0.01) {
   Table t;
   t.samples = 10;
-  t.rows = {TableRow{.name = name, .unit = "cm", .bias = bias, .spread = spread, .biasError = biasError}};
+  t.rows = {TableRow{.name = name, .bias = bias, .spread = spread, .biasError = biasError}};
   return t;
 }
 
 Table twoRows(double dxShift, double dxSpread, double dyShift, double dySpread) {
-  Table t = oneRow("dx", dxShift, dxSpread);
-  t.rows.push_back(oneRow("dy", dyShift, dySpread).rows[0]);
+  Table t = oneRow(Param::Dx, dxShift, dxSpread);
+  t.rows.push_back(oneRow(Param::Dy, dyShift, dySpread).rows[0]);
   return t;
 }
 
@@ -53,7 +53,7 @@ TEST(CombineSystematics, EnvelopeOfAPairAndRmsOfAPatternAddInQuadrature) {
   ASSERT_TRUE(rows) << rows.error().message;
   ASSERT_EQ(rows->size(), 2u);
   const SystematicsRow& dx = (*rows)[0];
-  EXPECT_EQ(dx.name, "dx");
+  EXPECT_EQ(dx.name, Param::Dx);
   EXPECT_DOUBLE_EQ(dx.bias, 0.05);
   EXPECT_DOUBLE_EQ(dx.spread, 0.2);
   ASSERT_EQ(dx.effect.size(), 3u);
@@ -76,10 +76,10 @@ TEST(CombineSystematics, EnvelopeOfAPairAndRmsOfAPatternAddInQuadrature) {
 TEST(CombineSystematics, AReverseShiftWidensTheEnvelopeAndANanIsNeverDropped) {
   Study s;
   SystematicShifts m;
-  m.nominal = oneRow("dx", 0.0, 0.2);
-  m.shifts = {oneRow("dx", 0.01, 0.0), oneRow("dx", 0.02, 0.0), oneRow("dx", 0.03, 0.0)};
-  m.reverseNominal = oneRow("dx", 0.004, 0.2, 0.06);
-  m.reverseShifts = {oneRow("dx", -0.09, 0.0), oneRow("dx", 0.01, 0.0), oneRow("dx", 0.0, 0.0)};
+  m.nominal = oneRow(Param::Dx, 0.0, 0.2);
+  m.shifts = {oneRow(Param::Dx, 0.01, 0.0), oneRow(Param::Dx, 0.02, 0.0), oneRow(Param::Dx, 0.03, 0.0)};
+  m.reverseNominal = oneRow(Param::Dx, 0.004, 0.2, 0.06);
+  m.reverseShifts = {oneRow(Param::Dx, -0.09, 0.0), oneRow(Param::Dx, 0.01, 0.0), oneRow(Param::Dx, 0.0, 0.0)};
   auto rows = combineSystematics(s.variations, s.quantities, m);
   ASSERT_TRUE(rows) << rows.error().message;
   const SystematicsRow& dx = (*rows)[0];
@@ -90,7 +90,7 @@ TEST(CombineSystematics, AReverseShiftWidensTheEnvelopeAndANanIsNeverDropped) {
   EXPECT_DOUBLE_EQ(dx.reverseShift[0], -0.09);
   EXPECT_NEAR(dx.systematic, std::hypot(0.09, 0.03), 1e-15);
 
-  m.shifts[1] = oneRow("dx", std::nan(""), 0.0);
+  m.shifts[1] = oneRow(Param::Dx, std::nan(""), 0.0);
   rows = combineSystematics(s.variations, s.quantities, m);
   ASSERT_TRUE(rows);
   EXPECT_TRUE(std::isnan((*rows)[0].envelope[0]));
@@ -102,16 +102,16 @@ TEST(CombineSystematics, AReverseShiftWidensTheEnvelopeAndANanIsNeverDropped) {
 TEST(CombineSystematics, TablesOfOtherParametersOrCountsAreRefused) {
   Study s;
   SystematicShifts m;
-  m.nominal = oneRow("dx", 0.0, 0.2);
-  m.shifts = {oneRow("dx", 0.01, 0.0), oneRow("dx", 0.02, 0.0)};
+  m.nominal = oneRow(Param::Dx, 0.0, 0.2);
+  m.shifts = {oneRow(Param::Dx, 0.01, 0.0), oneRow(Param::Dx, 0.02, 0.0)};
   auto rows = combineSystematics(s.variations, s.quantities, m);
   ASSERT_FALSE(rows);
   EXPECT_NE(rows.error().message.find("2 tables for 3 variations"), std::string::npos) << rows.error().message;
-  m.shifts.push_back(oneRow("dy", 0.0, 0.0));
+  m.shifts.push_back(oneRow(Param::Dy, 0.0, 0.0));
   rows = combineSystematics(s.variations, s.quantities, m);
   ASSERT_FALSE(rows);
   EXPECT_NE(rows.error().message.find("parameters differ"), std::string::npos) << rows.error().message;
-  m.shifts.back() = oneRow("dx", 0.0, 0.0);
+  m.shifts.back() = oneRow(Param::Dx, 0.0, 0.0);
   rows = combineSystematics(s.variations, {"a"}, m);
   ASSERT_FALSE(rows);
   EXPECT_NE(rows.error().message.find("quantity g"), std::string::npos) << rows.error().message;

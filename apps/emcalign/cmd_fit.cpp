@@ -59,7 +59,7 @@ std::string fixed5(double v) { return std::abs(v) < 1e6 ? fixed(v, 5) : fmt::for
 // The parameters with their statistical errors, and the systematic ones when the
 // corrections carry them (docs/systematics.md).
 void printResult(const calib::FitResult& r, const calib::SystematicErrors* systematic) {
-  const auto syst = [&](std::string_view n) {
+  const auto syst = [&](Quantity n) {
     if (systematic == nullptr) return std::string();
     const auto it = systematic->errors.find(n);
     return fmt::format(" ± {:<10}", it == systematic->errors.end() ? std::string("—") : fixed5(it->second));
@@ -69,14 +69,14 @@ void printResult(const calib::FitResult& r, const calib::SystematicErrors* syste
   for (Param p : kAllParams) {
     const double unit = AlignmentParameters::fileUnit(p);
     fmt::print(reportStream(), "{:<10} {:>12} ± {:<10}{} {}\n", name(p), fixed5(r.parameters[p] / unit),
-               fixed5(r.errors[p] / unit), syst(name(p)), fileUnitName(dimension(p)));
+               fixed5(r.errors[p] / unit), syst(p), fileUnitName(dimension(p)));
   }
   fmt::print(reportStream(), "derived:\n");
   for (Physical p : kDerivedParams) {
     const double unit = geometry::PhysicalParameters::fileUnit(p);
     const calib::DerivedValue& v = r.derived[p];
     fmt::print(reportStream(), "{:<10} {:>12} ± {:<10}{} {}\n", name(p), fixed5(v.value / unit), fixed5(v.error / unit),
-               syst(name(p)), fileUnitName(dimension(p)));
+               syst(p), fileUnitName(dimension(p)));
   }
   fmt::print(reportStream(), "\nchi2/ndf = {:.2f}/{} ({}), {} used; stages chi2:", r.chi2, r.ndf,
              r.sigmaSys.method == calib::SigmaSysMethod::Auto

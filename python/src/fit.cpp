@@ -165,7 +165,7 @@ py::object systematicErrorsOf(const Fit& f) {
   if (!f.corrections || !f.corrections->corrections.systematics) return py::none();
   const calib::SystematicErrors& s = *f.corrections->corrections.systematics;
   geometry::ParamVector v;
-  for (Param p : kAllParams) v[p] = s.errors.find(name(p))->second * geometry::AlignmentParameters::fileUnit(p);
+  for (Param p : kAllParams) v[p] = s.errors.find(p)->second * geometry::AlignmentParameters::fileUnit(p);
   return arrayOf(v);
 }
 

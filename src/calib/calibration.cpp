@@ -192,7 +192,7 @@ Json derivedJson(const FitResult& r, const FitInput& input) {
     derived[std::string(name(p))] = {
         {"value", v.value / unit}, {"error", io::numberOrNull(v.error / unit)}, {"unit", fileUnitName(dimension(p))}};
     if (!input.systematics) continue;
-    if (auto it = input.systematics->errors.find(name(p)); it != input.systematics->errors.end()) {
+    if (auto it = input.systematics->errors.find(p); it != input.systematics->errors.end()) {
       derived[std::string(name(p))]["systematic_error"] = it->second;
     }
   }
@@ -257,7 +257,7 @@ io::Json fitResultJson(const FitResult& r, const FitInput& input) {
   j["errors"] = errors;
   if (input.systematics) {
     Json systematic = Json::object();
-    for (std::string_view p : kParamNames) systematic[std::string(p)] = input.systematics->errors.find(p)->second;
+    for (Param p : kAllParams) systematic[std::string(name(p))] = input.systematics->errors.find(p)->second;
     j["systematic_errors"] = systematic;
   }
   addCovariance(r, j);

@@ -376,8 +376,8 @@ Result<SystematicErrors> parseSystematicErrors(const Json& j, std::string_view s
   }
   SystematicErrors out;
   for (const auto& [key, value] : j["errors"].items()) {
-    const bool derived = key == "beta" || key == "mu" || key == "dx_rel";
-    if (!paramFromName(key) && !derived) {
+    const std::optional<Quantity> q = quantityFromName(key);
+    if (!q || q->isDirection()) {
       return Error{fmt::format(
           "{}: key 'systematic_errors.errors.{}': unknown parameter (the 12 of the fit, and beta, mu, dx_rel)", source,
           key)};
@@ -386,12 +386,12 @@ Result<SystematicErrors> parseSystematicErrors(const Json& j, std::string_view s
       return Error{fmt::format("{}: key 'systematic_errors.errors.{}': expected a number in [0, {}] (deg or cm)",
                                source, key, kMaxSystematicError)};
     }
-    out.errors.emplace(key, value.get<double>());
+    out.errors.emplace(*q, value.get<double>());
   }
-  for (std::string_view name : kParamNames) {
-    if (!out.errors.contains(name)) {
+  for (Param p : kAllParams) {
+    if (!out.errors.contains(p)) {
       return Error{fmt::format("{}: key 'systematic_errors.errors.{}': missing (every parameter of the fit has one)",
-                               source, name)};
+                               source, name(p))};
     }
   }
   for (const char* key : {"components", "study"}) {
@@ -406,11 +406,12 @@ Result<SystematicErrors> parseSystematicErrors(const Json& j, std::string_view s
 Json systematicErrorsJson(const SystematicErrors& s) {
   Json errors = Json::object();
   // The fit's parameters in their order, then the derived ones.
-  for (std::string_view name : kParamNames) {
-    if (auto it = s.errors.find(name); it != s.errors.end()) errors[std::string(name)] = it->second;
+  for (Param p : kAllParams) {
+    if (auto it = s.errors.find(p); it != s.errors.end()) errors[std::string(name(p))] = it->second;
   }
-  for (const auto& [name, value] : s.errors) {
-    if (!errors.contains(name)) errors[name] = value;
+  for (const auto& [q, value] : s.errors) {
+    const std::string n(q.name());
+    if (!errors.contains(n)) errors[n] = value;
   }
   Json j{{"errors", errors}};
   if (!s.components.empty()) j["components"] = s.components;

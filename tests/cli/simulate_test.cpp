@@ -177,7 +177,9 @@ TEST_F(Simulate, DeadCountersAreFoundFromTheDataAndTakenByTheSimulation) {
   auto handReader = emcalign::io::EventReader::open({out("hand.h5")});
   ASSERT_TRUE(handReader.ok());
   for (const auto& [k, v] : (*handReader)->attributes()) {
-    if (k == "simulation") EXPECT_EQ(nlohmann::json::parse(v).at("dead_counters"), nlohmann::json::parse("[51,700]"));
+    if (k == "simulation") {
+      EXPECT_EQ(nlohmann::json::parse(v).at("dead_counters"), nlohmann::json::parse("[51,700]"));
+    }
   }
   std::ofstream(out("none.txt")) << "# nothing dead\n";
   ASSERT_EQ(

@@ -6,6 +6,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -44,8 +45,10 @@ inline CommandResult runEmcalign(const std::filesystem::path& scratch, const std
 /// An empty directory named after the running test and this process.
 inline std::filesystem::path freshTestDirectory(const std::string& prefix) {
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  const auto dir = std::filesystem::temp_directory_path() /
-                   (prefix + "_" + std::to_string(::getpid()) + "_" + (info != nullptr ? info->name() : "suite"));
+  // A parameterised test is named "Name/param": one directory, not a parent left behind.
+  std::string test = info != nullptr ? info->name() : "suite";
+  std::replace(test.begin(), test.end(), '/', '_');
+  const auto dir = std::filesystem::temp_directory_path() / (prefix + "_" + std::to_string(::getpid()) + "_" + test);
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir;

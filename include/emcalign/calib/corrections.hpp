@@ -145,7 +145,7 @@ struct SystematicErrors {
   /// By parameter name, file units (deg, cm): the 12 of SPEC §3, and optionally the derived
   /// beta, mu, dx_rel (not the directions ψ and τ, whose error depends on the tilt). Each
   /// finite, in [0, kMaxSystematicError].
-  std::map<std::string, double, std::less<>> errors;
+  std::map<Quantity, double> errors;
   io::Json components = io::Json::object();  ///< what they are made of: {source: {name: value}}
   io::Json study = io::Json::object();       ///< how they were measured (free-form)
 };

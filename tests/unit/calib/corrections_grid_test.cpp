@@ -118,16 +118,16 @@ TEST(CorrectionsGrid, SystematicErrorsOnlyWhereBothPointsHaveThem) {
   const auto withErrors = [](double energy, double dx) {
     ModelCorrections c = at(energy);
     SystematicErrors e;
-    for (std::string_view name : kParamNames) e.errors.emplace(std::string(name), 0.01);
-    e.errors["dx"] = dx;
+    for (Param p : kAllParams) e.errors.emplace(p, 0.01);
+    e.errors[Param::Dx] = dx;
     c.systematics = std::make_shared<const SystematicErrors>(e);
     return c;
   };
   auto both = interpolateCorrections(withErrors(500.0, 0.02), withErrors(750.0, 0.04), 0.25);
   ASSERT_TRUE(both.ok()) << both.error().message;
   ASSERT_TRUE(both->systematics);
-  EXPECT_NEAR(both->systematics->errors.at("dx"), 0.025, 1e-15);
-  EXPECT_NEAR(both->systematics->errors.at("alpha"), 0.01, 1e-15);
+  EXPECT_NEAR(both->systematics->errors.at(Param::Dx), 0.025, 1e-15);
+  EXPECT_NEAR(both->systematics->errors.at(Param::Alpha), 0.01, 1e-15);
   auto one = interpolateCorrections(withErrors(500.0, 0.02), at(750.0), 0.25);
   ASSERT_TRUE(one.ok()) << one.error().message;
   EXPECT_FALSE(one->systematics);

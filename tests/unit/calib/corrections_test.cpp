@@ -165,8 +165,8 @@ TEST(ModelCorrections, SystematicErrorsRoundTripAndBelongToTheirCorrections) {
   c.nominalProfile = std::make_shared<const NominalProfile>(smallPattern());
   const std::string digest = correctionsDigest(c);
   SystematicErrors e;
-  for (std::string_view name : kParamNames) e.errors.emplace(std::string(name), 0.001 * (1 + e.errors.size()));
-  e.errors.emplace("mu", 0.02);
+  for (Param p : kAllParams) e.errors.emplace(p, 0.001 * static_cast<double>(1 + e.errors.size()));
+  e.errors.emplace(Physical::Mu, 0.02);
   e.components = {{"simulation variations", {{"dx", 0.005}}}};
   e.study = {{"command", "emcalign systematics"}, {"corrections_fnv1a", digest}};
   c.systematics = std::make_shared<const SystematicErrors>(e);
@@ -225,9 +225,9 @@ TEST(FitResultJson, WritesTheSystematicErrorsBesideTheStatisticalOnes) {
   FitInput input;
   EXPECT_FALSE(fitResultJson(r, input).contains("systematic_errors"));
   SystematicErrors e;
-  for (std::string_view name : kParamNames) e.errors.emplace(std::string(name), 0.004);
-  e.errors["dx"] = 0.009;
-  e.errors.emplace("dx_rel", 0.006);
+  for (Param p : kAllParams) e.errors.emplace(p, 0.004);
+  e.errors[Param::Dx] = 0.009;
+  e.errors.emplace(Physical::DxRel, 0.006);
   input.systematics = std::make_shared<const SystematicErrors>(e);
   input.systematicsSource = "corr.json";
   const Json j = fitResultJson(r, input);

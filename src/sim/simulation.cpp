@@ -149,6 +149,9 @@ void Simulation::cosmic(Rng& rng, GeneratedEvent& event) const {
   event.particles.push_back({pdg::MuonMinus, p * down, kEnergy});
 }
 
+using Showering = CalorimeterResponse::Showering;
+using Tracking = CalorimeterResponse::Tracking;
+
 void Simulation::simulateEvent(std::int64_t index, EventScratch& scratch, std::vector<ParticleRow>& rows,
                                std::vector<TruthRow>& truth, std::vector<Hit>* hitsOut) const {
   const auto& o = options_;
@@ -180,15 +183,13 @@ void Simulation::simulateEvent(std::int64_t index, EventScratch& scratch, std::v
       }
       const int apdg = std::abs(particle.pdg);
       if (apdg == pdg::Electron) {
-        response_->shower(hits, k, particle.energy, CalorimeterResponse::Showering::Electron, path.point,
-                          path.direction, rng);
+        response_->shower(hits, k, particle.energy, Showering::Electron, path.point, path.direction, rng);
       } else {
-        const auto kind =
-            apdg == pdg::PiPlus ? CalorimeterResponse::Tracking::Pion : CalorimeterResponse::Tracking::Muon;
+        const Tracking kind = apdg == pdg::PiPlus ? Tracking::Pion : Tracking::Muon;
         response_->track(hits, k, particle.energy - particle.mass(), kind, path.point, path.direction, rng);
       }
     } else if (particle.pdg == pdg::Photon) {
-      response_->shower(hits, k, particle.energy, CalorimeterResponse::Showering::Photon, ev.vertex, d, rng);
+      response_->shower(hits, k, particle.energy, Showering::Photon, ev.vertex, d, rng);
     }
   }
   if (o.recordedBackground) {

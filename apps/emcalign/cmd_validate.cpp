@@ -93,7 +93,6 @@ Result<validation::CampaignOptions> campaignOptionsOf(const ValidateOptions& cli
   if (Status s = applyRealismSwitches(o.simulation, cli.ideal, cli.off); !s) return s.error();
   if (cli.pointShowers) o.simulation.emc.pointShowers = true;
   o.corrections.depthOffset = cli.depthOffset * units::cm;
-  io::Json correctionsSetting = nullptr;
   if (cli.beamEnergy > 0.0) o.simulation.generator.beamEnergy = cli.beamEnergy * units::MeV;
   if (!cli.corrections.empty()) {
     auto grid = calib::CorrectionsGrid::read(cli.corrections);
@@ -102,29 +101,19 @@ Result<validation::CampaignOptions> campaignOptionsOf(const ValidateOptions& cli
     if (!c) return c.error();
     if (!c->warning.empty()) reportWarning(c->warning);
     o.corrections = c->corrections;
-    // The samples record what the corrections were, so that a rerun with another file is refused.
-    correctionsSetting = {{"file", cli.corrections}, {"fnv1a", calib::correctionsDigest(o.corrections)}};
   }
   o.simulation.generator.thetaMin = cli.thetaMinDeg * units::deg;
   o.simulation.generator.thetaMax = cli.thetaMaxDeg * units::deg;
-  io::Json ranges = io::Json::object();
-  for (std::size_t k = 0; k < kNumParams; ++k) {
-    const auto p = static_cast<Physical>(k);
-    const double unit = geometry::PhysicalParameters::fileUnit(p);
-    ranges[std::string(name(p))] = {o.ranges.physical[k].first / unit, o.ranges.physical[k].second / unit};
-  }
-  o.settings = {{"ideal", cli.ideal},
-                {"off", cli.off},
-                {"point_showers", cli.pointShowers},
-                {"depth_offset_cm", cli.depthOffset},
-                {"corrections", correctionsSetting},
-                {"theta_range_deg", {cli.thetaMinDeg, cli.thetaMaxDeg}},
-                {"ranges", ranges},
-                {"mu_below_gapless", o.ranges.muBelowGapless},
-                {"detector", io::detectorName(cli.detector)}};
-  // Only when given, so that a campaign directory made before the option resumes.
-  if (!cli.sigmaSys.empty()) o.settings["sigma_sys"] = cli.sigmaSys;
-  if (cli.beamEnergy > 0.0) o.settings["beam_energy_mev"] = cli.beamEnergy;
+  o.settings = validation::campaignSettings(o, {.ideal = cli.ideal,
+                                                .off = cli.off,
+                                                .pointShowers = cli.pointShowers,
+                                                .depthOffsetCm = cli.depthOffset,
+                                                .correctionsFile = cli.corrections,
+                                                .thetaMinDeg = cli.thetaMinDeg,
+                                                .thetaMaxDeg = cli.thetaMaxDeg,
+                                                .detector = io::detectorName(cli.detector),
+                                                .sigmaSys = cli.sigmaSys,
+                                                .beamEnergyMev = cli.beamEnergy});
   o.sigmaSys = sigmaSysChoice(cli.sigmaSys);
   if (!cli.variation.empty()) return validation::withVariation(std::move(o), *validation::findVariation(cli.variation));
   return o;

@@ -516,6 +516,31 @@ Table tabulate(const std::vector<SampleResult>& samples, std::int64_t events, do
   return t;
 }
 
+Json campaignSettings(const CampaignOptions& o, const CampaignRecord& r) {
+  Json ranges = Json::object();
+  for (Physical p : kAllPhysical) {
+    const double unit = PhysicalParameters::fileUnit(p);
+    ranges[std::string(name(p))] = {o.ranges.physical[index(p)].first / unit,
+                                    o.ranges.physical[index(p)].second / unit};
+  }
+  // What the corrections were, so that a rerun with another file is refused.
+  const Json corrections = r.correctionsFile.empty()
+                               ? Json()
+                               : Json{{"file", r.correctionsFile}, {"fnv1a", calib::correctionsDigest(o.corrections)}};
+  Json settings = {{"ideal", r.ideal},
+                   {"off", r.off},
+                   {"point_showers", r.pointShowers},
+                   {"depth_offset_cm", r.depthOffsetCm},
+                   {"corrections", corrections},
+                   {"theta_range_deg", {r.thetaMinDeg, r.thetaMaxDeg}},
+                   {"ranges", ranges},
+                   {"mu_below_gapless", o.ranges.muBelowGapless},
+                   {"detector", r.detector}};
+  if (!r.sigmaSys.empty()) settings["sigma_sys"] = r.sigmaSys;
+  if (r.beamEnergyMev > 0.0) settings["beam_energy_mev"] = r.beamEnergyMev;
+  return settings;
+}
+
 Json tableJson(const Table& t) {
   Json params = Json::object();
   for (const auto& r : t.rows) {

@@ -74,6 +74,26 @@ struct CampaignOptions {
   Status validate() const;
 };
 
+/// How a campaign was asked for, as its samples record it (CampaignOptions::settings), so that
+/// a rerun with other settings is refused instead of mixed in: the simulation's switches as
+/// given, the polar range as given, the detector's name; the rest is read from the options.
+struct CampaignRecord {
+  bool ideal = false;
+  std::vector<std::string> off{};  ///< realism switches turned off, as given
+  bool pointShowers = false;
+  double depthOffsetCm = 0.0;
+  std::string correctionsFile{};  ///< empty: none (the digest comes from the options)
+  double thetaMinDeg = 40.0, thetaMaxDeg = 140.0;
+  std::string detector{};  ///< io::detectorName of the detector given
+  /// Recorded only when given, so that campaign directories made before these resume.
+  std::string sigmaSys{};      ///< as given ("", SPEC's)
+  double beamEnergyMev = 0.0;  ///< 0: the simulation's default
+};
+
+/// The settings every sample of `options` records (the truth's ranges and the corrections'
+/// digest from `options`, the rest from `record`).
+io::Json campaignSettings(const CampaignOptions& options, const CampaignRecord& record);
+
 /// One finished sample.
 struct SampleResult {
   int index = 0;

@@ -51,8 +51,8 @@ TEST(Quantity, ADirectionsDifferenceIsTheNearestTurn) {
 TEST(Quantity, TheListedQuantitiesAndTheirNames) {
   std::vector<std::string> names;
   for (Quantity q : kAllQuantities) names.emplace_back(q.name());
-  EXPECT_EQ(names, (std::vector<std::string>{"alpha", "beta1", "beta2", "dx", "dy", "dz", "dp1", "dp2", "dp3",
-                                             "dy_rel", "dz_rel", "beta_rel", "beta", "psi", "mu", "tau", "dx_rel"}));
+  EXPECT_EQ(names, (std::vector<std::string>{"alpha", "beta1", "beta2", "dx", "dy", "dz", "dp1", "dp2", "dp3", "dy_rel",
+                                             "dz_rel", "beta_rel", "beta", "psi", "mu", "tau", "dx_rel"}));
   for (Quantity q : kAllQuantities) {
     const auto back = quantityFromName(q.name());
     ASSERT_TRUE(back) << q;

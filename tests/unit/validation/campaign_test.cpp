@@ -6,8 +6,13 @@
 
 #include <gtest/gtest.h>
 
+#include "emcalign/geometry/alignment_parameters.hpp"
+
 namespace emcalign::validation {
 namespace {
+
+using geometry::PhysicalParameters;
+using io::Json;
 
 // A direction has no scale: its slope is said to be absent, never printed as "+nan ± nan".
 TEST(CampaignTable, ASlopeIsShownOrItsAbsenceExplained) {
@@ -23,6 +28,36 @@ TEST(CampaignTable, ASlopeIsShownOrItsAbsenceExplained) {
   const std::string md = tableMarkdown(t);
   EXPECT_NE(md.find("— (a direction)"), std::string::npos) << md;
   EXPECT_EQ(md.find("nan"), std::string::npos) << md;
+}
+
+// What the samples record (and a rerun compares): the ranges in file units, the corrections'
+// digest beside their file, σ_sys and the beam energy only when given.
+TEST(CampaignSettings, RecordWhatTheCampaignWasAskedFor) {
+  CampaignOptions o;
+  CampaignRecord r{.off = {"noise"}, .detector = "embedded default"};
+  Json s = campaignSettings(o, r);
+  EXPECT_EQ(s["off"], Json::array({"noise"}));
+  EXPECT_TRUE(s["corrections"].is_null());
+  EXPECT_FALSE(s.contains("sigma_sys"));
+  EXPECT_FALSE(s.contains("beam_energy_mev"));
+  EXPECT_EQ(s["theta_range_deg"], Json::array({40.0, 140.0}));
+  EXPECT_EQ(s["detector"], "embedded default");
+  ASSERT_EQ(s["ranges"].size(), kNumParams);
+  EXPECT_NEAR(s["ranges"]["dx"][1].get<double>(), o.ranges.physical[index(Physical::Dx)].second, 1e-12);  // cm
+  EXPECT_NEAR(s["ranges"]["alpha"][1].get<double>(),
+              o.ranges.physical[index(Physical::Alpha)].second / PhysicalParameters::fileUnit(Physical::Alpha), 1e-12);
+
+  r.correctionsFile = "c.json";
+  r.sigmaSys = "auto";
+  r.beamEnergyMev = 510.0;
+  s = campaignSettings(o, r);
+  EXPECT_EQ(s["corrections"]["file"], "c.json");
+  EXPECT_EQ(s["corrections"]["fnv1a"], calib::correctionsDigest(o.corrections));
+  EXPECT_EQ(s["sigma_sys"], "auto");
+  EXPECT_EQ(s["beam_energy_mev"], 510.0);
+  // Other corrections, another digest: a rerun with them is another campaign.
+  o.corrections.depthOffset = 1.0;
+  EXPECT_NE(campaignSettings(o, r)["corrections"]["fnv1a"], s["corrections"]["fnv1a"]);
 }
 
 }  // namespace

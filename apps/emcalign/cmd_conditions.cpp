@@ -61,7 +61,7 @@ Result<std::pair<std::int64_t, std::int64_t>> parseRuns(const std::string& text)
 }
 
 int runInit(const ConditionsOptions& o) {
-  auto db = conddb::Database::open(o.uri, true);
+  auto db = conddb::Database::open(o.uri, conddb::IfMissing::Create);
   if (!db) return reportError(db.error());
   auto tags = (*db)->tags();
   if (!tags) return reportError(tags.error());
@@ -321,7 +321,7 @@ int runCopy(const ConditionsOptions& o) {
   const std::string description = snapshot->tag().description.empty()
                                       ? fmt::format("copy of {} {}", (*from)->uri(), o.tag)
                                       : snapshot->tag().description;
-  if (Status s = (*to)->put(name, iovs, true, description); !s) return reportError(s.error());
+  if (Status s = (*to)->put(name, iovs, conddb::IfMissing::Create, description); !s) return reportError(s.error());
   if (snapshot->tag().state == conddb::TagState::Locked) {
     if (Status s = (*to)->lock(name); !s) return reportError(s.error());
   }

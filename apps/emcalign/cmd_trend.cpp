@@ -65,15 +65,11 @@ int refit(const TrendCliOptions& o, const validation::Trend& trend, const std::v
   auto r = validation::refitSegments(trend, series, snapshot, *scan, *model, truth);
   if (!r) return reportError(r.error());
   // A rerun (or a batch system's retry) finds its refit stored: nothing to do.
-  auto stored = conddb::tagHolds(db, o.tagOut, r->iovs);
-  if (!stored) return reportError(stored.error());
-  if (*stored) {
+  auto put = conddb::putWholeTag(db, o.tagOut, r->iovs,
+                                 fmt::format("{} refitted by stable period (emcalign trend --refit)", o.tag));
+  if (!put) return reportError(put.error());
+  if (*put == conddb::WholeTagPut::HeldAlready) {
     fmt::print(reportStream(), "tag {} holds this refit already: nothing stored\n", o.tagOut);
-  } else if (Status s = db.put(o.tagOut, r->iovs, true,
-                               fmt::format("{} refitted by stable period (emcalign trend --refit)", o.tag));
-             !s) {
-    auto meanwhile = conddb::tagHolds(db, o.tagOut, r->iovs);  // a copy of this job stored it first
-    if (!meanwhile || !*meanwhile) return reportError(s.error());
   }
   summary = validation::refitJson(*r, snapshot.iovs().size());
   summary["tag_out"] = o.tagOut;
@@ -81,7 +77,7 @@ int refit(const TrendCliOptions& o, const validation::Trend& trend, const std::v
   fmt::print(reportStream(), "refit: {} instead of {} -> {} tag {}\n", counted(r->iovs.size(), "IOV"),
              snapshot.iovs().size(), db.uri(), o.tagOut);
   for (const auto& seg : r->segments) {
-    if (!seg.drifting.empty() || seg.transition) continue;
+    if (seg.kept()) continue;
     for (const auto& p : seg.precision) {
       if (p.parameter != Param::Dx) continue;
       fmt::print(reportStream(),

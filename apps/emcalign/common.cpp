@@ -62,7 +62,7 @@ Status DatabaseToWrite::prepare() {
   std::error_code ec;
   if (file.empty() || std::filesystem::exists(std::filesystem::symlink_status(file, ec))) {
     // As it always was: a server's database, or an existing file, gets the schema if it has none.
-    auto db = conddb::Database::open(uri_, true);
+    auto db = conddb::Database::open(uri_, conddb::IfMissing::Create);
     if (!db) return db.error();
     db_ = std::move(*db);
     return {};
@@ -83,7 +83,7 @@ Result<conddb::Database*> DatabaseToWrite::create() {
   const std::string file = conddb::sqliteFileOf(uri_);
   std::error_code ec;
   const bool existed = file.empty() || std::filesystem::exists(std::filesystem::symlink_status(file, ec));
-  auto db = conddb::Database::open(uri_, true);
+  auto db = conddb::Database::open(uri_, conddb::IfMissing::Create);
   if (!db) return db.error();
   db_ = std::move(*db);
   created_ = !existed;

@@ -29,7 +29,7 @@ class Conditions {
   Conditions(const std::variant<std::string, Path>& uri, bool create)
       : db_(unwrap(conddb::Database::open(
             std::holds_alternative<Path>(uri) ? pathString(std::get<Path>(uri)) : std::get<std::string>(uri),
-            create))) {}
+            create ? conddb::IfMissing::Create : conddb::IfMissing::Refuse))) {}
 
   [[nodiscard]] const std::string& uri() const { return db_->uri(); }
 

@@ -36,6 +36,7 @@ geometry::AlignmentParameters truthOf(const py::object& truth, const Detector& d
   return parametersOf(values);
 }
 
+// The keyword arguments of simulate (keyword-only in Python but for truth, events, detector).
 struct SimulateArgs {
   std::int64_t events = 0;
   std::uint64_t seed = 1;
@@ -163,8 +164,19 @@ void bindSimulate(py::module_& m) {
         const Detector& detector = detectorOr(given);
         std::string truthFile;
         const auto eta = truthOf(truth, detector, truthFile);
-        const auto request = requestOf({events, seed, process, beamEnergy, thetaMinDeg, thetaMaxDeg, run, ideal, off,
-                                        deadCounters, pointShowers, threads, hits},
+        const auto request = requestOf({.events = events,
+                                        .seed = seed,
+                                        .process = process,
+                                        .beamEnergy = beamEnergy,
+                                        .thetaMinDeg = thetaMinDeg,
+                                        .thetaMaxDeg = thetaMaxDeg,
+                                        .run = run,
+                                        .ideal = ideal,
+                                        .off = off,
+                                        .deadCounters = deadCounters,
+                                        .pointShowers = pointShowers,
+                                        .threads = threads,
+                                        .hits = hits},
                                        detector);
         if (!output) return simulateColumns(detector.calorimeter(), eta, request);
         const std::string path = pathString(*output);

@@ -57,7 +57,7 @@ Result<PutReport> putResultFile(Database& db, const ResultFileToPut& file) {
   if (!payload) return payload.error();
   auto existed = db.tag(tag);
   if (!existed) return existed.error();
-  if (Status s = db.put(tag, file.firstRun, file.lastRun, *payload, true, file.description); !s) return s.error();
+  if (Status s = db.put(tag, file.firstRun, file.lastRun, *payload, conddb::IfMissing::Create, file.description); !s) return s.error();
   report.newTag = !existed->has_value();
   report.payload = payload->hash();
   return report;
@@ -74,6 +74,10 @@ io::Json parameterFileOf(const Iov& iov, const Payload& payload, const std::stri
   return file;
 }
 
+namespace {
+
+// Whether `tag` holds exactly these IOVs: false when the tag does not exist, an error when it
+// holds anything else.
 Result<bool> tagHolds(Database& db, const std::string& tag, const std::vector<Database::NewIov>& iovs) {
   auto t = db.tag(tag);
   if (!t) return t.error();
@@ -90,6 +94,21 @@ Result<bool> tagHolds(Database& db, const std::string& tag, const std::vector<Da
         fmt::format("{}: tag '{}' exists already, with other IOVs or calibrations: write to a new tag", db.uri(), tag)};
   }
   return true;
+}
+
+}  // namespace
+
+Result<WholeTagPut> putWholeTag(Database& db, const std::string& tag, const std::vector<Database::NewIov>& iovs,
+                                const std::string& description) {
+  auto held = tagHolds(db, tag, iovs);
+  if (!held) return held.error();
+  if (*held) return WholeTagPut::HeldAlready;
+  if (Status s = db.put(tag, iovs, IfMissing::Create, description); !s) {
+    auto meanwhile = tagHolds(db, tag, iovs);  // a copy of this job stored it first
+    if (meanwhile && *meanwhile) return WholeTagPut::HeldAlready;
+    return s.error();
+  }
+  return WholeTagPut::Stored;
 }
 
 Result<RunCalibration> calibrationAt(Database& db, const std::string& tag, std::int64_t run) {

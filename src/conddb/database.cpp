@@ -12,14 +12,14 @@ std::string sqliteFileOf(const std::string& uri) {
   return address && address->kind == DatabaseAddress::Kind::Sqlite ? address->file : std::string();
 }
 
-Result<std::unique_ptr<Database>> Database::open(const std::string& uri, bool create) {
+Result<std::unique_ptr<Database>> Database::open(const std::string& uri, IfMissing missing) {
   auto address = DatabaseAddress::parse(uri);
   if (!address) return address.error();
   auto backend = address->kind == DatabaseAddress::Kind::Postgres ? detail::openPostgres(*address)
-                                                                  : detail::openSqlite(address->file, create);
+                                                                  : detail::openSqlite(address->file, missing);
   if (!backend) return backend.error();
   std::unique_ptr<Database> db = detail::makeSqlDatabase(std::move(*backend));
-  if (create) {
+  if (missing == IfMissing::Create) {
     if (Status s = db->init(); !s) return s.error();
   } else if (Status s = detail::checkSchemaOf(*db); !s) {
     return s.error();

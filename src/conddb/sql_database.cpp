@@ -29,10 +29,12 @@ constexpr const char* kSchema[] = {
     "CREATE INDEX IF NOT EXISTS emcalign_iovs_last ON emcalign_iovs (tag, last_run)",
 };
 
+enum class Access { Read, Write };
+
 // Runs `body` in a transaction; any error rolls it back.
 template <typename F>
-auto inTransaction(SqlBackend& db, bool write, F&& body) -> decltype(body()) {
-  if (Status s = write ? db.beginWrite() : db.beginRead(); !s) return s.error();
+auto inTransaction(SqlBackend& db, Access access, F&& body) -> decltype(body()) {
+  if (Status s = access == Access::Write ? db.beginWrite() : db.beginRead(); !s) return s.error();
   auto result = body();
   if (!result) {
     db.rollback();
@@ -93,7 +95,7 @@ class SqlDatabase final : public Database {
   using Database::put;
 
   Status init() override {
-    return inTransaction(*db_, true, [&]() -> Status {
+    return inTransaction(*db_, Access::Write, [&]() -> Status {
       if (Status s = db_->serializeSchemaChanges(); !s) return s;
       for (const char* sql : kSchema) {
         if (auto r = db_->query(sql); !r) return r.error();
@@ -153,7 +155,7 @@ class SqlDatabase final : public Database {
     return std::optional<Tag>(std::move(*t));
   }
 
-  Status put(const std::string& tag, const std::vector<NewIov>& iovs, bool createTag,
+  Status put(const std::string& tag, const std::vector<NewIov>& iovs, IfMissing newTag,
              const std::string& description) override {
     if (Status s = checkTagName(tag); !s) return s;
     if (Status s = checkText(description, "a tag's description"); !s) return s;
@@ -162,12 +164,12 @@ class SqlDatabase final : public Database {
         return Error{fmt::format("runs {}-{}: the first run is after the last", n.firstRun, n.lastRun)};
       }
     }
-    return inTransaction(*db_, true, [&]() -> Status {
+    return inTransaction(*db_, Access::Write, [&]() -> Status {
       const std::string lockTag = fmt::format("SELECT state FROM emcalign_tags WHERE name = $1{}", db_->forUpdate());
       auto state = db_->query(lockTag, {tag});
       if (!state) return Error{fmt::format("tag '{}': {}", tag, state.error().message)};
       if (state->empty()) {
-        if (!createTag) {
+        if (newTag == IfMissing::Refuse) {
           return Error{
               fmt::format("{}: no tag '{}' (conditions put creates it; list the tags with: emcalign "
                           "conditions list {})",
@@ -221,7 +223,7 @@ class SqlDatabase final : public Database {
   Result<std::optional<std::pair<Iov, Payload>>> get(const std::string& tag, std::int64_t run) override {
     using Out = std::optional<std::pair<Iov, Payload>>;
     if (Status s = checkTagName(tag); !s) return s.error();
-    return inTransaction(*db_, false, [&]() -> Result<Out> {
+    return inTransaction(*db_, Access::Read, [&]() -> Result<Out> {
       if (Status s = notRetired(tag); !s) return s.error();
       auto rows = db_->query(
           "SELECT i.first_run, i.last_run, i.payload, i.inserted, p.content FROM emcalign_iovs i JOIN "
@@ -276,7 +278,7 @@ class SqlDatabase final : public Database {
 
   Status lock(const std::string& tag) override {
     if (Status s = checkTagName(tag); !s) return s;
-    return inTransaction(*db_, true, [&]() -> Status {
+    return inTransaction(*db_, Access::Write, [&]() -> Status {
       if (Status s = notRetired(tag); !s) return s;
       auto rows = db_->query("UPDATE emcalign_tags SET state = 'locked' WHERE name = $1", {tag});
       if (!rows) return rows.error();
@@ -290,7 +292,7 @@ class SqlDatabase final : public Database {
   Status retire(const std::string& tag, const std::string& reason) override {
     if (Status s = checkTagName(tag); !s) return s;
     if (Status s = checkText(reason, "the reason"); !s) return s;
-    return inTransaction(*db_, true, [&]() -> Status {
+    return inTransaction(*db_, Access::Write, [&]() -> Status {
       auto state =
           db_->query(fmt::format("SELECT state FROM emcalign_tags WHERE name = $1{}", db_->forUpdate()), {tag});
       if (!state) return state.error();

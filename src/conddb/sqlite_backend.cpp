@@ -144,7 +144,8 @@ class Sqlite final : public SqlBackend {
 
 }  // namespace
 
-Result<std::unique_ptr<SqlBackend>> openSqlite(const std::string& path, bool create) {
+Result<std::unique_ptr<SqlBackend>> openSqlite(const std::string& path, IfMissing missing) {
+  const bool create = missing == IfMissing::Create;
   const std::string uri = "sqlite:" + path;
   struct stat st {};
   const bool exists = ::stat(path.c_str(), &st) == 0;

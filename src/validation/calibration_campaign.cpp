@@ -508,7 +508,7 @@ Result<StoredGroup> storePlannedGroup(const CampaignPlan& plan, const CampaignMo
   const std::string file = conddb::sqliteFileOf(uri);
   std::error_code ec;
   if (file.empty() || fs::exists(fs::symlink_status(file, ec))) {
-    auto opened = conddb::Database::open(uri, true);
+    auto opened = conddb::Database::open(uri, conddb::IfMissing::Create);
     if (!opened) return opened.error();
     db = std::move(*opened);
     auto done = groupsInTag(*db, tag, plan.groups);
@@ -563,11 +563,11 @@ Result<StoredGroup> storePlannedGroup(const CampaignPlan& plan, const CampaignMo
         group, fmt::join(outside, ", ")));
   }
   if (!db) {
-    auto opened = conddb::Database::open(uri, true);
+    auto opened = conddb::Database::open(uri, conddb::IfMissing::Create);
     if (!opened) return opened.error();
     db = std::move(*opened);
   }
-  if (Status s = db->put(tag, g.iovFirst, g.iovLast, fit->payload, true, description); !s) {
+  if (Status s = db->put(tag, g.iovFirst, g.iovLast, fit->payload, conddb::IfMissing::Create, description); !s) {
     // The same task run twice at once: the other copy stored the group first.
     auto same = groupStored(*db, tag, g, plan.digests, model);
     if (!same || !*same) return s.error();
@@ -873,7 +873,7 @@ Result<CampaignReport> runCampaign(const CampaignScan& scan, const CampaignModel
             report.failures.push_back(fmt::format("group {} (runs {}-{}): the fit's status is '{}': not stored",
                                                   g.index, g.iovFirst, g.iovLast, name(fit->result.status)));
             status = std::string(name(fit->result.status));
-          } else if (Status s = db.put(tag, g.iovFirst, g.iovLast, fit->payload, true, o.description); !s) {
+          } else if (Status s = db.put(tag, g.iovFirst, g.iovLast, fit->payload, conddb::IfMissing::Create, o.description); !s) {
             // Another process may have stored this very group meanwhile (a batch retry).
             if (auto same = groupStored(db, tag, g, digests, model); same && *same) {
               ++report.resumed;

@@ -54,26 +54,35 @@ struct Sample {
   std::int64_t selectedEvents = 0;
 };
 
-// Simulates `events` events of the placement `truth` with the derivation's settings and this
-// seed into the filler (selection, profiles); fails when none is selected.
-Status simulateInto(const geometry::Calorimeter& calo, const DerivationOptions& o, const AlignmentParameters& truth,
-                    std::uint64_t seed, std::int64_t events, calib::ProfileFiller& filler, std::string_view stage,
-                    const DerivationProgress& progress) {
+// One simulated sample of a derivation: its placement, seed, size and name (progress, errors).
+struct SampleRun {
+  const AlignmentParameters& truth;
+  std::uint64_t seed;
+  std::int64_t events;
+  std::string_view stage;
+};
+
+// Simulates the sample with the derivation's settings into the filler (selection, profiles);
+// fails when none is selected.
+Status simulateInto(const geometry::Calorimeter& calo, const DerivationOptions& o, const SampleRun& sample,
+                    calib::ProfileFiller& filler, const DerivationProgress& progress) {
   sim::SimulationOptions so = o.simulation;
-  so.seed = seed;
-  auto simulation = sim::Simulation::create(calo, truth, so);
+  so.seed = sample.seed;
+  auto simulation = sim::Simulation::create(calo, sample.truth, so);
   if (!simulation) return simulation.error();
   const Status run = simulation->run(
-      events, o.threads,
+      sample.events, o.threads,
       [&](std::span<const ParticleRow> rows, std::span<const TruthRow>, std::span<const Hit>) {
         filler.addEvents(rows);
         return Status{};
       },
       [&](std::int64_t done) {
-        if (progress) progress(stage, done, events);
+        if (progress) progress(sample.stage, done, sample.events);
       });
   if (!run) return run;
-  if (Status sel = filler.checkSelected(); !sel) return Error{fmt::format("{}: {}", stage, sel.error().message)};
+  if (Status sel = filler.checkSelected(); !sel) {
+    return Error{fmt::format("{}: {}", sample.stage, sel.error().message)};
+  }
   return {};
 }
 
@@ -98,7 +107,8 @@ Result<Sample> simulateSample(const geometry::Calorimeter& calo, const Derivatio
       [&](const ParticleRow& row, const calib::ParticleResidual&) { s.particles.push_back(row); });
   const std::uint64_t seed = Rng(o.seed ^ 0xC0EEC7ULL, static_cast<std::uint64_t>(k)).next();
   const std::string stage = fmt::format("simulate {}", kSampleNames[k]);
-  if (Status st = simulateInto(calo, o, s.truth, seed, o.events, filler, stage, progress); !st) return st.error();
+  const SampleRun run{.truth = s.truth, .seed = seed, .events = o.events, .stage = stage};
+  if (Status st = simulateInto(calo, o, run, filler, progress); !st) return st.error();
   s.selectedEvents = filler.fill().cutFlow.events.back();
   return s;
 }
@@ -230,7 +240,8 @@ Result<geometry::ParamVector> fitResponseSample(const geometry::Calorimeter& cal
   const std::string stage = fmt::format("simulate response sample {}", i);
   const ResponseDraw draw = responseDraw(calo, o, i);
   calib::ProfileFiller filler(g.depth, calib::SelectionOptions{}, po);
-  if (Status st = simulateInto(calo, o, draw.truth, draw.seed, o.responseEvents, filler, stage, progress); !st) {
+  const SampleRun run{.truth = draw.truth, .seed = draw.seed, .events = o.responseEvents, .stage = stage};
+  if (Status st = simulateInto(calo, o, run, filler, progress); !st) {
     return st.error();
   }
   auto fit = calib::fitProfiles(filler.fill().profiles.bins(0.0), g);

@@ -96,11 +96,20 @@ RefitPrecision precisionOf(const TrendSeries& series, std::int64_t first, std::i
   return p;
 }
 
-// One stable period refitted from all its events, beside the IOVs it replaces.
-Result<RefittedSegment> refitPeriod(const TrendSegment& seg, std::size_t k, std::size_t periods,
-                                    const std::vector<TrendSeries>& series, conddb::TagSnapshot& tag,
-                                    const CampaignScan& scan, const CampaignModel& model,
-                                    const std::map<std::string, std::string>& digests, const PeriodTruth* truth) {
+// What every period's refit reads: the tag and its series, the events, the campaign's model.
+struct RefitInputs {
+  const std::vector<TrendSeries>& series;
+  conddb::TagSnapshot& tag;
+  const CampaignScan& scan;
+  const CampaignModel& model;
+  std::map<std::string, std::string> digests;  ///< SHA-256 of each file scanned
+  const PeriodTruth* truth;                    ///< may be null
+  std::size_t periods;                         ///< the trend's, stable or not
+};
+
+// Stable period `k` refitted from all its events, beside the IOVs it replaces.
+Result<RefittedSegment> refitPeriod(const RefitInputs& in, const TrendSegment& seg, std::size_t k) {
+  const auto& [series, tag, scan, model, digests, truth, periods] = in;
   RefittedSegment rs;
   rs.firstRun = seg.firstRun;
   rs.lastRun = seg.lastRun;
@@ -249,13 +258,14 @@ Result<std::vector<std::string>> checkRefitData(conddb::TagSnapshot& tag, const 
 
 Result<SegmentRefit> refitSegments(const Trend& trend, const std::vector<TrendSeries>& series, conddb::TagSnapshot& tag,
                                    const CampaignScan& scan, const CampaignModel& model, const PeriodTruth* truth) {
-  std::map<std::string, std::string> digests;
+  RefitInputs in{.series = series, .tag = tag, .scan = scan, .model = model, .digests = {}, .truth = truth,
+                 .periods = trend.segments.size()};
   for (std::size_t k = 0; k < scan.files.size() && k < scan.digests.size(); ++k)
-    digests[scan.files[k]] = scan.digests[k];
+    in.digests[scan.files[k]] = scan.digests[k];
   SegmentRefit out;
   for (std::size_t k = 0; k < trend.segments.size(); ++k) {
     const TrendSegment& seg = trend.segments[k];
-    if (!seg.drifting.empty() || seg.transition) {
+    if (!seg.refittable()) {
       // Kept as they were.
       RefittedSegment rs;
       rs.firstRun = seg.firstRun;
@@ -272,7 +282,7 @@ Result<SegmentRefit> refitSegments(const Trend& trend, const std::vector<TrendSe
       out.segments.push_back(std::move(rs));
       continue;
     }
-    auto rs = refitPeriod(seg, k, trend.segments.size(), series, tag, scan, model, digests, truth);
+    auto rs = refitPeriod(in, seg, k);
     if (!rs) return rs.error();
     out.iovs.push_back({seg.firstRun, seg.lastRun, rs->fit->payload});
     out.segments.push_back(std::move(*rs));
@@ -284,7 +294,7 @@ Json refitJson(const SegmentRefit& r, std::size_t iovsBefore) {
   Json segments = Json::array();
   for (const RefittedSegment& s : r.segments) {
     Json j = {{"first_run", s.firstRun}, {"last_run", s.lastRun}, {"replaces_iovs", s.end - s.begin}};
-    if (!s.drifting.empty() || s.transition) {
+    if (s.kept()) {
       j["kept"] = true;
       j["drifting"] = s.drifting;
       j["transition"] = s.transition;

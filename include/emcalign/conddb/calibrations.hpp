@@ -51,10 +51,15 @@ struct RunCalibration {
   Iov iov;
   io::Json parameterFile;  ///< parameterFileOf
 };
-/// Whether `tag` holds exactly these IOVs (the same runs, the same payloads): false when the tag
-/// does not exist; an error when it holds anything else. A job that writes a whole tag (a refit)
-/// and finds it written, by its own earlier run or a copy of it, has nothing to do.
-Result<bool> tagHolds(Database& db, const std::string& tag, const std::vector<Database::NewIov>& iovs);
+/// What putWholeTag did.
+enum class WholeTagPut { Stored, HeldAlready };
+/// Writes a new tag whole: `iovs` in one transaction, the tag created (open, with
+/// `description`). A tag that holds exactly these IOVs (the same runs, the same payloads) is
+/// left as it is: a job that writes a whole tag (a refit) and finds it written, by its own
+/// earlier run or by a copy of it that stored it first, has nothing to do. A tag that exists
+/// with anything else is an error (write to a new tag).
+Result<WholeTagPut> putWholeTag(Database& db, const std::string& tag, const std::vector<Database::NewIov>& iovs,
+                                const std::string& description);
 
 /// The calibration valid for `run`; the error says whether the tag or the IOV is missing.
 Result<RunCalibration> calibrationAt(Database& db, const std::string& tag, std::int64_t run);

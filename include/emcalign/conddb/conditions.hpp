@@ -84,12 +84,18 @@ Status checkTagName(std::string_view tag);
 /// output of its overwrites it.
 std::string sqliteFileOf(const std::string& uri);
 
+/// What opening a database does when there is none, and what storing does when the tag is new.
+enum class IfMissing {
+  Refuse,  ///< an error naming what is missing (and how to create it)
+  Create,  ///< a new SQLite file with its schema (a PostgreSQL database must exist); a new, open tag
+};
+
 class Database {
  public:
   /// Opens a database: `sqlite:PATH`, a plain path, or `postgresql://…` / `postgres://…`. An
-  /// existing database must have this schema version; `create` makes a new SQLite file (a
-  /// PostgreSQL database must exist) and `init()` its schema.
-  static Result<std::unique_ptr<Database>> open(const std::string& uri, bool create = false);
+  /// existing database must have this schema version; `IfMissing::Create` makes a new SQLite
+  /// file (a PostgreSQL database must exist) and `init()`s its schema.
+  static Result<std::unique_ptr<Database>> open(const std::string& uri, IfMissing missing = IfMissing::Refuse);
   virtual ~Database() = default;
 
   /// Creates the schema (idempotent: an existing one of this version is left as it is).
@@ -97,12 +103,12 @@ class Database {
 
   virtual Result<std::vector<Tag>> tags() = 0;
   virtual Result<std::optional<Tag>> tag(const std::string& name) = 0;
-  /// Stores `payload` for runs [first, last] of `tag` (created, open, when it does not
-  /// exist and `createTag` says so), in one transaction; refused for a locked tag, an
-  /// overlap with an IOV of the tag, or first > last.
-  Status put(const std::string& tag, std::int64_t first, std::int64_t last, const Payload& payload, bool createTag,
+  /// Stores `payload` for runs [first, last] of `tag` (a tag that does not exist is created,
+  /// open, with `description`, or refused, as `newTag` says), in one transaction; refused for a
+  /// locked tag, an overlap with an IOV of the tag, or first > last.
+  Status put(const std::string& tag, std::int64_t first, std::int64_t last, const Payload& payload, IfMissing newTag,
              const std::string& description = {}) {
-    return put(tag, {NewIov{first, last, payload}}, createTag, description);
+    return put(tag, {NewIov{first, last, payload}}, newTag, description);
   }
   /// Several IOVs in one transaction: all are stored or none.
   struct NewIov {
@@ -110,7 +116,7 @@ class Database {
     std::int64_t lastRun;
     Payload payload;
   };
-  virtual Status put(const std::string& tag, const std::vector<NewIov>& iovs, bool createTag,
+  virtual Status put(const std::string& tag, const std::vector<NewIov>& iovs, IfMissing newTag,
                      const std::string& description = {}) = 0;
   /// The IOV of `tag` that contains `run`, with its payload; none if no IOV does.
   virtual Result<std::optional<std::pair<Iov, Payload>>> get(const std::string& tag, std::int64_t run) = 0;

@@ -49,6 +49,8 @@ struct RefittedSegment {
   std::int64_t medianSelectedBefore = 0;
   std::optional<GroupFit> fit;
   std::vector<RefitPrecision> precision;  ///< the series of the trend, in their order
+  /// Its IOVs kept as they were (TrendSegment::refittable): no fit, no precision.
+  bool kept() const { return !drifting.empty() || transition; }
 };
 
 struct SegmentRefit {

@@ -233,6 +233,9 @@ struct TrendSegment {
     return resolvable && end - begin >= 2 && !transition && departing.empty() && drifting.empty() &&
            inconsistent.empty();
   }
+  /// What `trend --refit` replaces by one calibration of all its events: a period that neither
+  /// drifts nor straddles a step (its IOVs are kept as they are otherwise).
+  bool refittable() const { return drifting.empty() && !transition; }
 };
 
 struct TrendOptions {

@@ -15,6 +15,7 @@
 #include <fstream>
 #include <thread>
 
+#include "emcalign/conddb/calibrations.hpp"
 #include "emcalign/core/sha256.hpp"
 #include "emcalign/geometry/detector.hpp"
 #include "postgres_support.hpp"
@@ -53,7 +54,7 @@ class Conditions : public ::testing::TestWithParam<std::string> {
     if (!dir_.empty()) fs::remove_all(dir_);
   }
   std::unique_ptr<Database> create() {
-    auto db = Database::open(uri_, true);
+    auto db = Database::open(uri_, conddb::IfMissing::Create);
     EXPECT_TRUE(db) << db.error().message;
     return std::move(*db);
   }
@@ -71,10 +72,10 @@ class Conditions : public ::testing::TestWithParam<std::string> {
 TEST_P(Conditions, StoresAndFindsByRun) {
   auto db = create();
   const Payload a = payloadOf(2.8), b = payloadOf(2.9);
-  ASSERT_TRUE(db->put("align", 1, 40, a, true, "test tag"));
-  ASSERT_TRUE(db->put("align", 41, 100, b, false));
+  ASSERT_TRUE(db->put("align", 1, 40, a, conddb::IfMissing::Create, "test tag"));
+  ASSERT_TRUE(db->put("align", 41, 100, b, conddb::IfMissing::Refuse));
   // One payload stored once, however many IOVs hold it.
-  ASSERT_TRUE(db->put("align", 200, 210, a, false));
+  ASSERT_TRUE(db->put("align", 200, 210, a, conddb::IfMissing::Refuse));
 
   auto iovs = db->iovs("align");
   ASSERT_TRUE(iovs);
@@ -117,25 +118,25 @@ TEST_P(Conditions, StoresAndFindsByRun) {
 TEST_P(Conditions, RefusesOverlapsLockedTagsAndBadRanges) {
   auto db = create();
   const Payload a = payloadOf(2.8);
-  ASSERT_TRUE(db->put("t", 10, 20, a, true));
+  ASSERT_TRUE(db->put("t", 10, 20, a, conddb::IfMissing::Create));
   for (auto [first, last] : {std::pair{5, 10}, {20, 30}, {12, 15}, {1, 100}, {10, 20}}) {
-    Status s = db->put("t", first, last, a, false);
+    Status s = db->put("t", first, last, a, conddb::IfMissing::Refuse);
     ASSERT_FALSE(s) << first << "-" << last;
     EXPECT_NE(s.error().message.find("overlap its IOV 10-20"), std::string::npos) << s.error().message;
   }
-  EXPECT_TRUE(db->put("t", 21, 21, a, false));
-  EXPECT_TRUE(db->put("t", 1, 9, a, false));
-  Status backwards = db->put("t", 30, 25, a, false);
+  EXPECT_TRUE(db->put("t", 21, 21, a, conddb::IfMissing::Refuse));
+  EXPECT_TRUE(db->put("t", 1, 9, a, conddb::IfMissing::Refuse));
+  Status backwards = db->put("t", 30, 25, a, conddb::IfMissing::Refuse);
   ASSERT_FALSE(backwards);
   EXPECT_NE(backwards.error().message.find("first run is after the last"), std::string::npos);
-  Status noTag = db->put("u", 1, 2, a, false);
+  Status noTag = db->put("u", 1, 2, a, conddb::IfMissing::Refuse);
   ASSERT_FALSE(noTag);
   EXPECT_NE(noTag.error().message.find("no tag 'u'"), std::string::npos);
-  EXPECT_FALSE(db->put("bad name", 1, 2, a, true));
-  EXPECT_FALSE(db->put("", 1, 2, a, true));
+  EXPECT_FALSE(db->put("bad name", 1, 2, a, conddb::IfMissing::Create));
+  EXPECT_FALSE(db->put("", 1, 2, a, conddb::IfMissing::Create));
 
   ASSERT_TRUE(db->lock("t"));
-  Status locked = db->put("t", 50, 60, a, false);
+  Status locked = db->put("t", 50, 60, a, conddb::IfMissing::Refuse);
   ASSERT_FALSE(locked);
   EXPECT_NE(locked.error().message.find("is locked"), std::string::npos);
   EXPECT_FALSE(db->lock("nope"));
@@ -152,8 +153,8 @@ TEST_P(Conditions, RefusesOverlapsLockedTagsAndBadRanges) {
 TEST_P(Conditions, ARetiredTagIsKeptListedAndNeverServed) {
   auto db = create();
   const Payload a = payloadOf(2.8);
-  ASSERT_TRUE(db->put("wrong", 1, 10, a, true));
-  ASSERT_TRUE(db->put("good", 1, 10, a, true));
+  ASSERT_TRUE(db->put("wrong", 1, 10, a, conddb::IfMissing::Create));
+  ASSERT_TRUE(db->put("good", 1, 10, a, conddb::IfMissing::Create));
   ASSERT_TRUE(db->lock("good"));
   ASSERT_TRUE(db->get("wrong", 5));
   ASSERT_TRUE(db->retire("wrong", "the wrong corrections"));
@@ -162,7 +163,7 @@ TEST_P(Conditions, ARetiredTagIsKeptListedAndNeverServed) {
   ASSERT_FALSE(got);
   EXPECT_NE(got.error().message.find("was retired"), std::string::npos) << got.error().message;
   EXPECT_NE(got.error().message.find("the wrong corrections"), std::string::npos) << got.error().message;
-  EXPECT_FALSE(db->put("wrong", 11, 20, a, false));
+  EXPECT_FALSE(db->put("wrong", 11, 20, a, conddb::IfMissing::Refuse));
   EXPECT_FALSE(db->lock("wrong"));
   auto tag = open()->tag("wrong");
   ASSERT_TRUE(tag && tag->has_value());
@@ -231,8 +232,8 @@ TEST_P(Conditions, ConcurrentWritersLoseNothing) {
       for (int k = 0; k < kEach; ++k) {
         const int first = 1000 * w + 10 * k;
         // Each writer creates the tag if it is first; payloads shared between writers.
-        if (!(*db)->put("shared", first, first + 9, payloadOf(2.0 + 0.1 * k), true)) ++failures;
-        if ((*db)->put("race", k * 10, k * 10 + 5, payloadOf(3.0 + w), true)) ++raceWins;
+        if (!(*db)->put("shared", first, first + 9, payloadOf(2.0 + 0.1 * k), conddb::IfMissing::Create)) ++failures;
+        if ((*db)->put("race", k * 10, k * 10 + 5, payloadOf(3.0 + w), conddb::IfMissing::Create)) ++raceWins;
       }
     });
   }
@@ -254,7 +255,7 @@ TEST_P(Conditions, KillDuringWriteLeavesItConsistent) {
   create();
   {
     auto db = open();
-    ASSERT_TRUE(db->put("k", 1, 10, payloadOf(2.8), true));
+    ASSERT_TRUE(db->put("k", 1, 10, payloadOf(2.8), conddb::IfMissing::Create));
   }
   const fs::path marker = fs::temp_directory_path() / fmt::format("emcalign-hold-{}-{}", ::getpid(), counter_++);
   fs::remove(marker);
@@ -264,7 +265,7 @@ TEST_P(Conditions, KillDuringWriteLeavesItConsistent) {
     ::setenv("EMCALIGN_FAULT_HOLD_WRITE", marker.c_str(), 1);
     auto db = Database::open(uri_);
     if (!db) ::_exit(10);
-    (void)(*db)->put("k", 11, 20, payloadOf(3.3), false);
+    (void)(*db)->put("k", 11, 20, payloadOf(3.3), conddb::IfMissing::Refuse);
     ::_exit(11);  // not reached: killed while holding the write
   }
   const auto start = std::chrono::steady_clock::now();
@@ -283,7 +284,7 @@ TEST_P(Conditions, KillDuringWriteLeavesItConsistent) {
   ASSERT_TRUE(iovs) << iovs.error().message;
   ASSERT_EQ(iovs->size(), 1U);
   EXPECT_FALSE(db->payload(payloadOf(3.3).hash()));          // its payload went with it
-  ASSERT_TRUE(db->put("k", 11, 20, payloadOf(3.4), false));  // no lock left behind
+  ASSERT_TRUE(db->put("k", 11, 20, payloadOf(3.4), conddb::IfMissing::Refuse));  // no lock left behind
   auto got = db->get("k", 15);
   ASSERT_TRUE(got && got->has_value());
 }
@@ -309,7 +310,7 @@ void editByHand(const std::string& uri, const std::string& sql) {
 TEST_P(Conditions, AnEditedPayloadIsNeverServed) {
   auto db = create();
   const Payload a = payloadOf(2.8);
-  ASSERT_TRUE(db->put("t", 1, 10, a, true));
+  ASSERT_TRUE(db->put("t", 1, 10, a, conddb::IfMissing::Create));
   editByHand(uri_, "UPDATE emcalign_payloads SET content = replace(content, '\"alpha\":', '\"alpha\":1')");
   auto got = db->get("t", 5);
   ASSERT_FALSE(got);
@@ -322,7 +323,7 @@ TEST_P(Conditions, AnEditedPayloadIsNeverServed) {
 
 TEST_P(Conditions, TextWithNulIsRefusedNotCut) {
   auto db = create();
-  ASSERT_TRUE(db->put("base", 1, 10, payloadOf(2.8), true));
+  ASSERT_TRUE(db->put("base", 1, 10, payloadOf(2.8), conddb::IfMissing::Create));
   const std::string nul("base\0x", 6);
   EXPECT_FALSE(db->lock(nul));
   auto tag = db->tag("base");
@@ -331,9 +332,35 @@ TEST_P(Conditions, TextWithNulIsRefusedNotCut) {
   EXPECT_FALSE(db->tag(nul));
   EXPECT_FALSE(db->iovs(nul));
   EXPECT_FALSE(db->get(nul, 1));
-  Status described = db->put("other", 1, 10, payloadOf(2.8), true, std::string("before\0after", 12));
+  Status described = db->put("other", 1, 10, payloadOf(2.8), conddb::IfMissing::Create, std::string("before\0after", 12));
   ASSERT_FALSE(described);
   EXPECT_THAT(described.error().message, ::testing::HasSubstr("NUL"));
+}
+
+// A job that writes a whole tag (trend --refit) and is run again, or twice at once, stores it
+// once; a tag of other calibrations is never added to.
+TEST_P(Conditions, AWholeTagIsWrittenOnceAndNeverOverAnother) {
+  auto db = create();
+  const std::vector<Database::NewIov> iovs = {{1, 10, payloadOf(2.8)}, {11, 30, payloadOf(2.9)}};
+  auto first = putWholeTag(*db, "refit", iovs, "by period");
+  ASSERT_TRUE(first) << first.error().message;
+  EXPECT_EQ(*first, WholeTagPut::Stored);
+  auto again = putWholeTag(*open(), "refit", iovs, "by period");
+  ASSERT_TRUE(again) << again.error().message;
+  EXPECT_EQ(*again, WholeTagPut::HeldAlready);
+  auto stored = db->iovs("refit");
+  ASSERT_TRUE(stored);
+  EXPECT_EQ(stored->size(), 2u);
+
+  const std::vector<Database::NewIov> other = {{1, 10, payloadOf(2.8)}, {11, 30, payloadOf(3.0)}};
+  auto refused = putWholeTag(*db, "refit", other, "by period");
+  ASSERT_FALSE(refused);
+  EXPECT_NE(refused.error().message.find("exists already"), std::string::npos) << refused.error().message;
+  const std::vector<Database::NewIov> more = {{31, 40, payloadOf(2.8)}};
+  EXPECT_FALSE(putWholeTag(*db, "refit", more, "")) << "not appended to a tag that holds other IOVs";
+  stored = db->iovs("refit");
+  ASSERT_TRUE(stored);
+  EXPECT_EQ(stored->size(), 2u) << "nothing added";
 }
 
 INSTANTIATE_TEST_SUITE_P(Backends, Conditions, ::testing::Values("sqlite", "postgres"),
@@ -350,7 +377,7 @@ TEST(ConditionsUri, RefusesWhatIsNotADatabase) {
   ASSERT_FALSE(missing);
   EXPECT_NE(missing.error().message.find("no such database"), std::string::npos);
   EXPECT_FALSE(fs::exists(dir / "missing.db"));  // opening does not create
-  auto directory = Database::open(dir.string(), true);
+  auto directory = Database::open(dir.string(), conddb::IfMissing::Create);
   ASSERT_FALSE(directory);
   EXPECT_NE(directory.error().message.find("not a regular file"), std::string::npos);
   auto scheme = Database::open("mysql://me@host/db");
@@ -367,9 +394,9 @@ TEST(ConditionsSqlite, TextThatIsNotUtf8OrHoldsEscapesIsReadPrintable) {
   const fs::path dir = fs::temp_directory_path() / fmt::format("emcalign-conddb-text-{}", ::getpid());
   fs::create_directories(dir);
   const std::string uri = "sqlite:" + (dir / "c.db").string();
-  auto db = Database::open(uri, true);
+  auto db = Database::open(uri, conddb::IfMissing::Create);
   ASSERT_TRUE(db) << db.error().message;
-  ASSERT_TRUE((*db)->put("t", 1, 10, payloadOf(2.8), true, "plain"));
+  ASSERT_TRUE((*db)->put("t", 1, 10, payloadOf(2.8), conddb::IfMissing::Create, "plain"));
   editByHand(uri, "UPDATE emcalign_tags SET description = CAST(X'6E616976E91B5B324A' AS TEXT)");
   auto tag = (*db)->tag("t");
   ASSERT_TRUE(tag && tag->has_value());
@@ -379,9 +406,9 @@ TEST(ConditionsSqlite, TextThatIsNotUtf8OrHoldsEscapesIsReadPrintable) {
 
 TEST(ConditionsPostgres, ATagAnotherClientHoldsIsBusyAfterTheLockTimeout) {
   const std::string uri = testing::freshPostgresDatabase();
-  auto db = Database::open(uri, true);
+  auto db = Database::open(uri, conddb::IfMissing::Create);
   ASSERT_TRUE(db) << db.error().message;
-  ASSERT_TRUE((*db)->put("held", 1, 10, payloadOf(2.8), true));
+  ASSERT_TRUE((*db)->put("held", 1, 10, payloadOf(2.8), conddb::IfMissing::Create));
   // Another client holds the tag's row.
   pqxx::connection other(uri);
   pqxx::work holding(other);
@@ -391,7 +418,7 @@ TEST(ConditionsPostgres, ATagAnotherClientHoldsIsBusyAfterTheLockTimeout) {
   ::unsetenv("PGOPTIONS");
   ASSERT_TRUE(writer) << writer.error().message;
   const auto started = std::chrono::steady_clock::now();
-  Status s = (*writer)->put("held", 11, 20, payloadOf(2.9), false);
+  Status s = (*writer)->put("held", 11, 20, payloadOf(2.9), IfMissing::Refuse);
   const auto waited = std::chrono::steady_clock::now() - started;
   ASSERT_FALSE(s);
   EXPECT_THAT(s.error().message, ::testing::HasSubstr("tag 'held'"));
@@ -399,7 +426,7 @@ TEST(ConditionsPostgres, ATagAnotherClientHoldsIsBusyAfterTheLockTimeout) {
   EXPECT_LT(waited, std::chrono::seconds(10));
   holding.abort();
   // Free again: the same write goes through.
-  EXPECT_TRUE((*writer)->put("held", 11, 20, payloadOf(2.9), false));
+  EXPECT_TRUE((*writer)->put("held", 11, 20, payloadOf(2.9), IfMissing::Refuse));
 }
 
 TEST(ConditionsPayload, KeepsTheFitAndRefusesUnusableOnes) {

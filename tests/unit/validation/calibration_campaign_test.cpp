@@ -165,19 +165,19 @@ TEST_F(CampaignFiles, TagIovsMatchThePlanOrAreRefused) {
   const auto scan = scanOf(1, 20, 300, [](int) { return 612.5; });
   const auto groups = planGroups(scan, 1000);
   ASSERT_GE(groups.size(), 3u);
-  auto db = conddb::Database::open("sqlite:" + path("c.db"), true);
+  auto db = conddb::Database::open("sqlite:" + path("c.db"), conddb::IfMissing::Create);
   ASSERT_TRUE(db) << db.error().message;
   const std::string params = R"({"format": "emcalign-alignment/1", "parameters": {"alpha": 2.8, "beta1": 0,
     "beta2": 0, "dx": 0.3, "dy": 0, "dz": 0, "dp1": 0, "dp2": 0, "dp3": 0, "dy_rel": 0, "dz_rel": 0, "beta_rel": 0}})";
   auto payload = conddb::makePayload(io::Json::parse(params), 60.0 * units::cm, "test");
   ASSERT_TRUE(payload) << payload.error().message;
-  ASSERT_TRUE((*db)->put("t", groups[0].iovFirst, groups[0].iovLast, *payload, true));
-  ASSERT_TRUE((*db)->put("t", groups[2].iovFirst, groups[2].iovLast, *payload, true));
+  ASSERT_TRUE((*db)->put("t", groups[0].iovFirst, groups[0].iovLast, *payload, conddb::IfMissing::Create));
+  ASSERT_TRUE((*db)->put("t", groups[2].iovFirst, groups[2].iovLast, *payload, conddb::IfMissing::Create));
   auto done = groupsInTag(**db, "t", groups);
   ASSERT_TRUE(done) << done.error().message;
   for (std::size_t k = 0; k < groups.size(); ++k) EXPECT_EQ((*done)[k], k == 0 || k == 2) << k;
   // An IOV of another plan: refused before anything is fitted.
-  ASSERT_TRUE((*db)->put("t", groups[1].iovFirst, groups[1].iovFirst, *payload, true));
+  ASSERT_TRUE((*db)->put("t", groups[1].iovFirst, groups[1].iovFirst, *payload, conddb::IfMissing::Create));
   auto refused = groupsInTag(**db, "t", groups);
   ASSERT_FALSE(refused);
   EXPECT_THAT(refused.error().message, HasSubstr("not one of this campaign's groups"));
@@ -226,7 +226,7 @@ TEST_F(CampaignFiles, AStoredGroupCountsOnlyWhenItIsFromTheSameData) {
   const auto groups = planGroups(scan, 1000);
   std::map<std::string, std::string> digests;
   for (std::size_t k = 0; k < scan.files.size(); ++k) digests[scan.files[k]] = fmt::format("{:064x}", k + 1);
-  auto db = conddb::Database::open("sqlite:" + path("c.db"), true);
+  auto db = conddb::Database::open("sqlite:" + path("c.db"), conddb::IfMissing::Create);
   ASSERT_TRUE(db) << db.error().message;
   const CampaignGroup& g = groups[1];
   const CampaignModel model;  // no corrections, SPEC's sigma_sys
@@ -245,20 +245,20 @@ TEST_F(CampaignFiles, AStoredGroupCountsOnlyWhenItIsFromTheSameData) {
   io::Json same = io::Json::object();
   // Recorded under other names (the files moved): the same data, by content.
   for (const auto& f : g.files) same["/old/place/" + f] = digests.at(f);
-  ASSERT_TRUE((*db)->put("t", g.iovFirst, g.iovLast, payloadFrom(same), true));
+  ASSERT_TRUE((*db)->put("t", g.iovFirst, g.iovLast, payloadFrom(same), conddb::IfMissing::Create));
   stored = groupStored(**db, "t", g, digests, model);
   ASSERT_TRUE(stored) << stored.error().message;
   EXPECT_TRUE(*stored);
 
   io::Json other = same;
   other.begin().value() = std::string(64, 'f');
-  ASSERT_TRUE((*db)->put("u", g.iovFirst, g.iovLast, payloadFrom(other), true));
+  ASSERT_TRUE((*db)->put("u", g.iovFirst, g.iovLast, payloadFrom(other), conddb::IfMissing::Create));
   auto refused = groupStored(**db, "u", g, digests, model);
   ASSERT_FALSE(refused);
   EXPECT_THAT(refused.error().message, HasSubstr("group 1"));
   EXPECT_THAT(refused.error().message, HasSubstr("from other data"));
 
-  ASSERT_TRUE((*db)->put("v", g.iovFirst, g.iovLast, payloadFrom(io::Json()), true));
+  ASSERT_TRUE((*db)->put("v", g.iovFirst, g.iovLast, payloadFrom(io::Json()), conddb::IfMissing::Create));
   auto unknown = groupStored(**db, "v", g, digests, model);
   ASSERT_FALSE(unknown);
   EXPECT_THAT(unknown.error().message, HasSubstr("does not record"));
@@ -275,7 +275,7 @@ TEST_F(CampaignFiles, AStoredGroupCountsOnlyWhenItIsFromTheSameData) {
   ASSERT_FALSE(otherSigma);
   EXPECT_THAT(otherSigma.error().message, HasSubstr("sigma_sys"));
 
-  ASSERT_TRUE((*db)->put("w", g.iovFirst, g.iovLast + 1, payloadFrom(same), true));
+  ASSERT_TRUE((*db)->put("w", g.iovFirst, g.iovLast + 1, payloadFrom(same), conddb::IfMissing::Create));
   auto otherIov = groupStored(**db, "w", g, digests, model);
   ASSERT_FALSE(otherIov);
   EXPECT_THAT(otherIov.error().message, HasSubstr("not this campaign's grouping"));

@@ -35,14 +35,14 @@ class TagSettings : public ::testing::Test {
                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
     std::filesystem::remove_all(dir_);
     std::filesystem::create_directories(dir_);
-    auto db = conddb::Database::open("sqlite:" + (dir_ / "c.db").string(), true);
+    auto db = conddb::Database::open("sqlite:" + (dir_ / "c.db").string(), conddb::IfMissing::Create);
     ASSERT_TRUE(db) << db.error().message;
     db_ = std::move(*db);
   }
   // The tag's two IOVs with these payloads, and the model's settings after adopting them.
   Result<CampaignModel> adopt(const std::string& tag, const conddb::Payload& a, const conddb::Payload& b,
                               const CampaignModel& model = {}) {
-    EXPECT_TRUE(db_->put(tag, {{1, 10, a}, {11, 20, b}}, true));
+    EXPECT_TRUE(db_->put(tag, {{1, 10, a}, {11, 20, b}}, conddb::IfMissing::Create));
     auto snapshot = conddb::TagSnapshot::load(*db_, tag);
     if (!snapshot) return snapshot.error();
     CampaignModel m = model;

@@ -106,6 +106,21 @@ constexpr H5Z_filter_t kLz4Filter = 32004;
 
 enum class Kind { I8, I32, I64, F64 };
 
+// The file type of an event file's column (event_file_internal.hpp's kColumnNames).
+inline Kind eventKind(int column) {
+  switch (column) {
+    case kRun:
+      return Kind::I32;
+    case kEvent:
+      return Kind::I64;
+    case kVeto:
+    case kCharged:
+      return Kind::I8;
+    default:
+      return Kind::F64;
+  }
+}
+
 inline hid_t fileType(Kind k) {
   switch (k) {
     case Kind::I8:

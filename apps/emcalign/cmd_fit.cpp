@@ -140,23 +140,12 @@ Status drawPlots(const FitCliOptions& o, const calib::FitJob& job, const calib::
   return {};
 }
 
-// " at 612.5 MeV (500 MeV × 0.550, 750 MeV × 0.450)" for a grid's interpolation, else nothing.
-std::string interpolationText(const io::Json& interpolation) {
-  if (interpolation.is_null()) return {};
-  std::vector<std::string> points;
-  for (const auto& p : interpolation.at("points")) {
-    points.push_back(
-        fmt::format("{} MeV × {:.3f}", p.at("beam_energy_mev").get<double>(), p.at("weight").get<double>()));
-  }
-  return fmt::format(" at {} MeV ({})", interpolation.at("beam_energy_mev").get<double>(), fmt::join(points, ", "));
-}
-
 void printCorrections(const calib::CorrectionsAt& at) {
   const calib::ModelCorrections& c = at.corrections;
   fmt::print(reportStream(),
              "Model corrections from {}{}: depth offset {:+.2f} cm, parting-plane response {}, nominal profile {}, "
              "fit response {}, systematic errors {}\n",
-             at.path, interpolationText(at.interpolation), c.depthOffset / units::cm, c.partingPlane ? "on" : "off",
+             at.path, at.interpolation.is_null() ? "" : " at " + calib::interpolationText(at.interpolation), c.depthOffset / units::cm, c.partingPlane ? "on" : "off",
              c.nominalProfile ? "subtracted" : "off", c.response ? "on" : "off",
              c.systematics ? "carried" : "not measured");
 }

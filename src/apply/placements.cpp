@@ -6,6 +6,7 @@
 
 #include "emcalign/core/units.hpp"
 #include "emcalign/core/version.hpp"
+#include "emcalign/io/strict_json.hpp"
 
 namespace emcalign::apply {
 
@@ -142,11 +143,9 @@ Result<Placements> readPlacements(const std::string& path, const geometry::Calor
   auto j = io::parseJson(*text, path);
   if (!j) return j.error();
   if (!isPlacementsJson(*j)) return Error{fmt::format("{}: key 'format': expected \"{}\"", path, kPlacementsFormat)};
-  for (const auto& [key, value] : j->items()) {
-    if (key != "format" && key != "software" && key != "convention" && key != "alignment" && key != "placements") {
-      return Error{fmt::format(
-          "{}: key '{}': unknown key (allowed: format, software, convention, alignment, placements)", path, key)};
-    }
+  if (Status s = io::strict::checkKeys(*j, {"format", "software", "convention", "alignment", "placements"}, path);
+      !s) {
+    return s.error();
   }
   if (!j->contains("alignment")) return Error{fmt::format("{}: key 'alignment': missing", path)};
   auto alignment = io::parseAlignment((*j)["alignment"], calo.description().r1(), path);

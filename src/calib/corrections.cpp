@@ -12,6 +12,7 @@
 #include "emcalign/core/beam_energy.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/geometry/alignment_parameters.hpp"
+#include "emcalign/io/strict_json.hpp"
 
 namespace emcalign::calib {
 
@@ -218,14 +219,12 @@ namespace {
 Status checkCorrectionsKeys(const Json& j, std::string_view source) {
   if (!j.is_object()) return Error{fmt::format("{}: expected a JSON object", source)};
   if (Status kind = io::expectFormat(j, kCorrectionsFormat, "a corrections file", source); !kind) return kind.error();
-  for (const auto& [key, value] : j.items()) {
-    if (key != "format" && key != "beam_energy_mev" && key != "depth_offset_cm" && key != "parting_plane" &&
-        key != "nominal_profile" && key != "response" && key != "systematic_errors" && key != "derived_from") {
-      return Error{
-          fmt::format("{}: key '{}': unknown key (allowed: format, beam_energy_mev, depth_offset_cm, "
-                      "parting_plane, nominal_profile, response, systematic_errors, derived_from)",
-                      source, key)};
-    }
+  if (Status s = io::strict::checkKeys(j,
+                                       {"format", "beam_energy_mev", "depth_offset_cm", "parting_plane",
+                                        "nominal_profile", "response", "systematic_errors", "derived_from"},
+                                       source);
+      !s) {
+    return s;
   }
   if (!j.contains("format") || j["format"] != kCorrectionsFormat) {
     return Error{fmt::format("{}: key 'format': expected \"{}\"", source, kCorrectionsFormat)};
@@ -365,11 +364,8 @@ Result<ModelCorrections> parseCorrections(const Json& j, std::string_view source
 
 Result<SystematicErrors> parseSystematicErrors(const Json& j, std::string_view source) {
   if (!j.is_object()) return Error{fmt::format("{}: key 'systematic_errors': expected an object", source)};
-  for (const auto& [key, value] : j.items()) {
-    if (key != "errors" && key != "components" && key != "study") {
-      return Error{
-          fmt::format("{}: key 'systematic_errors.{}': unknown key (allowed: errors, components, study)", source, key)};
-    }
+  if (Status s = io::strict::checkKeys(j, {"errors", "components", "study"}, source, "systematic_errors"); !s) {
+    return s.error();
   }
   if (!j.contains("errors") || !j["errors"].is_object()) {
     return Error{fmt::format("{}: key 'systematic_errors.errors': expected an object {{parameter: error}}", source)};

@@ -6,6 +6,7 @@
 #include <limits>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "emcalign/core/sha256.hpp"
 #include "emcalign/core/units.hpp"
@@ -311,6 +312,16 @@ Result<std::string> correctionsDigest(const std::string& path) {
   auto files = jsonFilesIn(path);
   if (!files) return files.error();
   return directoryDigest(path, *files);
+}
+
+std::string interpolationText(const io::Json& interpolation) {
+  if (interpolation.is_null()) return {};
+  std::vector<std::string> points;
+  for (const auto& p : interpolation.at("points")) {
+    points.push_back(
+        fmt::format("{} MeV × {:.3f}", p.at("beam_energy_mev").get<double>(), p.at("weight").get<double>()));
+  }
+  return fmt::format("{} MeV ({})", interpolation.at("beam_energy_mev").get<double>(), fmt::join(points, ", "));
 }
 
 }  // namespace emcalign::calib

@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "emcalign/calib/corrections_grid.hpp"
 #include "emcalign/conddb/address.hpp"
 #include "emcalign/core/fit_status.hpp"
 #include "emcalign/core/paper.hpp"
@@ -264,11 +265,7 @@ std::string modelCorrectionsText(const Json& c) {
       corr += fmt::format("; {}: <code>{}</code>", key, html::escape(c.at(key).get<std::string>()));
   }
   if (c.contains("interpolation")) {
-    const Json& i = c.at("interpolation");
-    corr += fmt::format("; interpolated to {} MeV between", number(i.at("beam_energy_mev"), "{}"));
-    for (const auto& p : i.at("points")) {
-      corr += fmt::format(" {} MeV (×{:.3f})", number(p.at("beam_energy_mev"), "{}"), p.at("weight").get<double>());
-    }
+    corr += fmt::format("; interpolated to {}", html::escape(calib::interpolationText(c.at("interpolation"))));
   }
   return corr;
 }

@@ -16,6 +16,7 @@
 #include "emcalign/core/parameters.hpp"
 #include "emcalign/core/statistics.hpp"
 #include "emcalign/core/units.hpp"
+#include "emcalign/io/strict_json.hpp"
 #include "emcalign/report/campaign_plots.hpp"
 
 namespace emcalign::validation {
@@ -79,11 +80,7 @@ Result<Ranges> readRanges(const std::string& path) {
   if (!j) return j.error();
   Ranges r = Ranges::defaults();
   if (!j->is_object()) return Error{fmt::format("{}: expected a JSON object", path)};
-  for (const auto& [key, value] : j->items()) {
-    if (key != "format" && key != "ranges" && key != "mu_below_gapless") {
-      return Error{fmt::format("{}: key '{}': unknown key (allowed: format, ranges, mu_below_gapless)", path, key)};
-    }
-  }
+  if (Status s = io::strict::checkKeys(*j, {"format", "ranges", "mu_below_gapless"}, path); !s) return s.error();
   if (!j->contains("format") || (*j)["format"] != kRangesFormat) {
     return Error{fmt::format("{}: key 'format': expected \"{}\"", path, kRangesFormat)};
   }

@@ -58,6 +58,11 @@ struct CorrectionsAt {
   std::string warning;  ///< a single file used away from its own energy (empty: none)
 };
 
+/// A grid's interpolation (CorrectionsAt::interpolation, a fit result's
+/// "model_corrections.interpolation") in words: "612.5 MeV (500 MeV × 0.550, 750 MeV × 0.450)";
+/// empty for null (a single file).
+std::string interpolationText(const io::Json& interpolation);
+
 class CorrectionsGrid {
  public:
   /// A corrections file, or a directory of them (its *.json files; at least two, each with

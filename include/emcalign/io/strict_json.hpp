@@ -5,12 +5,15 @@
 // expected an integer"). The readers throw BadInput inside `guarded`, which returns it as an
 // Error.
 
+#include <algorithm>
 #include <cmath>
 #include <initializer_list>
+#include <optional>
 #include <string>
 #include <string_view>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "emcalign/core/result.hpp"
 #include "emcalign/io/json_files.hpp"
@@ -28,6 +31,32 @@ inline std::string join(std::string_view path, std::string_view key) {
 
 inline std::string typeName(const Json& j) { return j.type_name(); }
 
+/// The first key of the object `j` that is not one of `allowed`, if any ("x"); `j` must be an
+/// object.
+inline std::optional<std::string> unknownKey(const Json& j, std::initializer_list<std::string_view> allowed) {
+  for (const auto& [key, value] : j.items()) {
+    if (std::find(allowed.begin(), allowed.end(), key) == allowed.end()) return key;
+  }
+  return std::nullopt;
+}
+
+/// What every reader of a JSON file says of a key it does not know: "unknown key (allowed:
+/// format, ranges)".
+inline std::string unknownKeyText(std::initializer_list<std::string_view> allowed) {
+  return fmt::format("unknown key (allowed: {})", fmt::join(allowed, ", "));
+}
+
+/// The keys of the object `j` (at `path` of `source`; "" for the document itself) against the
+/// allowed ones, for the readers that return a Status: "s.json: key 'ranges.x': unknown key
+/// (allowed: beta, mu)". `j` must be an object.
+inline Status checkKeys(const Json& j, std::initializer_list<std::string_view> allowed, std::string_view source,
+                        std::string_view path = {}) {
+  if (auto key = unknownKey(j, allowed)) {
+    return Error{fmt::format("{}: key '{}': {}", source, join(path, *key), unknownKeyText(allowed))};
+  }
+  return {};
+}
+
 // A JSON object whose keys are checked against the allowed ones.
 class StrictObject {
  public:
@@ -39,15 +68,7 @@ class StrictObject {
   }
 
   void allowOnly(std::initializer_list<std::string_view> allowed) const {
-    for (const auto& [key, value] : j_.items()) {
-      bool known = false;
-      for (auto a : allowed) known = known || a == key;
-      if (!known) {
-        std::string list;
-        for (auto a : allowed) list += fmt::format("{}{}", list.empty() ? "" : ", ", a);
-        fail(join(path_, key), fmt::format("unknown key (allowed here: {})", list));
-      }
-    }
+    if (auto key = unknownKey(j_, allowed)) fail(join(path_, *key), unknownKeyText(allowed));
   }
 
   [[nodiscard]] bool has(std::string_view key) const { return j_.contains(key); }

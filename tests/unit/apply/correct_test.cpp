@@ -1,0 +1,231 @@
+// Correcting event files (apply/correct.hpp) through the library: the method by name, the
+// options a user gives, the alignment of each run, one output per input, and what a
+// correction with the true alignment does to the clusters' directions.
+
+#include "emcalign/apply/correct.hpp"
+
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include "emcalign/core/units.hpp"
+#include "emcalign/io/event_file.hpp"
+#include "emcalign/validation/simulate_file.hpp"
+#include "test_support.hpp"
+
+namespace emcalign::apply {
+namespace {
+
+namespace fs = std::filesystem;
+using geometry::AlignmentParameters;
+using geometry::AlignmentTransform;
+using geometry::testing::sndCalorimeter;
+
+std::shared_ptr<const AlignmentTransform> transformOf(const AlignmentParameters& eta) {
+  auto t = AlignmentTransform::create(eta, geometry::AlignmentRadii::of(sndCalorimeter().description()));
+  EXPECT_TRUE(t.ok());
+  return std::make_shared<const AlignmentTransform>(*t);
+}
+
+std::vector<ParticleRow> rowsOf(const std::string& file) {
+  auto reader = io::EventReader::open({file});
+  EXPECT_TRUE(reader.ok()) << (reader.ok() ? "" : reader.error().message);
+  std::vector<ParticleRow> all, block;
+  if (!reader.ok()) return all;
+  while (*(*reader)->next(block)) all.insert(all.end(), block.begin(), block.end());
+  return all;
+}
+
+// The mean of φ_EMC − φ_TS over the charged particles that reached the EMC.
+double meanPhiResidual(const std::vector<ParticleRow>& rows) {
+  double sum = 0.0;
+  int n = 0;
+  for (const ParticleRow& r : rows) {
+    if (r.charged == 0 || std::isnan(r.energy)) continue;
+    sum += std::remainder(r.phiEmc - r.phiTs, 2 * M_PI);
+    ++n;
+  }
+  return n > 0 ? sum / n : std::nan("");
+}
+
+class CorrectFiles : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / fmt::format("emcalign-correct-{}", ::getpid());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+
+  // `events` of run `run` simulated with the misalignment `truth`, with hits.
+  std::string simulated(const std::string& name, const AlignmentParameters& truth, std::int32_t run,
+                        std::int64_t events = 3000) const {
+    validation::SimulateRequest r;
+    r.options.seed = 7 + static_cast<std::uint64_t>(run);
+    r.options.run = run;
+    r.events = events;
+    r.threads = 1;
+    const std::string file = path(name);
+    auto done = validation::simulateFile(sndCalorimeter(), truth, r, file);
+    EXPECT_TRUE(done.ok()) << (done.ok() ? "" : done.error().message);
+    return file;
+  }
+
+  fs::path dir_;
+};
+
+TEST(CorrectionMethod, NamesRoundTripAndAnUnknownOneIsNone) {
+  for (const CorrectionMethod m : {CorrectionMethod::Auto, CorrectionMethod::Hits, CorrectionMethod::Clusters}) {
+    EXPECT_EQ(correctionMethodFromName(name(m)), m) << name(m);
+  }
+  EXPECT_FALSE(correctionMethodFromName("hit").has_value());
+  EXPECT_FALSE(correctionMethodFromName("").has_value());
+}
+
+TEST(CorrectOptions, TheMethodByNameAndTheDepthOffsetOfTheClusterMethod) {
+  const auto& calo = sndCalorimeter();
+  auto clusters = correctOptionsOf("clusters", 0.7, "", calo);
+  ASSERT_TRUE(clusters.ok()) << clusters.error().message;
+  EXPECT_EQ(clusters->method, CorrectionMethod::Clusters);
+  EXPECT_DOUBLE_EQ(clusters->depth.offset, 0.7);
+  EXPECT_DOUBLE_EQ(clusters->depth.r0, geometry::ShowerDepth::of(calo.description()).r0);
+
+  auto bad = correctOptionsOf("nearest", 0.0, "", calo);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().message.find("nearest"), std::string::npos) << bad.error().message;
+
+  const std::string missing = "/nonexistent/corrections.json";
+  auto noFile = correctOptionsOf("clusters", 0.0, missing, calo);
+  ASSERT_FALSE(noFile.ok());
+  EXPECT_NE(noFile.error().message.find(missing), std::string::npos) << noFile.error().message;
+}
+
+TEST_F(CorrectFiles, TheTrueAlignmentTakesTheRotationOutOfTheClusters) {
+  AlignmentParameters truth;
+  truth[Param::Alpha] = 3.0 * units::deg;
+  const std::string in = simulated("ev.h5", truth, 1);
+  const double before = meanPhiResidual(rowsOf(in));
+  // The clusters of a rotated EMC are seen turned by α about the beam in the tracker's frame
+  // only after the correction: before it, their φ is the nominal frame's, off by −α.
+  EXPECT_NEAR(before, -3.0 * units::deg, 0.5 * units::deg);
+  for (const CorrectionMethod method : {CorrectionMethod::Hits, CorrectionMethod::Clusters}) {
+    SCOPED_TRACE(std::string(name(method)));
+    CorrectOptions o;
+    o.method = method;
+    o.depth = geometry::ShowerDepth::of(sndCalorimeter().description());
+    const std::string out = path(fmt::format("c-{}.h5", name(method)));
+    auto report = correctFiles({in}, out, sndCalorimeter(), *transformOf(truth), o);
+    ASSERT_TRUE(report.ok()) << report.error().message;
+    EXPECT_EQ(report->method, method);
+    EXPECT_EQ(report->alignments, 1);
+    EXPECT_TRUE(report->hits);
+    EXPECT_TRUE(report->truth);
+    const auto corrected = rowsOf(out);
+    EXPECT_EQ(static_cast<std::int64_t>(corrected.size()), report->rows);
+    EXPECT_GT(report->clusters, report->rows / 2);
+    EXPECT_LT(std::abs(meanPhiResidual(corrected)), 0.1 * units::deg)
+        << "before " << before / units::deg << " deg, after " << meanPhiResidual(corrected) / units::deg << " deg";
+  }
+}
+
+TEST_F(CorrectFiles, EachRunWithItsOwnAlignmentAsIfCorrectedAlone) {
+  AlignmentParameters a = geometry::testing::paperLike(), b;
+  b[Param::Dx] = -0.4;
+  b[Param::Alpha] = -1.0 * units::deg;
+  const std::string one = simulated("run1.h5", a, 1, 1500), two = simulated("run2.h5", b, 2, 1500);
+  const std::map<std::int64_t, std::shared_ptr<const AlignmentTransform>> byRun = {{1, transformOf(a)},
+                                                                                   {2, transformOf(b)}};
+  int asked = 0;
+  const AlignmentOfRun alignmentOf =
+      [&](std::int64_t run) -> Result<std::shared_ptr<const AlignmentTransform>> {
+    ++asked;
+    if (auto it = byRun.find(run); it != byRun.end()) return it->second;
+    return Error{fmt::format("no alignment of run {}", run)};
+  };
+  CorrectOptions o;
+  o.method = CorrectionMethod::Hits;
+  auto both = correctFiles({one, two}, path("both.h5"), sndCalorimeter(), alignmentOf, o);
+  ASSERT_TRUE(both.ok()) << both.error().message;
+  EXPECT_EQ(both->alignments, 2);
+  EXPECT_GT(asked, 0);
+
+  auto alone1 = correctFiles({one}, path("one.h5"), sndCalorimeter(), *byRun.at(1), o);
+  auto alone2 = correctFiles({two}, path("two.h5"), sndCalorimeter(), *byRun.at(2), o);
+  ASSERT_TRUE(alone1.ok() && alone2.ok());
+  auto expected = rowsOf(path("one.h5"));
+  const auto second = rowsOf(path("two.h5"));
+  expected.insert(expected.end(), second.begin(), second.end());
+  const auto got = rowsOf(path("both.h5"));
+  ASSERT_EQ(got.size(), expected.size());
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    ASSERT_EQ(got[i].run, expected[i].run);
+    ASSERT_EQ(got[i].event, expected[i].event);
+    const bool same = (got[i].phiEmc == expected[i].phiEmc && got[i].thetaEmc == expected[i].thetaEmc) ||
+                      (std::isnan(got[i].phiEmc) && std::isnan(expected[i].phiEmc));
+    ASSERT_TRUE(same) << "row " << i << " of run " << got[i].run;
+  }
+
+  // A run without an alignment is an error naming it, and no output is left.
+  const std::map<std::int64_t, std::shared_ptr<const AlignmentTransform>> onlyFirst = {{1, transformOf(a)}};
+  auto partial = correctFiles(
+      {one, two}, path("partial.h5"), sndCalorimeter(),
+      [&](std::int64_t run) -> Result<std::shared_ptr<const AlignmentTransform>> {
+        if (auto it = onlyFirst.find(run); it != onlyFirst.end()) return it->second;
+        return Error{fmt::format("no alignment of run {}", run)};
+      },
+      o);
+  ASSERT_FALSE(partial.ok());
+  EXPECT_NE(partial.error().message.find("run 2"), std::string::npos) << partial.error().message;
+  EXPECT_FALSE(fs::exists(path("partial.h5")));
+}
+
+TEST_F(CorrectFiles, EachInputIntoTheDirectoryUnderItsNameAndTwoOfOneNameRefused) {
+  const AlignmentParameters a = geometry::testing::paperLike();
+  const std::string one = simulated("run1.h5", a, 1, 800), two = simulated("run2.h5", a, 2, 800);
+  const auto t = transformOf(a);
+  const AlignmentOfRun alignmentOf = [&](std::int64_t) -> Result<std::shared_ptr<const AlignmentTransform>> {
+    return t;
+  };
+  fs::create_directories(dir_ / "out");
+  std::vector<std::string> written;
+  auto r = correctEachInto({one, two}, path("out"), sndCalorimeter(), alignmentOf, CorrectOptions{},
+                           [&](const std::string& f) { written.push_back(f); });
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ASSERT_EQ(written.size(), 2u);
+  EXPECT_EQ(written[0], path("out/run1.h5"));
+  EXPECT_EQ(written[1], path("out/run2.h5"));
+  EXPECT_EQ(r->method, CorrectionMethod::Hits) << "auto takes the hits of HDF5 files";
+  EXPECT_EQ(r->rows, static_cast<std::int64_t>(rowsOf(one).size() + rowsOf(two).size()));
+
+  fs::create_directories(dir_ / "other");
+  fs::copy_file(one, dir_ / "other" / "run1.h5");
+  auto clash = correctEachInto({one, path("other/run1.h5")}, path("out2"), sndCalorimeter(), alignmentOf, {});
+  ASSERT_FALSE(clash.ok());
+  EXPECT_NE(clash.error().message.find("the same name"), std::string::npos) << clash.error().message;
+  EXPECT_FALSE(fs::exists(dir_ / "out2")) << "refused before any work";
+}
+
+TEST(CorrectionRecord, SaysWhatCorrectedTheFile) {
+  CorrectOptions o;
+  o.depth = geometry::ShowerDepth::of(sndCalorimeter().description());
+  o.depth.offset = 0.5;
+  const io::Json alignment = {{"file", "fit.json"}};
+  const io::Json record = correctionRecord(alignment, "clusters", o, {"a.h5", "b.h5"}, "");
+  EXPECT_EQ(record.at("alignment"), alignment);
+  EXPECT_EQ(record.at("method"), "clusters");
+  EXPECT_DOUBLE_EQ(record.at("depth_offset_cm").get<double>(), 0.5);
+  EXPECT_EQ(record.at("inputs").size(), 2u);
+  EXPECT_TRUE(record.contains("software"));
+  EXPECT_TRUE(record.contains("log_weight_w0"));
+}
+
+}  // namespace
+}  // namespace emcalign::apply

@@ -1,0 +1,131 @@
+// Filling the profiles (calib/calibration.hpp): from files and from rows in memory alike, and
+// run by run for a campaign, each run's fill being what its rows alone give, the runs'
+// fills adding up to the file's.
+
+#include "emcalign/calib/calibration.hpp"
+
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include "emcalign/io/event_file.hpp"
+#include "emcalign/validation/simulate_file.hpp"
+#include "test_support.hpp"
+
+namespace emcalign::calib {
+namespace {
+
+namespace fs = std::filesystem;
+using geometry::testing::sndCalorimeter;
+
+std::vector<ParticleRow> rowsOf(const std::string& file) {
+  auto reader = io::EventReader::open({file});
+  EXPECT_TRUE(reader.ok()) << (reader.ok() ? "" : reader.error().message);
+  std::vector<ParticleRow> all, block;
+  if (!reader.ok()) return all;
+  while (*(*reader)->next(block)) all.insert(all.end(), block.begin(), block.end());
+  return all;
+}
+
+void expectSameBins(const std::vector<ProfileBin>& a, const std::vector<ProfileBin>& b, double tolerance) {
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    ASSERT_EQ(a[i].n, b[i].n) << "bin " << i;
+    if (a[i].n == 0) continue;
+    EXPECT_NEAR(a[i].yPhi, b[i].yPhi, tolerance) << "bin " << i;
+    EXPECT_NEAR(a[i].yTheta, b[i].yTheta, tolerance) << "bin " << i;
+  }
+}
+
+class FillProfiles : public ::testing::Test {
+ protected:
+  // Two runs of a misaligned detector in one CSV file, run 2's events first.
+  static void SetUpTestSuite() {
+    dir_ = fs::temp_directory_path() / fmt::format("emcalign-calibration-{}", ::getpid());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    for (const std::int32_t run : {2, 1}) {
+      validation::SimulateRequest r;
+      r.options.seed = static_cast<std::uint64_t>(run);
+      r.options.run = run;
+      r.events = 4000;
+      r.threads = 1;
+      const std::string file = (dir_ / fmt::format("run{}.h5", run)).string();
+      auto done = validation::simulateFile(sndCalorimeter(), geometry::testing::paperLike(), r, file);
+      ASSERT_TRUE(done.ok()) << done.error().message;
+      byRun_[run] = rowsOf(file);
+      all_.insert(all_.end(), byRun_[run].begin(), byRun_[run].end());
+    }
+    auto writer = io::EventWriter::open(combined(), io::WriterOptions{});
+    ASSERT_TRUE(writer.ok()) << writer.error().message;
+    ASSERT_TRUE((*writer)->append(all_, {}, {}).ok());
+    ASSERT_TRUE((*writer)->close().ok());
+  }
+  static void TearDownTestSuite() { fs::remove_all(dir_); }
+  static std::string combined() { return (dir_ / "both.csv").string(); }
+  static geometry::ShowerDepth depth() { return geometry::ShowerDepth::of(sndCalorimeter().description()); }
+
+  static inline fs::path dir_;
+  static inline std::map<std::int32_t, std::vector<ParticleRow>> byRun_;
+  static inline std::vector<ParticleRow> all_;
+};
+
+TEST_F(FillProfiles, AFileAndItsRowsInMemoryFillAlike) {
+  auto file = fillProfiles({combined()}, depth(), SelectionOptions{});
+  ASSERT_TRUE(file.ok()) << file.error().message;
+  auto memory = fillProfilesOfRows(all_, "rows", depth(), SelectionOptions{});
+  ASSERT_TRUE(memory.ok()) << memory.error().message;
+  EXPECT_EQ(file->cutFlow.events, memory->cutFlow.events);
+  EXPECT_EQ(file->cutFlow.events[0], 8000) << "every event read";
+  EXPECT_GT(file->cutFlow.events.back(), 1000) << "most Bhabha events selected";
+  EXPECT_EQ(file->particlesSelected, memory->particlesSelected);
+  expectSameBins(file->profiles.bins(), memory->profiles.bins(), 0.0);
+
+  // Rows in memory are checked as a file's rows are: an event split in two is refused.
+  std::vector<ParticleRow> split = all_;
+  std::swap(split[1], split[split.size() / 2]);
+  auto refused = fillProfilesOfRows(split, "my rows", depth(), SelectionOptions{});
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.error().message.find("my rows"), std::string::npos) << refused.error().message;
+}
+
+TEST_F(FillProfiles, RunByRunEachRunAsItsRowsAloneAndTogetherTheFile) {
+  std::map<std::int32_t, io::EventNumbers> events;
+  auto runs = fillProfilesByRun(combined(), geometry::atEveryEnergy(depth()), SelectionOptions{}, {}, &events);
+  ASSERT_TRUE(runs.ok()) << runs.error().message;
+  ASSERT_EQ(runs->size(), 2u);
+  ProfileFill merged = ProfileFill::empty(ProfileOptions{});
+  for (const std::int32_t run : {1, 2}) {
+    SCOPED_TRACE(fmt::format("run {}", run));
+    ASSERT_TRUE(runs->contains(run));
+    const ProfileFill& got = runs->at(run);
+    auto alone = fillProfilesOfRows(byRun_.at(run), "run", depth(), SelectionOptions{});
+    ASSERT_TRUE(alone.ok()) << alone.error().message;
+    EXPECT_EQ(got.cutFlow.events, alone->cutFlow.events);
+    expectSameBins(got.profiles.bins(), alone->profiles.bins(), 0.0);
+    ASSERT_TRUE(events.contains(run));
+    EXPECT_FALSE(events.at(run).empty());
+    merged.merge(got);
+  }
+  auto whole = fillProfiles({combined()}, depth(), SelectionOptions{});
+  ASSERT_TRUE(whole.ok());
+  EXPECT_EQ(merged.cutFlow.events, whole->cutFlow.events);
+  EXPECT_EQ(merged.particlesSelected, whole->particlesSelected);
+  // Sums in another order: equal to rounding.
+  expectSameBins(merged.profiles.bins(), whole->profiles.bins(), 1e-12);
+
+  // The depth of a run's energy that cannot be had: the error names the run.
+  auto noDepth = fillProfilesByRun(
+      combined(), [](double) -> Result<geometry::ShowerDepth> { return Error{"no depth at this energy"}; },
+      SelectionOptions{});
+  ASSERT_FALSE(noDepth.ok());
+  EXPECT_NE(noDepth.error().message.find("run 2"), std::string::npos) << noDepth.error().message;
+}
+
+}  // namespace
+}  // namespace emcalign::calib

@@ -6,6 +6,8 @@
 
 #include <filesystem>
 #include <map>
+#include <set>
+#include <utility>
 #include <string>
 #include <vector>
 
@@ -81,7 +83,9 @@ TEST_F(FillProfiles, AFileAndItsRowsInMemoryFillAlike) {
   auto memory = fillProfilesOfRows(all_, "rows", depth(), SelectionOptions{});
   ASSERT_TRUE(memory.ok()) << memory.error().message;
   EXPECT_EQ(file->cutFlow.events, memory->cutFlow.events);
-  EXPECT_EQ(file->cutFlow.events[0], 8000) << "every event read";
+  std::set<std::pair<std::int32_t, std::int64_t>> events;
+  for (const ParticleRow& r : all_) events.emplace(r.run, r.event);
+  EXPECT_EQ(file->cutFlow.events[0], static_cast<std::int64_t>(events.size())) << "every event read";
   EXPECT_GT(file->cutFlow.events.back(), 1000) << "most Bhabha events selected";
   EXPECT_EQ(file->particlesSelected, memory->particlesSelected);
   expectSameBins(file->profiles.bins(), memory->profiles.bins(), 0.0);

@@ -17,14 +17,15 @@
 #include <unistd.h>
 
 #include "emcalign/core/units.hpp"
-#include "emcalign/io/event_file.hpp"
 #include "emcalign/validation/simulate_file.hpp"
+#include "event_files.hpp"
 #include "test_support.hpp"
 
 namespace emcalign::apply {
 namespace {
 
 namespace fs = std::filesystem;
+using emcalign::testing::rowsOf;
 using geometry::AlignmentParameters;
 using geometry::AlignmentTransform;
 using geometry::testing::sndCalorimeter;
@@ -33,15 +34,6 @@ std::shared_ptr<const AlignmentTransform> transformOf(const AlignmentParameters&
   auto t = AlignmentTransform::create(eta, geometry::AlignmentRadii::of(sndCalorimeter().description()));
   EXPECT_TRUE(t.ok());
   return std::make_shared<const AlignmentTransform>(*t);
-}
-
-std::vector<ParticleRow> rowsOf(const std::string& file) {
-  auto reader = io::EventReader::open({file});
-  EXPECT_TRUE(reader.ok()) << (reader.ok() ? "" : reader.error().message);
-  std::vector<ParticleRow> all, block;
-  if (!reader.ok()) return all;
-  while (*(*reader)->next(block)) all.insert(all.end(), block.begin(), block.end());
-  return all;
 }
 
 // The mean of φ_EMC − φ_TS over the charged particles that reached the EMC, and its

@@ -16,24 +16,16 @@
 #include <unistd.h>
 
 #include "emcalign/core/units.hpp"
-#include "emcalign/io/event_file.hpp"
 #include "emcalign/validation/simulate_file.hpp"
+#include "event_files.hpp"
 #include "test_support.hpp"
 
 namespace emcalign::calib {
 namespace {
 
 namespace fs = std::filesystem;
+using emcalign::testing::rowsOf;
 using geometry::testing::sndCalorimeter;
-
-std::vector<ParticleRow> rowsOf(const std::string& file) {
-  auto reader = io::EventReader::open({file});
-  EXPECT_TRUE(reader.ok()) << (reader.ok() ? "" : reader.error().message);
-  std::vector<ParticleRow> all, block;
-  if (!reader.ok()) return all;
-  while (*(*reader)->next(block)) all.insert(all.end(), block.begin(), block.end());
-  return all;
-}
 
 Result<FitOutcome> runJob(const FitRequest& request, FitData* loaded = nullptr, FitJob* prepared = nullptr) {
   auto job = FitJob::prepare(request, sndCalorimeter().description());

@@ -145,9 +145,9 @@ void printCorrections(const calib::CorrectionsAt& at) {
   fmt::print(reportStream(),
              "Model corrections from {}{}: depth offset {:+.2f} cm, parting-plane response {}, nominal profile {}, "
              "fit response {}, systematic errors {}\n",
-             at.path, at.interpolation.is_null() ? "" : " at " + calib::interpolationText(at.interpolation), c.depthOffset / units::cm, c.partingPlane ? "on" : "off",
-             c.nominalProfile ? "subtracted" : "off", c.response ? "on" : "off",
-             c.systematics ? "carried" : "not measured");
+             at.path, at.interpolation.is_null() ? "" : " at " + calib::interpolationText(at.interpolation),
+             c.depthOffset / units::cm, c.partingPlane ? "on" : "off", c.nominalProfile ? "subtracted" : "off",
+             c.response ? "on" : "off", c.systematics ? "carried" : "not measured");
 }
 
 calib::FitRequest requestOf(const FitCliOptions& o) {

@@ -77,7 +77,7 @@ int refit(const TrendCliOptions& o, const validation::Trend& trend, const std::v
   fmt::print(reportStream(), "refit: {} instead of {} -> {} tag {}\n", counted(r->iovs.size(), "IOV"),
              snapshot.iovs().size(), db.uri(), o.tagOut);
   for (const auto& seg : r->segments) {
-    if (seg.kept()) continue;
+    if (seg.kept) continue;
     for (const auto& p : seg.precision) {
       if (p.parameter != Param::Dx) continue;
       fmt::print(reportStream(),

@@ -143,7 +143,8 @@ Result<Placements> readPlacements(const std::string& path, const geometry::Calor
   auto j = io::parseJson(*text, path);
   if (!j) return j.error();
   if (!isPlacementsJson(*j)) return Error{fmt::format("{}: key 'format': expected \"{}\"", path, kPlacementsFormat)};
-  if (Status s = io::strict::checkKeys(*j, {"format", "software", "convention", "alignment", "placements"}, path);
+  if (Status s =
+          io::strict::checkKeys(*j, {"format", "software", "convention", "alignment", "placements"}, {.source = path});
       !s) {
     return s.error();
   }
@@ -167,6 +168,11 @@ Result<Placements> readPlacements(const std::string& path, const geometry::Calor
         !q["translation_cm"].is_array() || q["translation_cm"].size() != 3) {
       return Error{
           fmt::format("{}: key '{}': expected support, hemisphere, rotation (3x3), translation_cm (3)", path, where)};
+    }
+    if (Status s = io::strict::checkKeys(q, {"support", "hemisphere", "name", "rotation", "translation_cm"},
+                                         {.source = path, .path = where});
+        !s) {
+      return s.error();
     }
     if (number(q["support"]) != e.support || number(q["hemisphere"]) != geometry::sign(e.hemisphere)) {
       return Error{fmt::format("{}: key '{}': expected support {} hemisphere {} (the order of the export)", path, where,

@@ -222,7 +222,7 @@ Status checkCorrectionsKeys(const Json& j, std::string_view source) {
   if (Status s = io::strict::checkKeys(j,
                                        {"format", "beam_energy_mev", "depth_offset_cm", "parting_plane",
                                         "nominal_profile", "response", "systematic_errors", "derived_from"},
-                                       source);
+                                       {.source = source});
       !s) {
     return s;
   }
@@ -364,7 +364,9 @@ Result<ModelCorrections> parseCorrections(const Json& j, std::string_view source
 
 Result<SystematicErrors> parseSystematicErrors(const Json& j, std::string_view source) {
   if (!j.is_object()) return Error{fmt::format("{}: key 'systematic_errors': expected an object", source)};
-  if (Status s = io::strict::checkKeys(j, {"errors", "components", "study"}, source, "systematic_errors"); !s) {
+  if (Status s =
+          io::strict::checkKeys(j, {"errors", "components", "study"}, {.source = source, .path = "systematic_errors"});
+      !s) {
     return s.error();
   }
   if (!j.contains("errors") || !j["errors"].is_object()) {

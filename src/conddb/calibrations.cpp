@@ -57,7 +57,8 @@ Result<PutReport> putResultFile(Database& db, const ResultFileToPut& file) {
   if (!payload) return payload.error();
   auto existed = db.tag(tag);
   if (!existed) return existed.error();
-  if (Status s = db.put(tag, file.firstRun, file.lastRun, *payload, conddb::IfMissing::Create, file.description); !s) return s.error();
+  if (Status s = db.put(tag, file.firstRun, file.lastRun, *payload, IfMissing::Create, file.description); !s)
+    return s.error();
   report.newTag = !existed->has_value();
   report.payload = payload->hash();
   return report;

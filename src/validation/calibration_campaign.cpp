@@ -873,7 +873,9 @@ Result<CampaignReport> runCampaign(const CampaignScan& scan, const CampaignModel
             report.failures.push_back(fmt::format("group {} (runs {}-{}): the fit's status is '{}': not stored",
                                                   g.index, g.iovFirst, g.iovLast, name(fit->result.status)));
             status = std::string(name(fit->result.status));
-          } else if (Status s = db.put(tag, g.iovFirst, g.iovLast, fit->payload, conddb::IfMissing::Create, o.description); !s) {
+          } else if (Status s =
+                         db.put(tag, g.iovFirst, g.iovLast, fit->payload, conddb::IfMissing::Create, o.description);
+                     !s) {
             // Another process may have stored this very group meanwhile (a batch retry).
             if (auto same = groupStored(db, tag, g, digests, model); same && *same) {
               ++report.resumed;

@@ -80,7 +80,8 @@ Result<Ranges> readRanges(const std::string& path) {
   if (!j) return j.error();
   Ranges r = Ranges::defaults();
   if (!j->is_object()) return Error{fmt::format("{}: expected a JSON object", path)};
-  if (Status s = io::strict::checkKeys(*j, {"format", "ranges", "mu_below_gapless"}, path); !s) return s.error();
+  if (Status s = io::strict::checkKeys(*j, {"format", "ranges", "mu_below_gapless"}, {.source = path}); !s)
+    return s.error();
   if (!j->contains("format") || (*j)["format"] != kRangesFormat) {
     return Error{fmt::format("{}: key 'format': expected \"{}\"", path, kRangesFormat)};
   }

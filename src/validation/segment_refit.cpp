@@ -109,7 +109,6 @@ struct RefitInputs {
 
 // Stable period `k` refitted from all its events, beside the IOVs it replaces.
 Result<RefittedSegment> refitPeriod(const RefitInputs& in, const TrendSegment& seg, std::size_t k) {
-  const auto& [series, tag, scan, model, digests, truth, periods] = in;
   RefittedSegment rs;
   rs.firstRun = seg.firstRun;
   rs.lastRun = seg.lastRun;
@@ -121,23 +120,23 @@ Result<RefittedSegment> refitPeriod(const RefitInputs& in, const TrendSegment& s
   g.iovLast = seg.lastRun;
   // A period spans several beam energies: each run was filled at its own energy's depth, and
   // the period is fitted with the corrections at its events' mean energy (a grid's).
-  auto periodModel = model.at(scan.meanBeamEnergy(seg.firstRun, seg.lastRun));
+  auto periodModel = in.model.at(in.scan.meanBeamEnergy(seg.firstRun, seg.lastRun));
   if (!periodModel)
     return Error{fmt::format("--refit: runs {}-{}: {}", seg.firstRun, seg.lastRun, periodModel.error().message)};
-  calib::ProfileFill fill = scan.fillOf(seg.firstRun, seg.lastRun, periodModel->profile, &g.runs);
+  calib::ProfileFill fill = in.scan.fillOf(seg.firstRun, seg.lastRun, periodModel->profile, &g.runs);
   if (g.runs.empty()) {
     return Error{fmt::format("--refit: no events of runs {}-{} in the files given", seg.firstRun, seg.lastRun)};
   }
-  g.files = scan.filesOf(seg.firstRun, seg.lastRun);
+  g.files = in.scan.filesOf(seg.firstRun, seg.lastRun);
   g.beamEnergy = std::numeric_limits<double>::quiet_NaN();  // a period spans several energies
   g.selected = fill.cutFlow.events.back();
   const Json origin = {{"refit",
-                        {{"tag", tag.tag().name},
+                        {{"tag", in.tag.tag().name},
                          {"period", k},
-                         {"periods", periods},
+                         {"periods", in.periods},
                          {"replaces_iovs", seg.end - seg.begin},
                          {"runs", g.runs}}}};
-  auto fit = fitGroup(g, fill, *periodModel, digests, origin);
+  auto fit = fitGroup(g, fill, *periodModel, in.digests, origin);
   if (!fit) return Error{fmt::format("--refit: {}", fit.error().message)};
   if (!usable(fit->result.status)) {
     return Error{fmt::format("--refit: runs {}-{}: the fit's status is '{}'", seg.firstRun, seg.lastRun,
@@ -149,29 +148,29 @@ Result<RefittedSegment> refitPeriod(const RefitInputs& in, const TrendSegment& s
 
   // The replaced IOVs: their events and statistical errors.
   std::vector<double> selectedBefore;
-  std::vector<std::vector<double>> statBefore(series.size());
+  std::vector<std::vector<double>> statBefore(in.series.size());
   for (std::size_t i = seg.begin; i < seg.end; ++i) {
-    const conddb::Iov& iov = tag.iovs()[i];
-    const double energy = scan.meanBeamEnergy(iov.firstRun, iov.lastRun);
+    const conddb::Iov& iov = in.tag.iovs()[i];
+    const double energy = in.scan.meanBeamEnergy(iov.firstRun, iov.lastRun);
     if (std::isnan(energy)) {  // no selected event
       selectedBefore.push_back(0.0);
       continue;
     }
-    auto iovModel = model.at(energy);
+    auto iovModel = in.model.at(energy);
     if (!iovModel)
       return Error{fmt::format("--refit: runs {}-{}: {}", iov.firstRun, iov.lastRun, iovModel.error().message)};
-    const calib::ProfileFill f = scan.fillOf(iov.firstRun, iov.lastRun, iovModel->profile);
+    const calib::ProfileFill f = in.scan.fillOf(iov.firstRun, iov.lastRun, iovModel->profile);
     selectedBefore.push_back(static_cast<double>(f.cutFlow.events.back()));
     auto st = statisticalFit(f, *iovModel, iov.firstRun, iov.lastRun);
     if (!st) continue;  // a group too poor for a fit without σ_sys counts as missing
-    for (std::size_t s = 0; s < series.size() && s < st->size(); ++s) statBefore[s].push_back((*st)[s].second);
+    for (std::size_t s = 0; s < in.series.size() && s < st->size(); ++s) statBefore[s].push_back((*st)[s].second);
   }
   rs.medianSelectedBefore = static_cast<std::int64_t>(std::llround(median(selectedBefore)));
   const auto after = valuesOf(fit->result);
-  for (std::size_t s = 0; s < series.size(); ++s) {
+  for (std::size_t s = 0; s < in.series.size(); ++s) {
     const auto value = s < after.size() ? after[s] : std::pair{RefitPrecision::kNaN, RefitPrecision::kNaN};
     const double stat = s < statAfter->size() ? (*statAfter)[s].second : RefitPrecision::kNaN;
-    rs.precision.push_back(precisionOf(series[s], seg.firstRun, seg.lastRun, value, stat, statBefore[s], truth));
+    rs.precision.push_back(precisionOf(in.series[s], seg.firstRun, seg.lastRun, value, stat, statBefore[s], in.truth));
   }
   rs.fit = std::move(*fit);
   return rs;
@@ -258,7 +257,12 @@ Result<std::vector<std::string>> checkRefitData(conddb::TagSnapshot& tag, const 
 
 Result<SegmentRefit> refitSegments(const Trend& trend, const std::vector<TrendSeries>& series, conddb::TagSnapshot& tag,
                                    const CampaignScan& scan, const CampaignModel& model, const PeriodTruth* truth) {
-  RefitInputs in{.series = series, .tag = tag, .scan = scan, .model = model, .digests = {}, .truth = truth,
+  RefitInputs in{.series = series,
+                 .tag = tag,
+                 .scan = scan,
+                 .model = model,
+                 .digests = {},
+                 .truth = truth,
                  .periods = trend.segments.size()};
   for (std::size_t k = 0; k < scan.files.size() && k < scan.digests.size(); ++k)
     in.digests[scan.files[k]] = scan.digests[k];
@@ -272,6 +276,7 @@ Result<SegmentRefit> refitSegments(const Trend& trend, const std::vector<TrendSe
       rs.lastRun = seg.lastRun;
       rs.begin = seg.begin;
       rs.end = seg.end;
+      rs.kept = true;
       rs.drifting = seg.drifting;
       rs.transition = seg.transition;
       for (std::size_t i = seg.begin; i < seg.end; ++i) {
@@ -294,7 +299,7 @@ Json refitJson(const SegmentRefit& r, std::size_t iovsBefore) {
   Json segments = Json::array();
   for (const RefittedSegment& s : r.segments) {
     Json j = {{"first_run", s.firstRun}, {"last_run", s.lastRun}, {"replaces_iovs", s.end - s.begin}};
-    if (s.kept()) {
+    if (s.kept) {
       j["kept"] = true;
       j["drifting"] = s.drifting;
       j["transition"] = s.transition;

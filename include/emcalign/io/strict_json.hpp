@@ -46,13 +46,18 @@ inline std::string unknownKeyText(std::initializer_list<std::string_view> allowe
   return fmt::format("unknown key (allowed: {})", fmt::join(allowed, ", "));
 }
 
-/// The keys of the object `j` (at `path` of `source`; "" for the document itself) against the
-/// allowed ones, for the readers that return a Status: "s.json: key 'ranges.x': unknown key
-/// (allowed: beta, mu)". `j` must be an object.
-inline Status checkKeys(const Json& j, std::initializer_list<std::string_view> allowed, std::string_view source,
-                        std::string_view path = {}) {
+/// Where an object is: its file (or what else the messages call the input) and its key path
+/// there ("" for the document itself).
+struct Where {
+  std::string_view source;
+  std::string_view path = {};
+};
+
+/// The keys of the object `j` against the allowed ones, for the readers that return a Status:
+/// "s.json: key 'ranges.x': unknown key (allowed: beta, mu)". `j` must be an object.
+inline Status checkKeys(const Json& j, std::initializer_list<std::string_view> allowed, Where where) {
   if (auto key = unknownKey(j, allowed)) {
-    return Error{fmt::format("{}: key '{}': {}", source, join(path, *key), unknownKeyText(allowed))};
+    return Error{fmt::format("{}: key '{}': {}", where.source, join(where.path, *key), unknownKeyText(allowed))};
   }
   return {};
 }

@@ -43,14 +43,14 @@ struct RefitPrecision {
 struct RefittedSegment {
   std::int64_t firstRun = 0, lastRun = 0;
   std::size_t begin = 0, end = 0;  ///< the tag's IOVs [begin, end) it covers
-  std::vector<Quantity> drifting;  ///< not empty: not refitted, its IOVs kept
-  bool transition = false;         ///< an IOV straddling a step: kept
+  /// Its IOVs kept as they were, not refitted (TrendSegment::refittable): no fit, no precision.
+  bool kept = false;
+  std::vector<Quantity> drifting;  ///< why it was kept: parameters drifting inside it, or
+  bool transition = false;         ///< an IOV straddling a step
   std::int64_t selected = 0;       ///< selected events of the refit
   std::int64_t medianSelectedBefore = 0;
   std::optional<GroupFit> fit;
   std::vector<RefitPrecision> precision;  ///< the series of the trend, in their order
-  /// Its IOVs kept as they were (TrendSegment::refittable): no fit, no precision.
-  bool kept() const { return !drifting.empty() || transition; }
 };
 
 struct SegmentRefit {

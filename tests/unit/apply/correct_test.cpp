@@ -8,6 +8,8 @@
 #include <filesystem>
 #include <map>
 #include <memory>
+#include <set>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -32,7 +34,7 @@ using geometry::testing::sndCalorimeter;
 
 std::shared_ptr<const AlignmentTransform> transformOf(const AlignmentParameters& eta) {
   auto t = AlignmentTransform::create(eta, geometry::AlignmentRadii::of(sndCalorimeter().description()));
-  EXPECT_TRUE(t.ok());
+  if (!t.ok()) throw std::runtime_error(t.error().message);  // GoogleTest reports it, the test fails
   return std::make_shared<const AlignmentTransform>(*t);
 }
 
@@ -151,10 +153,9 @@ TEST_F(CorrectFiles, EachRunWithItsOwnAlignmentAsIfCorrectedAlone) {
   const std::string one = simulated("run1.h5", a, 1, 1500), two = simulated("run2.h5", b, 2, 1500);
   const std::map<std::int64_t, std::shared_ptr<const AlignmentTransform>> byRun = {{1, transformOf(a)},
                                                                                    {2, transformOf(b)}};
-  int asked = 0;
-  const AlignmentOfRun alignmentOf =
-      [&](std::int64_t run) -> Result<std::shared_ptr<const AlignmentTransform>> {
-    ++asked;
+  std::set<std::int64_t> asked;
+  const AlignmentOfRun alignmentOf = [&](std::int64_t run) -> Result<std::shared_ptr<const AlignmentTransform>> {
+    asked.insert(run);
     if (auto it = byRun.find(run); it != byRun.end()) return it->second;
     return Error{fmt::format("no alignment of run {}", run)};
   };
@@ -163,7 +164,7 @@ TEST_F(CorrectFiles, EachRunWithItsOwnAlignmentAsIfCorrectedAlone) {
   auto both = correctFiles({one, two}, path("both.h5"), sndCalorimeter(), alignmentOf, o);
   ASSERT_TRUE(both.ok()) << both.error().message;
   EXPECT_EQ(both->alignments, 2);
-  EXPECT_GT(asked, 0);
+  EXPECT_EQ(asked, (std::set<std::int64_t>{1, 2})) << "each run's alignment asked for";
 
   auto alone1 = correctFiles({one}, path("one.h5"), sndCalorimeter(), *byRun.at(1), o);
   auto alone2 = correctFiles({two}, path("two.h5"), sndCalorimeter(), *byRun.at(2), o);
@@ -215,10 +216,11 @@ TEST_F(CorrectFiles, EachInputIntoTheDirectoryUnderItsNameAndTwoOfOneNameRefused
 
   fs::create_directories(dir_ / "other");
   fs::copy_file(one, dir_ / "other" / "run1.h5");
-  auto clash = correctEachInto({one, path("other/run1.h5")}, path("out2"), sndCalorimeter(), alignmentOf, {});
+  fs::create_directories(dir_ / "out2");
+  auto clash = correctEachInto({two, one, path("other/run1.h5")}, path("out2"), sndCalorimeter(), alignmentOf, {});
   ASSERT_FALSE(clash.ok());
   EXPECT_NE(clash.error().message.find("the same name"), std::string::npos) << clash.error().message;
-  EXPECT_FALSE(fs::exists(dir_ / "out2")) << "refused before any work";
+  EXPECT_TRUE(fs::is_empty(dir_ / "out2")) << "refused before any work: not even run2.h5 corrected";
 }
 
 TEST(CorrectionRecord, SaysWhatCorrectedTheFile) {

@@ -54,7 +54,7 @@ class Conditions : public ::testing::TestWithParam<std::string> {
     if (!dir_.empty()) fs::remove_all(dir_);
   }
   std::unique_ptr<Database> create() {
-    auto db = Database::open(uri_, conddb::IfMissing::Create);
+    auto db = Database::open(uri_, IfMissing::Create);
     EXPECT_TRUE(db) << db.error().message;
     return std::move(*db);
   }
@@ -72,10 +72,10 @@ class Conditions : public ::testing::TestWithParam<std::string> {
 TEST_P(Conditions, StoresAndFindsByRun) {
   auto db = create();
   const Payload a = payloadOf(2.8), b = payloadOf(2.9);
-  ASSERT_TRUE(db->put("align", 1, 40, a, conddb::IfMissing::Create, "test tag"));
-  ASSERT_TRUE(db->put("align", 41, 100, b, conddb::IfMissing::Refuse));
+  ASSERT_TRUE(db->put("align", 1, 40, a, IfMissing::Create, "test tag"));
+  ASSERT_TRUE(db->put("align", 41, 100, b, IfMissing::Refuse));
   // One payload stored once, however many IOVs hold it.
-  ASSERT_TRUE(db->put("align", 200, 210, a, conddb::IfMissing::Refuse));
+  ASSERT_TRUE(db->put("align", 200, 210, a, IfMissing::Refuse));
 
   auto iovs = db->iovs("align");
   ASSERT_TRUE(iovs);
@@ -118,25 +118,25 @@ TEST_P(Conditions, StoresAndFindsByRun) {
 TEST_P(Conditions, RefusesOverlapsLockedTagsAndBadRanges) {
   auto db = create();
   const Payload a = payloadOf(2.8);
-  ASSERT_TRUE(db->put("t", 10, 20, a, conddb::IfMissing::Create));
+  ASSERT_TRUE(db->put("t", 10, 20, a, IfMissing::Create));
   for (auto [first, last] : {std::pair{5, 10}, {20, 30}, {12, 15}, {1, 100}, {10, 20}}) {
-    Status s = db->put("t", first, last, a, conddb::IfMissing::Refuse);
+    Status s = db->put("t", first, last, a, IfMissing::Refuse);
     ASSERT_FALSE(s) << first << "-" << last;
     EXPECT_NE(s.error().message.find("overlap its IOV 10-20"), std::string::npos) << s.error().message;
   }
-  EXPECT_TRUE(db->put("t", 21, 21, a, conddb::IfMissing::Refuse));
-  EXPECT_TRUE(db->put("t", 1, 9, a, conddb::IfMissing::Refuse));
-  Status backwards = db->put("t", 30, 25, a, conddb::IfMissing::Refuse);
+  EXPECT_TRUE(db->put("t", 21, 21, a, IfMissing::Refuse));
+  EXPECT_TRUE(db->put("t", 1, 9, a, IfMissing::Refuse));
+  Status backwards = db->put("t", 30, 25, a, IfMissing::Refuse);
   ASSERT_FALSE(backwards);
   EXPECT_NE(backwards.error().message.find("first run is after the last"), std::string::npos);
-  Status noTag = db->put("u", 1, 2, a, conddb::IfMissing::Refuse);
+  Status noTag = db->put("u", 1, 2, a, IfMissing::Refuse);
   ASSERT_FALSE(noTag);
   EXPECT_NE(noTag.error().message.find("no tag 'u'"), std::string::npos);
-  EXPECT_FALSE(db->put("bad name", 1, 2, a, conddb::IfMissing::Create));
-  EXPECT_FALSE(db->put("", 1, 2, a, conddb::IfMissing::Create));
+  EXPECT_FALSE(db->put("bad name", 1, 2, a, IfMissing::Create));
+  EXPECT_FALSE(db->put("", 1, 2, a, IfMissing::Create));
 
   ASSERT_TRUE(db->lock("t"));
-  Status locked = db->put("t", 50, 60, a, conddb::IfMissing::Refuse);
+  Status locked = db->put("t", 50, 60, a, IfMissing::Refuse);
   ASSERT_FALSE(locked);
   EXPECT_NE(locked.error().message.find("is locked"), std::string::npos);
   EXPECT_FALSE(db->lock("nope"));
@@ -153,8 +153,8 @@ TEST_P(Conditions, RefusesOverlapsLockedTagsAndBadRanges) {
 TEST_P(Conditions, ARetiredTagIsKeptListedAndNeverServed) {
   auto db = create();
   const Payload a = payloadOf(2.8);
-  ASSERT_TRUE(db->put("wrong", 1, 10, a, conddb::IfMissing::Create));
-  ASSERT_TRUE(db->put("good", 1, 10, a, conddb::IfMissing::Create));
+  ASSERT_TRUE(db->put("wrong", 1, 10, a, IfMissing::Create));
+  ASSERT_TRUE(db->put("good", 1, 10, a, IfMissing::Create));
   ASSERT_TRUE(db->lock("good"));
   ASSERT_TRUE(db->get("wrong", 5));
   ASSERT_TRUE(db->retire("wrong", "the wrong corrections"));
@@ -163,7 +163,7 @@ TEST_P(Conditions, ARetiredTagIsKeptListedAndNeverServed) {
   ASSERT_FALSE(got);
   EXPECT_NE(got.error().message.find("was retired"), std::string::npos) << got.error().message;
   EXPECT_NE(got.error().message.find("the wrong corrections"), std::string::npos) << got.error().message;
-  EXPECT_FALSE(db->put("wrong", 11, 20, a, conddb::IfMissing::Refuse));
+  EXPECT_FALSE(db->put("wrong", 11, 20, a, IfMissing::Refuse));
   EXPECT_FALSE(db->lock("wrong"));
   auto tag = open()->tag("wrong");
   ASSERT_TRUE(tag && tag->has_value());
@@ -232,8 +232,8 @@ TEST_P(Conditions, ConcurrentWritersLoseNothing) {
       for (int k = 0; k < kEach; ++k) {
         const int first = 1000 * w + 10 * k;
         // Each writer creates the tag if it is first; payloads shared between writers.
-        if (!(*db)->put("shared", first, first + 9, payloadOf(2.0 + 0.1 * k), conddb::IfMissing::Create)) ++failures;
-        if ((*db)->put("race", k * 10, k * 10 + 5, payloadOf(3.0 + w), conddb::IfMissing::Create)) ++raceWins;
+        if (!(*db)->put("shared", first, first + 9, payloadOf(2.0 + 0.1 * k), IfMissing::Create)) ++failures;
+        if ((*db)->put("race", k * 10, k * 10 + 5, payloadOf(3.0 + w), IfMissing::Create)) ++raceWins;
       }
     });
   }
@@ -255,7 +255,7 @@ TEST_P(Conditions, KillDuringWriteLeavesItConsistent) {
   create();
   {
     auto db = open();
-    ASSERT_TRUE(db->put("k", 1, 10, payloadOf(2.8), conddb::IfMissing::Create));
+    ASSERT_TRUE(db->put("k", 1, 10, payloadOf(2.8), IfMissing::Create));
   }
   const fs::path marker = fs::temp_directory_path() / fmt::format("emcalign-hold-{}-{}", ::getpid(), counter_++);
   fs::remove(marker);
@@ -265,7 +265,7 @@ TEST_P(Conditions, KillDuringWriteLeavesItConsistent) {
     ::setenv("EMCALIGN_FAULT_HOLD_WRITE", marker.c_str(), 1);
     auto db = Database::open(uri_);
     if (!db) ::_exit(10);
-    (void)(*db)->put("k", 11, 20, payloadOf(3.3), conddb::IfMissing::Refuse);
+    (void)(*db)->put("k", 11, 20, payloadOf(3.3), IfMissing::Refuse);
     ::_exit(11);  // not reached: killed while holding the write
   }
   const auto start = std::chrono::steady_clock::now();
@@ -283,8 +283,8 @@ TEST_P(Conditions, KillDuringWriteLeavesItConsistent) {
   auto iovs = db->iovs("k");
   ASSERT_TRUE(iovs) << iovs.error().message;
   ASSERT_EQ(iovs->size(), 1U);
-  EXPECT_FALSE(db->payload(payloadOf(3.3).hash()));          // its payload went with it
-  ASSERT_TRUE(db->put("k", 11, 20, payloadOf(3.4), conddb::IfMissing::Refuse));  // no lock left behind
+  EXPECT_FALSE(db->payload(payloadOf(3.3).hash()));                      // its payload went with it
+  ASSERT_TRUE(db->put("k", 11, 20, payloadOf(3.4), IfMissing::Refuse));  // no lock left behind
   auto got = db->get("k", 15);
   ASSERT_TRUE(got && got->has_value());
 }
@@ -310,7 +310,7 @@ void editByHand(const std::string& uri, const std::string& sql) {
 TEST_P(Conditions, AnEditedPayloadIsNeverServed) {
   auto db = create();
   const Payload a = payloadOf(2.8);
-  ASSERT_TRUE(db->put("t", 1, 10, a, conddb::IfMissing::Create));
+  ASSERT_TRUE(db->put("t", 1, 10, a, IfMissing::Create));
   editByHand(uri_, "UPDATE emcalign_payloads SET content = replace(content, '\"alpha\":', '\"alpha\":1')");
   auto got = db->get("t", 5);
   ASSERT_FALSE(got);
@@ -323,7 +323,7 @@ TEST_P(Conditions, AnEditedPayloadIsNeverServed) {
 
 TEST_P(Conditions, TextWithNulIsRefusedNotCut) {
   auto db = create();
-  ASSERT_TRUE(db->put("base", 1, 10, payloadOf(2.8), conddb::IfMissing::Create));
+  ASSERT_TRUE(db->put("base", 1, 10, payloadOf(2.8), IfMissing::Create));
   const std::string nul("base\0x", 6);
   EXPECT_FALSE(db->lock(nul));
   auto tag = db->tag("base");
@@ -332,7 +332,7 @@ TEST_P(Conditions, TextWithNulIsRefusedNotCut) {
   EXPECT_FALSE(db->tag(nul));
   EXPECT_FALSE(db->iovs(nul));
   EXPECT_FALSE(db->get(nul, 1));
-  Status described = db->put("other", 1, 10, payloadOf(2.8), conddb::IfMissing::Create, std::string("before\0after", 12));
+  Status described = db->put("other", 1, 10, payloadOf(2.8), IfMissing::Create, std::string("before\0after", 12));
   ASSERT_FALSE(described);
   EXPECT_THAT(described.error().message, ::testing::HasSubstr("NUL"));
 }
@@ -377,7 +377,7 @@ TEST(ConditionsUri, RefusesWhatIsNotADatabase) {
   ASSERT_FALSE(missing);
   EXPECT_NE(missing.error().message.find("no such database"), std::string::npos);
   EXPECT_FALSE(fs::exists(dir / "missing.db"));  // opening does not create
-  auto directory = Database::open(dir.string(), conddb::IfMissing::Create);
+  auto directory = Database::open(dir.string(), IfMissing::Create);
   ASSERT_FALSE(directory);
   EXPECT_NE(directory.error().message.find("not a regular file"), std::string::npos);
   auto scheme = Database::open("mysql://me@host/db");
@@ -394,9 +394,9 @@ TEST(ConditionsSqlite, TextThatIsNotUtf8OrHoldsEscapesIsReadPrintable) {
   const fs::path dir = fs::temp_directory_path() / fmt::format("emcalign-conddb-text-{}", ::getpid());
   fs::create_directories(dir);
   const std::string uri = "sqlite:" + (dir / "c.db").string();
-  auto db = Database::open(uri, conddb::IfMissing::Create);
+  auto db = Database::open(uri, IfMissing::Create);
   ASSERT_TRUE(db) << db.error().message;
-  ASSERT_TRUE((*db)->put("t", 1, 10, payloadOf(2.8), conddb::IfMissing::Create, "plain"));
+  ASSERT_TRUE((*db)->put("t", 1, 10, payloadOf(2.8), IfMissing::Create, "plain"));
   editByHand(uri, "UPDATE emcalign_tags SET description = CAST(X'6E616976E91B5B324A' AS TEXT)");
   auto tag = (*db)->tag("t");
   ASSERT_TRUE(tag && tag->has_value());
@@ -406,9 +406,9 @@ TEST(ConditionsSqlite, TextThatIsNotUtf8OrHoldsEscapesIsReadPrintable) {
 
 TEST(ConditionsPostgres, ATagAnotherClientHoldsIsBusyAfterTheLockTimeout) {
   const std::string uri = testing::freshPostgresDatabase();
-  auto db = Database::open(uri, conddb::IfMissing::Create);
+  auto db = Database::open(uri, IfMissing::Create);
   ASSERT_TRUE(db) << db.error().message;
-  ASSERT_TRUE((*db)->put("held", 1, 10, payloadOf(2.8), conddb::IfMissing::Create));
+  ASSERT_TRUE((*db)->put("held", 1, 10, payloadOf(2.8), IfMissing::Create));
   // Another client holds the tag's row.
   pqxx::connection other(uri);
   pqxx::work holding(other);

@@ -46,13 +46,13 @@ class TagTables : public ::testing::Test {
   void SetUp() override {
     dir_ = fs::temp_directory_path() / fmt::format("emcalign-tag-tables-{}", ::getpid());
     fs::create_directories(dir_);
-    auto db = Database::open("sqlite:" + (dir_ / "c.db").string(), conddb::IfMissing::Create);
+    auto db = Database::open("sqlite:" + (dir_ / "c.db").string(), IfMissing::Create);
     ASSERT_TRUE(db) << db.error().message;
     db_ = std::move(*db);
-    ASSERT_TRUE(db_->put("a", 1, 10, resultWith(3.0), conddb::IfMissing::Create));
-    ASSERT_TRUE(db_->put("a", 11, 20, resultWith(3.1), conddb::IfMissing::Refuse));
-    ASSERT_TRUE(db_->put("b", 1, 15, resultWith(3.0), conddb::IfMissing::Create));
-    ASSERT_TRUE(db_->put("b", 21, 30, resultWith(3.0), conddb::IfMissing::Refuse));
+    ASSERT_TRUE(db_->put("a", 1, 10, resultWith(3.0), IfMissing::Create));
+    ASSERT_TRUE(db_->put("a", 11, 20, resultWith(3.1), IfMissing::Refuse));
+    ASSERT_TRUE(db_->put("b", 1, 15, resultWith(3.0), IfMissing::Create));
+    ASSERT_TRUE(db_->put("b", 21, 30, resultWith(3.0), IfMissing::Refuse));
   }
   void TearDown() override {
     db_.reset();

@@ -65,23 +65,15 @@ class CsvWriter final : public EventWriter {
     if (auto s = usable(); !s) return s;
     if (auto s = flush(); !s) return s;
     if (auto s = out_->commit(); !s) return fail(s.error().message);
-    closed_ = true;
+    state_.close();
     return {};
   }
 
  private:
   CsvWriter(std::string path, std::unique_ptr<OutputFile> out) : path_(std::move(path)), out_(std::move(out)) {}
 
-  Status usable() const {
-    if (closed_) return Error{fmt::format("{}: the writer is already closed", path_)};
-    if (failed_) return Error{fmt::format("{}: the writer failed earlier: {}", path_, *failed_)};
-    return {};
-  }
-
-  Status fail(std::string message) {
-    failed_ = message;
-    return Error{std::move(message)};
-  }
+  [[nodiscard]] Status usable() const { return state_.usable(); }
+  Status fail(std::string message) { return state_.fail(std::move(message)); }
 
   Status flush() {
     if (buffer_.size() == 0) return {};
@@ -97,8 +89,7 @@ class CsvWriter final : public EventWriter {
   fmt::memory_buffer buffer_;
   std::uint64_t appended_ = 0;
   EventConsistency consistency_;
-  std::optional<std::string> failed_;
-  bool closed_ = false;
+  WriterState state_{path_};  // after path_
 };
 
 // Reads a file line by line through a fixed buffer (memory does not grow with the file).

@@ -159,6 +159,29 @@ std::optional<Issue> checkHits(const ParticleRow& r, std::span<const Hit> hits);
 Status checkAppend(const std::string& path, std::span<const ParticleRow> rows, std::span<const Hit> hits, bool withHits,
                    std::uint64_t firstIndex, EventConsistency& consistency);
 
+// What a writer's calls find: open, closed, or failed (its first error, said again by every
+// later call), for the writer of `path`.
+class WriterState {
+ public:
+  explicit WriterState(std::string path) : path_(std::move(path)) {}
+  [[nodiscard]] Status usable() const {
+    if (closed_) return Error{fmt::format("{}: the writer is already closed", path_)};
+    if (failed_) return Error{fmt::format("{}: the writer failed earlier: {}", path_, *failed_)};
+    return {};
+  }
+  Status fail(std::string message) {
+    failed_ = message;
+    return Error{std::move(message)};
+  }
+  void close() { closed_ = true; }
+  [[nodiscard]] bool closed() const { return closed_; }
+
+ private:
+  std::string path_;
+  std::optional<std::string> failed_;
+  bool closed_ = false;
+};
+
 // ------------------------------------------------------------------------- reader sources
 
 // One input file delivering rows one by one; lexical checks (CSV text, HDF5 types) live

@@ -29,7 +29,7 @@ class Hdf5Writer final : public EventWriter {
   }
 
   ~Hdf5Writer() override {
-    if (!closed_) {
+    if (!state_.closed()) {
       Hdf5Quiet quiet;
       closeHandles();  // out_ then removes the temporary
     }
@@ -69,7 +69,7 @@ class Hdf5Writer final : public EventWriter {
     if (auto s = flush(); !s) return s;
     if (auto why = closeHandles()) return fail(fmt::format("{}: cannot close the HDF5 file: {}", path_, *why));
     if (auto s = out_->commit(); !s) return fail(s.error().message);
-    closed_ = true;
+    state_.close();
     return {};
   }
 
@@ -85,16 +85,8 @@ class Hdf5Writer final : public EventWriter {
     if (withTruth_) truth_.reserve(kChunkRows);
   }
 
-  Status usable() const {
-    if (closed_) return Error{fmt::format("{}: the writer is already closed", path_)};
-    if (failed_) return Error{fmt::format("{}: the writer failed earlier: {}", path_, *failed_)};
-    return {};
-  }
-
-  Status fail(std::string message) {
-    failed_ = message;
-    return Error{std::move(message)};
-  }
+  [[nodiscard]] Status usable() const { return state_.usable(); }
+  Status fail(std::string message) { return state_.fail(std::move(message)); }
 
   Status hdf5Error(std::string_view what) { return fail(fmt::format("{}: {}: {}", path_, what, hdf5Reason())); }
 
@@ -337,8 +329,7 @@ class Hdf5Writer final : public EventWriter {
   hsize_t written_ = 0;
   std::uint64_t appended_ = 0;
   EventConsistency consistency_;
-  std::optional<std::string> failed_;
-  bool closed_ = false;
+  WriterState state_{path_};  // after path_
 };
 
 }  // namespace

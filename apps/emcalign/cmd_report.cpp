@@ -79,15 +79,14 @@ int run(const ReportCliOptions& o) {
     auto read = report::readFitResult(o.fit, o.events, o.detector);
     if (!read) return reportError(read.error());
     report::ReportFit& fit = *read;
-    const Json* j = &fit.result;
     // The files the result names are never opened, but are inputs all the same.
-    for (const auto& f : report::filesNamedIn(*j)) io::protectInput({"named by --fit", f});
+    for (const auto& f : report::filesNamedIn(fit.document)) io::protectInput({"named by --fit", f});
     auto calo = loadCalorimeter(o.detector);
     if (!calo) return reportError(calo.error());
     fit.detector = report::detectorLine(*calo, o.detector);
     if (!o.events.empty()) {
-      if (Status s = report::checkEventsOfResult(*j, o.fit, o.events); !s) return reportError(s.error());
-      auto model = report::modelOfResult(*j, o.fit, *calo, o.corrections);
+      if (Status s = report::checkEventsOfResult(fit.record.input, o.fit, o.events); !s) return reportError(s.error());
+      auto model = report::modelOfResult(fit.record, o.fit, *calo, o.corrections);
       if (!model) return reportError(model.error());
       auto dir = ScratchDirectory::create();
       if (!dir) return reportError(dir.error());

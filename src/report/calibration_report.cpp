@@ -56,26 +56,22 @@ std::string label(const std::string& name) {
 std::string runs(const Json& first, const Json& last) { return text(first) + "–" + text(last); }
 
 // A value to the precision of its error (two significant digits of the error).
+std::pair<std::string, std::string> withError(double value, double error) {
+  if (!std::isfinite(value)) return {"—", "—"};
+  if (!std::isfinite(error) || error <= 0.0) return {fmt::format("{:.5g}", value), "—"};
+  const int digits = std::clamp(1 - static_cast<int>(std::floor(std::log10(error))), 0, 7);
+  return {fmt::format("{:.{}f}", value, digits), fmt::format("{:.{}f}", error, digits)};
+}
 std::pair<std::string, std::string> withError(const Json& value, const Json& error) {
-  if (!finite(value)) return {"—", "—"};
-  if (!finite(error) || error.get<double>() <= 0.0) return {fmt::format("{:.5g}", value.get<double>()), "—"};
-  const double e = error.get<double>();
-  const int digits = std::clamp(1 - static_cast<int>(std::floor(std::log10(e))), 0, 7);
-  return {fmt::format("{:.{}f}", value.get<double>(), digits), fmt::format("{:.{}f}", e, digits)};
+  const auto asNumber = [](const Json& v) { return finite(v) ? v.get<double>() : std::nan(""); };
+  return withError(asNumber(value), asNumber(error));
 }
 
+std::string number(double v, const char* format = "{:.4g}") {
+  return std::isfinite(v) ? fmt::format(fmt::runtime(format), v) : std::string("—");
+}
 std::string number(const Json& v, const char* format = "{:.4g}") {
-  return finite(v) ? fmt::format(fmt::runtime(format), v.get<double>()) : std::string("—");
-}
-
-const std::vector<std::string> kFitParams = {"alpha", "beta1", "beta2", "dx",     "dy",     "dz",
-                                             "dp1",   "dp2",   "dp3",   "dy_rel", "dz_rel", "beta_rel"};
-
-std::string unitOf(const std::string& name) {
-  return name == "dx" || name == "dy" || name == "dz" || name.rfind("dp", 0) == 0 || name == "dy_rel" ||
-                 name == "dz_rel" || name == "dx_rel"
-             ? "cm"
-             : "deg";
+  return number(finite(v) ? v.get<double>() : std::nan(""), format);
 }
 
 const std::vector<std::string> kFitCaptions = {
@@ -88,82 +84,61 @@ const std::vector<std::string> kFitCaptions = {
 
 // A fit's χ² in words: with σ_sys auto, χ²/ndf is 1 by construction and tests nothing; the
 // test is the χ² with the statistical errors alone (plain text: the caller escapes nothing).
-std::string fitChi2Text(const Json& r) {
-  const Json sigma = r.value("sigma_sys", Json::object());
-  if (sigma.value("method", std::string()) == "auto" && sigma.contains("chi2_statistical_errors")) {
+std::string fitChi2Text(const calib::FitRecord& r) {
+  if (r.sigmaSys && r.sigmaSys->isAuto() && r.sigmaSys->chi2Statistical) {
     return fmt::format(
         "χ²/ndf = {}/{} (σ_sys auto = {} deg makes it 1: no test); with the statistical errors alone {}/{}, p-value "
         "{}",
-        number(r.at("chi2"), "{:.1f}"), plain(r.at("ndf")), number(sigma.value("value_deg", Json()), "{:.4f}"),
-        number(sigma.at("chi2_statistical_errors"), "{:.1f}"), plain(r.at("ndf")),
-        number(sigma.value("p_value_statistical_errors", Json()), "{:.3g}"));
+        number(r.chi2, "{:.1f}"), r.ndf, number(r.sigmaSys->valueDeg, "{:.4f}"),
+        number(*r.sigmaSys->chi2Statistical, "{:.1f}"), r.ndf, number(r.sigmaSys->pValueStatistical, "{:.3g}"));
   }
-  return fmt::format("χ²/ndf = {}/{} (p-value {})", number(r.at("chi2"), "{:.1f}"), plain(r.at("ndf")),
-                     number(r.value("p_value", Json()), "{:.3g}"));
+  return fmt::format("χ²/ndf = {}/{} (p-value {})", number(r.chi2, "{:.1f}"), r.ndf, number(r.pValue, "{:.3g}"));
 }
 
 // The result's status, detector, warnings and notes.
 std::string fitSummary(const ReportFit& f) {
-  const Json& r = f.result;
+  const calib::FitRecord& r = f.record;
   std::string body;
-  const std::string status = r.at("status").get<std::string>();
-  const bool converged = fitStatusFromName(status) == FitStatus::Converged;
   body += fmt::format(
       "<p>Result <code>{}</code>: status <span class=\"{}\">{}</span>; {}; "
       "{} profile bins used.</p>\n",
-      html::escape(f.path), converged ? "good" : "bad", html::escape(status), html::escape(fitChi2Text(r)),
-      text(r.at("input").value("bins_used", Json("?"))));
+      html::escape(f.path), r.status == FitStatus::Converged ? "good" : "bad", html::escape(name(r.status)),
+      html::escape(fitChi2Text(r)), r.input.binsUsed ? std::to_string(*r.input.binsUsed) : std::string("?"));
   if (!f.detector.empty()) body += html::paragraph("Detector: " + f.detector);
-  const Json& warnings = r.at("warnings");
-  if (!warnings.empty()) {
-    std::vector<std::string> items;
-    for (const auto& w : warnings) items.push_back(w.get<std::string>());
-    body += "<h3>Warnings</h3>\n" + html::list(items, "warn");
-  }
+  if (!r.warnings.empty()) body += "<h3>Warnings</h3>\n" + html::list(r.warnings, "warn");
   // The model the fit used and what it is known to do (docs/fit.md, "Notes"); results written
   // by older versions carry none.
-  if (r.contains("notes") && r.at("notes").is_array() && !r.at("notes").empty()) {
-    std::vector<std::string> items;
-    for (const auto& n : r.at("notes")) items.push_back(plain(n));
-    body += "<h3>Notes: the model and what it is known to do</h3>\n" + html::list(items, "");
-  }
-
+  if (!r.notes.empty()) body += "<h3>Notes: the model and what it is known to do</h3>\n" + html::list(r.notes, "");
   return body;
 }
 
 // The fit's set and the physical set, with the corrections' systematic errors when it has them.
-std::string parameterTables(const Json& r) {
+std::string parameterTables(const calib::FitRecord& r) {
   std::string body;
   // The systematic errors of the model corrections (docs/systematics.md), when they carry them.
-  const Json* systematic =
-      r.contains("systematic_errors") && r.at("systematic_errors").is_object() ? &r.at("systematic_errors") : nullptr;
-  const auto header = [&] {
-    // The fit's error holds σ_sys's share (stat ⊕ sys of each bin): not "statistical".
-    return systematic ? std::vector<std::string>{"parameter", "value", "fit error", "systematic (corrections)", "unit"}
-                      : std::vector<std::string>{"parameter", "value", "fit error", "unit"};
+  const bool systematic = r.hasSystematics;
+  // The fit's error holds σ_sys's share (stat ⊕ sys of each bin): not "statistical".
+  const std::vector<std::string> header =
+      systematic ? std::vector<std::string>{"parameter", "value", "fit error", "systematic (corrections)", "unit"}
+                 : std::vector<std::string>{"parameter", "value", "fit error", "unit"};
+  const auto row = [&](Quantity q, const calib::RecordedValue& v) {
+    const auto [value, error] = withError(v.value, v.error);
+    const std::string unit = html::escape(q.unit());
+    if (!systematic) return std::vector<std::string>{label(std::string(q.name())), value, error, unit};
+    return std::vector<std::string>{label(std::string(q.name())), value, error,
+                                    std::isfinite(v.systematic) ? withError(v.systematic, v.systematic).second : "—",
+                                    unit};
   };
-  const auto row = [&](const std::string& name, const Json& value, const Json& error, const Json& syst,
-                       const std::string& unit) {
-    const auto [v, e] = withError(value, error);
-    if (!systematic) return std::vector<std::string>{label(name), v, e, unit};
-    return std::vector<std::string>{label(name), v, e, finite(syst) ? withError(syst, syst).second : "—", unit};
-  };
-  html::Table params{.caption = "The fit's set (docs/conventions.md)", .header = header()};
+  html::Table params{.caption = "The fit's set (docs/conventions.md)", .header = header};
   params.numeric =
       systematic ? std::vector<bool>{false, true, true, true, false} : std::vector<bool>{false, true, true, false};
-  for (const auto& name : kFitParams) {
-    params.rows.push_back(row(name, r.at("parameters").at(name), r.at("errors").at(name),
-                              systematic ? systematic->value(name, Json()) : Json(), unitOf(name)));
-  }
+  for (Param p : kAllParams) params.rows.push_back(row(p, r[p]));
   body += "<div class=\"side\">\n" + html::table(params);
 
-  if (r.contains("derived") && r.at("derived").is_object()) {
-    html::Table derived{.caption = "The physical set (derived)", .header = header()};
+  if (!r.derived.empty()) {
+    html::Table derived{.caption = "The physical set (derived)", .header = header};
     derived.numeric = params.numeric;
-    for (const auto& [name, d] : r.at("derived").items()) {
-      derived.rows.push_back(row(name, d.at("value"), d.at("error"), d.value("systematic_error", Json()),
-                                 text(d.value("unit", Json(unitOf(name))))));
-    }
+    for (const auto& [q, v] : r.derived) derived.rows.push_back(row(q, v));
     body += html::table(derived);
   }
   if (systematic) {
@@ -177,61 +152,44 @@ std::string parameterTables(const Json& r) {
 }
 
 // The correlation matrix as a heat map.
-std::string correlationMap(const Json& r) {
-  std::string body;
-  if (r.contains("correlation") && r.at("correlation").is_array()) {
-    std::vector<std::string> labels;
-    for (const auto& n : kFitParams) labels.push_back(symbol(n));
-    std::vector<std::vector<double>> m;
-    for (const auto& row : r.at("correlation")) {
-      std::vector<double> values;
-      for (const auto& v : row) values.push_back(finite(v) ? v.get<double>() : std::nan(""));
-      m.push_back(std::move(values));
-    }
-    body += "<h3>Correlations</h3>\n" +
-            html::heatMap(labels, m, "Correlation matrix of the fit (red positive, blue negative)");
-  }
-
-  return body;
+std::string correlationMap(const calib::FitRecord& r) {
+  if (!r.correlation) return {};
+  std::vector<std::string> labels;
+  for (Param p : kAllParams) labels.push_back(symbol(std::string(name(p))));
+  std::vector<std::vector<double>> m;
+  for (const auto& row : *r.correlation) m.emplace_back(row.begin(), row.end());
+  return "<h3>Correlations</h3>\n" +
+         html::heatMap(labels, m, "Correlation matrix of the fit (red positive, blue negative)");
 }
 
 // σ_sys as the fit used it (and, for auto, how it was found).
-std::string sigmaSysParagraph(const Json& r) {
-  std::string body;
-  if (r.contains("sigma_sys")) {
-    const Json& s = r.at("sigma_sys");
-    std::string line = fmt::format("σ_sys of every bin: {} deg ({}", number(s.value("value_deg", Json())),
-                                   s.value("method", std::string("?")));
-    if (s.value("method", std::string()) == "auto" && s.contains("interval_deg")) {
-      line += fmt::format(
-          ": χ²/ndf = 1 after the fit, 68 % interval {} to {} deg; χ² {} with the statistical "
-          "errors alone",
-          number(s.at("interval_deg")[0]), number(s.at("interval_deg")[1]),
-          number(s.value("chi2_statistical_errors", Json()), "{:.1f}"));
-    }
-    body += html::paragraph(line + ").");
+std::string sigmaSysParagraph(const calib::FitRecord& r) {
+  if (!r.sigmaSys) return {};
+  const calib::RecordedSigmaSys& s = *r.sigmaSys;
+  std::string line = fmt::format("σ_sys of every bin: {} deg ({}", number(s.valueDeg), s.method);
+  if (s.isAuto() && s.intervalDeg) {
+    line += fmt::format(
+        ": χ²/ndf = 1 after the fit, 68 % interval {} to {} deg; χ² {} with the statistical "
+        "errors alone",
+        number(s.intervalDeg->first), number(s.intervalDeg->second),
+        number(s.chi2Statistical.value_or(calib::kNotGiven), "{:.1f}"));
   }
-
-  return body;
+  return html::paragraph(line + ").");
 }
 
 // The stages of the fit.
-std::string stagesTable(const Json& r) {
-  std::string body;
-  if (r.contains("stages") && r.at("stages").is_array()) {
-    html::Table stages{.caption = "The staged fit (docs/fit.md)",
-                       .header = {"stage", "free parameters", "χ²", "iterations", "converged"}};
-    stages.numeric = {true, false, true, true, false};
-    for (const auto& s : r.at("stages")) {
-      std::string free;
-      for (const auto& p : s.at("free")) free += (free.empty() ? "" : ", ") + symbol(p.get<std::string>());
-      stages.rows.push_back({text(s.at("stage")), html::escape(free), number(s.at("chi2"), "{:.1f}"),
-                             text(s.at("iterations")), s.value("converged", false) ? "yes" : "<b>no</b>"});
-    }
-    body += html::table(stages);
+std::string stagesTable(const calib::FitRecord& r) {
+  if (r.stages.empty()) return {};
+  html::Table stages{.caption = "The staged fit (docs/fit.md)",
+                     .header = {"stage", "free parameters", "χ²", "iterations", "converged"}};
+  stages.numeric = {true, false, true, true, false};
+  for (const auto& s : r.stages) {
+    std::string free;
+    for (Param p : s.free) free += (free.empty() ? "" : ", ") + symbol(std::string(name(p)));
+    stages.rows.push_back({std::to_string(s.stage), html::escape(free), number(s.chi2, "{:.1f}"),
+                           std::to_string(s.iterations), s.converged ? "yes" : "<b>no</b>"});
   }
-
-  return body;
+  return html::table(stages);
 }
 
 // The figures drawn from the events.
@@ -251,21 +209,12 @@ Result<std::string> fitFigures(const ReportFit& f) {
 
 // The model corrections of the provenance: none (the paper's model), or the depth offset,
 // the files and a grid's interpolation.
-std::string modelCorrectionsText(const Json& c) {
-  const bool none =
-      !c.value("depth_offset_cm", Json(0.0)).is_number() || c.value("depth_offset_cm", Json(0.0)).get<double>() == 0.0;
-  static constexpr std::array<const char*, 3> kFiles = {"parting_plane_response", "nominal_profile", "response"};
-  const bool anyFile = std::any_of(kFiles.begin(), kFiles.end(),
-                                   [&](const char* key) { return c.contains(key) && c.at(key).is_string(); });
-  std::string corr = none && !anyFile
-                         ? std::string("none: the paper's model (docs/fit.md, \"What the fit tells you\")")
-                         : fmt::format("depth offset {} cm", number(c.value("depth_offset_cm", Json()), "{:+.3f}"));
-  for (const char* key : {"parting_plane_response", "nominal_profile", "response"}) {
-    if (c.contains(key) && c.at(key).is_string())
-      corr += fmt::format("; {}: <code>{}</code>", key, html::escape(c.at(key).get<std::string>()));
-  }
-  if (c.contains("interpolation")) {
-    corr += fmt::format("; interpolated to {}", html::escape(calib::interpolationText(c.at("interpolation"))));
+std::string modelCorrectionsText(const calib::RecordedCorrections& c) {
+  std::string corr = c.none() ? std::string("none: the paper's model (docs/fit.md, \"What the fit tells you\")")
+                              : fmt::format("depth offset {} cm", number(c.depthOffsetCm, "{:+.3f}"));
+  for (const auto& [key, file] : c.files()) corr += fmt::format("; {}: <code>{}</code>", key, html::escape(file));
+  if (!c.interpolation.is_null()) {
+    corr += fmt::format("; interpolated to {}", html::escape(calib::interpolationText(c.interpolation)));
   }
   return corr;
 }
@@ -273,8 +222,7 @@ std::string modelCorrectionsText(const Json& c) {
 // Where the result came from: the inputs (with the digests taken now), detector, model
 // corrections, beam energies, selection and software.
 std::string provenanceTable(const ReportFit& f) {
-  const Json& r = f.result;
-  const Json& in = r.at("input");
+  const calib::RecordedInput& in = f.record.input;
   html::Table prov{.header = {"item", "value"}};
   for (const auto& [file, digest] : f.inputDigests) {
     prov.rows.push_back(
@@ -283,27 +231,25 @@ std::string provenanceTable(const ReportFit& f) {
              (digest.empty() ? std::string("— (not taken: the report reads only the event files given with --events)")
                              : "<code>" + digest + "</code>")});
   }
-  prov.rows.push_back({"detector", text(in.value("detector", Json("?")))});
-  if (in.contains("model_corrections")) {
-    prov.rows.push_back({"model corrections", modelCorrectionsText(in.at("model_corrections"))});
-  }
-  if (in.contains("beam_energies_mev") && in.at("beam_energies_mev").is_array()) {
+  prov.rows.push_back({"detector", html::escape(in.detector)});
+  if (in.modelCorrections) prov.rows.push_back({"model corrections", modelCorrectionsText(*in.modelCorrections)});
+  if (!in.beamEnergiesMev.empty()) {
     std::string energies;
-    for (const auto& e : in.at("beam_energies_mev")) energies += (energies.empty() ? "" : ", ") + number(e, "{}");
+    for (double e : in.beamEnergiesMev) energies += (energies.empty() ? "" : ", ") + number(e, "{}");
     prov.rows.push_back({"beam energies, MeV", energies});
   }
-  if (in.contains("cut_flow")) {
+  if (!in.cutFlow.empty()) {
     std::string flow;
-    for (const auto& [cut, n] : in.at("cut_flow").items())
-      flow += fmt::format("{}{}: {}", flow.empty() ? "" : "; ", html::escape(cut), text(n));
+    for (const auto& [cut, n] : in.cutFlow)
+      flow += fmt::format("{}{}: {}", flow.empty() ? "" : "; ", html::escape(cut), n);
     prov.rows.push_back({"selection (events)", flow});
   }
-  prov.rows.push_back({"software", text(r.value("software", Json("?")))});
+  prov.rows.push_back({"software", html::escape(f.record.software.empty() ? "?" : f.record.software)});
   return "<h3>Provenance</h3>\n" + html::table(prov);
 }
 
 Result<std::string> fitSection(const ReportFit& f) {
-  const Json& r = f.result;
+  const calib::FitRecord& r = f.record;
   auto figures = fitFigures(f);
   if (!figures) return figures.error();
   return fitSummary(f) + parameterTables(r) + correlationMap(r) + sigmaSysParagraph(r) + stagesTable(r) + *figures +
@@ -580,9 +526,8 @@ Result<std::string> checksSection(const std::vector<ReportCheck>& checks) {
 std::vector<std::string> summary(const ReportInputs& in) {
   std::vector<std::string> lines;
   if (in.fit) {
-    const Json& r = in.fit->result;
-    lines.push_back(fmt::format("The fit: {}, {}, {} warning(s).", plain(r.at("status")), fitChi2Text(r),
-                                r.value("warnings", Json::array()).size()));
+    const calib::FitRecord& r = in.fit->record;
+    lines.push_back(fmt::format("The fit: {}, {}, {} warning(s).", name(r.status), fitChi2Text(r), r.warnings.size()));
   }
   if (in.validation) {
     double lo = 1e300, hi = -1e300;
@@ -717,30 +662,24 @@ Result<ReportFit> readFitResult(const std::string& path, const std::vector<std::
   if (!text) return text.error();
   auto j = io::parseJson(*text, path);
   if (!j) return j.error();
-  if (!j->is_object() || !j->contains("parameters") || !j->contains("chi2") || !j->contains("input")) {
-    return Error{fmt::format("{}: not a fit result (emcalign fit -o)", path)};
-  }
-  ReportFit fit{.path = path, .result = *j};
-  const Json& input = j->at("input");
-  if (input.contains("files") && input.at("files").is_array()) {
-    for (const auto& f : input.at("files")) {
-      if (!f.is_string()) continue;
-      const std::string named = f.get<std::string>();
-      std::string digest;
-      if (std::find(events.begin(), events.end(), named) != events.end()) {
-        auto d = sha256OfFile(named);
-        if (!d) return d.error();
-        digest = *d;
-      }
-      fit.inputDigests.emplace_back(named, digest);
+  auto record = calib::parseFitRecord(*j, path);
+  if (!record) return record.error();
+  ReportFit fit{.path = path, .record = std::move(*record), .document = std::move(*j)};
+  for (const auto& named : fit.record.input.files) {
+    std::string digest;
+    if (std::find(events.begin(), events.end(), named) != events.end()) {
+      auto d = sha256OfFile(named);
+      if (!d) return d.error();
+      digest = *d;
     }
+    fit.inputDigests.emplace_back(named, digest);
   }
-  const Json named = input.is_object() ? input.value("detector", Json(io::kEmbeddedDetector)) : Json();
-  if (detectorPath.empty() && named.is_string() && named.get<std::string>() != io::kEmbeddedDetector) {
+  const std::string& detector = fit.record.input.detector;
+  if (detectorPath.empty() && detector != io::kEmbeddedDetector) {
     return Error{
         fmt::format("{}: the fit used the detector {}: give it with --detector (the report "
                     "opens only the files its command line names)",
-                    path, named.get<std::string>())};
+                    path, detector)};
   }
   return fit;
 }
@@ -768,7 +707,7 @@ Result<std::string> calibrationReport(const ReportInputs& in) {
   std::vector<html::Section> sections;
   std::vector<std::string> sources;
   if (in.fit) {
-    auto body = guarded(in.fit->path, [&] { return fitSection(*in.fit); });
+    auto body = fitSection(*in.fit);
     if (!body) return body.error();
     sections.push_back({"calibration", "The detector and the 12 parameters", *body});
     sources.push_back(in.fit->path);

@@ -2,7 +2,6 @@
 
 #include <cmath>
 #include <filesystem>
-#include <limits>
 #include <numbers>
 
 #include <fmt/format.h>
@@ -43,21 +42,11 @@ namespace emcalign::report {
 
 namespace {
 
-using io::Json;
-
 // The corrections the result names (or `given`), at the energy a grid was interpolated to.
-Result<calib::ModelCorrections> correctionsOfResult(const Json& corr, const std::string& given) {
+Result<calib::ModelCorrections> correctionsOfResult(const calib::RecordedCorrections& corr, const std::string& given) {
   // The corrections the result names are named, never opened: a result file can name any file
   // of the system. The command line gives them (--corrections).
-  std::string named;
-  double energy = std::numeric_limits<double>::quiet_NaN();
-  if (corr.contains("interpolation")) {
-    energy = corr.at("interpolation").at("beam_energy_mev").get<double>() * units::MeV;
-    named = corr.at("interpolation").at("directory").get<std::string>();
-  }
-  for (const char* key : {"response", "nominal_profile", "parting_plane_response"}) {
-    if (named.empty() && corr.contains(key) && corr.at(key).is_string()) named = corr.at(key).get<std::string>();
-  }
+  const std::string named = corr.source();
   if (!named.empty() && given.empty()) {
     return Error{fmt::format(
         "the fit used the corrections {}: give them with --corrections to redraw its figures (the report opens "
@@ -67,9 +56,7 @@ Result<calib::ModelCorrections> correctionsOfResult(const Json& corr, const std:
   const std::string path = named.empty() ? std::string() : given;
   calib::ModelCorrections c;
   if (path.empty()) {
-    c.depthOffset = corr.contains("depth_offset_cm") && corr.at("depth_offset_cm").is_number()
-                        ? corr.at("depth_offset_cm").get<double>() * units::cm
-                        : 0.0;
+    c.depthOffset = corr.depthOffsetCm * units::cm;
     return c;
   }
   auto grid = calib::CorrectionsGrid::read(path);
@@ -77,58 +64,43 @@ Result<calib::ModelCorrections> correctionsOfResult(const Json& corr, const std:
     return Error{fmt::format("the fit used the corrections {} (give --corrections if they moved): {}", path,
                              grid.error().message)};
   }
-  auto at = grid->at(energy);
+  auto at = grid->at(corr.interpolatedEnergyMev() * units::MeV);
   if (!at) return at.error();
   return at->corrections;
 }
 
-double numberOr(const Json& j, const char* key, double otherwise) {
-  return j.is_object() && j.contains(key) && j.at(key).is_number() ? j.at(key).get<double>() : otherwise;
-}
-
 }  // namespace
 
-Result<ResultModel> modelOfResult(const Json& result, std::string_view source, const geometry::Calorimeter& calo,
-                                  const std::string& corrections) {
-  try {
-    // Any status: a report shows a failed fit too.
-    auto parameters = io::parseAlignmentFile(result, calo.description().r1(), source, io::AlignmentUse::Record);
-    if (!parameters) return parameters.error();
-    const Json& in = result.at("input");
-    auto c = correctionsOfResult(in.contains("model_corrections") ? in.at("model_corrections") : Json::object(),
-                                 corrections);
-    if (!c) return c.error();
-    ResultModel m;
-    m.fit.parameters = parameters->parameters;
-    m.fit.chi2 = numberOr(result, "chi2", std::numeric_limits<double>::quiet_NaN());
-    m.fit.ndf = static_cast<int>(numberOr(result, "ndf", 0.0));
-    m.fit.status = parameters->status.value_or(FitStatus::Converged);
-    m.geometry = calib::FitGeometry::of(calo.description());
-    m.geometry.apply(*c);
-    m.profile.apply(*c);
-    m.corrections = corrections;
-    m.sigmaSys = numberOr(result.value("sigma_sys", Json::object()), "value_deg", 0.2) * units::deg;
-    if (!std::isfinite(m.sigmaSys)) m.sigmaSys = 0.2 * units::deg;
-    // The fit's selection: its one beam energy (an override, or the sample's own), else each event's.
-    if (in.contains("beam_energies_mev") && in.at("beam_energies_mev").size() == 1) {
-      m.selection = in.at("beam_energies_mev")[0].get<double>() * units::MeV;
-    }
-    return m;
-  } catch (const Json::exception& e) {
-    return Error{fmt::format("{}: not a fit result the report can redraw: {}", source, e.what())};
+Result<ResultModel> modelOfResult(const calib::FitRecord& result, std::string_view source,
+                                  const geometry::Calorimeter& calo, const std::string& corrections) {
+  // Any status: a report shows a failed fit too.
+  const geometry::AlignmentParameters parameters = result.alignment();
+  if (Status st = geometry::validate(parameters, calo.description().r1()); !st) {
+    return Error{fmt::format("{}: {}", source, st.error().message)};
   }
+  auto c = correctionsOfResult(result.input.modelCorrections.value_or(calib::RecordedCorrections{}), corrections);
+  if (!c) return c.error();
+  ResultModel m;
+  m.fit.parameters = parameters;
+  m.fit.chi2 = result.chi2;
+  m.fit.ndf = static_cast<int>(result.ndf);
+  m.fit.status = result.status;
+  m.geometry = calib::FitGeometry::of(calo.description());
+  m.geometry.apply(*c);
+  m.profile.apply(*c);
+  m.corrections = corrections;
+  const double sigmaSys = result.sigmaSys ? result.sigmaSys->valueDeg : calib::kNotGiven;
+  m.sigmaSys = (std::isfinite(sigmaSys) ? sigmaSys : 0.2) * units::deg;
+  // The fit's selection: its one beam energy (an override, or the sample's own), else each event's.
+  if (result.input.beamEnergiesMev.size() == 1) m.selection = result.input.beamEnergiesMev.front() * units::MeV;
+  return m;
 }
 
-Status checkEventsOfResult(const Json& result, std::string_view source, const std::vector<std::string>& events) {
+Status checkEventsOfResult(const calib::RecordedInput& result, std::string_view source,
+                           const std::vector<std::string>& events) {
   namespace fs = std::filesystem;
-  std::vector<std::string> named;
-  const Json in = result.value("input", Json::object());
-  if (in.contains("files") && in.at("files").is_array()) {
-    for (const auto& f : in.at("files")) {
-      if (f.is_string()) named.push_back(f.get<std::string>());
-    }
-  }
-  if (in.value("from_profile", false) || named.empty()) {
+  const std::vector<std::string>& named = result.files;
+  if (result.fromProfile || named.empty()) {
     return Error{
         fmt::format("{}: the fit was made from a saved profile, not from events: its figures cannot be "
                     "redrawn from --events (draw them with emcalign fit --plots)",

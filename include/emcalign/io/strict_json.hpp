@@ -84,6 +84,8 @@ class StrictObject {
   [[nodiscard]] std::string pathOf(std::string_view key) const { return join(path_, key); }
   /// The object at `key`, checked as this one is and named in the same file.
   [[nodiscard]] StrictObject object(std::string_view key) const { return {at(key), pathOf(key), source_}; }
+  /// Another object of the same file (an array's element) at `path`.
+  [[nodiscard]] StrictObject nested(const Json& j, std::string path) const { return {j, std::move(path), source_}; }
 
   [[nodiscard]] double number(std::string_view key) const { return numberValue(at(key), pathOf(key)); }
   [[nodiscard]] double number(std::string_view key, double fallback) const { return has(key) ? number(key) : fallback; }

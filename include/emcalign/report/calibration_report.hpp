@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "emcalign/apply/physics_checks.hpp"
+#include "emcalign/calib/fit_record.hpp"
 #include "emcalign/core/result.hpp"
 #include "emcalign/geometry/detector.hpp"
 #include "emcalign/io/json_files.hpp"
@@ -30,8 +31,10 @@
 namespace emcalign::report {
 
 struct ReportFit {
-  std::string path = {};  ///< the result file
-  io::Json result = {};   ///< its content (SPEC §3, `emcalign fit -o`)
+  std::string path = {};      ///< the result file
+  calib::FitRecord record{};  ///< its content (SPEC §3, `emcalign fit -o`), read
+  /// Its JSON as it is, for filesNamedIn only (what the report shows comes from `record`).
+  io::Json document = {};
   /// The detector in a line (name, counters, radii; empty: not shown).
   std::string detector = {};
   /// The input files the result names, with their SHA-256 (empty where the file is gone).
@@ -41,8 +44,8 @@ struct ReportFit {
   std::vector<std::string> figures = {};
 };
 
-/// A fit result as the report takes it (`report --fit`): read and recognised as one (SPEC §3:
-/// "parameters", "chi2" and "input"), with the SHA-256 of each input it names that `events`
+/// A fit result as the report takes it (`report --fit`): read and recognised as one
+/// (calib::parseFitRecord), with the SHA-256 of each input it names that `events`
 /// gives too (the report opens nothing a result names by itself: it could name any file of
 /// the system). A result fitted with a detector description needs it given (`detectorPath`;
 /// empty: the embedded detector). The detector line and the figures are left to the caller.

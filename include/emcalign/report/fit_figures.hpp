@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "emcalign/calib/calibration.hpp"
+#include "emcalign/calib/fit_record.hpp"
 #include "emcalign/core/result.hpp"
 #include "emcalign/geometry/alignment_parameters.hpp"
 #include "emcalign/geometry/detector.hpp"
@@ -44,13 +45,14 @@ struct ResultModel {
   std::optional<double> selection;
   std::string corrections;  ///< the corrections file given (empty: none)
 };
-Result<ResultModel> modelOfResult(const io::Json& result, std::string_view source, const geometry::Calorimeter& calo,
-                                  const std::string& corrections);
+Result<ResultModel> modelOfResult(const calib::FitRecord& result, std::string_view source,
+                                  const geometry::Calorimeter& calo, const std::string& corrections);
 
 /// Whether `events` are the files the result was fitted from: the same paths, or the same
 /// content (SHA-256) as the named files. When the named files are gone, the same file names
 /// are taken as the same files. The error says which differ.
-Status checkEventsOfResult(const io::Json& result, std::string_view source, const std::vector<std::string>& events);
+Status checkEventsOfResult(const calib::RecordedInput& result, std::string_view source,
+                           const std::vector<std::string>& events);
 
 /// The fit's figures (writeFitPlots) redrawn from its events into `dir`.
 Result<std::vector<std::string>> redrawFitFigures(const ResultModel& model, const std::vector<std::string>& events,

@@ -99,9 +99,18 @@ Json fitResult() {
           {"software", "emcalign test"}};
 }
 
+// A result as the report takes it (the reader refuses what is not one: fit_record_test).
+ReportFit reportFit(const Json& r) {
+  auto record = calib::parseFitRecord(r, "r.json");
+  EXPECT_TRUE(record.ok()) << record.error().message;
+  return ReportFit{.path = "r.json", .record = record.ok() ? *record : calib::FitRecord{}, .document = r};
+}
+
 TEST(CalibrationReport, TheFitSectionShowsWhatTheResultSays) {
   ReportInputs in;
-  in.fit = ReportFit{.path = "r.json", .result = fitResult(), .detector = "D", .inputDigests = {{"e.h5", "abc"}}};
+  in.fit = reportFit(fitResult());
+  in.fit->detector = "D";
+  in.fit->inputDigests = {{"e.h5", "abc"}};
   auto page = calibrationReport(in);
   ASSERT_TRUE(page.ok()) << page.error().message;
   EXPECT_NE(page->find("status <span class=\"bad\">poor fit</span>; χ²/ndf = 310.5/308"), std::string::npos);
@@ -125,7 +134,7 @@ TEST(CalibrationReport, SystematicErrorsGetTheirOwnColumn) {
   r["systematic_errors"] = systematic;
   r["derived"]["mu"]["systematic_error"] = 0.0021;
   ReportInputs in;
-  in.fit = ReportFit{.path = "r.json", .result = r};
+  in.fit = reportFit(r);
   auto page = calibrationReport(in);
   ASSERT_TRUE(page.ok()) << page.error().message;
   EXPECT_NE(page->find("<th class=\"num\">fit error</th><th class=\"num\">systematic (corrections)</th>"),
@@ -134,7 +143,8 @@ TEST(CalibrationReport, SystematicErrorsGetTheirOwnColumn) {
             std::string::npos);
   EXPECT_NE(page->find("<td class=\"num\">0.0021</td>"), std::string::npos);
   EXPECT_NE(page->find("emcalign systematics"), std::string::npos);
-  in.fit->result.erase("systematic_errors");
+  r.erase("systematic_errors");
+  in.fit = reportFit(r);
   auto plain = calibrationReport(in);
   ASSERT_TRUE(plain.ok()) << plain.error().message;
   EXPECT_EQ(plain->find("systematic"), std::string::npos);
@@ -146,7 +156,7 @@ TEST(CalibrationReport, TheFitsNotesSayWhichModelItUsed) {
   Json r = fitResult();
   r["notes"] = {"the paper's model <without corrections>: dp1-dp3 about 0.15 cm low"};
   ReportInputs in;
-  in.fit = ReportFit{.path = "r.json", .result = r};
+  in.fit = reportFit(r);
   auto page = calibrationReport(in);
   ASSERT_TRUE(page.ok()) << page.error().message;
   EXPECT_NE(page->find("<h3>Notes: the model and what it is known to do</h3>"), std::string::npos);
@@ -154,12 +164,14 @@ TEST(CalibrationReport, TheFitsNotesSayWhichModelItUsed) {
             std::string::npos)
       << *page;
   // Without corrections the provenance says so, not "depth offset +0.000 cm".
-  in.fit->result["input"]["model_corrections"] = {{"depth_offset_cm", 0.0}};
+  r["input"]["model_corrections"] = {{"depth_offset_cm", 0.0}};
+  in.fit = reportFit(r);
   auto plain = calibrationReport(in);
   ASSERT_TRUE(plain.ok()) << plain.error().message;
   EXPECT_NE(plain->find("none: the paper's model"), std::string::npos);
-  in.fit->result["input"].erase("model_corrections");
-  in.fit->result.erase("notes");
+  r["input"].erase("model_corrections");
+  r.erase("notes");
+  in.fit = reportFit(r);
   auto older = calibrationReport(in);
   ASSERT_TRUE(older.ok()) << older.error().message;
   EXPECT_EQ(older->find("Notes:"), std::string::npos);
@@ -199,10 +211,11 @@ TEST(CalibrationReport, NullsAndMarkupInTheInputsStayText) {
   r["chi2"] = nullptr;  // a failed fit
   r["p_value"] = nullptr;
   r["errors"]["dx"] = nullptr;
-  r["status"] = "<b>not converged</b>";
+  r["status"] = "not converged";
+  r["warnings"] = {"<b>not converged</b>"};
   r["input"]["detector"] = "<img src=x>";
   ReportInputs in;
-  in.fit = ReportFit{.path = "r.json", .result = r};
+  in.fit = reportFit(r);
   in.checks.push_back({"chk",
                        {{"process", "gg"},
                         {"selected", "<script>"},
@@ -273,13 +286,15 @@ TEST(CalibrationReport, RefusesNothingAndNamesWhatIsMissing) {
   auto none = calibrationReport({});
   ASSERT_FALSE(none.ok());
   EXPECT_NE(none.error().message.find("nothing to report"), std::string::npos);
-  ReportInputs in;
+  // A parameter file is not a fit result: refused, the file named.
+  const fs::path file = fs::temp_directory_path() / fmt::format("emcalign-report-{}.json", ::getpid());
   Json r = fitResult();
-  r.erase("parameters");
-  in.fit = ReportFit{.path = "r.json", .result = r};
-  auto bad = calibrationReport(in);
+  r.erase("chi2");
+  std::ofstream(file) << r.dump();
+  auto bad = readFitResult(file.string(), {}, "");
+  fs::remove(file);
   ASSERT_FALSE(bad.ok());
-  EXPECT_NE(bad.error().message.find("r.json: not what the report expects"), std::string::npos) << bad.error().message;
+  EXPECT_EQ(bad.error().message, file.string() + ": not a fit result (emcalign fit -o)");
   EXPECT_FALSE(readValidationDirectory("/nonexistent").ok());
   auto trend = readTrendDirectory("/nonexistent");
   ASSERT_FALSE(trend.ok());

@@ -14,8 +14,8 @@
 #include <fmt/format.h>
 
 #include "common.hpp"
+#include "emcalign/apply/check_record.hpp"
 #include "emcalign/apply/correct.hpp"
-#include "emcalign/apply/physics_checks.hpp"
 #include "emcalign/calib/corrections.hpp"
 #include "emcalign/conddb/calibrations.hpp"
 #include "emcalign/core/units.hpp"
@@ -69,27 +69,28 @@ int run(const CheckCliOptions& o) {
   progress.finish();
   if (!report) return reportError(report.error());
 
-  io::Json json;
+  apply::CheckRecord found;
   report::CheckFigure figure;
   if (o.process == apply::CheckProcess::GammaGamma) {
     auto check = apply::checkGammaGamma(o.events, {corrected});
     if (!check) return reportError(check.error());
     if (Status st = check->cutFlow.requireSelected(o.process); !st) return reportError(st.error());
-    json = apply::checkJson(*check);
-    figure = report::checkFigure(*check, json);
+    found = apply::checkRecord(*check);
+    figure = report::checkFigure(*check, found);
   } else {
     // The kinematic fit's R(E, θ), of each event's beam energy with a corrections grid.
     auto check = apply::checkThreePion(o.events, {corrected},
                                        options.depthAt ? options.depthAt : geometry::atEveryEnergy(options.depth));
     if (!check) return reportError(check.error());
     if (Status st = check->cutFlow.requireSelected(o.process); !st) return reportError(st.error());
-    json = apply::checkJson(*check);
-    figure = report::checkFigure(*check, json);
+    found = apply::checkRecord(*check);
+    figure = report::checkFigure(*check, found);
   }
-  json["alignment"] = source->description;
-  json["correction_method"] = std::string(name(report->method));
-  json["inputs"] = o.events;
-  json["software"] = fmt::format("emcalign {}", kVersion);
+  found.alignment = source->description;
+  found.correctionMethod = std::string(name(report->method));
+  found.inputs = o.events;
+  found.software = fmt::format("emcalign {}", kVersion);
+  const io::Json json = apply::checkJson(found);
   if (Status s = io::writeFileIn(o.output, "check.json", json.dump(1) + "\n"); !s) {
     return reportError(s.error());
   }

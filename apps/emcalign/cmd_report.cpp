@@ -133,7 +133,7 @@ int run(const ReportCliOptions& o) {
   for (const auto& dir : o.checks) {
     auto c = report::readCheckDirectory(dir);
     if (!c) return reportError(c.error());
-    for (const auto& f : report::filesNamedIn(c->check)) io::protectInput({"named by --checks", f});
+    for (const auto& f : report::filesNamedIn(c->document)) io::protectInput({"named by --checks", f});
     in.checks.push_back(std::move(*c));
   }
   auto page = report::calibrationReport(in);

@@ -1,4 +1,5 @@
 #include "emcalign/apply/physics_checks.hpp"
+#include "emcalign/apply/check_record.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -114,12 +115,13 @@ ThreePionEvent threePionEvent(std::span<const ParticleRow> rows, const std::arra
   return e;
 }
 
-Json widthJson(const CoreWidth& w, const char* name) {
-  const std::string n(name);
-  return {{n + "_width_deg", w.fitted ? io::numberOrNull(w.width) : Json(nullptr)},
-          {n + "_width_error_deg", w.fitted ? io::numberOrNull(w.widthError) : Json(nullptr)},
-          {n + "_mean_deg", w.fitted ? io::numberOrNull(w.mean) : Json(nullptr)},
-          {n + "_rms_deg", io::numberOrNull(w.rms)}};
+// A distribution's core as check.json gives it: in degrees, NaN where the core was not fitted.
+CheckWidth checkWidth(const CoreWidth& w) {
+  const double nan = std::nan("");
+  return {.width = w.fitted ? w.width : nan,
+          .widthError = w.fitted ? w.widthError : nan,
+          .mean = w.fitted ? w.mean : nan,
+          .rms = w.rms};
 }
 
 double improvement(double before, double after) {
@@ -319,32 +321,32 @@ Result<ThreePionCheck> checkThreePion(const std::vector<std::string>& before, co
   return c;
 }
 
-Json checkJson(const GammaGammaCheck& c) {
-  Json sides[2];
+CheckRecord checkRecord(const GammaGammaCheck& c) {
+  CheckRecord r{.process = CheckProcess::GammaGamma,
+                .selected = static_cast<std::int64_t>(c.dphi[0].size()),
+                .cutFlow = c.cutFlow,
+                .vertex = "the origin (a gamma-gamma event has no track)"};
   std::array<CoreWidth, 2> phi, theta;
   for (std::size_t k = 0; k < 2; ++k) {
     phi[k] = gaussianCore(c.dphi[k]);
     theta[k] = gaussianCore(c.dtheta[k]);
-    sides[k] = widthJson(phi[k], "dphi");
-    sides[k].update(widthJson(theta[k], "dtheta"));
+    CheckSide& side = k == 0 ? r.before : r.after;
+    side.dphi = checkWidth(phi[k]);
+    side.dtheta = checkWidth(theta[k]);
   }
-  return {{"process", name(CheckProcess::GammaGamma)},
-          {"selected", c.dphi[0].size()},
-          {"cut_flow", c.cutFlow.json()},
-          {"cut_order", c.cutFlow.names},
-          {"vertex", "the origin (a gamma-gamma event has no track)"},
-          {"before", sides[0]},
-          {"after", sides[1]},
-          {"improvement_percent",
-           {{"dphi_width", io::numberOrNull(improvement(phi[0].width, phi[1].width))},
-            {"dphi_rms", io::numberOrNull(improvement(phi[0].rms, phi[1].rms))},
-            {"dtheta_width", io::numberOrNull(improvement(theta[0].width, theta[1].width))},
-            {"dtheta_rms", io::numberOrNull(improvement(theta[0].rms, theta[1].rms))}}}};
+  r.improvement = {.dphiWidth = improvement(phi[0].width, phi[1].width),
+                   .dphiRms = improvement(phi[0].rms, phi[1].rms),
+                   .dthetaWidth = improvement(theta[0].width, theta[1].width),
+                   .dthetaRms = improvement(theta[0].rms, theta[1].rms)};
+  return r;
 }
 
-Json checkJson(const ThreePionCheck& c) {
-  Json sides[2];
-  double means[2] = {0.0, 0.0}, medians[2] = {0.0, 0.0};
+CheckRecord checkRecord(const ThreePionCheck& c) {
+  CheckRecord r{.process = CheckProcess::ThreePion,
+                .selected = static_cast<std::int64_t>(c.fits[0].size()),
+                .ndf = KinematicFitResult::kNdf,
+                .cutFlow = c.cutFlow,
+                .vertex = "z: the mean z0 of the two tracks"};
   for (std::size_t k = 0; k < 2; ++k) {
     std::vector<double> chi2;
     std::int64_t failed = 0;
@@ -357,9 +359,6 @@ Json checkJson(const ThreePionCheck& c) {
         ++failed;
       }
     }
-    means[k] =
-        chi2.empty() ? std::nan("") : std::accumulate(chi2.begin(), chi2.end(), 0.0) / static_cast<double>(chi2.size());
-    medians[k] = median(chi2);
     double truncated = 0.0;
     std::int64_t inCore = 0;
     for (double x : chi2) {
@@ -368,28 +367,19 @@ Json checkJson(const ThreePionCheck& c) {
         ++inCore;
       }
     }
-    sides[k] = {
-        {"chi2_mean", io::numberOrNull(means[k])},
-        {"chi2_median", io::numberOrNull(medians[k])},
-        {"chi2_mean_below_20", io::numberOrNull(inCore > 0 ? truncated / static_cast<double>(inCore) : std::nan(""))},
-        {"fraction_above_20",
-         io::numberOrNull(chi2.empty() ? std::nan("")
-                                       : 1.0 - static_cast<double>(inCore) / static_cast<double>(chi2.size()))},
-        {"p_value_mean", io::numberOrNull(chi2.empty() ? std::nan("") : pSum / static_cast<double>(chi2.size()))},
-        {"converged", chi2.size()},
-        {"not_converged", failed}};
+    const double n = static_cast<double>(chi2.size());
+    CheckSide& side = k == 0 ? r.before : r.after;
+    side.chi2Mean = chi2.empty() ? std::nan("") : std::accumulate(chi2.begin(), chi2.end(), 0.0) / n;
+    side.chi2Median = median(chi2);
+    side.chi2MeanBelow20 = inCore > 0 ? truncated / static_cast<double>(inCore) : std::nan("");
+    side.fractionAbove20 = chi2.empty() ? std::nan("") : 1.0 - static_cast<double>(inCore) / n;
+    side.pValueMean = chi2.empty() ? std::nan("") : pSum / n;
+    side.converged = static_cast<std::int64_t>(chi2.size());
+    side.notConverged = failed;
   }
-  return {{"process", name(CheckProcess::ThreePion)},
-          {"selected", c.fits[0].size()},
-          {"ndf", KinematicFitResult::kNdf},
-          {"cut_flow", c.cutFlow.json()},
-          {"cut_order", c.cutFlow.names},
-          {"vertex", "z: the mean z0 of the two tracks"},
-          {"before", sides[0]},
-          {"after", sides[1]},
-          {"improvement_percent",
-           {{"chi2_mean", io::numberOrNull(improvement(means[0], means[1]))},
-            {"chi2_median", io::numberOrNull(improvement(medians[0], medians[1]))}}}};
+  r.improvement = {.chi2Mean = improvement(r.before.chi2Mean, r.after.chi2Mean),
+                   .chi2Median = improvement(r.before.chi2Median, r.after.chi2Median)};
+  return r;
 }
 
 }  // namespace emcalign::apply

@@ -12,40 +12,6 @@ namespace {
 using io::Json;
 using io::strict::StrictObject;
 
-// A number, or null for NaN (what io::numberOrNull wrote).
-double numberOrNull(const StrictObject& o, std::string_view key) {
-  const Json& v = o.at(key);
-  if (v.is_null()) return kNotGiven;
-  if (!v.is_number()) o.fail(o.pathOf(key), fmt::format("expected a number or null, got {}", v.type_name()));
-  return v.get<double>();
-}
-
-double numberOrNullIfGiven(const StrictObject& o, std::string_view key) {
-  return o.has(key) ? numberOrNull(o, key) : kNotGiven;
-}
-
-std::int64_t integer(const StrictObject& o, std::string_view key) {
-  const Json& v = o.at(key);
-  if (!v.is_number_integer()) o.fail(o.pathOf(key), fmt::format("expected an integer, got {}", v.type_name()));
-  return v.get<std::int64_t>();
-}
-
-const Json& arrayAt(const StrictObject& o, std::string_view key) {
-  const Json& v = o.at(key);
-  if (!v.is_array()) o.fail(o.pathOf(key), fmt::format("expected an array, got {}", v.type_name()));
-  return v;
-}
-
-std::vector<std::string> strings(const StrictObject& o, std::string_view key) {
-  std::vector<std::string> out;
-  const Json& list = arrayAt(o, key);
-  for (std::size_t k = 0; k < list.size(); ++k) {
-    if (!list[k].is_string()) o.fail(fmt::format("{}[{}]", o.pathOf(key), k), "expected a string");
-    out.push_back(list[k].get<std::string>());
-  }
-  return out;
-}
-
 std::optional<std::string> optionalString(const StrictObject& o, std::string_view key) {
   if (!o.has(key) || o.at(key).is_null()) return std::nullopt;
   return o.string(key);
@@ -62,12 +28,12 @@ void readParameters(const StrictObject& top, FitRecord& r) {
   const StrictObject values = top.object("parameters"), errors = top.object("errors");
   for (Param p : kAllParams) {
     r.parameters[index(p)].value = values.number(name(p));
-    r.parameters[index(p)].error = numberOrNull(errors, name(p));
+    r.parameters[index(p)].error = errors.numberOrNull(name(p));
   }
   if (top.has("systematic_errors") && !top.at("systematic_errors").is_null()) {
     const StrictObject systematic = top.object("systematic_errors");
     r.hasSystematics = true;
-    for (Param p : kAllParams) r.parameters[index(p)].systematic = numberOrNullIfGiven(systematic, name(p));
+    for (Param p : kAllParams) r.parameters[index(p)].systematic = systematic.numberOrNullIfGiven(name(p));
   }
 }
 
@@ -78,15 +44,15 @@ void readDerived(const StrictObject& top, FitRecord& r) {
     const auto q = quantityFromName(key);
     if (!q) derived.fail(derived.pathOf(key), "not a parameter of the physical set");
     const StrictObject d = derived.object(key);
-    r.derived.emplace_back(*q, calib::RecordedValue{.value = numberOrNull(d, "value"),
-                                                    .error = numberOrNullIfGiven(d, "error"),
-                                                    .systematic = numberOrNullIfGiven(d, "systematic_error")});
+    r.derived.emplace_back(*q, calib::RecordedValue{.value = d.numberOrNull("value"),
+                                                    .error = d.numberOrNullIfGiven("error"),
+                                                    .systematic = d.numberOrNullIfGiven("systematic_error")});
   }
 }
 
 void readCorrelation(const StrictObject& top, FitRecord& r) {
   if (!top.has("correlation") || top.at("correlation").is_null()) return;
-  const Json& rows = arrayAt(top, "correlation");
+  const Json& rows = top.array("correlation");
   if (rows.size() != kNumParams) top.fail("correlation", fmt::format("expected {} rows", kNumParams));
   auto& m = r.correlation.emplace();
   for (std::size_t i = 0; i < kNumParams; ++i) {
@@ -103,9 +69,9 @@ void readCorrelation(const StrictObject& top, FitRecord& r) {
 
 RecordedSigmaSys readSigmaSys(const StrictObject& s) {
   RecordedSigmaSys out{.method = s.has("method") ? s.string("method") : std::string("?"),
-                       .valueDeg = numberOrNullIfGiven(s, "value_deg")};
+                       .valueDeg = s.numberOrNullIfGiven("value_deg")};
   if (s.has("interval_deg")) {
-    const Json& interval = arrayAt(s, "interval_deg");
+    const Json& interval = s.array("interval_deg");
     if (interval.size() != 2) s.fail(s.pathOf("interval_deg"), "expected [lower, upper]");
     const auto bound = [&](std::size_t k) {
       if (!interval[k].is_null() && !interval[k].is_number())
@@ -114,22 +80,22 @@ RecordedSigmaSys readSigmaSys(const StrictObject& s) {
     };
     out.intervalDeg = {bound(0), bound(1)};
   }
-  if (s.has("chi2_statistical_errors")) out.chi2Statistical = numberOrNull(s, "chi2_statistical_errors");
-  out.pValueStatistical = numberOrNullIfGiven(s, "p_value_statistical_errors");
+  if (s.has("chi2_statistical_errors")) out.chi2Statistical = s.numberOrNull("chi2_statistical_errors");
+  out.pValueStatistical = s.numberOrNullIfGiven("p_value_statistical_errors");
   return out;
 }
 
 std::vector<RecordedStage> readStages(const StrictObject& top) {
   std::vector<RecordedStage> stages;
   if (!top.has("stages")) return stages;
-  const Json& list = arrayAt(top, "stages");
+  const Json& list = top.array("stages");
   for (std::size_t k = 0; k < list.size(); ++k) {
     const StrictObject s = top.nested(list[k], fmt::format("stages[{}]", k));
-    RecordedStage stage{.stage = integer(s, "stage"),
-                        .chi2 = numberOrNull(s, "chi2"),
-                        .iterations = integer(s, "iterations"),
+    RecordedStage stage{.stage = s.integer("stage"),
+                        .chi2 = s.numberOrNull("chi2"),
+                        .iterations = s.integer("iterations"),
                         .converged = s.has("converged") && s.at("converged") == true};
-    const Json& free = arrayAt(s, "free");
+    const Json& free = s.array("free");
     for (std::size_t i = 0; i < free.size(); ++i) {
       stage.free.push_back(paramNamed(s, fmt::format("{}[{}]", s.pathOf("free"), i), free[i]));
     }
@@ -149,7 +115,7 @@ RecordedCorrections readCorrections(const StrictObject& c) {
     const StrictObject i = c.object("interpolation");
     (void)i.number("beam_energy_mev");
     (void)i.string("directory");
-    const Json& points = arrayAt(i, "points");
+    const Json& points = i.array("points");
     for (std::size_t k = 0; k < points.size(); ++k) {
       const StrictObject p = i.nested(points[k], fmt::format("{}[{}]", i.pathOf("points"), k));
       (void)p.number("beam_energy_mev");
@@ -162,20 +128,20 @@ RecordedCorrections readCorrections(const StrictObject& c) {
 
 RecordedInput readInput(const StrictObject& in) {
   RecordedInput out;
-  if (in.has("files")) out.files = strings(in, "files");
+  if (in.has("files")) out.files = in.strings("files");
   out.fromProfile = in.has("from_profile") && in.at("from_profile") == true;
   if (in.has("detector")) out.detector = in.string("detector");
-  if (in.has("bins_used")) out.binsUsed = integer(in, "bins_used");
+  if (in.has("bins_used")) out.binsUsed = in.integer("bins_used");
   if (in.has("model_corrections")) out.modelCorrections = readCorrections(in.object("model_corrections"));
   if (in.has("beam_energies_mev")) {
-    const Json& energies = arrayAt(in, "beam_energies_mev");
+    const Json& energies = in.array("beam_energies_mev");
     for (std::size_t k = 0; k < energies.size(); ++k) {
       out.beamEnergiesMev.push_back(in.numberValue(energies[k], fmt::format("input.beam_energies_mev[{}]", k)));
     }
   }
   if (in.has("cut_flow")) {
     const StrictObject flow = in.object("cut_flow");
-    for (const auto& [cut, events] : in.at("cut_flow").items()) out.cutFlow.emplace_back(cut, integer(flow, cut));
+    for (const auto& [cut, events] : in.at("cut_flow").items()) out.cutFlow.emplace_back(cut, flow.integer(cut));
   }
   return out;
 }
@@ -218,9 +184,9 @@ Result<FitRecord> parseFitRecord(const io::Json& j, std::string_view source) {
     readParameters(top, r);
     readDerived(top, r);
     readCorrelation(top, r);
-    r.chi2 = numberOrNull(top, "chi2");
-    r.ndf = integer(top, "ndf");
-    r.pValue = numberOrNullIfGiven(top, "p_value");
+    r.chi2 = top.numberOrNull("chi2");
+    r.ndf = top.integer("ndf");
+    r.pValue = top.numberOrNullIfGiven("p_value");
     const std::string status = top.string("status");
     const auto s = fitStatusFromName(status);
     if (!s) {
@@ -228,8 +194,8 @@ Result<FitRecord> parseFitRecord(const io::Json& j, std::string_view source) {
                fmt::format("unknown status '{}' (converged, poor fit, not converged, covariance singular)", status));
     }
     r.status = *s;
-    r.warnings = strings(top, "warnings");
-    if (top.has("notes")) r.notes = strings(top, "notes");
+    r.warnings = top.strings("warnings");
+    if (top.has("notes")) r.notes = top.strings("notes");
     if (top.has("sigma_sys")) r.sigmaSys = readSigmaSys(top.object("sigma_sys"));
     r.stages = readStages(top);
     r.input = readInput(top.object("input"));

@@ -455,66 +455,61 @@ Result<std::string> trendSection(const std::optional<ReportTrend>& tr, const std
   return body;
 }
 
+// A check's table: before, after, the improvement and the paper's.
+html::Table checkTable(const apply::CheckRecord& r) {
+  const apply::CheckSide &b = r.before, &a = r.after;
+  const apply::CheckImprovement& imp = r.improvement;
+  html::Table t{.header = {"quantity", "before", "after", "improvement, %", "paper"}};
+  t.numeric = {false, true, true, true, false};
+  if (r.process == apply::CheckProcess::GammaGamma) {
+    t.caption = fmt::format("{} events selected; the paper: the width improves by {:.0f} %", r.selected,
+                            paper::kGammaGammaImprovementPercent);
+    t.rows.push_back({"Δφ core width, deg", number(b.dphi.width, "{:.3f}"), number(a.dphi.width, "{:.3f}"),
+                      number(imp.dphiWidth, "{:.1f}"), fmt::format("{:.0f} %", paper::kGammaGammaImprovementPercent)});
+    t.rows.push_back(
+        {"Δφ rms, deg", number(b.dphi.rms, "{:.3f}"), number(a.dphi.rms, "{:.3f}"), number(imp.dphiRms, "{:.1f}"), ""});
+    t.rows.push_back({"Δθ core width, deg", number(b.dtheta.width, "{:.3f}"), number(a.dtheta.width, "{:.3f}"),
+                      number(imp.dthetaWidth, "{:.1f}"), ""});
+    return t;
+  }
+  t.caption = fmt::format("{} events selected; the paper: the mean χ² falls by {:.0f}–{:.0f} %", r.selected,
+                          paper::kThreePionImprovementLowPercent, paper::kThreePionImprovementHighPercent);
+  t.rows.push_back({fmt::format("mean χ² (ndf {})", r.ndf), number(b.chi2Mean, "{:.2f}"), number(a.chi2Mean, "{:.2f}"),
+                    number(imp.chi2Mean, "{:.1f}"),
+                    fmt::format("{:.0f}–{:.0f} %", paper::kThreePionImprovementLowPercent,
+                                paper::kThreePionImprovementHighPercent)});
+  t.rows.push_back({"median χ²", number(b.chi2Median, "{:.2f}"), number(a.chi2Median, "{:.2f}"),
+                    number(imp.chi2Median, "{:.1f}"), ""});
+  t.rows.push_back({"fits not converged", std::to_string(b.notConverged), std::to_string(a.notConverged), "", ""});
+  return t;
+}
+
 Result<std::string> checksSection(const std::vector<ReportCheck>& checks) {
   std::string body;
   for (const auto& c : checks) {
-    const Json& j = c.check;
-    const Json &b = j.at("before"), &a = j.at("after"), &imp = j.at("improvement_percent");
-    html::Table t;
-    t.numeric = {false, true, true, true, false};
-    if (c.process() == apply::CheckProcess::GammaGamma) {
-      body += fmt::format("<h3>e+e- → γγ: acollinearity (<code>{}</code>)</h3>\n", html::escape(c.dir));
-      t.caption = fmt::format("{} events selected; the paper: the width improves by {:.0f} %", plain(j.at("selected")),
-                              paper::kGammaGammaImprovementPercent);
-      t.header = {"quantity", "before", "after", "improvement, %", "paper"};
-      t.rows.push_back({"Δφ core width, deg", number(b.value("dphi_width_deg", Json()), "{:.3f}"),
-                        number(a.value("dphi_width_deg", Json()), "{:.3f}"),
-                        number(imp.value("dphi_width", Json()), "{:.1f}"),
-                        fmt::format("{:.0f} %", paper::kGammaGammaImprovementPercent)});
-      t.rows.push_back({"Δφ rms, deg", number(b.value("dphi_rms_deg", Json()), "{:.3f}"),
-                        number(a.value("dphi_rms_deg", Json()), "{:.3f}"),
-                        number(imp.value("dphi_rms", Json()), "{:.1f}"), ""});
-      t.rows.push_back({"Δθ core width, deg", number(b.value("dtheta_width_deg", Json()), "{:.3f}"),
-                        number(a.value("dtheta_width_deg", Json()), "{:.3f}"),
-                        number(imp.value("dtheta_width", Json()), "{:.1f}"), ""});
-    } else {
-      body += fmt::format("<h3>e+e- → π+π−π0: kinematic fit (<code>{}</code>)</h3>\n", html::escape(c.dir));
-      t.caption =
-          fmt::format("{} events selected; the paper: the mean χ² falls by {:.0f}–{:.0f} %", plain(j.at("selected")),
-                      paper::kThreePionImprovementLowPercent, paper::kThreePionImprovementHighPercent);
-      t.header = {"quantity", "before", "after", "improvement, %", "paper"};
-      t.rows.push_back({fmt::format("mean χ² (ndf {})", text(j.value("ndf", Json(2)))),
-                        number(b.value("chi2_mean", Json()), "{:.2f}"), number(a.value("chi2_mean", Json()), "{:.2f}"),
-                        number(imp.value("chi2_mean", Json()), "{:.1f}"),
-                        fmt::format("{:.0f}–{:.0f} %", paper::kThreePionImprovementLowPercent,
-                                    paper::kThreePionImprovementHighPercent)});
-      t.rows.push_back({"median χ²", number(b.value("chi2_median", Json()), "{:.2f}"),
-                        number(a.value("chi2_median", Json()), "{:.2f}"),
-                        number(imp.value("chi2_median", Json()), "{:.1f}"), ""});
-      t.rows.push_back({"fits not converged", text(b.value("not_converged", Json("—"))),
-                        text(a.value("not_converged", Json("—"))), "", ""});
-    }
-    body += html::table(t);
+    const apply::CheckRecord& r = c.record;
+    const bool gg = r.process == apply::CheckProcess::GammaGamma;
+    body += fmt::format("<h3>{} (<code>{}</code>)</h3>\n",
+                        gg ? "e+e- → γγ: acollinearity" : "e+e- → π+π−π0: kinematic fit", html::escape(c.dir));
+    body += html::table(checkTable(r));
     // What the events were corrected with: the alignment and the method (check.json records them).
-    const Json alignment = j.value("alignment", Json());
     std::string with;
-    if (alignment.is_object() && alignment.contains("file")) {
-      with = "the alignment <code>" + html::escape(plain(alignment["file"])) + "</code>";
-    } else if (alignment.is_object() && alignment.contains("tag")) {
-      with = "each run's IOV of tag <code>" + html::escape(plain(alignment["tag"])) + "</code> of <code>" +
-             html::escape(plain(alignment.value("conditions", Json("?")))) + "</code>";
+    if (!r.alignmentFile().empty()) {
+      with = "the alignment <code>" + html::escape(r.alignmentFile()) + "</code>";
+    } else if (!r.alignmentTag().empty()) {
+      const std::string conditions = r.alignmentConditions();
+      with = "each run's IOV of tag <code>" + html::escape(r.alignmentTag()) + "</code> of <code>" +
+             html::escape(conditions.empty() ? "?" : conditions) + "</code>";
     }
     if (!with.empty()) {
-      body += fmt::format(
-          "<p>Corrected with {}, method {}.</p>\n", with,
-          html::escape(j.contains("correction_method") ? plain(j["correction_method"]) : std::string("not said")));
+      body += fmt::format("<p>Corrected with {}, method {}.</p>\n", with,
+                          html::escape(r.correctionMethod.empty() ? "not said" : r.correctionMethod));
     }
     if (!c.figure.empty()) {
       auto fig = html::figure(
           c.figure,
-          c.process() == apply::CheckProcess::GammaGamma
-              ? "Δφ and Δθ of the γγ events before (filled) and after (open) the correction: the paper's Fig. 9."
-              : "χ² of the π+π−π0 kinematic fit before and after the correction: the paper's Fig. 10.");
+          gg ? "Δφ and Δθ of the γγ events before (filled) and after (open) the correction: the paper's Fig. 9."
+             : "χ² of the π+π−π0 kinematic fit before and after the correction: the paper's Fig. 10.");
       if (!fig) return fig.error();
       body += *fig;
     }
@@ -555,16 +550,14 @@ std::vector<std::string> summary(const ReportInputs& in) {
                                 plain(c.at("ndf")), number(c.at("p_value"), "{:.3g}")));
   }
   for (const auto& c : in.checks) {
-    const Json& j = c.check;
-    const Json imp = j.value("improvement_percent", Json::object());
-    if (c.process() == apply::CheckProcess::GammaGamma) {
+    const apply::CheckImprovement& imp = c.record.improvement;
+    if (c.record.process == apply::CheckProcess::GammaGamma) {
       lines.push_back(fmt::format("e+e- → γγ: the Δφ core width {} % narrower (the paper: {:.0f} %).",
-                                  number(imp.value("dphi_width", Json()), "{:.1f}"),
-                                  paper::kGammaGammaImprovementPercent));
+                                  number(imp.dphiWidth, "{:.1f}"), paper::kGammaGammaImprovementPercent));
     } else {
       lines.push_back(fmt::format("e+e- → π+π−π0: the mean χ² {} % lower (the paper: {:.0f}–{:.0f} %).",
-                                  number(imp.value("chi2_mean", Json()), "{:.1f}"),
-                                  paper::kThreePionImprovementLowPercent, paper::kThreePionImprovementHighPercent));
+                                  number(imp.chi2Mean, "{:.1f}"), paper::kThreePionImprovementLowPercent,
+                                  paper::kThreePionImprovementHighPercent));
     }
   }
   return lines;
@@ -697,10 +690,17 @@ std::string detectorLine(const geometry::Calorimeter& calo, const std::string& d
 Result<ReportCheck> readCheckDirectory(const std::string& dir) {
   auto j = readJsonIn(dir, "check.json");
   if (!j) return j.error();
-  const auto process = apply::checkProcessFromName(j->is_object() ? j->value("process", std::string()) : std::string());
-  if (!process) return Error{fmt::format("{}/check.json: not a physics check (emcalign check)", dir)};
-  const auto figures = existing(dir, {*process == apply::CheckProcess::GammaGamma ? "acollinearity.png" : "chi2.png"});
-  return ReportCheck{dir, std::move(*j), figures.empty() ? std::string() : figures.front()};
+  if (!j->is_object() || !apply::checkProcessFromName(j->value("process", std::string()))) {
+    return Error{fmt::format("{}/check.json: not a physics check (emcalign check)", dir)};
+  }
+  auto record = apply::parseCheckRecord(*j, dir + "/check.json");
+  if (!record) return record.error();
+  const bool gg = record->process == apply::CheckProcess::GammaGamma;
+  const auto figures = existing(dir, {gg ? "acollinearity.png" : "chi2.png"});
+  return ReportCheck{.dir = dir,
+                     .record = std::move(*record),
+                     .document = std::move(*j),
+                     .figure = figures.empty() ? std::string() : figures.front()};
 }
 
 Result<std::string> calibrationReport(const ReportInputs& in) {
@@ -732,7 +732,7 @@ Result<std::string> calibrationReport(const ReportInputs& in) {
     sources.push_back(in.trend ? in.trend->dir : in.conditions->uri + " tag " + in.conditions->tag);
   }
   if (!in.checks.empty()) {
-    auto body = guarded(in.checks.front().dir, [&] { return checksSection(in.checks); });
+    auto body = checksSection(in.checks);
     if (!body) return body.error();
     sections.push_back({"checks", "Physics checks (the paper's Figs. 9–10)", *body});
     for (const auto& c : in.checks) sources.push_back(c.dir);

@@ -100,56 +100,45 @@ namespace {
 
 std::string fixedOrDash(double v, int digits) { return std::isfinite(v) ? fmt::format("{:.{}f}", v, digits) : "—"; }
 
-// A number of check.json, NaN where it is null (nothing to measure) or absent.
-double number(const io::Json& side, const std::string& key) {
-  return side.contains(key) && side.at(key).is_number() ? side.at(key).get<double>() : NAN;
-}
-
 }  // namespace
 
-CheckFigure checkFigure(const apply::GammaGammaCheck& check, const io::Json& json) {
-  const auto& b = json["before"];
-  const auto& a = json["after"];
-  auto label = [](const char* when, const io::Json& side, const char* what) {
-    const std::string w(what);
-    return fmt::format("{}: σ_{{core}} {}°, rms {}°", when, fixedOrDash(number(side, w + "_width_deg"), 3),
-                       fixedOrDash(number(side, w + "_rms_deg"), 3));
+CheckFigure checkFigure(const apply::GammaGammaCheck& check, const apply::CheckRecord& record) {
+  auto label = [](const char* when, const apply::CheckWidth& w) {
+    return fmt::format("{}: σ_{{core}} {}°, rms {}°", when, fixedOrDash(w.width, 3), fixedOrDash(w.rms, 3));
   };
+  const apply::CheckSide &b = record.before, &a = record.after;
   CheckFigure f;
   f.name = "acollinearity";
   f.title = "e+e- → γγ: acollinearity before and after the correction";
   f.panels.push_back({"Δφ = |φ_1 − φ_2| − 180°  [deg]", -6.0, 6.0, 60, check.dphi[0], check.dphi[1],
-                      label("before", b, "dphi"), label("after", a, "dphi"), 0, "deg"});
+                      label("before", b.dphi), label("after", a.dphi), 0, "deg"});
   f.panels.push_back({"Δθ = θ_1 + θ_2 − 180°  [deg]", -15.0, 15.0, 60, check.dtheta[0], check.dtheta[1],
-                      label("before", b, "dtheta"), label("after", a, "dtheta"), 0, "deg"});
+                      label("before", b.dtheta), label("after", a.dtheta), 0, "deg"});
   f.summary = fmt::format("check gg: {} of {} events selected; Δφ core width {}° -> {}° ({}% better), Δθ {}° -> {}°",
-                          json["selected"].get<std::int64_t>(), check.cutFlow.events.front(),
-                          fixedOrDash(number(b, "dphi_width_deg"), 3), fixedOrDash(number(a, "dphi_width_deg"), 3),
-                          fixedOrDash(number(json["improvement_percent"], "dphi_width"), 1),
-                          fixedOrDash(number(b, "dtheta_width_deg"), 3), fixedOrDash(number(a, "dtheta_width_deg"), 3));
+                          record.selected, check.cutFlow.events.front(), fixedOrDash(b.dphi.width, 3),
+                          fixedOrDash(a.dphi.width, 3), fixedOrDash(record.improvement.dphiWidth, 1),
+                          fixedOrDash(b.dtheta.width, 3), fixedOrDash(a.dtheta.width, 3));
   return f;
 }
 
-CheckFigure checkFigure(const apply::ThreePionCheck& check, const io::Json& json) {
+CheckFigure checkFigure(const apply::ThreePionCheck& check, const apply::CheckRecord& record) {
   std::array<std::vector<double>, 2> chi2;
   for (std::size_t k = 0; k < 2; ++k) {
     for (const auto& fit : check.fits[k]) {
       if (fit.converged) chi2[k].push_back(fit.chi2);
     }
   }
-  const auto& b = json["before"];
-  const auto& a = json["after"];
+  const apply::CheckSide &b = record.before, &a = record.after;
   CheckFigure f;
   f.name = "chi2";
   f.title = "e+e- → π+π−π0: kinematic fit before and after the correction";
   f.panels.push_back({"χ^2 of the kinematic fit (ndf 2)", 0.0, 30.0, 60, chi2[0], chi2[1],
-                      fmt::format("before: mean {}", fixedOrDash(number(b, "chi2_mean"), 2)),
-                      fmt::format("after: mean {}", fixedOrDash(number(a, "chi2_mean"), 2)), 2, ""});
-  f.summary = fmt::format("check 3pi: {} of {} events selected; mean χ² {} -> {} ({}% lower); not converged {} / {}",
-                          json["selected"].get<std::int64_t>(), check.cutFlow.events.front(),
-                          fixedOrDash(number(b, "chi2_mean"), 3), fixedOrDash(number(a, "chi2_mean"), 3),
-                          fixedOrDash(number(json["improvement_percent"], "chi2_mean"), 1),
-                          b["not_converged"].get<std::int64_t>(), a["not_converged"].get<std::int64_t>());
+                      fmt::format("before: mean {}", fixedOrDash(b.chi2Mean, 2)),
+                      fmt::format("after: mean {}", fixedOrDash(a.chi2Mean, 2)), 2, ""});
+  f.summary =
+      fmt::format("check 3pi: {} of {} events selected; mean χ² {} -> {} ({}% lower); not converged {} / {}",
+                  record.selected, check.cutFlow.events.front(), fixedOrDash(b.chi2Mean, 3), fixedOrDash(a.chi2Mean, 3),
+                  fixedOrDash(record.improvement.chi2Mean, 1), b.notConverged, a.notConverged);
   return f;
 }
 

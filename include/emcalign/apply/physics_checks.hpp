@@ -92,14 +92,6 @@ Result<GammaGammaCheck> checkGammaGamma(const std::vector<std::string>& before, 
 Result<ThreePionCheck> checkThreePion(const std::vector<std::string>& before, const std::vector<std::string>& after,
                                       const geometry::DepthAtEnergy& depthAt, const ResolutionModel& resolution = {});
 
-/// check.json: {"process": "gg", "selected", "cut_flow" (cut → events), "cut_order" (the
-/// cuts in the order applied), "before": {"dphi_width_deg",
-/// "dphi_width_error_deg", "dphi_rms_deg", "dtheta_width_deg", ...}, "after": {...},
-/// "improvement_percent": {...}}.
-io::Json checkJson(const GammaGammaCheck& c);
-/// check.json: {"process": "3pi", "selected", "ndf": 2, "cut_flow", "before": {"chi2_mean",
-/// "chi2_median", "chi2_mean_below_20", "fraction_above_20", "p_value_mean", "converged",
-/// "not_converged"}, "after": {...}, "improvement_percent": {...}}.
-io::Json checkJson(const ThreePionCheck& c);
+// What a check found, typed and written as check.json: check_record.hpp (checkRecord).
 
 }  // namespace emcalign::apply

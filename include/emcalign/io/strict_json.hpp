@@ -7,10 +7,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <initializer_list>
+#include <limits>
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -93,6 +96,42 @@ class StrictObject {
     const Json& v = at(key);
     if (!v.is_string()) fail(pathOf(key), fmt::format("expected a string, got {}", typeName(v)));
     return v.get<std::string>();
+  }
+
+  /// A number, or NaN for null (what io::numberOrNull writes for NaN); the key required.
+  [[nodiscard]] double numberOrNull(std::string_view key) const {
+    const Json& v = at(key);
+    if (v.is_null()) return std::numeric_limits<double>::quiet_NaN();
+    if (!v.is_number()) fail(pathOf(key), fmt::format("expected a number or null, got {}", typeName(v)));
+    return v.get<double>();
+  }
+  /// The same, NaN when the key is absent too.
+  [[nodiscard]] double numberOrNullIfGiven(std::string_view key) const {
+    return has(key) ? numberOrNull(key) : std::numeric_limits<double>::quiet_NaN();
+  }
+  [[nodiscard]] std::int64_t integer(std::string_view key) const {
+    const Json& v = at(key);
+    if (!v.is_number_integer()) fail(pathOf(key), fmt::format("expected an integer, got {}", typeName(v)));
+    return v.get<std::int64_t>();
+  }
+  [[nodiscard]] bool boolean(std::string_view key) const {
+    const Json& v = at(key);
+    if (!v.is_boolean()) fail(pathOf(key), fmt::format("expected true or false, got {}", typeName(v)));
+    return v.get<bool>();
+  }
+  [[nodiscard]] const Json& array(std::string_view key) const {
+    const Json& v = at(key);
+    if (!v.is_array()) fail(pathOf(key), fmt::format("expected an array, got {}", typeName(v)));
+    return v;
+  }
+  [[nodiscard]] std::vector<std::string> strings(std::string_view key) const {
+    std::vector<std::string> out;
+    const Json& list = array(key);
+    for (std::size_t k = 0; k < list.size(); ++k) {
+      if (!list[k].is_string()) fail(fmt::format("{}[{}]", pathOf(key), k), "expected a string");
+      out.push_back(list[k].get<std::string>());
+    }
+    return out;
   }
 
   [[nodiscard]] double numberValue(const Json& v, const std::string& where) const {

@@ -22,7 +22,7 @@
 #include <utility>
 #include <vector>
 
-#include "emcalign/apply/physics_checks.hpp"
+#include "emcalign/apply/check_record.hpp"
 #include "emcalign/calib/fit_record.hpp"
 #include "emcalign/core/result.hpp"
 #include "emcalign/geometry/detector.hpp"
@@ -72,14 +72,10 @@ struct ReportConditions {
 };
 
 struct ReportCheck {
-  std::string dir;
-  io::Json check;      ///< dir/check.json
-  std::string figure;  ///< dir/acollinearity.png or dir/chi2.png (empty: none)
-  /// As check.json names it (readCheckDirectory refuses another name; "3pi" but for "gg").
-  [[nodiscard]] apply::CheckProcess process() const {
-    const bool gg = check.is_object() && check.contains("process") && check.at("process") == "gg";
-    return gg ? apply::CheckProcess::GammaGamma : apply::CheckProcess::ThreePion;
-  }
+  std::string dir = {};
+  apply::CheckRecord record = {};  ///< dir/check.json, read (apply::parseCheckRecord)
+  io::Json document = {};          ///< its JSON as it is, for filesNamedIn only
+  std::string figure = {};         ///< dir/acollinearity.png or dir/chi2.png (empty: none)
 };
 
 /// The files a document the report reads names (a fit's events, corrections and detector; a

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "emcalign/apply/physics_checks.hpp"
+#include "emcalign/apply/check_record.hpp"
 #include "emcalign/core/result.hpp"
 
 namespace emcalign::report {
@@ -26,15 +26,15 @@ struct BeforeAfterPanel {
 
 /// A check's figure and the line `emcalign check` prints: the panels over the ranges of the
 /// paper's Figs. 9 and 10 (Δφ ±6°, Δθ ±15°; the χ² of the converged fits, 0–30), their keys
-/// and the summary with the numbers of check.json (`checkJson`, apply::checkJson).
+/// and the summary with the numbers of check.json (apply::CheckRecord).
 struct CheckFigure {
   std::string name;  ///< "acollinearity" or "chi2"
   std::string title;
   std::vector<BeforeAfterPanel> panels;
   std::string summary;
 };
-CheckFigure checkFigure(const apply::GammaGammaCheck& check, const io::Json& checkJson);
-CheckFigure checkFigure(const apply::ThreePionCheck& check, const io::Json& checkJson);
+CheckFigure checkFigure(const apply::GammaGammaCheck& check, const apply::CheckRecord& record);
+CheckFigure checkFigure(const apply::ThreePionCheck& check, const apply::CheckRecord& record);
 
 /// Writes NAME.png (the panels side by side) into `dir`; its path.
 Result<std::string> writeBeforeAfterPlot(const std::string& dir, const std::string& name, const std::string& title,

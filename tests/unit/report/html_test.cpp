@@ -106,6 +106,13 @@ ReportFit reportFit(const Json& r) {
   return ReportFit{.path = "r.json", .record = record.ok() ? *record : calib::FitRecord{}, .document = r};
 }
 
+// A check.json as the report takes it.
+ReportCheck reportCheck(const Json& j) {
+  auto record = apply::parseCheckRecord(j, "chk/check.json");
+  EXPECT_TRUE(record.ok()) << record.error().message;
+  return ReportCheck{.dir = "chk", .record = record.ok() ? *record : apply::CheckRecord{}, .document = j};
+}
+
 TEST(CalibrationReport, TheFitSectionShowsWhatTheResultSays) {
   ReportInputs in;
   in.fit = reportFit(fitResult());
@@ -216,20 +223,23 @@ TEST(CalibrationReport, NullsAndMarkupInTheInputsStayText) {
   r["input"]["detector"] = "<img src=x>";
   ReportInputs in;
   in.fit = reportFit(r);
-  in.checks.push_back({"chk",
-                       {{"process", "gg"},
-                        {"selected", "<script>"},
-                        {"before", {{"dphi_width_deg", nullptr}}},
-                        {"after", Json::object()},
-                        {"improvement_percent", {{"dphi_width", nullptr}}}},
-                       ""});
+  in.checks.push_back(reportCheck({{"process", "gg"},
+                                   {"selected", 0},
+                                   {"cut_flow", {{"events", 0}}},
+                                   {"before", {{"dphi_width_deg", nullptr}}},
+                                   {"after", Json::object()},
+                                   {"improvement_percent", {{"dphi_width", nullptr}}},
+                                   {"alignment", {{"file", "<script>"}}},
+                                   {"correction_method", "<i>"}}));
   auto page = calibrationReport(in);
   ASSERT_TRUE(page.ok()) << page.error().message;
   EXPECT_NE(page->find("χ²/ndf = —/308 (p-value —)"), std::string::npos);
   EXPECT_EQ(page->find("<img src=x>"), std::string::npos);
   EXPECT_EQ(page->find("<script>"), std::string::npos);
   EXPECT_EQ(page->find("<b>not converged"), std::string::npos);
-  EXPECT_NE(page->find("&lt;script&gt; events selected"), std::string::npos);
+  EXPECT_NE(page->find("Corrected with the alignment <code>&lt;script&gt;</code>, method &lt;i&gt;."),
+            std::string::npos)
+      << *page;
 }
 
 TEST(CalibrationReport, TheValidationStandsBesideTable1AndTheTrendListsItsFindings) {
@@ -303,18 +313,21 @@ TEST(CalibrationReport, RefusesNothingAndNamesWhatIsMissing) {
 
 TEST(CalibrationReport, ChecksStandBesideThePapersImprovements) {
   ReportInputs in;
-  in.checks.push_back({"chk",
-                       {{"process", "3pi"},
-                        {"selected", 1000},
-                        {"before", {{"chi2_mean", 20.0}, {"chi2_median", 3.0}, {"not_converged", 1}}},
-                        {"after", {{"chi2_mean", 18.0}, {"chi2_median", 2.0}, {"not_converged", 1}}},
-                        {"improvement_percent", {{"chi2_mean", 10.0}, {"chi2_median", 33.3}}}},
-                       ""});
+  in.checks.push_back(reportCheck({{"process", "3pi"},
+                                   {"selected", 1000},
+                                   {"cut_flow", {{"events", 4000}}},
+                                   {"before", {{"chi2_mean", 20.0}, {"chi2_median", 3.0}, {"not_converged", 1}}},
+                                   {"after", {{"chi2_mean", 18.0}, {"chi2_median", 2.0}, {"not_converged", 2}}},
+                                   {"improvement_percent", {{"chi2_mean", 10.0}, {"chi2_median", 33.3}}}}));
   auto page = calibrationReport(in);
   ASSERT_TRUE(page.ok()) << page.error().message;
   EXPECT_NE(page->find("the mean χ² falls by 10–15 %"), std::string::npos);
   EXPECT_NE(page->find("<td class=\"num\">20.00</td><td class=\"num\">18.00</td><td class=\"num\">10.0</td>"),
             std::string::npos);
+  EXPECT_NE(page->find("<td>fits not converged</td><td class=\"num\">1</td><td class=\"num\">2</td>"),
+            std::string::npos)
+      << *page;
+  EXPECT_NE(page->find("1000 events selected"), std::string::npos);
 }
 
 }  // namespace

@@ -78,11 +78,11 @@ int run(const CompareOptions& o) {
   std::error_code ec;
   std::filesystem::create_directories(o.output, ec);
   if (ec) return reportError(Error{fmt::format("{}: cannot create the directory: {}", o.output, ec.message())});
-  io::Json json = apply::comparisonJson(*c);
-  json["software"] = fmt::format("emcalign {}", kVersion);
-  json["data"]["files"] = o.data;
-  json["mc"]["files"] = o.mc;
-  json["depth_offset_cm"] = depth.offset / units::cm;
+  const io::Json json = apply::comparisonJson(apply::ComparisonRecord{.comparison = *c,
+                                                                      .dataFiles = o.data,
+                                                                      .mcFiles = o.mc,
+                                                                      .software = fmt::format("emcalign {}", kVersion),
+                                                                      .depthOffsetCm = depth.offset / units::cm});
   if (Status s = io::writeFileIn(o.output, "compare.json", json.dump(1) + "\n"); !s) return reportError(s.error());
   if (Status s = io::writeFileIn(
           o.output, "compare.md",

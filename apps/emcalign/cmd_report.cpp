@@ -108,7 +108,7 @@ int run(const ReportCliOptions& o) {
   if (!o.compare.empty()) {
     auto c = report::readCompareDirectory(o.compare);
     if (!c) return reportError(c.error());
-    for (const auto& f : report::filesNamedIn(c->compare)) io::protectInput({"named by --compare", f});
+    for (const auto& f : report::filesNamedIn(c->document)) io::protectInput({"named by --compare", f});
     in.compare = std::move(*c);
   }
   if (!o.trend.empty()) {

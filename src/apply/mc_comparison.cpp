@@ -344,50 +344,6 @@ Result<std::vector<ComparedParticle>> comparedParticlesOfRows(
   });
 }
 
-Json comparisonJson(const Comparison& c) {
-  Json distributions = Json::array();
-  for (const auto& d : c.distributions) {
-    Json bins = Json::array();
-    const bool histogram = d.name == "dphi" || d.name == "dtheta";
-    for (const auto& b : d.bins) {
-      Json j = histogram ? Json{{"low_deg", std::isfinite(b.low) ? Json(b.low) : Json()},
-                                {"high_deg", std::isfinite(b.high) ? Json(b.high) : Json()}}
-                         : Json{{"bin", static_cast<int>(b.low)},
-                                {"i_phi", static_cast<int>(b.low) / c.options.profileThetaBins},
-                                {"i_theta", static_cast<int>(b.low) % c.options.profileThetaBins}};
-      j["data"] = b.data;
-      j["data_error"] = b.dataError;
-      j["mc"] = b.mc;
-      j["mc_error"] = b.mcError;
-      j["pull"] = b.pull;
-      bins.push_back(std::move(j));
-    }
-    distributions.push_back({{"name", d.name},
-                             {"chi2", d.chi2},
-                             {"ndf", d.ndf},
-                             {"p_value", d.pValue},
-                             {"unit", histogram ? "fraction of the particles" : "deg"},
-                             {"bins", bins}});
-  }
-  return {{"format", "emcalign-compare/1"},
-          {"p_value", c.pValue},
-          {"chi2", c.chi2},
-          {"ndf", c.ndf},
-          {"distributions", distributions},
-          {"data", {{"events", c.dataEvents}, {"particles", c.dataParticles}}},
-          {"mc", {{"events", c.mcEvents}, {"particles", c.mcParticles}}},
-          {"options",
-           {{"histogram_bins", c.options.histogramBins},
-            {"range_deg", c.options.rangeDeg},
-            {"dphi_centre_deg", c.options.phiCentreDeg},
-            {"dtheta_centre_deg", c.options.thetaCentreDeg},
-            {"min_entries", c.options.minEntries},
-            {"sigma_sys_deg", c.options.sigmaSys / units::deg}}},
-          {"method",
-           "chi2 of the difference with the covariance of both samples from the events' influences (two particles "
-           "of an event, y_phi-y_theta, the histograms' normalisation), over its rank"}};
-}
-
 std::string comparisonMarkdown(const Comparison& c, const std::vector<std::string>& dataFiles,
                                const std::vector<std::string>& mcFiles, const std::string& depth) {
   std::string md = fmt::format(

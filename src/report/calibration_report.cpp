@@ -256,35 +256,32 @@ Result<std::string> fitSection(const ReportFit& f) {
          provenanceTable(f);
 }
 
-Result<std::string> compareSection(const ReportCompare& c) {
-  const Json& j = c.compare;
-  const double p = j.at("p_value").get<double>();
+Result<std::string> compareSection(const ReportCompare& report) {
+  const apply::Comparison& c = report.record.comparison;
+  const bool good = c.pValue >= 0.01;
   std::string body = fmt::format(
       "<p>Data: {} particles ({} events); MC: {} particles ({} events). All distributions together: χ²/ndf = "
       "{}/{}, p-value <span class=\"{}\">{}</span> — {}.</p>\n",
-      text(j.at("data").value("particles", Json("?"))), text(j.at("data").value("events", Json("?"))),
-      text(j.at("mc").value("particles", Json("?"))), text(j.at("mc").value("events", Json("?"))),
-      number(j.at("chi2"), "{:.1f}"), text(j.at("ndf")), p >= 0.01 ? "good" : "bad", number(j.at("p_value"), "{:.3g}"),
-      p >= 0.01 ? "the simulation describes the data within the statistical errors of both"
-                : "the simulation does not describe the data");
+      c.dataParticles, c.dataEvents, c.mcParticles, c.mcEvents, number(c.chi2, "{:.1f}"), c.ndf, good ? "good" : "bad",
+      number(c.pValue, "{:.3g}"),
+      good ? "the simulation describes the data within the statistical errors of both"
+           : "the simulation does not describe the data");
   html::Table t{.caption = "Each distribution: the χ² of data − MC with both samples' covariance (docs/apply.md)",
                 .header = {"distribution", "χ²/ndf", "p-value", "largest |pull|"}};
   t.numeric = {false, true, true, true};
-  for (const auto& d : j.at("distributions")) {
+  for (const auto& d : c.distributions) {
     double largest = 0.0;
-    for (const auto& b : d.value("bins", Json::array())) {
-      if (b.contains("pull") && b.at("pull").is_number())
-        largest = std::max(largest, std::abs(b.at("pull").get<double>()));
+    for (const auto& b : d.bins) {
+      if (std::isfinite(b.pull)) largest = std::max(largest, std::abs(b.pull));
     }
-    const double pd = d.at("p_value").get<double>();
     t.rows.push_back(
-        {"<code>" + text(d.at("name")) + "</code>", number(d.at("chi2"), "{:.1f}") + "/" + text(d.at("ndf")),
-         fmt::format("<span class=\"{}\">{}</span>", pd >= 0.01 ? "good" : "bad", number(d.at("p_value"), "{:.3g}")),
+        {"<code>" + html::escape(d.name) + "</code>", number(d.chi2, "{:.1f}") + "/" + std::to_string(d.ndf),
+         fmt::format("<span class=\"{}\">{}</span>", d.pValue >= 0.01 ? "good" : "bad", number(d.pValue, "{:.3g}")),
          fmt::format("{:.1f}", largest)});
   }
   body += html::table(t);
-  if (!c.figure.empty()) {
-    auto fig = html::figure(c.figure,
+  if (!report.figure.empty()) {
+    auto fig = html::figure(report.figure,
                             "Δφ and Δθ of the data (points) and the MC (open, scaled to the data's particles) with "
                             "the pulls under them, and the pulls of the 16×10 profile means: the paper's Fig. 6.");
     if (!fig) return fig.error();
@@ -545,9 +542,9 @@ std::vector<std::string> summary(const ReportInputs& in) {
                                 counted(stable, "stable period")));
   }
   if (in.compare) {
-    const Json& c = in.compare->compare;
-    lines.push_back(fmt::format("MC against data: χ²/ndf = {}/{}, p-value {}.", number(c.at("chi2"), "{:.1f}"),
-                                plain(c.at("ndf")), number(c.at("p_value"), "{:.3g}")));
+    const apply::Comparison& c = in.compare->record.comparison;
+    lines.push_back(fmt::format("MC against data: χ²/ndf = {}/{}, p-value {}.", number(c.chi2, "{:.1f}"), c.ndf,
+                                number(c.pValue, "{:.3g}")));
   }
   for (const auto& c : in.checks) {
     const apply::CheckImprovement& imp = c.record.improvement;
@@ -645,8 +642,13 @@ Result<ReportCompare> readCompareDirectory(const std::string& dir) {
   if (!j->is_object() || j->value("format", std::string()) != "emcalign-compare/1") {
     return Error{fmt::format("{}/compare.json: not a comparison of data with simulation (emcalign compare)", dir)};
   }
+  auto record = apply::parseComparison(*j, dir + "/compare.json");
+  if (!record) return record.error();
   const auto figures = existing(dir, {"compare.png"});
-  return ReportCompare{dir, std::move(*j), figures.empty() ? std::string() : figures.front()};
+  return ReportCompare{.dir = dir,
+                       .record = std::move(*record),
+                       .document = std::move(*j),
+                       .figure = figures.empty() ? std::string() : figures.front()};
 }
 
 Result<ReportFit> readFitResult(const std::string& path, const std::vector<std::string>& events,
@@ -719,7 +721,7 @@ Result<std::string> calibrationReport(const ReportInputs& in) {
     sources.push_back(in.validation->dir);
   }
   if (in.compare) {
-    auto body = guarded(in.compare->dir + "/compare.json", [&] { return compareSection(*in.compare); });
+    auto body = compareSection(*in.compare);
     if (!body) return body.error();
     sections.push_back({"mc-against-data", "MC against data (the paper's Fig. 6)", *body});
     sources.push_back(in.compare->dir);

@@ -27,8 +27,10 @@
 
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "emcalign/calib/profiles.hpp"
@@ -74,17 +76,17 @@ struct ComparedDistribution {
     double low = 0.0, high = 0.0;
     double data = 0.0, dataError = 0.0, mc = 0.0, mcError = 0.0, pull = 0.0;
   };
-  std::vector<Bin> bins;
+  std::vector<Bin> bins = {};
 };
 
 struct Comparison {
   std::int64_t dataParticles = 0, mcParticles = 0;
   std::int64_t dataEvents = 0, mcEvents = 0;
-  std::vector<ComparedDistribution> distributions;  ///< dphi, dtheta, profile_phi, profile_theta
-  double chi2 = 0.0;                                ///< all together (their correlations kept)
+  std::vector<ComparedDistribution> distributions = {};  ///< dphi, dtheta, profile_phi, profile_theta
+  double chi2 = 0.0;                                     ///< all together (their correlations kept)
   int ndf = 0;
   double pValue = 1.0;
-  ComparisonOptions options;
+  ComparisonOptions options = {};
 };
 
 /// Compares two samples of particles (each an event's particles consecutive). Fails when a
@@ -108,9 +110,23 @@ Result<std::vector<ComparedParticle>> comparedParticlesOfRows(std::span<const Pa
                                                               const ComparisonOptions& options = {},
                                                               std::int64_t* selectedEvents = nullptr);
 
+/// A comparison as compare.json records it: the result and where it came from.
+struct ComparisonRecord {
+  Comparison comparison;
+  std::vector<std::string> dataFiles = {}, mcFiles = {};  ///< empty: not recorded (rows in memory)
+  std::string software = {};                              ///< empty: not recorded
+  std::optional<double> depthOffsetCm = {};               ///< the shower depth's offset, cm
+};
+
 /// compare.json (SPEC §12): {"format", "p_value", "chi2", "ndf", "distributions": [{"name",
-/// "chi2", "ndf", "p_value", "bins": [...]}], "data", "mc", "options"}.
-io::Json comparisonJson(const Comparison& c);
+/// "chi2", "ndf", "p_value", "unit", "bins": [...]}], "data", "mc" ({"events", "particles",
+/// "files"}), "options", "method", "software", "depth_offset_cm"}; what is not recorded is not
+/// written. The one writer and (below) the one reader of the file.
+io::Json comparisonJson(const ComparisonRecord& record);
+inline io::Json comparisonJson(const Comparison& c) { return comparisonJson(ComparisonRecord{c}); }
+/// Reads compare.json (`source` names it in messages): not a comparison, or a value of the
+/// wrong type, refused naming the key.
+Result<ComparisonRecord> parseComparison(const io::Json& j, std::string_view source);
 /// compare.md: the verdict and a table per distribution.
 std::string comparisonMarkdown(const Comparison& c, const std::vector<std::string>& dataFiles,
                                const std::vector<std::string>& mcFiles, const std::string& depth = "");

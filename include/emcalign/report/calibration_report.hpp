@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "emcalign/apply/check_record.hpp"
+#include "emcalign/apply/mc_comparison.hpp"
 #include "emcalign/calib/fit_record.hpp"
 #include "emcalign/core/result.hpp"
 #include "emcalign/geometry/detector.hpp"
@@ -86,9 +87,10 @@ std::vector<std::string> filesNamedIn(const io::Json& document);
 
 /// A comparison of data with simulation (emcalign compare -o DIR).
 struct ReportCompare {
-  std::string dir;
-  io::Json compare;    ///< dir/compare.json
-  std::string figure;  ///< dir/compare.png, when it exists
+  std::string dir = {};
+  apply::ComparisonRecord record = {};  ///< dir/compare.json, read (apply::parseComparison)
+  io::Json document = {};               ///< its JSON as it is, for filesNamedIn only
+  std::string figure = {};              ///< dir/compare.png, when it exists
 };
 
 struct ReportInputs {

@@ -162,5 +162,38 @@ TEST(McComparison, SigmaSysWidensOnlyTheProfiles) {
   EXPECT_DOUBLE_EQ(wide->distributions[0].chi2, plain->distributions[0].chi2);
 }
 
+// compare.json: the one writer and the one reader agree (written, read back and written again
+// is the same file); what a command records beside the result comes back too; a file that is
+// not a comparison, or a value of the wrong type, is refused naming the key.
+TEST(McComparison, TheFileReadsBackAsWritten) {
+  std::mt19937_64 rng(31);
+  auto c = compareParticles(toySample(6000, rng), toySample(6000, rng), toyOptions());
+  ASSERT_TRUE(c.ok()) << c.error().message;
+  const io::Json written = comparisonJson(
+      ComparisonRecord{.comparison = *c, .dataFiles = {"d.h5"}, .mcFiles = {"m.h5"}, .depthOffsetCm = -0.5});
+  auto read = parseComparison(written, "compare.json");
+  ASSERT_TRUE(read.ok()) << read.error().message;
+  EXPECT_EQ(comparisonJson(*read).dump(), written.dump());
+  EXPECT_EQ(read->comparison.options.profileThetaBins, 3) << "the profile grid, from the bins' indices";
+  EXPECT_EQ(read->comparison.distributions.size(), c->distributions.size());
+  EXPECT_DOUBLE_EQ(read->comparison.pValue, c->pValue);
+  EXPECT_EQ(read->dataFiles, std::vector<std::string>{"d.h5"});
+  EXPECT_EQ(read->depthOffsetCm, -0.5);
+  EXPECT_TRUE(read->software.empty());
+  EXPECT_FALSE(written.contains("software")) << "nothing recorded, nothing written";
+
+  const auto refusal = [&](auto change) {
+    io::Json j = written;
+    change(j);
+    auto r = parseComparison(j, "c/compare.json");
+    return r.ok() ? std::string("accepted") : r.error().message;
+  };
+  EXPECT_EQ(refusal([](io::Json& j) { j["format"] = "emcalign-trend/1"; }),
+            "c/compare.json: key 'format': expected \"emcalign-compare/1\"");
+  EXPECT_EQ(refusal([](io::Json& j) { j["distributions"][2]["bins"][0]["pull"] = "big"; }),
+            "c/compare.json: key 'distributions[2].bins[0].pull': expected a number or null, got string");
+  EXPECT_EQ(refusal([](io::Json& j) { j["mc"].erase("events"); }), "c/compare.json: key 'mc.events': missing");
+}
+
 }  // namespace
 }  // namespace emcalign::apply

@@ -102,7 +102,7 @@ int run(const ReportCliOptions& o) {
   if (!o.validation.empty()) {
     auto v = report::readValidationDirectory(o.validation);
     if (!v) return reportError(v.error());
-    for (const auto& f : report::filesNamedIn(v->table)) io::protectInput({"named by --validation", f});
+    for (const auto& f : report::filesNamedIn(v->document)) io::protectInput({"named by --validation", f});
     in.validation = std::move(*v);
   }
   if (!o.compare.empty()) {

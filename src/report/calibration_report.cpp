@@ -291,39 +291,37 @@ Result<std::string> compareSection(const ReportCompare& report) {
 }
 
 Result<std::string> validationSection(const ReportValidation& v) {
-  const Json& t = v.table;
+  const validation::Table& t = v.table;
   std::string body = fmt::format(
       "<p>Campaign <code>{}</code>: {} of {}, truths drawn over the expected "
       "ranges, each fitted like data (<code>emcalign validate</code>). bias = mean of (fit − "
       "truth), spread = its standard deviation, pulls = (fit − truth)/error; slope = of "
       "(fit − truth) against truth. Beside: the paper's Table 1.</p>\n",
-      html::escape(v.dir), countedText(t.at("samples"), "sample"), countedText(t.at("events"), "event"));
+      html::escape(v.dir), counted(t.samples, "sample"), counted(t.events, "event"));
   html::Table table{.caption = "Validation beside the paper's Table 1",
                     .header = {"parameter", "unit", "bias", "±", "spread", "pull mean", "pull width", "slope",
                                "paper: bias", "paper: spread"}};
   table.numeric = {false, false, true, true, true, true, true, true, true, true};
-  for (const auto& [name, row] : t.at("parameters").items()) {
+  for (const auto& row : t.rows) {
+    const std::string name(row.name.name());
     const auto* paper = paper::table1(name);
-    const Json& width = row.at("pull_width");
     // Errors that describe the scatter: a width within 0.1 of 1; beyond 0.2, they do not.
-    const double off = finite(width) ? std::abs(width.get<double>() - 1.0) : 1.0;
-    const auto [bias, biasError] = withError(row.at("bias"), row.at("bias_error"));
-    table.rows.push_back({label(name), text(row.value("unit", Json(""))), bias, biasError, number(row.at("spread")),
-                          number(row.at("pull_mean"), "{:+.2f}"),
+    const double off = std::isfinite(row.pullWidth) ? std::abs(row.pullWidth - 1.0) : 1.0;
+    const auto [bias, biasError] = withError(row.bias, row.biasError);
+    table.rows.push_back({label(name), html::escape(row.name.unit()), bias, biasError, number(row.spread),
+                          number(row.pullMean, "{:+.2f}"),
                           fmt::format("<span class=\"{}\">{}</span> ± {}",
                                       off <= 0.1  ? "good"
                                       : off > 0.2 ? "bad"
                                                   : "",
-                                      number(width, "{:.2f}"), number(row.value("pull_width_error", Json()), "{:.2f}")),
-                          number(row.value("slope", Json()), "{:+.4f}"),
-                          paper ? fmt::format("{:.3g}", paper->bias) : "",
+                                      number(row.pullWidth, "{:.2f}"), number(row.pullWidthError, "{:.2f}")),
+                          number(row.slope, "{:+.4f}"), paper ? fmt::format("{:.3g}", paper->bias) : "",
                           paper ? fmt::format("{:.3g}", paper->spread) : ""});
   }
   body += html::table(table);
-  if (t.contains("sigma_sys_deg")) {
-    const Json& s = t.at("sigma_sys_deg");
-    body += html::paragraph(fmt::format("σ_sys of the fits: median {} deg ({} to {}).", number(s.at("median")),
-                                        number(s.at("min")), number(s.at("max"))));
+  if (std::isfinite(t.sigmaSysMedian)) {
+    body += html::paragraph(fmt::format("σ_sys of the fits: median {} deg ({} to {}).", number(t.sigmaSysMedian),
+                                        number(t.sigmaSysMin), number(t.sigmaSysMax)));
   }
   for (const auto& png : v.figures) {
     const std::string stem = fs::path(png).stem().string();
@@ -523,14 +521,14 @@ std::vector<std::string> summary(const ReportInputs& in) {
   }
   if (in.validation) {
     double lo = 1e300, hi = -1e300;
-    for (const auto& [name, row] : in.validation->table.at("parameters").items()) {
-      if (!finite(row.value("pull_width", Json()))) continue;
-      lo = std::min(lo, row.at("pull_width").get<double>());
-      hi = std::max(hi, row.at("pull_width").get<double>());
+    for (const auto& row : in.validation->table.rows) {
+      if (!std::isfinite(row.pullWidth)) continue;
+      lo = std::min(lo, row.pullWidth);
+      hi = std::max(hi, row.pullWidth);
     }
     lines.push_back(fmt::format("The validation: {} of {}; pull widths {:.2f} to {:.2f}.",
-                                countedText(in.validation->table.at("samples"), "sample"),
-                                countedText(in.validation->table.at("events"), "event"), lo, hi));
+                                counted(in.validation->table.samples, "sample"),
+                                counted(in.validation->table.events, "event"), lo, hi));
   }
   if (in.trend) {
     const Json& t = in.trend->trend;
@@ -622,7 +620,12 @@ Result<ReportValidation> readValidationDirectory(const std::string& dir) {
   if (!j->is_object() || !j->contains("parameters") || !j->contains("samples")) {
     return Error{fmt::format("{}/table.json: not a validation table (emcalign validate)", dir)};
   }
-  return ReportValidation{dir, std::move(*j), existing(dir, {"plots/pulls.png", "plots/residuals_vs_truth.png"})};
+  auto table = validation::parseTable(*j, dir + "/table.json");
+  if (!table) return table.error();
+  return ReportValidation{.dir = dir,
+                          .table = std::move(*table),
+                          .document = std::move(*j),
+                          .figures = existing(dir, {"plots/pulls.png", "plots/residuals_vs_truth.png"})};
 }
 
 Result<ReportTrend> readTrendDirectory(const std::string& dir) {
@@ -715,7 +718,7 @@ Result<std::string> calibrationReport(const ReportInputs& in) {
     sources.push_back(in.fit->path);
   }
   if (in.validation) {
-    auto body = guarded(in.validation->dir + "/table.json", [&] { return validationSection(*in.validation); });
+    auto body = validationSection(*in.validation);
     if (!body) return body.error();
     sections.push_back({"validation", "Validation on simulation (the paper's Table 1)", *body});
     sources.push_back(in.validation->dir);

@@ -9,6 +9,7 @@
 #include <optional>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "emcalign/calib/calibration.hpp"
 #include "emcalign/calib/fit_notes.hpp"
@@ -25,6 +26,7 @@ namespace fs = std::filesystem;
 using geometry::AlignmentParameters;
 using geometry::PhysicalParameters;
 using io::Json;
+using io::strict::StrictObject;
 using units::deg;
 
 namespace {
@@ -563,6 +565,54 @@ Json tableJson(const Table& t) {
               {"parameters", params},
               {"sigma_sys_deg", {{"median", t.sigmaSysMedian}, {"min", t.sigmaSysMin}, {"max", t.sigmaSysMax}}},
               {"mean_correlation", {{"order", kParamNames}, {"matrix", corr}}}};
+}
+
+Result<Table> parseTable(const Json& j, std::string_view source) {
+  return io::strict::guarded([&] {
+    const StrictObject top(j, "", source);
+    Table t{.samples = static_cast<int>(top.integer("samples")), .events = top.integer("events")};
+    const StrictObject params = top.object("parameters");
+    for (const auto& [key, value] : top.at("parameters").items()) {
+      const auto q = quantityFromName(key);
+      if (!q) params.fail(params.pathOf(key), "not a parameter");
+      const StrictObject r = params.object(key);
+      t.rows.push_back({.name = *q,
+                        .bias = r.numberOrNull("bias"),
+                        .spread = r.numberOrNull("spread"),
+                        .biasError = r.numberOrNull("bias_error"),
+                        .pullMean = r.numberOrNull("pull_mean"),
+                        .pullWidth = r.numberOrNull("pull_width"),
+                        .pullWidthError = r.numberOrNullIfGiven("pull_width_error"),
+                        .slope = r.numberOrNullIfGiven("slope"),
+                        .slopeError = r.numberOrNullIfGiven("slope_error")});
+    }
+    if (top.has("sigma_sys_deg")) {
+      const StrictObject s = top.object("sigma_sys_deg");
+      t.sigmaSysMedian = s.numberOrNull("median");
+      t.sigmaSysMin = s.numberOrNull("min");
+      t.sigmaSysMax = s.numberOrNull("max");
+    } else {
+      t.sigmaSysMedian = t.sigmaSysMin = t.sigmaSysMax = std::nan("");
+    }
+    if (top.has("mean_correlation")) {
+      const StrictObject c = top.object("mean_correlation");
+      const Json& m = c.array("matrix");
+      if (c.strings("order") != std::vector<std::string>(kParamNames.begin(), kParamNames.end())) {
+        c.fail(c.pathOf("order"), fmt::format("expected the 12 in the order {}", fmt::join(kParamNames, ", ")));
+      }
+      if (m.size() != kNumParams) c.fail(c.pathOf("matrix"), fmt::format("expected {} rows", kNumParams));
+      for (std::size_t i = 0; i < kNumParams; ++i) {
+        if (!m[i].is_array() || m[i].size() != kNumParams) {
+          c.fail(fmt::format("{}[{}]", c.pathOf("matrix"), i), fmt::format("expected {} numbers", kNumParams));
+        }
+        for (std::size_t k = 0; k < kNumParams; ++k) {
+          t.meanCorrelation(static_cast<int>(i), static_cast<int>(k)) =
+              m[i][k].is_number() ? m[i][k].get<double>() : std::nan("");
+        }
+      }
+    }
+    return t;
+  });
 }
 
 std::string slopeText(const TableRow& r) {

@@ -28,6 +28,7 @@
 #include "emcalign/core/result.hpp"
 #include "emcalign/geometry/detector.hpp"
 #include "emcalign/io/json_files.hpp"
+#include "emcalign/validation/campaign.hpp"
 
 namespace emcalign::report {
 
@@ -56,9 +57,10 @@ Result<ReportFit> readFitResult(const std::string& path, const std::vector<std::
 std::string detectorLine(const geometry::Calorimeter& calo, const std::string& detectorPath);
 
 struct ReportValidation {
-  std::string dir;
-  io::Json table;                    ///< dir/table.json
-  std::vector<std::string> figures;  ///< dir/plots/*.png that exist
+  std::string dir = {};
+  validation::Table table = {};           ///< dir/table.json, read (validation::parseTable)
+  io::Json document = {};                 ///< its JSON as it is, for filesNamedIn only
+  std::vector<std::string> figures = {};  ///< dir/plots/*.png that exist
 };
 
 struct ReportTrend {

@@ -118,7 +118,7 @@ struct TableRow {
 struct Table {
   int samples = 0;
   std::int64_t events = 0;
-  std::vector<TableRow> rows;
+  std::vector<TableRow> rows = {};
   calib::Covariance meanCorrelation = calib::Covariance::Zero();
   /// The σ_sys of the fits, deg: their median, lowest and highest (one value unless auto).
   double sigmaSysMedian = 0.0, sigmaSysMin = 0.0, sigmaSysMax = 0.0;
@@ -149,7 +149,14 @@ std::unique_ptr<PlannedJob> validationJob(geometry::Calorimeter calo, CampaignOp
 /// The table from finished samples.
 Table tabulate(const std::vector<SampleResult>& samples, std::int64_t events, double r1);
 
+/// table.json: {"samples", "events", "parameters": {name: {"unit", "bias", "spread",
+/// "bias_error", "pull_mean", "pull_width", "pull_width_error", "slope", "slope_error"}},
+/// "sigma_sys_deg": {"median", "min", "max"}, "mean_correlation": {"order", "matrix"}}; NaN
+/// written as null. The one writer and (below) the one reader of the file.
 io::Json tableJson(const Table& table);
+/// Reads table.json (`source` names it in messages): a key missing or of the wrong type, or a
+/// parameter it does not know, refused naming the key. (A row's `samples` is not in the file: 0.)
+Result<Table> parseTable(const io::Json& j, std::string_view source);
 /// Markdown with the paper's Table 1 numbers in adjacent columns.
 std::string tableMarkdown(const Table& table);
 /// A row's slope as a table shows it: "+0.0123 ± 0.0045", "— (a direction)" for ψ and τ

@@ -234,20 +234,16 @@ TEST(CalibrationReport, NullsAndMarkupInTheInputsStayText) {
 
 TEST(CalibrationReport, TheValidationStandsBesideTable1AndTheTrendListsItsFindings) {
   ReportInputs in;
-  in.validation = ReportValidation{"val",
-                                   {{"samples", 100},
-                                    {"events", 50000},
-                                    {"parameters",
-                                     {{"dx",
-                                       {{"unit", "cm"},
-                                        {"bias", 0.00042},
-                                        {"bias_error", 0.00044},
-                                        {"spread", 0.0044},
-                                        {"pull_mean", 0.03},
-                                        {"pull_width", 0.28},
-                                        {"pull_width_error", 0.02},
-                                        {"slope", 0.0008}}}}}},
-                                   {}};
+  validation::Table table{.samples = 100, .events = 50000};
+  table.rows.push_back({.name = Param::Dx,
+                        .bias = 0.00042,
+                        .spread = 0.0044,
+                        .biasError = 0.00044,
+                        .pullMean = 0.03,
+                        .pullWidth = 0.28,
+                        .pullWidthError = 0.02,
+                        .slope = 0.0008});
+  in.validation = ReportValidation{.dir = "val", .table = table};
   in.trend = ReportTrend{"tr",
                          {{"format", "emcalign-trend/1"},
                           {"iovs", 3},

@@ -114,7 +114,7 @@ int run(const ReportCliOptions& o) {
   if (!o.trend.empty()) {
     auto t = report::readTrendDirectory(o.trend);
     if (!t) return reportError(t.error());
-    for (const auto& f : report::filesNamedIn(t->trend)) io::protectInput({"named by --trend", f});
+    for (const auto& f : report::filesNamedIn(t->document)) io::protectInput({"named by --trend", f});
     in.trend = std::move(*t);
   }
   if (!o.conditions.empty()) {

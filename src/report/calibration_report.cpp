@@ -42,10 +42,6 @@ bool finite(const Json& v) { return v.is_number() && std::isfinite(v.get<double>
 // A JSON value as plain text (for captions, which html::table escapes), and escaped.
 std::string plain(const Json& v) { return v.is_string() ? v.get<std::string>() : v.dump(); }
 std::string text(const Json& v) { return html::escape(plain(v)); }
-// "1 IOV", "3 IOVs": a count of a JSON file with its noun (a value that is not a count, as it is).
-std::string countedText(const Json& v, std::string_view singular) {
-  return v.is_number_integer() ? counted(v.get<std::int64_t>(), singular) : fmt::format("{} {}s", text(v), singular);
-}
 
 // A parameter as a physicist reads it, with its file name where that differs.
 std::string label(const std::string& name) {
@@ -53,18 +49,12 @@ std::string label(const std::string& name) {
   return s == name ? html::escape(name) : fmt::format("{} <code>{}</code>", html::escape(s), html::escape(name));
 }
 
-std::string runs(const Json& first, const Json& last) { return text(first) + "–" + text(last); }
-
 // A value to the precision of its error (two significant digits of the error).
 std::pair<std::string, std::string> withError(double value, double error) {
   if (!std::isfinite(value)) return {"—", "—"};
   if (!std::isfinite(error) || error <= 0.0) return {fmt::format("{:.5g}", value), "—"};
   const int digits = std::clamp(1 - static_cast<int>(std::floor(std::log10(error))), 0, 7);
   return {fmt::format("{:.{}f}", value, digits), fmt::format("{:.{}f}", error, digits)};
-}
-std::pair<std::string, std::string> withError(const Json& value, const Json& error) {
-  const auto asNumber = [](const Json& v) { return finite(v) ? v.get<double>() : std::nan(""); };
-  return withError(asNumber(value), asNumber(error));
 }
 
 std::string number(double v, const char* format = "{:.4g}") {
@@ -334,39 +324,68 @@ Result<std::string> validationSection(const ReportValidation& v) {
   return body;
 }
 
+// The trend's steps, or none.
+html::Table stepsTable(const validation::TrendRecord& t) {
+  html::Table steps{.caption = "Steps found",
+                    .header = {"parameter", "first run after", "size", "±", "unit", "z", "IOV"}};
+  steps.numeric = {false, true, true, true, false, true, false};
+  for (const auto& s : t.steps) {
+    const auto [v, e] = withError(s.size, s.error);
+    steps.rows.push_back(
+        {html::escape(symbol(std::string(s.parameter.name()))), std::to_string(s.firstRunAfter), v, e,
+         html::escape(s.parameter.unit()), number(s.z(), "{:.1f}"),
+         s.withinIov ? fmt::format("{}–{}", s.withinIov->first, s.withinIov->second) : std::string("between IOVs")});
+  }
+  return steps;
+}
+
+std::string runs(std::int64_t first, std::int64_t last) { return fmt::format("{}–{}", first, last); }
+
+// The parameters as their symbols, in a list ("α, dx").
+std::string symbols(const std::vector<Quantity>& quantities) {
+  std::string list;
+  for (const auto& q : quantities) list += (list.empty() ? "" : ", ") + symbol(std::string(q.name()));
+  return list;
+}
+
+// The periods between the changes found, each with what is known of it.
+html::Table segmentsTable(const validation::TrendRecord& t) {
+  html::Table segments{.caption = "Periods between the changes found", .header = {"runs", "IOVs", "note"}};
+  segments.numeric = {false, true, false};
+  for (const auto& s : t.segments) {
+    std::string note = s.transition ? "straddles a step" : "";
+    const auto names = [&](const std::vector<Quantity>& quantities, const std::string& what) {
+      if (!quantities.empty()) note += (note.empty() ? "" : "; ") + html::escape(what + symbols(quantities));
+    };
+    names(s.drifting, "drifting: ");
+    names(s.inconsistent, "not stable, inconsistent with one value: ");
+    names(s.departing, "an IOV at an end departing (a step or an outlier): ");
+    if (note.empty() && s.stable()) note = "stable";
+    segments.rows.push_back({runs(s.firstRun, s.lastRun), std::to_string(s.end - s.begin), note});
+  }
+  return segments;
+}
+
 Result<std::string> trendSection(const std::optional<ReportTrend>& tr, const std::optional<ReportConditions>& cond) {
   std::string body;
   if (tr) {
-    const Json& t = tr->trend;
+    const validation::TrendRecord& t = tr->record;
     body += fmt::format(
         "<p>Tag <code>{}</code> of <code>{}</code>: {} (<code>emcalign trend</code>, directory "
         "<code>{}</code>).</p>\n",
-        text(t.value("tag", Json("?"))), text(t.value("conditions", Json("?"))), countedText(t.at("iovs"), "IOV"),
-        html::escape(tr->dir));
-    html::Table steps{.caption = "Steps found",
-                      .header = {"parameter", "first run after", "size", "±", "unit", "z", "IOV"}};
-    steps.numeric = {false, true, true, true, false, true, false};
-    for (const auto& s : t.at("steps")) {
-      const auto [v, e] = withError(s.at("size"), s.at("error"));
-      steps.rows.push_back({html::escape(symbol(s.at("parameter").get<std::string>())), text(s.at("first_run_after")),
-                            v, e, text(s.value("unit", Json(""))), number(s.at("z"), "{:.1f}"),
-                            s.contains("within_iov") && s.at("within_iov").is_array()
-                                ? runs(s.at("within_iov")[0], s.at("within_iov")[1])
-                                : "between IOVs"});
-    }
+        html::escape(t.tag.empty() ? "?" : t.tag), html::escape(t.conditions.empty() ? "?" : t.conditions),
+        counted(t.iovs, "IOV"), html::escape(tr->dir));
+    const html::Table steps = stepsTable(t);
     // The models the IOVs were fitted with (a trend.json of an older emcalign does not say).
-    if (t.contains("models") && t.at("models").is_array()) {
-      std::vector<std::string> models;
-      for (const auto& m : t.at("models")) {
-        if (m.is_string() && !m.get<std::string>().empty()) models.push_back(m.get<std::string>());
-      }
-      if (!models.empty())
-        body += html::paragraph(fmt::format("The IOVs were fitted with {}.", fmt::join(models, "; ")));
+    std::vector<std::string> models;
+    for (const auto& m : t.models) {
+      if (!m.empty()) models.push_back(m);
     }
+    if (!models.empty()) body += html::paragraph(fmt::format("The IOVs were fitted with {}.", fmt::join(models, "; ")));
     // The trend's own verdict: never "no step" where it could not tell (an older trend.json
     // has none: its steps are shown as they are).
-    if (t.contains("verdict") && t.at("verdict").is_string()) {
-      body += "<p><strong>" + html::escape(t.at("verdict").get<std::string>()) + "</strong></p>\n";
+    if (t.verdict) {
+      body += "<p><strong>" + html::escape(*t.verdict) + "</strong></p>\n";
     } else if (steps.rows.empty()) {
       body += html::paragraph(
           "No step found (this trend.json is from an older emcalign, which did not say whether it had the IOVs to "
@@ -376,50 +395,30 @@ Result<std::string> trendSection(const std::optional<ReportTrend>& tr, const std
     html::Table inconsistent{.caption = "Segments their model does not fit (not resolved as a step or a drift)",
                              .header = {"parameter", "runs", "IOVs", "model", "χ²/ndf", "p-value", "why"}};
     inconsistent.numeric = {false, false, true, false, true, true, false};
-    for (const auto& i : t.value("inconsistent", Json::array())) {
-      inconsistent.rows.push_back(
-          {html::escape(symbol(i.at("parameter").get<std::string>())), runs(i.at("first_run"), i.at("last_run")),
-           text(i.at("iovs")), text(i.at("model")), number(i.at("chi2"), "{:.1f}") + "/" + text(i.at("ndf")),
-           number(i.at("p_value"), "{:.2g}"),
-           i.value("too_few_iovs", false) ? "too few IOVs to locate a step" : "neither a step nor a drift"});
+    for (const auto& i : t.inconsistencies) {
+      inconsistent.rows.push_back({html::escape(symbol(std::string(i.parameter.name()))), runs(i.firstRun, i.lastRun),
+                                   std::to_string(i.iovs), i.line ? "line" : "constant",
+                                   number(i.chi2, "{:.1f}") + "/" + std::to_string(i.ndf), number(i.pValue, "{:.2g}"),
+                                   i.unsplittable ? "too few IOVs to locate a step" : "neither a step nor a drift"});
     }
     if (!inconsistent.rows.empty()) body += html::table(inconsistent);
     html::Table drifts{.caption = "Drifts found",
                        .header = {"parameter", "runs", "slope per run", "±", "z", "or a step?"}};
     drifts.numeric = {false, false, true, true, true, false};
-    for (const auto& d : t.at("drifts")) {
-      const Json orStep = d.value("or_step", Json());
-      drifts.rows.push_back({html::escape(symbol(d.at("parameter").get<std::string>())),
-                             runs(d.at("first_run"), d.at("last_run")),
-                             number(d.at("slope_per_run"), "{:.3g}") + " " + text(d.value("unit", Json(""))),
-                             number(d.at("error"), "{:.2g}"), number(d.at("z"), "{:.1f}"),
-                             orStep.is_object() ? html::escape(orStep.value("text", std::string()))
-                                                : std::string("no: a step does not fit")});
+    for (const auto& [d, orStepText] : t.drifts) {
+      drifts.rows.push_back(
+          {html::escape(symbol(std::string(d.parameter.name()))), runs(d.firstRun, d.lastRun),
+           number(d.slopePerRun, "{:.3g}") + " " + html::escape(std::string(d.parameter.unit()) + "/run"),
+           number(d.error, "{:.2g}"), number(d.z, "{:.1f}"),
+           d.orStep ? html::escape(orStepText) : std::string("no: a step does not fit")});
     }
-    const bool driftsTested = t.value("method", Json::object()).value("drift_tests", 1) > 0;
     if (!drifts.rows.empty()) {
       body += html::table(drifts);
     } else {
-      body += html::paragraph(driftsTested ? "No drift found."
-                                           : "Drifts not tested: no segment has the IOVs a slope test needs.");
+      body += html::paragraph(t.driftTests > 0 ? "No drift found."
+                                               : "Drifts not tested: no segment has the IOVs a slope test needs.");
     }
-    html::Table segments{.caption = "Periods between the changes found", .header = {"runs", "IOVs", "note"}};
-    segments.numeric = {false, true, false};
-    for (const auto& s : t.at("segments")) {
-      std::string note = s.value("transition", false) ? "straddles a step" : "";
-      const auto names = [&](const char* key, const std::string& what) {
-        if (!s.contains(key) || !s.at(key).is_array() || s.at(key).empty()) return;
-        std::string list;
-        for (const auto& p : s.at(key)) list += (list.empty() ? "" : ", ") + symbol(p.get<std::string>());
-        note += (note.empty() ? "" : "; ") + html::escape(what + list);
-      };
-      names("drifting", "drifting: ");
-      names("inconsistent", "not stable, inconsistent with one value: ");
-      names("departing", "an IOV at an end departing (a step or an outlier): ");
-      if (note.empty() && s.value("stable", false)) note = "stable";
-      segments.rows.push_back({runs(s.at("first_run"), s.at("last_run")), text(s.at("iovs")), note});
-    }
-    body += html::table(segments);
+    body += html::table(segmentsTable(t));
     for (const auto& png : tr->figures) {
       const std::string stem = fs::path(png).stem().string();
       auto fig =
@@ -531,12 +530,11 @@ std::vector<std::string> summary(const ReportInputs& in) {
                                 counted(in.validation->table.events, "event"), lo, hi));
   }
   if (in.trend) {
-    const Json& t = in.trend->trend;
-    // A newer trend says which periods are stable; an older one called them all so.
-    std::size_t stable = 0;
-    for (const auto& g : t.at("segments")) stable += g.value("stable", !g.contains("departing")) ? 1 : 0;
-    lines.push_back(fmt::format("The time evolution: {}, {}, {}, {}.", countedText(t.at("iovs"), "IOV"),
-                                counted(t.at("steps").size(), "step"), counted(t.at("drifts").size(), "drift"),
+    const validation::TrendRecord& t = in.trend->record;
+    const auto stable = std::count_if(t.segments.begin(), t.segments.end(),
+                                      [](const validation::TrendSegment& g) { return g.stable(); });
+    lines.push_back(fmt::format("The time evolution: {}, {}, {}, {}.", counted(t.iovs, "IOV"),
+                                counted(t.steps.size(), "step"), counted(t.drifts.size(), "drift"),
                                 counted(stable, "stable period")));
   }
   if (in.compare) {
@@ -631,12 +629,17 @@ Result<ReportValidation> readValidationDirectory(const std::string& dir) {
 Result<ReportTrend> readTrendDirectory(const std::string& dir) {
   auto j = readJsonIn(dir, "trend.json");
   if (!j) return j.error();
-  if (!j->is_object() || j->value("format", std::string()) != "emcalign-trend/1") {
+  if (!j->is_object() || j->value("format", std::string()) != validation::kTrendFormat) {
     return Error{fmt::format("{}/trend.json: not a trend (emcalign trend)", dir)};
   }
+  auto record = validation::parseTrend(*j, dir + "/trend.json");
+  if (!record) return record.error();
   // fig7.png (fig8.png from an older trend: the one the directory has, never both).
   const std::string four = fs::exists(fs::path(dir) / "fig7.png") ? "fig7.png" : "fig8.png";
-  return ReportTrend{dir, std::move(*j), existing(dir, {four, "trend_all.png"})};
+  return ReportTrend{.dir = dir,
+                     .record = std::move(*record),
+                     .document = std::move(*j),
+                     .figures = existing(dir, {four, "trend_all.png"})};
 }
 
 Result<ReportCompare> readCompareDirectory(const std::string& dir) {

@@ -29,6 +29,7 @@
 #include "emcalign/geometry/detector.hpp"
 #include "emcalign/io/json_files.hpp"
 #include "emcalign/validation/campaign.hpp"
+#include "emcalign/validation/trend.hpp"
 
 namespace emcalign::report {
 
@@ -64,9 +65,11 @@ struct ReportValidation {
 };
 
 struct ReportTrend {
-  std::string dir;
-  io::Json trend;                    ///< dir/trend.json
-  std::vector<std::string> figures;  ///< dir/fig7.png (fig8.png from older trends), dir/trend_all.png, those that exist
+  std::string dir = {};
+  validation::TrendRecord record = {};  ///< dir/trend.json, read (validation::parseTrend)
+  io::Json document = {};               ///< its JSON as it is, for filesNamedIn only
+  /// dir/fig7.png (fig8.png from older trends), dir/trend_all.png, those that exist
+  std::vector<std::string> figures = {};
 };
 
 struct ReportConditions {

@@ -127,7 +127,7 @@ struct TrendStep {
   std::optional<std::pair<std::int64_t, std::int64_t>> withinIov;
   /// A step found as a drift's better fit where other parameters step too (the same change of
   /// the detector): the χ² of the step's constants and of the drift's line it replaced.
-  std::optional<std::pair<double, double>> insteadOfDrift;
+  std::optional<std::pair<double, double>> insteadOfDrift = {};
   double z() const { return error > 0.0 ? size / error : 0.0; }
 };
 
@@ -152,7 +152,7 @@ struct TrendDrift {
   /// The best single step in the drift's IOVs (two constants, the IOV between them possibly
   /// set aside), when its χ² is within a change's penalty of the line's: these IOVs cannot
   /// tell a drift from a step, and both are reported. None: a step does not fit (a drift).
-  std::optional<StepAlternative> orStep;
+  std::optional<StepAlternative> orStep = {};
 };
 
 /// A change of a series: a new segment starts at point `start`; with `transition`, point
@@ -284,9 +284,37 @@ LineFit fitLine(const TrendSeries& s, std::size_t begin, std::size_t end, double
 
 Trend analyseTrend(const std::vector<TrendSeries>& series, const TrendOptions& options = {});
 
-/// trend.json: {"format", "steps": [{"parameter", "first_run_after", "size", "error", "z",
-/// "unit", "within_iov"}], "drifts": [...], "segments": [...], "series": [...]}.
+/// trend.json: {"format", "method", "iovs", "resolvable", "verdict", "steps": [{"parameter",
+/// "first_run_after", "size", "error", "z", "unit", "within_iov", …}], "inconsistent",
+/// "known_boundaries", "set_aside", "edges", "drifts", "segments", "series"}; `emcalign trend`
+/// adds "conditions", "tag", "models" (and "refit"). Written here, read by parseTrend.
 io::Json trendJson(const Trend& t, const std::vector<TrendSeries>& series);
+/// A drift as trend.json records it, with its step alternative in words (stepAlternativeText;
+/// empty: none).
+struct RecordedDrift {
+  TrendDrift drift;
+  std::string orStepText = {};
+};
+
+/// trend.json read back (the HTML report): the findings of the analysis in its own types, and
+/// what `emcalign trend` recorded beside them. Not the series' own segments nor the method's
+/// settings; a segment's IOVs are [0, iovs) (begin, end are the file's count, not indices).
+struct TrendRecord {
+  std::string tag = {}, conditions = {};  ///< the tag and its database (empty: not recorded)
+  std::vector<std::string> models = {};   ///< the models the IOVs were fitted with (older files: none)
+  std::size_t iovs = 0;
+  std::optional<std::string> verdict = {};  ///< trendVerdict (none: an older trend.json)
+  std::vector<TrendStep> steps = {};
+  std::vector<TrendInconsistency> inconsistencies = {};
+  std::vector<RecordedDrift> drifts = {};
+  std::vector<TrendSegment> segments = {};
+  int driftTests = 1;  ///< segments tested for a drift (0: none had the IOVs a slope test needs)
+};
+
+/// Reads trend.json (`source` names it in messages): not a trend, a key of the wrong type or
+/// an unknown parameter refused, naming the key.
+Result<TrendRecord> parseTrend(const io::Json& j, std::string_view source);
+
 /// A campaign's warning when its grouping leaves fewer IOVs than a trend needs to locate a
 /// step (2 × minSegment), with the --min-events that would give 6; empty otherwise.
 std::string tooFewIovsForTrend(std::size_t iovs, std::int64_t selectedEvents, const TrendOptions& options = {});

@@ -106,6 +106,13 @@ ReportFit reportFit(const Json& r) {
   return ReportFit{.path = "r.json", .record = record.ok() ? *record : calib::FitRecord{}, .document = r};
 }
 
+// A trend.json as the report takes it.
+ReportTrend reportTrend(const Json& j) {
+  auto record = validation::parseTrend(j, "tr/trend.json");
+  EXPECT_TRUE(record.ok()) << record.error().message;
+  return ReportTrend{.dir = "tr", .record = record.ok() ? *record : validation::TrendRecord{}, .document = j};
+}
+
 // A check.json as the report takes it.
 ReportCheck reportCheck(const Json& j) {
   auto record = apply::parseCheckRecord(j, "chk/check.json");
@@ -244,19 +251,18 @@ TEST(CalibrationReport, TheValidationStandsBesideTable1AndTheTrendListsItsFindin
                         .pullWidthError = 0.02,
                         .slope = 0.0008});
   in.validation = ReportValidation{.dir = "val", .table = table};
-  in.trend = ReportTrend{"tr",
-                         {{"format", "emcalign-trend/1"},
-                          {"iovs", 3},
-                          {"steps", Json::array()},
-                          {"drifts", Json::array({{{"parameter", "dz"},
-                                                   {"first_run", 5},
-                                                   {"last_run", 9},
-                                                   {"slope_per_run", 3e-4},
-                                                   {"error", 2e-5},
-                                                   {"z", 15.0},
-                                                   {"unit", "cm/run"}}})},
-                          {"segments", Json::array()}},
-                         {}};
+  Json trend = {{"format", "emcalign-trend/1"},
+                {"iovs", 3},
+                {"steps", Json::array()},
+                {"drifts", Json::array({{{"parameter", "dz"},
+                                         {"first_run", 5},
+                                         {"last_run", 9},
+                                         {"slope_per_run", 3e-4},
+                                         {"error", 2e-5},
+                                         {"z", 15.0},
+                                         {"unit", "cm/run"}}})},
+                {"segments", Json::array()}};
+  in.trend = reportTrend(trend);
   auto page = calibrationReport(in);
   ASSERT_TRUE(page.ok()) << page.error().message;
   // The bias to its error's two digits; the paper's dx: −0.005 ± 0.006; a width far from 1 marked.
@@ -268,9 +274,10 @@ TEST(CalibrationReport, TheValidationStandsBesideTable1AndTheTrendListsItsFindin
   EXPECT_NE(page->find("Time evolution (the paper&#39;s Fig. 7)"), std::string::npos);
   EXPECT_EQ(page->find("The IOVs were fitted with"), std::string::npos) << "an older trend.json does not say";
   // A newer trend: its models, and the periods as what they are (stable, or an edge departing).
-  in.trend->trend["models"] = {"the paper's model"};
-  in.trend->trend["segments"] = {{{"first_run", 1}, {"last_run", 20}, {"iovs", 10}, {"stable", true}},
-                                 {{"first_run", 21}, {"last_run", 22}, {"iovs", 1}, {"departing", {"dx"}}}};
+  trend["models"] = {"the paper's model"};
+  trend["segments"] = {{{"first_run", 1}, {"last_run", 20}, {"iovs", 10}, {"stable", true}},
+                       {{"first_run", 21}, {"last_run", 22}, {"iovs", 1}, {"departing", {"dx"}}}};
+  in.trend = reportTrend(trend);
   auto newer = calibrationReport(in);
   ASSERT_TRUE(newer.ok()) << newer.error().message;
   EXPECT_NE(newer->find("The IOVs were fitted with the paper&#39;s model."), std::string::npos);

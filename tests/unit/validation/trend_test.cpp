@@ -15,6 +15,8 @@
 namespace emcalign::validation {
 namespace {
 
+using io::Json;
+
 // n IOVs of 10 runs each (runs 1-10, 11-20, ...), values from `value(i)` plus N(0, sigma).
 template <class F>
 TrendSeries series(std::size_t n, double sigma, std::mt19937_64& rng, F value, Quantity name = Param::Dx) {
@@ -471,6 +473,72 @@ TEST(Trend, ACampaignIsWarnedWhenItsIovsAreTooFewForATrend) {
   EXPECT_NE(tooFewIovsForTrend(3, 160000).find("3 IOVs"), std::string::npos);
   EXPECT_NE(tooFewIovsForTrend(3, 160000).find("--min-events 26000"), std::string::npos);
   EXPECT_TRUE(tooFewIovsForTrend(4, 160000).empty());
+}
+
+// trend.json read back (parseTrend) holds what the analysis found: its steps (one inside an
+// IOV), drifts with their step alternative in words, periods, inconsistencies and verdict, in
+// the analysis' own types; a file of another kind, or an unknown parameter, is refused by key.
+TEST(Trend, TheFileReadsBackAsTheAnalysisFound) {
+  std::mt19937_64 rng(12);
+  const auto dx = series(40, 0.01, rng, [](std::size_t i) { return i < 20 ? 0.25 : i == 20 ? 0.31 : 0.45; });
+  const auto dz = series(
+      40, 0.01, rng, [](std::size_t i) { return 0.1 + 0.004 * static_cast<double>(i); }, Param::Dz);
+  const Trend t = analyseTrend({dx, dz});
+  ASSERT_FALSE(t.steps.empty());
+  ASSERT_FALSE(t.drifts.empty());
+  Json file = trendJson(t, {dx, dz});
+  file["tag"] = "t";
+  file["models"] = {"the paper's model"};
+  auto read = parseTrend(file, "trend.json");
+  ASSERT_TRUE(read.ok()) << read.error().message;
+  const TrendRecord& r = *read;
+  EXPECT_EQ(r.tag, "t");
+  EXPECT_TRUE(r.conditions.empty());
+  EXPECT_EQ(r.models, std::vector<std::string>{"the paper's model"});
+  EXPECT_EQ(r.iovs, t.iovs);
+  EXPECT_EQ(r.verdict, trendVerdict(t));
+  EXPECT_EQ(r.driftTests, t.tests);
+  ASSERT_EQ(r.steps.size(), t.steps.size());
+  for (std::size_t k = 0; k < t.steps.size(); ++k) {
+    EXPECT_EQ(r.steps[k].parameter, t.steps[k].parameter);
+    EXPECT_EQ(r.steps[k].firstRunAfter, t.steps[k].firstRunAfter);
+    EXPECT_EQ(r.steps[k].withinIov, t.steps[k].withinIov);
+    EXPECT_DOUBLE_EQ(r.steps[k].z(), t.steps[k].z());
+  }
+  ASSERT_EQ(r.drifts.size(), t.drifts.size());
+  for (std::size_t k = 0; k < t.drifts.size(); ++k) {
+    EXPECT_EQ(r.drifts[k].drift.parameter, t.drifts[k].parameter);
+    EXPECT_EQ(r.drifts[k].drift.firstRun, t.drifts[k].firstRun);
+    EXPECT_DOUBLE_EQ(r.drifts[k].drift.slopePerRun, t.drifts[k].slopePerRun);
+    EXPECT_EQ(r.drifts[k].drift.orStep.has_value(), t.drifts[k].orStep.has_value());
+    EXPECT_EQ(r.drifts[k].orStepText, stepAlternativeText(t, t.drifts[k]));
+  }
+  ASSERT_EQ(r.segments.size(), t.segments.size());
+  for (std::size_t k = 0; k < t.segments.size(); ++k) {
+    EXPECT_EQ(r.segments[k].firstRun, t.segments[k].firstRun);
+    EXPECT_EQ(r.segments[k].end - r.segments[k].begin, t.segments[k].end - t.segments[k].begin);
+    EXPECT_EQ(r.segments[k].stable(), t.segments[k].stable()) << "period " << k;
+    EXPECT_EQ(r.segments[k].drifting, t.segments[k].drifting);
+    EXPECT_EQ(r.segments[k].transition, t.segments[k].transition);
+  }
+  EXPECT_EQ(r.inconsistencies.size(), t.inconsistencies.size());
+
+  const auto refusal = [&](auto change) {
+    Json j = file;
+    change(j);
+    auto bad = parseTrend(j, "d/trend.json");
+    return bad.ok() ? std::string("accepted") : bad.error().message;
+  };
+  EXPECT_EQ(refusal([](Json& j) { j["format"] = "emcalign-compare/1"; }),
+            "d/trend.json: key 'format': expected \"emcalign-trend/1\"");
+  EXPECT_EQ(refusal([](Json& j) { j["steps"][0]["parameter"] = "gamma"; }),
+            "d/trend.json: key 'steps[0].parameter': unknown parameter 'gamma'");
+  EXPECT_EQ(refusal([](Json& j) {
+              j["segments"][0]["drifting"] = {"dx", 3};
+            }),
+            "d/trend.json: key 'segments[0].drifting[1]': expected a string");
+  EXPECT_EQ(refusal([](Json& j) { j["drifts"][0]["first_run"] = "5"; }),
+            "d/trend.json: key 'drifts[0].first_run': expected an integer, got string");
 }
 
 }  // namespace

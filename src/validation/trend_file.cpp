@@ -1,0 +1,312 @@
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "emcalign/io/strict_json.hpp"
+#include "emcalign/validation/trend.hpp"
+
+// trend.json: the one writer (trendJson) and the one reader (parseTrend) of the file.
+
+namespace emcalign::validation {
+
+using io::Json;
+
+namespace {
+
+Json stepJson(const TrendStep& s) {
+  return {{"parameter", s.parameter},
+          {"known_boundary", s.known},
+          {"first_run_after", s.firstRunAfter},
+          {"size", s.size},
+          {"error", s.error},
+          {"z", s.z()},
+          {"unit", s.parameter.unit()},
+          {"within_iov", s.withinIov ? Json::array({s.withinIov->first, s.withinIov->second}) : Json()},
+          {"instead_of_drift",
+           s.insteadOfDrift ? Json{{"chi2_step", s.insteadOfDrift->first}, {"chi2_drift", s.insteadOfDrift->second}}
+                            : Json()}};
+}
+
+Json driftJson(const Trend& t, const TrendDrift& d) {
+  return {{"parameter", d.parameter},
+          {"first_run", d.firstRun},
+          {"last_run", d.lastRun},
+          {"slope_per_run", d.slopePerRun},
+          {"error", d.error},
+          {"z", d.z},
+          {"p_value", d.pValue},
+          {"unit", std::string(d.parameter.unit()) + "/run"},
+          {"or_step", d.orStep ? Json{{"first_run_after", d.orStep->firstRunAfter},
+                                      {"within_iov", d.orStep->withinIov ? Json::array({d.orStep->withinIov->first,
+                                                                                        d.orStep->withinIov->second})
+                                                                         : Json()},
+                                      {"size", d.orStep->size},
+                                      {"error", d.orStep->error},
+                                      {"chi2_step", d.orStep->chi2Step},
+                                      {"chi2_drift", d.orStep->chi2Line},
+                                      {"text", stepAlternativeText(t, d)}}
+                               : Json()}};
+}
+
+Json segmentJson(const TrendSegment& s) {
+  return {{"first_run", s.firstRun},
+          {"last_run", s.lastRun},
+          {"iovs", s.end - s.begin},
+          {"transition", s.transition},
+          {"after_known_boundary", s.afterKnownBoundary},
+          {"steps_at_start", s.stepsAtStart},
+          {"drifting", s.drifting},
+          {"inconsistent", s.inconsistent},
+          {"departing", s.departing},
+          {"stable", s.stable()}};
+}
+
+Json edgeJson(const TrendEdge& e) {
+  return {{"parameter", e.parameter},
+          {"unit", e.parameter.unit()},
+          {"first_run", e.firstRun},
+          {"last_run", e.lastRun},
+          {"at", e.atEnd ? "end" : "start"},
+          {"departure", e.departure},
+          {"error", e.error},
+          {"z", e.z()}};
+}
+
+Json inconsistencyJson(const TrendInconsistency& i) {
+  return {{"parameter", i.parameter}, {"unit", i.parameter.unit()},
+          {"first_run", i.firstRun},  {"last_run", i.lastRun},
+          {"iovs", i.iovs},           {"model", i.line ? "line" : "constant"},
+          {"chi2", i.chi2},           {"ndf", i.ndf},
+          {"p_value", i.pValue},      {"too_few_iovs", i.unsplittable}};
+}
+
+Json boundaryJson(const KnownBoundary& b) {
+  return {{"run", b.run},
+          {"within_iov", b.withinIov ? Json::array({b.withinIov->first, b.withinIov->second}) : Json()},
+          {"measurable", b.measurable},
+          {"changed", b.changed},
+          {"largest_change", b.largest ? Json(*b.largest) : Json()},
+          {"largest_z", b.largestZ}};
+}
+
+// A series' analysis `a` of the points `s`: its segments and the IOVs left out as transitions.
+Json seriesJson(const SeriesAnalysis& a, const TrendSeries& s) {
+  Json segs = Json::array();
+  for (const auto& g : a.segments) {
+    const auto& pts = s.points;
+    segs.push_back({{"first_run", pts[g.begin].firstRun},
+                    {"last_run", pts[g.end - 1].lastRun},
+                    {"iovs", g.end - g.begin},
+                    {"mean", g.constant.a},
+                    {"mean_error", std::sqrt(g.constant.varA)},
+                    {"chi2", g.constant.chi2},
+                    {"slope_per_run", g.line.b},
+                    {"slope_error", std::sqrt(g.line.varB)},
+                    {"slope_z", g.slopeZ},
+                    {"drift", g.drift}});
+  }
+  Json transitions = Json::array();
+  for (const Change& c : a.changes) {
+    if (c.transition) {
+      const auto& p = s.points[c.start - 1];
+      transitions.push_back(Json::array({p.firstRun, p.lastRun}));
+    }
+  }
+  return {{"parameter", a.parameter},    {"unit", a.parameter.unit()}, {"iovs", s.points.size()},
+          {"error_scale", a.errorScale}, {"segments", segs},           {"transition_iovs", transitions}};
+}
+
+// How the trend was analysed: the rules in words and their settings.
+Json methodJson(const Trend& t) {
+  return {
+      {"changes", "optimal partitioning, Gaussian known-variance cost, a straight line per segment"},
+      {"penalty", t.penalty},
+      {"penalty_rule", "(k + 2) ln n, k = 2 (MBIC with a slope)"},
+      {"error_scale_rule", "IOV-to-IOV scatter / quoted error (median |dy|/0.6745), x(1 + 2.3/sqrt(m)), up or down"},
+      {"step_test", "jump between the segments' models >= 3 sigma, and no continuous broken line within chi2 9"},
+      {"transition_penalty", t.transitionPenalty},
+      {"transition_rule", "ln n more for an IOV left out between two segments (straddling a step)"},
+      {"step_z", t.options.stepZ},
+      {"min_segment", t.options.minSegment},
+      {"min_line_points", kMinLinePoints},
+      {"knee_test", t.options.kneeTest},
+      {"drift_test", "slope against 0 in each segment of a line, Bonferroni over all segments tested"},
+      {"drift_alpha", t.options.driftAlpha},
+      {"drift_tests", t.tests},
+      {"consistency_test",
+       "chi2 of each segment's model (a line where its slope is significant), Bonferroni over all segments "
+       "tested, family-wise rate drift_alpha"},
+      {"consistency_tests", t.consistencyTests},
+      {"edge_test",
+       "the first and the last IOV against the rest of their segment: left out when the chi2 drops by more than the "
+       "penalty and p-value x 2 x series < drift_alpha"},
+      {"known_boundaries", t.options.boundaries}};
+}
+
+// Each element of `items` as `json` makes it.
+template <class Items, class ToJson>
+Json arrayOf(const Items& items, ToJson json) {
+  Json out = Json::array();
+  for (const auto& item : items) out.push_back(json(item));
+  return out;
+}
+
+}  // namespace
+
+Json trendJson(const Trend& t, const std::vector<TrendSeries>& series) {
+  Json list = Json::array();
+  for (std::size_t k = 0; k < t.series.size(); ++k) list.push_back(seriesJson(t.series[k], series[k]));
+  Json setAside = Json::array();
+  for (const auto& a : t.setAside) {
+    setAside.push_back({{"parameter", a.parameter}, {"first_run", a.firstRun}, {"last_run", a.lastRun}});
+  }
+  return {{"format", kTrendFormat},
+          {"method", methodJson(t)},
+          {"iovs", t.iovs},
+          {"resolvable", t.resolvable()},
+          {"verdict", trendVerdict(t)},
+          {"steps", arrayOf(t.steps, stepJson)},
+          {"inconsistent", arrayOf(t.inconsistencies, inconsistencyJson)},
+          {"known_boundaries", arrayOf(t.boundaries, boundaryJson)},
+          {"set_aside", setAside},
+          {"edges", arrayOf(t.edges, edgeJson)},
+          {"drifts", arrayOf(t.drifts, [&](const TrendDrift& d) { return driftJson(t, d); })},
+          {"segments", arrayOf(t.segments, segmentJson)},
+          {"series", list}};
+}
+
+// ---------------------------------------------------------------- reading trend.json back
+
+namespace {
+
+using io::strict::StrictObject;
+
+Quantity quantityAt(const StrictObject& o, std::string_view key) {
+  const std::string n = o.string(key);
+  const auto q = quantityFromName(n);
+  if (!q) o.fail(o.pathOf(key), fmt::format("unknown parameter '{}'", n));
+  return *q;
+}
+
+std::vector<Quantity> quantitiesAt(const StrictObject& o, std::string_view key) {
+  std::vector<Quantity> out;
+  if (!o.has(key)) return out;
+  const std::vector<std::string> names = o.strings(key);
+  for (std::size_t k = 0; k < names.size(); ++k) {
+    const auto q = quantityFromName(names[k]);
+    if (!q) o.fail(fmt::format("{}[{}]", o.pathOf(key), k), fmt::format("unknown parameter '{}'", names[k]));
+    out.push_back(*q);
+  }
+  return out;
+}
+
+// An IOV's runs [first, last], or none (null or absent).
+std::optional<std::pair<std::int64_t, std::int64_t>> iovAt(const StrictObject& o, std::string_view key) {
+  if (!o.has(key) || o.at(key).is_null()) return std::nullopt;
+  const Json& runs = o.array(key);
+  if (runs.size() != 2 || !runs[0].is_number_integer() || !runs[1].is_number_integer()) {
+    o.fail(o.pathOf(key), "expected [first run, last run]");
+  }
+  return std::pair{runs[0].get<std::int64_t>(), runs[1].get<std::int64_t>()};
+}
+
+// Each element of the array at `key` (none when absent) as `read` makes it.
+template <class Read>
+auto listAt(const StrictObject& top, std::string_view key, Read read) {
+  std::vector<decltype(read(top))> out;
+  if (!top.has(key)) return out;
+  const Json& list = top.array(key);
+  for (std::size_t k = 0; k < list.size(); ++k) {
+    out.push_back(read(top.nested(list[k], fmt::format("{}[{}]", top.pathOf(key), k))));
+  }
+  return out;
+}
+
+TrendStep readStep(const StrictObject& s) {
+  TrendStep step{.parameter = quantityAt(s, "parameter"),
+                 .known = s.has("known_boundary") && s.boolean("known_boundary"),
+                 .firstRunAfter = s.integer("first_run_after"),
+                 .size = s.numberOrNull("size"),
+                 .error = s.numberOrNull("error"),
+                 .withinIov = iovAt(s, "within_iov")};
+  if (s.has("instead_of_drift") && !s.at("instead_of_drift").is_null()) {
+    const StrictObject d = s.object("instead_of_drift");
+    step.insteadOfDrift = std::pair{d.number("chi2_step"), d.number("chi2_drift")};
+  }
+  return step;
+}
+
+TrendInconsistency readInconsistency(const StrictObject& i) {
+  const std::string model = i.string("model");
+  if (model != "line" && model != "constant") i.fail(i.pathOf("model"), "expected \"line\" or \"constant\"");
+  return {.parameter = quantityAt(i, "parameter"),
+          .firstRun = i.integer("first_run"),
+          .lastRun = i.integer("last_run"),
+          .iovs = static_cast<std::size_t>(i.integer("iovs")),
+          .chi2 = i.numberOrNull("chi2"),
+          .ndf = static_cast<int>(i.integer("ndf")),
+          .pValue = i.numberOrNull("p_value"),
+          .line = model == "line",
+          .unsplittable = i.has("too_few_iovs") && i.boolean("too_few_iovs")};
+}
+
+RecordedDrift readDrift(const StrictObject& d) {
+  RecordedDrift out{.drift = {.parameter = quantityAt(d, "parameter"),
+                              .firstRun = d.integer("first_run"),
+                              .lastRun = d.integer("last_run"),
+                              .slopePerRun = d.numberOrNull("slope_per_run"),
+                              .error = d.numberOrNull("error"),
+                              .z = d.numberOrNull("z"),
+                              .pValue = d.numberOrNullIfGiven("p_value")}};
+  if (d.has("or_step") && !d.at("or_step").is_null()) {
+    const StrictObject s = d.object("or_step");
+    out.drift.orStep = StepAlternative{.firstRunAfter = s.integer("first_run_after"),
+                                       .withinIov = iovAt(s, "within_iov"),
+                                       .size = s.numberOrNull("size"),
+                                       .error = s.numberOrNull("error"),
+                                       .chi2Step = s.number("chi2_step"),
+                                       .chi2Line = s.number("chi2_drift")};
+    out.orStepText = s.string("text");
+  }
+  return out;
+}
+
+TrendSegment readSegment(const StrictObject& s, bool resolvable) {
+  return {.begin = 0,
+          .end = static_cast<std::size_t>(s.integer("iovs")),
+          .firstRun = s.integer("first_run"),
+          .lastRun = s.integer("last_run"),
+          .transition = s.has("transition") && s.boolean("transition"),
+          .afterKnownBoundary = s.has("after_known_boundary") && s.boolean("after_known_boundary"),
+          .stepsAtStart = quantitiesAt(s, "steps_at_start"),
+          .drifting = quantitiesAt(s, "drifting"),
+          .inconsistent = quantitiesAt(s, "inconsistent"),
+          .departing = quantitiesAt(s, "departing"),
+          .resolvable = resolvable};
+}
+
+}  // namespace
+
+Result<TrendRecord> parseTrend(const Json& j, std::string_view source) {
+  return io::strict::guarded([&] {
+    const StrictObject top(j, "", source);
+    if (top.string("format") != kTrendFormat) top.fail("format", fmt::format("expected \"{}\"", kTrendFormat));
+    TrendRecord r;
+    if (top.has("tag")) r.tag = top.string("tag");
+    if (top.has("conditions")) r.conditions = top.string("conditions");
+    if (top.has("models")) r.models = top.strings("models");
+    r.iovs = static_cast<std::size_t>(top.integer("iovs"));
+    if (top.has("verdict")) r.verdict = top.string("verdict");
+    if (top.has("method") && top.object("method").has("drift_tests")) {
+      r.driftTests = static_cast<int>(top.object("method").integer("drift_tests"));
+    }
+    const bool resolvable = !top.has("resolvable") || top.boolean("resolvable");
+    r.steps = listAt(top, "steps", readStep);
+    r.inconsistencies = listAt(top, "inconsistent", readInconsistency);
+    r.drifts = listAt(top, "drifts", readDrift);
+    r.segments = listAt(top, "segments", [&](const StrictObject& s) { return readSegment(s, resolvable); });
+    return r;
+  });
+}
+
+}  // namespace emcalign::validation

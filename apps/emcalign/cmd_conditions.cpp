@@ -116,14 +116,14 @@ int runRetire(const ConditionsOptions& o) {
 }
 
 // The σ_sys of the IOVs: "auto (0.012-0.015 deg)", "0.2 deg", "mixed: …", or "-" (not said).
-std::string sigmaSysSummary(const Json& iovs) {
+std::string sigmaSysSummary(const std::vector<conddb::IovListing>& iovs) {
   std::set<std::string> methods;
   double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-  for (const Json& i : iovs) {
-    methods.insert(i.value("sigma_sys_method", std::string()));
-    if (i.contains("sigma_sys_deg") && i["sigma_sys_deg"].is_number()) {
-      lo = std::min(lo, i["sigma_sys_deg"].get<double>());
-      hi = std::max(hi, i["sigma_sys_deg"].get<double>());
+  for (const auto& i : iovs) {
+    methods.insert(i.sigmaSysMethod.value_or(""));
+    if (i.sigmaSysDeg && std::isfinite(*i.sigmaSysDeg)) {
+      lo = std::min(lo, *i.sigmaSysDeg);
+      hi = std::max(hi, *i.sigmaSysDeg);
     }
   }
   if (methods.empty() || (methods.size() == 1 && methods.begin()->empty()) || !(lo <= hi)) return "-";
@@ -154,8 +154,8 @@ int runDiff(const ConditionsOptions& o) {
   if (!d->pairs.empty()) {
     // σ_sys sets the errors the pulls below are in units of: said beside the models.
     std::string sigmaA = "-", sigmaB = "-";
-    if (auto a = conddb::listTags(**db, d->tagA); a && !a->empty()) sigmaA = sigmaSysSummary(a->front()["iovs"]);
-    if (auto b = conddb::listTags(**db, d->tagB); b && !b->empty()) sigmaB = sigmaSysSummary(b->front()["iovs"]);
+    if (auto a = conddb::listTags(**db, d->tagA); a && !a->empty()) sigmaA = sigmaSysSummary(a->front().iovs);
+    if (auto b = conddb::listTags(**db, d->tagB); b && !b->empty()) sigmaB = sigmaSysSummary(b->front().iovs);
     fmt::print("models: tag {}: {}, sigma_sys {}; tag {}: {}, sigma_sys {}\n", d->tagA,
                printable(fmt::format("{}", fmt::join(modelsA, " | "))), sigmaA, d->tagB,
                printable(fmt::format("{}", fmt::join(modelsB, " | "))), sigmaB);
@@ -219,13 +219,13 @@ int runExport(const ConditionsOptions& o) {
 
 // A tag's state as a person reads it: "retired" for an open tag with its retirement mark
 // (the JSON keeps SPEC §11's "open"|"locked" and adds "retired").
-std::string stateOf(const Json& t) { return t.contains("retired") ? "retired" : t["state"].get<std::string>(); }
+std::string stateOf(const conddb::Tag& t) { return std::string(name(t.state)); }
 
 // The model of a tag's IOVs (Payload::model): "paper's model", the corrections' file name,
 // "mixed" when they differ, "-" when the payloads do not say; `brief` for a column.
-std::string modelSummary(const Json& iovs, bool brief = true) {
+std::string modelSummary(const std::vector<conddb::IovListing>& iovs, bool brief = true) {
   std::set<std::string> models;
-  for (const Json& i : iovs) models.insert(i.value("model", std::string()));
+  for (const auto& i : iovs) models.insert(i.model);
   if (models.empty() || (models.size() == 1 && models.begin()->empty())) return "-";
   if (models.size() > 1) {
     return brief ? std::string("mixed") : printable(fmt::format("mixed: {}", fmt::join(models, " | ")));
@@ -241,49 +241,42 @@ int runList(const ConditionsOptions& o) {
   if (!db) return reportError(db.error());
   auto tags = conddb::listTags(**db, o.tag);
   if (!tags) return reportError(tags.error());
-  const std::vector<Json>& listed = *tags;
+  const std::vector<conddb::TagListing>& listed = *tags;
   if (o.json) {
-    const Json out = o.tag.empty() ? Json(listed) : listed.front();
-    fmt::print("{}\n", out.dump(2));
+    Json out = Json::array();
+    for (const auto& t : listed) out.push_back(conddb::tagJson(t));
+    fmt::print("{}\n", (o.tag.empty() ? out : out.front()).dump(2));
     return kExitOk;
   }
   if (o.tag.empty()) {
     fmt::print("{:<24} {:<7} {:>6} {:>17}  {:<28} {:<22} {}\n", "tag", "state", "IOVs", "runs", "model", "sigma_sys",
                "description");
-    for (const Json& t : listed) {
-      const Json& iovs = t["iovs"];
-      const std::string runs = iovs.empty() ? "-"
-                                            : fmt::format("{}-{}", iovs.front()["first_run"].get<std::int64_t>(),
-                                                          iovs.back()["last_run"].get<std::int64_t>());
-      fmt::print("{:<24} {:<7} {:>6} {:>17}  {:<28} {:<22} {}\n", t["tag"].get<std::string>(), stateOf(t), iovs.size(),
-                 runs, modelSummary(iovs), sigmaSysSummary(iovs), t["description"].get<std::string>());
+    for (const auto& t : listed) {
+      const auto& iovs = t.iovs;
+      const std::string runs =
+          iovs.empty() ? "-" : fmt::format("{}-{}", iovs.front().iov.firstRun, iovs.back().iov.lastRun);
+      fmt::print("{:<24} {:<7} {:>6} {:>17}  {:<28} {:<22} {}\n", t.tag.name, stateOf(t.tag), iovs.size(), runs,
+                 modelSummary(iovs), sigmaSysSummary(iovs), t.tag.description);
     }
     return kExitOk;
   }
-  const Json& t = listed.front();
-  fmt::print("tag {} ({}), created {}{}\n", o.tag, stateOf(t), t["created"].get<std::string>(),
-             t["description"].get<std::string>().empty() ? "" : ": " + t["description"].get<std::string>());
-  if (t.contains("retired")) fmt::print("retired {}\n", t["retired"].get<std::string>());
-  fmt::print("model: {}; sigma_sys: {}\n", modelSummary(t["iovs"], false), sigmaSysSummary(t["iovs"]));
+  const conddb::TagListing& t = listed.front();
+  fmt::print("tag {} ({}), created {}{}\n", o.tag, stateOf(t.tag), t.tag.created,
+             t.tag.description.empty() ? "" : ": " + t.tag.description);
+  if (t.tag.state == conddb::TagState::Retired) fmt::print("retired {}\n", t.tag.retired);
+  fmt::print("model: {}; sigma_sys: {}\n", modelSummary(t.iovs, false), sigmaSysSummary(t.iovs));
   fmt::print("{:>10} {:>10} {:>9} {:>12} {:>12} {:<12} {:<12} {}\n", "first_run", "last_run", "events", "chi2/ndf",
              "stat. only", "status", "payload", "inserted");
-  for (const Json& i : t["iovs"]) {
-    const bool ndf = i.contains("ndf") && i["ndf"].is_number();
-    const std::string chi2 = i.contains("chi2") && ndf && i["chi2"].is_number()
-                                 ? fmt::format("{:.1f}/{}", i["chi2"].get<double>(), i["ndf"].get<std::int64_t>())
-                                 : "-";
+  for (const auto& i : t.iovs) {
+    const auto ratio = [&](const std::optional<double>& chi2) {
+      return chi2 && std::isfinite(*chi2) && i.ndf ? fmt::format("{:.1f}/{}", *chi2, *i.ndf) : std::string("-");
+    };
     // sigma_sys auto makes chi2/ndf 1: the chi2 with the statistical errors alone beside it.
-    const std::string stat =
-        i.contains("chi2_statistical_errors") && i["chi2_statistical_errors"].is_number() && ndf
-            ? fmt::format("{:.1f}/{}", i["chi2_statistical_errors"].get<double>(), i["ndf"].get<std::int64_t>())
-            : "-";
-    const std::string events = i.contains("selected_events") ? printable(i["selected_events"].dump()) : "-";
+    const std::string events = i.selectedEvents ? std::to_string(*i.selectedEvents) : "-";
     // Text of a payload is printed escaped: a database can hold anything (core/utf8.hpp).
-    const std::string status =
-        i.contains("status") && i["status"].is_string() ? printable(i["status"].get<std::string>()) : "-";
-    fmt::print("{:>10} {:>10} {:>9} {:>12} {:>12} {:<12} {:<12} {}\n", i["first_run"].get<std::int64_t>(),
-               i["last_run"].get<std::int64_t>(), events, chi2, stat, status,
-               i["payload"].get<std::string>().substr(0, 12), i["inserted"].get<std::string>());
+    const std::string status = i.status ? printable(*i.status) : "-";
+    fmt::print("{:>10} {:>10} {:>9} {:>12} {:>12} {:<12} {:<12} {}\n", i.iov.firstRun, i.iov.lastRun, events,
+               ratio(i.chi2), ratio(i.chi2Statistical), status, i.iov.payload.substr(0, 12), i.iov.inserted);
   }
   return kExitOk;
 }

@@ -126,9 +126,9 @@ int run(const ReportCliOptions& o) {
       return reportError(
           {fmt::format("{}: no tag '{}' (the tags: emcalign conditions list {})", (*db)->uri(), o.tag, (*db)->uri())});
     }
-    auto listed = conddb::tagJson(**db, **tag);
+    auto listed = conddb::tagListing(**db, **tag);
     if (!listed) return reportError(listed.error());
-    in.conditions = report::ReportConditions{(*db)->uri(), o.tag, listed->at("iovs")};
+    in.conditions = report::ReportConditions{(*db)->uri(), o.tag, std::move(listed->iovs)};
   }
   for (const auto& dir : o.checks) {
     auto c = report::readCheckDirectory(dir);

@@ -35,10 +35,10 @@ class Conditions {
 
   // Every tag, or one, as `conditions list --json` shows them.
   py::object tags(const std::string& name) {
-    const std::vector<io::Json> listed = unwrap(conddb::listTags(*db_, name));
-    if (!name.empty()) return pythonOf(listed.front());
+    const std::vector<conddb::TagListing> listed = unwrap(conddb::listTags(*db_, name));
+    if (!name.empty()) return pythonOf(conddb::tagJson(listed.front()));
     py::list out;
-    for (const auto& t : listed) out.append(pythonOf(t));
+    for (const auto& t : listed) out.append(pythonOf(conddb::tagJson(t)));
     return out;
   }
 

@@ -1,6 +1,8 @@
 #include "emcalign/conddb/calibrations.hpp"
 
+#include <cmath>
 #include <filesystem>
+#include <limits>
 
 #include <fmt/format.h>
 
@@ -126,31 +128,66 @@ Result<RunCalibration> calibrationAt(Database& db, const std::string& tag, std::
   return RunCalibration{iov, parameterFileOf(iov, payload, db.uri(), tag)};
 }
 
-Result<io::Json> tagJson(Database& db, const Tag& tag) {
-  Json iovs = Json::array();
+namespace {
+
+// What a stored fit result says, where it says it as a fit result writes it.
+std::optional<std::string> stringIn(const Json& j, const char* key) {
+  if (!j.is_object() || !j.contains(key) || !j.at(key).is_string()) return std::nullopt;
+  return j.at(key).get<std::string>();
+}
+std::optional<double> numberIn(const Json& j, const char* key) {
+  if (!j.is_object() || !j.contains(key)) return std::nullopt;
+  const Json& v = j.at(key);
+  if (v.is_null()) return std::numeric_limits<double>::quiet_NaN();
+  return v.is_number() ? std::optional<double>(v.get<double>()) : std::nullopt;
+}
+std::optional<std::int64_t> integerIn(const Json& j, const char* key) {
+  if (!j.is_object() || !j.contains(key) || !j.at(key).is_number_integer()) return std::nullopt;
+  return j.at(key).get<std::int64_t>();
+}
+
+}  // namespace
+
+Result<TagListing> tagListing(Database& db, const Tag& tag) {
   auto list = db.iovs(tag.name);
   if (!list) return list.error();
+  TagListing listing{.tag = tag};
   for (const auto& iov : *list) {
-    Json i = {
-        {"first_run", iov.firstRun}, {"last_run", iov.lastRun}, {"payload", iov.payload}, {"inserted", iov.inserted}};
     auto p = db.payload(iov.payload);  // its hash checked: an edited payload is an error, not shown
     if (!p) return p.error();
     const Json& a = p->content["alignment"];
-    for (const char* key : {"status", "chi2", "ndf"}) {
-      if (a.contains(key)) i[key] = a[key];
-    }
-    // With sigma_sys auto χ²/ndf is 1 by construction: the χ² with the statistical errors
-    // alone is what tells one IOV from another.
-    if (a.contains("sigma_sys") && a["sigma_sys"].is_object()) {
-      const Json& s = a["sigma_sys"];
-      if (s.contains("method") && s["method"].is_string()) i["sigma_sys_method"] = s["method"];
-      if (s.contains("chi2_statistical_errors")) i["chi2_statistical_errors"] = s["chi2_statistical_errors"];
-      if (s.contains("value_deg") && s["value_deg"].is_number()) i["sigma_sys_deg"] = s["value_deg"];
-    }
-    if (p->content.contains("selected_events")) i["selected_events"] = p->content["selected_events"];
-    i["model"] = p->model();
+    const Json sigma = a.is_object() ? a.value("sigma_sys", Json()) : Json();
+    listing.iovs.push_back({.iov = iov,
+                            .status = stringIn(a, "status"),
+                            .chi2 = numberIn(a, "chi2"),
+                            .ndf = integerIn(a, "ndf"),
+                            .sigmaSysMethod = stringIn(sigma, "method"),
+                            .chi2Statistical = numberIn(sigma, "chi2_statistical_errors"),
+                            .sigmaSysDeg = numberIn(sigma, "value_deg"),
+                            .selectedEvents = integerIn(p->content, "selected_events"),
+                            .model = p->model()});
+  }
+  return listing;
+}
+
+Json tagJson(const TagListing& listing) {
+  Json iovs = Json::array();
+  for (const auto& l : listing.iovs) {
+    Json i = {{"first_run", l.iov.firstRun},
+              {"last_run", l.iov.lastRun},
+              {"payload", l.iov.payload},
+              {"inserted", l.iov.inserted}};
+    if (l.status) i["status"] = *l.status;
+    if (l.chi2) i["chi2"] = io::numberOrNull(*l.chi2);
+    if (l.ndf) i["ndf"] = *l.ndf;
+    if (l.sigmaSysMethod) i["sigma_sys_method"] = *l.sigmaSysMethod;
+    if (l.chi2Statistical) i["chi2_statistical_errors"] = io::numberOrNull(*l.chi2Statistical);
+    if (l.sigmaSysDeg && std::isfinite(*l.sigmaSysDeg)) i["sigma_sys_deg"] = *l.sigmaSysDeg;
+    if (l.selectedEvents) i["selected_events"] = *l.selectedEvents;
+    i["model"] = l.model;
     iovs.push_back(std::move(i));
   }
+  const Tag& tag = listing.tag;
   // "state" stays "open"|"locked" for every tag (a retired tag is an open one with its mark):
   // readers of list --json that know only those two keep working.
   const TagState shown = tag.state == TagState::Retired ? TagState::Open : tag.state;
@@ -163,7 +200,7 @@ Result<io::Json> tagJson(Database& db, const Tag& tag) {
   return out;
 }
 
-Result<std::vector<io::Json>> listTags(Database& db, const std::string& tag) {
+Result<std::vector<TagListing>> listTags(Database& db, const std::string& tag) {
   std::vector<Tag> tags;
   if (!tag.empty()) {
     auto t = db.tag(tag);
@@ -175,11 +212,11 @@ Result<std::vector<io::Json>> listTags(Database& db, const std::string& tag) {
     if (!all) return all.error();
     tags = std::move(*all);
   }
-  std::vector<Json> listed;
+  std::vector<TagListing> listed;
   for (const auto& t : tags) {
-    auto j = tagJson(db, t);
-    if (!j) return j.error();
-    listed.push_back(std::move(*j));
+    auto l = tagListing(db, t);
+    if (!l) return l.error();
+    listed.push_back(std::move(*l));
   }
   return listed;
 }

@@ -64,12 +64,39 @@ Result<WholeTagPut> putWholeTag(Database& db, const std::string& tag, const std:
 /// The calibration valid for `run`; the error says whether the tag or the IOV is missing.
 Result<RunCalibration> calibrationAt(Database& db, const std::string& tag, std::int64_t run);
 
+/// An IOV as `conditions list` shows it: its runs and payload, and what the payload's fit
+/// says (absent where the payload does not say it, or not as a fit result writes it: a
+/// database can hold anything; a null χ² is NaN).
+struct IovListing {
+  Iov iov;
+  std::optional<std::string> status = {};
+  std::optional<double> chi2 = {};
+  std::optional<std::int64_t> ndf = {};
+  std::optional<std::string> sigmaSysMethod = {};
+  /// With σ_sys auto χ²/ndf is 1 by construction: the χ² with the statistical errors alone is
+  /// what tells one IOV from another.
+  std::optional<double> chi2Statistical = {};
+  std::optional<double> sigmaSysDeg = {};
+  std::optional<std::int64_t> selectedEvents = {};
+  std::string model = {};  ///< Payload::model
+};
+
+/// A tag and its IOVs as `conditions list` shows them.
+struct TagListing {
+  Tag tag;
+  std::vector<IovListing> iovs = {};
+};
+
+/// The listing of a tag: each IOV's payload read (its hash checked: an edited payload is an
+/// error, not shown).
+Result<TagListing> tagListing(Database& db, const Tag& tag);
+/// Every tag's listing, or only `tag`'s when not empty (an error when it does not exist).
+Result<std::vector<TagListing>> listTags(Database& db, const std::string& tag = {});
 /// A tag as `conditions list --json` shows it: {"tag", "state", "description", "created",
 /// "iovs": [{"first_run", "last_run", "payload", "inserted", "status", "chi2", "ndf",
-/// "selected_events", "model" (Payload::model)}]}.
-Result<io::Json> tagJson(Database& db, const Tag& tag);
-/// Every tag as tagJson gives it, or only `tag` when not empty (an error when it does not exist).
-Result<std::vector<io::Json>> listTags(Database& db, const std::string& tag = {});
+/// "sigma_sys_method", "chi2_statistical_errors", "sigma_sys_deg", "selected_events", "model"
+/// (Payload::model)}]}, "retired" for a retired tag.
+io::Json tagJson(const TagListing& listing);
 
 /// The alignment of each run from the IOVs of a tag.
 class TagAlignments {

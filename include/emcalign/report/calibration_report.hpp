@@ -25,6 +25,7 @@
 #include "emcalign/apply/check_record.hpp"
 #include "emcalign/apply/mc_comparison.hpp"
 #include "emcalign/calib/fit_record.hpp"
+#include "emcalign/conddb/calibrations.hpp"
 #include "emcalign/core/result.hpp"
 #include "emcalign/geometry/detector.hpp"
 #include "emcalign/io/json_files.hpp"
@@ -74,7 +75,7 @@ struct ReportTrend {
 
 struct ReportConditions {
   std::string uri, tag;
-  io::Json iovs;  ///< `emcalign conditions list --json`'s "iovs"
+  std::vector<conddb::IovListing> iovs;  ///< as `emcalign conditions list` shows them
 };
 
 struct ReportCheck {

@@ -105,11 +105,21 @@ TEST_F(TagTables, ARetiredTagIsListedOpenWithItsMark) {
   ASSERT_TRUE(db_->retire("b", "the wrong runs"));
   auto listed = listTags(*db_, "b");
   ASSERT_TRUE(listed) << listed.error().message;
-  EXPECT_EQ(listed->front()["state"], "open");
-  EXPECT_NE(listed->front()["retired"].get<std::string>().find("the wrong runs"), std::string::npos);
+  const Json b = tagJson(listed->front());
+  EXPECT_EQ(b["state"], "open");
+  EXPECT_NE(b["retired"].get<std::string>().find("the wrong runs"), std::string::npos);
   auto a = listTags(*db_, "a");
   ASSERT_TRUE(a);
-  EXPECT_FALSE(a->front().contains("retired"));
+  EXPECT_FALSE(tagJson(a->front()).contains("retired"));
+  // What each IOV's payload says, typed as the listing and the report show it.
+  ASSERT_FALSE(a->front().iovs.empty());
+  const IovListing& first = a->front().iovs.front();
+  EXPECT_EQ(first.iov.firstRun, 1);
+  EXPECT_EQ(first.status, "converged");
+  EXPECT_EQ(first.ndf, 308);
+  EXPECT_EQ(first.chi2Statistical, 512.5);
+  EXPECT_EQ(first.sigmaSysMethod, "auto");
+  EXPECT_EQ(tagJson(a->front())["iovs"][0]["chi2_statistical_errors"], 512.5);
   EXPECT_TRUE(diffTags(*db_, "a", "b"));  // a comparison reads a retired tag
 }
 

@@ -136,6 +136,7 @@ std::string parameterTables(const calib::FitRecord& r) {
 std::string correlationMap(const calib::FitRecord& r) {
   if (!r.correlation) return {};
   std::vector<std::string> labels;
+  labels.reserve(kAllParams.size());
   for (Param p : kAllParams) labels.push_back(symbol(std::string(name(p))));
   std::vector<std::vector<double>> m;
   for (const auto& row : *r.correlation) m.emplace_back(row.begin(), row.end());

@@ -227,6 +227,7 @@ std::vector<report::CampaignSeries> campaignSeries(const std::vector<SampleResul
     series.push_back(std::move(q));
   }
   std::vector<PhysicalParameters> truths;
+  truths.reserve(samples.size());
   for (const auto& s : samples) truths.push_back(physicalTruth(s.truth, r1));
   for (Physical p : kDerivedParams) {
     const double unit = fileUnitOf(p);
@@ -340,7 +341,7 @@ class ValidationJob final : public PlannedJob {
         inputs_(std::move(inputs)),
         blocks_(sampleBlocks(o_.samples, samplesPerTask, 1, 0)) {}
 
-  std::vector<PlannedTask> tasks() const override {
+  [[nodiscard]] std::vector<PlannedTask> tasks() const override {
     std::vector<PlannedTask> t;
     for (const SampleBlock& b : blocks_) {
       PlannedTask task{
@@ -450,6 +451,7 @@ Table tabulate(const std::vector<SampleResult>& samples, std::int64_t events, do
     std::vector<double> diff, pull, truth;
   };
   std::vector<Acc> acc;
+  acc.reserve(kAllParams.size() + kDerivedParams.size());
   for (Param p : kAllParams) acc.push_back({p, AlignmentParameters::fileUnit(p), {}, {}, {}});
   for (Physical p : kDerivedParams) acc.push_back({p, fileUnitOf(p), {}, {}, {}});
   int correlations = 0;
@@ -478,6 +480,7 @@ Table tabulate(const std::vector<SampleResult>& samples, std::int64_t events, do
   }
   if (correlations > 0) t.meanCorrelation /= correlations;
   std::vector<double> sigmaSys;
+  sigmaSys.reserve(samples.size());
   for (const auto& s : samples) sigmaSys.push_back(s.fit.sigmaSys.value / units::deg);
   if (!sigmaSys.empty()) {
     t.sigmaSysMedian = median(sigmaSys);

@@ -52,7 +52,7 @@ class ScratchDirectory {
     std::error_code ec;
     if (!path_.empty()) fs::remove_all(path_, ec);
   }
-  const std::string& path() const { return path_; }
+  [[nodiscard]] const std::string& path() const { return path_; }
 
  private:
   std::string path_;

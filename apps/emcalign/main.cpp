@@ -79,9 +79,8 @@ void openStandardDescriptors() {
   }
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+// The command line parsed and run (main catches what escapes it).
+int runMain(int argc, char** argv) {
   openStandardDescriptors();
   installSignalHandlers();
   // No output of a command may replace one of its inputs (io/output_file.hpp).
@@ -132,4 +131,17 @@ int main(int argc, char** argv) {
     return emcalign::app::kExitInternal;
   }
   return checkStandardOutput(exitCode);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return runMain(argc, argv);
+  } catch (const std::exception& e) {  // the parser's setup (allocation): nothing has run yet
+    std::fprintf(stderr, "emcalign: internal error: %s (a bug: please report it with the command line)\n", e.what());
+  } catch (...) {
+    std::fputs("emcalign: internal error (a bug: please report it with the command line)\n", stderr);
+  }
+  return emcalign::app::kExitInternal;
 }

@@ -72,6 +72,7 @@ int runFromPlan(const validation::Plan& plan, PlanContext::Mode mode, std::size_
     args.push_back(std::to_string(n));
   }
   std::vector<char*> argv;
+  argv.reserve(args.size() + 1);
   for (auto& a : args) argv.push_back(a.data());
   gContext = {mode, &plan, task};
   int exitCode = 0;

@@ -35,6 +35,7 @@ py::dict correctFiles(const Paths& paths, const Path& output, const Detector* gi
   const std::string correctionsPath = corrections ? pathString(*corrections) : std::string();
   const std::string alignmentPath = alignment ? pathString(*alignment) : std::string();
   std::vector<io::NamedPath> named;
+  named.reserve(inputs.size() + 3);
   for (const auto& p : inputs) named.push_back({"", p});
   named.push_back({"alignment", alignmentPath});
   if (conditions) named.push_back({"conditions", conddb::sqliteFileOf(*conditions)});

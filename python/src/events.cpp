@@ -178,8 +178,7 @@ void bindEvents(py::module_& m) {
         "the rows of event files (HDF5 or CSV, docs/simulation.md) as a dict of numpy columns, with 'truth' and 'hits' "
         "dicts when the files have them");
 
-  std::vector<std::string> cuts;
-  for (const char* c : calib::CutFlow::kNames) cuts.emplace_back(c);
+  std::vector<std::string> cuts(calib::CutFlow::kNames.begin(), calib::CutFlow::kNames.end());
   m.attr("CUTS") = cuts;
   m.def(
       "select",

@@ -8,6 +8,7 @@
 #include "emcalign/core/parameters.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/io/output_file.hpp"
+#include "emcalign/report/calibration_report.hpp"
 
 namespace emcalign::python {
 
@@ -257,6 +258,18 @@ void bindFit(py::module_& m) {
         return binColumns(bins);
       },
       py::arg("path"), "a profile file (emcalign fit --profile-out) as numpy columns");
+  m.def(
+      "read_output",
+      [](const Path& path) {
+        const std::string file = pathString(path);
+        const io::Json j = unwrap(io::parseJson(unwrap(io::readTextFile(file)), file));
+        unwrap(report::checkOutput(j, file));
+        return pythonOf(j);
+      },
+      py::arg("path"),
+      "a JSON output of emcalign (a fit result, a validation's table.json, trend.json, compare.json, check.json) "
+      "as a dict, checked first by the reader of its kind the report uses: a key missing or of the wrong type "
+      "raises emcalign.Error naming the file and the key");
 }
 
 }  // namespace emcalign::python

@@ -105,9 +105,11 @@ class Interruption {
     }
   }
   ~Interruption() {
-    if (error_) {
+    if (!error_) return;
+    try {  // a Python object is released under the GIL; nothing more to do if it cannot be taken
       py::gil_scoped_acquire acquire;
       error_.reset();
+    } catch (...) {  // NOLINT(bugprone-empty-catch): a destructor does not throw
     }
   }
 

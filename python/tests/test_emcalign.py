@@ -204,6 +204,26 @@ def test_select_gives_the_cut_flow_of_the_fit(detector, fit_sample):
         emcalign.select({k: v for k, v in ev.items() if k != "z0_cm"})
 
 
+def test_read_output_checks_a_file_with_its_kinds_reader(tmp_path, detector, fit_sample):
+    r = emcalign.fit([str(fit_sample)], detector)
+    path = tmp_path / "r.json"
+    r.write(str(path))
+    read = emcalign.read_output(str(path))
+    assert read == json.loads(path.read_text())
+    assert read["status"] == r.status and read["ndf"] == r.ndf
+    bad = dict(read)
+    bad["errors"] = dict(read["errors"], dz="small")
+    path.write_text(json.dumps(bad))
+    with pytest.raises(emcalign.Error, match=r"r\.json: key 'errors\.dz': expected a number or null, got string"):
+        emcalign.read_output(str(path))
+    path.write_text('{"format": "emcalign-trend/1", "iovs": 2, "steps": [{"parameter": "gamma"}]}')
+    with pytest.raises(emcalign.Error, match=r"key 'steps\[0\]\.parameter': unknown parameter 'gamma'"):
+        emcalign.read_output(str(path))
+    path.write_text('{"a": 1}')
+    with pytest.raises(emcalign.Error, match="not an output of emcalign"):
+        emcalign.read_output(str(path))
+
+
 def test_profile_columns_are_the_profile_file(tmp_path, detector, fit_sample):
     r = emcalign.fit([str(fit_sample)], detector)
     path = tmp_path / "p.csv"

@@ -1,5 +1,7 @@
 #include "emcalign/calib/fit_record.hpp"
 
+#include <algorithm>
+
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
@@ -41,12 +43,14 @@ void readDerived(const StrictObject& top, FitRecord& r) {
   if (!top.has("derived")) return;
   const StrictObject derived = top.object("derived");
   for (const auto& [key, entry] : top.at("derived").items()) {
-    const auto q = quantityFromName(key);
-    if (!q) derived.fail(derived.pathOf(key), "not a parameter of the physical set");
+    const auto p = physicalFromName(key);
+    if (!p || std::find(kDerivedParams.begin(), kDerivedParams.end(), *p) == kDerivedParams.end()) {
+      derived.fail(derived.pathOf(key), "not one of the derived parameters (beta, psi, mu, tau, dx_rel)");
+    }
     const StrictObject d = derived.object(key);
-    r.derived.emplace_back(*q, calib::RecordedValue{.value = d.numberOrNull("value"),
-                                                    .error = d.numberOrNullIfGiven("error"),
-                                                    .systematic = d.numberOrNullIfGiven("systematic_error")});
+    r.derived.emplace_back(Quantity(*p), calib::RecordedValue{.value = d.numberOrNull("value"),
+                                                              .error = d.numberOrNullIfGiven("error"),
+                                                              .systematic = d.numberOrNullIfGiven("systematic_error")});
   }
 }
 
@@ -61,7 +65,9 @@ void readCorrelation(const StrictObject& top, FitRecord& r) {
     }
     for (std::size_t k = 0; k < kNumParams; ++k) {
       const Json& v = rows[i][k];
-      if (!v.is_null() && !v.is_number()) top.fail(fmt::format("correlation[{}][{}]", i, k), "expected a number");
+      if (!v.is_null() && !v.is_number()) {
+        top.fail(fmt::format("correlation[{}][{}]", i, k), "expected a number or null");
+      }
       m[i][k] = v.is_number() ? v.get<double>() : kNotGiven;
     }
   }
@@ -180,6 +186,7 @@ Result<FitRecord> parseFitRecord(const io::Json& j, std::string_view source) {
   }
   return io::strict::guarded([&] {
     const StrictObject top(j, "", source);
+    io::strict::checkAlignmentHeader(top);
     FitRecord r;
     readParameters(top, r);
     readDerived(top, r);
@@ -187,13 +194,7 @@ Result<FitRecord> parseFitRecord(const io::Json& j, std::string_view source) {
     r.chi2 = top.numberOrNull("chi2");
     r.ndf = top.integer("ndf");
     r.pValue = top.numberOrNullIfGiven("p_value");
-    const std::string status = top.string("status");
-    const auto s = fitStatusFromName(status);
-    if (!s) {
-      top.fail("status",
-               fmt::format("unknown status '{}' (converged, poor fit, not converged, covariance singular)", status));
-    }
-    r.status = *s;
+    r.status = io::strict::fitStatusAt(top, "status");
     r.warnings = top.strings("warnings");
     if (top.has("notes")) r.notes = top.strings("notes");
     if (top.has("sigma_sys")) r.sigmaSys = readSigmaSys(top.object("sigma_sys"));

@@ -283,20 +283,32 @@ json toJson(const DetectorDescription& d) {
 
 // ---------------------------------------------------------------- alignment parameters
 
+void strict::checkAlignmentHeader(const StrictObject& top) {
+  // The parameter keys, plus what a fit result adds (SPEC §3), read elsewhere.
+  top.allowOnly({"format", "units", "parameters", "physical", "errors", "systematic_errors", "covariance", "derived",
+                 "chi2", "ndf", "p_value", "stages", "status", "warnings", "input", "software", "correlation",
+                 "sigma_sys", "notes"});
+  if (top.has("format") && top.string("format") != kAlignmentFormat) {
+    top.fail("format", fmt::format("expected \"{}\"", kAlignmentFormat));
+  }
+  checkUnits(top);
+  if (top.has("parameters")) {
+    const StrictObject p = top.object("parameters");
+    for (const auto& [key, value] : top.at("parameters").items()) {
+      if (!paramFromName(key)) {
+        p.fail(p.pathOf(key), fmt::format("unknown parameter (the 12 are: {})", fmt::join(kParamNames, ", ")));
+      }
+    }
+  }
+}
+
 Result<AlignmentFile> parseAlignmentFile(const json& j, double r1, std::string_view source, AlignmentUse use) {
   return guarded([&]() -> AlignmentFile {
     if (Status kind = expectFormat(j, kAlignmentFormat, "a parameter file or a fit result", source); !kind) {
       throw strict::BadInput{kind.error().message};
     }
     StrictObject top(j, "", source);
-    // The parameter keys, plus what a fit result adds (SPEC §3), read elsewhere.
-    top.allowOnly({"format", "units", "parameters", "physical", "errors", "systematic_errors", "covariance", "derived",
-                   "chi2", "ndf", "p_value", "stages", "status", "warnings", "input", "software", "correlation",
-                   "sigma_sys", "notes"});
-    if (top.has("format") && top.string("format") != kAlignmentFormat) {
-      top.fail("format", fmt::format("expected \"{}\"", kAlignmentFormat));
-    }
-    checkUnits(top);
+    strict::checkAlignmentHeader(top);
     if (!top.has("parameters") && !top.has("physical")) {
       top.fail("parameters", "missing (give \"parameters\" or \"physical\")");
     }
@@ -304,10 +316,6 @@ Result<AlignmentFile> parseAlignmentFile(const json& j, double r1, std::string_v
     std::optional<AlignmentParameters> fromFit;
     if (top.has("parameters")) {
       StrictObject p(top.at("parameters"), "parameters", source);
-      for (const auto& [key, value] : top.at("parameters").items()) {
-        if (!paramFromName(key))
-          p.fail(p.pathOf(key), fmt::format("unknown parameter (the 12 are: {})", fmt::join(kParamNames, ", ")));
-      }
       AlignmentParameters eta;
       for (Param q : kAllParams) eta[q] = p.number(name(q)) * AlignmentParameters::fileUnit(q);
       fromFit = eta;
@@ -345,21 +353,16 @@ Result<AlignmentFile> parseAlignmentFile(const json& j, double r1, std::string_v
       throw BadInput{fmt::format("{}: {}", source, st.error().message)};
     }
     if (top.has("status")) {
-      const std::string status = top.string("status");
-      const auto s = fitStatusFromName(status);
-      if (!s) {
-        top.fail("status",
-                 fmt::format("unknown status '{}' (converged, poor fit, not converged, covariance singular)", status));
-      }
-      file.status = *s;
-      if (use == AlignmentUse::Input && !usable(*s)) {
+      const FitStatus s = strict::fitStatusAt(top, "status");
+      file.status = s;
+      if (use == AlignmentUse::Input && !usable(s)) {
         throw BadInput{
             fmt::format("{}: a fit result with status '{}': its parameters are not a calibration (read its "
                         "warnings and refit; to use them anyway, copy its \"parameters\" into a parameter "
                         "file)",
-                        source, status)};
+                        source, name(s))};
       }
-      if (*s == FitStatus::PoorFit) {
+      if (s == FitStatus::PoorFit) {
         file.warnings.push_back(
             fmt::format("{}: a fit result with status 'poor fit' (p-value below {:g}): the model does "
                         "not describe its profiles well; use it with care",

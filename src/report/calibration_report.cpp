@@ -546,6 +546,11 @@ std::vector<std::string> summary(const ReportInputs& in) {
   return lines;
 }
 
+// A document's string at `key` (empty: absent or not a string): what says which file it is.
+std::string stringAt(const Json& j, const char* key) {
+  return j.is_object() && j.contains(key) && j.at(key).is_string() ? j.at(key).get<std::string>() : std::string();
+}
+
 // Reads DIR/NAME as JSON whose "format" (or, for a check, "process") says what it is.
 Result<Json> readJsonIn(const std::string& dir, const std::string& name) {
   const std::string path = (fs::path(dir) / name).string();
@@ -609,7 +614,7 @@ Result<ReportValidation> readValidationDirectory(const std::string& dir) {
 Result<ReportTrend> readTrendDirectory(const std::string& dir) {
   auto j = readJsonIn(dir, "trend.json");
   if (!j) return j.error();
-  if (!j->is_object() || j->value("format", std::string()) != validation::kTrendFormat) {
+  if (!j->is_object() || stringAt(*j, "format") != validation::kTrendFormat) {
     return Error{fmt::format("{}/trend.json: not a trend (emcalign trend)", dir)};
   }
   auto record = validation::parseTrend(*j, dir + "/trend.json");
@@ -625,7 +630,7 @@ Result<ReportTrend> readTrendDirectory(const std::string& dir) {
 Result<ReportCompare> readCompareDirectory(const std::string& dir) {
   auto j = readJsonIn(dir, "compare.json");
   if (!j) return j.error();
-  if (!j->is_object() || j->value("format", std::string()) != "emcalign-compare/1") {
+  if (!j->is_object() || stringAt(*j, "format") != "emcalign-compare/1") {
     return Error{fmt::format("{}/compare.json: not a comparison of data with simulation (emcalign compare)", dir)};
   }
   auto record = apply::parseComparison(*j, dir + "/compare.json");
@@ -678,7 +683,7 @@ std::string detectorLine(const geometry::Calorimeter& calo, const std::string& d
 Result<ReportCheck> readCheckDirectory(const std::string& dir) {
   auto j = readJsonIn(dir, "check.json");
   if (!j) return j.error();
-  if (!j->is_object() || !apply::checkProcessFromName(j->value("process", std::string()))) {
+  if (!j->is_object() || !apply::checkProcessFromName(stringAt(*j, "process"))) {
     return Error{fmt::format("{}/check.json: not a physics check (emcalign check)", dir)};
   }
   auto record = apply::parseCheckRecord(*j, dir + "/check.json");
@@ -689,6 +694,43 @@ Result<ReportCheck> readCheckDirectory(const std::string& dir) {
                      .record = std::move(*record),
                      .document = std::move(*j),
                      .figure = figures.empty() ? std::string() : figures.front()};
+}
+
+std::string_view name(OutputKind kind) {
+  switch (kind) {
+    case OutputKind::FitResult:
+      return "fit result";
+    case OutputKind::Validation:
+      return "validation table";
+    case OutputKind::Trend:
+      return "trend";
+    case OutputKind::Comparison:
+      return "comparison";
+    case OutputKind::Check:
+      return "physics check";
+  }
+  return "?";
+}
+
+Result<OutputKind> checkOutput(const Json& j, std::string_view source) {
+  const auto read = [&](auto parsed, OutputKind kind) -> Result<OutputKind> {
+    if (!parsed) return parsed.error();
+    return kind;
+  };
+  const std::string format = stringAt(j, "format");
+  if (format == validation::kTrendFormat) return read(validation::parseTrend(j, source), OutputKind::Trend);
+  if (format == "emcalign-compare/1") return read(apply::parseComparison(j, source), OutputKind::Comparison);
+  if (j.is_object() && j.contains("process")) return read(apply::parseCheckRecord(j, source), OutputKind::Check);
+  if (j.is_object() && j.contains("parameters") && j.contains("samples")) {
+    return read(validation::parseTable(j, source), OutputKind::Validation);
+  }
+  if (j.is_object() && j.contains("parameters") && j.contains("chi2") && j.contains("input")) {
+    return read(calib::parseFitRecord(j, source), OutputKind::FitResult);
+  }
+  return Error{
+      fmt::format("{}: not an output of emcalign the report reads (a fit result, table.json, trend.json, compare.json, "
+                  "check.json)",
+                  source)};
 }
 
 Result<std::string> calibrationReport(const ReportInputs& in) {

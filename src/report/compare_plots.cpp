@@ -139,7 +139,8 @@ std::string profileSlicesOf(const apply::Comparison& c) {
       for (const auto& b : c.distributions[k].bins) {
         const int bin = static_cast<int>(b.low);
         if (bin % c.options.profileThetaBins != j) continue;
-        const double phi = (bin / c.options.profileThetaBins + 0.5) * 360.0 / c.options.profilePhiBins;
+        const int iPhi = bin / c.options.profileThetaBins;  // the bin index is i_phi-major
+        const double phi = (iPhi + 0.5) * 360.0 / c.options.profilePhiBins;
         fmt::format_to(put, "{:.4g} {:.6g} {:.4g} {:.6g} {:.4g}\n", phi, b.data, b.dataError, b.mc, b.mcError);
         any = true;
       }

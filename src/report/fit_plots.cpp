@@ -68,8 +68,8 @@ GridLayout withFootnote(const std::string& model) {
 struct Slice {
   std::int64_t n = 0;
   double sumPhi = 0.0, sumTheta = 0.0;
-  double meanPhi() const { return n > 0 ? sumPhi / static_cast<double>(n) : kNaN; }
-  double meanTheta() const { return n > 0 ? sumTheta / static_cast<double>(n) : kNaN; }
+  [[nodiscard]] double meanPhi() const { return n > 0 ? sumPhi / static_cast<double>(n) : kNaN; }
+  [[nodiscard]] double meanTheta() const { return n > 0 ? sumTheta / static_cast<double>(n) : kNaN; }
 };
 
 // Everything the three profile figures need, computed once.

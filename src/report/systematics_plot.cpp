@@ -76,8 +76,9 @@ std::string mapScript(const SystematicsFigure& f, const std::vector<std::string>
       "     '' using 1:2:(($3 == $3) ? sprintf('%+.2f', $3) : ''):(abs($3) > 0.7 ? 0xffffff : 0x000000) \\\n"
       "        with labels textcolor rgb variable font ',9'\n",
       unquoted(title), double(kLeft) / width, double(width - kRight) / width, 1.0 - double(top) / height,
-      1.0 - double(top + mapHeight) / height, f.parameters.size() - 0.5, f.parameters.size() - 0.5, rows.size() - 0.5,
-      tics(f.parameters, true), tics(rows, false), data);
+      1.0 - double(top + mapHeight) / height, static_cast<double>(f.parameters.size()) - 0.5,
+      static_cast<double>(f.parameters.size()) - 0.5, static_cast<double>(rows.size()) - 0.5, tics(f.parameters, true),
+      tics(rows, false), data);
 }
 
 }  // namespace

@@ -137,6 +137,7 @@ Result<std::vector<std::string>> writeTrendPlots(const std::string& dir, const s
   if (!four.empty()) {
     std::string s = terminalHeader("fig7", 1600, 1000) + common();
     std::vector<std::string> shown;
+    shown.reserve(four.size());
     for (const TrendFigure* f : four) shown.push_back(axisName(f->parameter));
     // ψ is absent where β is within 3σ of 0 in every IOV (its direction undefined): said.
     const bool noPsi = four.back()->parameter != Physical::Psi;

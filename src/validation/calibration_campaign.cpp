@@ -268,6 +268,7 @@ std::vector<std::string> CampaignScan::filesOf(std::int64_t first, std::int64_t 
   std::sort(indices.begin(), indices.end());
   indices.erase(std::unique(indices.begin(), indices.end()), indices.end());
   std::vector<std::string> out;
+  out.reserve(indices.size());
   for (std::size_t f : indices) out.push_back(files[f]);
   return out;
 }
@@ -588,7 +589,7 @@ class CalibrationCampaignJob final : public PlannedJob {
   CalibrationCampaignJob(CampaignPlan plan, CampaignModel model, Json data, std::string key)
       : plan_(std::move(plan)), model_(std::move(model)), data_(std::move(data)), key_(std::move(key)) {}
 
-  std::vector<PlannedTask> tasks() const override {
+  [[nodiscard]] std::vector<PlannedTask> tasks() const override {
     std::vector<PlannedTask> t;
     for (const auto& g : plan_.groups) {
       t.push_back({fmt::format("group {} (runs {}-{}, {} selected events)", g.index, g.iovFirst, g.iovLast, g.selected),
@@ -614,8 +615,8 @@ class CalibrationCampaignJob final : public PlannedJob {
     say(r->said);
     return {};
   }
-  Json data() const override { return data_; }
-  std::string recordKey() const override { return key_; }
+  [[nodiscard]] Json data() const override { return data_; }
+  [[nodiscard]] std::string recordKey() const override { return key_; }
 
  private:
   CampaignPlan plan_;
@@ -907,6 +908,7 @@ Result<CampaignReport> runCampaign(const CampaignScan& scan, const CampaignModel
     report.warnings.insert(report.warnings.end(), warnings.begin(), warnings.end());
   if (!outsideRanges.empty()) {
     std::vector<std::string> groupsOutside;
+    groupsOutside.reserve(outsideRanges.size());
     for (const auto& [index, text] : outsideRanges) groupsOutside.push_back(text);
     report.warnings.push_back(fmt::format(
         "{} of the groups fitted outside the ranges over which the model and its corrections were validated "

@@ -70,7 +70,7 @@ Status simulateInto(const geometry::Calorimeter& calo, const DerivationOptions& 
   so.seed = sample.seed;
   auto simulation = sim::Simulation::create(calo, sample.truth, so);
   if (!simulation) return simulation.error();
-  const Status run = simulation->run(
+  Status run = simulation->run(
       sample.events, o.threads,
       [&](std::span<const ParticleRow> rows, std::span<const TruthRow>, std::span<const Hit>) {
         filler.addEvents(rows);
@@ -873,7 +873,7 @@ class PointWork {
     if (ec) return Error{fmt::format("{}: cannot create the directory: {}", dir_, ec.message())};
     return {};
   }
-  Error missing(const std::string& file) const {
+  [[nodiscard]] Error missing(const std::string& file) const {
     return Error{
         fmt::format("{}: not there with this plan's settings (its task's output was removed or replaced)", file)};
   }
@@ -915,7 +915,7 @@ class DerivationJob final : public PlannedJob {
     }
   }
 
-  std::vector<PlannedTask> tasks() const override {
+  [[nodiscard]] std::vector<PlannedTask> tasks() const override {
     std::vector<PlannedTask> t;
     for (const auto& r : refs_) {
       const GridPoint& p = points_[r.point];
@@ -996,7 +996,9 @@ class DerivationJob final : public PlannedJob {
     SampleBlock block;
   };
   static std::string absolute(const std::string& p) { return fs::absolute(p).lexically_normal().string(); }
-  std::string directoryOf(std::size_t point) const { return derivationTaskDirectory(work_, points_[point].beamEnergy); }
+  [[nodiscard]] std::string directoryOf(std::size_t point) const {
+    return derivationTaskDirectory(work_, points_[point].beamEnergy);
+  }
 
   geometry::Calorimeter calo_;
   DerivationOptions o_;

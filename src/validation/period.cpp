@@ -408,7 +408,7 @@ class PeriodPipeline {
               tbb::make_filter<std::shared_ptr<Piece>, std::shared_ptr<Piece>>(
                   tbb::filter_mode::parallel, [this](std::shared_ptr<Piece> p) { return simulate(std::move(p)); }) &
               tbb::make_filter<std::shared_ptr<Piece>, void>(tbb::filter_mode::serial_in_order,
-                                                             [this](std::shared_ptr<Piece> p) { write(*p); }));
+                                                             [this](const std::shared_ptr<Piece>& p) { write(*p); }));
     });
     writer_.reset();  // an unfinished file's temporary goes with it
     if (!inputFailure_.ok()) return inputFailure_;
@@ -487,7 +487,7 @@ class PeriodPipeline {
   }
 
   // A run file's attributes: its truth, and how it was simulated.
-  io::WriterOptions writerOptions(const PeriodRun& r) const {
+  [[nodiscard]] io::WriterOptions writerOptions(const PeriodRun& r) const {
     io::WriterOptions wo;
     wo.withTruth = true;
     wo.withHits = o_.hits;

@@ -137,6 +137,7 @@ Status drawSystematics(const SystematicsTable& t, const std::string& dir) {
   }
   const auto cellsOf = [&](const auto& value) {
     std::vector<double> cells;
+    cells.reserve(shown.size());
     for (const SystematicsRow* r : shown) {
       cells.push_back(r->spread > 0.0 ? value(*r) / r->spread : std::numeric_limits<double>::quiet_NaN());
     }
@@ -578,7 +579,7 @@ class SystematicsJob final : public PlannedJob {
 
   // The tasks in order: the reverse derivations, then each forward campaign's blocks of
   // samples, then each reverse campaign's.
-  std::vector<PlannedTask> tasks() const override {
+  [[nodiscard]] std::vector<PlannedTask> tasks() const override {
     std::vector<PlannedTask> t;
     if (o_.reverse) {
       for (const auto& [name, v] : forward_) {
@@ -629,8 +630,10 @@ class SystematicsJob final : public PlannedJob {
 
  private:
   static std::string absolute(const std::string& p) { return fs::absolute(p).lexically_normal().string(); }
-  std::string dirOf(const std::string& name) const { return (fs::path(dir_) / name).string(); }
-  std::string reverseDirOf(const std::string& name) const { return (fs::path(dir_) / "reverse" / name).string(); }
+  [[nodiscard]] std::string dirOf(const std::string& name) const { return (fs::path(dir_) / name).string(); }
+  [[nodiscard]] std::string reverseDirOf(const std::string& name) const {
+    return (fs::path(dir_) / "reverse" / name).string();
+  }
 
   // Derivation j's corrections, derived under its lock when not yet there.
   Result<calib::ModelCorrections> corrections(std::size_t j, const TaskContext& context) const {

@@ -40,7 +40,7 @@ struct Sums {
   }
   // χ² of the best line through points [a, b) (of a constant through fewer than
   // kMinLinePoints: a line through three or four points fits almost anything).
-  double cost(std::size_t a, std::size_t b) const {
+  [[nodiscard]] double cost(std::size_t a, std::size_t b) const {
     const double w = s0[b] - s0[a], x = sx[b] - sx[a], xx = sxx[b] - sxx[a];
     const double y = sy[b] - sy[a], xy = sxy[b] - sxy[a], yy = syy[b] - syy[a];
     const double d = w * xx - x * x;
@@ -95,6 +95,7 @@ double LineFit::error(double x) const {
 
 Result<std::vector<TrendSeries>> seriesOfTag(conddb::TagSnapshot& tag) {
   std::vector<TrendSeries> out;
+  out.reserve(kAllParams.size() + kDerivedParams.size());
   for (Param p : kAllParams) out.push_back({p, {}});
   for (Physical p : kDerivedParams) out.push_back({p, {}});
   for (const conddb::Iov& iov : tag.iovs()) {
@@ -503,7 +504,7 @@ std::vector<TrendSegment> stablePeriods(const Trend& t, const std::vector<TrendS
     // In half IOVs: 2·iov for a step before IOV iov, 2·iov + 1 for one inside it. Two places
     // at most 2 apart (steps at neighbouring boundaries, a step beside the IOV that straddles
     // another) are one change; a step an IOV away from a straddling IOV is not.
-    std::size_t position() const { return 2 * iov + (step->withinIov ? 1 : 0); }
+    [[nodiscard]] std::size_t position() const { return 2 * iov + (step->withinIov ? 1 : 0); }
   };
   std::vector<Place> places;
   for (const auto& st : t.steps) {

@@ -109,8 +109,9 @@ struct FitRecord {
 };
 
 /// Reads a fit result's JSON (`source` names it in messages). Refuses a file that is not a
-/// fit result ("parameters", "chi2" and "input": a parameter file is not one) and a key of
-/// the wrong type or an unknown name.
+/// fit result ("parameters", "chi2" and "input": a parameter file is not one), a key such a
+/// file does not have, units other than deg and cm (io::strict::checkAlignmentHeader, as
+/// every reader of parameters), a value of the wrong type and an unknown parameter name.
 Result<FitRecord> parseFitRecord(const io::Json& j, std::string_view source);
 
 }  // namespace emcalign::calib

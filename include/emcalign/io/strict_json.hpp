@@ -18,6 +18,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "emcalign/core/fit_status.hpp"
 #include "emcalign/core/result.hpp"
 #include "emcalign/io/json_files.hpp"
 
@@ -150,6 +151,22 @@ class StrictObject {
   std::string path_;
   std::string_view source_;
 };
+
+/// The keys every reader of a parameter file or a fit result checks first (SPEC §3): no key
+/// such a file does not have, "format" (when given) emcalign-alignment/1, "units" (when
+/// given) deg and cm, and only the 12 fit parameters' names in "parameters".
+void checkAlignmentHeader(const StrictObject& top);
+
+/// A fit result's "status" (core/fit_status.hpp), an unknown name refused with the four.
+inline FitStatus fitStatusAt(const StrictObject& o, std::string_view key) {
+  const std::string status = o.string(key);
+  const auto s = fitStatusFromName(status);
+  if (!s) {
+    o.fail(o.pathOf(key),
+           fmt::format("unknown status '{}' (converged, poor fit, not converged, covariance singular)", status));
+  }
+  return *s;
+}
 
 template <typename F>
 auto guarded(F&& f) -> Result<decltype(f())> {

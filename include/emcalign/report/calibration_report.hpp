@@ -14,8 +14,11 @@
 //     beside the paper's improvements.
 // (The paper's figures: 5 the fit results, 6 data against simulation, 7 the time evolution,
 // 8 the e+e- → e+e- residuals before and after, 9 and 10 the γγ and π+π−π0 checks; README.)
-// A section appears when its input is given. The report module reads the files' JSON, not
-// the modules that wrote them, so it draws nothing itself but the tables.
+// A section appears when its input is given. Each file is read by the reader its format has
+// beside its writer (calib::parseFitRecord, validation::parseTable and parseTrend,
+// apply::parseComparison and parseCheckRecord; a tag by conddb::tagListing), which refuses a
+// key missing or of the wrong type naming the file and the key; the page draws nothing itself
+// but the tables (the figures are the files' own PNGs).
 
 #include <optional>
 #include <string>
@@ -116,8 +119,18 @@ Result<ReportTrend> readTrendDirectory(const std::string& dir);
 Result<ReportCheck> readCheckDirectory(const std::string& dir);
 Result<ReportCompare> readCompareDirectory(const std::string& dir);
 
-/// The page. Fails when no section has an input, or when an input lacks what its section
-/// shows (the error names the file and the key).
+/// The JSON files of the other commands that the report reads.
+enum class OutputKind { FitResult, Validation, Trend, Comparison, Check };
+/// "fit result", "validation table", "trend", "comparison", "physics check".
+std::string_view name(OutputKind kind);
+/// Recognises one of them (a fit result by "parameters", "chi2" and "input"; table.json by
+/// "parameters" and "samples"; trend.json and compare.json by "format"; check.json by
+/// "process") and reads it with its kind's own reader, as the report does: a file of that kind
+/// with a key missing or of the wrong type is refused, naming the file and the key.
+Result<OutputKind> checkOutput(const io::Json& j, std::string_view source);
+
+/// The page. Fails when no section has an input, or a figure is not a PNG (the inputs were
+/// checked when read).
 Result<std::string> calibrationReport(const ReportInputs& inputs);
 
 }  // namespace emcalign::report

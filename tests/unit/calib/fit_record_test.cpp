@@ -168,9 +168,17 @@ TEST(FitRecord, RefusesWhatIsNotAFitResultNamingTheKey) {
             "r.json: key 'stages[0].free[1]': not a fit parameter (the 12 are: alpha, beta1, beta2, dx, dy, dz, dp1, "
             "dp2, dp3, dy_rel, dz_rel, beta_rel)");
   EXPECT_EQ(refusal([](Json& j) {
-              j["derived"]["omega"] = {{"value", 1.0}};
+              j["derived"]["alpha"] = {{"value", 1.0}};
             }),
-            "r.json: key 'derived.omega': not a parameter of the physical set");
+            "r.json: key 'derived.alpha': not one of the derived parameters (beta, psi, mu, tau, dx_rel)");
+  EXPECT_EQ(refusal([](Json& j) {
+              j["units"] = {{"angle", "rad"}};
+            }),
+            "r.json: key 'units.angle': only \"deg\" is supported");
+  EXPECT_EQ(refusal([](Json& j) { j["parameters"]["gamma"] = 0.1; }),
+            "r.json: key 'parameters.gamma': unknown parameter (the 12 are: alpha, beta1, beta2, dx, dy, dz, dp1, dp2, "
+            "dp3, dy_rel, dz_rel, beta_rel)");
+  EXPECT_EQ(refusal([](Json& j) { j["extra"] = 1; }).substr(0, 40), "r.json: key 'extra': unknown key (allowe");
   EXPECT_EQ(refusal([](Json& j) { j["input"]["bins_used"] = 1.5; }),
             "r.json: key 'input.bins_used': expected an integer, got number");
   EXPECT_EQ(refusal([](Json& j) { j["correlation"].erase(3); }), "r.json: key 'correlation': expected 12 rows");

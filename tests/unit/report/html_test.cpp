@@ -285,7 +285,47 @@ TEST(CalibrationReport, TheValidationStandsBesideTable1AndTheTrendListsItsFindin
   EXPECT_NE(newer->find("an IOV at an end departing (a step or an outlier): dx"), std::string::npos);
 }
 
-TEST(CalibrationReport, RefusesNothingAndNamesWhatIsMissing) {
+// Each output is recognised and read by its kind's reader; a "format" or "process" of
+// another type, or a document of no kind, is an error, never an exception.
+TEST(CalibrationReport, EachOutputIsCheckedByItsKindsReader) {
+  auto fit = checkOutput(fitResult(), "r.json");
+  ASSERT_TRUE(fit.ok()) << fit.error().message;
+  EXPECT_EQ(*fit, OutputKind::FitResult);
+  Json badFit = fitResult();
+  badFit["errors"]["dz"] = "small";
+  auto refused = checkOutput(badFit, "r.json");
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().message, "r.json: key 'errors.dz': expected a number or null, got string");
+  auto check = checkOutput({{"process", "gg"},
+                            {"selected", 1},
+                            {"cut_flow", {{"events", 1}}},
+                            {"before", Json::object()},
+                            {"after", Json::object()},
+                            {"improvement_percent", Json::object()}},
+                           "check.json");
+  ASSERT_TRUE(check.ok()) << check.error().message;
+  EXPECT_EQ(*check, OutputKind::Check);
+  for (const Json& odd : {Json{{"format", 1}}, Json{{"process", 3}}, Json::array(), Json{{"a", 1}}}) {
+    auto r = checkOutput(odd, "x.json");
+    EXPECT_FALSE(r.ok()) << odd.dump();
+  }
+  EXPECT_EQ(checkOutput(Json{{"format", 1}}, "x.json").error().message,
+            "x.json: not an output of emcalign the report reads (a fit result, table.json, trend.json, compare.json, "
+            "check.json)");
+  EXPECT_EQ(checkOutput(Json{{"process", 3}}, "x.json").error().message,
+            "x.json: key 'process': expected a string, got number");
+  // A directory whose file is of another kind is refused by name.
+  const fs::path dir = fs::temp_directory_path() / fmt::format("emcalign-report-cmp-{}", ::getpid());
+  fs::create_directories(dir);
+  std::ofstream(dir / "compare.json") << Json{{"format", 7}}.dump();
+  auto cmp = readCompareDirectory(dir.string());
+  fs::remove_all(dir);
+  ASSERT_FALSE(cmp.ok());
+  EXPECT_EQ(cmp.error().message,
+            dir.string() + "/compare.json: not a comparison of data with simulation (emcalign compare)");
+}
+
+TEST(CalibrationReport, RefusesNothingAndAFileThatIsNotAResult) {
   auto none = calibrationReport({});
   ASSERT_FALSE(none.ok());
   EXPECT_NE(none.error().message.find("nothing to report"), std::string::npos);

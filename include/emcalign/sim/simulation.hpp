@@ -120,7 +120,8 @@ class Simulation {
   void randomTriggerEvent(std::int64_t index, EventScratch& scratch, std::vector<Hit>& hits) const;
   /// Random-trigger events [0, events) on `threads` threads, run and event numbers of the
   /// options; the same on any thread count.
-  [[nodiscard]] Result<RandomTriggerEvents> randomTrigger(std::int64_t events, int threads, const Progress& progress = {}) const;
+  [[nodiscard]] Result<RandomTriggerEvents> randomTrigger(std::int64_t events, int threads,
+                                                          const Progress& progress = {}) const;
 
  private:
   Simulation() = default;

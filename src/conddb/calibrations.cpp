@@ -148,6 +148,21 @@ std::optional<std::int64_t> integerIn(const Json& j, const char* key) {
 
 }  // namespace
 
+IovListing iovListing(const Iov& iov, const Payload& payload) {
+  const Json& content = payload.content;
+  const Json a = content.is_object() ? content.value("alignment", Json()) : Json();
+  const Json sigma = a.is_object() ? a.value("sigma_sys", Json()) : Json();
+  return {.iov = iov,
+          .status = stringIn(a, "status"),
+          .chi2 = numberIn(a, "chi2"),
+          .ndf = integerIn(a, "ndf"),
+          .sigmaSysMethod = stringIn(sigma, "method"),
+          .chi2Statistical = numberIn(sigma, "chi2_statistical_errors"),
+          .sigmaSysDeg = numberIn(sigma, "value_deg"),
+          .selectedEvents = integerIn(content, "selected_events"),
+          .model = payload.model()};
+}
+
 Result<TagListing> tagListing(Database& db, const Tag& tag) {
   auto list = db.iovs(tag.name);
   if (!list) return list.error();
@@ -155,17 +170,7 @@ Result<TagListing> tagListing(Database& db, const Tag& tag) {
   for (const auto& iov : *list) {
     auto p = db.payload(iov.payload);  // its hash checked: an edited payload is an error, not shown
     if (!p) return p.error();
-    const Json& a = p->content["alignment"];
-    const Json sigma = a.is_object() ? a.value("sigma_sys", Json()) : Json();
-    listing.iovs.push_back({.iov = iov,
-                            .status = stringIn(a, "status"),
-                            .chi2 = numberIn(a, "chi2"),
-                            .ndf = integerIn(a, "ndf"),
-                            .sigmaSysMethod = stringIn(sigma, "method"),
-                            .chi2Statistical = numberIn(sigma, "chi2_statistical_errors"),
-                            .sigmaSysDeg = numberIn(sigma, "value_deg"),
-                            .selectedEvents = integerIn(p->content, "selected_events"),
-                            .model = p->model()});
+    listing.iovs.push_back(iovListing(iov, *p));
   }
   return listing;
 }

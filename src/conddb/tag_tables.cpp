@@ -6,6 +6,8 @@
 
 #include <fmt/format.h>
 
+#include "emcalign/conddb/calibrations.hpp"
+
 namespace emcalign::conddb {
 
 namespace {
@@ -157,23 +159,17 @@ Result<std::string> tagCsv(Database& db, const std::string& tag) {
     if (!p) return p.error();
     auto values = storedValues(**p, iov, tag);
     if (!values) return values.error();
-    const Json& a = (*p)->content.value("alignment", Json::object());
-    const Json sigma = a.value("sigma_sys", Json::object());
-    const std::string status = a.contains("status") && a["status"].is_string() ? a["status"].get<std::string>() : "";
-    const std::string method =
-        sigma.contains("method") && sigma["method"].is_string() ? sigma["method"].get<std::string>() : "";
-    const Json events = (*p)->content.value("selected_events", Json());
-    const std::string model = (*p)->model();
+    const IovListing l = iovListing(iov, **p);
+    // Free text of a payload (its status, σ_sys method, the model's path) is kept out of the
+    // CSV's structure.
+    const auto cell = [](const std::string& text) {
+      return text.find_first_of(",\"\n\r") == std::string::npos ? text : std::string("?");
+    };
+    const auto number = [](const auto& v) { return v ? csvNumber(static_cast<double>(*v)) : std::string(); };
     csv += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{}", iov.firstRun, iov.lastRun, iov.payload, iov.inserted,
-                       // The status is free text of a payload: kept out of the CSV's structure.
-                       status.find_first_of(",\"\n\r") == std::string::npos ? status : std::string("?"),
-                       csvNumber(numberOr(a, "chi2")), csvNumber(numberOr(a, "ndf")),
-                       csvNumber(numberOr(sigma, "chi2_statistical_errors")),
-                       method.find_first_of(",\"\n\r") == std::string::npos ? method : std::string("?"),
-                       csvNumber(numberOr(sigma, "value_deg")),
-                       events.is_number_integer() ? std::to_string(events.get<std::int64_t>()) : std::string(),
-                       // A path of the user's, kept out of the CSV's structure too.
-                       model.find_first_of(",\"\n\r") == std::string::npos ? model : std::string("?"));
+                       cell(l.status.value_or("")), number(l.chi2), number(l.ndf), number(l.chi2Statistical),
+                       cell(l.sigmaSysMethod.value_or("")), number(l.sigmaSysDeg),
+                       l.selectedEvents ? std::to_string(*l.selectedEvents) : std::string(), cell(l.model));
     for (const auto& v : *values) csv += fmt::format(",{},{}", csvNumber(v.value), csvNumber(v.error));
     csv += "\n";
   }

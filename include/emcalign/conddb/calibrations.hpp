@@ -81,6 +81,9 @@ struct IovListing {
   std::string model = {};  ///< Payload::model
 };
 
+/// What an IOV's payload says (`conditions list`, `conditions export`).
+IovListing iovListing(const Iov& iov, const Payload& payload);
+
 /// A tag and its IOVs as `conditions list` shows them.
 struct TagListing {
   Tag tag;

@@ -98,15 +98,11 @@ CheckCutFlow readCutFlow(const StrictObject& top) {
   return flow;
 }
 
-std::string stringIn(const Json& j, const char* key) {
-  return j.is_object() && j.contains(key) && j.at(key).is_string() ? j.at(key).get<std::string>() : std::string();
-}
-
 }  // namespace
 
-std::string CheckRecord::alignmentFile() const { return stringIn(alignment, "file"); }
-std::string CheckRecord::alignmentTag() const { return stringIn(alignment, "tag"); }
-std::string CheckRecord::alignmentConditions() const { return stringIn(alignment, "conditions"); }
+std::string CheckRecord::alignmentFile() const { return io::stringAt(alignment, "file").value_or(""); }
+std::string CheckRecord::alignmentTag() const { return io::stringAt(alignment, "tag").value_or(""); }
+std::string CheckRecord::alignmentConditions() const { return io::stringAt(alignment, "conditions").value_or(""); }
 
 Json checkJson(const CheckRecord& r) {
   Json j = {{"process", name(r.process)}, {"selected", r.selected}};

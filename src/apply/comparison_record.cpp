@@ -13,8 +13,6 @@ namespace {
 using io::Json;
 using io::strict::StrictObject;
 
-constexpr std::string_view kComparisonFormat = "emcalign-compare/1";
-
 // Δφ and Δθ are histograms (bins with edges in degrees); the others profiles (bin indices).
 bool isHistogram(std::string_view name) { return name == "dphi" || name == "dtheta"; }
 

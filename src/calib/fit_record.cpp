@@ -180,8 +180,12 @@ geometry::AlignmentParameters FitRecord::alignment() const {
   return eta;
 }
 
+bool isFitResult(const io::Json& j) {
+  return j.is_object() && j.contains("parameters") && j.contains("chi2") && j.contains("input");
+}
+
 Result<FitRecord> parseFitRecord(const io::Json& j, std::string_view source) {
-  if (!j.is_object() || !j.contains("parameters") || !j.contains("chi2") || !j.contains("input")) {
+  if (!isFitResult(j)) {
     return Error{fmt::format("{}: not a fit result (emcalign fit -o)", source)};
   }
   return io::strict::guarded([&] {

@@ -130,11 +130,8 @@ Result<RunCalibration> calibrationAt(Database& db, const std::string& tag, std::
 
 namespace {
 
-// What a stored fit result says, where it says it as a fit result writes it.
-std::optional<std::string> stringIn(const Json& j, const char* key) {
-  if (!j.is_object() || !j.contains(key) || !j.at(key).is_string()) return std::nullopt;
-  return j.at(key).get<std::string>();
-}
+// What a stored fit result says, where it says it as a fit result writes it (its strings:
+// io::stringAt).
 std::optional<double> numberIn(const Json& j, const char* key) {
   if (!j.is_object() || !j.contains(key)) return std::nullopt;
   const Json& v = j.at(key);
@@ -153,10 +150,10 @@ IovListing iovListing(const Iov& iov, const Payload& payload) {
   const Json a = content.is_object() ? content.value("alignment", Json()) : Json();
   const Json sigma = a.is_object() ? a.value("sigma_sys", Json()) : Json();
   return {.iov = iov,
-          .status = stringIn(a, "status"),
+          .status = io::stringAt(a, "status"),
           .chi2 = numberIn(a, "chi2"),
           .ndf = integerIn(a, "ndf"),
-          .sigmaSysMethod = stringIn(sigma, "method"),
+          .sigmaSysMethod = io::stringAt(sigma, "method"),
           .chi2Statistical = numberIn(sigma, "chi2_statistical_errors"),
           .sigmaSysDeg = numberIn(sigma, "value_deg"),
           .selectedEvents = integerIn(content, "selected_events"),

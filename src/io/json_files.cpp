@@ -83,8 +83,8 @@ std::optional<std::size_t> tooDeep(std::string_view text) {
 }  // namespace
 
 std::string describeFile(const json& j) {
-  if (!j.is_object() || !j.contains("format") || !j["format"].is_string()) return {};
-  const std::string f = j["format"].get<std::string>();
+  const std::string f = formatOf(j);
+  if (f.empty()) return {};
   if (f == kAlignmentFormat) return j.contains("chi2") || j.contains("errors") ? "a fit result" : "a parameter file";
   static const std::pair<std::string_view, std::string_view> kinds[] = {
       {"emcalign-campaign-plan/1", "a campaign plan (campaign --plan)"},
@@ -105,9 +105,7 @@ std::string describeFile(const json& j) {
 }
 
 Status expectFormat(const json& j, std::string_view format, std::string_view expected, std::string_view source) {
-  if (j.is_object() && j.contains("format") && j["format"].is_string() && j["format"].get<std::string>() == format) {
-    return {};
-  }
+  if (formatOf(j) == format) return {};
   const std::string kind = describeFile(j);
   if (kind.empty()) return {};  // the reader's own checks name what is wrong
   return Error{

@@ -546,10 +546,8 @@ std::vector<std::string> summary(const ReportInputs& in) {
   return lines;
 }
 
-// A document's string at `key` (empty: absent or not a string): what says which file it is.
-std::string stringAt(const Json& j, const char* key) {
-  return j.is_object() && j.contains(key) && j.at(key).is_string() ? j.at(key).get<std::string>() : std::string();
-}
+// table.json has no "format": its keys tell (readValidationDirectory, checkOutput).
+bool isValidationTable(const Json& j) { return j.is_object() && j.contains("parameters") && j.contains("samples"); }
 
 // Reads DIR/NAME as JSON whose "format" (or, for a check, "process") says what it is.
 Result<Json> readJsonIn(const std::string& dir, const std::string& name) {
@@ -600,7 +598,7 @@ std::vector<std::string> filesNamedIn(const Json& document) {
 Result<ReportValidation> readValidationDirectory(const std::string& dir) {
   auto j = readJsonIn(dir, "table.json");
   if (!j) return j.error();
-  if (!j->is_object() || !j->contains("parameters") || !j->contains("samples")) {
+  if (!isValidationTable(*j)) {
     return Error{fmt::format("{}/table.json: not a validation table (emcalign validate)", dir)};
   }
   auto table = validation::parseTable(*j, dir + "/table.json");
@@ -614,7 +612,7 @@ Result<ReportValidation> readValidationDirectory(const std::string& dir) {
 Result<ReportTrend> readTrendDirectory(const std::string& dir) {
   auto j = readJsonIn(dir, "trend.json");
   if (!j) return j.error();
-  if (!j->is_object() || stringAt(*j, "format") != validation::kTrendFormat) {
+  if (io::formatOf(*j) != validation::kTrendFormat) {
     return Error{fmt::format("{}/trend.json: not a trend (emcalign trend)", dir)};
   }
   auto record = validation::parseTrend(*j, dir + "/trend.json");
@@ -630,7 +628,7 @@ Result<ReportTrend> readTrendDirectory(const std::string& dir) {
 Result<ReportCompare> readCompareDirectory(const std::string& dir) {
   auto j = readJsonIn(dir, "compare.json");
   if (!j) return j.error();
-  if (!j->is_object() || stringAt(*j, "format") != "emcalign-compare/1") {
+  if (io::formatOf(*j) != apply::kComparisonFormat) {
     return Error{fmt::format("{}/compare.json: not a comparison of data with simulation (emcalign compare)", dir)};
   }
   auto record = apply::parseComparison(*j, dir + "/compare.json");
@@ -683,7 +681,7 @@ std::string detectorLine(const geometry::Calorimeter& calo, const std::string& d
 Result<ReportCheck> readCheckDirectory(const std::string& dir) {
   auto j = readJsonIn(dir, "check.json");
   if (!j) return j.error();
-  if (!j->is_object() || !apply::checkProcessFromName(stringAt(*j, "process"))) {
+  if (!apply::checkProcessFromName(io::stringAt(*j, "process").value_or(""))) {
     return Error{fmt::format("{}/check.json: not a physics check (emcalign check)", dir)};
   }
   auto record = apply::parseCheckRecord(*j, dir + "/check.json");
@@ -717,14 +715,12 @@ Result<OutputKind> checkOutput(const Json& j, std::string_view source) {
     if (!parsed) return parsed.error();
     return kind;
   };
-  const std::string format = stringAt(j, "format");
+  const std::string format = io::formatOf(j);
   if (format == validation::kTrendFormat) return read(validation::parseTrend(j, source), OutputKind::Trend);
-  if (format == "emcalign-compare/1") return read(apply::parseComparison(j, source), OutputKind::Comparison);
+  if (format == apply::kComparisonFormat) return read(apply::parseComparison(j, source), OutputKind::Comparison);
   if (j.is_object() && j.contains("process")) return read(apply::parseCheckRecord(j, source), OutputKind::Check);
-  if (j.is_object() && j.contains("parameters") && j.contains("samples")) {
-    return read(validation::parseTable(j, source), OutputKind::Validation);
-  }
-  if (j.is_object() && j.contains("parameters") && j.contains("chi2") && j.contains("input")) {
+  if (isValidationTable(j)) return read(validation::parseTable(j, source), OutputKind::Validation);
+  if (calib::isFitResult(j)) {
     return read(calib::parseFitRecord(j, source), OutputKind::FitResult);
   }
   return Error{

@@ -110,6 +110,8 @@ Result<std::vector<ComparedParticle>> comparedParticlesOfRows(std::span<const Pa
                                                               const ComparisonOptions& options = {},
                                                               std::int64_t* selectedEvents = nullptr);
 
+inline constexpr std::string_view kComparisonFormat = "emcalign-compare/1";
+
 /// A comparison as compare.json records it: the result and where it came from.
 struct ComparisonRecord {
   Comparison comparison;

@@ -108,6 +108,10 @@ struct FitRecord {
   [[nodiscard]] geometry::AlignmentParameters alignment() const;
 };
 
+/// Whether a document is a fit result: "parameters", "chi2" and "input" (a parameter file has
+/// only the first).
+bool isFitResult(const io::Json& j);
+
 /// Reads a fit result's JSON (`source` names it in messages). Refuses a file that is not a
 /// fit result ("parameters", "chi2" and "input": a parameter file is not one), a key such a
 /// file does not have, units other than deg and cm (io::strict::checkAlignmentHeader, as

@@ -45,6 +45,17 @@ inline constexpr std::size_t kMaxInputFileBytes = std::size_t{64} << 20;
 /// Parses JSON text, rejecting duplicate keys, nesting deeper than 64 levels and texts
 /// above 64 MiB; `source` names the input in messages.
 Result<Json> parseJson(std::string_view text, std::string_view source);
+/// The string at `key` of a JSON object (none: not an object, no such key, or not a string):
+/// how a reader tells what a document is before reading it, and how lenient readers read.
+inline std::optional<std::string> stringAt(const Json& j, std::string_view key) {
+  if (!j.is_object()) return std::nullopt;
+  const auto it = j.find(key);
+  if (it == j.end() || !it->is_string()) return std::nullopt;
+  return it->get<std::string>();
+}
+/// A document's "format" ("" when it has none).
+inline std::string formatOf(const Json& j) { return stringAt(j, "format").value_or(""); }
+
 /// What an emcalign JSON file is, by its "format": "a fit result", "a corrections file
 /// (derive-corrections)", …; empty when it has no emcalign format.
 std::string describeFile(const Json& j);

@@ -1,3 +1,5 @@
+#include <limits>
+
 #include <fmt/format.h>
 
 #include "emcalign/conddb/conditions.hpp"
@@ -35,17 +37,32 @@ Status checkTagName(std::string_view tag) {
 
 std::string Payload::hash() const { return sha256(content.dump()); }
 
+namespace {
+
+// A number at `key` of an object, NaN otherwise.
+double numberAt(const Json& j, const std::string& key) {
+  if (!j.is_object()) return std::numeric_limits<double>::quiet_NaN();
+  const auto it = j.find(key);
+  return it != j.end() && it->is_number() ? it->get<double>() : std::numeric_limits<double>::quiet_NaN();
+}
+
+// The object at `key` of an object; an empty one otherwise.
+Json objectAt(const Json& j, const std::string& key) {
+  if (!j.is_object()) return Json::object();
+  const auto it = j.find(key);
+  return it != j.end() && it->is_object() ? *it : Json::object();
+}
+
+}  // namespace
+
 Json Payload::parameterFile() const {
   Json out = content.contains("alignment") ? content["alignment"] : Json::object();
   return out;
 }
 
 std::string Payload::model() const {
-  const Json provenance = content.value("provenance", Json::object());
-  if (provenance.contains("corrections") && provenance["corrections"].is_string() &&
-      !provenance["corrections"].get<std::string>().empty()) {
-    return "corrections " + provenance["corrections"].get<std::string>();
-  }
+  const Json provenance = objectAt(content, "provenance");
+  if (const std::string corrections = correctionsFile(); !corrections.empty()) return "corrections " + corrections;
   if (!provenance.contains("model_corrections") || !provenance["model_corrections"].is_object()) return {};
   const Json& c = provenance["model_corrections"];
   for (const char* key : {"response", "parting_plane_response", "nominal_profile"}) {
@@ -56,6 +73,52 @@ std::string Payload::model() const {
     return fmt::format("the paper's model, depth offset {:+.3g} cm", offset.get<double>());
   }
   return "the paper's model";
+}
+
+StoredValues Payload::values() const {
+  const Json alignment = objectAt(content, "alignment");
+  const Json parameters = objectAt(alignment, "parameters"), errors = objectAt(alignment, "errors");
+  const Json derived = objectAt(alignment, "derived");
+  StoredValues out;
+  for (std::size_t k = 0; k < kAllQuantities.size(); ++k) {
+    const std::string n(kAllQuantities[k].name());
+    if (k < kNumParams) {
+      out[k] = {numberAt(parameters, n), numberAt(errors, n)};
+    } else {
+      const Json d = objectAt(derived, n);
+      out[k] = {numberAt(d, "value"), numberAt(d, "error")};
+    }
+  }
+  return out;
+}
+
+std::map<std::string, std::string> Payload::inputDigests() const {
+  std::map<std::string, std::string> out;
+  const Json digests = objectAt(objectAt(content, "provenance"), "input_sha256");
+  for (const auto& [file, sha] : digests.items()) {
+    if (sha.is_string()) out.emplace(file, sha.get<std::string>());
+  }
+  return out;
+}
+
+std::string Payload::correctionsFile() const {
+  return io::stringAt(objectAt(content, "provenance"), "corrections").value_or("");
+}
+
+std::string Payload::correctionsSha256() const {
+  return io::stringAt(objectAt(content, "provenance"), "corrections_sha256").value_or("");
+}
+
+Result<calib::SigmaSysChoice> Payload::sigmaSysChoice() const {
+  const Json alignment = objectAt(content, "alignment");
+  const auto it = alignment.find("sigma_sys");
+  // Payloads made before the choice existed were fitted with the paper's.
+  const Json recorded = it != alignment.end() && it->is_object() ? *it : Json{{"method", "spec"}};
+  auto choice = calib::sigmaSysChoiceFromJson(recorded);
+  if (!choice) {
+    return Error{fmt::format("sigma_sys {}: not one a campaign makes ({})", recorded.dump(), choice.error().message)};
+  }
+  return choice;
 }
 
 Result<Payload> makePayload(const Json& in, double r1, std::string_view source, Json provenance) {

@@ -16,33 +16,19 @@ using io::Json;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-double numberOr(const Json& j, const char* key) {
-  return j.is_object() && j.contains(key) && j[key].is_number() ? j[key].get<double>() : kNaN;
-}
-
 std::string csvNumber(double v) { return std::isfinite(v) ? fmt::format("{:.10g}", v) : std::string(); }
 
 }  // namespace
 
-Result<std::vector<StoredValue>> storedValues(const Payload& payload, const Iov& iov, const std::string& tag) {
-  const Json& a = payload.content.value("alignment", Json::object());
-  const Json parameters = a.value("parameters", Json::object()), errors = a.value("errors", Json::object());
-  const Json derived = a.value("derived", Json::object());
-  std::vector<StoredValue> out;
+Result<StoredValues> storedValues(const Payload& payload, const Iov& iov, const std::string& tag) {
+  const StoredValues values = payload.values();
   for (Param p : kAllParams) {
-    const std::string n(name(p));
-    const double v = numberOr(parameters, n.c_str());
-    if (!std::isfinite(v)) {
-      return Error{
-          fmt::format("tag {} IOV {}-{}: parameter {} is missing or not a number", tag, iov.firstRun, iov.lastRun, n)};
+    if (!std::isfinite(values[index(p)].value)) {
+      return Error{fmt::format("tag {} IOV {}-{}: parameter {} is missing or not a number", tag, iov.firstRun,
+                               iov.lastRun, name(p))};
     }
-    out.push_back({v, numberOr(errors, n.c_str())});
   }
-  for (Physical p : kDerivedParams) {
-    const Json d = derived.value(std::string(name(p)), Json::object());
-    out.push_back({numberOr(d, "value"), numberOr(d, "error")});
-  }
-  return out;
+  return values;
 }
 
 Result<TagDiff> diffTags(Database& db, const std::string& a, const std::string& b) {
@@ -92,7 +78,7 @@ Result<TagDiff> diffTags(Database& db, const std::string& a, const std::string& 
       if (!va) return va.error();
       auto vb = storedValues(**pb, ib, b);
       if (!vb) return vb.error();
-      IovPair pair{first, last, ia, ib, std::move(*va), std::move(*vb), {}, (*pa)->model(), (*pb)->model()};
+      IovPair pair{first, last, ia, ib, *va, *vb, {}, (*pa)->model(), (*pb)->model()};
       for (std::size_t k = 0; k < kAllQuantities.size(); ++k) {
         const double diff = kAllQuantities[k].difference(pair.valuesA[k].value, pair.valuesB[k].value);
         const double e = std::hypot(pair.valuesA[k].error, pair.valuesB[k].error);

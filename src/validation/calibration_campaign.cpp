@@ -718,18 +718,6 @@ Result<calib::ProfileFill> fillPlannedGroup(const CampaignGroup& g, const Campai
   return fill;
 }
 
-Result<calib::SigmaSysChoice> sigmaSysChoiceOf(const conddb::Payload& payload) {
-  const Json alignment = payload.content.value("alignment", Json::object());
-  const Json recorded = alignment.is_object() && alignment.contains("sigma_sys") && alignment["sigma_sys"].is_object()
-                            ? alignment["sigma_sys"]
-                            : Json{{"method", "spec"}};  // payloads made before the choice existed
-  auto choice = calib::sigmaSysChoiceFromJson(recorded);
-  if (!choice) {
-    return Error{fmt::format("sigma_sys {}: not one a campaign makes ({})", recorded.dump(), choice.error().message)};
-  }
-  return choice;
-}
-
 Result<bool> groupStored(conddb::Database& db, const std::string& tag, const CampaignGroup& g,
                          const std::map<std::string, std::string>& digests, const CampaignModel& model) {
   auto got = db.get(tag, g.iovFirst);
@@ -751,13 +739,7 @@ Result<bool> groupStored(conddb::Database& db, const std::string& tag, const Cam
     }
     expected.insert(it->second);
   }
-  const Json provenance = payload.content.value("provenance", Json::object());
-  const Json recorded = provenance.is_object() ? provenance.value("input_sha256", Json()) : Json();
-  if (recorded.is_object()) {
-    for (const auto& [file, sha] : recorded.items()) {
-      if (sha.is_string()) stored.insert(sha.get<std::string>());
-    }
-  }
+  for (const auto& [file, sha] : payload.inputDigests()) stored.insert(sha);
   if (stored.empty()) {
     return Error{
         fmt::format("{}: tag '{}' holds its IOV from data whose digests it does not record (put by hand?): "
@@ -771,7 +753,7 @@ Result<bool> groupStored(conddb::Database& db, const std::string& tag, const Cam
                     group, tag, g.files.size() == 1 ? g.files.front() : fmt::format("its {} files", g.files.size()))};
   }
   // One tag, one model: the same corrections (by digest) and the same choice of σ_sys.
-  const std::string usedCorrections = provenance.is_object() ? provenance.value("corrections_sha256", "") : "";
+  const std::string usedCorrections = payload.correctionsSha256();
   if (usedCorrections != model.correctionsSha256) {
     auto what = [](const std::string& sha) {
       return sha.empty() ? std::string("without corrections") : fmt::format("with corrections {}…", sha.substr(0, 12));
@@ -781,7 +763,7 @@ Result<bool> groupStored(conddb::Database& db, const std::string& tag, const Cam
                     "to a new tag",
                     group, tag, what(usedCorrections), what(model.correctionsSha256))};
   }
-  auto usedSigma = sigmaSysChoiceOf(payload);
+  auto usedSigma = payload.sigmaSysChoice();
   if (!usedSigma) return Error{fmt::format("{}: tag '{}': {}", group, tag, usedSigma.error().message)};
   if (!calib::sameChoice(*usedSigma, model.sigmaSys)) {
     return Error{fmt::format(

@@ -184,7 +184,7 @@ Status adoptTagSettings(conddb::TagSnapshot& tag, CampaignModel& model) {
   for (const conddb::Iov& iov : tag.iovs()) {
     auto p = tag.payload(iov);
     if (!p) return p.error();
-    auto choice = sigmaSysChoiceOf(**p);
+    auto choice = (*p)->sigmaSysChoice();
     if (!choice) {
       return Error{fmt::format("tag {}: the calibration of runs {}-{} has {}", name, iov.firstRun, iov.lastRun,
                                choice.error().message)};
@@ -198,9 +198,7 @@ Status adoptTagSettings(conddb::TagSnapshot& tag, CampaignModel& model) {
                       "refit comparable with all of them",
                       name, calib::sigmaSysChoiceJson(*sigmaSys).dump(), calib::sigmaSysChoiceJson(*choice).dump())};
     }
-    const Json provenance = (*p)->content.value("provenance", Json::object());
-    const std::string used = provenance.is_object() ? provenance.value("corrections", "") : "";
-    const std::string usedSha = provenance.is_object() ? provenance.value("corrections_sha256", "") : "";
+    const std::string used = (*p)->correctionsFile(), usedSha = (*p)->correctionsSha256();
     const bool same = usedSha.empty() ? used == model.corrections : usedSha == model.correctionsSha256;
     if (!same) {
       auto what = [](const std::string& c) { return c.empty() ? std::string("without corrections") : "with " + c; };
@@ -219,18 +217,16 @@ Result<std::vector<std::string>> checkRefitData(conddb::TagSnapshot& tag, const 
   for (const conddb::Iov& iov : tag.iovs()) {
     auto p = tag.payload(iov);
     if (!p) return p.error();
-    const Json& provenance = (*p)->content.contains("provenance") ? (*p)->content["provenance"] : Json();
-    const Json digests = provenance.is_object() ? provenance.value("input_sha256", Json()) : Json();
-    if (!digests.is_object() || digests.empty()) {
+    const auto digests = (*p)->inputDigests();
+    if (digests.empty()) {
       warnings.push_back(
           fmt::format("tag {}: the calibration of runs {}-{} records no digests of its data: the refit "
                       "cannot check it reads the same events",
                       tag.tag().name, iov.firstRun, iov.lastRun));
       continue;
     }
-    for (const auto& [file, sha] : digests.items()) {
-      if (sha.is_string())
-        recorded.emplace(sha.get<std::string>(), fmt::format("{} (runs {}-{})", file, iov.firstRun, iov.lastRun));
+    for (const auto& [file, sha] : digests) {
+      recorded.emplace(sha, fmt::format("{} (runs {}-{})", file, iov.firstRun, iov.lastRun));
     }
   }
   if (recorded.empty()) return warnings;

@@ -101,7 +101,7 @@ Result<std::vector<TrendSeries>> seriesOfTag(conddb::TagSnapshot& tag) {
   for (const conddb::Iov& iov : tag.iovs()) {
     auto payload = tag.payload(iov);
     if (!payload) return payload.error();
-    const Json& a = (*payload)->content["alignment"];
+    const conddb::StoredValues values = (*payload)->values();
     const std::string where = fmt::format("tag {} IOV {}-{}", tag.tag().name, iov.firstRun, iov.lastRun);
     constexpr std::int64_t kMaxRun = std::numeric_limits<std::int32_t>::max();
     if (iov.firstRun < -kMaxRun || iov.lastRun > kMaxRun) {
@@ -110,49 +110,40 @@ Result<std::vector<TrendSeries>> seriesOfTag(conddb::TagSnapshot& tag) {
                       "middle run, so give it closed IOVs",
                       where)};
     }
-    auto number = [&](const Json& j, const std::string& key) -> Result<double> {
-      if (!j.is_number() || !std::isfinite(j.get<double>())) {
-        return Error{
-            fmt::format("{}: {} is missing or not a number (a parameter file without errors cannot be "
-                        "tracked: store fit results)",
-                        where, key)};
-      }
-      return j.get<double>();
+    auto missing = [&](const std::string& key) {
+      return Error{
+          fmt::format("{}: {} is missing or not a number (a parameter file without errors cannot be "
+                      "tracked: store fit results)",
+                      where, key)};
     };
-    for (std::size_t k = 0; k < kNumParams; ++k) {
-      const std::string n(kParamNames[k]);
-      auto v = number(a.value("parameters", Json::object()).value(n, Json()), "parameters." + n);
-      if (!v) return v.error();
-      auto e = number(a.value("errors", Json::object()).value(n, Json()), "errors." + n);
-      if (!e) return e.error();
-      if (!(*e > 0.0)) return Error{fmt::format("{}: errors.{} is not positive", where, n)};
-      out[k].points.push_back({iov.firstRun, iov.lastRun, *v, *e});
+    for (Param p : kAllParams) {
+      const auto [v, e] = values[index(p)];
+      if (!std::isfinite(v)) return missing(fmt::format("parameters.{}", name(p)));
+      if (!std::isfinite(e)) return missing(fmt::format("errors.{}", name(p)));
+      if (!(e > 0.0)) return Error{fmt::format("{}: errors.{} is not positive", where, name(p))};
+      out[index(p)].points.push_back({iov.firstRun, iov.lastRun, v, e});
     }
-    const Json derived = a.value("derived", Json::object());
     // A direction is defined when its magnitude is: ψ (the tilt's) when β is 3σ from 0, τ
     // (the gap's) when μ is.
     auto significant = [&](Physical magnitude) {
-      const Json m = derived.value(std::string(name(magnitude)), Json::object());
-      const Json v = m.value("value", Json()), e = m.value("error", Json());
-      return v.is_number() && e.is_number() && std::abs(v.get<double>()) >= 3.0 * e.get<double>();
+      const auto k = static_cast<std::size_t>(std::ranges::find(kDerivedParams, magnitude) - kDerivedParams.begin());
+      const auto [v, e] = values[kNumParams + k];
+      return std::abs(v) >= 3.0 * e;  // false when either is NaN
     };
     for (std::size_t k = 0; k < kDerivedParams.size(); ++k) {
       const Physical p = kDerivedParams[k];
-      const std::string n(name(p));
-      const Json d = derived.value(n, Json::object());
-      auto v = number(d.value("value", Json()), fmt::format("derived.{}.value", n));
-      auto e = number(d.value("error", Json()), fmt::format("derived.{}.error", n));
-      if (!v || !e || !(*e > 0.0)) continue;  // an undefined derived value leaves a hole
+      const auto [v, e] = values[kNumParams + k];
+      if (!std::isfinite(v) || !std::isfinite(e) || !(e > 0.0)) continue;  // an undefined derived value leaves a hole
       if ((p == Physical::Psi && !significant(Physical::Beta)) || (p == Physical::Tau && !significant(Physical::Mu))) {
         continue;
       }
       auto& points = out[kNumParams + k].points;
-      double value = *v;
+      double value = v;
       if (isDirection(p) && !points.empty()) {
         // An angle: the turn nearest the previous point, so that ±180° is no step.
         value -= 360.0 * std::round((value - points.back().value) / 360.0);
       }
-      points.push_back({iov.firstRun, iov.lastRun, value, *e});
+      points.push_back({iov.firstRun, iov.lastRun, value, e});
     }
   }
   return out;

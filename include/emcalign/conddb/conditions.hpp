@@ -20,13 +20,18 @@
 // write is one transaction: concurrent writers lose nothing, and a writer killed in the
 // middle leaves the database as it was. The schema version is checked on open.
 
+#include <array>
 #include <cstdint>
+#include <limits>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
 
+#include "emcalign/calib/sigma_sys.hpp"
+#include "emcalign/core/parameters.hpp"
 #include "emcalign/core/result.hpp"
 #include "emcalign/geometry/alignment_parameters.hpp"
 #include "emcalign/io/json_files.hpp"
@@ -59,6 +64,19 @@ struct Iov {
 };
 
 /// A calibration as stored: canonical JSON (`emcalign-payload/1`), addressed by its hash.
+/// One value of a payload as stored, in file units (deg, cm); NaN where the payload has none,
+/// or something else than a number (a database can hold anything).
+struct StoredValue {
+  double value = std::numeric_limits<double>::quiet_NaN();
+  double error = std::numeric_limits<double>::quiet_NaN();
+};
+
+/// The values of a payload: the 12 fit parameters with their errors, then the five derived
+/// ones (β, ψ, μ, τ, dx_rel) — one per entry of kAllQuantities, in its order.
+using StoredValues = std::array<StoredValue, kAllQuantities.size()>;
+
+/// A payload's content is written by makePayload; its readers are the members below (each
+/// lenient: what the payload does not say, or not as makePayload writes it, is absent).
 struct Payload {
   io::Json content;
   /// SHA-256 of the compact dump of `content`.
@@ -69,6 +87,17 @@ struct Payload {
   /// when one was set), "corrections PATH"; "" when the payload does not say (a parameter
   /// file stored without its fit).
   [[nodiscard]] std::string model() const;
+  /// Its parameters, errors and derived values.
+  [[nodiscard]] StoredValues values() const;
+  /// The SHA-256 of each file its fit read, by the file's name; empty when it records none.
+  [[nodiscard]] std::map<std::string, std::string> inputDigests() const;
+  /// The model corrections its fit used, as the campaign named them; "" when it used none.
+  [[nodiscard]] std::string correctionsFile() const;
+  /// The SHA-256 of the model corrections its fit used; "" when it used none.
+  [[nodiscard]] std::string correctionsSha256() const;
+  /// The choice of σ_sys its fit was made with (the paper's, for payloads made before the
+  /// choice was recorded); an error naming what it records when that is no choice a fit makes.
+  [[nodiscard]] Result<calib::SigmaSysChoice> sigmaSysChoice() const;
 };
 
 /// A payload from a fit result (SPEC §3) or a parameter file, with its provenance (free JSON

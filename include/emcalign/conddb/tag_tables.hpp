@@ -14,21 +14,15 @@
 
 namespace emcalign::conddb {
 
-/// One parameter of a payload, in file units (deg, cm); error NaN when the payload has none.
-struct StoredValue {
-  double value = 0.0, error = 0.0;
-};
-
-/// The 12 fit parameters of a payload with their errors, then the five derived ones (β, ψ, μ,
-/// τ, dx_rel; NaN where the payload has none): one per entry of kAllQuantities. Fails naming
-/// the IOV when a parameter is missing.
-Result<std::vector<StoredValue>> storedValues(const Payload& payload, const Iov& iov, const std::string& tag);
+/// Payload::values of an IOV's payload; fails naming the IOV when one of the 12 parameters is
+/// missing.
+Result<StoredValues> storedValues(const Payload& payload, const Iov& iov, const std::string& tag);
 
 /// Where the IOVs of two tags overlap: the runs both cover with one IOV each.
 struct IovPair {
   std::int64_t firstRun = 0, lastRun = 0;  ///< the overlap
   Iov a, b;
-  std::vector<StoredValue> valuesA, valuesB;
+  StoredValues valuesA, valuesB;
   /// (a − b)/√(σa² + σb²) of each entry (NaN without errors); ψ and τ modulo 360°.
   std::vector<double> z;
   std::string modelA, modelB;  ///< Payload::model of each

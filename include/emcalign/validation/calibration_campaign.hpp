@@ -207,10 +207,6 @@ struct CampaignReport {
 Result<CampaignReport> runCampaign(const CampaignScan& scan, const CampaignModel& model, conddb::Database& db,
                                    const std::string& tag, const CalibrationCampaignOptions& options);
 
-/// The σ_sys choice a stored calibration was fitted with (its payload's "sigma_sys"; SPEC's for
-/// payloads made before the choice was recorded); an error for one no campaign makes.
-Result<calib::SigmaSysChoice> sigmaSysChoiceOf(const conddb::Payload& payload);
-
 /// Whether `tag` holds `group` made from the same data the same way: false when no IOV of the
 /// tag holds its first run; true when the group's IOV is there, its payload records the
 /// digests of the group's files (`digests`: file → SHA-256, compared by content whatever the

@@ -455,5 +455,64 @@ TEST(ConditionsPayload, KeepsTheFitAndRefusesUnusableOnes) {
   EXPECT_NE(bad.error().message.find("fit.json"), std::string::npos);
 }
 
+// What a payload says is read back by its own readers, in file units; what it does not say,
+// or not as makePayload writes it, is absent (NaN, empty, the paper's σ_sys) — never a throw.
+TEST(ConditionsPayload, ItsReadersGiveBackWhatWasStoredAndNothingElse) {
+  auto eta = geometry::testing::paperLike();
+  Json fit = io::alignmentToJson(eta);
+  fit["status"] = "converged";
+  fit["errors"] = Json::object();
+  for (Param p : kAllParams) fit["errors"][std::string(name(p))] = 0.01 * (1.0 + static_cast<double>(index(p)));
+  fit["derived"] = {{"beta", {{"value", 0.5}, {"error", 0.1}}}, {"psi", {{"value", 170.0}, {"error", nullptr}}}};
+  fit["sigma_sys"] = {{"method", "fixed"}, {"value_deg", 0.4}};
+  auto p = makePayload(fit, r1(), "fit.json",
+                       Json{{"input_sha256", {{"b.h5", "bb"}, {"a.h5", "aa"}, {"c.h5", 3}}},
+                            {"corrections", "grid/"},
+                            {"corrections_sha256", "cc"}});
+  ASSERT_TRUE(p) << p.error().message;
+  const StoredValues v = p->values();
+  for (Param q : kAllParams) {
+    EXPECT_NEAR(v[index(q)].value, eta[q] / geometry::AlignmentParameters::fileUnit(q), 1e-9) << name(q);
+    EXPECT_DOUBLE_EQ(v[index(q)].error, 0.01 * (1.0 + static_cast<double>(index(q)))) << name(q);
+  }
+  EXPECT_DOUBLE_EQ(v[kNumParams + 0].value, 0.5);  // β
+  EXPECT_DOUBLE_EQ(v[kNumParams + 0].error, 0.1);
+  EXPECT_DOUBLE_EQ(v[kNumParams + 1].value, 170.0);  // ψ, its error null
+  EXPECT_TRUE(std::isnan(v[kNumParams + 1].error));
+  EXPECT_TRUE(std::isnan(v[kNumParams + 2].value));  // μ: not stored
+  // Digests by file name; one that is not text is no digest.
+  EXPECT_EQ(p->inputDigests(), (std::map<std::string, std::string>{{"a.h5", "aa"}, {"b.h5", "bb"}}));
+  EXPECT_EQ(p->correctionsFile(), "grid/");
+  EXPECT_EQ(p->correctionsSha256(), "cc");
+  EXPECT_EQ(p->model(), "corrections grid/");
+  auto sigma = p->sigmaSysChoice();
+  ASSERT_TRUE(sigma) << sigma.error().message;
+  EXPECT_EQ(sigma->method, calib::SigmaSysMethod::Fixed);
+  EXPECT_NEAR(sigma->value, 0.4 * units::deg, 1e-12);
+
+  // A payload made before σ_sys was recorded was fitted with the paper's; one recording a
+  // choice no fit makes is an error naming it.
+  Payload old = *p;
+  old.content["alignment"].erase("sigma_sys");
+  ASSERT_TRUE(old.sigmaSysChoice());
+  EXPECT_EQ(old.sigmaSysChoice()->method, calib::SigmaSysMethod::Spec);
+  Payload odd = *p;
+  odd.content["alignment"]["sigma_sys"] = {{"method", "guess"}};
+  ASSERT_FALSE(odd.sigmaSysChoice());
+  EXPECT_THAT(odd.sigmaSysChoice().error().message, ::testing::HasSubstr("guess"));
+
+  // Anything else a database may hold reads as nothing said.
+  for (const Json& content : {Json(), Json::array(), Json{{"alignment", 3}, {"provenance", "x"}},
+                              Json{{"alignment", {{"parameters", {{"alpha", "1"}}}, {"errors", nullptr}}}}}) {
+    const Payload junk{content};
+    for (const StoredValue& s : junk.values()) {
+      EXPECT_TRUE(std::isnan(s.value) && std::isnan(s.error)) << content.dump();
+    }
+    EXPECT_TRUE(junk.inputDigests().empty());
+    EXPECT_EQ(junk.correctionsFile(), "");
+    EXPECT_EQ(junk.correctionsSha256(), "");
+  }
+}
+
 }  // namespace
 }  // namespace emcalign::conddb

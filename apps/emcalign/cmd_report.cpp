@@ -80,7 +80,7 @@ int run(const ReportCliOptions& o) {
     if (!read) return reportError(read.error());
     report::ReportFit& fit = *read;
     // The files the result names are never opened, but are inputs all the same.
-    for (const auto& f : report::filesNamedIn(fit.document)) io::protectInput({"named by --fit", f});
+    for (const auto& f : fit.namedFiles) io::protectInput({"named by --fit", f});
     auto calo = loadCalorimeter(o.detector);
     if (!calo) return reportError(calo.error());
     fit.detector = report::detectorLine(*calo, o.detector);
@@ -102,19 +102,19 @@ int run(const ReportCliOptions& o) {
   if (!o.validation.empty()) {
     auto v = report::readValidationDirectory(o.validation);
     if (!v) return reportError(v.error());
-    for (const auto& f : report::filesNamedIn(v->document)) io::protectInput({"named by --validation", f});
+    for (const auto& f : v->namedFiles) io::protectInput({"named by --validation", f});
     in.validation = std::move(*v);
   }
   if (!o.compare.empty()) {
     auto c = report::readCompareDirectory(o.compare);
     if (!c) return reportError(c.error());
-    for (const auto& f : report::filesNamedIn(c->document)) io::protectInput({"named by --compare", f});
+    for (const auto& f : c->namedFiles) io::protectInput({"named by --compare", f});
     in.compare = std::move(*c);
   }
   if (!o.trend.empty()) {
     auto t = report::readTrendDirectory(o.trend);
     if (!t) return reportError(t.error());
-    for (const auto& f : report::filesNamedIn(t->document)) io::protectInput({"named by --trend", f});
+    for (const auto& f : t->namedFiles) io::protectInput({"named by --trend", f});
     in.trend = std::move(*t);
   }
   if (!o.conditions.empty()) {
@@ -133,7 +133,7 @@ int run(const ReportCliOptions& o) {
   for (const auto& dir : o.checks) {
     auto c = report::readCheckDirectory(dir);
     if (!c) return reportError(c.error());
-    for (const auto& f : report::filesNamedIn(c->document)) io::protectInput({"named by --checks", f});
+    for (const auto& f : c->namedFiles) io::protectInput({"named by --checks", f});
     in.checks.push_back(std::move(*c));
   }
   auto page = report::calibrationReport(in);

@@ -605,7 +605,7 @@ Result<ReportValidation> readValidationDirectory(const std::string& dir) {
   if (!table) return table.error();
   return ReportValidation{.dir = dir,
                           .table = std::move(*table),
-                          .document = std::move(*j),
+                          .namedFiles = filesNamedIn(*j),
                           .figures = existing(dir, {"plots/pulls.png", "plots/residuals_vs_truth.png"})};
 }
 
@@ -621,7 +621,7 @@ Result<ReportTrend> readTrendDirectory(const std::string& dir) {
   const std::string four = fs::exists(fs::path(dir) / "fig7.png") ? "fig7.png" : "fig8.png";
   return ReportTrend{.dir = dir,
                      .record = std::move(*record),
-                     .document = std::move(*j),
+                     .namedFiles = filesNamedIn(*j),
                      .figures = existing(dir, {four, "trend_all.png"})};
 }
 
@@ -636,7 +636,7 @@ Result<ReportCompare> readCompareDirectory(const std::string& dir) {
   const auto figures = existing(dir, {"compare.png"});
   return ReportCompare{.dir = dir,
                        .record = std::move(*record),
-                       .document = std::move(*j),
+                       .namedFiles = filesNamedIn(*j),
                        .figure = figures.empty() ? std::string() : figures.front()};
 }
 
@@ -648,7 +648,7 @@ Result<ReportFit> readFitResult(const std::string& path, const std::vector<std::
   if (!j) return j.error();
   auto record = calib::parseFitRecord(*j, path);
   if (!record) return record.error();
-  ReportFit fit{.path = path, .record = std::move(*record), .document = std::move(*j)};
+  ReportFit fit{.path = path, .record = std::move(*record), .namedFiles = filesNamedIn(*j)};
   for (const auto& named : fit.record.input.files) {
     std::string digest;
     if (std::find(events.begin(), events.end(), named) != events.end()) {
@@ -690,7 +690,7 @@ Result<ReportCheck> readCheckDirectory(const std::string& dir) {
   const auto figures = existing(dir, {gg ? "acollinearity.png" : "chi2.png"});
   return ReportCheck{.dir = dir,
                      .record = std::move(*record),
-                     .document = std::move(*j),
+                     .namedFiles = filesNamedIn(*j),
                      .figure = figures.empty() ? std::string() : figures.front()};
 }
 

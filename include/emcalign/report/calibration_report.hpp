@@ -40,8 +40,8 @@ namespace emcalign::report {
 struct ReportFit {
   std::string path = {};      ///< the result file
   calib::FitRecord record{};  ///< its content (SPEC §3, `emcalign fit -o`), read
-  /// Its JSON as it is, for filesNamedIn only (what the report shows comes from `record`).
-  io::Json document = {};
+  /// The files its JSON names (filesNamedIn): never opened, inputs of the report all the same.
+  std::vector<std::string> namedFiles = {};
   /// The detector in a line (name, counters, radii; empty: not shown).
   std::string detector = {};
   /// The input files the result names, with their SHA-256 (empty where the file is gone).
@@ -63,15 +63,15 @@ std::string detectorLine(const geometry::Calorimeter& calo, const std::string& d
 
 struct ReportValidation {
   std::string dir = {};
-  validation::Table table = {};           ///< dir/table.json, read (validation::parseTable)
-  io::Json document = {};                 ///< its JSON as it is, for filesNamedIn only
-  std::vector<std::string> figures = {};  ///< dir/plots/*.png that exist
+  validation::Table table = {};              ///< dir/table.json, read (validation::parseTable)
+  std::vector<std::string> namedFiles = {};  ///< the files table.json names (filesNamedIn)
+  std::vector<std::string> figures = {};     ///< dir/plots/*.png that exist
 };
 
 struct ReportTrend {
   std::string dir = {};
-  validation::TrendRecord record = {};  ///< dir/trend.json, read (validation::parseTrend)
-  io::Json document = {};               ///< its JSON as it is, for filesNamedIn only
+  validation::TrendRecord record = {};       ///< dir/trend.json, read (validation::parseTrend)
+  std::vector<std::string> namedFiles = {};  ///< the files trend.json names (filesNamedIn)
   /// dir/fig7.png (fig8.png from older trends), dir/trend_all.png, those that exist
   std::vector<std::string> figures = {};
 };
@@ -83,9 +83,9 @@ struct ReportConditions {
 
 struct ReportCheck {
   std::string dir = {};
-  apply::CheckRecord record = {};  ///< dir/check.json, read (apply::parseCheckRecord)
-  io::Json document = {};          ///< its JSON as it is, for filesNamedIn only
-  std::string figure = {};         ///< dir/acollinearity.png or dir/chi2.png (empty: none)
+  apply::CheckRecord record = {};            ///< dir/check.json, read (apply::parseCheckRecord)
+  std::vector<std::string> namedFiles = {};  ///< the files check.json names (filesNamedIn)
+  std::string figure = {};                   ///< dir/acollinearity.png or dir/chi2.png (empty: none)
 };
 
 /// The files a document the report reads names (a fit's events, corrections and detector; a
@@ -97,9 +97,9 @@ std::vector<std::string> filesNamedIn(const io::Json& document);
 /// A comparison of data with simulation (emcalign compare -o DIR).
 struct ReportCompare {
   std::string dir = {};
-  apply::ComparisonRecord record = {};  ///< dir/compare.json, read (apply::parseComparison)
-  io::Json document = {};               ///< its JSON as it is, for filesNamedIn only
-  std::string figure = {};              ///< dir/compare.png, when it exists
+  apply::ComparisonRecord record = {};       ///< dir/compare.json, read (apply::parseComparison)
+  std::vector<std::string> namedFiles = {};  ///< the files compare.json names (filesNamedIn)
+  std::string figure = {};                   ///< dir/compare.png, when it exists
 };
 
 struct ReportInputs {

@@ -41,14 +41,14 @@ struct Sample {
 Result<Sample> parseSample(const std::string& text) {
   const auto eq = text.find('=');
   if (eq == std::string::npos || eq == 0 || eq + 1 == text.size()) {
-    return Error{fmt::format("--sample {}: expected NAME=FILE[,FILE...]", io::quoted(text))};
+    return Error{fmt::format("--sample {}: expected NAME=FILE[,FILE...]", io::quotedText(text))};
   }
   Sample s{text.substr(0, eq), {}};
   std::stringstream files(text.substr(eq + 1));
   for (std::string f; std::getline(files, f, ',');) {
     if (!f.empty()) s.files.push_back(f);
   }
-  if (s.files.empty()) return Error{fmt::format("--sample {}: no file", io::quoted(text))};
+  if (s.files.empty()) return Error{fmt::format("--sample {}: no file", io::quotedText(text))};
   return s;
 }
 

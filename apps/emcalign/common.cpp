@@ -137,8 +137,8 @@ CLI::Validator finiteIn(double lo, double hi) {
   return CLI::Validator(
       [lo, hi](std::string& text) -> std::string {
         const auto x = io::parseFiniteDouble(text);
-        if (!x) return fmt::format("{} is not a finite number", io::quoted(text));
-        if (*x < lo || *x > hi) return fmt::format("{} is outside [{}, {}]", io::quoted(text), lo, hi);
+        if (!x) return fmt::format("{} is not a finite number", io::quotedText(text));
+        if (*x < lo || *x > hi) return fmt::format("{} is outside [{}, {}]", io::quotedText(text), lo, hi);
         return {};
       },
       fmt::format("NUMBER in [{}, {}]", lo, hi));
@@ -154,7 +154,8 @@ CLI::Option* addSigmaSysOption(CLI::App& cmd, std::string& text) {
         if (t == "auto") return {};
         const auto x = io::parseFiniteDouble(t);
         if (!x || *x < 0.0 || *x > kMaxSigmaSysDeg) {
-          return fmt::format("{} is neither 'auto' nor a number of degrees in [0, {}]", io::quoted(t), kMaxSigmaSysDeg);
+          return fmt::format("{} is neither 'auto' nor a number of degrees in [0, {}]", io::quotedText(t),
+                             kMaxSigmaSysDeg);
         }
         return {};
       },
@@ -206,7 +207,7 @@ Result<std::vector<Vec3>> readPointsFromStdin() {
     if (!header) {
       if (fields.size() != 3 || fields[0] != "x_cm" || fields[1] != "y_cm" || fields[2] != "z_cm") {
         return Error{
-            fmt::format("stdin, line {}: expected the header x_cm,y_cm,z_cm, got {}", lineNo, io::quoted(line))};
+            fmt::format("stdin, line {}: expected the header x_cm,y_cm,z_cm, got {}", lineNo, io::quotedText(line))};
       }
       header = true;
       continue;
@@ -219,7 +220,7 @@ Result<std::vector<Vec3>> readPointsFromStdin() {
       const auto v = io::parseFiniteDouble(fields[static_cast<std::size_t>(i)]);
       if (!v) {
         return Error{fmt::format("stdin, line {}, column '{}': not a finite number: {}", lineNo, kColumns[i],
-                                 io::quoted(fields[static_cast<std::size_t>(i)]))};
+                                 io::quotedText(fields[static_cast<std::size_t>(i)]))};
       }
       p[i] = *v * units::cm;
     }
@@ -251,10 +252,10 @@ CLI::Validator integerIn(std::int64_t lo, std::int64_t hi) {
         std::int64_t x = 0;
         const auto [ptr, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), x);
         if (digits.empty() || ec == std::errc::invalid_argument || ptr != digits.data() + digits.size()) {
-          return fmt::format("{} is not an integer", io::quoted(text));
+          return fmt::format("{} is not an integer", io::quotedText(text));
         }
         if (ec == std::errc::result_out_of_range || x < lo || x > hi) {
-          return fmt::format("{} is outside [{}, {}]", io::quoted(text), lo, hi);
+          return fmt::format("{} is outside [{}, {}]", io::quotedText(text), lo, hi);
         }
         return {};
       },
@@ -267,9 +268,10 @@ CLI::Validator unsigned64() {
         std::uint64_t x = 0;
         const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), x);
         if (text.empty() || ec == std::errc::invalid_argument || ptr != text.data() + text.size()) {
-          return fmt::format("{} is not an unsigned integer (0 to 2^64 - 1)", io::quoted(text));
+          return fmt::format("{} is not an unsigned integer (0 to 2^64 - 1)", io::quotedText(text));
         }
-        if (ec == std::errc::result_out_of_range) return fmt::format("{} is larger than 2^64 - 1", io::quoted(text));
+        if (ec == std::errc::result_out_of_range)
+          return fmt::format("{} is larger than 2^64 - 1", io::quotedText(text));
         return {};
       },
       "INTEGER in [0, 2^64 - 1]");

@@ -121,7 +121,7 @@ Result<std::vector<int>> parseCounterList(const std::string& text, const std::st
                                  lineNumber > 1 || text.find('\n') != std::string::npos
                                      ? fmt::format(": line {}", lineNumber)
                                      : std::string(),
-                                 io::quoted(item))};
+                                 io::quotedText(item))};
       }
       out.push_back(v);
     }

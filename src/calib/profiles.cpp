@@ -260,7 +260,7 @@ struct ProfileLine {
   const std::vector<std::string_view>& fields;
   std::function<std::string(int column)> where;
   [[nodiscard]] Error bad(int c, std::string_view what) const {
-    return Error{fmt::format("{}: {} {}", where(c), io::quoted(fields[static_cast<std::size_t>(c)]), what)};
+    return Error{fmt::format("{}: {} {}", where(c), io::quotedText(fields[static_cast<std::size_t>(c)]), what)};
   }
 };
 
@@ -269,17 +269,18 @@ Status parseBinIndex(const ProfileLine& line, const ProfileOptions& options, Pro
   const auto& f = line.fields;
   const auto iPhi = profileInteger(f[kIPhi], 0, options.phiBins - 1);
   if (!iPhi) {
-    return Error{
-        fmt::format("{}: {} is not a bin index 0 to {}", line.where(kIPhi), io::quoted(f[kIPhi]), options.phiBins - 1)};
+    return Error{fmt::format("{}: {} is not a bin index 0 to {}", line.where(kIPhi), io::quotedText(f[kIPhi]),
+                             options.phiBins - 1)};
   }
   const auto iTheta = profileInteger(f[kITheta], 0, options.thetaBins - 1);
   if (!iTheta) {
-    return Error{fmt::format("{}: {} is not a bin index 0 to {}", line.where(kITheta), io::quoted(f[kITheta]),
+    return Error{fmt::format("{}: {} is not a bin index 0 to {}", line.where(kITheta), io::quotedText(f[kITheta]),
                              options.thetaBins - 1)};
   }
   constexpr std::int64_t kMaxEntries = std::int64_t{1} << 53;
   const auto n = profileInteger(f[kN], 0, kMaxEntries);
-  if (!n) return Error{fmt::format("{}: {} is not a count of entries (0 to 2^53)", line.where(kN), io::quoted(f[kN]))};
+  if (!n)
+    return Error{fmt::format("{}: {} is not a count of entries (0 to 2^53)", line.where(kN), io::quotedText(f[kN]))};
   b.iPhi = static_cast<int>(*iPhi);
   b.iTheta = static_cast<int>(*iTheta);
   b.n = *n;
@@ -301,7 +302,7 @@ Status parseBinValues(const ProfileLine& line, const ProfileOptions& options, Pr
     }
     const auto x = io::parseFiniteDouble(field);
     if (!x)
-      return Error{fmt::format("{}: not a finite number: {}", line.where(static_cast<int>(c)), io::quoted(field))};
+      return Error{fmt::format("{}: not a finite number: {}", line.where(static_cast<int>(c)), io::quotedText(field))};
     v[c] = *x;
   }
   const double phiLo = 2.0 * pi * b.iPhi / options.phiBins, phiHi = 2.0 * pi * (b.iPhi + 1) / options.phiBins;
@@ -391,7 +392,7 @@ Result<std::vector<ProfileBin>> readProfileCsv(const std::string& path, const Pr
           return notAProfile(path, kind);
         }
         return Error{fmt::format("{}: line {}: header: expected '{}' (optionally followed by ',plus_weight'), got {}",
-                                 path, lineNo, kHeader, io::quoted(text))};
+                                 path, lineNo, kHeader, io::quotedText(text))};
       }
       columns = f.size();
       header = true;

@@ -42,7 +42,7 @@ std::optional<double> parseFiniteDouble(std::string_view field) {
   return value;
 }
 
-std::string quoted(std::string_view text, std::size_t keep) {
+std::string quotedText(std::string_view text, std::size_t keep) {
   if (text.size() <= keep + 8) return fmt::format("'{}'", text);
   // Cut on a UTF-8 character boundary.
   std::size_t cut = keep;

@@ -182,9 +182,9 @@ bool isNanOrInfText(std::string_view field) {
 
 std::string notANumber(std::string_view field) {
   if (isNanOrInfText(field)) {
-    return fmt::format("{} is not allowed (leave the field empty for a missing value)", quoted(field));
+    return fmt::format("{} is not allowed (leave the field empty for a missing value)", quotedText(field));
   }
-  return fmt::format("{} is not a finite number", quoted(field));
+  return fmt::format("{} is not a finite number", quotedText(field));
 }
 
 // A double field: empty → NaN; an error text otherwise.
@@ -210,9 +210,9 @@ std::optional<std::string> parseIntegerField(std::string_view field, std::int64_
     if (out < lo || out > hi) return fmt::format("{} is outside [{}, {}]", out, lo, hi);
     return std::nullopt;
   }
-  if (ec == std::errc::result_out_of_range) return fmt::format("{} is out of range", quoted(field));
+  if (ec == std::errc::result_out_of_range) return fmt::format("{} is out of range", quotedText(field));
   if (parseFiniteDouble(field)) {
-    return fmt::format("{} is not an integer (write it without a decimal point or exponent)", quoted(field));
+    return fmt::format("{} is not an integer (write it without a decimal point or exponent)", quotedText(field));
   }
   return notANumber(field);
 }
@@ -222,7 +222,7 @@ std::string quotedList(const std::vector<std::string_view>& names) {
   constexpr std::size_t kShown = 6;
   std::string out;
   for (std::size_t k = 0; k < names.size() && k < kShown; ++k) {
-    out += fmt::format("{}{}", k == 0 ? "" : ", ", quoted(names[k]));
+    out += fmt::format("{}{}", k == 0 ? "" : ", ", quotedText(names[k]));
   }
   if (names.size() > kShown) out += fmt::format(", … ({} in all)", names.size());
   return out;
@@ -253,7 +253,7 @@ std::optional<std::string> checkHeader(const std::vector<std::string_view>& fiel
   }
   std::string what;
   if (missing.size() == 1 && extra.size() == 1) {
-    what = fmt::format("column '{}' is missing and {} is unexpected (renamed?)", missing[0], quoted(extra[0]));
+    what = fmt::format("column '{}' is missing and {} is unexpected (renamed?)", missing[0], quotedText(extra[0]));
   } else {
     if (!missing.empty()) what += fmt::format("missing column(s) {}", quotedList(missing));
     if (!extra.empty()) {
@@ -263,7 +263,7 @@ std::optional<std::string> checkHeader(const std::vector<std::string_view>& fiel
   if (what.empty()) {
     for (std::size_t i = 0; i < fields.size(); ++i) {
       if (fields[i] != kColumnNames[i]) {
-        what = fmt::format("columns out of order: column {} is {}, expected '{}'", i + 1, quoted(fields[i]),
+        what = fmt::format("columns out of order: column {} is {}, expected '{}'", i + 1, quotedText(fields[i]),
                            kColumnNames[i]);
         break;
       }
@@ -369,7 +369,7 @@ class CsvSource final : public RowSource {
         if (auto kv = parseAttributeLine(line)) {
           for (const auto& [key, value] : attributes_) {
             if (key == kv->first) {
-              return Error{fmt::format("{}: attribute {} given twice", location(), quoted(key))};
+              return Error{fmt::format("{}: attribute {} given twice", location(), quotedText(key))};
             }
           }
           attributes_.emplace_back(kv->first, kv->second);

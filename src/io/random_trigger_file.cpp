@@ -281,7 +281,7 @@ Result<std::string> readHdf5Columns(const std::string& path) {
         fmt::format("{}: not a random-trigger file: its root attribute 'format' is {}, not '{}' "
                     "(docs/simulation.md, \"Recorded beam background\")",
                     path,
-                    format      ? io::quoted(*format)
+                    format      ? io::quotedText(*format)
                     : hasFormat ? std::string("not a string")
                                 : std::string("missing"),
                     kRandomTriggerFormat)};
@@ -345,7 +345,7 @@ Result<Columns> readCsvColumns(const std::string& path) {
     const auto integer = [&](std::string_view field, const char* name, auto& value) -> Status {
       const auto [p, ec] = std::from_chars(field.data(), field.data() + field.size(), value);
       if (ec != std::errc() || p != field.data() + field.size()) {
-        return Error{at(fmt::format("{} {} is not an integer", name, quoted(field)))};
+        return Error{at(fmt::format("{} {} is not an integer", name, quotedText(field)))};
       }
       return {};
     };
@@ -376,7 +376,7 @@ Result<Columns> readCsvColumns(const std::string& path) {
     std::int32_t counter = 0;
     if (Status s = integer(fields[2], "counter", counter); !s) return s.error();
     const auto energy = parseFiniteDouble(fields[3]);
-    if (!energy) return Error{at(fmt::format("energy_mev {} is not a finite number", quoted(fields[3])))};
+    if (!energy) return Error{at(fmt::format("energy_mev {} is not a finite number", quotedText(fields[3])))};
     c.counter.push_back(counter);
     c.energy.push_back(*energy);
     ++c.count.back();

@@ -20,7 +20,9 @@ std::optional<double> parseFiniteDouble(std::string_view field);
 bool isBlankOrComment(std::string_view line);
 
 /// Text from an input, quoted for a message and cut when long: 'abc', or
-/// '0.12345678901234567890…' (10485760 characters) — a message never echoes megabytes.
-std::string quoted(std::string_view text, std::size_t keep = 32);
+/// '0.12345678901234567890…' (10485760 characters) — a message never echoes megabytes. (Not
+/// named `quoted`: argument-dependent lookup would pick std::quoted for a std::string wherever
+/// <iomanip> is included.)
+std::string quotedText(std::string_view text, std::size_t keep = 32);
 
 }  // namespace emcalign::io

@@ -242,11 +242,9 @@ Result<std::vector<std::pair<std::string, double>>> TagAlignments::fittedDepths(
     if (!transforms_.empty() && transforms_.count(iov.firstRun) == 0) continue;  // only the IOVs used, once used
     auto p = snapshot_->payload(iov);
     if (!p) return p.error();
-    const io::Json provenance = (*p)->content.value("provenance", io::Json::object());
-    if (!provenance.is_object() || !provenance.contains("model_corrections")) continue;
-    const io::Json& c = provenance["model_corrections"];
-    const io::Json offset = c.is_object() ? c.value("depth_offset_cm", io::Json(0.0)) : io::Json(0.0);
-    std::pair<std::string, double> d{(*p)->model(), offset.is_number() ? offset.get<double>() : 0.0};
+    const std::optional<double> offset = (*p)->depthOffsetCm();
+    if (!offset) continue;
+    std::pair<std::string, double> d{(*p)->model(), *offset};
     if (std::find(out.begin(), out.end(), d) == out.end()) out.push_back(std::move(d));
   }
   return out;

@@ -1,3 +1,4 @@
+#include <cmath>
 #include <limits>
 
 #include <fmt/format.h>
@@ -61,18 +62,22 @@ Json Payload::parameterFile() const {
 }
 
 std::string Payload::model() const {
-  const Json provenance = objectAt(content, "provenance");
   if (const std::string corrections = correctionsFile(); !corrections.empty()) return "corrections " + corrections;
-  if (!provenance.contains("model_corrections") || !provenance["model_corrections"].is_object()) return {};
-  const Json& c = provenance["model_corrections"];
+  const Json provenance = objectAt(content, "provenance");
+  const auto it = provenance.find("model_corrections");
+  if (it == provenance.end() || !it->is_object()) return {};
   for (const char* key : {"response", "parting_plane_response", "nominal_profile"}) {
-    if (c.contains(key) && c[key].is_string()) return "corrections " + c[key].get<std::string>();
+    if (auto file = io::stringAt(*it, key)) return "corrections " + *file;
   }
-  const Json offset = c.value("depth_offset_cm", Json());
-  if (offset.is_number() && offset.get<double>() != 0.0) {
-    return fmt::format("the paper's model, depth offset {:+.3g} cm", offset.get<double>());
-  }
-  return "the paper's model";
+  const double offset = depthOffsetCm().value_or(0.0);
+  return offset != 0.0 ? fmt::format("the paper's model, depth offset {:+.3g} cm", offset) : "the paper's model";
+}
+
+std::optional<double> Payload::depthOffsetCm() const {
+  const Json provenance = objectAt(content, "provenance");
+  if (!provenance.contains("model_corrections")) return std::nullopt;
+  const double offset = numberAt(provenance["model_corrections"], "depth_offset_cm");
+  return std::isnan(offset) ? 0.0 : offset;
 }
 
 StoredValues Payload::values() const {
@@ -92,11 +97,11 @@ StoredValues Payload::values() const {
   return out;
 }
 
-std::map<std::string, std::string> Payload::inputDigests() const {
-  std::map<std::string, std::string> out;
+std::vector<std::pair<std::string, std::string>> Payload::inputDigests() const {
+  std::vector<std::pair<std::string, std::string>> out;
   const Json digests = objectAt(objectAt(content, "provenance"), "input_sha256");
   for (const auto& [file, sha] : digests.items()) {
-    if (sha.is_string()) out.emplace(file, sha.get<std::string>());
+    if (sha.is_string()) out.emplace_back(file, sha.get<std::string>());
   }
   return out;
 }

@@ -17,7 +17,7 @@ using namespace detail;
 namespace fs = std::filesystem;
 
 // Text of ours in a double-quoted gnuplot string (enhanced mode: the labels may use ^ and _).
-std::string quoted(const std::string& s) {
+std::string gnuplotQuoted(const std::string& s) {
   std::string out;
   for (char c : s) {
     if (c == '"' || c == '\\') out += '\\';
@@ -50,7 +50,7 @@ std::string scriptOf(const std::string& name, const std::string& title, const st
   // 140 pixels on the left of the first panel for five-digit tick labels and the axis title.
   const double left = 140.0 / (800.0 * static_cast<double>(panels.size()));
   s += fmt::format("set multiplot layout 1,{} title \"{}\" font ',14' margins {:.3f},0.98,0.13,0.88 spacing 0.08,0.1\n",
-                   panels.size(), quoted(title), left);
+                   panels.size(), gnuplotQuoted(title), left);
   s += "set grid lc rgb '#e0e0e0' lt 1\nset tics front\nset key top right Left reverse samplen 2 font ',10'\n"
        "set yrange [0:*]\nset offsets 0, 0, graph 0.25, 0\nset style fill solid 0.35 noborder\n";
   for (std::size_t k = 0; k < panels.size(); ++k) {
@@ -61,7 +61,7 @@ std::string scriptOf(const std::string& name, const std::string& title, const st
     s += fmt::format(
         "plot data index {} using 1:2 with boxes lc rgb '#1f77b4' title \"{}\", \\\n"
         "     data index {} using 1:3 with histeps lw 2 lc rgb '#d62728' title \"{}\"",
-        k, quoted(p.beforeLabel), k, quoted(p.afterLabel));
+        k, gnuplotQuoted(p.beforeLabel), k, gnuplotQuoted(p.afterLabel));
     if (p.chi2Ndf > 0) {
       // The χ² density of ndf, scaled to the events after the correction (ndf = 2: exp(−x/2)/2).
       const double n = static_cast<double>(p.after.size()) * width;

@@ -23,11 +23,11 @@
 #include <array>
 #include <cstdint>
 #include <limits>
-#include <map>
 #include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "emcalign/calib/sigma_sys.hpp"
@@ -63,7 +63,6 @@ struct Iov {
   std::string inserted;       ///< UTC, ISO 8601
 };
 
-/// A calibration as stored: canonical JSON (`emcalign-payload/1`), addressed by its hash.
 /// One value of a payload as stored, in file units (deg, cm); NaN where the payload has none,
 /// or something else than a number (a database can hold anything).
 struct StoredValue {
@@ -75,8 +74,9 @@ struct StoredValue {
 /// ones (β, ψ, μ, τ, dx_rel) — one per entry of kAllQuantities, in its order.
 using StoredValues = std::array<StoredValue, kAllQuantities.size()>;
 
-/// A payload's content is written by makePayload; its readers are the members below (each
-/// lenient: what the payload does not say, or not as makePayload writes it, is absent).
+/// A calibration as stored: canonical JSON (`emcalign-payload/1`), addressed by its hash.
+/// Its content is written by makePayload; the members below read it (each lenient: what the
+/// payload does not say, or not as makePayload writes it, reads as absent).
 struct Payload {
   io::Json content;
   /// SHA-256 of the compact dump of `content`.
@@ -89,12 +89,18 @@ struct Payload {
   [[nodiscard]] std::string model() const;
   /// Its parameters, errors and derived values.
   [[nodiscard]] StoredValues values() const;
-  /// The SHA-256 of each file its fit read, by the file's name; empty when it records none.
-  [[nodiscard]] std::map<std::string, std::string> inputDigests() const;
-  /// The model corrections its fit used, as the campaign named them; "" when it used none.
+  /// The SHA-256 of each file its fit read, as (file name, SHA-256) in the order stored; empty
+  /// when it records none.
+  [[nodiscard]] std::vector<std::pair<std::string, std::string>> inputDigests() const;
+  /// The corrections a campaign fitted it with, as the campaign named them; "" when the
+  /// payload names none (a fit result stored with `conditions put` records its model under
+  /// model_corrections instead: see model() and depthOffsetCm()).
   [[nodiscard]] std::string correctionsFile() const;
-  /// The SHA-256 of the model corrections its fit used; "" when it used none.
+  /// The SHA-256 of the corrections a campaign fitted it with; "" when the payload names none.
   [[nodiscard]] std::string correctionsSha256() const;
+  /// The depth offset in cm of its fit's model when the payload records that model's
+  /// corrections (0 without an offset); none when it does not record them.
+  [[nodiscard]] std::optional<double> depthOffsetCm() const;
   /// The choice of σ_sys its fit was made with (the paper's, for payloads made before the
   /// choice was recorded); an error naming what it records when that is no choice a fit makes.
   [[nodiscard]] Result<calib::SigmaSysChoice> sigmaSysChoice() const;

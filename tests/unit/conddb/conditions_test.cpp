@@ -456,7 +456,7 @@ TEST(ConditionsPayload, KeepsTheFitAndRefusesUnusableOnes) {
 }
 
 // What a payload says is read back by its own readers, in file units; what it does not say,
-// or not as makePayload writes it, is absent (NaN, empty, the paper's σ_sys) — never a throw.
+// or not as makePayload writes it, reads as absent (NaN, empty, the paper's σ_sys) — never a throw.
 TEST(ConditionsPayload, ItsReadersGiveBackWhatWasStoredAndNothingElse) {
   auto eta = geometry::testing::paperLike();
   Json fit = io::alignmentToJson(eta);
@@ -480,11 +480,20 @@ TEST(ConditionsPayload, ItsReadersGiveBackWhatWasStoredAndNothingElse) {
   EXPECT_DOUBLE_EQ(v[kNumParams + 1].value, 170.0);  // ψ, its error null
   EXPECT_TRUE(std::isnan(v[kNumParams + 1].error));
   EXPECT_TRUE(std::isnan(v[kNumParams + 2].value));  // μ: not stored
-  // Digests by file name; one that is not text is no digest.
-  EXPECT_EQ(p->inputDigests(), (std::map<std::string, std::string>{{"a.h5", "aa"}, {"b.h5", "bb"}}));
+  // Digests in the order stored; one that is not text is no digest.
+  EXPECT_EQ(p->inputDigests(), (std::vector<std::pair<std::string, std::string>>{{"b.h5", "bb"}, {"a.h5", "aa"}}));
   EXPECT_EQ(p->correctionsFile(), "grid/");
   EXPECT_EQ(p->correctionsSha256(), "cc");
   EXPECT_EQ(p->model(), "corrections grid/");
+  EXPECT_FALSE(p->depthOffsetCm());  // its fit's model corrections not recorded
+  Payload shifted = *p;
+  shifted.content["provenance"].erase("corrections");
+  shifted.content["provenance"]["model_corrections"] = {{"depth_offset_cm", 1.5}};
+  EXPECT_EQ(shifted.depthOffsetCm(), 1.5);
+  EXPECT_EQ(shifted.model(), "the paper's model, depth offset +1.5 cm");
+  shifted.content["provenance"]["model_corrections"] = Json::object();
+  EXPECT_EQ(shifted.depthOffsetCm(), 0.0);
+  EXPECT_EQ(shifted.model(), "the paper's model");
   auto sigma = p->sigmaSysChoice();
   ASSERT_TRUE(sigma) << sigma.error().message;
   EXPECT_EQ(sigma->method, calib::SigmaSysMethod::Fixed);
@@ -511,6 +520,10 @@ TEST(ConditionsPayload, ItsReadersGiveBackWhatWasStoredAndNothingElse) {
     EXPECT_TRUE(junk.inputDigests().empty());
     EXPECT_EQ(junk.correctionsFile(), "");
     EXPECT_EQ(junk.correctionsSha256(), "");
+    EXPECT_FALSE(junk.depthOffsetCm());
+    EXPECT_EQ(junk.model(), "");
+    ASSERT_TRUE(junk.sigmaSysChoice()) << content.dump();
+    EXPECT_EQ(junk.sigmaSysChoice()->method, calib::SigmaSysMethod::Spec);
   }
 }
 

@@ -9,6 +9,7 @@
 #include "emcalign/apply/placements.hpp"
 #include "emcalign/core/sha256.hpp"
 #include "emcalign/core/version.hpp"
+#include "lenient_json.hpp"
 
 namespace emcalign::conddb {
 
@@ -128,35 +129,19 @@ Result<RunCalibration> calibrationAt(Database& db, const std::string& tag, std::
   return RunCalibration{iov, parameterFileOf(iov, payload, db.uri(), tag)};
 }
 
-namespace {
-
-// What a stored fit result says, where it says it as a fit result writes it (its strings:
-// io::stringAt).
-std::optional<double> numberIn(const Json& j, const char* key) {
-  if (!j.is_object() || !j.contains(key)) return std::nullopt;
-  const Json& v = j.at(key);
-  if (v.is_null()) return std::numeric_limits<double>::quiet_NaN();
-  return v.is_number() ? std::optional<double>(v.get<double>()) : std::nullopt;
-}
-std::optional<std::int64_t> integerIn(const Json& j, const char* key) {
-  if (!j.is_object() || !j.contains(key) || !j.at(key).is_number_integer()) return std::nullopt;
-  return j.at(key).get<std::int64_t>();
-}
-
-}  // namespace
-
 IovListing iovListing(const Iov& iov, const Payload& payload) {
+  // What a stored fit result says, where it says it as a fit result writes it.
   const Json& content = payload.content;
-  const Json a = content.is_object() ? content.value("alignment", Json()) : Json();
-  const Json sigma = a.is_object() ? a.value("sigma_sys", Json()) : Json();
+  const Json& a = lenient::objectAt(content, "alignment");
+  const Json& sigma = lenient::objectAt(a, "sigma_sys");
   return {.iov = iov,
           .status = io::stringAt(a, "status"),
-          .chi2 = numberIn(a, "chi2"),
-          .ndf = integerIn(a, "ndf"),
+          .chi2 = lenient::numberAt(a, "chi2"),
+          .ndf = lenient::integerAt(a, "ndf"),
           .sigmaSysMethod = io::stringAt(sigma, "method"),
-          .chi2Statistical = numberIn(sigma, "chi2_statistical_errors"),
-          .sigmaSysDeg = numberIn(sigma, "value_deg"),
-          .selectedEvents = integerIn(content, "selected_events"),
+          .chi2Statistical = lenient::numberAt(sigma, "chi2_statistical_errors"),
+          .sigmaSysDeg = lenient::numberAt(sigma, "value_deg"),
+          .selectedEvents = lenient::integerAt(content, "selected_events"),
           .model = payload.model()};
 }
 

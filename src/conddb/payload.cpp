@@ -7,6 +7,7 @@
 #include "emcalign/core/fit_status.hpp"
 #include "emcalign/core/sha256.hpp"
 #include "emcalign/core/utf8.hpp"
+#include "lenient_json.hpp"
 
 namespace emcalign::conddb {
 
@@ -40,18 +41,11 @@ std::string Payload::hash() const { return sha256(content.dump()); }
 
 namespace {
 
-// A number at `key` of an object, NaN otherwise.
-double numberAt(const Json& j, const std::string& key) {
-  if (!j.is_object()) return std::numeric_limits<double>::quiet_NaN();
-  const auto it = j.find(key);
-  return it != j.end() && it->is_number() ? it->get<double>() : std::numeric_limits<double>::quiet_NaN();
-}
+using lenient::objectAt;
 
-// The object at `key` of an object; an empty one otherwise.
-Json objectAt(const Json& j, const std::string& key) {
-  if (!j.is_object()) return Json::object();
-  const auto it = j.find(key);
-  return it != j.end() && it->is_object() ? *it : Json::object();
+// The number at `key` of an object; NaN when there is none.
+double numberOrNaN(const Json& j, std::string_view key) {
+  return lenient::numberAt(j, key).value_or(std::numeric_limits<double>::quiet_NaN());
 }
 
 }  // namespace
@@ -63,7 +57,7 @@ Json Payload::parameterFile() const {
 
 std::string Payload::model() const {
   if (const std::string corrections = correctionsFile(); !corrections.empty()) return "corrections " + corrections;
-  const Json provenance = objectAt(content, "provenance");
+  const Json& provenance = objectAt(content, "provenance");
   const auto it = provenance.find("model_corrections");
   if (it == provenance.end() || !it->is_object()) return {};
   for (const char* key : {"response", "parting_plane_response", "nominal_profile"}) {
@@ -74,24 +68,25 @@ std::string Payload::model() const {
 }
 
 std::optional<double> Payload::depthOffsetCm() const {
-  const Json provenance = objectAt(content, "provenance");
+  const Json& provenance = objectAt(content, "provenance");
   if (!provenance.contains("model_corrections")) return std::nullopt;
-  const double offset = numberAt(provenance["model_corrections"], "depth_offset_cm");
+  const double offset = numberOrNaN(provenance["model_corrections"], "depth_offset_cm");
   return std::isnan(offset) ? 0.0 : offset;
 }
 
 StoredValues Payload::values() const {
-  const Json alignment = objectAt(content, "alignment");
-  const Json parameters = objectAt(alignment, "parameters"), errors = objectAt(alignment, "errors");
-  const Json derived = objectAt(alignment, "derived");
+  const Json& alignment = objectAt(content, "alignment");
+  const Json& parameters = objectAt(alignment, "parameters");
+  const Json& errors = objectAt(alignment, "errors");
+  const Json& derived = objectAt(alignment, "derived");
   StoredValues out;
   for (std::size_t k = 0; k < kAllQuantities.size(); ++k) {
     const std::string n(kAllQuantities[k].name());
     if (k < kNumParams) {
-      out[k] = {numberAt(parameters, n), numberAt(errors, n)};
+      out[k] = {numberOrNaN(parameters, n), numberOrNaN(errors, n)};
     } else {
-      const Json d = objectAt(derived, n);
-      out[k] = {numberAt(d, "value"), numberAt(d, "error")};
+      const Json& d = objectAt(derived, n);
+      out[k] = {numberOrNaN(d, "value"), numberOrNaN(d, "error")};
     }
   }
   return out;
@@ -99,7 +94,7 @@ StoredValues Payload::values() const {
 
 std::vector<std::pair<std::string, std::string>> Payload::inputDigests() const {
   std::vector<std::pair<std::string, std::string>> out;
-  const Json digests = objectAt(objectAt(content, "provenance"), "input_sha256");
+  const Json& digests = objectAt(objectAt(content, "provenance"), "input_sha256");
   for (const auto& [file, sha] : digests.items()) {
     if (sha.is_string()) out.emplace_back(file, sha.get<std::string>());
   }
@@ -115,7 +110,7 @@ std::string Payload::correctionsSha256() const {
 }
 
 Result<calib::SigmaSysChoice> Payload::sigmaSysChoice() const {
-  const Json alignment = objectAt(content, "alignment");
+  const Json& alignment = objectAt(content, "alignment");
   const auto it = alignment.find("sigma_sys");
   // Payloads made before the choice existed were fitted with the paper's.
   const Json recorded = it != alignment.end() && it->is_object() ? *it : Json{{"method", "spec"}};

@@ -77,7 +77,13 @@ int refit(const TrendCliOptions& o, const validation::Trend& trend, const std::v
   fmt::print(reportStream(), "refit: {} instead of {} -> {} tag {}\n", counted(r->iovs.size(), "IOV"),
              snapshot.iovs().size(), db.uri(), o.tagOut);
   for (const auto& seg : r->segments) {
-    if (seg.kept) continue;
+    if (seg.kept) {
+      if (!seg.transition) {
+        fmt::print(reportStream(), "  runs {}-{}: {} kept: {}\n", seg.firstRun, seg.lastRun,
+                   counted(seg.end - seg.begin, "IOV"), validation::keptBecause(seg));
+      }
+      continue;
+    }
     for (const auto& p : seg.precision) {
       if (p.parameter != Param::Dx) continue;
       fmt::print(reportStream(),
@@ -164,6 +170,7 @@ int run(const TrendCliOptions& o) {
                                               "{:.1f})",
                                               s.insteadOfDrift->second, s.insteadOfDrift->first)
                                 : std::string());
+    if (s.orDrift) fmt::print(reportStream(), "        {}\n", validation::driftAlternativeText(s));
   }
   for (const auto& e : trend.edges) {
     fmt::print(reportStream(),
@@ -180,8 +187,9 @@ int run(const TrendCliOptions& o) {
     }
   }
   for (const auto& d : trend.drifts) {
-    fmt::print(reportStream(), "  drift {:<8} runs {}-{}: {:+.3g} ± {:.2g} {}/run (z {:.1f}){}\n", d.parameter,
-               d.firstRun, d.lastRun, d.slopePerRun, d.error, d.parameter.unit(), d.z,
+    fmt::print(reportStream(), "  drift {:<8} {} (IOVs of runs {}-{}): {:+.4g} ± {:.2g} {}, {:+.3g} ± {:.2g} {}/run (z {:.1f}){}\n",
+               d.parameter, validation::driftExtentText(d), d.firstRun, d.lastRun, d.change, d.changeError,
+               d.parameter.unit(), d.slopePerRun, d.error, d.parameter.unit(), d.z,
                d.orStep ? " — " + validation::stepAlternativeText(trend, d) : std::string());
   }
   fmt::print(reportStream(), "wrote {}/trend.json, trend.md and {} (fig7.png, trend_all.png, trend_*.png)\n", o.output,

@@ -191,6 +191,7 @@ Json derivedJson(const FitResult& r, const FitInput& input) {
     const DerivedValue& v = r.derived[p];
     derived[std::string(name(p))] = {
         {"value", v.value / unit}, {"error", io::numberOrNull(v.error / unit)}, {"unit", fileUnitName(dimension(p))}};
+    if (std::isfinite(v.statisticalError)) derived[std::string(name(p))]["statistical_error"] = v.statisticalError / unit;
     if (!input.systematics) continue;
     if (auto it = input.systematics->errors.find(p); it != input.systematics->errors.end()) {
       derived[std::string(name(p))]["systematic_error"] = it->second;
@@ -255,6 +256,14 @@ io::Json fitResultJson(const FitResult& r, const FitInput& input) {
     errors[std::string(name(p))] = io::numberOrNull(r.errors[p] / AlignmentParameters::fileUnit(p));
   }
   j["errors"] = errors;
+  if (r.statisticalCovariance) {
+    Json statistical = Json::object();
+    for (Param p : kAllParams) {
+      statistical[std::string(name(p))] =
+          io::numberOrNull(r.statisticalErrors[p] / AlignmentParameters::fileUnit(p));
+    }
+    j["statistical_errors"] = statistical;
+  }
   if (input.systematics) {
     Json systematic = Json::object();
     for (Param p : kAllParams) systematic[std::string(name(p))] = input.systematics->errors.find(p)->second;

@@ -119,40 +119,39 @@ void setCovariance(FitResult& result, const Covariance& covariance) {
   }
 }
 
-// The physical parameters, errors by the Jacobian of physicalOf (automatic differentiation).
+// The physical parameters, errors by the Jacobian of physicalOf (automatic differentiation),
+// from the covariance and, when known, the statistical covariance.
 void setDerived(FitResult& result, double r1) {
   using Jet = ceres::Jet<double, kN>;
   geometry::ParamVectorT<Jet> etaJet;
   for (int k = 0; k < kN; ++k) etaJet[k] = Jet(result.parameters.values[k], k);
   const auto physical = geometry::physicalOf<Jet>(etaJet, r1);
+  const auto propagated = [](const std::optional<Covariance>& c, const Eigen::Matrix<double, kN, 1>& grad) {
+    return c && grad.allFinite() ? std::sqrt(grad.dot(*c * grad)) : std::numeric_limits<double>::quiet_NaN();
+  };
   for (Physical p : kAllPhysical) {
     const Jet& x = physical[index(p)];
     DerivedValue& v = result.derived[p];
     v.value = x.a;
     const Eigen::Matrix<double, kN, 1> grad = x.v;
-    v.error = result.covariance && grad.allFinite() ? std::sqrt(grad.dot(*result.covariance * grad))
-                                                    : std::numeric_limits<double>::quiet_NaN();
+    v.error = propagated(result.covariance, grad);
+    v.statisticalError = propagated(result.statisticalCovariance, grad);
   }
 }
 
-}  // namespace
-
-Status applyBinCovariances(FitResult& result, const std::vector<ProfileBin>& bins, const FitGeometry& g,
-                           const std::vector<BinCovariance>& covariances) {
-  if (covariances.empty()) return {};
-  if (!result.covariance) return Error{"the fit's covariance is singular: no errors to correct"};
-  const std::vector<BinPoint> points = pointsOf(bins, g);
+// Jᵀ·R·J + Jᵀ·C·J of the whitened residuals: `scale[i]` the diagonal R (1: the independent
+// bins' JᵀJ), C the bins' correlations, each scaled by the two residuals' weights.
+Result<Covariance> sandwichMiddle(const Jacobian& jacobian, const std::vector<double>& scale,
+                                  const std::vector<BinPoint>& points, const std::vector<ProfileBin>& bins,
+                                  const std::vector<BinCovariance>& covariances) {
+  Covariance middle = Covariance::Zero();
+  for (Eigen::Index i = 0; i < jacobian.rows(); ++i) {
+    middle += scale[static_cast<std::size_t>(i)] * jacobian.row(i).transpose() * jacobian.row(i);
+  }
   std::vector<int> row(bins.size(), -1);  // bins' index → used bin's index
   for (std::size_t i = 0, k = 0; i < bins.size(); ++i) {
     if (bins[i].used) row[i] = static_cast<int>(k++);
   }
-  // The whitened Jacobian at the minimum.
-  ceres::AutoDiffCostFunction<ProfileResiduals, ceres::DYNAMIC, kN> cost(
-      new ProfileResiduals{&points, g.radii, g.response}, static_cast<int>(2 * points.size()));
-  const auto jacobian = jacobianAt(cost, result.parameters.values);
-  if (!jacobian) return Error{"the fit's Jacobian could not be evaluated"};
-  // Jᵀ·C·J with C the correlation of the whitened residuals: JᵀJ plus the off-diagonal terms.
-  Covariance middle = jacobian->transpose() * *jacobian;
   const auto weight = [&](int used, int component) {
     const BinPoint& p = points[static_cast<std::size_t>(used)];
     return component == 0 ? p.wPhi : p.wTheta;
@@ -167,19 +166,83 @@ Status applyBinCovariances(FitResult& result, const std::vector<ProfileBin>& bin
     const int i = 2 * ua + c.componentA, j = 2 * ub + c.componentB;
     const double rho = c.value * weight(ua, c.componentA) * weight(ub, c.componentB);
     if (i == j) {
-      middle += rho * jacobian->row(i).transpose() * jacobian->row(i);
+      middle += rho * jacobian.row(i).transpose() * jacobian.row(i);
     } else {
-      const Covariance term = jacobian->row(i).transpose() * jacobian->row(j);
+      const Covariance term = jacobian.row(i).transpose() * jacobian.row(j);
       middle += rho * (term + term.transpose());
     }
   }
-  const Covariance h = *result.covariance;
-  Covariance sandwich = h * middle * h;
-  sandwich = 0.5 * (sandwich + sandwich.transpose());
-  if (!(sandwich.diagonal().array() > 0.0).all() || !sandwich.allFinite()) {
+  return middle;
+}
+
+// H⁻¹·middle·H⁻¹, symmetrised; an error when it is not a covariance.
+Result<Covariance> sandwich(const Covariance& hInverse, const Covariance& middle) {
+  Covariance c = hInverse * middle * hInverse;
+  c = 0.5 * (c + c.transpose());
+  if (!(c.diagonal().array() > 0.0).all() || !c.allFinite()) {
     return Error{"the covariance with the bins' correlations is not positive: the correlations are implausible"};
   }
-  setCovariance(result, sandwich);
+  return c;
+}
+
+// The whitened Jacobian at the fit's minimum.
+Result<Jacobian> jacobianAtMinimum(const FitResult& result, const std::vector<BinPoint>& points, const FitGeometry& g) {
+  ceres::AutoDiffCostFunction<ProfileResiduals, ceres::DYNAMIC, kN> cost(
+      new ProfileResiduals{&points, g.radii, g.response}, static_cast<int>(2 * points.size()));
+  auto jacobian = jacobianAt(cost, result.parameters.values);
+  if (!jacobian) return Error{"the fit's Jacobian could not be evaluated"};
+  return std::move(*jacobian);
+}
+
+}  // namespace
+
+Status applyBinCovariances(FitResult& result, const std::vector<ProfileBin>& bins, const FitGeometry& g,
+                           const std::vector<BinCovariance>& covariances) {
+  if (covariances.empty()) return {};
+  if (!result.covariance) return Error{"the fit's covariance is singular: no errors to correct"};
+  const std::vector<BinPoint> points = pointsOf(bins, g);
+  auto jacobian = jacobianAtMinimum(result, points, g);
+  if (!jacobian) return jacobian.error();
+  auto middle = sandwichMiddle(*jacobian, std::vector<double>(static_cast<std::size_t>(jacobian->rows()), 1.0), points,
+                               bins, covariances);
+  if (!middle) return middle.error();
+  auto c = sandwich(*result.covariance, *middle);
+  if (!c) return c.error();
+  setCovariance(result, *c);
+  setDerived(result, g.radii.r1);
+  return {};
+}
+
+Status setStatisticalCovariance(FitResult& result, const std::vector<ProfileBin>& bins,
+                                const std::vector<ProfileBin>& statistical, const FitGeometry& g,
+                                const std::vector<BinCovariance>& covariances) {
+  if (!result.covariance) return {};
+  if (statistical.size() != bins.size()) {
+    return Error{fmt::format("{} bins with their statistical errors for {} fitted", statistical.size(), bins.size())};
+  }
+  // R: the share of each residual's variance that the events make, σ_stat²/σ².
+  std::vector<double> scale;
+  for (std::size_t i = 0; i < bins.size(); ++i) {
+    if (!bins[i].used) continue;
+    for (const auto& [total, stat] : {std::pair{bins[i].sigmaPhi, statistical[i].sigmaPhi},
+                                      std::pair{bins[i].sigmaTheta, statistical[i].sigmaTheta}}) {
+      const double share = (stat * stat) / (total * total);
+      if (!(share >= 0.0 && share <= 1.0 + 1e-9)) {
+        return Error{fmt::format("profile bin ({}, {}): its statistical error {:.3g} exceeds its total {:.3g}",
+                                 bins[i].iPhi, bins[i].iTheta, stat, total)};
+      }
+      scale.push_back(std::min(share, 1.0));
+    }
+  }
+  const std::vector<BinPoint> points = pointsOf(bins, g);
+  auto jacobian = jacobianAtMinimum(result, points, g);
+  if (!jacobian) return jacobian.error();
+  auto middle = sandwichMiddle(*jacobian, scale, points, bins, covariances);
+  if (!middle) return middle.error();
+  auto c = sandwich(*result.covariance, *middle);
+  if (!c) return c.error();
+  result.statisticalCovariance = *c;
+  for (int k = 0; k < kN; ++k) result.statisticalErrors[k] = std::sqrt((*c)(k, k));
   setDerived(result, g.radii.r1);
   return {};
 }

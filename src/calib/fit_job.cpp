@@ -110,8 +110,9 @@ Result<FitJob> FitJob::prepare(FitRequest request, const geometry::DetectorDescr
   FitJob job;
   job.geometry_ = FitGeometry::of(detector);
   job.geometry_.depth.offset = request.depthOffset;
-  // The honest errors take the correlation of an event's two particles along (profiles.hpp).
-  job.profile_.eventPairs = request.sigmaSys && request.sigmaSys->keepsEventPairs();
+  // The statistical errors, and the honest errors of σ_sys auto, take the correlation of an
+  // event's two particles along (profiles.hpp).
+  job.profile_.eventPairs = true;
   if (!request.corrections.empty()) {
     auto at = correctionsOf(request);
     if (!at) return at.error();

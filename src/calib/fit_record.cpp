@@ -25,12 +25,17 @@ Param paramNamed(const StrictObject& o, const std::string& where, const Json& v)
   return *p;
 }
 
-// "parameters", "errors" and, when written, "systematic_errors": each of the 12 by name.
+// "parameters", "errors" and, when written, "statistical_errors" and "systematic_errors": each
+// of the 12 by name.
 void readParameters(const StrictObject& top, FitRecord& r) {
   const StrictObject values = top.object("parameters"), errors = top.object("errors");
   for (Param p : kAllParams) {
     r.parameters[index(p)].value = values.number(name(p));
     r.parameters[index(p)].error = errors.numberOrNull(name(p));
+  }
+  if (top.has("statistical_errors") && !top.at("statistical_errors").is_null()) {
+    const StrictObject statistical = top.object("statistical_errors");
+    for (Param p : kAllParams) r.parameters[index(p)].statistical = statistical.numberOrNullIfGiven(name(p));
   }
   if (top.has("systematic_errors") && !top.at("systematic_errors").is_null()) {
     const StrictObject systematic = top.object("systematic_errors");
@@ -50,6 +55,7 @@ void readDerived(const StrictObject& top, FitRecord& r) {
     const StrictObject d = derived.object(key);
     r.derived.emplace_back(Quantity(*p), calib::RecordedValue{.value = d.numberOrNull("value"),
                                                               .error = d.numberOrNullIfGiven("error"),
+                                                              .statistical = d.numberOrNullIfGiven("statistical_error"),
                                                               .systematic = d.numberOrNullIfGiven("systematic_error")});
   }
 }

@@ -90,10 +90,18 @@ std::vector<ProfileBin> fittedBins(const Profiles& profiles, const SigmaSysUsed&
 
 namespace {
 
-// The errors with the event pairs' correlations, when the profiles kept them.
+// The statistical errors (setStatisticalCovariance), then — for a choice that keeps them
+// (SigmaSysChoice::keepsEventPairs) — the quoted errors with the event pairs' correlations,
+// each when the profiles kept the pairs.
 Status withEventPairs(FitResult& result, const Profiles& profiles, const std::vector<ProfileBin>& bins,
-                      const FitGeometry& geometry) {
-  if (!profiles.options().eventPairs || !result.covariance) return {};
+                      const FitGeometry& geometry, const SigmaSysChoice& choice) {
+  const bool pairs = profiles.options().eventPairs && result.covariance;
+  if (Status s = setStatisticalCovariance(result, bins, profiles.bins(0.0), geometry,
+                                          pairs ? profiles.binCovariances() : std::vector<BinCovariance>{});
+      !s) {
+    return s;
+  }
+  if (!pairs || !choice.keepsEventPairs()) return {};
   if (Status s = applyBinCovariances(result, bins, geometry, profiles.binCovariances()); !s) return s;
   result.sigmaSys.eventPairs = true;
   return {};
@@ -179,7 +187,7 @@ Result<FitResult> fitProfiles(const Profiles& profiles, const FitGeometry& geome
     auto fit = fitProfiles(bins, geometry, options);
     if (!fit) return fit;
     fit->sigmaSys = SigmaSysUsed{.method = choice.method, .value = value};
-    if (Status s = withEventPairs(*fit, profiles, bins, geometry); !s) return s.error();
+    if (Status s = withEventPairs(*fit, profiles, bins, geometry, choice); !s) return s.error();
     return fit;
   }
   const std::vector<ProfileBin> stat = profiles.bins(0.0);
@@ -211,7 +219,7 @@ Result<FitResult> fitProfiles(const Profiles& profiles, const FitGeometry& geome
                                  .chi2Stat = *chi2Stat,
                                  .pValueStat = chi2PValue(*chi2Stat, ndf),
                                  .fits = chi2.fits()};
-  if (Status s = withEventPairs(result, profiles, fittedBins(profiles, result.sigmaSys), geometry); !s) {
+  if (Status s = withEventPairs(result, profiles, fittedBins(profiles, result.sigmaSys), geometry, choice); !s) {
     return s.error();
   }
   if (result.sigmaSys.value > kLargeSigmaSys) {

@@ -78,15 +78,16 @@ StoredValues Payload::values() const {
   const Json& alignment = objectAt(content, "alignment");
   const Json& parameters = objectAt(alignment, "parameters");
   const Json& errors = objectAt(alignment, "errors");
+  const Json& statistical = objectAt(alignment, "statistical_errors");
   const Json& derived = objectAt(alignment, "derived");
   StoredValues out;
   for (std::size_t k = 0; k < kAllQuantities.size(); ++k) {
     const std::string n(kAllQuantities[k].name());
     if (k < kNumParams) {
-      out[k] = {numberOrNaN(parameters, n), numberOrNaN(errors, n)};
+      out[k] = {numberOrNaN(parameters, n), numberOrNaN(errors, n), numberOrNaN(statistical, n)};
     } else {
       const Json& d = objectAt(derived, n);
-      out[k] = {numberOrNaN(d, "value"), numberOrNaN(d, "error")};
+      out[k] = {numberOrNaN(d, "value"), numberOrNaN(d, "error"), numberOrNaN(d, "statistical_error")};
     }
   }
   return out;
@@ -109,6 +110,11 @@ std::string Payload::correctionsSha256() const {
   return io::stringAt(objectAt(content, "provenance"), "corrections_sha256").value_or("");
 }
 
+std::optional<std::int64_t> Payload::selectedEvents() const {
+  const auto n = lenient::integerAt(content, "selected_events");
+  return n && *n >= 0 ? n : std::nullopt;
+}
+
 Result<calib::SigmaSysChoice> Payload::sigmaSysChoice() const {
   const Json& alignment = objectAt(content, "alignment");
   const auto it = alignment.find("sigma_sys");
@@ -127,7 +133,7 @@ Result<Payload> makePayload(const Json& in, double r1, std::string_view source, 
   if (!file) return file.error();
   Json alignment = io::alignmentToJson(file->parameters);
   // What a fit result says about its parameters travels with them.
-  for (const char* key : {"errors", "systematic_errors", "covariance", "correlation", "derived", "chi2", "ndf",
+  for (const char* key : {"errors", "statistical_errors", "systematic_errors", "covariance", "correlation", "derived", "chi2", "ndf",
                           "p_value", "status", "warnings", "notes", "sigma_sys"}) {
     if (in.contains(key)) alignment[key] = in[key];
   }

@@ -131,6 +131,7 @@ Result<CampaignModel> campaignModel(const std::string& corrections, const std::s
                                     const geometry::Calorimeter& calo) {
   CampaignModel m;
   m.geometry = calib::FitGeometry::of(calo.description());
+  m.profile.eventPairs = true;  // the statistical errors take the event pairs' correlation along
   m.detector = io::detectorName(detector);
   if (!corrections.empty()) {
     auto grid = calib::CorrectionsGrid::read(corrections);

@@ -261,7 +261,7 @@ Result<SampleModel> sampleModelOf(const geometry::Calorimeter& calo, const Campa
   SampleModel m{calib::FitGeometry::of(calo.description()), {}};
   m.geometry.apply(o.corrections);
   m.profile.apply(o.corrections);
-  m.profile.eventPairs = o.sigmaSys.keepsEventPairs();
+  m.profile.eventPairs = true;  // the statistical errors take the event pairs' correlation along
   if (Status s = m.profile.validate(); !s) return Error{fmt::format("the corrections: {}", s.error().message)};
   return m;
 }

@@ -43,6 +43,25 @@ Result<std::vector<std::pair<double, double>>> statisticalFit(const calib::Profi
   return valuesOf(*r);
 }
 
+// The statistical errors of a fit: those it records, else (a fit of a saved profile) the fit of
+// the same profile with σ_sys = 0.
+Result<std::vector<std::pair<double, double>>> statisticalErrorsOf(const calib::FitResult& r,
+                                                                   const calib::ProfileFill& fill,
+                                                                   const CampaignModel& model, std::int64_t first,
+                                                                   std::int64_t last) {
+  if (!r.statisticalCovariance) return statisticalFit(fill, model, first, last);
+  std::vector<std::pair<double, double>> out;
+  for (Param p : kAllParams) {
+    const double unit = geometry::AlignmentParameters::fileUnit(p);
+    out.emplace_back(r.parameters[p] / unit, r.statisticalErrors[p] / unit);
+  }
+  for (Physical p : kDerivedParams) {
+    const double unit = geometry::PhysicalParameters::fileUnit(p);
+    out.emplace_back(r.derived[p].value / unit, r.derived[p].statisticalError / unit);
+  }
+  return out;
+}
+
 std::string number(double v, int digits) {
   return std::isfinite(v) ? fmt::format("{:.{}f}", v, digits) : std::string("—");
 }
@@ -65,7 +84,8 @@ double rms(const std::vector<double>& v) {
   return n > 0 ? std::sqrt(ss / n) : RefitPrecision::kNaN;
 }
 
-// The precision of one series before (the replaced IOVs) and after (the refit).
+// The precision of one series before (the replaced IOVs) and after (the refit). `statBefore`:
+// the IOVs' statistical errors, where the series does not weigh them by those already.
 RefitPrecision precisionOf(const TrendSeries& series, std::int64_t first, std::int64_t last,
                            std::pair<double, double> after, double statAfter, std::vector<double> statBefore,
                            const PeriodTruth* truth) {
@@ -73,21 +93,31 @@ RefitPrecision precisionOf(const TrendSeries& series, std::int64_t first, std::i
   p.value = after.first;
   p.quotedAfter = after.second;
   p.statAfter = statAfter;
-  p.statBefore = median(std::move(statBefore));
-  std::vector<double> values, errors, offTruth;
+  std::vector<double> values, errors, quoted, offTruth;
   for (const TrendPoint& pt : series.points) {
     if (pt.firstRun < first || pt.lastRun > last) continue;
     values.push_back(pt.value);
     errors.push_back(pt.error);
+    quoted.push_back(std::isfinite(pt.quotedError) ? pt.quotedError : pt.error);
     if (truth != nullptr)
       offTruth.push_back(p.parameter.difference(pt.value, truth->mean(p.parameter, pt.firstRun, pt.lastRun)));
   }
-  p.quotedBefore = median(errors);
+  p.quotedBefore = median(quoted);
+  p.statBefore = series.statistical ? median(errors) : median(std::move(statBefore));
   if (values.size() >= 2) {
     double mean = 0.0, ss = 0.0;
     for (double v : values) mean += v / static_cast<double>(values.size());
     for (double v : values) ss += (v - mean) * (v - mean);
     p.scatter = std::sqrt(ss / static_cast<double>(values.size() - 1));
+    double w = 0.0, wy = 0.0;
+    for (std::size_t k = 0; k < values.size(); ++k) {
+      w += 1.0 / (errors[k] * errors[k]);
+      wy += values[k] / (errors[k] * errors[k]);
+    }
+    p.chi2 = 0.0;
+    for (std::size_t k = 0; k < values.size(); ++k) p.chi2 += std::pow((values[k] - wy / w) / errors[k], 2);
+    p.ndf = static_cast<int>(values.size()) - 1;
+    p.scatterOverError = std::sqrt(p.chi2 / p.ndf);
   }
   if (truth != nullptr) {
     p.truth = truth->mean(p.parameter, first, last);
@@ -142,11 +172,13 @@ Result<RefittedSegment> refitPeriod(const RefitInputs& in, const TrendSegment& s
     return Error{fmt::format("--refit: runs {}-{}: the fit's status is '{}'", seg.firstRun, seg.lastRun,
                              name(fit->result.status))};
   }
-  auto statAfter = statisticalFit(fill, *periodModel, seg.firstRun, seg.lastRun);
+  auto statAfter = statisticalErrorsOf(fit->result, fill, *periodModel, seg.firstRun, seg.lastRun);
   if (!statAfter) return Error{fmt::format("--refit: {}", statAfter.error().message)};
   rs.selected = g.selected;
 
-  // The replaced IOVs: their events and statistical errors.
+  // The replaced IOVs: their events and (where the payloads do not record them) statistical errors.
+  const bool recorded = std::all_of(in.series.begin(), in.series.end(),
+                                    [](const TrendSeries& s) { return s.statistical || s.points.empty(); });
   std::vector<double> selectedBefore;
   std::vector<std::vector<double>> statBefore(in.series.size());
   for (std::size_t i = seg.begin; i < seg.end; ++i) {
@@ -161,6 +193,7 @@ Result<RefittedSegment> refitPeriod(const RefitInputs& in, const TrendSegment& s
       return Error{fmt::format("--refit: runs {}-{}: {}", iov.firstRun, iov.lastRun, iovModel.error().message)};
     const calib::ProfileFill f = in.scan.fillOf(iov.firstRun, iov.lastRun, iovModel->profile);
     selectedBefore.push_back(static_cast<double>(f.cutFlow.events.back()));
+    if (recorded) continue;
     auto st = statisticalFit(f, *iovModel, iov.firstRun, iov.lastRun);
     if (!st) continue;  // a group too poor for a fit without σ_sys counts as missing
     for (std::size_t s = 0; s < in.series.size() && s < st->size(); ++s) statBefore[s].push_back((*st)[s].second);
@@ -274,6 +307,9 @@ Result<SegmentRefit> refitSegments(const Trend& trend, const std::vector<TrendSe
       rs.end = seg.end;
       rs.kept = true;
       rs.drifting = seg.drifting;
+      rs.undecided = seg.undecided;
+      rs.inconsistent = seg.inconsistent;
+      rs.scattering = seg.scattering;
       rs.transition = seg.transition;
       for (std::size_t i = seg.begin; i < seg.end; ++i) {
         auto p = tag.payload(tag.iovs()[i]);
@@ -291,6 +327,19 @@ Result<SegmentRefit> refitSegments(const Trend& trend, const std::vector<TrendSe
   return out;
 }
 
+std::string keptBecause(const RefittedSegment& s) {
+  std::vector<std::string> why;
+  if (s.transition) why.emplace_back("it straddles a step");
+  if (!s.drifting.empty()) why.push_back(fmt::format("drifting: {}", fmt::join(s.drifting, ", ")));
+  if (!s.undecided.empty()) why.push_back(fmt::format("a step or a drift: {}", fmt::join(s.undecided, ", ")));
+  if (!s.inconsistent.empty()) why.push_back(fmt::format("inconsistent: {}", fmt::join(s.inconsistent, ", ")));
+  for (const auto& sc : s.scattering) {
+    why.push_back(fmt::format("{} scatters {:.1f} times its {} errors", sc.parameter, sc.ratio(),
+                              sc.statistical ? "statistical" : "measured"));
+  }
+  return fmt::format("{}", fmt::join(why, "; "));
+}
+
 Json refitJson(const SegmentRefit& r, std::size_t iovsBefore) {
   Json segments = Json::array();
   for (const RefittedSegment& s : r.segments) {
@@ -298,6 +347,11 @@ Json refitJson(const SegmentRefit& r, std::size_t iovsBefore) {
     if (s.kept) {
       j["kept"] = true;
       j["drifting"] = s.drifting;
+      j["undecided"] = s.undecided;
+      j["inconsistent"] = s.inconsistent;
+      Json scattering = Json::array();
+      for (const auto& sc : s.scattering) scattering.push_back(sc.parameter);
+      j["scattering"] = scattering;
       j["transition"] = s.transition;
       segments.push_back(j);
       continue;
@@ -318,7 +372,8 @@ Json refitJson(const SegmentRefit& r, std::size_t iovsBefore) {
                 {"quoted_error_after", io::numberOrNull(p.quotedAfter)},
                 {"statistical_error_before", io::numberOrNull(p.statBefore)},
                 {"statistical_error_after", io::numberOrNull(p.statAfter)},
-                {"scatter_before", io::numberOrNull(p.scatter)}};
+                {"scatter_before", io::numberOrNull(p.scatter)},
+                {"scatter_over_error_before", io::numberOrNull(p.scatterOverError)}};
       if (std::isfinite(p.truth)) {
         q["truth"] = p.truth;
         q["refit_minus_truth"] = io::numberOrNull(p.parameter.difference(p.value, p.truth));
@@ -335,12 +390,16 @@ Json refitJson(const SegmentRefit& r, std::size_t iovsBefore) {
 std::string refitMarkdown(const SegmentRefit& r, std::size_t iovsBefore, const std::string& tagOut) {
   std::string md = fmt::format(
       "\n## Refit: one calibration per stable period\n\n"
-      "Tag {}: {} instead of {}. Each stable period is fitted from all its events; a period with a "
-      "drift keeps its IOVs, and so does an IOV straddling a step.\n\n"
+      "Tag {}: {} instead of {}. Each stable period is fitted from all its events; a period whose IOVs do not "
+      "agree within their errors keeps them (a drift, a step or drift its IOVs cannot tell apart, a stretch its "
+      "model does not fit, IOVs scattering beyond their statistical errors), and so does an IOV straddling a "
+      "step.\n\n"
       "The precision gained, three ways. *Quoted*: the fit's errors, which carry σ_sys = 0.2° per profile bin "
       "(docs/fit.md); σ_sys does not shrink with events and already dominates a group of ~50 000, so the quoted "
-      "error barely moves. *Statistical*: the same fits with σ_sys = 0, the part that shrinks as 1/√N. "
-      "*Observed*: the RMS of the replaced IOVs about their mean, what they really scatter by",
+      "error barely moves. *Statistical*: the part the events make, which shrinks as 1/√N (the fits' own "
+      "statistical errors; the same fits with σ_sys = 0 for payloads that do not record them). *Observed*: the "
+      "RMS of the replaced IOVs about their mean, what they really scatter by, and that scatter over their "
+      "statistical errors (√(χ²/ndf) about their weighted mean: about 1 where one value describes them)",
       tagOut, counted(r.iovs.size(), "IOV"), iovsBefore);
   bool withTruth = false;
   for (const auto& s : r.segments) {
@@ -357,9 +416,9 @@ std::string refitMarkdown(const SegmentRefit& r, std::size_t iovsBefore, const s
           s.firstRun, s.lastRun);
       continue;
     }
-    if (!s.drifting.empty()) {
-      md += fmt::format("\n### Runs {}-{}: {} kept (drifting: {})\n", s.firstRun, s.lastRun,
-                        counted(s.end - s.begin, "IOV"), fmt::join(s.drifting, ", "));
+    if (s.kept) {
+      md += fmt::format("\n### Runs {}-{}: {} kept ({})\n", s.firstRun, s.lastRun, counted(s.end - s.begin, "IOV"),
+                        keptBecause(s));
       continue;
     }
     md += fmt::format("\n### Runs {}-{}: {} → 1; {} (median {} per IOV before)\n\n", s.firstRun, s.lastRun,
@@ -367,17 +426,18 @@ std::string refitMarkdown(const SegmentRefit& r, std::size_t iovsBefore, const s
     md +=
         withTruth
             ? "| parameter | refit | truth | quoted error before → after | statistical error before → after | "
-              "gain | observed scatter before | RMS(IOV − truth) → refit − truth |\n|---|---|---|---|---|---|---|---|\n"
+              "gain | observed scatter before | scatter / statistical error | RMS(IOV − truth) → refit − truth "
+              "|\n|---|---|---|---|---|---|---|---|---|\n"
             : "| parameter | refit | quoted error before → after | statistical error before → after | gain | "
-              "observed scatter before |\n|---|---|---|---|---|---|\n";
+              "observed scatter before | scatter / statistical error |\n|---|---|---|---|---|---|---|\n";
     for (const RefitPrecision& p : s.precision) {
       const int d = digitsOf(p.parameter);
       const std::string u = p.parameter.dimension() == Dimension::Angle ? "°" : " cm";
       std::string row = fmt::format("| {} | {}{} |", p.parameter, number(p.value, d), u);
       if (withTruth) row += fmt::format(" {} |", number(p.truth, d));
-      row += fmt::format(" {} → {} | {} → {} | {} | {} |", number(p.quotedBefore, d), number(p.quotedAfter, d),
+      row += fmt::format(" {} → {} | {} → {} | {} | {} | {} |", number(p.quotedBefore, d), number(p.quotedAfter, d),
                          number(p.statBefore, d), number(p.statAfter, d), ratio(p.statBefore, p.statAfter),
-                         number(p.scatter, d));
+                         number(p.scatter, d), number(p.scatterOverError, 2));
       if (withTruth) {
         row +=
             fmt::format(" {} → {} |", number(p.truthRmsBefore, d), number(p.parameter.difference(p.value, p.truth), d));

@@ -1,4 +1,5 @@
 #include "emcalign/validation/trend.hpp"
+#include "trend_internal.hpp"
 #include "emcalign/core/text.hpp"
 
 #include <algorithm>
@@ -91,79 +92,6 @@ double kneeChi2(const TrendSeries& s, std::size_t a, std::size_t c, std::size_t 
 double LineFit::error(double x) const {
   const double dx = x - xRef;
   return std::sqrt(std::max(0.0, varA + 2.0 * dx * covAB + dx * dx * varB));
-}
-
-Result<std::vector<TrendSeries>> seriesOfTag(conddb::TagSnapshot& tag) {
-  std::vector<TrendSeries> out;
-  out.reserve(kAllParams.size() + kDerivedParams.size());
-  for (Param p : kAllParams) out.push_back({p, {}});
-  for (Physical p : kDerivedParams) out.push_back({p, {}});
-  for (const conddb::Iov& iov : tag.iovs()) {
-    auto payload = tag.payload(iov);
-    if (!payload) return payload.error();
-    const conddb::StoredValues values = (*payload)->values();
-    const std::string where = fmt::format("tag {} IOV {}-{}", tag.tag().name, iov.firstRun, iov.lastRun);
-    constexpr std::int64_t kMaxRun = std::numeric_limits<std::int32_t>::max();
-    if (iov.firstRun < -kMaxRun || iov.lastRun > kMaxRun) {
-      return Error{
-          fmt::format("{}: runs beyond ±(2^31 - 1), which no event file has: the trend places each IOV at its "
-                      "middle run, so give it closed IOVs",
-                      where)};
-    }
-    auto missing = [&](const std::string& key) {
-      return Error{
-          fmt::format("{}: {} is missing or not a number (a parameter file without errors cannot be "
-                      "tracked: store fit results)",
-                      where, key)};
-    };
-    for (Param p : kAllParams) {
-      const auto [v, e] = values[index(p)];
-      if (!std::isfinite(v)) return missing(fmt::format("parameters.{}", name(p)));
-      if (!std::isfinite(e)) return missing(fmt::format("errors.{}", name(p)));
-      if (!(e > 0.0)) return Error{fmt::format("{}: errors.{} is not positive", where, name(p))};
-      out[index(p)].points.push_back({iov.firstRun, iov.lastRun, v, e});
-    }
-    // A direction is defined when its magnitude is: ψ (the tilt's) when β is 3σ from 0, τ
-    // (the gap's) when μ is.
-    auto significant = [&](Physical magnitude) {
-      const auto k = static_cast<std::size_t>(std::ranges::find(kDerivedParams, magnitude) - kDerivedParams.begin());
-      const auto [v, e] = values[kNumParams + k];
-      return std::abs(v) >= 3.0 * e;  // false when either is NaN
-    };
-    for (std::size_t k = 0; k < kDerivedParams.size(); ++k) {
-      const Physical p = kDerivedParams[k];
-      const auto [v, e] = values[kNumParams + k];
-      if (!std::isfinite(v) || !std::isfinite(e) || !(e > 0.0)) continue;  // an undefined derived value leaves a hole
-      if ((p == Physical::Psi && !significant(Physical::Beta)) || (p == Physical::Tau && !significant(Physical::Mu))) {
-        continue;
-      }
-      auto& points = out[kNumParams + k].points;
-      double value = v;
-      if (isDirection(p) && !points.empty()) {
-        // An angle: the turn nearest the previous point, so that ±180° is no step.
-        value -= 360.0 * std::round((value - points.back().value) / 360.0);
-      }
-      points.push_back({iov.firstRun, iov.lastRun, value, e});
-    }
-  }
-  return out;
-}
-
-double errorScale(const TrendSeries& s) {
-  std::vector<double> d;
-  for (std::size_t i = 1; i < s.points.size(); ++i) {
-    const auto& a = s.points[i - 1];
-    const auto& b = s.points[i];
-    d.push_back(std::abs(b.value - a.value) / std::hypot(a.error, b.error));
-  }
-  if (d.size() < 5) return 1.0;
-  std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2), d.end());
-  // The median over 0.6745 estimates the scatter / error ratio with a relative standard error
-  // of about 1.15/√m (m differences); its upper bound at two standard errors is used, so that
-  // a low fluctuation of the estimate does not make steps out of noise.
-  const double m = static_cast<double>(d.size());
-  const double scale = d[d.size() / 2] / 0.6744897501960817 * (1.0 + 2.3 / std::sqrt(m));
-  return std::isfinite(scale) && scale > 0.0 ? std::max(0.05, scale) : 1.0;
 }
 
 std::vector<Change> changePoints(const TrendSeries& s, double scale, double penalty, double transitionPenalty,
@@ -309,7 +237,6 @@ SegmentTest fitSegment(const TrendSeries& s, std::size_t begin, std::size_t end,
   if (seg.isLine() && seg.line.varB > 0.0) {
     seg.sloped = seg.constant.chi2 - seg.line.chi2 > std::log(static_cast<double>(end - begin));
     seg.slopeZ = seg.line.b / std::sqrt(seg.line.varB);
-    seg.pValue = normalTwoSided(seg.slopeZ);
   }
   return seg;
 }
@@ -363,7 +290,39 @@ std::vector<TrendEdge> findEdges(const std::vector<TrendSeries>& series, std::ve
   return out;
 }
 
-// Drifts: every segment's slope, Bonferroni over all segments tested.
+// A drift with a start and an end (trend_drift.hpp) over points [begin, end), where it fits
+// them better than the best single step there (with a transition's penalty) by more than
+// kOrDriftChi2: by stepZ² or more it is a change seen by IOVs along it, not a step; by less,
+// these IOVs cannot tell them apart. A step is a ramp of no width: the ramp must earn its width
+// (and hold two IOVs wholly).
+std::optional<DriftAlternative> rampAlternative(const TrendSeries& s, std::size_t begin, std::size_t end,
+                                                const SeriesAnalysis& a, const TrendOptions& o,
+                                                double transitionPenalty) {
+  Stretch st{&s, {}, a.errorScale};
+  for (std::size_t i = begin; i < end; ++i) st.points.push_back(i);
+  const auto ramp = bestRamp(st);
+  const auto step = bestStep(st, o.minSegment, transitionPenalty);
+  if (!ramp || !step || !(step->cost - ramp->chi2 > kOrDriftChi2)) return std::nullopt;
+  DriftAlternative alt;
+  std::size_t first = end - 1, last = begin;
+  for (std::size_t i = begin; i < end; ++i) {
+    if (s.points[i].highEdge() > ramp->start && s.points[i].lowEdge() < ramp->end) {
+      first = std::min(first, i);
+      last = std::max(last, i);
+    }
+  }
+  alt.firstRun = s.points[first].firstRun;
+  alt.lastRun = s.points[last].lastRun;
+  alt.startRun = std::llround(ramp->start);
+  alt.endRun = std::llround(ramp->end);
+  alt.change = ramp->change();
+  alt.changeError = ramp->changeError();
+  alt.chi2Drift = ramp->chi2;
+  alt.chi2Step = step->cost;
+  alt.tellApart = tellApart(st, *ramp, transitionPenalty, o.minSegment);
+  return alt;
+}
+
 // The first run after a step inside the IOV `tp`: its value is before·f + after·(1 − f), f
 // the share of its runs before the step.
 std::int64_t runTheMixturePointsTo(const TrendPoint& tp, double before, double after) {
@@ -372,72 +331,17 @@ std::int64_t runTheMixturePointsTo(const TrendPoint& tp, double before, double a
   return tp.firstRun + static_cast<std::int64_t>(std::llround(fraction * runs));
 }
 
-// The best single step inside a drift's segment: two constants of at least minSegment points,
-// the point between them possibly set aside (at the transition penalty); reported when its
-// χ² (with that penalty) is within a change's penalty of the line's.
-std::optional<StepAlternative> stepAlternative(const TrendSeries& s, const SegmentTest& seg, const SeriesAnalysis& a,
-                                               double transitionPenalty, std::size_t minSegment) {
-  const std::size_t m = std::max<std::size_t>(minSegment, 1);
-  std::optional<StepAlternative> best;
-  double bestCost = std::numeric_limits<double>::infinity();
-  for (std::size_t i = seg.begin + m; i + m <= seg.end; ++i) {
-    for (const bool transition : {false, true}) {
-      const std::size_t firstEnd = transition ? i - 1 : i;
-      if (firstEnd < seg.begin + m) continue;
-      const LineFit before = fitLine(s, seg.begin, firstEnd, a.errorScale, false);
-      const LineFit after = fitLine(s, i, seg.end, a.errorScale, false);
-      const double chi2 = before.chi2 + after.chi2;
-      const double cost = chi2 + (transition ? transitionPenalty : 0.0);
-      if (!(cost < bestCost)) continue;
-      bestCost = cost;
-      StepAlternative alt;
-      alt.firstRunAfter = s.points[i].firstRun;
-      alt.before = before.a;
-      alt.after = after.a;
-      alt.size = after.a - before.a;
-      alt.error = std::sqrt(before.varA + after.varA);
-      alt.chi2Step = chi2;
-      alt.chi2Line = seg.line.chi2;
-      alt.nearFirstRun = s.points[transition ? i - 2 : i - 1].firstRun;
-      alt.nearLastRun = s.points[i].lastRun;
-      alt.index = i;
-      alt.transition = transition;
-      if (transition) {
-        const TrendPoint& tp = s.points[i - 1];
-        alt.firstRunAfter = runTheMixturePointsTo(tp, before.a, after.a);
-        alt.withinIov = std::pair{tp.firstRun, tp.lastRun};
-      }
-      best = alt;
-    }
-  }
-  if (!best || !(bestCost - seg.line.chi2 < a.penalty)) return std::nullopt;
-  return best;
-}
-
-std::vector<TrendDrift> flagDrifts(const std::vector<TrendSeries>& series, std::vector<SeriesAnalysis>& analyses,
-                                   int tests, const TrendOptions& o, double transitionPenalty) {
-  std::vector<TrendDrift> drifts;
-  for (std::size_t k = 0; k < series.size(); ++k) {
-    for (auto& seg : analyses[k].segments) {
-      if (!seg.isLine() || !(seg.line.varB > 0.0)) continue;
-      seg.drift = seg.pValue * tests < o.driftAlpha;
-      if (!seg.drift) continue;
-      const auto& s = series[k];
-      drifts.push_back({s.parameter, s.points[seg.begin].firstRun, s.points[seg.end - 1].lastRun, seg.line.b,
-                        std::sqrt(seg.line.varB), seg.slopeZ, seg.pValue,
-                        stepAlternative(s, seg, analyses[k], transitionPenalty, o.minSegment)});
-    }
-  }
-  return drifts;
-}
-
 // Steps: the jump between neighbouring segments' models at their boundary (at a transition
 // IOV's middle), not explained by a drift's knee (see the header). At a known boundary the
-// jump is measured whatever its size (into `atKnown`) and reported as a step from stepZ σ.
-std::vector<TrendStep> findSteps(const TrendSeries& s, const SeriesAnalysis& a, const TrendOptions& o,
+// jump is measured whatever its size (into `atKnown`) and reported as a step from stepZ σ; a
+// change in `forced` (a drift's step where other parameters step) needs only the jump. Marks
+// a.cutAt: where the series is cut into stretches (every step, every known boundary).
+std::vector<TrendStep> findSteps(const TrendSeries& s, SeriesAnalysis& a, const TrendOptions& o,
+                                 double transitionPenalty, const std::vector<Change>& forced,
                                  std::vector<TrendStep>& atKnown) {
   std::vector<TrendStep> steps;
   const auto& segs = a.segments;
+  a.cutAt.assign(a.changes.size(), false);
   const std::vector<KnownChange> known = knownChangesWithRuns(s, o.boundaries);
   for (std::size_t j = 1; j < segs.size(); ++j) {
     const std::size_t i = segs[j].begin;
@@ -446,7 +350,7 @@ std::vector<TrendStep> findSteps(const TrendSeries& s, const SeriesAnalysis& a, 
         std::find_if(known.begin(), known.end(), [&](const KnownChange& c) { return c.change == a.changes[j - 1]; });
     const TrendPoint& tp = s.points[i - 1];
     const double xb = transition ? tp.x() : static_cast<double>(s.points[i].firstRun) - 0.5;
-    const LineFit &l0 = segs[j - 1].stepModel(), &l1 = segs[j].stepModel();
+    const LineFit &l0 = segs[j - 1].model(), &l1 = segs[j].model();
     const double before = l0.value(xb), after = l1.value(xb);
     TrendStep step{s.parameter,          k != known.end(), i,
                    s.points[i].firstRun, after - before,   std::hypot(l0.error(xb), l1.error(xb)),
@@ -455,165 +359,204 @@ std::vector<TrendStep> findSteps(const TrendSeries& s, const SeriesAnalysis& a, 
       step.firstRunAfter = k->run;
       if (transition) step.withinIov = std::pair{tp.firstRun, tp.lastRun};
       atKnown.push_back(step);
+      a.cutAt[j - 1] = true;
       if (std::abs(step.z()) >= o.stepZ) steps.push_back(step);
       continue;
     }
     if (!(std::abs(step.z()) >= o.stepZ)) continue;
-    if (o.kneeTest && segs[j - 1].isLine() && segs[j].isLine()) {
+    const bool isForced = std::find(forced.begin(), forced.end(), a.changes[j - 1]) != forced.end();
+    if (!isForced && o.kneeTest && segs[j - 1].isLine() && segs[j].isLine()) {
       const std::size_t skip = transition ? i - 1 : std::numeric_limits<std::size_t>::max();
       const double knee = kneeChi2(s, segs[j - 1].begin, segs[j].end, skip, a.errorScale);
       if (knee - (segs[j - 1].line.chi2 + segs[j].line.chi2) < o.stepZ * o.stepZ) continue;
+    }
+    if (!isForced && o.kneeTest) {
+      step.orDrift = rampAlternative(s, segs[j - 1].begin, segs[j].end, a, o, transitionPenalty);
+      if (step.orDrift && step.orDrift->chi2Step - step.orDrift->chi2Drift >= o.stepZ * o.stepZ) continue;
     }
     if (transition) {
       step.firstRunAfter = runTheMixturePointsTo(tp, before, after);
       step.withinIov = std::pair{tp.firstRun, tp.lastRun};
     }
+    a.cutAt[j - 1] = true;
     steps.push_back(step);
   }
   return steps;
 }
 
-// Stable periods: steps at neighbouring IOVs (chained) are one change of the detector. A
-// change with a step inside an IOV makes that IOV a transition of its own (the strongest
-// such step's); otherwise the strongest step's IOV starts the next period. A known boundary
-// always starts a period (its straddling IOV a transition), and takes the place of a change
-// found at its IOV or the next.
-std::vector<TrendSegment> stablePeriods(const Trend& t, const std::vector<TrendSeries>& series) {
-  const TrendSeries* reference = nullptr;  // a series with every IOV (the 12 parameters have)
-  for (const auto& s : series) {
-    if (s.points.size() == t.iovs) reference = &s;
-  }
-  if (reference == nullptr || t.iovs == 0) return {};
-  auto iovOf = [&](std::int64_t firstRun) {
-    auto it = std::lower_bound(reference->points.begin(), reference->points.end(), firstRun,
-                               [](const TrendPoint& p, std::int64_t r) { return p.firstRun < r; });
-    return static_cast<std::size_t>(it - reference->points.begin());
-  };
-  struct Place {
-    std::size_t iov;  // the transition IOV, or the first IOV after the step
-    const TrendStep* step;
-    // In half IOVs: 2·iov for a step before IOV iov, 2·iov + 1 for one inside it. Two places
-    // at most 2 apart (steps at neighbouring boundaries, a step beside the IOV that straddles
-    // another) are one change; a step an IOV away from a straddling IOV is not.
-    [[nodiscard]] std::size_t position() const { return 2 * iov + (step->withinIov ? 1 : 0); }
-  };
-  std::vector<Place> places;
-  for (const auto& st : t.steps) {
-    if (!st.known) places.push_back({iovOf(st.withinIov ? st.withinIov->first : st.firstRunAfter), &st});
-  }
-  std::sort(places.begin(), places.end(), [](const Place& a, const Place& b) { return a.position() < b.position(); });
-  std::vector<std::vector<Place>> clusters;
-  for (const Place& p : places) {
-    if (!clusters.empty() && p.position() <= clusters.back().back().position() + 2) {
-      clusters.back().push_back(p);
-    } else {
-      clusters.push_back({p});
+// A stretch as the series' segments make it: the IOVs of consecutive segments that no step
+// separates, and those set aside between them at a change that is no step (they rejoin it
+// when its model fits them).
+struct StretchPoints {
+  std::vector<std::size_t> points, setAside;
+};
+
+std::vector<StretchPoints> stretchesOf(const SeriesAnalysis& a) {
+  std::vector<StretchPoints> out;
+  for (std::size_t j = 0; j < a.segments.size(); ++j) {
+    if (j == 0 || a.cutAt[j - 1]) {
+      out.emplace_back();
+    } else if (a.changes[j - 1].transition) {
+      out.back().setAside.push_back(a.changes[j - 1].start - 1);
     }
-  }
-  struct Cut {
-    std::size_t iov;  // where the next period starts, or the transition IOV
-    bool transition;
-    std::vector<Quantity> names;
-    bool known;
-  };
-  std::vector<Cut> cuts;
-  for (const auto& b : t.boundaries) {
-    if (!b.measurable) continue;
-    cuts.push_back({iovOf(b.withinIov ? b.withinIov->first : b.run), b.withinIov.has_value(), b.changed, true});
-  }
-  auto stronger = [](const Place& a, const Place& b) { return std::abs(a.step->z()) < std::abs(b.step->z()); };
-  for (const auto& c : clusters) {
-    std::vector<Quantity> names;
-    const Place* cut = nullptr;  // the strongest transition, else the strongest step
-    for (const Place& p : c) {
-      if (std::find(names.begin(), names.end(), p.step->parameter) == names.end()) names.push_back(p.step->parameter);
-      if (p.step->withinIov && (cut == nullptr || !cut->step->withinIov || stronger(*cut, p))) cut = &p;
-    }
-    if (cut == nullptr) cut = &*std::max_element(c.begin(), c.end(), stronger);
-    const bool nearKnown = std::any_of(cuts.begin(), cuts.end(), [&](const Cut& k) {
-      return k.known && cut->iov + 1 >= k.iov && cut->iov <= k.iov + 1;
-    });
-    if (!nearKnown) cuts.push_back({cut->iov, cut->step->withinIov.has_value(), names, false});
-  }
-  // An IOV at either end that departs from the rest (TrendEdge) is a period of its own.
-  std::map<std::size_t, std::vector<Quantity>> departingAt;  // by its IOV
-  for (const auto& e : t.edges) {
-    auto& names = departingAt[iovOf(e.firstRun)];
-    if (std::find(names.begin(), names.end(), e.parameter) == names.end()) names.push_back(e.parameter);
-  }
-  for (const auto& [iov, names] : departingAt) cuts.push_back({iov == 0 ? 1 : iov, false, {}, false});
-  // (stable: at one IOV the known boundaries' and the steps' cuts come before an edge's)
-  std::stable_sort(cuts.begin(), cuts.end(), [](const Cut& a, const Cut& b) { return a.iov < b.iov; });
-  std::vector<std::size_t> bounds = {0}, transitions, known;
-  std::map<std::size_t, std::vector<Quantity>> stepsAt;  // by the IOV where a period starts
-  for (const Cut& c : cuts) {
-    if (c.iov == 0 || c.iov >= t.iovs || c.iov <= bounds.back()) continue;
-    bounds.push_back(c.iov);
-    stepsAt[c.iov] = c.names;
-    if (c.known) known.push_back(c.iov);
-    if (c.transition && c.iov + 1 < t.iovs) {
-      transitions.push_back(c.iov);
-      bounds.push_back(c.iov + 1);
-      stepsAt[c.iov + 1] = c.names;
-      if (c.known) known.push_back(c.iov + 1);
-    }
-  }
-  bounds.push_back(t.iovs);
-  std::vector<TrendSegment> out;
-  auto add = [](std::vector<Quantity>& names, const Quantity& n) {
-    if (std::find(names.begin(), names.end(), n) == names.end()) names.push_back(n);
-  };
-  for (std::size_t k = 0; k + 1 < bounds.size(); ++k) {
-    TrendSegment seg;
-    seg.begin = bounds[k];
-    seg.end = bounds[k + 1];
-    seg.firstRun = reference->points[seg.begin].firstRun;
-    seg.lastRun = reference->points[seg.end - 1].lastRun;
-    seg.transition = std::find(transitions.begin(), transitions.end(), seg.begin) != transitions.end();
-    seg.resolvable = t.resolvable();
-    seg.afterKnownBoundary = std::find(known.begin(), known.end(), seg.begin) != known.end();
-    if (auto it = stepsAt.find(seg.begin); it != stepsAt.end()) seg.stepsAtStart = it->second;
-    if (auto it = departingAt.find(seg.begin); it != departingAt.end() && seg.end - seg.begin == 1) {
-      seg.departing = it->second;
-    }
-    if (!seg.transition) {
-      for (const auto& d : t.drifts) {
-        if (d.firstRun <= seg.lastRun && d.lastRun >= seg.firstRun) add(seg.drifting, d.parameter);
-      }
-      for (const auto& i : t.inconsistencies) {
-        if (i.firstRun <= seg.lastRun && i.lastRun >= seg.firstRun) add(seg.inconsistent, i.parameter);
-      }
-    }
-    out.push_back(std::move(seg));
+    for (std::size_t i = a.segments[j].begin; i < a.segments[j].end; ++i) out.back().points.push_back(i);
   }
   return out;
 }
 
-// Segments whose model the χ² rejects (Bonferroni over every segment tested).
-std::vector<TrendInconsistency> testSegments(const Trend& t, const std::vector<TrendSeries>& series, int& tests) {
+// A stretch's model: flat, or the drift chooseDrift prefers (from kMinLinePoints IOVs on).
+StretchModel modelOf(const TrendSeries& s, std::vector<std::size_t> points, double scale, bool tested,
+                     const DriftPenalties& penalties) {
+  const Stretch st{&s, points, scale};
+  StretchModel m{std::move(points), fitFlat(st), tested};
+  if (tested) m.model = chooseDrift(st, penalties);
+  return m;
+}
+
+// The stretch with the set-aside IOVs back in, those its model does not fit within 3 of their
+// errors left out again one by one (the worst first), modelled again.
+StretchModel withFittingIovs(const TrendSeries& s, const StretchPoints& sp, double scale, bool tested,
+                             const DriftPenalties& penalties) {
+  std::vector<std::size_t> points = sp.points, candidates = sp.setAside;
+  points.insert(points.end(), candidates.begin(), candidates.end());
+  std::sort(points.begin(), points.end());
+  for (;;) {
+    StretchModel m = modelOf(s, points, scale, tested, penalties);
+    double worst = 3.0;
+    std::size_t out = 0;
+    bool any = false;
+    for (std::size_t i : candidates) {
+      const TrendPoint& p = s.points[i];
+      const double pull = std::abs(p.value - m.model.iovValue(p)) / (scale * p.error);
+      if (pull > worst) {
+        worst = pull;
+        out = i;
+        any = true;
+      }
+    }
+    if (!any) return m;
+    points.erase(std::find(points.begin(), points.end(), out));
+    candidates.erase(std::find(candidates.begin(), candidates.end(), out));
+  }
+}
+
+// The IOVs of a stretch a drift spans, in part or whole (indices into the series).
+std::pair<std::size_t, std::size_t> driftIovs(const TrendSeries& s, const StretchModel& m) {
+  std::size_t first = m.points.front(), last = m.points.back();
+  for (std::size_t i : m.points) {
+    if (s.points[i].highEdge() > m.model.start) {
+      first = i;
+      break;
+    }
+  }
+  for (std::size_t i : m.points) {
+    if (s.points[i].lowEdge() < m.model.end) last = i;
+  }
+  return {first, last};
+}
+
+// The best single step in a drift's stretch, when its χ² (with a transition's penalty) comes
+// within `cannotTell` of the drift's: these IOVs cannot tell them apart.
+std::optional<StepAlternative> stepAlternative(const TrendSeries& s, const StretchModel& m, double scale,
+                                               double transitionPenalty, std::size_t minSegment, double cannotTell) {
+  const Stretch st{&s, m.points, scale};
+  const auto step = bestStep(st, minSegment, transitionPenalty);
+  if (!step || !(step->cost - m.model.chi2 < cannotTell)) return std::nullopt;
+  // A transition must be the series' own IOV before the step, not one set aside elsewhere.
+  const std::size_t i = m.points[step->after];
+  const bool transition = step->transition && m.points[step->after - 1] == i - 1;
+  StepAlternative alt;
+  alt.firstRunAfter = s.points[i].firstRun;
+  alt.before = step->before;
+  alt.after = step->afterValue;
+  alt.size = step->afterValue - step->before;
+  alt.error = std::sqrt(step->varBefore + step->varAfter);
+  alt.chi2Step = step->chi2;
+  alt.chi2Line = m.model.chi2;
+  alt.nearFirstRun = s.points[m.points[step->after - (step->transition && step->after >= 2 ? 2 : 1)]].firstRun;
+  alt.nearLastRun = s.points[i].lastRun;
+  alt.index = i;
+  alt.transition = transition;
+  if (transition) {
+    const TrendPoint& tp = s.points[i - 1];
+    alt.firstRunAfter = runTheMixturePointsTo(tp, alt.before, alt.after);
+    alt.withinIov = std::pair{tp.firstRun, tp.lastRun};
+  }
+  return alt;
+}
+
+// The drift of a stretch whose model is one.
+TrendDrift driftOf(const TrendSeries& s, const StretchModel& m) {
+  const RampFit& f = m.model;
+  const auto [first, last] = driftIovs(s, m);
+  TrendDrift d{s.parameter, s.points[first].firstRun, s.points[last].lastRun, f.slope, f.slopeError(), f.slopeZ()};
+  d.pValue = normalTwoSided(d.z);
+  if (!f.openStart) d.startRun = std::llround(f.start);
+  if (!f.openEnd) d.endRun = std::llround(f.end);
+  d.startRange = {std::llround(f.startLow), std::llround(f.startHigh)};
+  d.endRange = {std::llround(f.endLow), std::llround(f.endHigh)};
+  d.change = f.change();
+  d.changeError = f.changeError();
+  return d;
+}
+
+// Every series cut into stretches at its steps, each modelled (flat or a drift, the slope's
+// penalty Bonferroni over all stretches tested); the drifts found, each with the step that
+// fits it as well, if one does, and what would tell them apart.
+std::vector<TrendDrift> modelStretches(const std::vector<TrendSeries>& series, Trend& t) {
+  const TrendOptions& o = t.options;
+  std::vector<std::vector<StretchPoints>> all;
+  t.tests = 0;
+  for (const auto& a : t.series) {
+    all.push_back(stretchesOf(a));
+    for (const auto& sp : all.back()) t.tests += sp.points.size() >= kMinLinePoints ? 1 : 0;
+  }
+  t.slopePenalty = bonferroniZ2(o.driftAlpha, t.tests);
+  std::vector<TrendDrift> drifts;
+  for (std::size_t k = 0; k < series.size(); ++k) {
+    const TrendSeries& s = series[k];
+    SeriesAnalysis& a = t.series[k];
+    const double logN = std::log(static_cast<double>(std::max<std::size_t>(s.points.size(), 2)));
+    const DriftPenalties penalties{t.slopePenalty, o.kneePenalty.value_or(kKneePenaltyPerLogN * logN),
+                                   o.kneeShapePenalty};
+    if (!s.points.empty()) t.kneePenalty = std::max(t.kneePenalty, penalties.knee);
+    a.stretches.clear();
+    for (const auto& sp : all[k]) {
+      if (sp.points.empty()) continue;
+      StretchModel m = withFittingIovs(s, sp, a.errorScale, sp.points.size() >= kMinLinePoints, penalties);
+      if (m.drift()) {
+        TrendDrift d = driftOf(s, m);
+        d.orStep = stepAlternative(s, m, a.errorScale, t.transitionPenalty, o.minSegment, o.stepZ * o.stepZ);
+        if (d.orStep) d.tellApart = tellApart({&s, m.points, a.errorScale}, m.model, t.transitionPenalty, o.minSegment);
+        drifts.push_back(std::move(d));
+      }
+      a.stretches.push_back(std::move(m));
+    }
+  }
+  return drifts;
+}
+
+// Stretches whose model the χ² rejects (Bonferroni over every stretch tested).
+std::vector<TrendInconsistency> testStretches(const Trend& t, const std::vector<TrendSeries>& series, int& tests) {
   struct Tested {
     std::size_t series;
-    const SegmentTest* segment;
-    double chi2;
-    int ndf;
+    const StretchModel* stretch;
   };
   std::vector<Tested> tested;
   for (std::size_t k = 0; k < series.size(); ++k) {
-    for (const auto& seg : t.series[k].segments) {
-      const LineFit& m = seg.model();
-      const int ndf = seg.modelNdf();
-      if (ndf >= 1) tested.push_back({k, &seg, m.chi2, ndf});
+    for (const auto& m : t.series[k].stretches) {
+      if (m.ndf() >= 1) tested.push_back({k, &m});
     }
   }
   tests = static_cast<int>(tested.size());
   std::vector<TrendInconsistency> out;
   for (const auto& x : tested) {
-    const double p = chi2PValue(x.chi2, x.ndf);
+    const StretchModel& m = *x.stretch;
+    const double p = chi2PValue(m.model.chi2, m.ndf());
     if (!(p * tests < t.options.driftAlpha)) continue;
     const auto& s = series[x.series];
-    out.push_back({s.parameter, s.points[x.segment->begin].firstRun, s.points[x.segment->end - 1].lastRun,
-                   x.segment->end - x.segment->begin, x.chi2, x.ndf, p, &x.segment->model() == &x.segment->line,
-                   s.points.size() < 2 * t.options.minSegment});
+    out.push_back({s.parameter, s.points[m.points.front()].firstRun, s.points[m.points.back()].lastRun,
+                   m.points.size(), m.model.chi2, m.ndf(), p, m.drift(), s.points.size() < 2 * t.options.minSegment});
   }
   return out;
 }
@@ -643,20 +586,71 @@ std::vector<KnownBoundary> summariseBoundaries(const Trend& t, const std::vector
   return out;
 }
 
-// Transition IOVs of a series that no stable period shows as one.
+// IOVs set aside between segments that neither rejoined their stretch nor straddle a step
+// (a transition period shows those).
 std::vector<SetAsideIov> setAsideIovs(const Trend& t, const std::vector<TrendSeries>& series) {
   std::vector<SetAsideIov> out;
   for (std::size_t k = 0; k < series.size(); ++k) {
-    for (const Change& c : t.series[k].changes) {
+    const SeriesAnalysis& a = t.series[k];
+    for (std::size_t j = 0; j < a.changes.size(); ++j) {
+      const Change& c = a.changes[j];
       if (!c.transition) continue;
-      const TrendPoint& p = series[k].points[c.start - 1];
+      const std::size_t i = c.start - 1;
+      const TrendPoint& p = series[k].points[i];
+      const bool rejoined = std::any_of(a.stretches.begin(), a.stretches.end(), [&](const StretchModel& m) {
+        return std::binary_search(m.points.begin(), m.points.end(), i);
+      });
       const bool shown = std::any_of(t.segments.begin(), t.segments.end(), [&](const TrendSegment& g) {
         return g.transition && g.firstRun == p.firstRun && g.lastRun == p.lastRun;
       });
-      if (!shown) out.push_back({series[k].parameter, p.firstRun, p.lastRun});
+      if (!rejoined && !shown) out.push_back({series[k].parameter, p.firstRun, p.lastRun});
     }
   }
   return out;
+}
+
+// A drift whose step alternative fits better, where other parameters step (the same change of
+// the detector), is that step: its series gets the change (forced: a step without the knee
+// test), to be found again. Returns the steps promoted.
+struct Promoted {
+  Quantity parameter;
+  StepAlternative step;
+};
+
+std::vector<Promoted> promoteSteps(const std::vector<TrendSeries>& series, Trend& t,
+                                   std::vector<std::vector<Change>>& forced) {
+  std::vector<Promoted> promoted;
+  for (const TrendDrift& d : t.drifts) {
+    if (!d.orStep || !d.orStep->preferred()) continue;
+    const StepAlternative& alt = *d.orStep;
+    const bool elsewhere = std::any_of(t.steps.begin(), t.steps.end(), [&](const TrendStep& st) {
+      return st.parameter != d.parameter && st.firstRunAfter >= alt.nearFirstRun && st.firstRunAfter <= alt.nearLastRun;
+    });
+    if (!elsewhere) continue;
+    for (std::size_t k = 0; k < series.size(); ++k) {
+      if (series[k].parameter != d.parameter) continue;
+      SeriesAnalysis& a = t.series[k];
+      const Change change{alt.index, alt.transition};
+      const std::size_t firstEnd = alt.transition ? alt.index - 1 : alt.index;
+      for (std::size_t j = 0; j < a.segments.size(); ++j) {
+        const SegmentTest seg = a.segments[j];
+        if (j > 0 && a.changes[j - 1] == change) {  // a change there already, which was no step
+          forced[k].push_back(change);
+          promoted.push_back({d.parameter, alt});
+          break;
+        }
+        if (!(seg.begin < firstEnd && alt.index < seg.end)) continue;
+        a.segments[j] = fitSegment(series[k], seg.begin, firstEnd, a.errorScale);
+        a.segments.insert(a.segments.begin() + static_cast<std::ptrdiff_t>(j) + 1,
+                          fitSegment(series[k], alt.index, seg.end, a.errorScale));
+        a.changes.insert(a.changes.begin() + static_cast<std::ptrdiff_t>(j), change);
+        forced[k].push_back(change);
+        promoted.push_back({d.parameter, alt});
+        break;
+      }
+    }
+  }
+  return promoted;
 }
 
 }  // namespace
@@ -678,52 +672,21 @@ Trend analyseTrend(const std::vector<TrendSeries>& series, const TrendOptions& o
   }
   t.edges = findEdges(series, t.series, o);
   std::vector<TrendStep> atKnown;
-  const auto driftsAndSteps = [&] {
-    t.tests = 0;
-    for (const auto& a : t.series) {
-      for (const auto& seg : a.segments) t.tests += seg.isLine() && seg.line.varB > 0.0 ? 1 : 0;
-    }
-    t.drifts = flagDrifts(series, t.series, t.tests, o, t.transitionPenalty);
+  std::vector<std::vector<Change>> forced(series.size());
+  const auto stepsAndDrifts = [&] {
     atKnown.clear();
     t.steps.clear();
     for (std::size_t k = 0; k < series.size(); ++k) {
-      for (auto& step : findSteps(series[k], t.series[k], o, atKnown)) t.steps.push_back(std::move(step));
-    }
-  };
-  driftsAndSteps();
-  // A drift that a step fits better, where other parameters step (the same change of the
-  // detector), is that step: its segment is cut there and everything found again.
-  struct Promoted {
-    Quantity parameter;
-    StepAlternative step;
-  };
-  std::vector<Promoted> promoted;
-  for (const TrendDrift& d : t.drifts) {
-    if (!d.orStep || !d.orStep->preferred()) continue;
-    const bool elsewhere = std::any_of(t.steps.begin(), t.steps.end(), [&](const TrendStep& st) {
-      return st.parameter != d.parameter && st.firstRunAfter >= d.orStep->nearFirstRun &&
-             st.firstRunAfter <= d.orStep->nearLastRun;
-    });
-    if (!elsewhere) continue;
-    for (std::size_t k = 0; k < series.size(); ++k) {
-      if (series[k].parameter != d.parameter) continue;
-      SeriesAnalysis& a = t.series[k];
-      for (std::size_t j = 0; j < a.segments.size(); ++j) {
-        const SegmentTest seg = a.segments[j];
-        if (!seg.drift || series[k].points[seg.begin].firstRun != d.firstRun) continue;
-        const StepAlternative& alt = *d.orStep;
-        const std::size_t firstEnd = alt.transition ? alt.index - 1 : alt.index;
-        a.segments[j] = fitSegment(series[k], seg.begin, firstEnd, a.errorScale);
-        a.segments.insert(a.segments.begin() + static_cast<std::ptrdiff_t>(j) + 1,
-                          fitSegment(series[k], alt.index, seg.end, a.errorScale));
-        a.changes.insert(a.changes.begin() + static_cast<std::ptrdiff_t>(j), Change{alt.index, alt.transition});
-        promoted.push_back({d.parameter, alt});
-        break;
+      for (auto& step : findSteps(series[k], t.series[k], o, t.transitionPenalty, forced[k], atKnown)) {
+        t.steps.push_back(std::move(step));
       }
     }
-  }
+    t.drifts = modelStretches(series, t);
+  };
+  stepsAndDrifts();
+  const std::vector<Promoted> promoted = promoteSteps(series, t, forced);
   if (!promoted.empty()) {
-    driftsAndSteps();
+    stepsAndDrifts();
     for (auto& st : t.steps) {
       for (const auto& p : promoted) {
         if (st.parameter == p.parameter && st.firstRunAfter >= p.step.nearFirstRun &&
@@ -733,494 +696,15 @@ Trend analyseTrend(const std::vector<TrendSeries>& series, const TrendOptions& o
       }
     }
   }
-  t.inconsistencies = testSegments(t, series, t.consistencyTests);
+  t.inconsistencies = testStretches(t, series, t.consistencyTests);
   t.boundaries = summariseBoundaries(t, atKnown);
   t.segments = stablePeriods(t, series);
+  t.scatterTests = judgeScatter(t.segments, series, t.series, o.driftAlpha);
   t.setAside = setAsideIovs(t, series);
   std::sort(t.steps.begin(), t.steps.end(), [](const TrendStep& a, const TrendStep& b) {
     return a.firstRunAfter != b.firstRunAfter ? a.firstRunAfter < b.firstRunAfter : a.parameter < b.parameter;
   });
   return t;
-}
-
-namespace {
-
-std::string inconsistencyText(const TrendInconsistency& i) {
-  return fmt::format("{} (runs {}-{}: χ² {:.1f}/{}, p = {:.2g})", i.parameter, i.firstRun, i.lastRun, i.chi2, i.ndf,
-                     i.pValue);
-}
-
-}  // namespace
-
-std::string stepAlternativeText(const Trend& t, const TrendDrift& d) {
-  if (!d.orStep) return {};
-  const StepAlternative& a = *d.orStep;
-  std::vector<Quantity> others;  // parameters that step there too: the same change, most likely
-  for (const auto& st : t.steps) {
-    if (st.parameter != d.parameter && st.firstRunAfter >= a.nearFirstRun && st.firstRunAfter <= a.nearLastRun &&
-        std::find(others.begin(), others.end(), st.parameter) == others.end()) {
-      others.push_back(st.parameter);
-    }
-  }
-  const std::string step = fmt::format(
-      "{:+.4g} ± {:.2g} {} at {}run {}{}{}", a.size, a.error, d.parameter.unit(), a.withinIov ? "≈ " : "",
-      a.firstRunAfter,
-      a.withinIov ? fmt::format(" (inside IOV {}-{})", a.withinIov->first, a.withinIov->second) : std::string(),
-      others.empty() ? std::string()
-                     : fmt::format(", where {} step{}", fmt::join(others, ", "), others.size() == 1 ? "s" : ""));
-  return fmt::format(
-      "{} (χ² {:.1f} for the step, {:.1f} for the drift): these IOVs cannot tell a drift from a step; more IOVs (a "
-      "smaller campaign --min-events) or the logbook's boundaries (trend --boundaries) will",
-      a.preferred() ? "a step fits better: " + step : "or a step of " + step, a.chi2Step, a.chi2Line);
-}
-
-std::string tooFewIovsForTrend(std::size_t iovs, std::int64_t selectedEvents, const TrendOptions& options) {
-  const std::size_t needed = 2 * std::max<std::size_t>(options.minSegment, 1);
-  if (iovs >= needed) return {};
-  constexpr std::int64_t kWanted = 6;
-  const std::int64_t perIov = std::max<std::int64_t>(1000, selectedEvents / kWanted / 1000 * 1000);
-  return fmt::format(
-      "the grouping leaves {} IOV{}: a trend (emcalign trend) locates a step only from {} ({} on each side); "
-      "--min-events {} would give about {}, each with a larger error",
-      iovs, iovs == 1 ? "" : "s", needed, needed / 2, perIov, kWanted);
-}
-
-namespace {
-
-std::string edgeText(const TrendEdge& e) {
-  return fmt::format("{} in the {} IOV (runs {}-{}) by {:+.4g} ± {:.2g} {} (z {:.1f})", e.parameter,
-                     e.atEnd ? "last" : "first", e.firstRun, e.lastRun, e.departure, e.error, e.parameter.unit(),
-                     e.z());
-}
-
-// What the edges say, as a sentence to follow the verdict's ("" without one).
-std::string edgesSentence(const Trend& t) {
-  if (t.edges.empty()) return {};
-  std::vector<std::string> items;
-  for (const auto& e : t.edges) items.push_back(edgeText(e));
-  return fmt::format(
-      " An IOV at an end of the tag departs from the ones beside it: {}. A change seen in one IOV only: a step "
-      "or an outlier, or the start of a drift, which the next runs' calibrations will tell apart.",
-      fmt::join(items, "; "));
-}
-
-std::string verdictBeforeEdges(const Trend& t) {
-  std::vector<std::string> bad;
-  for (const auto& i : t.inconsistencies) bad.push_back(inconsistencyText(i));
-  if (!t.steps.empty()) {
-    return fmt::format(
-        "{} step{} found{}.", t.steps.size(), t.steps.size() == 1 ? "" : "s",
-        bad.empty() ? std::string() : fmt::format("; not explained by them or by a drift: {}", fmt::join(bad, "; ")));
-  }
-  if (!t.resolvable()) {
-    const std::string few = fmt::format("Too few IOVs to locate a step: {} IOV{}, and a step needs {} on each side",
-                                        t.iovs, t.iovs == 1 ? "" : "s", t.options.minSegment);
-    if (t.iovs < 2) return few + ".";
-    if (!bad.empty()) {
-      return few + fmt::format(
-                       ". Inconsistent with one value: {}. Calibrate in smaller groups (campaign --min-events) to see "
-                       "where it changes.",
-                       fmt::join(bad, "; "));
-    }
-    return t.edges.empty() ? few + "; no parameter differs between them more than its errors allow." : few + ".";
-  }
-  if (!bad.empty()) {
-    return fmt::format("No step located, but not constant within a segment: {}.", fmt::join(bad, "; "));
-  }
-  if (!t.setAside.empty()) {
-    std::vector<std::string> iovs;
-    for (const auto& a : t.setAside) iovs.push_back(fmt::format("runs {}-{} ({})", a.firstRun, a.lastRun, a.parameter));
-    return fmt::format(
-        "No step confirmed, but {} set aside between segments (a change inside, too small to confirm, or an "
-        "outlier): {}.",
-        iovs.size() == 1 ? "an IOV was" : "IOVs were", fmt::join(iovs, "; "));
-  }
-  if (!t.edges.empty()) return "No step located between the IOVs inside the tag.";
-  return "No step: no parameter changed between IOVs more than its errors allow.";
-}
-
-}  // namespace
-
-std::string trendVerdict(const Trend& t) { return verdictBeforeEdges(t) + edgesSentence(t); }
-
-namespace {
-
-// The median of the errors of a series' points.
-double medianError(const TrendSeries& s) {
-  std::vector<double> e;
-  for (const auto& p : s.points) e.push_back(p.error);
-  if (e.empty()) return std::nan("");
-  std::nth_element(e.begin(), e.begin() + static_cast<std::ptrdiff_t>(e.size() / 2), e.end());
-  return e[e.size() / 2];
-}
-
-const TrendSeries* seriesNamed(const std::vector<TrendSeries>& series, Quantity name) {
-  for (const auto& s : series) {
-    if (s.parameter == name) return &s;
-  }
-  return nullptr;
-}
-
-// The true change between two IOVs of a simulated period ("" when the truth lacks it).
-std::string trueChange(const PeriodTruth* truth, Quantity parameter, const TrendPoint& before,
-                       const TrendPoint& after) {
-  if (truth == nullptr) return {};
-  const double change = parameter.difference(truth->mean(parameter, after.firstRun, after.lastRun),
-                                             truth->mean(parameter, before.firstRun, before.lastRun));
-  return std::isfinite(change) ? fmt::format("{:+.4g}", change) : std::string("—");
-}
-
-std::string stepsSection(const Trend& t, const std::vector<TrendSeries>& series, const PeriodTruth* truth) {
-  if (t.steps.empty()) return {};
-  std::string md =
-      fmt::format("## Steps\n\n| first run after | parameter | size | error | z |{}\n|---|---|---|---|---|{}\n",
-                  truth ? " true size |" : "", truth ? "---|" : "");
-  for (const auto& s : t.steps) {
-    std::string where = s.known       ? fmt::format("{} (known boundary)", s.firstRunAfter)
-                        : s.withinIov ? fmt::format("≈ {}", s.firstRunAfter)
-                                      : fmt::format("{}", s.firstRunAfter);
-    if (s.withinIov) where += fmt::format(" (inside IOV {}-{})", s.withinIov->first, s.withinIov->second);
-    if (s.insteadOfDrift) {
-      where += fmt::format(" (a drift fits worse: χ² {:.1f} against {:.1f}; other parameters step here)",
-                           s.insteadOfDrift->second, s.insteadOfDrift->first);
-    }
-    std::string truthCell;
-    if (truth) {
-      const TrendSeries* ser = seriesNamed(series, s.parameter);
-      const std::size_t before = s.withinIov ? s.index - 2 : s.index - 1;
-      truthCell = ser && s.index < ser->points.size() && before < s.index
-                      ? " " + trueChange(truth, s.parameter, ser->points[before], ser->points[s.index]) + " |"
-                      : " — |";
-    }
-    md += fmt::format("| {} | {} | {:+.4f} {} | {:.4f} | {:.1f} |{}\n", where, s.parameter, s.size, s.parameter.unit(),
-                      s.error, s.z(), truthCell);
-  }
-  return md + "\n";
-}
-
-std::string edgesSection(const Trend& t, const std::vector<TrendSeries>& series, const PeriodTruth* truth) {
-  if (t.edges.empty()) return {};
-  std::string md = fmt::format(
-      "## An IOV at an end of the tag departs\n\nThe first or the last IOV, against the model of the rest of its "
-      "segment. One IOV on its side is too few to locate a step (a step needs {} IOVs on each side): a change "
-      "there, or an outlier, which the next runs' calibrations will tell apart. It is left out of its segment, "
-      "so that it makes no drift there.\n\n| parameter | IOV | departure | error | z |{}\n|---|---|---|---|---|{}\n",
-      t.options.minSegment, truth ? " true change |" : "", truth ? "---|" : "");
-  for (const auto& e : t.edges) {
-    std::string truthCell;
-    if (truth) {
-      const TrendSeries* ser = seriesNamed(series, e.parameter);
-      truthCell = " — |";
-      if (ser && ser->points.size() >= 2) {
-        const auto& p = ser->points;
-        truthCell = " " +
-                    (e.atEnd ? trueChange(truth, e.parameter, p[p.size() - 2], p.back())
-                             : trueChange(truth, e.parameter, p[1], p.front())) +
-                    " |";
-      }
-    }
-    md += fmt::format("| {} | {} {}-{} | {:+.4g} {} | {:.2g} | {:.1f} |{}\n", e.parameter, e.atEnd ? "last" : "first",
-                      e.firstRun, e.lastRun, e.departure, e.parameter.unit(), e.error, e.z(), truthCell);
-  }
-  return md + "\n";
-}
-
-std::string periodsSection(const Trend& t) {
-  const auto stable =
-      std::count_if(t.segments.begin(), t.segments.end(), [](const TrendSegment& g) { return g.stable(); });
-  std::string md = fmt::format("## {} period{} between the changes found ({} stable)\n\n", t.segments.size(),
-                               t.segments.size() == 1 ? "" : "s", stable);
-  for (const auto& s : t.segments) {
-    if (s.transition) {
-      md += fmt::format(
-          "- runs {}-{} (1 IOV): **straddles the change of {}** — its calibration mixes the detector "
-          "before and after; calibrate its runs again, split where the detector changed\n",
-          s.firstRun, s.lastRun, fmt::join(s.stepsAtStart, ", "));
-      continue;
-    }
-    // The drifting parameters, those whose drift a step explains as well marked.
-    std::vector<std::string> drifting;
-    for (const auto& name : s.drifting) {
-      const bool orStep = std::any_of(t.drifts.begin(), t.drifts.end(), [&](const TrendDrift& d) {
-        return d.parameter == name && d.orStep && d.firstRun <= s.lastRun && d.lastRun >= s.firstRun;
-      });
-      drifting.push_back(orStep ? fmt::format("{} (or a step: see Drifts)", name) : std::string(name.name()));
-    }
-    const std::string driftState =
-        drifting.empty() ? std::string() : fmt::format("; **drifting: {}**", fmt::join(drifting, ", "));
-    if (!s.departing.empty()) {
-      md += fmt::format(
-          "- runs {}-{} (1 IOV): **departs from the IOVs beside it in {}** — at an end of the tag, seen in one IOV "
-          "only: a step or an outlier{}\n",
-          s.firstRun, s.lastRun, fmt::join(s.departing, ", "), driftState);
-      continue;
-    }
-    std::string after;
-    if (s.afterKnownBoundary) {
-      after = fmt::format(", after a known boundary{}",
-                          s.stepsAtStart.empty() ? "" : fmt::format(" (changed: {})", fmt::join(s.stepsAtStart, ", ")));
-    } else if (!s.stepsAtStart.empty()) {
-      after = fmt::format(", after a change of {}", fmt::join(s.stepsAtStart, ", "));
-    }
-    std::string state = s.stable() ? ": stable" : "";
-    if (!s.resolvable && s.drifting.empty() && s.inconsistent.empty()) {
-      state = fmt::format(
-          ": consistent with one value, but not called stable: {} IOVs are too few to locate a step ({} on each side) "
-          "or to test a drift ({})",
-          s.end - s.begin, t.options.minSegment, kMinLinePoints);
-    }
-    state += driftState;
-    if (!s.inconsistent.empty()) {
-      state += fmt::format("; **not stable: {} inconsistent with one value**", fmt::join(s.inconsistent, ", "));
-    }
-    md += fmt::format("- runs {}-{} ({} IOV{}){}{}\n", s.firstRun, s.lastRun, s.end - s.begin,
-                      s.end - s.begin == 1 ? "" : "s", after, state);
-  }
-  md += "\n";
-  if (!t.setAside.empty()) {
-    md +=
-        "IOVs set aside from a parameter's segments (their value lies between the neighbours': a change "
-        "inside them, too small to confirm as a step):\n\n";
-    for (const auto& a : t.setAside) md += fmt::format("- runs {}-{}: {}\n", a.firstRun, a.lastRun, a.parameter);
-    md += "\n";
-  }
-  return md;
-}
-
-std::string driftsSection(const Trend& t, const std::vector<TrendSeries>& series, const PeriodTruth* truth) {
-  std::string md;
-  if (t.tests == 0) {
-    md += fmt::format("**Drifts not tested**: no segment has the {} IOVs a slope test needs.\n", kMinLinePoints);
-  } else if (t.drifts.empty() && t.inconsistencies.empty()) {
-    md += fmt::format("**No drift** flagged in the {} segments long enough for a slope test.\n", t.tests);
-  } else if (t.drifts.empty()) {
-    md += fmt::format(
-        "**No drift flagged** in the {} segments long enough for a slope test; the inconsistent segments above are "
-        "not constant all the same.\n",
-        t.tests);
-  } else {
-    md += "## Drifts (steady changes: check the reconstruction, or the detector)\n\n" +
-          fmt::format(
-              "| parameter | runs | slope per run | per 100 runs | z | p-value | or a step? |{}\n"
-              "|---|---|---|---|---|---|---|{}\n",
-              truth ? " change over the runs: drift's line / true |" : "", truth ? "---|" : "");
-    for (const auto& d : t.drifts) {
-      std::string truthCell;
-      if (truth) {
-        // The true change from the drift's first IOV to its last, beside the line's.
-        const TrendSeries* ser = seriesNamed(series, d.parameter);
-        truthCell = " — |";
-        if (ser != nullptr) {
-          const auto first = std::find_if(ser->points.begin(), ser->points.end(),
-                                          [&](const TrendPoint& p) { return p.firstRun == d.firstRun; });
-          const auto last = std::find_if(ser->points.begin(), ser->points.end(),
-                                         [&](const TrendPoint& p) { return p.lastRun == d.lastRun; });
-          if (first != ser->points.end() && last != ser->points.end()) {
-            truthCell = fmt::format(" {:+.4g} / {} |", d.slopePerRun * (last->x() - first->x()),
-                                    trueChange(truth, d.parameter, *first, *last));
-          }
-        }
-      }
-      md += fmt::format("| {} | {}-{} | {:+.3g} ± {:.2g} {}/run | {:+.4f} {} | {:.1f} | {:.2g} | {} |{}\n", d.parameter,
-                        d.firstRun, d.lastRun, d.slopePerRun, d.error, d.parameter.unit(), 100.0 * d.slopePerRun,
-                        d.parameter.unit(), d.z, d.pValue,
-                        d.orStep ? stepAlternativeText(t, d) : std::string("no: a step does not fit"), truthCell);
-    }
-  }
-  // Slopes the figures draw (a line fits better by BIC) that the drift test does not flag.
-  std::vector<std::string> drawn;
-  for (const auto& a : t.series) {
-    for (const auto& seg : a.segments) {
-      if (seg.sloped && !seg.drift) drawn.push_back(fmt::format("{} (z {:.1f})", a.parameter, seg.slopeZ));
-    }
-  }
-  if (!drawn.empty()) {
-    md += fmt::format(
-        "\nSloped lines in the figures that are no drift: {} — a line fits these segments better than one value "
-        "(by more than BIC's ln n), but their slopes stay below the drift test's threshold after its {} tests.\n",
-        fmt::join(drawn, ", "), t.tests);
-  }
-  return md;
-}
-
-// What the figures and tables leave out, and why: the directions of magnitudes near 0.
-std::string directionsNote(const Trend& t, const std::vector<TrendSeries>& series) {
-  std::string md;
-  for (const auto& [direction, magnitude] :
-       {std::pair{Physical::Psi, Physical::Beta}, std::pair{Physical::Tau, Physical::Mu}}) {
-    const TrendSeries* s = seriesNamed(series, direction);
-    const std::size_t n = s ? s->points.size() : 0;
-    if (n == t.iovs) continue;
-    md += n == 0
-              ? fmt::format("- {} is not shown: {} is within 3σ of 0 in every IOV, where its direction is undefined.\n",
-                            name(direction), name(magnitude))
-              : fmt::format("- {} is shown for {} of the {} IOVs: those where {} is 3σ from 0.\n", name(direction), n,
-                            t.iovs, name(magnitude));
-  }
-  md += "- β and μ are magnitudes (≥ 0): near a true 0 they come out about one error above it.\n";
-  return md;
-}
-
-// The smallest step each parameter's errors let the method see.
-std::string sensitivitySection(const Trend& t, const std::vector<TrendSeries>& series) {
-  if (!t.resolvable()) return {};
-  const double factor = std::max(t.options.stepZ, std::sqrt(t.penalty));
-  const double m = static_cast<double>(t.options.minSegment), half = std::floor(static_cast<double>(t.iovs) / 2.0);
-  std::string md = fmt::format(
-      "## What the trend can see\n\nA step is found from about {:.1f} times the error of the difference of the "
-      "two segments' means (the larger of the step's {} σ and the penalty's √{:.1f}); with the IOVs' errors "
-      "(scaled by their scatter), a smaller step passes unseen:\n\n"
-      "| parameter | IOV error (median) | scatter / error | smallest step: {} IOVs each side | {} IOVs each side "
-      "|\n|---|---|---|---|---|\n",
-      factor, t.options.stepZ, t.penalty, t.options.minSegment, half);
-  for (std::size_t k = 0; k < series.size(); ++k) {
-    const TrendSeries& s = series[k];
-    if (s.points.size() != t.iovs) continue;
-    const double e = medianError(s) * t.series[k].errorScale;
-    md += fmt::format("| {} | {:.2g} {} | {:.2f} | {:.2g} {} | {:.2g} {} |\n", s.parameter, medianError(s),
-                      s.parameter.unit(), t.series[k].errorScale, factor * e * std::sqrt(2.0 / m), s.parameter.unit(),
-                      factor * e * std::sqrt(2.0 / half), s.parameter.unit());
-  }
-  return md + "\n";
-}
-
-}  // namespace
-
-Result<std::vector<std::string>> modelsOfTag(conddb::TagSnapshot& tag) {
-  std::vector<std::string> models;
-  for (const conddb::Iov& iov : tag.iovs()) {
-    auto p = tag.payload(iov);
-    if (!p) return p.error();
-    std::string m = (*p)->model();
-    if (std::find(models.begin(), models.end(), m) == models.end()) models.push_back(std::move(m));
-  }
-  return models;
-}
-
-std::string modelsText(const std::vector<std::string>& models) {
-  std::vector<std::string> said;
-  bool paper = false;
-  for (const auto& m : models) {
-    if (m.empty()) continue;
-    said.push_back(m);
-    paper = paper || m.rfind("the paper's model", 0) == 0;
-  }
-  if (said.empty()) return {};
-  std::string text = said.size() == 1 ? fmt::format("The IOVs were fitted with {}.", said.front())
-                                      : fmt::format(
-                                            "The IOVs were fitted with different models: {}; a change of "
-                                            "model between IOVs can look like a step.",
-                                            fmt::join(said, "; "));
-  if (paper) {
-    text +=
-        " Without model corrections the fit is known to underestimate the shifts' scale by 8-12 %, the gaps "
-        "dp1-dp3 by about 0.15 cm and dx_rel by about 0.08 cm in the SND-like simulation (docs/validation.md): "
-        "the steps' sizes share that scale, and constant offsets are the model's.";
-  }
-  return text;
-}
-
-std::string trendMarkdown(const Trend& t, const std::vector<TrendSeries>& series, const TrendText& text) {
-  const PeriodTruth* truth = text.truth;
-  std::string md = fmt::format("# Time evolution of {}\n\n", text.source);
-  std::int64_t first = 0, last = 0;
-  for (const auto& s : series) {
-    if (!s.points.empty()) {
-      first = s.points.front().firstRun;
-      last = s.points.back().lastRun;
-      break;
-    }
-  }
-  md += fmt::format(
-      "{}, runs {}-{}. Each parameter's series was cut where the data demand a step (optimal "
-      "partitioning, a straight line per segment, penalty {:.1f} per change), and each segment's slope "
-      "was tested against zero ({}, Bonferroni).\n\n",
-      counted(t.iovs, "IOV"), first, last, t.penalty, counted(t.tests, "test"));
-  if (const std::string m = modelsText(text.models); !m.empty()) md += m + "\n\n";
-  md += fmt::format("**{}**\n\n", trendVerdict(t));
-  md += stepsSection(t, series, truth);
-  md += edgesSection(t, series, truth);
-  if (!t.inconsistencies.empty()) {
-    md += fmt::format(
-        "## {} segment{} inconsistent with {} model\n\nEach segment's model (one value, or a line where the slope "
-        "is significant) tested by its χ² ({} tested, Bonferroni at {}):\n\n"
-        "| parameter | runs | IOVs | model | χ²/ndf | p-value | why unresolved |\n|---|---|---|---|---|---|---|\n",
-        t.inconsistencies.size(), t.inconsistencies.size() == 1 ? "" : "s",
-        t.inconsistencies.size() == 1 ? "its" : "their", counted(t.consistencyTests, "segment"), t.options.driftAlpha);
-    for (const auto& i : t.inconsistencies) {
-      md += fmt::format("| {} | {}-{} | {} | {} | {:.1f}/{} | {:.2g} | {} |\n", i.parameter, i.firstRun, i.lastRun,
-                        i.iovs, i.line ? "line" : "constant", i.chi2, i.ndf, i.pValue,
-                        i.unsplittable ? fmt::format("too few IOVs to locate a step (a step needs {} on each side)",
-                                                     t.options.minSegment)
-                                       : "neither a step nor a drift explains it: look at its IOVs");
-    }
-    md += "\n";
-  }
-  if (!t.boundaries.empty()) {
-    md += "## Known boundaries\n\n";
-    for (const auto& b : t.boundaries) {
-      const std::string where =
-          b.withinIov ? fmt::format(" (inside IOV {}-{}, set aside)", b.withinIov->first, b.withinIov->second) : "";
-      if (!b.measurable) {
-        md += fmt::format("- run {}{}: no IOV on one side of it, nothing measured\n", b.run, where);
-      } else if (b.changed.empty()) {
-        md += fmt::format("- run {}{}: no parameter changed by {} σ or more (largest: {}, z = {:.1f})\n", b.run, where,
-                          t.options.stepZ, b.largest ? b.largest->name() : "", b.largestZ);
-      } else {
-        md += fmt::format("- run {}{}: changed {}\n", b.run, where, fmt::join(b.changed, ", "));
-      }
-    }
-    md += "\n";
-  }
-  md += periodsSection(t);
-  md += driftsSection(t, series, text.truth);
-  md += "\n" + sensitivitySection(t, series);
-  md += "## Notes\n\n" + directionsNote(t, series);
-  return md;
-}
-
-std::vector<report::TrendFigure> trendFigures(const Trend& t, const std::vector<TrendSeries>& series,
-                                              const PeriodTruth* truth) {
-  std::vector<report::TrendFigure> figures;
-  for (std::size_t k = 0; k < series.size(); ++k) {
-    const auto& s = series[k];
-    if (s.points.empty()) continue;
-    report::TrendFigure f{s.parameter, {}, {}, {}, {}, {}};
-    for (const auto& p : s.points) {
-      f.points.push_back({p.x(), p.value, p.error, static_cast<double>(p.firstRun), static_cast<double>(p.lastRun)});
-    }
-    for (const auto& seg : t.series[k].segments) {
-      const std::int64_t firstRun = s.points[seg.begin].firstRun, lastRun = s.points[seg.end - 1].lastRun;
-      const bool inconsistent = std::any_of(t.inconsistencies.begin(), t.inconsistencies.end(), [&](const auto& i) {
-        return i.parameter == s.parameter && i.firstRun == firstRun && i.lastRun == lastRun;
-      });
-      const auto x0 = static_cast<double>(firstRun), x1 = static_cast<double>(lastRun);
-      const auto drift = std::find_if(t.drifts.begin(), t.drifts.end(), [&](const TrendDrift& d) {
-        return seg.drift && d.parameter == s.parameter && d.firstRun == firstRun;
-      });
-      const StepAlternative* alt = drift != t.drifts.end() && drift->orStep ? &*drift->orStep : nullptr;
-      if (alt != nullptr && alt->preferred()) {
-        // A step that fits better than the drift is drawn as what it is: its two constants.
-        const auto at = static_cast<double>(alt->firstRunAfter) - 0.5;
-        f.segments.push_back({x0, alt->before, at, alt->before, true, inconsistent, true});
-        f.segments.push_back({at, alt->after, x1, alt->after, true, inconsistent, true});
-        continue;
-      }
-      f.segments.push_back(
-          {x0, seg.model().value(x0), x1, seg.model().value(x1), seg.drift, inconsistent, alt != nullptr});
-    }
-    for (const auto& st : t.steps) {
-      if (st.parameter == s.parameter) f.steps.push_back(static_cast<double>(st.firstRunAfter));
-    }
-    for (const auto& b : t.boundaries) f.boundaries.push_back(static_cast<double>(b.run));
-    if (truth != nullptr) {
-      if (auto it = truth->byParameter.find(s.parameter); it != truth->byParameter.end()) {
-        for (const auto& [run, value] : it->second) f.truth.emplace_back(static_cast<double>(run), value);
-      }
-    }
-    figures.push_back(std::move(f));
-  }
-  return figures;
 }
 
 }  // namespace emcalign::validation

@@ -13,6 +13,14 @@ using io::Json;
 
 namespace {
 
+Json tellApartJson(const TellApart& a) {
+  return {{"min_events", a.minEvents ? Json(*a.minEvents) : Json()},
+          {"expected_chi2", a.expectedChi2},
+          {"expected_chi2_now", a.expectedNow},
+          {"events_in_runs", a.eventsInRuns},
+          {"events_factor", io::numberOrNull(a.eventsFactor)}};
+}
+
 Json stepJson(const TrendStep& s) {
   return {{"parameter", s.parameter},
           {"known_boundary", s.known},
@@ -24,13 +32,30 @@ Json stepJson(const TrendStep& s) {
           {"within_iov", s.withinIov ? Json::array({s.withinIov->first, s.withinIov->second}) : Json()},
           {"instead_of_drift",
            s.insteadOfDrift ? Json{{"chi2_step", s.insteadOfDrift->first}, {"chi2_drift", s.insteadOfDrift->second}}
-                            : Json()}};
+                            : Json()},
+          {"or_drift", s.orDrift ? Json{{"first_run", s.orDrift->firstRun},
+                                        {"last_run", s.orDrift->lastRun},
+                                        {"start_run", s.orDrift->startRun},
+                                        {"end_run", s.orDrift->endRun},
+                                        {"change", s.orDrift->change},
+                                        {"change_error", s.orDrift->changeError},
+                                        {"chi2_drift", s.orDrift->chi2Drift},
+                                        {"chi2_step", s.orDrift->chi2Step},
+                                        {"tell_apart", tellApartJson(s.orDrift->tellApart)},
+                                        {"text", driftAlternativeText(s)}}
+                                 : Json()}};
 }
 
 Json driftJson(const Trend& t, const TrendDrift& d) {
   return {{"parameter", d.parameter},
           {"first_run", d.firstRun},
           {"last_run", d.lastRun},
+          {"start_run", d.startRun ? Json(*d.startRun) : Json()},
+          {"end_run", d.endRun ? Json(*d.endRun) : Json()},
+          {"start_range", Json::array({d.startRange.first, d.startRange.second})},
+          {"end_range", Json::array({d.endRange.first, d.endRange.second})},
+          {"change", d.change},
+          {"change_error", d.changeError},
           {"slope_per_run", d.slopePerRun},
           {"error", d.error},
           {"z", d.z},
@@ -44,8 +69,22 @@ Json driftJson(const Trend& t, const TrendDrift& d) {
                                       {"error", d.orStep->error},
                                       {"chi2_step", d.orStep->chi2Step},
                                       {"chi2_drift", d.orStep->chi2Line},
-                                      {"text", stepAlternativeText(t, d)}}
+                                      {"text", stepAlternativeText(t, d)},
+                                      {"tell_apart", d.tellApart ? tellApartJson(*d.tellApart) : Json()}}
                                : Json()}};
+}
+
+Json arrayOfScatter(const std::vector<PeriodScatter>& list) {
+  Json out = Json::array();
+  for (const auto& sc : list) {
+    out.push_back({{"parameter", sc.parameter},
+                   {"chi2", sc.chi2},
+                   {"ndf", sc.ndf},
+                   {"p_value", sc.pValue},
+                   {"scatter_over_error", sc.ratio()},
+                   {"errors", sc.statistical ? "statistical" : "quoted, scaled to their scatter"}});
+  }
+  return out;
 }
 
 Json segmentJson(const TrendSegment& s) {
@@ -57,6 +96,8 @@ Json segmentJson(const TrendSegment& s) {
           {"steps_at_start", s.stepsAtStart},
           {"drifting", s.drifting},
           {"inconsistent", s.inconsistent},
+          {"undecided", s.undecided},
+          {"scattering", arrayOfScatter(s.scattering)},
           {"departing", s.departing},
           {"stable", s.stable()}};
 }
@@ -75,7 +116,7 @@ Json edgeJson(const TrendEdge& e) {
 Json inconsistencyJson(const TrendInconsistency& i) {
   return {{"parameter", i.parameter}, {"unit", i.parameter.unit()},
           {"first_run", i.firstRun},  {"last_run", i.lastRun},
-          {"iovs", i.iovs},           {"model", i.line ? "line" : "constant"},
+          {"iovs", i.iovs},           {"model", i.line ? "drift" : "constant"},
           {"chi2", i.chi2},           {"ndf", i.ndf},
           {"p_value", i.pValue},      {"too_few_iovs", i.unsplittable}};
 }
@@ -89,11 +130,12 @@ Json boundaryJson(const KnownBoundary& b) {
           {"largest_z", b.largestZ}};
 }
 
-// A series' analysis `a` of the points `s`: its segments and the IOVs left out as transitions.
+// A series' analysis `a` of the points `s`: its segments, stretches and the IOVs left out as
+// transitions.
 Json seriesJson(const SeriesAnalysis& a, const TrendSeries& s) {
+  const auto& pts = s.points;
   Json segs = Json::array();
   for (const auto& g : a.segments) {
-    const auto& pts = s.points;
     segs.push_back({{"first_run", pts[g.begin].firstRun},
                     {"last_run", pts[g.end - 1].lastRun},
                     {"iovs", g.end - g.begin},
@@ -102,8 +144,21 @@ Json seriesJson(const SeriesAnalysis& a, const TrendSeries& s) {
                     {"chi2", g.constant.chi2},
                     {"slope_per_run", g.line.b},
                     {"slope_error", std::sqrt(g.line.varB)},
-                    {"slope_z", g.slopeZ},
-                    {"drift", g.drift}});
+                    {"slope_z", g.slopeZ}});
+  }
+  Json stretches = Json::array();
+  for (const auto& m : a.stretches) {
+    const RampFit& r = m.model;
+    stretches.push_back({{"first_run", pts[m.points.front()].firstRun},
+                         {"last_run", pts[m.points.back()].lastRun},
+                         {"iovs", m.points.size()},
+                         {"model", r.flat ? "flat" : "drift"},
+                         {"level", r.level},
+                         {"slope_per_run", r.slope},
+                         {"start", r.flat || r.openStart ? Json() : Json(r.start)},
+                         {"end", r.flat || r.openEnd ? Json() : Json(r.end)},
+                         {"chi2", r.chi2},
+                         {"ndf", m.ndf()}});
   }
   Json transitions = Json::array();
   for (const Change& c : a.changes) {
@@ -112,8 +167,14 @@ Json seriesJson(const SeriesAnalysis& a, const TrendSeries& s) {
       transitions.push_back(Json::array({p.firstRun, p.lastRun}));
     }
   }
-  return {{"parameter", a.parameter},    {"unit", a.parameter.unit()}, {"iovs", s.points.size()},
-          {"error_scale", a.errorScale}, {"segments", segs},           {"transition_iovs", transitions}};
+  return {{"parameter", a.parameter},
+          {"unit", a.parameter.unit()},
+          {"iovs", s.points.size()},
+          {"errors", s.statistical ? "statistical" : "quoted"},
+          {"error_scale", a.errorScale},
+          {"segments", segs},
+          {"stretches", stretches},
+          {"transition_iovs", transitions}};
 }
 
 // How the trend was analysed: the rules in words and their settings.
@@ -122,7 +183,8 @@ Json methodJson(const Trend& t) {
       {"changes", "optimal partitioning, Gaussian known-variance cost, a straight line per segment"},
       {"penalty", t.penalty},
       {"penalty_rule", "(k + 2) ln n, k = 2 (MBIC with a slope)"},
-      {"error_scale_rule", "IOV-to-IOV scatter / quoted error (median |dy|/0.6745), x(1 + 2.3/sqrt(m)), up or down"},
+      {"errors", "the fits' statistical errors where every IOV records one, else the quoted ones"},
+      {"error_scale_rule", "IOV-to-IOV scatter / error (median |dy|/0.6745), x(1 + 2.3/sqrt(m)), up or down"},
       {"step_test", "jump between the segments' models >= 3 sigma, and no continuous broken line within chi2 9"},
       {"transition_penalty", t.transitionPenalty},
       {"transition_rule", "ln n more for an IOV left out between two segments (straddling a step)"},
@@ -130,13 +192,22 @@ Json methodJson(const Trend& t) {
       {"min_segment", t.options.minSegment},
       {"min_line_points", kMinLinePoints},
       {"knee_test", t.options.kneeTest},
-      {"drift_test", "slope against 0 in each segment of a line, Bonferroni over all segments tested"},
+      {"drift_test",
+       "each stretch between steps flat, or one slope between two knees (a knee at the stretch's edge: the drift "
+       "runs into it); the drift chosen when its chi2 + slope_penalty + knee_penalty per knee inside is lower"},
       {"drift_alpha", t.options.driftAlpha},
       {"drift_tests", t.tests},
+      {"slope_penalty", t.slopePenalty},
+      {"knee_penalty", t.kneePenalty},
+      {"drift_or_step", "the best single step within chi2 9 of the drift: cannot tell"},
       {"consistency_test",
-       "chi2 of each segment's model (a line where its slope is significant), Bonferroni over all segments "
-       "tested, family-wise rate drift_alpha"},
+       "chi2 of each stretch's model (flat, or its drift), Bonferroni over all stretches tested, family-wise rate "
+       "drift_alpha"},
       {"consistency_tests", t.consistencyTests},
+      {"stability_test",
+       "chi2 of each period's IOVs about their mean with their statistical errors (quoted ones scaled to their "
+       "scatter where none are recorded), Bonferroni over periods x series, family-wise rate drift_alpha"},
+      {"stability_tests", t.scatterTests},
       {"edge_test",
        "the first and the last IOV against the rest of their segment: left out when the chi2 drops by more than the "
        "penalty and p-value x 2 x series < drift_alpha"},
@@ -229,6 +300,17 @@ TrendStep readStep(const StrictObject& s) {
                  .size = s.numberOrNull("size"),
                  .error = s.numberOrNull("error"),
                  .withinIov = iovAt(s, "within_iov")};
+  if (s.has("or_drift") && !s.at("or_drift").is_null()) {
+    const StrictObject d = s.object("or_drift");
+    step.orDrift = DriftAlternative{.firstRun = d.integer("first_run"),
+                                    .lastRun = d.integer("last_run"),
+                                    .startRun = d.integer("start_run"),
+                                    .endRun = d.integer("end_run"),
+                                    .change = d.numberOrNull("change"),
+                                    .changeError = d.numberOrNull("change_error"),
+                                    .chi2Drift = d.numberOrNull("chi2_drift"),
+                                    .chi2Step = d.numberOrNull("chi2_step")};
+  }
   if (s.has("instead_of_drift") && !s.at("instead_of_drift").is_null()) {
     const StrictObject d = s.object("instead_of_drift");
     step.insteadOfDrift = std::pair{d.number("chi2_step"), d.number("chi2_drift")};
@@ -238,7 +320,10 @@ TrendStep readStep(const StrictObject& s) {
 
 TrendInconsistency readInconsistency(const StrictObject& i) {
   const std::string model = i.string("model");
-  if (model != "line" && model != "constant") i.fail(i.pathOf("model"), "expected \"line\" or \"constant\"");
+  // (an older trend.json calls a drift's model a line)
+  if (model != "drift" && model != "line" && model != "constant") {
+    i.fail(i.pathOf("model"), "expected \"drift\" or \"constant\"");
+  }
   return {.parameter = quantityAt(i, "parameter"),
           .firstRun = i.integer("first_run"),
           .lastRun = i.integer("last_run"),
@@ -246,7 +331,7 @@ TrendInconsistency readInconsistency(const StrictObject& i) {
           .chi2 = i.numberOrNull("chi2"),
           .ndf = static_cast<int>(i.integer("ndf")),
           .pValue = i.numberOrNull("p_value"),
-          .line = model == "line",
+          .line = model != "constant",
           .unsplittable = i.has("too_few_iovs") && i.boolean("too_few_iovs")};
 }
 
@@ -258,6 +343,12 @@ RecordedDrift readDrift(const StrictObject& d) {
                               .error = d.numberOrNull("error"),
                               .z = d.numberOrNull("z"),
                               .pValue = d.numberOrNullIfGiven("p_value")}};
+  if (d.has("start_run") && !d.at("start_run").is_null()) out.drift.startRun = d.integer("start_run");
+  if (d.has("end_run") && !d.at("end_run").is_null()) out.drift.endRun = d.integer("end_run");
+  if (auto r = iovAt(d, "start_range")) out.drift.startRange = *r;
+  if (auto r = iovAt(d, "end_range")) out.drift.endRange = *r;
+  if (d.has("change")) out.drift.change = d.numberOrNull("change");
+  if (d.has("change_error")) out.drift.changeError = d.numberOrNull("change_error");
   if (d.has("or_step") && !d.at("or_step").is_null()) {
     const StrictObject s = d.object("or_step");
     out.drift.orStep = StepAlternative{.firstRunAfter = s.integer("first_run_after"),
@@ -271,6 +362,14 @@ RecordedDrift readDrift(const StrictObject& d) {
   return out;
 }
 
+PeriodScatter readScatter(const StrictObject& s) {
+  return {.parameter = quantityAt(s, "parameter"),
+          .chi2 = s.numberOrNull("chi2"),
+          .ndf = static_cast<int>(s.integer("ndf")),
+          .pValue = s.numberOrNull("p_value"),
+          .statistical = !s.has("errors") || s.string("errors") == "statistical"};
+}
+
 TrendSegment readSegment(const StrictObject& s, bool resolvable) {
   return {.begin = 0,
           .end = static_cast<std::size_t>(s.integer("iovs")),
@@ -281,6 +380,8 @@ TrendSegment readSegment(const StrictObject& s, bool resolvable) {
           .stepsAtStart = quantitiesAt(s, "steps_at_start"),
           .drifting = quantitiesAt(s, "drifting"),
           .inconsistent = quantitiesAt(s, "inconsistent"),
+          .undecided = quantitiesAt(s, "undecided"),
+          .scattering = listAt(s, "scattering", readScatter),
           .departing = quantitiesAt(s, "departing"),
           .resolvable = resolvable};
 }

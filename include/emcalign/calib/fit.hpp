@@ -60,6 +60,9 @@ struct DerivedValue {
   double value = std::numeric_limits<double>::quiet_NaN();
   double error = std::numeric_limits<double>::quiet_NaN();  ///< NaN where the linear propagation is
                                                             ///< undefined (β = 0 for ψ, …)
+  /// The part of `error` the bins' statistics make (FitResult::statisticalCovariance); NaN
+  /// where that is not known.
+  double statisticalError = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// Every physical parameter of a fit (SPEC §3) with its error, indexed by `Physical`:
@@ -103,6 +106,13 @@ struct FitResult {
   geometry::ParamVector errors = geometry::ParamVector::Constant(std::numeric_limits<double>::quiet_NaN());
   std::optional<Covariance> covariance;  ///< native units; none if singular
   Covariance correlation = Covariance::Zero();
+  /// What the parameters fluctuate by from sample to sample through the events alone: the
+  /// covariance with σ_sys taken out of the middle of the sandwich (setStatisticalCovariance).
+  /// σ_sys is common to every sample of the same detector and model, so this — not
+  /// `covariance` — is what two calibrations of the same detector differ by. None where the
+  /// bins' statistical errors are not known (a saved profile) or the covariance is singular.
+  std::optional<Covariance> statisticalCovariance;
+  geometry::ParamVector statisticalErrors = geometry::ParamVector::Constant(std::numeric_limits<double>::quiet_NaN());
   DerivedValues derived;
   double chi2 = 0.0;
   int ndf = 0;
@@ -160,6 +170,18 @@ Result<FitResult> fitProfiles(const std::vector<ProfileBin>& bins, const FitGeom
 /// `result` (the fit of `bins`); nothing to do without covariances.
 Status applyBinCovariances(FitResult& result, const std::vector<ProfileBin>& bins, const FitGeometry& geometry,
                            const std::vector<BinCovariance>& covariances);
+
+/// The statistical covariance of a fit of `bins` (their total σ, σ_sys included) whose bins'
+/// statistical σ alone are those of `statistical` (the same bins with σ_sys = 0): the sandwich
+/// H⁻¹·(Jᵀ·R·J + C)·H⁻¹ of the whitened residuals, R = diag(σ_stat²/σ²), C the bins'
+/// correlations (none without the event pairs), H = JᵀJ — the estimator the fit used, with
+/// only the events' fluctuations in the middle. Equal to the covariance when σ_sys = 0. Sets
+/// statisticalCovariance, statisticalErrors and each derived statisticalError; call it before
+/// applyBinCovariances (it needs H⁻¹, the independent bins' covariance). Nothing to do when
+/// the covariance is singular.
+Status setStatisticalCovariance(FitResult& result, const std::vector<ProfileBin>& bins,
+                                const std::vector<ProfileBin>& statistical, const FitGeometry& geometry,
+                                const std::vector<BinCovariance>& covariances = {});
 
 /// χ² of the used bins at η (for tests and cross-checks).
 double chi2At(const std::vector<ProfileBin>& bins, const FitGeometry& geometry, const geometry::ParamVector& eta);

@@ -28,8 +28,9 @@ inline constexpr double kNotGiven = std::numeric_limits<double>::quiet_NaN();
 /// A value with its errors, in file units (NaN: null or absent).
 struct RecordedValue {
   double value = kNotGiven;
-  double error = kNotGiven;       ///< the fit's
-  double systematic = kNotGiven;  ///< the model corrections' (their "systematic_errors")
+  double error = kNotGiven;        ///< the fit's
+  double statistical = kNotGiven;  ///< the part of it the events make ("statistical_errors")
+  double systematic = kNotGiven;   ///< the model corrections' (their "systematic_errors")
 };
 
 /// One stage of the staged fit ("stages").

@@ -45,8 +45,9 @@ struct SigmaSysChoice {
   static SigmaSysChoice automatic() { return {SigmaSysMethod::Auto, 0.0}; }
   /// A fixed value finite, ≥ 0 and at most kMaxSigmaSys.
   Status validate() const;
-  /// Whether the profiles must keep the event pairs (ProfileOptions::eventPairs): the
-  /// honest errors of `auto` carry their correlation.
+  /// Whether the quoted errors carry the correlation of the event pairs (when the profiles keep
+  /// them, ProfileOptions::eventPairs): the honest errors of `auto` do; SPEC's and a fixed σ_sys
+  /// keep SPEC §8's independent bins. The statistical errors carry it whatever the choice.
   [[nodiscard]] bool keepsEventPairs() const { return method == SigmaSysMethod::Auto; }
 };
 

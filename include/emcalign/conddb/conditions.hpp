@@ -68,6 +68,9 @@ struct Iov {
 struct StoredValue {
   double value = std::numeric_limits<double>::quiet_NaN();
   double error = std::numeric_limits<double>::quiet_NaN();
+  /// The part of `error` the events make, without σ_sys (calib::FitResult::statisticalErrors);
+  /// NaN in payloads of fits made before it was recorded.
+  double statisticalError = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// The values of a payload: the 12 fit parameters with their errors, then the five derived
@@ -87,8 +90,10 @@ struct Payload {
   /// when one was set), "corrections PATH"; "" when the payload does not say (a parameter
   /// file stored without its fit).
   [[nodiscard]] std::string model() const;
-  /// Its parameters, errors and derived values.
+  /// Its parameters, errors (quoted and statistical) and derived values.
   [[nodiscard]] StoredValues values() const;
+  /// The selected events of its fit; none when the payload does not say.
+  [[nodiscard]] std::optional<std::int64_t> selectedEvents() const;
   /// The SHA-256 of each file its fit read, as (file name, SHA-256) in the order stored; empty
   /// when it records none.
   [[nodiscard]] std::vector<std::pair<std::string, std::string>> inputDigests() const;

@@ -81,10 +81,11 @@ struct CampaignModel {
   std::shared_ptr<const calib::SystematicErrors> systematics;
   std::string detector = std::string(io::kEmbeddedDetector);
   calib::SigmaSysChoice sigmaSys;  ///< of every group's fit (calib/sigma_sys.hpp)
-  /// Sets σ_sys and whether the profiles keep the event pairs it needs.
+  /// Sets σ_sys (the profiles keep the event pairs whatever it is: the statistical errors
+  /// every payload records take their correlation along).
   void setSigmaSys(const calib::SigmaSysChoice& choice) {
     sigmaSys = choice;
-    profile.eventPairs = choice.keepsEventPairs();
+    profile.eventPairs = true;
   }
   /// The model of the events of one beam energy (MeV): a grid's corrections there (an energy
   /// outside the grid, or none, NaN, is an error), else this model.

@@ -1,13 +1,17 @@
 #pragma once
 // `trend --refit`: one calibration per stable period of a tag (validation/trend.hpp) from all
-// its events, in place of the run groups' calibrations it replaces; a period with a flagged
-// drift keeps its IOVs (one value would average over the drift).
+// its events, in place of the run groups' calibrations it replaces. A period whose IOVs do not
+// agree within their errors keeps them — a drift, a step or drift the IOVs cannot tell apart,
+// a stretch its model does not fit, IOVs that scatter beyond their statistical errors, an IOV
+// straddling a step: one value would average over what moves inside it.
 //
 // The precision gained, three ways (docs/campaign.md):
 //  - quoted: the fit's errors, which carry σ_sys = 0.2° per profile bin (SPEC §7). σ_sys does
 //    not shrink with events, and it dominates a bin already at ~50 000 events, so the quoted
 //    error of a period barely improves on a group's;
-//  - statistical: the same fits with σ_sys = 0, the part that does shrink, as 1/√N;
+//  - statistical: the part the events make, which does shrink, as 1/√N (the fits' statistical
+//    errors, calib::FitResult::statisticalErrors; for payloads that do not record them, the
+//    same fits with σ_sys = 0);
 //  - observed: the scatter (RMS) of the replaced IOVs about their mean, which is what they
 //    really fluctuate by; with a period's truth, the refit's distance from it.
 
@@ -36,6 +40,10 @@ struct RefitPrecision {
   double statBefore = kNaN;      ///< median statistical error (σ_sys = 0) of the replaced IOVs
   double statAfter = kNaN;       ///< the refit's statistical error
   double scatter = kNaN;         ///< RMS of the replaced IOVs about their mean
+  /// The replaced IOVs' scatter about their weighted mean over the errors the trend weighed
+  /// them by (statistical where recorded): √(χ²/ndf), and the χ² and ndf.
+  double scatterOverError = kNaN, chi2 = kNaN;
+  int ndf = 0;
   double truth = kNaN;           ///< mean truth over the period's runs (with a truth)
   double truthRmsBefore = kNaN;  ///< RMS over the replaced IOVs of (value − truth over the IOV)
 };
@@ -45,8 +53,12 @@ struct RefittedSegment {
   std::size_t begin = 0, end = 0;  ///< the tag's IOVs [begin, end) it covers
   /// Its IOVs kept as they were, not refitted (TrendSegment::refittable): no fit, no precision.
   bool kept = false;
-  std::vector<Quantity> drifting;  ///< why it was kept: parameters drifting inside it, or
-  bool transition = false;         ///< an IOV straddling a step
+  /// Why it was kept (TrendSegment::refittable): parameters drifting inside it, changing by a
+  /// step or a drift these IOVs cannot tell apart, inconsistent with one model, scattering
+  /// beyond their errors; or an IOV straddling a step.
+  std::vector<Quantity> drifting, undecided, inconsistent;
+  std::vector<PeriodScatter> scattering;
+  bool transition = false;
   std::int64_t selected = 0;       ///< selected events of the refit
   std::int64_t medianSelectedBefore = 0;
   std::optional<GroupFit> fit;
@@ -75,6 +87,9 @@ Result<std::vector<std::string>> checkRefitData(conddb::TagSnapshot& tag, const 
 /// provenance says {"refit": {"tag", "period", "periods", "replaces_iovs", "runs"}}.
 Result<SegmentRefit> refitSegments(const Trend& trend, const std::vector<TrendSeries>& series, conddb::TagSnapshot& tag,
                                    const CampaignScan& scan, const CampaignModel& model, const PeriodTruth* truth);
+
+/// Why a period kept its IOVs, in words ("drifting: alpha; dx scatters 2.1 times its errors").
+std::string keptBecause(const RefittedSegment& s);
 
 /// trend.json's "refit": {"iovs", "iovs_before", "segments": [{"first_run", "last_run",
 /// "replaces_iovs", "selected_events", "kept" | "parameters", "precision": {name: {...}}}]}.

@@ -1,58 +1,61 @@
 #pragma once
-// The time evolution of the calibration (docs/campaign.md; the paper's Fig. 7): each
-// parameter of a tag's IOVs against run, cut into stable segments where the data demand a
-// step, with a slope test inside each segment (the paper's quality control: "steady changes
-// indicate incorrect reconstruction").
+// The time evolution of the calibration (docs/campaign.md, section 4; the paper's Fig. 7):
+// each parameter of a tag's IOVs against run (validation/trend_series.hpp: weighed by the
+// fits' statistical errors, scaled by their measured scatter), cut where the data demand a
+// step, each stretch between steps modelled as flat or as a drift with a start and an end
+// (validation/trend_drift.hpp), and the periods between those changes judged stable only
+// where nothing moves and the IOVs scatter within their statistical errors (the paper's
+// quality control: "steady changes indicate incorrect reconstruction").
 //
-// Steps. Each parameter's series (value ± error per IOV, at the IOV's middle run) is cut by
-// optimal partitioning (exact; Jackson et al. 2005, what PELT computes faster) with
+// Steps. Each series (value ± s·σ per IOV, at the IOV's middle run) is cut by optimal
+// partitioning (exact; Jackson et al. 2005, what PELT computes faster) with
 //   cost(segment) = min over a, b of Σ ((y_i − a − b·x_i) / (s·σ_i))²
 // — a Gaussian cost with known variance, each segment a straight line (a constant below
-// kMinLinePoints points), so that a drift is one sloped segment and not a staircase — and a
-// penalty per change of (k + 2)·ln n with k = 2 parameters per segment: MBIC's 3·ln n for a
-// change in one parameter (Zhang & Siegmund 2007) with one ln n more for the slope.
-// Error scale. s is the IOV-to-IOV scatter over the quoted errors: the median of
-// |Δy|/√(σ_i² + σ_{i+1}²) over 0.6745 (the normal's median absolute value; robust to the
-// steps themselves), taken at the upper end of its uncertainty, ×(1 + 2.3/√m) for m
-// differences. It scales up or down: what a change between IOVs is measured against is the
-// part of the error that differs from IOV to IOV; a systematic common to all of them (σ_sys
-// of SPEC §7, the same detector and model in every run) cancels in a difference.
+// kMinLinePoints points) — and a penalty per change of (k + 2)·ln n with k = 2 parameters per
+// segment: MBIC's 3·ln n for a change in one parameter (Zhang & Siegmund 2007) with one ln n
+// more for the slope.
 // Transitions. Between two segments one IOV may be left out of both, at ln n more: an IOV
 // whose runs straddle the step holds a mixture of the two values, which no segment model
 // fits. A step inside such an IOV is placed at the run its mixture points to (the fraction
 // of its runs before the step).
 // A change is reported as a step when the jump between the two segments' models at the
 // boundary is at least 3 times its error, and — between segments long enough for lines —
-// when no continuous broken line through both (a drift's knee anywhere in them) fits within
-// Δχ² < 9 of the two lines. A change without a jump (a drift starting, an outlier set aside)
-// is left to the drift test.
+// when no continuous model through both fits within Δχ² < 9 of the two lines: neither a
+// broken line (one knee, two slopes) nor a drift with a start and an end (trend_drift.hpp).
+// A change without a jump (a drift starting or ending, an outlier set aside) is no step.
 // A step's size is measured between the segments' models: flat segments unless a slope is
-// significant (a drift, or BIC's preference), so that a slope the data do not demand does
-// not bend the size.
-// Drifts. In every segment of at least kMinLinePoints points, the fitted slope against zero:
-// flagged when its two-sided p-value times the number of segments tested (all parameters) is
-// below 0.01 (Bonferroni). A flagged drift is also fitted with the best single step inside it;
-// a step within a change's penalty of the line is reported beside the drift ("cannot tell"),
-// and one that fits better where other parameters step (the same reassembly) replaces it: the
-// segment is cut there and the step reported as a step.
-// What the method cannot resolve is said, never taken for "no step". Every segment's model
-// (its constant, or its line where the slope is significant) is tested by its χ²: a segment
-// it rejects (p-value × segments tested < 0.01) is reported as inconsistent — in a series too
-// short to split (fewer than 2 × minSegment IOVs: a step needs minSegment on each side), "too
-// few IOVs to locate a step"; otherwise something neither a step nor a drift explains.
+// significant (BIC's preference), so that a slope the data do not demand does not bend it.
+// Drifts. The series is cut only at its steps (and known boundaries and edges) into
+// stretches; each stretch of at least kMinLinePoints IOVs is modelled as flat or as a drift
+// (trend_drift.hpp's chooseDrift: one line, or a ramp between knees found with the data),
+// the slope's penalty the z² of a two-sided test at driftAlpha Bonferroni-corrected over
+// every stretch tested (all parameters), each knee inside a stretch kneePenalty more. A
+// drift is reported with its start and end: the flat runs around it are periods of their
+// own. Each drift is also compared with the best single step in its stretch (two constants,
+// the IOV between them possibly set aside): where the step's χ² is within 9 of the drift's
+// (or lower), these IOVs cannot tell them apart and both are reported, with what would tell
+// them apart (TellApart, computed for the drift as fitted); a step that fits better where
+// other parameters step (the same reassembly) replaces it.
+// What the method cannot resolve is said, never taken for "no step". Every stretch's model
+// is tested by its χ²: a stretch it rejects (p-value × stretches tested < 0.01) is reported
+// as inconsistent — in a series too short to split (fewer than 2 × minSegment IOVs),
+// "too few IOVs to locate a step"; otherwise something neither a step nor a drift explains.
+// Stability. A period between the changes is stable only when, for every parameter, its IOVs
+// scatter about their mean within their statistical errors (χ² p-value × periods × series
+// tested ≥ 0.01; the quoted errors scaled to their measured scatter for a tag whose
+// payloads record no statistical errors): never on errors a σ_sys inflates.
 // Known boundaries (the logbook's reassemblies): each series is cut there whatever the data
 // say (an IOV straddling one is left out of both sides), the change is measured at every
 // boundary and reported, significant or not.
 // Edges. A change one IOV before the end of a series (or after its start) leaves one IOV on
-// its side: too few for a segment, so the partitioning cannot cut there, and the segment's
-// line bends towards that IOV — a "drift" no run shows. The first and the last IOV are
-// therefore tested against the model of the rest of their segment: left out when that lowers
-// the χ² by more than a change's penalty, the rest is consistent with its model (χ² p-value
-// at least 0.01) and the IOV departs from it with a two-sided p-value below 0.01 / (2 ×
-// series). Such an IOV is reported as what it is — a change at the
-// end of the tag seen in one IOV, a step or an outlier that later runs will tell apart — and
-// never as a drift.
+// its side: too few for a segment. The first and the last IOV are therefore tested against
+// the model of the rest of their segment: left out when that lowers the χ² by more than a
+// change's penalty, the rest is consistent with its model (χ² p-value at least 0.01) and the
+// IOV departs from it with a two-sided p-value below 0.01 / (2 × series). Such an IOV is
+// reported as what it is — a change at the end of the tag seen in one IOV, a step or an
+// outlier that later runs will tell apart — and never as a drift.
 
+#include <cmath>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -64,29 +67,16 @@
 #include "emcalign/io/json_files.hpp"
 #include "emcalign/report/trend_plots.hpp"
 #include "emcalign/validation/period.hpp"
+#include "emcalign/validation/trend_drift.hpp"
+#include "emcalign/validation/trend_series.hpp"
 
 namespace emcalign::validation {
 
 inline constexpr std::string_view kTrendFormat = "emcalign-trend/1";
-/// A segment is a line (and tested for a drift) from this many points; a shorter one is a constant.
+/// A segment is a line (and a stretch is tested for a drift) from this many points; a shorter one is a constant.
 inline constexpr std::size_t kMinLinePoints = 5;
-
-struct TrendPoint {
-  std::int64_t firstRun = 0, lastRun = 0;  ///< the IOV
-  double value = 0.0, error = 0.0;         ///< file units (deg, cm)
-  double x() const { return 0.5 * (static_cast<double>(firstRun) + static_cast<double>(lastRun)); }
-};
-
-struct TrendSeries {
-  Quantity parameter;  ///< the 12 fit parameters, then beta, psi, mu, tau, dx_rel
-  std::vector<TrendPoint> points;
-};
-
-/// The 17 series of a tag (the 12 parameters with their errors, and the derived β, ψ, μ, τ,
-/// dx_rel with theirs), from its payloads. IOVs whose payload has no errors are an error. The
-/// directions ψ and τ are left out where their magnitude (β, μ) is within 3σ of 0, and
-/// unwrapped (each within 180° of the one before).
-Result<std::vector<TrendSeries>> seriesOfTag(conddb::TagSnapshot& tag);
+/// The default knee penalty, in units of ln n.
+inline constexpr double kKneePenaltyPerLogN = 1.5;
 
 /// A straight line fitted to points [begin, end) of a series (errors scaled).
 struct LineFit {
@@ -99,23 +89,46 @@ struct LineFit {
   double error(double x) const;
 };
 
+/// A segment of the change-point partitioning (Steps, at the top).
 struct SegmentTest {
   std::size_t begin = 0, end = 0;  ///< points [begin, end)
   LineFit constant, line;
-  double slopeZ = 0.0, pValue = 1.0;
-  bool drift = false;   ///< flagged (Bonferroni over every segment tested)
-  bool sloped = false;  ///< the line preferred by BIC (χ² lower by more than ln n): a slope too
-                        ///< weak to flag, but the better model of the segment's ends
-  /// The segment's model, as the figures draw it.
-  const LineFit& model() const { return drift || sloped ? line : constant; }
+  double slopeZ = 0.0;
+  bool sloped = false;  ///< the line preferred by BIC (χ² lower by more than ln n): the model
+                        ///< a step is measured on
+  /// The segment's model, as steps measure it.
+  const LineFit& model() const { return sloped ? line : constant; }
   /// The degrees of freedom of model()'s χ²: points less its parameters.
-  int modelNdf() const { return static_cast<int>(end - begin) - (drift || sloped ? 2 : 1); }
-  /// Long enough for a line (and a drift test).
+  int modelNdf() const { return static_cast<int>(end - begin) - (sloped ? 2 : 1); }
+  /// Long enough for a line.
   bool isLine() const { return end - begin >= kMinLinePoints; }
-  /// The model a step is measured on: the segment's own (a line only where its slope is
-  /// significant); whether a drift's knee explains the change is tested on the lines.
-  const LineFit& stepModel() const { return model(); }
 };
+
+/// A stretch of one series between its steps (and known boundaries, edges and transitions)
+/// with its model: flat, or a drift (trend_drift.hpp).
+struct StretchModel {
+  std::vector<std::size_t> points;  ///< the series' IOVs it holds
+  RampFit model;
+  bool tested = false;  ///< long enough for a drift test (kMinLinePoints IOVs)
+  [[nodiscard]] bool drift() const { return !model.flat; }
+  /// Degrees of freedom of its χ²: IOVs less the model's parameters and knees.
+  [[nodiscard]] int ndf() const {
+    return static_cast<int>(points.size()) - model.parameters() - (model.flat ? 0 : model.knees());
+  }
+};
+
+/// A drift that fits a step's IOVs about as well as the step, or better by less than the step
+/// test's 9 (see TrendStep::orDrift): these IOVs cannot tell them apart.
+struct DriftAlternative {
+  std::int64_t firstRun = 0, lastRun = 0;  ///< the IOVs it spans, in part or whole
+  std::int64_t startRun = 0, endRun = 0;   ///< its knees, rounded to runs
+  double change = 0.0, changeError = 0.0;
+  double chi2Drift = 0.0, chi2Step = 0.0;  ///< of the drift, of the best step (with a transition's penalty)
+  TellApart tellApart = {};                ///< what would tell them apart
+};
+/// A drift must fit a step's IOVs better than the step by more than this to be named beside it
+/// (its width is one parameter more: AIC's 2).
+inline constexpr double kOrDriftChi2 = 2.0;
 
 struct TrendStep {
   Quantity parameter;              ///< its unit: parameter.unit()
@@ -128,6 +141,9 @@ struct TrendStep {
   /// A step found as a drift's better fit where other parameters step too (the same change of
   /// the detector): the χ² of the step's constants and of the drift's line it replaced.
   std::optional<std::pair<double, double>> insteadOfDrift = {};
+  /// A drift over these IOVs that fits them better than the step, by less than stepZ²: the step
+  /// is reported, the drift beside it, and the IOVs it spans are no stable period.
+  std::optional<DriftAlternative> orDrift = {};
   double z() const { return error > 0.0 ? size / error : 0.0; }
 };
 
@@ -137,7 +153,7 @@ struct StepAlternative {
   std::optional<std::pair<std::int64_t, std::int64_t>> withinIov;
   double before = 0.0, after = 0.0;       ///< the two constants
   double size = 0.0, error = 0.0;         ///< after − before
-  double chi2Step = 0.0, chi2Line = 0.0;  ///< of the step's two constants, of the drift's line
+  double chi2Step = 0.0, chi2Line = 0.0;  ///< of the step's two constants, of the drift's model
   /// The runs of the IOVs on either side of it: a step of another parameter there is the same change.
   std::int64_t nearFirstRun = 0, nearLastRun = 0;
   std::size_t index = 0;                                  ///< the first point after it
@@ -146,13 +162,21 @@ struct StepAlternative {
 };
 
 struct TrendDrift {
-  Quantity parameter;  ///< its unit: parameter.unit()
-  std::int64_t firstRun = 0, lastRun = 0;
+  Quantity parameter;                      ///< its unit: parameter.unit()
+  std::int64_t firstRun = 0, lastRun = 0;  ///< the IOVs it spans (in part or whole)
   double slopePerRun = 0.0, error = 0.0, z = 0.0, pValue = 1.0;
-  /// The best single step in the drift's IOVs (two constants, the IOV between them possibly
-  /// set aside), when its χ² is within a change's penalty of the line's: these IOVs cannot
-  /// tell a drift from a step, and both are reported. None: a step does not fit (a drift).
+  /// Where it starts and ends (the knees, rounded to runs: the last run before it moves and
+  /// the run where it stops); none where it runs into its stretch's edge (under way when the
+  /// stretch begins, still going on when it ends).
+  std::optional<std::int64_t> startRun = {}, endRun = {};
+  /// Their ranges (runs where the χ² is within 1 of its least; RampFit::startLow, …).
+  std::pair<std::int64_t, std::int64_t> startRange = {}, endRange = {};
+  double change = 0.0, changeError = 0.0;  ///< over its runs (or its stretch's)
+  /// The best single step in the drift's stretch (two constants, the IOV between them possibly
+  /// set aside), when its χ² is within 9 of the drift's: these IOVs cannot tell a drift from a
+  /// step, and both are reported. None: a step does not fit (a drift).
   std::optional<StepAlternative> orStep = {};
+  std::optional<TellApart> tellApart = {};  ///< with orStep: what would tell them apart
 };
 
 /// A change of a series: a new segment starts at point `start`; with `transition`, point
@@ -169,9 +193,12 @@ struct SeriesAnalysis {
   double penalty = 0.0;         ///< per change
   std::vector<Change> changes;  ///< every change found
   std::vector<SegmentTest> segments;
+  /// Per change: where the series is cut into stretches (a step was found, or a known boundary).
+  std::vector<bool> cutAt;
+  std::vector<StretchModel> stretches;  ///< between its steps, with their models
 };
 
-/// A segment of one series that its model does not fit (see the top of this file).
+/// A stretch of one series that its model does not fit (see the top of this file).
 struct TrendInconsistency {
   Quantity parameter;  ///< its unit: parameter.unit()
   std::int64_t firstRun = 0, lastRun = 0;
@@ -179,7 +206,7 @@ struct TrendInconsistency {
   double chi2 = 0.0;
   int ndf = 0;
   double pValue = 1.0;
-  bool line = false;          ///< the model was a line (a significant slope), not a constant
+  bool line = false;          ///< the model was a drift (flagged), not a constant
   bool unsplittable = false;  ///< the series is too short for a step to be located at all
 };
 
@@ -209,8 +236,20 @@ struct TrendEdge {
   double z() const { return error > 0.0 ? departure / error : 0.0; }
 };
 
-/// A stable period: between steps (steps of different parameters within one IOV of each
-/// other are one reassembly).
+/// A parameter whose IOVs in a period scatter about their mean beyond their statistical
+/// errors (Stability, at the top).
+struct PeriodScatter {
+  Quantity parameter;
+  double chi2 = 0.0;  ///< about the mean, with the statistical errors (or the scaled quoted ones)
+  int ndf = 0;
+  double pValue = 1.0;
+  bool statistical = true;  ///< the errors were the fits' statistical ones
+  /// The scatter over the errors, √(χ²/ndf).
+  [[nodiscard]] double ratio() const { return ndf > 0 ? std::sqrt(chi2 / ndf) : 0.0; }
+};
+
+/// A period: between steps (steps of different parameters within one IOV of each other are
+/// one reassembly) and the ends of drifts.
 struct TrendSegment {
   std::size_t begin = 0, end = 0;  ///< IOVs [begin, end)
   std::int64_t firstRun = 0, lastRun = 0;
@@ -220,28 +259,40 @@ struct TrendSegment {
   bool afterKnownBoundary = false;     ///< it starts at (or straddles) a known boundary
   std::vector<Quantity> stepsAtStart;  ///< parameters that stepped where it starts (or inside it)
   std::vector<Quantity> drifting;      ///< parameters with a flagged drift inside it
-  std::vector<Quantity> inconsistent;  ///< parameters with an inconsistent segment inside it
+  std::vector<Quantity> inconsistent;  ///< parameters with an inconsistent stretch inside it
+  /// Parameters whose change here is a step or a drift that these IOVs cannot tell apart
+  /// (TrendStep::orDrift): the IOVs a drift would span.
+  std::vector<Quantity> undecided;
+  std::vector<PeriodScatter> scattering;  ///< parameters whose IOVs scatter beyond their errors
   /// An IOV at the tag's first or last that departs from the IOVs beside it (TrendEdge): the
   /// parameters that do; not a stable period.
   std::vector<Quantity> departing;
   /// Whether the trend could locate a step at all (Trend::resolvable): a period of a trend
   /// too short for that is never called stable (nothing was tested but one value).
   bool resolvable = true;
-  /// Neither a transition nor an edge, nothing inside it drifting or inconsistent, a trend
-  /// long enough to have looked for steps, and two IOVs at least (one tests nothing).
+  /// Neither a transition nor an edge, nothing inside it drifting, inconsistent or scattering
+  /// beyond its statistical errors, a trend long enough to have looked for steps, and two IOVs
+  /// at least (one tests nothing).
   bool stable() const {
     return resolvable && end - begin >= 2 && !transition && departing.empty() && drifting.empty() &&
-           inconsistent.empty();
+           inconsistent.empty() && undecided.empty() && scattering.empty();
   }
-  /// What `trend --refit` replaces by one calibration of all its events: a period that neither
-  /// drifts nor straddles a step (its IOVs are kept as they are otherwise).
-  bool refittable() const { return drifting.empty() && !transition; }
+  /// What `trend --refit` replaces by one calibration of all its events: a period whose IOVs
+  /// agree within their errors (its IOVs are kept as they are otherwise: one value would
+  /// average over what moves inside it).
+  bool refittable() const {
+    return drifting.empty() && !transition && inconsistent.empty() && undecided.empty() && scattering.empty();
+  }
 };
 
 struct TrendOptions {
   std::size_t minSegment = 2;               ///< points per segment (at least 1)
   double stepZ = 3.0;                       ///< jump / error for a change to count as a step
   double driftAlpha = 0.01;                 ///< family-wise false-flag rate of the drift tests
+  /// Per knee of a drift inside its stretch, to flag it; default kKneePenaltyPerLogN·ln n.
+  std::optional<double> kneePenalty;
+  /// Per knee of a flagged drift inside its stretch, to place its ends (trend_drift.hpp).
+  double kneeShapePenalty = 2.0;
   std::optional<double> penalty;            ///< default (k + 2)·ln n
   std::optional<double> transitionPenalty;  ///< default ln n (the mixture's fraction)
   /// Require a step to beat a continuous broken line (off: only for comparisons).
@@ -263,8 +314,11 @@ struct Trend {
   std::size_t iovs = 0;
   double penalty = 0.0;            ///< per change (the largest over the series)
   double transitionPenalty = 0.0;  ///< more for a transition IOV
-  int tests = 0;                   ///< segments tested for a drift
-  int consistencyTests = 0;        ///< segments whose χ² was tested
+  double kneePenalty = 0.0;        ///< per knee of a drift (the largest over the series)
+  double slopePenalty = 0.0;       ///< the drift test's z² (Bonferroni over `tests`)
+  int tests = 0;                   ///< stretches tested for a drift
+  int consistencyTests = 0;        ///< stretches whose χ² was tested
+  int scatterTests = 0;            ///< periods × series whose scatter was tested
   /// A step can be located at all: at least 2 × minSegment IOVs.
   bool resolvable() const { return iovs >= 2 * options.minSegment; }
 };
@@ -277,8 +331,6 @@ std::vector<Change> changePoints(const TrendSeries& s, double scale, double pena
 /// segment at the first IOV that starts at or after the boundary, the IOV before it a
 /// transition when it straddles the boundary. Boundaries outside the series give none.
 std::vector<Change> knownChanges(const TrendSeries& s, const std::vector<std::int64_t>& boundaries);
-/// s of the top of this file (1 with fewer than 6 points, or when it cannot be estimated).
-double errorScale(const TrendSeries& s);
 /// Weighted least squares of points [begin, end): a line, or a constant (`withSlope` false).
 LineFit fitLine(const TrendSeries& s, std::size_t begin, std::size_t end, double scale, bool withSlope);
 
@@ -319,8 +371,14 @@ Result<TrendRecord> parseTrend(const io::Json& j, std::string_view source);
 /// step (2 × minSegment), with the --min-events that would give 6; empty otherwise.
 std::string tooFewIovsForTrend(std::size_t iovs, std::int64_t selectedEvents, const TrendOptions& options = {});
 /// A drift's step alternative in words ("a step fits better: … at run …, where beta1 steps
-/// (χ² …): these IOVs cannot tell a drift from a step; …"), "" without one.
+/// (χ² …): these IOVs cannot tell a drift from a step; …" and what would), "" without one.
 std::string stepAlternativeText(const Trend& t, const TrendDrift& d);
+/// A step's drift alternative in words ("or a drift of … from run … to run … (χ² …): these IOVs
+/// cannot tell a step from a drift; …" and what would), "" without one.
+std::string driftAlternativeText(const TrendStep& s);
+/// Where a drift starts and ends, in words: "from run 8 to run 27", "under way at run 1",
+/// "still going at run 60".
+std::string driftExtentText(const TrendDrift& d);
 /// What the trend can say of steps, in one sentence: never "no step" where it cannot tell.
 std::string trendVerdict(const Trend& t);
 /// What trend.md says beside the trend itself.

@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
+#include <optional>
 #include <random>
 #include <string>
 #include <tuple>
@@ -295,7 +297,7 @@ TEST(Trend, ADriftThatAStepFitsAsWellIsReportedAsEither) {
   ASSERT_NE(step, u.steps.end()) << trendMarkdown(u, {beta1, dx}, {"test"});
   EXPECT_NEAR(step->size, -0.097, 0.005);
   ASSERT_TRUE(step->insteadOfDrift.has_value());
-  EXPECT_GT(step->insteadOfDrift->second - step->insteadOfDrift->first, 5.0);
+  EXPECT_GT(step->insteadOfDrift->second, step->insteadOfDrift->first);  // the drift fits worse
   for (const auto& g : u.segments) EXPECT_TRUE(g.drifting.empty()) << g.firstRun;
 
   std::mt19937_64 rng(31);
@@ -424,7 +426,7 @@ TEST(Trend, AStepBetweenFlatSegmentsIsTheDifferenceOfTheirMeans) {
     ASSERT_EQ(t.steps.size(), 1u);
     const auto& segs = t.series[0].segments;
     ASSERT_EQ(segs.size(), 2u);
-    if (segs[0].drift || segs[0].sloped || segs[1].drift || segs[1].sloped) continue;
+    if (segs[0].sloped || segs[1].sloped) continue;
     EXPECT_NEAR(t.steps[0].size, segs[1].constant.a - segs[0].constant.a, 1e-12);
     EXPECT_NEAR(t.steps[0].size, 0.15, 4.0 * t.steps[0].error);
   }
@@ -539,6 +541,226 @@ TEST(Trend, TheFileReadsBackAsTheAnalysisFound) {
             "d/trend.json: key 'segments[0].drifting[1]': expected a string");
   EXPECT_EQ(refusal([](Json& j) { j["drifts"][0]["first_run"] = "5"; }),
             "d/trend.json: key 'drifts[0].first_run': expected an integer, got string");
+}
+
+}  // namespace
+}  // namespace emcalign::validation
+
+namespace emcalign::validation {
+namespace {
+
+// A series of IOVs of `runsPerIov` runs from run 1 on, each run with `eventsPerRun` selected
+// events: an IOV's value is the mean of truth(run) over its runs plus noise of its statistical
+// error perEvent/√(its events), which is what it records (statistical errors).
+template <class F>
+TrendSeries ofRuns(int runs, int runsPerIov, double eventsPerRun, double perEvent, std::mt19937_64& rng, F truth,
+                   Quantity name = Param::Alpha) {
+  std::normal_distribution<double> noise(0.0, 1.0);
+  TrendSeries s{name, {}, true};
+  for (int first = 1; first <= runs; first += runsPerIov) {
+    const int last = std::min(runs, first + runsPerIov - 1);
+    double sum = 0.0;
+    for (int r = first; r <= last; ++r) sum += truth(r);
+    const double events = eventsPerRun * (last - first + 1), error = perEvent / std::sqrt(events);
+    s.points.push_back({first, last, sum / (last - first + 1) + error * noise(rng), error, 3.0 * error,
+                        static_cast<std::int64_t>(events)});
+  }
+  return s;
+}
+
+// The issue-43 newcomer's α: flat, a ramp of 0.105° from run 8 to run 27 (6.5 statistical
+// errors of one IOV), flat again; IOVs of 2 runs (20 000 events), 60 runs.
+double newcomerAlpha(int run) { return 2.9 + 0.0055 * std::clamp(run - 8, 0, 19); }
+
+// A drift inside flat runs is found with its start and its end, no step alternative, and the
+// flat runs around it are periods of their own, stable (issue 43: "drift alpha runs 1-28 … or a
+// step", the flat runs after it called drifting). A knee is seen by the few IOVs around it: its
+// own uncertainty is about 1.5 IOVs here (3 runs), so both ends are within ±3 runs in half the
+// series, and the truth within the ranges given in about 2 of 3 (bench/trend_study.cpp). The
+// rates below are those measured on these 100 series (fixed seed), less a margin.
+TEST(Trend, ADriftInsideFlatRunsIsFoundWithItsEnds) {
+  std::mt19937_64 rng(43);
+  const int trials = 100;
+  int found = 0, ends = 0, slopes = 0, orStep = 0, steps = 0, flatDrifting = 0, flatUnstable = 0, ends6 = 0, covered = 0,
+      open = 0;
+  for (int k = 0; k < trials; ++k) {
+    const auto alpha = ofRuns(60, 2, 10000.0, 2.26, rng, newcomerAlpha);
+    const Trend t = analyseTrend({alpha});
+    steps += t.steps.empty() ? 0 : 1;
+    if (t.drifts.size() != 1) continue;
+    const TrendDrift& d = t.drifts[0];
+    ++found;
+    ends += d.startRun && d.endRun && std::abs(*d.startRun - 8) <= 3 && std::abs(*d.endRun - 27) <= 3 ? 1 : 0;
+    ends6 += d.startRun && d.endRun && std::abs(*d.startRun - 8) <= 6 && std::abs(*d.endRun - 27) <= 6 ? 1 : 0;
+    covered += d.startRange.first <= 8 && 8 <= d.startRange.second ? 1 : 0;
+    covered += d.endRange.first <= 27 && 27 <= d.endRange.second ? 1 : 0;
+    open += d.startRun ? 0 : 1;
+    slopes += std::abs(d.slopePerRun - 0.0055) < 3.0 * d.error ? 1 : 0;
+    orStep += d.orStep ? 1 : 0;
+    for (const auto& g : t.segments) {
+      if (g.firstRun < 33) continue;  // the flat runs after the ramp
+      flatDrifting += g.drifting.empty() ? 0 : 1;
+      flatUnstable += g.stable() ? 0 : 1;
+    }
+  }
+  EXPECT_GE(found, 95);                    // measured 98
+  EXPECT_GE(ends, 40) << "ends within ±3";  // 50
+  EXPECT_GE(ends6, 50) << "within ±6";      // 62
+  EXPECT_GE(covered, 100) << "of 2 x 100 knees within their ranges";  // 124 (Δχ² < 1: about 68 %)
+  EXPECT_GE(slopes, 75);                   // 84
+  EXPECT_LE(orStep, 20);                   // 12
+  EXPECT_LE(steps, 8);                     // 4
+  EXPECT_EQ(flatDrifting, 0);
+  EXPECT_LE(flatUnstable, 5);  // 0
+  EXPECT_LE(open, 45);         // 35: the start's knee not worth its place
+  // One series in full: the periods are the flat runs, the drift, the flat runs.
+  std::mt19937_64 one(7);
+  const auto alpha = ofRuns(60, 2, 10000.0, 2.26, one, newcomerAlpha);
+  const Trend t = analyseTrend({alpha});
+  ASSERT_EQ(t.drifts.size(), 1u);
+  const TrendDrift& d = t.drifts[0];
+  ASSERT_TRUE(d.startRun && d.endRun);
+  const std::string extent = driftExtentText(d);
+  EXPECT_EQ(extent.rfind(fmt::format("from run {} (", *d.startRun), 0), 0u) << extent;
+  EXPECT_NE(extent.find(fmt::format(" to run {} (", *d.endRun)), std::string::npos) << extent;
+  ASSERT_EQ(t.segments.size(), 3u) << trendMarkdown(t, {alpha}, {"test"});
+  EXPECT_TRUE(t.segments[0].stable());
+  EXPECT_EQ(t.segments[1].drifting, std::vector<Quantity>{Param::Alpha});
+  EXPECT_FALSE(t.segments[1].refittable());
+  EXPECT_TRUE(t.segments[2].stable());
+  const Json j = trendJson(t, {alpha});
+  EXPECT_EQ(j["drifts"][0]["start_run"], *d.startRun);
+  EXPECT_EQ(j["drifts"][0]["end_run"], *d.endRun);
+  // The figure: flat, the ramp (a drift), flat.
+  const auto figures = trendFigures(t, {alpha});
+  ASSERT_EQ(figures[0].segments.size(), 3u);
+  EXPECT_FALSE(figures[0].segments[0].drift);
+  EXPECT_TRUE(figures[0].segments[1].drift);
+  EXPECT_FALSE(figures[0].segments[2].drift);
+}
+
+// A ramp inside flat runs is not a plain step: where the change-point analysis cuts it, the
+// step is either dropped (the drift fits better by 9) or reported with the drift beside it, and
+// the IOVs a drift would span are no stable period.
+TEST(Trend, ARampIsNeverAPlainStep) {
+  std::mt19937_64 rng(44);
+  int plain = 0, withDrift = 0;
+  for (int k = 0; k < 100; ++k) {
+    // 60 IOVs of 10 runs, a ramp of 5 errors over runs 201-300.
+    const auto s = ofRuns(600, 10, 1.0, 1.0 * std::sqrt(10.0), rng,
+                          [](int r) { return 5.0 * std::clamp((r - 200) / 100.0, 0.0, 1.0); }, Param::Dx);
+    const Trend t = analyseTrend({s});
+    for (const auto& st : t.steps) {
+      if (!st.orDrift) {
+        ++plain;
+        continue;
+      }
+      ++withDrift;
+      for (const auto& g : t.segments) {
+        if (g.firstRun >= st.orDrift->firstRun && g.lastRun <= st.orDrift->lastRun) EXPECT_FALSE(g.stable());
+      }
+    }
+  }
+  EXPECT_LE(plain, 5);
+  EXPECT_GT(withDrift, 0);
+}
+
+// Stability is judged on the statistical errors: IOVs that scatter twice their statistical
+// errors make no stable period (and no refit), whatever their quoted errors say; quoted errors
+// (a tag of older payloads) are brought to the measured scatter first.
+TEST(Trend, StabilityIsJudgedOnTheStatisticalErrors) {
+  std::mt19937_64 rng(45);
+  auto scattering = ofRuns(40, 1, 20000.0, 2.26, rng, [](int) { return 0.3; }, Param::Dx);
+  std::normal_distribution<double> extra(0.0, 1.0);
+  for (auto& p : scattering.points) p.value += std::sqrt(3.0) * p.error * extra(rng);  // scatter 2σ in all
+  const Trend t = analyseTrend({scattering});
+  ASSERT_EQ(t.segments.size(), 1u);
+  ASSERT_EQ(t.segments[0].scattering.size(), 1u);
+  EXPECT_NEAR(t.segments[0].scattering[0].ratio(), 2.0, 0.6);
+  EXPECT_FALSE(t.segments[0].stable());
+  EXPECT_FALSE(t.segments[0].refittable());
+  EXPECT_NE(trendMarkdown(t, {scattering}, {"test"}).find("scatter beyond their statistical errors in dx"),
+            std::string::npos);
+  EXPECT_EQ(trendJson(t, {scattering})["segments"][0]["scattering"][0]["parameter"], "dx");
+  // The same values with their quoted errors only: the scale takes the measured scatter.
+  TrendSeries quoted = scattering;
+  quoted.statistical = false;
+  for (auto& p : quoted.points) p.error = p.quotedError;
+  const Trend u = analyseTrend({quoted});
+  ASSERT_EQ(u.segments.size(), 1u);
+  EXPECT_TRUE(u.segments[0].stable());
+  // Statistical errors that describe the scatter: stable.
+  const auto fine = ofRuns(40, 1, 20000.0, 2.26, rng, [](int) { return 0.3; }, Param::Dx);
+  EXPECT_TRUE(analyseTrend({fine}).segments[0].stable());
+}
+
+// What tells a drift from a step, as the advice says, is true. A drift over two IOVs of 20
+// runs (runs 101-140, 0.03 cm): these IOVs rarely tell it from a step whose IOV between is set
+// aside; the advice names the campaign --min-events of IOVs that would, and with those the
+// trend does tell in most series. A long, shallow drift (0.012 cm over runs 81-180): the
+// advice says no grouping will, and indeed IOVs of 2 runs do not.
+TEST(Trend, TheAdviceToTellADriftFromAStepIsTrue) {
+  const double perEvent = 0.5;  // cm: an IOV of 20 runs (40 000 events) has an error of 0.0025 cm
+  const auto told = [](const Trend& t) { return t.drifts.size() == 1 && !t.drifts[0].orStep && t.steps.empty(); };
+  const auto adviceOf = [](const Trend& t) {
+    std::vector<std::optional<std::int64_t>> out;
+    for (const auto& d : t.drifts) {
+      if (d.orStep) out.push_back(d.tellApart ? d.tellApart->minEvents : std::nullopt);
+    }
+    for (const auto& st : t.steps) {
+      if (st.orDrift) out.push_back(st.orDrift->tellApart.minEvents);
+    }
+    return out;
+  };
+  std::mt19937_64 rng(47);
+  const auto shortRamp = [](int r) { return 0.3 + 0.03 * std::clamp((r - 100) / 40.0, 0.0, 1.0); };
+  std::map<std::int64_t, int> advised;
+  int cases = 0, toldNow = 0;
+  for (int k = 0; k < 50; ++k) {
+    const Trend t = analyseTrend({ofRuns(240, 20, 2000.0, perEvent, rng, shortRamp, Param::Dx)});
+    toldNow += told(t) ? 1 : 0;
+    for (const auto& a : adviceOf(t)) {
+      ++cases;
+      if (a) ++advised[*a];
+    }
+  }
+  ASSERT_FALSE(advised.empty());
+  const auto most = std::max_element(advised.begin(), advised.end(),
+                                     [](const auto& a, const auto& b) { return a.second < b.second; });
+  EXPECT_GE(2 * most->second, cases / 2) << "alternatives with a grouping advised, of " << cases;
+  const int runsPerIov = static_cast<int>(most->first / 2000);
+  ASSERT_GE(runsPerIov, 1);
+  ASSERT_LT(runsPerIov, 20);
+  int toldThen = 0;
+  for (int k = 0; k < 50; ++k) {
+    toldThen += told(analyseTrend({ofRuns(240, runsPerIov, 2000.0, perEvent, rng, shortRamp, Param::Dx)})) ? 1 : 0;
+  }
+  EXPECT_GE(toldThen, 35) << "of 50 series with IOVs of " << most->first << " events (" << toldNow
+                          << " with those of 40 000)";
+  EXPECT_GT(toldThen, toldNow);
+
+  const auto longRamp = [](int r) { return 0.3 + 0.012 * std::clamp((r - 80) / 100.0, 0.0, 1.0); };
+  int alternatives = 0, noGrouping = 0;
+  for (int k = 0; k < 40; ++k) {
+    const Trend t = analyseTrend({ofRuns(240, 20, 2000.0, perEvent, rng, longRamp, Param::Dx)});
+    for (const auto& a : adviceOf(t)) {
+      ++alternatives;
+      noGrouping += a ? 0 : 1;
+    }
+    for (const auto& d : t.drifts) {
+      if (d.orStep && d.tellApart && !d.tellApart->minEvents) {
+        EXPECT_NE(stepAlternativeText(t, d).find("no grouping of these runs will"), std::string::npos)
+            << stepAlternativeText(t, d);
+      }
+    }
+  }
+  ASSERT_GT(alternatives, 20);
+  EXPECT_GE(noGrouping, alternatives * 9 / 10);
+  int toldFinest = 0;  // the finest grouping: IOVs of 2 runs (4000 events)
+  for (int k = 0; k < 40; ++k) {
+    toldFinest += told(analyseTrend({ofRuns(240, 2, 2000.0, perEvent, rng, longRamp, Param::Dx)})) ? 1 : 0;
+  }
+  EXPECT_LE(toldFinest, 8) << "of 40 series with IOVs of 4000 events";
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "common.hpp"
 #include "emcalign/apply/mc_comparison.hpp"
@@ -68,16 +69,19 @@ int run(const CompareOptions& o) {
   if (o.beamEnergy > 0.0) selection.beamEnergy = o.beamEnergy * units::MeV;
   apply::ComparisonOptions options;
   options.sigmaSys = o.sigmaSys * units::deg;
-  auto data = apply::comparedParticlesOf(o.data, depth, selection, options);
+  auto data = apply::comparedSampleOf(o.data, depth, selection, options);
   if (!data) return reportError(Error{"--data: " + data.error().message});
-  auto mc = apply::comparedParticlesOf(o.mc, depth, selection, options);
+  auto mc = apply::comparedSampleOf(o.mc, depth, selection, options);
   if (!mc) return reportError(Error{"--mc: " + mc.error().message});
-  auto c = apply::compareParticles(*data, *mc, options);
+  auto c = apply::compareSamples(*data, *mc, options);
   if (!c) return reportError(c.error());
 
   std::error_code ec;
   std::filesystem::create_directories(o.output, ec);
   if (ec) return reportError(Error{fmt::format("{}: cannot create the directory: {}", o.output, ec.message())});
+  // The figures first: compare.json, which says the comparison is done, only when they are.
+  auto png = report::writeComparePlot(o.output, *c);
+  if (!png) return reportError(Error{fmt::format("{} (compare.json not written)", png.error().message)});
   const io::Json json = apply::comparisonJson(apply::ComparisonRecord{.comparison = *c,
                                                                       .dataFiles = o.data,
                                                                       .mcFiles = o.mc,
@@ -93,10 +97,15 @@ int run(const CompareOptions& o) {
       !s) {
     return reportError(s.error());
   }
-  auto png = report::writeComparePlot(o.output, *c);
-  if (!png) return reportError(png.error());
-  fmt::print(reportStream(), "compare: data {} particles ({} events), MC {} particles ({} events)\n", c->dataParticles,
-             c->dataEvents, c->mcParticles, c->mcEvents);
+  const auto mev = [](const std::vector<double>& e) { return fmt::format("{:g}", fmt::join(e, ", ")); };
+  fmt::print(reportStream(), "compare: data {} particles ({} events, beam {} MeV), MC {} particles ({} events, beam {} MeV)\n",
+             c->dataParticles, c->dataEvents, mev(c->dataBeamEnergiesMev), c->mcParticles, c->mcEvents,
+             mev(c->mcBeamEnergiesMev));
+  if (!c->emptyThetaSlices.empty()) {
+    reportWarning(fmt::format("{} of the {} theta_EMC slices have no profile bin with {} particles in both samples: "
+                              "not compared, drawn empty (a small MC?)",
+                              c->emptyThetaSlices.size(), c->options.profileThetaBins, c->options.minEntries));
+  }
   for (const auto& d : c->distributions) {
     fmt::print(reportStream(), "  {:<14} chi2/ndf = {:8.1f}/{:<4} p-value {:.3g}\n", d.name, d.chi2, d.ndf, d.pValue);
   }

@@ -173,6 +173,9 @@ int runPeriod(const SimulateOptions& cli) {
   o.hits = !cli.noHits;
   o.compression = cli.compression;
   o.threads = cli.threads;
+  for (const auto& w : validation::periodTruthWarnings(*scenario, calo->description().r1())) {
+    reportWarning(fmt::format("{}: {}", cli.period, w));
+  }
   const auto runs = validation::planPeriod(*scenario);
   std::int64_t total = 0, mostInRun = 0;
   for (const auto& r : runs) {

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "bindings.hpp"
+#include "emcalign/core/beam_energy.hpp"
 #include "emcalign/apply/cluster_correction.hpp"
 #include "emcalign/apply/correct.hpp"
 #include "emcalign/apply/mc_comparison.hpp"
@@ -123,10 +124,8 @@ py::tuple correctDirections(const Array& values, const Array& phi, const Array& 
 }
 
 // The particles of a sample for compare: event files, or a dict of event columns.
-std::vector<apply::ComparedParticle> comparedOf(const py::object& sample, const char* name,
-                                                const geometry::ShowerDepth& depth,
-                                                const calib::SelectionOptions& selection,
-                                                const apply::ComparisonOptions& options) {
+apply::ComparedSample comparedOf(const py::object& sample, const char* name, const geometry::ShowerDepth& depth,
+                                 const calib::SelectionOptions& selection, const apply::ComparisonOptions& options) {
   if (py::isinstance<py::dict>(sample)) {
     std::vector<ParticleRow> rows;
     try {
@@ -134,18 +133,18 @@ std::vector<apply::ComparedParticle> comparedOf(const py::object& sample, const 
     } catch (py::error_already_set& e) {  // said of the argument it is in
       raise(Error{fmt::format("{}: {}", name, py::str(e.value()).cast<std::string>())});
     }
-    Result<std::vector<apply::ComparedParticle>> particles = Error{""};
+    Result<apply::ComparedSample> particles = Error{""};
     {
       py::gil_scoped_release release;  // (an error is raised below, with the GIL held)
-      particles = apply::comparedParticlesOfRows(rows, name, depth, selection, options);
+      particles = apply::comparedSampleOfRows(rows, name, depth, selection, options);
     }
     return unwrap(std::move(particles));
   }
   const std::vector<std::string> files = stringsOf(pathsOf(sample, name));
-  Result<std::vector<apply::ComparedParticle>> particles = Error{""};
+  Result<apply::ComparedSample> particles = Error{""};
   {
     py::gil_scoped_release release;
-    particles = apply::comparedParticlesOf(files, depth, selection, options);
+    particles = apply::comparedSampleOf(files, depth, selection, options);
   }
   if (!particles) raise(Error{fmt::format("{}: {}", name, particles.error().message)});
   return std::move(*particles);
@@ -159,11 +158,18 @@ py::object compareSamples(const py::object& data, const py::object& mc, const De
       stringsOf(pathsOf(data, "data")) == stringsOf(pathsOf(mc, "mc"))) {
     raise(Error{"compare: data and mc are the same files: a comparison of a sample with itself"});
   }
+  // The arguments as the command line checks them (and fit does here).
+  check(calib::checkDepthOffset(depthOffset * units::cm, corrections ? pathString(*corrections) : std::string()));
+  if (beamEnergy) {
+    if (std::string problem = beamEnergyProblem(*beamEnergy * units::MeV); !problem.empty()) {
+      raise(Error{"compare: beam_energy " + problem});
+    }
+  }
   geometry::ShowerDepth depth = geometry::ShowerDepth::of(detector.calorimeter().description());
   depth.offset = depthOffset * units::cm;
   if (corrections) depth.offset = unwrap(calib::readCorrections(pathString(*corrections))).depthOffset;
   calib::SelectionOptions selection;
-  if (beamEnergy) selection.beamEnergy = *beamEnergy;
+  if (beamEnergy) selection.beamEnergy = *beamEnergy * units::MeV;
   apply::ComparisonOptions options;
   if (sigmaSys) {
     if (!(std::isfinite(*sigmaSys) && *sigmaSys >= 0.0 && *sigmaSys <= 5.0)) {
@@ -176,7 +182,7 @@ py::object compareSamples(const py::object& data, const py::object& mc, const De
   Result<apply::Comparison> c = Error{""};
   {
     py::gil_scoped_release release;
-    c = apply::compareParticles(d, m, options);
+    c = apply::compareSamples(d, m, options);
   }
   return pythonOf(apply::comparisonJson(unwrap(std::move(c))));
 }

@@ -9,6 +9,7 @@
 
 #include "bindings.hpp"
 #include "emcalign/calib/selection.hpp"
+#include "emcalign/core/beam_energy.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/io/event_file.hpp"
 
@@ -65,9 +66,27 @@ py::array columnArray(const py::dict& events, const char* key, std::size_t n) {
   return a;
 }
 
+// The rows a numpy masked array masks (what awkward and uproot give for optional fields); none
+// for a plain array. A masked entry is a missing value, never the data under its mask.
+std::vector<std::size_t> maskedRows(const py::dict& events, const char* key, std::size_t n) {
+  const py::object column = events[key];
+  if (!py::hasattr(column, "mask")) return {};
+  const auto mask = py::array_t<bool, py::array::c_style | py::array::forcecast>::ensure(
+      py::module_::import("numpy.ma").attr("getmaskarray")(column));
+  std::vector<std::size_t> out;
+  if (!mask || static_cast<std::size_t>(mask.size()) != n) return out;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (mask.data()[i]) out.push_back(i);
+  }
+  return out;
+}
+
+// A float column; masked entries are missing (NaN), as an empty CSV field is.
 std::vector<double> columnOf(const py::dict& events, const char* key, std::size_t n) {
   const auto a = Array::ensure(columnArray(events, key, n));
-  return {a.data(), a.data() + n};
+  std::vector<double> out(a.data(), a.data() + n);
+  for (std::size_t i : maskedRows(events, key, n)) out[i] = std::numeric_limits<double>::quiet_NaN();
+  return out;
 }
 
 // An integer column, exactly (an event number above 2^53 is not a double): integers as they
@@ -75,6 +94,11 @@ std::vector<double> columnOf(const py::dict& events, const char* key, std::size_
 std::vector<std::int64_t> integerColumnOf(const py::dict& events, const char* key, std::size_t n, std::int64_t lo,
                                           std::int64_t hi) {
   const py::array a = columnArray(events, key, n);
+  if (const auto masked = maskedRows(events, key, n); !masked.empty()) {
+    raise(Error{fmt::format("events: row {}: {} is masked (missing), and every row needs one: fill it, or leave "
+                            "the row out",
+                            masked.front(), key)});
+  }
   std::vector<std::int64_t> out(n);
   const char kind = a.dtype().kind();
   if (kind == 'f') {
@@ -186,7 +210,12 @@ void bindEvents(py::module_& m) {
          std::optional<double> maxAbsRho, std::optional<double> minEnergyFraction,
          std::optional<double> maxEnergyFraction, std::optional<double> maxAcollinearityDeg) {
         calib::SelectionOptions o;  // SPEC §7's cuts, unless given
-        o.beamEnergy = beamEnergy;
+        if (beamEnergy) {
+          if (std::string problem = beamEnergyProblem(*beamEnergy * units::MeV); !problem.empty()) {
+            raise(Error{"select: beam_energy " + problem});
+          }
+          o.beamEnergy = *beamEnergy * units::MeV;
+        }
         if (maxAbsZ0) o.maxAbsZ0 = *maxAbsZ0 * units::cm;
         if (maxAbsRho) o.maxAbsRho = *maxAbsRho * units::cm;
         if (minEnergyFraction) o.minEnergyFraction = *minEnergyFraction;

@@ -147,3 +147,69 @@ def test_fit_and_compare_take_the_columns_of_an_ntuple(tmp_path, fit_sample):
             emcalign.compare(data, same)
     with pytest.raises(emcalign.Error, match="mc: event files .* or a dict of event columns, not NoneType"):
         emcalign.compare(ntuple, None)
+
+
+def test_compare_refuses_what_the_cli_refuses_and_samples_of_other_energies(tmp_path, fit_sample):
+    """Issue 43: compare(depth_offset=inf) and beam_energy=nan are refused as fit refuses them,
+    not answered; data and MC of different beam energies are refused, naming both; GeV is named."""
+    import numpy as np
+
+    mc900 = tmp_path / "mc900.h5"
+    cli("simulate", "--params", PAPER_LIKE, "--events", "4000", "--seed", "13", "--beam-energy", "900",
+        "--theta-min", "40", "--theta-max", "140", "--no-hits", "-o", mc900)
+    with pytest.raises(emcalign.Error, match="depth offset inf cm is beyond"):
+        emcalign.compare(str(fit_sample), str(mc900), depth_offset=math.inf)
+    with pytest.raises(emcalign.Error, match="depth offset inf cm is beyond"):
+        emcalign.fit(str(fit_sample), depth_offset=math.inf)
+    with pytest.raises(emcalign.Error, match="beam_energy nan MeV is not a finite beam energy"):
+        emcalign.compare(str(fit_sample), str(mc900), beam_energy=math.nan)
+    with pytest.raises(emcalign.Error, match="0.6125 MeV is below .*: GeV"):
+        emcalign.compare(str(fit_sample), str(mc900), beam_energy=0.6125)
+    # 612.5 MeV data against 900 MeV MC: refused, both energies named, as the CLI does
+    with pytest.raises(emcalign.Error) as ours:
+        emcalign.compare(str(fit_sample), str(mc900))
+    assert "the data (beam energies 612.5 MeV) and the MC (beam energies 900 MeV)" in str(ours.value)
+    assert str(ours.value) == cli_error("compare", "--data", fit_sample, "--mc", mc900, "-o", tmp_path / "never")
+    assert not (tmp_path / "never").exists()
+    # an ntuple in GeV (divided by 1000): the beam energy column names the mistake
+    ev = emcalign.read_events(fit_sample, truth=False, hits=False)
+    gev = {k: np.asarray(v, dtype=np.float64) for k, v in ev.items()}
+    gev["beam_energy_mev"] = gev["beam_energy_mev"] / 1000.0
+    gev["energy_mev"] = gev["energy_mev"] / 1000.0
+    with pytest.raises(emcalign.Error, match=r"events: row 0 .*column 'beam_energy_mev': 0.6125 MeV .*GeV\?"):
+        emcalign.fit(gev)
+    # the clusters alone in GeV: no event passes, and the message says why
+    clusters = {k: np.asarray(v, dtype=np.float64) for k, v in ev.items()}
+    clusters["energy_mev"] = clusters["energy_mev"] / 1000.0
+    with pytest.raises(emcalign.Error, match=r"cluster energies are about \d+ times below .*GeV\?"):
+        emcalign.fit(clusters)
+
+
+def test_masked_columns_are_missing_values_never_their_data(fit_sample):
+    """Issue 43: numpy masked arrays (what awkward and uproot give for optional fields) are read
+    as missing values, not by the data under the mask: a masked cluster field of a charged
+    particle is an event without its cluster (not selected), a masked run number is refused."""
+    import numpy as np
+
+    ev = emcalign.read_events(fit_sample, truth=False, hits=False)
+    plain = {k: np.asarray(v) for k, v in ev.items()}
+    charged = np.flatnonzero(plain["charged"] == 1)
+    hide = np.zeros(len(plain["run"]), dtype=bool)
+    hide[charged[:200]] = True
+    masked = dict(plain)
+    for key in ("energy_mev", "phi_emc_rad", "theta_emc_rad"):
+        masked[key] = np.ma.masked_array(plain[key], mask=hide)
+    full, partial = emcalign.select(plain), emcalign.select(masked)
+    # the selected particles whose clusters are masked now fail the cluster-energy cut (4), as
+    # with no cluster; nothing else changes
+    touched = hide & (full == 0)
+    assert touched.sum() > 50
+    assert (partial[touched] == 4).all()
+    assert (partial[hide & (full != 0)] == full[hide & (full != 0)]).all()
+    changed = partial != full
+    assert (changed <= (touched | np.roll(touched, 1) | np.roll(touched, -1))).all()
+    # read by their underlying data, the fit would be unchanged: it is not
+    assert emcalign.fit(masked).cut_flow != emcalign.fit(plain).cut_flow
+    run = dict(plain, run=np.ma.masked_array(plain["run"], mask=hide))
+    with pytest.raises(emcalign.Error, match=r"events: row \d+: run is masked \(missing\)"):
+        emcalign.fit(run)

@@ -102,6 +102,13 @@ Json comparisonJson(const ComparisonRecord& record) {
             {"method",
              "chi2 of the difference with the covariance of both samples from the events' influences (two particles "
              "of an event, y_phi-y_theta, the histograms' normalisation), over its rank"}};
+  for (const auto& [key, events, energies] :
+       {std::tuple{"data", c.dataSelectedEvents, &c.dataBeamEnergiesMev},
+        std::tuple{"mc", c.mcSelectedEvents, &c.mcBeamEnergiesMev}}) {
+    if (events > 0) j[key]["selected_events"] = events;
+    if (!energies->empty()) j[key]["beam_energies_mev"] = *energies;
+  }
+  if (!c.emptyThetaSlices.empty()) j["empty_theta_slices"] = c.emptyThetaSlices;
   if (!record.dataFiles.empty()) j["data"]["files"] = record.dataFiles;
   if (!record.mcFiles.empty()) j["mc"]["files"] = record.mcFiles;
   if (!record.software.empty()) j["software"] = record.software;
@@ -131,6 +138,10 @@ Result<ComparisonRecord> parseComparison(const Json& j, std::string_view source)
     c.mcEvents = mc.integer("events");
     c.mcParticles = mc.integer("particles");
     if (data.has("files")) r.dataFiles = data.strings("files");
+    if (data.has("selected_events")) c.dataSelectedEvents = data.integer("selected_events");
+    if (mc.has("selected_events")) c.mcSelectedEvents = mc.integer("selected_events");
+    if (data.has("beam_energies_mev")) c.dataBeamEnergiesMev = data.numbers("beam_energies_mev");
+    if (mc.has("beam_energies_mev")) c.mcBeamEnergiesMev = mc.numbers("beam_energies_mev");
     if (mc.has("files")) r.mcFiles = mc.strings("files");
     c.options = readOptions(top.object("options"));
     c.options.profileThetaBins = thetaBins;

@@ -279,6 +279,10 @@ Result<Comparison> compareParticles(const std::vector<ComparedParticle>& data, c
   distribution("profile_phi", pOff, u, false, false);
   distribution("profile_theta", pOff + u, u, false, true);
   if (u == 0) return Error{"no profile bin has the entries a comparison needs in both samples"};
+  for (int j = 0; j < o.profileThetaBins; ++j) {
+    const bool any = std::any_of(l.usedBins.begin(), l.usedBins.end(), [&](int b) { return b % o.profileThetaBins == j; });
+    if (!any) out.emptyThetaSlices.push_back(j);
+  }
   const auto [chi2, ndf] = chi2Of(d, c);
   out.chi2 = chi2;
   out.ndf = ndf;
@@ -290,10 +294,10 @@ namespace {
 
 // The particles a fill visits (fillProfiles of files or of rows), binned as the profiles.
 template <typename Fill>
-Result<std::vector<ComparedParticle>> comparedParticles(const ComparisonOptions& o, std::int64_t* selectedEvents,
-                                                        const Fill& fillWith) {
+Result<ComparedSample> comparedParticles(const ComparisonOptions& o, const Fill& fillWith) {
   const calib::ProfileOptions profile;
-  std::vector<ComparedParticle> out;
+  ComparedSample sample;
+  std::vector<ComparedParticle>& out = sample.particles;
   std::int64_t event = -1;
   std::int32_t lastRun = 0;
   std::int64_t lastEvent = 0;
@@ -321,34 +325,91 @@ Result<std::vector<ComparedParticle>> comparedParticles(const ComparisonOptions&
   };
   auto fill = fillWith(profile, visit);
   if (!fill) return fill.error();
-  if (selectedEvents != nullptr) *selectedEvents = fill->cutFlow.events.back();
+  sample.selectedEvents = fill->cutFlow.events.back();
+  for (double e : fill->beamEnergies) sample.beamEnergiesMev.push_back(e / units::MeV);
+  return sample;
+}
+
+// The energies of `a` that none of `b` is within kSameBeamEnergy of.
+std::vector<double> unmatched(const std::vector<double>& a, const std::vector<double>& b) {
+  std::vector<double> out;
+  for (double e : a) {
+    const bool found = std::any_of(b.begin(), b.end(), [&](double f) {
+      return std::abs(e - f) <= kSameBeamEnergy * std::max(std::abs(e), std::abs(f));
+    });
+    if (!found) out.push_back(e);
+  }
   return out;
 }
 
 }  // namespace
 
-Result<std::vector<ComparedParticle>> comparedParticlesOf(const std::vector<std::string>& files,
-                                                          const geometry::ShowerDepth& depth,
-                                                          const calib::SelectionOptions& selection,
-                                                          const ComparisonOptions& o, std::int64_t* selectedEvents) {
-  return comparedParticles(o, selectedEvents, [&](const calib::ProfileOptions& profile, const auto& visit) {
+Result<ComparedSample> comparedSampleOf(const std::vector<std::string>& files, const geometry::ShowerDepth& depth,
+                                        const calib::SelectionOptions& selection, const ComparisonOptions& o) {
+  return comparedParticles(o, [&](const calib::ProfileOptions& profile, const auto& visit) {
     return calib::fillProfiles(files, depth, selection, profile, visit);
   });
 }
 
-Result<std::vector<ComparedParticle>> comparedParticlesOfRows(
-    std::span<const ParticleRow> rows, const std::string& source, const geometry::ShowerDepth& depth,
-    const calib::SelectionOptions& selection, const ComparisonOptions& o, std::int64_t* selectedEvents) {
-  return comparedParticles(o, selectedEvents, [&](const calib::ProfileOptions& profile, const auto& visit) {
+Result<ComparedSample> comparedSampleOfRows(std::span<const ParticleRow> rows, const std::string& source,
+                                            const geometry::ShowerDepth& depth,
+                                            const calib::SelectionOptions& selection, const ComparisonOptions& o) {
+  return comparedParticles(o, [&](const calib::ProfileOptions& profile, const auto& visit) {
     return calib::fillProfilesOfRows(rows, source, depth, selection, profile, visit);
   });
 }
 
+Status checkCombinable(const ComparedSample& data, const ComparedSample& mc) {
+  const auto mev = [](const std::vector<double>& e) {
+    return e.empty() ? std::string("none") : fmt::format("{:g} MeV", fmt::join(e, ", "));
+  };
+  const std::vector<double> dataOnly = unmatched(data.beamEnergiesMev, mc.beamEnergiesMev);
+  const std::vector<double> mcOnly = unmatched(mc.beamEnergiesMev, data.beamEnergiesMev);
+  if (dataOnly.empty() && mcOnly.empty()) return {};
+  return Error{fmt::format(
+      "the data (beam energies {}) and the MC (beam energies {}) are not of the same beam energies{}{}: the "
+      "residuals depend on the energy (the shower depth, the radiation), so they would differ whatever the "
+      "simulation; compare samples of one energy (within {:g} of it)",
+      mev(data.beamEnergiesMev), mev(mc.beamEnergiesMev),
+      dataOnly.empty() ? std::string() : fmt::format("; the MC has none at {}", mev(dataOnly)),
+      mcOnly.empty() ? std::string() : fmt::format("; the data have none at {}", mev(mcOnly)), kSameBeamEnergy)};
+}
+
+Result<Comparison> compareSamples(const ComparedSample& data, const ComparedSample& mc,
+                                  const ComparisonOptions& options) {
+  if (Status s = checkCombinable(data, mc); !s) return s.error();
+  auto c = compareParticles(data.particles, mc.particles, options);
+  if (!c) return c;
+  c->dataSelectedEvents = data.selectedEvents;
+  c->mcSelectedEvents = mc.selectedEvents;
+  c->dataBeamEnergiesMev = data.beamEnergiesMev;
+  c->mcBeamEnergiesMev = mc.beamEnergiesMev;
+  return c;
+}
+
 std::string comparisonMarkdown(const Comparison& c, const std::vector<std::string>& dataFiles,
                                const std::vector<std::string>& mcFiles, const std::string& depth) {
+  const auto energies = [](const std::vector<double>& e) {
+    return e.empty() ? std::string() : fmt::format("beam energy {:g} MeV, ", fmt::join(e, ", "));
+  };
+  const auto selected = [](std::int64_t n) { return n > 0 ? fmt::format("{} selected events, ", n) : std::string(); };
   std::string md = fmt::format(
-      "# MC against data\n\nData: {} ({} events, {} particles in 45-135 deg). MC: {} ({} events, {} particles).\n\n",
-      fmt::join(dataFiles, ", "), c.dataEvents, c.dataParticles, fmt::join(mcFiles, ", "), c.mcEvents, c.mcParticles);
+      "# MC against data\n\nData: {} ({}{}{} events and {} particles in 45-135 deg). MC: {} ({}{}{} events and {} "
+      "particles).\n\n",
+      fmt::join(dataFiles, ", "), energies(c.dataBeamEnergiesMev), selected(c.dataSelectedEvents), c.dataEvents,
+      c.dataParticles, fmt::join(mcFiles, ", "), energies(c.mcBeamEnergiesMev), selected(c.mcSelectedEvents),
+      c.mcEvents, c.mcParticles);
+  if (!c.emptyThetaSlices.empty()) {
+    std::vector<std::string> slices;
+    for (int j : c.emptyThetaSlices) {
+      const double width = 90.0 / c.options.profileThetaBins;
+      slices.push_back(fmt::format("{:g}-{:g}°", 45.0 + j * width, 45.0 + (j + 1) * width));
+    }
+    md += fmt::format(
+        "No profile bin of the θ_EMC slices {} has {} particles in both samples: they are not compared, and drawn "
+        "empty.\n\n",
+        fmt::join(slices, ", "), c.options.minEntries);
+  }
   md += fmt::format("Errors: the statistical errors of both samples{}. Residuals at the shower depth {}.\n\n",
                     c.options.sigmaSys > 0.0 ? fmt::format(", and σ_sys = {:g} deg added to each profile mean",
                                                            c.options.sigmaSys * 180.0 / std::numbers::pi)

@@ -1,4 +1,5 @@
 #include "emcalign/calib/calibration.hpp"
+#include "emcalign/core/beam_energy.hpp"
 
 #include <optional>
 
@@ -33,6 +34,15 @@ void ProfileFiller::addEvents(std::span<const ParticleRow> rows) {
     const int failed = selectEvent(event, selection_);
     const int passed = failed == 0 ? static_cast<int>(CutFlow::kNames.size()) : failed;
     for (int k = 0; k < passed; ++k) fill_.cutFlow.events[static_cast<std::size_t>(k)] += 1;
+    if (failed == 4) {  // the cluster energies: how far from the beam's, for a unit hint
+      for (const auto& r : event) {
+        const double beam = selection_.beamEnergy.value_or(r.beamEnergy);
+        if (r.hasCluster() && beam > 0.0) {
+          fill_.cutFlow.refusedEnergyRatio += r.energy / beam;
+          ++fill_.cutFlow.refusedByEnergy;
+        }
+      }
+    }
     if (failed == 0) {
       fill_.beamEnergies.insert(selection_.beamEnergy.value_or(event[0].beamEnergy));
       std::optional<ParticleResidual> first;
@@ -63,7 +73,10 @@ Status ProfileFiller::checkSelected() const {
   for (std::size_t k = 0; k < CutFlow::kNames.size(); ++k) {
     flow += fmt::format("{}{} {}", k ? ", " : "", CutFlow::kNames[k], fill_.cutFlow.events[k]);
   }
-  return Error{fmt::format("no event passes the e+e- -> e+e- selection ({})", flow)};
+  const CutFlow& c = fill_.cutFlow;
+  const std::string hint =
+      c.refusedByEnergy > 0 ? clusterEnergyUnitHint(c.refusedEnergyRatio / static_cast<double>(c.refusedByEnergy)) : "";
+  return Error{fmt::format("no event passes the e+e- -> e+e- selection ({}){}", flow, hint.empty() ? "" : ": " + hint)};
 }
 
 Result<ProfileFill> fillProfiles(const std::vector<std::string>& files, const geometry::ShowerDepth& depth,
@@ -98,6 +111,8 @@ Result<ProfileFill> fillProfilesOfRows(std::span<const ParticleRow> rows, const 
 void ProfileFill::merge(const ProfileFill& other) {
   for (std::size_t k = 0; k < cutFlow.events.size(); ++k) cutFlow.events[k] += other.cutFlow.events[k];
   cutFlow.rows += other.cutFlow.rows;
+  cutFlow.refusedEnergyRatio += other.cutFlow.refusedEnergyRatio;
+  cutFlow.refusedByEnergy += other.cutFlow.refusedByEnergy;
   profiles.merge(other.profiles);
   particlesSelected += other.particlesSelected;
   particlesInRange += other.particlesInRange;

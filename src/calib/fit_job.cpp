@@ -1,4 +1,5 @@
 #include "emcalign/calib/fit_job.hpp"
+#include "emcalign/core/beam_energy.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -38,8 +39,10 @@ Status FitRequest::validate() const {
   if ((events.empty() ? 0 : 1) + (profileIn.empty() ? 0 : 1) + (rows ? 1 : 0) != 1) {
     return Error{"give event files, events in memory or a saved profile (one of them)"};
   }
-  if (beamEnergy && !(std::isfinite(*beamEnergy) && *beamEnergy > 0.0)) {
-    return Error{fmt::format("beam energy {} MeV: expected a positive energy", *beamEnergy)};
+  if (beamEnergy) {
+    if (std::string problem = beamEnergyProblem(*beamEnergy * units::MeV); !problem.empty()) {
+      return Error{"beam energy " + problem};
+    }
   }
   if (Status s = checkDepthOffset(depthOffset, corrections); !s) return s;
   if (sigmaSys) return sigmaSys->validate();

@@ -4,6 +4,7 @@
 
 #include <fmt/format.h>
 
+#include "emcalign/core/beam_energy.hpp"
 #include "event_file_internal.hpp"
 
 namespace emcalign::io::detail {
@@ -18,8 +19,8 @@ std::optional<Issue> checkRow(const ParticleRow& r) {
     }
   }
   if (std::isnan(r.beamEnergy)) return Issue{name(kBeam), "empty (a value is required)"};
-  if (!(r.beamEnergy > 0.0)) {
-    return Issue{name(kBeam), fmt::format("beam energy must be > 0, got {}", r.beamEnergy)};
+  if (std::string problem = beamEnergyProblem(r.beamEnergy * units::MeV); !problem.empty()) {
+    return Issue{name(kBeam), std::move(problem)};
   }
   if (r.muonVeto != 0 && r.muonVeto != 1) {
     return Issue{name(kVeto), fmt::format("must be 0 or 1, got {}", static_cast<int>(r.muonVeto))};

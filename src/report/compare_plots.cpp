@@ -166,6 +166,16 @@ std::string profileSlicesScript(const apply::Comparison& c, const std::string& d
   for (int k = 0; k < 2 * slices; ++k) {
     const int j = k % slices;
     const double lo = profile.thetaMin / units::deg + j * width;
+    if (std::find(c.emptyThetaSlices.begin(), c.emptyThetaSlices.end(), j) != c.emptyThetaSlices.end()) {
+      // Nothing compared here: an empty frame that says so (gnuplot refuses to plot no point).
+      s += fmt::format(
+          "set title \"{} at θ_{{EMC}} {:g}-{:g}°\" font ',10'\nunset key\nset yrange [-1:1]\n"
+          "set label 1 \"no bin with {} particles in both samples\" at graph 0.5, 0.5 center font ',9'\n"
+          "plot 1/0 notitle\nunset label 1\nset yrange [*:*]\n",
+          k < slices ? "ȳ_φ" : "ȳ_θ", lo, lo + width, c.options.minEntries);
+      if (k == 0) s += "set key top right font ',8' samplen 1\n";
+      continue;
+    }
     s += fmt::format(
         "set title \"{} at θ_{{EMC}} {:g}-{:g}°\" font ',10'\nset ylabel '{} [deg]' font ',9'\n{}"
         "plot data index {} using 1:2:3 with yerrorbars pt 7 ps 0.5 lc rgb '#1f77b4' title '{}', \\\n"

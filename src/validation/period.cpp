@@ -1,4 +1,5 @@
 #include "emcalign/validation/period.hpp"
+#include "emcalign/calib/fit_notes.hpp"
 
 #include <algorithm>
 #include <atomic>
@@ -235,6 +236,34 @@ Result<PeriodScenario> readPeriodScenario(const std::string& path, double r1) {
   auto j = io::parseJson(*text, path);
   if (!j) return j.error();
   return parsePeriodScenario(*j, r1, path);
+}
+
+std::vector<std::string> periodTruthWarnings(const PeriodScenario& s, double r1) {
+  std::vector<std::string> out;
+  std::string last;
+  std::int64_t first = 0, end = 0;
+  const auto flush = [&] {
+    if (!last.empty()) out.push_back(fmt::format("{}: {}", first == end ? fmt::format("run {}", first)
+                                                                        : fmt::format("runs {}-{}", first, end),
+                                                 last));
+  };
+  for (const auto& run : planPeriod(s)) {
+    std::string w = calib::truthRangeWarning(run.truth, r1).value_or("");
+    if (w == last && !w.empty()) {
+      end = run.run;
+      continue;
+    }
+    flush();
+    last = std::move(w);
+    first = end = run.run;
+  }
+  flush();
+  if (out.size() > 3) {  // a drift beyond the ranges: each run's truth differs
+    const std::size_t more = out.size() - 2;
+    out.resize(2);
+    out.push_back(fmt::format("and {} more stretches of runs whose truth lies outside the validated ranges", more));
+  }
+  return out;
 }
 
 std::vector<PeriodRun> planPeriod(const PeriodScenario& s) {

@@ -243,7 +243,7 @@ SegmentTest fitSegment(const TrendSeries& s, std::size_t begin, std::size_t end,
 
 // One series cut into segments, each fitted with a constant and (if long enough) a line.
 SeriesAnalysis analyseSeries(const TrendSeries& s, const TrendOptions& o, double penalty, double transitionPenalty) {
-  SeriesAnalysis a{.parameter = s.parameter, .changes = {}, .segments = {}};
+  SeriesAnalysis a{.parameter = s.parameter, .changes = {}, .segments = {}, .cutAt = {}, .stretches = {}};
   a.penalty = penalty;
   const std::size_t n = s.points.size();
   if (n == 0) return a;

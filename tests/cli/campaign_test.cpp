@@ -292,9 +292,11 @@ TEST_F(CampaignCli, TrendFindsTheStepAndRefitsTheStablePeriods) {
   EXPECT_EQ(t["format"], "emcalign-trend/1");
   ASSERT_EQ(t["steps"].size(), 1u) << t["steps"].dump();
   EXPECT_EQ(t["steps"][0]["parameter"], "dx");
-  // The true step is at run 9, inside the IOV 8-9: found there, and its size is 0.5 cm.
+  // The true step is at run 9, inside the IOV 8-9: found there, and its size is 0.5 cm — to the
+  // 10 % scale of the paper's model without corrections (docs/validation.md), several of the
+  // statistical errors the trend weighs the IOVs with.
   EXPECT_NEAR(t["steps"][0]["first_run_after"].get<double>(), 9.0, 1.0);
-  EXPECT_NEAR(t["steps"][0]["size"].get<double>(), 0.5, 5.0 * t["steps"][0]["error"].get<double>());
+  EXPECT_NEAR(t["steps"][0]["size"].get<double>(), 0.5, 0.06);
   EXPECT_TRUE(t["drifts"].empty()) << t["drifts"].dump();
   // (no trend_psi.png: β = 0 in this period, so its tilt has no direction)
   for (const char* f : {"trend.md", "fig7.png", "trend_all.png", "trend_dx.png", "trend_beta.png"}) {
@@ -313,7 +315,7 @@ TEST_F(CampaignCli, TrendFindsTheStepAndRefitsTheStablePeriods) {
   EXPECT_TRUE(known["known_boundaries"][1]["changed"].empty()) << known["known_boundaries"].dump();
   ASSERT_EQ(known["steps"].size(), 1u) << known["steps"].dump();
   EXPECT_TRUE(known["steps"][0]["known_boundary"].get<bool>());
-  EXPECT_NEAR(known["steps"][0]["size"].get<double>(), 0.5, 5.0 * known["steps"][0]["error"].get<double>());
+  EXPECT_NEAR(known["steps"][0]["size"].get<double>(), 0.5, 0.06);
   // The refit: one IOV per stable period (and the IOV straddling the step kept), tiling 1-24.
   const json seg = list(uri, "t.seg");
   ASSERT_LT(seg["iovs"].size(), 11u);

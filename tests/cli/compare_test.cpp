@@ -29,11 +29,12 @@ class CompareCli : public ::testing::Test {
   emcalign::testing::CommandResult run(const std::string& args) const {
     return emcalign::testing::runEmcalign(dir_, args);
   }
-  void simulate(const std::string& params, int seed, const std::string& out) {
+  void simulate(const std::string& params, int seed, const std::string& out, int events = 20000,
+                double beamEnergy = 612.5) {
     const auto r =
-        run(fmt::format("simulate --params {} --events 20000 --seed {} --theta-min 40 --theta-max 140 "
+        run(fmt::format("simulate --params {} --events {} --seed {} --beam-energy {} --theta-min 40 --theta-max 140 "
                         "--no-hits -o {}",
-                        params, seed, path(out)));
+                        params, events, seed, beamEnergy, path(out)));
     ASSERT_EQ(r.exitCode, 0) << r.err;
   }
   fs::path dir_;
@@ -77,6 +78,43 @@ TEST_F(CompareCli, ATwinAgreesANominalDetectorDoesNot) {
   EXPECT_EQ(r.exitCode, 1);
   EXPECT_THAT(r.err, HasSubstr("holds the same bytes as --data"));
   EXPECT_FALSE(fs::exists(path("copy")));
+}
+
+// Issue 43: 900 MeV data against 612.5 MeV MC was "described within both samples' statistics".
+// Samples of other beam energies are refused, naming both; what each sample is (its beam
+// energies, selected events, files) is recorded; θ slices a small MC leaves empty are said and
+// drawn empty, not sent to gnuplot as nothing; a figure that fails leaves no compare.json.
+TEST_F(CompareCli, OtherBeamEnergiesAreRefusedAndEachSampleIsRecorded) {
+  simulate(kPaperLike, 1, "data.h5");
+  simulate(kPaperLike, 4, "mc700.h5", 20000, 700.0);
+  simulate(kPaperLike, 5, "small.h5", 400);
+  auto r = run(fmt::format("compare --data {} --mc {} -o {}", path("data.h5"), path("mc700.h5"), path("other")));
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_THAT(r.err, HasSubstr("the data (beam energies 612.5 MeV) and the MC (beam energies 700 MeV) are not of the "
+                               "same beam energies"));
+  EXPECT_FALSE(fs::exists(path("other")));
+  r = run(fmt::format("compare --data {} --mc {} -o {}", path("data.h5"), path("small.h5"), path("small")));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const json c = json::parse(emcalign::testing::slurp(path("small/compare.json")));
+  EXPECT_EQ(c["data"]["beam_energies_mev"], json::array({612.5}));
+  EXPECT_EQ(c["mc"]["beam_energies_mev"], json::array({612.5}));
+  EXPECT_GT(c["data"]["selected_events"].get<int>(), 10000);
+  EXPECT_GT(c["mc"]["selected_events"].get<int>(), 100);
+  EXPECT_EQ(c["mc"]["files"], json::array({path("small.h5")}));
+  ASSERT_TRUE(c.contains("empty_theta_slices"));
+  EXPECT_FALSE(c["empty_theta_slices"].empty());
+  EXPECT_THAT(r.err, HasSubstr("theta_EMC slices have no profile bin with 10 particles in both samples"));
+  const std::string md = emcalign::testing::slurp(path("small/compare.md"));
+  EXPECT_THAT(md, HasSubstr("beam energy 612.5 MeV"));
+  EXPECT_THAT(md, HasSubstr("are not compared, and drawn empty"));
+  EXPECT_GT(fs::file_size(path("small/compare_profiles.png")), 20000u);
+  // Without gnuplot the figures fail: the command fails, and no compare.json says it is done.
+  const std::string noGnuplot = fmt::format("env PATH=/nonexistent {} compare --data {} --mc {} -o {} 2>{}",
+                                            EMCALIGN_BINARY, path("data.h5"), path("small.h5"), path("blind"),
+                                            path("blind.err"));
+  EXPECT_NE(std::system(noGnuplot.c_str()), 0);
+  EXPECT_FALSE(fs::exists(path("blind/compare.json")));
+  EXPECT_THAT(emcalign::testing::slurp(path("blind.err")), HasSubstr("compare.json not written"));
 }
 
 }  // namespace

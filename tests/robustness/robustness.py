@@ -528,6 +528,31 @@ def cases():
              "--run 2 -o ev700.csv && emcalign fit ev.csv ev700.csv --corrections gw -o r.json", 1,
              "have 2 beam energies (612.5 to 700 MeV)", setup=grid("gw", [500.0, 750.0])))
 
+    # Units (issue 43): energies in GeV are named, never fitted quietly.
+    def scaled(name, columns):
+        def setup(d):
+            comments, header, rows = csv_parts(d, "ev.csv")
+            names = header.split(",")
+            out = []
+            for row in rows:
+                cells = row.split(",")
+                for c in columns:
+                    k = names.index(c)
+                    if cells[k]:
+                        cells[k] = repr(float(cells[k]) / 1000.0)
+                out.append(",".join(cells))
+            write(d, name, "\n".join(comments + [header] + out) + "\n")
+        return setup
+    add(Case(S, "energies in GeV (an ntuple divided by 1000)", "emcalign fit evgev.csv -o r.json", 1,
+             "MeV is below the 20-5000 MeV the detector is modelled for: GeV?",
+             setup=scaled("evgev.csv", ["beam_energy_mev", "energy_mev"])))
+    add(Case(S, "cluster energies in GeV beside a beam energy in MeV", "emcalign fit evgevc.csv -o r.json", 1,
+             "energy_mev in GeV?", setup=scaled("evgevc.csv", ["energy_mev"])))
+    add(Case(S, "data and MC of other beam energies compared",
+             "emcalign simulate --events 2000 --params p.json --theta-min 40 --theta-max 140 --beam-energy 900 "
+             "-o mc900.csv && emcalign compare --data ev.csv --mc mc900.csv -o cmp900", 1,
+             "the data (beam energies 612.5 MeV) and the MC (beam energies 900 MeV) are not of the same beam energies"))
+
     def repeated(d):
         comments, header, rows = csv_parts(d, "ev.csv")
         write(d, "repeated.csv", "\n".join(comments + [header] + rows + rows[:5]) + "\n")
@@ -876,6 +901,10 @@ def cases():
              setup=scenario("drift.json", lambda j: j.update(drift=[{"parameter": "dz", "from_run": 1, "to_run": 6,
                                                                    "per_run": 3}])),
              check=nothing_at("drift"), checked="nothing created"))
+    add(Case(P, "a period's parameters in mm (dx 3.0 for 0.3 cm)", "emcalign simulate --period inmm.json -o inmm", 0,
+             "check the units (a length in mm under a cm header",
+             setup=scenario("inmm.json", lambda j: j.update(segments=[{"from_run": 1,
+                                                                      "parameters": {"alpha": 2.8, "dx": 3.0}}]))))
     add(Case(P, "another scenario into a period's directory", "emcalign simulate --period other.json -o period", 1,
              "holds another period", setup=scenario("other.json", lambda j: j.update(seed=2))))
     add(Case(P, "a period resumed with other realism switches", "emcalign simulate --period period.json -o period "

@@ -82,6 +82,12 @@ struct ComparedDistribution {
 struct Comparison {
   std::int64_t dataParticles = 0, mcParticles = 0;
   std::int64_t dataEvents = 0, mcEvents = 0;
+  /// Each sample's selected events and their beam energies (MeV, distinct, ascending), where
+  /// known (compareSamples; empty for particles compared as they are).
+  std::int64_t dataSelectedEvents = 0, mcSelectedEvents = 0;
+  std::vector<double> dataBeamEnergiesMev = {}, mcBeamEnergiesMev = {};
+  /// The θ slices of the profiles in which no bin had minEntries in both samples (not drawn).
+  std::vector<int> emptyThetaSlices = {};
   std::vector<ComparedDistribution> distributions = {};  ///< dphi, dtheta, profile_phi, profile_theta
   double chi2 = 0.0;                                     ///< all together (their correlations kept)
   int ndf = 0;
@@ -94,21 +100,38 @@ struct Comparison {
 Result<Comparison> compareParticles(const std::vector<ComparedParticle>& data, const std::vector<ComparedParticle>& mc,
                                     const ComparisonOptions& options = {});
 
+/// A sample as the comparison sees it: its particles and what it is.
+struct ComparedSample {
+  std::vector<ComparedParticle> particles;
+  std::int64_t selectedEvents = 0;
+  std::vector<double> beamEnergiesMev;  ///< of its selected events, distinct, ascending
+};
+
 /// The particles of event files, selected as the fit selects them (calib/selection.hpp),
 /// with their residuals at the shower depth `depth`; events are told apart by (run, event).
-Result<std::vector<ComparedParticle>> comparedParticlesOf(const std::vector<std::string>& files,
-                                                          const geometry::ShowerDepth& depth,
-                                                          const calib::SelectionOptions& selection,
-                                                          const ComparisonOptions& options = {},
-                                                          std::int64_t* selectedEvents = nullptr);
+Result<ComparedSample> comparedSampleOf(const std::vector<std::string>& files, const geometry::ShowerDepth& depth,
+                                        const calib::SelectionOptions& selection,
+                                        const ComparisonOptions& options = {});
 
-/// As comparedParticlesOf, from rows in memory (checked as a file's rows; `source` names them).
-Result<std::vector<ComparedParticle>> comparedParticlesOfRows(std::span<const ParticleRow> rows,
-                                                              const std::string& source,
-                                                              const geometry::ShowerDepth& depth,
-                                                              const calib::SelectionOptions& selection,
-                                                              const ComparisonOptions& options = {},
-                                                              std::int64_t* selectedEvents = nullptr);
+/// As comparedSampleOf, from rows in memory (checked as a file's rows; `source` names them).
+Result<ComparedSample> comparedSampleOfRows(std::span<const ParticleRow> rows, const std::string& source,
+                                            const geometry::ShowerDepth& depth,
+                                            const calib::SelectionOptions& selection,
+                                            const ComparisonOptions& options = {});
+
+/// Two beam energies are the same point when they differ by at most this share of them: about
+/// 2.5 times VEPP-2000's energy spread (≈ 4·10⁻⁴), well below its scan steps (≥ 12.5 MeV).
+inline constexpr double kSameBeamEnergy = 1e-3;
+
+/// Whether two samples can be compared: every beam energy of each within kSameBeamEnergy of
+/// one of the other's. The residuals depend on the energy (the shower depth, the radiation),
+/// so data and MC of different energies differ whatever the simulation: refused, naming both
+/// samples' energies.
+Status checkCombinable(const ComparedSample& data, const ComparedSample& mc);
+
+/// compareParticles of two samples found combinable, recording what each is.
+Result<Comparison> compareSamples(const ComparedSample& data, const ComparedSample& mc,
+                                  const ComparisonOptions& options = {});
 
 inline constexpr std::string_view kComparisonFormat = "emcalign-compare/1";
 
@@ -122,8 +145,9 @@ struct ComparisonRecord {
 
 /// compare.json (SPEC §12): {"format", "p_value", "chi2", "ndf", "distributions": [{"name",
 /// "chi2", "ndf", "p_value", "unit", "bins": [...]}], "data", "mc" ({"events", "particles",
-/// "files"}), "options", "method", "software", "depth_offset_cm"}; what is not recorded is not
-/// written. The one writer and (below) the one reader of the file.
+/// "selected_events", "beam_energies_mev", "files"}), "empty_theta_slices", "options", "method",
+/// "software", "depth_offset_cm"}; what is not recorded is not written. The one writer and
+/// (below) the one reader of the file.
 io::Json comparisonJson(const ComparisonRecord& record);
 inline io::Json comparisonJson(const Comparison& c) { return comparisonJson(ComparisonRecord{c}); }
 /// Reads compare.json (`source` names it in messages): not a comparison, or a value of the

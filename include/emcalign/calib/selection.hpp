@@ -38,6 +38,10 @@ struct CutFlow {
                                                         "track |z0|, |rho|", "cluster energies", "acollinearity"};
   std::array<std::int64_t, 6> events{};
   std::int64_t rows = 0;
+  /// Events refused by the cluster energies: the sum of their clusters' energy over the beam
+  /// energy, and how many (a mean ratio near 1/1000 is energies in GeV beside a beam in MeV).
+  double refusedEnergyRatio = 0.0;
+  std::int64_t refusedByEnergy = 0;
 };
 
 /// Why an event was rejected: the index of the first failed cut in CutFlow (1..5), or 0.

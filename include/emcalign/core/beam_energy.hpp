@@ -1,9 +1,12 @@
 #pragma once
 // The beam energies (per beam) every command and file takes: a fit's, a selection's, a
-// simulation's, a corrections file's, a period's. One range, so that what one command writes
-// another reads: 20–5000 MeV, the range the generators model (lowest-order QED with
-// leading-log radiation; VEPP-2000 runs at 150–1000 MeV). A value outside is a unit mistake
-// (GeV for MeV, or a centre-of-mass energy of a collider far from this one).
+// simulation's, a corrections file's, a period's, an event's. One range, so that what one
+// command writes another reads: 20–5000 MeV, the range the generators model (lowest-order QED
+// with leading-log radiation; VEPP-2000 runs at 150–1000 MeV). A value outside is a unit
+// mistake (GeV for MeV — an ntuple divided by 1000 —, keV, or a centre-of-mass energy of a
+// collider far from this one), and is said as one.
+
+#include <string>
 
 #include "emcalign/core/units.hpp"
 
@@ -11,5 +14,15 @@ namespace emcalign {
 
 inline constexpr double kMinBeamEnergy = 20.0 * units::MeV;
 inline constexpr double kMaxBeamEnergy = 5000.0 * units::MeV;
+
+/// Why `energy` (native units, MeV) cannot be a beam energy, in words with the unit mistake
+/// it looks like ("0.6125 MeV is below the 20-5000 MeV of the detector's range: GeV?"); empty
+/// when it can be one.
+std::string beamEnergyProblem(double energy);
+
+/// Whether cluster energies look like GeV beside a beam energy in MeV: `ratio` = a typical
+/// cluster energy of e+e- -> e+e- over the beam energy (1 for the real thing), the hint
+/// ("GeV?") when it is below 1/100, else empty.
+std::string clusterEnergyUnitHint(double ratio);
 
 }  // namespace emcalign

@@ -134,6 +134,12 @@ class StrictObject {
     }
     return out;
   }
+  [[nodiscard]] std::vector<double> numbers(std::string_view key) const {
+    std::vector<double> out;
+    const Json& list = array(key);
+    for (std::size_t k = 0; k < list.size(); ++k) out.push_back(numberValue(list[k], fmt::format("{}[{}]", pathOf(key), k)));
+    return out;
+  }
 
   [[nodiscard]] double numberValue(const Json& v, const std::string& where) const {
     if (!v.is_number()) fail(where, fmt::format("expected a number, got {}", typeName(v)));

@@ -92,6 +92,11 @@ struct PeriodRun {
 /// The runs of a period, in order (missing runs left out).
 std::vector<PeriodRun> planPeriod(const PeriodScenario& s);
 
+/// The warnings `simulate --params` gives of its truth (calib::truthRangeWarning: outside the
+/// validated ranges, a length in mm?) for every run of a period, the runs that share one
+/// warning said once ("runs 1-60: the truth lies outside …").
+std::vector<std::string> periodTruthWarnings(const PeriodScenario& s, double r1);
+
 struct PeriodOptions {
   sim::SimulationOptions simulation;                   ///< theta range, beam energy, run and seed set per run
   bool hits = true;                                    ///< counter hits in the files

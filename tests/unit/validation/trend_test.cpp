@@ -657,7 +657,9 @@ TEST(Trend, ARampIsNeverAPlainStep) {
       }
       ++withDrift;
       for (const auto& g : t.segments) {
-        if (g.firstRun >= st.orDrift->firstRun && g.lastRun <= st.orDrift->lastRun) EXPECT_FALSE(g.stable());
+        if (g.firstRun >= st.orDrift->firstRun && g.lastRun <= st.orDrift->lastRun) {
+          EXPECT_FALSE(g.stable());
+        }
       }
     }
   }

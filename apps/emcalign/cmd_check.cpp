@@ -21,6 +21,7 @@
 #include "emcalign/core/units.hpp"
 #include "emcalign/core/version.hpp"
 #include "emcalign/report/check_plots.hpp"
+#include "emcalign/validation/calibration_campaign.hpp"
 #include "progress.hpp"
 
 namespace emcalign::app {
@@ -36,7 +37,11 @@ struct CheckCliOptions {
   std::string method = std::string(apply::name(apply::CorrectOptions{}.method));
 };
 
-int run(const CheckCliOptions& o) {
+int run(CheckCliOptions o) {
+  // A directory gives every event file in it, as for correct and campaign.
+  auto events = validation::eventFilesIn(o.events);
+  if (!events) return reportError(events.error());
+  o.events = std::move(*events);
   std::vector<io::NamedPath> inputs;
   for (const auto& e : o.events) inputs.push_back({"", e});
   inputs.push_back({"--alignment", o.alignment});
@@ -90,12 +95,13 @@ int run(const CheckCliOptions& o) {
   found.correctionMethod = std::string(name(report->method));
   found.inputs = o.events;
   found.software = fmt::format("emcalign {}", kVersion);
+  // The figure first: check.json, which says the check is done, only when it is.
+  auto png = report::writeBeforeAfterPlot(o.output, figure.name, figure.title, figure.panels);
+  if (!png) return reportError(Error{fmt::format("{} (check.json not written)", png.error().message)});
   const io::Json json = apply::checkJson(found);
   if (Status s = io::writeFileIn(o.output, "check.json", json.dump(1) + "\n"); !s) {
     return reportError(s.error());
   }
-  auto png = report::writeBeforeAfterPlot(o.output, figure.name, figure.title, figure.panels);
-  if (!png) return reportError(png.error());
   fmt::print(reportStream(), "{}\nwrote {}/check.json and {}\n", figure.summary, o.output, *png);
   return kExitOk;
 }
@@ -105,7 +111,9 @@ void addProcess(CLI::App& parent, apply::CheckProcess process, const std::string
   o->process = process;
   auto* cmd = parent.add_subcommand(std::string(name(process)), help);
   addVersionFlag(*cmd);
-  cmd->add_option("events", o->events, "event files (HDF5 or .csv)")->required()->check(CLI::ExistingFile);
+  cmd->add_option("events", o->events, "event files (HDF5 or .csv), or directories of them")
+      ->required()
+      ->check(CLI::ExistingPath);
   auto* alignment = cmd->add_option("--alignment", o->alignment, "a parameter file, a fit result or a placements file")
                         ->check(CLI::ExistingFile);
   auto* conditions = cmd->add_option("--conditions", o->conditions,

@@ -19,6 +19,7 @@
 #include "emcalign/core/version.hpp"
 #include "emcalign/geometry/shower_depth.hpp"
 #include "emcalign/report/compare_plots.hpp"
+#include "emcalign/validation/calibration_campaign.hpp"
 
 namespace emcalign::app {
 
@@ -31,7 +32,13 @@ struct CompareOptions {
   std::string corrections, detector, output;
 };
 
-int run(const CompareOptions& o) {
+int run(CompareOptions o) {
+  // A directory gives every event file in it, as for correct and campaign.
+  for (auto* files : {&o.data, &o.mc}) {
+    auto listed = validation::eventFilesIn(*files);
+    if (!listed) return reportError(listed.error());
+    *files = std::move(*listed);
+  }
   std::vector<io::NamedPath> inputs = {{"--corrections", o.corrections}, {"--detector", o.detector}};
   for (const auto& f : o.data) inputs.push_back({"--data", f});
   for (const auto& f : o.mc) inputs.push_back({"--mc", f});
@@ -126,8 +133,12 @@ void addCompareCommand(CLI::App& app, int& exitCode) {
       "Compare data with simulation: the residual distributions and the profiles, each with the chi2 of their "
       "difference and its p-value (the paper's MC-against-data figure)");
   addVersionFlag(*cmd);
-  cmd->add_option("--data", o->data, "event files of the data")->required()->check(CLI::ExistingFile);
-  cmd->add_option("--mc", o->mc, "event files of the simulation")->required()->check(CLI::ExistingFile);
+  cmd->add_option("--data", o->data, "event files of the data, or directories of them")
+      ->required()
+      ->check(CLI::ExistingPath);
+  cmd->add_option("--mc", o->mc, "event files of the simulation, or directories of them")
+      ->required()
+      ->check(CLI::ExistingPath);
   cmd->add_option("--beam-energy", o->beamEnergy, "beam energy for the selection, MeV (default: from the files)")
       ->check(finiteIn(10.0, 10000.0));
   cmd->add_option("--sigma-sys", o->sigmaSys,

@@ -170,13 +170,17 @@ int runPeriod(const SimulateOptions& cli) {
   if (!scenario) return reportError(scenario.error());
   validation::PeriodOptions o;
   if (Status s = realism(cli, o.simulation); !s) return reportError(s.error());
+  // The period's events of another process (γγ, 3π: for check), each run at its own energy.
+  const auto process = sim::processFromName(cli.process);
+  if (!process) return reportError(Error{fmt::format("--process {}: with --period, ee, gg or 3pi", cli.process)});
+  o.simulation.generator.process = *process;
   o.hits = !cli.noHits;
   o.compression = cli.compression;
   o.threads = cli.threads;
   for (const auto& w : validation::periodTruthWarnings(*scenario, calo->description().r1())) {
     reportWarning(fmt::format("{}: {}", cli.period, w));
   }
-  const auto runs = validation::planPeriod(*scenario);
+  const auto runs = validation::planPeriod(*scenario, *process);
   std::int64_t total = 0, mostInRun = 0;
   for (const auto& r : runs) {
     total += r.events;
@@ -340,7 +344,7 @@ void addSimulateCommand(CLI::App& app, int& exitCode) {
     o->deadCountersGiven = cmd->count("--dead-counters") > 0;
     if (!o->period.empty()) {
       for (const char* single : {"--params", "--conditions", "--run", "--beam-energy", "--theta-min", "--theta-max",
-                                 "--seed", "--process"}) {
+                                 "--seed"}) {
         if (cmd->count(single) > 0) {
           throw CLI::ExcludesError("--period", single);
         }

@@ -48,7 +48,21 @@ int refit(const TrendCliOptions& o, const validation::Trend& trend, const std::v
           const validation::PeriodTruth* truth, Json& summary, std::string& markdown) {
   auto files = validation::eventFilesIn(o.refit);
   if (!files) return reportError(files.error());
-  auto model = validation::campaignModel(o.corrections, o.detector, calo);
+  // Without --corrections, those the payloads name, when still there and unchanged.
+  std::string corrections = o.corrections;
+  if (corrections.empty()) {
+    auto recorded = validation::recordedCorrections(snapshot);
+    if (!recorded) return reportError(recorded.error());
+    if (*recorded) {
+      corrections = **recorded;
+      // (an input like any other: no output of this command may land on it)
+      if (Status s = checkOutputs({}, {{"-o", o.output}}, {{"the payloads' corrections", corrections}}); !s) {
+        return reportError(s.error());
+      }
+      fmt::print(reportStream(), "refit with the corrections the payloads name, unchanged since: {}\n", corrections);
+    }
+  }
+  auto model = validation::campaignModel(corrections, o.detector, calo);
   if (!model) return reportError(model.error());
   if (Status s = validation::adoptTagSettings(snapshot, *model); !s) return reportError(s.error());
   ProgressLine reading("trend --refit: reading", static_cast<std::int64_t>(files->size()), "files");
@@ -125,7 +139,7 @@ int run(const TrendCliOptions& o) {
   to.boundaries = o.boundaries;
   const validation::Trend trend = validation::analyseTrend(*series, to);
 
-  Json out = validation::trendJson(trend, *series);
+  Json out = validation::trendJson(trend, *series, truth ? &*truth : nullptr);
   out["conditions"] = (*db)->uri();
   out["tag"] = o.tag;
   auto models = validation::modelsOfTag(*snapshot);

@@ -316,22 +316,75 @@ Result<std::string> validationSection(const ReportValidation& v) {
   return body;
 }
 
-// The trend's steps, or none.
+std::string runs(std::int64_t first, std::int64_t last) { return fmt::format("{}–{}", first, last); }
+
+// The trend's steps (with the truth of a simulated period), or none.
 html::Table stepsTable(const validation::TrendRecord& t) {
   html::Table steps{.caption = "Steps found",
-                    .header = {"parameter", "first run after", "size", "±", "unit", "z", "IOV"}};
-  steps.numeric = {false, true, true, true, false, true, false};
-  for (const auto& s : t.steps) {
+                    .header = {"parameter", "first run after", "size", "±", "unit", "z", "IOV", "or a drift?"}};
+  steps.numeric = {false, true, true, true, false, true, false, false};
+  if (t.withTruth) {
+    steps.header.insert(steps.header.begin() + 5, "true size");
+    steps.numeric.insert(steps.numeric.begin() + 5, true);
+  }
+  for (const auto& [s, orDrift, trueSize] : t.steps) {
     const auto [v, e] = withError(s.size, s.error);
-    steps.rows.push_back(
-        {html::escape(symbol(std::string(s.parameter.name()))), std::to_string(s.firstRunAfter), v, e,
-         html::escape(s.parameter.unit()), number(s.z(), "{:.1f}"),
-         s.withinIov ? fmt::format("{}–{}", s.withinIov->first, s.withinIov->second) : std::string("between IOVs")});
+    std::vector<std::string> row = {
+        html::escape(symbol(std::string(s.parameter.name()))), std::to_string(s.firstRunAfter), v, e,
+        html::escape(s.parameter.unit()), number(s.z(), "{:.1f}"),
+        s.withinIov ? fmt::format("{}–{}", s.withinIov->first, s.withinIov->second) : std::string("between IOVs"),
+        orDrift.empty() ? std::string("no") : html::escape(orDrift)};
+    if (t.withTruth) row.insert(row.begin() + 5, number(trueSize, "{:+.4g}"));
+    steps.rows.push_back(std::move(row));
   }
   return steps;
 }
 
-std::string runs(std::int64_t first, std::int64_t last) { return fmt::format("{}–{}", first, last); }
+// The refit of the stable periods, each against the truth of a simulated period.
+std::string refitSection(const validation::RecordedRefit& r, bool withTruth) {
+  std::string body = html::paragraph(fmt::format(
+      "<code>trend --refit</code> wrote tag <code>{}</code>: {} instead of {}. A period whose IOVs agree within "
+      "their statistical errors is refitted from all its events; the others keep their IOVs.",
+      html::escape(r.tagOut.empty() ? "?" : r.tagOut), counted(r.iovs, "IOV"), r.iovsBefore));
+  html::Table periods{.caption = "The refit by period", .header = {"runs", "IOVs replaced", "refit", "why kept"}};
+  periods.numeric = {false, true, false, false};
+  for (const auto& p : r.periods) {
+    periods.rows.push_back({runs(p.firstRun, p.lastRun), std::to_string(p.replacesIovs),
+                            p.kept ? std::string("kept") : fmt::format("1 IOV, {}", counted(p.selectedEvents, "event")),
+                            html::escape(p.keptBecause)});
+  }
+  body += html::table(periods);
+  html::Table precision{.caption = withTruth ? "Refitted periods against the truth (the parameters of Fig. 7)"
+                                             : "Refitted periods (the parameters of Fig. 7)",
+                        .header = {"runs", "parameter", "refit", "statistical error before → after",
+                                   "scatter / statistical error before"}};
+  precision.numeric = {false, false, true, false, true};
+  if (withTruth) {
+    precision.header.insert(precision.header.begin() + 3, "truth");
+    precision.header.push_back("RMS(IOV − truth) before → refit − truth");
+    precision.numeric.insert(precision.numeric.begin() + 3, true);
+    precision.numeric.push_back(false);
+  }
+  for (const auto& p : r.periods) {
+    if (p.kept) continue;
+    for (const auto& q : p.precision) {
+      const std::string_view n = q.parameter.name();
+      if (n != "alpha" && n != "dx" && n != "mu" && n != "psi") continue;
+      std::vector<std::string> row = {
+          runs(p.firstRun, p.lastRun), html::escape(symbol(std::string(n))), number(q.value, "{:.4g}"),
+          fmt::format("{} → {}", number(q.statisticalBefore, "{:.2g}"), number(q.statisticalAfter, "{:.2g}")),
+          number(q.scatterOverError, "{:.2f}")};
+      if (withTruth) {
+        row.insert(row.begin() + 3, number(q.truth, "{:.4g}"));
+        row.push_back(fmt::format("{} → {}", number(q.rmsBeforeMinusTruth, "{:.2g}"),
+                                  number(q.parameter.difference(q.value, q.truth), "{:+.2g}")));
+      }
+      precision.rows.push_back(std::move(row));
+    }
+  }
+  if (!precision.rows.empty()) body += html::table(precision);
+  return body;
+}
 
 // The parameters as their symbols, in a list ("α, dx").
 std::string symbols(const std::vector<Quantity>& quantities) {
@@ -350,7 +403,13 @@ html::Table segmentsTable(const validation::TrendRecord& t) {
       if (!quantities.empty()) note += (note.empty() ? "" : "; ") + html::escape(what + symbols(quantities));
     };
     names(s.drifting, "drifting: ");
+    names(s.undecided, "not stable, a step or a drift: ");
     names(s.inconsistent, "not stable, inconsistent with one value: ");
+    if (!s.scattering.empty()) {
+      std::vector<Quantity> scattering;
+      for (const auto& sc : s.scattering) scattering.push_back(sc.parameter);
+      names(scattering, "not stable, scattering beyond their statistical errors: ");
+    }
     names(s.departing, "an IOV at an end departing (a step or an outlier): ");
     if (note.empty() && s.stable()) note = "stable";
     segments.rows.push_back({runs(s.firstRun, s.lastRun), std::to_string(s.end - s.begin), note});
@@ -384,33 +443,41 @@ Result<std::string> trendSection(const std::optional<ReportTrend>& tr, const std
           "tell: run emcalign trend again).");
     }
     if (!steps.rows.empty()) body += html::table(steps);
-    html::Table inconsistent{.caption = "Segments their model does not fit (not resolved as a step or a drift)",
+    html::Table inconsistent{.caption = "Stretches their model does not fit (not resolved as a step or a drift)",
                              .header = {"parameter", "runs", "IOVs", "model", "χ²/ndf", "p-value", "why"}};
     inconsistent.numeric = {false, false, true, false, true, true, false};
     for (const auto& i : t.inconsistencies) {
       inconsistent.rows.push_back({html::escape(symbol(std::string(i.parameter.name()))), runs(i.firstRun, i.lastRun),
-                                   std::to_string(i.iovs), i.line ? "line" : "constant",
+                                   std::to_string(i.iovs), i.line ? "drift" : "constant",
                                    number(i.chi2, "{:.1f}") + "/" + std::to_string(i.ndf), number(i.pValue, "{:.2g}"),
                                    i.unsplittable ? "too few IOVs to locate a step" : "neither a step nor a drift"});
     }
     if (!inconsistent.rows.empty()) body += html::table(inconsistent);
-    html::Table drifts{.caption = "Drifts found",
-                       .header = {"parameter", "runs", "slope per run", "±", "z", "or a step?"}};
-    drifts.numeric = {false, false, true, true, true, false};
-    for (const auto& [d, orStepText] : t.drifts) {
-      drifts.rows.push_back(
-          {html::escape(symbol(std::string(d.parameter.name()))), runs(d.firstRun, d.lastRun),
-           number(d.slopePerRun, "{:.3g}") + " " + html::escape(std::string(d.parameter.unit()) + "/run"),
-           number(d.error, "{:.2g}"), number(d.z, "{:.1f}"),
-           d.orStep ? html::escape(orStepText) : std::string("no: a step does not fit")});
+    html::Table drifts{.caption = "Drifts found, each from where it starts to where it stops",
+                       .header = {"parameter", "runs", "change", "±", "slope per run", "±", "z", "or a step?"}};
+    drifts.numeric = {false, false, true, true, true, true, true, false};
+    if (t.withTruth) {
+      drifts.header.insert(drifts.header.begin() + 4, "true change");
+      drifts.numeric.insert(drifts.numeric.begin() + 4, true);
+    }
+    for (const auto& [d, orStepText, trueChange] : t.drifts) {
+      std::vector<std::string> row = {
+          html::escape(symbol(std::string(d.parameter.name()))), html::escape(validation::driftExtentText(d)),
+          number(d.change, "{:+.4g}") + " " + html::escape(d.parameter.unit()), number(d.changeError, "{:.2g}"),
+          number(d.slopePerRun, "{:.3g}") + " " + html::escape(std::string(d.parameter.unit()) + "/run"),
+          number(d.error, "{:.2g}"), number(d.z, "{:.1f}"),
+          d.orStep ? html::escape(orStepText) : std::string("no: a step does not fit")};
+      if (t.withTruth) row.insert(row.begin() + 4, number(trueChange, "{:+.4g}"));
+      drifts.rows.push_back(std::move(row));
     }
     if (!drifts.rows.empty()) {
       body += html::table(drifts);
     } else {
       body += html::paragraph(t.driftTests > 0 ? "No drift found."
-                                               : "Drifts not tested: no segment has the IOVs a slope test needs.");
+                                               : "Drifts not tested: no stretch has the IOVs a drift test needs.");
     }
     body += html::table(segmentsTable(t));
+    if (t.refit) body += refitSection(*t.refit, t.withTruth);
     for (const auto& png : tr->figures) {
       const std::string stem = fs::path(png).stem().string();
       auto fig =

@@ -266,7 +266,7 @@ std::vector<std::string> periodTruthWarnings(const PeriodScenario& s, double r1)
   return out;
 }
 
-std::vector<PeriodRun> planPeriod(const PeriodScenario& s) {
+std::vector<PeriodRun> planPeriod(const PeriodScenario& s, sim::Process process) {
   std::vector<PeriodRun> out;
   auto missing = s.missingRuns.begin();
   for (std::int64_t run = s.firstRun; run <= s.lastRun(); ++run) {
@@ -280,7 +280,10 @@ std::vector<PeriodRun> planPeriod(const PeriodScenario& s) {
     r.events = lo + static_cast<std::int64_t>(rng.uniform() * static_cast<double>(hi - lo + 1));
     r.events = std::min(r.events, hi);
     r.beamEnergy = energy.value;
-    r.seed = runSeed(s.seed, run);
+    // e+e- → e+e- keeps the seeds it always had; another process draws its own.
+    r.seed = process == sim::Process::Bhabha
+                 ? runSeed(s.seed, run)
+                 : runSeed(s.seed ^ (0xA5A5D1CEULL * (static_cast<std::uint64_t>(process) + 1)), run);
     r.truth = truthOf(s, run);
     r.file = fmt::format("run_{:06d}.h5", run);
     out.push_back(std::move(r));
@@ -382,7 +385,7 @@ Status claimPeriodDirectory(const std::string& dir, const PeriodScenario& s, con
     if (!old || !old->is_object() || old->value("scenario", Json()) != s.source ||
         old->value("hits", Json()) != o.hits || old->value("settings", Json()) != o.settings) {
       return Error{
-          fmt::format("{}: this directory holds another period (another scenario, --no-hits, realism "
+          fmt::format("{}: this directory holds another period (another scenario, --process, --no-hits, realism "
                       "switches or detector): choose another directory, or remove this one",
                       dir)};
     }
@@ -562,7 +565,7 @@ class PeriodPipeline {
 
 Result<PeriodReport> simulatePeriod(const PeriodScenario& s, const geometry::Calorimeter& calo, const std::string& dir,
                                     const PeriodOptions& o) {
-  const std::vector<PeriodRun> runs = planPeriod(s);
+  const std::vector<PeriodRun> runs = planPeriod(s, o.simulation.generator.process);
   if (Status c = claimPeriodDirectory(dir, s, o); !c) return c.error();
 
   PeriodReport report;

@@ -1,4 +1,5 @@
 #include "emcalign/validation/segment_refit.hpp"
+#include "emcalign/calib/corrections_grid.hpp"
 #include "emcalign/core/text.hpp"
 
 #include <algorithm>
@@ -211,6 +212,39 @@ Result<RefittedSegment> refitPeriod(const RefitInputs& in, const TrendSegment& s
 
 }  // namespace
 
+Result<std::optional<std::string>> recordedCorrections(conddb::TagSnapshot& tag) {
+  std::optional<std::pair<std::string, std::string>> named;  // (file, SHA-256)
+  for (const conddb::Iov& iov : tag.iovs()) {
+    auto p = tag.payload(iov);
+    if (!p) return p.error();
+    const std::pair<std::string, std::string> these{(*p)->correctionsFile(), (*p)->correctionsSha256()};
+    if (!named) {
+      named = these;
+    } else if (these != *named) {
+      return Error{fmt::format(
+          "tag {}: its IOVs were fitted with different corrections ({} and, from runs {}-{}, {}): give --corrections",
+          tag.tag().name, named->first.empty() ? "none" : named->first, iov.firstRun, iov.lastRun,
+          these.first.empty() ? "none" : these.first)};
+    }
+  }
+  if (!named || named->first.empty()) return std::optional<std::string>{};
+  const auto& [file, sha] = *named;
+  auto grid = calib::CorrectionsGrid::read(file);
+  if (!grid) {
+    return Error{fmt::format(
+        "tag {} was fitted with the corrections {}, which cannot be read now ({}): give --corrections, the "
+        "campaign's own",
+        tag.tag().name, file, grid.error().message)};
+  }
+  if (!sha.empty() && grid->sha256() != sha) {
+    return Error{fmt::format(
+        "tag {} was fitted with the corrections {} (SHA-256 {}…), which have changed since (now {}…): give "
+        "--corrections, the campaign's own",
+        tag.tag().name, file, sha.substr(0, 12), grid->sha256().substr(0, 12))};
+  }
+  return std::optional<std::string>{file};
+}
+
 Status adoptTagSettings(conddb::TagSnapshot& tag, CampaignModel& model) {
   const std::string& name = tag.tag().name;
   std::optional<calib::SigmaSysChoice> sigmaSys;
@@ -353,6 +387,7 @@ Json refitJson(const SegmentRefit& r, std::size_t iovsBefore) {
       for (const auto& sc : s.scattering) scattering.push_back(sc.parameter);
       j["scattering"] = scattering;
       j["transition"] = s.transition;
+      j["why"] = keptBecause(s);
       segments.push_back(j);
       continue;
     }

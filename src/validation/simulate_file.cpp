@@ -94,9 +94,12 @@ io::Json simulationSettings(const SimulateRequest& request) {
 
 io::Json periodSimulationSettings(const SimulateRequest& request, const geometry::DetectorDescription& detector) {
   io::Json settings = simulationSettings(request);
-  for (const char* perRun : {"process", "events", "seed", "run", "beam_energy_mev", "theta_range_deg", "software"}) {
+  for (const char* perRun : {"events", "seed", "run", "beam_energy_mev", "theta_range_deg", "software"}) {
     settings.erase(perRun);
   }
+  // e+e- → e+e- is what a period is (and what periods made before another process could be
+  // chosen record); another process is said, so that one directory holds one process.
+  if (request.options.generator.process == sim::Process::Bhabha) settings.erase("process");
   settings["detector_sha256"] = sha256(io::toJson(detector).dump());
   return settings;
 }

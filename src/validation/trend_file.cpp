@@ -224,7 +224,7 @@ Json arrayOf(const Items& items, ToJson json) {
 
 }  // namespace
 
-Json trendJson(const Trend& t, const std::vector<TrendSeries>& series) {
+Json trendJson(const Trend& t, const std::vector<TrendSeries>& series, const PeriodTruth* truth) {
   Json list = Json::array();
   for (std::size_t k = 0; k < t.series.size(); ++k) list.push_back(seriesJson(t.series[k], series[k]));
   Json setAside = Json::array();
@@ -236,12 +236,23 @@ Json trendJson(const Trend& t, const std::vector<TrendSeries>& series) {
           {"iovs", t.iovs},
           {"resolvable", t.resolvable()},
           {"verdict", trendVerdict(t)},
-          {"steps", arrayOf(t.steps, stepJson)},
+          {"steps", arrayOf(t.steps,
+                            [&](const TrendStep& s) {
+                              Json j = stepJson(s);
+                              if (truth) j["true_size"] = io::numberOrNull(trueStepSize(s, series, *truth));
+                              return j;
+                            })},
           {"inconsistent", arrayOf(t.inconsistencies, inconsistencyJson)},
           {"known_boundaries", arrayOf(t.boundaries, boundaryJson)},
           {"set_aside", setAside},
           {"edges", arrayOf(t.edges, edgeJson)},
-          {"drifts", arrayOf(t.drifts, [&](const TrendDrift& d) { return driftJson(t, d); })},
+          {"drifts", arrayOf(t.drifts,
+                             [&](const TrendDrift& d) {
+                               Json j = driftJson(t, d);
+                               if (truth) j["true_change"] = io::numberOrNull(trueDriftChange(d, *truth));
+                               return j;
+                             })},
+          {"truth", truth != nullptr},
           {"segments", arrayOf(t.segments, segmentJson)},
           {"series", list}};
 }
@@ -293,15 +304,18 @@ auto listAt(const StrictObject& top, std::string_view key, Read read) {
   return out;
 }
 
-TrendStep readStep(const StrictObject& s) {
+RecordedStep readStep(const StrictObject& s) {
   TrendStep step{.parameter = quantityAt(s, "parameter"),
                  .known = s.has("known_boundary") && s.boolean("known_boundary"),
                  .firstRunAfter = s.integer("first_run_after"),
                  .size = s.numberOrNull("size"),
                  .error = s.numberOrNull("error"),
                  .withinIov = iovAt(s, "within_iov")};
+  RecordedStep out{.step = step};
+  if (s.has("true_size")) out.trueSize = s.numberOrNull("true_size");
   if (s.has("or_drift") && !s.at("or_drift").is_null()) {
     const StrictObject d = s.object("or_drift");
+    if (d.has("text")) out.orDriftText = d.string("text");
     step.orDrift = DriftAlternative{.firstRun = d.integer("first_run"),
                                     .lastRun = d.integer("last_run"),
                                     .startRun = d.integer("start_run"),
@@ -315,7 +329,8 @@ TrendStep readStep(const StrictObject& s) {
     const StrictObject d = s.object("instead_of_drift");
     step.insteadOfDrift = std::pair{d.number("chi2_step"), d.number("chi2_drift")};
   }
-  return step;
+  out.step = std::move(step);
+  return out;
 }
 
 TrendInconsistency readInconsistency(const StrictObject& i) {
@@ -359,6 +374,41 @@ RecordedDrift readDrift(const StrictObject& d) {
                                        .chi2Line = s.number("chi2_drift")};
     out.orStepText = s.string("text");
   }
+  if (d.has("true_change")) out.trueChange = d.numberOrNull("true_change");
+  return out;
+}
+
+RecordedRefitPeriod readRefitPeriod(const StrictObject& s) {
+  RecordedRefitPeriod p{.firstRun = s.integer("first_run"),
+                        .lastRun = s.integer("last_run"),
+                        .replacesIovs = s.integer("replaces_iovs"),
+                        .kept = s.has("kept") && s.boolean("kept")};
+  if (s.has("why")) p.keptBecause = s.string("why");
+  if (s.has("selected_events")) p.selectedEvents = s.integer("selected_events");
+  if (s.has("precision")) {
+    const StrictObject precision = s.object("precision");
+    for (const auto& [key, entry] : s.at("precision").items()) {
+      const auto q = quantityFromName(key);
+      if (!q) precision.fail(precision.pathOf(key), fmt::format("unknown parameter '{}'", key));
+      const StrictObject e = precision.object(key);
+      const auto given = [&](std::string_view k) { return e.has(k) ? e.numberOrNull(k) : std::nan(""); };
+      p.precision.push_back({.parameter = *q,
+                             .value = given("value"),
+                             .truth = given("truth"),
+                             .statisticalBefore = given("statistical_error_before"),
+                             .statisticalAfter = given("statistical_error_after"),
+                             .scatterOverError = given("scatter_over_error_before"),
+                             .rmsBeforeMinusTruth = given("rms_before_minus_truth")});
+    }
+  }
+  return p;
+}
+
+RecordedRefit readRefit(const StrictObject& r) {
+  RecordedRefit out{.tagOut = r.has("tag_out") ? r.string("tag_out") : std::string(),
+                    .iovs = r.integer("iovs"),
+                    .iovsBefore = r.integer("iovs_before")};
+  out.periods = listAt(r, "segments", readRefitPeriod);
   return out;
 }
 
@@ -406,6 +456,8 @@ Result<TrendRecord> parseTrend(const Json& j, std::string_view source) {
     r.inconsistencies = listAt(top, "inconsistent", readInconsistency);
     r.drifts = listAt(top, "drifts", readDrift);
     r.segments = listAt(top, "segments", [&](const StrictObject& s) { return readSegment(s, resolvable); });
+    r.withTruth = top.has("truth") && top.boolean("truth");
+    if (top.has("refit")) r.refit = readRefit(top.object("refit"));
     return r;
   });
 }

@@ -93,12 +93,12 @@ std::string driftExtentText(const TrendDrift& d) {
   const std::string start =
       d.startRun ? fmt::format("from run {}{}", *d.startRun, range(d.startRange))
                  : fmt::format("under way at run {}{}", d.firstRun,
-                               d.startRange.second > d.firstRun
+                               d.startRange.second > d.firstRun && d.startRange.second < d.lastRun
                                    ? fmt::format(" (or starting by run {})", d.startRange.second)
                                    : std::string());
   const std::string end = d.endRun ? fmt::format("to run {}{}", *d.endRun, range(d.endRange))
                                    : fmt::format("still going at run {}{}", d.lastRun,
-                                                 d.endRange.first < d.lastRun
+                                                 d.endRange.first > d.firstRun && d.endRange.first < d.lastRun
                                                      ? fmt::format(" (or stopping from run {})", d.endRange.first)
                                                      : std::string());
   return start + " " + end;
@@ -191,6 +191,24 @@ std::string trueChange(const PeriodTruth* truth, Quantity parameter, const Trend
   return std::isfinite(change) ? fmt::format("{:+.4g}", change) : std::string("—");
 }
 
+}  // namespace
+
+double trueStepSize(const TrendStep& s, const std::vector<TrendSeries>& series, const PeriodTruth& truth) {
+  const TrendSeries* ser = seriesNamed(series, s.parameter);
+  const std::size_t skipped = s.withinIov ? 2 : 1;
+  if (ser == nullptr || s.index >= ser->points.size() || s.index < skipped) return std::nan("");
+  const TrendPoint &before = ser->points[s.index - skipped], &after = ser->points[s.index];
+  return s.parameter.difference(truth.mean(s.parameter, after.firstRun, after.lastRun),
+                                truth.mean(s.parameter, before.firstRun, before.lastRun));
+}
+
+double trueDriftChange(const TrendDrift& d, const PeriodTruth& truth) {
+  const std::int64_t from = d.startRun.value_or(d.firstRun), to = d.endRun.value_or(d.lastRun);
+  return d.parameter.difference(truth.mean(d.parameter, to, to), truth.mean(d.parameter, from, from));
+}
+
+namespace {
+
 std::string stepsSection(const Trend& t, const std::vector<TrendSeries>& series, const PeriodTruth* truth) {
   if (t.steps.empty()) return {};
   std::string md =
@@ -208,11 +226,8 @@ std::string stepsSection(const Trend& t, const std::vector<TrendSeries>& series,
     if (s.orDrift) where += " — " + driftAlternativeText(s);
     std::string truthCell;
     if (truth) {
-      const TrendSeries* ser = seriesNamed(series, s.parameter);
-      const std::size_t before = s.withinIov ? s.index - 2 : s.index - 1;
-      truthCell = ser && s.index < ser->points.size() && before < s.index
-                      ? " " + trueChange(truth, s.parameter, ser->points[before], ser->points[s.index]) + " |"
-                      : " — |";
+      const double size = trueStepSize(s, series, *truth);
+      truthCell = std::isfinite(size) ? fmt::format(" {:+.4g} |", size) : std::string(" — |");
     }
     md += fmt::format("| {} | {} | {:+.4f} {} | {:.4f} | {:.1f} |{}\n", where, s.parameter, s.size, s.parameter.unit(),
                       s.error, s.z(), truthCell);
@@ -344,8 +359,7 @@ std::string driftsSection(const Trend& t, const std::vector<TrendSeries>& series
       std::string truthCell;
       if (truth) {
         // The truth's change between the drift's ends (its IOVs' first and last runs where open).
-        const std::int64_t from = d.startRun.value_or(d.firstRun), to = d.endRun.value_or(d.lastRun);
-        const double change = d.parameter.difference(truth->mean(d.parameter, to, to), truth->mean(d.parameter, from, from));
+        const double change = trueDriftChange(d, *truth);
         truthCell = std::isfinite(change) ? fmt::format(" {:+.4g} |", change) : std::string(" — |");
       }
       md += fmt::format("| {} | {} | {}-{} | {:+.4g} ± {:.2g} {} | {:+.3g} ± {:.2g} {}/run | {:.1f} | {:.2g} | {} |{}\n",

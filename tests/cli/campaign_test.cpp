@@ -228,13 +228,27 @@ TEST_F(CampaignCli, ACorrectionsGridFitsEveryGroupAtItsOwnEnergy) {
     EXPECT_NEAR(interpolation["points"][1]["weight"].get<double>(), w750, 1e-12) << run_;
     EXPECT_EQ(p["input"]["provenance"]["campaign"]["beam_energy_mev"], energy) << run_;
   }
-  // The refit takes the same grid (the tag's by its digest), and refuses the campaign without it.
+  // The refit takes the same grid (the tag's by its digest), and refuses other corrections;
+  // without --corrections it takes those the payloads name, still there and unchanged, and
+  // refuses them once they have changed.
   r = run(fmt::format("trend --conditions {} --tag g -o {} --refit {} --tag-out g.seg --corrections {}", uri,
                       path("tr"), events(), path("grid")));
   ASSERT_EQ(r.exitCode, 0) << r.err;
   r = run(fmt::format("trend --conditions {} --tag g -o {} --refit {} --tag-out g.seg2", uri, path("tr2"), events()));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("refit with the corrections the payloads name, unchanged since: " + path("grid")));
+  r = run(fmt::format("trend --conditions {} --tag g -o {} --refit {} --tag-out g.seg3 --corrections {}", uri,
+                      path("tr3"), events(),
+                      std::string(EMCALIGN_SOURCE_DIR) + "/data/corrections/ee-612.5MeV-40-140deg.json"));
   EXPECT_EQ(r.exitCode, 1);
   EXPECT_THAT(r.err, HasSubstr("give the same --corrections"));
+  const fs::path point = fs::directory_iterator(path("grid"))->path();
+  const std::string original = emcalign::testing::slurp(point);
+  std::ofstream(point, std::ios::app) << " ";
+  r = run(fmt::format("trend --conditions {} --tag g -o {} --refit {} --tag-out g.seg4", uri, path("tr4"), events()));
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_THAT(r.err, HasSubstr("which have changed since"));
+  std::ofstream(point, std::ios::trunc) << original;
   // A plan's job checks the grid by its digest, and stores the very payload of the campaign.
   r = run(fmt::format("campaign {} --plan {} --min-events 4000 --corrections {}", events(), path("plan.json"),
                       path("grid")));

@@ -323,7 +323,7 @@ def cases():
              setup=lambda d: (planted("TD/trend.json", "camp.db")(d), s7(d)), check=c7, checked="database unchanged"))
     s8, c8 = unchanged("ev.h5")
     add(Case(F, "a link planted in a check's directory to the events",
-             "emcalign check gg ev.h5 --alignment p.json -o CL", 1, "CL/check.json is a link to the input ev.h5",
+             "emcalign check gg ev.h5 --alignment p.json -o CL", 1, "CL/check.json is a link to the input",
              setup=lambda d: (planted("CL/check.json", "ev.h5")(d), s8(d)), check=c8, checked="events unchanged"))
     s9, c9 = unchanged("ev.csv")
     add(Case(F, "a figure's name linked to the events (gnuplot draws into a temporary)",

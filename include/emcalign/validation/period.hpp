@@ -89,8 +89,10 @@ struct PeriodRun {
   std::string file;  ///< its event file, relative to the period's directory
 };
 
-/// The runs of a period, in order (missing runs left out).
-std::vector<PeriodRun> planPeriod(const PeriodScenario& s);
+/// The runs of a period, in order (missing runs left out). Another process than e+e- → e+e-
+/// (a period's γγ or 3π events, for `check`) has the same runs, truths and numbers of events,
+/// and seeds of its own (drawn from the scenario's seed and the process).
+std::vector<PeriodRun> planPeriod(const PeriodScenario& s, sim::Process process = sim::Process::Bhabha);
 
 /// The warnings `simulate --params` gives of its truth (calib::truthRangeWarning: outside the
 /// validated ranges, a length in mm?) for every run of a period, the runs that share one

@@ -76,6 +76,13 @@ struct SegmentRefit {
 /// path for payloads that record none), an error naming the runs and the corrections used.
 Status adoptTagSettings(conddb::TagSnapshot& tag, CampaignModel& model);
 
+/// The corrections a tag's campaign fitted it with, when its payloads all name the same ones
+/// and they are still where they were, with the SHA-256 recorded (what `trend --refit` takes
+/// without --corrections); none when the payloads name none (the paper's model). An error says
+/// which IOV names other corrections, or that the file is gone or has changed (give
+/// --corrections, the campaign's own).
+Result<std::optional<std::string>> recordedCorrections(conddb::TagSnapshot& tag);
+
 /// The data of a refit must be what the tag was made from: every file whose SHA-256 its IOVs
 /// record, and no other (compared by content: the files may have moved). The error names a
 /// file missing, changed or foreign to the tag; warnings name IOVs that record no digests

@@ -57,6 +57,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <string>
 #include <utility>
@@ -336,16 +337,54 @@ LineFit fitLine(const TrendSeries& s, std::size_t begin, std::size_t end, double
 
 Trend analyseTrend(const std::vector<TrendSeries>& series, const TrendOptions& options = {});
 
+/// A simulated period's true change across a step: between the IOVs on either side of it (the
+/// one straddling it left out); NaN when the truth does not have their runs.
+double trueStepSize(const TrendStep& s, const std::vector<TrendSeries>& series, const PeriodTruth& truth);
+/// The true change over a drift's runs (its knees, or its IOVs' ends where open).
+double trueDriftChange(const TrendDrift& d, const PeriodTruth& truth);
+
 /// trend.json: {"format", "method", "iovs", "resolvable", "verdict", "steps": [{"parameter",
-/// "first_run_after", "size", "error", "z", "unit", "within_iov", …}], "inconsistent",
-/// "known_boundaries", "set_aside", "edges", "drifts", "segments", "series"}; `emcalign trend`
-/// adds "conditions", "tag", "models" (and "refit"). Written here, read by parseTrend.
-io::Json trendJson(const Trend& t, const std::vector<TrendSeries>& series);
+/// "first_run_after", "size", "error", "z", "unit", "within_iov", …, "true_size" (with a
+/// truth)}], "inconsistent", "known_boundaries", "set_aside", "edges", "drifts" (…,
+/// "true_change"), "segments", "series"}; `emcalign trend` adds "conditions", "tag", "models"
+/// (and "refit": segment_refit.hpp's refitJson). Written here, read by parseTrend.
+io::Json trendJson(const Trend& t, const std::vector<TrendSeries>& series, const PeriodTruth* truth = nullptr);
+/// A step as trend.json records it, with its drift alternative in words (driftAlternativeText;
+/// empty: none) and, of a simulated period, its true size (NaN: not recorded).
+struct RecordedStep {
+  TrendStep step;
+  std::string orDriftText = {};
+  double trueSize = std::numeric_limits<double>::quiet_NaN();
+};
 /// A drift as trend.json records it, with its step alternative in words (stepAlternativeText;
-/// empty: none).
+/// empty: none) and, of a simulated period, its true change (NaN: not recorded).
 struct RecordedDrift {
   TrendDrift drift;
   std::string orStepText = {};
+  double trueChange = std::numeric_limits<double>::quiet_NaN();
+};
+/// One parameter of a refitted period as trend.json records it (file units; NaN: not recorded).
+struct RecordedPrecision {
+  Quantity parameter;
+  double value = std::numeric_limits<double>::quiet_NaN(), truth = std::numeric_limits<double>::quiet_NaN();
+  double statisticalBefore = std::numeric_limits<double>::quiet_NaN();
+  double statisticalAfter = std::numeric_limits<double>::quiet_NaN();
+  double scatterOverError = std::numeric_limits<double>::quiet_NaN();
+  double rmsBeforeMinusTruth = std::numeric_limits<double>::quiet_NaN();
+};
+/// A period of `trend --refit` as trend.json records it.
+struct RecordedRefitPeriod {
+  std::int64_t firstRun = 0, lastRun = 0;
+  std::int64_t replacesIovs = 0;
+  bool kept = false;
+  std::string keptBecause = {};  ///< why its IOVs were kept (empty: refitted, or an older file)
+  std::int64_t selectedEvents = 0;
+  std::vector<RecordedPrecision> precision = {};
+};
+struct RecordedRefit {
+  std::string tagOut = {};
+  std::int64_t iovs = 0, iovsBefore = 0;
+  std::vector<RecordedRefitPeriod> periods = {};
 };
 
 /// trend.json read back (the HTML report): the findings of the analysis in its own types, and
@@ -356,11 +395,13 @@ struct TrendRecord {
   std::vector<std::string> models = {};   ///< the models the IOVs were fitted with (older files: none)
   std::size_t iovs = 0;
   std::optional<std::string> verdict = {};  ///< trendVerdict (none: an older trend.json)
-  std::vector<TrendStep> steps = {};
+  std::vector<RecordedStep> steps = {};
   std::vector<TrendInconsistency> inconsistencies = {};
   std::vector<RecordedDrift> drifts = {};
   std::vector<TrendSegment> segments = {};
-  int driftTests = 1;  ///< segments tested for a drift (0: none had the IOVs a slope test needs)
+  int driftTests = 1;  ///< stretches tested for a drift (0: none had the IOVs a drift test needs)
+  bool withTruth = false;                 ///< a simulated period's truth was given (--truth)
+  std::optional<RecordedRefit> refit = {};  ///< `trend --refit`
 };
 
 /// Reads trend.json (`source` names it in messages): not a trend, a key of the wrong type or

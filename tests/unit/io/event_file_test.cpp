@@ -664,8 +664,10 @@ TEST_F(EventFile, CsvRowErrorsNameFileLineAndColumn) {
       {"1,7,508,0,1,0.5,0.1,1,1.5,480,-1,1.5\n", "line 2", "phi_emc_rad", "outside [0, 2*pi]"},
       {"1,7,508,0,1,0.5,0.1,1,1.5,480,1,3.2\n", "line 2", "theta_emc_rad", "outside [0, pi]"},
       {"1,7,508,0,1,0.5,0.1,1,1.5,-1,1,1.5\n", "line 2", "energy_mev", "negative"},
-      {"1,7,0,0,1,0.5,0.1,1,1.5,480,1,1.5\n", "line 2", "beam_energy_mev", "> 0"},
-      {"1,7,-5,0,1,0.5,0.1,1,1.5,480,1,1.5\n", "line 2", "beam_energy_mev", "> 0"},
+      {"1,7,0,0,1,0.5,0.1,1,1.5,480,1,1.5\n", "line 2", "beam_energy_mev", "0 MeV is not a beam energy"},
+      {"1,7,-5,0,1,0.5,0.1,1,1.5,480,1,1.5\n", "line 2", "beam_energy_mev", "-5 MeV is not a beam energy"},
+      {"1,7,0.6125,0,1,0.5,0.1,1,1.5,480,1,1.5\n", "line 2", "beam_energy_mev", "GeV?"},
+      {"1,7,612500,0,1,0.5,0.1,1,1.5,480,1,1.5\n", "line 2", "beam_energy_mev", "keV?"},
       {"1,7,,0,1,0.5,0.1,1,1.5,480,1,1.5\n", "line 2", "beam_energy_mev", "empty"},
       {"1,7,508,0,1,0.5,,1,1.5,480,1,1.5\n", "line 2", "rho_cm", "complete track"},
       {"1,7,508,0,1,0.5,0.1,1,,,,\n", "line 2", "theta_ts_rad", "complete track"},
@@ -833,7 +835,7 @@ TEST_F(EventFile, Hdf5ValueErrorsNameFileRecordAndColumn) {
   // sampleRows(4): records 0,1 event 0; 2,3,4 event 1 (4 is a photon); 5..8 event 2.
   const Hdf5Case cases[] = {
       {"beam_energy_mev", 2, kNaN, "empty"},
-      {"beam_energy_mev", 0, 0.0, "> 0"},
+      {"beam_energy_mev", 0, 0.0, "0 MeV is not a beam energy"},
       {"beam_energy_mev", 3, 600.0, "differs"},
       {"muon_veto", 1, 2.0, "must be 0 or 1"},
       {"muon_veto", 1, 1.0, "differs"},

@@ -502,10 +502,11 @@ TEST(Trend, TheFileReadsBackAsTheAnalysisFound) {
   EXPECT_EQ(r.driftTests, t.tests);
   ASSERT_EQ(r.steps.size(), t.steps.size());
   for (std::size_t k = 0; k < t.steps.size(); ++k) {
-    EXPECT_EQ(r.steps[k].parameter, t.steps[k].parameter);
-    EXPECT_EQ(r.steps[k].firstRunAfter, t.steps[k].firstRunAfter);
-    EXPECT_EQ(r.steps[k].withinIov, t.steps[k].withinIov);
-    EXPECT_DOUBLE_EQ(r.steps[k].z(), t.steps[k].z());
+    EXPECT_EQ(r.steps[k].step.parameter, t.steps[k].parameter);
+    EXPECT_EQ(r.steps[k].step.firstRunAfter, t.steps[k].firstRunAfter);
+    EXPECT_EQ(r.steps[k].step.withinIov, t.steps[k].withinIov);
+    EXPECT_DOUBLE_EQ(r.steps[k].step.z(), t.steps[k].z());
+    EXPECT_TRUE(std::isnan(r.steps[k].trueSize));  // no truth given
   }
   ASSERT_EQ(r.drifts.size(), t.drifts.size());
   for (std::size_t k = 0; k < t.drifts.size(); ++k) {

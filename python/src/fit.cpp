@@ -176,6 +176,14 @@ void bindFit(py::module_& m) {
   py::class_<Fit>(m, "FitResult", "A fit: what emcalign fit writes, as numbers and as its files")
       .def_property_readonly("parameters", [](const Fit& f) { return arrayOf(f.result().parameters.values); })
       .def_property_readonly("errors", [](const Fit& f) { return arrayOf(f.result().errors); })
+      .def_property_readonly(
+          "statistical_errors",
+          [](const Fit& f) -> py::object {
+            if (!f.result().statisticalCovariance) return py::none();
+            return arrayOf(f.result().statisticalErrors);
+          },
+          "the part of the errors the events make (σ_sys out of the sandwich's middle, docs/fit.md): what two fits of "
+          "the same detector differ by; native units, or None (a saved profile's fit)")
       .def_property_readonly("systematic_errors", &systematicErrorsOf,
                              "the systematic errors the corrections carry (docs/systematics.md), native units, or "
                              "None")

@@ -35,6 +35,12 @@ def test_fit_with_corrections_writes_the_cli_result(tmp_path, fit_sample, correc
     plain = emcalign.fit(str(fit_sample))
     assert r.json != plain.json
     assert plain.systematic_errors is None
+    # the statistical errors: those of the result file, smaller than the quoted ones (SPEC's
+    # sigma_sys), none for a saved profile's fit
+    for k, name in enumerate(emcalign.PARAMETERS):
+        unit = saved["errors"][name] / r.errors[k]
+        assert r.statistical_errors[k] * unit == pytest.approx(saved["statistical_errors"][name], rel=1e-12)
+        assert 0 < r.statistical_errors[k] < r.errors[k]
 
 
 def test_fit_of_a_saved_profile_writes_the_cli_result(tmp_path, fit_sample):
@@ -44,6 +50,7 @@ def test_fit_of_a_saved_profile_writes_the_cli_result(tmp_path, fit_sample):
     r = emcalign.fit(profile=profile)
     assert r.json == plain.read_text()
     assert r.cut_flow is None and math.isnan(r.sigma_sys) and r.corrections is None
+    assert r.statistical_errors is None and "statistical_errors" not in json.loads(r.json)
     # written with corrections: they come again for the depth offset
     weighted, withc = tmp_path / "pc.csv", tmp_path / "rpc.json"
     cli("fit", fit_sample, "-o", tmp_path / "rc.json", "--profile-out", weighted, "--corrections", CORRECTIONS)

@@ -167,7 +167,8 @@ void kneePenaltyTable(int trials) {
       "to run 27 in IOVs of 2 runs) found with both ends within ±3 runs; a drift over the last 53 of 106 IOVs "
       "(3 errors) given a false end\n\n");
   std::printf(
-      "| knee penalty: to flag, to place | false drift, 30 IOVs | false drift, 106 IOVs | newcomer: start found | both ends ± 3 runs | "
+      "| knee penalty: to flag, to place | false drift, 30 IOVs | false drift, 106 IOVs | newcomer: start found | both "
+      "ends ± 3 runs | "
       "drift to the end: false end |\n|---|---|---|---|---|---|\n");
   const auto row = [&](const char* label, const std::function<double(double)>& penalty, double shape) {
     TrendOptions o30, o106;
@@ -182,21 +183,25 @@ void kneePenaltyTable(int trials) {
       const Trend t = analyseTrend({newcomer(rng)}, o30);
       if (t.drifts.size() == 1 && t.drifts[0].startRun) {
         ++start;
-        ends += std::abs(*t.drifts[0].startRun - 8) <= 3 && t.drifts[0].endRun && std::abs(*t.drifts[0].endRun - 27) <= 3
-                    ? 1
-                    : 0;
+        ends +=
+            std::abs(*t.drifts[0].startRun - 8) <= 3 && t.drifts[0].endRun && std::abs(*t.drifts[0].endRun - 27) <= 3
+                ? 1
+                : 0;
       }
-      const Trend u =
-          analyseTrend({make(106, 1.0, stepAndDrift(106, 0.0, 3.0 / 53.0), true, rng)}, o106);
+      const Trend u = analyseTrend({make(106, 1.0, stepAndDrift(106, 0.0, 3.0 / 53.0), true, rng)}, o106);
       falseEnd += u.drifts.size() == 1 && u.drifts[0].endRun ? 1 : 0;
     }
     std::printf("| %s | %.2f %% | %.2f %% | %.1f %% | %.1f %% | %.1f %% |\n", label, 100 * a.drifts, 100 * b.drifts,
                 100.0 * start / trials, 100.0 * ends / trials, 100.0 * falseEnd / trials);
   };
-  row("ln n, 2", [](double n) { return std::log(n); }, 2.0);
-  row("1.5 ln n, 2 (the default)", [](double n) { return 1.5 * std::log(n); }, 2.0);
-  row("1.5 ln n, 0 (the best fit)", [](double n) { return 1.5 * std::log(n); }, 0.0);
-  row("2 ln n, 2", [](double n) { return 2.0 * std::log(n); }, 2.0);
+  row(
+      "ln n, 2", [](double n) { return std::log(n); }, 2.0);
+  row(
+      "1.5 ln n, 2 (the default)", [](double n) { return 1.5 * std::log(n); }, 2.0);
+  row(
+      "1.5 ln n, 0 (the best fit)", [](double n) { return 1.5 * std::log(n); }, 0.0);
+  row(
+      "2 ln n, 2", [](double n) { return 2.0 * std::log(n); }, 2.0);
 }
 
 }  // namespace

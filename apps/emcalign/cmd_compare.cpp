@@ -105,13 +105,15 @@ int run(CompareOptions o) {
     return reportError(s.error());
   }
   const auto mev = [](const std::vector<double>& e) { return fmt::format("{:g}", fmt::join(e, ", ")); };
-  fmt::print(reportStream(), "compare: data {} particles ({} events, beam {} MeV), MC {} particles ({} events, beam {} MeV)\n",
+  fmt::print(reportStream(),
+             "compare: data {} particles ({} events, beam {} MeV), MC {} particles ({} events, beam {} MeV)\n",
              c->dataParticles, c->dataEvents, mev(c->dataBeamEnergiesMev), c->mcParticles, c->mcEvents,
              mev(c->mcBeamEnergiesMev));
   if (!c->emptyThetaSlices.empty()) {
-    reportWarning(fmt::format("{} of the {} theta_EMC slices have no profile bin with {} particles in both samples: "
-                              "not compared, drawn empty (a small MC?)",
-                              c->emptyThetaSlices.size(), c->options.profileThetaBins, c->options.minEntries));
+    reportWarning(
+        fmt::format("{} of the {} theta_EMC slices have no profile bin with {} particles in both samples: "
+                    "not compared, drawn empty (a small MC?)",
+                    c->emptyThetaSlices.size(), c->options.profileThetaBins, c->options.minEntries));
   }
   for (const auto& d : c->distributions) {
     fmt::print(reportStream(), "  {:<14} chi2/ndf = {:8.1f}/{:<4} p-value {:.3g}\n", d.name, d.chi2, d.ndf, d.pValue);

@@ -343,8 +343,8 @@ void addSimulateCommand(CLI::App& app, int& exitCode) {
   cmd->callback([o, cmd, &exitCode] {
     o->deadCountersGiven = cmd->count("--dead-counters") > 0;
     if (!o->period.empty()) {
-      for (const char* single : {"--params", "--conditions", "--run", "--beam-energy", "--theta-min", "--theta-max",
-                                 "--seed"}) {
+      for (const char* single :
+           {"--params", "--conditions", "--run", "--beam-energy", "--theta-min", "--theta-max", "--seed"}) {
         if (cmd->count(single) > 0) {
           throw CLI::ExcludesError("--period", single);
         }

@@ -201,7 +201,8 @@ int run(const TrendCliOptions& o) {
     }
   }
   for (const auto& d : trend.drifts) {
-    fmt::print(reportStream(), "  drift {:<8} {} (IOVs of runs {}-{}): {:+.4g} ± {:.2g} {}, {:+.3g} ± {:.2g} {}/run (z {:.1f}){}\n",
+    fmt::print(reportStream(),
+               "  drift {:<8} {} (IOVs of runs {}-{}): {:+.4g} ± {:.2g} {}, {:+.3g} ± {:.2g} {}/run (z {:.1f}){}\n",
                d.parameter, validation::driftExtentText(d), d.firstRun, d.lastRun, d.change, d.changeError,
                d.parameter.unit(), d.slopePerRun, d.error, d.parameter.unit(), d.z,
                d.orStep ? " — " + validation::stepAlternativeText(trend, d) : std::string());

@@ -6,12 +6,12 @@
 #include <cmath>
 
 #include "bindings.hpp"
-#include "emcalign/core/beam_energy.hpp"
 #include "emcalign/apply/cluster_correction.hpp"
 #include "emcalign/apply/correct.hpp"
 #include "emcalign/apply/mc_comparison.hpp"
 #include "emcalign/calib/corrections.hpp"
 #include "emcalign/conddb/calibrations.hpp"
+#include "emcalign/core/beam_energy.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/geometry/alignment_transform.hpp"
 #include "emcalign/io/output_file.hpp"

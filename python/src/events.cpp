@@ -95,9 +95,10 @@ std::vector<std::int64_t> integerColumnOf(const py::dict& events, const char* ke
                                           std::int64_t hi) {
   const py::array a = columnArray(events, key, n);
   if (const auto masked = maskedRows(events, key, n); !masked.empty()) {
-    raise(Error{fmt::format("events: row {}: {} is masked (missing), and every row needs one: fill it, or leave "
-                            "the row out",
-                            masked.front(), key)});
+    raise(
+        Error{fmt::format("events: row {}: {} is masked (missing), and every row needs one: fill it, or leave "
+                          "the row out",
+                          masked.front(), key)});
   }
   std::vector<std::int64_t> out(n);
   const char kind = a.dtype().kind();

@@ -102,9 +102,8 @@ Json comparisonJson(const ComparisonRecord& record) {
             {"method",
              "chi2 of the difference with the covariance of both samples from the events' influences (two particles "
              "of an event, y_phi-y_theta, the histograms' normalisation), over its rank"}};
-  for (const auto& [key, events, energies] :
-       {std::tuple{"data", c.dataSelectedEvents, &c.dataBeamEnergiesMev},
-        std::tuple{"mc", c.mcSelectedEvents, &c.mcBeamEnergiesMev}}) {
+  for (const auto& [key, events, energies] : {std::tuple{"data", c.dataSelectedEvents, &c.dataBeamEnergiesMev},
+                                              std::tuple{"mc", c.mcSelectedEvents, &c.mcBeamEnergiesMev}}) {
     if (events > 0) j[key]["selected_events"] = events;
     if (!energies->empty()) j[key]["beam_energies_mev"] = *energies;
   }

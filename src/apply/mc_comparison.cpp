@@ -151,6 +151,15 @@ std::pair<double, int> chi2Of(const Eigen::VectorXd& d, const Eigen::MatrixXd& c
   return {chi2, rank};
 }
 
+// The θ slices of the profiles in which no bin is compared (`usedBins`: i_phi-major indices).
+std::vector<int> emptyThetaSlices(const std::vector<int>& usedBins, int thetaBins) {
+  std::vector<int> out;
+  for (int j = 0; j < thetaBins; ++j) {
+    if (std::none_of(usedBins.begin(), usedBins.end(), [&](int b) { return b % thetaBins == j; })) out.push_back(j);
+  }
+  return out;
+}
+
 Status checkOptions(const ComparisonOptions& o) {
   if (o.histogramBins < 2 || o.histogramBins > 10000) return Error{"histogram bins: 2 to 10000"};
   if (!(o.rangeDeg > 0.0) || !(o.rangeDeg <= 180.0)) return Error{"range: (0, 180] deg"};
@@ -279,10 +288,8 @@ Result<Comparison> compareParticles(const std::vector<ComparedParticle>& data, c
   distribution("profile_phi", pOff, u, false, false);
   distribution("profile_theta", pOff + u, u, false, true);
   if (u == 0) return Error{"no profile bin has the entries a comparison needs in both samples"};
-  for (int j = 0; j < o.profileThetaBins; ++j) {
-    const bool any = std::any_of(l.usedBins.begin(), l.usedBins.end(), [&](int b) { return b % o.profileThetaBins == j; });
-    if (!any) out.emptyThetaSlices.push_back(j);
-  }
+  out.emptyThetaSlices = emptyThetaSlices(l.usedBins, o.profileThetaBins);
+
   const auto [chi2, ndf] = chi2Of(d, c);
   out.chi2 = chi2;
   out.ndf = ndf;

@@ -206,7 +206,8 @@ Json derivedJson(const FitResult& r, const FitInput& input) {
     const DerivedValue& v = r.derived[p];
     derived[std::string(name(p))] = {
         {"value", v.value / unit}, {"error", io::numberOrNull(v.error / unit)}, {"unit", fileUnitName(dimension(p))}};
-    if (std::isfinite(v.statisticalError)) derived[std::string(name(p))]["statistical_error"] = v.statisticalError / unit;
+    if (std::isfinite(v.statisticalError))
+      derived[std::string(name(p))]["statistical_error"] = v.statisticalError / unit;
     if (!input.systematics) continue;
     if (auto it = input.systematics->errors.find(p); it != input.systematics->errors.end()) {
       derived[std::string(name(p))]["systematic_error"] = it->second;
@@ -274,8 +275,7 @@ io::Json fitResultJson(const FitResult& r, const FitInput& input) {
   if (r.statisticalCovariance) {
     Json statistical = Json::object();
     for (Param p : kAllParams) {
-      statistical[std::string(name(p))] =
-          io::numberOrNull(r.statisticalErrors[p] / AlignmentParameters::fileUnit(p));
+      statistical[std::string(name(p))] = io::numberOrNull(r.statisticalErrors[p] / AlignmentParameters::fileUnit(p));
     }
     j["statistical_errors"] = statistical;
   }

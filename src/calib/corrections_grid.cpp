@@ -211,12 +211,12 @@ Result<std::pair<std::size_t, double>> CorrectionsGrid::around(double beamEnergy
   if (!(beamEnergy >= first && beamEnergy <= last)) {
     // The advice writes into a copy: the grid may be the installed one (a shipped data directory
     // is no place for a user's files, and may not be writable).
-    return Error{fmt::format(
-        "beam energy {} MeV is outside the corrections grid {} ({} to {} MeV): the corrections "
-        "are not extrapolated; derive a point there into a grid of your own (cp -r {} my-grid, then "
-        "emcalign derive-corrections --beam-energy {} -o my-grid/{}, and --corrections my-grid)",
-        beamEnergy / units::MeV, path_, first / units::MeV, last / units::MeV, path_, beamEnergy / units::MeV,
-        gridPointName(beamEnergy))};
+    return Error{
+        fmt::format("beam energy {} MeV is outside the corrections grid {} ({} to {} MeV): the corrections "
+                    "are not extrapolated; derive a point there into a grid of your own (cp -r {} my-grid, then "
+                    "emcalign derive-corrections --beam-energy {} -o my-grid/{}, and --corrections my-grid)",
+                    beamEnergy / units::MeV, path_, first / units::MeV, last / units::MeV, path_,
+                    beamEnergy / units::MeV, gridPointName(beamEnergy))};
   }
   std::size_t k = 1;
   while (k + 1 < points_.size() && points_[k].corrections.beamEnergy < beamEnergy) ++k;

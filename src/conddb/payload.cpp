@@ -133,8 +133,8 @@ Result<Payload> makePayload(const Json& in, double r1, std::string_view source, 
   if (!file) return file.error();
   Json alignment = io::alignmentToJson(file->parameters);
   // What a fit result says about its parameters travels with them.
-  for (const char* key : {"errors", "statistical_errors", "systematic_errors", "covariance", "correlation", "derived", "chi2", "ndf",
-                          "p_value", "status", "warnings", "notes", "sigma_sys"}) {
+  for (const char* key : {"errors", "statistical_errors", "systematic_errors", "covariance", "correlation", "derived",
+                          "chi2", "ndf", "p_value", "status", "warnings", "notes", "sigma_sys"}) {
     if (in.contains(key)) alignment[key] = in[key];
   }
   Json p = Json{{"format", kPayloadFormat}, {"alignment", alignment}};

@@ -10,8 +10,8 @@ std::string beamEnergyProblem(double energy) {
   const double mev = energy / units::MeV;
   if (!std::isfinite(mev)) return fmt::format("{} MeV is not a finite beam energy", mev);
   if (mev >= kMinBeamEnergy / units::MeV && mev <= kMaxBeamEnergy / units::MeV) return {};
-  const std::string range =
-      fmt::format("the {:g}-{:g} MeV the detector is modelled for", kMinBeamEnergy / units::MeV, kMaxBeamEnergy / units::MeV);
+  const std::string range = fmt::format("the {:g}-{:g} MeV the detector is modelled for", kMinBeamEnergy / units::MeV,
+                                        kMaxBeamEnergy / units::MeV);
   if (mev <= 0.0) return fmt::format("{:g} MeV is not a beam energy (expected {})", mev, range);
   if (mev < kMinBeamEnergy / units::MeV) {
     // 0.02-5 looks like GeV (×1000 → 20-5000 MeV); lower still like TeV or a fraction.

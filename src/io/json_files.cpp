@@ -283,10 +283,26 @@ json toJson(const DetectorDescription& d) {
 
 void strict::checkAlignmentHeader(const StrictObject& top) {
   // The parameter keys, plus what a fit result adds (SPEC §3), read elsewhere.
-  top.allowOnly({"format", "units", "parameters", "physical", "errors", "statistical_errors", "systematic_errors",
-                 "covariance", "derived",
-                 "chi2", "ndf", "p_value", "stages", "status", "warnings", "input", "software", "correlation",
-                 "sigma_sys", "notes"});
+  top.allowOnly({"format",
+                 "units",
+                 "parameters",
+                 "physical",
+                 "errors",
+                 "statistical_errors",
+                 "systematic_errors",
+                 "covariance",
+                 "derived",
+                 "chi2",
+                 "ndf",
+                 "p_value",
+                 "stages",
+                 "status",
+                 "warnings",
+                 "input",
+                 "software",
+                 "correlation",
+                 "sigma_sys",
+                 "notes"});
   if (top.has("format") && top.string("format") != kAlignmentFormat) {
     top.fail("format", fmt::format("expected \"{}\"", kAlignmentFormat));
   }

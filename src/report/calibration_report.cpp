@@ -330,8 +330,12 @@ html::Table stepsTable(const validation::TrendRecord& t) {
   for (const auto& [s, orDrift, trueSize] : t.steps) {
     const auto [v, e] = withError(s.size, s.error);
     std::vector<std::string> row = {
-        html::escape(symbol(std::string(s.parameter.name()))), std::to_string(s.firstRunAfter), v, e,
-        html::escape(s.parameter.unit()), number(s.z(), "{:.1f}"),
+        html::escape(symbol(std::string(s.parameter.name()))),
+        std::to_string(s.firstRunAfter),
+        v,
+        e,
+        html::escape(s.parameter.unit()),
+        number(s.z(), "{:.1f}"),
         s.withinIov ? fmt::format("{}–{}", s.withinIov->first, s.withinIov->second) : std::string("between IOVs"),
         orDrift.empty() ? std::string("no") : html::escape(orDrift)};
     if (t.withTruth) row.insert(row.begin() + 5, number(trueSize, "{:+.4g}"));
@@ -462,10 +466,13 @@ Result<std::string> trendSection(const std::optional<ReportTrend>& tr, const std
     }
     for (const auto& [d, orStepText, trueChange] : t.drifts) {
       std::vector<std::string> row = {
-          html::escape(symbol(std::string(d.parameter.name()))), html::escape(validation::driftExtentText(d)),
-          number(d.change, "{:+.4g}") + " " + html::escape(d.parameter.unit()), number(d.changeError, "{:.2g}"),
+          html::escape(symbol(std::string(d.parameter.name()))),
+          html::escape(validation::driftExtentText(d)),
+          number(d.change, "{:+.4g}") + " " + html::escape(d.parameter.unit()),
+          number(d.changeError, "{:.2g}"),
           number(d.slopePerRun, "{:.3g}") + " " + html::escape(std::string(d.parameter.unit()) + "/run"),
-          number(d.error, "{:.2g}"), number(d.z, "{:.1f}"),
+          number(d.error, "{:.2g}"),
+          number(d.z, "{:.1f}"),
           d.orStep ? html::escape(orStepText) : std::string("no: a step does not fit")};
       if (t.withTruth) row.insert(row.begin() + 4, number(trueChange, "{:+.4g}"));
       drifts.rows.push_back(std::move(row));

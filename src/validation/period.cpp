@@ -243,9 +243,9 @@ std::vector<std::string> periodTruthWarnings(const PeriodScenario& s, double r1)
   std::string last;
   std::int64_t first = 0, end = 0;
   const auto flush = [&] {
-    if (!last.empty()) out.push_back(fmt::format("{}: {}", first == end ? fmt::format("run {}", first)
-                                                                        : fmt::format("runs {}-{}", first, end),
-                                                 last));
+    if (!last.empty())
+      out.push_back(fmt::format(
+          "{}: {}", first == end ? fmt::format("run {}", first) : fmt::format("runs {}-{}", first, end), last));
   };
   for (const auto& run : planPeriod(s)) {
     std::string w = calib::truthRangeWarning(run.truth, r1).value_or("");

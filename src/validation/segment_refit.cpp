@@ -231,16 +231,16 @@ Result<std::optional<std::string>> recordedCorrections(conddb::TagSnapshot& tag)
   const auto& [file, sha] = *named;
   auto grid = calib::CorrectionsGrid::read(file);
   if (!grid) {
-    return Error{fmt::format(
-        "tag {} was fitted with the corrections {}, which cannot be read now ({}): give --corrections, the "
-        "campaign's own",
-        tag.tag().name, file, grid.error().message)};
+    return Error{
+        fmt::format("tag {} was fitted with the corrections {}, which cannot be read now ({}): give --corrections, the "
+                    "campaign's own",
+                    tag.tag().name, file, grid.error().message)};
   }
   if (!sha.empty() && grid->sha256() != sha) {
-    return Error{fmt::format(
-        "tag {} was fitted with the corrections {} (SHA-256 {}…), which have changed since (now {}…): give "
-        "--corrections, the campaign's own",
-        tag.tag().name, file, sha.substr(0, 12), grid->sha256().substr(0, 12))};
+    return Error{
+        fmt::format("tag {} was fitted with the corrections {} (SHA-256 {}…), which have changed since (now {}…): give "
+                    "--corrections, the campaign's own",
+                    tag.tag().name, file, sha.substr(0, 12), grid->sha256().substr(0, 12))};
   }
   return std::optional<std::string>{file};
 }
@@ -458,13 +458,11 @@ std::string refitMarkdown(const SegmentRefit& r, std::size_t iovsBefore, const s
     }
     md += fmt::format("\n### Runs {}-{}: {} → 1; {} (median {} per IOV before)\n\n", s.firstRun, s.lastRun,
                       counted(s.end - s.begin, "IOV"), counted(s.selected, "selected event"), s.medianSelectedBefore);
-    md +=
-        withTruth
-            ? "| parameter | refit | truth | quoted error before → after | statistical error before → after | "
-              "gain | observed scatter before | scatter / statistical error | RMS(IOV − truth) → refit − truth "
-              "|\n|---|---|---|---|---|---|---|---|---|\n"
-            : "| parameter | refit | quoted error before → after | statistical error before → after | gain | "
-              "observed scatter before | scatter / statistical error |\n|---|---|---|---|---|---|---|\n";
+    md += withTruth ? "| parameter | refit | truth | quoted error before → after | statistical error before → after | "
+                      "gain | observed scatter before | scatter / statistical error | RMS(IOV − truth) → refit − truth "
+                      "|\n|---|---|---|---|---|---|---|---|---|\n"
+                    : "| parameter | refit | quoted error before → after | statistical error before → after | gain | "
+                      "observed scatter before | scatter / statistical error |\n|---|---|---|---|---|---|---|\n";
     for (const RefitPrecision& p : s.precision) {
       const int d = digitsOf(p.parameter);
       const std::string u = p.parameter.dimension() == Dimension::Angle ? "°" : " cm";

@@ -1,6 +1,6 @@
 #include "emcalign/validation/trend.hpp"
-#include "trend_internal.hpp"
 #include "emcalign/core/text.hpp"
+#include "trend_internal.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -555,8 +555,8 @@ std::vector<TrendInconsistency> testStretches(const Trend& t, const std::vector<
     const double p = chi2PValue(m.model.chi2, m.ndf());
     if (!(p * tests < t.options.driftAlpha)) continue;
     const auto& s = series[x.series];
-    out.push_back({s.parameter, s.points[m.points.front()].firstRun, s.points[m.points.back()].lastRun,
-                   m.points.size(), m.model.chi2, m.ndf(), p, m.drift(), s.points.size() < 2 * t.options.minSegment});
+    out.push_back({s.parameter, s.points[m.points.front()].firstRun, s.points[m.points.back()].lastRun, m.points.size(),
+                   m.model.chi2, m.ndf(), p, m.drift(), s.points.size() < 2 * t.options.minSegment});
   }
   return out;
 }

@@ -167,14 +167,10 @@ Json seriesJson(const SeriesAnalysis& a, const TrendSeries& s) {
       transitions.push_back(Json::array({p.firstRun, p.lastRun}));
     }
   }
-  return {{"parameter", a.parameter},
-          {"unit", a.parameter.unit()},
-          {"iovs", s.points.size()},
-          {"errors", s.statistical ? "statistical" : "quoted"},
-          {"error_scale", a.errorScale},
-          {"segments", segs},
-          {"stretches", stretches},
-          {"transition_iovs", transitions}};
+  return {{"parameter", a.parameter},    {"unit", a.parameter.unit()},
+          {"iovs", s.points.size()},     {"errors", s.statistical ? "statistical" : "quoted"},
+          {"error_scale", a.errorScale}, {"segments", segs},
+          {"stretches", stretches},      {"transition_iovs", transitions}};
 }
 
 // How the trend was analysed: the rules in words and their settings.

@@ -137,7 +137,6 @@ std::vector<TrendSegment> stablePeriods(const Trend& t, const std::vector<TrendS
   return out;
 }
 
-
 namespace {
 
 // χ² of a period's IOVs of one series about their weighted mean.

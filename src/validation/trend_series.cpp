@@ -88,7 +88,8 @@ Result<std::vector<TrendSeries>> seriesOfTag(conddb::TagSnapshot& tag) {
   std::vector<TrendSeries> out;
   out.reserve(read.size());
   for (Param p : kAllParams) out.push_back(chooseErrors(p, read[index(p)]));
-  for (std::size_t k = 0; k < kDerivedParams.size(); ++k) out.push_back(chooseErrors(kDerivedParams[k], read[kNumParams + k]));
+  for (std::size_t k = 0; k < kDerivedParams.size(); ++k)
+    out.push_back(chooseErrors(kDerivedParams[k], read[kNumParams + k]));
   return out;
 }
 

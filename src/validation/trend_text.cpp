@@ -71,9 +71,10 @@ std::string stepAlternativeText(const Trend& t, const TrendDrift& d) {
       a.withinIov ? fmt::format(" (inside IOV {}-{})", a.withinIov->first, a.withinIov->second) : std::string(),
       others.empty() ? std::string()
                      : fmt::format(", where {} step{}", fmt::join(others, ", "), others.size() == 1 ? "s" : ""));
-  return fmt::format("{} (χ² {:.1f} for the step, {:.1f} for the drift): these IOVs cannot tell a drift from a step; {}",
-                     a.preferred() ? "a step fits better: " + step : "or a step of " + step, a.chi2Step, a.chi2Line,
-                     tellApartText(d.tellApart, d.firstRun, d.lastRun));
+  return fmt::format(
+      "{} (χ² {:.1f} for the step, {:.1f} for the drift): these IOVs cannot tell a drift from a step; {}",
+      a.preferred() ? "a step fits better: " + step : "or a step of " + step, a.chi2Step, a.chi2Line,
+      tellApartText(d.tellApart, d.firstRun, d.lastRun));
 }
 
 std::string driftAlternativeText(const TrendStep& s) {
@@ -90,12 +91,11 @@ std::string driftExtentText(const TrendDrift& d) {
   const auto range = [](std::pair<std::int64_t, std::int64_t> r) {
     return r.first < r.second ? fmt::format(" ({}-{})", r.first, r.second) : std::string();
   };
-  const std::string start =
-      d.startRun ? fmt::format("from run {}{}", *d.startRun, range(d.startRange))
-                 : fmt::format("under way at run {}{}", d.firstRun,
-                               d.startRange.second > d.firstRun && d.startRange.second < d.lastRun
-                                   ? fmt::format(" (or starting by run {})", d.startRange.second)
-                                   : std::string());
+  const std::string start = d.startRun ? fmt::format("from run {}{}", *d.startRun, range(d.startRange))
+                                       : fmt::format("under way at run {}{}", d.firstRun,
+                                                     d.startRange.second > d.firstRun && d.startRange.second < d.lastRun
+                                                         ? fmt::format(" (or starting by run {})", d.startRange.second)
+                                                         : std::string());
   const std::string end = d.endRun ? fmt::format("to run {}{}", *d.endRun, range(d.endRange))
                                    : fmt::format("still going at run {}{}", d.lastRun,
                                                  d.endRange.first > d.firstRun && d.endRange.first < d.lastRun
@@ -316,7 +316,8 @@ std::string periodsSection(const Trend& t) {
     if (!s.scattering.empty()) {
       std::vector<std::string> items;
       for (const auto& sc : s.scattering) {
-        items.push_back(fmt::format("{} (scatter / error {:.1f}: χ² {:.1f}/{})", sc.parameter, sc.ratio(), sc.chi2, sc.ndf));
+        items.push_back(
+            fmt::format("{} (scatter / error {:.1f}: χ² {:.1f}/{})", sc.parameter, sc.ratio(), sc.chi2, sc.ndf));
       }
       state += fmt::format("; **not stable: its IOVs scatter beyond their {} errors in {}**",
                            s.scattering.front().statistical ? "statistical" : "measured", fmt::join(items, ", "));
@@ -362,10 +363,11 @@ std::string driftsSection(const Trend& t, const std::vector<TrendSeries>& series
         const double change = trueDriftChange(d, *truth);
         truthCell = std::isfinite(change) ? fmt::format(" {:+.4g} |", change) : std::string(" — |");
       }
-      md += fmt::format("| {} | {} | {}-{} | {:+.4g} ± {:.2g} {} | {:+.3g} ± {:.2g} {}/run | {:.1f} | {:.2g} | {} |{}\n",
-                        d.parameter, driftExtentText(d), d.firstRun, d.lastRun, d.change, d.changeError,
-                        d.parameter.unit(), d.slopePerRun, d.error, d.parameter.unit(), d.z, d.pValue,
-                        d.orStep ? stepAlternativeText(t, d) : std::string("no: a step does not fit"), truthCell);
+      md +=
+          fmt::format("| {} | {} | {}-{} | {:+.4g} ± {:.2g} {} | {:+.3g} ± {:.2g} {}/run | {:.1f} | {:.2g} | {} |{}\n",
+                      d.parameter, driftExtentText(d), d.firstRun, d.lastRun, d.change, d.changeError,
+                      d.parameter.unit(), d.slopePerRun, d.error, d.parameter.unit(), d.z, d.pValue,
+                      d.orStep ? stepAlternativeText(t, d) : std::string("no: a step does not fit"), truthCell);
     }
   }
   (void)series;
@@ -482,7 +484,8 @@ std::string trendMarkdown(const Trend& t, const std::vector<TrendSeries>& series
         "χ² ({} tested, Bonferroni at {}):\n\n"
         "| parameter | runs | IOVs | model | χ²/ndf | p-value | why unresolved |\n|---|---|---|---|---|---|---|\n",
         t.inconsistencies.size(), t.inconsistencies.size() == 1 ? "" : "es",
-        t.inconsistencies.size() == 1 ? "its" : "their", counted(t.consistencyTests, "stretch", "stretches"), t.options.driftAlpha);
+        t.inconsistencies.size() == 1 ? "its" : "their", counted(t.consistencyTests, "stretch", "stretches"),
+        t.options.driftAlpha);
     for (const auto& i : t.inconsistencies) {
       md += fmt::format("| {} | {}-{} | {} | {} | {:.1f}/{} | {:.2g} | {} |\n", i.parameter, i.firstRun, i.lastRun,
                         i.iovs, i.line ? "drift" : "constant", i.chi2, i.ndf, i.pValue,

@@ -109,9 +109,9 @@ TEST_F(CompareCli, OtherBeamEnergiesAreRefusedAndEachSampleIsRecorded) {
   EXPECT_THAT(md, HasSubstr("are not compared, and drawn empty"));
   EXPECT_GT(fs::file_size(path("small/compare_profiles.png")), 20000u);
   // Without gnuplot the figures fail: the command fails, and no compare.json says it is done.
-  const std::string noGnuplot = fmt::format("env PATH=/nonexistent {} compare --data {} --mc {} -o {} 2>{}",
-                                            EMCALIGN_BINARY, path("data.h5"), path("small.h5"), path("blind"),
-                                            path("blind.err"));
+  const std::string noGnuplot =
+      fmt::format("env PATH=/nonexistent {} compare --data {} --mc {} -o {} 2>{}", EMCALIGN_BINARY, path("data.h5"),
+                  path("small.h5"), path("blind"), path("blind.err"));
   EXPECT_NE(std::system(noGnuplot.c_str()), 0);
   EXPECT_FALSE(fs::exists(path("blind/compare.json")));
   EXPECT_THAT(emcalign::testing::slurp(path("blind.err")), HasSubstr("compare.json not written"));

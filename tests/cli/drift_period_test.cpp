@@ -38,9 +38,9 @@ class DriftPeriodCli : public ::testing::Test {
     const auto sim = run(fmt::format("simulate --period {} -o {} --no-hits", path("s.json"), path("p")));
     ASSERT_EQ(sim.exitCode, 0) << sim.err;
     for (const char* tag : {"auto", "spec"}) {
-      const auto r = run(fmt::format("campaign {} --conditions sqlite:{} --tag {} --min-events 20000 --corrections {}{}",
-                                     path("p"), path("c.db"), tag, grid(),
-                                     std::string(tag) == "auto" ? " --sigma-sys auto" : ""));
+      const auto r =
+          run(fmt::format("campaign {} --conditions sqlite:{} --tag {} --min-events 20000 --corrections {}{}",
+                          path("p"), path("c.db"), tag, grid(), std::string(tag) == "auto" ? " --sigma-sys auto" : ""));
       ASSERT_EQ(r.exitCode, 0) << r.err;
     }
   }

@@ -189,11 +189,12 @@ TEST(Closure, StatisticalErrorsAreWhatSamplesScatterBy) {
     if (s == 0) {  // σ_sys = 0 and independent bins: the statistical errors are the quoted ones
       calib::ProfileFiller plain(geometry.depth, calib::SelectionOptions{});
       auto again = sim::Simulation::create(calorimeter(), paperLike(), o);
-      ASSERT_TRUE(again->run(8000, 0,
-                             [&](std::span<const ParticleRow> rows, std::span<const TruthRow>, std::span<const Hit>) {
-                               plain.addEvents(rows);
-                               return Status{};
-                             })
+      ASSERT_TRUE(again
+                      ->run(8000, 0,
+                            [&](std::span<const ParticleRow> rows, std::span<const TruthRow>, std::span<const Hit>) {
+                              plain.addEvents(rows);
+                              return Status{};
+                            })
                       .ok());
       auto zero = calib::fitProfiles(plain.fill().profiles, geometry, calib::SigmaSysChoice::fixed(0.0));
       ASSERT_TRUE(zero.ok());

@@ -137,7 +137,8 @@ class StrictObject {
   [[nodiscard]] std::vector<double> numbers(std::string_view key) const {
     std::vector<double> out;
     const Json& list = array(key);
-    for (std::size_t k = 0; k < list.size(); ++k) out.push_back(numberValue(list[k], fmt::format("{}[{}]", pathOf(key), k)));
+    for (std::size_t k = 0; k < list.size(); ++k)
+      out.push_back(numberValue(list[k], fmt::format("{}[{}]", pathOf(key), k)));
     return out;
   }
 

@@ -33,13 +33,13 @@ namespace emcalign::validation {
 /// One parameter of a refitted period (file units). NaN where it does not apply.
 struct RefitPrecision {
   static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-  Quantity parameter;            ///< its unit: parameter.unit()
-  double value = kNaN;           ///< the refit
-  double quotedBefore = kNaN;    ///< median quoted error of the replaced IOVs
-  double quotedAfter = kNaN;     ///< the refit's quoted error
-  double statBefore = kNaN;      ///< median statistical error (σ_sys = 0) of the replaced IOVs
-  double statAfter = kNaN;       ///< the refit's statistical error
-  double scatter = kNaN;         ///< RMS of the replaced IOVs about their mean
+  Quantity parameter;          ///< its unit: parameter.unit()
+  double value = kNaN;         ///< the refit
+  double quotedBefore = kNaN;  ///< median quoted error of the replaced IOVs
+  double quotedAfter = kNaN;   ///< the refit's quoted error
+  double statBefore = kNaN;    ///< median statistical error (σ_sys = 0) of the replaced IOVs
+  double statAfter = kNaN;     ///< the refit's statistical error
+  double scatter = kNaN;       ///< RMS of the replaced IOVs about their mean
   /// The replaced IOVs' scatter about their weighted mean over the errors the trend weighed
   /// them by (statistical where recorded): √(χ²/ndf), and the χ² and ndf.
   double scatterOverError = kNaN, chi2 = kNaN;
@@ -59,7 +59,7 @@ struct RefittedSegment {
   std::vector<Quantity> drifting, undecided, inconsistent;
   std::vector<PeriodScatter> scattering;
   bool transition = false;
-  std::int64_t selected = 0;       ///< selected events of the refit
+  std::int64_t selected = 0;  ///< selected events of the refit
   std::int64_t medianSelectedBefore = 0;
   std::optional<GroupFit> fit;
   std::vector<RefitPrecision> precision;  ///< the series of the trend, in their order

@@ -287,9 +287,9 @@ struct TrendSegment {
 };
 
 struct TrendOptions {
-  std::size_t minSegment = 2;               ///< points per segment (at least 1)
-  double stepZ = 3.0;                       ///< jump / error for a change to count as a step
-  double driftAlpha = 0.01;                 ///< family-wise false-flag rate of the drift tests
+  std::size_t minSegment = 2;  ///< points per segment (at least 1)
+  double stepZ = 3.0;          ///< jump / error for a change to count as a step
+  double driftAlpha = 0.01;    ///< family-wise false-flag rate of the drift tests
   /// Per knee of a drift inside its stretch, to flag it; default kKneePenaltyPerLogN·ln n.
   std::optional<double> kneePenalty;
   /// Per knee of a flagged drift inside its stretch, to place its ends (trend_drift.hpp).
@@ -399,8 +399,8 @@ struct TrendRecord {
   std::vector<TrendInconsistency> inconsistencies = {};
   std::vector<RecordedDrift> drifts = {};
   std::vector<TrendSegment> segments = {};
-  int driftTests = 1;  ///< stretches tested for a drift (0: none had the IOVs a drift test needs)
-  bool withTruth = false;                 ///< a simulated period's truth was given (--truth)
+  int driftTests = 1;                       ///< stretches tested for a drift (0: none had the IOVs a drift test needs)
+  bool withTruth = false;                   ///< a simulated period's truth was given (--truth)
   std::optional<RecordedRefit> refit = {};  ///< `trend --refit`
 };
 

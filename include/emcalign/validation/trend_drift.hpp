@@ -69,10 +69,10 @@ struct RampFit {
   double slope = 0.0;             ///< per run (0 for the flat model)
   double varLevel = 0.0, varSlope = 0.0, covLevelSlope = 0.0;
   double chi2 = 0.0;
-  bool flat = true;           ///< the flat model (no slope)
-  bool openStart = false;     ///< start at the stretch's low edge: under way when it begins
-  bool openEnd = false;       ///< end at the stretch's high edge: still going on when it ends
-  std::size_t inside = 0;     ///< IOVs wholly inside the ramp
+  bool flat = true;        ///< the flat model (no slope)
+  bool openStart = false;  ///< start at the stretch's low edge: under way when it begins
+  bool openEnd = false;    ///< end at the stretch's high edge: still going on when it ends
+  std::size_t inside = 0;  ///< IOVs wholly inside the ramp
   /// The knees' ranges (χ² within 1 of the model's, the other knee kept; an open knee's from its
   /// edge; set by chooseDrift).
   double startLow = 0.0, startHigh = 0.0, endLow = 0.0, endHigh = 0.0;

@@ -40,9 +40,7 @@ struct TrendPoint {
   /// The fit's quoted error (σ_sys included); NaN where not known (series made by hand).
   double quotedError = std::numeric_limits<double>::quiet_NaN();
   std::int64_t events = 0;  ///< selected events of its fit (0: not recorded)
-  [[nodiscard]] double x() const {
-    return 0.5 * (static_cast<double>(firstRun) + static_cast<double>(lastRun));
-  }
+  [[nodiscard]] double x() const { return 0.5 * (static_cast<double>(firstRun) + static_cast<double>(lastRun)); }
   /// The runs it covers as an interval: [first run − 1/2, last run + 1/2].
   [[nodiscard]] double lowEdge() const { return static_cast<double>(firstRun) - 0.5; }
   [[nodiscard]] double highEdge() const { return static_cast<double>(lastRun) + 0.5; }

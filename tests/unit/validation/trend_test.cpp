@@ -582,8 +582,8 @@ double newcomerAlpha(int run) { return 2.9 + 0.0055 * std::clamp(run - 8, 0, 19)
 TEST(Trend, ADriftInsideFlatRunsIsFoundWithItsEnds) {
   std::mt19937_64 rng(43);
   const int trials = 100;
-  int found = 0, ends = 0, slopes = 0, orStep = 0, steps = 0, flatDrifting = 0, flatUnstable = 0, ends6 = 0, covered = 0,
-      open = 0;
+  int found = 0, ends = 0, slopes = 0, orStep = 0, steps = 0, flatDrifting = 0, flatUnstable = 0, ends6 = 0,
+      covered = 0, open = 0;
   for (int k = 0; k < trials; ++k) {
     const auto alpha = ofRuns(60, 2, 10000.0, 2.26, rng, newcomerAlpha);
     const Trend t = analyseTrend({alpha});
@@ -604,13 +604,13 @@ TEST(Trend, ADriftInsideFlatRunsIsFoundWithItsEnds) {
       flatUnstable += g.stable() ? 0 : 1;
     }
   }
-  EXPECT_GE(found, 95);                    // measured 98
-  EXPECT_GE(ends, 40) << "ends within ±3";  // 50
-  EXPECT_GE(ends6, 50) << "within ±6";      // 62
+  EXPECT_GE(found, 95);                                               // measured 98
+  EXPECT_GE(ends, 40) << "ends within ±3";                            // 50
+  EXPECT_GE(ends6, 50) << "within ±6";                                // 62
   EXPECT_GE(covered, 100) << "of 2 x 100 knees within their ranges";  // 124 (Δχ² < 1: about 68 %)
-  EXPECT_GE(slopes, 75);                   // 84
-  EXPECT_LE(orStep, 20);                   // 12
-  EXPECT_LE(steps, 8);                     // 4
+  EXPECT_GE(slopes, 75);                                              // 84
+  EXPECT_LE(orStep, 20);                                              // 12
+  EXPECT_LE(steps, 8);                                                // 4
   EXPECT_EQ(flatDrifting, 0);
   EXPECT_LE(flatUnstable, 5);  // 0
   EXPECT_LE(open, 45);         // 35: the start's knee not worth its place
@@ -648,8 +648,9 @@ TEST(Trend, ARampIsNeverAPlainStep) {
   int plain = 0, withDrift = 0;
   for (int k = 0; k < 100; ++k) {
     // 60 IOVs of 10 runs, a ramp of 5 errors over runs 201-300.
-    const auto s = ofRuns(600, 10, 1.0, 1.0 * std::sqrt(10.0), rng,
-                          [](int r) { return 5.0 * std::clamp((r - 200) / 100.0, 0.0, 1.0); }, Param::Dx);
+    const auto s = ofRuns(
+        600, 10, 1.0, 1.0 * std::sqrt(10.0), rng, [](int r) { return 5.0 * std::clamp((r - 200) / 100.0, 0.0, 1.0); },
+        Param::Dx);
     const Trend t = analyseTrend({s});
     for (const auto& st : t.steps) {
       if (!st.orDrift) {
@@ -673,7 +674,8 @@ TEST(Trend, ARampIsNeverAPlainStep) {
 // (a tag of older payloads) are brought to the measured scatter first.
 TEST(Trend, StabilityIsJudgedOnTheStatisticalErrors) {
   std::mt19937_64 rng(45);
-  auto scattering = ofRuns(40, 1, 20000.0, 2.26, rng, [](int) { return 0.3; }, Param::Dx);
+  auto scattering = ofRuns(
+      40, 1, 20000.0, 2.26, rng, [](int) { return 0.3; }, Param::Dx);
   std::normal_distribution<double> extra(0.0, 1.0);
   for (auto& p : scattering.points) p.value += std::sqrt(3.0) * p.error * extra(rng);  // scatter 2σ in all
   const Trend t = analyseTrend({scattering});
@@ -693,7 +695,8 @@ TEST(Trend, StabilityIsJudgedOnTheStatisticalErrors) {
   ASSERT_EQ(u.segments.size(), 1u);
   EXPECT_TRUE(u.segments[0].stable());
   // Statistical errors that describe the scatter: stable.
-  const auto fine = ofRuns(40, 1, 20000.0, 2.26, rng, [](int) { return 0.3; }, Param::Dx);
+  const auto fine = ofRuns(
+      40, 1, 20000.0, 2.26, rng, [](int) { return 0.3; }, Param::Dx);
   EXPECT_TRUE(analyseTrend({fine}).segments[0].stable());
 }
 

@@ -151,6 +151,20 @@ std::pair<double, int> chi2Of(const Eigen::VectorXd& d, const Eigen::MatrixXd& c
   return {chi2, rank};
 }
 
+// The options with the histograms' centres not given set to the data's means, to 0.25°.
+ComparisonOptions centredOn(const std::vector<ComparedParticle>& data, ComparisonOptions o) {
+  if (data.empty()) return o;
+  double phi = 0.0, theta = 0.0;
+  for (const auto& p : data) {
+    phi += p.dPhiDeg;
+    theta += p.dThetaDeg;
+  }
+  const auto quarter = [](double x) { return std::isfinite(x) ? std::round(4.0 * x) / 4.0 : 0.0; };
+  if (std::isnan(o.phiCentreDeg)) o.phiCentreDeg = quarter(phi / static_cast<double>(data.size()));
+  if (std::isnan(o.thetaCentreDeg)) o.thetaCentreDeg = quarter(theta / static_cast<double>(data.size()));
+  return o;
+}
+
 // The θ slices of the profiles in which no bin is compared (`usedBins`: i_phi-major indices).
 std::vector<int> emptyThetaSlices(const std::vector<int>& usedBins, int thetaBins) {
   std::vector<int> out;
@@ -185,17 +199,7 @@ Result<Comparison> compareParticles(const std::vector<ComparedParticle>& data, c
   if (!data.empty() && data.size() == mc.size() && std::equal(data.begin(), data.end(), mc.begin(), same)) {
     return Error{"the data and the MC are the same particles: a comparison of a sample with itself"};
   }
-  ComparisonOptions o = given;
-  if (!data.empty()) {
-    double phi = 0.0, theta = 0.0;
-    for (const auto& p : data) {
-      phi += p.dPhiDeg;
-      theta += p.dThetaDeg;
-    }
-    const auto quarter = [](double x) { return std::isfinite(x) ? std::round(4.0 * x) / 4.0 : 0.0; };
-    if (std::isnan(o.phiCentreDeg)) o.phiCentreDeg = quarter(phi / static_cast<double>(data.size()));
-    if (std::isnan(o.thetaCentreDeg)) o.thetaCentreDeg = quarter(theta / static_cast<double>(data.size()));
-  }
+  const ComparisonOptions o = centredOn(data, given);
   for (const auto& [what, sample] : {std::pair{"data", &data}, std::pair{"MC", &mc}}) {
     if (static_cast<std::int64_t>(sample->size()) < 2 * o.minEntries) {
       return Error{

@@ -10,6 +10,30 @@
 
 namespace emcalign::validation {
 
+namespace {
+
+// The parameters that drift, are a step or a drift the IOVs cannot tell apart, or whose
+// stretch is inconsistent inside a period.
+void markWhatMoves(const Trend& t, TrendSegment& seg) {
+  const auto add = [](std::vector<Quantity>& names, const Quantity& n) {
+    if (std::find(names.begin(), names.end(), n) == names.end()) names.push_back(n);
+  };
+  const auto overlaps = [&](std::int64_t first, std::int64_t last) {
+    return first <= seg.lastRun && last >= seg.firstRun;
+  };
+  for (const auto& d : t.drifts) {
+    if (overlaps(d.firstRun, d.lastRun)) add(seg.drifting, d.parameter);
+  }
+  for (const auto& i : t.inconsistencies) {
+    if (overlaps(i.firstRun, i.lastRun)) add(seg.inconsistent, i.parameter);
+  }
+  for (const auto& st : t.steps) {
+    if (st.orDrift && overlaps(st.orDrift->firstRun, st.orDrift->lastRun)) add(seg.undecided, st.parameter);
+  }
+}
+
+}  // namespace
+
 std::vector<TrendSegment> stablePeriods(const Trend& t, const std::vector<TrendSeries>& series) {
   const TrendSeries* reference = nullptr;  // a series with every IOV (the 12 parameters have)
   for (const auto& s : series) {
@@ -103,9 +127,6 @@ std::vector<TrendSegment> stablePeriods(const Trend& t, const std::vector<TrendS
   }
   bounds.push_back(t.iovs);
   std::vector<TrendSegment> out;
-  auto add = [](std::vector<Quantity>& names, const Quantity& n) {
-    if (std::find(names.begin(), names.end(), n) == names.end()) names.push_back(n);
-  };
   for (std::size_t k = 0; k + 1 < bounds.size(); ++k) {
     TrendSegment seg;
     seg.begin = bounds[k];
@@ -119,19 +140,7 @@ std::vector<TrendSegment> stablePeriods(const Trend& t, const std::vector<TrendS
     if (auto it = departingAt.find(seg.begin); it != departingAt.end() && seg.end - seg.begin == 1) {
       seg.departing = it->second;
     }
-    if (!seg.transition) {
-      for (const auto& d : t.drifts) {
-        if (d.firstRun <= seg.lastRun && d.lastRun >= seg.firstRun) add(seg.drifting, d.parameter);
-      }
-      for (const auto& i : t.inconsistencies) {
-        if (i.firstRun <= seg.lastRun && i.lastRun >= seg.firstRun) add(seg.inconsistent, i.parameter);
-      }
-      for (const auto& st : t.steps) {
-        if (st.orDrift && st.orDrift->firstRun <= seg.lastRun && st.orDrift->lastRun >= seg.firstRun) {
-          add(seg.undecided, st.parameter);
-        }
-      }
-    }
+    if (!seg.transition) markWhatMoves(t, seg);
     out.push_back(std::move(seg));
   }
   return out;

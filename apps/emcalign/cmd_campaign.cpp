@@ -51,7 +51,11 @@ void printGroups(const std::vector<validation::CampaignGroup>& groups, std::int6
   fmt::print(reportStream(), "plan: {} of at least {} ({} selected in all){}\n", counted(groups.size(), "group"),
              counted(minEvents, "selected event"), selected,
              shortGroups > 0 ? fmt::format("; {} short (an energy point with fewer)", shortGroups) : "");
-  if (const std::string few = validation::tooFewIovsForTrend(groups.size(), selected); !few.empty()) {
+  if (selected == 0) {
+    reportWarning(
+        "no event of these files passes the e+e- -> e+e- selection: are they of another process? (emcalign check "
+        "ee|gg|3pi DIR shows their cut flows; simulate --period --process gg|3pi makes photon pairs or 3π events)");
+  } else if (const std::string few = validation::tooFewIovsForTrend(groups.size(), selected); !few.empty()) {
     reportWarning(few);
   }
 }

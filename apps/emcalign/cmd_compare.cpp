@@ -110,10 +110,7 @@ int run(CompareOptions o) {
              c->dataParticles, c->dataEvents, mev(c->dataBeamEnergiesMev), c->mcParticles, c->mcEvents,
              mev(c->mcBeamEnergiesMev));
   if (!c->emptyThetaSlices.empty()) {
-    reportWarning(
-        fmt::format("{} of the {} theta_EMC slices have no profile bin with {} particles in both samples: "
-                    "not compared, drawn empty (a small MC?)",
-                    c->emptyThetaSlices.size(), c->options.profileThetaBins, c->options.minEntries));
+    reportWarning(apply::emptySlicesText(*c));
   }
   for (const auto& d : c->distributions) {
     fmt::print(reportStream(), "  {:<14} chi2/ndf = {:8.1f}/{:<4} p-value {:.3g}\n", d.name, d.chi2, d.ndf, d.pValue);
@@ -142,7 +139,7 @@ void addCompareCommand(CLI::App& app, int& exitCode) {
       ->required()
       ->check(CLI::ExistingPath);
   cmd->add_option("--beam-energy", o->beamEnergy, "beam energy for the selection, MeV (default: from the files)")
-      ->check(finiteIn(10.0, 10000.0));
+      ->check(finiteIn(kMinBeamEnergy / units::MeV, kMaxBeamEnergy / units::MeV));
   cmd->add_option("--sigma-sys", o->sigmaSys,
                   "deg added in quadrature to each profile mean's error (a known non-uniformity; default 0)")
       ->check(finiteIn(0.0, 10.0));

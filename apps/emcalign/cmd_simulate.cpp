@@ -190,9 +190,9 @@ int runPeriod(const SimulateOptions& cli) {
   if (Status s = loadBackground(cli, *calo, mostInRun, o.simulation, &request); !s) return reportError(s.error());
   request.options = o.simulation;
   o.settings = validation::periodSimulationSettings(request, calo->description());
-  fmt::print(reportStream(), "simulate --period {}: runs {}-{} ({}), {}, {}, {}, {} -> {}\n", cli.period,
+  fmt::print(reportStream(), "simulate --period {}: runs {}-{} ({}), {} (process {}), {}, {}, {} -> {}\n", cli.period,
              scenario->firstRun, scenario->lastRun(), counted(runs.size(), "run"), counted(total, "event"),
-             counted(scenario->beamEnergy.size(), "beam energy", "beam energies"),
+             sim::name(*process), counted(scenario->beamEnergy.size(), "beam energy", "beam energies"),
              counted(scenario->segments.size(), "segment"), counted(scenario->drifts.size(), "drift"), cli.output);
   ProgressLine progress("simulate", static_cast<std::int64_t>(runs.size()), "runs");
   o.progress = [&](std::int64_t done, std::int64_t, std::int64_t) { progress.update(done); };

@@ -203,9 +203,11 @@ int run(const TrendCliOptions& o) {
   for (const auto& d : trend.drifts) {
     fmt::print(reportStream(),
                "  drift {:<8} {} (IOVs of runs {}-{}): {:+.4g} ± {:.2g} {}, {:+.3g} ± {:.2g} {}/run (z {:.1f}){}\n",
-               d.parameter, validation::driftExtentText(d), d.firstRun, d.lastRun, d.change, d.changeError,
-               d.parameter.unit(), d.slopePerRun, d.error, d.parameter.unit(), d.z,
-               d.orStep ? " — " + validation::stepAlternativeText(trend, d) : std::string());
+               d.parameter, validation::driftExtentText(d) + validation::driftMisfitText(trend, d), d.firstRun,
+               d.lastRun, d.change, d.changeError, d.parameter.unit(), d.slopePerRun, d.error, d.parameter.unit(), d.z,
+               d.orStep                                   ? " — " + validation::stepAlternativeText(trend, d)
+               : d.stepUntriedBefore || d.stepUntriedFrom ? " — a step: " + validation::noStepText(d)
+                                                          : std::string());
   }
   fmt::print(reportStream(), "wrote {}/trend.json, trend.md and {} (fig7.png, trend_all.png, trend_*.png)\n", o.output,
              counted(pngs->size(), "figure"));

@@ -186,11 +186,10 @@ Status checkOptions(const ComparisonOptions& o) {
   return {};
 }
 
-}  // namespace
-
-Result<Comparison> compareParticles(const std::vector<ComparedParticle>& data, const std::vector<ComparedParticle>& mc,
-                                    const ComparisonOptions& given) {
-  if (Status s = checkOptions(given); !s) return s.error();
+// What both samples must be before they are compared: apart, large enough, in the profile's bins
+// and finite.
+Status checkSamples(const std::vector<ComparedParticle>& data, const std::vector<ComparedParticle>& mc,
+                    const ComparisonOptions& o) {
   // The same particles on both sides (a sample, a copy of it, the same events read twice): its
   // χ² would be 0 and its p-value 1, whatever the simulation.
   const auto same = [](const ComparedParticle& a, const ComparedParticle& b) {
@@ -199,7 +198,6 @@ Result<Comparison> compareParticles(const std::vector<ComparedParticle>& data, c
   if (!data.empty() && data.size() == mc.size() && std::equal(data.begin(), data.end(), mc.begin(), same)) {
     return Error{"the data and the MC are the same particles: a comparison of a sample with itself"};
   }
-  const ComparisonOptions o = centredOn(data, given);
   for (const auto& [what, sample] : {std::pair{"data", &data}, std::pair{"MC", &mc}}) {
     if (static_cast<std::int64_t>(sample->size()) < 2 * o.minEntries) {
       return Error{
@@ -218,6 +216,17 @@ Result<Comparison> compareParticles(const std::vector<ComparedParticle>& data, c
       }
     }
   }
+  return {};
+}
+
+}  // namespace
+
+Result<Comparison> compareParticles(const std::vector<ComparedParticle>& data, const std::vector<ComparedParticle>& mc,
+                                    const ComparisonOptions& given) {
+  if (Status s = checkOptions(given); !s) return s.error();
+  const ComparisonOptions o = centredOn(data, given);
+  if (Status s = checkSamples(data, mc, o); !s) return s.error();
+  const int profileBins = o.profilePhiBins * o.profileThetaBins;
   Layout l;
   {
     std::vector<std::int64_t> phiD(static_cast<std::size_t>(o.histogramBins)), phiM = phiD, thetaD = phiD,
@@ -291,8 +300,19 @@ Result<Comparison> compareParticles(const std::vector<ComparedParticle>& data, c
   distribution("dtheta", l.thetaOffset(), l.theta.size(), true, true);
   distribution("profile_phi", pOff, u, false, false);
   distribution("profile_theta", pOff + u, u, false, true);
-  if (u == 0) return Error{"no profile bin has the entries a comparison needs in both samples"};
+  if (u == 0) {
+    return Error{fmt::format(
+        "no profile bin has the {} particles a comparison needs in both samples (the data {} particles, the MC {})",
+        o.minEntries, data.size(), mc.size())};
+  }
   out.emptyThetaSlices = emptyThetaSlices(l.usedBins, o.profileThetaBins);
+  const auto inEmptySlices = [&](std::span<const ComparedParticle> sample) {
+    return std::count_if(sample.begin(), sample.end(), [&](const ComparedParticle& p) {
+      return std::ranges::find(out.emptyThetaSlices, p.bin % o.profileThetaBins) != out.emptyThetaSlices.end();
+    });
+  };
+  out.dataParticlesInEmptySlices = inEmptySlices(data);
+  out.mcParticlesInEmptySlices = inEmptySlices(mc);
 
   const auto [chi2, ndf] = chi2Of(d, c);
   out.chi2 = chi2;
@@ -396,6 +416,19 @@ Result<Comparison> compareSamples(const ComparedSample& data, const ComparedSamp
   c->dataBeamEnergiesMev = data.beamEnergiesMev;
   c->mcBeamEnergiesMev = mc.beamEnergiesMev;
   return c;
+}
+
+std::string emptySlicesText(const Comparison& c) {
+  if (c.emptyThetaSlices.empty()) return {};
+  const std::int64_t d = c.dataParticlesInEmptySlices, m = c.mcParticlesInEmptySlices;
+  const std::string which = d == 0 && m == 0 ? "neither sample has a particle there"
+                            : d < m          ? "the data are thin there (a small sample, or another θ range?)"
+                                             : "the MC is thin there (a small MC, or one simulated over a narrower θ "
+                                               "range?)";
+  return fmt::format(
+      "{} of the {} theta_EMC slices have no profile bin with {} particles in both samples: not compared, drawn "
+      "empty; the data have {} particles in them, the MC {}: {}",
+      c.emptyThetaSlices.size(), c.options.profileThetaBins, c.options.minEntries, d, m, which);
 }
 
 std::string comparisonMarkdown(const Comparison& c, const std::vector<std::string>& dataFiles,

@@ -25,12 +25,18 @@ ProfileFiller::ProfileFiller(const geometry::ShowerDepth& depth, SelectionOption
   fill_.profiles = Profiles(std::move(profile));
 }
 
-void ProfileFiller::addEvents(std::span<const ParticleRow> rows) {
+void ProfileFiller::addEvents(std::span<const ParticleRow> rows, std::string_view source) {
   fill_.cutFlow.rows += static_cast<std::int64_t>(rows.size());
   for (std::size_t i = 0; i < rows.size();) {
     std::size_t j = i + 1;
     while (j < rows.size() && sameEvent(rows[j], rows[i])) ++j;
     const std::span<const ParticleRow> event = rows.subspan(i, j - i);
+    if (selection_.beamEnergy && fill_.beamEnergyMismatch.empty()) {
+      if (std::string why = beamEnergyOverrideProblem(*selection_.beamEnergy, event[0].beamEnergy); !why.empty()) {
+        fill_.beamEnergyMismatch = fmt::format("{}{}run {} event {}, beam_energy_mev: {}", source,
+                                               source.empty() ? "" : ": ", event[0].run, event[0].event, why);
+      }
+    }
     const int failed = selectEvent(event, selection_);
     const int passed = failed == 0 ? static_cast<int>(CutFlow::kNames.size()) : failed;
     for (int k = 0; k < passed; ++k) fill_.cutFlow.events[static_cast<std::size_t>(k)] += 1;
@@ -68,6 +74,7 @@ void ProfileFiller::addEvents(std::span<const ParticleRow> rows) {
 }
 
 Status ProfileFiller::checkSelected() const {
+  if (!fill_.beamEnergyMismatch.empty()) return Error{fill_.beamEnergyMismatch};
   if (fill_.cutFlow.events.back() > 0) return {};
   std::string flow;
   for (std::size_t k = 0; k < CutFlow::kNames.size(); ++k) {
@@ -91,7 +98,7 @@ Result<ProfileFill> fillProfiles(const std::vector<std::string>& files, const ge
     auto more = (*reader)->next(rows);
     if (!more) return more.error();
     if (!*more) break;
-    filler.addEvents(rows);  // blocks hold whole events
+    filler.addEvents(rows, (*reader)->path());  // blocks hold whole events
   }
   if (Status s = filler.checkSelected(); !s) return s.error();
   return std::move(filler.fill());
@@ -118,6 +125,7 @@ void ProfileFill::merge(const ProfileFill& other) {
   particlesInRange += other.particlesInRange;
   trackMisses += other.trackMisses;
   beamEnergies.insert(other.beamEnergies.begin(), other.beamEnergies.end());
+  if (beamEnergyMismatch.empty()) beamEnergyMismatch = other.beamEnergyMismatch;
 }
 
 Result<std::map<std::int32_t, ProfileFill>> fillProfilesByRun(const std::string& file,

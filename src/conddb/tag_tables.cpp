@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "emcalign/conddb/calibrations.hpp"
+#include "emcalign/core/utf8.hpp"
 
 namespace emcalign::conddb {
 
@@ -134,11 +135,16 @@ Result<std::string> tagCsv(Database& db, const std::string& tag) {
   if (!snapshot) return snapshot.error();
   std::string units_line = "# units:";
   for (Quantity q : kAllQuantities) units_line += fmt::format(" {}={}", q, q.unit());
-  std::string csv = fmt::format("# emcalign conditions export: tag {} of {}\n{}\n", tag, db.uri(), units_line);
+  // A comment line: a newline in a database's path would start a row (printable() shows it).
+  std::string csv =
+      fmt::format("# emcalign conditions export: tag {} of {}\n{}\n", printable(tag), printable(db.uri()), units_line);
   csv +=
       "first_run,last_run,payload,inserted,status,chi2,ndf,chi2_statistical_errors,sigma_sys_method,sigma_sys_deg,"
       "selected_events,model";
   for (Quantity q : kAllQuantities) csv += fmt::format(",{},{}_error", q, q);
+  // The fits' statistical errors (σ_sys left out), where the payloads record them: last, so
+  // that the columns before keep their places.
+  for (Quantity q : kAllQuantities) csv += fmt::format(",{}_statistical_error", q);
   csv += "\n";
   for (const Iov& iov : snapshot->iovs()) {
     auto p = snapshot->payload(iov);
@@ -157,6 +163,7 @@ Result<std::string> tagCsv(Database& db, const std::string& tag) {
                        cell(l.sigmaSysMethod.value_or("")), number(l.sigmaSysDeg),
                        l.selectedEvents ? std::to_string(*l.selectedEvents) : std::string(), cell(l.model));
     for (const auto& v : *values) csv += fmt::format(",{},{}", csvNumber(v.value), csvNumber(v.error));
+    for (const auto& v : *values) csv += "," + csvNumber(v.statisticalError);
     csv += "\n";
   }
   return csv;

@@ -26,6 +26,15 @@ std::string beamEnergyProblem(double energy) {
              : fmt::format("{:g} MeV is above {}: a unit mistake?", mev, range);
 }
 
+std::string beamEnergyOverrideProblem(double given, double recorded) {
+  if (!(std::abs(given - recorded) > kBeamEnergyOverrideTolerance * std::abs(recorded))) return {};
+  return fmt::format(
+      "--beam-energy {:g} MeV is not the file's beam energy ({:g} MeV): the selection and the shower depth would "
+      "be another energy's; give the file's energy (--beam-energy may refine it by {:g} % at most) or leave "
+      "--beam-energy out",
+      given / units::MeV, recorded / units::MeV, 100.0 * kBeamEnergyOverrideTolerance);
+}
+
 std::string clusterEnergyUnitHint(double ratio) {
   if (!(ratio > 0.0) || ratio >= 0.01) return {};
   return fmt::format(

@@ -473,7 +473,7 @@ Result<std::string> trendSection(const std::optional<ReportTrend>& tr, const std
           number(d.slopePerRun, "{:.3g}") + " " + html::escape(std::string(d.parameter.unit()) + "/run"),
           number(d.error, "{:.2g}"),
           number(d.z, "{:.1f}"),
-          d.orStep ? html::escape(orStepText) : std::string("no: a step does not fit")};
+          html::escape(d.orStep ? orStepText : validation::noStepText(d))};
       if (t.withTruth) row.insert(row.begin() + 4, number(trueChange, "{:+.4g}"));
       drifts.rows.push_back(std::move(row));
     }

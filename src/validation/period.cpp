@@ -8,6 +8,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <set>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -361,10 +362,58 @@ Result<PeriodTruth> readPeriodTruth(const std::string& path) {
     }
     ++k;
   }
+  // Tilts and gaps as the trend's series take them (trend_series.hpp): each direction within
+  // 90° of the one before, its magnitude's sign flipped on an odd half turn.
+  for (const auto& [magnitude, direction] : {std::pair{"beta", "psi"}, {"mu", "tau"}}) {
+    auto m = out.byParameter.find(*quantityFromName(magnitude)), d = out.byParameter.find(*quantityFromName(direction));
+    if (m == out.byParameter.end() || d == out.byParameter.end() || m->second.size() != d->second.size()) continue;
+    bool negative = false;
+    std::optional<double> last;
+    for (std::size_t i = 0; i < m->second.size(); ++i) {
+      double &size = m->second[i].second, &angle = d->second[i].second;
+      if (size != 0.0 && last) {
+        const double turns = std::round((angle - *last) / 180.0);
+        angle -= 180.0 * turns;
+        negative = std::fmod(std::abs(turns), 2.0) == 1.0;
+      }
+      if (size != 0.0) last = angle;
+      if (negative) size = -size;
+    }
+  }
   return out;
 }
 
 namespace {
+
+// What differs between the period a directory holds and the one asked for, in words: the
+// scenario, the hits, each setting by name with both values.
+std::vector<std::string> periodDifferences(const Json& held, const Json& asked) {
+  std::vector<std::string> out;
+  const auto value = [](const Json& j, const std::string& key) {
+    return j.is_object() && j.contains(key) ? j[key] : Json();
+  };
+  if (value(held, "scenario") != value(asked, "scenario")) out.emplace_back("another scenario");
+  if (value(held, "hits") != value(asked, "hits")) {
+    out.push_back(value(asked, "hits") == Json(false) ? "--no-hits now, hits then" : "hits now, --no-hits then");
+  }
+  const Json before = value(held, "settings"), now = value(asked, "settings");
+  std::set<std::string> keys;
+  for (const Json* j : {&before, &now}) {
+    if (j->is_object()) {
+      for (const auto& [k, v] : j->items()) keys.insert(k);
+    }
+  }
+  for (const std::string& k : keys) {
+    const Json a = value(before, k), b = value(now, k);
+    if (a == b) continue;
+    const auto shown = [](const Json& v) {
+      const std::string d = v.is_null() ? std::string("none") : v.dump();
+      return d.size() > 60 ? d.substr(0, 57) + "..." : d;
+    };
+    out.push_back(fmt::format("{}: {} then, {} now", k, shown(a), shown(b)));
+  }
+  return out;
+}
 
 // Claims `dir` for the period: a new directory gets its period.json; one that holds this
 // very period (scenario, hits, settings) is resumed; anything else is refused.
@@ -382,12 +431,15 @@ Status claimPeriodDirectory(const std::string& dir, const PeriodScenario& s, con
     auto text = io::readOwnOutput(statePath);
     if (!text) return text.error();
     auto old = io::parseJson(*text, statePath);
-    if (!old || !old->is_object() || old->value("scenario", Json()) != s.source ||
-        old->value("hits", Json()) != o.hits || old->value("settings", Json()) != o.settings) {
+    if (!old || !old->is_object()) {
       return Error{
-          fmt::format("{}: this directory holds another period (another scenario, --process, --no-hits, realism "
-                      "switches or detector): choose another directory, or remove this one",
-                      dir)};
+          fmt::format("{}: not a period's state (emcalign-period-state/1): choose another directory", statePath)};
+    }
+    const std::vector<std::string> differ = periodDifferences(*old, state);
+    if (!differ.empty()) {
+      return Error{
+          fmt::format("{}: this directory holds another period ({}): choose another directory, or remove this one", dir,
+                      fmt::join(differ, "; "))};
     }
     return {};
   }

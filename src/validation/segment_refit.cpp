@@ -267,6 +267,13 @@ Status adoptTagSettings(conddb::TagSnapshot& tag, CampaignModel& model) {
     }
     const std::string used = (*p)->correctionsFile(), usedSha = (*p)->correctionsSha256();
     const bool same = usedSha.empty() ? used == model.corrections : usedSha == model.correctionsSha256;
+    if (!same && used == model.corrections && !usedSha.empty()) {  // the same path, other contents
+      return Error{fmt::format(
+          "--refit with {}: the calibration of runs {}-{} in tag {} was made with the corrections at this path as "
+          "they were then (SHA-256 {}…); they have changed since (now {}…): give the corrections the campaign used",
+          model.corrections, iov.firstRun, iov.lastRun, name, usedSha.substr(0, 12),
+          model.correctionsSha256.substr(0, 12))};
+    }
     if (!same) {
       auto what = [](const std::string& c) { return c.empty() ? std::string("without corrections") : "with " + c; };
       return Error{

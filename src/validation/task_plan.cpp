@@ -12,12 +12,16 @@
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <tuple>
 
 #include <fmt/format.h>
 
 #include "emcalign/core/clock.hpp"
+#include "emcalign/core/regular_file.hpp"
 #include "emcalign/core/sha256.hpp"
+#include "emcalign/core/utf8.hpp"
 #include "emcalign/core/version.hpp"
+#include "emcalign/io/csv.hpp"
 #include "emcalign/io/output_file.hpp"
 #include "emcalign/io/strict_json.hpp"
 
@@ -49,19 +53,23 @@ std::vector<std::string> stringList(const io::strict::StrictObject& o, std::stri
   return out;
 }
 
-// The last line of a file that is not empty (its last 4 KiB read).
+// The last line of a file that is not empty (its last 4 KiB read), its terminal controls
+// shown as escapes; opened like every input (a FIFO or a device there is said, never waited on).
 std::string lastLineOf(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return {};
-  in.seekg(0, std::ios::end);
-  const std::streamoff size = in.tellg();
-  const std::streamoff from = std::max<std::streamoff>(0, size - 4096);
-  in.seekg(from);
-  std::string tail(static_cast<std::size_t>(size - from), '\0');
-  in.read(tail.data(), static_cast<std::streamsize>(tail.size()));
+  auto file = RegularFile::open(path);
+  if (!file) return fmt::format("(not read: {})", file.error().message);
+  std::string tail, block(65536, '\0');
+  for (;;) {  // a task's log is small; keep its last 4 KiB
+    auto n = file->read(block.data(), block.size());
+    if (!n) return fmt::format("(not read: {})", n.error().message);
+    if (*n == 0) break;
+    tail.append(block.data(), *n);
+    if (tail.size() > 8192) tail.erase(0, tail.size() - 4096);
+  }
+  if (tail.size() > 4096) tail.erase(0, tail.size() - 4096);
   while (!tail.empty() && (tail.back() == '\n' || tail.back() == '\r' || tail.back() == ' ')) tail.pop_back();
   const auto at = tail.find_last_of('\n');
-  return at == std::string::npos ? tail : tail.substr(at + 1);
+  return printable(at == std::string::npos ? tail : tail.substr(at + 1));
 }
 
 // Whether the record at `path` says this plan's task (or, with none, its merge) ended well,
@@ -81,23 +89,49 @@ bool recordSays(const std::string& path, const std::string& planSha256, std::opt
   if (key && j->value("key", std::string()) != *key) return false;
   if (!(*j)["task"].is_number_unsigned() || (*j)["task"].get<std::size_t>() != *task) return false;
   if (outputs == nullptr) return true;
+  // As the task wrote them: by content (a file edited since to the same size does not count);
+  // records of an earlier emcalign keep the sizes only.
+  const Json digests = j->value("sha256", Json::object());
   const Json bytes = j->value("bytes", Json::object());
   for (const std::string& w : outputs->writes) {
     if (w.empty() || w.front() != '/') continue;
     if (!fs::is_regular_file(w, ec)) return false;
-    if (bytes.is_object() && bytes.contains(w) && bytes[w] != fs::file_size(w, ec)) return false;
+    if (digests.is_object() && digests.contains(w)) {
+      auto now = sha256OfFile(w);
+      if (!now || digests[w] != *now) return false;
+    } else if (bytes.is_object() && bytes.contains(w) && bytes[w] != fs::file_size(w, ec)) {
+      return false;
+    }
   }
   return true;
 }
 
-// The sizes of the files a task wrote, for its record.
-Json writtenBytes(const PlannedTask& task) {
-  Json bytes = Json::object();
+// The SHA-256 of the files a task wrote, for its record.
+Json writtenDigests(const PlannedTask& task) {
+  Json digests = Json::object();
   std::error_code ec;
   for (const std::string& w : task.writes) {
-    if (!w.empty() && w.front() == '/' && fs::is_regular_file(w, ec)) bytes[w] = fs::file_size(w, ec);
+    if (w.empty() || w.front() != '/' || !fs::is_regular_file(w, ec)) continue;
+    if (auto digest = sha256OfFile(w)) digests[w] = *digest;
   }
-  return bytes;
+  return digests;
+}
+
+// A plan's paths go into batch scripts — comments, #SBATCH lines (which sbatch splits at white
+// space outside double quotes, and where '\\' escapes), a shell's command line: one holding a
+// control character (a newline ends the line: what follows would run), '"' or '\\' is refused
+// wherever a plan is written or read.
+Status checkScriptSafe(std::string_view what, const std::string& p, const std::string& source) {
+  const auto unsafe = std::find_if(p.begin(), p.end(),
+                                   [](char c) { return c == '"' || c == '\\' || (c >= 0 && c < 0x20) || c == 0x7f; });
+  if (unsafe == p.end()) return {};
+  return Error{fmt::format(
+      "{}: {} {} holds {}: a plan's paths go into batch scripts, where it could end a line and run what follows; "
+      "rename it without control characters, '\"' or '\\'",
+      source, what, io::quotedText(printable(p), 200),
+      *unsafe == '"'    ? "a double quote"
+      : *unsafe == '\\' ? "a backslash"
+                        : "a control character")};
 }
 
 }  // namespace
@@ -131,9 +165,17 @@ Result<ProgramIdentity> ProgramIdentity::ofThisProcess() {
   return identity;
 }
 
-std::string planWorkDirectory(const std::string& planPath) {
+std::string realPlanPath(const std::string& planPath) {
   std::error_code ec;
-  const fs::path p = fs::absolute(planPath, ec).lexically_normal();
+  // Links resolved (a plan reached through a link has the one work directory of the real one),
+  // as far as the path exists (a plan about to be written).
+  fs::path p = fs::weakly_canonical(fs::absolute(planPath, ec), ec);
+  if (ec) p = fs::absolute(planPath, ec).lexically_normal();
+  return p.string();
+}
+
+std::string planWorkDirectory(const std::string& planPath) {
+  const fs::path p = realPlanPath(planPath);
   return (p.parent_path() / (p.stem().string() + ".tasks")).string();
 }
 
@@ -178,7 +220,7 @@ Result<Plan> writePlan(const std::string& path, const std::string& command, cons
   if (!program) return program.error();
   std::error_code ec;
   Plan plan;
-  plan.path = fs::absolute(path, ec).lexically_normal().string();
+  plan.path = realPlanPath(path);
   plan.command = command;
   plan.arguments = arguments;
   plan.directory = fs::current_path(ec).string();
@@ -187,15 +229,9 @@ Result<Plan> writePlan(const std::string& path, const std::string& command, cons
   plan.tasks = job.tasks();
   plan.data = job.data();
   if (plan.tasks.empty()) return Error{"the plan has no task: nothing to run"};
-  for (const std::string& p : {plan.path, plan.directory}) {
-    // sbatch takes '\' in --output as an escape: the logs would go elsewhere.
-    if (std::any_of(p.begin(), p.end(),
-                    [](char c) { return c == '"' || c == '\\' || (c >= 0 && c < 0x20) || c == 0x7f; })) {
-      return Error{
-          fmt::format("{}: a plan's path and directory go into batch scripts: rename it without control "
-                      "characters, '\"' or '\\'",
-                      p)};
-    }
+  for (const auto& [what, p] : {std::pair{"its path", plan.path}, std::pair{"its directory", plan.directory},
+                                std::pair{"the program", plan.program.path}}) {
+    if (Status s = checkScriptSafe(what, p, path); !s) return s.error();
   }
   if (plan.workDirectory() == plan.path) {
     return Error{
@@ -239,8 +275,7 @@ Result<Plan> parsePlan(const std::string& text, const std::string& path) {
     o.allowOnly({"format", "command", "arguments", "directory", "program", "work_directory", "tasks", "data"});
     if (o.string("format") != kPlanFormat) o.fail("format", fmt::format("expected \"{}\"", kPlanFormat));
     Plan plan;
-    std::error_code ec;
-    plan.path = fs::absolute(path, ec).lexically_normal().string();
+    plan.path = realPlanPath(path);
     plan.sha256 = sha256(text);
     plan.command = o.string("command");
     if (std::find(std::begin(kPlannedCommands), std::end(kPlannedCommands), plan.command) ==
@@ -263,6 +298,16 @@ Result<Plan> parsePlan(const std::string& text, const std::string& path) {
       plan.tasks.push_back({t.string("what"), stringList(t, "writes"), stringList(t, "inputs")});
     }
     plan.data = o.has("data") ? o.at("data") : Json(nullptr);
+    // Refused where read, not only where written: a copy of a plan in a directory of another
+    // name, or an edited plan, goes into a script as it is.
+    for (const auto& [what, p, key] :
+         {std::tuple{"its path", plan.path, ""}, std::tuple{"its directory", plan.directory, "directory"},
+          std::tuple{"its program", plan.program.path, "program.path"}}) {
+      if (Status s = checkScriptSafe(what, p, path); !s) {
+        if (std::string_view(key).empty()) throw io::strict::BadInput{s.error().message};
+        o.fail(key, "holds a control character, '\"' or '\\': a plan's paths go into batch scripts");
+      }
+    }
     return plan;
   });
 }
@@ -406,12 +451,18 @@ Result<bool> runPlannedTask(const Plan& plan, const PlannedJob& job, std::size_t
     say(fmt::format("task {} failed after {:.1f} s, peak memory {:.0f} MB", k, seconds(), peakMemoryMb()));
     return Error{fmt::format("task {} ({}): {}", k, task.what, s.error().message)};
   }
-  const Json r = {{"format", kTaskRecordFormat}, {"plan", plan.path},
-                  {"plan_sha256", plan.sha256},  {"task", k},
-                  {"what", task.what},           {"key", key},
-                  {"host", hostName()},          {"started", started},
-                  {"seconds", seconds()},        {"peak_memory_mb", peakMemoryMb()},
-                  {"bytes", writtenBytes(task)}, {"warnings", warnings}};
+  const Json r = {{"format", kTaskRecordFormat},
+                  {"plan", plan.path},
+                  {"plan_sha256", plan.sha256},
+                  {"task", k},
+                  {"what", task.what},
+                  {"key", key},
+                  {"host", hostName()},
+                  {"started", started},
+                  {"seconds", seconds()},
+                  {"peak_memory_mb", peakMemoryMb()},
+                  {"sha256", writtenDigests(task)},
+                  {"warnings", warnings}};
   if (Status s = io::writeOutputFile(record, r.dump(1) + "\n", io::Placement::InDirectory); !s) return s.error();
   say(fmt::format("task {} done in {:.1f} s, peak memory {:.0f} MB", k, seconds(), peakMemoryMb()));
   return true;

@@ -323,6 +323,32 @@ std::optional<DriftAlternative> rampAlternative(const TrendSeries& s, std::size_
   return alt;
 }
 
+// A step beside a drift: the two sides of a change, each a constant or one of them a drift,
+// free to jump between them — the model rampAlternative's single ramp across both cannot be,
+// and which it would otherwise swallow (a drift ending a few IOVs before a step, or starting
+// right after one). The change is placed at the IOV `i` the partitioning found or up to two
+// IOVs either side, the IOV before it set aside or not (a transition, at its penalty): the
+// partitioning placed it for constants and lines, not for a drift beside it. Its least χ²
+// (+∞ where no side can be modelled).
+double stepBesideRampCost(const TrendSeries& s, std::size_t begin, std::size_t i, std::size_t end, double scale,
+                          double transitionPenalty) {
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t b = std::max(begin + 1, i < 2 ? 0 : i - 2); b <= std::min(end - 1, i + 2); ++b) {
+    for (const bool setAside : {false, true}) {
+      Stretch left{&s, {}, scale}, right{&s, {}, scale};
+      for (std::size_t k = begin; k < (setAside ? b - 1 : b); ++k) left.points.push_back(k);
+      for (std::size_t k = b; k < end; ++k) right.points.push_back(k);
+      if (left.size() == 0 || right.size() == 0) continue;
+      const double flatLeft = fitFlat(left).chi2, flatRight = fitFlat(right).chi2;
+      double sides = flatLeft + flatRight;
+      if (const auto r = bestRamp(left)) sides = std::min(sides, r->chi2 + flatRight);
+      if (const auto r = bestRamp(right)) sides = std::min(sides, flatLeft + r->chi2);
+      best = std::min(best, sides + (setAside ? transitionPenalty : 0.0));
+    }
+  }
+  return best;
+}
+
 // The first run after a step inside the IOV `tp`: its value is before·f + after·(1 − f), f
 // the share of its runs before the step.
 std::int64_t runTheMixturePointsTo(const TrendPoint& tp, double before, double after) {
@@ -372,6 +398,13 @@ std::vector<TrendStep> findSteps(const TrendSeries& s, SeriesAnalysis& a, const 
     }
     if (!isForced && o.kneeTest) {
       step.orDrift = rampAlternative(s, segs[j - 1].begin, segs[j].end, a, o, transitionPenalty);
+      // The ramp across both sides against the step with a drift beside it: the step stands
+      // when it is stepZ σ on top of the drift, and the ramp is then no alternative.
+      if (step.orDrift && step.orDrift->chi2Drift - stepBesideRampCost(s, segs[j - 1].begin, i, segs[j].end,
+                                                                       a.errorScale, transitionPenalty) >=
+                              o.stepZ * o.stepZ) {
+        step.orDrift.reset();
+      }
       if (step.orDrift && step.orDrift->chi2Step - step.orDrift->chi2Drift >= o.stepZ * o.stepZ) continue;
     }
     if (transition) {
@@ -485,6 +518,27 @@ std::optional<StepAlternative> stepAlternative(const TrendSeries& s, const Stret
   return alt;
 }
 
+// Where along drift `d` of stretch `m` bestStep could try no step: a step needs minSegment
+// IOVs of the stretch each side (the IOV it falls in, straddling it, on neither). Said where
+// that is a third of the drift's runs or more: its last IOV or two, where a drift still going
+// and a step cannot differ much, are not worth the words.
+void markUntriedSteps(const TrendSeries& s, const StretchModel& m, std::size_t minSegment, TrendDrift& d) {
+  const std::size_t n = m.points.size();
+  if (n < 2 * minSegment) {
+    d.stepUntriedFrom = d.firstRun;
+    return;
+  }
+  const Stretch st{&s, m.points, 1.0};
+  const double from = m.model.openStart ? st.lowEdge() : m.model.start;
+  const double to = m.model.openEnd ? st.highEdge() : m.model.end;
+  // Tried: first IOVs after at m.points[minSegment .. n − minSegment].
+  const double firstTried = st.point(minSegment).lowEdge();
+  const double lastTried = st.point(n - minSegment).lowEdge() + 1.0;
+  const double third = (to - from) / 3.0;
+  if (firstTried - from >= third) d.stepUntriedBefore = std::llround(firstTried + 0.5);
+  if (to - lastTried >= third) d.stepUntriedFrom = std::llround(lastTried + 0.5);
+}
+
 // The drift of a stretch whose model is one.
 TrendDrift driftOf(const TrendSeries& s, const StretchModel& m) {
   const RampFit& f = m.model;
@@ -493,8 +547,13 @@ TrendDrift driftOf(const TrendSeries& s, const StretchModel& m) {
   d.pValue = normalTwoSided(d.z);
   if (!f.openStart) d.startRun = std::llround(f.start);
   if (!f.openEnd) d.endRun = std::llround(f.end);
-  d.startRange = {std::llround(f.startLow), std::llround(f.startHigh)};
-  d.endRange = {std::llround(f.endLow), std::llround(f.endHigh)};
+  // In runs of the stretch (a knee at its high edge, last run + 1/2, would round past it).
+  const std::int64_t lo = s.points[m.points.front()].firstRun, hi = s.points[m.points.back()].lastRun;
+  const auto run = [&](double r) { return std::clamp<std::int64_t>(std::llround(r), lo, hi); };
+  d.startRange = {run(f.startLow), run(f.startHigh)};
+  d.endRange = {run(f.endLow), run(f.endHigh)};
+  if (d.endRun) d.endRun = run(f.end);
+  if (d.startRun) d.startRun = run(f.start);
   d.change = f.change();
   d.changeError = f.changeError();
   return d;
@@ -527,6 +586,7 @@ std::vector<TrendDrift> modelStretches(const std::vector<TrendSeries>& series, T
       if (m.drift()) {
         TrendDrift d = driftOf(s, m);
         d.orStep = stepAlternative(s, m, a.errorScale, t.transitionPenalty, o.minSegment, o.stepZ * o.stepZ);
+        markUntriedSteps(s, m, o.minSegment, d);
         if (d.orStep) d.tellApart = tellApart({&s, m.points, a.errorScale}, m.model, t.transitionPenalty, o.minSegment);
         drifts.push_back(std::move(d));
       }
@@ -534,6 +594,52 @@ std::vector<TrendDrift> modelStretches(const std::vector<TrendSeries>& series, T
     }
   }
   return drifts;
+}
+
+// The error of a stretch model's value at `x`: its own with the knees held, and how far it moves
+// with the knees anywhere in their ranges (the stretch fitted again with them there) — a knee
+// one IOV from a step, seen by that IOV alone, makes the level at the step uncertain.
+double valueErrorAt(const TrendSeries& s, const StretchModel& m, double scale, double x) {
+  const RampFit& f = m.model;
+  const double held = f.valueError(x);
+  if (f.flat) return held;
+  const Stretch st{&s, m.points, scale};
+  double moved = 0.0;
+  for (const double start : {f.startLow, f.start, f.startHigh}) {
+    for (const double end : {f.endLow, f.end, f.endHigh}) {
+      if (!(start < end)) continue;
+      const RampFit g = fitRamp(st, start, end);
+      if (std::isfinite(g.chi2)) moved = std::max(moved, std::abs(g.value(x) - f.value(x)));
+    }
+  }
+  return std::hypot(held, moved);
+}
+
+// Each step measured again on the models of the stretches it separates (flat, or a drift with
+// its ends), at the same place: the partitioning's segments are constants or lines, and a
+// line across a drift's end and the flat runs after it, or a constant over a drift's last IOVs,
+// is off at the step by a few of its errors. Known boundaries too.
+void measureStepsOnStretches(const std::vector<TrendSeries>& series, Trend& t) {
+  for (TrendStep& st : t.steps) {
+    const auto k = static_cast<std::size_t>(
+        std::find_if(series.begin(), series.end(), [&](const TrendSeries& s) { return s.parameter == st.parameter; }) -
+        series.begin());
+    if (k >= series.size()) continue;
+    const TrendSeries& s = series[k];
+    const StretchModel* left = nullptr;
+    const StretchModel* right = nullptr;
+    for (const StretchModel& m : t.series[k].stretches) {
+      if (m.points.empty()) continue;
+      if (m.points.back() < st.index && (!left || m.points.back() > left->points.back())) left = &m;
+      if (m.points.front() >= st.index && (!right || m.points.front() < right->points.front())) right = &m;
+    }
+    if (!left || !right || right->points.front() != st.index) continue;
+    const double xb =
+        st.withinIov ? s.points[st.index - 1].x() : static_cast<double>(s.points[st.index].firstRun) - 0.5;
+    const double scale = t.series[k].errorScale;
+    st.size = right->model.value(xb) - left->model.value(xb);
+    st.error = std::hypot(valueErrorAt(s, *left, scale, xb), valueErrorAt(s, *right, scale, xb));
+  }
 }
 
 // Stretches whose model the χ² rejects (Bonferroni over every stretch tested).
@@ -682,6 +788,7 @@ Trend analyseTrend(const std::vector<TrendSeries>& series, const TrendOptions& o
       }
     }
     t.drifts = modelStretches(series, t);
+    measureStepsOnStretches(series, t);
   };
   stepsAndDrifts();
   const std::vector<Promoted> promoted = promoteSteps(series, t, forced);

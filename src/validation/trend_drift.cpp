@@ -218,6 +218,11 @@ double Stretch::highEdge() const { return points.empty() ? 0.0 : point(size() - 
 
 double RampFit::value(double run) const { return flat ? level : level + slope * (std::clamp(run, start, end) - start); }
 
+double RampFit::valueError(double run) const {
+  const double g = flat ? 0.0 : std::clamp(run, start, end) - start;
+  return std::sqrt(std::max(0.0, varLevel + g * g * varSlope + 2.0 * g * covLevelSlope));
+}
+
 double RampFit::iovValue(const TrendPoint& p) const {
   return flat ? level : level + slope * meanShape(p.lowEdge(), p.highEdge(), start, end);
 }
@@ -452,10 +457,19 @@ TellApart tellApart(const Stretch& s, const RampFit& ramp, double transitionPena
     out.eventsInRuns = 0;
   } else {
     std::nth_element(events.begin(), events.begin() + static_cast<std::ptrdiff_t>(events.size() / 2), events.end());
+    std::int64_t runs = 0;
+    for (std::size_t k = 0; k < s.size(); ++k) runs += s.point(k).lastRun - s.point(k).firstRun + 1;
     for (std::int64_t n = events[events.size() / 2] / 2; n >= kMinTellApartEvents; n /= 2) {
-      const double chi2 = separation(regroupedSeries(s, ramp, n), transitionPenalty, minSegment);
+      const TrendSeries g = regroupedSeries(s, ramp, n);
+      // Only a finer grouping is another one (a run is never split): IOVs of one run each
+      // already, the present grouping is the finest.
+      if (g.points.size() <= s.size()) {
+        if (static_cast<std::int64_t>(s.size()) >= runs) break;
+        continue;
+      }
+      const double chi2 = separation(g, transitionPenalty, minSegment);
       best = std::max(best, chi2);
-      if (chi2 >= kTellApartChi2) {
+      if (chi2 >= kTellApartChi2 && chi2 >= kWorthRegrouping * out.expectedNow) {
         out.minEvents = n;
         out.expectedChi2 = chi2;
         break;

@@ -61,6 +61,8 @@ Json driftJson(const Trend& t, const TrendDrift& d) {
           {"z", d.z},
           {"p_value", d.pValue},
           {"unit", std::string(d.parameter.unit()) + "/run"},
+          {"step_untried_before", d.stepUntriedBefore ? Json(*d.stepUntriedBefore) : Json()},
+          {"step_untried_from", d.stepUntriedFrom ? Json(*d.stepUntriedFrom) : Json()},
           {"or_step", d.orStep ? Json{{"first_run_after", d.orStep->firstRunAfter},
                                       {"within_iov", d.orStep->withinIov ? Json::array({d.orStep->withinIov->first,
                                                                                         d.orStep->withinIov->second})
@@ -358,6 +360,12 @@ RecordedDrift readDrift(const StrictObject& d) {
   if (d.has("end_run") && !d.at("end_run").is_null()) out.drift.endRun = d.integer("end_run");
   if (auto r = iovAt(d, "start_range")) out.drift.startRange = *r;
   if (auto r = iovAt(d, "end_range")) out.drift.endRange = *r;
+  if (d.has("step_untried_before") && !d.at("step_untried_before").is_null()) {
+    out.drift.stepUntriedBefore = d.integer("step_untried_before");
+  }
+  if (d.has("step_untried_from") && !d.at("step_untried_from").is_null()) {
+    out.drift.stepUntriedFrom = d.integer("step_untried_from");
+  }
   if (d.has("change")) out.drift.change = d.numberOrNull("change");
   if (d.has("change_error")) out.drift.changeError = d.numberOrNull("change_error");
   if (d.has("or_step") && !d.at("or_step").is_null()) {

@@ -1,6 +1,7 @@
 #include "emcalign/validation/trend_series.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -36,6 +37,7 @@ TrendSeries chooseErrors(Quantity parameter, const std::vector<ReadPoint>& read)
 
 Result<std::vector<TrendSeries>> seriesOfTag(conddb::TagSnapshot& tag) {
   std::vector<std::vector<ReadPoint>> read(kAllParams.size() + kDerivedParams.size());
+  std::array<bool, 2> flipped = {false, false};  // β's sign, μ's (see below)
   for (const conddb::Iov& iov : tag.iovs()) {
     auto payload = tag.payload(iov);
     if (!payload) return payload.error();
@@ -62,27 +64,35 @@ Result<std::vector<TrendSeries>> seriesOfTag(conddb::TagSnapshot& tag) {
       if (!(v.error > 0.0)) return Error{fmt::format("{}: errors.{} is not positive", where, name(p))};
       read[index(p)].push_back({{iov.firstRun, iov.lastRun, v.value, v.error, v.error, events}, v.statisticalError});
     }
-    // A direction is defined when its magnitude is: ψ (the tilt's) when β is 3σ from 0, τ
-    // (the gap's) when μ is.
-    auto significant = [&](Physical magnitude) {
-      const auto k = static_cast<std::size_t>(std::ranges::find(kDerivedParams, magnitude) - kDerivedParams.begin());
-      const conddb::StoredValue& v = values[kNumParams + k];
-      return std::abs(v.value) >= 3.0 * v.error;  // false when either is NaN
+    const auto at = [&](Physical p) {
+      return kNumParams + static_cast<std::size_t>(std::ranges::find(kDerivedParams, p) - kDerivedParams.begin());
     };
+    std::vector<double> derived(kDerivedParams.size());
+    for (std::size_t k = 0; k < kDerivedParams.size(); ++k) derived[k] = values[kNumParams + k].value;
+    // A direction is defined when its magnitude is: ψ (the tilt's) when β is 3σ from 0, τ
+    // (the gap's) when μ is. (β, ψ) and (−β, ψ + 180°) are the same tilt: the direction is
+    // taken nearest the previous one, turns of 180° included, its magnitude's sign flipped on
+    // an odd one — a tilt through zero is a signed β through zero and ψ steady, not a 180° step
+    // of ψ; a magnitude whose direction is undefined keeps the sign of the one before.
+    for (const auto& [magnitude, direction] :
+         {std::pair{Physical::Beta, Physical::Psi}, {Physical::Mu, Physical::Tau}}) {
+      const conddb::StoredValue &m = values[at(magnitude)], &d = values[at(direction)];
+      auto& directions = read[at(direction)];
+      auto& negative = flipped[magnitude == Physical::Beta ? 0 : 1];
+      if (!(std::abs(m.value) >= 3.0 * m.error) || !std::isfinite(d.value)) {  // false when either is NaN
+        derived[at(direction) - kNumParams] = std::nan("");
+      } else if (!directions.empty()) {
+        const double turns = std::round((d.value - directions.back().point.value) / 180.0);
+        derived[at(direction) - kNumParams] = d.value - 180.0 * turns;
+        negative = std::fmod(std::abs(turns), 2.0) == 1.0;
+      }
+      if (negative) derived[at(magnitude) - kNumParams] = -m.value;
+    }
     for (std::size_t k = 0; k < kDerivedParams.size(); ++k) {
-      const Physical p = kDerivedParams[k];
       const conddb::StoredValue& v = values[kNumParams + k];
-      if (!std::isfinite(v.value) || !std::isfinite(v.error) || !(v.error > 0.0)) continue;  // a hole
-      if ((p == Physical::Psi && !significant(Physical::Beta)) || (p == Physical::Tau && !significant(Physical::Mu))) {
-        continue;
-      }
-      auto& points = read[kNumParams + k];
-      double value = v.value;
-      if (isDirection(p) && !points.empty()) {
-        // An angle: the turn nearest the previous point, so that ±180° is no step.
-        value -= 360.0 * std::round((value - points.back().point.value) / 360.0);
-      }
-      points.push_back({{iov.firstRun, iov.lastRun, value, v.error, v.error, events}, v.statisticalError});
+      if (!std::isfinite(derived[k]) || !std::isfinite(v.error) || !(v.error > 0.0)) continue;  // a hole
+      read[kNumParams + k].push_back(
+          {{iov.firstRun, iov.lastRun, derived[k], v.error, v.error, events}, v.statisticalError});
     }
   }
   std::vector<TrendSeries> out;

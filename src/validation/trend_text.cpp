@@ -24,7 +24,7 @@ namespace {
 
 // What would tell a drift over runs [first, last] from a step, in words (TellApart).
 std::string tellApartText(const std::optional<TellApart>& tell, std::int64_t first, std::int64_t last) {
-  const std::string logbook = "the logbook will (a reassembly there is a step: trend --boundaries)";
+  std::string logbook = "the logbook will (a reassembly there is a step: trend --boundaries)";
   if (!tell) return logbook;
   const TellApart& a = *tell;
   const std::string runs = fmt::format("runs {}-{}", first, last);
@@ -39,6 +39,13 @@ std::string tellApartText(const std::optional<TellApart>& tell, std::int64_t fir
         "IOVs of {} selected events (campaign --min-events {}) would: along {} they expect a Δχ² of {:.0f} between "
         "the two (these IOVs: {:.1f}); or {}",
         *a.minEvents, *a.minEvents, runs, a.expectedChi2, a.expectedNow, logbook);
+  }
+  if (a.nearlyTold()) {
+    return fmt::format(
+        "no grouping of these runs will do much better: these IOVs expect a Δχ² of {:.1f} between the two and the "
+        "best grouping {:.1f}, near the {:.0f} that tells them apart in 4 series of 5: the data happen to lie between "
+        "(a fluctuation); {}",
+        a.expectedNow, a.expectedChi2, kTellApartChi2, logbook);
   }
   if (a.eventsInRuns <= 0) {
     return fmt::format(
@@ -77,6 +84,33 @@ std::string stepAlternativeText(const Trend& t, const TrendDrift& d) {
       tellApartText(d.tellApart, d.firstRun, d.lastRun));
 }
 
+std::string driftMisfitText(const Trend& t, const TrendDrift& d) {
+  for (const TrendInconsistency& i : t.inconsistencies) {
+    if (i.parameter == d.parameter && i.line && i.firstRun <= d.firstRun && i.lastRun >= d.lastRun) {
+      return fmt::format(
+          "; its stretch, runs {}-{}, does not fit one drift (χ² {:.1f}/{}): more than one change? (look at its IOVs)",
+          i.firstRun, i.lastRun, i.chi2, i.ndf);
+    }
+  }
+  return {};
+}
+
+std::string noStepText(const TrendDrift& d) {
+  const auto& before = d.stepUntriedBefore;
+  const auto& from = d.stepUntriedFrom;
+  if (from && *from <= d.firstRun) {
+    return "untried: its stretch has too few IOVs for a step (campaign --min-events smaller, or trend --boundaries)";
+  }
+  if (!before && !from) return "no: a step does not fit";
+  std::vector<std::string> untried;
+  if (before) untried.push_back(fmt::format("before run {}", *before));
+  if (from) untried.push_back(fmt::format("from run {} on", *from));
+  return fmt::format(
+      "no step fits where one was tried; none could be tried {} (too few IOVs of its stretch on one side: a step "
+      "there is not excluded)",
+      fmt::join(untried, " or "));
+}
+
 std::string driftAlternativeText(const TrendStep& s) {
   if (!s.orDrift) return {};
   const DriftAlternative& d = *s.orDrift;
@@ -109,6 +143,12 @@ std::string tooFewIovsForTrend(std::size_t iovs, std::int64_t selectedEvents, co
   if (iovs >= needed) return {};
   constexpr std::int64_t kWanted = 6;
   const std::int64_t perIov = std::max<std::int64_t>(1000, selectedEvents / kWanted / 1000 * 1000);
+  if (selectedEvents < kWanted * 1000) {
+    return fmt::format(
+        "the grouping leaves {} IOV{}: a trend (emcalign trend) locates a step only from {} ({} on each side), and "
+        "{} selected events in all are too few for {} IOVs of 1000",
+        iovs, iovs == 1 ? "" : "s", needed, needed / 2, selectedEvents, kWanted);
+  }
   return fmt::format(
       "the grouping leaves {} IOV{}: a trend (emcalign trend) locates a step only from {} ({} on each side); "
       "--min-events {} would give about {}, each with a larger error",
@@ -365,9 +405,9 @@ std::string driftsSection(const Trend& t, const std::vector<TrendSeries>& series
       }
       md +=
           fmt::format("| {} | {} | {}-{} | {:+.4g} ± {:.2g} {} | {:+.3g} ± {:.2g} {}/run | {:.1f} | {:.2g} | {} |{}\n",
-                      d.parameter, driftExtentText(d), d.firstRun, d.lastRun, d.change, d.changeError,
-                      d.parameter.unit(), d.slopePerRun, d.error, d.parameter.unit(), d.z, d.pValue,
-                      d.orStep ? stepAlternativeText(t, d) : std::string("no: a step does not fit"), truthCell);
+                      d.parameter, driftExtentText(d) + driftMisfitText(t, d), d.firstRun, d.lastRun, d.change,
+                      d.changeError, d.parameter.unit(), d.slopePerRun, d.error, d.parameter.unit(), d.z, d.pValue,
+                      d.orStep ? stepAlternativeText(t, d) : noStepText(d), truthCell);
     }
   }
   (void)series;
@@ -388,7 +428,10 @@ std::string directionsNote(const Trend& t, const std::vector<TrendSeries>& serie
               : fmt::format("- {} is shown for {} of the {} IOVs: those where {} is 3σ from 0.\n", name(direction), n,
                             t.iovs, name(magnitude));
   }
-  md += "- β and μ are magnitudes (≥ 0): near a true 0 they come out about one error above it.\n";
+  md +=
+      "- β and μ are magnitudes: near a true 0 they come out about one error above it. (β, ψ) and (−β, ψ + 180°) "
+      "are the same tilt, so each ψ is taken within 90° of the one before and β signed to match: a tilt through "
+      "zero is β through zero with ψ steady, never a 180° step of ψ (μ and τ alike).\n";
   return md;
 }
 
@@ -403,7 +446,10 @@ std::string sensitivitySection(const Trend& t, const std::vector<TrendSeries>& s
       "times their error scale, a smaller step passes unseen. The errors are the fits' statistical ones (σ_sys, "
       "common to every IOV, left out) where every IOV records one, else the quoted ones. The error scale is the "
       "IOV-to-IOV scatter over those errors: the median of |Δy|/√(σ_i² + σ_i+1²) of neighbouring IOVs over 0.6745 "
-      "(robust to steps and drifts), at the upper end of its uncertainty, ×(1 + 2.3/√m) for m differences.\n\n"
+      "(robust to steps and drifts); with statistical errors, the larger of 1 and the lower end of its uncertainty "
+      "(÷(1 + 2.3/√m) for m differences: the events set a floor, and errors are scaled up only where the IOVs surely "
+      "scatter more), with quoted ones the upper end (×(1 + 2.3/√m), up or down: σ_sys makes them 2–5 times the "
+      "scatter).\n\n"
       "| parameter | errors | IOV error (median) | error scale | smallest step: {} IOVs each side | {} IOVs each "
       "side |\n|---|---|---|---|---|---|\n",
       factor, t.options.stepZ, t.penalty, t.options.minSegment, half);

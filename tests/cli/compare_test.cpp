@@ -93,6 +93,21 @@ TEST_F(CompareCli, OtherBeamEnergiesAreRefusedAndEachSampleIsRecorded) {
   EXPECT_THAT(r.err, HasSubstr("the data (beam energies 612.5 MeV) and the MC (beam energies 700 MeV) are not of the "
                                "same beam energies"));
   EXPECT_FALSE(fs::exists(path("other")));
+  // --beam-energy does not get around it: it may refine the files' energy (1 %), not replace it.
+  r = run(fmt::format("compare --data {} --mc {} -o {} --beam-energy 612.5", path("data.h5"), path("mc700.h5"),
+                      path("forced")));
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_THAT(r.err, HasSubstr(fmt::format("--mc: {}: run 1 event 0, beam_energy_mev: --beam-energy 612.5 MeV is not "
+                                           "the file's beam energy (700 MeV)",
+                                           path("mc700.h5"))));
+  EXPECT_FALSE(fs::exists(path("forced")));
+  r = run(fmt::format("fit {} -o {} --beam-energy 700", path("data.h5"), path("forced.json")));
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_THAT(r.err, HasSubstr("is not the file's beam energy (612.5 MeV)"));
+  EXPECT_FALSE(fs::exists(path("forced.json")));
+  r = run(fmt::format("compare --data {} --mc {} -o {} --beam-energy 15", path("data.h5"), path("mc700.h5"),
+                      path("forced")));
+  EXPECT_EQ(r.exitCode, 2) << "the range of every beam energy: 20-5000 MeV";
   r = run(fmt::format("compare --data {} --mc {} -o {}", path("data.h5"), path("small.h5"), path("small")));
   ASSERT_EQ(r.exitCode, 0) << r.err;
   const json c = json::parse(emcalign::testing::slurp(path("small/compare.json")));
@@ -104,6 +119,7 @@ TEST_F(CompareCli, OtherBeamEnergiesAreRefusedAndEachSampleIsRecorded) {
   ASSERT_TRUE(c.contains("empty_theta_slices"));
   EXPECT_FALSE(c["empty_theta_slices"].empty());
   EXPECT_THAT(r.err, HasSubstr("theta_EMC slices have no profile bin with 10 particles in both samples"));
+  EXPECT_THAT(r.err, HasSubstr("the MC is thin there"));
   const std::string md = emcalign::testing::slurp(path("small/compare.md"));
   EXPECT_THAT(md, HasSubstr("beam energy 612.5 MeV"));
   EXPECT_THAT(md, HasSubstr("are not compared, and drawn empty"));

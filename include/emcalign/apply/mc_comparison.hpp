@@ -88,6 +88,8 @@ struct Comparison {
   std::vector<double> dataBeamEnergiesMev = {}, mcBeamEnergiesMev = {};
   /// The θ slices of the profiles in which no bin had minEntries in both samples (not drawn).
   std::vector<int> emptyThetaSlices = {};
+  /// The particles of each sample in those slices: which sample is thin there.
+  std::int64_t dataParticlesInEmptySlices = 0, mcParticlesInEmptySlices = 0;
   std::vector<ComparedDistribution> distributions = {};  ///< dphi, dtheta, profile_phi, profile_theta
   double chi2 = 0.0;                                     ///< all together (their correlations kept)
   int ndf = 0;
@@ -154,6 +156,10 @@ inline io::Json comparisonJson(const Comparison& c) { return comparisonJson(Comp
 /// wrong type, refused naming the key.
 Result<ComparisonRecord> parseComparison(const io::Json& j, std::string_view source);
 /// compare.md: the verdict and a table per distribution.
+/// What the empty θ slices of `c` say, for a warning: how many, and which sample is thin there
+/// (a small sample, or one simulated or selected over a narrower θ range); empty when none.
+std::string emptySlicesText(const Comparison& c);
+
 std::string comparisonMarkdown(const Comparison& c, const std::vector<std::string>& dataFiles,
                                const std::vector<std::string>& mcFiles, const std::string& depth = "");
 

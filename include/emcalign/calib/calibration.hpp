@@ -26,7 +26,10 @@ struct ProfileFill {
   std::int64_t particlesSelected = 0;  ///< particles of selected events
   std::int64_t particlesInRange = 0;   ///< of those, inside the profile range
   std::int64_t trackMisses = 0;        ///< tracks that miss the sphere R(E, θ)
-  std::set<double> beamEnergies;       ///< MeV, of the selected events
+  std::set<double> beamEnergies;       ///< MeV, of the selected events (the selection's, when given)
+  /// The first event whose file's beam energy the selection's (--beam-energy) cannot stand for
+  /// (beamEnergyOverrideProblem): where, and why; empty when none.
+  std::string beamEnergyMismatch;
   /// An empty fill with these profile bins.
   static ProfileFill empty(const ProfileOptions& options) {
     ProfileFill f;
@@ -47,11 +50,14 @@ class ProfileFiller {
  public:
   ProfileFiller(const geometry::ShowerDepth& depth, SelectionOptions selection, ProfileOptions profile = {},
                 ParticleVisitor visit = {});
-  /// Rows of whole events, the rows of an event contiguous.
-  void addEvents(std::span<const ParticleRow> rows);
+  /// Rows of whole events, the rows of an event contiguous; `source` names them (a file) in
+  /// what checkSelected says.
+  void addEvents(std::span<const ParticleRow> rows, std::string_view source = {});
   [[nodiscard]] const ProfileFill& fill() const { return fill_; }
   ProfileFill& fill() { return fill_; }
-  /// Fails when no event passed the selection (the message gives the cut flow).
+  /// Fails when an event's file has another beam energy than the selection's (--beam-energy:
+  /// ProfileFill::beamEnergyMismatch), or when no event passed the selection (the message gives
+  /// the cut flow).
   Status checkSelected() const;
 
  private:

@@ -20,6 +20,16 @@ inline constexpr double kMaxBeamEnergy = 5000.0 * units::MeV;
 /// when it can be one.
 std::string beamEnergyProblem(double energy);
 
+/// How far a beam energy given on the command line (--beam-energy) may lie from the one the
+/// event files record: a refined measurement of the same energy (the beam's is known to a few
+/// 10⁻⁴) passes; another energy's file would be selected in a window 0.8–1.1 of the wrong
+/// energy and placed at the wrong shower depth, so it is refused.
+inline constexpr double kBeamEnergyOverrideTolerance = 0.01;
+
+/// Why `given` (--beam-energy) cannot stand for an event file's own beam energy `recorded`
+/// (both native units), in words; empty when it can (within kBeamEnergyOverrideTolerance).
+std::string beamEnergyOverrideProblem(double given, double recorded);
+
 /// Whether cluster energies look like GeV beside a beam energy in MeV: `ratio` = a typical
 /// cluster energy of e+e- -> e+e- over the beam energy (1 for the real thing), the hint
 /// ("GeV?") when it is below 1/100, else empty.

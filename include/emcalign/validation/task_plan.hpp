@@ -91,11 +91,15 @@ struct ProgramIdentity {
   static Result<ProgramIdentity> ofThisProcess();
 };
 
-/// PLAN.tasks/ beside the plan at `planPath`, absolute: the tasks' records, logs and shared work.
+/// The plan's path as the tasks know it: absolute, links resolved (as far as it exists), so
+/// that a plan reached through a link shares the one work directory (and its locks).
+std::string realPlanPath(const std::string& planPath);
+/// PLAN.tasks/ beside the plan at `planPath` (its real path): the tasks' records, logs and
+/// shared work.
 std::string planWorkDirectory(const std::string& planPath);
 
 struct Plan {
-  std::string path;    ///< absolute
+  std::string path;    ///< absolute, links resolved (realPlanPath)
   std::string sha256;  ///< of the plan's text: a task's record names the plan it belongs to
   std::string command;
   std::vector<std::string> arguments;  ///< the command's, without --plan
@@ -114,8 +118,8 @@ struct Plan {
 
 /// Writes the plan of `job` to `path` (an output already checked) and makes its work
 /// directory, emptied of the records and logs of an earlier plan there. `arguments`: the
-/// command's, without --plan. A path or directory holding a control character or '"' is
-/// refused (they go into batch scripts).
+/// command's, without --plan. A path, directory or program holding a control character, '"'
+/// or '\\' is refused (they go into batch scripts); readPlan refuses them too.
 Result<Plan> writePlan(const std::string& path, const std::string& command, const std::vector<std::string>& arguments,
                        const PlannedJob& job);
 

@@ -178,7 +178,15 @@ struct TrendDrift {
   /// step, and both are reported. None: a step does not fit (a drift).
   std::optional<StepAlternative> orStep = {};
   std::optional<TellApart> tellApart = {};  ///< with orStep: what would tell them apart
+  /// Runs of the drift where a step could not be tried (fewer than minSegment IOVs of its
+  /// stretch on one side): a step whose first run after is before `stepUntriedBefore`, or from
+  /// `stepUntriedFrom` on. Without orStep, "a step does not fit" holds only between them.
+  std::optional<std::int64_t> stepUntriedBefore = {}, stepUntriedFrom = {};
 };
+
+/// The "or a step?" of a drift that no step fits as well: where a step was tried and did not fit,
+/// and where none could be tried (TrendDrift::stepUntriedBefore, stepUntriedFrom).
+std::string noStepText(const TrendDrift& d);
 
 /// A change of a series: a new segment starts at point `start`; with `transition`, point
 /// start − 1 belongs to neither segment.
@@ -420,6 +428,9 @@ std::string driftAlternativeText(const TrendStep& s);
 /// Where a drift starts and ends, in words: "from run 8 to run 27", "under way at run 1",
 /// "still going at run 60".
 std::string driftExtentText(const TrendDrift& d);
+/// Where the stretch of drift `d` does not fit it (TrendInconsistency of its parameter and
+/// runs): "; its stretch does not fit one drift (χ² …): more than one change?"; "" where it fits.
+std::string driftMisfitText(const Trend& t, const TrendDrift& d);
 /// What the trend can say of steps, in one sentence: never "no step" where it cannot tell.
 std::string trendVerdict(const Trend& t);
 /// What trend.md says beside the trend itself.

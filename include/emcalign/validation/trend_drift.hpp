@@ -81,6 +81,8 @@ struct RampFit {
   /// the error with the knees held).
   double slopeLow = 0.0, slopeHigh = 0.0;
   [[nodiscard]] double value(double run) const;
+  /// The error of value(run), the knees held.
+  [[nodiscard]] double valueError(double run) const;
   /// Its mean over an IOV's runs, what the IOV measures.
   [[nodiscard]] double iovValue(const TrendPoint& p) const;
   /// The change over the ramp, and its error.
@@ -130,6 +132,9 @@ std::optional<StepFit> bestStep(const Stretch& s, std::size_t minSegment, double
 /// The Δχ² between a step and a drift at which the advice says a grouping tells them apart:
 /// its expected value, so that the observed one passes 9 with a probability of about 80 %.
 inline constexpr double kTellApartChi2 = 16.0;
+/// A grouping is proposed only where it expects this many times the Δχ² of the present IOVs:
+/// the information is the events', however grouped, so a finer grouping often adds little.
+inline constexpr double kWorthRegrouping = 1.25;
 /// The smallest IOV (selected events) the advice proposes: fewer make unreliable fits.
 inline constexpr std::int64_t kMinTellApartEvents = 2000;
 
@@ -151,6 +156,10 @@ struct TellApart {
   /// These IOVs expect to tell them apart (expectedNow ≥ kTellApartChi2): the data happen to
   /// lie between the two; no other grouping is proposed.
   [[nodiscard]] bool fluctuation() const { return expectedNow >= kTellApartChi2; }
+  /// No grouping is proposed, yet the best one expects about kTellApartChi2 (from 0.9 of it):
+  /// not enough more than these IOVs (kWorthRegrouping) to be worth a campaign of its own, or
+  /// just short of it — the data happen to lie between.
+  [[nodiscard]] bool nearlyTold() const { return !minEvents && !fluctuation() && expectedChi2 >= 0.9 * kTellApartChi2; }
 };
 /// TellApart for the drift `ramp` of stretch `s` (the step as bestStep finds it): the IOVs of
 /// the stretch regrouped in run order into IOVs of at least N selected events (a campaign's

@@ -56,7 +56,10 @@ struct TrendSeries {
 /// The 17 series of a tag (the 12 parameters with their errors, and the derived β, ψ, μ, τ,
 /// dx_rel with theirs), from its payloads. IOVs whose payload has no errors are an error. The
 /// directions ψ and τ are left out where their magnitude (β, μ) is within 3σ of 0, and
-/// unwrapped (each within 180° of the one before).
+/// unwrapped: each within 90° of the one before, turns of 180° included, the magnitude signed
+/// negative after an odd one ((β, ψ) and (−β, ψ + 180°) are the same tilt), so that a tilt
+/// through zero is a signed β through zero and a steady ψ. readPeriodTruth takes a period's
+/// truth so too.
 Result<std::vector<TrendSeries>> seriesOfTag(conddb::TagSnapshot& tag);
 
 /// s of the top of this file (1 with fewer than 6 points, or when it cannot be estimated).

@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <sstream>
@@ -32,6 +33,9 @@ Payload resultWith(double alpha) {
   Json errors = Json::object();
   for (Param p : kAllParams) errors[std::string(name(p))] = 0.01;
   j["errors"] = errors;
+  Json statistical = Json::object();
+  for (Param p : kAllParams) statistical[std::string(name(p))] = 0.004;
+  j["statistical_errors"] = statistical;
   j["chi2"] = 308.0;
   j["ndf"] = 308;
   j["status"] = "converged";
@@ -97,7 +101,24 @@ TEST_F(TagTables, ExportHasOneRowPerIovWithEveryParameterAndItsError) {
   EXPECT_EQ(lines[3].rfind("1,10,", 0), 0u);
   EXPECT_NE(lines[3].find(",converged,308,308,512.5,auto,"), std::string::npos) << lines[3];
   EXPECT_NE(lines[4].find(",3.1,0.01,"), std::string::npos) << lines[4];
+  // The statistical errors last, one per quantity, so the columns before keep their places.
+  EXPECT_NE(lines[2].find(",dx_rel_error,alpha_statistical_error,"), std::string::npos) << lines[2];
+  EXPECT_TRUE(lines[2].ends_with(",dx_rel_statistical_error")) << lines[2];
+  EXPECT_EQ(std::count(lines[2].begin(), lines[2].end(), ','), std::count(lines[3].begin(), lines[3].end(), ','));
+  EXPECT_NE(lines[3].find(",0.004,0.004,"), std::string::npos) << lines[3];
   EXPECT_FALSE(tagCsv(*db_, "nope"));
+}
+
+// A database whose path holds a newline: the first comment line shows it escaped, and the
+// CSV keeps its rows.
+TEST_F(TagTables, ExportOfADatabaseWhosePathHoldsANewlineKeepsItsLines) {
+  auto db = Database::open("sqlite:" + (dir_ / "new\nline.db").string(), IfMissing::Create);
+  ASSERT_TRUE(db) << db.error().message;
+  ASSERT_TRUE((*db)->put("a", 1, 10, resultWith(3.0), IfMissing::Create));
+  auto csv = tagCsv(**db, "a");
+  ASSERT_TRUE(csv) << csv.error().message;
+  EXPECT_EQ(std::count(csv->begin(), csv->end(), '\n'), 4) << *csv;  // two comments, the header, one IOV
+  EXPECT_NE(csv->find("new\\x0aline.db"), std::string::npos) << *csv;
 }
 
 // SPEC §11: list --json keeps "state": "open"|"locked"; a retired tag adds "retired".

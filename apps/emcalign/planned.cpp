@@ -28,6 +28,20 @@ namespace fs = std::filesystem;
 std::vector<std::string> gCommandLine;
 PlanContext gContext;
 
+// Whether `inner` is `outer` or lies inside it, links resolved as far as the paths exist.
+bool within(const std::string& inner, const std::string& outer) {
+  std::error_code ec;
+  const auto a = std::filesystem::weakly_canonical(std::filesystem::absolute(inner), ec);
+  const auto b = std::filesystem::weakly_canonical(std::filesystem::absolute(outer), ec);
+  if (ec) return false;
+  auto i = a.begin();
+  for (auto j = b.begin(); j != b.end(); ++j, ++i) {
+    if (j->empty() && std::next(j) == b.end()) break;  // a trailing separator
+    if (i == a.end() || *i != *j) return false;
+  }
+  return true;
+}
+
 // `arguments` without the option `name` and its value (`--name V` or `--name=V`).
 std::vector<std::string> without(const std::vector<std::string>& arguments, const std::string& name) {
   std::vector<std::string> out;
@@ -238,7 +252,19 @@ int batchSubmit(const SubmitOptions& o) {
 int batchScript(const std::string& path, const std::string& output, bool missing) {
   auto plan = planToRun(path);
   if (!plan) return reportError(plan.error());
-  if (Status s = checkOutputs({{"-o", output}}, {}, {{"PLAN", path}}); !s) return reportError(s.error());
+  // Nothing the plan reads or writes, nor anything in its directories, is replaced by the script.
+  const validation::PlanPaths named = validation::pathsOfPlan(*plan);
+  for (const auto* list : {&named.files, &named.directories}) {
+    for (const auto& n : *list) {
+      if (output == "-" || !within(output, n.path)) continue;
+      return reportError(Error{fmt::format(
+          "-o {}: {} {}, {} ({}): a script replaces nothing a plan reads or writes; put it elsewhere", output,
+          list == &named.files ? "is" : "is inside", n.path, n.option, path)});
+    }
+  }
+  std::vector<io::NamedPath> inputs = {{"PLAN", path}};
+  for (const auto& f : named.files) inputs.push_back({"named by the plan", f.path});
+  if (Status s = checkOutputs({{"-o", output}}, {}, inputs); !s) return reportError(s.error());
   std::vector<std::size_t> tasks;
   if (missing) {
     tasks = missingTasks(*plan);
@@ -272,20 +298,6 @@ CLI::Option* addPlanOption(CLI::App& cmd, std::string& path) {
 }
 
 namespace {
-
-// Whether `inner` is `outer` or lies inside it, links resolved as far as the paths exist.
-bool within(const std::string& inner, const std::string& outer) {
-  std::error_code ec;
-  const auto a = std::filesystem::weakly_canonical(std::filesystem::absolute(inner), ec);
-  const auto b = std::filesystem::weakly_canonical(std::filesystem::absolute(outer), ec);
-  if (ec) return false;
-  auto i = a.begin();
-  for (auto j = b.begin(); j != b.end(); ++j, ++i) {
-    if (j->empty() && std::next(j) == b.end()) break;  // a trailing separator
-    if (i == a.end() || *i != *j) return false;
-  }
-  return true;
-}
 
 // A plan (and its work directory) neither is nor lies inside one of the command's outputs or
 // input directories.

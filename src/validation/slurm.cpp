@@ -20,9 +20,19 @@ namespace fs = std::filesystem;
 // Slurm's clients answer in a second; a queue under load, in a minute.
 constexpr int kSlurmSeconds = 120;
 
-// A value of an #SBATCH line: sbatch splits these lines at white space outside double quotes.
+// A value of an #SBATCH line. sbatch (src/sbatch/opt.c) splits these lines into words at white
+// space outside quotes ('"' or '\''; a backslash-escaped space still ends a word), takes '\\' as
+// an escape and an unescaped '#' as the start of a comment (inside quotes too, in older
+// releases): the value goes in double quotes, with '"', '\\' and '#' escaped. (Control
+// characters, which would end the line, are refused in a plan's paths where the plan is
+// written and read: validation/task_plan.cpp.)
 std::string sbatchValue(const std::string& s) {
-  return s.find_first_of(" \t\"") == std::string::npos ? s : "\"" + s + "\"";
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\' || c == '#') out += '\\';
+    out += c;
+  }
+  return out + "\"";
 }
 
 std::string jobName(const Plan& plan) { return "emcalign-" + plan.command; }
@@ -83,10 +93,11 @@ std::string jobArrayScript(const Plan& plan, const std::vector<std::size_t>& tas
       "#SBATCH --chdir={dir}\n"
       "#SBATCH --cpus-per-task=1\n"
       "exec {program} task {planWord} \"$SLURM_ARRAY_TASK_ID\"\n",
-      fmt::arg("plan", plan.path), fmt::arg("command", plan.command), fmt::arg("n", plan.tasks.size()),
+      // No path goes raw into a comment: each is a shell word, as it would be typed.
+      fmt::arg("plan", shellArgument(plan.path)), fmt::arg("command", plan.command), fmt::arg("n", plan.tasks.size()),
       fmt::arg("finishLog", shellWord(outputPattern(plan.finishLog()))),
       fmt::arg("finish", shellWord("exec " + shellWord(plan.program.path) + " finish " + shellWord(plan.path))),
-      fmt::arg("work", work), fmt::arg("name", jobName(plan)), fmt::arg("array", arrayOf(plan, tasks)),
+      fmt::arg("work", shellArgument(work)), fmt::arg("name", jobName(plan)), fmt::arg("array", arrayOf(plan, tasks)),
       fmt::arg("log", sbatchValue(outputPattern(work) + "/task-%a.log")), fmt::arg("dir", sbatchValue(plan.directory)),
       fmt::arg("program", shellWord(plan.program.path)), fmt::arg("planWord", shellWord(plan.path)));
 }

@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <chrono>
 #include <cstring>
@@ -16,6 +17,7 @@
 
 #include <fmt/format.h>
 
+#include "emcalign/conddb/conditions.hpp"
 #include "emcalign/core/clock.hpp"
 #include "emcalign/core/regular_file.hpp"
 #include "emcalign/core/sha256.hpp"
@@ -117,19 +119,25 @@ Json writtenDigests(const PlannedTask& task) {
   return digests;
 }
 
-// A plan's paths go into batch scripts — comments, #SBATCH lines (which sbatch splits at white
-// space outside double quotes, and where '\\' escapes), a shell's command line: one holding a
-// control character (a newline ends the line: what follows would run), '"' or '\\' is refused
-// wherever a plan is written or read.
+// A plan's paths go into batch scripts — comments, #SBATCH lines (which sbatch splits into words,
+// where '\\' escapes and which end at a newline), a shell's command line: one holding a control
+// character (a newline ends the line: what follows would run), '"' or '\\' is refused wherever a
+// plan is written or read. So is "hetjob" or "packjob" in any case: sbatch blanks the word in an
+// #SBATCH line and starts another component of a heterogeneous job there.
 Status checkScriptSafe(std::string_view what, const std::string& p, const std::string& source) {
   const auto unsafe = std::find_if(p.begin(), p.end(),
                                    [](char c) { return c == '"' || c == '\\' || (c >= 0 && c < 0x20) || c == 0x7f; });
-  if (unsafe == p.end()) return {};
+  std::string lower = p;
+  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return std::tolower(c); });
+  const bool component = lower.find("hetjob") != std::string::npos || lower.find("packjob") != std::string::npos;
+  if (unsafe == p.end() && !component) return {};
   return Error{fmt::format(
-      "{}: {} {} holds {}: a plan's paths go into batch scripts, where it could end a line and run what follows; "
-      "rename it without control characters, '\"' or '\\'",
+      "{}: {} {} holds {}: a plan's paths go into batch scripts, where it could end a line and run what follows "
+      "or change the job's directives; rename it without control characters, '\"', '\\', \"hetjob\" or "
+      "\"packjob\"",
       source, what, io::quotedText(printable(p), 200),
-      *unsafe == '"'    ? "a double quote"
+      unsafe == p.end() ? "the word sbatch reads as another job's start"
+      : *unsafe == '"'  ? "a double quote"
       : *unsafe == '\\' ? "a backslash"
                         : "a control character")};
 }
@@ -266,6 +274,51 @@ Result<Plan> writePlan(const std::string& path, const std::string& command, cons
   return plan;
 }
 
+PlanPaths pathsOfPlan(const Plan& plan) {
+  PlanPaths out;
+  out.files.push_back({"the plan itself", plan.path});
+  out.directories.push_back({"the plan's work directory", plan.workDirectory()});
+  for (std::size_t k = 0; k < plan.tasks.size(); ++k) {
+    for (const auto& f : plan.tasks[k].inputs) out.files.push_back({fmt::format("which the plan's task {} reads", k), f});
+    for (const auto& f : plan.tasks[k].writes) out.files.push_back({fmt::format("which the plan's task {} writes", k), f});
+  }
+  const auto named = [&](const std::string& option, const std::string& value, bool output) {
+    if (value.empty() || value == "-") return;
+    const std::string what = option.empty() ? "named by the plan's command line" : "the plan's " + option;
+    if (value.starts_with("sqlite:")) {
+      const std::string file = conddb::sqliteFileOf(value);
+      if (file.empty()) return;
+      const fs::path f = fs::absolute(fs::path(plan.directory) / file);
+      for (const char* suffix : {"", "-wal", "-shm", "-journal"}) out.files.push_back({what, f.string() + suffix});
+      return;
+    }
+    if (value.find("://") != std::string::npos) return;  // a server
+    const fs::path p = (fs::path(plan.directory) / value).lexically_normal();
+    std::error_code ec;
+    const auto status = fs::status(p, ec);
+    if (status.type() == fs::file_type::directory || (output && status.type() == fs::file_type::not_found)) {
+      out.directories.push_back({what, p.string()});
+    }
+    if (status.type() != fs::file_type::directory && (output || fs::exists(status))) {
+      for (const char* suffix : {"", "-wal", "-shm", "-journal"}) out.files.push_back({what, p.string() + suffix});
+    }
+  };
+  static const std::vector<std::string> kOutputs = {"-o", "--output", "--write-corrections", "--profile-out"};
+  for (std::size_t i = 0; i < plan.arguments.size(); ++i) {
+    const std::string& a = plan.arguments[i];
+    const bool option = a.starts_with("-") && a.size() > 1;
+    if (!option) {
+      const std::string previous = i > 0 ? plan.arguments[i - 1] : "";
+      named(previous.starts_with("-") ? previous : "", a,
+            std::find(kOutputs.begin(), kOutputs.end(), previous) != kOutputs.end());
+    } else if (const auto eq = a.find('='); eq != std::string::npos) {
+      const std::string name = a.substr(0, eq);
+      named(name, a.substr(eq + 1), std::find(kOutputs.begin(), kOutputs.end(), name) != kOutputs.end());
+    }
+  }
+  return out;
+}
+
 Result<Plan> parsePlan(const std::string& text, const std::string& path) {
   auto j = io::parseJson(text, path);
   if (!j) return j.error();
@@ -305,7 +358,9 @@ Result<Plan> parsePlan(const std::string& text, const std::string& path) {
           std::tuple{"its program", plan.program.path, "program.path"}}) {
       if (Status s = checkScriptSafe(what, p, path); !s) {
         if (std::string_view(key).empty()) throw io::strict::BadInput{s.error().message};
-        o.fail(key, "holds a control character, '\"' or '\\': a plan's paths go into batch scripts");
+        o.fail(key,
+               "holds a control character, '\"', '\\', \"hetjob\" or \"packjob\": a plan's paths go into batch "
+               "scripts");
       }
     }
     return plan;

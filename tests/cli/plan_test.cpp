@@ -306,10 +306,35 @@ TEST_F(PlanCli, TheJobArrayScriptAndAMissingSbatch) {
   ASSERT_EQ(r.exitCode, 0) << r.err;
   std::string script = slurp("job.sh");
   EXPECT_THAT(script, HasSubstr("#SBATCH --array=0-2\n"));
-  EXPECT_THAT(script, HasSubstr(fmt::format("#SBATCH --output={}/plan.tasks/task-%a.log", dir_.string())));
+  EXPECT_THAT(script, HasSubstr(fmt::format("#SBATCH --output=\"{}/plan.tasks/task-%a.log\"", dir_.string())));
   EXPECT_THAT(script,
               HasSubstr(fmt::format("'{}' task '{}' \"$SLURM_ARRAY_TASK_ID\"", EMCALIGN_BINARY, path("plan.json"))));
   EXPECT_THAT(script, HasSubstr("--dependency=afterok:J"));
+  // The script lands on nothing the plan reads or writes, nor in its directories (issue 44).
+  const std::string kept = slurp("fan/samples/sample_0001.json");
+  const std::vector<std::pair<std::string, std::string>> onto = {
+      {"fan/samples/sample_0001.json", "which the plan's task 1 writes"},
+      {"fan/samples/sample_0000.json", "which the plan's task 0 writes"},
+      {"fan/job.sh", "is inside " + path("fan") + ", the plan's -o"},
+      {"plan.tasks/task-1.json", "the plan's work directory"},
+      {"plan.tasks/job.sh", "the plan's work directory"},
+      {"plan.json", "the plan itself"}};
+  for (const auto& [where, said] : onto) {
+    r = run(fmt::format("batch script {} -o {}", path("plan.json"), path(where)));
+    EXPECT_EQ(r.exitCode, 1) << where;
+    EXPECT_THAT(r.err, HasSubstr(said)) << where;
+  }
+  EXPECT_EQ(slurp("fan/samples/sample_0001.json"), kept);
+  EXPECT_FALSE(fs::exists(path("fan/job.sh")));
+  fs::create_symlink(path("fan"), path("fan-link"));
+  r = run(fmt::format("batch script {} -o {}", path("plan.json"), path("fan-link/job.sh")));
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_THAT(r.err, HasSubstr("the plan's -o"));
+  fs::create_hard_link(path("fan/samples/sample_0001.json"), path("hard.json"));
+  r = run(fmt::format("batch script {} -o {}", path("plan.json"), path("hard.json")));
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_THAT(r.err, HasSubstr("refusing to overwrite an input"));
+  EXPECT_EQ(slurp("fan/samples/sample_0001.json"), kept);
   r = run(fmt::format("batch script {} --missing -o {}", path("plan.json"), path("missing.sh")));
   ASSERT_EQ(r.exitCode, 0) << r.err;
   EXPECT_THAT(slurp("missing.sh"), HasSubstr("#SBATCH --array=0,2\n"));

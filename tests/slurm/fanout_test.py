@@ -253,8 +253,14 @@ def main():
     cases = {"validate": case_validate, "cancel": case_cancel, "twice": case_twice, "campaign": case_campaign,
              "derive": case_derive, "systematics": case_systematics}
     top = tempfile.mkdtemp(prefix=f"emcalign-fanout-{name}-")
+    # The validation runs in a directory whose name a shell or sbatch would read as something
+    # else (issue 44): on the real Slurm too, nothing but the tasks runs.
+    work = os.path.join(top, "it's a $(touch PWNED) `touch PWNED` #dir") if name == "validate" else top
+    os.makedirs(work, exist_ok=True)
     try:
-        cases[name](Case(binary, slurm_state, pg_state, top))
+        cases[name](Case(binary, slurm_state, pg_state, work))
+        pwned = [os.path.join(d, f) for d, _, files in os.walk(top) for f in files if f == "PWNED"]
+        check(not pwned, f"a command hidden in a directory's name ran: {pwned}")
     except Failed as e:
         print(f"FAILED ({top} kept): {e}")
         return 1

@@ -26,6 +26,7 @@
 
 #include "emcalign/core/result.hpp"
 #include "emcalign/io/json_files.hpp"
+#include "emcalign/io/output_file.hpp"
 
 namespace emcalign::validation {
 
@@ -115,6 +116,17 @@ struct Plan {
   std::string finishLog() const;              ///< PLAN.tasks/finish.log
   std::string finishRecord() const;           ///< PLAN.tasks/finish.json
 };
+
+/// What a plan names on disk, which no output of another command may land on or in (`batch
+/// script -o`): its own file; the files its tasks read and write; the files and directories its
+/// command line names, relative to its directory (every argument that names one that exists, an
+/// SQLite database's file and journals, and the outputs -o, --output, --write-corrections and
+/// --profile-out even before they exist); and its work directory.
+struct PlanPaths {
+  std::vector<io::NamedPath> files;        ///< to be written over: refused
+  std::vector<io::NamedPath> directories;  ///< to be written into, at any depth: refused
+};
+PlanPaths pathsOfPlan(const Plan& plan);
 
 /// Writes the plan of `job` to `path` (an output already checked) and makes its work
 /// directory, emptied of the records and logs of an earlier plan there. `arguments`: the

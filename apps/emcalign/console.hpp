@@ -15,10 +15,20 @@
 
 #include <fmt/format.h>
 
+#include "emcalign/core/secrets.hpp"
+
 namespace emcalign::app {
 
-/// Writes `text` to stderr; a SIGPIPE this raises (the reader of a pipe gone) is taken back.
-inline void writeToStderr(const std::string& text) noexcept {
+/// Writes `text` to stderr, without the command line's passwords (core/secrets.hpp); a SIGPIPE this raises (the reader
+/// of a pipe gone) is taken back.
+inline void writeToStderr(const std::string& given) noexcept {
+  std::string redacted;
+  try {
+    if (core::passwordsRemembered()) redacted = core::withoutPasswords(given);
+  } catch (...) {  // out of memory: the line is not shown rather than shown with a password
+    return;
+  }
+  const std::string& text = core::passwordsRemembered() ? redacted : given;
   sigset_t pipe, old;
   sigemptyset(&pipe);
   sigaddset(&pipe, SIGPIPE);

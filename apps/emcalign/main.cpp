@@ -11,7 +11,10 @@
 #include <cstdio>
 #include <cstring>
 #include <exception>
+#include <sstream>
+#include <string>
 #include <system_error>
+#include <vector>
 
 #include <fmt/format.h>
 #include <CLI/CLI.hpp>
@@ -19,6 +22,7 @@
 #include "arguments.hpp"
 #include "common.hpp"
 #include "console.hpp"
+#include "emcalign/core/secrets.hpp"
 #include "emcalign/core/utf8.hpp"
 #include "emcalign/core/version.hpp"
 #include "emcalign/io/output_file.hpp"
@@ -79,10 +83,39 @@ void openStandardDescriptors() {
   }
 }
 
+// Standard output without the command line's passwords (core/secrets.hpp): when it holds one,
+// stdout becomes a line-buffered stream whose lines are redacted on their way to the real one.
+ssize_t writeRedacted(void* cookie, const char* data, std::size_t size) {
+  auto* real = static_cast<std::FILE*>(cookie);
+  std::string text;
+  try {
+    text = emcalign::core::withoutPasswords(std::string(data, size));
+  } catch (...) {
+    errno = ENOMEM;
+    return -1;
+  }
+  if (std::fwrite(text.data(), 1, text.size(), real) != text.size() || std::fflush(real) != 0) return -1;
+  return static_cast<ssize_t>(size);
+}
+
+void redactStandardOutput(int argc, char** argv) {
+  for (int i = 1; i < argc; ++i) emcalign::core::rememberPasswordsOf(argv[i]);
+  if (!emcalign::core::passwordsRemembered()) return;
+  const cookie_io_functions_t io{nullptr, writeRedacted, nullptr, nullptr};
+  std::FILE* redacted = fopencookie(stdout, "w", io);
+  if (redacted == nullptr) return;
+  // A line at a time (a password never straddles two writes), up to 1 MiB per line.
+  static std::vector<char> buffer(std::size_t{1} << 20);
+  std::setvbuf(redacted, buffer.data(), _IOLBF, buffer.size());
+  stdout = redacted;
+}
+
 // The command line parsed and run (main catches what escapes it).
 int runMain(int argc, char** argv) {
   openStandardDescriptors();
   installSignalHandlers();
+  // Before anything is printed: every line shows "***" for a password of the command line.
+  redactStandardOutput(argc, argv);
   // No output of a command may replace one of its inputs (io/output_file.hpp).
   emcalign::io::enableInputProtection();
   CLI::App app{
@@ -117,7 +150,12 @@ int runMain(int argc, char** argv) {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     // --help and --version end here with 0; every other parse error is a usage error.
-    const int code = app.exit(e);
+    // Printed here, not by CLI11 to std::cout/std::cerr: without the command line's passwords.
+    std::ostringstream out, err;
+    const int code = app.exit(e, out, err);
+    const std::string text = emcalign::core::withoutPasswords(out.str());
+    std::fwrite(text.data(), 1, text.size(), stdout);
+    emcalign::app::writeToStderr(err.str());
     return code == 0 ? checkStandardOutput(0) : emcalign::app::kExitUsage;
   } catch (const std::system_error& e) {
     // fmt::print throws when standard output (or error, for a report sent there) cannot be

@@ -70,8 +70,10 @@ Result<std::vector<std::string>> commandArguments() {
 // The plan's command line, run again in the plan's directory in `mode`: the command's own
 // options are parsed and checked as when the plan was made, and its callback runs the task or
 // the merge (runPlannable).
-int runFromPlan(const validation::Plan& plan, PlanContext::Mode mode, std::size_t task) {
+int runFromPlan(const validation::Plan& plan, PlanContext::Mode mode, std::size_t task,
+                std::function<void(const validation::PlannedJob&)> inspect = {}) {
   if (::chdir(plan.directory.c_str()) != 0) {
+    if (mode == PlanContext::Mode::Inspect) return kExitFailure;
     return reportError(Error{
         fmt::format("{}: cannot enter the plan's directory {}: {}", plan.path, plan.directory, std::strerror(errno))});
   }
@@ -88,7 +90,7 @@ int runFromPlan(const validation::Plan& plan, PlanContext::Mode mode, std::size_
   std::vector<char*> argv;
   argv.reserve(args.size() + 1);
   for (auto& a : args) argv.push_back(a.data());
-  gContext = {mode, &plan, task};
+  gContext = {mode, &plan, task, std::move(inspect)};
   int exitCode = 0;
   CLI::App app;
   addAllCommands(app, exitCode);
@@ -97,6 +99,7 @@ int runFromPlan(const validation::Plan& plan, PlanContext::Mode mode, std::size_
     app.parse(static_cast<int>(argv.size()), argv.data());
   } catch (const CLI::ParseError& e) {
     gContext = {};
+    if (mode == PlanContext::Mode::Inspect) return kExitFailure;
     return reportError(Error{fmt::format("{}: its command line (emcalign {} {}) is refused: {}", plan.path,
                                          plan.command, fmt::join(plan.arguments, " "), e.what())});
   }
@@ -123,6 +126,52 @@ std::vector<std::size_t> missingTasks(const validation::Plan& plan) {
 
 std::int64_t jobNumber(const std::string& id) { return std::stoll(id); }
 
+// An output of a missing task that is there already (a task stopped mid-way, or a file changed
+// since), and whether a rerun keeps it (its work, with the plan's settings), refuses it, or the
+// job cannot tell.
+struct OutputThere {
+  std::size_t task = 0;
+  std::string path;
+  std::optional<bool> kept;
+  [[nodiscard]] std::string rerun() const { return kept ? (*kept ? "keeps" : "refuses") : "keeps if this plan's"; }
+};
+
+// As the job tells: the plan's command line made into its job, nothing run.
+std::vector<OutputThere> outputsThere(const validation::Plan& plan, const std::vector<std::size_t>& missing) {
+  std::vector<OutputThere> there;
+  for (std::size_t k : missing) {
+    for (const auto& w : plan.tasks[k].writes) {
+      if (std::error_code ec; !w.empty() && w.front() == '/' && fs::exists(w, ec)) there.push_back({k, w, {}});
+    }
+  }
+  if (there.empty()) return there;
+  std::error_code ec;
+  const fs::path cwd = fs::current_path(ec);
+  runFromPlan(plan, PlanContext::Mode::Inspect, 0, [&](const validation::PlannedJob& job) {
+    for (auto& t : there) t.kept = job.keeps(t.task, t.path);
+  });
+  if (!ec) fs::current_path(cwd, ec);
+  return there;
+}
+
+void printOutputsThere(const std::vector<OutputThere>& there) {
+  for (const auto& t : there) {
+    if (t.kept == true) {
+      fmt::print(reportStream(), "  task {}: {} is finished work of this plan: a rerun keeps it\n", t.task, t.path);
+    } else if (t.kept == false) {
+      fmt::print(reportStream(),
+                 "  task {}: {} is not this plan's work (changed since, or another run's): a rerun refuses to "
+                 "replace it; remove it, then run the task\n",
+                 t.task, t.path);
+    } else {
+      fmt::print(reportStream(),
+                 "  task {}: {} is there without the task's record: a rerun keeps it if it holds this plan's work "
+                 "with its settings, and refuses it, naming it, otherwise\n",
+                 t.task, t.path);
+    }
+  }
+}
+
 int batchStatus(const std::string& path, bool json) {
   auto text = io::readTextFile(path);
   if (!text) return reportError(text.error());
@@ -136,11 +185,15 @@ int batchStatus(const std::string& path, bool json) {
     if (!states[k].done && !states[k].log.empty())
       logs[std::to_string(k)] = {{"log", states[k].log}, {"last_line", states[k].lastLine}};
   }
+  const std::vector<OutputThere> there = outputsThere(*plan, missing);
   if (json) {
+    io::Json outputs = io::Json::array();
+    for (const auto& t : there) outputs.push_back({{"task", t.task}, {"path", t.path}, {"rerun", t.rerun()}});
     fmt::print("{}\n", io::Json{{"tasks", states.size()},
                                 {"done", done},
                                 {"missing", missing},
                                 {"logs_of_missing", logs},
+                                {"outputs_of_missing", outputs},
                                 {"finished", validation::finished(*plan)}}
                            .dump(1));
   } else {
@@ -155,16 +208,7 @@ int batchStatus(const std::string& path, bool json) {
     fmt::print(reportStream(), "{} ({}, {}): {} done, {} missing{}{}\n", plan->path, plan->command,
                counted(states.size(), "task"), done.size(), missing.size(),
                missing.empty() ? "" : ": " + validation::taskRanges(missing), merge);
-    for (std::size_t k : missing) {
-      for (const auto& w : plan->tasks[k].writes) {
-        if (std::error_code ec; !w.empty() && w.front() == '/' && std::filesystem::exists(w, ec)) {
-          fmt::print(reportStream(),
-                     "  task {}: {} is there but not as the task wrote it (changed since, or another run's): "
-                     "the task will not replace what it cannot tell is its own; remove it, then run the task\n",
-                     k, w);
-        }
-      }
-    }
+    printOutputsThere(there);
     for (const auto& [k, log] : logs.items()) {
       fmt::print(reportStream(),
                  "  task {} is missing (failed, stopped, or its outputs removed since); its log {}:\n    {}\n", k,
@@ -257,9 +301,9 @@ int batchScript(const std::string& path, const std::string& output, bool missing
   for (const auto* list : {&named.files, &named.directories}) {
     for (const auto& n : *list) {
       if (output == "-" || !within(output, n.path)) continue;
-      return reportError(Error{fmt::format(
-          "-o {}: {} {}, {} ({}): a script replaces nothing a plan reads or writes; put it elsewhere", output,
-          list == &named.files ? "is" : "is inside", n.path, n.option, path)});
+      return reportError(
+          Error{fmt::format("-o {}: {} {}, {} ({}): a script replaces nothing a plan reads or writes; put it elsewhere",
+                            output, list == &named.files ? "is" : "is inside", n.path, n.option, path)});
     }
   }
   std::vector<io::NamedPath> inputs = {{"PLAN", path}};
@@ -343,6 +387,12 @@ int runPlannable(const std::string& command, const std::string& planPath, const 
       for (const auto& w : validation::taskWarnings(*gContext.plan)) reportWarning(w);
       const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       if (Status s = validation::recordFinished(*gContext.plan, seconds); !s) return reportError(s.error());
+      return kExitOk;
+    }
+    case PlanContext::Mode::Inspect: {
+      auto job = makeJob(gContext.plan->data);
+      if (!job) return kExitFailure;
+      gContext.inspect(**job);
       return kExitOk;
     }
     case PlanContext::Mode::Direct:

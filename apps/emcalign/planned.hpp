@@ -23,12 +23,14 @@ void addAllCommands(CLI::App& app, int& exitCode);
 void setCommandLine(int argc, char** argv);
 
 /// How a plannable command runs now: as given (its --plan writes the plan), as one task of a
-/// plan (`emcalign task`), or as the merge (`emcalign finish`).
+/// plan (`emcalign task`), as the merge (`emcalign finish`), or only made into its job and
+/// handed to `inspect`, nothing run (`emcalign batch status`: which outputs a rerun keeps).
 struct PlanContext {
-  enum class Mode { Direct, Task, Finish };
+  enum class Mode { Direct, Task, Finish, Inspect };
   Mode mode = Mode::Direct;
   const validation::Plan* plan = nullptr;
   std::size_t task = 0;
+  std::function<void(const validation::PlannedJob&)> inspect;
 };
 const PlanContext& planContext();
 /// The work directory of the plan being written (`planOption`, --plan) or run (a task, the merge).

@@ -16,6 +16,8 @@
 
 #include <fmt/format.h>
 
+#include "emcalign/core/secrets.hpp"
+
 namespace emcalign::io {
 
 namespace {
@@ -294,6 +296,11 @@ std::string temporaryPathFor(const std::string& realPath) {
 Result<OutputTarget> resolveOutput(const std::string& path, Placement placement) {
   if (path.empty()) return Error{"an output name is empty"};
   if (path == "-") return OutputTarget{path, path, OutputKind::Stdout};
+  // A password would be kept in the file system's names, and in every record naming the file.
+  if (core::holdsPassword(path)) {
+    return Error{fmt::format("{}: holds a password (a database address given where a file name goes?): not a file name",
+                             core::withoutPasswords(path))};
+  }
   if (const long writer = temporaryWriter(fs::path(path).filename().string());
       writer > 0 && writer != static_cast<long>(::getpid())) {
     return Error{
@@ -377,6 +384,11 @@ Result<OutputTarget> resolveOutput(const std::string& path, Placement placement)
 
 Status checkOutputDirectory(const std::string& path) {
   if (path.empty()) return Error{"an output directory name is empty"};
+  if (core::holdsPassword(path)) {
+    return Error{fmt::format(
+        "{}: holds a password (a database address given where a directory name goes?): not a directory name",
+        core::withoutPasswords(path))};
+  }
   struct stat link {};
   if (::lstat(path.c_str(), &link) != 0) {
     if (errno == ENOENT) return {};
@@ -597,9 +609,12 @@ Status writeFileIn(const std::string& dir, const std::string& name, std::string_
   return writeOutputFile((fs::path(dir) / name).string(), content, Placement::InDirectory);
 }
 
-Status writeOutputFile(const std::string& path, std::string_view content, Placement placement) {
+Status writeOutputFile(const std::string& path, std::string_view given, Placement placement) {
   auto out = OutputFile::open(path, placement);
   if (!out) return out.error();
+  // The command line's passwords are never written (a record naming what it was given).
+  const std::string redacted = core::passwordsRemembered() ? core::withoutPasswords(std::string(given)) : "";
+  const std::string_view content = core::passwordsRemembered() ? std::string_view(redacted) : given;
   if (!content.empty() && std::fwrite(content.data(), 1, content.size(), (*out)->stream()) != content.size()) {
     return Error{
         fmt::format("{}: write failed: {}", path == "-" ? std::string("standard output") : path, reason(errno))};

@@ -358,6 +358,14 @@ class ValidationJob final : public PlannedJob {
     }
     return {};
   }
+  [[nodiscard]] std::optional<bool> keeps(std::size_t k, const std::string& output) const override {
+    for (int i = blocks_[k].first; i <= blocks_[k].last; ++i) {
+      if (fs::absolute(samplePath(dir_, i)).lexically_normal().string() == output) {
+        return readSample(samplePath(dir_, i), i, o_, calo_.description().r1()).has_value();
+      }
+    }
+    return std::nullopt;
+  }
 
  private:
   geometry::Calorimeter calo_;
@@ -369,10 +377,15 @@ class ValidationJob final : public PlannedJob {
 
 }  // namespace
 
-std::unique_ptr<PlannedJob> validationJob(geometry::Calorimeter calo, CampaignOptions options, std::string dir,
-                                          std::vector<std::string> inputs, int samplesPerTask) {
-  return std::make_unique<ValidationJob>(std::move(calo), std::move(options), std::move(dir), std::move(inputs),
-                                         samplesPerTask);
+bool isFinishedSample(const geometry::Calorimeter& calo, const CampaignOptions& o, const std::string& dir, int i) {
+  return readSample(samplePath(dir, i), i, o, calo.description().r1()).has_value();
+}
+
+Result<std::unique_ptr<PlannedJob>> validationJob(geometry::Calorimeter calo, CampaignOptions options, std::string dir,
+                                                  std::vector<std::string> inputs, int samplesPerTask) {
+  if (Status s = options.validate(); !s) return s.error();
+  return std::unique_ptr<PlannedJob>(std::make_unique<ValidationJob>(
+      std::move(calo), std::move(options), std::move(dir), std::move(inputs), samplesPerTask));
 }
 
 Result<Table> runCampaign(const geometry::Calorimeter& calo, const CampaignOptions& o, const std::string& dir,

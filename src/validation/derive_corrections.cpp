@@ -1012,12 +1012,14 @@ class DerivationJob final : public PlannedJob {
 
 }  // namespace
 
-std::unique_ptr<PlannedJob> derivationJob(geometry::Calorimeter calo, DerivationOptions options,
-                                          std::vector<GridPoint> points, std::vector<io::Json> settings,
-                                          std::vector<std::string> inputs, std::string workDirectory,
-                                          int samplesPerTask) {
-  return std::make_unique<DerivationJob>(std::move(calo), std::move(options), std::move(points), std::move(settings),
-                                         std::move(inputs), std::move(workDirectory), samplesPerTask);
+Result<std::unique_ptr<PlannedJob>> derivationJob(geometry::Calorimeter calo, DerivationOptions options,
+                                                  std::vector<GridPoint> points, std::vector<io::Json> settings,
+                                                  std::vector<std::string> inputs, std::string workDirectory,
+                                                  int samplesPerTask) {
+  if (Status s = options.validate(); !s) return s.error();
+  return std::unique_ptr<PlannedJob>(
+      std::make_unique<DerivationJob>(std::move(calo), std::move(options), std::move(points), std::move(settings),
+                                      std::move(inputs), std::move(workDirectory), samplesPerTask));
 }
 
 Result<DerivationReport> mergeDerivation(const geometry::Calorimeter& calo, const DerivationOptions& o,

@@ -345,19 +345,31 @@ Result<std::vector<SystematicsRow>> combineSystematics(const std::vector<const V
   return rows;
 }
 
+Status SystematicsOptions::validate() const {
+  if (campaign.samples < 2) {
+    return Error{"a systematic study needs 2 samples at least: a shift's error and a pattern's spread come from them"};
+  }
+  if (Status s = campaign.validate(); !s) return s.error();
+  if (reverse) {
+    if (Status s = reverse->validate(); !s) {
+      // Its options, as systematics names them: --reverse-events, --reverse-response-samples, ...
+      std::string message = s.error().message;
+      for (auto at = message.find("--"); at != std::string::npos; at = message.find("--", at + 10)) {
+        message.insert(at + 2, "reverse-");
+      }
+      return Error{fmt::format("the reverse study: {}", message)};
+    }
+  }
+  return {};
+}
+
 Result<SystematicsTable> runSystematics(const geometry::Calorimeter& calo, const SystematicsOptions& options,
                                         const std::string& dir, const SystematicsProgress& progress) {
   SystematicsTable t;
   t.variations = variationsOf(options);
   t.samples = options.campaign.samples;
   t.events = options.campaign.events;
-  if (t.samples < 2) {
-    return Error{"a systematic study needs 2 samples at least: a shift's error and a pattern's spread come from them"};
-  }
-  if (options.reverse) {
-    if (Status s = options.reverse->validate(); !s)
-      return Error{fmt::format("the reverse study: {}", s.error().message)};
-  }
+  if (Status s = options.validate(); !s) return s.error();
   for (const Variation* v : t.variations) {
     if (std::find(t.quantities.begin(), t.quantities.end(), v->quantity) == t.quantities.end())
       t.quantities.push_back(v->quantity);
@@ -628,6 +640,20 @@ class SystematicsJob final : public PlannedJob {
     return {};
   }
 
+  // A forward campaign's sample: kept when it is a finished sample of that campaign. (A reverse
+  // one depends on its derivation's corrections, a derivation on its settings: not told.)
+  [[nodiscard]] std::optional<bool> keeps(std::size_t k, const std::string& output) const override {
+    const std::size_t derivations = o_.reverse ? forward_.size() : 0;
+    if (k < derivations || (k - derivations) / blocks_.size() >= forward_.size()) return std::nullopt;
+    const auto& [name, v] = forward_[(k - derivations) / blocks_.size()];
+    const SampleBlock& b = blocks_[(k - derivations) % blocks_.size()];
+    const CampaignOptions o = v ? withVariation(o_.campaign, *v) : o_.campaign;
+    for (int i = b.first; i <= b.last; ++i) {
+      if (absolute(sampleFile(dirOf(name), i)) == output) return isFinishedSample(calo_, o, dirOf(name), i);
+    }
+    return std::nullopt;
+  }
+
  private:
   static std::string absolute(const std::string& p) { return fs::absolute(p).lexically_normal().string(); }
   [[nodiscard]] std::string dirOf(const std::string& name) const { return (fs::path(dir_) / name).string(); }
@@ -667,10 +693,12 @@ class SystematicsJob final : public PlannedJob {
 
 }  // namespace
 
-std::unique_ptr<PlannedJob> systematicsJob(geometry::Calorimeter calo, SystematicsOptions options, std::string dir,
-                                           std::vector<std::string> inputs, int samplesPerTask) {
-  return std::make_unique<SystematicsJob>(std::move(calo), std::move(options), std::move(dir), std::move(inputs),
-                                          samplesPerTask);
+Result<std::unique_ptr<PlannedJob>> systematicsJob(geometry::Calorimeter calo, SystematicsOptions options,
+                                                   std::string dir, std::vector<std::string> inputs,
+                                                   int samplesPerTask) {
+  if (Status s = options.validate(); !s) return s.error();
+  return std::unique_ptr<PlannedJob>(std::make_unique<SystematicsJob>(
+      std::move(calo), std::move(options), std::move(dir), std::move(inputs), samplesPerTask));
 }
 
 }  // namespace emcalign::validation

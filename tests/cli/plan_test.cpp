@@ -273,6 +273,20 @@ TEST_F(PlanCli, APlanReplacesOnlyAPlanAndStaysBesideTheOutputs) {
   EXPECT_EQ(r.exitCode, 1);
   EXPECT_THAT(r.err, HasSubstr("not a plan"));
 
+  // A task's record gone (a task stopped before it wrote it): its finished sample is kept by a
+  // rerun, and status says so (issue 44: it never tells to remove good work).
+  const std::string record = path("plan.tasks/task-0.json");
+  const std::string kept = slurp("plan.tasks/task-0.json");
+  fs::remove(record);
+  r = run(fmt::format("batch status {}", path("plan.json")));
+  EXPECT_THAT(r.out, HasSubstr(fmt::format("task 0: {} is finished work of this plan: a rerun keeps it",
+                                           path("fan/samples/sample_0000.json"))));
+  EXPECT_THAT(r.out, Not(HasSubstr("remove it")));
+  EXPECT_EQ(
+      json::parse(run(fmt::format("batch status {} --json", path("plan.json"))).out)["outputs_of_missing"][0]["rerun"],
+      "keeps");
+  std::ofstream(record) << kept;
+
   // A sample truncated after its task ran: the task is missing again; it does not replace what
   // it cannot tell is its own (another study's sample?) but names it; removed, it runs again.
   const std::string sample = path("fan/samples/sample_0000.json");
@@ -280,7 +294,7 @@ TEST_F(PlanCli, APlanReplacesOnlyAPlanAndStaysBesideTheOutputs) {
   r = run(fmt::format("batch status {} --json", path("plan.json")));
   EXPECT_EQ(json::parse(r.out)["missing"], json::parse("[0, 1, 2]"));
   r = run(fmt::format("batch status {}", path("plan.json")));
-  EXPECT_THAT(r.out, HasSubstr(fmt::format("task 0: {} is there but not as the task wrote it", sample)));
+  EXPECT_THAT(r.out, HasSubstr(fmt::format("task 0: {} is not this plan's work", sample)));
   r = run(fmt::format("task {} 0", path("plan.json")));
   EXPECT_EQ(r.exitCode, 1);
   EXPECT_THAT(r.err, HasSubstr(sample + " is not a finished sample of this campaign"));
@@ -297,6 +311,26 @@ TEST_F(PlanCli, APlanReplacesOnlyAPlanAndStaysBesideTheOutputs) {
   EXPECT_EQ(r.exitCode, 1);
   EXPECT_THAT(r.err, HasSubstr("not what the plan's command makes now"));
   EXPECT_FALSE(fs::exists(path("elsewhere.json")));
+}
+
+// A plan is refused where the one-process command is (one validation, issue 44): no plan, no
+// tasks that all run only for the merge to refuse.
+TEST_F(PlanCli, APlanChecksWhatTheCommandChecks) {
+  for (const auto& [command, said] : std::vector<std::pair<std::string, std::string>>{
+           {"derive-corrections --response-samples 4 -o c.json", "--response-samples must be 0 or at least 50"},
+           {fmt::format("systematics --reverse --reverse-response-samples 4 --corrections {} -o sy",
+                        std::string(EMCALIGN_SOURCE_DIR) + "/data/corrections/ee-612.5MeV-40-140deg.json"),
+            "the reverse study: --reverse-response-samples must be 0 or at least 50"},
+           {"systematics --samples 1 -o sy", "2 samples at least"}}) {
+    const auto direct = run(command);
+    EXPECT_EQ(direct.exitCode, 1) << command;
+    EXPECT_THAT(direct.err, HasSubstr(said)) << command;
+    const auto planned = run(command + " --plan " + path("plan.json"));
+    EXPECT_EQ(planned.exitCode, 1) << command;
+    EXPECT_EQ(planned.err, direct.err) << command;
+    EXPECT_FALSE(fs::exists(path("plan.json"))) << command;
+    EXPECT_FALSE(fs::exists(path("plan.tasks"))) << command;
+  }
 }
 
 TEST_F(PlanCli, TheJobArrayScriptAndAMissingSbatch) {

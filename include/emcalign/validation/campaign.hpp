@@ -142,9 +142,13 @@ std::string sampleFile(const std::string& dir, int i);
 
 /// The campaign as a plan's tasks (`validate --plan`): each task `samplesPerTask` samples
 /// (runSample; 0: one, or more to keep within kMaxPlanTasks); the merge is runCampaign with
-/// onlyFinished. `inputs`: the files the campaign reads, for the logs.
-std::unique_ptr<PlannedJob> validationJob(geometry::Calorimeter calo, CampaignOptions options, std::string dir,
-                                          std::vector<std::string> inputs, int samplesPerTask = 0);
+/// onlyFinished. `inputs`: the files the campaign reads, for the logs. Options the campaign
+/// refuses are refused here (CampaignOptions::validate), before a plan is written.
+/// Whether DIR's sample i is a finished sample of this campaign (what a rerun keeps).
+bool isFinishedSample(const geometry::Calorimeter& calo, const CampaignOptions& o, const std::string& dir, int i);
+
+Result<std::unique_ptr<PlannedJob>> validationJob(geometry::Calorimeter calo, CampaignOptions options, std::string dir,
+                                                  std::vector<std::string> inputs, int samplesPerTask = 0);
 
 /// The table from finished samples.
 Table tabulate(const std::vector<SampleResult>& samples, std::int64_t events, double r1);

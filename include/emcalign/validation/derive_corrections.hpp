@@ -130,11 +130,12 @@ bool derivedWith(const std::string& file, const io::Json& settings);
 /// with the first stage. They write into derivationTaskDirectory(workDirectory, E), each file
 /// with `settings[k]`; a task that needs another's work waits on that work's lock, or does it.
 /// A point whose file holds corrections derived with its settings is one task that keeps it.
-/// The merge is mergeDerivation.
-std::unique_ptr<PlannedJob> derivationJob(geometry::Calorimeter calo, DerivationOptions options,
-                                          std::vector<GridPoint> points, std::vector<io::Json> settings,
-                                          std::vector<std::string> inputs, std::string workDirectory,
-                                          int samplesPerTask);
+/// The merge is mergeDerivation. Options deriveCorrections refuses are refused here
+/// (DerivationOptions::validate), before a plan is written.
+Result<std::unique_ptr<PlannedJob>> derivationJob(geometry::Calorimeter calo, DerivationOptions options,
+                                                  std::vector<GridPoint> points, std::vector<io::Json> settings,
+                                                  std::vector<std::string> inputs, std::string workDirectory,
+                                                  int samplesPerTask);
 
 /// Where a plan's tasks derive the point at `beamEnergy`: WORK/derive-ee-<E>MeV.
 std::string derivationTaskDirectory(const std::string& workDirectory, double beamEnergy);

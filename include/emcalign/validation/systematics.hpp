@@ -50,6 +50,10 @@ struct SystematicsOptions {
   /// The reverse study, when given: the derivations' statistics and seed (their simulation,
   /// beam energy and response ranges are the campaign's).
   std::optional<DerivationOptions> reverse;
+
+  /// What a study needs (2 samples at least, valid campaign and reverse options): checked by
+  /// runSystematics and by systematicsJob alike, so a plan is refused where the command is.
+  [[nodiscard]] Status validate() const;
 };
 
 /// The campaign with a variation: its simulation changed, and the variation recorded in the
@@ -116,9 +120,11 @@ Result<SystematicsTable> runSystematics(const geometry::Calorimeter& calo, const
 /// The study as a plan's tasks (`systematics --plan`): each sample of each campaign, and with
 /// the reverse study each derivation and each sample of its campaign; the merge is
 /// runSystematics with campaign.onlyFinished. `inputs`: the files it reads, for the logs;
-/// `samplesPerTask`: as validationJob's (0: one, or more to keep within kMaxPlanTasks).
-std::unique_ptr<PlannedJob> systematicsJob(geometry::Calorimeter calo, SystematicsOptions options, std::string dir,
-                                           std::vector<std::string> inputs, int samplesPerTask = 0);
+/// `samplesPerTask`: as validationJob's (0: one, or more to keep within kMaxPlanTasks). Options
+/// runSystematics refuses are refused here (SystematicsOptions::validate).
+Result<std::unique_ptr<PlannedJob>> systematicsJob(geometry::Calorimeter calo, SystematicsOptions options,
+                                                   std::string dir, std::vector<std::string> inputs,
+                                                   int samplesPerTask = 0);
 
 /// {"samples", "events", "variations": [{"name", "quantity", "change", "why", "pattern"}],
 /// "reverse": {derivation settings} or null, "parameters": {name: {"unit", "bias",

@@ -65,6 +65,11 @@ class PlannedJob {
   /// What else a task's record must match to count as done (a campaign's group stored into a
   /// database and tag given to the task, not the plan's): empty for most jobs.
   virtual std::string recordKey() const { return {}; }
+  /// Whether a rerun of task k keeps `output` (one of its writes, there already without the
+  /// task's record: a task stopped mid-way, or a file changed since): true when it holds the
+  /// task's work with the plan's settings, false when the task would refuse it; none when the
+  /// job cannot tell without running the task.
+  virtual std::optional<bool> keeps(std::size_t /*k*/, const std::string& /*output*/) const { return std::nullopt; }
 };
 
 /// An exclusive lock on a file (created if absent), held while the object lives: two copies of

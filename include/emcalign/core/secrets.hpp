@@ -1,0 +1,29 @@
+#pragma once
+// Secrets never leave the process (docs/conventions.md): a password written into the command
+// line — a URI's user:password@, a password= parameter, wherever the argument stands, a
+// misplaced one included — is remembered when the process starts, and every line it prints or
+// file it writes shows "***" instead. The conditions database's own addresses are redacted by
+// conddb::DatabaseAddress as well; this catches the rest (a URI given where a file was expected).
+
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace emcalign::core {
+
+/// The passwords `text` holds: for every "scheme://user:password@…" the password (as written and
+/// percent-decoded); the value of every "password=" (any case, also
+/// sslpassword=), up to '&', white space or the end. Empty when it holds none.
+std::vector<std::string> passwordsIn(std::string_view text);
+
+/// Remembers the passwords of `text` (the command line's arguments, one by one).
+void rememberPasswordsOf(std::string_view text);
+/// Whether any password is remembered.
+bool passwordsRemembered();
+/// Whether `text` holds a password (passwordsIn not empty).
+bool holdsPassword(std::string_view text);
+/// `text` with every remembered password as "***" (longest first; one of fewer than 4
+/// characters only where it follows a ':' or a '=', as in "user:pw@" or "password=pw").
+std::string withoutPasswords(std::string text);
+
+}  // namespace emcalign::core

@@ -1,0 +1,116 @@
+#include "emcalign/core/secrets.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <mutex>
+
+namespace emcalign::core {
+
+namespace {
+
+// Shorter ones are searched only with what stands before them (a bare "ab" is in many words).
+constexpr std::size_t kMinBareSecret = 4;
+
+std::mutex gMutex;
+std::vector<std::string> gPasswords;  // and user:password forms
+
+int hexValue(char c) {
+  if (c >= '0' && c <= '9') return c - '0';
+  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+  return -1;
+}
+
+std::string percentDecoded(std::string_view s) {
+  std::string out;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    if (s[i] == '%' && i + 2 < s.size() && hexValue(s[i + 1]) >= 0 && hexValue(s[i + 2]) >= 0) {
+      out += static_cast<char>(hexValue(s[i + 1]) * 16 + hexValue(s[i + 2]));
+      i += 2;
+    } else {
+      out += s[i];
+    }
+  }
+  return out;
+}
+
+bool schemeCharacter(char c) {
+  return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '+' || c == '-' || c == '.';
+}
+
+void add(std::vector<std::string>& out, std::string_view s) {
+  if (s.empty()) return;
+  out.emplace_back(s);
+  if (std::string d = percentDecoded(s); d != s) out.push_back(std::move(d));
+}
+
+}  // namespace
+
+std::vector<std::string> passwordsIn(std::string_view text) {
+  std::vector<std::string> out;
+  // scheme://user:password@host…: the userinfo up to the last '@' before white space (a password
+  // with an '@' not percent-encoded is a password all the same).
+  for (auto at = text.find("://"); at != std::string_view::npos; at = text.find("://", at + 3)) {
+    std::size_t begin = at;
+    while (begin > 0 && schemeCharacter(text[begin - 1])) --begin;
+    if (begin == at || std::isalpha(static_cast<unsigned char>(text[begin])) == 0) continue;
+    const std::size_t from = at + 3;
+    const std::size_t end = std::min(text.size(), text.find_first_of(" \t\n", from));
+    const std::string_view rest = text.substr(from, end - from);
+    const auto lastAt = rest.rfind('@');
+    if (lastAt == std::string_view::npos) continue;
+    const std::string_view userinfo = rest.substr(0, lastAt);
+    const auto colon = userinfo.find(':');
+    if (colon == std::string_view::npos || colon + 1 == userinfo.size()) continue;
+    add(out, userinfo.substr(colon + 1));
+  }
+  // password=…, sslpassword=…: a URI's parameter or a libpq keyword string.
+  std::string lower(text);
+  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return std::tolower(c); });
+  for (auto at = lower.find("password="); at != std::string::npos; at = lower.find("password=", at + 9)) {
+    const std::size_t from = at + 9;
+    const std::size_t end = std::min(text.size(), text.find_first_of("& \t\n", from));
+    std::string_view value = text.substr(from, end - from);
+    if (value.size() >= 2 && (value.front() == '\'' || value.front() == '"') && value.back() == value.front()) {
+      value = value.substr(1, value.size() - 2);
+    }
+    add(out, value);
+  }
+  return out;
+}
+
+void rememberPasswordsOf(std::string_view text) {
+  auto found = passwordsIn(text);
+  if (found.empty()) return;
+  const std::lock_guard lock(gMutex);
+  for (auto& p : found) {
+    if (std::find(gPasswords.begin(), gPasswords.end(), p) == gPasswords.end()) gPasswords.push_back(std::move(p));
+  }
+  std::sort(gPasswords.begin(), gPasswords.end(), [](const auto& a, const auto& b) { return a.size() > b.size(); });
+}
+
+bool passwordsRemembered() {
+  const std::lock_guard lock(gMutex);
+  return !gPasswords.empty();
+}
+
+bool holdsPassword(std::string_view text) { return !passwordsIn(text).empty(); }
+
+std::string withoutPasswords(std::string text) {
+  const std::lock_guard lock(gMutex);
+  for (const std::string& p : gPasswords) {
+    const bool bare = p.size() >= kMinBareSecret || p.find(':') != std::string::npos;
+    for (auto at = text.find(p); at != std::string::npos; at = text.find(p, at)) {
+      const bool preceded = at > 0 && (text[at - 1] == ':' || text[at - 1] == '=');
+      if (!bare && !preceded) {
+        at += p.size();
+        continue;
+      }
+      text.replace(at, p.size(), "***");
+      at += 3;
+    }
+  }
+  return text;
+}
+
+}  // namespace emcalign::core

@@ -1,0 +1,43 @@
+// The command line's passwords, found and redacted (core/secrets.hpp, issue 44).
+
+#include "emcalign/core/secrets.hpp"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+namespace emcalign::core {
+namespace {
+
+using ::testing::ElementsAre;
+using ::testing::IsEmpty;
+using ::testing::UnorderedElementsAre;
+
+TEST(Secrets, PasswordsAreFoundWhereverTheyStandInAnArgument) {
+  EXPECT_THAT(passwordsIn("postgresql://calib:secret@db/snd"), ElementsAre("secret"));
+  EXPECT_THAT(passwordsIn("--conditions=postgres://u:p%40ss@db:5432/x"), UnorderedElementsAre("p%40ss", "p@ss"));
+  // An '@' left unencoded is part of the password all the same.
+  EXPECT_THAT(passwordsIn("@postgresql://u:pa@ss@db/x"), ElementsAre("pa@ss"));
+  EXPECT_THAT(passwordsIn("postgresql://u@db/x?sslmode=require&password=hunter2"), ElementsAre("hunter2"));
+  EXPECT_THAT(passwordsIn("host=db sslpassword='key pass' user=u"), ElementsAre("'key"));
+  EXPECT_THAT(passwordsIn("mysql://root:toor@localhost/db"), ElementsAre("toor"));
+  // No password: a user alone, a path with a colon, an e-mail address, a time.
+  EXPECT_THAT(passwordsIn("postgresql://calib@db/snd"), IsEmpty());
+  EXPECT_THAT(passwordsIn("runs/2026-12-04T10:00/ev.h5"), IsEmpty());
+  EXPECT_THAT(passwordsIn("mail calib@snd.example 10:30"), IsEmpty());
+  EXPECT_THAT(passwordsIn("postgresql://calib:@db/snd"), IsEmpty());
+}
+
+TEST(Secrets, RememberedPasswordsAreRedactedInEveryLine) {
+  rememberPasswordsOf("postgresql://calib:Sekr3t%21@db/snd");
+  rememberPasswordsOf("postgresql://u:Zq@db/x");  // too short to look for bare
+  ASSERT_TRUE(passwordsRemembered());
+  EXPECT_EQ(withoutPasswords("error: File does not exist: postgresql://calib:Sekr3t%21@db/snd"),
+            "error: File does not exist: postgresql://calib:***@db/snd");
+  EXPECT_EQ(withoutPasswords("libpq: password Sekr3t! refused"), "libpq: password *** refused");
+  EXPECT_EQ(withoutPasswords("u:Zq@db, Zqa, aZq"), "u:***@db, Zqa, aZq");
+  EXPECT_TRUE(holdsPassword("x postgresql://a:b@c"));
+  EXPECT_FALSE(holdsPassword("x postgresql://a@c"));
+}
+
+}  // namespace
+}  // namespace emcalign::core

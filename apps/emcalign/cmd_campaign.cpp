@@ -188,6 +188,25 @@ int finishCampaign(const CampaignCliOptions& o) {
 // The campaign's files read once (their runs, selected events and digests) and grouped; the
 // groups printed. `outputs`: the command's file outputs (the plan), checked against its inputs;
 // `target`: the database to store into, checked before the files are read.
+// A new SQLite database is never created among the campaign's event files (a directory given
+// as input): it would be an input of every later campaign on that directory.
+Status newDatabaseBesideTheData(const CampaignCliOptions& o) {
+  const std::string file = conddb::sqliteFileOf(o.conditions);
+  std::error_code ec;
+  if (file.empty() || std::filesystem::exists(file, ec)) return {};
+  const auto parent = std::filesystem::weakly_canonical(std::filesystem::absolute(file, ec).parent_path(), ec);
+  for (const auto& input : o.inputs) {
+    if (!std::filesystem::is_directory(input, ec)) continue;
+    if (std::filesystem::weakly_canonical(std::filesystem::absolute(input, ec), ec) == parent) {
+      return Error{fmt::format(
+          "--conditions {}: a new database among the campaign's event files in {}, where every later campaign on "
+          "that directory would read it: put it beside the directory",
+          conddb::shownAddress(o.conditions), input)};
+    }
+  }
+  return {};
+}
+
 struct ScannedCampaign {
   validation::CampaignModel model;
   validation::CampaignScan scan;
@@ -207,6 +226,7 @@ Result<ScannedCampaign> scanCampaign(const CampaignCliOptions& o, const std::vec
   if (!model) return model.error();
   model->setSigmaSys(sigmaSysChoice(o.sigmaSys));
   if (target != nullptr) {
+    if (Status s = newDatabaseBesideTheData(o); !s) return s.error();
     if (Status s = target->prepare(); !s) return s.error();
   }
   ProgressLine scanning("campaign: reading", static_cast<std::int64_t>(files->size()), "files");

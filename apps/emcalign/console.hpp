@@ -16,19 +16,36 @@
 #include <fmt/format.h>
 
 #include "emcalign/core/secrets.hpp"
+#include "emcalign/core/utf8.hpp"
 
 namespace emcalign::app {
 
-/// Writes `text` to stderr, without the command line's passwords (core/secrets.hpp); a SIGPIPE this raises (the reader
-/// of a pipe gone) is taken back.
+/// `text` safe for a terminal: every control character that input files or a database could
+/// have put into a message (an ESC sequence, a bell, a carriage return that rewrites the line)
+/// shown as \xNN (core/utf8.hpp's printable), except the line's own newlines and tabs and a
+/// carriage return that starts it (a progress line).
+inline std::string terminalSafe(const std::string& text) {
+  std::string out;
+  std::size_t from = 0;
+  for (std::size_t i = 0; i <= text.size(); ++i) {
+    const bool end = i == text.size();
+    if (!end && text[i] != '\n' && text[i] != '\t' && !(text[i] == '\r' && i == 0)) continue;
+    out += printable(std::string_view(text).substr(from, i - from));
+    if (!end) out += text[i];
+    from = i + 1;
+  }
+  return out;
+}
+
+/// Writes `text` to stderr, without the command line's passwords (core/secrets.hpp) and terminal-safe; a SIGPIPE this
+/// raises (the reader of a pipe gone) is taken back.
 inline void writeToStderr(const std::string& given) noexcept {
-  std::string redacted;
+  std::string text;
   try {
-    if (core::passwordsRemembered()) redacted = core::withoutPasswords(given);
+    text = terminalSafe(core::passwordsRemembered() ? core::withoutPasswords(given) : given);
   } catch (...) {  // out of memory: the line is not shown rather than shown with a password
     return;
   }
-  const std::string& text = core::passwordsRemembered() ? redacted : given;
   sigset_t pipe, old;
   sigemptyset(&pipe);
   sigaddset(&pipe, SIGPIPE);

@@ -79,8 +79,14 @@ int runFromPlan(const validation::Plan& plan, PlanContext::Mode mode, std::size_
   }
   std::vector<std::string> args = {"emcalign", plan.command};
   // A batch task uses the CPUs the batch system gave it (the result does not depend on them).
+  // (More than a command takes is the batch system's setting, not the plan's: the most used.)
   const char* cpus = std::getenv("SLURM_CPUS_PER_TASK");
-  const int n = cpus != nullptr && mode == PlanContext::Mode::Task ? std::atoi(cpus) : 0;
+  const long given = cpus != nullptr && mode == PlanContext::Mode::Task ? std::atol(cpus) : 0;
+  const int n = static_cast<int>(std::clamp<long>(given, 0, kMaxThreads));
+  if (given > kMaxThreads) {
+    reportWarning(fmt::format("SLURM_CPUS_PER_TASK={}: more than the {} threads a command takes: {} used", given,
+                              kMaxThreads, kMaxThreads));
+  }
   const std::vector<std::string> arguments = n > 0 ? without(plan.arguments, "--threads") : plan.arguments;
   args.insert(args.end(), arguments.begin(), arguments.end());
   if (n > 0) {

@@ -166,7 +166,8 @@ class Database {
   /// Locks a tag: no IOV is added to it afterwards (refused for a retired tag).
   virtual Status lock(const std::string& tag) = 0;
   /// Retires an open tag (refused for a locked one: a published calibration is never
-  /// withdrawn); retiring a retired tag again changes nothing.
+  /// withdrawn); retiring a retired tag again with the same reason changes nothing (a retry),
+  /// with another reason is refused, naming the first.
   virtual Status retire(const std::string& tag, const std::string& reason) = 0;
 
   /// The URI it was opened with (for messages), without any password.

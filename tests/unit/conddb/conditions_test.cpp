@@ -158,7 +158,12 @@ TEST_P(Conditions, ARetiredTagIsKeptListedAndNeverServed) {
   ASSERT_TRUE(db->lock("good"));
   ASSERT_TRUE(db->get("wrong", 5));
   ASSERT_TRUE(db->retire("wrong", "the wrong corrections"));
-  EXPECT_TRUE(db->retire("wrong", "again"));  // nothing changes
+  EXPECT_TRUE(db->retire("wrong", "the wrong corrections"));  // a retry: nothing changes
+  // Another reason is refused, naming the first (issue 44: it was kept while success was said).
+  const Status again = db->retire("wrong", "again");
+  ASSERT_FALSE(again);
+  EXPECT_NE(again.error().message.find("retired already"), std::string::npos) << again.error().message;
+  EXPECT_NE(again.error().message.find("the wrong corrections"), std::string::npos) << again.error().message;
   auto got = db->get("wrong", 5);
   ASSERT_FALSE(got);
   EXPECT_NE(got.error().message.find("was retired"), std::string::npos) << got.error().message;

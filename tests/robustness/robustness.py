@@ -47,6 +47,7 @@ class Case:
         self.check = check        # callable(dir, result) -> error text or None, after it
         self.run = run            # a custom runner(dir, argv) -> result, e.g. for signals
         self.checked = checked    # what `check` verifies, in words (shown in the table)
+        self.output = None        # (command and output, check) of the outputs' table, if one
 
 
 class Result:
@@ -1429,7 +1430,211 @@ def cases():
              "emcalign check gg ev.h5 ev5.csv --alignment p.json -o CKM", 1, "ev5.csv: has no", setup=csv_run5,
              check=lambda d, r: "the temporary is named" if ".tmp-" in r.err else None,
              checked="no temporary named"))
+    batch_cases(add)
+    output_cases(add)
     return out
+
+
+# A plan's command lines, its job-array script, its work directory (issue 44).
+def batch_cases(add):
+    B = "Plans and batch scripts"
+
+    def plan(d):
+        if not os.path.exists(os.path.join(d, "bplan.json")):
+            runner_binary_run(d, ["validate", "--samples", "2", "--events", "1000", "--seed", "2", "-o", "bfan",
+                                  "--plan", "bplan.json"])
+
+    def fifo_log(d):
+        plan(d)
+        log = os.path.join(d, "bplan.tasks", "task-1.log")
+        if not os.path.exists(log):
+            os.mkfifo(log)
+    add(Case(B, "a FIFO planted as a task's log", "emcalign batch status bplan.json", 1, None, setup=fifo_log,
+             check=lambda d, r: None if "missing: 0-1" in r.out else f"not the missing tasks: {r.out}",
+             checked="no hang; the missing tasks named"))
+    add(Case(B, "... and the merge", "emcalign finish bplan.json", 1, "missing", setup=fifo_log))
+
+    def linked(d):
+        plan(d)
+        if not os.path.lexists(os.path.join(d, "blink.json")):
+            os.symlink("bplan.json", os.path.join(d, "blink.json"))
+    add(Case(B, "a plan reached through a link: one work directory",
+             "emcalign task blink.json 0 >/dev/null && emcalign batch status bplan.json --json", 1, None, setup=linked,
+             check=lambda d, r: ("a second work directory blink.tasks" if os.path.exists(os.path.join(d, "blink.tasks"))
+                                 else None) or (None if json.loads(r.out)["done"] == [0] else r.out),
+             checked="task 0 done in the real plan's work directory, no blink.tasks"))
+
+    def same_size(d):
+        linked(d)
+        runner_binary_run(d, ["task", "bplan.json", "0"])
+        sample = os.path.join(d, "bfan", "samples", "sample_0000.json")
+        with open(sample) as f:
+            text = f.read()
+        with open(sample, "w") as f:  # a digit changed: the same size
+            f.write(text.replace('"seed": 2', '"seed": 3', 1) if '"seed": 2' in text else text[:-2] + "x\n")
+    add(Case(B, "a task's sample edited to the same size", "emcalign batch status bplan.json", 1,
+             None, setup=same_size, check=lambda d, r: None if "task 0: " in r.out and "not this plan's work" in r.out
+             else f"the edited sample counts as done: {r.out}", checked="task 0 missing, its sample named as not its work"))
+
+    def onto(d):
+        plan(d)
+        runner_binary_run(d, ["task", "bplan.json", "1"])
+    add(Case(B, "the job script over a sample the plan wrote", "emcalign batch script bplan.json -o "
+             "bfan/samples/sample_0001.json", 1, "which the plan's task 1 writes", setup=onto))
+    add(Case(B, "the job script inside the plan's output directory", "emcalign batch script bplan.json -o bfan/job.sh",
+             1, "the plan's -o", setup=plan))
+    db_before, db_same = unchanged("camp.db")
+    add(Case(B, "the job script over the campaign plan's database", "emcalign campaign period --plan cdbplan.json "
+             "--conditions camp.db --tag c2 >/dev/null 2>&1; emcalign batch script cdbplan.json -o camp.db", 1,
+             "the plan's --conditions", setup=db_before, check=db_same, checked="camp.db unchanged"))
+
+    def copied(name, change=None):
+        def setup(d):
+            plan(d)
+            os.makedirs(os.path.join(d, name), exist_ok=True)
+            edit_json(d, "bplan.json", os.path.join(name, "bplan.json"), change or (lambda j: None))
+        return setup
+    add(Case(B, "a copy of a plan in a directory whose name holds a newline", "emcalign batch script "
+             "\"$(printf 'evil\\ntouch PWNED')/bplan.json\" -o -", 1, "a control character",
+             setup=copied("evil\ntouch PWNED"), check=lambda d, r: "PWNED" if os.path.exists(os.path.join(d, "PWNED"))
+             else None, checked="nothing ran"))
+    add(Case(B, "a plan edited: its directory holds \"hetjob\"", "emcalign batch script hj/bplan.json -o -", 1,
+             "'directory'", setup=copied("hj", lambda j: j.__setitem__("directory", "/tmp/my-hetjob"))))
+    add(Case(B, "a plan whose command refuses its options (--response-samples 4)",
+             "emcalign derive-corrections --response-samples 4 -o rc.json --plan rplan.json", 1,
+             "--response-samples must be 0 or at least 50",
+             check=lambda d, r: "a plan written" if os.path.exists(os.path.join(d, "rplan.json")) else None,
+             checked="no plan written"))
+    add(Case(B, "more CPUs than a command takes (SLURM_CPUS_PER_TASK=100000)",
+             "rm -f bplan.tasks/task-1.json bfan/samples/sample_0001.json; SLURM_CPUS_PER_TASK=100000 emcalign task bplan.json 1", 0,
+             "SLURM_CPUS_PER_TASK=100000", setup=plan))
+    add(Case(B, "a new database among a campaign's event files",
+             "emcalign campaign period --conditions period/new.db --tag t --min-events 1500", 1,
+             "a new database among the campaign's event files",
+             check=lambda d, r: "period/new.db created" if os.path.exists(os.path.join(d, "period", "new.db")) else None,
+             checked="no period/new.db"))
+
+    def escapes(d):
+        with open(os.path.join(d, "ev.csv")) as f:
+            lines = f.read().splitlines()
+        body = [l for l in lines if not l.startswith("#")]
+        write(d, "esc.csv", "\n".join(body[:2] + ["1,\x1b[2J\x1b[31mred," + body[1].split(",", 2)[2]]) + "\n")
+    add(Case(B, "terminal escapes in an event file's field", "emcalign fit esc.csv -o esc.json", 1,
+             "\\x1b[2J", setup=escapes, check=lambda d, r: "a raw ESC printed" if "\x1b" in r.err else None,
+             checked="no raw ESC on stderr"))
+
+    def retired(d):
+        runner_binary_run(d, ["campaign", "period", "--conditions", "ret.db", "--tag", "r", "--min-events", "1500"])
+        runner_binary_run(d, ["conditions", "retire", "ret.db", "--tag", "r", "--reason", "the wrong runs"])
+    add(Case(B, "a tag retired again with another reason", "emcalign conditions retire ret.db --tag r --reason other",
+             1, "retired already", setup=retired))
+    add(Case(B, "a password URI where a result file goes", "emcalign conditions put result.json --tag t --runs 1-2 "
+             "'postgresql://calib:hunter2secret@127.0.0.1:1/snd'", 2, "calib:***@",
+             check=lambda d, r: "shown" if "hunter2secret" in r.out + r.err else None, checked="not shown"))
+    add(Case(B, "a password URI as an output directory", "emcalign trend --conditions camp.db --tag c "
+             "-o 'postgresql://calib:hunter2secret@127.0.0.1:1/snd'", 1, "holds a password",
+             check=lambda d, r: "shown or written" if "hunter2secret" in r.out + r.err or os.path.exists(
+                 os.path.join(d, "postgresql:")) else None, checked="not shown, nothing created"))
+
+
+# Every output of every command against what it is checked for: for each, written onto one of
+# the command's inputs, through a symbolic link and a hard link to it, and with a name holding
+# a password. Each is refused and leaves the input as it was (the table after the families).
+OUTPUTS = [  # (command, output option, command line with {out}, the input it reads)
+    ("fit", "-o", "emcalign fit ev.csv -o {out}", "ev.csv"),
+    ("fit", "--profile-out", "emcalign fit ev.csv -o o1.json --profile-out {out}", "ev.csv"),
+    ("fit", "--plots", "emcalign fit ev.csv -o o2.json --plots {out}", "ev.csv"),
+    ("simulate", "-o", "emcalign simulate --events 10 --params p.json -o {out}", "p.json"),
+    ("simulate --period", "-o", "emcalign simulate --period period.json -o {out}", "period.json"),
+    ("validate", "-o", "emcalign validate --samples 2 --events 1000 --corrections c.json -o {out}", "c.json"),
+    ("validate", "--plan", "emcalign validate --samples 2 --events 1000 --corrections c.json -o v9 --plan {out}",
+     "c.json"),
+    ("systematics", "-o", "emcalign systematics --samples 2 --events 1000 --corrections c.json -o {out}", "c.json"),
+    ("systematics", "--write-corrections",
+     "emcalign systematics --samples 2 --events 1000 --corrections c.json --write-corrections {out} -o s9", "c.json"),
+    ("systematics", "--plan",
+     "emcalign systematics --samples 2 --events 1000 --corrections c.json -o s9 --plan {out}", "c.json"),
+    ("derive-corrections", "-o", "emcalign derive-corrections --detector d.json -o {out}", "d.json"),
+    ("derive-corrections", "--plan", "emcalign derive-corrections --detector d.json -o dc9.json --plan {out}",
+     "d.json"),
+    ("correct", "-o", "emcalign correct ev.csv --alignment result.json -o {out}", "ev.csv"),
+    ("residuals", "-o", "emcalign residuals --sample a=ev.csv -o {out}", "ev.csv"),
+    ("compare", "-o", "emcalign compare --data ev.csv --mc ev.h5 -o {out}", "ev.csv"),
+    ("check gg", "-o", "emcalign check gg ev.csv --alignment result.json -o {out}", "ev.csv"),
+    ("check 3pi", "-o", "emcalign check 3pi ev.csv --alignment result.json -o {out}", "ev.csv"),
+    ("dead-counters", "-o", "emcalign dead-counters ev.h5 -o {out}", "ev.h5"),
+    ("export", "-o", "emcalign export --alignment result.json -o {out}", "result.json"),
+    ("conditions get", "-o", "emcalign conditions get camp.db --tag c --run 1 -o {out}", "camp.db"),
+    ("conditions export", "-o", "emcalign conditions export camp.db --tag c -o {out}", "camp.db"),
+    ("trend", "-o", "emcalign trend --conditions camp.db --tag c -o {out}", "camp.db"),
+    ("report", "-o", "emcalign report --fit result.json -o {out}", "result.json"),
+    ("campaign", "--plan", "emcalign campaign period --corrections c.json --plan {out}", "c.json"),
+    ("batch script", "-o", "emcalign batch script oplan.json -o {out}", "oplan.json"),
+]
+OUTPUT_CHECKS = ["an input", "a link to it", "a hard link to it", "a password in its name"]
+
+
+def unlisted_outputs(binary):
+    """The output options of the --help pages (every command, -o, --plan, --profile-out, --plots,
+    --write-corrections) that OUTPUTS does not list: each output must be in the table."""
+    listed = {(c.replace(" --period", ""), o) for c, o, _, _ in OUTPUTS}
+    missing = []
+
+    def walk(path):
+        text = subprocess.run([binary, *path, "--help"], capture_output=True, text=True).stdout
+        if "Subcommands:" in text:
+            for sub in re.findall(r"^  ([a-z0-9][a-z0-9-]*)\s{2,}", text.split("Subcommands:")[1], re.M):
+                walk(path + [sub])
+            return
+        options = set(re.findall(r"^\s+(?:(-o),--output|(--plan|--profile-out|--plots|--write-corrections)\b)",
+                                 text, re.M))
+        for short, long_ in options:
+            option = short or long_
+            command = " ".join(path)
+            if (command, option) not in listed:
+                missing.append(f"{command} {option}")
+    walk([])
+    return missing
+
+
+def output_cases(add):
+    O = "Every output against the command's inputs"
+    for command, option, line, source in OUTPUTS:
+        tag = re.sub(r"[^a-z0-9]+", "", command + option)
+
+        def setup(d, source=source, tag=tag):
+            if source == "oplan.json" and not os.path.exists(os.path.join(d, "oplan.json")):
+                runner_binary_run(d, ["validate", "--samples", "2", "--events", "1000", "-o", "ofan", "--plan",
+                                      "oplan.json"])
+            for kind, make in (("sym", os.symlink), ("hard", os.link)):
+                target = os.path.join(d, f"{kind}-{tag}")
+                if not os.path.lexists(target):
+                    make(os.path.join(d, source) if kind == "hard" else source, target)
+
+        def kept(source):
+            before = {}
+
+            def check(d, r):
+                if source not in before:
+                    return None
+                return None if sha(os.path.join(d, source)) == before[source] else f"{source} changed"
+            return before, check
+
+        for kind, out in (("an input", source), ("a link to it", f"sym-{tag}"), ("a hard link to it", f"hard-{tag}"),
+                          ("a password in its name", "'postgresql://calib:hunter2secret@127.0.0.1:1/x'")):
+            before, same = kept(source)
+
+            def prepared(d, setup=setup, before=before, source=source):
+                setup(d)
+                before[source] = sha(os.path.join(d, source))
+
+            def verified(d, r, same=same):
+                leaked = "hunter2secret" in r.out + r.err or any("hunter2secret" in n for n in os.listdir(d))
+                return same(d, r) or ("the password shown or a file named with it" if leaked else None)
+            case = Case(O, f"{command} {option}: {kind}", line.format(out=out), 1, "error:", setup=prepared,
+                        check=verified, checked=f"refused; {source} unchanged")
+            case.output = (f"{command} {option}", kind)
+            add(case)
 
 
 # ------------------------------------------------------------------------------- running
@@ -1493,6 +1698,19 @@ def render(results):
         command = re.sub(r"^setpriv \S+ \S+ \S+ ", "", command)
         out.append(f"| {markdown_cell(case.what)} | `{markdown_cell(command)}` | {case.exit_code} | "
                    f"{markdown_cell(line)} |")
+    rows = {}
+    for case, line in results:
+        if case.output:
+            rows.setdefault(case.output[0], {})[case.output[1]] = f"refused (exit {case.exit_code})"
+    if rows:
+        out += ["", "### Every output, and what it is checked for", "",
+                "Each output of each command written onto one of the command's inputs, through a symbolic link "
+                "and a hard link to it, and given a name holding a password: each refused, the input unchanged, "
+                "the password neither shown nor in a file's name (the family above).", "",
+                "| command and output | " + " | ".join(OUTPUT_CHECKS) + " |",
+                "|---|" + "---|" * len(OUTPUT_CHECKS)]
+        for row, checks in rows.items():
+            out.append(f"| `{row}` | " + " | ".join(checks.get(k, "not checked") for k in OUTPUT_CHECKS) + " |")
     out += ["", END]
     return "\n".join(out) + "\n"
 
@@ -1514,6 +1732,9 @@ def main():
     try:
         runner = Runner(binary, directory)
         make_fixtures(runner)
+        for missing in unlisted_outputs(binary):
+            print(f"FAIL an output not in the outputs' table (OUTPUTS): {missing}")
+            failures += 1
         for case in cases():
             line, problems = run_case(case, runner)
             results.append((case, line or "?"))

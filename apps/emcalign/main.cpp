@@ -6,6 +6,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <array>
 #include <cerrno>
 #include <csignal>
 #include <cstdio>
@@ -14,7 +15,6 @@
 #include <sstream>
 #include <string>
 #include <system_error>
-#include <vector>
 
 #include <fmt/format.h>
 #include <CLI/CLI.hpp>
@@ -104,8 +104,9 @@ void redactStandardOutput(int argc, char** argv) {
   const cookie_io_functions_t io{nullptr, writeRedacted, nullptr, nullptr};
   std::FILE* redacted = fopencookie(stdout, "w", io);
   if (redacted == nullptr) return;
-  // A line at a time (a password never straddles two writes), up to 1 MiB per line.
-  static std::vector<char> buffer(std::size_t{1} << 20);
+  // A line at a time (a password never straddles two writes), up to 1 MiB per line. Static
+  // storage without a destructor: the stream is flushed at exit, after destructors ran.
+  static std::array<char, std::size_t{1} << 20> buffer;
   std::setvbuf(redacted, buffer.data(), _IOLBF, buffer.size());
   stdout = redacted;
 }

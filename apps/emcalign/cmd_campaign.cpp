@@ -60,6 +60,16 @@ void printGroups(const std::vector<validation::CampaignGroup>& groups, std::int6
   }
 }
 
+// A database address as a plan keeps it: an SQLite file by its absolute path, a server without
+// a password.
+std::string storedForm(const std::string& conditions) {
+  auto address = conddb::DatabaseAddress::parse(conditions);
+  if (!address) return conddb::shownAddress(conditions);
+  return address->kind == conddb::DatabaseAddress::Kind::Sqlite
+             ? "sqlite:" + std::filesystem::absolute(address->file).lexically_normal().string()
+             : address->shown;
+}
+
 // The plan's campaign, with the conditions and tag its groups go to: the plan's, or those given
 // to --group (a plan made without them); given again, they must be the plan's.
 Result<validation::CampaignPlan> plannedCampaign(const io::Json& data, const std::string& source,
@@ -80,6 +90,13 @@ Result<validation::CampaignPlan> plannedCampaign(const io::Json& data, const std
                               (!o.tag.empty() && o.tag != plan->tag))) {
     return Error{
         fmt::format("--conditions/--tag: the plan {} stores into {} tag {}", source, plan->conditions, plan->tag)};
+  } else if (o.group < 0 && (storedForm(o.conditions) != plan->conditions || o.tag != plan->tag)) {
+    // A task: the plan's command line (its arguments) and its data name the same database and
+    // tag, or the plan was edited.
+    return Error{fmt::format(
+        "{}: key 'data': the plan stores into {} tag {}, its command line into {} tag {}: edited? make the plan "
+        "again",
+        source, plan->conditions, plan->tag, storedForm(o.conditions), o.tag)};
   }
   return plan;
 }
@@ -263,13 +280,18 @@ Result<std::unique_ptr<validation::PlannedJob>> newPlanJob(const CampaignCliOpti
                       "(~/.pgpass) or PGPASSWORD, and the address without it",
                       address->shown)};
     }
-    conditions = address->kind == conddb::DatabaseAddress::Kind::Sqlite
-                     ? "sqlite:" + fs::absolute(address->file).lexically_normal().string()
-                     : address->shown;
+    conditions = storedForm(o.conditions);
   }
-  auto scanned = scanCampaign(o, {{"--plan", o.plan}}, nullptr);
+  // The database and tag checked as the one-process campaign checks them, before the plan is
+  // written (a locked tag, another grouping, a file that is no database, a new database among
+  // the event files): nothing is created here.
+  DatabaseToWrite target(o.conditions);
+  auto scanned = scanCampaign(o, {{"--plan", o.plan}}, conditions.empty() ? nullptr : &target);
   if (!scanned) return scanned.error();
   const auto& [model, scan, groups] = *scanned;
+  if (conddb::Database* db = target.existing(); db != nullptr && !conditions.empty()) {
+    if (auto held = validation::checkCampaignTag(scan, model, *db, o.tag, groups); !held) return held.error();
+  }
   io::Json data = validation::planJson(scan, groups, o.minEvents, model);
   if (!conditions.empty()) {
     data["conditions"] = conditions;

@@ -321,6 +321,9 @@ void addValidateCommand(CLI::App& app, int& exitCode) {
           std::optional<geometry::Calorimeter> calo;
           auto made = campaignOptionsOf(*o, calo);
           if (!made) return made.error();
+          if (planContext().mode == PlanContext::Mode::Direct) {  // the plan about to be written
+            if (Status s = validation::checkPlannedCampaign(*calo, *made, o->output); !s) return s.error();
+          }
           return validation::validationJob(std::move(*calo), std::move(*made), o->output, inputsOf(*o),
                                            o->samplesPerTask);
         },
@@ -371,6 +374,9 @@ void addValidateCommand(CLI::App& app, int& exitCode) {
           std::optional<geometry::Calorimeter> calo;
           auto made = systematicsOptionsOf(*s, calo);
           if (!made) return made.error();
+          if (planContext().mode == PlanContext::Mode::Direct) {  // the plan about to be written
+            if (Status st = validation::checkPlannedSystematics(*calo, *made, s->output); !st) return st.error();
+          }
           return validation::systematicsJob(std::move(*calo), std::move(*made), s->output, inputsOf(*s),
                                             s->samplesPerTask);
         },

@@ -73,6 +73,16 @@ RegularFile::~RegularFile() {
   if (fd_ >= 0) ::close(fd_);
 }
 
+Status RegularFile::seekToLast(std::size_t bytes) {
+  struct stat st {};
+  if (::fstat(fd_, &st) != 0) return Error{fmt::format("{}: {}", path_, std::strerror(errno))};
+  const auto size = static_cast<std::size_t>(st.st_size);
+  if (::lseek(fd_, static_cast<off_t>(size > bytes ? size - bytes : 0), SEEK_SET) < 0) {
+    return Error{fmt::format("{}: cannot seek: {}", path_, std::strerror(errno))};
+  }
+  return {};
+}
+
 Result<std::size_t> RegularFile::read(char* data, std::size_t size) {
   std::size_t got = 0;
   while (got < size) {

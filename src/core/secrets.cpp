@@ -64,18 +64,29 @@ std::vector<std::string> passwordsIn(std::string_view text) {
     if (colon == std::string_view::npos || colon + 1 == userinfo.size()) continue;
     add(out, userinfo.substr(colon + 1));
   }
-  // password=…, sslpassword=…: a URI's parameter or a libpq keyword string.
-  std::string lower(text);
-  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return std::tolower(c); });
-  for (auto at = lower.find("password="); at != std::string::npos; at = lower.find("password=", at + 9)) {
-    const std::size_t from = at + 9;
-    const std::size_t end = std::min(text.size(), text.find_first_of("& \t\n", from));
-    std::string_view value = text.substr(from, end - from);
-    if (value.size() >= 2 && (value.front() == '\'' || value.front() == '"') && value.back() == value.front()) {
-      value = value.substr(1, value.size() - 2);
+  // password=…, sslpassword=…: a URI's parameter (its name percent-encoded or not: pass%77ord=,
+  // password%3D…) or a libpq keyword string (white space around its '=' allowed).
+  const auto parameters = [&](std::string_view source) {
+    std::string lower(source);
+    std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return std::tolower(c); });
+    for (auto at = lower.find("password"); at != std::string::npos; at = lower.find("password", at + 8)) {
+      std::size_t from = at + 8;
+      while (from < source.size() && (source[from] == ' ' || source[from] == '\t')) ++from;
+      if (from >= source.size() || source[from] != '=') continue;
+      ++from;
+      while (from < source.size() && (source[from] == ' ' || source[from] == '\t')) ++from;
+      std::string_view value = source.substr(from);
+      if (!value.empty() && (value.front() == '\'' || value.front() == '"')) {
+        const auto close = value.find(value.front(), 1);
+        value = value.substr(1, close == std::string_view::npos ? std::string_view::npos : close - 1);
+      } else {
+        value = value.substr(0, value.find_first_of("& \t\n"));
+      }
+      add(out, value);
     }
-    add(out, value);
-  }
+  };
+  parameters(text);
+  if (const std::string decoded = percentDecoded(text); decoded != text) parameters(decoded);
   return out;
 }
 
@@ -98,6 +109,7 @@ bool holdsPassword(std::string_view text) { return !passwordsIn(text).empty(); }
 
 std::string withoutPasswords(std::string text) {
   const std::lock_guard lock(gMutex);
+  if (gPasswords.empty()) return text;
   for (const std::string& p : gPasswords) {
     const bool bare = p.size() >= kMinBareSecret || p.find(':') != std::string::npos;
     for (auto at = text.find(p); at != std::string::npos; at = text.find(p, at)) {
@@ -108,6 +120,23 @@ std::string withoutPasswords(std::string text) {
       }
       text.replace(at, p.size(), "***");
       at += 3;
+    }
+  }
+  // A password cut short where a message shortens a value ("hunter2sec…"): its beginning, from
+  // 4 characters on (or after a ':' or '='), followed by the ellipsis.
+  static constexpr std::string_view kEllipsis = "…";
+  for (auto at = text.find(kEllipsis); at != std::string::npos; at = text.find(kEllipsis, at + 1)) {
+    for (const std::string& p : gPasswords) {
+      std::size_t k = std::min(p.size(), at);
+      for (; k > 0; --k) {
+        if (text.compare(at - k, k, p, 0, k) != 0) continue;
+        const bool preceded = at - k > 0 && (text[at - k - 1] == ':' || text[at - k - 1] == '=');
+        if (k >= kMinBareSecret || preceded) break;
+      }
+      if (k == 0) continue;
+      text.replace(at - k, k, "***");
+      at = at - k + 3;
+      break;
     }
   }
   return text;

@@ -5,6 +5,8 @@
 
 #include <fmt/format.h>
 
+#include "emcalign/core/secrets.hpp"
+
 namespace emcalign::io {
 
 namespace {
@@ -42,7 +44,10 @@ std::optional<double> parseFiniteDouble(std::string_view field) {
   return value;
 }
 
-std::string quotedText(std::string_view text, std::size_t keep) {
+std::string quotedText(std::string_view given, std::size_t keep) {
+  // Passwords out before the cut: a password cut in two is not found again.
+  const std::string redacted = core::withoutPasswords(std::string(given));
+  const std::string_view text = redacted;
   if (text.size() <= keep + 8) return fmt::format("'{}'", text);
   // Cut on a UTF-8 character boundary.
   std::size_t cut = keep;

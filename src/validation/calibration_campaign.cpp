@@ -794,17 +794,35 @@ Result<std::vector<bool>> groupsInTag(conddb::Database& db, const std::string& t
   return done;
 }
 
+Result<std::vector<bool>> checkCampaignTag(const CampaignScan& scan, const CampaignModel& model, conddb::Database& db,
+                                           const std::string& tag, const std::vector<CampaignGroup>& groups) {
+  if (auto t = db.tag(tag); !t) {
+    return t.error();
+  } else if (t->has_value() && (*t)->state == conddb::TagState::Locked) {
+    return Error{fmt::format("{}: tag '{}' is locked: its IOVs never change (write to a new tag)", db.uri(), tag)};
+  } else if (t->has_value() && (*t)->state == conddb::TagState::Retired) {
+    return Error{fmt::format("{}: tag '{}' was retired ({}): nothing is written to it again (write to a new tag)",
+                             db.uri(), tag, (*t)->retired)};
+  }
+  auto done = groupsInTag(db, tag, groups);
+  if (!done) return done.error();
+  std::map<std::string, std::string> digests;
+  for (std::size_t k = 0; k < scan.files.size(); ++k) digests[scan.files[k]] = scan.digests[k];
+  // The groups stored already must be from this data (before any fit).
+  for (std::size_t k = 0; k < groups.size(); ++k) {
+    if (!(*done)[k]) continue;
+    auto same = groupStored(db, tag, groups[k], digests, model);
+    if (!same) return same.error();
+  }
+  return done;
+}
+
 Result<CampaignReport> runCampaign(const CampaignScan& scan, const CampaignModel& model, conddb::Database& db,
                                    const std::string& tag, const CalibrationCampaignOptions& o) {
   const std::vector<CampaignGroup> groups = planGroups(scan, o.minEvents);
   CampaignReport report;
   report.groups = static_cast<int>(groups.size());
-  if (auto t = db.tag(tag); !t) {
-    return t.error();
-  } else if (t->has_value() && (*t)->state == conddb::TagState::Locked) {
-    return Error{fmt::format("{}: tag '{}' is locked: its IOVs never change (write to a new tag)", db.uri(), tag)};
-  }
-  auto done = groupsInTag(db, tag, groups);
+  auto done = checkCampaignTag(scan, model, db, tag, groups);
   if (!done) return done.error();
   std::vector<std::size_t> todo;
   for (std::size_t k = 0; k < groups.size(); ++k) {
@@ -816,12 +834,6 @@ Result<CampaignReport> runCampaign(const CampaignScan& scan, const CampaignModel
   }
   std::map<std::string, std::string> digests;
   for (std::size_t k = 0; k < scan.files.size(); ++k) digests[scan.files[k]] = scan.digests[k];
-  // The groups stored already must be from this data (before any fit).
-  for (std::size_t k = 0; k < groups.size(); ++k) {
-    if (!(*done)[k]) continue;
-    auto same = groupStored(db, tag, groups[k], digests, model);
-    if (!same) return same.error();
-  }
 
   std::mutex dbMutex;                                   // one connection, one transaction at a time
   std::set<std::string> corrWarnings;                   // a single corrections file away from its energy

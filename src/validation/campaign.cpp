@@ -135,6 +135,10 @@ Status CampaignOptions::validate() const {
   if (samples < 1) return Error{"--samples must be at least 1"};
   if (events < 1) return Error{"--events must be at least 1"};
   if (Status s = calib::checkDepthOffset(corrections.depthOffset); !s) return s;
+  // The simulation's settings as its samples check them (the counters: where the detector is known).
+  if (Status s = simulation.generator.validate(); !s) return s;
+  if (Status s = simulation.tracking.validate(); !s) return s;
+  if (Status s = simulation.reconstruction.validate(); !s) return s;
   return ranges.validate();
 }
 
@@ -381,9 +385,25 @@ bool isFinishedSample(const geometry::Calorimeter& calo, const CampaignOptions& 
   return readSample(samplePath(dir, i), i, o, calo.description().r1()).has_value();
 }
 
+Status checkPlannedCampaign(const geometry::Calorimeter& calo, const CampaignOptions& o, const std::string& dir) {
+  if (Status s = o.validate(); !s) return s;
+  if (Status s = o.simulation.validate(calo.size()); !s) return s;
+  for (int i = 0; i < o.samples; ++i) {
+    const std::string path = samplePath(dir, i);
+    if (std::error_code ec; fs::exists(path, ec) && !isFinishedSample(calo, o, dir, i)) {
+      return Error{
+          fmt::format("{} is not a finished sample of this campaign (another seed, number of events or "
+                      "simulation setting?): use another directory, or remove it",
+                      path)};
+    }
+  }
+  return {};
+}
+
 Result<std::unique_ptr<PlannedJob>> validationJob(geometry::Calorimeter calo, CampaignOptions options, std::string dir,
                                                   std::vector<std::string> inputs, int samplesPerTask) {
   if (Status s = options.validate(); !s) return s.error();
+  if (Status s = options.simulation.validate(calo.size()); !s) return s.error();
   return std::unique_ptr<PlannedJob>(std::make_unique<ValidationJob>(
       std::move(calo), std::move(options), std::move(dir), std::move(inputs), samplesPerTask));
 }

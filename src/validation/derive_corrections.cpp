@@ -307,6 +307,10 @@ Status DerivationOptions::validate() const {
   if (events < 1000) return Error{"--events must be at least 1000 per sample"};
   if (!(shift > 0.0) || !(gap > 0.0)) return Error{"--shift and --gap must be positive"};
   if (!(depthLow < depthHigh)) return Error{"the depth search interval is empty"};
+  // The simulation's settings as its samples check them (the counters: where the detector is known).
+  if (Status s = simulation.generator.validate(); !s) return s;
+  if (Status s = simulation.tracking.validate(); !s) return s;
+  if (Status s = simulation.reconstruction.validate(); !s) return s;
   return {};
 }
 
@@ -1017,6 +1021,7 @@ Result<std::unique_ptr<PlannedJob>> derivationJob(geometry::Calorimeter calo, De
                                                   std::vector<std::string> inputs, std::string workDirectory,
                                                   int samplesPerTask) {
   if (Status s = options.validate(); !s) return s.error();
+  if (Status s = options.simulation.validate(calo.size()); !s) return s.error();
   return std::unique_ptr<PlannedJob>(
       std::make_unique<DerivationJob>(std::move(calo), std::move(options), std::move(points), std::move(settings),
                                       std::move(inputs), std::move(workDirectory), samplesPerTask));

@@ -693,10 +693,24 @@ class SystematicsJob final : public PlannedJob {
 
 }  // namespace
 
+Status checkPlannedSystematics(const geometry::Calorimeter& calo, const SystematicsOptions& options,
+                               const std::string& dir) {
+  if (Status s = options.validate(); !s) return s;
+  // Each forward campaign as its plan is checked (a reverse one fits with corrections its tasks
+  // derive: its samples are checked when they run).
+  if (Status s = checkPlannedCampaign(calo, options.campaign, (fs::path(dir) / "nominal").string()); !s) return s;
+  for (const Variation* v : variationsOf(options)) {
+    const CampaignOptions o = withVariation(options.campaign, *v);
+    if (Status s = checkPlannedCampaign(calo, o, (fs::path(dir) / v->name).string()); !s) return s;
+  }
+  return {};
+}
+
 Result<std::unique_ptr<PlannedJob>> systematicsJob(geometry::Calorimeter calo, SystematicsOptions options,
                                                    std::string dir, std::vector<std::string> inputs,
                                                    int samplesPerTask) {
   if (Status s = options.validate(); !s) return s.error();
+  if (Status s = options.campaign.simulation.validate(calo.size()); !s) return s.error();
   return std::unique_ptr<PlannedJob>(std::make_unique<SystematicsJob>(
       std::move(calo), std::move(options), std::move(dir), std::move(inputs), samplesPerTask));
 }

@@ -20,6 +20,7 @@
 #include "emcalign/conddb/conditions.hpp"
 #include "emcalign/core/clock.hpp"
 #include "emcalign/core/regular_file.hpp"
+#include "emcalign/core/secrets.hpp"
 #include "emcalign/core/sha256.hpp"
 #include "emcalign/core/utf8.hpp"
 #include "emcalign/core/version.hpp"
@@ -60,18 +61,19 @@ std::vector<std::string> stringList(const io::strict::StrictObject& o, std::stri
 std::string lastLineOf(const std::string& path) {
   auto file = RegularFile::open(path);
   if (!file) return fmt::format("(not read: {})", file.error().message);
-  std::string tail, block(65536, '\0');
-  for (;;) {  // a task's log is small; keep its last 4 KiB
-    auto n = file->read(block.data(), block.size());
-    if (!n) return fmt::format("(not read: {})", n.error().message);
-    if (*n == 0) break;
-    tail.append(block.data(), *n);
-    if (tail.size() > 8192) tail.erase(0, tail.size() - 4096);
+  // Only the last 4 KiB are read, however large the file (a log grown huge, or a sparse one).
+  std::string tail(4096, '\0');
+  auto n = file->seekToLast(tail.size()) ? file->read(tail.data(), tail.size()) : Result<std::size_t>(0);
+  if (!n) return fmt::format("(not read: {})", n.error().message);
+  tail.resize(*n);
+  while (!tail.empty() && (tail.back() == '\n' || tail.back() == '\r' || tail.back() == ' ' || tail.back() == '\0')) {
+    tail.pop_back();
   }
-  if (tail.size() > 4096) tail.erase(0, tail.size() - 4096);
-  while (!tail.empty() && (tail.back() == '\n' || tail.back() == '\r' || tail.back() == ' ')) tail.pop_back();
   const auto at = tail.find_last_of('\n');
-  return printable(at == std::string::npos ? tail : tail.substr(at + 1));
+  std::string line = at == std::string::npos ? tail : tail.substr(at + 1);
+  constexpr std::size_t kShown = 300;  // a line without an end (a binary file) is not shown whole
+  if (line.size() > kShown) line = "…" + line.substr(line.size() - kShown);
+  return printable(line);
 }
 
 // Whether the record at `path` says this plan's task (or, with none, its merge) ended well,
@@ -248,6 +250,13 @@ Result<Plan> writePlan(const std::string& path, const std::string& command, cons
                     path)};
   }
   if (Status s = replacesOnlyAPlan(plan.path); !s) return s.error();
+  // NAME.json only: "q", "q.json" and "q.JSON" would share the work directory q.tasks.
+  if (fs::path(plan.path).extension() != ".json") {
+    return Error{fmt::format(
+        "{}: a plan is named NAME.json (its tasks' records and logs go to NAME.tasks beside it, which another "
+        "name, NAME or NAME.JSON, would share)",
+        path)};
+  }
   Json tasks = Json::array();
   for (std::size_t k = 0; k < plan.tasks.size(); ++k) tasks.push_back(taskJson(k, plan.tasks[k]));
   const Json j = {{"format", kPlanFormat},
@@ -277,14 +286,19 @@ Result<Plan> writePlan(const std::string& path, const std::string& command, cons
 PlanPaths pathsOfPlan(const Plan& plan) {
   PlanPaths out;
   out.files.push_back({"the plan itself", plan.path});
+  out.files.push_back({"the program the plan runs", plan.program.path});
   out.directories.push_back({"the plan's work directory", plan.workDirectory()});
   for (std::size_t k = 0; k < plan.tasks.size(); ++k) {
-    for (const auto& f : plan.tasks[k].inputs) out.files.push_back({fmt::format("which the plan's task {} reads", k), f});
-    for (const auto& f : plan.tasks[k].writes) out.files.push_back({fmt::format("which the plan's task {} writes", k), f});
+    for (const auto& f : plan.tasks[k].inputs)
+      out.files.push_back({fmt::format("which the plan's task {} reads", k), f});
+    for (const auto& f : plan.tasks[k].writes)
+      out.files.push_back({fmt::format("which the plan's task {} writes", k), f});
   }
   const auto named = [&](const std::string& option, const std::string& value, bool output) {
     if (value.empty() || value == "-") return;
-    const std::string what = option.empty() ? "named by the plan's command line" : "the plan's " + option;
+    const std::string what = option.empty()     ? "named by the plan's command line"
+                             : option == "data" ? "named in the plan's data"
+                                                : "the plan's " + option;
     if (value.starts_with("sqlite:")) {
       const std::string file = conddb::sqliteFileOf(value);
       if (file.empty()) return;
@@ -314,6 +328,19 @@ PlanPaths pathsOfPlan(const Plan& plan) {
     } else if (const auto eq = a.find('='); eq != std::string::npos) {
       const std::string name = a.substr(0, eq);
       named(name, a.substr(eq + 1), std::find(kOutputs.begin(), kOutputs.end(), name) != kOutputs.end());
+    }
+  }
+  // What the tasks take from the plan's data (a campaign's database and files): every string
+  // there that names a database or a file.
+  std::vector<const Json*> pending = {&plan.data};
+  while (!pending.empty()) {
+    const Json* j = pending.back();
+    pending.pop_back();
+    if (j->is_string()) {
+      const std::string& v = j->get_ref<const std::string&>();
+      if (v.starts_with("sqlite:") || v.starts_with("/")) named("data", v, false);
+    } else if (j->is_structured()) {
+      for (const Json& child : *j) pending.push_back(&child);
     }
   }
   return out;
@@ -351,6 +378,13 @@ Result<Plan> parsePlan(const std::string& text, const std::string& path) {
       plan.tasks.push_back({t.string("what"), stringList(t, "writes"), stringList(t, "inputs")});
     }
     plan.data = o.has("data") ? o.at("data") : Json(nullptr);
+    // A plan never holds a password (campaign --plan refuses one): an edited plan neither.
+    if (core::holdsPassword(text)) {
+      throw io::strict::BadInput{fmt::format(
+          "{}: holds a password (a database URI with user:password@ or password=): a plan never does; give it to "
+          "libpq (PGPASSFILE, PGPASSWORD) and make the plan again",
+          path)};
+    }
     // Refused where read, not only where written: a copy of a plan in a directory of another
     // name, or an edited plan, goes into a script as it is.
     for (const auto& [what, p, key] :
@@ -381,6 +415,19 @@ Result<Plan> readPlan(const std::string& path) {
         "again",
         path, plan->program.version, plan->program.path, plan->program.sha256.substr(0, 12), program->version,
         program->path, program->sha256.substr(0, 12))};
+  }
+  // The script and the merge run the program at program.path: it must be the one the plan
+  // names by its digest (an edited path would run another program on every node).
+  if (plan->program.path != program->path) {
+    const auto digest = plan->program.path.starts_with('/') ? sha256OfFile(plan->program.path)
+                                                            : Result<std::string>(Error{"not an absolute path"});
+    if (!digest || *digest != plan->program.sha256) {
+      return Error{fmt::format(
+          "{}: key 'program.path': {} is not the program that made the plan (SHA-256 {}…): {}; its tasks and "
+          "merge run that program: make the plan again",
+          path, io::quotedText(printable(plan->program.path), 200), plan->program.sha256.substr(0, 12),
+          digest ? fmt::format("its SHA-256 is {}…", digest->substr(0, 12)) : digest.error().message)};
+    }
   }
   return plan;
 }

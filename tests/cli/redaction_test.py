@@ -26,6 +26,11 @@ SECRETS = {
     "postgresql://calib:Unenc@ded@127.0.0.1:9/snd": ["Unenc@ded"],
     "postgresql://calib@127.0.0.1:9/snd?password=Qu3ryPw&sslmode=disable": ["Qu3ryPw"],
     "host=127.0.0.1 port=9 password=K3ywordPw": ["K3ywordPw"],
+    # Cut short by a message (a value shown to 32 characters): no beginning of it either.
+    "postgresql://calib:Xq7LongPasswordCutShortByMessages@127.0.0.1:9/snd": ["Xq7Lo"],
+    "postgresql://me@127.0.0.1:9/d?pass%77ord=EncodedNamePw": ["EncodedNamePw"],
+    "postgresql://me@127.0.0.1:9/d?password%3DEncodedEqPw": ["EncodedEqPw"],
+    "host=127.0.0.1 password = SpacedPw9": ["SpacedPw9"],
 }
 
 

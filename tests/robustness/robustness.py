@@ -1484,9 +1484,53 @@ def batch_cases(add):
     add(Case(B, "the job script inside the plan's output directory", "emcalign batch script bplan.json -o bfan/job.sh",
              1, "the plan's -o", setup=plan))
     db_before, db_same = unchanged("camp.db")
-    add(Case(B, "the job script over the campaign plan's database", "emcalign campaign period --plan cdbplan.json "
-             "--conditions camp.db --tag c2 >/dev/null 2>&1; emcalign batch script cdbplan.json -o camp.db", 1,
-             "the plan's --conditions", setup=db_before, check=db_same, checked="camp.db unchanged"))
+
+    def db_plan(d):
+        runner_binary_run(d, ["campaign", "period", "--plan", "cdbplan.json", "--conditions", "camp.db", "--tag",
+                              "c2", "--min-events", "1500"])
+        db_before(d)
+    add(Case(B, "the job script over the campaign plan's database", "emcalign batch script cdbplan.json -o camp.db",
+             1, "the plan's --conditions", setup=db_plan, check=db_same, checked="camp.db unchanged"))
+
+    add(Case(B, "a plan edited to run another program", "emcalign batch script prog.json -o -", 1,
+             "is not the program that made the plan",
+             setup=lambda d: (plan(d), edit_json(d, "bplan.json", "prog.json",
+                                                 lambda j: j["program"].__setitem__("path", "/bin/echo")))))
+
+    def sparse_log(d):
+        plan(d)
+        with open(os.path.join(d, "bplan.tasks", "task-0.log"), "w") as f:
+            f.truncate(300 << 30)
+    add(Case(B, "a task's log of 300 GB (sparse)", "emcalign batch status bplan.json; s=$?; rm -f bplan.tasks/task-0.log; exit $s", 1,
+             None, setup=sparse_log, check=lambda d, r: None if r.seconds < 10 else f"{r.seconds:.0f} s",
+             checked="its last 4 KiB read, not the whole"))
+    add(Case(B, "a plan named without .json (its work directory another name's)",
+             "emcalign validate --samples 2 --events 1000 -o qfan --plan q", 1, "a plan is named NAME.json"))
+    add(Case(B, "a plan whose simulation the command refuses (theta 100-170 deg)",
+             "emcalign validate --samples 1 --events 1000 --theta-min 100 --theta-max 170 -o th --plan th.json", 1,
+             "the polar range must contain 90 deg"))
+    add(Case(B, "a plan into a directory of another campaign's samples",
+             "emcalign validate --samples 2 --events 1000 --seed 9 -o bfan --plan other.json", 1,
+             "is not a finished sample of this campaign", setup=onto))
+
+    def locked(d):
+        if not os.path.exists(os.path.join(d, "lk.db")):
+            runner_binary_run(d, ["campaign", "period", "--conditions", "lk.db", "--tag", "l", "--min-events", "1500"])
+            runner_binary_run(d, ["conditions", "lock", "lk.db", "--tag", "l"])
+    no_plan = (lambda name: lambda d, r: f"{name} written" if os.path.exists(os.path.join(d, name)) else None)
+    add(Case(B, "a campaign plan into a locked tag", "emcalign campaign period --conditions lk.db --tag l "
+             "--min-events 1500 --plan lkplan.json", 1, "is locked", setup=locked, check=no_plan("lkplan.json"),
+             checked="no plan written"))
+    add(Case(B, "a campaign plan into a tag of another grouping", "emcalign campaign period --conditions camp.db "
+             "--tag c --min-events 3000 --plan grplan.json", 1, "not one of this campaign's groups",
+             check=no_plan("grplan.json"), checked="no plan written"))
+
+    def edited_target(d):
+        db_plan(d)
+        edit_json(d, "cdbplan.json", "evilplan.json",
+                  lambda j: j["data"].__setitem__("conditions", "sqlite:" + os.path.join(d, "evil.db")))
+    add(Case(B, "a campaign plan edited to store elsewhere", "emcalign task evilplan.json 0", 1, "key 'data'",
+             setup=edited_target, check=no_plan("evil.db"), checked="no evil.db"))
 
     def copied(name, change=None):
         def setup(d):
@@ -1649,6 +1693,7 @@ def shown_line(case, result, directory):
             line = re.sub(r"tmp-\d+", "tmp-PID", line)
             line = re.sub(r"emcalign-\d+-\d+\.tmp", "emcalign-PID-N.tmp", line)
             line = re.sub(r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\dZ", "DATE", line)
+            line = re.sub(r"SHA-256 [0-9a-f]{12}…", "SHA-256 …", line)  # of a build, of a system file
             return line
     return None
 

@@ -29,6 +29,9 @@ class RegularFile {
   Result<std::size_t> read(char* data, std::size_t size);
   /// The rest of the file, refused when it holds more than `maxBytes`.
   Result<std::string> readAll(std::size_t maxBytes);
+  /// Moves to the file's last `bytes` bytes (its start when it is shorter): a log's tail is read
+  /// without reading what comes before, however large.
+  Status seekToLast(std::size_t bytes);
 
  private:
   RegularFile(int fd, std::string path) : fd_(fd), path_(std::move(path)) {}

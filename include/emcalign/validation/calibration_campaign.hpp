@@ -202,6 +202,12 @@ struct CampaignReport {
   std::vector<std::string> warnings;  ///< poor fits, short groups
 };
 
+/// What a campaign checks of its tag before any fit, in one place for the campaign and its
+/// plan: not locked (nor retired), holding only this campaign's groups, each stored from this
+/// data and model (groupStored). Returns which groups the tag holds already.
+Result<std::vector<bool>> checkCampaignTag(const CampaignScan& scan, const CampaignModel& model, conddb::Database& db,
+                                           const std::string& tag, const std::vector<CampaignGroup>& groups);
+
 /// Plans the scanned runs, fits every group not yet in the tag and stores it. The tag's IOVs
 /// must be a subset of the plan's (a rerun of the same campaign); anything else is refused
 /// before any fit.

@@ -147,6 +147,12 @@ std::string sampleFile(const std::string& dir, int i);
 /// Whether DIR's sample i is a finished sample of this campaign (what a rerun keeps).
 bool isFinishedSample(const geometry::Calorimeter& calo, const CampaignOptions& o, const std::string& dir, int i);
 
+/// What a campaign's plan checks before it is written (`validate --plan`), as the campaign does
+/// when it runs: the options (validate, and the simulation's for this detector: validationJob
+/// checks those too) and the samples already in DIR (each a finished sample of this campaign,
+/// as a rerun would keep it; a task checks only its own).
+Status checkPlannedCampaign(const geometry::Calorimeter& calo, const CampaignOptions& o, const std::string& dir);
+
 Result<std::unique_ptr<PlannedJob>> validationJob(geometry::Calorimeter calo, CampaignOptions options, std::string dir,
                                                   std::vector<std::string> inputs, int samplesPerTask = 0);
 

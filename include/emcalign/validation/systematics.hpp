@@ -122,6 +122,11 @@ Result<SystematicsTable> runSystematics(const geometry::Calorimeter& calo, const
 /// runSystematics with campaign.onlyFinished. `inputs`: the files it reads, for the logs;
 /// `samplesPerTask`: as validationJob's (0: one, or more to keep within kMaxPlanTasks). Options
 /// runSystematics refuses are refused here (SystematicsOptions::validate).
+/// What a study's plan checks before it is written (`systematics --plan`): the options, and each
+/// forward campaign as checkPlannedCampaign checks it.
+Status checkPlannedSystematics(const geometry::Calorimeter& calo, const SystematicsOptions& options,
+                               const std::string& dir);
+
 Result<std::unique_ptr<PlannedJob>> systematicsJob(geometry::Calorimeter calo, SystematicsOptions options,
                                                    std::string dir, std::vector<std::string> inputs,
                                                    int samplesPerTask = 0);

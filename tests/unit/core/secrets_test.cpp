@@ -18,8 +18,14 @@ TEST(Secrets, PasswordsAreFoundWhereverTheyStandInAnArgument) {
   // An '@' left unencoded is part of the password all the same.
   EXPECT_THAT(passwordsIn("@postgresql://u:pa@ss@db/x"), ElementsAre("pa@ss"));
   EXPECT_THAT(passwordsIn("postgresql://u@db/x?sslmode=require&password=hunter2"), ElementsAre("hunter2"));
-  EXPECT_THAT(passwordsIn("host=db sslpassword='key pass' user=u"), ElementsAre("'key"));
+  EXPECT_THAT(passwordsIn("host=db sslpassword='key pass' user=u"), ElementsAre("key pass"));
   EXPECT_THAT(passwordsIn("mysql://root:toor@localhost/db"), ElementsAre("toor"));
+  // The parameter's name percent-encoded, or its '=' (libpq decodes both); a keyword string
+  // with white space around '='.
+  EXPECT_THAT(passwordsIn("postgresql://me@h/d?pass%77ord=hunter2secret"), ElementsAre("hunter2secret"));
+  EXPECT_THAT(passwordsIn("postgresql://me@h/d?%70assword=hunter2secret"), ElementsAre("hunter2secret"));
+  EXPECT_THAT(passwordsIn("postgresql://me@h/d?password%3Dhunter2secret"), ElementsAre("hunter2secret"));
+  EXPECT_THAT(passwordsIn("host=h password = hunter2secret dbname=x"), ElementsAre("hunter2secret"));
   // No password: a user alone, a path with a colon, an e-mail address, a time.
   EXPECT_THAT(passwordsIn("postgresql://calib@db/snd"), IsEmpty());
   EXPECT_THAT(passwordsIn("runs/2026-12-04T10:00/ev.h5"), IsEmpty());
@@ -35,6 +41,11 @@ TEST(Secrets, RememberedPasswordsAreRedactedInEveryLine) {
             "error: File does not exist: postgresql://calib:***@db/snd");
   EXPECT_EQ(withoutPasswords("libpq: password Sekr3t! refused"), "libpq: password *** refused");
   EXPECT_EQ(withoutPasswords("u:Zq@db, Zqa, aZq"), "u:***@db, Zqa, aZq");
+  // Cut short by a message: its beginning before the ellipsis.
+  EXPECT_EQ(withoutPasswords("--samples: 'postgresql://calib:Sekr3…' (49 characters)"),
+            "--samples: 'postgresql://calib:***…' (49 characters)");
+  EXPECT_EQ(withoutPasswords("'postgresql://calib:S…'"), "'postgresql://calib:***…'");
+  EXPECT_EQ(withoutPasswords("a word Sek… cut"), "a word Sek… cut");
   EXPECT_TRUE(holdsPassword("x postgresql://a:b@c"));
   EXPECT_FALSE(holdsPassword("x postgresql://a@c"));
 }

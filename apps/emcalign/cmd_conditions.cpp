@@ -135,6 +135,10 @@ std::string sigmaSysSummary(const std::vector<conddb::IovListing>& iovs) {
 // Tag A against tag B, IOV by IOV: each parameter's difference in σ.
 int runDiff(const ConditionsOptions& o) {
   if (o.tags.size() != 2) return reportError(Error{"conditions diff: give two tags, --tag A --tag B"});
+  if (o.tags[0] == o.tags[1]) {
+    return reportError(Error{fmt::format(
+        "conditions diff: --tag {} twice: a tag compared with itself differs nowhere (give two tags)", o.tags[0])});
+  }
   auto db = conddb::Database::open(o.uri);
   if (!db) return reportError(db.error());
   auto d = conddb::diffTags(**db, o.tags[0], o.tags[1]);

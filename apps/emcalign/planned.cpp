@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <charconv>
 #include <chrono>
 #include <cstdlib>
 #include <cstring>
@@ -16,6 +17,8 @@
 
 #include "common.hpp"
 #include "emcalign/core/text.hpp"
+#include "emcalign/core/utf8.hpp"
+#include "emcalign/io/csv.hpp"
 #include "emcalign/io/output_file.hpp"
 #include "emcalign/validation/slurm.hpp"
 
@@ -81,11 +84,22 @@ int runFromPlan(const validation::Plan& plan, PlanContext::Mode mode, std::size_
   // A batch task uses the CPUs the batch system gave it (the result does not depend on them).
   // (More than a command takes is the batch system's setting, not the plan's: the most used.)
   const char* cpus = std::getenv("SLURM_CPUS_PER_TASK");
-  const long given = cpus != nullptr && mode == PlanContext::Mode::Task ? std::atol(cpus) : 0;
-  const int n = static_cast<int>(std::clamp<long>(given, 0, kMaxThreads));
-  if (given > kMaxThreads) {
-    reportWarning(fmt::format("SLURM_CPUS_PER_TASK={}: more than the {} threads a command takes: {} used", given,
-                              kMaxThreads, kMaxThreads));
+  int n = 0;
+  if (cpus != nullptr && mode == PlanContext::Mode::Task) {
+    const std::string_view text(cpus);
+    std::int64_t given = 0;
+    const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), given);
+    if (error == std::errc::result_out_of_range ||
+        (error == std::errc() && end == text.data() + text.size() && given > kMaxThreads)) {
+      reportWarning(fmt::format("SLURM_CPUS_PER_TASK={}: more than the {} threads a command takes: {} used",
+                                io::quotedText(printable(text)), kMaxThreads, kMaxThreads));
+      n = static_cast<int>(kMaxThreads);
+    } else if (error != std::errc() || end != text.data() + text.size() || given < 1) {
+      reportWarning(fmt::format("SLURM_CPUS_PER_TASK={}: not a number of CPUs: ignored (the plan's --threads used)",
+                                io::quotedText(printable(text))));
+    } else {
+      n = static_cast<int>(given);
+    }
   }
   const std::vector<std::string> arguments = n > 0 ? without(plan.arguments, "--threads") : plan.arguments;
   args.insert(args.end(), arguments.begin(), arguments.end());
@@ -221,7 +235,8 @@ int batchStatus(const std::string& path, bool json) {
                  log["log"].get<std::string>(), log["last_line"].get<std::string>());
     }
     if (!missing.empty()) {
-      fmt::print(reportStream(), "run the missing tasks: emcalign batch submit {} --missing\n", plan->path);
+      fmt::print(reportStream(), "run the missing tasks: emcalign batch submit {} --missing\n",
+                 shellArgument(plan->path));
     }
   }
   return missing.empty() ? kExitOk : kExitFailure;
@@ -268,7 +283,7 @@ int batchSubmit(const SubmitOptions& o) {
     fmt::print(report,
                "submitted the job array {} (tasks {}) and the merge job {} after it; logs in {}\n"
                "follow it: emcalign batch status {}\n",
-               submitted->arrayJob, which, submitted->finishJob, plan->workDirectory(), plan->path);
+               submitted->arrayJob, which, submitted->finishJob, plan->workDirectory(), shellArgument(plan->path));
   }
   if (o.json) {
     const io::Json array = mergeOnly ? io::Json(nullptr) : io::Json(jobNumber(submitted->arrayJob));

@@ -22,6 +22,7 @@
 #include "emcalign/core/regular_file.hpp"
 #include "emcalign/core/secrets.hpp"
 #include "emcalign/core/sha256.hpp"
+#include "emcalign/core/text.hpp"
 #include "emcalign/core/utf8.hpp"
 #include "emcalign/core/version.hpp"
 #include "emcalign/io/csv.hpp"
@@ -613,7 +614,8 @@ Status checkAllTasksDone(const Plan& plan) {
   return Error{fmt::format(
       "{}: {} of {} tasks not done: {} (nothing written; run them: emcalign batch submit {} --missing, or emcalign "
       "task {} K; then finish again){}",
-      plan.path, missing.size(), plan.tasks.size(), taskRanges(missing), plan.path, plan.path, logs)};
+      plan.path, missing.size(), plan.tasks.size(), taskRanges(missing), shellArgument(plan.path),
+      shellArgument(plan.path), logs)};
 }
 
 Status recordFinished(const Plan& plan, double seconds) {

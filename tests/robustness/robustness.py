@@ -1551,7 +1551,7 @@ def batch_cases(add):
              checked="no plan written"))
     add(Case(B, "more CPUs than a command takes (SLURM_CPUS_PER_TASK=100000)",
              "rm -f bplan.tasks/task-1.json bfan/samples/sample_0001.json; SLURM_CPUS_PER_TASK=100000 emcalign task bplan.json 1", 0,
-             "SLURM_CPUS_PER_TASK=100000", setup=plan))
+             "SLURM_CPUS_PER_TASK='100000'", setup=plan))
     add(Case(B, "a new database among a campaign's event files",
              "emcalign campaign period --conditions period/new.db --tag t --min-events 1500", 1,
              "a new database among the campaign's event files",
@@ -1572,6 +1572,11 @@ def batch_cases(add):
         runner_binary_run(d, ["conditions", "retire", "ret.db", "--tag", "r", "--reason", "the wrong runs"])
     add(Case(B, "a tag retired again with another reason", "emcalign conditions retire ret.db --tag r --reason other",
              1, "retired already", setup=retired))
+    add(Case(B, "a tag compared with itself", "emcalign conditions diff camp.db --tag c --tag c", 1,
+             "a tag compared with itself"))
+    add(Case(B, "not a number of CPUs (SLURM_CPUS_PER_TASK=1e3)",
+             "rm -f bplan.tasks/task-1.json bfan/samples/sample_0001.json; SLURM_CPUS_PER_TASK=1e3 emcalign task "
+             "bplan.json 1", 0, "not a number of CPUs", setup=plan))
     add(Case(B, "a password URI where a result file goes", "emcalign conditions put result.json --tag t --runs 1-2 "
              "'postgresql://calib:hunter2secret@127.0.0.1:1/snd'", 2, "calib:***@",
              check=lambda d, r: "shown" if "hunter2secret" in r.out + r.err else None, checked="not shown"))

@@ -305,15 +305,14 @@ class SqlDatabase final : public Database {
       }
       // Retired already: the same again (a retry) changes nothing; another reason is refused,
       // naming the one kept.
-      auto earlier =
-          db_->query("SELECT value FROM emcalign_meta WHERE key = $1", {std::string(kRetiredPrefix) + tag});
+      auto earlier = db_->query("SELECT value FROM emcalign_meta WHERE key = $1", {std::string(kRetiredPrefix) + tag});
       if (!earlier) return earlier.error();
       if (!earlier->empty()) {
         const Json was = Json::parse(toText((*earlier)[0][0]), nullptr, false);
         if (was.is_object() && was.value("reason", std::string()) == reason) return {};
-        return Error{fmt::format(
-            "{}: tag '{}' was retired already ({}): a retirement keeps its first reason; nothing changed",
-            db_->uri(), tag, retiredNote(toText((*earlier)[0][0])))};
+        return Error{
+            fmt::format("{}: tag '{}' was retired already ({}): a retirement keeps its first reason; nothing changed",
+                        db_->uri(), tag, retiredNote(toText((*earlier)[0][0])))};
       }
       const Json mark = {{"retired", utcNow()}, {"reason", reason}};
       auto r = db_->query("INSERT INTO emcalign_meta (key, value) VALUES ($1, $2) ON CONFLICT (key) DO NOTHING",

@@ -181,6 +181,15 @@ std::optional<SampleResult> readSample(const std::string& path, int sampleIndex,
     auto truth = io::parseAlignment((*j)["truth"], r1, path, io::AlignmentUse::Record);
     auto fit = io::parseAlignment((*j)["fit"], r1, path, io::AlignmentUse::Record);
     if (!truth || !fit) return std::nullopt;
+    // The truth is the sample's own draw (the seed and the index give it): a file edited since,
+    // or another campaign's, is not this sample.
+    Rng truthRng(o.seed, static_cast<std::uint64_t>(sampleIndex));
+    const AlignmentParameters drawn = drawTruth(o.ranges, r1, truthRng);
+    for (std::size_t p = 0; p < kNumParams; ++p) {
+      if (std::abs(truth->values[p] - drawn.values[p]) > 1e-9 * std::max(1.0, std::abs(drawn.values[p]))) {
+        return std::nullopt;
+      }
+    }
     s.truth = *truth;
     s.fit.parameters = *fit;
     Json& f = (*j)["fit"];

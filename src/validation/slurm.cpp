@@ -154,8 +154,10 @@ Result<SlurmSubmission> submitToSlurm(const Plan& plan, const std::vector<std::s
   if (!finish) {
     return Error{
         fmt::format("the job array {} was submitted, but not its merge: {} (submit the merge by hand: "
-                    "sbatch --dependency=afterok:{} --wrap={})",
-                    s.arrayJob, finish.error().message, s.arrayJob,
+                    "sbatch --dependency=afterok:{} --kill-on-invalid-dep=yes --output={} --open-mode=append "
+                    "--chdir={} --wrap={})",
+                    s.arrayJob, finish.error().message, s.arrayJob, shellWord(outputPattern(plan.finishLog())),
+                    shellWord(plan.directory),
                     shellWord("exec " + shellWord(plan.program.path) + " finish " + shellWord(plan.path)))};
   }
   s.finishJob = *finish;

@@ -1572,6 +1572,15 @@ def batch_cases(add):
         runner_binary_run(d, ["conditions", "retire", "ret.db", "--tag", "r", "--reason", "the wrong runs"])
     add(Case(B, "a tag retired again with another reason", "emcalign conditions retire ret.db --tag r --reason other",
              1, "retired already", setup=retired))
+    def truth_edited(d):
+        runner_binary_run(d, ["validate", "--samples", "1", "--events", "1000", "-o", "tfan", "--plan", "tplan.json"])
+        runner_binary_run(d, ["task", "tplan.json", "0"])
+        os.remove(os.path.join(d, "tplan.tasks", "task-0.json"))
+        edit_json(d, "tfan/samples/sample_0000.json", "tfan/samples/sample_0000.json",
+                  lambda j: j["truth"]["parameters"].__setitem__("dx", j["truth"]["parameters"]["dx"] + 7.0))
+    add(Case(B, "a sample's truth edited, its task's record gone", "emcalign batch status tplan.json", 1, None,
+             setup=truth_edited, check=lambda d, r: None if "not this plan's work" in r.out else r.out,
+             checked="not this plan's work: a rerun refuses it"))
     add(Case(B, "a tag compared with itself", "emcalign conditions diff camp.db --tag c --tag c", 1,
              "a tag compared with itself"))
     add(Case(B, "not a number of CPUs (SLURM_CPUS_PER_TASK=1e3)",

@@ -472,8 +472,12 @@ Result<std::unique_ptr<OutputFile>> OutputFile::reserve(const std::string& path,
           fmt::format("{}: the temporary file '{}' exists: is this file being written by this process already?", path,
                       out->written_)};
     }
+    // The permission bits of the regular file replaced (not those of a device or of what a link
+    // planted in an output directory points to).
     struct stat st {};
-    if (::stat(target->realPath.c_str(), &st) == 0) out->mode_ = static_cast<int>(st.st_mode & 07777);
+    if (::lstat(target->realPath.c_str(), &st) == 0 && S_ISREG(st.st_mode)) {
+      out->mode_ = static_cast<int>(st.st_mode & 07777);
+    }
   } else {
     std::error_code ec;
     const fs::path dir = fs::temp_directory_path(ec);

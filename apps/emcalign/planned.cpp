@@ -340,7 +340,8 @@ int batchScript(const std::string& path, const std::string& output, bool missing
   }
   if (output != "-") {
     fmt::print(reportStream(), "wrote {}: the job array of {} (submit it with sbatch {}; the merge: see its header)\n",
-               output, tasks.empty() ? counted(plan->tasks.size(), "task") : validation::taskRanges(tasks), output);
+               printable(output), tasks.empty() ? counted(plan->tasks.size(), "task") : validation::taskRanges(tasks),
+               shellArgument(output));
   }
   return kExitOk;
 }

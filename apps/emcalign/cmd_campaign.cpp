@@ -22,6 +22,7 @@
 #include "emcalign/core/sha256.hpp"
 #include "emcalign/core/text.hpp"
 #include "emcalign/core/units.hpp"
+#include "emcalign/core/utf8.hpp"
 #include "emcalign/validation/calibration_campaign.hpp"
 #include "emcalign/validation/trend.hpp"
 #include "planned.hpp"
@@ -58,6 +59,25 @@ void printGroups(const std::vector<validation::CampaignGroup>& groups, std::int6
   } else if (const std::string few = validation::tooFewIovsForTrend(groups.size(), selected); !few.empty()) {
     reportWarning(few);
   }
+}
+
+// A new SQLite database is never created among the campaign's event files (a directory given
+// as input): it would be an input of every later campaign on that directory.
+Status newDatabaseBesideTheData(const CampaignCliOptions& o) {
+  const std::string file = conddb::sqliteFileOf(o.conditions);
+  std::error_code ec;
+  if (file.empty() || std::filesystem::exists(file, ec)) return {};
+  const auto parent = std::filesystem::weakly_canonical(std::filesystem::absolute(file, ec).parent_path(), ec);
+  for (const auto& input : o.inputs) {
+    if (!std::filesystem::is_directory(input, ec)) continue;
+    if (std::filesystem::weakly_canonical(std::filesystem::absolute(input, ec), ec) == parent) {
+      return Error{fmt::format(
+          "--conditions {}: a new database among the campaign's event files in {}, where every later campaign on "
+          "that directory would read it: put it beside the directory",
+          conddb::shownAddress(o.conditions), input)};
+    }
+  }
+  return {};
 }
 
 // A database address as a plan keeps it: an SQLite file by its absolute path, a server without
@@ -107,6 +127,10 @@ Result<std::unique_ptr<validation::PlannedJob>> plannedJob(const io::Json& data,
   const bool given = !data.contains("conditions");  // the database and tag given to this task
   auto plan = plannedCampaign(data, source, o);
   if (!plan) return plan.error();
+  // A task creates no new database among the event files either (the direct run refuses it).
+  if (!given) {
+    if (Status s = newDatabaseBesideTheData(o); !s) return s.error();
+  }
   const std::string planDetector = io::detectorPath(plan->detector);
   if (!o.detector.empty() && o.detector != planDetector) {
     return Error{
@@ -205,25 +229,6 @@ int finishCampaign(const CampaignCliOptions& o) {
 // The campaign's files read once (their runs, selected events and digests) and grouped; the
 // groups printed. `outputs`: the command's file outputs (the plan), checked against its inputs;
 // `target`: the database to store into, checked before the files are read.
-// A new SQLite database is never created among the campaign's event files (a directory given
-// as input): it would be an input of every later campaign on that directory.
-Status newDatabaseBesideTheData(const CampaignCliOptions& o) {
-  const std::string file = conddb::sqliteFileOf(o.conditions);
-  std::error_code ec;
-  if (file.empty() || std::filesystem::exists(file, ec)) return {};
-  const auto parent = std::filesystem::weakly_canonical(std::filesystem::absolute(file, ec).parent_path(), ec);
-  for (const auto& input : o.inputs) {
-    if (!std::filesystem::is_directory(input, ec)) continue;
-    if (std::filesystem::weakly_canonical(std::filesystem::absolute(input, ec), ec) == parent) {
-      return Error{fmt::format(
-          "--conditions {}: a new database among the campaign's event files in {}, where every later campaign on "
-          "that directory would read it: put it beside the directory",
-          conddb::shownAddress(o.conditions), input)};
-    }
-  }
-  return {};
-}
-
 struct ScannedCampaign {
   validation::CampaignModel model;
   validation::CampaignScan scan;
@@ -235,6 +240,15 @@ Result<ScannedCampaign> scanCampaign(const CampaignCliOptions& o, const std::vec
   if (!calo) return calo.error();
   auto files = validation::eventFilesIn(o.inputs);
   if (!files) return files.error();
+  // The payloads record every file by its absolute path, in JSON: UTF-8 text.
+  for (const auto& f : *files) {
+    if (std::error_code ec; !isValidUtf8(std::filesystem::absolute(f, ec).string())) {
+      return Error{
+          fmt::format("{}: its path is not UTF-8 (the payloads record it in JSON, which must be): rename "
+                      "it, or the directories it is in",
+                      printable(std::filesystem::absolute(f).string()))};
+    }
+  }
   std::vector<io::NamedPath> inputs = {{"--corrections", o.corrections}, {"--detector", o.detector}};
   for (const auto& f : *files) inputs.push_back({"", f});
   for (auto& c : conditionsInputs(o.conditions)) inputs.push_back(std::move(c));

@@ -109,7 +109,13 @@ int runGet(const ConditionsOptions& o) {
 int runRetire(const ConditionsOptions& o) {
   auto db = conddb::Database::open(o.uri);
   if (!db) return reportError(db.error());
+  auto before = (*db)->tag(o.tag);
+  const bool already = before && before->has_value() && (*before)->state == conddb::TagState::Retired;
   if (Status s = (*db)->retire(o.tag, o.reason); !s) return reportError(s.error());
+  if (already) {  // a retry: nothing changed, and said so
+    fmt::print("{}: tag {} was retired already ({}): nothing changed\n", (*db)->uri(), o.tag, (*before)->retired);
+    return kExitOk;
+  }
   fmt::print("{}: tag {} retired: kept and listed as retired; get, correct, simulate, trend and campaign refuse it\n",
              (*db)->uri(), o.tag);
   return kExitOk;

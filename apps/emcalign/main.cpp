@@ -6,6 +6,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <cerrno>
 #include <csignal>
@@ -14,6 +15,7 @@
 #include <exception>
 #include <sstream>
 #include <string>
+#include <string_view>
 #include <system_error>
 
 #include <fmt/format.h>
@@ -99,7 +101,7 @@ ssize_t writeRedacted(void* cookie, const char* data, std::size_t size) {
 }
 
 void redactStandardOutput(int argc, char** argv) {
-  for (int i = 1; i < argc; ++i) emcalign::core::rememberPasswordsOf(argv[i]);
+  for (int i = 0; i < argc; ++i) emcalign::core::rememberPasswordsOf(argv[i]);
   if (!emcalign::core::passwordsRemembered()) return;
   const cookie_io_functions_t io{nullptr, writeRedacted, nullptr, nullptr};
   std::FILE* redacted = fopencookie(stdout, "w", io);
@@ -131,7 +133,16 @@ int runMain(int argc, char** argv) {
     return fmt::format("emcalign: usage error: {}\nRun with --help for more information.\n", e.what());
   });
   // Paths and names go into JSON (results, attributes), which is UTF-8: say so before any work.
+  // A control character (a newline) would let a name forge a line of a message or a script.
   for (int i = 1; i < argc; ++i) {
+    const std::string_view a(argv[i]);
+    if (std::any_of(a.begin(), a.end(), [](char c) { return (c >= 0 && c < 0x20 && c != '\t') || c == 0x7f; })) {
+      emcalign::app::eprint(
+          "emcalign: usage error: argument {} holds a control character (a newline?): a name would forge a line of a "
+          "message or a batch script; rename it\n",
+          i);
+      return emcalign::app::kExitUsage;
+    }
     if (!emcalign::isValidUtf8(argv[i])) {
       emcalign::app::eprint(
           "emcalign: usage error: argument {} is not valid UTF-8 (file names and values are recorded in "

@@ -9,6 +9,8 @@
 
 #include <fmt/format.h>
 
+#include "emcalign/core/secrets.hpp"
+
 #include "emcalign/core/utf8.hpp"
 #include "sql_backend.hpp"
 
@@ -156,7 +158,9 @@ class SqlDatabase final : public Database {
   }
 
   Status put(const std::string& tag, const std::vector<NewIov>& iovs, IfMissing newTag,
-             const std::string& description) override {
+             const std::string& givenDescription) override {
+    // The command line's passwords are never stored (a URI pasted into a description).
+    const std::string description = core::withoutPasswords(givenDescription);
     if (Status s = checkTagName(tag); !s) return s;
     if (Status s = checkText(description, "a tag's description"); !s) return s;
     for (const NewIov& n : iovs) {
@@ -289,7 +293,8 @@ class SqlDatabase final : public Database {
     });
   }
 
-  Status retire(const std::string& tag, const std::string& reason) override {
+  Status retire(const std::string& tag, const std::string& givenReason) override {
+    const std::string reason = core::withoutPasswords(givenReason);
     if (Status s = checkTagName(tag); !s) return s;
     if (Status s = checkText(reason, "the reason"); !s) return s;
     return inTransaction(*db_, Access::Write, [&]() -> Status {

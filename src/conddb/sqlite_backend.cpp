@@ -13,6 +13,8 @@
 
 #include <fmt/format.h>
 
+#include "emcalign/core/text.hpp"
+
 #include "emcalign/io/file_kind.hpp"
 #include "emcalign/io/output_file.hpp"
 #include "sql_backend.hpp"
@@ -150,7 +152,8 @@ Result<std::unique_ptr<SqlBackend>> openSqlite(const std::string& path, IfMissin
   struct stat st {};
   const bool exists = ::stat(path.c_str(), &st) == 0;
   if (!exists && !create) {
-    return Error{fmt::format("{}: no such database (create one with: emcalign conditions init {})", uri, uri)};
+    return Error{
+        fmt::format("{}: no such database (create one with: emcalign conditions init {})", uri, shellArgument(uri))};
   }
   if (exists && !S_ISREG(st.st_mode)) return Error{fmt::format("{}: not a regular file", uri)};
   // A file of another kind is named by what it is, before SQLite reads it.

@@ -48,15 +48,16 @@ void add(std::vector<std::string>& out, std::string_view s) {
 
 std::vector<std::string> passwordsIn(std::string_view text) {
   std::vector<std::string> out;
-  // scheme://user:password@host…: the userinfo up to the last '@' before white space (a password
-  // with an '@' not percent-encoded is a password all the same).
+  // scheme://user:password@host…: the userinfo up to the last '@' of the argument (a password
+  // with an '@' or a space not percent-encoded is a password all the same). The scheme starts
+  // at its first letter ("-opostgresql://", "--postgresql://", "%20postgresql://").
   for (auto at = text.find("://"); at != std::string_view::npos; at = text.find("://", at + 3)) {
     std::size_t begin = at;
     while (begin > 0 && schemeCharacter(text[begin - 1])) --begin;
-    if (begin == at || std::isalpha(static_cast<unsigned char>(text[begin])) == 0) continue;
+    while (begin < at && std::isalpha(static_cast<unsigned char>(text[begin])) == 0) ++begin;
+    if (begin == at) continue;
     const std::size_t from = at + 3;
-    const std::size_t end = std::min(text.size(), text.find_first_of(" \t\n", from));
-    const std::string_view rest = text.substr(from, end - from);
+    const std::string_view rest = text.substr(from);
     const auto lastAt = rest.rfind('@');
     if (lastAt == std::string_view::npos) continue;
     const std::string_view userinfo = rest.substr(0, lastAt);
@@ -75,14 +76,23 @@ std::vector<std::string> passwordsIn(std::string_view text) {
       if (from >= source.size() || source[from] != '=') continue;
       ++from;
       while (from < source.size() && (source[from] == ' ' || source[from] == '\t')) ++from;
-      std::string_view value = source.substr(from);
-      if (!value.empty() && (value.front() == '\'' || value.front() == '"')) {
-        const auto close = value.find(value.front(), 1);
-        value = value.substr(1, close == std::string_view::npos ? std::string_view::npos : close - 1);
-      } else {
-        value = value.substr(0, value.find_first_of("& \t\n"));
+      // The value as libpq reads it: quoted ('…') or up to white space or '&', a backslash
+      // escaping the next character; kept as written and as read.
+      const std::string_view rest = source.substr(from);
+      const bool quoted = !rest.empty() && (rest.front() == '\'' || rest.front() == '"');
+      std::string read;
+      std::size_t i = quoted ? 1 : 0;
+      for (; i < rest.size(); ++i) {
+        const char c = rest[i];
+        if (c == '\\' && i + 1 < rest.size()) {
+          read += rest[++i];
+          continue;
+        }
+        if (quoted ? c == rest.front() : (c == ' ' || c == '\t' || c == '\n' || c == '&')) break;
+        read += c;
       }
-      add(out, value);
+      add(out, rest.substr(quoted ? 1 : 0, i - (quoted ? 1 : 0)));
+      if (read != rest.substr(quoted ? 1 : 0, i - (quoted ? 1 : 0))) add(out, read);
     }
   };
   parameters(text);
@@ -93,6 +103,22 @@ std::vector<std::string> passwordsIn(std::string_view text) {
 void rememberPasswordsOf(std::string_view text) {
   auto found = passwordsIn(text);
   if (found.empty()) return;
+  // Also as a JSON string and HTML text write it (a report's title, a plan's arguments): the
+  // escaped form is what lands in the file.
+  for (std::size_t n = found.size(), k = 0; k < n; ++k) {
+    std::string json, html;
+    for (char c : found[k]) {
+      json += c == '"' ? std::string("\\\"") : c == '\\' ? std::string("\\\\") : std::string(1, c);
+      html += c == '<'    ? std::string("&lt;")
+              : c == '>'  ? std::string("&gt;")
+              : c == '&'  ? std::string("&amp;")
+              : c == '"'  ? std::string("&quot;")
+              : c == '\'' ? std::string("&#39;")
+                          : std::string(1, c);
+    }
+    if (json != found[k]) found.push_back(json);
+    if (html != found[k]) found.push_back(html);
+  }
   const std::lock_guard lock(gMutex);
   for (auto& p : found) {
     if (std::find(gPasswords.begin(), gPasswords.end(), p) == gPasswords.end()) gPasswords.push_back(std::move(p));

@@ -37,6 +37,14 @@ std::string sbatchValue(const std::string& s) {
 
 std::string jobName(const Plan& plan) { return "emcalign-" + plan.command; }
 
+// The program the jobs run: this one, by its real path (readPlan checked that its SHA-256 is
+// the plan's). Never the plan's own program.path, which an edited plan could point elsewhere
+// (another program, /proc/self/exe, a copy someone else may replace).
+std::string programOf(const Plan& plan) {
+  auto running = ProgramIdentity::ofThisProcess();
+  return running ? running->path : plan.program.path;
+}
+
 // A path for sbatch's --output, where '%' starts a pattern (%a: the array index).
 std::string outputPattern(const std::string& path) {
   std::string out;
@@ -96,10 +104,10 @@ std::string jobArrayScript(const Plan& plan, const std::vector<std::size_t>& tas
       // No path goes raw into a comment: each is a shell word, as it would be typed.
       fmt::arg("plan", shellArgument(plan.path)), fmt::arg("command", plan.command), fmt::arg("n", plan.tasks.size()),
       fmt::arg("finishLog", shellWord(outputPattern(plan.finishLog()))),
-      fmt::arg("finish", shellWord("exec " + shellWord(plan.program.path) + " finish " + shellWord(plan.path))),
+      fmt::arg("finish", shellWord("exec " + shellWord(programOf(plan)) + " finish " + shellWord(plan.path))),
       fmt::arg("work", shellArgument(work)), fmt::arg("name", jobName(plan)), fmt::arg("array", arrayOf(plan, tasks)),
       fmt::arg("log", sbatchValue(outputPattern(work) + "/task-%a.log")), fmt::arg("dir", sbatchValue(plan.directory)),
-      fmt::arg("program", shellWord(plan.program.path)), fmt::arg("planWord", shellWord(plan.path)));
+      fmt::arg("program", shellWord(programOf(plan))), fmt::arg("planWord", shellWord(plan.path)));
 }
 
 namespace {
@@ -149,7 +157,7 @@ Result<SlurmSubmission> submitToSlurm(const Plan& plan, const std::vector<std::s
     finishArguments.push_back("--kill-on-invalid-dep=yes");
   }
   const std::string script =
-      fmt::format("#!/bin/bash\nexec {} finish {}\n", shellWord(plan.program.path), shellWord(plan.path));
+      fmt::format("#!/bin/bash\nexec {} finish {}\n", shellWord(programOf(plan)), shellWord(plan.path));
   auto finish = sbatch(finishArguments, script, plan.directory);
   if (!finish) {
     return Error{
@@ -158,7 +166,7 @@ Result<SlurmSubmission> submitToSlurm(const Plan& plan, const std::vector<std::s
                     "--chdir={} --wrap={})",
                     s.arrayJob, finish.error().message, s.arrayJob, shellWord(outputPattern(plan.finishLog())),
                     shellWord(plan.directory),
-                    shellWord("exec " + shellWord(plan.program.path) + " finish " + shellWord(plan.path)))};
+                    shellWord("exec " + shellWord(programOf(plan)) + " finish " + shellWord(plan.path)))};
   }
   s.finishJob = *finish;
   return s;

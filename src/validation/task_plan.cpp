@@ -128,6 +128,10 @@ Json writtenDigests(const PlannedTask& task) {
 // plan is written or read. So is "hetjob" or "packjob" in any case: sbatch blanks the word in an
 // #SBATCH line and starts another component of a heterogeneous job there.
 Status checkScriptSafe(std::string_view what, const std::string& p, const std::string& source) {
+  if (!isValidUtf8(p)) {
+    return Error{fmt::format("{}: {} {} is not UTF-8: a plan is JSON text, which must be; rename it", source, what,
+                             io::quotedText(printable(p), 200))};
+  }
   const auto unsafe = std::find_if(p.begin(), p.end(),
                                    [](char c) { return c == '"' || c == '\\' || (c >= 0 && c < 0x20) || c == 0x7f; });
   std::string lower = p;
@@ -240,6 +244,15 @@ Result<Plan> writePlan(const std::string& path, const std::string& command, cons
   plan.tasks = job.tasks();
   plan.data = job.data();
   if (plan.tasks.empty()) return Error{"the plan has no task: nothing to run"};
+  // A plan never holds a password (its tasks refuse one): none of its arguments either.
+  for (const std::string& a : arguments) {
+    if (core::holdsPassword(a)) {
+      return Error{fmt::format(
+          "{}: an argument holds a password ({}): a plan never does (its tasks would refuse it); give it to libpq "
+          "(PGPASSFILE, PGPASSWORD)",
+          path, io::quotedText(a, 60))};
+    }
+  }
   for (const auto& [what, p] : {std::pair{"its path", plan.path}, std::pair{"its directory", plan.directory},
                                 std::pair{"the program", plan.program.path}}) {
     if (Status s = checkScriptSafe(what, p, path); !s) return s.error();
@@ -251,6 +264,12 @@ Result<Plan> writePlan(const std::string& path, const std::string& command, cons
                     path)};
   }
   if (Status s = replacesOnlyAPlan(plan.path); !s) return s.error();
+  if (fs::path(plan.path).parent_path().extension() == ".tasks") {
+    return Error{
+        fmt::format("{}: inside a plan's work directory (NAME.tasks holds its tasks' records and logs): put "
+                    "the plan beside it",
+                    path)};
+  }
   // NAME.json only: "q", "q.json" and "q.JSON" would share the work directory q.tasks.
   if (fs::path(plan.path).extension() != ".json") {
     return Error{fmt::format(
@@ -288,6 +307,7 @@ PlanPaths pathsOfPlan(const Plan& plan) {
   PlanPaths out;
   out.files.push_back({"the plan itself", plan.path});
   out.files.push_back({"the program the plan runs", plan.program.path});
+  if (auto running = ProgramIdentity::ofThisProcess()) out.files.push_back({"the program the jobs run", running->path});
   out.directories.push_back({"the plan's work directory", plan.workDirectory()});
   for (std::size_t k = 0; k < plan.tasks.size(); ++k) {
     for (const auto& f : plan.tasks[k].inputs)
@@ -339,7 +359,7 @@ PlanPaths pathsOfPlan(const Plan& plan) {
     pending.pop_back();
     if (j->is_string()) {
       const std::string& v = j->get_ref<const std::string&>();
-      if (v.starts_with("sqlite:") || v.starts_with("/")) named("data", v, false);
+      if (!v.empty() && v.size() < 4096) named("data", v, false);
     } else if (j->is_structured()) {
       for (const Json& child : *j) pending.push_back(&child);
     }

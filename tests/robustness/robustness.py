@@ -1538,8 +1538,8 @@ def batch_cases(add):
             os.makedirs(os.path.join(d, name), exist_ok=True)
             edit_json(d, "bplan.json", os.path.join(name, "bplan.json"), change or (lambda j: None))
         return setup
-    add(Case(B, "a copy of a plan in a directory whose name holds a newline", "emcalign batch script "
-             "\"$(printf 'evil\\ntouch PWNED')/bplan.json\" -o -", 1, "a control character",
+    add(Case(B, "a copy of a plan in a directory whose name holds a newline", "cd \"$(printf 'evil\\ntouch PWNED')\" && "
+             "emcalign batch script bplan.json -o -", 1, "a control character",
              setup=copied("evil\ntouch PWNED"), check=lambda d, r: "PWNED" if os.path.exists(os.path.join(d, "PWNED"))
              else None, checked="nothing ran"))
     add(Case(B, "a plan edited: its directory holds \"hetjob\"", "emcalign batch script hj/bplan.json -o -", 1,
@@ -1581,6 +1581,27 @@ def batch_cases(add):
     add(Case(B, "a sample's truth edited, its task's record gone", "emcalign batch status tplan.json", 1, None,
              setup=truth_edited, check=lambda d, r: None if "not this plan's work" in r.out else r.out,
              checked="not this plan's work: a rerun refuses it"))
+    add(Case(B, "a plan edited to run /proc/self/exe: the script runs this program by its real path",
+             "emcalign batch script selfexe.json -o -", 0, None,
+             setup=lambda d: (plan(d), edit_json(d, "bplan.json", "selfexe.json",
+                                                 lambda j: j["program"].__setitem__("path", "/proc/self/exe"))),
+             check=lambda d, r: None if f"exec '{runner_binary[0]}' task" in r.out and "/proc/" not in r.out
+             else r.out, checked="exec of the real emcalign, no /proc path"))
+    add(Case(B, "a password in a plan's --description", "emcalign campaign period --conditions camp.db --tag c3 "
+             "--min-events 1500 --description 'postgresql://u:hunter2secret@h/db' --plan pwplan.json", 1,
+             "a plan never does", check=lambda d, r: "written or shown" if os.path.exists(os.path.join(
+                 d, "pwplan.json")) or "hunter2secret" in r.out + r.err else None,
+             checked="no plan, the password not shown"))
+    add(Case(B, "a newline inside an argument", "emcalign fit \"$(printf 'x\\nemcalign: wrote r.json')\" -o r9.json",
+             2, "holds a control character"))
+
+    def relative_data(d):
+        db_plan(d)
+        edit_json(d, "cdbplan.json", "reldata.json", lambda j: j["data"].__setitem__("conditions", "ret.db"))
+    ret_before, ret_same = unchanged("ret.db")
+    add(Case(B, "the job script over a database an edited plan's data names (a relative path)",
+             "emcalign batch script reldata.json -o ret.db", 1, "named in the plan's data",
+             setup=lambda d: (relative_data(d), ret_before(d)), check=ret_same, checked="ret.db unchanged"))
     add(Case(B, "a tag compared with itself", "emcalign conditions diff camp.db --tag c --tag c", 1,
              "a tag compared with itself"))
     add(Case(B, "not a number of CPUs (SLURM_CPUS_PER_TASK=1e3)",

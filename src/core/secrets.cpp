@@ -57,7 +57,9 @@ std::vector<std::string> passwordsIn(std::string_view text) {
     while (begin < at && std::isalpha(static_cast<unsigned char>(text[begin])) == 0) ++begin;
     if (begin == at) continue;
     const std::size_t from = at + 3;
-    const std::string_view rest = text.substr(from);
+    // (To the end of the argument; in a text, of its line or its quoted string.)
+    const std::size_t end = std::min(text.size(), text.find_first_of("\n\"", from));
+    const std::string_view rest = text.substr(from, end - from);
     const auto lastAt = rest.rfind('@');
     if (lastAt == std::string_view::npos) continue;
     const std::string_view userinfo = rest.substr(0, lastAt);

@@ -31,6 +31,11 @@ TEST(Secrets, PasswordsAreFoundWhereverTheyStandInAnArgument) {
   EXPECT_THAT(passwordsIn("runs/2026-12-04T10:00/ev.h5"), IsEmpty());
   EXPECT_THAT(passwordsIn("mail calib@snd.example 10:30"), IsEmpty());
   EXPECT_THAT(passwordsIn("postgresql://calib:@db/snd"), IsEmpty());
+  // In a text (a plan's JSON), a URI ends with its line or its quoted string: a later '@' and
+  // ':' are not its password.
+  EXPECT_THAT(passwordsIn("\"postgresql://me@h:5432/x\",\n \"k\": \"a@b\""), IsEmpty());
+  // A space in a password given raw is part of it.
+  EXPECT_THAT(passwordsIn("postgresql://u:SEC RET@h/db"), ElementsAre("SEC RET"));
 }
 
 TEST(Secrets, RememberedPasswordsAreRedactedInEveryLine) {

@@ -15,6 +15,7 @@
 #include "emcalign/calib/fit_notes.hpp"
 #include "emcalign/core/paper.hpp"
 #include "emcalign/core/parameters.hpp"
+#include "emcalign/core/sha256.hpp"
 #include "emcalign/core/statistics.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/io/strict_json.hpp"
@@ -144,15 +145,25 @@ Status CampaignOptions::validate() const {
 
 namespace {
 
+// The SHA-256 of a sample's content (its JSON without "sha256", compact): a sample changed
+// since it was written (its fit, its counts) is not a finished sample, even without the
+// task's record that holds the file's digest.
+std::string contentDigest(Json j) {
+  j.erase("sha256");
+  return sha256(j.dump());
+}
+
 Json sampleJson(const SampleResult& s, const CampaignOptions& o) {
   Json fit = calib::fitResultJson(s.fit, calib::FitInput{});
   fit.erase("input");
-  return Json{{"format", kSampleFormat},
-              {"index", s.index},
-              {"campaign", {{"seed", o.seed}, {"events", o.events}, {"settings", o.settings}}},
-              {"selected_events", s.selectedEvents},
-              {"truth", io::alignmentToJson(s.truth)},
-              {"fit", fit}};
+  Json j = {{"format", kSampleFormat},
+            {"index", s.index},
+            {"campaign", {{"seed", o.seed}, {"events", o.events}, {"settings", o.settings}}},
+            {"selected_events", s.selectedEvents},
+            {"truth", io::alignmentToJson(s.truth)},
+            {"fit", fit}};
+  j["sha256"] = contentDigest(j);
+  return j;
 }
 
 // Reads back what the table needs from a sample file; none if it is not a finished sample
@@ -162,6 +173,8 @@ std::optional<SampleResult> readSample(const std::string& path, int sampleIndex,
   if (!text) return std::nullopt;
   auto j = io::parseJson(*text, path);
   if (!j || !j->is_object() || !j->contains("format") || (*j)["format"] != kSampleFormat) return std::nullopt;
+  // Written by an earlier version without it: the other checks only.
+  if (j->contains("sha256") && (*j)["sha256"] != contentDigest(*j)) return std::nullopt;
   try {
     Json& c = (*j)["campaign"];  // not const: a missing key reads as null, never undefined behaviour
     // Integers exactly as written (a wrapped or truncated number is not this campaign's).

@@ -170,6 +170,17 @@ int runGroup(const CampaignCliOptions& o) {
     return reportError(
         Error{fmt::format("--group {}: the plan {} has groups 0 to {}", o.group, o.plan, plan->tasks.size() - 1)});
   }
+  // A plan that names its database and tag: exactly `emcalign task P K` (its command line parsed
+  // again in its directory, every check of a task), with what is given here its own.
+  if (plan->data.is_object() && plan->data.contains("conditions")) {
+    const std::string stored = plan->data.value("conditions", std::string());
+    const std::string tag = plan->data.value("tag", std::string());
+    if ((!o.conditions.empty() && storedForm(o.conditions) != stored) || (!o.tag.empty() && o.tag != tag)) {
+      return reportError(
+          Error{fmt::format("--conditions/--tag: the plan {} stores into {} tag {}", o.plan, stored, tag)});
+    }
+    return runTaskOfPlan(o.plan, static_cast<std::size_t>(o.group));
+  }
   auto job = plannedJob(plan->data, o.plan, o);
   if (!job) return reportError(job.error());
   auto ran = validation::runPlannedTask(*plan, **job, static_cast<std::size_t>(o.group), reportStream());

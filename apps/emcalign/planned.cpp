@@ -356,6 +356,18 @@ std::string planWorkDirectory(const std::string& planOption) {
   return gContext.plan != nullptr ? gContext.plan->workDirectory() : validation::planWorkDirectory(planOption);
 }
 
+int runTaskOfPlan(const std::string& planPath, std::size_t k) {
+  auto plan = planToRun(planPath);
+  if (!plan) return reportError(plan.error());
+  // A retry of a task done: nothing to do, whatever has changed around it since.
+  if (validation::taskDone(*plan, k)) {
+    fmt::print(reportStream(), "task {} ({}) is done already ({}): nothing to do\n", k, plan->tasks[k].what,
+               plan->recordOf(k));
+    return kExitOk;
+  }
+  return runFromPlan(*plan, PlanContext::Mode::Task, k);
+}
+
 CLI::Option* addPlanOption(CLI::App& cmd, std::string& path) {
   return cmd.add_option("--plan", path,
                         "write the job list PLAN.json and run nothing: its tasks run with emcalign batch submit "
@@ -458,21 +470,7 @@ void addPlanCommands(CLI::App& app, int& exitCode) {
   task->add_option("task", t->task, "the task, 0 to N-1 (Slurm: $SLURM_ARRAY_TASK_ID)")
       ->required()
       ->check(integerIn(0, 100'000'000));
-  task->callback([t, &exitCode] {
-    auto plan = planToRun(t->plan);
-    if (!plan) {
-      exitCode = reportError(plan.error());
-      return;
-    }
-    // A retry of a task done: nothing to do, whatever has changed around it since.
-    if (validation::taskDone(*plan, t->task)) {
-      fmt::print(reportStream(), "task {} ({}) is done already ({}): nothing to do\n", t->task,
-                 plan->tasks[t->task].what, plan->recordOf(t->task));
-      exitCode = kExitOk;
-      return;
-    }
-    exitCode = runFromPlan(*plan, PlanContext::Mode::Task, t->task);
-  });
+  task->callback([t, &exitCode] { exitCode = runTaskOfPlan(t->plan, t->task); });
 
   auto f = std::make_shared<std::string>();
   auto* finish = app.add_subcommand("finish",

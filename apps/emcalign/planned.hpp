@@ -47,6 +47,11 @@ using JobMaker = std::function<Result<std::unique_ptr<validation::PlannedJob>>(c
 int runPlannable(const std::string& command, const std::string& planPath, const std::vector<std::string>& outputs,
                  const JobMaker& makeJob, const std::function<int()>& run, const std::function<int()>& finish);
 
+/// `emcalign task PLAN K`: nothing when the task is done, else its command line parsed again in
+/// the plan's directory and task K run (`campaign --plan P --group K` of a plan with its
+/// database is this too).
+int runTaskOfPlan(const std::string& planPath, std::size_t k);
+
 /// --plan PLAN.json of a plannable command.
 CLI::Option* addPlanOption(CLI::App& cmd, std::string& path);
 

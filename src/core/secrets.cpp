@@ -46,7 +46,7 @@ void add(std::vector<std::string>& out, std::string_view s) {
 
 }  // namespace
 
-std::vector<std::string> passwordsIn(std::string_view text) {
+std::vector<std::string> passwordsIn(std::string_view text, bool withinText) {
   std::vector<std::string> out;
   // scheme://user:password@host…: the userinfo up to the last '@' of the argument (a password
   // with an '@' or a space not percent-encoded is a password all the same). The scheme starts
@@ -58,7 +58,7 @@ std::vector<std::string> passwordsIn(std::string_view text) {
     if (begin == at) continue;
     const std::size_t from = at + 3;
     // (To the end of the argument; in a text, of its line or its quoted string.)
-    const std::size_t end = std::min(text.size(), text.find_first_of("\n\"", from));
+    const std::size_t end = std::min(text.size(), text.find_first_of(withinText ? "\n\"" : "\n", from));
     const std::string_view rest = text.substr(from, end - from);
     const auto lastAt = rest.rfind('@');
     if (lastAt == std::string_view::npos) continue;
@@ -133,7 +133,7 @@ bool passwordsRemembered() {
   return !gPasswords.empty();
 }
 
-bool holdsPassword(std::string_view text) { return !passwordsIn(text).empty(); }
+bool holdsPassword(std::string_view text, bool withinText) { return !passwordsIn(text, withinText).empty(); }
 
 std::string withoutPasswords(std::string text) {
   const std::lock_guard lock(gMutex);

@@ -400,7 +400,7 @@ Result<Plan> parsePlan(const std::string& text, const std::string& path) {
     }
     plan.data = o.has("data") ? o.at("data") : Json(nullptr);
     // A plan never holds a password (campaign --plan refuses one): an edited plan neither.
-    if (core::holdsPassword(text)) {
+    if (core::holdsPassword(text, true)) {
       throw io::strict::BadInput{fmt::format(
           "{}: holds a password (a database URI with user:password@ or password=): a plan never does; give it to "
           "libpq (PGPASSFILE, PGPASSWORD) and make the plan again",

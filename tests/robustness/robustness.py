@@ -1602,6 +1602,23 @@ def batch_cases(add):
     add(Case(B, "the job script over a database an edited plan's data names (a relative path)",
              "emcalign batch script reldata.json -o ret.db", 1, "named in the plan's data",
              setup=lambda d: (relative_data(d), ret_before(d)), check=ret_same, checked="ret.db unchanged"))
+    add(Case(B, "a '\"' in a password given where a file goes", "emcalign fit 'postgresql://u:A\"hunter2secret@h/db' "
+             "-o r9.json", 2, "File does not exist",
+             check=lambda d, r: "shown" if "hunter2secret" in r.out + r.err else None, checked="not shown"))
+
+    def among_data(d):
+        db_plan(d)
+        target = "sqlite:" + os.path.join(d, "period", "grp.db")
+
+        def edit(j):
+            j["data"]["conditions"] = target
+            i = j["arguments"].index("--conditions")
+            j["arguments"][i + 1] = target
+        edit_json(d, "cdbplan.json", "amongplan.json", edit)
+    add(Case(B, "a group of a plan edited (consistently) to store among the event files",
+             "emcalign campaign --plan amongplan.json --group 0", 1, "a new database among the campaign's event files",
+             setup=among_data, check=lambda d, r: "period/grp.db created" if os.path.exists(
+                 os.path.join(d, "period", "grp.db")) else None, checked="no period/grp.db"))
     add(Case(B, "a tag compared with itself", "emcalign conditions diff camp.db --tag c --tag c", 1,
              "a tag compared with itself"))
     add(Case(B, "not a number of CPUs (SLURM_CPUS_PER_TASK=1e3)",

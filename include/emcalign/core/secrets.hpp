@@ -14,14 +14,16 @@ namespace emcalign::core {
 /// The passwords `text` holds: for every "scheme://user:password@…" the password (as written and
 /// percent-decoded); the value of every "password=" (any case, also
 /// sslpassword=), up to '&', white space or the end. Empty when it holds none.
-std::vector<std::string> passwordsIn(std::string_view text);
+/// `withinText`: `text` is a text (a plan's JSON), where a URI also ends with its line or its
+/// quoted string; else an argument, whose URI runs to its end ('"' may be in a password).
+std::vector<std::string> passwordsIn(std::string_view text, bool withinText = false);
 
 /// Remembers the passwords of `text` (the command line's arguments, one by one).
 void rememberPasswordsOf(std::string_view text);
 /// Whether any password is remembered.
 bool passwordsRemembered();
 /// Whether `text` holds a password (passwordsIn not empty).
-bool holdsPassword(std::string_view text);
+bool holdsPassword(std::string_view text, bool withinText = false);
 /// `text` with every remembered password as "***" (longest first; one of fewer than 4
 /// characters only where it follows a ':' or a '=', as in "user:pw@" or "password=pw").
 std::string withoutPasswords(std::string text);

@@ -33,7 +33,9 @@ TEST(Secrets, PasswordsAreFoundWhereverTheyStandInAnArgument) {
   EXPECT_THAT(passwordsIn("postgresql://calib:@db/snd"), IsEmpty());
   // In a text (a plan's JSON), a URI ends with its line or its quoted string: a later '@' and
   // ':' are not its password.
-  EXPECT_THAT(passwordsIn("\"postgresql://me@h:5432/x\",\n \"k\": \"a@b\""), IsEmpty());
+  EXPECT_THAT(passwordsIn("\"postgresql://me@h:5432/x\",\n \"k\": \"a@b\"", true), IsEmpty());
+  // In an argument, a '"' is part of it.
+  EXPECT_THAT(passwordsIn("postgresql://u:A\"SEKRET@h/db"), ElementsAre("A\"SEKRET"));
   // A space in a password given raw is part of it.
   EXPECT_THAT(passwordsIn("postgresql://u:SEC RET@h/db"), ElementsAre("SEC RET"));
 }

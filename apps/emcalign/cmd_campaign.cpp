@@ -145,6 +145,15 @@ Result<std::unique_ptr<validation::PlannedJob>> plannedJob(const io::Json& data,
                                                          : "with other ones (" + plan->corrections + ")")};
     }
   }
+  // A task (its command line the plan's): the data's σ_sys, description and grouping are the
+  // command line's, or the plan was edited.
+  if (o.group < 0 && (!calib::sameChoice(sigmaSysChoice(o.sigmaSys), plan->sigmaSys) ||
+                      (!given && o.description != plan->description) || o.minEvents != plan->minEvents)) {
+    return Error{fmt::format(
+        "{}: key 'data': its sigma_sys, description or min_events are not its command line's: edited? make the "
+        "plan again",
+        source)};
+  }
   if (!o.sigmaSys.empty() && !calib::sameChoice(sigmaSysChoice(o.sigmaSys), plan->sigmaSys)) {
     return Error{fmt::format("--sigma-sys {}: the plan {} was made with sigma_sys {}", o.sigmaSys, source,
                              calib::sigmaSysChoiceJson(plan->sigmaSys).dump())};
@@ -178,6 +187,12 @@ int runGroup(const CampaignCliOptions& o) {
     if ((!o.conditions.empty() && storedForm(o.conditions) != stored) || (!o.tag.empty() && o.tag != tag)) {
       return reportError(
           Error{fmt::format("--conditions/--tag: the plan {} stores into {} tag {}", o.plan, stored, tag)});
+    }
+    if (!o.sigmaSys.empty() || !o.corrections.empty() || !o.detector.empty() || !o.description.empty()) {
+      return reportError(Error{
+          fmt::format("--group of the plan {}: its options are the plan's (--sigma-sys, --corrections, --detector, "
+                      "--description are not taken here; make the plan again to change them)",
+                      o.plan)});
     }
     return runTaskOfPlan(o.plan, static_cast<std::size_t>(o.group));
   }

@@ -160,7 +160,7 @@ class SqlDatabase final : public Database {
   Status put(const std::string& tag, const std::vector<NewIov>& iovs, IfMissing newTag,
              const std::string& givenDescription) override {
     // The command line's passwords are never stored (a URI pasted into a description).
-    const std::string description = core::withoutPasswords(givenDescription);
+    const std::string description = core::withoutAnyPassword(givenDescription);
     if (Status s = checkTagName(tag); !s) return s;
     if (Status s = checkText(description, "a tag's description"); !s) return s;
     for (const NewIov& n : iovs) {
@@ -294,7 +294,7 @@ class SqlDatabase final : public Database {
   }
 
   Status retire(const std::string& tag, const std::string& givenReason) override {
-    const std::string reason = core::withoutPasswords(givenReason);
+    const std::string reason = core::withoutAnyPassword(givenReason);
     if (Status s = checkTagName(tag); !s) return s;
     if (Status s = checkText(reason, "the reason"); !s) return s;
     return inTransaction(*db_, Access::Write, [&]() -> Status {

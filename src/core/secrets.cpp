@@ -133,6 +133,16 @@ bool passwordsRemembered() {
   return !gPasswords.empty();
 }
 
+std::string withoutAnyPassword(std::string text) {
+  text = withoutPasswords(std::move(text));
+  auto found = passwordsIn(text);
+  std::sort(found.begin(), found.end(), [](const auto& a, const auto& b) { return a.size() > b.size(); });
+  for (const std::string& p : found) {
+    for (auto at = text.find(p); at != std::string::npos; at = text.find(p, at + 3)) text.replace(at, p.size(), "***");
+  }
+  return text;
+}
+
 bool holdsPassword(std::string_view text, bool withinText) { return !passwordsIn(text, withinText).empty(); }
 
 std::string withoutPasswords(std::string text) {

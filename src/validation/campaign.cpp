@@ -173,8 +173,9 @@ std::optional<SampleResult> readSample(const std::string& path, int sampleIndex,
   if (!text) return std::nullopt;
   auto j = io::parseJson(*text, path);
   if (!j || !j->is_object() || !j->contains("format") || (*j)["format"] != kSampleFormat) return std::nullopt;
-  // Written by an earlier version without it: the other checks only.
-  if (j->contains("sha256") && (*j)["sha256"] != contentDigest(*j)) return std::nullopt;
+  // Its content as written (a sample without its digest, as an earlier version wrote it, is
+  // simulated again once removed: the message says so).
+  if (!j->contains("sha256") || (*j)["sha256"] != contentDigest(*j)) return std::nullopt;
   try {
     Json& c = (*j)["campaign"];  // not const: a missing key reads as null, never undefined behaviour
     // Integers exactly as written (a wrapped or truncated number is not this campaign's).

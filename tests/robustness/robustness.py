@@ -1619,6 +1619,11 @@ def batch_cases(add):
              "emcalign campaign --plan amongplan.json --group 0", 1, "a new database among the campaign's event files",
              setup=among_data, check=lambda d, r: "period/grp.db created" if os.path.exists(
                  os.path.join(d, "period", "grp.db")) else None, checked="no period/grp.db"))
+    add(Case(B, "a campaign plan's sigma_sys edited", "emcalign task sigedit.json 0", 1, "key 'data'",
+             setup=lambda d: (db_plan(d), edit_json(d, "cdbplan.json", "sigedit.json", lambda j: j["data"].__setitem__(
+                 "sigma_sys", {"method": "fixed", "value_deg": 0.9})))))
+    add(Case(B, "a group of a plan given other options", "emcalign campaign --plan cdbplan.json --group 0 --sigma-sys 0.5",
+             1, "its options are the plan's", setup=db_plan))
     add(Case(B, "a tag compared with itself", "emcalign conditions diff camp.db --tag c --tag c", 1,
              "a tag compared with itself"))
     add(Case(B, "not a number of CPUs (SLURM_CPUS_PER_TASK=1e3)",

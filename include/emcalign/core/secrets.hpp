@@ -22,6 +22,9 @@ std::vector<std::string> passwordsIn(std::string_view text, bool withinText = fa
 void rememberPasswordsOf(std::string_view text);
 /// Whether any password is remembered.
 bool passwordsRemembered();
+/// withoutPasswords, and the passwords `text` holds itself (a text read from a file, to be
+/// stored: a tag's description from an edited plan).
+std::string withoutAnyPassword(std::string text);
 /// Whether `text` holds a password (passwordsIn not empty).
 bool holdsPassword(std::string_view text, bool withinText = false);
 /// `text` with every remembered password as "***" (longest first; one of fewer than 4

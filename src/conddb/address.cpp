@@ -6,6 +6,8 @@
 
 #include <fmt/format.h>
 
+#include "emcalign/core/secrets.hpp"
+
 namespace emcalign::conddb {
 
 namespace {
@@ -68,26 +70,7 @@ bool isHarmless(std::string_view key) {
   return std::find(std::begin(kShown), std::end(kShown), key) != std::end(kShown);
 }
 
-int hexValue(char c) {
-  if (c >= '0' && c <= '9') return c - '0';
-  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
-  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
-  return -1;
-}
-
-// %XX decoded (as libpq decodes the parts of a URI); a malformed escape is kept as written.
-std::string percentDecoded(std::string_view s) {
-  std::string out;
-  for (std::size_t i = 0; i < s.size(); ++i) {
-    if (s[i] == '%' && i + 2 < s.size() && hexValue(s[i + 1]) >= 0 && hexValue(s[i + 2]) >= 0) {
-      out += static_cast<char>(hexValue(s[i + 1]) * 16 + hexValue(s[i + 2]));
-      i += 2;
-    } else {
-      out += s[i];
-    }
-  }
-  return out;
-}
+using core::percentDecoded;
 
 std::vector<std::string_view> split(std::string_view s, char by) {
   std::vector<std::string_view> out;

@@ -14,12 +14,27 @@ constexpr std::size_t kMinBareSecret = 4;
 std::mutex gMutex;
 std::vector<std::string> gPasswords;  // and user:password forms
 
+bool schemeCharacter(char c) {
+  return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '+' || c == '-' || c == '.';
+}
+
+void add(std::vector<std::string>& out, std::string_view s) {
+  if (s.empty()) return;
+  out.emplace_back(s);
+  if (std::string d = percentDecoded(s); d != s) out.push_back(std::move(d));
+}
+
+}  // namespace
+
+namespace {
 int hexValue(char c) {
   if (c >= '0' && c <= '9') return c - '0';
   if (c >= 'a' && c <= 'f') return c - 'a' + 10;
   if (c >= 'A' && c <= 'F') return c - 'A' + 10;
   return -1;
 }
+
+}  // namespace
 
 std::string percentDecoded(std::string_view s) {
   std::string out;
@@ -33,18 +48,6 @@ std::string percentDecoded(std::string_view s) {
   }
   return out;
 }
-
-bool schemeCharacter(char c) {
-  return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '+' || c == '-' || c == '.';
-}
-
-void add(std::vector<std::string>& out, std::string_view s) {
-  if (s.empty()) return;
-  out.emplace_back(s);
-  if (std::string d = percentDecoded(s); d != s) out.push_back(std::move(d));
-}
-
-}  // namespace
 
 std::vector<std::string> passwordsIn(std::string_view text, bool withinText) {
   std::vector<std::string> out;

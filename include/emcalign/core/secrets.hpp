@@ -11,6 +11,9 @@
 
 namespace emcalign::core {
 
+/// %XX decoded, as libpq decodes the parts of a URI; a malformed escape is kept as written.
+std::string percentDecoded(std::string_view s);
+
 /// The passwords `text` holds: for every "scheme://user:password@…" the password (as written and
 /// percent-decoded); the value of every "password=" (any case, also
 /// sslpassword=), up to '&', white space or the end. Empty when it holds none.

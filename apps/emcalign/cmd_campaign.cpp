@@ -40,6 +40,7 @@ struct CampaignCliOptions {
   std::int64_t minEvents = validation::CalibrationCampaignOptions{}.minEvents;
   int group = -1;
   int threads = validation::CalibrationCampaignOptions{}.threads;
+  bool minEventsGiven = false;
 };
 
 void printGroups(const std::vector<validation::CampaignGroup>& groups, std::int64_t minEvents) {
@@ -178,6 +179,12 @@ int runGroup(const CampaignCliOptions& o) {
   if (o.group >= static_cast<int>(plan->tasks.size())) {
     return reportError(
         Error{fmt::format("--group {}: the plan {} has groups 0 to {}", o.group, o.plan, plan->tasks.size() - 1)});
+  }
+  // The grouping is the plan's: another --min-events would not change what the group holds.
+  if (o.minEventsGiven && plan->data.is_object() && plan->data.value("min_events", std::int64_t{0}) != o.minEvents) {
+    return reportError(Error{fmt::format("--min-events {}: the plan {} groups its runs by min_events {} (make the "
+                                         "plan again to change it)",
+                                         o.minEvents, o.plan, plan->data.value("min_events", std::int64_t{0}))});
   }
   // A plan that names its database and tag: exactly `emcalign task P K` (its command line parsed
   // again in its directory, every check of a task), with what is given here its own.
@@ -410,6 +417,7 @@ void addCampaignCommand(CLI::App& app, int& exitCode) {
   addDetectorOption(*cmd, o->detector);
   cmd->callback([o, cmd, conditions, &exitCode] {
     const bool group = cmd->count("--group") > 0;
+    o->minEventsGiven = cmd->count("--min-events") > 0;
     if (planContext().mode == PlanContext::Mode::Direct) {
       if (group) {
         if (o->plan.empty()) throw CLI::RequiredError("--plan (with --group)");

@@ -335,7 +335,9 @@ int batchScript(const std::string& path, const std::string& output, bool missing
     tasks = missingTasks(*plan);
     if (tasks.empty()) return reportError(Error{fmt::format("{}: every task is done: no job array to write", path)});
   }
-  if (Status s = io::writeOutputFile(output, validation::jobArrayScript(*plan, tasks)); !s) {
+  auto script = validation::jobArrayScript(*plan, tasks);
+  if (!script) return reportError(script.error());
+  if (Status s = io::writeOutputFile(output, *script); !s) {
     return reportError(s.error());
   }
   if (output != "-") {
@@ -361,7 +363,7 @@ int runTaskOfPlan(const std::string& planPath, std::size_t k) {
   if (!plan) return reportError(plan.error());
   // A retry of a task done: nothing to do, whatever has changed around it since.
   if (validation::taskDone(*plan, k)) {
-    fmt::print(reportStream(), "task {} ({}) is done already ({}): nothing to do\n", k, plan->tasks[k].what,
+    fmt::print(reportStream(), "task {} ({}) is done already ({}): nothing to do\n", k, printable(plan->tasks[k].what),
                plan->recordOf(k));
     return kExitOk;
   }

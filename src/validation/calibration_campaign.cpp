@@ -390,6 +390,9 @@ Result<CampaignPlan> parseCampaignPlan(const Json& data, const std::string& path
     if (top.string("format") != kCampaignPlanFormat) {
       top.fail("format", fmt::format("expected \"{}\"", kCampaignPlanFormat));
     }
+    if (top.has("software") && top.string("software") != fmt::format("emcalign {}", kVersion)) {
+      top.fail("software", fmt::format("expected \"emcalign {}\" (the program that made the plan)", kVersion));
+    }
     CampaignPlan plan;
     if (top.has("conditions")) {
       plan.conditions = top.string("conditions");
@@ -478,6 +481,11 @@ Result<CampaignPlan> parseCampaignPlan(const Json& data, const std::string& path
       group.selected = *selected;
       if (!g.at("short").is_boolean()) g.fail(g.pathOf("short"), "expected true or false");
       group.isShort = g.at("short").get<bool>();
+      // Said by its counts, as planGroups says it: an edited flag would store another payload.
+      if (group.isShort != (group.selected < plan.minEvents)) {
+        g.fail(g.pathOf("short"), fmt::format("expected {}: {} selected events, min_events {}",
+                                              group.selected < plan.minEvents, group.selected, plan.minEvents));
+      }
       plan.groups.push_back(std::move(group));
     }
     return plan;

@@ -40,9 +40,16 @@ std::string jobName(const Plan& plan) { return "emcalign-" + plan.command; }
 // The program the jobs run: this one, by its real path (readPlan checked that its SHA-256 is
 // the plan's). Never the plan's own program.path, which an edited plan could point elsewhere
 // (another program, /proc/self/exe, a copy someone else may replace).
-std::string programOf(const Plan& plan) {
+// Its path goes into the script like the plan's own: one that could end a line there (a
+// newline, a quote) is refused, not quoted (checkScriptSafe).
+Result<std::string> programOf(const Plan& plan) {
   auto running = ProgramIdentity::ofThisProcess();
-  return running ? running->path : plan.program.path;
+  const std::string path = running ? running->path : plan.program.path;
+  if (Status s = checkScriptSafe("this program's path", path, plan.path); !s) {
+    return Error{s.error().message + " (the jobs run the program that writes their script: install or copy it "
+                                     "where its path is safe)"};
+  }
+  return path;
 }
 
 // A path for sbatch's --output, where '%' starts a pattern (%a: the array index).
@@ -84,7 +91,9 @@ Result<std::string> sbatch(const std::vector<std::string>& arguments, const std:
 
 }  // namespace
 
-std::string jobArrayScript(const Plan& plan, const std::vector<std::size_t>& tasks) {
+Result<std::string> jobArrayScript(const Plan& plan, const std::vector<std::size_t>& tasks) {
+  auto program = programOf(plan);
+  if (!program) return program.error();
   const std::string work = plan.workDirectory();
   return fmt::format(
       "#!/bin/bash\n"
@@ -104,10 +113,10 @@ std::string jobArrayScript(const Plan& plan, const std::vector<std::size_t>& tas
       // No path goes raw into a comment: each is a shell word, as it would be typed.
       fmt::arg("plan", shellArgument(plan.path)), fmt::arg("command", plan.command), fmt::arg("n", plan.tasks.size()),
       fmt::arg("finishLog", shellWord(outputPattern(plan.finishLog()))),
-      fmt::arg("finish", shellWord("exec " + shellWord(programOf(plan)) + " finish " + shellWord(plan.path))),
+      fmt::arg("finish", shellWord("exec " + shellWord(*program) + " finish " + shellWord(plan.path))),
       fmt::arg("work", shellArgument(work)), fmt::arg("name", jobName(plan)), fmt::arg("array", arrayOf(plan, tasks)),
       fmt::arg("log", sbatchValue(outputPattern(work) + "/task-%a.log")), fmt::arg("dir", sbatchValue(plan.directory)),
-      fmt::arg("program", shellWord(programOf(plan))), fmt::arg("planWord", shellWord(plan.path)));
+      fmt::arg("program", shellWord(*program)), fmt::arg("planWord", shellWord(plan.path)));
 }
 
 namespace {
@@ -132,6 +141,8 @@ Result<SlurmSubmission> submitToSlurm(const Plan& plan, const std::vector<std::s
   if (ec) return Error{fmt::format("{}: cannot create the directory: {}", plan.workDirectory(), ec.message())};
   // A merge recorded earlier says nothing of this submission's.
   fs::remove(plan.finishRecord(), ec);
+  auto program = programOf(plan);
+  if (!program) return program.error();
   SlurmSubmission s;
   if (withArray) {
     const std::size_t last = tasks.empty() ? plan.tasks.size() - 1 : tasks.back();
@@ -142,7 +153,9 @@ Result<SlurmSubmission> submitToSlurm(const Plan& plan, const std::vector<std::s
                       "ask the cluster's administrators for a larger MaxArraySize",
                       plan.path, last, largest, largest + 1)};
     }
-    auto array = sbatch(sbatchArguments, jobArrayScript(plan, tasks), plan.directory);
+    auto script = jobArrayScript(plan, tasks);
+    if (!script) return script.error();
+    auto array = sbatch(sbatchArguments, *script, plan.directory);
     if (!array) return array.error();
     s.arrayJob = *array;
   }
@@ -157,7 +170,7 @@ Result<SlurmSubmission> submitToSlurm(const Plan& plan, const std::vector<std::s
     finishArguments.push_back("--kill-on-invalid-dep=yes");
   }
   const std::string script =
-      fmt::format("#!/bin/bash\nexec {} finish {}\n", shellWord(programOf(plan)), shellWord(plan.path));
+      fmt::format("#!/bin/bash\nexec {} finish {}\n", shellWord(*program), shellWord(plan.path));
   auto finish = sbatch(finishArguments, script, plan.directory);
   if (!finish) {
     return Error{
@@ -166,7 +179,7 @@ Result<SlurmSubmission> submitToSlurm(const Plan& plan, const std::vector<std::s
                     "--chdir={} --wrap={})",
                     s.arrayJob, finish.error().message, s.arrayJob, shellWord(outputPattern(plan.finishLog())),
                     shellWord(plan.directory),
-                    shellWord("exec " + shellWord(programOf(plan)) + " finish " + shellWord(plan.path)))};
+                    shellWord("exec " + shellWord(*program) + " finish " + shellWord(plan.path)))};
   }
   s.finishJob = *finish;
   return s;

@@ -122,6 +122,8 @@ Json writtenDigests(const PlannedTask& task) {
   return digests;
 }
 
+}  // namespace
+
 // A plan's paths go into batch scripts — comments, #SBATCH lines (which sbatch splits into words,
 // where '\\' escapes and which end at a newline), a shell's command line: one holding a control
 // character (a newline ends the line: what follows would run), '"' or '\\' is refused wherever a
@@ -148,6 +150,8 @@ Status checkScriptSafe(std::string_view what, const std::string& p, const std::s
       : *unsafe == '\\' ? "a backslash"
                         : "a control character")};
 }
+
+namespace {
 
 }  // namespace
 
@@ -367,9 +371,40 @@ PlanPaths pathsOfPlan(const Plan& plan) {
   return out;
 }
 
+namespace {
+
+// Whether a key or string anywhere in `j` holds a password.
+bool anyStringHoldsPassword(const Json& j) {
+  std::vector<const Json*> pending = {&j};
+  while (!pending.empty()) {
+    const Json* at = pending.back();
+    pending.pop_back();
+    if (at->is_string() && core::holdsPassword(at->get_ref<const std::string&>(), true)) return true;
+    if (at->is_object()) {
+      for (const auto& [key, value] : at->items()) {
+        if (core::holdsPassword(key, true)) return true;
+        pending.push_back(&value);
+      }
+    } else if (at->is_array()) {
+      for (const Json& child : *at) pending.push_back(&child);
+    }
+  }
+  return false;
+}
+
+}  // namespace
+
 Result<Plan> parsePlan(const std::string& text, const std::string& path) {
   auto j = io::parseJson(text, path);
   if (!j) return j.error();
+  // A plan never holds a password (campaign --plan refuses one): an edited plan neither, in its
+  // text or in any string JSON's escapes ("\/", "\u0073") make of it; refused before any of it is shown.
+  if (core::holdsPassword(text, true) || anyStringHoldsPassword(*j)) {
+    return Error{fmt::format(
+        "{}: holds a password (a database URI with user:password@ or password=): a plan never does; give it to "
+        "libpq (PGPASSFILE, PGPASSWORD) and make the plan again",
+        path)};
+  }
   if (Status s = io::expectFormat(*j, kPlanFormat, "a plan (emcalign-plan/1)", path); !s) return s.error();
   return io::strict::guarded([&]() -> Plan {
     const io::strict::StrictObject o(*j, "", path);
@@ -399,13 +434,6 @@ Result<Plan> parsePlan(const std::string& text, const std::string& path) {
       plan.tasks.push_back({t.string("what"), stringList(t, "writes"), stringList(t, "inputs")});
     }
     plan.data = o.has("data") ? o.at("data") : Json(nullptr);
-    // A plan never holds a password (campaign --plan refuses one): an edited plan neither.
-    if (core::holdsPassword(text, true)) {
-      throw io::strict::BadInput{fmt::format(
-          "{}: holds a password (a database URI with user:password@ or password=): a plan never does; give it to "
-          "libpq (PGPASSFILE, PGPASSWORD) and make the plan again",
-          path)};
-    }
     // Refused where read, not only where written: a copy of a plan in a directory of another
     // name, or an edited plan, goes into a script as it is.
     for (const auto& [what, p, key] :
@@ -535,7 +563,7 @@ Result<bool> runPlannedTask(const Plan& plan, const PlannedJob& job, std::size_t
     return Error{fmt::format(
         "{}: task {} is not what the plan's command makes now ({}): the plan was edited, or its inputs changed "
         "since it was made; make the plan again",
-        plan.path, k, task.what)};
+        plan.path, k, printable(task.what))};
   }
   const std::string record = plan.recordOf(k);
   const auto say = [&](const std::string& line) {

@@ -1592,6 +1592,33 @@ def batch_cases(add):
              "a plan never does", check=lambda d, r: "written or shown" if os.path.exists(os.path.join(
                  d, "pwplan.json")) or "hunter2secret" in r.out + r.err else None,
              checked="no plan, the password not shown"))
+    def evil_program(d):
+        plan(d)
+        where = os.path.join(d, "prog\ntouch PWNED2\n#")
+        os.makedirs(where, exist_ok=True)
+        if not os.path.exists(os.path.join(where, "emcalign")):
+            shutil.copy2(runner_binary[0], os.path.join(where, "emcalign"))
+    add(Case(B, "this program run from a directory whose name holds a newline",
+             "\"$(printf 'prog\\ntouch PWNED2\\n#')/emcalign\" batch script bplan.json -o evil.sh", 1,
+             "this program's path", setup=evil_program,
+             check=lambda d, r: "a script written" if os.path.exists(os.path.join(d, "evil.sh")) else None,
+             checked="no script written"))
+    add(Case(B, "a plan edited to hold a password behind JSON escapes ('\\/', '\\u0073')",
+             "emcalign batch status escpw.json", 1, "a plan never does",
+             setup=lambda d: (plan(d), write(d, "escpw.json", open(os.path.join(d, "bplan.json")).read().replace(
+                 '"arguments": [', '"arguments": ["postgresql:\\/\\/u:hunter3\\u0073ecret@h\\/db", ', 1))),
+             check=lambda d, r: "the password shown" if "hunter3" in r.out + r.err else None,
+             checked="the password not shown"))
+
+    def short_edited(d):
+        db_plan(d)
+        edit_json(d, "cdbplan.json", "shortplan.json",
+                  lambda j: j["data"]["groups"][0].__setitem__("short", not j["data"]["groups"][0]["short"]))
+    add(Case(B, "a campaign plan's group edited to say \"short\"", "emcalign task shortplan.json 0", 1,
+             "'groups[0].short': expected false", setup=short_edited))
+    add(Case(B, "a campaign plan's group run with another --min-events",
+             "emcalign campaign --plan cdbplan.json --group 0 --min-events 100", 1, "groups its runs by min_events",
+             setup=db_plan))
     add(Case(B, "a newline inside an argument", "emcalign fit \"$(printf 'x\\nemcalign: wrote r.json')\" -o r9.json",
              2, "holds a control character"))
 
@@ -1824,7 +1851,11 @@ def main():
     parser.add_argument("--doc", default=DOC)
     parser.add_argument("--no-doc-check", action="store_true",
                         help="run the cases only (the sanitizer build: its numbers need not match to the last digit)")
+    parser.add_argument("--only", default="",
+                        help="run only the cases whose description holds this text (no table written or checked)")
     args = parser.parse_args()
+    if args.only:
+        args.no_doc_check, args.write_doc = True, False
     binary = os.path.abspath(args.emcalign)
     runner_binary[0] = binary
     directory = tempfile.mkdtemp(prefix="emcalign-robustness-")
@@ -1838,6 +1869,8 @@ def main():
             print(f"FAIL an output not in the outputs' table (OUTPUTS): {missing}")
             failures += 1
         for case in cases():
+            if args.only and args.only not in case.what:
+                continue
             line, problems = run_case(case, runner)
             results.append((case, line or "?"))
             status = "ok  " if not problems else "FAIL"

@@ -20,7 +20,7 @@ namespace emcalign::validation {
 /// The batch script of the job array over `tasks` (every task when empty): #SBATCH lines for
 /// the job name, the array, the log and the directory, then the task's command with the
 /// plan's emcalign executable.
-std::string jobArrayScript(const Plan& plan, const std::vector<std::size_t>& tasks);
+Result<std::string> jobArrayScript(const Plan& plan, const std::vector<std::size_t>& tasks);
 
 struct SlurmSubmission {
   std::string arrayJob, finishJob;  ///< Slurm's job ids

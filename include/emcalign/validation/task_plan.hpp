@@ -197,6 +197,10 @@ std::string samplesText(const SampleBlock& block);
 /// A compact list of task numbers: "0-3,7,9-10".
 std::string taskRanges(const std::vector<std::size_t>& tasks);
 
+/// Refuses a path that goes into a batch script (`what` of `source`) and could end a line or
+/// change a directive there: not UTF-8, control characters, '"', '\\', "hetjob", "packjob".
+Status checkScriptSafe(std::string_view what, const std::string& p, const std::string& source);
+
 /// The peak resident memory of this process and the children it waited for, MB.
 double peakMemoryMb();
 

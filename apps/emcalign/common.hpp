@@ -150,6 +150,7 @@ void addDeadCountersCommand(CLI::App& app, int& exitCode);
 void addConditionsCommand(CLI::App& app, int& exitCode);
 void addCampaignCommand(CLI::App& app, int& exitCode);
 void addTrendCommand(CLI::App& app, int& exitCode);
+void addPromptCommand(CLI::App& app, int& exitCode);
 void addCheckCommand(CLI::App& app, int& exitCode);
 void addReportCommand(CLI::App& app, int& exitCode);
 

@@ -545,6 +545,7 @@ void addAllCommands(CLI::App& app, int& exitCode) {
   addConditionsCommand(app, exitCode);
   addCampaignCommand(app, exitCode);
   addTrendCommand(app, exitCode);
+  addPromptCommand(app, exitCode);
   addCheckCommand(app, exitCode);
   addReportCommand(app, exitCode);
   addPlanCommands(app, exitCode);

@@ -128,6 +128,65 @@ void ProfileFill::merge(const ProfileFill& other) {
   if (beamEnergyMismatch.empty()) beamEnergyMismatch = other.beamEnergyMismatch;
 }
 
+io::Json ProfileFill::state() const {
+  io::Json energies = io::Json::array();
+  for (double e : beamEnergies) energies.push_back(e);
+  return {{"cut_flow", cutFlow.events},
+          {"rows", cutFlow.rows},
+          {"refused_energy_ratio", cutFlow.refusedEnergyRatio},
+          {"refused_by_energy", cutFlow.refusedByEnergy},
+          {"particles_selected", particlesSelected},
+          {"particles_in_range", particlesInRange},
+          {"track_misses", trackMisses},
+          {"beam_energies", energies},
+          {"beam_energy_mismatch", beamEnergyMismatch},
+          {"profiles", profiles.state()}};
+}
+
+Result<ProfileFill> ProfileFill::restore(const io::Json& state, const ProfileOptions& options,
+                                         const std::string& source) {
+  const auto bad = [&](std::string_view key) { return Error{fmt::format("{}: \"{}\" is missing or wrong", source, key)}; };
+  if (!state.is_object()) return Error{fmt::format("{}: not a fill (a JSON object)", source)};
+  ProfileFill f;
+  const auto count = [&](std::string_view key, std::int64_t& to) -> bool {
+    const auto it = state.find(key);
+    if (it == state.end() || !it->is_number_integer() || it->get<std::int64_t>() < 0) return false;
+    to = it->get<std::int64_t>();
+    return true;
+  };
+  const auto flow = state.find("cut_flow");
+  if (flow == state.end() || !flow->is_array() || flow->size() != f.cutFlow.events.size()) return bad("cut_flow");
+  for (std::size_t k = 0; k < f.cutFlow.events.size(); ++k) {
+    if (!(*flow)[k].is_number_integer() || (*flow)[k].get<std::int64_t>() < 0) return bad("cut_flow");
+    f.cutFlow.events[k] = (*flow)[k].get<std::int64_t>();
+  }
+  for (const auto& [key, to] : {std::pair<std::string_view, std::int64_t*>{"rows", &f.cutFlow.rows},
+                                {"refused_by_energy", &f.cutFlow.refusedByEnergy},
+                                {"particles_selected", &f.particlesSelected},
+                                {"particles_in_range", &f.particlesInRange},
+                                {"track_misses", &f.trackMisses}}) {
+    if (!count(key, *to)) return bad(key);
+  }
+  const auto ratio = state.find("refused_energy_ratio");
+  if (ratio == state.end() || !ratio->is_number()) return bad("refused_energy_ratio");
+  f.cutFlow.refusedEnergyRatio = ratio->get<double>();
+  const auto energies = state.find("beam_energies");
+  if (energies == state.end() || !energies->is_array()) return bad("beam_energies");
+  for (const io::Json& e : *energies) {
+    if (!e.is_number() || !std::isfinite(e.get<double>())) return bad("beam_energies");
+    f.beamEnergies.insert(e.get<double>());
+  }
+  const auto mismatch = state.find("beam_energy_mismatch");
+  if (mismatch == state.end() || !mismatch->is_string()) return bad("beam_energy_mismatch");
+  f.beamEnergyMismatch = mismatch->get<std::string>();
+  const auto profiles = state.find("profiles");
+  if (profiles == state.end()) return bad("profiles");
+  auto p = Profiles::restore(*profiles, options, source);
+  if (!p) return p.error();
+  f.profiles = std::move(*p);
+  return f;
+}
+
 Result<std::map<std::int32_t, ProfileFill>> fillProfilesByRun(const std::string& file,
                                                               const geometry::DepthAtEnergy& depthAt,
                                                               const SelectionOptions& selection,

@@ -430,3 +430,95 @@ Result<std::vector<ProfileBin>> readProfileCsv(const std::string& path, const Pr
 }
 
 }  // namespace emcalign::calib
+
+namespace emcalign::calib {
+
+// The state: {"bins": [phi, theta], "entries": N, "acc": [[k, n, 5 means, m2φ, m2θ, m2φθ]...]
+// (filled bins only), "pairs": [[a, b, n, a0, a1, b0, b1, ab00, ab01, ab10, ab11]...]}.
+io::Json Profiles::state() const {
+  io::Json acc = io::Json::array(), pairs = io::Json::array();
+  for (std::size_t k = 0; k < acc_.size(); ++k) {
+    const Accumulator& x = acc_[k];
+    if (x.n == 0) continue;
+    acc.push_back({k, x.n, x.mean[0], x.mean[1], x.mean[2], x.mean[3], x.mean[4], x.m2Phi, x.m2Theta, x.m2PhiTheta});
+  }
+  for (const auto& [key, s] : pairs_) {
+    pairs.push_back(
+        {key.first, key.second, s.n, s.a[0], s.a[1], s.b[0], s.b[1], s.ab[0][0], s.ab[0][1], s.ab[1][0], s.ab[1][1]});
+  }
+  return {{"bins", {options_.phiBins, options_.thetaBins}}, {"entries", entries_}, {"acc", acc}, {"pairs", pairs}};
+}
+
+namespace {
+
+// Row `row` of a state's list: `size` finite numbers, the first `integers` of them integers ≥ 0.
+Result<std::vector<double>> stateRow(const io::Json& row, std::size_t size, std::size_t integers,
+                                     const std::string& where) {
+  if (!row.is_array() || row.size() != size) return Error{fmt::format("{}: not a list of {} numbers", where, size)};
+  std::vector<double> out;
+  for (std::size_t i = 0; i < size; ++i) {
+    const io::Json& v = row[i];
+    if (i < integers ? !(v.is_number_unsigned() || (v.is_number_integer() && v.get<std::int64_t>() >= 0))
+                     : !v.is_number()) {
+      return Error{fmt::format("{}: entry {} is not {}", where, i, i < integers ? "a count" : "a number")};
+    }
+    out.push_back(i < integers ? static_cast<double>(v.get<std::int64_t>()) : v.get<double>());
+    if (!std::isfinite(out.back())) return Error{fmt::format("{}: entry {} is not finite", where, i)};
+  }
+  return out;
+}
+
+}  // namespace
+
+Result<Profiles> Profiles::restore(const io::Json& state, ProfileOptions options, const std::string& source) {
+  if (Status s = options.validate(); !s) return s.error();
+  Profiles p(std::move(options));
+  const auto& o = p.options_;
+  if (!state.is_object() || !state.contains("bins") || state["bins"] != io::Json{o.phiBins, o.thetaBins}) {
+    return Error{fmt::format("{}: profiles of other bins than {} x {}", source, o.phiBins, o.thetaBins)};
+  }
+  const io::Json& entries = state.contains("entries") ? state["entries"] : io::Json();
+  if (!entries.is_number_integer() || entries.get<std::int64_t>() < 0) {
+    return Error{fmt::format("{}: \"entries\" is not a count", source)};
+  }
+  p.entries_ = entries.get<std::int64_t>();
+  const auto bins = static_cast<std::int64_t>(p.acc_.size());
+  if (!state.contains("acc") || !state["acc"].is_array() || !state.contains("pairs") || !state["pairs"].is_array()) {
+    return Error{fmt::format("{}: no \"acc\" and \"pairs\" lists", source)};
+  }
+  for (const io::Json& row : state["acc"]) {
+    auto v = stateRow(row, 10, 2, fmt::format("{}: a bin", source));
+    if (!v) return v.error();
+    const auto k = static_cast<std::int64_t>((*v)[0]);
+    if (k >= bins || p.acc_[static_cast<std::size_t>(k)].n != 0 || (*v)[1] < 1) {
+      return Error{fmt::format("{}: bin {} out of range, repeated or empty", source, k)};
+    }
+    Accumulator& x = p.acc_[static_cast<std::size_t>(k)];
+    x.n = row[1].get<std::int64_t>();
+    for (int i = 0; i < 5; ++i) x.mean[i] = (*v)[static_cast<std::size_t>(2 + i)];
+    x.m2Phi = (*v)[7];
+    x.m2Theta = (*v)[8];
+    x.m2PhiTheta = (*v)[9];
+  }
+  for (const io::Json& row : state["pairs"]) {
+    auto v = stateRow(row, 11, 3, fmt::format("{}: a pair of bins", source));
+    if (!v) return v.error();
+    const auto a = static_cast<int>((*v)[0]), b = static_cast<int>((*v)[1]);
+    if (a >= bins || b >= bins || a > b || p.pairs_.count({a, b}) != 0) {
+      return Error{fmt::format("{}: the pair of bins {}, {} out of range or repeated", source, a, b)};
+    }
+    PairSums& s = p.pairs_[{a, b}];
+    s.n = row[2].get<std::int64_t>();
+    s.a[0] = (*v)[3];
+    s.a[1] = (*v)[4];
+    s.b[0] = (*v)[5];
+    s.b[1] = (*v)[6];
+    s.ab[0][0] = (*v)[7];
+    s.ab[0][1] = (*v)[8];
+    s.ab[1][0] = (*v)[9];
+    s.ab[1][1] = (*v)[10];
+  }
+  return p;
+}
+
+}  // namespace emcalign::calib

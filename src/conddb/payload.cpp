@@ -21,6 +21,8 @@ std::string_view name(TagState s) {
       return "locked";
     case TagState::Retired:
       return "retired";
+    case TagState::Running:
+      return "running";
   }
   return "?";
 }

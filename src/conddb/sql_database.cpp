@@ -197,27 +197,21 @@ class SqlDatabase final : public Database {
                                  tag, printable(toText((*state)[0][0])))};
       }
       if (Status s = notRetired(tag); !s) return s;
+      auto running = isRunning(tag);
+      if (!running) return running.error();
       const std::string now = utcNow();
       for (const NewIov& n : iovs) {
-        // Checked against the IOVs stored before and those of this same write.
-        auto overlap = db_->query(
-            "SELECT first_run, last_run FROM emcalign_iovs WHERE tag = $1 AND first_run <= $2 AND last_run >= $3 "
-            "ORDER BY first_run LIMIT 1",
-            {tag, n.lastRun, n.firstRun});
-        if (!overlap) return overlap.error();
-        if (!overlap->empty()) {
-          return Error{fmt::format("{}: tag '{}': runs {}-{} overlap its IOV {}-{} (the IOVs of a tag never overlap)",
-                                   db_->uri(), tag, n.firstRun, n.lastRun, toInt((*overlap)[0][0]),
-                                   toInt((*overlap)[0][1]))};
+        if (*running) {
+          auto last = lastRunOf(tag);
+          if (!last) return last.error();
+          if (*last && n.firstRun <= **last) {
+            return Error{fmt::format(
+                "{}: tag '{}' is running: IOVs are only appended after its last run {}, and runs {}-{} are not",
+                db_->uri(), tag, **last, n.firstRun, n.lastRun)};
+          }
         }
-        auto stored =
-            db_->query("INSERT INTO emcalign_payloads (hash, content) VALUES ($1, $2) ON CONFLICT (hash) DO NOTHING",
-                       {n.payload.hash(), n.payload.content.dump()});
-        if (!stored) return stored.error();
-        auto iov = db_->query(
-            "INSERT INTO emcalign_iovs (tag, first_run, last_run, payload, inserted) VALUES ($1, $2, $3, $4, $5)",
-            {tag, n.firstRun, n.lastRun, n.payload.hash(), now});
-        if (!iov) return iov.error();
+        // Checked against the IOVs stored before and those of this same write.
+        if (Status s = insertIov(tag, n, now); !s) return s;
       }
       holdWriteForTests();
       return {};
@@ -327,16 +321,186 @@ class SqlDatabase final : public Database {
     });
   }
 
+  Status makeRunning(const std::string& tag, const std::string& givenDescription) override {
+    const std::string description = core::withoutAnyPassword(givenDescription);
+    if (Status s = checkTagName(tag); !s) return s;
+    if (Status s = checkText(description, "a tag's description"); !s) return s;
+    return inTransaction(*db_, Access::Write, [&]() -> Status {
+      auto state =
+          db_->query(fmt::format("SELECT state FROM emcalign_tags WHERE name = $1{}", db_->forUpdate()), {tag});
+      if (!state) return state.error();
+      if (state->empty()) {
+        const std::string now = utcNow();
+        auto created = db_->query(
+            "INSERT INTO emcalign_tags (name, description, state, created) VALUES ($1, $2, 'open', $3)",
+            {tag, description, now});
+        if (!created) return created.error();
+        auto mark = db_->query("INSERT INTO emcalign_meta (key, value) VALUES ($1, $2)",
+                               {std::string(kRunningPrefix) + tag, Json{{"since", now}}.dump()});
+        if (!mark) return mark.error();
+        return {};
+      }
+      auto t = tag_(tag);
+      if (!t) return t.error();
+      if ((*t)->state != TagState::Running) {
+        return Error{fmt::format("{}: tag '{}' is {}, not running: a prompt loop writes only a running tag (its own, "
+                                 "made by it); give it a new tag",
+                                 db_->uri(), tag, name((*t)->state))};
+      }
+      return {};
+    });
+  }
+
+  Status appendPrompt(const std::string& tag, const PromptRecord& r) override {
+    if (Status s = checkTagName(tag); !s) return s;
+    if (Status s = checkText(r.decision, "a decision"); !s) return s;
+    return inTransaction(*db_, Access::Write, [&]() -> Status {
+      auto state =
+          db_->query(fmt::format("SELECT state FROM emcalign_tags WHERE name = $1{}", db_->forUpdate()), {tag});
+      if (!state) return state.error();
+      auto t = tag_(tag);
+      if (!t) return t.error();
+      if (!t->has_value() || (*t)->state != TagState::Running) {
+        return Error{fmt::format("{}: tag '{}' is {}: a decision is stored only into a running tag", db_->uri(), tag,
+                                 t->has_value() ? std::string(name((*t)->state)) : std::string("missing"))};
+      }
+      const std::string key = promptKey(tag, r.group);
+      auto earlier = db_->query("SELECT value FROM emcalign_meta WHERE key = $1", {key});
+      if (!earlier) return earlier.error();
+      if (!earlier->empty()) {
+        if (toText((*earlier)[0][0]) == r.decision) return {};  // a retry: stored already
+        return Error{fmt::format("{}: tag '{}': group {} was decided already, otherwise: a group is decided once",
+                                 db_->uri(), tag, r.group)};
+      }
+      auto decided = promptRecordsOf(tag);
+      if (!decided) return decided.error();
+      if (static_cast<std::int64_t>(decided->size()) != r.group) {
+        return Error{fmt::format("{}: tag '{}' has {} decided groups: group {} is not the next", db_->uri(), tag,
+                                 decided->size(), r.group)};
+      }
+      if (r.iov) {
+        auto last = lastRunOf(tag);
+        if (!last) return last.error();
+        if (r.iov->firstRun > r.iov->lastRun || (*last && r.iov->firstRun != **last + 1)) {
+          return Error{fmt::format("{}: tag '{}': runs {}-{} do not start right after its last IOV (run {}): a "
+                                   "running tag's IOVs tile the runs",
+                                   db_->uri(), tag, r.iov->firstRun, r.iov->lastRun, last->value_or(-1))};
+        }
+        if (Status s = insertIov(tag, *r.iov, utcNow()); !s) return s;
+      }
+      auto thresholds = db_->query("INSERT INTO emcalign_meta (key, value) VALUES ($1, $2) ON CONFLICT (key) DO NOTHING",
+                                   {std::string(kThresholdsPrefix) + r.thresholdsSha256, r.thresholds});
+      if (!thresholds) return thresholds.error();
+      auto record = db_->query("INSERT INTO emcalign_meta (key, value) VALUES ($1, $2)", {key, r.decision});
+      if (!record) return record.error();
+      holdWriteForTests();
+      return {};
+    });
+  }
+
+  Result<std::vector<std::string>> promptRecords(const std::string& tag) override {
+    if (Status s = checkTagName(tag); !s) return s.error();
+    return inTransaction(*db_, Access::Read, [&] { return promptRecordsOf(tag); });
+  }
+
+  Result<std::string> claimPrompt(const std::string& tag, const std::string& me,
+                                  const std::function<bool(const std::string&)>& alive) override {
+    if (Status s = checkTagName(tag); !s) return s.error();
+    return inTransaction(*db_, Access::Write, [&]() -> Result<std::string> {
+      const std::string key = std::string(kOwnerPrefix) + tag;
+      auto owner = db_->query(fmt::format("SELECT value FROM emcalign_meta WHERE key = $1{}", db_->forUpdate()), {key});
+      if (!owner) return owner.error();
+      if (!owner->empty()) {
+        const std::string other = toText((*owner)[0][0]);
+        if (other != me && alive(other)) return printable(other);
+        auto r = db_->query("UPDATE emcalign_meta SET value = $2 WHERE key = $1", {key, me});
+        if (!r) return r.error();
+        return std::string();
+      }
+      auto r = db_->query("INSERT INTO emcalign_meta (key, value) VALUES ($1, $2)", {key, me});
+      if (!r) return r.error();
+      return std::string();
+    });
+  }
+
+  Result<std::optional<std::string>> thresholds(const std::string& sha256) override {
+    auto rows =
+        db_->query("SELECT value FROM emcalign_meta WHERE key = $1", {std::string(kThresholdsPrefix) + sha256});
+    if (!rows) return rows.error();
+    if (rows->empty()) return std::optional<std::string>();
+    return std::optional<std::string>(toText((*rows)[0][0]));
+  }
+
   [[nodiscard]] const std::string& uri() const override { return db_->uri(); }
 
  private:
+  // "prompt:TAG:000000000042": in the order of the groups as text.
+  static std::string promptKey(const std::string& tag, std::int64_t group) {
+    return fmt::format("{}{}:{:012}", kPromptPrefix, tag, group);
+  }
+
+  Result<std::vector<std::string>> promptRecordsOf(const std::string& tag) {
+    const std::string prefix = fmt::format("{}{}:", kPromptPrefix, tag);
+    auto rows = db_->query("SELECT value FROM emcalign_meta WHERE substr(key, 1, $1) = $2 ORDER BY key",
+                           {static_cast<std::int64_t>(prefix.size()), prefix});
+    if (!rows) return rows.error();
+    std::vector<std::string> out;
+    for (const Row& r : *rows) out.push_back(toText(r[0]));
+    return out;
+  }
+
+  Result<std::optional<Tag>> tag_(const std::string& name) { return tag(name); }
+
+  Result<bool> isRunning(const std::string& tag) {
+    auto mark = db_->query("SELECT value FROM emcalign_meta WHERE key = $1", {std::string(kRunningPrefix) + tag});
+    if (!mark) return mark.error();
+    return !mark->empty();
+  }
+
+  // The last run of the tag's IOVs; none without IOVs.
+  Result<std::optional<std::int64_t>> lastRunOf(const std::string& tag) {
+    auto rows = db_->query("SELECT MAX(last_run) FROM emcalign_iovs WHERE tag = $1", {tag});
+    if (!rows) return rows.error();
+    if (rows->empty() || !(*rows)[0][0]) return std::optional<std::int64_t>();
+    auto run = runOf((*rows)[0][0], db_->uri(), tag);
+    if (!run) return run.error();
+    return std::optional<std::int64_t>(*run);
+  }
+
+  // One IOV with its payload (stored once under its hash); the overlap checked.
+  Status insertIov(const std::string& tag, const NewIov& n, const std::string& now) {
+    auto overlap = db_->query(
+        "SELECT first_run, last_run FROM emcalign_iovs WHERE tag = $1 AND first_run <= $2 AND last_run >= $3 "
+        "ORDER BY first_run LIMIT 1",
+        {tag, n.lastRun, n.firstRun});
+    if (!overlap) return overlap.error();
+    if (!overlap->empty()) {
+      return Error{fmt::format("{}: tag '{}': runs {}-{} overlap its IOV {}-{} (the IOVs of a tag never overlap)",
+                               db_->uri(), tag, n.firstRun, n.lastRun, toInt((*overlap)[0][0]),
+                               toInt((*overlap)[0][1]))};
+    }
+    auto stored =
+        db_->query("INSERT INTO emcalign_payloads (hash, content) VALUES ($1, $2) ON CONFLICT (hash) DO NOTHING",
+                   {n.payload.hash(), n.payload.content.dump()});
+    if (!stored) return stored.error();
+    auto iov = db_->query(
+        "INSERT INTO emcalign_iovs (tag, first_run, last_run, payload, inserted) VALUES ($1, $2, $3, $4, $5)",
+        {tag, n.firstRun, n.lastRun, n.payload.hash(), now});
+    if (!iov) return iov.error();
+    return {};
+  }
+
   static constexpr const char* kRetiredPrefix = "retired:";
+  static constexpr const char* kRunningPrefix = "running:";
+  static constexpr const char* kPromptPrefix = "prompt:";
+  static constexpr const char* kThresholdsPrefix = "thresholds:";
+  static constexpr const char* kOwnerPrefix = "prompt-owner:";
   // A tag's row with its retirement mark, if any (the columns tagOf reads).
   static std::string tagColumns() {
     return fmt::format(
-        "SELECT t.name, t.description, t.state, t.created, m.value FROM emcalign_tags t LEFT JOIN emcalign_meta m "
-        "ON m.key = '{}' || t.name",
-        kRetiredPrefix);
+        "SELECT t.name, t.description, t.state, t.created, m.value, r.value FROM emcalign_tags t LEFT JOIN "
+        "emcalign_meta m ON m.key = '{}' || t.name LEFT JOIN emcalign_meta r ON r.key = '{}' || t.name",
+        kRetiredPrefix, kRunningPrefix);
   }
 
   // Lookups and writes refuse a retired tag, naming when and why it was retired.
@@ -382,6 +546,8 @@ class SqlDatabase final : public Database {
       }
       t.state = TagState::Retired;
       t.retired = retiredNote(*r[4]);
+    } else if (r.size() > 5 && r[5] && t.state == TagState::Open) {
+      t.state = TagState::Running;
     }
     return t;
   }

@@ -39,6 +39,10 @@ struct ProfileFill {
   /// Adds another fill with the same profile bins (the fills of several runs make their
   /// group's).
   void merge(const ProfileFill& other);
+  /// The fill as JSON, exactly (Profiles::state), and back: a run's fill kept on disk until
+  /// its group is fitted (validation/prompt.hpp).
+  [[nodiscard]] io::Json state() const;
+  static Result<ProfileFill> restore(const io::Json& state, const ProfileOptions& options, const std::string& source);
 };
 
 /// Called for every particle of a selected event with its residuals (for histograms).

@@ -22,6 +22,7 @@
 #include "emcalign/calib/selection.hpp"
 #include "emcalign/core/result.hpp"
 #include "emcalign/core/units.hpp"
+#include "emcalign/io/json_files.hpp"
 
 namespace emcalign::calib {
 
@@ -100,6 +101,12 @@ class Profiles {
   /// profile of their group: the same means and σ as filling one from all the particles, to
   /// rounding). Throws std::invalid_argument for other bins.
   void merge(const Profiles& other);
+  /// Everything filled, as JSON (each number as it is, so that restore() gives back the same
+  /// profiles bit for bit): a run's profiles kept on disk until its group is fitted (prompt).
+  [[nodiscard]] io::Json state() const;
+  /// Profiles with `options` holding a state() of profiles with the same bins; an error names
+  /// what does not fit (`source`: the file it was read from).
+  static Result<Profiles> restore(const io::Json& state, ProfileOptions options, const std::string& source);
 
  private:
   struct Accumulator {

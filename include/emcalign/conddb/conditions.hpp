@@ -22,6 +22,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <optional>
@@ -44,8 +45,9 @@ inline constexpr std::string_view kPayloadFormat = "emcalign-payload/1";
 
 /// Open: IOVs may be added. Locked: never changes again. Retired: an open tag withdrawn (a
 /// mistake): kept and listed, never served to a lookup, never written to (its mark is a row
-/// "retired:TAG" of emcalign_meta: no schema change).
-enum class TagState { Open, Locked, Retired };
+/// "retired:TAG" of emcalign_meta: no schema change). Running: a prompt loop's tag, whose IOVs
+/// are only appended after its last one (its mark is a row "running:TAG").
+enum class TagState { Open, Locked, Retired, Running };
 std::string_view name(TagState s);
 
 struct Tag {
@@ -169,6 +171,32 @@ class Database {
   /// withdrawn); retiring a retired tag again with the same reason changes nothing (a retry),
   /// with another reason is refused, naming the first.
   virtual Status retire(const std::string& tag, const std::string& reason) = 0;
+
+  /// Makes `tag` a running tag: created (with `description`) when missing; an existing one must
+  /// be running already (SPEC §13: a prompt loop refuses a tag in another state).
+  virtual Status makeRunning(const std::string& tag, const std::string& description) = 0;
+  /// One decided group of a prompt loop (validation/prompt.hpp), stored in one transaction: its
+  /// IOV (none: a veto with nothing in force), its decision record (decisions.jsonl's line) and
+  /// the thresholds it was decided by (kept once under their SHA-256). Refused unless the tag is
+  /// running, `group` is the number of groups it has decided, and the IOV starts right after
+  /// the tag's last one (anywhere for its first). The same record again (a retry after a kill)
+  /// changes nothing.
+  struct PromptRecord {
+    std::int64_t group = 0;
+    std::string decision;  ///< compact JSON
+    std::optional<NewIov> iov;
+    std::string thresholdsSha256, thresholds;  ///< thresholds: compact JSON
+  };
+  virtual Status appendPrompt(const std::string& tag, const PromptRecord& record) = 0;
+  /// The decision records of a running tag's groups, in order (compact JSON each).
+  virtual Result<std::vector<std::string>> promptRecords(const std::string& tag) = 0;
+  /// Records `me` (JSON text naming a prompt loop) as the one loop writing `tag`, unless another
+  /// is recorded and `alive` says it still runs: then returns that one's record ("" when
+  /// claimed). One transaction: of two loops started at once, one claims it.
+  virtual Result<std::string> claimPrompt(const std::string& tag, const std::string& me,
+                                          const std::function<bool(const std::string&)>& alive) = 0;
+  /// Thresholds stored by appendPrompt, by SHA-256 (compact JSON); none when not stored.
+  virtual Result<std::optional<std::string>> thresholds(const std::string& sha256) = 0;
 
   /// The URI it was opened with (for messages), without any password.
   [[nodiscard]] virtual const std::string& uri() const = 0;

@@ -90,6 +90,56 @@ TEST_F(FillProfiles, AFileAndItsRowsInMemoryFillAlike) {
   EXPECT_NE(refused.error().message.find("my rows"), std::string::npos) << refused.error().message;
 }
 
+TEST_F(FillProfiles, AFillKeptAsJsonComesBackBitForBit) {
+  ProfileOptions options;
+  options.eventPairs = true;  // the pairs' sums too
+  auto runs = fillProfilesByRun(combined(), geometry::atEveryEnergy(depth()), SelectionOptions{}, options);
+  ASSERT_TRUE(runs.ok()) << runs.error().message;
+  const ProfileFill& run1 = runs->at(1);
+  // Through text, as the prompt loop keeps it on disk.
+  const io::Json state = io::Json::parse(run1.state().dump());
+  auto back = ProfileFill::restore(state, options, "run1.fill");
+  ASSERT_TRUE(back.ok()) << back.error().message;
+  EXPECT_EQ(back->cutFlow.events, run1.cutFlow.events);
+  EXPECT_EQ(back->particlesSelected, run1.particlesSelected);
+  EXPECT_EQ(back->beamEnergies, run1.beamEnergies);
+  EXPECT_EQ(back->profiles.state(), run1.profiles.state());
+  expectSameBins(back->profiles.bins(), run1.profiles.bins(), 0.0);
+  const auto covA = run1.profiles.binCovariances(), covB = back->profiles.binCovariances();
+  ASSERT_EQ(covA.size(), covB.size());
+  ASSERT_FALSE(covA.empty());
+  for (std::size_t k = 0; k < covA.size(); ++k) EXPECT_EQ(covA[k].value, covB[k].value) << k;
+
+  // Merged after a round trip: the same bits as merged before.
+  ProfileFill a = ProfileFill::empty(options), b = ProfileFill::empty(options);
+  for (const std::int32_t run : {1, 2}) {
+    a.merge(runs->at(run));
+    auto r = ProfileFill::restore(io::Json::parse(runs->at(run).state().dump()), options, "run");
+    ASSERT_TRUE(r.ok());
+    b.merge(*r);
+  }
+  EXPECT_EQ(a.state(), b.state());
+
+  // What does not fit is refused, naming the file.
+  ProfileOptions coarse = options;
+  coarse.phiBins = 8;
+  auto other = ProfileFill::restore(state, coarse, "run1.fill");
+  ASSERT_FALSE(other.ok());
+  EXPECT_NE(other.error().message.find("run1.fill: profiles of other bins"), std::string::npos)
+      << other.error().message;
+  io::Json broken = state;
+  broken["profiles"]["acc"][0][1] = -3;
+  EXPECT_FALSE(ProfileFill::restore(broken, options, "x").ok());
+  broken = state;
+  broken["profiles"]["acc"].push_back(broken["profiles"]["acc"][0]);
+  EXPECT_FALSE(ProfileFill::restore(broken, options, "x").ok()) << "a bin twice";
+  broken = state;
+  broken.erase("cut_flow");
+  auto noFlow = ProfileFill::restore(broken, options, "x");
+  ASSERT_FALSE(noFlow.ok());
+  EXPECT_NE(noFlow.error().message.find("cut_flow"), std::string::npos);
+}
+
 TEST_F(FillProfiles, RunByRunEachRunAsItsRowsAloneAndTogetherTheFile) {
   std::map<std::int32_t, io::EventNumbers> events;
   auto runs = fillProfilesByRun(combined(), geometry::atEveryEnergy(depth()), SelectionOptions{}, {}, &events);

@@ -188,6 +188,59 @@ TEST_P(Conditions, ARetiredTagIsKeptListedAndNeverServed) {
   EXPECT_EQ(tags->size(), 2U);
 }
 
+TEST_P(Conditions, ARunningTagIsOnlyAppendedAndKeepsItsDecisions) {
+  auto db = create();
+  const Payload a = payloadOf(2.8), b = payloadOf(2.9);
+  ASSERT_TRUE(db->makeRunning("prompt", "the prompt loop's"));
+  ASSERT_TRUE(db->makeRunning("prompt", "again"));  // a restart
+  auto tag = db->tag("prompt");
+  ASSERT_TRUE(tag && tag->has_value());
+  EXPECT_EQ((*tag)->state, TagState::Running);
+  EXPECT_EQ((*tag)->description, "the prompt loop's");
+  // Another state is refused.
+  ASSERT_TRUE(db->put("offline", 1, 10, a, IfMissing::Create));
+  const Status notRunning = db->makeRunning("offline", "");
+  ASSERT_FALSE(notRunning);
+  EXPECT_NE(notRunning.error().message.find("is open, not running"), std::string::npos) << notRunning.error().message;
+
+  const auto record = [&](std::int64_t group, std::optional<Database::NewIov> iov) {
+    return Database::PromptRecord{group, Json{{"group", group}}.dump(), std::move(iov), "abc", R"({"t":1})"};
+  };
+  // A vetoed first group: a record, no IOV.
+  ASSERT_TRUE(db->appendPrompt("prompt", record(0, std::nullopt)));
+  ASSERT_TRUE(db->appendPrompt("prompt", record(0, std::nullopt))) << "a retry changes nothing";
+  const Status otherwise = db->appendPrompt("prompt", Database::PromptRecord{0, "{}", std::nullopt, "abc", "{}"});
+  ASSERT_FALSE(otherwise);
+  EXPECT_NE(otherwise.error().message.find("decided already"), std::string::npos) << otherwise.error().message;
+  EXPECT_FALSE(db->appendPrompt("prompt", record(2, Database::NewIov{5, 9, a}))) << "group 1 is next";
+  ASSERT_TRUE(db->appendPrompt("prompt", record(1, Database::NewIov{5, 9, a})));
+  const Status gap = db->appendPrompt("prompt", record(2, Database::NewIov{11, 20, b}));
+  ASSERT_FALSE(gap);
+  EXPECT_NE(gap.error().message.find("right after its last IOV"), std::string::npos) << gap.error().message;
+  ASSERT_TRUE(db->appendPrompt("prompt", record(2, Database::NewIov{10, 20, b})));
+  auto records = open()->promptRecords("prompt");
+  ASSERT_TRUE(records) << records.error().message;
+  ASSERT_EQ(records->size(), 3U);
+  EXPECT_EQ((*records)[2], R"({"group":2})");
+  auto kept = db->thresholds("abc");
+  ASSERT_TRUE(kept && kept->has_value());
+  EXPECT_EQ(**kept, R"({"t":1})");
+  EXPECT_FALSE(db->appendPrompt("offline", record(0, std::nullopt))) << "not a running tag";
+
+  // put: only after the last IOV.
+  const Status before = db->put("prompt", 15, 30, a, IfMissing::Refuse);
+  ASSERT_FALSE(before);
+  EXPECT_NE(before.error().message.find("only appended"), std::string::npos) << before.error().message;
+  EXPECT_TRUE(db->put("prompt", 25, 30, a, IfMissing::Refuse));
+  auto iovs = db->iovs("prompt");
+  ASSERT_TRUE(iovs);
+  EXPECT_EQ(iovs->size(), 3U);
+  // Locked, it is published: nothing appended any more.
+  ASSERT_TRUE(db->lock("prompt"));
+  EXPECT_EQ((*db->tag("prompt"))->state, TagState::Locked);
+  EXPECT_FALSE(db->appendPrompt("prompt", record(3, Database::NewIov{31, 40, a})));
+}
+
 TEST_P(Conditions, OpenChecksTheSchema) {
   auto fresh = Database::open(uri_);  // no emcalign tables yet (PostgreSQL) or no file (SQLite)
   ASSERT_FALSE(fresh);

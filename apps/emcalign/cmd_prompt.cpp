@@ -1,0 +1,134 @@
+// emcalign prompt: the prompt calibration loop (validation/prompt.hpp, docs/prompt.md).
+//   prompt WATCH_DIR --conditions URI --tag T --thresholds THR.json -o STATE_DIR
+//          [--corrections C.json|GRID] [--min-events N] [--sigma-sys auto|DEG] [--once]
+//          [--poll SECONDS] [--settle SECONDS] [--on-alert CMD]
+
+#include <atomic>
+#include <csignal>
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include <fmt/format.h>
+
+#include "common.hpp"
+#include "console.hpp"
+#include "emcalign/core/text.hpp"
+#include "emcalign/validation/prompt.hpp"
+
+namespace emcalign::app {
+
+namespace {
+
+struct PromptCliOptions {
+  validation::PromptOptions prompt;
+  std::string sigmaSys;
+};
+
+std::atomic<bool> gStop{false};
+
+extern "C" void onStopSignal(int) { gStop.store(true); }
+
+// SIGTERM and SIGINT end the loop between two steps (a second one kills it as any command).
+void stopBetweenSteps() {
+  struct sigaction action {};
+  action.sa_handler = onStopSignal;
+  action.sa_flags = SA_RESETHAND;
+  sigemptyset(&action.sa_mask);
+  for (int s : {SIGINT, SIGTERM}) sigaction(s, &action, nullptr);
+}
+
+// A path inside (or equal to) another, both made absolute and normal.
+bool inside(const std::string& path, const std::string& dir) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const auto real = [&](const std::string& p) {
+    const fs::path c = fs::weakly_canonical(fs::absolute(p), ec);
+    return ec ? fs::absolute(p).lexically_normal() : c;
+  };
+  const auto rel = real(path).lexically_relative(real(dir));
+  return !rel.empty() && *rel.begin() != "..";
+}
+
+int run(PromptCliOptions& cli) {
+  validation::PromptOptions& o = cli.prompt;
+  o.sigmaSys = sigmaSysChoice(cli.sigmaSys);
+  if (inside(o.stateDir, o.watchDir) || inside(o.watchDir, o.stateDir)) {
+    return reportError(Error{fmt::format("-o {}: the state directory and the watched directory {} are one inside the "
+                                         "other: the loop would take its own files; give them apart",
+                                         o.stateDir, o.watchDir)});
+  }
+  const std::string dbFile = conddb::sqliteFileOf(o.conditions);
+  if (!dbFile.empty() && inside(dbFile, o.watchDir)) {
+    return reportError(Error{fmt::format("--conditions: the database {} is inside the watched directory {}: put it "
+                                         "elsewhere",
+                                         dbFile, o.watchDir)});
+  }
+  std::vector<io::NamedPath> inputs = {
+      {"--thresholds", o.thresholds}, {"--corrections", o.corrections}, {"--detector", o.detector}};
+  for (auto& c : conditionsInputs(o.conditions)) inputs.push_back(std::move(c));
+  if (Status s = checkOutputs({}, {{"-o", o.stateDir}}, inputs); !s) return reportError(s.error());
+  o.say = [](const std::string& line) {
+    fmt::print("{}\n", line);
+    std::fflush(stdout);
+  };
+  o.stop = &gStop;
+  if (!o.once) stopBetweenSteps();
+  auto summary = validation::runPrompt(o);
+  if (!summary) return reportError(summary.error());
+  const std::string done =
+      fmt::format("prompt: {} taken, {} quarantined, {} decided, {} sent", counted(summary->filesTaken, "file"),
+                  counted(summary->quarantined, "file"), counted(summary->decided, "group"),
+                  counted(summary->alertsSent, "alert"));
+  if (!summary->problems.empty()) {
+    for (const auto& p : summary->problems) eprint("emcalign: error: {}\n", p);
+    eprint("{}; the work left is done by the next run (nothing taken is lost)\n", done);
+    return kExitFailure;
+  }
+  fmt::print("{}{}\n", done, o.once ? std::string() : " (stopped by a signal)");
+  return kExitOk;
+}
+
+}  // namespace
+
+void addPromptCommand(CLI::App& app, int& exitCode) {
+  auto o = std::make_shared<PromptCliOptions>();
+  validation::PromptOptions& p = o->prompt;
+  auto* cmd = app.add_subcommand("prompt",
+                                 "Prompt calibration: take the event files arriving in WATCH_DIR, group their runs, "
+                                 "fit each group and decide update / no-update / veto by a thresholds file, into a "
+                                 "running tag (docs/prompt.md)");
+  addVersionFlag(*cmd);
+  cmd->add_option("watch_dir", p.watchDir, "the directory the event files (*.h5, *.csv) arrive in")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  cmd->add_option("--conditions", p.conditions, "conditions database: sqlite:PATH (created if new), or postgresql://...")
+      ->required();
+  cmd->add_option("--tag", p.tag, "the running tag it writes (created if new; another state is refused)")
+      ->required()
+      ->check(tagName());
+  cmd->add_option("--thresholds", p.thresholds, "the thresholds file (emcalign-thresholds/1)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  cmd->add_option("-o,--output", p.stateDir,
+                  "STATE_DIR: the loop's state, decisions.jsonl, quarantine.json, status.html")
+      ->required();
+  cmd->add_option("--corrections", p.corrections,
+                  "model corrections for every fit: a file, or a directory of them over the beam energies")
+      ->check(CLI::ExistingPath);
+  cmd->add_option("--min-events", p.minEvents, "selected events per group (default 50 000)")
+      ->check(integerIn(1, kMaxEvents));
+  addSigmaSysOption(*cmd, o->sigmaSys);
+  cmd->add_flag("--once", p.once, "take what has settled, decide every closed group, and exit (cron, scrontab)");
+  cmd->add_option("--poll", p.pollSeconds, "seconds between two looks at WATCH_DIR (default 10)")
+      ->check(finiteIn(0.01, 86400.0));
+  cmd->add_option("--settle", p.settleSeconds,
+                  "seconds a file must stay unchanged before it is taken (default 30; 0 allowed)")
+      ->check(finiteIn(0.0, 86400.0));
+  cmd->add_option("--on-alert", p.onAlert,
+                  "a command (/bin/sh -c) run for every veto and quarantined file, its record as JSON on stdin");
+  addDetectorOption(*cmd, p.detector);
+  cmd->callback([o, &exitCode] { exitCode = run(*o); });
+}
+
+}  // namespace emcalign::app

@@ -81,12 +81,29 @@ def start(state_path):
         log = open(os.path.join(root, "log")).read() if os.path.exists(os.path.join(root, "log")) else ""
         shutil.rmtree(root, ignore_errors=True)
         sys.exit(f"pg_server: the server did not start:\n{r.stdout}{r.stderr}{log}")
-    state = {"uri": f"postgresql://{user}@127.0.0.1:{port}/postgres", "data": data, "port": port, "user": user}
+    state = {"uri": f"postgresql://{user}@127.0.0.1:{port}/postgres", "data": data, "port": port, "user": user,
+             "options": options}
     tmp = state_path + ".tmp"
     with open(tmp, "w") as f:
         json.dump(state, f)
     os.replace(tmp, state_path)
     print(state["uri"])
+
+
+def pause(state_path):
+    """Stops the server, keeping its data: a database that goes away (resume() brings it back)."""
+    with open(state_path) as f:
+        state = json.load(f)
+    run([f"{BIN}/pg_ctl", "-D", state["data"], "-m", "fast", "-w", "stop"])
+
+
+def resume(state_path):
+    """Starts a paused server again on its port."""
+    with open(state_path) as f:
+        state = json.load(f)
+    root = os.path.dirname(state["data"])
+    run([f"{BIN}/pg_ctl", "-D", state["data"], "-o", state["options"], "-l", os.path.join(root, "log"), "-w", "-t",
+         "60", "start"])
 
 
 if __name__ == "__main__":

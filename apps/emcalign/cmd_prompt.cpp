@@ -1,9 +1,12 @@
-// emcalign prompt: the prompt calibration loop (validation/prompt.hpp, docs/prompt.md).
+// emcalign prompt: the prompt calibration loop (validation/prompt.hpp, docs/prompt.md), and
+// emcalign prompt-thresholds: a thresholds file proposed from a validation table.
 //   prompt WATCH_DIR --conditions URI --tag T --thresholds THR.json -o STATE_DIR
 //          [--corrections C.json|GRID] [--min-events N] [--sigma-sys auto|DEG] [--once]
 //          [--poll SECONDS] [--settle SECONDS] [--on-alert CMD]
 
+#include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <csignal>
 #include <filesystem>
 #include <memory>
@@ -14,6 +17,7 @@
 #include "common.hpp"
 #include "console.hpp"
 #include "emcalign/core/text.hpp"
+#include "emcalign/validation/campaign.hpp"
 #include "emcalign/validation/prompt.hpp"
 
 namespace emcalign::app {
@@ -89,7 +93,68 @@ int run(PromptCliOptions& cli) {
   return kExitOk;
 }
 
+struct ProposeOptions {
+  std::string table, output;
+  std::vector<std::string> parameters;
+  double falseRate = 0.01;
+};
+
+int propose(const ProposeOptions& o) {
+  if (Status s = checkOutputs({{"-o", o.output}}, {}, {{"TABLE", o.table}}); !s) return reportError(s.error());
+  auto text = io::readTextFile(o.table);
+  if (!text) return reportError(text.error());
+  auto j = io::parseJson(*text, o.table);
+  if (!j) return reportError(j.error());
+  auto table = validation::parseTable(*j, o.table);
+  if (!table) return reportError(table.error());
+  std::vector<std::pair<Param, double>> spreads;
+  for (const auto& row : table->rows) {
+    const auto p = row.name.param();
+    if (!p) continue;
+    if (!o.parameters.empty() &&
+        std::find(o.parameters.begin(), o.parameters.end(), name(*p)) == o.parameters.end()) {
+      continue;
+    }
+    spreads.emplace_back(*p, row.spread);
+  }
+  for (const auto& wanted : o.parameters) {
+    if (std::none_of(spreads.begin(), spreads.end(), [&](const auto& s) { return name(s.first) == wanted; })) {
+      return reportError(Error{fmt::format("--parameters {}: not a parameter of the table {}", wanted, o.table)});
+    }
+  }
+  auto thresholds = validation::proposeThresholds(spreads, o.falseRate);
+  if (!thresholds) return reportError(Error{fmt::format("{}: {}", o.table, thresholds.error().message)});
+  if (Status s = io::writeOutputFile(o.output, thresholds->json.dump(1) + "\n"); !s) return reportError(s.error());
+  fmt::print(reportStream(),
+             "prompt-thresholds: {} parameters from the spreads of {} ({} samples of {} events): min_change = "
+             "{:.3g}·√2·spread (a false update rate of {:g} over them on a stable stretch, for groups of that size), "
+             "significance 3, max_change 10·min_change (set it from the detector's history), max_error 2·spread -> "
+             "{}\n",
+             spreads.size(), o.table, table->samples, table->events,
+             validation::falseUpdateQuantile(o.falseRate, spreads.size()), o.falseRate,
+             o.output);
+  return kExitOk;
+}
+
 }  // namespace
+
+void addPromptThresholdsCommand(CLI::App& app, int& exitCode) {
+  auto o = std::make_shared<ProposeOptions>();
+  auto* cmd = app.add_subcommand("prompt-thresholds",
+                                 "Propose a thresholds file for emcalign prompt from a validation table (the spread of "
+                                 "the fits around the truth): docs/prompt.md");
+  addVersionFlag(*cmd);
+  cmd->add_option("table", o->table, "the table.json of emcalign validate, run with groups of the prompt's size")
+      ->required()
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--parameters", o->parameters, "the parameters to list (default: all 12), comma-separated")
+      ->delimiter(',');
+  cmd->add_option("--false-update-rate", o->falseRate,
+                  "the rate of updates on a stable stretch, over the listed parameters (default 0.01)")
+      ->check(finiteIn(1e-9, 0.5));
+  cmd->add_option("-o,--output", o->output, "the thresholds file (emcalign-thresholds/1)")->required();
+  cmd->callback([o, &exitCode] { exitCode = propose(*o); });
+}
 
 void addPromptCommand(CLI::App& app, int& exitCode) {
   auto o = std::make_shared<PromptCliOptions>();

@@ -151,6 +151,7 @@ void addConditionsCommand(CLI::App& app, int& exitCode);
 void addCampaignCommand(CLI::App& app, int& exitCode);
 void addTrendCommand(CLI::App& app, int& exitCode);
 void addPromptCommand(CLI::App& app, int& exitCode);
+void addPromptThresholdsCommand(CLI::App& app, int& exitCode);
 void addCheckCommand(CLI::App& app, int& exitCode);
 void addReportCommand(CLI::App& app, int& exitCode);
 

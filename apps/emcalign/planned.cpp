@@ -546,6 +546,7 @@ void addAllCommands(CLI::App& app, int& exitCode) {
   addCampaignCommand(app, exitCode);
   addTrendCommand(app, exitCode);
   addPromptCommand(app, exitCode);
+  addPromptThresholdsCommand(app, exitCode);
   addCheckCommand(app, exitCode);
   addReportCommand(app, exitCode);
   addPlanCommands(app, exitCode);

@@ -12,11 +12,11 @@ std::string sqliteFileOf(const std::string& uri) {
   return address && address->kind == DatabaseAddress::Kind::Sqlite ? address->file : std::string();
 }
 
-Result<std::unique_ptr<Database>> Database::open(const std::string& uri, IfMissing missing) {
+Result<std::unique_ptr<Database>> Database::open(const std::string& uri, IfMissing missing, int busyMs) {
   auto address = DatabaseAddress::parse(uri);
   if (!address) return address.error();
   auto backend = address->kind == DatabaseAddress::Kind::Postgres ? detail::openPostgres(*address)
-                                                                  : detail::openSqlite(address->file, missing);
+                                                                  : detail::openSqlite(address->file, missing, busyMs);
   if (!backend) return backend.error();
   std::unique_ptr<Database> db = detail::makeSqlDatabase(std::move(*backend));
   if (missing == IfMissing::Create) {

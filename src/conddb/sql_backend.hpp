@@ -43,7 +43,7 @@ class SqlBackend {
 };
 
 std::unique_ptr<Database> makeSqlDatabase(std::unique_ptr<SqlBackend> backend);
-Result<std::unique_ptr<SqlBackend>> openSqlite(const std::string& path, IfMissing missing);
+Result<std::unique_ptr<SqlBackend>> openSqlite(const std::string& path, IfMissing missing, int busyMs = 0);
 Result<std::unique_ptr<SqlBackend>> openPostgres(const DatabaseAddress& address);
 
 /// Checks, on open, that the database has the schema of this emcalign.

@@ -146,7 +146,7 @@ class Sqlite final : public SqlBackend {
 
 }  // namespace
 
-Result<std::unique_ptr<SqlBackend>> openSqlite(const std::string& path, IfMissing missing) {
+Result<std::unique_ptr<SqlBackend>> openSqlite(const std::string& path, IfMissing missing, int busyMs) {
   const bool create = missing == IfMissing::Create;
   const std::string uri = "sqlite:" + path;
   struct stat st {};
@@ -195,7 +195,7 @@ Result<std::unique_ptr<SqlBackend>> openSqlite(const std::string& path, IfMissin
     return Error{fmt::format("{}: cannot open: {}", uri, why)};
   }
   auto s = std::make_unique<Sqlite>(db, uri, bases);
-  sqlite3_busy_timeout(db, kBusyTimeoutMs);
+  sqlite3_busy_timeout(db, busyMs > 0 ? busyMs : kBusyTimeoutMs);
   if (Status st2 = s->checkApplication(); !st2) return st2.error();
   if (Status st2 = s->run("PRAGMA journal_mode = WAL"); !st2) return st2.error();
   if (Status st2 = s->run("PRAGMA synchronous = FULL"); !st2) return st2.error();

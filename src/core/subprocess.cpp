@@ -31,6 +31,8 @@ std::string Ran::outcome() const {
 
 namespace {
 
+constexpr std::size_t kMaxCaptured = std::size_t{16} << 20;
+
 // Starts `argv` in `cwd` with its standard streams on `in`, `out` and `err`: 0 and its pid, or
 // the error number.
 int spawn(const std::vector<std::string>& argv, const std::string& cwd, int in, int out, int err, pid_t& pid) {
@@ -40,11 +42,17 @@ int spawn(const std::vector<std::string>& argv, const std::string& cwd, int in, 
   posix_spawn_file_actions_adddup2(&actions, out, 1);
   posix_spawn_file_actions_adddup2(&actions, err, 2);
   posix_spawn_file_actions_addchdir_np(&actions, cwd.c_str());
+  // Its own process group: at the deadline the whole group is killed (a shell's children too).
+  posix_spawnattr_t attributes;
+  posix_spawnattr_init(&attributes);
+  posix_spawnattr_setflags(&attributes, POSIX_SPAWN_SETPGROUP);
+  posix_spawnattr_setpgroup(&attributes, 0);
   std::vector<char*> args;
   args.reserve(argv.size() + 1);
   for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
   args.push_back(nullptr);
-  const int spawned = ::posix_spawnp(&pid, args[0], &actions, nullptr, args.data(), environ);
+  const int spawned = ::posix_spawnp(&pid, args[0], &actions, &attributes, args.data(), environ);
+  posix_spawnattr_destroy(&attributes);
   posix_spawn_file_actions_destroy(&actions);
   return spawned;
 }
@@ -63,6 +71,7 @@ void exchange(pid_t pid, int in, int out, int err, std::string_view input, int s
     const auto left =
         std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
     if (left.count() <= 0) {
+      ::kill(-pid, SIGKILL);  // its process group
       ::kill(pid, SIGKILL);
       r.timedOut = true;
       break;
@@ -86,7 +95,10 @@ void exchange(pid_t pid, int in, int out, int err, std::string_view input, int s
       if (fd < 0 || (fds[k].revents & (POLLIN | POLLERR | POLLHUP)) == 0) continue;
       const ssize_t n = ::read(fd, buffer, sizeof buffer);
       if (n > 0) {
-        (k == 1 ? r.out : r.err).append(buffer, static_cast<std::size_t>(n));
+        // Kept up to a bound (a command that prints without end must not take the memory); the
+        // rest is read and dropped.
+        std::string& to = k == 1 ? r.out : r.err;
+        if (to.size() < kMaxCaptured) to.append(buffer, std::min(static_cast<std::size_t>(n), kMaxCaptured - to.size()));
       } else if (n == 0 || (errno != EINTR && errno != EAGAIN)) {
         ::close(fd);
         fd = -1;

@@ -68,18 +68,28 @@ Json State::toJson() const {
     open.push_back({{"run", r.run}, {"file", r.file}, {"beam_energy_mev", energyJson(r.beamEnergy)},
                     {"selected_events", r.selected}});
   }
-  return {{"format", kPromptStateFormat}, {"watch_dir", watchDir}, {"tag", tag},
-          {"files", files},               {"open", open},          {"alerted", alerted}};
+  return {{"format", kPromptStateFormat},
+          {"watch_dir", watchDir},
+          {"tag", tag},
+          {"conditions", conditions},
+          {"decided", decided},
+          {"model", model},
+          {"files", files},
+          {"open", open},
+          {"alerted", alerted}};
 }
 
 Result<State> State::parse(const Json& j, const std::string& source) {
   return io::strict::guarded([&]() -> State {
     const io::strict::StrictObject o(j, "", source);
-    o.allowOnly({"format", "watch_dir", "tag", "files", "open", "alerted"});
+    o.allowOnly({"format", "watch_dir", "tag", "conditions", "decided", "model", "files", "open", "alerted"});
     if (o.string("format") != kPromptStateFormat) o.fail("format", fmt::format("expected \"{}\"", kPromptStateFormat));
     State s;
     s.watchDir = o.string("watch_dir");
     s.tag = o.string("tag");
+    s.conditions = o.string("conditions");
+    s.decided = o.at("decided").get<std::int64_t>();
+    s.model = o.at("model");
     const auto files = o.object("files");
     for (const auto& [name, value] : o.at("files").items()) {
       const auto f = files.object(name);
@@ -236,12 +246,49 @@ class Loop {
                                  "one state directory per watched directory and tag",
                                  o_.stateDir, s->watchDir, s->tag, watchDir(), o_.tag)};
       }
+      if (s->conditions != databaseIdentity()) {
+        return Error{fmt::format("{}: this state directory's decisions are in {}, not {}: one state directory per "
+                                 "database and tag (a new database needs a new state directory)",
+                                 o_.stateDir, s->conditions, databaseIdentity())};
+      }
+      // The open runs' fills were made with one model: a group is fitted with that one.
+      if (!s->open.empty() && s->model != modelIdentity()) {
+        return Error{fmt::format(
+            "{}: the {} runs taken and not yet decided were read with {}, not {}: start again with the same "
+            "--corrections, --sigma-sys and --detector until their group is decided",
+            o_.stateDir, s->open.size(), s->model.dump(), modelIdentity().dump())};
+      }
       state_ = std::move(*s);
     } else {
       state_.watchDir = watchDir();
       state_.tag = o_.tag;
+      state_.conditions = databaseIdentity();
     }
-    return {};
+    state_.model = modelIdentity();
+    // The thresholds of the decisions to come, beside them (the report reads them there).
+    const std::string kept = (fs::path(o_.stateDir) / "thresholds.json").string();
+    if (auto before = io::readOwnOutput(kept); before) {
+      const Json was = Json::parse(*before, nullptr, false);
+      if (was != thresholds_.json) {
+        say(fmt::format("the thresholds changed (now {}…): the decisions to come name them",
+                        thresholds_.sha256.substr(0, 12)));
+      }
+    }
+    return io::writeFileIn(o_.stateDir, "thresholds.json", thresholds_.json.dump(1) + "\n");
+  }
+
+  // The database as the state directory names it: an SQLite file by its absolute path, a
+  // server by its address without password.
+  std::string databaseIdentity() const {
+    const std::string file = conddb::sqliteFileOf(o_.conditions);
+    if (!file.empty()) return "sqlite:" + fs::absolute(file).lexically_normal().string();
+    return core::withoutAnyPassword(o_.conditions);
+  }
+
+  Json modelIdentity() const {
+    return {{"corrections_sha256", model_.correctionsSha256},
+            {"sigma_sys", calib::sigmaSysChoiceJson(model_.sigmaSys)},
+            {"detector", model_.detector}};
   }
 
   // One step; problems (the database away, a full disk) go to `summary` and the step ends.
@@ -265,9 +312,23 @@ class Loop {
     db_.reset();  // a connection that failed is opened again
   }
 
+  // The SQLite file it is open on, to see it removed or replaced while the loop runs.
+  std::optional<std::uint64_t> sqliteInode() const {
+    const std::string file = conddb::sqliteFileOf(o_.conditions);
+    if (file.empty()) return std::nullopt;
+    struct stat st {};
+    if (::stat(file.c_str(), &st) != 0) return 0;
+    return static_cast<std::uint64_t>(st.st_ino);
+  }
+
   Status connect() {
-    if (db_) return {};
-    auto db = conddb::Database::open(o_.conditions, conddb::IfMissing::Create);
+    if (db_) {
+      if (sqliteInode() == dbInode_) return {};
+      db_.reset();
+      return Error{fmt::format("{}: the database file was removed or replaced while the loop ran", o_.conditions)};
+    }
+    // A short wait for another writer's lock: the step ends, is said, and is tried again.
+    auto db = conddb::Database::open(o_.conditions, conddb::IfMissing::Create, 3000);
     if (!db) return db.error();
     if (Status s = (*db)->makeRunning(o_.tag, "prompt calibration (emcalign prompt)"); !s) {
       // A tag in another state is refused for good; anything else (the server went away) is tried again.
@@ -286,6 +347,7 @@ class Loop {
       return Error{fatal_};
     }
     db_ = std::move(*db);
+    dbInode_ = sqliteInode();
     return {};
   }
 
@@ -338,6 +400,14 @@ class Loop {
   Status catchUp(PromptSummary&) {
     auto records = db_->promptRecords(o_.tag);
     if (!records) return records.error();
+    if (static_cast<std::int64_t>(records->size()) < state_.decided) {
+      fatal_ = fmt::format(
+          "{}: tag {} holds {} decided groups, this state directory has seen {}: another database, or one restored "
+          "from an older copy? Not going on: the runs taken since would be lost (restore the database, or start a "
+          "new tag with a new state directory)",
+          db_->uri(), o_.tag, records->size(), state_.decided);
+      return Error{fatal_};
+    }
     records_ = std::move(*records);
     lastDecidedRun_ = std::numeric_limits<std::int64_t>::min();
     for (const std::string& r : records_) {
@@ -356,7 +426,8 @@ class Loop {
     lastIovRun_ = iovs->empty() ? std::numeric_limits<std::int64_t>::min() : iovs->back().lastRun;
     const auto before = state_.open.size();
     std::erase_if(state_.open, [&](const TakenRun& r) { return r.run <= lastDecidedRun_; });
-    if (state_.open.size() != before) {
+    if (state_.open.size() != before || state_.decided != static_cast<std::int64_t>(records_.size())) {
+      state_.decided = static_cast<std::int64_t>(records_.size());
       if (Status s = saveState(); !s) return s;
     }
     return writeDecisions();
@@ -639,6 +710,7 @@ class Loop {
     record.decision = j.dump();
     if (Status s = db_->appendPrompt(o_.tag, record); !s) return s;
     records_.push_back(record.decision);
+    state_.decided = static_cast<std::int64_t>(records_.size());
     lastDecidedRun_ = last;
     if (iov) lastIovRun_ = iov->second;
     ++summary.decided;
@@ -747,6 +819,7 @@ class Loop {
   CampaignModel model_;
   std::unique_ptr<StateLock> lock_;
   std::unique_ptr<conddb::Database> db_;
+  std::optional<std::uint64_t> dbInode_;
   State state_;
   std::vector<std::string> records_;
   std::map<std::string, std::string> decidedFiles_;  // file → SHA-256, of the decided groups
@@ -769,6 +842,50 @@ void sleepUnlessStopped(double seconds, const std::atomic<bool>* stop) {
 }
 
 }  // namespace
+
+Result<std::string> promptReportHtml(const std::string& stateDir) {
+  const auto read = [&](const char* name) -> Result<std::string> {
+    return io::readTextFile((fs::path(stateDir) / name).string());
+  };
+  auto stateText = read("state.json");
+  if (!stateText) return stateText.error();
+  const std::string statePath = (fs::path(stateDir) / "state.json").string();
+  auto stateJson = io::parseJson(*stateText, statePath);
+  if (!stateJson) return stateJson.error();
+  auto state = State::parse(*stateJson, statePath);
+  if (!state) return state.error();
+  auto thresholdsText = read("thresholds.json");
+  if (!thresholdsText) return thresholdsText.error();
+  auto thresholds = io::parseJson(*thresholdsText, (fs::path(stateDir) / "thresholds.json").string());
+  if (!thresholds) return thresholds.error();
+  auto parsed = parseThresholds(*thresholds, (fs::path(stateDir) / "thresholds.json").string());
+  if (!parsed) return parsed.error();
+  auto text = read("decisions.jsonl");
+  if (!text) return text.error();
+  std::vector<std::string> records;
+  std::int64_t minEvents = 0;
+  std::size_t start = 0;
+  while (start < text->size()) {
+    const std::size_t end = std::min(text->find('\n', start), text->size());
+    const std::string line = text->substr(start, end - start);
+    start = end + 1;
+    if (line.empty()) continue;
+    const Json j = Json::parse(line, nullptr, false);
+    if (!j.is_object() || !j.contains("runs") || !j.contains("decision") || !j.contains("parameters")) {
+      return Error{fmt::format("{}/decisions.jsonl: record {} is not a decision of emcalign prompt", stateDir,
+                               records.size())};
+    }
+    minEvents = j.value("min_events", minEvents);
+    records.push_back(line);
+  }
+  const prompt::StatusInput in{*state, records, state->tag, "", minEvents,
+                               Json{{"sha256", parsed->sha256}, {"json", parsed->json}}, ""};
+  std::string body;
+  for (const auto& section : prompt::statusSections(in)) {
+    body += fmt::format("<h3>{}</h3>\n{}\n", report::html::escape(section.title), section.body);
+  }
+  return body;
+}
 
 Result<PromptSummary> runPrompt(const PromptOptions& o) {
   if (!(o.minEvents >= 1)) return Error{"--min-events: at least 1"};

@@ -1,5 +1,6 @@
 #include "emcalign/validation/prompt_decision.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -18,9 +19,25 @@ constexpr const char* kKeys[] = {"min_change", "significance", "max_change", "ma
 
 std::string unitOf(Param p) { return std::string(fileUnitName(dimension(p))); }
 
+// q with P(|z| > q) = tail for a standard normal z (bisection of erfc).
+double twoSidedQuantile(double tail) {
+  double lo = 0.0, hi = 40.0;
+  for (int k = 0; k < 200; ++k) {
+    const double mid = 0.5 * (lo + hi);
+    (std::erfc(mid / std::sqrt(2.0)) > tail ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+// Three significant digits: a file a person reads and edits.
+double rounded(double x) { return std::stod(fmt::format("{:.3g}", x)); }
+
 }  // namespace
 
 Result<Thresholds> parseThresholds(const Json& j, const std::string& source) {
+  if (Status s = io::expectFormat(j, kThresholdsFormat, "a thresholds file (emcalign-thresholds/1)", source); !s) {
+    return s.error();
+  }
   return io::strict::guarded([&]() -> Thresholds {
     const io::strict::StrictObject o(j, "", source);
     o.allowOnly({"format", "parameters"});
@@ -64,6 +81,28 @@ Result<Thresholds> readThresholds(const std::string& path) {
   auto j = io::parseJson(*text, path);
   if (!j) return j.error();
   return parseThresholds(*j, path);
+}
+
+Result<Thresholds> proposeThresholds(const std::vector<std::pair<Param, double>>& spreads, double falseRate) {
+  if (spreads.empty()) return Error{"no parameter to propose thresholds for"};
+  if (!(falseRate > 0.0 && falseRate < 0.5)) return Error{"the false update rate must lie in (0, 0.5)"};
+  const double q = twoSidedQuantile(falseRate / static_cast<double>(spreads.size()));
+  Json parameters = Json::object();
+  for (const auto& [p, spread] : spreads) {
+    if (!(std::isfinite(spread) && spread > 0.0)) {
+      return Error{fmt::format("{}: the validation's spread {} is not a positive number", name(p), spread)};
+    }
+    const double minChange = q * std::sqrt(2.0) * spread;
+    parameters[std::string(name(p))] = {{"min_change", rounded(minChange)},
+                                        {"significance", 3.0},
+                                        {"max_change", rounded(10.0 * minChange)},
+                                        {"max_error", rounded(2.0 * spread)}};
+  }
+  return parseThresholds(Json{{"format", kThresholdsFormat}, {"parameters", parameters}}, "the proposal");
+}
+
+double falseUpdateQuantile(double falseRate, std::size_t parameters) {
+  return twoSidedQuantile(falseRate / static_cast<double>(std::max<std::size_t>(parameters, 1)));
 }
 
 std::string_view name(Decision d) {

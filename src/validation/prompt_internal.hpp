@@ -9,6 +9,7 @@
 
 #include "emcalign/core/result.hpp"
 #include "emcalign/io/json_files.hpp"
+#include "emcalign/report/html.hpp"
 
 namespace emcalign::validation::prompt {
 
@@ -32,6 +33,9 @@ struct TakenRun {
 
 struct State {
   std::string watchDir, tag;
+  std::string conditions;  ///< the database (its address without password) the decisions are in
+  std::int64_t decided = 0;  ///< the groups that database held decided when last seen
+  io::Json model = io::Json::object();  ///< what the open runs' fills were made with
   std::map<std::string, FileEntry> files;  ///< by name
   std::vector<TakenRun> open;              ///< by run
   std::set<std::string> alerted;           ///< the alerts acknowledged by --on-alert (or with none)
@@ -49,5 +53,7 @@ struct StatusInput {
   std::string written;  ///< UTC
 };
 std::string statusPage(const StatusInput& in);
+/// Its sections (the report's "Prompt calibration" too).
+std::vector<report::html::Section> statusSections(const StatusInput& in);
 
 }  // namespace emcalign::validation::prompt

@@ -122,7 +122,7 @@ std::string number(const Json& v, int digits = 4) {
 
 }  // namespace
 
-std::string statusPage(const StatusInput& in) {
+std::vector<report::html::Section> statusSections(const StatusInput& in) {
   std::vector<Json> decisions;
   for (const std::string& r : in.records) {
     Json j = Json::parse(r, nullptr, false);
@@ -217,8 +217,12 @@ std::string statusPage(const StatusInput& in) {
   sections.push_back({"alerts", "Alerts",
                       (alerts.empty() ? html::paragraph("None.") : html::list(alerts, "warn")) +
                           (quarantined.rows.empty() ? std::string() : html::table(quarantined))});
+  return sections;
+}
+
+std::string statusPage(const StatusInput& in) {
   return html::page(fmt::format("Prompt calibration: {}", in.tag), fmt::format("watching {}", in.state.watchDir),
-                    sections, fmt::format("emcalign prompt, written {}", in.written));
+                    statusSections(in), fmt::format("emcalign prompt, written {}", in.written));
 }
 
 }  // namespace emcalign::validation::prompt

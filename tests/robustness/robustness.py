@@ -133,7 +133,10 @@ def make_fixtures(runner):
         "emcalign fit ev.csv -o result.json --profile-out prof.csv",
         "emcalign simulate --period period.json -o period --no-hits",
         "emcalign campaign period --conditions camp.db --tag c --min-events 1500",
+        "emcalign validate --samples 2 --events 1000 -o vtab && cp vtab/table.json table.json",
     ]
+    write(d, "thr.json", json.dumps({"format": "emcalign-thresholds/1", "parameters": {
+        "dx": {"min_change": 0.02, "significance": 3, "max_change": 0.5, "max_error": 0.05}}}))
     write(d, "period.json", json.dumps({
         "format": "emcalign-period/1", "first_run": 1, "runs": 6, "events_per_run": 1000, "seed": 1,
         "theta_range_deg": [40, 140], "beam_energy_mev": [{"from_run": 1, "value": 612.5}],
@@ -1431,8 +1434,47 @@ def cases():
              check=lambda d, r: "the temporary is named" if ".tmp-" in r.err else None,
              checked="no temporary named"))
     batch_cases(add)
+    prompt_cases(add)
     output_cases(add)
     return out
+
+
+# The prompt loop's inputs and settings (issue 45); its behaviour under a DAQ directory and faults
+# is tests/cli/prompt_test.py's.
+def prompt_cases(add):
+    P = "Prompt calibration"
+    base = "emcalign prompt period --conditions pr.db --tag p --once"
+
+    def thresholds(name, change):
+        return lambda d: edit_json(d, "thr.json", name, change)
+    add(Case(P, "a thresholds file with an unknown parameter", f"{base} --thresholds t1.json -o ps1", 1,
+             "key 'parameters.dxx'", setup=thresholds("t1.json", lambda j: j["parameters"].__setitem__(
+                 "dxx", j["parameters"]["dx"]))))
+    add(Case(P, "a thresholds file with max_change below min_change", f"{base} --thresholds t2.json -o ps2", 1,
+             "key 'parameters.dx.max_change'", setup=thresholds("t2.json", lambda j: j["parameters"]["dx"].__setitem__(
+                 "max_change", 0.001))))
+    add(Case(P, "a thresholds file of another format", f"{base} --thresholds p.json -o ps3", 1, "thresholds"))
+    add(Case(P, "a thresholds file listing no parameter", f"{base} --thresholds t4.json -o ps4", 1,
+             "lists no parameter", setup=thresholds("t4.json", lambda j: j.__setitem__("parameters", {}))))
+    add(Case(P, "the state directory inside the watched directory",
+             "emcalign prompt period --conditions pr.db --tag p --thresholds thr.json --once -o period/state", 1,
+             "one inside the other",
+             check=lambda d, r: "period/state made" if os.path.exists(os.path.join(d, "period", "state")) else None,
+             checked="nothing made in the watched directory"))
+    add(Case(P, "the database inside the watched directory",
+             "emcalign prompt period --conditions period/pr.db --tag p --thresholds thr.json --once -o ps6", 1,
+             "inside the watched directory",
+             check=lambda d, r: "period/pr.db made" if os.path.exists(os.path.join(d, "period", "pr.db")) else None,
+             checked="no database made there"))
+    add(Case(P, "a tag that is not running (a campaign's)",
+             "emcalign prompt period --conditions camp.db --tag c --thresholds thr.json --once -o ps7", 1,
+             "is open, not running"))
+    add(Case(P, "thresholds proposed for a parameter the table lacks",
+             "emcalign prompt-thresholds table.json --parameters dx,psi -o pt1.json", 1, "--parameters psi",
+             check=lambda d, r: "pt1.json written" if os.path.exists(os.path.join(d, "pt1.json")) else None,
+             checked="nothing written"))
+    add(Case(P, "--poll 0", "emcalign prompt period --conditions pr.db --tag p --thresholds thr.json --poll 0 -o ps8",
+             2, "--poll"))
 
 
 # A plan's command lines, its job-array script, its work directory (issue 44).
@@ -1698,6 +1740,9 @@ OUTPUTS = [  # (command, output option, command line with {out}, the input it re
     ("report", "-o", "emcalign report --fit result.json -o {out}", "result.json"),
     ("campaign", "--plan", "emcalign campaign period --corrections c.json --plan {out}", "c.json"),
     ("batch script", "-o", "emcalign batch script oplan.json -o {out}", "oplan.json"),
+    ("prompt", "-o", "emcalign prompt period --conditions pr.db --tag p --thresholds thr.json --once -o {out}",
+     "thr.json"),
+    ("prompt-thresholds", "-o", "emcalign prompt-thresholds table.json -o {out}", "table.json"),
 ]
 OUTPUT_CHECKS = ["an input", "a link to it", "a hard link to it", "a password in its name"]
 

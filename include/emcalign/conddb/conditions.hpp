@@ -137,7 +137,10 @@ class Database {
   /// Opens a database: `sqlite:PATH`, a plain path, or `postgresql://…` / `postgres://…`. An
   /// existing database must have this schema version; `IfMissing::Create` makes a new SQLite
   /// file (a PostgreSQL database must exist) and `init()`s its schema.
-  static Result<std::unique_ptr<Database>> open(const std::string& uri, IfMissing missing = IfMissing::Refuse);
+  /// `busyMs`: how long an SQLite write waits for another writer's lock (0: two minutes); a loop
+  /// that must stay responsive (prompt) waits less and tries again later.
+  static Result<std::unique_ptr<Database>> open(const std::string& uri, IfMissing missing = IfMissing::Refuse,
+                                                int busyMs = 0);
   virtual ~Database() = default;
 
   /// Creates the schema (idempotent: an existing one of this version is left as it is).

@@ -22,7 +22,8 @@ struct Ran {
 
 /// Runs `argv` (argv[0] looked up in PATH) in `cwd` with `input` on its standard input,
 /// capturing its standard output and error (poll on the three pipes: no deadlock whatever
-/// their sizes); killed after `seconds`.
+/// their sizes; 16 MiB of each kept, the rest read and dropped); it and its process group (what
+/// a shell starts) killed after `seconds`.
 Ran runCapturing(const std::vector<std::string>& argv, const std::string& cwd, std::string_view input, int seconds);
 
 }  // namespace emcalign::core

@@ -66,6 +66,11 @@ struct PromptSummary {
 /// is said and retried with back-off, or ends --once with `problems`.
 Result<PromptSummary> runPrompt(const PromptOptions& options);
 
+/// The prompt loop's state directory as HTML (its decisions against run with the thresholds,
+/// the last decisions, the alerts): the "Prompt calibration" section of `emcalign report
+/// --prompt STATE_DIR`. Fails naming the file when one of STATE_DIR's is missing or not the loop's.
+Result<std::string> promptReportHtml(const std::string& stateDir);
+
 /// Whether a file name is a temporary that is never taken (SPEC §13: a leading '.', ".tmp",
 /// ".part" at the end, ".tmp-" inside).
 bool isPromptTemporary(std::string_view name);

@@ -82,6 +82,23 @@ TEST(PromptThresholds, RefusedNamingTheKey) {
   refused([](Json& j) { j["parameters"] = Json::object(); }, "lists no parameter");
 }
 
+TEST(PromptThresholds, ProposedFromTheSpreadForTheFalseUpdateRate) {
+  // One parameter at 1 %: z = 2.576; two at 1 %: z = 2.807 (0.5 % each).
+  EXPECT_NEAR(falseUpdateQuantile(0.01, 1), 2.5758, 1e-3);
+  EXPECT_NEAR(falseUpdateQuantile(0.01, 2), 2.8070, 1e-3);
+  auto t = proposeThresholds({{Param::Dx, 0.01}, {Param::Alpha, 0.02}}, 0.01);
+  ASSERT_TRUE(t.ok()) << t.error().message;
+  ASSERT_EQ(t->parameters.size(), 2u);
+  const ParameterThreshold& dx = t->parameters[1];
+  EXPECT_EQ(dx.parameter, Param::Dx);
+  EXPECT_NEAR(dx.minChange, 2.807 * std::sqrt(2.0) * 0.01, 1e-4);
+  EXPECT_NEAR(dx.maxChange, 10 * dx.minChange, 1e-3);
+  EXPECT_NEAR(dx.maxError, 0.02, 1e-12);
+  EXPECT_EQ(dx.significance, 3.0);
+  EXPECT_FALSE(proposeThresholds({{Param::Dx, 0.0}}, 0.01).ok());
+  EXPECT_FALSE(proposeThresholds({}, 0.01).ok());
+}
+
 TEST(PromptDecision, TheFirstGroupIsAnUpdateWithNothingCompared) {
   const DecisionResult d = decide(thresholds(), group());
   EXPECT_EQ(d.decision, Decision::Update);

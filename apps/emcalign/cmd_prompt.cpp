@@ -107,7 +107,7 @@ int propose(const ProposeOptions& o) {
   if (!j) return reportError(j.error());
   auto table = validation::parseTable(*j, o.table);
   if (!table) return reportError(table.error());
-  std::vector<std::pair<Param, double>> spreads;
+  std::vector<validation::MeasuredSpread> spreads;
   for (const auto& row : table->rows) {
     const auto p = row.name.param();
     if (!p) continue;
@@ -115,10 +115,12 @@ int propose(const ProposeOptions& o) {
         std::find(o.parameters.begin(), o.parameters.end(), name(*p)) == o.parameters.end()) {
       continue;
     }
-    spreads.emplace_back(*p, row.spread);
+    // The error a fit quotes: the spread over the pulls' width (a pull is (fit − truth)/error).
+    const double error = row.pullWidth > 0.0 ? row.spread / row.pullWidth : row.spread;
+    spreads.push_back({*p, row.spread, error});
   }
   for (const auto& wanted : o.parameters) {
-    if (std::none_of(spreads.begin(), spreads.end(), [&](const auto& s) { return name(s.first) == wanted; })) {
+    if (std::none_of(spreads.begin(), spreads.end(), [&](const auto& s) { return name(s.parameter) == wanted; })) {
       return reportError(Error{fmt::format("--parameters {}: not a parameter of the table {}", wanted, o.table)});
     }
   }
@@ -128,7 +130,8 @@ int propose(const ProposeOptions& o) {
   fmt::print(reportStream(),
              "prompt-thresholds: {} parameters from the spreads of {} ({} samples of {} events): min_change = "
              "{:.3g}·√2·spread (a false update rate of {:g} over them on a stable stretch, for groups of that size), "
-             "significance 3, max_change 10·min_change (set it from the detector's history), max_error 2·spread -> "
+             "significance 3, max_change 10·min_change (set it from the detector's history), max_error 2·the error a fit "
+             "quotes (spread/pull width) -> "
              "{}\n",
              spreads.size(), o.table, table->samples, table->events,
              validation::falseUpdateQuantile(o.falseRate, spreads.size()), o.falseRate,

@@ -1,6 +1,6 @@
 // emcalign report: one self-contained HTML page of a calibration (report/calibration_report.hpp):
 //   report [--fit RESULT.json [--events EVENTS...] [--corrections C]] [--validation DIR]
-//          [--compare DIR] [--trend DIR] [--conditions URI --tag T] [--checks DIR...] [--title T] -o report.html
+//          [--compare DIR] [--trend DIR] [--conditions URI --tag T] [--checks DIR...] [--prompt STATE_DIR] [--title T] -o report.html
 
 #include <algorithm>
 #include <filesystem>
@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 
 #include "common.hpp"
+#include "emcalign/validation/prompt.hpp"
 #include "emcalign/conddb/calibrations.hpp"
 #include "emcalign/conddb/conditions.hpp"
 #include "emcalign/core/sha256.hpp"
@@ -28,7 +29,7 @@ namespace fs = std::filesystem;
 using io::Json;
 
 struct ReportCliOptions {
-  std::string fit, corrections, validation, compare, trend, conditions, tag, detector, title, output;
+  std::string fit, corrections, validation, compare, trend, conditions, tag, detector, title, output, prompt;
   std::vector<std::string> events, checks;
 };
 
@@ -69,6 +70,7 @@ int run(const ReportCliOptions& o) {
   inside("--validation", o.validation, "table.json");
   inside("--trend", o.trend, "trend.json");
   inside("--compare", o.compare, "compare.json");
+  for (const char* name : {"state.json", "decisions.jsonl", "thresholds.json"}) inside("--prompt", o.prompt, name);
   for (const auto& c : o.checks) inside("--checks", c, "check.json");
   if (Status s = checkOutputs({{"-o", o.output}}, {}, inputs); !s) return reportError(s.error());
   if (!o.events.empty() && o.fit.empty()) return reportError({"--events draws the figures of a fit: give --fit"});
@@ -110,6 +112,11 @@ int run(const ReportCliOptions& o) {
     if (!c) return reportError(c.error());
     for (const auto& f : c->namedFiles) io::protectInput({"named by --compare", f});
     in.compare = std::move(*c);
+  }
+  if (!o.prompt.empty()) {
+    auto html = validation::promptReportHtml(o.prompt);
+    if (!html) return reportError(html.error());
+    in.prompt = report::ReportPrompt{o.prompt, std::move(*html)};
   }
   if (!o.trend.empty()) {
     auto t = report::readTrendDirectory(o.trend);
@@ -167,6 +174,8 @@ void addReportCommand(CLI::App& app, int& exitCode) {
   cmd->add_option("--compare", o->compare, "a comparison of data with simulation (emcalign compare -o)")
       ->check(CLI::ExistingDirectory);
   cmd->add_option("--trend", o->trend, "a trend's directory (emcalign trend -o)")->check(CLI::ExistingDirectory);
+  cmd->add_option("--prompt", o->prompt, "a prompt loop's state directory (emcalign prompt -o STATE_DIR)")
+      ->check(CLI::ExistingDirectory);
   auto* conditions = cmd->add_option("--conditions", o->conditions, "a conditions database: the IOVs of --tag");
   auto* tag = cmd->add_option("--tag", o->tag, "the tag of --conditions")->check(tagName());
   conditions->needs(tag);

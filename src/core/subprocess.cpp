@@ -12,6 +12,7 @@
 #include <chrono>
 #include <csignal>
 #include <cstring>
+#include <thread>
 
 #include <fmt/format.h>
 
@@ -143,9 +144,21 @@ Ran runCapturing(const std::vector<std::string>& argv, const std::string& cwd, s
     ::close(err[0]);
     return r;
   }
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(seconds);
   exchange(pid, in[1], out[0], err[0], input, seconds, r);
-  while (::waitpid(pid, &r.status, 0) < 0 && errno == EINTR) {
+  // A child that closed its output (or sent it elsewhere) is waited for up to the same deadline.
+  for (;;) {
+    const pid_t done = ::waitpid(pid, &r.status, r.timedOut ? 0 : WNOHANG);
+    if (done == pid || (done < 0 && errno != EINTR)) break;
+    if (done == 0 && std::chrono::steady_clock::now() >= deadline) {
+      ::kill(-pid, SIGKILL);
+      ::kill(pid, SIGKILL);
+      r.timedOut = true;
+      continue;
+    }
+    if (done == 0) std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
+  if (r.timedOut) ::kill(-pid, SIGKILL);  // what the group left behind
   return r;
 }
 

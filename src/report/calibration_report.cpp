@@ -836,8 +836,17 @@ Result<std::string> calibrationReport(const ReportInputs& in) {
     sections.push_back({"checks", "Physics checks (the paper's Figs. 9–10)", *body});
     for (const auto& c : in.checks) sources.push_back(c.dir);
   }
+  if (in.prompt) {
+    sections.push_back({"prompt", "Prompt calibration",
+                        html::paragraph(fmt::format("The prompt loop of {} (emcalign prompt; docs/prompt.md): its "
+                                                    "decisions as they were stored.",
+                                                    in.prompt->dir)) +
+                            in.prompt->html});
+    sources.push_back(in.prompt->dir);
+  }
   if (sections.empty())
-    return Error{"nothing to report: give --fit, --validation, --compare, --trend, --conditions or --checks"};
+    return Error{
+        "nothing to report: give --fit, --validation, --compare, --trend, --conditions, --checks or --prompt"};
   if (sections.size() > 1) {
     sections.insert(sections.begin(), {"summary", "At a glance", html::list(summary(in))});
   }

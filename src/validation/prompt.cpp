@@ -127,7 +127,7 @@ using prompt::State;
 using prompt::TakenRun;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr int kAlertSeconds = 60;
+constexpr int kAlertSeconds = 30;
 
 bool sameEnergy(double a, double b) { return std::isnan(a) || std::isnan(b) || a == b; }
 
@@ -136,17 +136,25 @@ std::string runFillName(std::int32_t run) { return fmt::format("run-{:09}.json",
 // What stat says of a file: enough to see that it changed.
 struct Seen {
   bool regular = false;
+  bool dangling = false;  // a symbolic link to nothing
   std::int64_t size = 0, mtimeNs = 0;
   std::uint64_t inode = 0;
   bool operator==(const Seen& o) const {
-    return regular == o.regular && size == o.size && mtimeNs == o.mtimeNs && inode == o.inode;
+    return regular == o.regular && dangling == o.dangling && size == o.size && mtimeNs == o.mtimeNs &&
+           inode == o.inode;
   }
 };
 
 std::optional<Seen> seen(const std::string& path) {
   struct stat st {};
-  if (::stat(path.c_str(), &st) != 0) return std::nullopt;
-  return Seen{S_ISREG(st.st_mode), static_cast<std::int64_t>(st.st_size),
+  if (::stat(path.c_str(), &st) != 0) {
+    if (::lstat(path.c_str(), &st) != 0) return std::nullopt;  // vanished
+    Seen link{false, true, static_cast<std::int64_t>(st.st_size),
+              static_cast<std::int64_t>(st.st_mtim.tv_sec) * 1'000'000'000 + st.st_mtim.tv_nsec,
+              static_cast<std::uint64_t>(st.st_ino)};
+    return link;
+  }
+  return Seen{S_ISREG(st.st_mode), false, static_cast<std::int64_t>(st.st_size),
               static_cast<std::int64_t>(st.st_mtim.tv_sec) * 1'000'000'000 + st.st_mtim.tv_nsec,
               static_cast<std::uint64_t>(st.st_ino)};
 }
@@ -475,25 +483,36 @@ class Loop {
     };
     std::vector<Read> read;
     bool changed = false;
-    for (const std::string& name : names) {
-      const std::string path = (fs::path(o_.watchDir) / name).string();
+    for (const std::string& rawName : names) {
+      if (o_.stop != nullptr && o_.stop->load()) break;  // SIGTERM: the rest at the next start
+      const std::string path = (fs::path(o_.watchDir) / rawName).string();
       const auto before = seen(path);
       if (!before) continue;  // vanished
+      // Named in JSON (state, decisions, quarantine): a name that is not UTF-8 is never read.
+      const bool utf8 = isValidUtf8(rawName);
+      const std::string name = utf8 ? rawName : printable(rawName);
       const auto known = state_.files.find(name);
       if (known != state_.files.end() && known->second.size == before->size &&
           known->second.mtimeNs == before->mtimeNs && known->second.inode == before->inode) {
         continue;  // as it was taken or quarantined
       }
-      if (!before->regular) {
+      if (!before->regular || !utf8) {
         if (known == state_.files.end()) {
-          quarantine(name, *before, "", "not a regular file (a directory, a FIFO, a device): never read", summary);
+          quarantine(name, *before, "",
+                     !utf8             ? "its name is not UTF-8 text (the decisions name files in JSON): rename it"
+                     : before->dangling ? "a symbolic link to nothing: never read"
+                                        : "not a regular file (a directory, a FIFO, a device): never read",
+                     summary);
           changed = true;
         }
         continue;
       }
-      if (nowNs() - before->mtimeNs < static_cast<std::int64_t>(o_.settleSeconds * 1e9)) continue;  // not settled
-      auto sha = sha256OfFile(path);
+      if (!settled(name, *before)) continue;
+      if (rewrittenSeen_.contains(fmt::format("{} {} {} {}", name, before->size, before->mtimeNs, before->inode))) {
+        continue;  // a rewrite said already
+      }
       if (known != state_.files.end() && known->second.status == "taken") {
+        auto sha = sha256OfFile(path);
         // Taken already: the content taken is kept; a rewrite is said once (quarantined, alerted).
         if (sha && *sha == known->second.sha256) {
           known->second.size = before->size;
@@ -502,6 +521,7 @@ class Loop {
           changed = true;
           continue;
         }
+        rewrittenSeen_.insert(fmt::format("{} {} {} {}", name, before->size, before->mtimeNs, before->inode));
         const std::string rewritten = name + " rewritten";
         if (!state_.alerted.contains(rewritten + (sha ? *sha : std::string()))) {
           say(fmt::format("{}: rewritten after it was taken (runs {}): the content taken is kept; the new one is "
@@ -515,16 +535,14 @@ class Loop {
         }
         continue;
       }
-      if (!sha) {
-        quarantine(name, *before, "", sha.error().message, summary);
-        changed = true;
-        continue;
-      }
+      // Read first (a file that is no event file is refused at its first bytes), then its digest.
       auto runs = calib::fillProfilesByRun(path, model_.depthAtEnergy(), model_.selection, model_.profile);
+      auto sha = runs ? sha256OfFile(path) : Result<std::string>(std::string());
       const auto after = seen(path);
       if (!after || !(*after == *before)) continue;  // written meanwhile: not settled
-      if (!runs) {
-        quarantine(name, *before, *sha, runs.error().message, summary);
+      if (!runs || !sha) {
+        quarantine(name, *before, sha && !sha->empty() ? *sha : std::string(),
+                   !runs ? runs.error().message : sha.error().message, summary);
         changed = true;
         continue;
       }
@@ -545,6 +563,21 @@ class Loop {
     if (Status s = saveState(); !s) return s;
     if (Status s = writeQuarantine(); !s) return s;
     return writeStatus();
+  }
+
+  // Unchanged for --settle seconds: by its modification time, or — one in the future (a clock
+  // ahead on the DAQ's machine) — since this loop first saw it as it is.
+  bool settled(const std::string& name, const Seen& s) {
+    const std::int64_t now = nowNs(), settle = static_cast<std::int64_t>(o_.settleSeconds * 1e9);
+    if (s.mtimeNs <= now) return now - s.mtimeNs >= settle;
+    const std::string key = fmt::format("{} {} {} {}", name, s.size, s.mtimeNs, s.inode);
+    auto [it, fresh] = futureSeen_.try_emplace(key, now);
+    if (fresh) {
+      say(fmt::format("{}: modified in the future ({:.0f} s ahead: a clock ahead?): taken once unchanged for --settle "
+                      "seconds as this loop sees it",
+                      printable(name), static_cast<double>(s.mtimeNs - now) / 1e9));
+    }
+    return now - it->second >= settle;
   }
 
   // One file read: refused (quarantined) when it repeats what was taken, holds a run older than
@@ -661,7 +694,11 @@ class Loop {
     if (g.selected == 0 || std::isnan(g.beamEnergy)) {
       outcome.fitProblem = "no selected event";
     } else {
-      auto f = fitOf(g, group, files);
+      // A fill that cannot be had is this step's problem (tried again), never the group's veto.
+      auto gm = model_.at(g.beamEnergy);
+      auto fill = gm ? groupFill(g, gm->profile) : Result<calib::ProfileFill>(gm.error());
+      if (!fill && gm) return fill.error();
+      auto f = fill ? fitOf(g, group, files, *gm, *fill) : Result<GroupFit>(fill.error());
       if (f) {
         outcome.status = f->result.status;
         outcome.pValue = f->result.pValue;
@@ -740,10 +777,36 @@ class Loop {
     return io::writeFileIn(o_.stateDir, "status.html", prompt::statusPage(in));
   }
 
-  Result<GroupFit> fitOf(const ClosedGroup& g, std::int64_t group, const std::vector<std::string>& files) {
-    auto gm = model_.at(g.beamEnergy);
-    if (!gm) return gm.error();
-    calib::ProfileFill fill = calib::ProfileFill::empty(gm->profile);
+  // The merged fill of a group's runs, in run order: each run's kept fill, or — lost (removed,
+  // damaged) — its file read again when it still has the content taken.
+  Result<calib::ProfileFill> groupFill(const ClosedGroup& g, const calib::ProfileOptions& profile) {
+    calib::ProfileFill fill = calib::ProfileFill::empty(profile);
+    for (const TakenRun& r : g.runs) {
+      auto text = io::readOwnOutput(fillPath(r.run));
+      auto j = text ? io::parseJson(*text, fillPath(r.run)) : Result<Json>(text.error());
+      auto f = j ? calib::ProfileFill::restore(*j, profile, fillPath(r.run)) : Result<calib::ProfileFill>(j.error());
+      if (!f) {
+        const std::string path = (fs::path(o_.watchDir) / r.file).string();
+        auto sha = sha256OfFile(path);
+        if (!sha || *sha != state_.files[r.file].sha256) {
+          return Error{fmt::format("run {}: its kept fill is lost ({}) and its file {} no longer has the content "
+                                   "taken: restore either, or remove the run from {} (it is then never decided)",
+                                   r.run, f.error().message, r.file, statePath())};
+        }
+        auto again = calib::fillProfilesByRun(path, model_.depthAtEnergy(), model_.selection, profile);
+        if (!again || !again->contains(r.run)) {
+          return Error{fmt::format("run {}: its kept fill is lost and {} cannot be read again", r.run, r.file)};
+        }
+        say(fmt::format("run {}: its kept fill was lost: read again from {}", r.run, printable(r.file)));
+        f = std::move(again->at(r.run));
+      }
+      fill.merge(*f);
+    }
+    return fill;
+  }
+
+  Result<GroupFit> fitOf(const ClosedGroup& g, std::int64_t group, const std::vector<std::string>& files,
+                         const CampaignModel& gm, const calib::ProfileFill& fill) {
     std::map<std::string, std::string> digests;
     CampaignGroup cg;
     cg.index = static_cast<int>(group);
@@ -755,13 +818,6 @@ class Loop {
     cg.files = files;
     for (const TakenRun& r : g.runs) {
       cg.runs.push_back(r.run);
-      auto text = io::readOwnOutput(fillPath(r.run));
-      if (!text) return text.error();
-      auto j = io::parseJson(*text, fillPath(r.run));
-      if (!j) return j.error();
-      auto f = calib::ProfileFill::restore(*j, gm->profile, fillPath(r.run));
-      if (!f) return f.error();
-      fill.merge(*f);
       digests[r.file] = state_.files[r.file].sha256;
     }
     const Json origin = {{"prompt",
@@ -771,7 +827,7 @@ class Loop {
                            {"selected_events", g.selected},
                            {"min_events", o_.minEvents},
                            {"short", cg.isShort}}}};
-    return fitGroup(cg, fill, *gm, digests, origin);
+    return fitGroup(cg, fill, gm, digests, origin);
   }
 
   // Vetoes, quarantined files and rewritten files, each sent once acknowledged (at least once).
@@ -790,14 +846,24 @@ class Loop {
         pendingAlerts_.push_back({key, Json{{"file", name}, {"reason", f.reason}}});
       }
     }
+    // A command that failed is tried again later, less and less often (not at every step).
+    const bool wait = !o_.once && std::chrono::steady_clock::now() < nextAlertTry_;
     std::vector<std::pair<std::string, Json>> left;
+    bool failed = false;
     for (const auto& [key, record] : pendingAlerts_) {
       if (state_.alerted.contains(key)) continue;
       if (!o_.onAlert.empty()) {
-        const core::Ran ran =
-            core::runCapturing({"/bin/sh", "-c", o_.onAlert}, cwd_, record.dump() + "\n", kAlertSeconds);
+        if (wait || failed || (o_.stop != nullptr && o_.stop->load())) {
+          left.push_back({key, record});
+          continue;
+        }
+        // Its output goes nowhere (a command that prints without end, or leaves a child holding it).
+        const core::Ran ran = core::runCapturing({"/bin/sh", "-c", "exec >/dev/null 2>&1\n" + o_.onAlert}, cwd_,
+                                                 record.dump() + "\n", kAlertSeconds);
         if (!ran.succeeded()) {
-          say(fmt::format("--on-alert for {}: {} (sent again at the next step)", key, ran.outcome()));
+          failed = true;
+          say(fmt::format("--on-alert for {}: {} (sent again in {:g} s, or at the next start)", key, ran.outcome(),
+                          alertBackoff_));
           left.push_back({key, record});
           continue;
         }
@@ -805,8 +871,17 @@ class Loop {
       }
       state_.alerted.insert(key);
     }
+    if (failed) {
+      nextAlertTry_ = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                             std::chrono::duration<double>(alertBackoff_));
+      alertBackoff_ = std::min(alertBackoff_ * 2.0, 3600.0);
+    } else if (!wait) {
+      alertBackoff_ = 60.0;
+    }
     pendingAlerts_ = std::move(left);
-    return saveState();
+    if (Status s = saveState(); !s) return s;
+    if (failed && o_.once) return Error{"--on-alert failed: the alerts not sent are sent by the next run"};
+    return {};
   }
 
   bool pending(const std::string& key) const {
@@ -826,6 +901,10 @@ class Loop {
   std::int64_t lastDecidedRun_ = std::numeric_limits<std::int64_t>::min();
   std::int64_t lastIovRun_ = std::numeric_limits<std::int64_t>::min();
   std::vector<std::pair<std::string, Json>> pendingAlerts_;
+  std::set<std::string> rewrittenSeen_;            // taken files rewritten, as seen when said
+  std::map<std::string, std::int64_t> futureSeen_;  // files modified in the future: when first seen
+  std::chrono::steady_clock::time_point nextAlertTry_{};
+  double alertBackoff_ = 60.0;
 
  public:
   /// Set when the loop cannot go on (another loop writes the tag): not retried.

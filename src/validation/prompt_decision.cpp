@@ -83,20 +83,21 @@ Result<Thresholds> readThresholds(const std::string& path) {
   return parseThresholds(*j, path);
 }
 
-Result<Thresholds> proposeThresholds(const std::vector<std::pair<Param, double>>& spreads, double falseRate) {
-  if (spreads.empty()) return Error{"no parameter to propose thresholds for"};
+Result<Thresholds> proposeThresholds(const std::vector<MeasuredSpread>& measured, double falseRate) {
+  if (measured.empty()) return Error{"no parameter to propose thresholds for"};
   if (!(falseRate > 0.0 && falseRate < 0.5)) return Error{"the false update rate must lie in (0, 0.5)"};
-  const double q = twoSidedQuantile(falseRate / static_cast<double>(spreads.size()));
+  const double q = twoSidedQuantile(falseRate / static_cast<double>(measured.size()));
   Json parameters = Json::object();
-  for (const auto& [p, spread] : spreads) {
-    if (!(std::isfinite(spread) && spread > 0.0)) {
-      return Error{fmt::format("{}: the validation's spread {} is not a positive number", name(p), spread)};
+  for (const MeasuredSpread& m : measured) {
+    if (!(std::isfinite(m.spread) && m.spread > 0.0 && std::isfinite(m.quotedError) && m.quotedError > 0.0)) {
+      return Error{fmt::format("{}: the validation's spread {} or error {} is not a positive number", name(m.parameter),
+                               m.spread, m.quotedError)};
     }
-    const double minChange = q * std::sqrt(2.0) * spread;
-    parameters[std::string(name(p))] = {{"min_change", rounded(minChange)},
-                                        {"significance", 3.0},
-                                        {"max_change", rounded(10.0 * minChange)},
-                                        {"max_error", rounded(2.0 * spread)}};
+    const double minChange = q * std::sqrt(2.0) * m.spread;
+    parameters[std::string(name(m.parameter))] = {{"min_change", rounded(minChange)},
+                                                  {"significance", 3.0},
+                                                  {"max_change", rounded(10.0 * minChange)},
+                                                  {"max_error", rounded(2.0 * m.quotedError)}};
   }
   return parseThresholds(Json{{"format", kThresholdsFormat}, {"parameters", parameters}}, "the proposal");
 }
@@ -147,8 +148,8 @@ DecisionResult decide(const Thresholds& thresholds, const GroupOutcome& g) {
         vetoes.push_back(fmt::format("{}: error {:.4g} {} > max_error {:g}", p, f.error, unit, t.maxError));
       }
     }
+    if (g.inForce) d.inForce = (*g.inForce)[index(t.parameter)].value;
     if (fitted && g.inForce) {
-      d.inForce = (*g.inForce)[index(t.parameter)].value;
       d.change = d.fitted - d.inForce;
       d.significance = std::abs(d.change) / d.error;
       if (!std::isfinite(d.inForce)) {

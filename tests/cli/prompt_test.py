@@ -349,6 +349,81 @@ def test_loops(season):
     print("ok   loops: one loop per tag, SIGTERM between steps, a tag in another state refused")
 
 
+def test_review(season):
+    """What a hostile review found (issue 45): a state directory against another database, names
+    that are not UTF-8, dangling links, a lost fill, an alert command that prints without end or
+    hangs, a restart with another model, in_force of an unusable fit."""
+    d = os.path.join(season.root, "review")
+    watch = os.path.join(d, "watch")
+    os.makedirs(watch)
+    src = os.path.join(season.root, "period")
+    for k in (1, 2, 3):
+        shutil.copy(os.path.join(src, f"run_00000{k}.h5"), watch)
+    r = run(prompt_args("review/watch", "review/c.db", "review/state", ["--once"]), season.root)
+    check(r.returncode == 0, f"review: first run: {r.stderr}")
+    n = len(decisions(os.path.join(d, "state")).splitlines())
+    check(n >= 1, "review: nothing decided")
+    # Another database (a typo, a restored copy): refused, decisions.jsonl untouched.
+    other = run(prompt_args("review/watch", "review/typo.db", "review/state", ["--once"]), season.root)
+    check(other.returncode == 1 and "decisions are in" in other.stderr, f"review: another database: {other.stderr}")
+    check(len(decisions(os.path.join(d, "state")).splitlines()) == n, "review: decisions.jsonl changed")
+    shutil.copy(os.path.join(d, "c.db"), os.path.join(d, "c.db.saved"))
+    os.remove(os.path.join(d, "c.db"))
+    gone = run(prompt_args("review/watch", "review/c.db", "review/state", ["--once"]), season.root)
+    check(gone.returncode == 1 and "this state directory has seen" in gone.stderr,
+          f"review: the database removed: {gone.returncode} {gone.stderr}")
+    check(len(decisions(os.path.join(d, "state")).splitlines()) == n, "review: decisions.jsonl emptied")
+    for suffix in ("", "-wal", "-shm"):
+        if os.path.exists(os.path.join(d, "c.db" + suffix)):
+            os.remove(os.path.join(d, "c.db" + suffix))
+    shutil.copy(os.path.join(d, "c.db.saved"), os.path.join(d, "c.db"))
+    # A name that is not UTF-8 and a dangling link: quarantined, the loop goes on.
+    with open(os.path.join(watch.encode(), b"bad\xff.h5"), "wb") as f:
+        f.write(b"x")
+    os.symlink("nowhere.h5", os.path.join(watch, "dangling.h5"))
+    for k in (4, 5):
+        shutil.copy(os.path.join(src, f"run_00000{k}.h5"), watch)
+    # An alert command that prints without end: its output goes nowhere.
+    r = run(prompt_args("review/watch", "review/c.db", "review/state",
+                        ["--once", "--on-alert", "cat > /dev/null; yes | head -c 100000000"]), season.root)
+    check(r.returncode == 0, f"review: not UTF-8, a dangling link, a loud alert: {r.returncode} {r.stderr}")
+    with open(os.path.join(d, "state", "quarantine.json")) as f:
+        q = {e["file"]: e["reason"] for e in json.load(f)}
+    check(any("not UTF-8" in v for v in q.values()) and "dangling.h5" in q, f"review: quarantine: {q}")
+    # A kept fill lost: read again from its file (the same content), never a veto.
+    with open(os.path.join(d, "state", "state.json")) as f:
+        open_runs = [r["run"] for r in json.load(f)["open"]]
+    if open_runs:
+        os.remove(os.path.join(d, "state", "runs", f"run-{open_runs[0]:09d}.json"))
+    # A restart with another model while runs wait: refused.
+    other_model = run(prompt_args("review/watch", "review/c.db", "review/state", ["--once", "--sigma-sys", "auto"]),
+                      season.root)
+    check(other_model.returncode == 1 and "not yet decided were read with" in other_model.stderr if open_runs
+          else True, f"review: another model: {other_model.stderr}")
+    for k in (6, 7, 8, 9):
+        shutil.copy(os.path.join(src, f"run_00000{k}.h5"), watch)
+    r = run(prompt_args("review/watch", "review/c.db", "review/state", ["--once"]), season.root)
+    check(r.returncode == 0, f"review: after a lost fill: {r.stderr}")
+    records = [json.loads(l) for l in decisions(os.path.join(d, "state")).splitlines()]
+    check(all(not any("lost" in x for x in rec["reasons"]) for rec in records), "review: a lost fill vetoed")
+    if open_runs:
+        check("read again" in r.stdout, f"review: the lost fill not read again: {r.stdout}")
+    # An alert command that hangs (and leaves a child): stopped after its time, the loop goes on.
+    t0 = time.time()
+    subprocess.run(["bash", "-c", f"cp {src}/run_000010.h5 {watch}/x10.h5; head -c 3000 {src}/run_000011.h5 > "
+                    f"{watch}/trunc.h5"])
+    hang = run(prompt_args("review/watch", "review/c.db", "review/state",
+                           ["--once", "--on-alert", "sleep 1000 & sleep 1000"]), season.root, timeout=120)
+    check(hang.returncode == 1 and time.time() - t0 < 60, f"review: a hanging alert: {hang.returncode} "
+          f"{time.time() - t0:.0f} s {hang.stderr}")
+    left = subprocess.run(["pgrep", "-f", "sleep 1000"], capture_output=True, text=True).stdout.split()
+    check(not left, f"review: the alert's children left running: {left}")
+    for pid in left:
+        os.kill(int(pid), signal.SIGKILL)
+    print("ok   review: another or a removed database refused, names not UTF-8, dangling links, a lost fill, "
+          "a loud and a hanging alert, another model")
+
+
 def test_full(season):
     d = os.path.join(season.root, "full")
     os.makedirs(d)
@@ -412,7 +487,7 @@ def main():
         season = Season(root)
         test_season(season)
         print(f"ok   season: {len(season.reference[1].splitlines())} groups as SPEC §13 says")
-        for t in (test_kills, test_daq, test_loops, test_full):
+        for t in (test_kills, test_daq, test_loops, test_review, test_full):
             t(season)
         if postgres:
             test_postgres(season)

@@ -102,6 +102,13 @@ struct ReportCompare {
   std::string figure = {};                   ///< dir/compare.png, when it exists
 };
 
+/// A prompt loop's state directory (emcalign prompt -o STATE_DIR), as HTML
+/// (validation::promptReportHtml).
+struct ReportPrompt {
+  std::string dir = {};
+  std::string html = {};
+};
+
 struct ReportInputs {
   std::string title = "EMC geometric calibration";
   std::optional<ReportFit> fit;
@@ -110,6 +117,7 @@ struct ReportInputs {
   std::optional<ReportTrend> trend;
   std::optional<ReportConditions> conditions;
   std::vector<ReportCheck> checks;
+  std::optional<ReportPrompt> prompt;
 };
 
 /// Reads a validation campaign's directory, a trend's or a check's: its JSON (refused when

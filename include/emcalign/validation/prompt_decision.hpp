@@ -47,12 +47,17 @@ struct Thresholds {
 Result<Thresholds> parseThresholds(const io::Json& j, const std::string& source);
 Result<Thresholds> readThresholds(const std::string& path);
 
-/// Thresholds proposed from a validation's measured spread (docs/prompt.md, "Choosing the
-/// thresholds"), for groups the size of the validation's samples: per listed parameter,
-/// min_change = z·√2·spread with z the two-sided quantile of falseRate/p (p parameters),
-/// significance 3, max_change 10·min_change, max_error 2·spread. `spreads`: (parameter, spread
-/// in file units); an error for a spread that is not a positive number.
-Result<Thresholds> proposeThresholds(const std::vector<std::pair<Param, double>>& spreads, double falseRate);
+/// What a validation measured of one parameter for groups the size of its samples (file units):
+/// the spread of the fits around the truth, and the error a fit quotes (σ_sys included: larger).
+struct MeasuredSpread {
+  Param parameter = Param::Alpha;
+  double spread = 0.0, quotedError = 0.0;
+};
+/// Thresholds proposed from a validation (docs/prompt.md, "Choosing the thresholds"): per
+/// listed parameter, min_change = z·√2·spread with z the two-sided quantile of falseRate/p (p
+/// parameters), significance 3, max_change 10·min_change, max_error 2·quotedError. An error for
+/// a spread or error that is not a positive number.
+Result<Thresholds> proposeThresholds(const std::vector<MeasuredSpread>& measured, double falseRate);
 /// The z of proposeThresholds: P(|x| > z) = falseRate / parameters for a standard normal x.
 double falseUpdateQuantile(double falseRate, std::size_t parameters);
 

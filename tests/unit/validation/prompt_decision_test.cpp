@@ -86,16 +86,17 @@ TEST(PromptThresholds, ProposedFromTheSpreadForTheFalseUpdateRate) {
   // One parameter at 1 %: z = 2.576; two at 1 %: z = 2.807 (0.5 % each).
   EXPECT_NEAR(falseUpdateQuantile(0.01, 1), 2.5758, 1e-3);
   EXPECT_NEAR(falseUpdateQuantile(0.01, 2), 2.8070, 1e-3);
-  auto t = proposeThresholds({{Param::Dx, 0.01}, {Param::Alpha, 0.02}}, 0.01);
+  auto t = proposeThresholds({{Param::Dx, 0.01, 0.03}, {Param::Alpha, 0.02, 0.05}}, 0.01);
   ASSERT_TRUE(t.ok()) << t.error().message;
   ASSERT_EQ(t->parameters.size(), 2u);
   const ParameterThreshold& dx = t->parameters[1];
   EXPECT_EQ(dx.parameter, Param::Dx);
   EXPECT_NEAR(dx.minChange, 2.807 * std::sqrt(2.0) * 0.01, 1e-4);
   EXPECT_NEAR(dx.maxChange, 10 * dx.minChange, 1e-3);
-  EXPECT_NEAR(dx.maxError, 0.02, 1e-12);
+  EXPECT_NEAR(dx.maxError, 0.06, 1e-12) << "twice the error a fit quotes";
   EXPECT_EQ(dx.significance, 3.0);
-  EXPECT_FALSE(proposeThresholds({{Param::Dx, 0.0}}, 0.01).ok());
+  EXPECT_FALSE(proposeThresholds({{Param::Dx, 0.0, 0.01}}, 0.01).ok());
+  EXPECT_FALSE(proposeThresholds({{Param::Dx, 0.01, -1.0}}, 0.01).ok());
   EXPECT_FALSE(proposeThresholds({}, 0.01).ok());
 }
 
@@ -158,9 +159,12 @@ TEST(PromptDecision, VetoesForTheFitTheEventsAndTheLimits) {
 
   g = group();
   g.status = FitStatus::NotConverged;
+  g.inForce = inForce(0.0, 0.0);
   d = decide(thresholds(), g);
   EXPECT_EQ(d.decision, Decision::Veto);
   EXPECT_TRUE(std::isnan(d.parameters[0].fitted)) << "no value of an unusable fit";
+  EXPECT_FALSE(std::isnan(d.parameters[0].inForce)) << "what is in force, all the same";
+  EXPECT_TRUE(std::isnan(d.parameters[0].change));
 
   g = group();
   g.status = FitStatus::PoorFit;

@@ -5,6 +5,7 @@
         DIR         work directory (default /tmp/emcalign-prompt-season; about 6 minutes)
         --kills N   the second season's random kill -9s (default 20)
         --sigma-sys auto|DEG   of the validation and the loop (default auto: errors the data's scatter)
+        --false-update-rate R  of prompt-thresholds (default 0.01)
 
 The season (built here, seed fixed): 1 000 runs of 8 000 events at three beam energies (612.5 MeV
 to run 400, 750 MeV to 700, 900 MeV after), a dx step of +0.1 cm at run 200, an alpha step of
@@ -41,6 +42,7 @@ E = os.environ.get("EMCALIGN", os.path.join(ROOT, "build", "bin", "emcalign"))
 GRID = os.path.join(ROOT, "data", "corrections", "ee-40-140deg")
 MIN_EVENTS = 30000
 SIGMA_SYS = "auto"  # --sigma-sys of the validation and the loop
+FALSE_RATE = 0.01  # prompt-thresholds --false-update-rate
 
 
 def sh(args, cwd, **kw):
@@ -97,21 +99,22 @@ def make_season(d):
 
 
 def make_thresholds(d):
-    path = os.path.join(d, f"thresholds-{SIGMA_SYS}.json")
-    if not os.path.exists(path):
+    path = os.path.join(d, f"thresholds-{SIGMA_SYS}-{FALSE_RATE:g}.json")
+    if not os.path.exists(path) and not os.path.exists(os.path.join(d, f"validation-{SIGMA_SYS}", "table.json")):
         # Groups of the prompt's size: MIN_EVENTS selected events are about 37 500 simulated.
         sh(["validate", "--samples", "40", "--events", "37500", "--corrections",
             os.path.join(ROOT, "data", "corrections", "ee-612.5MeV-40-140deg.json"), "--theta-min", "40",
             "--theta-max", "140", "--sigma-sys", SIGMA_SYS, "-o", f"validation-{SIGMA_SYS}"], d)
-        sh(["prompt-thresholds", f"validation-{SIGMA_SYS}/table.json", "--parameters", "alpha,dx,dy,dz", "-o",
-            path], d)
+    if not os.path.exists(path):
+        sh(["prompt-thresholds", f"validation-{SIGMA_SYS}/table.json", "--parameters", "alpha,dx,dy,dz",
+            "--false-update-rate", f"{FALSE_RATE:g}", "-o", path], d)
     with open(path) as f:
         return json.load(f)
 
 
 def prompt_cmd(watch, db, state, extra):
     return [E, "prompt", watch, "--conditions", "sqlite:" + db, "--tag", "prompt", "--thresholds",
-            f"thresholds-{SIGMA_SYS}.json", "--corrections", GRID, "--sigma-sys", SIGMA_SYS, "--min-events",
+            f"thresholds-{SIGMA_SYS}-{FALSE_RATE:g}.json", "--corrections", GRID, "--sigma-sys", SIGMA_SYS, "--min-events",
             str(MIN_EVENTS), "-o", state, *extra]
 
 
@@ -265,9 +268,11 @@ def main():
     ap.add_argument("--kills", type=int, default=20)
     ap.add_argument("--interval", type=float, default=0.1)
     ap.add_argument("--sigma-sys", default="auto", help="of the validation and the loop: auto (default) or DEG")
+    ap.add_argument("--false-update-rate", type=float, default=0.01, help="of prompt-thresholds (default 0.01)")
     a = ap.parse_args()
-    global SIGMA_SYS
+    global SIGMA_SYS, FALSE_RATE
     SIGMA_SYS = a.sigma_sys
+    FALSE_RATE = a.false_update_rate
     os.makedirs(a.dir, exist_ok=True)
     files = make_season(a.dir)
     thresholds = make_thresholds(a.dir)

@@ -182,9 +182,10 @@ int runGroup(const CampaignCliOptions& o) {
   }
   // The grouping is the plan's: another --min-events would not change what the group holds.
   if (o.minEventsGiven && plan->data.is_object() && plan->data.value("min_events", std::int64_t{0}) != o.minEvents) {
-    return reportError(Error{fmt::format("--min-events {}: the plan {} groups its runs by min_events {} (make the "
-                                         "plan again to change it)",
-                                         o.minEvents, o.plan, plan->data.value("min_events", std::int64_t{0}))});
+    return reportError(
+        Error{fmt::format("--min-events {}: the plan {} groups its runs by min_events {} (make the "
+                          "plan again to change it)",
+                          o.minEvents, o.plan, plan->data.value("min_events", std::int64_t{0}))});
   }
   // A plan that names its database and tag: exactly `emcalign task P K` (its command line parsed
   // again in its directory, every check of a task), with what is given here its own.

@@ -58,15 +58,17 @@ int run(PromptCliOptions& cli) {
   validation::PromptOptions& o = cli.prompt;
   o.sigmaSys = sigmaSysChoice(cli.sigmaSys);
   if (inside(o.stateDir, o.watchDir) || inside(o.watchDir, o.stateDir)) {
-    return reportError(Error{fmt::format("-o {}: the state directory and the watched directory {} are one inside the "
-                                         "other: the loop would take its own files; give them apart",
-                                         o.stateDir, o.watchDir)});
+    return reportError(
+        Error{fmt::format("-o {}: the state directory and the watched directory {} are one inside the "
+                          "other: the loop would take its own files; give them apart",
+                          o.stateDir, o.watchDir)});
   }
   const std::string dbFile = conddb::sqliteFileOf(o.conditions);
   if (!dbFile.empty() && inside(dbFile, o.watchDir)) {
-    return reportError(Error{fmt::format("--conditions: the database {} is inside the watched directory {}: put it "
-                                         "elsewhere",
-                                         dbFile, o.watchDir)});
+    return reportError(
+        Error{fmt::format("--conditions: the database {} is inside the watched directory {}: put it "
+                          "elsewhere",
+                          dbFile, o.watchDir)});
   }
   std::vector<io::NamedPath> inputs = {
       {"--thresholds", o.thresholds}, {"--corrections", o.corrections}, {"--detector", o.detector}};
@@ -80,10 +82,9 @@ int run(PromptCliOptions& cli) {
   if (!o.once) stopBetweenSteps();
   auto summary = validation::runPrompt(o);
   if (!summary) return reportError(summary.error());
-  const std::string done =
-      fmt::format("prompt: {} taken, {} quarantined, {} decided, {} sent", counted(summary->filesTaken, "file"),
-                  counted(summary->quarantined, "file"), counted(summary->decided, "group"),
-                  counted(summary->alertsSent, "alert"));
+  const std::string done = fmt::format("prompt: {} taken, {} quarantined, {} decided, {} sent",
+                                       counted(summary->filesTaken, "file"), counted(summary->quarantined, "file"),
+                                       counted(summary->decided, "group"), counted(summary->alertsSent, "alert"));
   if (!summary->problems.empty()) {
     for (const auto& p : summary->problems) eprint("emcalign: error: {}\n", p);
     eprint("{}; the work left is done by the next run (nothing taken is lost)\n", done);
@@ -111,8 +112,7 @@ int propose(const ProposeOptions& o) {
   for (const auto& row : table->rows) {
     const auto p = row.name.param();
     if (!p) continue;
-    if (!o.parameters.empty() &&
-        std::find(o.parameters.begin(), o.parameters.end(), name(*p)) == o.parameters.end()) {
+    if (!o.parameters.empty() && std::find(o.parameters.begin(), o.parameters.end(), name(*p)) == o.parameters.end()) {
       continue;
     }
     // The error a fit quotes: the spread over the pulls' width (a pull is (fit − truth)/error).
@@ -127,15 +127,15 @@ int propose(const ProposeOptions& o) {
   auto thresholds = validation::proposeThresholds(spreads, o.falseRate);
   if (!thresholds) return reportError(Error{fmt::format("{}: {}", o.table, thresholds.error().message)});
   if (Status s = io::writeOutputFile(o.output, thresholds->json.dump(1) + "\n"); !s) return reportError(s.error());
-  fmt::print(reportStream(),
-             "prompt-thresholds: {} parameters from the spreads of {} ({} samples of {} events): min_change = "
-             "{:.3g}·√2·spread (a false update rate of {:g} over them on a stable stretch, for groups of that size), "
-             "significance 3, max_change 10·min_change (set it from the detector's history), max_error 2·the error a fit "
-             "quotes (spread/pull width) -> "
-             "{}\n",
-             spreads.size(), o.table, table->samples, table->events,
-             validation::falseUpdateQuantile(o.falseRate, spreads.size()), o.falseRate,
-             o.output);
+  fmt::print(
+      reportStream(),
+      "prompt-thresholds: {} parameters from the spreads of {} ({} samples of {} events): min_change = "
+      "{:.3g}·√2·spread (a false update rate of {:g} over them on a stable stretch, for groups of that size), "
+      "significance 3, max_change 10·min_change (set it from the detector's history), max_error 2·the error a fit "
+      "quotes (spread/pull width) -> "
+      "{}\n",
+      spreads.size(), o.table, table->samples, table->events,
+      validation::falseUpdateQuantile(o.falseRate, spreads.size()), o.falseRate, o.output);
   return kExitOk;
 }
 
@@ -170,7 +170,8 @@ void addPromptCommand(CLI::App& app, int& exitCode) {
   cmd->add_option("watch_dir", p.watchDir, "the directory the event files (*.h5, *.csv) arrive in")
       ->required()
       ->check(CLI::ExistingDirectory);
-  cmd->add_option("--conditions", p.conditions, "conditions database: sqlite:PATH (created if new), or postgresql://...")
+  cmd->add_option("--conditions", p.conditions,
+                  "conditions database: sqlite:PATH (created if new), or postgresql://...")
       ->required();
   cmd->add_option("--tag", p.tag, "the running tag it writes (created if new; another state is refused)")
       ->required()

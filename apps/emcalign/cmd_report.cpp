@@ -1,6 +1,7 @@
 // emcalign report: one self-contained HTML page of a calibration (report/calibration_report.hpp):
 //   report [--fit RESULT.json [--events EVENTS...] [--corrections C]] [--validation DIR]
-//          [--compare DIR] [--trend DIR] [--conditions URI --tag T] [--checks DIR...] [--prompt STATE_DIR] [--title T] -o report.html
+//          [--compare DIR] [--trend DIR] [--conditions URI --tag T] [--checks DIR...] [--prompt STATE_DIR] [--title T]
+//          -o report.html
 
 #include <algorithm>
 #include <filesystem>
@@ -13,13 +14,13 @@
 #include <fmt/format.h>
 
 #include "common.hpp"
-#include "emcalign/validation/prompt.hpp"
 #include "emcalign/conddb/calibrations.hpp"
 #include "emcalign/conddb/conditions.hpp"
 #include "emcalign/core/sha256.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/report/calibration_report.hpp"
 #include "emcalign/report/fit_figures.hpp"
+#include "emcalign/validation/prompt.hpp"
 
 namespace emcalign::app {
 

@@ -145,7 +145,9 @@ io::Json ProfileFill::state() const {
 
 Result<ProfileFill> ProfileFill::restore(const io::Json& state, const ProfileOptions& options,
                                          const std::string& source) {
-  const auto bad = [&](std::string_view key) { return Error{fmt::format("{}: \"{}\" is missing or wrong", source, key)}; };
+  const auto bad = [&](std::string_view key) {
+    return Error{fmt::format("{}: \"{}\" is missing or wrong", source, key)};
+  };
   if (!state.is_object()) return Error{fmt::format("{}: not a fill (a JSON object)", source)};
   ProfileFill f;
   const auto count = [&](std::string_view key, std::int64_t& to) -> bool {

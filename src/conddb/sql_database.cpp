@@ -331,9 +331,9 @@ class SqlDatabase final : public Database {
       if (!state) return state.error();
       if (state->empty()) {
         const std::string now = utcNow();
-        auto created = db_->query(
-            "INSERT INTO emcalign_tags (name, description, state, created) VALUES ($1, $2, 'open', $3)",
-            {tag, description, now});
+        auto created =
+            db_->query("INSERT INTO emcalign_tags (name, description, state, created) VALUES ($1, $2, 'open', $3)",
+                       {tag, description, now});
         if (!created) return created.error();
         auto mark = db_->query("INSERT INTO emcalign_meta (key, value) VALUES ($1, $2)",
                                {std::string(kRunningPrefix) + tag, Json{{"since", now}}.dump()});
@@ -343,9 +343,10 @@ class SqlDatabase final : public Database {
       auto t = tag_(tag);
       if (!t) return t.error();
       if ((*t)->state != TagState::Running) {
-        return Error{fmt::format("{}: tag '{}' is {}, not running: a prompt loop writes only a running tag (its own, "
-                                 "made by it); give it a new tag",
-                                 db_->uri(), tag, name((*t)->state))};
+        return Error{
+            fmt::format("{}: tag '{}' is {}, not running: a prompt loop writes only a running tag (its own, "
+                        "made by it); give it a new tag",
+                        db_->uri(), tag, name((*t)->state))};
       }
       return {};
     });
@@ -382,14 +383,16 @@ class SqlDatabase final : public Database {
         auto last = lastRunOf(tag);
         if (!last) return last.error();
         if (r.iov->firstRun > r.iov->lastRun || (*last && r.iov->firstRun != **last + 1)) {
-          return Error{fmt::format("{}: tag '{}': runs {}-{} do not start right after its last IOV (run {}): a "
-                                   "running tag's IOVs tile the runs",
-                                   db_->uri(), tag, r.iov->firstRun, r.iov->lastRun, last->value_or(-1))};
+          return Error{
+              fmt::format("{}: tag '{}': runs {}-{} do not start right after its last IOV (run {}): a "
+                          "running tag's IOVs tile the runs",
+                          db_->uri(), tag, r.iov->firstRun, r.iov->lastRun, last->value_or(-1))};
         }
         if (Status s = insertIov(tag, *r.iov, utcNow()); !s) return s;
       }
-      auto thresholds = db_->query("INSERT INTO emcalign_meta (key, value) VALUES ($1, $2) ON CONFLICT (key) DO NOTHING",
-                                   {std::string(kThresholdsPrefix) + r.thresholdsSha256, r.thresholds});
+      auto thresholds =
+          db_->query("INSERT INTO emcalign_meta (key, value) VALUES ($1, $2) ON CONFLICT (key) DO NOTHING",
+                     {std::string(kThresholdsPrefix) + r.thresholdsSha256, r.thresholds});
       if (!thresholds) return thresholds.error();
       auto record = db_->query("INSERT INTO emcalign_meta (key, value) VALUES ($1, $2)", {key, r.decision});
       if (!record) return record.error();
@@ -424,8 +427,7 @@ class SqlDatabase final : public Database {
   }
 
   Result<std::optional<std::string>> thresholds(const std::string& sha256) override {
-    auto rows =
-        db_->query("SELECT value FROM emcalign_meta WHERE key = $1", {std::string(kThresholdsPrefix) + sha256});
+    auto rows = db_->query("SELECT value FROM emcalign_meta WHERE key = $1", {std::string(kThresholdsPrefix) + sha256});
     if (!rows) return rows.error();
     if (rows->empty()) return std::optional<std::string>();
     return std::optional<std::string>(toText((*rows)[0][0]));

@@ -99,7 +99,8 @@ void exchange(pid_t pid, int in, int out, int err, std::string_view input, int s
         // Kept up to a bound (a command that prints without end must not take the memory); the
         // rest is read and dropped.
         std::string& to = k == 1 ? r.out : r.err;
-        if (to.size() < kMaxCaptured) to.append(buffer, std::min(static_cast<std::size_t>(n), kMaxCaptured - to.size()));
+        if (to.size() < kMaxCaptured)
+          to.append(buffer, std::min(static_cast<std::size_t>(n), kMaxCaptured - to.size()));
       } else if (n == 0 || (errno != EINTR && errno != EAGAIN)) {
         ::close(fd);
         fd = -1;

@@ -845,8 +845,7 @@ Result<std::string> calibrationReport(const ReportInputs& in) {
     sources.push_back(in.prompt->dir);
   }
   if (sections.empty())
-    return Error{
-        "nothing to report: give --fit, --validation, --compare, --trend, --conditions, --checks or --prompt"};
+    return Error{"nothing to report: give --fit, --validation, --compare, --trend, --conditions, --checks or --prompt"};
   if (sections.size() > 1) {
     sections.insert(sections.begin(), {"summary", "At a glance", html::list(summary(in))});
   }

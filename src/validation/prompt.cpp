@@ -13,11 +13,11 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <map>
 #include <memory>
 #include <optional>
-#include <fstream>
 #include <set>
 #include <sstream>
 #include <thread>
@@ -41,84 +41,6 @@ namespace emcalign::validation {
 namespace fs = std::filesystem;
 using io::Json;
 
-bool isPromptTemporary(std::string_view name) {
-  return name.empty() || name.front() == '.' || name.ends_with(".tmp") || name.ends_with(".part") ||
-         name.find(".tmp-") != std::string_view::npos;
-}
-
-namespace {
-
-Json energyJson(double e) { return std::isnan(e) ? Json(nullptr) : Json(e); }
-
-}  // namespace
-
-namespace prompt {
-
-// ---- the state kept in STATE_DIR/state.json
-
-Json State::toJson() const {
-  Json files = Json::object();
-  for (const auto& [name, f] : this->files) {
-    files[name] = {{"size", f.size},     {"mtime_ns", f.mtimeNs}, {"inode", f.inode},
-                   {"sha256", f.sha256}, {"status", f.status},    {"runs", f.runs},
-                   {"reason", f.reason}};
-  }
-  Json open = Json::array();
-  for (const TakenRun& r : this->open) {
-    open.push_back({{"run", r.run}, {"file", r.file}, {"beam_energy_mev", energyJson(r.beamEnergy)},
-                    {"selected_events", r.selected}});
-  }
-  return {{"format", kPromptStateFormat},
-          {"watch_dir", watchDir},
-          {"tag", tag},
-          {"conditions", conditions},
-          {"decided", decided},
-          {"model", model},
-          {"files", files},
-          {"open", open},
-          {"alerted", alerted}};
-}
-
-Result<State> State::parse(const Json& j, const std::string& source) {
-  return io::strict::guarded([&]() -> State {
-    const io::strict::StrictObject o(j, "", source);
-    o.allowOnly({"format", "watch_dir", "tag", "conditions", "decided", "model", "files", "open", "alerted"});
-    if (o.string("format") != kPromptStateFormat) o.fail("format", fmt::format("expected \"{}\"", kPromptStateFormat));
-    State s;
-    s.watchDir = o.string("watch_dir");
-    s.tag = o.string("tag");
-    s.conditions = o.string("conditions");
-    s.decided = o.at("decided").get<std::int64_t>();
-    s.model = o.at("model");
-    const auto files = o.object("files");
-    for (const auto& [name, value] : o.at("files").items()) {
-      const auto f = files.object(name);
-      f.allowOnly({"size", "mtime_ns", "inode", "sha256", "status", "runs", "reason"});
-      FileEntry e;
-      e.size = f.at("size").get<std::int64_t>();
-      e.mtimeNs = f.at("mtime_ns").get<std::int64_t>();
-      e.inode = f.at("inode").get<std::uint64_t>();
-      e.sha256 = f.string("sha256");
-      e.status = f.string("status");
-      if (e.status != "taken" && e.status != "quarantined") f.fail(f.pathOf("status"), "expected taken or quarantined");
-      e.runs = f.at("runs").get<std::vector<std::int32_t>>();
-      e.reason = f.string("reason");
-      s.files[name] = std::move(e);
-    }
-    const Json& open = o.at("open");
-    if (!open.is_array()) o.fail("open", "expected an array");
-    for (std::size_t k = 0; k < open.size(); ++k) {
-      const auto r = o.nested(open[k], fmt::format("open[{}]", k));
-      r.allowOnly({"run", "file", "beam_energy_mev", "selected_events"});
-      s.open.push_back({r.at("run").get<std::int32_t>(), r.string("file"), r.numberOrNull("beam_energy_mev"),
-                        r.at("selected_events").get<std::int64_t>()});
-    }
-    s.alerted = o.at("alerted").get<std::set<std::string>>();
-    return s;
-  });
-}
-
-}  // namespace prompt
 
 namespace {
 
@@ -140,8 +62,7 @@ struct Seen {
   std::int64_t size = 0, mtimeNs = 0;
   std::uint64_t inode = 0;
   bool operator==(const Seen& o) const {
-    return regular == o.regular && dangling == o.dangling && size == o.size && mtimeNs == o.mtimeNs &&
-           inode == o.inode;
+    return regular == o.regular && dangling == o.dangling && size == o.size && mtimeNs == o.mtimeNs && inode == o.inode;
   }
 };
 
@@ -250,14 +171,16 @@ class Loop {
       auto s = State::parse(*j, path);
       if (!s) return s.error();
       if (s->watchDir != watchDir() || s->tag != o_.tag) {
-        return Error{fmt::format("{}: this state directory is the loop's of {} into tag {}, not of {} into tag {}: "
-                                 "one state directory per watched directory and tag",
-                                 o_.stateDir, s->watchDir, s->tag, watchDir(), o_.tag)};
+        return Error{
+            fmt::format("{}: this state directory is the loop's of {} into tag {}, not of {} into tag {}: "
+                        "one state directory per watched directory and tag",
+                        o_.stateDir, s->watchDir, s->tag, watchDir(), o_.tag)};
       }
       if (s->conditions != databaseIdentity()) {
-        return Error{fmt::format("{}: this state directory's decisions are in {}, not {}: one state directory per "
-                                 "database and tag (a new database needs a new state directory)",
-                                 o_.stateDir, s->conditions, databaseIdentity())};
+        return Error{
+            fmt::format("{}: this state directory's decisions are in {}, not {}: one state directory per "
+                        "database and tag (a new database needs a new state directory)",
+                        o_.stateDir, s->conditions, databaseIdentity())};
       }
       // The open runs' fills were made with one model: a group is fitted with that one.
       if (!s->open.empty() && s->model != modelIdentity()) {
@@ -287,13 +210,13 @@ class Loop {
 
   // The database as the state directory names it: an SQLite file by its absolute path, a
   // server by its address without password.
-  std::string databaseIdentity() const {
+  [[nodiscard]] std::string databaseIdentity() const {
     const std::string file = conddb::sqliteFileOf(o_.conditions);
     if (!file.empty()) return "sqlite:" + fs::absolute(file).lexically_normal().string();
     return core::withoutAnyPassword(o_.conditions);
   }
 
-  Json modelIdentity() const {
+  [[nodiscard]] Json modelIdentity() const {
     return {{"corrections_sha256", model_.correctionsSha256},
             {"sigma_sys", calib::sigmaSysChoiceJson(model_.sigmaSys)},
             {"detector", model_.detector}};
@@ -309,9 +232,9 @@ class Loop {
   }
 
  private:
-  std::string watchDir() const { return fs::absolute(o_.watchDir).lexically_normal().string(); }
-  std::string statePath() const { return (fs::path(o_.stateDir) / "state.json").string(); }
-  std::string fillPath(std::int32_t run) const { return (fs::path(o_.stateDir) / "runs" / runFillName(run)).string(); }
+  [[nodiscard]] std::string watchDir() const { return fs::absolute(o_.watchDir).lexically_normal().string(); }
+  [[nodiscard]] std::string statePath() const { return (fs::path(o_.stateDir) / "state.json").string(); }
+  [[nodiscard]] std::string fillPath(std::int32_t run) const { return (fs::path(o_.stateDir) / "runs" / runFillName(run)).string(); }
   void say(const std::string& line) const {
     if (o_.say) o_.say(line);
   }
@@ -321,7 +244,7 @@ class Loop {
   }
 
   // The SQLite file it is open on, to see it removed or replaced while the loop runs.
-  std::optional<std::uint64_t> sqliteInode() const {
+  [[nodiscard]] std::optional<std::uint64_t> sqliteInode() const {
     const std::string file = conddb::sqliteFileOf(o_.conditions);
     if (file.empty()) return std::nullopt;
     struct stat st {};
@@ -361,10 +284,13 @@ class Loop {
 
   // This loop as the database records it: its host, process, the process's start and its state
   // directory.
-  Json thisLoop() const {
+  [[nodiscard]] Json thisLoop() const {
     char host[256] = {};
     ::gethostname(host, sizeof host - 1);
-    return {{"host", host}, {"boot", bootId()}, {"pid", ::getpid()}, {"start", startOf(::getpid())},
+    return {{"host", host},
+            {"boot", bootId()},
+            {"pid", ::getpid()},
+            {"start", startOf(::getpid())},
             {"state_dir", fs::absolute(o_.stateDir).lexically_normal().string()}};
   }
 
@@ -499,7 +425,7 @@ class Loop {
       if (!before->regular || !utf8) {
         if (known == state_.files.end()) {
           quarantine(name, *before, "",
-                     !utf8             ? "its name is not UTF-8 text (the decisions name files in JSON): rename it"
+                     !utf8              ? "its name is not UTF-8 text (the decisions name files in JSON): rename it"
                      : before->dangling ? "a symbolic link to nothing: never read"
                                         : "not a regular file (a directory, a FIFO, a device): never read",
                      summary);
@@ -524,7 +450,8 @@ class Loop {
         rewrittenSeen_.insert(fmt::format("{} {} {} {}", name, before->size, before->mtimeNs, before->inode));
         const std::string rewritten = name + " rewritten";
         if (!state_.alerted.contains(rewritten + (sha ? *sha : std::string()))) {
-          say(fmt::format("{}: rewritten after it was taken (runs {}): the content taken is kept; the new one is "
+          say(
+              fmt::format("{}: rewritten after it was taken (runs {}): the content taken is kept; the new one is "
                           "not taken",
                           printable(name), fmt::join(known->second.runs, ", ")));
           pendingAlerts_.push_back({rewritten + (sha ? *sha : std::string()),
@@ -573,7 +500,8 @@ class Loop {
     const std::string key = fmt::format("{} {} {} {}", name, s.size, s.mtimeNs, s.inode);
     auto [it, fresh] = futureSeen_.try_emplace(key, now);
     if (fresh) {
-      say(fmt::format("{}: modified in the future ({:.0f} s ahead: a clock ahead?): taken once unchanged for --settle "
+      say(
+          fmt::format("{}: modified in the future ({:.0f} s ahead: a clock ahead?): taken once unchanged for --settle "
                       "seconds as this loop sees it",
                       printable(name), static_cast<double>(s.mtimeNs - now) / 1e9));
     }
@@ -587,6 +515,7 @@ class Loop {
     // Decided already (a state directory started afresh on the tag): known, nothing to do.
     if (auto it = decidedFiles_.find(name); it != decidedFiles_.end() && it->second == sha) {
       std::vector<std::int32_t> list;
+      list.reserve(runs.size());
       for (const auto& [run, fill] : runs) list.push_back(run);
       state_.files[name] = {seenAs.size, seenAs.mtimeNs, seenAs.inode, sha, "taken", list, ""};
       say(fmt::format("{}: decided already (the tag's decisions name it): not taken again", printable(name)));
@@ -629,8 +558,8 @@ class Loop {
     // The fills first, then the state naming them: a kill between takes the file again.
     std::vector<std::int32_t> list;
     for (const auto& [run, fill] : runs) {
-      if (Status s = io::writeFileIn((fs::path(o_.stateDir) / "runs").string(), runFillName(run),
-                                     fill.state().dump() + "\n");
+      if (Status s =
+              io::writeFileIn((fs::path(o_.stateDir) / "runs").string(), runFillName(run), fill.state().dump() + "\n");
           !s) {
         return s;
       }
@@ -647,7 +576,8 @@ class Loop {
                                                   fill.cutFlow.events.front())
                                     : std::string()));
     }
-    std::sort(state_.open.begin(), state_.open.end(), [](const TakenRun& a, const TakenRun& b) { return a.run < b.run; });
+    std::sort(state_.open.begin(), state_.open.end(),
+              [](const TakenRun& a, const TakenRun& b) { return a.run < b.run; });
     ++summary.filesTaken;
     return {};
   }
@@ -733,7 +663,7 @@ class Loop {
     for (const TakenRun& r : g.runs) names[r.file] = state_.files[r.file].sha256;
     const Json j = {{"group", group},
                     {"runs", {first, last}},
-                    {"beam_energy_mev", energyJson(g.beamEnergy)},
+                    {"beam_energy_mev", prompt::energyJson(g.beamEnergy)},
                     {"selected_events", g.selected},
                     {"decision", name(d.decision)},
                     {"reasons", d.reasons},
@@ -767,12 +697,9 @@ class Loop {
   }
 
   Status writeStatus() {
-    const prompt::StatusInput in{state_,
-                                 records_,
-                                 o_.tag,
-                                 db_ ? db_->uri() : std::string(),
-                                 o_.minEvents,
-                                 Json{{"sha256", thresholds_.sha256}, {"json", thresholds_.json}},
+    const prompt::StatusInput in{state_,       records_,
+                                 o_.tag,       db_ ? db_->uri() : std::string(),
+                                 o_.minEvents, Json{{"sha256", thresholds_.sha256}, {"json", thresholds_.json}},
                                  utcNow()};
     return io::writeFileIn(o_.stateDir, "status.html", prompt::statusPage(in));
   }
@@ -789,9 +716,10 @@ class Loop {
         const std::string path = (fs::path(o_.watchDir) / r.file).string();
         auto sha = sha256OfFile(path);
         if (!sha || *sha != state_.files[r.file].sha256) {
-          return Error{fmt::format("run {}: its kept fill is lost ({}) and its file {} no longer has the content "
-                                   "taken: restore either, or remove the run from {} (it is then never decided)",
-                                   r.run, f.error().message, r.file, statePath())};
+          return Error{
+              fmt::format("run {}: its kept fill is lost ({}) and its file {} no longer has the content "
+                          "taken: restore either, or remove the run from {} (it is then never decided)",
+                          r.run, f.error().message, r.file, statePath())};
         }
         auto again = calib::fillProfilesByRun(path, model_.depthAtEnergy(), model_.selection, profile);
         if (!again || !again->contains(r.run)) {
@@ -872,8 +800,9 @@ class Loop {
       state_.alerted.insert(key);
     }
     if (failed) {
-      nextAlertTry_ = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                                             std::chrono::duration<double>(alertBackoff_));
+      nextAlertTry_ =
+          std::chrono::steady_clock::now() +
+          std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(alertBackoff_));
       alertBackoff_ = std::min(alertBackoff_ * 2.0, 3600.0);
     } else if (!wait) {
       alertBackoff_ = 60.0;
@@ -884,7 +813,7 @@ class Loop {
     return {};
   }
 
-  bool pending(const std::string& key) const {
+  [[nodiscard]] bool pending(const std::string& key) const {
     return std::any_of(pendingAlerts_.begin(), pendingAlerts_.end(), [&](const auto& p) { return p.first == key; });
   }
 
@@ -901,7 +830,7 @@ class Loop {
   std::int64_t lastDecidedRun_ = std::numeric_limits<std::int64_t>::min();
   std::int64_t lastIovRun_ = std::numeric_limits<std::int64_t>::min();
   std::vector<std::pair<std::string, Json>> pendingAlerts_;
-  std::set<std::string> rewrittenSeen_;            // taken files rewritten, as seen when said
+  std::set<std::string> rewrittenSeen_;             // taken files rewritten, as seen when said
   std::map<std::string, std::int64_t> futureSeen_;  // files modified in the future: when first seen
   std::chrono::steady_clock::time_point nextAlertTry_{};
   double alertBackoff_ = 60.0;
@@ -921,50 +850,6 @@ void sleepUnlessStopped(double seconds, const std::atomic<bool>* stop) {
 }
 
 }  // namespace
-
-Result<std::string> promptReportHtml(const std::string& stateDir) {
-  const auto read = [&](const char* name) -> Result<std::string> {
-    return io::readTextFile((fs::path(stateDir) / name).string());
-  };
-  auto stateText = read("state.json");
-  if (!stateText) return stateText.error();
-  const std::string statePath = (fs::path(stateDir) / "state.json").string();
-  auto stateJson = io::parseJson(*stateText, statePath);
-  if (!stateJson) return stateJson.error();
-  auto state = State::parse(*stateJson, statePath);
-  if (!state) return state.error();
-  auto thresholdsText = read("thresholds.json");
-  if (!thresholdsText) return thresholdsText.error();
-  auto thresholds = io::parseJson(*thresholdsText, (fs::path(stateDir) / "thresholds.json").string());
-  if (!thresholds) return thresholds.error();
-  auto parsed = parseThresholds(*thresholds, (fs::path(stateDir) / "thresholds.json").string());
-  if (!parsed) return parsed.error();
-  auto text = read("decisions.jsonl");
-  if (!text) return text.error();
-  std::vector<std::string> records;
-  std::int64_t minEvents = 0;
-  std::size_t start = 0;
-  while (start < text->size()) {
-    const std::size_t end = std::min(text->find('\n', start), text->size());
-    const std::string line = text->substr(start, end - start);
-    start = end + 1;
-    if (line.empty()) continue;
-    const Json j = Json::parse(line, nullptr, false);
-    if (!j.is_object() || !j.contains("runs") || !j.contains("decision") || !j.contains("parameters")) {
-      return Error{fmt::format("{}/decisions.jsonl: record {} is not a decision of emcalign prompt", stateDir,
-                               records.size())};
-    }
-    minEvents = j.value("min_events", minEvents);
-    records.push_back(line);
-  }
-  const prompt::StatusInput in{*state, records, state->tag, "", minEvents,
-                               Json{{"sha256", parsed->sha256}, {"json", parsed->json}}, ""};
-  std::string body;
-  for (const auto& section : prompt::statusSections(in)) {
-    body += fmt::format("<h3>{}</h3>\n{}\n", report::html::escape(section.title), section.body);
-  }
-  return body;
-}
 
 Result<PromptSummary> runPrompt(const PromptOptions& o) {
   if (!(o.minEvents >= 1)) return Error{"--min-events: at least 1"};

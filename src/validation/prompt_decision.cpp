@@ -60,13 +60,13 @@ Result<Thresholds> parseThresholds(const Json& j, const std::string& source) {
         if (!(std::isfinite(v[k]) && v[k] > 0.0)) limits.fail(limits.pathOf(kKeys[k]), "expected a number > 0");
       }
       if (!(v[0] < v[2])) {
-        limits.fail(limits.pathOf("max_change"),
-                    fmt::format("expected more than min_change ({:g} {}): a change both updated and vetoed", v[0],
-                                unitOf(p)));
+        limits.fail(
+            limits.pathOf("max_change"),
+            fmt::format("expected more than min_change ({:g} {}): a change both updated and vetoed", v[0], unitOf(p)));
       }
       t.parameters.push_back({p, v[0], v[1], v[2], v[3]});
-      canonical[std::string(name(p))] = {{"min_change", v[0]}, {"significance", v[1]}, {"max_change", v[2]},
-                                         {"max_error", v[3]}};
+      canonical[std::string(name(p))] = {
+          {"min_change", v[0]}, {"significance", v[1]}, {"max_change", v[2]}, {"max_error", v[3]}};
     }
     if (t.parameters.empty()) o.fail("parameters", "lists no parameter: nothing would ever be updated or vetoed");
     t.json = {{"format", kThresholdsFormat}, {"parameters", canonical}};
@@ -128,11 +128,12 @@ DecisionResult decide(const Thresholds& thresholds, const GroupOutcome& g) {
     vetoes.push_back(fmt::format("the fit is unusable: {}", name(*g.status)));
   }
   if (2 * g.selected < g.minEvents) {
-    vetoes.push_back(fmt::format("too few events: {} selected, below half of --min-events {}", g.selected, g.minEvents));
+    vetoes.push_back(
+        fmt::format("too few events: {} selected, below half of --min-events {}", g.selected, g.minEvents));
   }
   if (g.status && *g.status == FitStatus::PoorFit) {
-    out.reasons.push_back(fmt::format("a poor fit (p-value {:.2g}): usable, the model describes the profiles badly",
-                                      g.pValue));
+    out.reasons.push_back(
+        fmt::format("a poor fit (p-value {:.2g}): usable, the model describes the profiles badly", g.pValue));
   }
   for (const ParameterThreshold& t : thresholds.parameters) {
     const conddb::StoredValue& f = g.fitted[index(t.parameter)];
@@ -155,8 +156,7 @@ DecisionResult decide(const Thresholds& thresholds, const GroupOutcome& g) {
       if (!std::isfinite(d.inForce)) {
         vetoes.push_back(fmt::format("{}: the calibration in force has no value", p));
       } else if (std::abs(d.change) > t.maxChange) {
-        vetoes.push_back(
-            fmt::format("{}: change {:+.4g} {} beyond max_change {:g}", p, d.change, unit, t.maxChange));
+        vetoes.push_back(fmt::format("{}: change {:+.4g} {} beyond max_change {:g}", p, d.change, unit, t.maxChange));
       } else if (std::abs(d.change) > t.minChange && d.significance > t.significance) {
         updates.push_back(fmt::format("{}: change {:+.4g} ± {:.4g} {} ({:.1f} σ) beyond min_change {:g} and {:g} σ", p,
                                       d.change, d.error, unit, d.significance, t.minChange, t.significance));

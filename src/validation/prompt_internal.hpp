@@ -1,6 +1,7 @@
 #pragma once
 // The prompt loop's state in STATE_DIR/state.json (validation/prompt.hpp), inside validation.
 
+#include <cmath>
 #include <cstdint>
 #include <map>
 #include <set>
@@ -13,12 +14,15 @@
 
 namespace emcalign::validation::prompt {
 
+/// A beam energy in a record: null for none (NaN).
+inline io::Json energyJson(double e) { return std::isnan(e) ? io::Json(nullptr) : io::Json(e); }
+
 /// A file of the watched directory as it was when taken or quarantined.
 struct FileEntry {
   std::int64_t size = 0, mtimeNs = 0;
   std::uint64_t inode = 0;
-  std::string sha256;  ///< of its content ("" when it could not be read)
-  std::string status;  ///< "taken" or "quarantined"
+  std::string sha256;              ///< of its content ("" when it could not be read)
+  std::string status;              ///< "taken" or "quarantined"
   std::vector<std::int32_t> runs;  ///< taken: its runs
   std::string reason;              ///< quarantined: why
 };
@@ -33,9 +37,9 @@ struct TakenRun {
 
 struct State {
   std::string watchDir, tag;
-  std::string conditions;  ///< the database (its address without password) the decisions are in
-  std::int64_t decided = 0;  ///< the groups that database held decided when last seen
-  io::Json model = io::Json::object();  ///< what the open runs' fills were made with
+  std::string conditions;                  ///< the database (its address without password) the decisions are in
+  std::int64_t decided = 0;                ///< the groups that database held decided when last seen
+  io::Json model = io::Json::object();     ///< what the open runs' fills were made with
   std::map<std::string, FileEntry> files;  ///< by name
   std::vector<TakenRun> open;              ///< by run
   std::set<std::string> alerted;           ///< the alerts acknowledged by --on-alert (or with none)

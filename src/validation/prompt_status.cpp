@@ -75,13 +75,15 @@ std::string panel(const std::string& name, const std::string& unit, const std::v
       kW, kH, html::escape(name), kLeft, kTop, kW - kLeft - kRight, kH - kTop - kBottom, html::escape(unit));
   for (int k = 0; k <= 4; ++k) {  // the value axis
     const double v = yMin + (yMax - yMin) * k / 4.0;
-    svg += fmt::format(R"(<text x="{}" y="{:.1f}" font-size="10" text-anchor="end" font-family="sans-serif">{:.4g}</text>)",
-                       kLeft - 4, Y(v) + 3, v);
+    svg += fmt::format(
+        R"(<text x="{}" y="{:.1f}" font-size="10" text-anchor="end" font-family="sans-serif">{:.4g}</text>)", kLeft - 4,
+        Y(v) + 3, v);
   }
-  svg += fmt::format(R"(<text x="{}" y="{}" font-size="10" font-family="sans-serif">run {:.0f}</text>)", kLeft,
-                     kH - 8, xMin);
-  svg += fmt::format(R"(<text x="{}" y="{}" font-size="10" text-anchor="end" font-family="sans-serif">run {:.0f}</text>)",
-                     kW - kRight, kH - 8, xMax - 1);
+  svg += fmt::format(R"(<text x="{}" y="{}" font-size="10" font-family="sans-serif">run {:.0f}</text>)", kLeft, kH - 8,
+                     xMin);
+  svg +=
+      fmt::format(R"(<text x="{}" y="{}" font-size="10" text-anchor="end" font-family="sans-serif">run {:.0f}</text>)",
+                  kW - kRight, kH - 8, xMax - 1);
   for (const Point& p : points) {
     if (std::isfinite(p.inForce)) {  // the thresholds around what was in force
       const double x0 = X(p.hasIov ? p.iovFirst : p.first), x1 = X(p.last + 1);
@@ -90,8 +92,9 @@ std::string panel(const std::string& name, const std::string& unit, const std::v
                          std::max(0.5, Y(p.inForce - minChange) - Y(p.inForce + minChange)));
       for (double edge : {p.inForce + maxChange, p.inForce - maxChange}) {
         if (edge > yMin && edge < yMax) {
-          svg += fmt::format(R"(<line x1="{:.1f}" x2="{:.1f}" y1="{:.1f}" y2="{:.1f}" stroke="#cf222e" stroke-dasharray="3,2"/>)",
-                             x0, x1, Y(edge), Y(edge));
+          svg += fmt::format(
+              R"(<line x1="{:.1f}" x2="{:.1f}" y1="{:.1f}" y2="{:.1f}" stroke="#cf222e" stroke-dasharray="3,2"/>)", x0,
+              x1, Y(edge), Y(edge));
         }
       }
     }
@@ -106,8 +109,9 @@ std::string panel(const std::string& name, const std::string& unit, const std::v
         svg += fmt::format(R"(<line x1="{0:.1f}" x2="{0:.1f}" y1="{1:.1f}" y2="{2:.1f}" stroke="{3}"/>)", x,
                            Y(p.fitted - p.error), Y(p.fitted + p.error), c);
       }
-      svg += fmt::format(R"(<circle cx="{:.1f}" cy="{:.1f}" r="3" fill="{}"><title>runs {:.0f}-{:.0f}: {}</title></circle>)",
-                         x, Y(p.fitted), c, p.first, p.last, html::escape(p.decision));
+      svg += fmt::format(
+          R"(<circle cx="{:.1f}" cy="{:.1f}" r="3" fill="{}"><title>runs {:.0f}-{:.0f}: {}</title></circle>)", x,
+          Y(p.fitted), c, p.first, p.last, html::escape(p.decision));
     } else {  // no fit: a mark at the axis
       svg += fmt::format(R"(<text x="{:.1f}" y="{:.1f}" font-size="11" fill="{}" text-anchor="middle">×</text>)",
                          X(0.5 * (p.first + p.last + 1)), kH - kBottom - 2, colourOf(p.decision));
@@ -139,8 +143,8 @@ std::vector<report::html::Section> statusSections(const StatusInput& in) {
   std::string summary = html::paragraph(fmt::format(
       "Tag {} (running) in {}: {} groups decided — {} updates, {} no-updates, {} vetoes. Open group: {} runs, {} of "
       "{} selected events. Thresholds {}… (min_events {}).",
-      in.tag, in.conditions, decisions.size(), updates, none, vetoes, in.state.open.size(), openSelected,
-      in.minEvents, in.thresholds.value("sha256", std::string()).substr(0, 12), in.minEvents));
+      in.tag, in.conditions, decisions.size(), updates, none, vetoes, in.state.open.size(), openSelected, in.minEvents,
+      in.thresholds.value("sha256", std::string()).substr(0, 12), in.minEvents));
   html::Table limits{"The thresholds (emcalign-thresholds/1)",
                      {"parameter", "min_change", "significance", "max_change", "max_error"},
                      {},
@@ -166,7 +170,9 @@ std::vector<report::html::Section> statusSections(const StatusInput& in) {
         p.iovLast = d["iov"][1].get<double>();
       }
       const Json& v = d["parameters"].contains(name) ? d["parameters"][name] : Json::object();
-      const auto num = [&](const char* key) { return v.contains(key) && v[key].is_number() ? v[key].get<double>() : NAN; };
+      const auto num = [&](const char* key) {
+        return v.contains(key) && v[key].is_number() ? v[key].get<double>() : NAN;
+      };
       p.fitted = num("fitted");
       p.error = num("error");
       p.inForce = num("in_force");
@@ -203,8 +209,8 @@ std::vector<report::html::Section> statusSections(const StatusInput& in) {
   std::vector<std::string> alerts;
   for (const Json& d : decisions) {
     if (d.value("decision", std::string()) == "veto") {
-      alerts.push_back(fmt::format("veto of group {} (runs {}-{})", d.value("group", 0), d["runs"][0].get<std::int64_t>(),
-                                   d["runs"][1].get<std::int64_t>()));
+      alerts.push_back(fmt::format("veto of group {} (runs {}-{})", d.value("group", 0),
+                                   d["runs"][0].get<std::int64_t>(), d["runs"][1].get<std::int64_t>()));
     }
   }
   html::Table quarantined{"Quarantined files (never taken again unless they change)", {"file", "reason"}, {}, {}};

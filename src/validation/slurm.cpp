@@ -46,8 +46,9 @@ Result<std::string> programOf(const Plan& plan) {
   auto running = ProgramIdentity::ofThisProcess();
   const std::string path = running ? running->path : plan.program.path;
   if (Status s = checkScriptSafe("this program's path", path, plan.path); !s) {
-    return Error{s.error().message + " (the jobs run the program that writes their script: install or copy it "
-                                     "where its path is safe)"};
+    return Error{s.error().message +
+                 " (the jobs run the program that writes their script: install or copy it "
+                 "where its path is safe)"};
   }
   return path;
 }
@@ -169,17 +170,15 @@ Result<SlurmSubmission> submitToSlurm(const Plan& plan, const std::vector<std::s
     finishArguments.push_back("--dependency=afterok:" + s.arrayJob);
     finishArguments.push_back("--kill-on-invalid-dep=yes");
   }
-  const std::string script =
-      fmt::format("#!/bin/bash\nexec {} finish {}\n", shellWord(*program), shellWord(plan.path));
+  const std::string script = fmt::format("#!/bin/bash\nexec {} finish {}\n", shellWord(*program), shellWord(plan.path));
   auto finish = sbatch(finishArguments, script, plan.directory);
   if (!finish) {
-    return Error{
-        fmt::format("the job array {} was submitted, but not its merge: {} (submit the merge by hand: "
-                    "sbatch --dependency=afterok:{} --kill-on-invalid-dep=yes --output={} --open-mode=append "
-                    "--chdir={} --wrap={})",
-                    s.arrayJob, finish.error().message, s.arrayJob, shellWord(outputPattern(plan.finishLog())),
-                    shellWord(plan.directory),
-                    shellWord("exec " + shellWord(*program) + " finish " + shellWord(plan.path)))};
+    return Error{fmt::format(
+        "the job array {} was submitted, but not its merge: {} (submit the merge by hand: "
+        "sbatch --dependency=afterok:{} --kill-on-invalid-dep=yes --output={} --open-mode=append "
+        "--chdir={} --wrap={})",
+        s.arrayJob, finish.error().message, s.arrayJob, shellWord(outputPattern(plan.finishLog())),
+        shellWord(plan.directory), shellWord("exec " + shellWord(*program) + " finish " + shellWord(plan.path)))};
   }
   s.finishJob = *finish;
   return s;

@@ -151,10 +151,6 @@ Status checkScriptSafe(std::string_view what, const std::string& p, const std::s
                         : "a control character")};
 }
 
-namespace {
-
-}  // namespace
-
 FileLock::FileLock(const std::string& path) {
   fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
   if (fd_ < 0) {

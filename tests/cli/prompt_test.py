@@ -170,7 +170,32 @@ def test_season(season):
     page = open(os.path.join(d, "state", "status.html")).read()
     check("http://" not in page.replace("http://www.w3.org/2000/svg", "") and "<svg" in page,
           "season: status.html self-contained with its figures")
+    check_in_browser(os.path.join(d, "state", "status.html"))
+    r = run(["report", "--prompt", "ref/state", "-o", "ref/report.html"], season.root)
+    check(r.returncode == 0 and "Prompt calibration" in open(os.path.join(d, "report.html")).read(),
+          f"season: report --prompt: {r.stderr}")
     season.reference = (iovs, decisions(os.path.join(d, "state")), vetoes)
+
+
+def check_in_browser(page):
+    """status.html rendered by headless Chromium, offline: its figures drawn (not blank)."""
+    binary = shutil.which("chromium")
+    if binary is None:
+        check(False, "chromium not found (scripts/install-deps installs it)")
+        return
+    shot = page + ".png"
+    r = subprocess.run([binary, "--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars",
+                        "--host-resolver-rules=MAP * ~NOTFOUND", "--window-size=1000,3000", f"--screenshot={shot}",
+                        "file://" + page], capture_output=True, text=True, timeout=120)
+    if not check(os.path.exists(shot), f"status.html: no screenshot: {r.stderr[-300:]}"):
+        return
+    from PIL import Image
+    im = Image.open(shot).convert("RGB")
+    colours = im.getcolors(1 << 20) or []
+    # The decisions' colours: green (update), red (veto) and the IOVs' blue are drawn.
+    drawn = {c for _, c in colours}
+    check(len(colours) > 50 and (26, 127, 55) in drawn and (207, 34, 46) in drawn and (9, 105, 218) in drawn,
+          f"status.html: the figures are not drawn ({len(colours)} colours)")
 
 
 def test_kills(season):
@@ -472,7 +497,7 @@ def test_postgres(season):
         check(open(path).read() == text if os.path.exists(path) else False,
               "postgres: the season with the server stopped for a while differs from the reference")
         check("trying again" in out, f"postgres: the loop did not say it waits: {out[-2000:]}")
-        check(loop.returncode == 0, f"postgres: exit {loop.returncode}")
+        check(loop.returncode == 0, f"postgres: exit {loop.returncode}: {out[-3000:]}")
         print("ok   postgres: the server away for a while, nothing lost")
     finally:
         pg_server.stop(private)

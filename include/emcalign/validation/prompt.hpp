@@ -33,11 +33,11 @@ namespace emcalign::validation {
 inline constexpr std::string_view kPromptStateFormat = "emcalign-prompt-state/1";
 
 struct PromptOptions {
-  std::string watchDir;    ///< the directory the event files arrive in
-  std::string conditions;  ///< the database URI
-  std::string tag;         ///< the running tag
-  std::string thresholds;  ///< the thresholds file
-  std::string stateDir;    ///< -o
+  std::string watchDir;     ///< the directory the event files arrive in
+  std::string conditions;   ///< the database URI
+  std::string tag;          ///< the running tag
+  std::string thresholds;   ///< the thresholds file
+  std::string stateDir;     ///< -o
   std::string corrections;  ///< a corrections file or grid (empty: the paper's model)
   std::string detector;     ///< a detector description (empty: the embedded one)
   std::int64_t minEvents = 50000;

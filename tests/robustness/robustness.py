@@ -1473,6 +1473,13 @@ def prompt_cases(add):
              "emcalign prompt-thresholds table.json --parameters dx,psi -o pt1.json", 1, "--parameters psi",
              check=lambda d, r: "pt1.json written" if os.path.exists(os.path.join(d, "pt1.json")) else None,
              checked="nothing written"))
+    def prompted(d):
+        if not os.path.exists(os.path.join(d, "pr9.db")):
+            runner_binary_run(d, ["prompt", "period", "--conditions", "pr9.db", "--tag", "p", "--thresholds", "thr.json",
+                                  "--min-events", "1500", "--settle", "0", "--once", "-o", "ps9"])
+    add(Case(P, "a campaign into a prompt loop's running tag",
+             "emcalign campaign period --conditions pr9.db --tag p --min-events 1500", 1, "is running",
+             setup=prompted))
     add(Case(P, "--poll 0", "emcalign prompt period --conditions pr.db --tag p --thresholds thr.json --poll 0 -o ps8",
              2, "--poll"))
 

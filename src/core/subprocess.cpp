@@ -60,7 +60,8 @@ int spawn(const std::vector<std::string>& argv, const std::string& cwd, int in, 
 
 // Feeds `input` to the child's standard input (`in`) and collects its output and errors (`out`,
 // `err`) until both close, or kills it at the deadline; closes the three.
-void exchange(pid_t pid, int in, int out, int err, std::string_view input, int seconds, Ran& r) {
+void exchange(pid_t pid, int in, int out, int err, std::string_view input, int seconds, Ran& r,
+              const std::atomic<bool>* stop) {
   std::size_t written = 0;
   if (input.empty()) {
     ::close(in);
@@ -71,14 +72,14 @@ void exchange(pid_t pid, int in, int out, int err, std::string_view input, int s
   while (out >= 0 || err >= 0) {
     const auto left =
         std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
-    if (left.count() <= 0) {
+    if (left.count() <= 0 || (stop != nullptr && stop->load())) {
       ::kill(-pid, SIGKILL);  // its process group
       ::kill(pid, SIGKILL);
       r.timedOut = true;
       break;
     }
     pollfd fds[3] = {{in, POLLOUT, 0}, {out, POLLIN, 0}, {err, POLLIN, 0}};
-    if (::poll(fds, 3, static_cast<int>(std::min<long long>(left.count(), 1000))) < 0) {
+    if (::poll(fds, 3, static_cast<int>(std::min<long long>(left.count(), 200))) < 0) {
       if (errno == EINTR) continue;
       break;
     }
@@ -114,7 +115,8 @@ void exchange(pid_t pid, int in, int out, int err, std::string_view input, int s
 
 }  // namespace
 
-Ran runCapturing(const std::vector<std::string>& argv, const std::string& cwd, std::string_view input, int seconds) {
+Ran runCapturing(const std::vector<std::string>& argv, const std::string& cwd, std::string_view input, int seconds,
+                 const std::atomic<bool>* stop) {
   Ran r;
   // Its standard input is a socket, not a pipe: a gnuplot that exits before reading all of it
   // gets EPIPE without a SIGPIPE (MSG_NOSIGNAL), which would end this process.
@@ -146,12 +148,12 @@ Ran runCapturing(const std::vector<std::string>& argv, const std::string& cwd, s
     return r;
   }
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(seconds);
-  exchange(pid, in[1], out[0], err[0], input, seconds, r);
+  exchange(pid, in[1], out[0], err[0], input, seconds, r, stop);
   // A child that closed its output (or sent it elsewhere) is waited for up to the same deadline.
   for (;;) {
     const pid_t done = ::waitpid(pid, &r.status, r.timedOut ? 0 : WNOHANG);
     if (done == pid || (done < 0 && errno != EINTR)) break;
-    if (done == 0 && std::chrono::steady_clock::now() >= deadline) {
+    if (done == 0 && (std::chrono::steady_clock::now() >= deadline || (stop != nullptr && stop->load()))) {
       ::kill(-pid, SIGKILL);
       ::kill(pid, SIGKILL);
       r.timedOut = true;

@@ -812,9 +812,10 @@ Result<std::vector<bool>> checkCampaignTag(const CampaignScan& scan, const Campa
     return Error{fmt::format("{}: tag '{}' was retired ({}): nothing is written to it again (write to a new tag)",
                              db.uri(), tag, (*t)->retired)};
   } else if (t->has_value() && (*t)->state == conddb::TagState::Running) {
-    return Error{fmt::format("{}: tag '{}' is running (a prompt loop's: IOVs only appended by it): a campaign writes "
-                             "a tag of its own",
-                             db.uri(), tag)};
+    return Error{
+        fmt::format("{}: tag '{}' is running (a prompt loop's: IOVs only appended by it): a campaign writes "
+                    "a tag of its own",
+                    db.uri(), tag)};
   }
   auto done = groupsInTag(db, tag, groups);
   if (!done) return done.error();

@@ -41,7 +41,6 @@ namespace emcalign::validation {
 namespace fs = std::filesystem;
 using io::Json;
 
-
 namespace {
 
 using prompt::FileEntry;
@@ -186,7 +185,7 @@ class Loop {
       if (!s->open.empty() && s->model != modelIdentity()) {
         return Error{fmt::format(
             "{}: the {} runs taken and not yet decided were read with {}, not {}: start again with the same "
-            "--corrections, --sigma-sys and --detector until their group is decided",
+            "--corrections and --detector until their group is decided",
             o_.stateDir, s->open.size(), s->model.dump(), modelIdentity().dump())};
       }
       state_ = std::move(*s);
@@ -216,10 +215,15 @@ class Loop {
     return core::withoutAnyPassword(o_.conditions);
   }
 
+  // What a run's fill depends on: the corrections (the depth, the parting plane) and the detector,
+  // by content. Not σ_sys: it acts on the fit only.
   [[nodiscard]] Json modelIdentity() const {
-    return {{"corrections_sha256", model_.correctionsSha256},
-            {"sigma_sys", calib::sigmaSysChoiceJson(model_.sigmaSys)},
-            {"detector", model_.detector}};
+    std::string detector = "embedded";
+    if (!o_.detector.empty()) {
+      auto sha = sha256OfFile(o_.detector);
+      detector = sha ? *sha : o_.detector;
+    }
+    return {{"corrections_sha256", model_.correctionsSha256}, {"detector_sha256", detector}};
   }
 
   // One step; problems (the database away, a full disk) go to `summary` and the step ends.
@@ -234,7 +238,9 @@ class Loop {
  private:
   [[nodiscard]] std::string watchDir() const { return fs::absolute(o_.watchDir).lexically_normal().string(); }
   [[nodiscard]] std::string statePath() const { return (fs::path(o_.stateDir) / "state.json").string(); }
-  [[nodiscard]] std::string fillPath(std::int32_t run) const { return (fs::path(o_.stateDir) / "runs" / runFillName(run)).string(); }
+  [[nodiscard]] std::string fillPath(std::int32_t run) const {
+    return (fs::path(o_.stateDir) / "runs" / runFillName(run)).string();
+  }
   void say(const std::string& line) const {
     if (o_.say) o_.say(line);
   }
@@ -257,6 +263,14 @@ class Loop {
       if (sqliteInode() == dbInode_) return {};
       db_.reset();
       return Error{fmt::format("{}: the database file was removed or replaced while the loop ran", o_.conditions)};
+    }
+    // A database this state directory has decisions in is never made anew (it went away).
+    if (state_.decided > 0 && sqliteInode() == std::optional<std::uint64_t>(0)) {
+      fatal_ = fmt::format(
+          "{}: the database this state directory has {} decisions in is gone: restore it (nothing "
+          "was made in its place)",
+          o_.conditions, state_.decided);
+      return Error{fatal_};
     }
     // A short wait for another writer's lock: the step ends, is said, and is tried again.
     auto db = conddb::Database::open(o_.conditions, conddb::IfMissing::Create, 3000);
@@ -334,6 +348,18 @@ class Loop {
   Status catchUp(PromptSummary&) {
     auto records = db_->promptRecords(o_.tag);
     if (!records) return records.error();
+    std::string seen;
+    for (std::int64_t k = 0; k < state_.decided && k < static_cast<std::int64_t>(records->size()); ++k) {
+      seen += (*records)[static_cast<std::size_t>(k)] + "\n";
+    }
+    if (static_cast<std::int64_t>(records->size()) >= state_.decided && !state_.decidedSha256.empty() &&
+        sha256(seen) != state_.decidedSha256) {
+      fatal_ = fmt::format(
+          "{}: tag {}'s first {} decisions are not those this state directory saw: another database at the same "
+          "place? Not going on (nothing changed)",
+          db_->uri(), o_.tag, state_.decided);
+      return Error{fatal_};
+    }
     if (static_cast<std::int64_t>(records->size()) < state_.decided) {
       fatal_ = fmt::format(
           "{}: tag {} holds {} decided groups, this state directory has seen {}: another database, or one restored "
@@ -360,11 +386,20 @@ class Loop {
     lastIovRun_ = iovs->empty() ? std::numeric_limits<std::int64_t>::min() : iovs->back().lastRun;
     const auto before = state_.open.size();
     std::erase_if(state_.open, [&](const TakenRun& r) { return r.run <= lastDecidedRun_; });
-    if (state_.open.size() != before || state_.decided != static_cast<std::int64_t>(records_.size())) {
+    if (state_.open.size() != before || state_.decided != static_cast<std::int64_t>(records_.size()) ||
+        state_.decidedSha256 != decisionsDigest()) {
       state_.decided = static_cast<std::int64_t>(records_.size());
+      state_.decidedSha256 = decisionsDigest();
       if (Status s = saveState(); !s) return s;
     }
     return writeDecisions();
+  }
+
+  // The SHA-256 of the decisions as decisions.jsonl holds them.
+  [[nodiscard]] std::string decisionsDigest() const {
+    std::string text;
+    for (const std::string& r : records_) text += r + "\n";
+    return sha256(text);
   }
 
   Status writeDecisions() {
@@ -416,7 +451,7 @@ class Loop {
       if (!before) continue;  // vanished
       // Named in JSON (state, decisions, quarantine): a name that is not UTF-8 is never read.
       const bool utf8 = isValidUtf8(rawName);
-      const std::string name = utf8 ? rawName : printable(rawName);
+      const std::string name = utf8 ? rawName : printable(rawName) + " (a name that is not UTF-8)";
       const auto known = state_.files.find(name);
       if (known != state_.files.end() && known->second.size == before->size &&
           known->second.mtimeNs == before->mtimeNs && known->second.inode == before->inode) {
@@ -678,6 +713,7 @@ class Loop {
     if (Status s = db_->appendPrompt(o_.tag, record); !s) return s;
     records_.push_back(record.decision);
     state_.decided = static_cast<std::int64_t>(records_.size());
+    state_.decidedSha256 = decisionsDigest();
     lastDecidedRun_ = last;
     if (iov) lastIovRun_ = iov->second;
     ++summary.decided;
@@ -787,7 +823,7 @@ class Loop {
         }
         // Its output goes nowhere (a command that prints without end, or leaves a child holding it).
         const core::Ran ran = core::runCapturing({"/bin/sh", "-c", "exec >/dev/null 2>&1\n" + o_.onAlert}, cwd_,
-                                                 record.dump() + "\n", kAlertSeconds);
+                                                 record.dump() + "\n", kAlertSeconds, o_.stop);
         if (!ran.succeeded()) {
           failed = true;
           say(fmt::format("--on-alert for {}: {} (sent again in {:g} s, or at the next start)", key, ran.outcome(),

@@ -39,6 +39,7 @@ struct State {
   std::string watchDir, tag;
   std::string conditions;                  ///< the database (its address without password) the decisions are in
   std::int64_t decided = 0;                ///< the groups that database held decided when last seen
+  std::string decidedSha256;               ///< of those decisions as decisions.jsonl holds them
   io::Json model = io::Json::object();     ///< what the open runs' fills were made with
   std::map<std::string, FileEntry> files;  ///< by name
   std::vector<TakenRun> open;              ///< by run

@@ -47,6 +47,7 @@ Json State::toJson() const {
           {"tag", tag},
           {"conditions", conditions},
           {"decided", decided},
+          {"decided_sha256", decidedSha256},
           {"model", model},
           {"files", files},
           {"open", open},
@@ -56,13 +57,15 @@ Json State::toJson() const {
 Result<State> State::parse(const Json& j, const std::string& source) {
   return io::strict::guarded([&]() -> State {
     const io::strict::StrictObject o(j, "", source);
-    o.allowOnly({"format", "watch_dir", "tag", "conditions", "decided", "model", "files", "open", "alerted"});
+    o.allowOnly(
+        {"format", "watch_dir", "tag", "conditions", "decided", "decided_sha256", "model", "files", "open", "alerted"});
     if (o.string("format") != kPromptStateFormat) o.fail("format", fmt::format("expected \"{}\"", kPromptStateFormat));
     State s;
     s.watchDir = o.string("watch_dir");
     s.tag = o.string("tag");
     s.conditions = o.string("conditions");
     s.decided = o.at("decided").get<std::int64_t>();
+    s.decidedSha256 = o.string("decided_sha256");
     s.model = o.at("model");
     const auto files = o.object("files");
     for (const auto& [name, value] : o.at("files").items()) {
@@ -129,15 +132,15 @@ Result<std::string> promptReportHtml(const std::string& stateDir) {
     minEvents = j.value("min_events", minEvents);
     records.push_back(line);
   }
-  const prompt::StatusInput in{
-      *state, records, state->tag, state->conditions, minEvents, Json{{"sha256", parsed->sha256}, {"json", parsed->json}},
-      ""};
+  const prompt::StatusInput in{*state,     records,
+                               state->tag, state->conditions,
+                               minEvents,  Json{{"sha256", parsed->sha256}, {"json", parsed->json}},
+                               ""};
   std::string body;
   for (const auto& section : prompt::statusSections(in)) {
     body += fmt::format("<h3>{}</h3>\n{}\n", report::html::escape(section.title), section.body);
   }
   return body;
 }
-
 
 }  // namespace emcalign::validation

@@ -395,12 +395,24 @@ def test_review(season):
     shutil.copy(os.path.join(d, "c.db"), os.path.join(d, "c.db.saved"))
     os.remove(os.path.join(d, "c.db"))
     gone = run(prompt_args("review/watch", "review/c.db", "review/state", ["--once"]), season.root)
-    check(gone.returncode == 1 and "this state directory has seen" in gone.stderr,
+    check(gone.returncode == 1 and "is gone: restore it" in gone.stderr and not os.path.exists(
+          os.path.join(d, "c.db")),
           f"review: the database removed: {gone.returncode} {gone.stderr}")
     check(len(decisions(os.path.join(d, "state")).splitlines()) == n, "review: decisions.jsonl emptied")
     for suffix in ("", "-wal", "-shm"):
         if os.path.exists(os.path.join(d, "c.db" + suffix)):
             os.remove(os.path.join(d, "c.db" + suffix))
+    # Another database at the same place (the same count of decisions or more, other ones): refused.
+    os.makedirs(os.path.join(d, "other", "watch"))
+    for k in (1, 2, 3, 4):
+        shutil.copy(os.path.join(src, f"run_00000{k}.h5"), os.path.join(d, "other", "watch"))
+    r = run(prompt_args("review/other/watch", "review/other/c.db", "review/other/state", ["--once", "--min-events",
+                                                                                         "2000"]), season.root)
+    shutil.copy(os.path.join(d, "other", "c.db"), os.path.join(d, "c.db"))
+    swapped = run(prompt_args("review/watch", "review/c.db", "review/state", ["--once"]), season.root)
+    check(swapped.returncode == 1 and "are not those this state directory saw" in swapped.stderr,
+          f"review: another database at the same place: {swapped.returncode} {swapped.stderr}")
+    check(len(decisions(os.path.join(d, "state")).splitlines()) == n, "review: decisions.jsonl rewritten")
     shutil.copy(os.path.join(d, "c.db.saved"), os.path.join(d, "c.db"))
     # A name that is not UTF-8 and a dangling link: quarantined, the loop goes on.
     with open(os.path.join(watch.encode(), b"bad\xff.h5"), "wb") as f:
@@ -421,8 +433,9 @@ def test_review(season):
     if open_runs:
         os.remove(os.path.join(d, "state", "runs", f"run-{open_runs[0]:09d}.json"))
     # A restart with another model while runs wait: refused.
-    other_model = run(prompt_args("review/watch", "review/c.db", "review/state", ["--once", "--sigma-sys", "auto"]),
-                      season.root)
+    corrections = os.path.join(HERE, "..", "..", "data", "corrections", "ee-612.5MeV-40-140deg.json")
+    other_model = run(prompt_args("review/watch", "review/c.db", "review/state", ["--once", "--corrections",
+                                                                                 corrections]), season.root)
     check(other_model.returncode == 1 and "not yet decided were read with" in other_model.stderr if open_runs
           else True, f"review: another model: {other_model.stderr}")
     for k in (6, 7, 8, 9):
@@ -445,6 +458,17 @@ def test_review(season):
     check(not left, f"review: the alert's children left running: {left}")
     for pid in left:
         os.kill(int(pid), signal.SIGKILL)
+    # SIGTERM while an alert command runs: the loop ends within seconds (the alert is sent again later).
+    os.mkfifo(os.path.join(watch, "fifo2.h5"))
+    loop = subprocess.Popen([EMCALIGN] + prompt_args("review/watch", "review/c.db", "review/state",
+                                                     ["--poll", "0.2", "--on-alert", "sleep 100"]),
+                            cwd=season.root, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(3)
+    t0 = time.time()
+    loop.send_signal(signal.SIGTERM)
+    loop.communicate(timeout=60)
+    check(loop.returncode == 0 and time.time() - t0 < 5, f"review: SIGTERM during an alert: exit {loop.returncode} "
+          f"after {time.time() - t0:.1f} s")
     print("ok   review: another or a removed database refused, names not UTF-8, dangling links, a lost fill, "
           "a loud and a hanging alert, another model")
 

@@ -2,6 +2,7 @@
 // Running another program (gnuplot, Slurm's sbatch and squeue): its standard input given,
 // its standard output and error captured, a time limit.
 
+#include <atomic>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -24,6 +25,8 @@ struct Ran {
 /// capturing its standard output and error (poll on the three pipes: no deadlock whatever
 /// their sizes; 16 MiB of each kept, the rest read and dropped); it and its process group (what
 /// a shell starts) killed after `seconds`.
-Ran runCapturing(const std::vector<std::string>& argv, const std::string& cwd, std::string_view input, int seconds);
+/// With `stop`: killed (its process group too) as soon as it is set, as at the deadline.
+Ran runCapturing(const std::vector<std::string>& argv, const std::string& cwd, std::string_view input, int seconds,
+                 const std::atomic<bool>* stop = nullptr);
 
 }  // namespace emcalign::core

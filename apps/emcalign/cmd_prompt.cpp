@@ -116,7 +116,12 @@ int propose(const ProposeOptions& o) {
       continue;
     }
     // The error a fit quotes: the spread over the pulls' width (a pull is (fit − truth)/error).
-    const double error = row.pullWidth > 0.0 ? row.spread / row.pullWidth : row.spread;
+    if (!(row.pullWidth > 0.0 && std::isfinite(row.pullWidth))) {
+      return reportError(Error{fmt::format("{}: {}: the pulls' width {} is not a positive number: not a table of "
+                                           "emcalign validate",
+                                           o.table, name(*p), row.pullWidth)});
+    }
+    const double error = row.spread / row.pullWidth;
     spreads.push_back({*p, row.spread, error});
   }
   for (const auto& wanted : o.parameters) {
@@ -124,17 +129,23 @@ int propose(const ProposeOptions& o) {
       return reportError(Error{fmt::format("--parameters {}: not a parameter of the table {}", wanted, o.table)});
     }
   }
+  // A spread of a few samples is a rough one: said.
+  if (table->samples < 20) {
+    eprint("emcalign: warning: {}: {} samples: their spread is known to ±{:.0f} % only; a validation of 40 or more "
+           "samples gives thresholds to trust\n",
+           o.table, table->samples, 100.0 / std::sqrt(2.0 * std::max(table->samples - 1, 1)));
+  }
   auto thresholds = validation::proposeThresholds(spreads, o.falseRate);
   if (!thresholds) return reportError(Error{fmt::format("{}: {}", o.table, thresholds.error().message)});
   if (Status s = io::writeOutputFile(o.output, thresholds->json.dump(1) + "\n"); !s) return reportError(s.error());
   fmt::print(
       reportStream(),
-      "prompt-thresholds: {} parameters from the spreads of {} ({} samples of {} events): min_change = "
+      "prompt-thresholds: {} from the spreads of {} ({} samples of {} events): min_change = "
       "{:.3g}·√2·spread (a false update rate of {:g} over them on a stable stretch, for groups of that size), "
       "significance 3, max_change 10·min_change (set it from the detector's history), max_error 2·the error a fit "
       "quotes (spread/pull width) -> "
       "{}\n",
-      spreads.size(), o.table, table->samples, table->events,
+      counted(spreads.size(), "parameter"), o.table, table->samples, table->events,
       validation::falseUpdateQuantile(o.falseRate, spreads.size()), o.falseRate, o.output);
   return kExitOk;
 }

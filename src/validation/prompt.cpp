@@ -489,11 +489,13 @@ class Loop {
               fmt::format("{}: rewritten after it was taken (runs {}): the content taken is kept; the new one is "
                           "not taken",
                           printable(name), fmt::join(known->second.runs, ", ")));
-          pendingAlerts_.push_back({rewritten + (sha ? *sha : std::string()),
-                                    Json{{"file", name},
-                                         {"reason", fmt::format("rewritten after it was taken (runs {}): the content "
-                                                                "taken is kept, the new one is not taken",
-                                                                fmt::join(known->second.runs, ", "))}}});
+          // Kept in the state (saved with this step's files): sent at least once, after a kill too.
+          state_.pending[rewritten + (sha ? *sha : std::string())] =
+              Json{{"file", name},
+                   {"reason", fmt::format("rewritten after it was taken (runs {}): the content taken is kept, the new "
+                                          "one is not taken",
+                                          fmt::join(known->second.runs, ", "))}};
+          changed = true;
         }
         continue;
       }
@@ -804,6 +806,9 @@ class Loop {
         if (!state_.alerted.contains(key) && !pending(key)) pendingAlerts_.push_back({key, j});
       }
     }
+    for (const auto& [key, record] : state_.pending) {
+      if (!state_.alerted.contains(key) && !pending(key)) pendingAlerts_.push_back({key, record});
+    }
     for (const auto& [name, f] : state_.files) {
       const std::string key = fmt::format("{} {} {}", name, f.size, f.mtimeNs);
       if (f.status == "quarantined" && !state_.alerted.contains(key) && !pending(key)) {
@@ -844,6 +849,7 @@ class Loop {
       alertBackoff_ = 60.0;
     }
     pendingAlerts_ = std::move(left);
+    std::erase_if(state_.pending, [&](const auto& p) { return state_.alerted.contains(p.first); });
     if (Status s = saveState(); !s) return s;
     if (failed && o_.once) return Error{"--on-alert failed: the alerts not sent are sent by the next run"};
     return {};

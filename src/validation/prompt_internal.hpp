@@ -44,6 +44,8 @@ struct State {
   std::map<std::string, FileEntry> files;  ///< by name
   std::vector<TakenRun> open;              ///< by run
   std::set<std::string> alerted;           ///< the alerts acknowledged by --on-alert (or with none)
+  /// Alerts of what is kept nowhere else (a taken file rewritten), by key, until acknowledged.
+  std::map<std::string, io::Json> pending;
   [[nodiscard]] io::Json toJson() const;
   static Result<State> parse(const io::Json& j, const std::string& source);
 };

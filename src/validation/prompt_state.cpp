@@ -51,14 +51,16 @@ Json State::toJson() const {
           {"model", model},
           {"files", files},
           {"open", open},
-          {"alerted", alerted}};
+          {"alerted", alerted},
+          {"pending", pending}};
 }
 
 Result<State> State::parse(const Json& j, const std::string& source) {
   return io::strict::guarded([&]() -> State {
     const io::strict::StrictObject o(j, "", source);
     o.allowOnly(
-        {"format", "watch_dir", "tag", "conditions", "decided", "decided_sha256", "model", "files", "open", "alerted"});
+        {"format", "watch_dir", "tag", "conditions", "decided", "decided_sha256", "model", "files", "open", "alerted",
+         "pending"});
     if (o.string("format") != kPromptStateFormat) o.fail("format", fmt::format("expected \"{}\"", kPromptStateFormat));
     State s;
     s.watchDir = o.string("watch_dir");
@@ -91,6 +93,7 @@ Result<State> State::parse(const Json& j, const std::string& source) {
                         r.at("selected_events").get<std::int64_t>()});
     }
     s.alerted = o.at("alerted").get<std::set<std::string>>();
+    for (const auto& [key, record] : o.at("pending").items()) s.pending[key] = record;
     return s;
   });
 }

@@ -237,7 +237,14 @@ def analyse(d, thresholds):
     def changed(a, b):  # the truth changed between runs a and b (inclusive)?
         lo = max(min(truth), a)
         return any(truth[r][p] != truth[lo][p] for r in range(lo, b + 1) if r in truth for p in listed)
-    stable = [r for k, r in enumerate(records) if k > 0 and not changed(records[k - 1]["runs"][0], r["runs"][1])]
+    # Stable: the truth has not changed since the runs of the group whose payload is in force (the
+    # last update before it) to the end of this one: an update there is spurious.
+    stable, made = [], None
+    for r in records:
+        if made is not None and not changed(made["runs"][0], r["runs"][1]):
+            stable.append(r)
+        if r["decision"] == "update":
+            made = r
     spurious = [r for r in stable if r["decision"] == "update"]
     out = {"groups": len(records), "updates": sum(r["decision"] == "update" for r in records),
            "no_updates": sum(r["decision"] == "no-update" for r in records),

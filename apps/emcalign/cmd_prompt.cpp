@@ -117,9 +117,10 @@ int propose(const ProposeOptions& o) {
     }
     // The error a fit quotes: the spread over the pulls' width (a pull is (fit − truth)/error).
     if (!(row.pullWidth > 0.0 && std::isfinite(row.pullWidth))) {
-      return reportError(Error{fmt::format("{}: {}: the pulls' width {} is not a positive number: not a table of "
-                                           "emcalign validate",
-                                           o.table, name(*p), row.pullWidth)});
+      return reportError(
+          Error{fmt::format("{}: {}: the pulls' width {} is not a positive number: not a table of "
+                            "emcalign validate",
+                            o.table, name(*p), row.pullWidth)});
     }
     const double error = row.spread / row.pullWidth;
     spreads.push_back({*p, row.spread, error});
@@ -131,9 +132,10 @@ int propose(const ProposeOptions& o) {
   }
   // A spread of a few samples is a rough one: said.
   if (table->samples < 20) {
-    eprint("emcalign: warning: {}: {} samples: their spread is known to ±{:.0f} % only; a validation of 40 or more "
-           "samples gives thresholds to trust\n",
-           o.table, table->samples, 100.0 / std::sqrt(2.0 * std::max(table->samples - 1, 1)));
+    eprint(
+        "emcalign: warning: {}: {} samples: their spread is known to ±{:.0f} % only; a validation of 40 or more "
+        "samples gives thresholds to trust\n",
+        o.table, table->samples, 100.0 / std::sqrt(2.0 * std::max(table->samples - 1, 1)));
   }
   auto thresholds = validation::proposeThresholds(spreads, o.falseRate);
   if (!thresholds) return reportError(Error{fmt::format("{}: {}", o.table, thresholds.error().message)});

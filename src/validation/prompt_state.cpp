@@ -58,9 +58,8 @@ Json State::toJson() const {
 Result<State> State::parse(const Json& j, const std::string& source) {
   return io::strict::guarded([&]() -> State {
     const io::strict::StrictObject o(j, "", source);
-    o.allowOnly(
-        {"format", "watch_dir", "tag", "conditions", "decided", "decided_sha256", "model", "files", "open", "alerted",
-         "pending"});
+    o.allowOnly({"format", "watch_dir", "tag", "conditions", "decided", "decided_sha256", "model", "files", "open",
+                 "alerted", "pending"});
     if (o.string("format") != kPromptStateFormat) o.fail("format", fmt::format("expected \"{}\"", kPromptStateFormat));
     State s;
     s.watchDir = o.string("watch_dir");

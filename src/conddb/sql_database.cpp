@@ -169,8 +169,7 @@ class SqlDatabase final : public Database {
       }
     }
     return inTransaction(*db_, Access::Write, [&]() -> Status {
-      const std::string lockTag = fmt::format("SELECT state FROM emcalign_tags WHERE name = $1{}", db_->forUpdate());
-      auto state = db_->query(lockTag, {tag});
+      auto state = lockTagRow(tag);
       if (!state) return Error{fmt::format("tag '{}': {}", tag, state.error().message)};
       if (state->empty()) {
         if (newTag == IfMissing::Refuse) {
@@ -184,7 +183,7 @@ class SqlDatabase final : public Database {
             "ON CONFLICT (name) DO NOTHING",
             {tag, description, utcNow()});
         if (!created) return created.error();
-        state = db_->query(lockTag, {tag});
+        state = lockTagRow(tag);
         if (!state) return Error{fmt::format("tag '{}': {}", tag, state.error().message)};
       }
       if (state->empty()) return Error{fmt::format("{}: tag '{}' vanished while writing", db_->uri(), tag)};
@@ -292,8 +291,7 @@ class SqlDatabase final : public Database {
     if (Status s = checkTagName(tag); !s) return s;
     if (Status s = checkText(reason, "the reason"); !s) return s;
     return inTransaction(*db_, Access::Write, [&]() -> Status {
-      auto state =
-          db_->query(fmt::format("SELECT state FROM emcalign_tags WHERE name = $1{}", db_->forUpdate()), {tag});
+      auto state = lockTagRow(tag);
       if (!state) return state.error();
       if (state->empty()) return Error{fmt::format("{}: no tag '{}'", db_->uri(), tag)};
       if (toText((*state)[0][0]) == "locked") {
@@ -326,8 +324,7 @@ class SqlDatabase final : public Database {
     if (Status s = checkTagName(tag); !s) return s;
     if (Status s = checkText(description, "a tag's description"); !s) return s;
     return inTransaction(*db_, Access::Write, [&]() -> Status {
-      auto state =
-          db_->query(fmt::format("SELECT state FROM emcalign_tags WHERE name = $1{}", db_->forUpdate()), {tag});
+      auto state = lockTagRow(tag);
       if (!state) return state.error();
       if (state->empty()) {
         const std::string now = utcNow();
@@ -340,7 +337,7 @@ class SqlDatabase final : public Database {
         if (!mark) return mark.error();
         return {};
       }
-      auto t = tag_(tag);
+      auto t = this->tag(tag);
       if (!t) return t.error();
       if ((*t)->state != TagState::Running) {
         return Error{
@@ -356,10 +353,9 @@ class SqlDatabase final : public Database {
     if (Status s = checkTagName(tag); !s) return s;
     if (Status s = checkText(r.decision, "a decision"); !s) return s;
     return inTransaction(*db_, Access::Write, [&]() -> Status {
-      auto state =
-          db_->query(fmt::format("SELECT state FROM emcalign_tags WHERE name = $1{}", db_->forUpdate()), {tag});
+      auto state = lockTagRow(tag);
       if (!state) return state.error();
-      auto t = tag_(tag);
+      auto t = this->tag(tag);
       if (!t) return t.error();
       if (!t->has_value() || (*t)->state != TagState::Running) {
         return Error{fmt::format("{}: tag '{}' is {}: a decision is stored only into a running tag", db_->uri(), tag,
@@ -451,7 +447,10 @@ class SqlDatabase final : public Database {
     return out;
   }
 
-  Result<std::optional<Tag>> tag_(const std::string& name) { return tag(name); }
+  // The state of a tag's row, locked for the rest of the write (no rows: no such tag).
+  Result<std::vector<Row>> lockTagRow(const std::string& tag) {
+    return db_->query(fmt::format("SELECT state FROM emcalign_tags WHERE name = $1{}", db_->forUpdate()), {tag});
+  }
 
   Result<bool> isRunning(const std::string& tag) {
     auto mark = db_->query("SELECT value FROM emcalign_meta WHERE key = $1", {std::string(kRunningPrefix) + tag});

@@ -63,6 +63,10 @@ struct Seen {
   bool operator==(const Seen& o) const {
     return regular == o.regular && dangling == o.dangling && size == o.size && mtimeNs == o.mtimeNs && inode == o.inode;
   }
+  // A file as seen, for the sets of what was said of it once.
+  [[nodiscard]] std::string key(const std::string& name) const {
+    return fmt::format("{} {} {} {}", name, size, mtimeNs, inode);
+  }
 };
 
 std::optional<Seen> seen(const std::string& path) {
@@ -469,7 +473,7 @@ class Loop {
         continue;
       }
       if (!settled(name, *before)) continue;
-      if (rewrittenSeen_.contains(fmt::format("{} {} {} {}", name, before->size, before->mtimeNs, before->inode))) {
+      if (rewrittenSeen_.contains(before->key(name))) {
         continue;  // a rewrite said already
       }
       if (known != state_.files.end() && known->second.status == "taken") {
@@ -482,7 +486,7 @@ class Loop {
           changed = true;
           continue;
         }
-        rewrittenSeen_.insert(fmt::format("{} {} {} {}", name, before->size, before->mtimeNs, before->inode));
+        rewrittenSeen_.insert(before->key(name));
         const std::string rewritten = name + " rewritten";
         if (!state_.alerted.contains(rewritten + (sha ? *sha : std::string()))) {
           say(
@@ -534,7 +538,7 @@ class Loop {
   bool settled(const std::string& name, const Seen& s) {
     const std::int64_t now = nowNs(), settle = static_cast<std::int64_t>(o_.settleSeconds * 1e9);
     if (s.mtimeNs <= now) return now - s.mtimeNs >= settle;
-    const std::string key = fmt::format("{} {} {} {}", name, s.size, s.mtimeNs, s.inode);
+    const std::string key = s.key(name);
     auto [it, fresh] = futureSeen_.try_emplace(key, now);
     if (fresh) {
       say(

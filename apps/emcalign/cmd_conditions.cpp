@@ -5,13 +5,15 @@
 //   conditions put URI --tag T --runs FIRST-LAST RESULT.json
 //   conditions get URI --tag T --run R -o P.json
 //   conditions list URI [--tag T] [--json]
-//   conditions lock URI --tag T
-//   conditions copy FROM TO --tag T [--as T2]
-//   conditions retire URI --tag T [--reason TEXT]
-//   conditions diff URI --tag A --tag B [--json]
-//   conditions export URI --tag T -o T.csv
+//   conditions lock URI --tag T                  (= state --set published)
+//   conditions copy FROM TO --tag T [--as T2] [--snapshot TIME]
+//   conditions retire URI --tag T [--reason TEXT] (= state --set invalid)
+//   conditions diff URI --tag A --tag B [--json] [--snapshot TIME]
+//   conditions export URI --tag T -o T.csv [--snapshot TIME]
+//   get and list take --snapshot TIME too; state, promote and history: cmd_conditions_audit.cpp
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <limits>
 #include <memory>
@@ -23,6 +25,7 @@
 #include <fmt/ranges.h>
 
 #include "common.hpp"
+#include "emcalign/conddb/address.hpp"
 #include "emcalign/conddb/calibrations.hpp"
 #include "emcalign/conddb/conditions.hpp"
 #include "emcalign/conddb/tag_tables.hpp"
@@ -37,7 +40,7 @@ using io::Json;
 namespace fs = std::filesystem;
 
 struct ConditionsOptions {
-  std::string uri, target, tag, as, runs, result, description, output, reason;
+  std::string uri, target, tag, as, runs, result, description, output, reason, snapshot;
   std::vector<std::string> tags;  // conditions diff: the two tags
   std::int64_t run = 0;
   bool json = false;
@@ -96,46 +99,29 @@ int runGet(const ConditionsOptions& o) {
   }
   auto db = conddb::Database::open(o.uri);
   if (!db) return reportError(db.error());
-  auto got = conddb::calibrationAt(**db, o.tag, o.run);
+  auto got = conddb::calibrationAt(**db, o.tag, o.run, o.snapshot);
   if (!got) return reportError(got.error());
   if (Status s = io::writeOutputFile(o.output, got->parameterFile.dump(2) + "\n"); !s) return reportError(s.error());
   // The report goes to stderr when the file goes to stdout (checkOutputs).
-  fmt::print(reportStream(), "{}: tag {} run {}: IOV {}-{} (payload {}) -> {}\n", (*db)->uri(), o.tag, o.run,
-             got->iov.firstRun, got->iov.lastRun, got->iov.payload.substr(0, 12), o.output);
+  fmt::print(reportStream(), "{}: tag {} run {}{}: IOV {}-{} (payload {}) -> {}\n", (*db)->uri(), o.tag, o.run,
+             o.snapshot.empty() ? std::string() : " at " + o.snapshot, got->iov.firstRun, got->iov.lastRun,
+             got->iov.payload.substr(0, 12), o.output);
   return kExitOk;
 }
 
-// A mistake withdrawn: the tag kept and listed, never served again.
+// A mistake withdrawn: the tag kept and listed, never served again (state --set invalid).
 int runRetire(const ConditionsOptions& o) {
   auto db = conddb::Database::open(o.uri);
   if (!db) return reportError(db.error());
-  auto before = (*db)->tag(o.tag);
-  const bool already = before && before->has_value() && (*before)->state == conddb::TagState::Retired;
-  if (Status s = (*db)->retire(o.tag, o.reason); !s) return reportError(s.error());
-  if (already) {  // a retry: nothing changed, and said so
-    fmt::print("{}: tag {} was retired already ({}): nothing changed\n", (*db)->uri(), o.tag, (*before)->retired);
+  auto changed = (*db)->setState(o.tag, conddb::TagState::Invalid, o.reason);
+  if (!changed) return reportError(changed.error());
+  if (*changed == conddb::Database::StateChange::Already) {  // a retry: nothing changed, and said so
+    fmt::print("{}: tag {} was invalid already: nothing changed\n", (*db)->uri(), o.tag);
     return kExitOk;
   }
-  fmt::print("{}: tag {} retired: kept and listed as retired; get, correct, simulate, trend and campaign refuse it\n",
+  fmt::print("{}: tag {} is invalid: kept and listed; get, correct, simulate, trend and campaign refuse it\n",
              (*db)->uri(), o.tag);
   return kExitOk;
-}
-
-// The σ_sys of the IOVs: "auto (0.012-0.015 deg)", "0.2 deg", "mixed: …", or "-" (not said).
-std::string sigmaSysSummary(const std::vector<conddb::IovListing>& iovs) {
-  std::set<std::string> methods;
-  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-  for (const auto& i : iovs) {
-    methods.insert(i.sigmaSysMethod.value_or(""));
-    if (i.sigmaSysDeg && std::isfinite(*i.sigmaSysDeg)) {
-      lo = std::min(lo, *i.sigmaSysDeg);
-      hi = std::max(hi, *i.sigmaSysDeg);
-    }
-  }
-  if (methods.empty() || (methods.size() == 1 && methods.begin()->empty()) || !(lo <= hi)) return "-";
-  const std::string values = lo == hi ? fmt::format("{:.3g} deg", lo) : fmt::format("{:.3g}-{:.3g} deg", lo, hi);
-  if (methods.size() > 1) return printable(fmt::format("mixed ({}): {}", fmt::join(methods, ", "), values));
-  return *methods.begin() == "auto" ? "auto (" + values + ")" : values;
 }
 
 // Tag A against tag B, IOV by IOV: each parameter's difference in σ.
@@ -147,14 +133,15 @@ int runDiff(const ConditionsOptions& o) {
   }
   auto db = conddb::Database::open(o.uri);
   if (!db) return reportError(db.error());
-  auto d = conddb::diffTags(**db, o.tags[0], o.tags[1]);
+  auto d = conddb::diffTags(**db, o.tags[0], o.tags[1], o.snapshot);
   if (!d) return reportError(d.error());
   if (o.json) {
-    fmt::print("{}\n", conddb::tagDiffJson(*d).dump(2));
+    conddb::writeTagDiffJson(*d, [](std::string_view piece) { std::fwrite(piece.data(), 1, piece.size(), stdout); });
+    std::fputc('\n', stdout);
     return kExitOk;
   }
-  fmt::print("{}: tag {} against tag {}, (a - b) / sqrt(error_a^2 + error_b^2) of each parameter\n", (*db)->uri(),
-             d->tagA, d->tagB);
+  fmt::print("{}: tag {} against tag {}{}, (a - b) / sqrt(error_a^2 + error_b^2) of each parameter\n", (*db)->uri(),
+             d->tagA, d->tagB, o.snapshot.empty() ? std::string() : " as they were at " + o.snapshot);
   // The models the two tags were fitted with: differences that are the models', not the detector's.
   std::set<std::string> modelsA, modelsB;
   for (const auto& p : d->pairs) {
@@ -163,9 +150,7 @@ int runDiff(const ConditionsOptions& o) {
   }
   if (!d->pairs.empty()) {
     // σ_sys sets the errors the pulls below are in units of: said beside the models.
-    std::string sigmaA = "-", sigmaB = "-";
-    if (auto a = conddb::listTags(**db, d->tagA); a && !a->empty()) sigmaA = sigmaSysSummary(a->front().iovs);
-    if (auto b = conddb::listTags(**db, d->tagB); b && !b->empty()) sigmaB = sigmaSysSummary(b->front().iovs);
+    const std::string sigmaA = conddb::sigmaSysSummary(d->listingA), sigmaB = conddb::sigmaSysSummary(d->listingB);
     fmt::print("models: tag {}: {}, sigma_sys {}; tag {}: {}, sigma_sys {}\n", d->tagA,
                printable(fmt::format("{}", fmt::join(modelsA, " | "))), sigmaA, d->tagB,
                printable(fmt::format("{}", fmt::join(modelsB, " | "))), sigmaB);
@@ -219,7 +204,7 @@ int runExport(const ConditionsOptions& o) {
   }
   auto db = conddb::Database::open(o.uri);
   if (!db) return reportError(db.error());
-  auto csv = conddb::tagCsv(**db, o.tag);
+  auto csv = conddb::tagCsv(**db, o.tag, o.snapshot);
   if (!csv) return reportError(csv.error());
   if (Status s = io::writeOutputFile(o.output, *csv); !s) return reportError(s.error());
   fmt::print(reportStream(), "{}: tag {}: one row per IOV -> {}\n", (*db)->uri(), o.tag,
@@ -227,29 +212,10 @@ int runExport(const ConditionsOptions& o) {
   return kExitOk;
 }
 
-// A tag's state as a person reads it: "retired" for an open tag with its retirement mark
-// (the JSON keeps SPEC §11's "open"|"locked" and adds "retired").
-std::string stateOf(const conddb::Tag& t) { return std::string(name(t.state)); }
-
-// The model of a tag's IOVs (Payload::model): "paper's model", the corrections' file name,
-// "mixed" when they differ, "-" when the payloads do not say; `brief` for a column.
-std::string modelSummary(const std::vector<conddb::IovListing>& iovs, bool brief = true) {
-  std::set<std::string> models;
-  for (const auto& i : iovs) models.insert(i.model);
-  if (models.empty() || (models.size() == 1 && models.begin()->empty())) return "-";
-  if (models.size() > 1) {
-    return brief ? std::string("mixed") : printable(fmt::format("mixed: {}", fmt::join(models, " | ")));
-  }
-  const std::string& m = *models.begin();
-  if (!brief) return printable(m);
-  if (m.rfind("corrections ", 0) == 0) return printable(fs::path(m.substr(12)).filename().string());
-  return m.rfind("the paper's model", 0) == 0 ? "paper's model" : printable(m);
-}
-
 int runList(const ConditionsOptions& o) {
   auto db = conddb::Database::open(o.uri);
   if (!db) return reportError(db.error());
-  auto tags = conddb::listTags(**db, o.tag);
+  auto tags = conddb::listTags(**db, o.tag, o.snapshot);
   if (!tags) return reportError(tags.error());
   const std::vector<conddb::TagListing>& listed = *tags;
   if (o.json) {
@@ -259,22 +225,27 @@ int runList(const ConditionsOptions& o) {
     return kExitOk;
   }
   if (o.tag.empty()) {
-    fmt::print("{:<24} {:<7} {:>6} {:>17}  {:<28} {:<22} {}\n", "tag", "state", "IOVs", "runs", "model", "sigma_sys",
+    if (!o.snapshot.empty()) fmt::print("{}: as it was at {}\n", (*db)->uri(), o.snapshot);
+    fmt::print("{:<24} {:<9} {:>6} {:>17}  {:<28} {:<22} {}\n", "tag", "state", "IOVs", "runs", "model", "sigma_sys",
                "description");
     for (const auto& t : listed) {
       const auto& iovs = t.iovs;
       const std::string runs =
           iovs.empty() ? "-" : fmt::format("{}-{}", iovs.front().iov.firstRun, iovs.back().iov.lastRun);
-      fmt::print("{:<24} {:<7} {:>6} {:>17}  {:<28} {:<22} {}\n", t.tag.name, stateOf(t.tag), iovs.size(), runs,
-                 modelSummary(iovs), sigmaSysSummary(iovs), t.tag.description);
+      fmt::print("{:<24} {:<9} {:>6} {:>17}  {:<28} {:<22} {}\n", t.tag.name, name(t.tag.state), iovs.size(), runs,
+                 conddb::modelSummary(iovs), conddb::sigmaSysSummary(iovs), t.tag.description);
     }
     return kExitOk;
   }
   const conddb::TagListing& t = listed.front();
-  fmt::print("tag {} ({}), created {}{}\n", o.tag, stateOf(t.tag), t.tag.created,
-             t.tag.description.empty() ? "" : ": " + t.tag.description);
-  if (t.tag.state == conddb::TagState::Retired) fmt::print("retired {}\n", t.tag.retired);
-  fmt::print("model: {}; sigma_sys: {}\n", modelSummary(t.iovs, false), sigmaSysSummary(t.iovs));
+  fmt::print("tag {} ({}), created {}{}{}\n", o.tag, name(t.tag.state), t.tag.created,
+             t.tag.description.empty() ? "" : ": " + t.tag.description,
+             o.snapshot.empty() ? std::string() : ", as it was at " + o.snapshot);
+  if (!t.tag.stateChanged.empty()) {
+    fmt::print("{} since {}{}\n", name(t.tag.state), t.tag.stateChanged,
+               t.tag.reason.empty() ? std::string() : ": " + t.tag.reason);
+  }
+  fmt::print("model: {}; sigma_sys: {}\n", conddb::modelSummary(t.iovs, false), conddb::sigmaSysSummary(t.iovs));
   fmt::print("{:>10} {:>10} {:>9} {:>12} {:>12} {:<12} {:<12} {}\n", "first_run", "last_run", "events", "chi2/ndf",
              "stat. only", "status", "payload", "inserted");
   for (const auto& i : t.iovs) {
@@ -294,42 +265,42 @@ int runList(const ConditionsOptions& o) {
 int runLock(const ConditionsOptions& o) {
   auto db = conddb::Database::open(o.uri);
   if (!db) return reportError(db.error());
-  if (Status s = (*db)->lock(o.tag); !s) return reportError(s.error());
-  fmt::print("{}: tag {} locked: its IOVs never change\n", (*db)->uri(), o.tag);
+  auto changed = (*db)->setState(o.tag, conddb::TagState::Published, {});
+  if (!changed) return reportError(changed.error());
+  fmt::print("{}: tag {} {}: its IOVs never change\n", (*db)->uri(), o.tag,
+             *changed == conddb::Database::StateChange::Already ? "was published already" : "published");
   return kExitOk;
+}
+
+// Whether two addresses are one SQLite file under two names (a hard link): opened by both
+// names, SQLite would keep two write-ahead logs of one database.
+bool sameSqliteFile(const std::string& a, const std::string& b) {
+  auto x = conddb::DatabaseAddress::parse(a);
+  auto y = conddb::DatabaseAddress::parse(b);
+  if (!x || !y || x->kind != conddb::DatabaseAddress::Kind::Sqlite ||
+      y->kind != conddb::DatabaseAddress::Kind::Sqlite) {
+    return false;
+  }
+  std::error_code ec;
+  return std::filesystem::equivalent(x->file, y->file, ec) && !ec;
 }
 
 int runCopy(const ConditionsOptions& o) {
   auto from = conddb::Database::open(o.uri);
   if (!from) return reportError(from.error());
-  auto snapshot = conddb::TagSnapshot::load(**from, o.tag);
-  if (!snapshot) return reportError(snapshot.error());
-  std::vector<conddb::Database::NewIov> iovs;
-  for (const auto& iov : snapshot->iovs()) {
-    auto p = snapshot->payload(iov);
-    if (!p) return reportError(p.error());
-    iovs.push_back({iov.firstRun, iov.lastRun, **p});
-  }
-  // A new target is created only now, and removed again if the copy fails before storing.
-  DatabaseToWrite target(o.target);
+  // The source read first: a new target is created only now, and removed again if the copy
+  // fails before storing.
+  if (auto t = conddb::TagSnapshot::load(**from, o.tag, false, o.snapshot); !t) return reportError(t.error());
+  DatabaseToWrite target(sameSqliteFile(o.uri, o.target) ? o.uri : o.target);
   if (Status s = target.prepare(); !s) return reportError(s.error());
   auto to = target.create();
   if (!to) return reportError(to.error());
   const std::string name = o.as.empty() ? o.tag : o.as;
-  if (auto existing = (*to)->tag(name); !existing || existing->has_value()) {
-    return reportError(
-        existing ? Error{fmt::format("{}: tag '{}' exists already (copy to a new tag: --as NAME)", (*to)->uri(), name)}
-                 : existing.error());
-  }
-  const std::string description = snapshot->tag().description.empty()
-                                      ? fmt::format("copy of {} {}", (*from)->uri(), o.tag)
-                                      : snapshot->tag().description;
-  if (Status s = (*to)->put(name, iovs, conddb::IfMissing::Create, description); !s) return reportError(s.error());
-  if (snapshot->tag().state == conddb::TagState::Locked) {
-    if (Status s = (*to)->lock(name); !s) return reportError(s.error());
-  }
-  fmt::print("{} {} -> {} {}: {}{}\n", (*from)->uri(), o.tag, (*to)->uri(), name, counted(iovs.size(), "IOV"),
-             snapshot->tag().state == conddb::TagState::Locked ? " (locked, as the original)" : "");
+  auto copied = conddb::copyTag(**from, o.tag, **to, name, o.snapshot);
+  if (!copied) return reportError(copied.error());
+  fmt::print("{} {} -> {} {}: {} ({}, as the original{})\n", (*from)->uri(), o.tag, (*to)->uri(), name,
+             counted(copied->iovs, "IOV"), conddb::name(copied->state),
+             o.snapshot.empty() ? std::string() : " was at " + o.snapshot);
   return kExitOk;
 }
 
@@ -370,6 +341,7 @@ void addConditionsCommand(CLI::App& app, int& exitCode) {
   addTag(*get, o->tag)->required();
   get->add_option("--run", o->run, "run number")->required()->check(integerIn(0, INT64_MAX));
   get->add_option("-o,--output", o->output, "parameter file ('-': standard output)")->required();
+  addSnapshotOption(*get, o->snapshot);
   get->callback([o, &exitCode] { exitCode = runGet(*o); });
 
   auto* list = cmd->add_subcommand("list", "List the tags, or the IOVs of one tag");
@@ -377,10 +349,11 @@ void addConditionsCommand(CLI::App& app, int& exitCode) {
   addTag(*list, o->tag);
   list->add_flag("--json", o->json,
                  "JSON: {\"tag\", \"state\", \"iovs\": [{\"first_run\", \"last_run\", ...}]} "
-                 "(an array of them without --tag)");
+                 "(an array of them without --tag); state: open, testing, validated, published, running or invalid");
+  addSnapshotOption(*list, o->snapshot);
   list->callback([o, &exitCode] { exitCode = runList(*o); });
 
-  auto* lock = cmd->add_subcommand("lock", "Lock a tag: its IOVs never change again");
+  auto* lock = cmd->add_subcommand("lock", "Publish a tag (state --set published): its IOVs never change again");
   addUri(*lock, o->uri);
   addTag(*lock, o->tag)->required();
   lock->callback([o, &exitCode] { exitCode = runLock(*o); });
@@ -392,12 +365,13 @@ void addConditionsCommand(CLI::App& app, int& exitCode) {
   copy->add_option("target", o->target, "destination database (created if an SQLite path)")->required();
   addTag(*copy, o->tag)->required();
   copy->add_option("--as", o->as, "name of the copy (default: the same)")->check(tagName());
+  addSnapshotOption(*copy, o->snapshot);
   copy->callback([o, &exitCode] { exitCode = runCopy(*o); });
 
   auto* retire = cmd->add_subcommand(
       "retire",
-      "Withdraw an open tag made by mistake: kept and listed as retired, never served again (a locked tag "
-      "is never retired)");
+      "Withdraw a tag made by mistake (state --set invalid): kept and listed, never served again (a published "
+      "tag is never withdrawn)");
   addUri(*retire, o->uri);
   addTag(*retire, o->tag)->required();
   retire->add_option("--reason", o->reason, "why, recorded with the date (shown by conditions list)");
@@ -407,6 +381,7 @@ void addConditionsCommand(CLI::App& app, int& exitCode) {
   addUri(*diff, o->uri);
   diff->add_option("--tag", o->tags, "the two tags: --tag A --tag B")->required()->check(tagName());
   diff->add_flag("--json", o->json, "JSON: every pair of IOVs with both values, errors, difference and z");
+  addSnapshotOption(*diff, o->snapshot);
   diff->callback([o, &exitCode] { exitCode = runDiff(*o); });
 
   auto* exportTag = cmd->add_subcommand(
@@ -414,7 +389,9 @@ void addConditionsCommand(CLI::App& app, int& exitCode) {
   addUri(*exportTag, o->uri);
   addTag(*exportTag, o->tag)->required();
   exportTag->add_option("-o,--output", o->output, "CSV file ('-': standard output)")->required();
+  addSnapshotOption(*exportTag, o->snapshot);
   exportTag->callback([o, &exitCode] { exitCode = runExport(*o); });
+  addConditionsAuditCommands(*cmd, exitCode);
 }
 
 }  // namespace emcalign::app

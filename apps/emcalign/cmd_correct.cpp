@@ -25,7 +25,7 @@ namespace {
 struct CorrectCliOptions {
   std::vector<std::string> events;
   std::string alignment;
-  std::string conditions, tag;
+  std::string conditions, tag, snapshot;
   std::string method = std::string(apply::name(apply::CorrectOptions{}.method));
   std::string corrections;
   double depthOffset = apply::CorrectOptions{}.depth.offset / units::cm;
@@ -52,7 +52,7 @@ int run(const CorrectCliOptions& o) {
   auto calo = loadCalorimeter(o.detector);
   if (!calo) return reportError(calo.error());
   // One alignment for every event, or each run's own from a conditions tag.
-  auto source = conddb::AlignmentSource::open(o.alignment, o.conditions, o.tag, *calo);
+  auto source = conddb::AlignmentSource::open(o.alignment, o.conditions, o.tag, *calo, o.snapshot);
   if (!source) return reportError(source.error());
   for (const auto& w : source->warnings) reportWarning(w);
 
@@ -125,6 +125,11 @@ void addCorrectCommand(CLI::App& app, int& exitCode) {
                          ->excludes(alignment);
   cmd->add_option("--tag", o->tag, "the tag of --conditions")->needs(conditions);
   conditions->needs(cmd->get_option("--tag"));
+  addSnapshotOption(*cmd, o->snapshot)
+      ->needs(conditions)
+      ->description(
+          "the conditions as they were at TIME (ISO 8601, UTC); without it, as they are, and the time read is "
+          "recorded as conditions_snapshot in the outputs: give it here to correct again with the same bytes");
 
   cmd->add_option(
          "--method", o->method,

@@ -35,6 +35,7 @@ struct SimulateOptions {
   std::uint64_t seed = sim::SimulationOptions{}.seed;
   std::string params;
   std::string conditions, tag;       // instead of params: the IOV of --run in a conditions tag
+  std::string snapshot;              // of --conditions
   std::string period;                // a whole period (validation/period.hpp) into the directory -o
   std::optional<double> beamEnergy;  // none: the process default
   std::string detector;
@@ -218,7 +219,7 @@ int run(const SimulateOptions& cli) {
   if (!calo) return reportError(calo.error());
   geometry::AlignmentParameters truthParameters;
   if (!cli.conditions.empty()) {
-    auto c = conddb::TagAlignments::open(cli.conditions, cli.tag, *calo);
+    auto c = conddb::TagAlignments::open(cli.conditions, cli.tag, *calo, cli.snapshot);
     if (!c) return reportError(c.error());
     auto eta = c->parametersOf(cli.run);
     if (!eta) return reportError(eta.error());
@@ -295,6 +296,7 @@ void addSimulateCommand(CLI::App& app, int& exitCode) {
                          ->excludes(params);
   cmd->add_option("--tag", o->tag, "the tag of --conditions")->needs(conditions);
   conditions->needs(cmd->get_option("--tag"));
+  addSnapshotOption(*cmd, o->snapshot)->needs(conditions);
   cmd->add_option_function<double>(
          "--beam-energy", [o](const double& v) { o->beamEnergy = v; },
          fmt::format("beam energy in MeV (default {} for ee and gg, {} for 3pi)",

@@ -78,9 +78,11 @@ int refit(const TrendCliOptions& o, const validation::Trend& trend, const std::v
 
   auto r = validation::refitSegments(trend, series, snapshot, *scan, *model, truth);
   if (!r) return reportError(r.error());
-  // A rerun (or a batch system's retry) finds its refit stored: nothing to do.
+  // A rerun (or a batch system's retry) finds its refit stored: nothing to do. The refit is
+  // under test until someone validates it (conditions state --set validated).
   auto put = conddb::putWholeTag(db, o.tagOut, r->iovs,
-                                 fmt::format("{} refitted by stable period (emcalign trend --refit)", o.tag));
+                                 fmt::format("{} refitted by stable period (emcalign trend --refit)", o.tag),
+                                 conddb::TagState::Testing);
   if (!put) return reportError(put.error());
   if (*put == conddb::WholeTagPut::HeldAlready) {
     fmt::print(reportStream(), "tag {} holds this refit already: nothing stored\n", o.tagOut);
@@ -88,7 +90,7 @@ int refit(const TrendCliOptions& o, const validation::Trend& trend, const std::v
   summary = validation::refitJson(*r, snapshot.iovs().size());
   summary["tag_out"] = o.tagOut;
   markdown += validation::refitMarkdown(*r, snapshot.iovs().size(), o.tagOut);
-  fmt::print(reportStream(), "refit: {} instead of {} -> {} tag {}\n", counted(r->iovs.size(), "IOV"),
+  fmt::print(reportStream(), "refit: {} instead of {} -> {} tag {} (testing)\n", counted(r->iovs.size(), "IOV"),
              snapshot.iovs().size(), db.uri(), o.tagOut);
   for (const auto& seg : r->segments) {
     if (seg.kept) {

@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <charconv>
 #include <cstring>
@@ -244,6 +245,25 @@ CLI::Validator tagName() {
       "");
 }
 
+CLI::Validator snapshotTime() {
+  return CLI::Validator(
+      [](std::string& t) -> std::string {
+        auto parsed = conddb::parseSnapshot(t, "");
+        if (!parsed) return parsed.error().message.substr(2);  // without parseSnapshot's ": " for no option
+        t = *parsed;
+        return {};
+      },
+      "TIME");
+}
+
+CLI::Option* addSnapshotOption(CLI::App& cmd, std::string& snapshot) {
+  return cmd
+      .add_option("--snapshot", snapshot,
+                  "the conditions database as it was at TIME (ISO 8601, UTC, e.g. 2026-12-05T14:03:27Z: the "
+                  "changes up to it are seen; conditions history lists them)")
+      ->transform(snapshotTime());  // a transform: the time rewritten in the database's form
+}
+
 CLI::Validator integerIn(std::int64_t lo, std::int64_t hi) {
   return CLI::Validator(
       [lo, hi](std::string& text) -> std::string {
@@ -260,6 +280,27 @@ CLI::Validator integerIn(std::int64_t lo, std::int64_t hi) {
         return {};
       },
       fmt::format("INTEGER in [{}, {}]", lo, hi));
+}
+
+void decimalIntegers(CLI::App& app) {
+  const CLI::Validator decimal(
+      [](std::string& text) -> std::string {
+        std::string_view digits = text;
+        const bool negative = !digits.empty() && digits.front() == '-';
+        if (!digits.empty() && (digits.front() == '+' || negative)) digits.remove_prefix(1);
+        if (digits.empty() || !std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; })) {
+          return fmt::format("{} is not a decimal integer", io::quotedText(text));
+        }
+        while (digits.size() > 1 && digits.front() == '0') digits.remove_prefix(1);
+        text = (negative ? "-" : "") + std::string(digits);
+        return {};
+      },
+      "");
+  for (CLI::Option* o : app.get_options()) {
+    const std::string type = o->get_type_name();
+    if (type.rfind("INT", 0) == 0 || type.rfind("UINT", 0) == 0) o->transform(decimal);
+  }
+  for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) decimalIntegers(*sub);
 }
 
 CLI::Validator unsigned64() {

@@ -131,8 +131,16 @@ Result<std::vector<Vec3>> readPointsFromStdin();
 
 /// A conditions tag name (conddb::checkTagName).
 CLI::Validator tagName();
+/// A time for --snapshot (ISO 8601, UTC), rewritten in the database's form (conddb::parseSnapshot).
+CLI::Validator snapshotTime();
+/// --snapshot TIME: the conditions database as it was at TIME.
+CLI::Option* addSnapshotOption(CLI::App& cmd, std::string& snapshot);
 /// An unsigned 64-bit integer (a seed): 0 to 2^64 − 1, no sign.
 CLI::Validator unsigned64();
+/// Every integer option of `app` and its commands read in decimal: CLI11 converts with base 0
+/// (strtoll), where `--first-safe-run 010` is run 8 and `0x28` run 40; here 010 is 10 and a
+/// prefix is refused.
+void decimalIntegers(CLI::App& app);
 
 /// Registration of each subcommand; `exitCode` receives the command's result.
 void addGeometryCommand(CLI::App& app, int& exitCode);
@@ -148,6 +156,8 @@ void addResidualsCommand(CLI::App& app, int& exitCode);
 void addCompareCommand(CLI::App& app, int& exitCode);
 void addDeadCountersCommand(CLI::App& app, int& exitCode);
 void addConditionsCommand(CLI::App& app, int& exitCode);
+/// conditions state, promote and history (cmd_conditions_audit.cpp), under `conditions`.
+void addConditionsAuditCommands(CLI::App& conditions, int& exitCode);
 void addCampaignCommand(CLI::App& app, int& exitCode);
 void addTrendCommand(CLI::App& app, int& exitCode);
 void addPromptCommand(CLI::App& app, int& exitCode);

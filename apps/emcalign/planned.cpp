@@ -550,6 +550,7 @@ void addAllCommands(CLI::App& app, int& exitCode) {
   addCheckCommand(app, exitCode);
   addReportCommand(app, exitCode);
   addPlanCommands(app, exitCode);
+  decimalIntegers(app);
 }
 
 }  // namespace emcalign::app

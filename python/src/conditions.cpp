@@ -96,6 +96,40 @@ class Conditions {
 
   void retire(const std::string& tag, const std::string& reason) { check(db_->retire(tag, reason)); }
 
+  // A tag's state, or (with `to`) a transition: conditions state [--set].
+  std::string state(const std::string& tag, const std::optional<std::string>& to, const std::string& reason) {
+    if (to) {
+      const auto s = conddb::tagStateNamed(*to);
+      if (!s)
+        raise(Error{fmt::format("'{}' is no tag state: open, testing, validated, published, running or invalid", *to)});
+      unwrap(db_->setState(tag, *s, reason));
+    }
+    auto t = unwrap(db_->tag(tag));
+    if (!t) raise(Error{fmt::format("{}: no tag '{}'", db_->uri(), tag)});
+    return std::string(conddb::name(t->state));
+  }
+
+  // conditions history --json.
+  py::object history(const std::string& tag) {
+    py::list out;
+    for (const conddb::Change& c : unwrap(db_->history(tag))) out.append(pythonOf(c.json()));
+    return out;
+  }
+
+  // conditions promote: {"from", "to", "first_safe_run", "last_iov_was", "last_iov_fate", "appended", "time"}.
+  py::dict promote(const std::string& from, const std::string& to, std::int64_t firstSafeRun, bool dryRun) {
+    const conddb::Database::Promotion p = unwrap(db_->promote(from, to, firstSafeRun, dryRun));
+    py::dict d;
+    d["from"] = p.from;
+    d["to"] = p.to;
+    d["first_safe_run"] = p.firstSafeRun;
+    d["last_iov_was"] = py::make_tuple(p.lastBefore.firstRun, p.lastBefore.lastRun);
+    d["last_iov_fate"] = p.lastIovFate();
+    d["appended"] = p.appended.size();
+    d["time"] = p.time.empty() ? py::object(py::none()) : py::object(py::str(p.time));
+    return d;
+  }
+
   // Two tags IOV by IOV, as conditions diff --json shows them.
   py::object diff(const std::string& a, const std::string& b) {
     return pythonOf(conddb::tagDiffJson(unwrap(conddb::diffTags(*db_, a, b))));
@@ -134,10 +168,18 @@ void bindConditions(py::module_& m) {
            py::arg("detector") = py::none(),
            "stores a fit result or parameter file for runs (first, last) or one run (the tag is created if new): "
            "{payload, new_tag, warnings}")
-      .def("lock", &Conditions::lock, py::arg("tag"), "locks a tag: its IOVs never change again")
+      .def("lock", &Conditions::lock, py::arg("tag"), "publishes a tag (state 'published'): its IOVs never change")
       .def("retire", &Conditions::retire, py::arg("tag"), py::arg("reason") = "",
-           "retires an open tag made by mistake: kept and listed with its mark, never served again "
-           "(a locked tag is never retired)")
+           "makes a tag made by mistake invalid: kept and listed with its reason, never served again "
+           "(a published tag never is)")
+      .def("state", &Conditions::state, py::arg("tag"), py::arg("to") = py::none(), py::arg("reason") = "",
+           "a tag's state; with to=STATE, the transition first (conditions state --set): open, testing, "
+           "validated, published, running, invalid")
+      .def("history", &Conditions::history, py::arg("tag"),
+           "every change of a tag, oldest first, as conditions history --json: [{time, change, user, host, ...}]")
+      .def("promote", &Conditions::promote, py::arg("source"), py::arg("to"), py::arg("first_safe_run"),
+           py::arg("dry_run") = false,
+           "appends a validated tag's IOVs to a running one from the first safe run (conditions promote)")
       .def("diff", &Conditions::diff, py::arg("a"), py::arg("b"),
            "two tags IOV by IOV, as conditions diff --json: {tag_a, tag_b, pairs: [{first_run, last_run, "
            "parameters: {name: {a, error_a, b, error_b, difference, z, unit}}, ...}], only_a, only_b}")

@@ -78,12 +78,31 @@ def test_diff_export_and_retire_are_the_cli_ones(tmp_path, database):
     assert len(rows) == 3 and rows[0].startswith("first_run,last_run,")  # a header and one row per IOV
     db.retire("u", "stored by mistake")
     listed = db.tag("u")
-    assert listed["state"] == "open" and "stored by mistake" in listed["retired"]
-    with pytest.raises(emcalign.Error, match="retired") as ours:
+    assert listed["state"] == "invalid" and listed["reason"] == "stored by mistake"
+    with pytest.raises(emcalign.Error, match="invalid") as ours:
         db.get("u", 3)
     assert str(ours.value) == cli_error("conditions", "get", uri, "--tag", "u", "--run", 3, "-o", tmp_path / "x.json")
-    assert db.diff("t", "u")["pairs"]  # a retired tag can still be compared
+    assert db.diff("t", "u")["pairs"]  # an invalid tag can still be compared
     db.lock("t")
     with pytest.raises(emcalign.Error) as ours:
         db.retire("t")
     assert str(ours.value) == cli_error("conditions", "retire", uri, "--tag", "t")
+
+
+def test_states_history_and_promotion_are_the_cli_ones(tmp_path, database):
+    uri, db, result = database
+    assert db.state("t") == "open"
+    assert db.state("t", "running") == "running"
+    db.put("s", (15, 30), result)
+    assert db.state("s", "testing", reason="a look") == "testing"
+    with pytest.raises(emcalign.Error, match="cannot become published"):
+        db.state("s", "published")
+    db.state("s", "validated")
+    with pytest.raises(emcalign.Error, match="not at the first safe run 16"):
+        db.promote("s", "t", 16)
+    assert db.promote("s", "t", 15, dry_run=True)["time"] is None
+    p = db.promote("s", "t", 15)
+    assert p["last_iov_fate"] == "cut" and p["appended"] == 1
+    history = db.history("t")
+    assert history == json.loads(cli("conditions", "history", uri, "--tag", "t", "--json"))
+    assert [h["change"] for h in history][-2:] == ["state", "promotion"]

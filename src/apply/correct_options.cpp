@@ -34,8 +34,14 @@ Result<CorrectOptions> correctOptionsOf(std::string_view method, double depthOff
 
 io::Json correctionRecord(const io::Json& alignment, std::string_view method, const CorrectOptions& options,
                           const std::vector<std::string>& inputs, const std::string& corrections) {
+  io::Json source = alignment;
+  io::Json snapshot;  // a conditions tag's: the time read, at the top for --snapshot
+  if (source.is_object() && source.contains("conditions_snapshot")) {
+    snapshot = source["conditions_snapshot"];
+    source.erase("conditions_snapshot");
+  }
   io::Json record = {{"software", fmt::format("emcalign {}", kVersion)},
-                     {"alignment", alignment},
+                     {"alignment", source},
                      {"method", method},
                      {"log_weight_w0", options.logWeightW0},
                      {"depth_offset_cm", options.depth.offset / units::cm},
@@ -44,6 +50,7 @@ io::Json correctionRecord(const io::Json& alignment, std::string_view method, co
     record["depth_offset_cm"] = nullptr;
     record["corrections_grid"] = corrections;
   }
+  if (!snapshot.is_null()) record["conditions_snapshot"] = snapshot;
   return record;
 }
 

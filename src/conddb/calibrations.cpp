@@ -3,11 +3,14 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
+#include <set>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "emcalign/apply/placements.hpp"
 #include "emcalign/core/sha256.hpp"
+#include "emcalign/core/utf8.hpp"
 #include "emcalign/core/version.hpp"
 #include "lenient_json.hpp"
 
@@ -67,11 +70,15 @@ Result<PutReport> putResultFile(Database& db, const ResultFileToPut& file) {
   return report;
 }
 
-io::Json parameterFileOf(const Iov& iov, const Payload& payload, const std::string& uri, const std::string& tag) {
+io::Json parameterFileOf(const Iov& iov, const Payload& payload, const std::string& uri, const std::string& tag,
+                         const std::string& at) {
   Json file = payload.parameterFile();
-  Json input = {{"conditions", uri},         {"tag", tag},
-                {"first_run", iov.firstRun}, {"last_run", iov.lastRun},
-                {"payload", iov.payload},    {"inserted", iov.inserted}};
+  Json input = {{"conditions", uri}, {"tag", tag}};
+  if (!at.empty()) input["snapshot"] = at;
+  input["first_run"] = iov.firstRun;
+  input["last_run"] = iov.lastRun;
+  input["payload"] = iov.payload;
+  input["inserted"] = iov.inserted;
   if (payload.content.contains("selected_events")) input["selected_events"] = payload.content["selected_events"];
   if (payload.content.contains("provenance")) input["provenance"] = payload.content["provenance"];
   file["input"] = std::move(input);
@@ -103,30 +110,74 @@ Result<bool> tagHolds(Database& db, const std::string& tag, const std::vector<Da
 }  // namespace
 
 Result<WholeTagPut> putWholeTag(Database& db, const std::string& tag, const std::vector<Database::NewIov>& iovs,
-                                const std::string& description) {
+                                const std::string& description, TagState state) {
   auto held = tagHolds(db, tag, iovs);
   if (!held) return held.error();
   if (*held) return WholeTagPut::HeldAlready;
-  if (Status s = db.put(tag, iovs, IfMissing::Create, description); !s) {
+  auto made = db.createTag({.name = tag, .description = description, .state = state, .iovs = iovs});
+  if (!made) return made.error();
+  if (!*made) {
     auto meanwhile = tagHolds(db, tag, iovs);  // a copy of this job stored it first
-    if (meanwhile && *meanwhile) return WholeTagPut::HeldAlready;
-    return s.error();
+    if (!meanwhile) return meanwhile.error();
+    if (*meanwhile) return WholeTagPut::HeldAlready;
+    return Error{fmt::format("{}: tag '{}' exists already: write to a new tag", db.uri(), tag)};
   }
   return WholeTagPut::Stored;
 }
 
-Result<RunCalibration> calibrationAt(Database& db, const std::string& tag, std::int64_t run) {
-  auto got = db.get(tag, run);
+Result<CopiedTag> copyTag(Database& from, const std::string& tag, Database& to, const std::string& as,
+                          const std::string& at) {
+  auto snapshot = TagSnapshot::load(from, tag, false, at);
+  if (!snapshot) return snapshot.error();
+  std::vector<Database::NewIov> iovs;
+  iovs.reserve(snapshot->iovs().size());
+  for (const auto& iov : snapshot->iovs()) {
+    auto p = snapshot->payload(iov);
+    if (!p) return p.error();
+    iovs.push_back({iov.firstRun, iov.lastRun, **p});
+  }
+  const std::string name = as.empty() ? tag : as;
+  Json origin = {{"conditions", from.uri()}, {"tag", tag}};
+  if (!snapshot->at().empty()) origin["snapshot"] = snapshot->at();
+  const Tag& t = snapshot->tag();
+  const std::string description = t.description.empty() ? fmt::format("copy of {} {}", from.uri(), tag) : t.description;
+  auto made =
+      to.createTag({.name = name, .description = description, .state = t.state, .iovs = iovs, .copyOf = origin});
+  if (!made) return made.error();
+  if (!*made) return Error{fmt::format("{}: tag '{}' exists already (copy to a new tag: --as NAME)", to.uri(), name)};
+  return CopiedTag{iovs.size(), t.state};
+}
+
+Result<RunCalibration> calibrationAt(Database& db, const std::string& tag, std::int64_t run,
+                                     const std::string& atText) {
+  std::string at;  // in the database's form: the text recorded
+  if (!atText.empty()) {
+    auto parsed = parseSnapshot(atText, "snapshot");
+    if (!parsed) return parsed.error();
+    at = std::move(*parsed);
+  }
+  if (!at.empty()) {
+    auto t = db.tag(tag, at);
+    if (!t) return t.error();
+    if (!t->has_value()) {
+      auto now = db.tag(tag);
+      if (now && now->has_value()) {
+        return Error{fmt::format("{}: tag '{}' did not exist at {} (created {})", db.uri(), tag, at, (*now)->created)};
+      }
+    }
+  }
+  auto got = db.get(tag, run, at);
   if (!got) return got.error();
   if (!got->has_value()) {
     auto t = db.tag(tag);
     if (t && !t->has_value()) {
       return Error{fmt::format("{}: no tag '{}' (the tags: emcalign conditions list {})", db.uri(), tag, db.uri())};
     }
-    return Error{fmt::format("{}: tag '{}': no IOV contains run {}", db.uri(), tag, run)};
+    return Error{fmt::format("{}: tag '{}': no IOV contains run {}{}", db.uri(), tag, run,
+                             at.empty() ? std::string() : " at " + at)};
   }
   const auto& [iov, payload] = **got;
-  return RunCalibration{iov, parameterFileOf(iov, payload, db.uri(), tag)};
+  return RunCalibration{iov, parameterFileOf(iov, payload, db.uri(), tag, at)};
 }
 
 IovListing iovListing(const Iov& iov, const Payload& payload) {
@@ -145,14 +196,47 @@ IovListing iovListing(const Iov& iov, const Payload& payload) {
           .model = payload.model()};
 }
 
-Result<TagListing> tagListing(Database& db, const Tag& tag) {
-  auto list = db.iovs(tag.name);
+std::string sigmaSysSummary(const std::vector<IovListing>& iovs) {
+  std::set<std::string> methods;
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (const auto& i : iovs) {
+    methods.insert(i.sigmaSysMethod.value_or(""));
+    if (i.sigmaSysDeg && std::isfinite(*i.sigmaSysDeg)) {
+      lo = std::min(lo, *i.sigmaSysDeg);
+      hi = std::max(hi, *i.sigmaSysDeg);
+    }
+  }
+  if (methods.empty() || (methods.size() == 1 && methods.begin()->empty()) || !(lo <= hi)) return "-";
+  const std::string values = lo == hi ? fmt::format("{:.3g} deg", lo) : fmt::format("{:.3g}-{:.3g} deg", lo, hi);
+  if (methods.size() > 1) return printable(fmt::format("mixed ({}): {}", fmt::join(methods, ", "), values));
+  return *methods.begin() == "auto" ? "auto (" + values + ")" : values;
+}
+
+std::string modelSummary(const std::vector<IovListing>& iovs, bool brief) {
+  std::set<std::string> models;
+  for (const auto& i : iovs) models.insert(i.model);
+  if (models.empty() || (models.size() == 1 && models.begin()->empty())) return "-";
+  if (models.size() > 1) {
+    return brief ? std::string("mixed") : printable(fmt::format("mixed: {}", fmt::join(models, " | ")));
+  }
+  const std::string& m = *models.begin();
+  if (!brief) return printable(m);
+  if (m.rfind("corrections ", 0) == 0) return printable(fs::path(m.substr(12)).filename().string());
+  return m.rfind("the paper's model", 0) == 0 ? "paper's model" : printable(m);
+}
+
+Result<TagListing> tagListing(Database& db, const Tag& tag, const std::string& at) {
+  auto list = db.iovs(tag.name, at);
   if (!list) return list.error();
   TagListing listing{.tag = tag};
+  if (list->empty()) return listing;
+  auto payloads = db.payloadsOf(tag.name);  // each hash checked: an edited payload is an error, not shown
+  if (!payloads) return payloads.error();
+  listing.iovs.reserve(list->size());
   for (const auto& iov : *list) {
-    auto p = db.payload(iov.payload);  // its hash checked: an edited payload is an error, not shown
-    if (!p) return p.error();
-    listing.iovs.push_back(iovListing(iov, *p));
+    auto it = payloads->find(iov.payload);
+    if (it == payloads->end()) return Error{fmt::format("{}: no payload {}", db.uri(), printable(iov.payload))};
+    listing.iovs.push_back(iovListing(iov, *it->second));
   }
   return listing;
 }
@@ -175,33 +259,34 @@ Json tagJson(const TagListing& listing) {
     iovs.push_back(std::move(i));
   }
   const Tag& tag = listing.tag;
-  // "state" stays "open"|"locked" for every tag (a retired tag is an open one with its mark):
-  // readers of list --json that know only those two keep working.
-  const TagState shown = tag.state == TagState::Retired ? TagState::Open : tag.state;
-  Json out{{"tag", tag.name},
-           {"state", name(shown)},
-           {"description", tag.description},
-           {"created", tag.created},
-           {"iovs", iovs}};
-  if (tag.state == TagState::Retired) out["retired"] = tag.retired;
+  Json out{{"tag", tag.name}, {"state", name(tag.state)}, {"description", tag.description}, {"created", tag.created}};
+  if (!tag.stateChanged.empty()) out["state_changed"] = tag.stateChanged;
+  if (!tag.reason.empty()) out["reason"] = tag.reason;
+  out["iovs"] = iovs;
   return out;
 }
 
-Result<std::vector<TagListing>> listTags(Database& db, const std::string& tag) {
+Result<std::vector<TagListing>> listTags(Database& db, const std::string& tag, const std::string& at) {
   std::vector<Tag> tags;
   if (!tag.empty()) {
-    auto t = db.tag(tag);
+    auto t = db.tag(tag, at);
     if (!t) return t.error();
-    if (!t->has_value()) return Error{fmt::format("{}: no tag '{}'", db.uri(), tag)};
+    if (!t->has_value()) {
+      auto now = at.empty() ? t : db.tag(tag);
+      if (now && now->has_value()) {
+        return Error{fmt::format("{}: tag '{}' did not exist at {} (created {})", db.uri(), tag, at, (*now)->created)};
+      }
+      return Error{fmt::format("{}: no tag '{}'", db.uri(), tag)};
+    }
     tags.push_back(**t);
   } else {
-    auto all = db.tags();
+    auto all = db.tags(at);
     if (!all) return all.error();
     tags = std::move(*all);
   }
   std::vector<TagListing> listed;
   for (const auto& t : tags) {
-    auto l = tagListing(db, t);
+    auto l = tagListing(db, t, at);
     if (!l) return l.error();
     listed.push_back(std::move(*l));
   }
@@ -209,10 +294,20 @@ Result<std::vector<TagListing>> listTags(Database& db, const std::string& tag) {
 }
 
 Result<TagAlignments> TagAlignments::open(const std::string& uri, const std::string& tag,
-                                          const geometry::Calorimeter& calo) {
+                                          const geometry::Calorimeter& calo, const std::string& at) {
   auto db = Database::open(uri);
   if (!db) return db.error();
-  auto snapshot = TagSnapshot::load(**db, tag);
+  std::string when = at;
+  if (when.empty()) {
+    // The tag as of its latest change, read first: a change committed meanwhile is not seen, and
+    // a rerun at this time reads what this one read.
+    if (auto t = (*db)->tag(tag); t && t->has_value()) {
+      auto last = (*db)->lastChange(tag);
+      if (!last) return last.error();
+      when = *last;
+    }
+  }
+  auto snapshot = TagSnapshot::load(**db, tag, false, when);
   if (!snapshot) return snapshot.error();
   TagAlignments c;
   c.db_ = std::move(*db);
@@ -267,13 +362,14 @@ apply::AlignmentOfRun AlignmentSource::alignmentOf() const {
 }
 
 Result<AlignmentSource> AlignmentSource::open(const std::string& alignment, const std::string& conditions,
-                                              const std::string& tag, const geometry::Calorimeter& calo) {
+                                              const std::string& tag, const geometry::Calorimeter& calo,
+                                              const std::string& snapshot) {
   AlignmentSource a;
   if (!conditions.empty()) {
-    auto c = TagAlignments::open(conditions, tag, calo);
+    auto c = TagAlignments::open(conditions, tag, calo, snapshot);
     if (!c) return c.error();
     a.byRun = std::make_shared<TagAlignments>(std::move(*c));
-    a.description = {{"conditions", a.byRun->uri()}, {"tag", tag}};
+    a.description = {{"conditions", a.byRun->uri()}, {"tag", tag}, {"conditions_snapshot", a.byRun->at()}};
     auto depths = a.byRun->fittedDepths();
     if (!depths) return depths.error();
     a.fittedDepths = std::move(*depths);

@@ -13,20 +13,6 @@ namespace emcalign::conddb {
 
 using io::Json;
 
-std::string_view name(TagState s) {
-  switch (s) {
-    case TagState::Open:
-      return "open";
-    case TagState::Locked:
-      return "locked";
-    case TagState::Retired:
-      return "retired";
-    case TagState::Running:
-      return "running";
-  }
-  return "?";
-}
-
 Status checkTagName(std::string_view tag) {
   if (tag.empty() || tag.size() > 100) {
     return Error{fmt::format("tag '{}': a name has 1 to 100 characters", printable(tag.substr(0, 100)))};

@@ -123,6 +123,21 @@ class Postgres final : public SqlBackend {
   }
 
   Status afterInit() override { return {}; }
+  Status beforeSchemaUpgrade() override { return {}; }
+  void afterSchemaUpgrade() noexcept override {}
+
+  Status widenTagStates(std::string_view createTags) override {
+    // The CHECK of the state, named by PostgreSQL's rule (table_column_check), made again.
+    const std::string_view check = createTags.substr(createTags.find("CHECK ("));
+    const std::string condition(check.substr(0, check.find("), created") + 1));
+    for (const std::string& sql :
+         {std::string("ALTER TABLE emcalign_tags DROP CONSTRAINT IF EXISTS emcalign_tags_state_check"),
+          std::string("UPDATE emcalign_tags SET state = 'published' WHERE state = 'locked'"),
+          "ALTER TABLE emcalign_tags ADD CONSTRAINT emcalign_tags_state_check " + condition}) {
+      if (auto r = query(sql, {}); !r) return r.error();
+    }
+    return {};
+  }
   [[nodiscard]] const std::string& uri() const override { return uri_; }
 
  private:

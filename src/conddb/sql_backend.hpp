@@ -5,13 +5,13 @@
 // ?2, …) and types both engines take (TEXT, BIGINT).
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
 #include <variant>
 #include <vector>
-#include "emcalign/core/clock.hpp"
 
 #include "emcalign/conddb/address.hpp"
 #include "emcalign/conddb/conditions.hpp"
@@ -39,8 +39,24 @@ class SqlBackend {
   virtual Result<bool> hasSchema() = 0;
   /// Engine-specific setup after the tables are made (SQLite: application_id, user_version).
   virtual Status afterInit() = 0;
+  /// Around the transaction that upgrades schema 1 (SQLite: its foreign keys off while the tags
+  /// table is rebuilt, as SQLite's documented procedure has it; they cannot change inside a
+  /// transaction).
+  virtual Status beforeSchemaUpgrade() = 0;
+  virtual void afterSchemaUpgrade() noexcept = 0;
+  /// In the upgrade's transaction: schema 1's tags table (states 'open', 'locked') made to take
+  /// the six states of `createTags`, and 'locked' renamed 'published'.
+  virtual Status widenTagStates(std::string_view createTags) = 0;
   virtual const std::string& uri() const = 0;
 };
+
+/// The tags table of schema 2.
+inline constexpr const char* kCreateTags =
+    "CREATE TABLE IF NOT EXISTS emcalign_tags (name TEXT PRIMARY KEY, description TEXT NOT NULL, state TEXT NOT NULL "
+    "CHECK (state IN ('open', 'testing', 'validated', 'published', 'running', 'invalid')), created TEXT NOT NULL)";
+
+/// Where notices go (Database::setNoticeHandler).
+std::function<void(const std::string&)>& noticeHandler();
 
 std::unique_ptr<Database> makeSqlDatabase(std::unique_ptr<SqlBackend> backend);
 Result<std::unique_ptr<SqlBackend>> openSqlite(const std::string& path, IfMissing missing, int busyMs = 0);

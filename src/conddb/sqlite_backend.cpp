@@ -105,6 +105,32 @@ class Sqlite final : public SqlBackend {
     return run(fmt::format("PRAGMA user_version = {}", kSchemaVersion));
   }
 
+  Status beforeSchemaUpgrade() override { return run("PRAGMA foreign_keys = OFF"); }
+  void afterSchemaUpgrade() noexcept override {
+    sqlite3_exec(db_, "PRAGMA foreign_keys = ON", nullptr, nullptr, nullptr);
+  }
+
+  // SQLite cannot change a CHECK constraint: the table is made again, copied, and put in the
+  // old one's place (foreign keys off, beforeSchemaUpgrade), then the references checked.
+  Status widenTagStates(std::string_view createTags) override {
+    std::string create(createTags);
+    const std::string from = "emcalign_tags (", to = "emcalign_tags_2 (";
+    create.replace(create.find(from), from.size(), to);
+    for (const std::string& sql :
+         {create,
+          std::string("INSERT INTO emcalign_tags_2 (name, description, state, created) SELECT name, description, "
+                      "CASE state WHEN 'locked' THEN 'published' ELSE state END, created FROM emcalign_tags"),
+          std::string("DROP TABLE emcalign_tags"),
+          std::string("ALTER TABLE emcalign_tags_2 RENAME TO emcalign_tags")}) {
+      if (Status s = run(sql); !s) return s;
+    }
+    auto broken = query("PRAGMA foreign_key_check", {});
+    if (!broken) return broken.error();
+    if (!broken->empty())
+      return Error{fmt::format("{}: {} rows refer to nothing after the upgrade", uri_, broken->size())};
+    return {};
+  }
+
   // An existing file must be emcalign's (application_id 0: SQLite's, not yet marked).
   Status checkApplication() {
     auto rows = query("PRAGMA application_id", {});

@@ -7,20 +7,40 @@
 
 namespace emcalign::conddb {
 
-Result<TagSnapshot> TagSnapshot::load(Database& db, const std::string& tag, bool allowRetired) {
-  auto t = db.tag(tag);
+Result<TagSnapshot> TagSnapshot::load(Database& db, const std::string& tag, bool allowInvalid,
+                                      const std::string& atText) {
+  std::string at;  // in the database's form: the text recorded
+  if (!atText.empty()) {
+    auto parsed = parseSnapshot(atText, "snapshot");
+    if (!parsed) return parsed.error();
+    at = std::move(*parsed);
+  }
+  if (!allowInvalid) {
+    // Invalid now: never served, whatever the snapshot.
+    auto now = db.tag(tag);
+    if (!now) return now.error();
+    if (now->has_value() && (*now)->state == TagState::Invalid) {
+      const Tag& x = **now;
+      return Error{fmt::format("{}: tag '{}' is invalid (since {}{}): it is kept and listed, but never served",
+                               db.uri(), tag, x.stateChanged.empty() ? std::string("its creation") : x.stateChanged,
+                               x.reason.empty() ? std::string() : ": " + x.reason)};
+    }
+  }
+  auto t = db.tag(tag, at);
   if (!t) return t.error();
   if (!t->has_value()) {
+    if (!at.empty()) {
+      if (auto now = db.tag(tag); now && now->has_value()) {
+        return Error{fmt::format("{}: tag '{}' did not exist at {} (created {})", db.uri(), tag, at, (*now)->created)};
+      }
+    }
     return Error{fmt::format("{}: no tag '{}' (the tags: emcalign conditions list {})", db.uri(), tag, db.uri())};
   }
-  if ((*t)->state == TagState::Retired && !allowRetired) {
-    return Error{fmt::format("{}: tag '{}' was retired ({}): it is kept and listed, but never served", db.uri(), tag,
-                             (*t)->retired)};
-  }
-  auto iovs = db.iovs(tag);
+  auto iovs = db.iovs(tag, at);
   if (!iovs) return iovs.error();
   TagSnapshot s;
   s.db_ = &db;
+  s.at_ = at;
   s.tag_ = **t;
   s.iovs_ = std::move(*iovs);
   s.payloads_.resize(s.iovs_.size());
@@ -40,20 +60,25 @@ Result<const Payload*> TagSnapshot::payload(const Iov& iov) {
   const auto k = static_cast<std::size_t>(&iov - iovs_.data());
   if (k >= iovs_.size()) return Error{"TagSnapshot::payload: an IOV of another tag"};
   if (!payloads_[k]) {
-    // Another IOV with the same payload may have fetched it already.
-    for (std::size_t j = 0; j < iovs_.size(); ++j) {
-      if (payloads_[j] && iovs_[j].payload == iov.payload) {
-        payloads_[k] = std::make_unique<Payload>(*payloads_[j]);
-        break;
+    auto& shared = byHash_[iov.payload];  // another IOV with the same payload may have fetched it
+    if (!shared) {
+      auto p = db_->payload(iov.payload);  // its hash checked by the database
+      if (!p) {
+        byHash_.erase(iov.payload);
+        return p.error();
       }
+      shared = std::make_shared<const Payload>(std::move(*p));
     }
-  }
-  if (!payloads_[k]) {
-    auto p = db_->payload(iov.payload);  // its hash checked by the database
-    if (!p) return p.error();
-    payloads_[k] = std::make_unique<Payload>(std::move(*p));
+    payloads_[k] = shared;
   }
   return payloads_[k].get();
+}
+
+Status TagSnapshot::fetchAll() {
+  auto all = db_->payloadsOf(tag_.name);
+  if (!all) return all.error();
+  for (auto& [hash, p] : *all) byHash_.try_emplace(hash, std::move(p));
+  return {};
 }
 
 Result<std::pair<const Iov*, const Payload*>> TagSnapshot::at(std::int64_t run) {

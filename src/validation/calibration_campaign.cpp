@@ -806,16 +806,14 @@ Result<std::vector<bool>> checkCampaignTag(const CampaignScan& scan, const Campa
                                            const std::string& tag, const std::vector<CampaignGroup>& groups) {
   if (auto t = db.tag(tag); !t) {
     return t.error();
-  } else if (t->has_value() && (*t)->state == conddb::TagState::Locked) {
-    return Error{fmt::format("{}: tag '{}' is locked: its IOVs never change (write to a new tag)", db.uri(), tag)};
-  } else if (t->has_value() && (*t)->state == conddb::TagState::Retired) {
-    return Error{fmt::format("{}: tag '{}' was retired ({}): nothing is written to it again (write to a new tag)",
-                             db.uri(), tag, (*t)->retired)};
   } else if (t->has_value() && (*t)->state == conddb::TagState::Running) {
     return Error{
         fmt::format("{}: tag '{}' is running (a prompt loop's: IOVs only appended by it): a campaign writes "
                     "a tag of its own",
                     db.uri(), tag)};
+  } else if (t->has_value() && conddb::iovWrites((*t)->state) == conddb::IovWrites::None) {
+    return Error{
+        fmt::format("{}: tag '{}' is {}: {}", db.uri(), tag, name((*t)->state), conddb::whyNoIovs((*t)->state))};
   }
   auto done = groupsInTag(db, tag, groups);
   if (!done) return done.error();

@@ -631,23 +631,32 @@ class Loop {
     }
   }
 
-  // The calibration in force: the payload of the tag's last IOV (a running tag's IOVs are only
-  // appended: the latest before the group's runs); none for an empty tag.
-  Result<std::optional<conddb::Iov>> inForce() {
+  // The calibration in force for a group's first run: the tag's latest IOV starting at or before
+  // it (a running tag's IOVs are only appended: its last one, unless a promotion appended IOVs
+  // since); none for an empty tag. And the last run of the tag's IOVs.
+  struct InForce {
+    std::optional<conddb::Iov> iov;
+    std::optional<std::int64_t> lastRun;
+  };
+  Result<InForce> inForce(std::int64_t first) {
     auto iovs = db_->iovs(o_.tag);
     if (!iovs) return iovs.error();
-    if (iovs->empty()) return std::optional<conddb::Iov>();
-    return std::optional<conddb::Iov>(iovs->back());
+    InForce f;
+    for (const conddb::Iov& i : *iovs) {
+      if (i.firstRun <= first) f.iov = i;
+    }
+    if (!iovs->empty()) f.lastRun = iovs->back().lastRun;
+    return f;
   }
 
   Status decide(const ClosedGroup& g, PromptSummary& summary) {
     const auto group = static_cast<std::int64_t>(records_.size());
     const std::int32_t first = g.runs.front().run, last = g.runs.back().run;
-    auto force = inForce();
+    auto force = inForce(first);
     if (!force) return force.error();
     std::optional<conddb::Payload> forcePayload;
-    if (*force) {
-      auto p = db_->payload((*force)->payload);
+    if (force->iov) {
+      auto p = db_->payload(force->iov->payload);
       if (!p) return p.error();
       forcePayload = std::move(*p);
     }
@@ -688,8 +697,9 @@ class Loop {
                                      : forcePayload                 ? &*forcePayload
                                                                     : nullptr;
     std::optional<std::pair<std::int64_t, std::int64_t>> iov;
-    if (payload != nullptr) {
-      iov = {*force ? (*force)->lastRun + 1 : first, last};
+    // From the run after the tag's last IOV: none when a promotion covered the group's runs.
+    if (payload != nullptr && (!force->lastRun || last > *force->lastRun)) {
+      iov = {force->lastRun ? *force->lastRun + 1 : first, last};
       record.iov = conddb::Database::NewIov{iov->first, iov->second, *payload};
     }
     Json parameters = Json::object();

@@ -18,6 +18,8 @@ beam energy from run 21) is streamed into a watched directory file by file, and 
               the first; SIGTERM ends a loop between steps with exit 0
   full        a state directory that fills (ulimit -f): exit 1, nothing lost, the next run ends
               the season as the uninterrupted one
+  promotion   a validated tag promoted into the running one while the loop appends to it (the
+              promotion's transaction held open): the loop waits, the tag tiles the runs
   postgres    (with --postgres: a private server of its own) the server stopped during the loop:
               the loop says so and retries, and when it is back ends the season as the reference
 Exit 0 when every check holds; each failure is printed.
@@ -473,6 +475,88 @@ def test_review(season):
           "a loud and a hanging alert, another model")
 
 
+def test_promotion(season, uri, name):
+    """A validated refit promoted into the running tag while the loop appends to it: the promotion
+    holds its transaction open (EMCALIGN_FAULT_HOLD_WRITE) while the loop decides groups; the loop
+    waits, then goes on after the promoted runs, and the tag tiles the season without overlap."""
+    d = os.path.join(season.root, name)
+    watch = os.path.join(d, "watch")
+    os.makedirs(watch)
+    db = uri if "://" in uri else uri[len("sqlite:"):]
+    for f in season.files[:12]:
+        shutil.copy(os.path.join(season.root, "period", f), watch)
+    r = run(prompt_args(f"{name}/watch", db, f"{name}/state", ["--once"], tag="p"), season.root)
+    check(r.returncode == 0, f"{name}: --once on runs 1-12: {r.stderr}")
+    paper = os.path.join(HERE, "..", "..", "data", "examples", "paper-like.json")
+    for args in (["put", uri, paper, "--tag", "S", "--runs", "13-16"], ["state", uri, "--tag", "S", "--set", "testing"],
+                 ["state", uri, "--tag", "S", "--set", "validated"]):
+        r = run(["conditions", *args], season.root)
+        check(r.returncode == 0, f"{name}: conditions {args[0]}: {r.stderr}")
+    before = json.loads(run(["conditions", "list", uri, "--tag", "p", "--json"], season.root).stdout)["iovs"]
+    check(before and before[-1]["first_run"] < 13, f"{name}: the tag before: {before}")
+    marker = os.path.join(d, "holding")
+    env = dict(os.environ, EMCALIGN_FAULT_HOLD_WRITE=marker, EMCALIGN_FAULT_HOLD_SECONDS="4")
+    promote = subprocess.Popen([EMCALIGN, "conditions", "promote", uri, "--from", "S", "--to", "p",
+                                "--first-safe-run", "13"], cwd=season.root, env=env, stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True)
+    loop = None
+    try:
+        deadline = time.time() + 30
+        while not os.path.exists(marker) and time.time() < deadline:
+            time.sleep(0.05)
+        check(os.path.exists(marker), f"{name}: the promotion never held its write")
+        # The rest of the season arrives while the promotion holds its transaction open.
+        loop = subprocess.Popen([EMCALIGN] + prompt_args(f"{name}/watch", db, f"{name}/state", ["--poll", "0.1"],
+                                                         tag="p"),
+                                cwd=season.root, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        for f in season.files[12:]:
+            shutil.copy(os.path.join(season.root, "period", f), watch)
+        out, err = promote.communicate(timeout=60)
+        check(promote.returncode == 0 and "appended (runs 13-16)" in out,
+              f"{name}: the promotion: {promote.returncode} {out} {err}")
+        # The season's last group (the reference's) decided: the loop went on to the end.
+        end = json.loads(season.reference[1].splitlines()[-1])["runs"][1]
+        path = os.path.join(d, "state", "decisions.jsonl")
+        deadline = time.time() + 120
+        last = lambda: json.loads(decisions(os.path.join(d, "state")).splitlines()[-1])["runs"][1]
+        while time.time() < deadline and last() < end:
+            time.sleep(0.2)
+    finally:
+        if promote.poll() is None:
+            promote.kill()
+        if loop is not None:
+            loop.send_signal(signal.SIGTERM)
+            said, _ = loop.communicate(timeout=60)
+            check(loop.returncode == 0, f"{name}: the loop's exit {loop.returncode}: {said[-2000:]}")
+    records = [json.loads(l) for l in open(path)]
+    check(records[-1]["runs"][1] == end, f"{name}: the loop stopped at {records[-1]['runs']}: {said[-3000:]}")
+    # Runs 13-16 were promoted: each one quarantined as covered, or decided without an IOV.
+    for run_ in range(13, 17):
+        decided = [r for r in records if r["runs"][0] <= run_ <= r["runs"][1]]
+        check(f"run {run_} is not after the runs decided already (up to run 16)" in said or
+              (decided and all(r["iov"] is None for r in decided)), f"{name}: promoted run {run_}: {decided}")
+    iovs = json.loads(run(["conditions", "list", uri, "--tag", "p", "--json"], season.root).stdout)["iovs"]
+    spans = [(i["first_run"], i["last_run"]) for i in iovs]
+    check(all(b[0] == a[1] + 1 for a, b in zip(spans, spans[1:])) and spans[0][0] == 1,
+          f"{name}: the tag does not tile the runs: {spans}")
+    check(spans[-1][1] == end, f"{name}: the tag ends at {spans[-1]}, the season's last group at run {end}")
+    s = json.loads(run(["conditions", "list", uri, "--tag", "S", "--json"], season.root).stdout)["iovs"][0]
+    check((13, 16) in spans and iovs[spans.index((13, 16))]["payload"] == s["payload"],
+          f"{name}: the promoted IOV 13-16 is not in the tag: {spans}")
+    check([(i["first_run"], i["payload"]) for i in iovs if i["first_run"] < 13] ==
+          [(i["first_run"], i["payload"]) for i in before], f"{name}: the IOVs before run 13 changed")
+    for r in records:
+        if r["iov"] is not None and r["runs"][0] >= 13:
+            check(r["iov"][0] > 16, f"{name}: group {r['group']} wrote {r['iov']} into the promoted runs")
+    history = json.loads(run(["conditions", "history", uri, "--tag", "p", "--json"], season.root).stdout)
+    changes = [h["change"] for h in history]
+    at = changes.index("promotion") if "promotion" in changes else -1
+    check(at >= 0 and "prompt" in changes[at + 1:] and "prompt" in changes[:at],
+          f"{name}: the history does not hold the loop's appends around the promotion: {changes}")
+    check([h["time"] for h in history] == sorted(h["time"] for h in history), f"{name}: history not in time order")
+    print(f"ok   {name}: a promotion held open while the loop appends: the loop waits, the tag tiles the runs")
+
+
 def test_full(season):
     d = os.path.join(season.root, "full")
     os.makedirs(d)
@@ -523,6 +607,7 @@ def test_postgres(season):
         check("trying again" in out, f"postgres: the loop did not say it waits: {out[-2000:]}")
         check(loop.returncode == 0, f"postgres: exit {loop.returncode}: {out[-3000:]}")
         print("ok   postgres: the server away for a while, nothing lost")
+        test_promotion(season, uri, "pgpromo")
     finally:
         pg_server.stop(private)
 
@@ -538,6 +623,7 @@ def main():
         print(f"ok   season: {len(season.reference[1].splitlines())} groups as SPEC §13 says")
         for t in (test_kills, test_daq, test_loops, test_review, test_full):
             t(season)
+        test_promotion(season, "sqlite:promo/c.db", "promo")
         if postgres:
             test_postgres(season)
     finally:

@@ -713,7 +713,7 @@ def cases():
         shutil.copy(os.path.join(d, "camp.db"), os.path.join(d, "ret.db"))
         runner_binary_run(d, ["conditions", "retire", "ret.db", "--tag", "c", "--reason", "made with the wrong runs"])
     add(Case(D, "a retired tag asked for a run", "emcalign conditions get ret.db --tag c --run 2 -o got.json", 1,
-             "was retired", setup=retired_copy, check=lambda d, r: "got.json written" if os.path.exists(os.path.join(d, "got.json")) else None,
+             "is invalid", setup=retired_copy, check=lambda d, r: "got.json written" if os.path.exists(os.path.join(d, "got.json")) else None,
              checked="nothing written"))
 
     def locked_copy(d):
@@ -760,7 +760,7 @@ def cases():
     add(Case(D, "an IOV overlapping one of the tag", "emcalign conditions put c.db --tag t --runs 5-20 p.json", 1,
              "overlap its IOV 1-10", setup=db_setup, check=unchanged_db[1], checked="database unchanged"))
     add(Case(D, "a write to a locked tag", "emcalign conditions put c.db --tag done --runs 11-20 p.json", 1,
-             "is locked", setup=db_setup, check=unchanged_db[1], checked="database unchanged"))
+             "is published", setup=db_setup, check=unchanged_db[1], checked="database unchanged"))
     add(Case(D, "a run range backwards", "emcalign conditions put c.db --tag t --runs 20-11 p.json", 1,
              "the first run is after the last", setup=conditions_db))
     add(Case(D, "a tag name with a space", "emcalign conditions put c.db --tag 'my tag' --runs 1-2 p.json", 2,
@@ -839,9 +839,39 @@ def cases():
     add(Case(D, "IOVs made to overlap by hand", "emcalign conditions get c.db --tag t --run 5 -o got.json", 1,
              "overlap", setup=by_hand("INSERT INTO emcalign_iovs SELECT tag, 5, 20, payload, inserted FROM "
                                       "emcalign_iovs WHERE tag = 't';")))
-    add(Case(D, "a state that is neither open nor locked", "emcalign conditions put c.db --tag done --runs 50-60 p.json",
-             1, "neither open nor locked", setup=by_hand("PRAGMA ignore_check_constraints = ON; UPDATE emcalign_tags "
+    add(Case(D, "a state emcalign does not know", "emcalign conditions put c.db --tag done --runs 50-60 p.json",
+             1, "which this emcalign does not know", setup=by_hand("PRAGMA ignore_check_constraints = ON; UPDATE emcalign_tags "
                                                          "SET state = 'LOCKED' WHERE name = 'done';")))
+    # Tag states, promotion, history, snapshots (issue 46): refused, nothing written.
+    add(Case(D, "a transition the table does not allow", "emcalign conditions state c.db --tag t --set validated", 1,
+             "cannot become validated", setup=db_setup, check=unchanged_db[1], checked="database unchanged"))
+    add(Case(D, "a published tag set back to open", "emcalign conditions state c.db --tag done --set open", 1,
+             "published is final", setup=db_setup, check=unchanged_db[1], checked="database unchanged"))
+    add(Case(D, "a state that is no state", "emcalign conditions state c.db --tag t --set finished", 2,
+             "no tag state", setup=db_setup, check=unchanged_db[1], checked="database unchanged"))
+    add(Case(D, "a promotion of an open tag into a published one",
+             "emcalign conditions promote c.db --from t --to done --first-safe-run 5", 1, "only a validated tag",
+             setup=db_setup, check=unchanged_db[1], checked="database unchanged"))
+    add(Case(D, "the history of a tag that does not exist", "emcalign conditions history c.db --tag nope", 1,
+             "no tag 'nope'", setup=db_setup))
+    add(Case(D, "a snapshot that is no time", "emcalign conditions list c.db --snapshot yesterday", 2,
+             "not a UTC time", setup=db_setup))
+    add(Case(D, "a snapshot without a time zone (a local time?)", "emcalign conditions list c.db --snapshot "
+             "2026-12-05T10:00:00", 2, "has no time zone", setup=db_setup))
+    add(Case(D, "a run in hexadecimal (CLI11 would read 0x10 as 16, 010 as 8)", "emcalign conditions get c.db "
+             "--tag t --run 0x5 -o got.json", 2, "is not a decimal integer", setup=db_setup))
+    add(Case(D, "terminal escapes in a tag's history (written by another client)", "emcalign conditions history "
+             "c.db --tag t", 0, setup=by_hand("UPDATE emcalign_history SET details = json_set(details, '$.description', "
+                                             "'x' || char(27) || '[2J' || char(10) || 'emcalign: note: forged') "
+                                             "WHERE tag = 't' AND change = 'created';"),
+             check=printed("\\x1b[2J\\x0aemcalign: note: forged", ["\x1b", "\nemcalign: note: forged"]),
+             checked="printed escaped, on one line"))
+    add(Case(D, "a snapshot before the tag existed", "emcalign conditions get c.db --tag t --run 5 -o got.json "
+             "--snapshot 2000-01-01T00:00:00Z", 1, "did not exist at", setup=db_setup,
+             check=lambda d, r: "got.json written" if os.path.exists(os.path.join(d, "got.json")) else None,
+             checked="nothing written"))
+    add(Case(D, "a database of a later schema", "emcalign conditions list c.db", 1, "schema version 9",
+             setup=by_hand("UPDATE emcalign_meta SET value = '9' WHERE key = 'schema_version';")))
     add(Case(D, "a description holding a NUL byte", "emcalign conditions list c.db", 0,
              setup=described("'before' || char(0) || 'after'"), check=printed("before\\x00after", ["\x00"]),
              checked="printed whole, escaped: before\\x00after"))
@@ -1567,8 +1597,8 @@ def batch_cases(add):
             runner_binary_run(d, ["campaign", "period", "--conditions", "lk.db", "--tag", "l", "--min-events", "1500"])
             runner_binary_run(d, ["conditions", "lock", "lk.db", "--tag", "l"])
     no_plan = (lambda name: lambda d, r: f"{name} written" if os.path.exists(os.path.join(d, name)) else None)
-    add(Case(B, "a campaign plan into a locked tag", "emcalign campaign period --conditions lk.db --tag l "
-             "--min-events 1500 --plan lkplan.json", 1, "is locked", setup=locked, check=no_plan("lkplan.json"),
+    add(Case(B, "a campaign plan into a published tag", "emcalign campaign period --conditions lk.db --tag l "
+             "--min-events 1500 --plan lkplan.json", 1, "is published", setup=locked, check=no_plan("lkplan.json"),
              checked="no plan written"))
     add(Case(B, "a campaign plan into a tag of another grouping", "emcalign campaign period --conditions camp.db "
              "--tag c --min-events 3000 --plan grplan.json", 1, "not one of this campaign's groups",
@@ -1620,7 +1650,7 @@ def batch_cases(add):
         runner_binary_run(d, ["campaign", "period", "--conditions", "ret.db", "--tag", "r", "--min-events", "1500"])
         runner_binary_run(d, ["conditions", "retire", "ret.db", "--tag", "r", "--reason", "the wrong runs"])
     add(Case(B, "a tag retired again with another reason", "emcalign conditions retire ret.db --tag r --reason other",
-             1, "retired already", setup=retired))
+             1, "invalid already", setup=retired))
     def truth_edited(d):
         runner_binary_run(d, ["validate", "--samples", "1", "--events", "1000", "-o", "tfan", "--plan", "tplan.json"])
         runner_binary_run(d, ["task", "tplan.json", "0"])
@@ -1828,7 +1858,7 @@ def shown_line(case, result, directory):
             line = line.replace(directory + "/", "").replace(directory, ".")
             line = re.sub(r"tmp-\d+", "tmp-PID", line)
             line = re.sub(r"emcalign-\d+-\d+\.tmp", "emcalign-PID-N.tmp", line)
-            line = re.sub(r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\dZ", "DATE", line)
+            line = re.sub(r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d(\.\d+)?Z", "DATE", line)
             line = re.sub(r"SHA-256 [0-9a-f]{12}…", "SHA-256 …", line)  # of a build, of a system file
             return line
     return None

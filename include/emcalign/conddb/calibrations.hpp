@@ -43,9 +43,10 @@ struct ResultFileToPut {
 Result<PutReport> putResultFile(Database& db, const ResultFileToPut& file);
 
 /// The parameter file of a payload (SPEC §3), with where it came from under "input":
-/// {"conditions": URI, "tag", "first_run", "last_run", "payload", "inserted",
-/// "selected_events", "provenance"}.
-io::Json parameterFileOf(const Iov& iov, const Payload& payload, const std::string& uri, const std::string& tag);
+/// {"conditions": URI, "tag", "snapshot" (when read at one), "first_run", "last_run", "payload",
+/// "inserted", "selected_events", "provenance"}.
+io::Json parameterFileOf(const Iov& iov, const Payload& payload, const std::string& uri, const std::string& tag,
+                         const std::string& at = {});
 
 struct RunCalibration {
   Iov iov;
@@ -53,16 +54,28 @@ struct RunCalibration {
 };
 /// What putWholeTag did.
 enum class WholeTagPut { Stored, HeldAlready };
-/// Writes a new tag whole: `iovs` in one transaction, the tag created (open, with
-/// `description`). A tag that holds exactly these IOVs (the same runs, the same payloads) is
-/// left as it is: a job that writes a whole tag (a refit) and finds it written, by its own
-/// earlier run or by a copy of it that stored it first, has nothing to do. A tag that exists
-/// with anything else is an error (write to a new tag).
+/// Writes a new tag whole: `iovs` and its state (open, or testing for a refit to be checked)
+/// in one transaction, with `description`. A tag that holds exactly these IOVs (the same runs,
+/// the same payloads) is left as it is: a job that writes a whole tag (a refit) and finds it
+/// written, by its own earlier run or by a copy of it that stored it first, has nothing to do.
+/// A tag that exists with anything else is an error (write to a new tag).
 Result<WholeTagPut> putWholeTag(Database& db, const std::string& tag, const std::vector<Database::NewIov>& iovs,
-                                const std::string& description);
+                                const std::string& description, TagState state = TagState::Open);
 
-/// The calibration valid for `run`; the error says whether the tag or the IOV is missing.
-Result<RunCalibration> calibrationAt(Database& db, const std::string& tag, std::int64_t run);
+/// The calibration valid for `run` (at the snapshot time `at`, "" for now); the error says
+/// whether the tag or the IOV is missing.
+Result<RunCalibration> calibrationAt(Database& db, const std::string& tag, std::int64_t run,
+                                     const std::string& at = {});
+
+/// A tag copied into another database (or the same one under another name) in one
+/// transaction, in its state, as it is (or was at `at`); its history there starts with a
+/// "copy" naming the original. Refused for an invalid tag, or a name taken in the target.
+struct CopiedTag {
+  std::size_t iovs = 0;
+  TagState state = TagState::Open;
+};
+Result<CopiedTag> copyTag(Database& from, const std::string& tag, Database& to, const std::string& as,
+                          const std::string& at = {});
 
 /// An IOV as `conditions list` shows it: its runs and payload, and what the payload's fit
 /// says (absent where the payload does not say it, or not as a fit result writes it: a
@@ -84,28 +97,40 @@ struct IovListing {
 /// What an IOV's payload says (`conditions list`, `conditions export`).
 IovListing iovListing(const Iov& iov, const Payload& payload);
 
+/// The σ_sys of IOVs in a few words: "auto (0.012-0.015 deg)", "0.2 deg", "mixed (…): …", or
+/// "-" when the payloads do not say.
+std::string sigmaSysSummary(const std::vector<IovListing>& iovs);
+/// The model of IOVs (Payload::model): "paper's model", the corrections' file name, "mixed"
+/// when they differ, "-" when the payloads do not say; not `brief`: in full.
+std::string modelSummary(const std::vector<IovListing>& iovs, bool brief = true);
+
 /// A tag and its IOVs as `conditions list` shows them.
 struct TagListing {
   Tag tag;
   std::vector<IovListing> iovs = {};
 };
 
-/// The listing of a tag: each IOV's payload read (its hash checked: an edited payload is an
-/// error, not shown).
-Result<TagListing> tagListing(Database& db, const Tag& tag);
-/// Every tag's listing, or only `tag`'s when not empty (an error when it does not exist).
-Result<std::vector<TagListing>> listTags(Database& db, const std::string& tag = {});
-/// A tag as `conditions list --json` shows it: {"tag", "state", "description", "created",
-/// "iovs": [{"first_run", "last_run", "payload", "inserted", "status", "chi2", "ndf",
-/// "sigma_sys_method", "chi2_statistical_errors", "sigma_sys_deg", "selected_events", "model"
-/// (Payload::model)}]}, "retired" for a retired tag.
+/// The listing of a tag (at `at`, "" for now): each IOV's payload read (its hash checked: an
+/// edited payload is an error, not shown).
+Result<TagListing> tagListing(Database& db, const Tag& tag, const std::string& at = {});
+/// Every tag's listing, or only `tag`'s when not empty (an error when it does not exist), as
+/// it is or was at `at`.
+Result<std::vector<TagListing>> listTags(Database& db, const std::string& tag = {}, const std::string& at = {});
+/// A tag as `conditions list --json` shows it: {"tag", "state" (tag_states.hpp), "description",
+/// "created", "state_changed" and "reason" when it has them, "iovs": [{"first_run", "last_run",
+/// "payload", "inserted", "status", "chi2", "ndf", "sigma_sys_method", "chi2_statistical_errors",
+/// "sigma_sys_deg", "selected_events", "model" (Payload::model)}]}.
 io::Json tagJson(const TagListing& listing);
 
 /// The alignment of each run from the IOVs of a tag.
 class TagAlignments {
  public:
   /// The calorimeter must outlive this object.
-  static Result<TagAlignments> open(const std::string& uri, const std::string& tag, const geometry::Calorimeter& calo);
+  /// `at`: the snapshot to read ("" : the latest change of the tag, read then: at() says it).
+  static Result<TagAlignments> open(const std::string& uri, const std::string& tag, const geometry::Calorimeter& calo,
+                                    const std::string& at = {});
+  /// The snapshot time it read: rerunning with it reads the same IOVs and payloads.
+  [[nodiscard]] const std::string& at() const { return snapshot_->at(); }
   /// The alignment of `run` (the same object for every run of one IOV); the error names the
   /// run and the tag.
   Result<std::shared_ptr<const geometry::AlignmentTransform>> transformOf(std::int64_t run);
@@ -133,7 +158,7 @@ class TagAlignments {
 struct AlignmentSource {  // NOLINT(bugprone-exception-escape)
   std::shared_ptr<const geometry::AlignmentTransform> one;
   std::shared_ptr<TagAlignments> byRun;
-  /// For the outputs: {"file", "parameters"} or {"conditions", "tag"}.
+  /// For the outputs: {"file", "parameters"} or {"conditions", "tag", "conditions_snapshot"}.
   io::Json description;
   std::vector<std::string> warnings;  ///< of the alignment file
   /// The shower depths the alignment was fitted with, distinct: (the model in words, the
@@ -142,9 +167,11 @@ struct AlignmentSource {  // NOLINT(bugprone-exception-escape)
   /// of `correct` moves each cluster at a depth: another than the fit's biases it.
   std::vector<std::pair<std::string, double>> fittedDepths;
   [[nodiscard]] apply::AlignmentOfRun alignmentOf() const;
-  /// The file `alignment`, or when `conditions` is not empty the tag `tag` of that database.
+  /// The file `alignment`, or when `conditions` is not empty the tag `tag` of that database
+  /// (as it was at `snapshot`, a time parseSnapshot takes; "" : as it is).
   static Result<AlignmentSource> open(const std::string& alignment, const std::string& conditions,
-                                      const std::string& tag, const geometry::Calorimeter& calo);
+                                      const std::string& tag, const geometry::Calorimeter& calo,
+                                      const std::string& snapshot = {});
 };
 
 }  // namespace emcalign::conddb

@@ -5,8 +5,8 @@
 // (tags, content-addressed payloads), Belle II (inclusive run-range IOVs, immutable
 // published tags, a local SQLite file marked with application_id/user_version) and ATLAS
 // COOL (a single-version folder refuses overlapping intervals):
-//   - a tag has a name, a description and a state, open or locked; a locked tag never
-//     changes again;
+//   - a tag has a name, a description and a state (tag_states.hpp: open, testing, validated,
+//     published, running, invalid), changed only along the allowed transitions;
 //   - an IOV (interval of validity) is an inclusive run range [first_run, last_run] of a
 //     tag, holding one payload; the IOVs of a tag never overlap;
 //   - a payload is one calibration — the 12 parameters with their errors, covariance,
@@ -18,12 +18,19 @@
 // WAL, a busy timeout) and a PostgreSQL server through libpqxx
 // (`postgresql://user@host:port/db`; a tag's row is locked for the time of a write). Every
 // write is one transaction: concurrent writers lose nothing, and a writer killed in the
-// middle leaves the database as it was. The schema version is checked on open.
+// middle leaves the database as it was. The schema version is checked on open, and a
+// database of the version before is upgraded then, in one transaction.
+//
+// Every change to a tag is kept in its history with its time (UTC, to the microsecond, and
+// increasing within the tag), the OS user and host; an IOV cut by a promotion is kept as it
+// was. So the database answers as it was at any past time (a snapshot, CMS conddb's
+// --snapshot), and a job records the time it read to be rerun on the same conditions.
 
 #include <array>
 #include <cstdint>
 #include <functional>
 #include <limits>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -32,6 +39,7 @@
 #include <vector>
 
 #include "emcalign/calib/sigma_sys.hpp"
+#include "emcalign/conddb/tag_states.hpp"
 #include "emcalign/core/parameters.hpp"
 #include "emcalign/core/result.hpp"
 #include "emcalign/geometry/alignment_parameters.hpp"
@@ -39,30 +47,43 @@
 
 namespace emcalign::conddb {
 
-/// The schema this emcalign reads and writes.
-inline constexpr int kSchemaVersion = 1;
+/// The schema this emcalign reads and writes; a database of version 1 is upgraded on open.
+inline constexpr int kSchemaVersion = 2;
 inline constexpr std::string_view kPayloadFormat = "emcalign-payload/1";
-
-/// Open: IOVs may be added. Locked: never changes again. Retired: an open tag withdrawn (a
-/// mistake): kept and listed, never served to a lookup, never written to (its mark is a row
-/// "retired:TAG" of emcalign_meta: no schema change). Running: a prompt loop's tag, whose IOVs
-/// are only appended after its last one (its mark is a row "running:TAG").
-enum class TagState { Open, Locked, Retired, Running };
-std::string_view name(TagState s);
 
 struct Tag {
   std::string name;
   std::string description;
   TagState state = TagState::Open;
-  std::string created;  ///< UTC, ISO 8601
-  std::string retired;  ///< Retired: "when: why"
+  std::string created;       ///< UTC, ISO 8601 to the microsecond
+  std::string stateChanged;  ///< when it came into its state ("" when created in it)
+  std::string reason;        ///< the reason given for that change ("" for none)
 };
+
+/// One change of a tag, as its history keeps it: when (UTC, ISO 8601 to the microsecond), what
+/// ("created", "copy", "iov", "state", "promotion", "prompt"), by whom (the OS user and host;
+/// empty for the changes of a database upgraded from schema 1, where they were not kept) and
+/// the details (runs, payload, states, reason, …).
+struct Change {
+  std::string time;
+  std::string change;
+  std::string user, host;
+  io::Json details;
+  /// {"time", "change", "user", "host", ...details}.
+  [[nodiscard]] io::Json json() const;
+  /// What changed, in a few words ("runs 1-40, payload 3f2a…", "open -> testing: why", …).
+  [[nodiscard]] std::string summary() const;
+};
+
+/// A time for `--snapshot` in the database's form (utcMicrosText), from what a person or a
+/// record gives (core/clock.hpp's parseUtcTime); the error names `option`.
+Result<std::string> parseSnapshot(std::string_view text, std::string_view option = "--snapshot");
 
 struct Iov {
   std::int64_t firstRun = 0;  ///< inclusive
   std::int64_t lastRun = 0;   ///< inclusive
   std::string payload;        ///< its SHA-256
-  std::string inserted;       ///< UTC, ISO 8601
+  std::string inserted;       ///< UTC, ISO 8601 to the microsecond
 };
 
 /// One value of a payload as stored, in file units (deg, cm); NaN where the payload has none,
@@ -135,22 +156,48 @@ enum class IfMissing {
 class Database {
  public:
   /// Opens a database: `sqlite:PATH`, a plain path, or `postgresql://…` / `postgres://…`. An
-  /// existing database must have this schema version; `IfMissing::Create` makes a new SQLite
-  /// file (a PostgreSQL database must exist) and `init()`s its schema.
+  /// existing database must have this schema version, or the one before (upgraded now, in one
+  /// transaction, and said once through the notice handler); `IfMissing::Create` makes a new
+  /// SQLite file (a PostgreSQL database must exist) and `init()`s its schema.
   /// `busyMs`: how long an SQLite write waits for another writer's lock (0: two minutes); a loop
   /// that must stay responsive (prompt) waits less and tries again later.
   static Result<std::unique_ptr<Database>> open(const std::string& uri, IfMissing missing = IfMissing::Refuse,
                                                 int busyMs = 0);
+  /// Where a notice goes (the upgrade of a database); the default writes
+  /// "emcalign: note: TEXT" to standard error.
+  static void setNoticeHandler(std::function<void(const std::string&)> handler);
   virtual ~Database() = default;
 
   /// Creates the schema (idempotent: an existing one of this version is left as it is).
   virtual Status init() = 0;
 
-  virtual Result<std::vector<Tag>> tags() = 0;
-  virtual Result<std::optional<Tag>> tag(const std::string& name) = 0;
+  // Reading. `at`: a snapshot time (parseSnapshot's form) — the database as it was then: the
+  // tags created by then in the state they had, the IOVs they had (one cut later as it was);
+  // empty: as it is now.
+
+  virtual Result<std::vector<Tag>> tags(const std::string& at = {}) = 0;
+  virtual Result<std::optional<Tag>> tag(const std::string& name, const std::string& at = {}) = 0;
+  /// The IOV of `tag` that contains `run`, with its payload; none if no IOV does. Refused for a
+  /// tag that is invalid now, whatever `at`.
+  virtual Result<std::optional<std::pair<Iov, Payload>>> get(const std::string& tag, std::int64_t run,
+                                                             const std::string& at = {}) = 0;
+  /// The IOVs of a tag by first run.
+  virtual Result<std::vector<Iov>> iovs(const std::string& tag, const std::string& at = {}) = 0;
+  virtual Result<Payload> payload(const std::string& hash) = 0;
+  /// Every payload the tag's IOVs hold or held, by hash, read at once (a listing of 10 000 IOVs
+  /// is one query, not 10 000); each hash checked.
+  virtual Result<std::map<std::string, std::shared_ptr<const Payload>>> payloadsOf(const std::string& tag) = 0;
+  /// The changes of a tag, oldest first.
+  virtual Result<std::vector<Change>> history(const std::string& tag) = 0;
+  /// The time of the tag's latest change: a snapshot at it sees the tag as it is now.
+  virtual Result<std::string> lastChange(const std::string& tag) = 0;
+
+  // Writing: each one transaction, refused as a whole (nothing written, no history entry).
+
   /// Stores `payload` for runs [first, last] of `tag` (a tag that does not exist is created,
   /// open, with `description`, or refused, as `newTag` says), in one transaction; refused for a
-  /// locked tag, an overlap with an IOV of the tag, or first > last.
+  /// tag whose state takes no IOVs (tag_states.hpp), an overlap with an IOV of the tag, an IOV
+  /// of a running tag not after its last one, or first > last.
   Status put(const std::string& tag, std::int64_t first, std::int64_t last, const Payload& payload, IfMissing newTag,
              const std::string& description = {}) {
     return put(tag, {NewIov{first, last, payload}}, newTag, description);
@@ -163,27 +210,64 @@ class Database {
   };
   virtual Status put(const std::string& tag, const std::vector<NewIov>& iovs, IfMissing newTag,
                      const std::string& description = {}) = 0;
-  /// The IOV of `tag` that contains `run`, with its payload; none if no IOV does.
-  virtual Result<std::optional<std::pair<Iov, Payload>>> get(const std::string& tag, std::int64_t run) = 0;
-  /// The IOVs of a tag by first run.
-  virtual Result<std::vector<Iov>> iovs(const std::string& tag) = 0;
-  virtual Result<Payload> payload(const std::string& hash) = 0;
-  /// Locks a tag: no IOV is added to it afterwards (refused for a retired tag).
-  virtual Status lock(const std::string& tag) = 0;
-  /// Retires an open tag (refused for a locked one: a published calibration is never
-  /// withdrawn); retiring a retired tag again with the same reason changes nothing (a retry),
-  /// with another reason is refused, naming the first.
-  virtual Status retire(const std::string& tag, const std::string& reason) = 0;
+
+  /// A new tag made whole in one transaction: its IOVs, then its state; its history says
+  /// "created" (or "copy", with `copyOf` in the details, when `copyOf` is an object).
+  struct NewTag {
+    std::string name, description;
+    TagState state = TagState::Open;
+    std::vector<NewIov> iovs = {};
+    io::Json copyOf = nullptr;  ///< {"conditions": URI without password, "tag", "snapshot"?}
+  };
+  /// false (and nothing written) when a tag of that name exists.
+  virtual Result<bool> createTag(const NewTag& tag) = 0;
+
+  /// What setState did: the tag changed state, or was in it already (a retry: nothing written).
+  enum class StateChange { Changed, Already };
+  /// Sets a tag's state along an allowed transition (tag_states.hpp), with an optional reason.
+  /// Setting the state it has changes nothing — except for `invalid` with another reason than
+  /// the one kept, which is refused.
+  virtual Result<StateChange> setState(const std::string& tag, TagState to, const std::string& reason) = 0;
+  /// setState(published).
+  Status lock(const std::string& tag) {
+    auto r = setState(tag, TagState::Published, {});
+    return r ? Status{} : Status{r.error()};
+  }
+  /// setState(invalid, reason).
+  Status retire(const std::string& tag, const std::string& reason) {
+    auto r = setState(tag, TagState::Invalid, reason);
+    return r ? Status{} : Status{r.error()};
+  }
+
+  /// A promotion (Belle II's running update): the IOVs of a validated tag appended to a running
+  /// one from the first run still safe to change.
+  struct Promotion {
+    std::string from, to;
+    std::int64_t firstSafeRun = 0;
+    Iov lastBefore;             ///< the running tag's last IOV before
+    std::vector<Iov> appended;  ///< the validated tag's IOVs, as appended
+    std::string time;           ///< of the change; "" for a dry run
+    /// "cut", "extended" or "kept": what became of the running tag's last IOV.
+    [[nodiscard]] std::string lastIovFate() const;
+  };
+  /// Appends the IOVs of `from` to `to`: refused unless `from` is validated, `to` running, both
+  /// have IOVs, `from`'s tile the runs from `firstSafeRun` on (no gap, no overlap) and
+  /// `firstSafeRun` is after the first run of `to`'s last IOV; that IOV then ends at
+  /// firstSafeRun − 1 (cut or extended, the IOV as it was kept for snapshots). One transaction,
+  /// with `to`'s row locked as a prompt loop's appends lock it. `dryRun`: the same checks and
+  /// answer, nothing written.
+  virtual Result<Promotion> promote(const std::string& from, const std::string& to, std::int64_t firstSafeRun,
+                                    bool dryRun) = 0;
 
   /// Makes `tag` a running tag: created (with `description`) when missing; an existing one must
   /// be running already (SPEC §13: a prompt loop refuses a tag in another state).
   virtual Status makeRunning(const std::string& tag, const std::string& description) = 0;
   /// One decided group of a prompt loop (validation/prompt.hpp), stored in one transaction: its
-  /// IOV (none: a veto with nothing in force), its decision record (decisions.jsonl's line) and
-  /// the thresholds it was decided by (kept once under their SHA-256). Refused unless the tag is
-  /// running, `group` is the number of groups it has decided, and the IOV starts right after
-  /// the tag's last one (anywhere for its first). The same record again (a retry after a kill)
-  /// changes nothing.
+  /// IOV (none: a veto with nothing in force, or runs a promotion covered), its decision record
+  /// (decisions.jsonl's line) and the thresholds it was decided by (kept once under their
+  /// SHA-256). Refused unless the tag is running, `group` is the number of groups it has
+  /// decided, and the IOV starts right after the tag's last one (anywhere for its first). The
+  /// same record again (a retry after a kill) changes nothing.
   struct PromptRecord {
     std::int64_t group = 0;
     std::string decision;  ///< compact JSON
@@ -209,23 +293,30 @@ class Database {
 /// of a job that needs the calibration of many runs (correct, simulate, trend).
 class TagSnapshot {
  public:
-  /// Fails when the tag does not exist, or is retired (unless `allowRetired`: a table of it,
-  /// a comparison, never a lookup).
-  static Result<TagSnapshot> load(Database& db, const std::string& tag, bool allowRetired = false);
+  /// Fails when the tag does not exist (at `at`), or is invalid now (unless `allowInvalid`: a
+  /// table of it, a comparison, never a lookup). `at`: a snapshot time, empty for now.
+  static Result<TagSnapshot> load(Database& db, const std::string& tag, bool allowInvalid = false,
+                                  const std::string& at = {});
+  /// The snapshot time it was read at ("" : now).
+  [[nodiscard]] const std::string& at() const { return at_; }
   [[nodiscard]] const Tag& tag() const { return tag_; }
   [[nodiscard]] const std::vector<Iov>& iovs() const { return iovs_; }
   /// The IOV containing `run`, or null.
   [[nodiscard]] const Iov* find(std::int64_t run) const;
   /// The payload of an IOV of this tag.
   Result<const Payload*> payload(const Iov& iov);
+  /// Reads the payloads of every IOV at once (before a listing of all of them).
+  Status fetchAll();
   /// The IOV containing `run` with its payload; the error names the run, the tag and the database.
   Result<std::pair<const Iov*, const Payload*>> at(std::int64_t run);
 
  private:
   Database* db_ = nullptr;
+  std::string at_;
   Tag tag_;
   std::vector<Iov> iovs_;
-  std::vector<std::unique_ptr<Payload>> payloads_;  // parallel to iovs_ (shared hashes fetched once)
+  std::vector<std::shared_ptr<const Payload>> payloads_;          // parallel to iovs_
+  std::map<std::string, std::shared_ptr<const Payload>> byHash_;  // each hash fetched once
 };
 
 }  // namespace emcalign::conddb

@@ -4,9 +4,12 @@
 // parameter in σ, and a tag as a table of one row per IOV.
 
 #include <cstdint>
+#include <functional>
 #include <string>
+#include <string_view>
 #include <vector>
 
+#include "emcalign/conddb/calibrations.hpp"
 #include "emcalign/conddb/conditions.hpp"
 #include "emcalign/core/parameters.hpp"
 #include "emcalign/core/result.hpp"
@@ -34,18 +37,24 @@ struct TagDiff {
   std::vector<IovPair> pairs;
   /// Runs of one tag that the other does not cover: (first, last) of each stretch.
   std::vector<std::pair<std::int64_t, std::int64_t>> onlyA, onlyB;
+  /// What each IOV of each tag says (its σ_sys, model, …), as `conditions list` shows it.
+  std::vector<IovListing> listingA, listingB;
 };
 
-/// Tag `a` against tag `b` of the same database.
-Result<TagDiff> diffTags(Database& db, const std::string& a, const std::string& b);
+/// Tag `a` against tag `b` of the same database (as they were at `at`, "" for now).
+Result<TagDiff> diffTags(Database& db, const std::string& a, const std::string& b, const std::string& at = {});
 /// {"tag_a", "tag_b", "pairs": [{"first_run", "last_run", "iov_a", "iov_b", "same_payload", "model_a", "model_b",
 /// "parameters": {name: {"a", "error_a", "b", "error_b", "difference", "z", "unit"}}}],
 /// "only_a", "only_b"}.
 io::Json tagDiffJson(const TagDiff& d);
+/// tagDiffJson(d).dump(2), byte for byte, written piece by piece (one pair at a time: the diff
+/// of two tags of 10 000 IOVs is 80 MB of JSON, never held whole).
+void writeTagDiffJson(const TagDiff& d, const std::function<void(std::string_view)>& out);
 
 /// A tag as CSV, one row per IOV: first_run, last_run, payload, inserted, status, chi2, ndf,
 /// chi2_statistical_errors, sigma_sys_method, selected_events, then each of the 17 entries
 /// and its error (`alpha`, `alpha_error`, …; unit in the header's comment line).
-Result<std::string> tagCsv(Database& db, const std::string& tag);
+/// `at`: as it was then ("" for now; said in the first line).
+Result<std::string> tagCsv(Database& db, const std::string& tag, const std::string& at = {});
 
 }  // namespace emcalign::conddb

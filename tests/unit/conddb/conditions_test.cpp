@@ -138,11 +138,11 @@ TEST_P(Conditions, RefusesOverlapsLockedTagsAndBadRanges) {
   ASSERT_TRUE(db->lock("t"));
   Status locked = db->put("t", 50, 60, a, IfMissing::Refuse);
   ASSERT_FALSE(locked);
-  EXPECT_NE(locked.error().message.find("is locked"), std::string::npos);
+  EXPECT_NE(locked.error().message.find("is published"), std::string::npos) << locked.error().message;
   EXPECT_FALSE(db->lock("nope"));
   auto tag = db->tag("t");
   ASSERT_TRUE(tag && tag->has_value());
-  EXPECT_EQ((*tag)->state, TagState::Locked);
+  EXPECT_EQ((*tag)->state, TagState::Published);
   auto iovs = db->iovs("t");
   ASSERT_TRUE(iovs);
   EXPECT_EQ(iovs->size(), 3U);  // nothing refused was half-written
@@ -162,25 +162,25 @@ TEST_P(Conditions, ARetiredTagIsKeptListedAndNeverServed) {
   // Another reason is refused, naming the first (issue 44: it was kept while success was said).
   const Status again = db->retire("wrong", "again");
   ASSERT_FALSE(again);
-  EXPECT_NE(again.error().message.find("retired already"), std::string::npos) << again.error().message;
+  EXPECT_NE(again.error().message.find("invalid already"), std::string::npos) << again.error().message;
   EXPECT_NE(again.error().message.find("the wrong corrections"), std::string::npos) << again.error().message;
   auto got = db->get("wrong", 5);
   ASSERT_FALSE(got);
-  EXPECT_NE(got.error().message.find("was retired"), std::string::npos) << got.error().message;
+  EXPECT_NE(got.error().message.find("is invalid"), std::string::npos) << got.error().message;
   EXPECT_NE(got.error().message.find("the wrong corrections"), std::string::npos) << got.error().message;
   EXPECT_FALSE(db->put("wrong", 11, 20, a, IfMissing::Refuse));
   EXPECT_FALSE(db->lock("wrong"));
   auto tag = open()->tag("wrong");
   ASSERT_TRUE(tag && tag->has_value());
-  EXPECT_EQ((*tag)->state, TagState::Retired);
-  EXPECT_NE((*tag)->retired.find("the wrong corrections"), std::string::npos);
+  EXPECT_EQ((*tag)->state, TagState::Invalid);
+  EXPECT_EQ((*tag)->reason, "the wrong corrections");
   EXPECT_FALSE(TagSnapshot::load(*db, "wrong"));
   auto kept = TagSnapshot::load(*db, "wrong", true);
   ASSERT_TRUE(kept);
   EXPECT_EQ(kept->iovs().size(), 1U);
   Status locked = db->retire("good", "no");
   ASSERT_FALSE(locked);
-  EXPECT_NE(locked.error().message.find("is locked"), std::string::npos);
+  EXPECT_NE(locked.error().message.find("is published"), std::string::npos) << locked.error().message;
   EXPECT_TRUE(db->get("good", 5));
   EXPECT_FALSE(db->retire("nope", ""));
   auto tags = db->tags();
@@ -237,7 +237,7 @@ TEST_P(Conditions, ARunningTagIsOnlyAppendedAndKeepsItsDecisions) {
   EXPECT_EQ(iovs->size(), 3U);
   // Locked, it is published: nothing appended any more.
   ASSERT_TRUE(db->lock("prompt"));
-  EXPECT_EQ((*db->tag("prompt"))->state, TagState::Locked);
+  EXPECT_EQ((*db->tag("prompt"))->state, TagState::Published);
   EXPECT_FALSE(db->appendPrompt("prompt", record(3, Database::NewIov{31, 40, a})));
 }
 

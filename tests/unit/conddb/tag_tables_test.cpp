@@ -121,17 +121,19 @@ TEST_F(TagTables, ExportOfADatabaseWhosePathHoldsANewlineKeepsItsLines) {
   EXPECT_NE(csv->find("new\\x0aline.db"), std::string::npos) << *csv;
 }
 
-// SPEC §11: list --json keeps "state": "open"|"locked"; a retired tag adds "retired".
-TEST_F(TagTables, ARetiredTagIsListedOpenWithItsMark) {
+// SPEC §13: list --json gives the state of the six; a tag set invalid says when and why.
+TEST_F(TagTables, AnInvalidTagIsListedWithItsReason) {
   ASSERT_TRUE(db_->retire("b", "the wrong runs"));
   auto listed = listTags(*db_, "b");
   ASSERT_TRUE(listed) << listed.error().message;
   const Json b = tagJson(listed->front());
-  EXPECT_EQ(b["state"], "open");
-  EXPECT_NE(b["retired"].get<std::string>().find("the wrong runs"), std::string::npos);
+  EXPECT_EQ(b["state"], "invalid");
+  EXPECT_EQ(b.value("reason", ""), "the wrong runs");
+  EXPECT_TRUE(b.contains("state_changed"));
   auto a = listTags(*db_, "a");
   ASSERT_TRUE(a);
-  EXPECT_FALSE(tagJson(a->front()).contains("retired"));
+  EXPECT_EQ(tagJson(a->front())["state"], "open");
+  EXPECT_FALSE(tagJson(a->front()).contains("reason"));
   // What each IOV's payload says, typed as the listing and the report show it.
   ASSERT_FALSE(a->front().iovs.empty());
   const IovListing& first = a->front().iovs.front();
@@ -142,6 +144,21 @@ TEST_F(TagTables, ARetiredTagIsListedOpenWithItsMark) {
   EXPECT_EQ(first.sigmaSysMethod, "auto");
   EXPECT_EQ(tagJson(a->front())["iovs"][0]["chi2_statistical_errors"], 512.5);
   EXPECT_TRUE(diffTags(*db_, "a", "b"));  // a comparison reads a retired tag
+}
+
+// The JSON written piece by piece is tagDiffJson's dump, byte for byte (with and without pairs).
+TEST_F(TagTables, TheDiffWrittenPieceByPieceIsTheDump) {
+  for (const auto& [x, y] : {std::pair{"a", "b"}, std::pair{"b", "a"}}) {
+    auto d = diffTags(*db_, x, y);
+    ASSERT_TRUE(d) << d.error().message;
+    std::string text;
+    writeTagDiffJson(*d, [&](std::string_view piece) { text += piece; });
+    EXPECT_EQ(text, tagDiffJson(*d).dump(2));
+    d->pairs.clear();
+    text.clear();
+    writeTagDiffJson(*d, [&](std::string_view piece) { text += piece; });
+    EXPECT_EQ(text, tagDiffJson(*d).dump(2));
+  }
 }
 
 }  // namespace

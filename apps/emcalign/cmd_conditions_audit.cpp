@@ -77,8 +77,8 @@ int runHistory(const AuditOptions& o) {
     fmt::print("{}\n", out.dump(2));
     return kExitOk;
   }
-  std::string text = fmt::format("{}: tag {}: {}, oldest first (UTC)\n", (*db)->uri(), o.tag,
-                                 counted(changes->size(), "change"));
+  std::string text =
+      fmt::format("{}: tag {}: {}, oldest first (UTC)\n", (*db)->uri(), o.tag, counted(changes->size(), "change"));
   for (const auto& c : *changes) {
     const std::string who = c.user.empty() && c.host.empty() ? std::string("-") : c.user + "@" + c.host;
     // Escaped: the stored text may have been written by another client (a forged line, a

@@ -83,9 +83,8 @@ Status SqlDatabase::appendPrompt(const std::string& tag, const PromptRecord& r) 
       details["last_run"] = r.iov->lastRun;
       details["payload"] = r.iov->payload.hash();
     }
-    auto thresholds =
-        db_->query("INSERT INTO emcalign_meta (key, value) VALUES ($1, $2) ON CONFLICT (key) DO NOTHING",
-                   {std::string(kThresholdsPrefix) + r.thresholdsSha256, r.thresholds});
+    auto thresholds = db_->query("INSERT INTO emcalign_meta (key, value) VALUES ($1, $2) ON CONFLICT (key) DO NOTHING",
+                                 {std::string(kThresholdsPrefix) + r.thresholdsSha256, r.thresholds});
     if (!thresholds) return thresholds.error();
     auto stored = db_->query("INSERT INTO emcalign_meta (key, value) VALUES ($1, $2)", {key, r.decision});
     if (!stored) return stored.error();

@@ -140,14 +140,16 @@ Status SqlDatabase::upgradeFrom1() {
       const std::string name = toText(t[0]);
       const std::string created = microsOf(toText(t[3]));
       std::vector<OldChange> changes{{created, 0, "created", {{"state", "open"}, {"description", toText(t[1])}}}};
-      auto iovs = db_->query("SELECT first_run, last_run, payload, inserted FROM emcalign_iovs WHERE tag = $1 ORDER BY first_run",
-                             {name});
+      auto iovs = db_->query(
+          "SELECT first_run, last_run, payload, inserted FROM emcalign_iovs WHERE tag = $1 ORDER BY first_run", {name});
       if (!iovs) return iovs.error();
       for (const Row& i : *iovs) {
         auto first = runOf(i[0], db_->uri(), name);
         auto last = runOf(i[1], db_->uri(), name);
         if (!first || !last) return (first ? last.error() : first.error());
-        changes.push_back({microsOf(toText(i[3])), 1, "iov",
+        changes.push_back({microsOf(toText(i[3])),
+                           1,
+                           "iov",
                            {{"first_run", *first}, {"last_run", *last}, {"payload", toText(i[2])}}});
       }
       auto marks = db_->query("SELECT key, value FROM emcalign_meta WHERE key = $1 OR key = $2",
@@ -172,7 +174,9 @@ Status SqlDatabase::upgradeFrom1() {
         }
       }
       if (state == "published") {
-        changes.push_back({now, 3, "state",
+        changes.push_back({now,
+                           3,
+                           "state",
                            {{"from", "open"},
                             {"to", "published"},
                             {"note", "locked under schema 1, which did not keep when: the time is the upgrade's"}}});
@@ -189,7 +193,8 @@ Status SqlDatabase::upgradeFrom1() {
             {name, static_cast<std::int64_t>(k), changes[k].time, changes[k].change, details.dump()});
         if (!r) return r.error();
       }
-      auto row = db_->query("UPDATE emcalign_tags SET state = $2, created = $3 WHERE name = $1", {name, state, created});
+      auto row =
+          db_->query("UPDATE emcalign_tags SET state = $2, created = $3 WHERE name = $1", {name, state, created});
       if (!row) return row.error();
       for (const Row& i : *iovs) {
         auto r = db_->query("UPDATE emcalign_iovs SET inserted = $3 WHERE tag = $1 AND first_run = $2",
@@ -211,9 +216,10 @@ Status SqlDatabase::upgradeFrom1() {
   });
   db_->afterSchemaUpgrade();
   if (!done) {
-    return Error{fmt::format("{}: a database of schema 1, which this emcalign upgrades to {} on opening, and could not: "
-                             "{} (nothing changed)",
-                             db_->uri(), kSchemaVersion, done.error().message)};
+    return Error{
+        fmt::format("{}: a database of schema 1, which this emcalign upgrades to {} on opening, and could not: "
+                    "{} (nothing changed)",
+                    db_->uri(), kSchemaVersion, done.error().message)};
   }
   if (upgraded) {
     noticeHandler()(fmt::format(

@@ -55,8 +55,8 @@ Result<std::vector<Change>> SqlDatabase::history(const std::string& tag) {
     for (const Row& r : *rows) {
       Json details = Json::parse(toText(r[4]), nullptr, false);
       if (!details.is_object()) details = {{"unreadable", printable(toText(r[4])).substr(0, 200)}};
-      out.push_back({printable(toText(r[0])), printable(toText(r[1])), printable(toText(r[2])),
-                     printable(toText(r[3])), std::move(details)});
+      out.push_back({printable(toText(r[0])), printable(toText(r[1])), printable(toText(r[2])), printable(toText(r[3])),
+                     std::move(details)});
     }
     return out;
   });
@@ -87,8 +87,9 @@ Result<Database::StateChange> SqlDatabase::setState(const std::string& tag, TagS
       auto t = this->tag(tag, {});
       if (!t) return t.error();
       if ((*t)->reason == printable(reason)) return StateChange::Already;
-      return Error{fmt::format("{}: tag '{}' was made invalid already ({}{}): it keeps its first reason; nothing changed",
-                               db_->uri(), tag, (*t)->stateChanged, (*t)->reason.empty() ? "" : ": " + (*t)->reason)};
+      return Error{
+          fmt::format("{}: tag '{}' was made invalid already ({}{}): it keeps its first reason; nothing changed",
+                      db_->uri(), tag, (*t)->stateChanged, (*t)->reason.empty() ? "" : ": " + (*t)->reason)};
     }
     if (!transitionAllowed(*from, to)) {
       std::vector<std::string> allowed;
@@ -97,8 +98,9 @@ Result<Database::StateChange> SqlDatabase::setState(const std::string& tag, TagS
           *from == TagState::Published
               ? "published is final: a published calibration is never withdrawn, nor changed (store the corrected "
                 "one under a new tag, and point the users at it)"
-          : *from == TagState::Invalid ? "invalid is final"
-                                       : fmt::format("from {} a tag goes to {} only", name(*from), fmt::join(allowed, ", "));
+          : *from == TagState::Invalid
+              ? "invalid is final"
+              : fmt::format("from {} a tag goes to {} only", name(*from), fmt::join(allowed, ", "));
       return Error{fmt::format("{}: tag '{}' is {}, and cannot become {}: {}; nothing changed", db_->uri(), tag,
                                name(*from), name(to), why)};
     }
@@ -175,9 +177,10 @@ Result<Database::Promotion> SqlDatabase::promote(const std::string& from, const 
     }
     const Iov& last = iovsTo->back();
     if (firstSafeRun <= last.firstRun) {
-      return refused(fmt::format("the last IOV of '{}' ({}-{}) starts at or after it: runs before the first safe "
-                                 "run are never changed",
-                                 to, last.firstRun, last.lastRun));
+      return refused(
+          fmt::format("the last IOV of '{}' ({}-{}) starts at or after it: runs before the first safe "
+                      "run are never changed",
+                      to, last.firstRun, last.lastRun));
     }
     Promotion p{from, to, firstSafeRun, last, *iovsFrom, {}};
     if (dryRun) return p;
@@ -198,12 +201,13 @@ Result<Database::Promotion> SqlDatabase::promote(const std::string& from, const 
     for (const Iov& i : *iovsFrom) {
       if (Status s = insertIovRow(to, i.firstRun, i.lastRun, i.payload, rec->time); !s) return s.error();
     }
-    const Json details = {{"from", from},
-                          {"first_safe_run", firstSafeRun},
-                          {"last_iov", {{"was", {last.firstRun, last.lastRun}}, {"now", {last.firstRun, firstSafeRun - 1}}}},
-                          {"last_iov_fate", p.lastIovFate()},
-                          {"appended", iovsFrom->size()},
-                          {"runs", {iovsFrom->front().firstRun, iovsFrom->back().lastRun}}};
+    const Json details = {
+        {"from", from},
+        {"first_safe_run", firstSafeRun},
+        {"last_iov", {{"was", {last.firstRun, last.lastRun}}, {"now", {last.firstRun, firstSafeRun - 1}}}},
+        {"last_iov_fate", p.lastIovFate()},
+        {"appended", iovsFrom->size()},
+        {"runs", {iovsFrom->front().firstRun, iovsFrom->back().lastRun}}};
     if (Status s = record(*rec, "promotion", details); !s) return s.error();
     holdWriteForTests();
     return p;

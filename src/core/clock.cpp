@@ -73,14 +73,10 @@ Result<UtcMicros> parseUtcTime(std::string_view s) {
     if (n == 0) return bad();
     for (std::size_t k = n; k < 6; ++k) micros *= 10;
   }
-  // The zone: Z, or an offset from UTC (+01:00, -0500); none is refused (a local time?).
+  // The zone: Z, an offset from UTC (+01:00, -0500), or none: UTC, as every time here is.
   const std::string_view zone = s.substr(at);
   int offsetMinutes = 0;
-  if (zone.empty()) {
-    return Error{fmt::format("'{}' has no time zone: end it with Z for UTC (or an offset, +01:00)",
-                             std::string(s.substr(0, 64)))};
-  }
-  if (zone != "Z" && zone != "z") {
+  if (!zone.empty() && zone != "Z" && zone != "z") {
     int oh = 0, om = 0;
     const bool colon = zone.size() == 6 && zone[3] == ':';
     if ((zone.size() != 5 && !colon) || (zone[0] != '+' && zone[0] != '-') || !digits(zone, 1, 2, oh) ||

@@ -856,8 +856,8 @@ def cases():
              "no tag 'nope'", setup=db_setup))
     add(Case(D, "a snapshot that is no time", "emcalign conditions list c.db --snapshot yesterday", 2,
              "not a UTC time", setup=db_setup))
-    add(Case(D, "a snapshot without a time zone (a local time?)", "emcalign conditions list c.db --snapshot "
-             "2026-12-05T10:00:00", 2, "has no time zone", setup=db_setup))
+    add(Case(D, "a snapshot with another time zone than UTC's, minutes missing", "emcalign conditions list c.db "
+             "--snapshot 2026-12-05T10:00:00+01", 2, "not a UTC time", setup=db_setup))
     add(Case(D, "a run in hexadecimal (CLI11 would read 0x10 as 16, 010 as 8)", "emcalign conditions get c.db "
              "--tag t --run 0x5 -o got.json", 2, "is not a decimal integer", setup=db_setup))
     add(Case(D, "terminal escapes in a tag's history (written by another client)", "emcalign conditions history "

@@ -1,6 +1,6 @@
 // Speed of emcalign correct (apply/correct.hpp), in particles (rows) per second:
 //   build/bin/emcalign_bench_correct
-// - the correction alone, on rows in memory: the cluster method (SPEC §9) and the hits
+// - the correction alone, on rows in memory: the cluster method (docs/contract.md §9) and the hits
 //   method (each cluster rebuilt from its counters at the aligned centres);
 // - the whole command on a file: read (the HDF5 reader process), correct, write, for both
 //   methods (a simulated 200 000-event HDF5 file with truth and hits, made once).

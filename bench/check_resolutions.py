@@ -12,7 +12,7 @@ import sys
 import h5py
 import numpy as np
 
-# The shower depth of the default detector (SPEC §5): R0, X0, Ec, x_pre.
+# The shower depth of the default detector (docs/contract.md §5): R0, X0, Ec, x_pre.
 R0, X0, EC, XPRE = 32.8, 2.56, 13.16, 0.13
 
 

@@ -15,7 +15,7 @@ def load(d, name):
 def main():
     d = sys.argv[1]
     rows = [("nominal detector (no misalignment)", "nominal"), ("corrected with the truth", "truth"),
-            ("corrected with the fit (with corrections)", "fit"), ("corrected with the fit (SPEC model)", "fit-plain")]
+            ("corrected with the fit (with corrections)", "fit"), ("corrected with the fit (the contract's model)", "fit-plain")]
     print("## e+e- → γγ: Δφ core width and RMS (deg)\n")
     print("| sample | selected | before: σ_core ± err | RMS | after: σ_core ± err | RMS | better: σ_core | RMS |")
     print("|---|---|---|---|---|---|---|---|")

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The beam-energy scan of docs/validation.md: the validation campaign at several beam
 # energies with the paper's model, with the one corrections file of 612.5 MeV, and with the
-# grid interpolated to each energy (SPEC's sigma_sys and --sigma-sys auto).
+# grid interpolated to each energy (the contract's sigma_sys and --sigma-sys auto).
 #   bench/energy_scan_study.sh [DIR] [SAMPLES] [EVENTS] [ENERGIES]
 #     (default /tmp/emcalign-energy-scan, 100, 50000, "510 612.5 900")
 # A rerun resumes every campaign. Writes DIR/summary.md (bench/energy_scan_summary.py).

@@ -59,7 +59,7 @@ def main():
     print("# Validation across the beam-energy scan\n")
     print(f"`bench/energy_scan_study.sh {directory} ...`: per energy, the same samples fitted with the paper's "
           "model, with the corrections file of 612.5 MeV, and with the grid interpolated to the energy "
-          "(SPEC's sigma_sys); the pulls of the grid with `--sigma-sys auto`.\n")
+          "(the contract's sigma_sys); the pulls of the grid with `--sigma-sys auto`.\n")
     for energy in energies:
         e = float(energy)
         paper = table(os.path.join(directory, f"paper-{energy}"))

@@ -1,10 +1,10 @@
 #!/usr/bin/python3
-"""Independent Minuit cross-check of emcalign's alignment fit (SPEC §4, §5, §7, §8).
+"""Independent Minuit cross-check of emcalign's alignment fit (docs/contract.md §4, §5, §7, §8).
 
-Everything here is written from shared/SPEC.md alone, in numpy, without looking at the
-C++ fit: the model f_phi, f_theta (SPEC §4-§5, the transform built literally as
-R_z(psi) R_y(beta) R_z(alpha - psi) etc. with atan2/asin), the chi2 of SPEC §8, the staged
-MIGRAD minimisation and HESSE errors (iminuit), and optionally (--events) the SPEC §7
+Everything here is written from docs/contract.md alone, in numpy, without looking at the
+C++ fit: the model f_phi, f_theta (docs/contract.md §4-§5, the transform built literally as
+R_z(psi) R_y(beta) R_z(alpha - psi) etc. with atan2/asin), the chi2 of docs/contract.md §8, the staged
+MIGRAD minimisation and HESSE errors (iminuit), and optionally (--events) the docs/contract.md §7
 selection and profile filling from an event CSV.
 
 Usage
@@ -40,7 +40,7 @@ import time
 import numpy as np
 from iminuit import Minuit
 
-# ---------------------------------------------------------------- constants (SPEC §2-§3, §5, §7)
+# ---------------------------------------------------------------- constants (docs/contract.md §2-§3, §5, §7)
 NAMES = ["alpha", "beta1", "beta2", "dx", "dy", "dz",
          "dp1", "dp2", "dp3", "dy_rel", "dz_rel", "beta_rel"]
 UNITS = {"alpha": "deg", "beta1": "deg", "beta2": "deg", "beta_rel": "deg"}
@@ -70,7 +70,7 @@ EVENT_COLUMNS = ["run", "event", "beam_energy_mev", "muon_veto", "charged", "z0_
                  "phi_ts_rad", "theta_ts_rad", "energy_mev", "phi_emc_rad", "theta_emc_rad"]
 
 
-# ---------------------------------------------------------------- model (SPEC §1, §4, §5)
+# ---------------------------------------------------------------- model (docs/contract.md §1, §4, §5)
 def shower_radius(e_mev, theta):
     """R(E, theta) = R0 + X0 (ln(E/Ec) - 0.5 - x_pre / sin theta)."""
     return R0 + X0 * (np.log(e_mev / EC) - 0.5 - XPRE / np.sin(theta))
@@ -88,7 +88,7 @@ EX, EY, EZ = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)
 
 
 def hemisphere_maps(eta):
-    """eta in internal units -> {s: (R_s, t_s)} with p1 = R_s p0 + t_s (SPEC §4 forward)."""
+    """eta in internal units -> {s: (R_s, t_s)} with p1 = R_s p0 + t_s (docs/contract.md §4 forward)."""
     alpha, b1, b2, dx, dy, dz, dp1, dp2, dp3, dy_rel, dz_rel, beta_rel = eta
     beta = math.asin(math.sqrt(b1 * b1 + b2 * b2))
     psi = math.atan2(b2, b1)
@@ -118,7 +118,7 @@ class Model:
         r = shower_radius(e, theta0)
         if np.any(r >= R1):
             # the model points are always in layers 1-2 for E ~ E_beam; the layer-3 rule
-            # of SPEC §4 would apply beyond R1 and is not implemented here
+            # of docs/contract.md §4 would apply beyond R1 and is not implemented here
             raise SystemExit("model point beyond R1: the layer-3 rule is not implemented")
         self.p0 = r[:, None] * np.column_stack((np.sin(theta0) * np.cos(phi0),
                                                 np.sin(theta0) * np.sin(phi0),
@@ -138,7 +138,7 @@ class Model:
 
 
 class Chi2:
-    """chi2(eta in file units) of SPEC §8 over the bins with n >= 10."""
+    """chi2(eta in file units) of docs/contract.md §8 over the bins with n >= 10."""
 
     errordef = Minuit.LEAST_SQUARES
 
@@ -180,7 +180,7 @@ def read_profile(path):
     return cols
 
 
-# ---------------------------------------------------------------- selection and profile (SPEC §5, §7)
+# ---------------------------------------------------------------- selection and profile (docs/contract.md §5, §7)
 def read_events(path):
     with open(path) as f:
         lines = [ln for ln in f if not ln.startswith("#")]
@@ -194,7 +194,7 @@ def read_events(path):
 
 
 def select_and_fill(ev):
-    """SPEC §7 selection of e+e- -> e+e- and the 16 x 10 profile; returns (profile, counts)."""
+    """docs/contract.md §7 selection of e+e- -> e+e- and the 16 x 10 profile; returns (profile, counts)."""
     run, event = ev["run"], ev["event"]
     nrow = len(run)
     start = np.ones(nrow, dtype=bool)
@@ -358,7 +358,7 @@ def whitened_jacobian(chi2, x):
 
 
 def gauss_newton_cov(chi2, x):
-    """(J^T J)^-1 of the whitened residuals (SPEC §8 definition)."""
+    """(J^T J)^-1 of the whitened residuals (docs/contract.md §8 definition)."""
     jac = whitened_jacobian(chi2, x)
     return np.linalg.inv(jac.T @ jac)
 
@@ -421,7 +421,7 @@ def main():
 
     prof = theirs
     if args.events:
-        print(f"\n== Selection and profile from {args.events} (SPEC §7) ==")
+        print(f"\n== Selection and profile from {args.events} (docs/contract.md §7) ==")
         t0 = time.perf_counter()
         prof, counts = select_and_fill(read_events(args.events))
         print(f"  ({time.perf_counter() - t0:.2f} s)")
@@ -445,7 +445,7 @@ def main():
     print(f"  bins used {chi2.used}, ndf {ndf} (emcalign {res.get('ndf')})")
     check(ndf == res.get("ndf"), "ndf = 2 * bins used - 12 equal")
 
-    print(f"\n== Staged MIGRAD (SPEC §8) + HESSE ==")
+    print(f"\n== Staged MIGRAD (docs/contract.md §8) + HESSE ==")
     chi2.ncall = 0
     m, stages, t_migrad, t_total = staged_fit(chi2)
     em_stages = {s["stage"]: s for s in res.get("stages", [])}

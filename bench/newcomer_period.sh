@@ -2,7 +2,7 @@
 # The newcomer's period of docs/campaign.md (issue 43): data/periods/newcomer-drift.json — 60
 # runs at three beam energies, a dx step at run 45, an alpha drift from run 8 to run 27 inside
 # flat runs — simulated, calibrated in IOVs of 20 000 selected events with --sigma-sys auto and
-# with SPEC's sigma_sys, each trend against the truth, and the refit of each.
+# with the contract's sigma_sys, each trend against the truth, and the refit of each.
 #   bench/newcomer_period.sh [DIR]      (default /tmp/emcalign-newcomer; about 40 s)
 # Prints the drift, the steps and the periods found beside the truth.
 set -euo pipefail
@@ -25,7 +25,7 @@ import json, sys
 d = sys.argv[1]
 for tag in ("auto", "spec"):
     t = json.load(open(f"{d}/trend-{tag}/trend.json"))
-    print(f"\n## --sigma-sys {tag if tag == 'auto' else 'SPEC 0.2 deg'}: {t['iovs']} IOVs\n")
+    print(f"\n## --sigma-sys {tag if tag == 'auto' else '0.2 deg'}: {t['iovs']} IOVs\n")
     print("| found | parameter | where | size or change | true | or a step / a drift? |\n|---|---|---|---|---|---|")
     for s in t["steps"]:
         print(f"| step | {s['parameter']} | run {s['first_run_after']} | {s['size']:+.4f} ± {s['error']:.4f} | "

@@ -1,5 +1,5 @@
 // emcalign correct: event files in, the same events out with the EMC directions corrected by
-// an alignment (SPEC §9, §11; apply/correct.hpp, docs/apply.md).
+// an alignment (docs/contract.md §9, §11; apply/correct.hpp, docs/apply.md).
 
 #include <filesystem>
 #include <memory>
@@ -149,7 +149,8 @@ void addCorrectCommand(CLI::App& app, int& exitCode) {
   addDetectorOption(*cmd, o->detector);
   addCompressionOption(*cmd, o->compression);
   cmd->add_option("-o,--output", o->output,
-                  "output file: .csv for CSV, anything else HDF5; '-': CSV to standard output; a directory (DIR/ "
+                  "output file: .csv for CSV, .h5 or .hdf5 for HDF5, another name the format of the first input; '-': "
+                  "CSV to standard output; a directory (DIR/ "
                   "or an existing one): one corrected file per input, under its own name (a period's runs)")
       ->required();
   cmd->callback([o, &exitCode] {

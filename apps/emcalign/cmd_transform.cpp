@@ -1,4 +1,4 @@
-// emcalign transform: the alignment transform of SPEC §4 on points read from stdin.
+// emcalign transform: the alignment transform of docs/contract.md §4 on points read from stdin.
 //
 //   stdin:  x_cm,y_cm,z_cm            (header line required; '#' lines are comments)
 //   stdout: x_cm,y_cm,z_cm,hemisphere (17 significant digits)

@@ -122,7 +122,7 @@ void addVersionFlag(CLI::App& cmd);
 CLI::Validator finiteIn(double lo, double hi);
 CLI::Validator integerIn(std::int64_t lo, std::int64_t hi);
 /// --sigma-sys auto|DEG (calib/sigma_sys.hpp): the option, and the choice it makes (not
-/// given: SPEC's 0.2°).
+/// given: the contract's 0.2°).
 CLI::Option* addSigmaSysOption(CLI::App& cmd, std::string& text);
 calib::SigmaSysChoice sigmaSysChoice(const std::string& text);
 /// The points of a CSV on standard input: the header x_cm,y_cm,z_cm, then one point per row

@@ -1,5 +1,5 @@
 #pragma once
-// The fan-out of the heavy commands on the command line (SPEC §12, docs/cluster.md): `--plan`,
+// The fan-out of the heavy commands on the command line (docs/contract.md §12, docs/cluster.md): `--plan`,
 // `emcalign task`, `emcalign finish` and `emcalign batch`. The tasks and the merge are the
 // library's (validation/task_plan.hpp); this only wires them to the commands' options.
 

@@ -39,7 +39,7 @@ truth, warnings = emcalign.read_alignment(os.path.join(ROOT, "data", "examples",
 print(f"{det.size} counters, support sphere 1 at r1 = {det.r1} cm")
 print("truth:", {name: round(v, 4) for name, v in zip(emcalign.PARAMETERS, truth / units)})
 
-# Nominal points near the parting plane x = 0 and where they really are (the transform of SPEC §4).
+# Nominal points near the parting plane x = 0 and where they really are (the transform of docs/contract.md §4).
 nominal = np.array([[41.0, 0, 0], [0.5, 41, 0], [-0.5, 41, 0], [-41, 0, 0], [29, 0, 29], [-29, 0, -29]])
 actual = emcalign.forward(det, truth, nominal)
 print("shift (mm):", np.round(10 * np.linalg.norm(actual - nominal, axis=1), 2))
@@ -54,7 +54,7 @@ print(f"largest counter displacement: {10 * np.linalg.norm(moved, axis=1).max():
 events_path = os.path.join(OUT, "events.h5")
 emcalign.simulate(truth, EVENTS, output=events_path, seed=1, theta_min_deg=40, theta_max_deg=140)
 ev = emcalign.read_events(events_path)
-cut = emcalign.select(ev)  # SPEC §7, per row: 0 when the event is selected
+cut = emcalign.select(ev)  # docs/contract.md §7, per row: 0 when the event is selected
 print(f"{EVENTS} events, {len(ev['run'])} particle rows, {np.count_nonzero(cut == 0)} rows selected")
 
 # %% [markdown]

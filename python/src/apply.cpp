@@ -1,5 +1,5 @@
 // What a user does with fitted parameters: event files corrected (apply/correct.hpp), and the
-// cluster correction of SPEC §9 on numpy columns.
+// cluster correction of docs/contract.md §9 on numpy columns.
 
 #include <fmt/format.h>
 
@@ -81,7 +81,7 @@ py::dict correctFiles(const Paths& paths, const Path& output, const Detector* gi
   return d;
 }
 
-// SPEC §9 on columns: each cluster's (φ, θ, E) → the corrected (φ', θ').
+// docs/contract.md §9 on columns: each cluster's (φ, θ, E) → the corrected (φ', θ').
 py::tuple correctDirections(const Array& values, const Array& phi, const Array& theta, const Array& energy,
                             const Detector* given, double depthOffset) {
   const Detector& detector = detectorOr(given);

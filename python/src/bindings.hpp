@@ -69,12 +69,12 @@ void addColumn(py::dict& out, const char* key, const std::vector<Row>& rows, Fie
   out[key] = a;
 }
 
-/// Rows of particles (SPEC §6) as the dict of numpy columns read_events gives, with "truth"
+/// Rows of particles (docs/contract.md §6) as the dict of numpy columns read_events gives, with "truth"
 /// and "hits" dicts when given (truth: one per row).
 py::dict eventColumns(const std::vector<ParticleRow>& rows, const std::vector<TruthRow>* truth,
                       const std::vector<Hit>* hits);
 
-/// The rows of a dict of SPEC §6 columns (as read_events gives); the error names a missing
+/// The rows of a dict of docs/contract.md §6 columns (as read_events gives); the error names a missing
 /// or malformed column.
 std::vector<ParticleRow> rowsOf(const py::dict& events);
 

@@ -1,4 +1,4 @@
-// Event files as numpy columns, and SPEC §7's selection on them.
+// Event files as numpy columns, and docs/contract.md §7's selection on them.
 
 #include <fmt/format.h>
 
@@ -17,7 +17,7 @@ namespace emcalign::python {
 
 namespace {
 
-// An event file's rows as numpy columns (SPEC §6 names and units), with its truth and hits
+// An event file's rows as numpy columns (docs/contract.md §6 names and units), with its truth and hits
 // when it has them and they are asked for.
 py::dict readEvents(const Paths& paths, bool truth, bool hits) {
   io::ReaderOptions o;
@@ -210,7 +210,7 @@ void bindEvents(py::module_& m) {
       [](const py::dict& events, std::optional<double> beamEnergy, std::optional<double> maxAbsZ0,
          std::optional<double> maxAbsRho, std::optional<double> minEnergyFraction,
          std::optional<double> maxEnergyFraction, std::optional<double> maxAcollinearityDeg) {
-        calib::SelectionOptions o;  // SPEC §7's cuts, unless given
+        calib::SelectionOptions o;  // docs/contract.md §7's cuts, unless given
         if (beamEnergy) {
           if (std::string problem = beamEnergyProblem(*beamEnergy * units::MeV); !problem.empty()) {
             raise(Error{"select: beam_energy " + problem});

@@ -33,7 +33,7 @@ struct Fit {
   }
 };
 
-// sigma_sys: None (SPEC's), "auto", or degrees (any real number but a bool).
+// sigma_sys: None (the contract's), "auto", or degrees (any real number but a bool).
 std::optional<calib::SigmaSysChoice> sigmaSysOf(const py::object& sigmaSys, std::string& text) {
   if (sigmaSys.is_none()) return std::nullopt;
   if (py::isinstance<py::str>(sigmaSys)) {
@@ -101,7 +101,7 @@ Fit fit(const py::object& paths, const Detector* given, const py::object& sigmaS
   return out;
 }
 
-// Profile bins as numpy columns (the profile file's, SPEC §8), plus `used`.
+// Profile bins as numpy columns (the profile file's, docs/contract.md §8), plus `used`.
 py::dict binColumns(const std::vector<calib::ProfileBin>& bins) {
   using Bin = calib::ProfileBin;
   py::dict d;

@@ -1,5 +1,5 @@
 // The detector and its geometry database, parameter files, fit ↔ physical sets and the
-// transform of SPEC §4 on (N, 3) arrays.
+// transform of docs/contract.md §4 on (N, 3) arrays.
 
 #include <fmt/format.h>
 
@@ -89,7 +89,7 @@ py::array_t<int> locate(const Detector& d, const Array& points) {
   return out;
 }
 
-// The transform of SPEC §4 on (N, 3) points, each in the hemisphere of its own x (nominal
+// The transform of docs/contract.md §4 on (N, 3) points, each in the hemisphere of its own x (nominal
 // frame, forward) or as given; support "inner" or "outer" (layer 3).
 Array transformPoints(const Detector& detector, const Array& values, const Array& points, bool forward,
                       const std::string& support, std::optional<int> hemisphere) {

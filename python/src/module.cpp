@@ -1,4 +1,4 @@
-// The pybind11 module `emcalign._emcalign`: bindings only (STYLE.md). Arrays cross as numpy
+// The pybind11 module `emcalign._emcalign`: bindings only (docs/style.md). Arrays cross as numpy
 // arrays, never as per-row Python objects; every library error becomes `emcalign.Error` with
 // the message the command-line tool prints after "emcalign: error: ". Long loops release the
 // GIL. Units are the library's (cm, MeV, rad) unless a name says otherwise. Each part of the

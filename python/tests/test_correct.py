@@ -1,4 +1,4 @@
-"""Correcting events: files as emcalign correct writes them (byte for byte), and SPEC §9 on columns."""
+"""Correcting events: files as emcalign correct writes them (byte for byte), and docs/contract.md §9 on columns."""
 
 import numpy as np
 import pytest

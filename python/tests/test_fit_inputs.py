@@ -35,7 +35,7 @@ def test_fit_with_corrections_writes_the_cli_result(tmp_path, fit_sample, correc
     plain = emcalign.fit(str(fit_sample))
     assert r.json != plain.json
     assert plain.systematic_errors is None
-    # the statistical errors: those of the result file, smaller than the quoted ones (SPEC's
+    # the statistical errors: those of the result file, smaller than the quoted ones (the contract's
     # sigma_sys), none for a saved profile's fit
     for k, name in enumerate(emcalign.PARAMETERS):
         unit = saved["errors"][name] / r.errors[k]

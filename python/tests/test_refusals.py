@@ -67,7 +67,7 @@ def test_select_takes_event_numbers_exactly_and_whole_events(fit_sample):
     with pytest.raises(emcalign.Error, match="run"):
         emcalign.select(dict(ev, run=np.where(np.arange(len(cut)) == 5, np.nan, ev["run"])))
     with pytest.raises(emcalign.Error, match="run"):
-        emcalign.select(dict(ev, run=ev["run"] + 2**40))  # runs are 32-bit (SPEC §6)
+        emcalign.select(dict(ev, run=ev["run"] + 2**40))  # runs are 32-bit (docs/contract.md §6)
     for kwargs in (dict(beam_energy=-1.0), dict(beam_energy=float("nan")), dict(max_abs_z0=-1.0),
                    dict(min_energy_fraction=1.2)):
         with pytest.raises(emcalign.Error):

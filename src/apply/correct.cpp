@@ -215,7 +215,8 @@ Result<CorrectReport> correctFiles(const std::vector<std::string>& inputs, const
   RunAlignments alignments(calo, alignmentOf, report.method == CorrectionMethod::Hits);
 
   io::WriterOptions wo;
-  const bool hdf5 = io::formatOf(output) == io::EventFormat::Hdf5;
+  const io::EventFormat format = io::outputFormatOf(output, inputs.front());
+  const bool hdf5 = format == io::EventFormat::Hdf5;
   wo.withTruth = *first && (*reader)->truth() != nullptr && hdf5;
   wo.withHits = hits && hdf5;
   wo.compression = o.compression;
@@ -223,7 +224,7 @@ Result<CorrectReport> correctFiles(const std::vector<std::string>& inputs, const
   wo.attributes = (*reader)->attributes();
   std::erase_if(wo.attributes, [](const auto& a) { return a.first == "correction"; });
   wo.attributes.emplace_back("correction", o.description);
-  auto writer = io::EventWriter::open(output, wo);
+  auto writer = io::EventWriter::open(output, wo, format);
   if (!writer) return writer.error();
   report.truth = wo.withTruth;
   report.hits = wo.withHits;

@@ -25,7 +25,7 @@ constexpr int kN = static_cast<int>(kNumParams);
 
 struct BinPoint {
   double phi, theta, radius, yPhi, yTheta, wPhi, wTheta;  // w = 1/σ
-  double plusWeight;  // 1 or 0 (SPEC: s = sign(cos φ)), or the mixture of a parting-plane response
+  double plusWeight;  // 1 or 0 (the contract: s = sign(cos φ)), or the mixture of a parting-plane response
 };
 
 // All whitened residuals in one functor: the two hemispheres' placements are built once
@@ -276,7 +276,7 @@ Result<std::vector<BinPoint>> fitPoints(const std::vector<ProfileBin>& bins, con
   return points;
 }
 
-// The staged minimisation of SPEC §8: each stage frees its parameters and starts where the
+// The staged minimisation of docs/contract.md §8: each stage frees its parameters and starts where the
 // last ended. Fills the stages, parameters, χ², ndf, p-value and the status so far.
 void minimiseInStages(ceres::Problem& problem, geometry::ParamVector& eta, const FitOptions& options,
                       FitResult& result) {

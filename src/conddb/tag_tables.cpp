@@ -227,7 +227,10 @@ Result<std::string> tagCsv(Database& db, const std::string& tag, const std::stri
                        cell(l.sigmaSysMethod.value_or("")), number(l.sigmaSysDeg),
                        l.selectedEvents ? std::to_string(*l.selectedEvents) : std::string(), cell(l.model));
     for (const auto& v : *values) csv += fmt::format(",{},{}", csvNumber(v.value), csvNumber(v.error));
-    for (const auto& v : *values) csv += "," + csvNumber(v.statisticalError);
+    for (const auto& v : *values) {
+      csv.push_back(',');
+      csv.append(csvNumber(v.statisticalError));
+    }
     csv += "\n";
   }
   return csv;

@@ -10,7 +10,7 @@
 namespace emcalign::geometry {
 
 namespace {
-// γ_k of the three gap points, SPEC §3.
+// γ_k of the three gap points, docs/contract.md §3.
 constexpr std::array<double, 3> kGapAngles = {0.0, 2.0 * std::numbers::pi / 3.0, 4.0 * std::numbers::pi / 3.0};
 }  // namespace
 

@@ -1,4 +1,4 @@
-// The CSV event format (SPEC §6): the writer and the streaming row source.
+// The CSV event format (docs/contract.md §6): the writer and the streaming row source.
 
 #include <algorithm>
 #include <cerrno>

@@ -29,6 +29,19 @@ EventFormat formatOf(const std::string& path) {
   return tail == ".csv" ? EventFormat::Csv : EventFormat::Hdf5;
 }
 
+EventFormat outputFormatOf(const std::string& output, const std::string& input) {
+  std::string name = std::filesystem::path(output).filename().string();
+  for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  // The temporary of a reserved output (NAME.tmp-PID, io/output_file.hpp) is named by NAME.
+  if (const auto at = name.rfind(".tmp-"); at != std::string::npos && at + 5 < name.size() &&
+                                           name.find_first_not_of("0123456789", at + 5) == std::string::npos) {
+    name.resize(at);
+  }
+  if (output == "-" || name.ends_with(".csv")) return EventFormat::Csv;
+  if (name.ends_with(".h5") || name.ends_with(".hdf5")) return EventFormat::Hdf5;
+  return formatOf(input);
+}
+
 namespace {
 
 using namespace detail;
@@ -312,7 +325,11 @@ class EventReaderImpl final : public EventReader {
 // ============================================================================ public API
 
 Result<std::unique_ptr<EventWriter>> EventWriter::open(const std::string& path, const WriterOptions& options) {
-  const EventFormat format = formatOf(path);
+  return open(path, options, formatOf(path));
+}
+
+Result<std::unique_ptr<EventWriter>> EventWriter::open(const std::string& path, const WriterOptions& options,
+                                                       EventFormat format) {
   if (auto s = checkAttributes(path, options.attributes, format); !s) return s.error();
   if (format == EventFormat::Csv) return openCsvWriter(path, options);
   return openHdf5Writer(path, options);

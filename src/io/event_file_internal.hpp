@@ -1,6 +1,6 @@
 #pragma once
 // Internal to the event-file implementation (src/io/event_*.cpp), not installed: the columns
-// of SPEC §6, the checks every row must pass (event_rows.cpp), and the interface between
+// of docs/contract.md §6, the checks every row must pass (event_rows.cpp), and the interface between
 // the reader and writer front (event_file.cpp) and the two formats (event_csv.cpp,
 // event_hdf5_writer.cpp and event_hdf5_reader.cpp). The rules themselves are documented in
 // include/emcalign/io/event_file.hpp.

@@ -1,4 +1,4 @@
-// The HDF5 event format (SPEC §6): the streaming row source (event_hdf5_writer.cpp writes it).
+// The HDF5 event format (docs/contract.md §6): the streaming row source (event_hdf5_writer.cpp writes it).
 
 #include <hdf5.h>
 

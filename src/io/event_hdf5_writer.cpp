@@ -1,4 +1,4 @@
-// The HDF5 event format (SPEC §6): the writer (event_hdf5_reader.cpp reads it).
+// The HDF5 event format (docs/contract.md §6): the writer (event_hdf5_reader.cpp reads it).
 
 #include <hdf5.h>
 

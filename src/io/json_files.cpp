@@ -282,7 +282,7 @@ json toJson(const DetectorDescription& d) {
 // ---------------------------------------------------------------- alignment parameters
 
 void strict::checkAlignmentHeader(const StrictObject& top) {
-  // The parameter keys, plus what a fit result adds (SPEC §3), read elsewhere.
+  // The parameter keys, plus what a fit result adds (docs/contract.md §3), read elsewhere.
   top.allowOnly({"format",
                  "units",
                  "parameters",

@@ -486,7 +486,7 @@ Result<std::vector<std::string>> writeFitPlots(const std::string& dir, const std
       thetaRange.add((b.yTheta + sign * b.sigmaTheta) / deg);
     }
   }
-  // θ axis: the slice means plus half a slice width on each side (45°–135° for SPEC §7).
+  // θ axis: the slice means plus half a slice width on each side (45°–135° for docs/contract.md §7).
   const double halfSlice = d.nTheta > 1 ? 0.5 * (thetaHi - thetaLo) / (d.nTheta - 1) : 5.0;
   thetaLo -= halfSlice;
   thetaHi += halfSlice;

@@ -693,7 +693,7 @@ std::string tableMarkdown(const Table& t) {
           : fmt::format("median {:.4g} deg ({:.4g} to {:.4g})", t.sigmaSysMedian, t.sigmaSysMin, t.sigmaSysMax));
   for (const auto& r : t.rows) {
     std::string pb = "", ps = "";
-    if (const auto* p = paper::table1(r.name.name())) {  // SPEC §10
+    if (const auto* p = paper::table1(r.name.name())) {  // docs/contract.md §10
       pb = fmt::format("{:.3g}", p->bias);
       ps = fmt::format("{:.3g}", p->spread);
     }

@@ -95,7 +95,7 @@ struct ClosedGroup {
   std::int64_t selected = 0;
 };
 
-// SPEC §13's grouping of the runs taken after the last decided group (by run): a group closes
+// docs/contract.md §13's grouping of the runs taken after the last decided group (by run): a group closes
 // when it reaches minEvents, or when the next run has another beam energy. The rest is open.
 std::vector<ClosedGroup> closedGroups(const std::vector<TakenRun>& runs, std::int64_t minEvents) {
   std::vector<ClosedGroup> closed;

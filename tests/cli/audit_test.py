@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Issue 46: conditions you can audit, through the command line, against SPEC §13.
+"""Issue 46: conditions you can audit, through the command line, against docs/contract.md §13.
 
     audit_test.py EMCALIGN [--postgres]
 

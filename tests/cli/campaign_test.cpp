@@ -163,7 +163,7 @@ TEST_F(CampaignCli, SigmaSysIsEveryGroupsAndThePlansAndTheRefitsToo) {
   r = run(fmt::format("conditions get {} --tag a.seg --run 20 -o {}", uri, path("s20.json")));
   ASSERT_EQ(r.exitCode, 0) << r.err;
   EXPECT_EQ(json::parse(emcalign::testing::slurp(path("s20.json")))["sigma_sys"]["method"], "auto");
-  // A refit is written under test (SPEC §13): validated by someone before it is promoted.
+  // A refit is written under test (docs/contract.md §13): validated by someone before it is promoted.
   r = run(fmt::format("conditions state {} --tag a.seg", uri));
   EXPECT_EQ(r.out, "testing\n") << r.err;
 

@@ -1,5 +1,5 @@
 // emcalign check gg|3pi on small simulated samples of a paper-like misalignment, corrected
-// with the truth: the outputs of SPEC §11, the cut flows, the improvement, nothing left behind;
+// with the truth: the outputs of docs/contract.md §11, the cut flows, the improvement, nothing left behind;
 // a zero alignment changes nothing.
 
 #include <filesystem>

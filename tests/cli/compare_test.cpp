@@ -1,4 +1,4 @@
-// emcalign compare: data against simulation (SPEC §12): a twin simulation agrees, a nominal
+// emcalign compare: data against simulation (docs/contract.md §12): a twin simulation agrees, a nominal
 // detector does not, and the outputs are those the interface names.
 
 #include <algorithm>

@@ -1,5 +1,5 @@
 // emcalign conditions, and --conditions of correct and simulate, against an SQLite file and
-// the test suite's PostgreSQL server: the commands of SPEC §11, writers in parallel
+// the test suite's PostgreSQL server: the commands of docs/contract.md §11, writers in parallel
 // processes, a writer killed with SIGKILL mid-write, copies between back ends.
 
 #include <fcntl.h>

@@ -2,9 +2,11 @@
 // simulation's reconstruction exactly for a zero alignment, corrected files read back,
 // only the EMC directions change, and misuse is refused.
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -95,6 +97,28 @@ TEST_F(Correct, OnlyTheEmcDirectionsChangeAndTheFileReadsBack) {
     }
     EXPECT_GT(changed, in.size() * 9 / 10);
   }
+}
+
+// A CSV input gives a CSV output whatever the output's name, unless the name says HDF5.
+TEST_F(Correct, ACsvIsCorrectedIntoACsvUnlessTheNameSaysHdf5) {
+  ASSERT_EQ(run("simulate --events 500 --seed 3 --params " + truth_ + " -o " + path("ev.csv")).exitCode, 0);
+  for (const char* name : {"out", "out.dat", "out.CSV"}) {
+    SCOPED_TRACE(name);
+    auto r = run("correct " + path("ev.csv") + " --alignment " + truth_ + " --method clusters -o " + path(name));
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    std::ifstream in(path(name));
+    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_NE(text.find("\nrun,event,beam_energy_mev,"), std::string::npos) << "not a CSV";
+    const auto lines = [](const std::string& t) { return std::count(t.begin(), t.end(), '\n'); };
+    EXPECT_EQ(lines(withoutComments(path(name))), lines(withoutComments(path("ev.csv")))) << "other rows";
+  }
+  auto r = run("correct " + path("ev.csv") + " --alignment " + truth_ + " --method clusters -o " + path("out.h5"));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  std::ifstream h5(path("out.h5"), std::ios::binary);
+  char magic[8] = {};
+  h5.read(magic, 8);
+  EXPECT_EQ(std::string(magic, 8), std::string("\x89HDF\r\n\x1a\n", 8));
+  EXPECT_EQ(rowsOf(path("out.h5")).size(), rowsOf(path("ev.csv")).size());
 }
 
 TEST_F(Correct, MisuseIsRefusedWithoutOutput) {

@@ -2,7 +2,7 @@
 // energies, a dx step at run 45, and an α drift from run 8 to run 27 inside flat runs (6.5
 // statistical errors of one IOV of 20 000 selected events). Calibrated with `--sigma-sys auto`
 // the trend finds the drift with its ends, no step beside it, and the flat runs around it
-// stable; with SPEC's σ_sys the same drift is still found and no period holding it is stable;
+// stable; with the contract's σ_sys the same drift is still found and no period holding it is stable;
 // the refit merges no IOVs across it. (docs/campaign.md, "The newcomer's period".)
 
 #include <cmath>
@@ -112,14 +112,16 @@ TEST_F(DriftPeriodCli, TheDriftIsFoundWithItsEndsAndNothingMergedOverIt) {
   EXPECT_THAT(text, ::testing::HasSubstr(fmt::format("| alpha | from run {}", d["start_run"].get<int>())));
   EXPECT_THAT(text, ::testing::HasSubstr("| alpha | statistical |"));
 
-  // With SPEC's σ_sys the same drift is still found, and no period holding it is stable.
+  // With the contract's σ_sys the same drift is still found, and no period holding it is stable.
   const json u = trendOf("spec", fmt::format(" --refit {} --tag-out spec.refit --corrections {}", path("p"), grid()));
   const json e = alphaDrift(u);
   ASSERT_FALSE(e.is_null()) << u["drifts"].dump();
   EXPECT_LE(e["first_run"].get<int>(), 10);
   EXPECT_GE(e["last_run"].get<int>(), 25);
   for (const auto& g : u["segments"]) {
-    if (g["first_run"].get<int>() <= 25 && g["last_run"].get<int>() >= 10) EXPECT_FALSE(g["stable"].get<bool>());
+    if (g["first_run"].get<int>() <= 25 && g["last_run"].get<int>() >= 10) {
+      EXPECT_FALSE(g["stable"].get<bool>());
+    }
   }
   // The refit: no refitted IOV spans runs over which α truly moves (runs 8-27).
   ASSERT_TRUE(u.contains("refit"));

@@ -82,7 +82,7 @@ TEST_F(FitCli, FitsASimulatedFileAndRefitsItsProfile) {
 }
 
 TEST_F(FitCli, SigmaSysAutoAndByHandAreRecordedInTheResult) {
-  // The simulation has a counter non-uniformity but no 0.2° of it: auto finds less than SPEC's.
+  // The simulation has a counter non-uniformity but no 0.2° of it: auto finds less than the contract's.
   std::string out;
   ASSERT_EQ(
       run("fit " + path("ee.h5") + " --sigma-sys auto -o " + path("auto.json") + " --profile-out " + path("auto.csv"),
@@ -101,7 +101,7 @@ TEST_F(FitCli, SigmaSysAutoAndByHandAreRecordedInTheResult) {
   EXPECT_NEAR(a["chi2"].get<double>(), a["ndf"].get<double>(), 1e-6 * a["ndf"].get<double>());
   EXPECT_GT(s["chi2_statistical_errors"].get<double>(), a["chi2"].get<double>());
   EXPECT_EQ(s["event_pair_correlations"], true);  // the errors carry the two particles' correlation
-  // Smaller errors than with SPEC's 0.2°.
+  // Smaller errors than with the contract's 0.2°.
   ASSERT_EQ(run("fit " + path("ee.h5") + " -o " + path("spec.json")), 0);
   const auto spec = nlohmann::json::parse(slurp(path("spec.json")));
   EXPECT_EQ(spec["sigma_sys"]["method"], "spec");

@@ -1,11 +1,11 @@
 #!/usr/bin/env python3
-"""Issue 45: `emcalign prompt` against SPEC §13, a DAQ directory and faults.
+"""Issue 45: `emcalign prompt` against docs/contract.md §13, a DAQ directory and faults.
 
     prompt_test.py EMCALIGN [--postgres]
 
 A season of 24 simulated runs (a step of dx at run 10, a jump beyond max_change at run 16, another
 beam energy from run 21) is streamed into a watched directory file by file, and checked:
-  season      the decisions (SPEC's records, significance = |change|/error, the first group's
+  season      the decisions (the contract's records, significance = |change|/error, the first group's
               nulls), the IOVs tiling the runs, no-update and veto serving the payload in force,
               the update in the first group after the step, the vetoes alerted with their record
   kills       kill -9 at random moments, in --once and loop mode: the tag and decisions.jsonl
@@ -128,7 +128,7 @@ def test_season(season):
     check(len(records) >= 6, f"season: {len(records)} groups decided")
     keys = ["group", "runs", "beam_energy_mev", "selected_events", "decision", "reasons", "parameters", "payload"]
     for r in records:
-        check(all(k in r for k in keys), f"season: a record without SPEC's keys: {r}")
+        check(all(k in r for k in keys), f"season: a record without the contract's keys: {r}")
         check(set(r["parameters"]) == {"alpha", "dx"}, f"season: the parameters of {r['group']}")
     check([r["group"] for r in records] == list(range(len(records))), "season: groups numbered 0, 1, ...")
     first = records[0]
@@ -620,7 +620,7 @@ def main():
     try:
         season = Season(root)
         test_season(season)
-        print(f"ok   season: {len(season.reference[1].splitlines())} groups as SPEC §13 says")
+        print(f"ok   season: {len(season.reference[1].splitlines())} groups as docs/contract.md §13 says")
         for t in (test_kills, test_daq, test_loops, test_review, test_full):
             t(season)
         test_promotion(season, "sqlite:promo/c.db", "promo")

@@ -76,7 +76,7 @@ TEST_F(ValidateCli, SmallCampaignWritesATableAndResumes) {
   }
   EXPECT_TRUE(table["parameters"]["psi"]["slope"].is_null());  // a direction has no scale
 
-  // Another sigma_sys is another campaign; auto estimates one per sample, below SPEC's here.
+  // Another sigma_sys is another campaign; auto estimates one per sample, below the contract's here.
   EXPECT_NE(run("validate --samples 8 --events 5000 --seed 3 --sigma-sys auto -o " + out, &err), 0);
   EXPECT_NE(err.find("another directory"), std::string::npos) << err;
   const std::string autoDir = path("auto");
@@ -84,7 +84,7 @@ TEST_F(ValidateCli, SmallCampaignWritesATableAndResumes) {
   const auto a = nlohmann::json::parse(slurp(fs::path(autoDir) / "table.json"));
   EXPECT_LT(a["sigma_sys_deg"]["min"].get<double>(), a["sigma_sys_deg"]["max"].get<double>());
   EXPECT_LT(a["sigma_sys_deg"]["max"].get<double>(), 0.2);
-  // Errors nearer the truth's scatter: wider pulls than with SPEC's 0.2°.
+  // Errors nearer the truth's scatter: wider pulls than with the contract's 0.2°.
   EXPECT_GT(a["parameters"]["dx"]["pull_width"].get<double>(), table["parameters"]["dx"]["pull_width"].get<double>());
   const auto sample = nlohmann::json::parse(slurp(fs::path(autoDir) / "samples" / "sample_0000.json"));
   EXPECT_EQ(sample["fit"]["sigma_sys"]["method"], "auto");

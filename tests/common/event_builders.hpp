@@ -1,7 +1,7 @@
 #pragma once
-// Hand-built event rows (SPEC §6) for the tests of the selection and of everything that
+// Hand-built event rows (docs/contract.md §6) for the tests of the selection and of everything that
 // reads events: a charged particle with its cluster, a photon, and an e+e- → e+e- event that
-// passes every SPEC §7 cut with a margin, so that one altered field fails exactly one cut.
+// passes every docs/contract.md §7 cut with a margin, so that one altered field fails exactly one cut.
 
 #include <cmath>
 #include <cstdint>
@@ -50,7 +50,7 @@ inline void renumber(std::vector<ParticleRow>& rows, std::int64_t event, std::in
   }
 }
 
-/// An e+e- → e+e- event at E_beam = 600 MeV that passes every SPEC §7 cut with a margin:
+/// An e+e- → e+e- event at E_beam = 600 MeV that passes every docs/contract.md §7 cut with a margin:
 /// no veto; two tracks with |z0| = 1.5 cm, |rho| ≤ 0.3 cm; clusters of 0.95 and 1.02·E_beam
 /// (the window is 0.8–1.1); φ_ts 40° and 223°, an acollinearity of 3° (the cut is 10°).
 inline std::vector<ParticleRow> bhabhaEvent(std::int64_t event = 1, std::int32_t run = 1) {

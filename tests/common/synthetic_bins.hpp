@@ -1,6 +1,6 @@
 #pragma once
 // Profile bins made from the model instead of events, for the fit's tests and benchmark:
-// SPEC §7's 16 × 10 grid (φ in 22.5° bins, θ from 45° in 9° bins), each bin's means where
+// docs/contract.md §7's 16 × 10 grid (φ in 22.5° bins, θ from 45° in 9° bins), each bin's means where
 // the caller places them in the bin, its residuals f(φ, θ, E) of a model, and Gaussian noise
 // of the bins' σ when a generator is given. Header-only: the benchmarks include it too.
 

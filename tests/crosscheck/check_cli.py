@@ -1,9 +1,9 @@
 #!/usr/bin/python3
-"""Cross-check the emcalign command-line tool against the independent SPEC reference.
+"""Cross-check the emcalign command-line tool against the independent reference written from the contract.
 
 Usage:  /usr/bin/python3 tests/crosscheck/check_cli.py PATH_TO_EMCALIGN_BINARY [--keep-temp]
 
-Checks (all against tests/crosscheck/spec_reference.py, written from SPEC.md alone):
+Checks (all against tests/crosscheck/spec_reference.py, written from docs/contract.md alone):
   * the reference's own self-consistency checks;
   * `BIN transform --params P.json [--inverse] [--hemisphere +1|-1|auto] [--layer 1|3]`
     on a few hundred random points per parameter set, forward and inverse, each
@@ -66,7 +66,7 @@ def build_cases(rng):
 
     add("all_zero", zero, physical_too=True)
 
-    # The SPEC example file, verbatim (file units).
+    # The contract's example file, verbatim (file units).
     spec_example = {"alpha": 3.0, "beta1": 0.0, "beta2": 0.0, "dx": 0.3, "dy": 0.0, "dz": 0.0,
                     "dp1": 0.4, "dp2": 0.4, "dp3": 0.4, "dy_rel": 0.0, "dz_rel": 0.0,
                     "beta_rel": 0.0}

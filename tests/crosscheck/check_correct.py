@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Outside check of `emcalign correct --method clusters` (SPEC §9, §11).
+"""Outside check of `emcalign correct --method clusters` (docs/contract.md §9, §11).
 
 Simulates a small CSV sample, corrects it with random alignments, and checks every row
 against the independent numpy transform of spec_reference.py:

@@ -1,25 +1,25 @@
 #!/usr/bin/python3
-"""Acceptance check of `emcalign fit` on independent e+e- -> e+e- events (SPEC §5-§8).
+"""Acceptance check of `emcalign fit` on independent e+e- -> e+e- events (docs/contract.md §5-§8).
 
 Usage:  /usr/bin/python3 tests/crosscheck/check_fit.py PATH_TO_EMCALIGN [--keep-temp]
                                                         [--events N]
 
 For each of two truth sets (paper-like; a larger misalignment):
-  1. `spec_events.py` (a numpy generator written from SPEC.md alone) writes N = 30 000
-     events, ~3 % of them made to fail the SPEC §7 selection, and the truth file;
+  1. `spec_events.py` (a numpy generator written from docs/contract.md alone) writes N = 30 000
+     events, ~3 % of them made to fail the docs/contract.md §7 selection, and the truth file;
   2. `emcalign fit EVENTS.csv -o r.json --profile-out p.csv` is run;
   3. checks:
      - the fit exits 0 with status `converged`, and the truth file is accepted by
        `emcalign params show`;
      - (a) every fitted parameter is within 3 x its error of the truth (file units:
        deg, cm; beta1/beta2 as the files write them);
-     - the SPEC §7 cut flow of emcalign equals that of the independent selection
+     - the docs/contract.md §7 cut flow of emcalign equals that of the independent selection
        (bench/minuit_crosscheck.py), and the number of selected events equals the
        generator's count of events meant to pass;
      - (b) the independent profile (minuit_crosscheck's --events mode) equals
        emcalign's --profile-out bin by bin (n exactly, means and sigmas to 1e-9 relative);
      - the independent chi2 at emcalign's parameters equals emcalign's chi2 (1e-6), ndf equal;
-     - (c) the independent staged MIGRAD fit (SPEC §8 stages, iminuit) reaches the same
+     - (c) the independent staged MIGRAD fit (docs/contract.md §8 stages, iminuit) reaches the same
        chi2 minimum (relative 1e-6) in every stage, and the same parameters within
        1e-3 x their errors; emcalign's errors equal the independent (J^T J)^-1 (1e-4).
 Prints a report and `N passed, M failed`; exit status 1 on any failure.
@@ -56,9 +56,9 @@ TOL_ERR = 1e-4          # relative, emcalign's error vs the independent (J^T J)^
 LARGE = {"alpha": 5.0, "beta1": -0.3, "beta2": 0.25, "dx": -0.5, "dy": 0.5, "dz": -0.5,
          "dp1": 0.8, "dp2": 0.3, "dp3": 0.55, "dy_rel": -0.1, "dz_rel": 0.08, "beta_rel": -0.15}
 # sphere: where spec_events.py puts the shower point (see its docstring):
-#   "ts"  - on the sphere |p| = R(E, theta) around the TS origin (SPEC §5's p_R of the true
+#   "ts"  - on the sphere |p| = R(E, theta) around the TS origin (docs/contract.md §5's p_R of the true
 #           track), as the acceptance check prescribes;
-#   "emc" - at depth R(E, theta) from the actual hemisphere's centre: SPEC §5's model
+#   "emc" - at depth R(E, theta) from the actual hemisphere's centre: docs/contract.md §5's model
 #           p0 = R(E, theta0) (...) , p1 = forward(p0) taken literally.
 # The two differ at second order (~ |xi|^2 / R^2 ~ 1e-4 rad for 0.5-0.7 cm shifts): far
 # below the quoted errors (sigma_sys dominates), but ~2 statistical errors on dy_rel,
@@ -121,7 +121,7 @@ def run_case(exe, case, tmp, n_events):
         return
     summary = json.loads(p.stdout.strip().splitlines()[-1])
     print("  generated %d events (%d rows) in %.2f s: %s; %d particles in the gap; "
-          "%d events expected to pass SPEC §7"
+          "%d events expected to pass docs/contract.md §7"
           % (summary["events"], summary["rows"], dt_gen, summary["kinds"],
              summary["particles_without_cluster"], summary["expected_selected"]))
     with open(truth_out) as f:
@@ -170,7 +170,7 @@ def run_case(exe, case, tmp, n_events):
     print("  cut flow      independent   emcalign")
     for k in keys:
         print("  %-24s %8d   %8s" % (k, counts[k], flow_em.get(k)))
-    check("%s: SPEC §7 cut flow equals the independent selection's" % name,
+    check("%s: docs/contract.md §7 cut flow equals the independent selection's" % name,
           all(flow_em.get(k) == counts[k] for k in keys))
     check("%s: selected events = the generator's events meant to pass" % name,
           counts["acollinearity"] == summary["expected_selected"]
@@ -272,7 +272,7 @@ def main():
     args = ap.parse_args()
     exe = os.path.abspath(args.emcalign)
     t0 = time.perf_counter()
-    print("emcalign fit on independent SPEC-model events (%s, numpy %s, iminuit %s)"
+    print("emcalign fit on independent contract-model events (%s, numpy %s, iminuit %s)"
           % (exe, np.__version__, __import__("iminuit").__version__))
     tmp = tempfile.mkdtemp(prefix="emcalign_check_fit_")
     try:

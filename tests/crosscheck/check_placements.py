@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Outside check of `emcalign export` (SPEC §9, §11; docs/apply.md).
+"""Outside check of `emcalign export` (docs/contract.md §9, §11; docs/apply.md).
 
 For random alignments:
   * JSON: each placement (R, t) moves nominal points exactly as the independent numpy

@@ -1,8 +1,8 @@
 #!/usr/bin/python3
-"""Independent generator of e+e- -> e+e- events in the SPEC §6 CSV format.
+"""Independent generator of e+e- -> e+e- events in the docs/contract.md §6 CSV format.
 
-Written from /work/shared/SPEC.md alone (no C++ code of emcalign was read), on top of
-the independent SPEC §3-§5 reference `spec_reference.py` (alignment transform, its
+Written from docs/contract.md alone (no C++ code of emcalign was read), on top of
+the independent docs/contract.md §3-§5 reference `spec_reference.py` (alignment transform, its
 exact inverse, shower depth, track/sphere intersection). Plain numpy, seeded.
 
 Usage
@@ -17,25 +17,25 @@ The model (native units cm, MeV, rad):
   * energies: each cluster E = E_beam (612.5 MeV) x (1 + 0.04 N(0, 1));
   * tracks: the true straight line from the vertex, its direction smeared by
     N(0, 0.25 deg) in theta and in phi; reported as (z0, rho, phi_ts, theta_ts) of the
-    smeared line with SPEC §5's convention: closest approach to the Z axis
+    smeared line with docs/contract.md §5's convention: closest approach to the Z axis
     (-rho sin(phi), rho cos(phi), z0);
   * EMC cluster: p1 = the outward intersection of the *true* line with the sphere
-    |p| = R(E, theta_true) (SPEC §5 p_R of the true track) is the actual shower position
-    in the TS frame. Its nominal position p0 is the SPEC §4 exact inverse (layers 1-2:
+    |p| = R(E, theta_true) (docs/contract.md §5 p_R of the true track) is the actual shower position
+    in the TS frame. Its nominal position p0 is the docs/contract.md §4 exact inverse (layers 1-2:
     R(E, theta) < R1 always here) in the hemisphere chosen by the inverse's `auto` rule
     (the s whose pre-image lies on its own side). A particle whose p1 falls in the gap
     between the hemispheres (neither pre-image qualifies) or in an overlap (both do)
     has no cluster: by default its track row is written with empty cluster fields
-    (SPEC §6), so the event fails the SPEC §7 selection (`--gap-policy drop-event`
+    (docs/contract.md §6), so the event fails the docs/contract.md §7 selection (`--gap-policy drop-event`
     leaves such events out instead).
     `--shower-sphere emc` puts the shower instead at depth R(E, theta_true) from the
-    centre of the *actual* hemisphere, i.e. |p0| = R exactly: SPEC §5's model
+    centre of the *actual* hemisphere, i.e. |p0| = R exactly: docs/contract.md §5's model
     (p0 = R(E, theta0)(...), p1 = forward(p0)) taken literally. The default (`ts`, the
     sphere around the TS origin) differs from it at second order, ~|xi|^2/R^2 ~ 1e-4 rad
     for 0.5-0.7 cm shifts, which is ~2 statistical errors of alpha, dy_rel, dz_rel on
     30 000 events (but ~0.3 of the errors the fit quotes, sigma_sys dominating them).
   * (phi_emc, theta_emc) = the angles of p0, smeared by N(0, 0.5 deg) each.
-    Subtlety: SPEC §5's model takes the hemisphere as sign(cos phi_emc) of the
+    Subtlety: docs/contract.md §5's model takes the hemisphere as sign(cos phi_emc) of the
     *reconstructed* phi. A cluster is made of counters of one hemisphere, so its
     reconstructed phi stays on that hemisphere's side of x = 0: the phi smearing is a
     Gaussian truncated at the parting plane (draws that would move phi_emc across
@@ -48,7 +48,7 @@ The model (native units cm, MeV, rad):
     Gaussian would instead put ~1 % of those bins' clusters on the wrong side, whose
     residuals carry the other hemisphere's relative terms: a bias of the gaps dp_k.)
 
-Events to be rejected by SPEC §7 (a fraction --reject-fraction, default 3 %, split
+Events to be rejected by docs/contract.md §7 (a fraction --reject-fraction, default 3 %, split
 evenly, each an otherwise normal e+e- event):
   photon  - an extra photon row (charged = 0, empty track fields, a 20-200 MeV cluster);
   veto    - muon_veto = 1;
@@ -56,10 +56,10 @@ evenly, each an otherwise normal e+e- event):
   z0      - the vertex at |z| = 12-20 cm (both |z0| > 10 cm);
   acol    - the e+ turned by 15-40 deg in phi (|180 deg - |dphi|| > 10 deg).
 
-Output: the CSV with the SPEC §6 header (after two `#` comment lines), 17 significant
-digits, phi folded into [0, 2pi); the truth as a SPEC §3 parameter file (deg, cm). A
+Output: the CSV with the docs/contract.md §6 header (after two `#` comment lines), 17 significant
+digits, phi folded into [0, 2pi); the truth as a docs/contract.md §3 parameter file (deg, cm). A
 one-line JSON summary (event counts per kind, the number of events expected to pass the
-SPEC §7 selection) is printed on stdout.
+docs/contract.md §7 selection) is printed on stdout.
 """
 
 import argparse
@@ -111,7 +111,7 @@ def angles_of(p):
 
 
 def shower_depth(e, theta):
-    """SPEC §5: R(E, theta) = R0 + X0 (ln(E/Ec) - 0.5 - x_pre / sin(theta)), cm."""
+    """docs/contract.md §5: R(E, theta) = R0 + X0 (ln(E/Ec) - 0.5 - x_pre / sin(theta)), cm."""
     return ref.R0 + ref.X0 * (np.log(e / ref.EC) - 0.5 - ref.X_PRE / np.sin(theta))
 
 
@@ -125,7 +125,7 @@ def sphere_exit(c, d, r):
 
 
 def inverse_auto(p1, fit):
-    """SPEC §4 exact inverse with the `auto` hemisphere rule, vectorised (layers 1-2).
+    """docs/contract.md §4 exact inverse with the `auto` hemisphere rule, vectorised (layers 1-2).
 
     Returns (p0, s) with s = +1 / -1, or 0 for a point in the gap or in an overlap.
     """
@@ -164,7 +164,7 @@ def emc_sphere_point(v, d, r, fit):
 def smear_phi_same_side(rng, phi0, s, sigma):
     """phi0 + N(0, sigma) truncated so that sign(cos phi) stays the hemisphere s.
 
-    s = +1 needs cos(phi) >= 0 (SPEC §5: s = +1 at cos = 0), s = -1 needs cos(phi) < 0.
+    s = +1 needs cos(phi) >= 0 (docs/contract.md §5: s = +1 at cos = 0), s = -1 needs cos(phi) < 0.
     """
     phi = phi0 + rng.normal(0.0, sigma, size=phi0.shape)
     for _ in range(1000):
@@ -263,7 +263,7 @@ def generate(n_events, seed, truth_file_units, reject_fraction=0.03, gap_policy=
     is_photon = kind == 1 + REJECT_KINDS.index("photon")
     lost = ~(has_cluster[0::2] & has_cluster[1::2])            # per event
 
-    # summary: what the SPEC §7 selection must keep
+    # summary: what the docs/contract.md §7 selection must keep
     e_ok = (energy > 0.8 * e_beam) & (energy < 1.1 * e_beam)
     normal = kind == 0
     expect_sel = normal & ~lost & e_ok[0::2] & e_ok[1::2]
@@ -325,15 +325,15 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, required=True)
     ap.add_argument("--truth", required=True, help="write the truth parameter file (JSON) here")
     ap.add_argument("-o", "--output", required=True, help="event CSV to write")
-    ap.add_argument("--params", help="truth parameter file (SPEC §3); default: paper-like")
+    ap.add_argument("--params", help="truth parameter file (docs/contract.md §3); default: paper-like")
     ap.add_argument("--reject-fraction", type=float, default=0.03,
-                    help="fraction of events made to fail the SPEC §7 selection (default 0.03)")
+                    help="fraction of events made to fail the docs/contract.md §7 selection (default 0.03)")
     ap.add_argument("--gap-policy", choices=("track-only", "drop-event"), default="track-only",
                     help="a particle in the gap: track with empty cluster fields (default) "
                          "or leave the event out")
     ap.add_argument("--shower-sphere", choices=("ts", "emc"), default="ts",
                     help="sphere |p| = R(E, theta) of the shower point: centred at the TS origin "
-                         "(default, SPEC §5 p_R) or at the actual hemisphere's centre")
+                         "(default, docs/contract.md §5 p_R) or at the actual hemisphere's centre")
     args = ap.parse_args(argv)
     if args.events <= 0:
         ap.error("--events must be positive")
@@ -343,7 +343,7 @@ def main(argv=None):
                              args.gap_policy, shower_sphere=args.shower_sphere)
     tmp = args.output + ".part"
     with open(tmp, "w") as f:
-        f.write("# e+e- -> e+e- events from tests/crosscheck/spec_events.py (SPEC model), "
+        f.write("# e+e- -> e+e- events from tests/crosscheck/spec_events.py (the contract's model), "
                 "seed %d, %d events\n" % (args.seed, args.events))
         f.write("# truth: %s\n" % json.dumps(truth, sort_keys=False))
         f.write(",".join(COLUMNS) + "\n")

@@ -1,6 +1,6 @@
 """Independent reference implementation of the emcalign alignment transform.
 
-Written from /work/shared/SPEC.md sections 1-5 alone (no C++ code was read), to
+Written from docs/contract.md sections 1-5 alone (no C++ code was read), to
 cross-check the C++ library and command-line tool. Plain numpy, explicit rotation
 matrices, atan2/asin used freely (this code is never differentiated).
 
@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-# --- SPEC section 2: detector constants -------------------------------------------
+# --- contract §2: detector constants -------------------------------------------
 R0 = 32.8      # cm, EMC inner radius
 R1 = 53.7      # cm, outer radius of support sphere 1 (layers 1-2)
 RP3 = 69.5     # cm, outer radius of support sphere 2 (layer 3)
@@ -74,9 +74,9 @@ def physical_to_file(phys):
     return {n: float(phys[n]) / (DEG if n in PHYS_ANGLE_NAMES else 1.0) for n in PHYS_NAMES}
 
 
-# --- SPEC section 3: fit <-> physical parameters --------------------------------------
+# --- contract §3: fit <-> physical parameters --------------------------------------
 def gap_quantities(fit):
-    """(dx_rel, u, t) from dp1..dp3 (SPEC 3)."""
+    """(dx_rel, u, t) from dp1..dp3 (contract §3)."""
     dp1, dp2, dp3 = fit["dp1"], fit["dp2"], fit["dp3"]
     dx_rel = (dp1 + dp2 + dp3) / 6.0
     u = dp1 - 2.0 * dx_rel
@@ -99,7 +99,7 @@ def physical_from_fit(fit):
 
 
 def fit_from_physical(phys):
-    """Native physical dict -> native fit dict (SPEC 3 inverse relations)."""
+    """Native physical dict -> native fit dict (contract §3 inverse relations)."""
     beta, psi = phys["beta"], phys["psi"]
     out = {"alpha": phys["alpha"],
            "beta1": math.sin(beta) * math.cos(psi),
@@ -112,7 +112,7 @@ def fit_from_physical(phys):
     return {n: out[n] for n in FIT_NAMES}
 
 
-# --- SPEC section 1: active right-handed rotations ----------------------------------------
+# --- contract §1: active right-handed rotations ----------------------------------------
 def rot_x(g):
     c, s = math.cos(g), math.sin(g)
     return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
@@ -137,7 +137,7 @@ def rot_axis(a, g):
             + (1.0 - math.cos(g)) * np.outer(a, a))
 
 
-# --- SPEC section 4: the alignment transform ------------------------------------------
+# --- contract §4: the alignment transform ------------------------------------------
 def _mu_tau(fit, layer):
     """(mu, tau) used for a layer, with the third-layer mu3 rule."""
     dx_rel, u, t = gap_quantities(fit)
@@ -270,7 +270,7 @@ def auto_margin(p1, fit, layer=1):
     return min(abs(inverse(p1, fit, 1, layer)[0]), abs(inverse(p1, fit, -1, layer)[0]))
 
 
-# --- SPEC section 5: shower depth, track point, model -------------------------------------
+# --- contract §5: shower depth, track point, model -------------------------------------
 def shower_depth(E, theta):
     """R(E, theta) = R0 + X0 (ln(E/Ec) - 0.5 - x_pre / sin(theta)), cm."""
     return R0 + X0 * (math.log(E / EC) - 0.5 - X_PRE / math.sin(theta))
@@ -312,7 +312,7 @@ def track_residual_angles(z0, rho, phi, theta, E):
 
 
 def model_residuals(phi0, theta0, E, fit):
-    """(f_phi, f_theta) of SPEC 5 (layers 1-2 transform, no mu3 rule)."""
+    """(f_phi, f_theta) of contract §5 (layers 1-2 transform, no mu3 rule)."""
     p0 = shower_depth(E, theta0) * direction(phi0, theta0)
     s = 1 if math.cos(phi0) >= 0.0 else -1
     p1 = forward(p0, fit, s, layer=1)

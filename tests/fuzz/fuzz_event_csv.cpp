@@ -1,4 +1,4 @@
-// libFuzzer target: the CSV event reader (SPEC §6) on arbitrary bytes.
+// libFuzzer target: the CSV event reader (docs/contract.md §6) on arbitrary bytes.
 
 #include <vector>
 

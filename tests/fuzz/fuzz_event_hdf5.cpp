@@ -1,4 +1,4 @@
-// libFuzzer target: the HDF5 event reader (SPEC §6) on arbitrary bytes. libhdf5 itself
+// libFuzzer target: the HDF5 event reader (docs/contract.md §6) on arbitrary bytes. libhdf5 itself
 // crashes and loops on some of them (tests/fuzz/regressions/); the reader runs it in a child
 // process, so what must hold here is that every input ends, in this process, with rows or
 // with a message.

@@ -3,7 +3,7 @@
 //
 // * In the idealised limit of the simulation (SimulationOptions::setIdealised: point
 //   showers at R(E, θ), cluster directions from the deposit, no radiation, noise, dead
-//   counters, background, layer-3 offset, cosmics, multiple scattering) the SPEC §5 model is
+//   counters, background, layer-3 offset, cosmics, multiple scattering) the docs/contract.md §5 model is
 //   exact up to the track resolution: every parameter must be within 3σ of the truth.
 // * With full realism the fit must converge, and the differences are the biases of what
 //   the model leaves out. The largest, measured with this simulation: the hemisphere gaps
@@ -156,7 +156,7 @@ namespace {
 
 // The statistical errors of a fit with σ_sys (FitResult::statisticalErrors, the sandwich with
 // σ_sys taken out of its middle) are what samples of the same detector scatter by: 32
-// realistic samples of 12 000 events fitted with SPEC's σ_sys = 0.2°, each parameter's spread
+// realistic samples of 12 000 events fitted with the contract's σ_sys = 0.2°, each parameter's spread
 // about the samples' mean over its statistical error is 1 within 0.35 (a 32-sample spread
 // scatters by ≈ 0.13; measured 0.91–1.20, and 0.88–1.20 with 64 samples of 16 000), while
 // the quoted errors are 1.3–2.2 times the spread. With σ_sys = 0 and independent bins the two

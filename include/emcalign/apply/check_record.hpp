@@ -1,5 +1,5 @@
 #pragma once
-// What a physics check found (`emcalign check`'s check.json, SPEC §12): its numbers before and
+// What a physics check found (`emcalign check`'s check.json, docs/contract.md §12): its numbers before and
 // after the correction, typed, with the one writer and the one reader of the file. The check
 // fills it (physics_checks.hpp's checkRecord), the command adds what it corrected with, the
 // figure and the HTML report read it back. A null in the file (nothing measured: a core not

@@ -1,5 +1,5 @@
 #pragma once
-// The cluster correction of SPEC §9 (the paper's section 4): a cluster's direction (φ, θ)
+// The cluster correction of docs/contract.md §9 (the paper's section 4): a cluster's direction (φ, θ)
 // and energy E, reconstructed in the nominal EMC frame, become the direction of the point
 // where that shower really is in the TS frame:
 //
@@ -7,7 +7,7 @@
 //   p1 = forward(p0), hemisphere s = sign(cos φ)   (layers 1–2: support sphere 1)
 //   (φ', θ') = angles of p1 seen from the TS origin
 //
-// R is the shower depth of SPEC §5 (geometry/shower_depth.hpp), with its offset when the
+// R is the shower depth of docs/contract.md §5 (geometry/shower_depth.hpp), with its offset when the
 // caller sets one (the model corrections of the fit). A cluster so soft that R(E, θ) ≤ 0
 // (E below ~1e-4 MeV; never a reconstructed cluster) is placed at the inner radius R0.
 

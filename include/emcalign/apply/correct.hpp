@@ -1,10 +1,10 @@
 #pragma once
-// Correcting event files with an alignment (SPEC §9, §11; docs/apply.md): the same rows and
+// Correcting event files with an alignment (docs/contract.md §9, §11; docs/apply.md): the same rows and
 // columns out as in, only the EMC directions (phi_emc_rad, theta_emc_rad) of the clusters
 // changed, in the nominal frame → TS frame sense of the alignment.
 //
 // Methods:
-//   clusters  SPEC §9's cluster correction (apply/cluster_correction.hpp): from the
+//   clusters  docs/contract.md §9's cluster correction (apply/cluster_correction.hpp): from the
 //             reconstructed (φ, θ, E) alone.
 //   hits      each cluster rebuilt from its counters with the aligned counter centres, by
 //             the reconstruction the simulation uses (needs files with hits).
@@ -36,7 +36,7 @@ std::optional<CorrectionMethod> correctionMethodFromName(std::string_view name);
 
 struct CorrectOptions {
   CorrectionMethod method = CorrectionMethod::Auto;
-  /// R(E, θ) of the cluster method (its offset from a corrections file, or 0: SPEC).
+  /// R(E, θ) of the cluster method (its offset from a corrections file, or 0: the contract).
   geometry::ShowerDepth depth;
   /// When set, the cluster method's R(E, θ) at each event's beam energy instead (a
   /// corrections grid's offset; an error names the run).

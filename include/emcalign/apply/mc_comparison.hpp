@@ -2,7 +2,7 @@
 // Data against simulation, as the paper judges its simulation (Fig. 6 of the paper: the Δφ
 // and Δθ of uncorrected data and of the realistic MC with the measured alignment): the
 // residual distributions of the selected e+e- → e+e- particles and the 16×10 profiles of
-// SPEC §7 (ȳ_φ, ȳ_θ per bin), each compared by a χ² of their difference (docs/apply.md,
+// docs/contract.md §7 (ȳ_φ, ȳ_θ per bin), each compared by a χ² of their difference (docs/apply.md,
 // "MC against data").
 //
 // The statistics. Every quantity compared is a ratio of sums over events — a histogram
@@ -21,7 +21,7 @@
 // once to each profile mean's variance.
 // Small bins. A histogram's bins are merged from each tail inwards until every bin has at
 // least `minEntries` particles in each sample; a profile bin is compared when both samples
-// have `minEntries` particles in it (SPEC §7's rule). For a simulation that is the data's
+// have `minEntries` particles in it (docs/contract.md §7's rule). For a simulation that is the data's
 // twin, the p-values are uniform (unit test McComparison.PValuesOfTwinSamplesAreUniform;
 // docs/apply.md shows it on simulated pairs).
 
@@ -145,7 +145,7 @@ struct ComparisonRecord {
   std::optional<double> depthOffsetCm = {};               ///< the shower depth's offset, cm
 };
 
-/// compare.json (SPEC §12): {"format", "p_value", "chi2", "ndf", "distributions": [{"name",
+/// compare.json (docs/contract.md §12): {"format", "p_value", "chi2", "ndf", "distributions": [{"name",
 /// "chi2", "ndf", "p_value", "unit", "bins": [...]}], "data", "mc" ({"events", "particles",
 /// "selected_events", "beam_energies_mev", "files"}), "empty_theta_slices", "options", "method",
 /// "software", "depth_offset_cm"}; what is not recorded is not written. The one writer and

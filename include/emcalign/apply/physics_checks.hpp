@@ -1,5 +1,5 @@
 #pragma once
-// What a calibration does to physics (the paper, section 5; SPEC §9; docs/checks.md): the
+// What a calibration does to physics (the paper, section 5; docs/contract.md §9; docs/checks.md): the
 // same events before and after the correction, side by side.
 //
 // e+e- → γγ. Selection (the paper's): exactly two photons and no track, E > 0.7·E_beam each,

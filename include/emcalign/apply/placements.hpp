@@ -1,9 +1,9 @@
 #pragma once
-// The hemisphere placements of an alignment, for a simulation (SPEC §9, §11; docs/apply.md).
+// The hemisphere placements of an alignment, for a simulation (docs/contract.md §9, §11; docs/apply.md).
 //
 // An alignment moves each hemisphere of each support sphere rigidly: p1 = R·p0 + t, p0 in
 // the nominal EMC frame, p1 in the TS frame (geometry/alignment_transform.hpp). Support
-// sphere 1 carries layers 1–2 with the transform of SPEC §4; support sphere 2 carries
+// sphere 1 carries layers 1–2 with the transform of docs/contract.md §4; support sphere 2 carries
 // layer 3, with μ replaced by μ3 when the layer-3 rule applies. Four placements in all.
 //
 // JSON (`emcalign-placements/1`):

@@ -3,8 +3,8 @@
 // distributions by which the paper judges its correction (section 4, Fig. 8: "a common
 // azimuthal bias of about 3° and an irregularity of about 1° removed").
 //
-// The particles are those of the e+e- → e+e- selection (SPEC §7) with θ_EMC inside the
-// profile range (45°–135°); their residuals are those of the fit (SPEC §5): sin Δφ =
+// The particles are those of the e+e- → e+e- selection (docs/contract.md §7) with θ_EMC inside the
+// profile range (45°–135°); their residuals are those of the fit (docs/contract.md §5): sin Δφ =
 // sin(φ_TS,R − φ_EMC) and Δθ = θ_TS,R − θ_EMC, with the track taken at the shower depth
 // R(E, θ) (paper's formula unless an offset is set).
 //   - the bias: the mean of sin Δφ (and of Δθ) over all particles, with its standard error;

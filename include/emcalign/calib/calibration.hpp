@@ -1,7 +1,7 @@
 #pragma once
-// From event files to profiles: stream the events, select e+e- → e+e- (SPEC §7), compute
+// From event files to profiles: stream the events, select e+e- → e+e- (docs/contract.md §7), compute
 // each particle's residuals and fill the 160 bins. Memory does not grow with the number of
-// events. Also: the fit-result file (SPEC §3).
+// events. Also: the fit-result file (docs/contract.md §3).
 
 #include <cstdint>
 #include <functional>
@@ -102,7 +102,7 @@ struct FitInput {
   const ProfileFill* fill = nullptr;  ///< cut flow and counts when fitted from events
   std::string detector;               ///< "embedded default" or a path
   /// The model corrections of calib/corrections.hpp: the depth offset (cm) and where the
-  /// parting-plane response came from (empty: none, SPEC's hard hemisphere assignment).
+  /// parting-plane response came from (empty: none, the contract's hard hemisphere assignment).
   double depthOffset = 0.0;
   std::string partingPlane;
   std::string nominalProfile;  ///< where the subtracted nominal profile came from (empty: none)
@@ -122,7 +122,7 @@ struct FitInput {
 /// upper null when unbounded), "chi2_statistical_errors", "p_value_statistical_errors", "fits".
 io::Json sigmaSysJson(const SigmaSysUsed& sigmaSys);
 
-/// The fit-result file of SPEC §3 (file units: deg, cm).
+/// The fit-result file of docs/contract.md §3 (file units: deg, cm).
 io::Json fitResultJson(const FitResult& result, const FitInput& input);
 
 }  // namespace emcalign::calib

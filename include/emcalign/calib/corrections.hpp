@@ -1,7 +1,7 @@
 #pragma once
 // Model corrections derived from the simulation (beyond the paper; docs/validation.md).
 //
-// The paper's model (SPEC §5) has two simplifications that bias the fit of a real
+// The paper's model (docs/contract.md §5) has two simplifications that bias the fit of a real
 // calorimeter, and both can be measured in the simulation and put back into the model:
 //
 // 1. Shower depth. The reconstructed direction of a shower corresponds to a point deeper
@@ -13,10 +13,10 @@
 //    the plane (φ columns ending or starting at 90° and 270°) see a mixture of the two
 //    hemispheres' displacements, not only the one of their side. Such a bin is modelled as
 //      f = W₊·f₊ + (1 − W₊)·f₋,
-//    f_s the model of SPEC §5 with hemisphere s's placement at the bin's means, and W₊ the
+//    f_s the model of docs/contract.md §5 with hemisphere s's placement at the bin's means, and W₊ the
 //    share of the + hemisphere measured in the simulation for its φ column. The other
-//    columns keep SPEC's hard assignment (W₊ = 1 for cos φ ≥ 0, else 0). The table belongs
-//    to SPEC's 16 φ bins. W₊ is measured at one gap (1 cm); it depends on the gap (0.8 at
+//    columns keep the contract's hard assignment (W₊ = 1 for cos φ ≥ 0, else 0). The table belongs
+//    to the contract's 16 φ bins. W₊ is measured at one gap (1 cm); it depends on the gap (0.8 at
 //    0.1 cm in the simulation, bench/parting_plane_study.cpp), which the response (4.)
 //    absorbs over the validation ranges.
 //
@@ -74,7 +74,7 @@ namespace emcalign::calib {
 
 inline constexpr std::string_view kCorrectionsFormat = "emcalign-corrections/1";
 
-/// The profile bins of SPEC §7 a corrections file belongs to (its tables have these sizes).
+/// The profile bins of docs/contract.md §7 a corrections file belongs to (its tables have these sizes).
 inline constexpr int kProfilePhiBins = 16;
 inline constexpr int kProfileThetaBins = 10;
 /// A depth offset beyond this is a unit mistake (the derived one is ~4 cm; the EMC is 37 cm deep).
@@ -92,7 +92,7 @@ class PartingPlaneResponse {
 
   /// Whether φ column `iPhi` of `phiBins` touches the parting plane (φ = 90° or 270°).
   static bool nextToPlane(int iPhi, int phiBins);
-  /// SPEC's hard value of a column away from the plane.
+  /// the contract's hard value of a column away from the plane.
   static double hardWeight(int iPhi, int phiBins);
 
   [[nodiscard]] int phiBins() const { return static_cast<int>(weight_.size()); }
@@ -142,7 +142,7 @@ struct FitResponse {
 /// systematics` on this very file (docs/systematics.md): a fit result writes it beside its
 /// statistical errors.
 struct SystematicErrors {
-  /// By parameter name, file units (deg, cm): the 12 of SPEC §3, and optionally the derived
+  /// By parameter name, file units (deg, cm): the 12 of docs/contract.md §3, and optionally the derived
   /// beta, mu, dx_rel (not the directions ψ and τ, whose error depends on the tilt). Each
   /// finite, in [0, kMaxSystematicError].
   std::map<Quantity, double> errors;
@@ -154,7 +154,7 @@ struct ModelCorrections {
   /// MeV, the beam energy the corrections belong to; NaN when the file does not say.
   double beamEnergy = std::numeric_limits<double>::quiet_NaN();
   double depthOffset = 0.0;                                  ///< cm
-  std::shared_ptr<const PartingPlaneResponse> partingPlane;  ///< none: SPEC's hard s = sign(cos φ)
+  std::shared_ptr<const PartingPlaneResponse> partingPlane;  ///< none: the contract's hard s = sign(cos φ)
   std::shared_ptr<const NominalProfile> nominalProfile;      ///< none: nothing subtracted
   std::shared_ptr<const FitResponse> response;               ///< none: the model at η itself
   /// The systematic errors of a fit with them; none: not measured.

@@ -1,5 +1,5 @@
 #pragma once
-// The χ² fit of SPEC §8:
+// The χ² fit of docs/contract.md §8:
 //
 //   χ²(η) = Σ_bins [(ȳ_φ − f_φ)²/σ_φ² + (ȳ_θ − f_θ)²/σ_θ²],   ndf = 2·(bins used) − 12,
 //
@@ -34,7 +34,7 @@ namespace emcalign::calib {
 using Covariance = geometry::ParamMatrix;
 
 struct FitOptions {
-  /// Parameters freed at each stage (SPEC §8); the union must be all 12.
+  /// Parameters freed at each stage (docs/contract.md §8); the union must be all 12.
   std::vector<std::vector<Param>> stages = {{Param::Alpha},
                                             {Param::Dx, Param::Dy},
                                             {Param::Dz, Param::Beta1, Param::Beta2},
@@ -65,7 +65,7 @@ struct DerivedValue {
   double statisticalError = std::numeric_limits<double>::quiet_NaN();
 };
 
-/// Every physical parameter of a fit (SPEC §3) with its error, indexed by `Physical`:
+/// Every physical parameter of a fit (docs/contract.md §3) with its error, indexed by `Physical`:
 /// `derived[Physical::Mu]`. Those that are fit parameters too repeat the fit's value and
 /// error; the five that are not (kDerivedParams: β, ψ, μ, τ, dx_rel) are what result files
 /// call "derived". NaN until a fit sets them.
@@ -78,7 +78,7 @@ struct DerivedValues {
 /// The systematic error σ_sys added in quadrature to the statistical σ of every bin (for y_φ
 /// and y_θ alike), and how it was chosen (calib/sigma_sys.hpp).
 enum class SigmaSysMethod {
-  Spec,   ///< SPEC §7's 0.2°, the paper's number for its data
+  Spec,   ///< docs/contract.md §7's 0.2°, the paper's number for its data
   Fixed,  ///< set by hand
   Auto,   ///< estimated from the profiles: the σ_sys for which χ²/ndf = 1 after the fit
   Saved   ///< unknown here: a saved profile's bins carry their total σ (value NaN)
@@ -97,7 +97,7 @@ struct SigmaSysUsed {
   double pValueStat = std::numeric_limits<double>::quiet_NaN();
   int fits = 0;  ///< staged fits the estimate took
   /// The errors include the correlations between the bin means that the two particles of an
-  /// event make (applyBinCovariances), not only the independent bins of SPEC §8.
+  /// event make (applyBinCovariances), not only the independent bins of docs/contract.md §8.
   bool eventPairs = false;
 };
 

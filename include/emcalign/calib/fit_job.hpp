@@ -1,7 +1,7 @@
 #pragma once
 // A fit as `emcalign fit` runs it, for every front end (the command line, the Python module):
 // event files or a saved profile, with or without model corrections (a file or a grid at the
-// sample's beam energy), σ_sys SPEC's, fixed or auto, and the result file of SPEC §3.
+// sample's beam energy), σ_sys the contract's, fixed or auto, and the result file of docs/contract.md §3.
 //
 // Three steps, so that a front end can report between them (the corrections used, the cut
 // flow) and a failure of a later step does not hide what an earlier one found:
@@ -32,7 +32,7 @@
 namespace emcalign::calib {
 
 struct FitRequest {
-  std::vector<std::string> events;  ///< event files (SPEC §6), or
+  std::vector<std::string> events;  ///< event files (docs/contract.md §6), or
   std::string profileIn;            ///< a saved profile (profileCsv), or
   /// rows in memory (the Python module's numpy columns), checked as a file's; one of the three
   std::shared_ptr<const std::vector<ParticleRow>> rows;
@@ -42,7 +42,7 @@ struct FitRequest {
   double depthOffset = 0.0;                ///< added to R(E, θ), native length; corrections bring their own
   std::string corrections;                 ///< a corrections file or grid directory (empty: none)
   std::optional<double> beamEnergy;        ///< MeV: the selection's and the grid's (none: the files')
-  std::optional<SigmaSysChoice> sigmaSys;  ///< none: SPEC's 0.2°
+  std::optional<SigmaSysChoice> sigmaSys;  ///< none: the contract's 0.2°
   /// The text of the choice for messages ("auto", "0.15"): how the user spelled it.
   std::string sigmaSysText;
 
@@ -66,7 +66,7 @@ struct FitData {
 struct FitOutcome {
   FitResult result;
   std::vector<ProfileBin> bins;  ///< as the fit saw them (the profile file, the figures)
-  io::Json resultJson;           ///< the result file (SPEC §3)
+  io::Json resultJson;           ///< the result file (docs/contract.md §3)
 };
 
 /// A warning when corrections derived from samples simulated at one θ range are used on a
@@ -85,7 +85,7 @@ class FitJob {
   [[nodiscard]] const ProfileOptions& profileOptions() const { return profile_; }
   /// The corrections at the sample's energy (none without --corrections).
   [[nodiscard]] const std::optional<CorrectionsAt>& corrections() const { return corrections_; }
-  /// The σ_sys the profiles are fitted with (SPEC's unless the request says otherwise).
+  /// The σ_sys the profiles are fitted with (the contract's unless the request says otherwise).
   [[nodiscard]] SigmaSysChoice sigmaSys() const { return request_.sigmaSys.value_or(SigmaSysChoice::spec()); }
 
   /// Selects and fills (events), or reads and checks the profile.

@@ -34,14 +34,14 @@ struct FitModel {
 /// The notes of a fit, each one sentence or two, in the order a physicist reads them:
 ///  - the model: without corrections, the paper's model's known biases in the SND-like
 ///    simulation and how to do better; a depth offset alone, what it leaves;
-///  - σ_sys: fixed (SPEC's or by hand) and χ²/ndf below 0.5, the errors are σ_sys's, not the
+///  - σ_sys: fixed (the contract's or by hand) and χ²/ndf below 0.5, the errors are σ_sys's, not the
 ///    sample's: --sigma-sys auto.
 std::vector<std::string> fitNotes(const FitResult& result, const FitModel& model);
 
 /// The warning of a result with physical parameters outside validatedRanges() by more than
 /// twice their errors (ψ, τ and μ left out: directions, and a magnitude the gap bounds),
 /// naming each, its value and the range; none when all are inside. `emcalign fit` prints it
-/// as a warning; the result file's `warnings` (SPEC §3) keep the fit's own.
+/// as a warning; the result file's `warnings` (docs/contract.md §3) keep the fit's own.
 std::optional<std::string> rangeWarning(const FitResult& result);
 /// The parameters rangeWarning names: "dx = -2 cm (range [-0.5, 0.5] cm)" each.
 std::vector<std::string> outsideValidatedRanges(const FitResult& result);

@@ -1,5 +1,5 @@
 #pragma once
-// A fit result read back from its file (SPEC §3, written by calibration.hpp's fitResultJson):
+// A fit result read back from its file (docs/contract.md §3, written by calibration.hpp's fitResultJson):
 // the one reader of that format for the code that shows or redraws a result it did not fit
 // itself (the HTML report, its figures). Values in the file's units (deg, cm); a null in the
 // file (a failed fit's χ², an error the fit could not give) is NaN. What a result of an older

@@ -1,5 +1,5 @@
 #pragma once
-// The 160-bin profiles of SPEC §7: 16 bins in φ_EMC over [0°, 360°) × 10 bins in θ_EMC over
+// The 160-bin profiles of docs/contract.md §7: 16 bins in φ_EMC over [0°, 360°) × 10 bins in θ_EMC over
 // [45°, 135°). Per bin: N and the means of y_φ, y_θ, φ_EMC, θ_EMC, E;
 // σ_stat = sample standard deviation (N−1)/√N, σ² = σ_stat² + σ_sys², σ_sys = 0.2°.
 // A bin with N < 10 is left out of the χ². The model of a bin is evaluated at its means.
@@ -39,7 +39,7 @@ struct ProfileOptions {
   /// its σ added in quadrature; a bin it lacks is left out.
   std::shared_ptr<const NominalProfile> nominalProfile;
   /// Keep the cross moments of the two particles of each event (Profiles::fillPair), for
-  /// the covariance between bin means (Profiles::binCovariances). Off: SPEC's independent
+  /// the covariance between bin means (Profiles::binCovariances). Off: the contract's independent
   /// bins, and no memory spent.
   bool eventPairs = false;
 
@@ -70,7 +70,7 @@ struct ProfileBin {
   double yPhi = 0.0, sigmaPhi = 0.0;                        ///< mean and total σ (stat ⊕ sys)
   double yTheta = 0.0, sigmaTheta = 0.0;
   bool used = false;  ///< n ≥ minEntries and σ finite
-  /// W₊ of the parting-plane response; NaN: SPEC's hemisphere s = sign(cos phiMean).
+  /// W₊ of the parting-plane response; NaN: the contract's hemisphere s = sign(cos phiMean).
   double plusWeight = std::numeric_limits<double>::quiet_NaN();
 };
 
@@ -93,7 +93,7 @@ class Profiles {
   /// correlate by ~0.5 in the simulation). Nothing without eventPairs or when either is out
   /// of range.
   void fillPair(const ParticleResidual& a, const ParticleResidual& b);
-  /// The covariances of the bin means beyond SPEC's independent particles: those the event
+  /// The covariances of the bin means beyond the contract's independent particles: those the event
   /// pairs make between two bins (and inside one), and the y_φ–y_θ covariance of each bin's
   /// mean. Empty without eventPairs.
   [[nodiscard]] std::vector<BinCovariance> binCovariances() const;

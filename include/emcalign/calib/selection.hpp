@@ -1,5 +1,5 @@
 #pragma once
-// The e+e- → e+e- selection of SPEC §7 and the per-particle residuals of SPEC §5.
+// The e+e- → e+e- selection of docs/contract.md §7 and the per-particle residuals of docs/contract.md §5.
 //
 // An event is selected when: muon_veto = 0; exactly two charged particles and no photons;
 // each track |z0| < 10 cm and |rho| < 1 cm; each cluster 0.8·E_beam < E < 1.1·E_beam;
@@ -47,7 +47,7 @@ struct CutFlow {
 /// Why an event was rejected: the index of the first failed cut in CutFlow (1..5), or 0.
 int selectEvent(std::span<const ParticleRow> event, const SelectionOptions& options);
 
-/// One selected particle's residuals (SPEC §5) at its EMC angles and energy.
+/// One selected particle's residuals (docs/contract.md §5) at its EMC angles and energy.
 struct ParticleResidual {
   double phiEmc = 0.0, thetaEmc = 0.0, energy = 0.0;
   double yPhi = 0.0, yTheta = 0.0;

@@ -1,7 +1,7 @@
 #pragma once
 // The systematic error of a profile bin, σ_sys, chosen three ways (docs/fit.md):
 //
-//   spec   SPEC §7's 0.2°: the paper's number for the non-uniformity of its data.
+//   spec   docs/contract.md §7's 0.2°: the paper's number for the non-uniformity of its data.
 //   fixed  a value set by hand (`fit --sigma-sys DEG`).
 //   auto   estimated from the profiles themselves (`fit --sigma-sys auto`): the σ_sys for
 //          which the χ² of the refitted profiles equals its number of degrees of freedom.
@@ -18,7 +18,7 @@
 //
 // Since the χ²/ndf is 1 by construction, the auto fit cannot itself be a "poor fit": the
 // model's test is the χ² with the statistical errors alone (SigmaSysUsed::chi2Stat), and a
-// σ_sys far above SPEC's is reported as a warning.
+// σ_sys far above the contract's is reported as a warning.
 
 #include "emcalign/calib/fit.hpp"
 #include "emcalign/calib/profiles.hpp"
@@ -28,7 +28,7 @@
 
 namespace emcalign::calib {
 
-/// SPEC §7's σ_sys, rad.
+/// docs/contract.md §7's σ_sys, rad.
 inline constexpr double kSpecSigmaSys = 0.2 * units::deg;
 /// An auto estimate above this is reported (rad): the profiles scatter about the model far
 /// more than the paper's data did about its.
@@ -46,12 +46,12 @@ struct SigmaSysChoice {
   /// A fixed value finite, ≥ 0 and at most kMaxSigmaSys.
   Status validate() const;
   /// Whether the quoted errors carry the correlation of the event pairs (when the profiles keep
-  /// them, ProfileOptions::eventPairs): the honest errors of `auto` do; SPEC's and a fixed σ_sys
-  /// keep SPEC §8's independent bins. The statistical errors carry it whatever the choice.
+  /// them, ProfileOptions::eventPairs): the honest errors of `auto` do; the contract's and a fixed σ_sys
+  /// keep docs/contract.md §8's independent bins. The statistical errors carry it whatever the choice.
   [[nodiscard]] bool keepsEventPairs() const { return method == SigmaSysMethod::Auto; }
 };
 
-/// Whether two choices fit alike: both auto, or the same value (SPEC's is 0.2°, as a fixed
+/// Whether two choices fit alike: both auto, or the same value (the contract's is 0.2°, as a fixed
 /// 0.2° is: `--sigma-sys 0.2` spells out the default).
 bool sameChoice(const SigmaSysChoice& a, const SigmaSysChoice& b);
 

@@ -42,7 +42,7 @@ struct ResultFileToPut {
 /// beside the result (one not found is a warning).
 Result<PutReport> putResultFile(Database& db, const ResultFileToPut& file);
 
-/// The parameter file of a payload (SPEC §3), with where it came from under "input":
+/// The parameter file of a payload (docs/contract.md §3), with where it came from under "input":
 /// {"conditions": URI, "tag", "snapshot" (when read at one), "first_run", "last_run", "payload",
 /// "inserted", "selected_events", "provenance"}.
 io::Json parameterFileOf(const Iov& iov, const Payload& payload, const std::string& uri, const std::string& tag,

@@ -107,7 +107,7 @@ struct Payload {
   io::Json content;
   /// SHA-256 of the compact dump of `content`.
   [[nodiscard]] std::string hash() const;
-  /// The parameter file of this calibration (SPEC §3: parameters, errors, covariance, …).
+  /// The parameter file of this calibration (docs/contract.md §3: parameters, errors, covariance, …).
   [[nodiscard]] io::Json parameterFile() const;
   /// The model of the fit behind it, in words: "the paper's model" (with "depth offset …"
   /// when one was set), "corrections PATH"; "" when the payload does not say (a parameter
@@ -134,7 +134,7 @@ struct Payload {
   [[nodiscard]] Result<calib::SigmaSysChoice> sigmaSysChoice() const;
 };
 
-/// A payload from a fit result (SPEC §3) or a parameter file, with its provenance (free JSON
+/// A payload from a fit result (docs/contract.md §3) or a parameter file, with its provenance (free JSON
 /// added under "provenance"). A fit result must be usable (core/fit_status.hpp).
 Result<Payload> makePayload(const io::Json& resultOrParameters, double r1, std::string_view source,
                             io::Json provenance = io::Json::object());
@@ -260,7 +260,7 @@ class Database {
                                     bool dryRun) = 0;
 
   /// Makes `tag` a running tag: created (with `description`) when missing; an existing one must
-  /// be running already (SPEC §13: a prompt loop refuses a tag in another state).
+  /// be running already (docs/contract.md §13: a prompt loop refuses a tag in another state).
   virtual Status makeRunning(const std::string& tag, const std::string& description) = 0;
   /// One decided group of a prompt loop (validation/prompt.hpp), stored in one transaction: its
   /// IOV (none: a veto with nothing in force, or runs a promotion covered), its decision record

@@ -1,5 +1,5 @@
 #pragma once
-// The event data model of SPEC §6, shared by the producer (sim), the files (io) and the
+// The event data model of docs/contract.md §6, shared by the producer (sim), the files (io) and the
 // consumer (calib): one row per reconstructed particle.
 
 #include <cmath>
@@ -33,7 +33,7 @@ struct ParticleRow {
   [[nodiscard]] bool hasCluster() const { return !std::isnan(energy); }
 };
 
-/// One counter of a cluster: its index (SPEC §2 numbering) and the energy it measured.
+/// One counter of a cluster: its index (docs/contract.md §2 numbering) and the energy it measured.
 /// Whether two rows belong to one event (the same run and event number): the rows of an
 /// event are contiguous in files and in every block of rows.
 inline bool sameEvent(const ParticleRow& a, const ParticleRow& b) { return a.run == b.run && a.event == b.event; }

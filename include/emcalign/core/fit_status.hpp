@@ -1,6 +1,6 @@
 #pragma once
 // How a fit ended, as the fit reports it and as every reader of a fit result judges it
-// (SPEC §3 "status"; docs/fit.md). The names are the file's "status" values.
+// (docs/contract.md §3 "status"; docs/fit.md). The names are the file's "status" values.
 //
 //   converged            every stage converged, the covariance is regular and the χ² is
 //                        compatible with the model (p-value ≥ kPoorFitPValue): a calibration.

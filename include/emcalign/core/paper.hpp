@@ -1,6 +1,6 @@
 #pragma once
-// The paper's numbers that results are shown beside (SPEC §10; the paper in
-// ../shared/paper): Table 1, the validation of the method on simulation, and the
+// The paper's numbers that results are shown beside (docs/contract.md §10; the paper: Korol,
+// Melnikova, NIM A 847 (2017) 179, arXiv:1606.00571): Table 1, the validation of the method on simulation, and the
 // improvements of section 5's physics checks.
 
 #include <array>

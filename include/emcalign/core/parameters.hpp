@@ -1,6 +1,6 @@
 #pragma once
 // The 12 alignment (fit) parameters η, indexed by `Param`, in the order and with the names
-// of SPEC §3. Code indexes them through this enum, never through a bare number.
+// of docs/contract.md §3. Code indexes them through this enum, never through a bare number.
 
 #include <array>
 #include <cmath>
@@ -37,14 +37,14 @@ inline constexpr std::array<Param, kNumParams> kAllParams = {Param::Alpha, Param
                                                              Param::Dy,    Param::Dz,    Param::Dp1,   Param::Dp2,
                                                              Param::Dp3,   Param::DyRel, Param::DzRel, Param::BetaRel};
 
-/// The exact names of SPEC §3 (file keys, table rows).
+/// The exact names of docs/contract.md §3 (file keys, table rows).
 inline constexpr std::array<std::string_view, kNumParams> kParamNames = {
     "alpha", "beta1", "beta2", "dx", "dy", "dz", "dp1", "dp2", "dp3", "dy_rel", "dz_rel", "beta_rel"};
 
 inline constexpr std::string_view name(Param p) { return kParamNames[index(p)]; }
 
 /// Whether a parameter is an angle (written in degrees in files) or a length (cm).
-/// beta1 and beta2 are dimensionless but written as degrees (SPEC §3).
+/// beta1 and beta2 are dimensionless but written as degrees (docs/contract.md §3).
 enum class Dimension { Angle, Length };
 
 /// The name of a dimension's file unit: "deg" or "cm".
@@ -69,7 +69,7 @@ inline std::optional<Param> paramFromName(std::string_view n) {
   return std::nullopt;
 }
 
-/// The physical parameter set of SPEC §3 (also accepted as input).
+/// The physical parameter set of docs/contract.md §3 (also accepted as input).
 enum class Physical : std::size_t {
   Alpha,
   Beta,
@@ -97,7 +97,7 @@ inline constexpr std::array<Physical, kNumParams> kAllPhysical = {
     Physical::Mu,    Physical::Tau,  Physical::DxRel, Physical::DyRel, Physical::DzRel, Physical::BetaRel};
 
 /// The physical parameters that are not fit parameters: what a fit result calls "derived"
-/// (SPEC §3), in the order files and tables list them.
+/// (docs/contract.md §3), in the order files and tables list them.
 inline constexpr std::array<Physical, 5> kDerivedParams = {Physical::Beta, Physical::Psi, Physical::Mu, Physical::Tau,
                                                            Physical::DxRel};
 
@@ -159,7 +159,7 @@ class Quantity {
         physical_ = p;
     }
   }
-  /// SPEC §3's name ("dx", "beta_rel", "psi").
+  /// docs/contract.md §3's name ("dx", "beta_rel", "psi").
   [[nodiscard]] constexpr std::string_view name() const {
     return param_ ? emcalign::name(*param_) : emcalign::name(*physical_);
   }
@@ -200,7 +200,7 @@ void to_json(Json& j, const Quantity& q) {
 
 inline std::ostream& operator<<(std::ostream& os, const Quantity& q) { return os << q.name(); }
 
-/// A name of SPEC §3 (a fit parameter's or a physical one's).
+/// A name of docs/contract.md §3 (a fit parameter's or a physical one's).
 inline std::optional<Quantity> quantityFromName(std::string_view n) {
   if (auto p = paramFromName(n)) return Quantity(*p);
   if (auto p = physicalFromName(n)) return Quantity(*p);

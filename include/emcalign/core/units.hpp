@@ -1,5 +1,5 @@
 #pragma once
-// Native units of emcalign: centimetre, MeV, radian (SPEC §1).
+// Native units of emcalign: centimetre, MeV, radian (docs/contract.md §1).
 //
 // Every quantity inside the library is in these units. A value read from or written to a
 // human-facing place (parameter files, tables, CSV in degrees) is converted exactly once,

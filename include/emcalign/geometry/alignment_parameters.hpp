@@ -1,5 +1,5 @@
 #pragma once
-// The two parameter sets of SPEC §3 and the exact conversions between them.
+// The two parameter sets of docs/contract.md §3 and the exact conversions between them.
 //
 // Fit set η (what the χ² is minimised over, `AlignmentParameters`):
 //   alpha, beta1 = sinβ·cosψ, beta2 = sinβ·sinψ, dx, dy, dz, dp1, dp2, dp3, dy_rel, dz_rel, beta_rel

@@ -1,6 +1,6 @@
 #pragma once
-// The alignment transform of SPEC §4: where a point of the nominal (aligned) EMC really is
-// in the TS frame, for the 12 parameters η of SPEC §3. This is the one implementation used
+// The alignment transform of docs/contract.md §4: where a point of the nominal (aligned) EMC really is
+// in the TS frame, for the 12 parameters η of docs/contract.md §3. This is the one implementation used
 // by the simulation (placing the hemispheres), the fit (differentiated by Ceres through
 // the same templates) and the correction of photons.
 //
@@ -17,7 +17,7 @@
 // Rotations are active and right-handed: R_a(γ)p = p·cosγ + (a×p)·sinγ + a(a·p)(1 − cosγ).
 // Each hemisphere therefore moves as one rigid body, p1 = R_s·p0 + t_s with
 // R_s = T_zyz·T_μ·T_βrel and t_s = T_zyz·ξ_rel + ξ; `hemisphereTransform` returns that pair
-// (also what a simulation needs to place the hemisphere volumes, SPEC §9).
+// (also what a simulation needs to place the hemisphere volumes, docs/contract.md §9).
 //
 // Pitfalls, and how this file avoids them:
 // * The paper prints the inverse as T_μᵀ·T_βrelᵀ·(…), which is not the inverse of T_μ·T_βrel.
@@ -107,7 +107,7 @@ Mat3T<T> commonRotation(const ParamVectorT<T>& eta) {
   return rotationFromSineVector<T>(tilt) * rotationZ<T>(eta[index(Param::Alpha)]);
 }
 
-/// sinμ·n = (0, −t/R1, u/(2R1)) from the gaps (SPEC §4), and dx_rel.
+/// sinμ·n = (0, −t/R1, u/(2R1)) from the gaps (docs/contract.md §4), and dx_rel.
 template <typename T>
 Vec3T<T> separationSineVector(const ParamVectorT<T>& eta, double r1, T* dxRel = nullptr) {
   const GapDecompositionT<T> g = decomposeGaps<T>(eta);
@@ -192,7 +192,7 @@ class AlignmentTransform {
     return placements_[(h == Hemisphere::Plus ? 0 : 1) + (support == Support::Outer ? 2 : 0)];
   }
   [[nodiscard]] const AlignmentParameters& parameters() const { return eta_; }
-  /// Whether layer 3 uses μ3 instead of μ (SPEC §4).
+  /// Whether layer 3 uses μ3 instead of μ (docs/contract.md §4).
   [[nodiscard]] bool layer3RuleActive() const { return layer3Rule_; }
 
  private:

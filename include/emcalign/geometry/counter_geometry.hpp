@@ -2,9 +2,9 @@
 // The geometry database (the paper's GeoEmcDBase, section 4): where every counter is, for
 // the nominal detector or for an alignment, and which counter a point of the TS frame is in.
 //
-// Aligned centres follow SPEC §9: the nominal centre of a counter moved by the rigid
+// Aligned centres follow docs/contract.md §9: the nominal centre of a counter moved by the rigid
 // placement of its hemisphere on its support sphere — layers 1–2 on sphere 1 (the
-// transform of SPEC §4), layer 3 on sphere 2 (with the μ3 rule). The same placements, read
+// transform of docs/contract.md §4), layer 3 on sphere 2 (with the μ3 rule). The same placements, read
 // backwards, locate a point: its pre-image under each of the four placements is looked up
 // in the nominal calorimeter, and a placement counts only for the counters it carries
 // (its hemisphere, its support sphere). So a point between the moved hemispheres is in no

@@ -1,5 +1,5 @@
 #pragma once
-// Detector description of the calorimeter (SPEC §2) and the table of its counters.
+// Detector description of the calorimeter (docs/contract.md §2) and the table of its counters.
 //
 // The EMC is three spherical layers of NaI(Tl) counters around the TS centre, covering
 // θ ∈ [18°, 162°] in 16 rings of 9°. Rings inside 36°–144° have 40 counters (Δφ = 9°),
@@ -9,7 +9,7 @@
 // sphere 2 (outer radius R_p3). Radii other than the documented totals are assumptions
 // (docs/conventions.md); they live in `DetectorDescription`, overridable by a JSON file.
 //
-// Numbering (SPEC §2): layer 1..3, ring 0..15 counted from θ = 18°, iphi 0.. counted from
+// Numbering (docs/contract.md §2): layer 1..3, ring 0..15 counted from θ = 18°, iphi 0.. counted from
 // φ = 0 upward, index = 544·(layer−1) + (counters in the lower rings of the layer) + iphi.
 // A counter's nominal centre is at its θ, φ mid-angles and its layer's mid-radius.
 
@@ -25,16 +25,16 @@
 namespace emcalign::geometry {
 
 /// The two EMC halves, split by the vertical plane x = 0 (they move apart along X).
-/// The value is the sign s of SPEC §4.
+/// The value is the sign s of docs/contract.md §4.
 enum class Hemisphere : int { Minus = -1, Plus = +1 };
 
 inline constexpr int sign(Hemisphere h) { return static_cast<int>(h); }
 
-/// Hemisphere of a nominal-frame point: x ≥ 0 belongs to s = +1 (SPEC §4, §5).
+/// Hemisphere of a nominal-frame point: x ≥ 0 belongs to s = +1 (docs/contract.md §4, §5).
 inline Hemisphere hemisphereOf(double x) { return x >= 0.0 ? Hemisphere::Plus : Hemisphere::Minus; }
 
 /// Which support sphere a layer hangs on: its outer radius enters the transform
-/// (R1 for dp_k, R_p3 for the layer-3 μ3 rule of SPEC §4).
+/// (R1 for dp_k, R_p3 for the layer-3 μ3 rule of docs/contract.md §4).
 enum class Support { Inner, Outer };
 
 inline constexpr Support supportOfLayer(int layer) { return layer == 3 ? Support::Outer : Support::Inner; }
@@ -46,7 +46,7 @@ struct SphericalShell {
   [[nodiscard]] bool contains(double r) const { return r >= rInner && r < rOuter; }
 };
 
-/// Material constants of the shower-depth formula R(E, θ) (SPEC §5, from the paper).
+/// Material constants of the shower-depth formula R(E, θ) (docs/contract.md §5, from the paper).
 struct ShowerMaterial {
   double radiationLength = 2.56;    ///< X0 of NaI, cm
   double criticalEnergy = 13.16;    ///< Ec of NaI, MeV
@@ -63,7 +63,7 @@ struct DetectorDescription {
   std::vector<int> countersPerRing;        ///< the same in every layer
   ShowerMaterial material;
 
-  /// The SND-like default of SPEC §2 (embedded; overridden by `--detector FILE`).
+  /// The SND-like default of docs/contract.md §2 (embedded; overridden by `--detector FILE`).
   static DetectorDescription sndDefault();
 
   /// Checks the description is a usable calorimeter; the error names the file key at fault.
@@ -117,7 +117,7 @@ struct Location {
   int counter = -1;  ///< index when region == Counter
 };
 
-/// The counters of a validated description, indexed as SPEC §2.
+/// The counters of a validated description, indexed as docs/contract.md §2.
 class Calorimeter {
  public:
   static Result<Calorimeter> create(DetectorDescription description);

@@ -1,5 +1,5 @@
 #pragma once
-// The angular residuals of SPEC §5: what the fit compares.
+// The angular residuals of docs/contract.md §5: what the fit compares.
 //
 // Measured, per particle (track + its EMC cluster):
 //   p_R = outward intersection of the track line with the sphere R(E_cluster, θ_TS),

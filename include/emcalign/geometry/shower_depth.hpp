@@ -1,5 +1,5 @@
 #pragma once
-// Effective shower depth (SPEC §5, the paper's formula):
+// Effective shower depth (docs/contract.md §5, the paper's formula):
 //
 //   R(E, θ) = R0 + X0·(ln(E/Ec) − 0.5 − x_pre/sinθ)
 //

@@ -1,5 +1,5 @@
 #pragma once
-// A TS track (SPEC §5): a straight line, as SND has no magnetic field, given by
+// A TS track (docs/contract.md §5): a straight line, as SND has no magnetic field, given by
 //   z0 (cm), rho (cm, signed impact parameter), phi, theta (rad).
 // Its point of closest approach to the Z axis is c = (−rho·sinφ, rho·cosφ, z0) and its
 // direction d = (sinθcosφ, sinθsinφ, cosθ). Note c·d = z0·cosθ, because the transverse part
@@ -39,7 +39,7 @@ struct TrackLine {
   }
 };
 
-/// φ = atan2(y, x) folded into [0, 2π) (SPEC §1).
+/// φ = atan2(y, x) folded into [0, 2π) (docs/contract.md §1).
 inline double azimuth(const Vec3& p) {
   double phi = std::atan2(p.y(), p.x());
   if (phi < 0.0) phi += 2.0 * std::numbers::pi;
@@ -47,7 +47,7 @@ inline double azimuth(const Vec3& p) {
   return phi;
 }
 
-/// θ = arccos(z/|p|) in [0, π] (SPEC §1), computed as atan2(ρ, z) for accuracy.
+/// θ = arccos(z/|p|) in [0, π] (docs/contract.md §1), computed as atan2(ρ, z) for accuracy.
 inline double polar(const Vec3& p) { return std::atan2(std::hypot(p.x(), p.y()), p.z()); }
 
 /// The point at radius r in direction (θ, φ).

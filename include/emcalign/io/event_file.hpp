@@ -1,5 +1,5 @@
 #pragma once
-// Event files (SPEC §6): one row per reconstructed particle, the rows of an event
+// Event files (docs/contract.md §6): one row per reconstructed particle, the rows of an event
 // contiguous, in CSV (interchange) or HDF5 (bulk, columnar, chunked, compressed, with
 // optional simulation truth). The format is chosen by the file name: ".csv" is CSV,
 // anything else HDF5.
@@ -91,6 +91,9 @@ enum class EventFormat { Csv, Hdf5 };
 /// reader has it: for files sent to others; 10 % smaller, written 2× slower).
 enum class Compression { Lz4, Deflate };
 EventFormat formatOf(const std::string& path);
+/// The format of an output made from `input`'s events: by the output's name when it says one
+/// (".csv", "-": CSV; ".h5", ".hdf5": HDF5), else the input's (a CSV corrected into a CSV).
+EventFormat outputFormatOf(const std::string& output, const std::string& input);
 
 struct WriterOptions {
   bool withTruth = false;  ///< HDF5 only; ignored (no truth written) for CSV
@@ -113,6 +116,9 @@ struct WriterOptions {
 class EventWriter {
  public:
   static Result<std::unique_ptr<EventWriter>> open(const std::string& path, const WriterOptions& options);
+  /// The same in `format`, whatever the name says.
+  static Result<std::unique_ptr<EventWriter>> open(const std::string& path, const WriterOptions& options,
+                                                   EventFormat format);
   virtual ~EventWriter() = default;
   /// Appends rows, checked by the rules above (an event may continue into the next append).
   /// With withTruth (HDF5), `truth` must have one row per row; otherwise it is ignored.

@@ -1,6 +1,6 @@
 #pragma once
 // JSON files of emcalign: the detector description and the alignment-parameter file
-// (SPEC §3). Readers are strict: unknown keys, duplicate keys, missing parameters, wrong
+// (docs/contract.md §3). Readers are strict: unknown keys, duplicate keys, missing parameters, wrong
 // types and non-finite numbers are errors whose message names the file and the key.
 // Values are converted from file units (deg, cm) to native units (rad, cm) here, and only
 // here.
@@ -10,11 +10,11 @@
 //    "parameters": {"alpha": …, "beta1": …, …, "beta_rel": …}}
 // An input may give "physical" {alpha, beta, psi, dx, dy, dz, mu, tau, dx_rel, dy_rel,
 // dz_rel, beta_rel} instead of "parameters"; when a file gives both (as `params show --json`
-// writes), they must agree. A fit result adds errors, covariance, … (SPEC §3): those keys
+// writes), they must agree. A fit result adds errors, covariance, … (docs/contract.md §3): those keys
 // are accepted and ignored by the parameter reader.
 //
 // Detector description: see docs/conventions.md; every key but "format" is optional and
-// defaults to the SND-like description of SPEC §2.
+// defaults to the SND-like description of docs/contract.md §2.
 
 #include <cmath>
 #include <cstdint>
@@ -33,7 +33,7 @@
 
 namespace emcalign::io {
 
-/// JSON with keys kept in insertion order, so files list parameters in SPEC order.
+/// JSON with keys kept in insertion order, so files list parameters in the contract's order.
 using Json = nlohmann::ordered_json;
 
 inline constexpr std::string_view kAlignmentFormat = "emcalign-alignment/1";

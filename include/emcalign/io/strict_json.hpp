@@ -159,7 +159,7 @@ class StrictObject {
   std::string_view source_;
 };
 
-/// The keys every reader of a parameter file or a fit result checks first (SPEC §3): no key
+/// The keys every reader of a parameter file or a fit result checks first (docs/contract.md §3): no key
 /// such a file does not have, "format" (when given) emcalign-alignment/1, "units" (when
 /// given) deg and cm, and only the 12 fit parameters' names in "parameters".
 void checkAlignmentHeader(const StrictObject& top);

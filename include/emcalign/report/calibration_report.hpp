@@ -1,7 +1,7 @@
 #pragma once
 // The calibration report (`emcalign report`, docs/report.md): one self-contained HTML page
 // from the files the other commands write, its sections following the paper:
-//  1. the calibration: the 12 parameters of a fit result (SPEC §3) with errors, the physical
+//  1. the calibration: the 12 parameters of a fit result (docs/contract.md §3) with errors, the physical
 //     set, the correlation matrix as a heat map, χ²/ndf, status and warnings, σ_sys, the
 //     stages, and the provenance (inputs with their SHA-256, detector, corrections,
 //     software); with the events, the profiles with the fitted model (the paper's Fig. 5)
@@ -39,7 +39,7 @@ namespace emcalign::report {
 
 struct ReportFit {
   std::string path = {};      ///< the result file
-  calib::FitRecord record{};  ///< its content (SPEC §3, `emcalign fit -o`), read
+  calib::FitRecord record{};  ///< its content (docs/contract.md §3, `emcalign fit -o`), read
   /// The files its JSON names (filesNamedIn): never opened, inputs of the report all the same.
   std::vector<std::string> namedFiles = {};
   /// The detector in a line (name, counters, radii; empty: not shown).

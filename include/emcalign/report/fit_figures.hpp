@@ -1,7 +1,7 @@
 #pragma once
 // What the figures of a fit (report/fit_plots.hpp, writeFitPlots) need from the events: the
 // profiles at the fit's model, and the Δφ, Δθ distributions of the selected particles before
-// and after correcting each EMC direction with the fitted parameters (SPEC §9's cluster
+// and after correcting each EMC direction with the fitted parameters (docs/contract.md §9's cluster
 // correction at the model's R(E, θ): the paper's Fig. 8). `emcalign fit --plots` and
 // `emcalign report --events` draw from the same pass; the report first rebuilds the fit's
 // model from its result file.
@@ -39,7 +39,7 @@ struct ResultModel {
   calib::FitResult fit;
   calib::FitGeometry geometry;
   calib::ProfileOptions profile;
-  double sigmaSys = 0.0;  ///< rad; SPEC's 0.2° for a fit of a saved profile (not recorded)
+  double sigmaSys = 0.0;  ///< rad; the contract's 0.2° for a fit of a saved profile (not recorded)
   /// The fit's selection energy: its one recorded beam energy (an override or the sample's
   /// own), else none (each event's).
   std::optional<double> selection;

@@ -1,9 +1,9 @@
 #pragma once
 // The misaligned calorimeter of the simulation: where particles deposit energy.
 //
-// The simulation is deliberately richer than the fit model (SPEC §5), because the paper's
+// The simulation is deliberately richer than the fit model (docs/contract.md §5), because the paper's
 // biases come from what the model leaves out:
-// * Each hemisphere sits where the *truth* parameters put it (the SPEC §4 transform);
+// * Each hemisphere sits where the *truth* parameters put it (the docs/contract.md §4 transform);
 //   layer 3 sits on support sphere 2 with the μ3 rule plus an independent small offset
 //   that the fit model ignores, as the paper's does.
 // * A shower is not a point: an electromagnetic shower is a set of energy spots with a
@@ -13,7 +13,7 @@
 //   the shower starts in the material before the EMC (x_pre/sinθ X0, whose energy is lost),
 //   and spreads laterally with a core and a tail in Molière radii (NaI: 4.13 cm).
 // * Every spot is taken to the nominal frame through the inverse transform of the
-//   hemisphere that physically contains it and added to the counter (SPEC §2) containing
+//   hemisphere that physically contains it and added to the counter (docs/contract.md §2) containing
 //   it; spots in the gap, in a support sphere, in a dead counter or beyond the EMC are lost.
 // * Charged pions and muons leave ionisation (MIP, dE/dx of NaI) along their path; pions
 //   may interact (λ_I of NaI) and leave a hadronic blob.

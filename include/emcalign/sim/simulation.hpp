@@ -1,6 +1,6 @@
 #pragma once
 // The detector simulation: generated e+e- collisions → misaligned detector → reconstructed
-// particles in the SPEC §6 record, with truth.
+// particles in the docs/contract.md §6 record, with truth.
 //
 // Event i is simulated from its own random stream Rng(seed, i), so the output depends only
 // on (options, truth parameters, seed), never on the number of threads or on the order in
@@ -54,7 +54,7 @@ struct SimulationOptions {
   /// energy smearing, shower fluctuations, layer-3 offset, cosmics, multiple scattering;
   /// point showers at R(E, θ) and cluster directions from the deposit itself, unsmeared (a
   /// smeared direction near x = 0 lands in the other hemisphere's bin, where the model
-  /// gives it the wrong sign of the relative terms). In this limit the SPEC §5 model is
+  /// gives it the wrong sign of the relative terms). In this limit the docs/contract.md §5 model is
   /// exact up to the track resolution.
   void setIdealised();
 

@@ -1,7 +1,7 @@
 #pragma once
 // The tracking system (TS) of the simulation: a straight-line tracker (SND has no magnetic
 // field), multiple scattering in the beam pipe, 9 cylindrical drift-chamber layers with
-// r-φ and z resolutions, and a least-squares line fit that returns the SPEC §5 track
+// r-φ and z resolutions, and a least-squares line fit that returns the docs/contract.md §5 track
 // parameters (z0, rho, phi, theta).
 //
 // Assumed values (docs/simulation.md): beam pipe of 1 mm Be at r = 2 cm; layers at

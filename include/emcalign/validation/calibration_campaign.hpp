@@ -138,7 +138,7 @@ struct CampaignPlan {
   std::map<std::string, std::string> digests;  ///< file → SHA-256
   std::vector<CampaignGroup> groups;
   std::string corrections, correctionsSha256, detector;
-  calib::SigmaSysChoice sigmaSys;  ///< SPEC's when the plan does not say (plans made before)
+  calib::SigmaSysChoice sigmaSys;  ///< the contract's when the plan does not say (plans made before)
   /// Where its groups are stored (the address without password) and how a new tag is
   /// described; empty: given to each group's job (campaign --plan P --group K --conditions …).
   std::string conditions, tag, description;
@@ -172,7 +172,7 @@ std::unique_ptr<PlannedJob> calibrationCampaignJob(CampaignPlan plan, CampaignMo
 /// the group (a plan edited by hand, or files changed since it was made).
 Result<calib::ProfileFill> fillPlannedGroup(const CampaignGroup& group, const CampaignModel& model);
 
-/// One group fitted: its result file (SPEC §3) and the payload to store.
+/// One group fitted: its result file (docs/contract.md §3) and the payload to store.
 struct GroupFit {
   calib::FitResult result;
   io::Json resultJson;

@@ -63,7 +63,7 @@ struct CampaignOptions {
   /// Model corrections of the fits (calib/corrections.hpp): depth offset, parting-plane
   /// response, nominal profile; default none (the paper's model).
   calib::ModelCorrections corrections;
-  /// σ_sys of the fits (calib/sigma_sys.hpp): SPEC's 0.2°, a fixed value, or auto.
+  /// σ_sys of the fits (calib/sigma_sys.hpp): the contract's 0.2°, a fixed value, or auto.
   calib::SigmaSysChoice sigmaSys;
   /// Describes the settings (simulation switches, ranges, detector): stored in every sample
   /// so that a rerun resumes only a campaign made with the same settings.
@@ -86,7 +86,7 @@ struct CampaignRecord {
   double thetaMinDeg = 40.0, thetaMaxDeg = 140.0;
   std::string detector{};  ///< io::detectorName of the detector given
   /// Recorded only when given, so that campaign directories made before these resume.
-  std::string sigmaSys{};      ///< as given ("", SPEC's)
+  std::string sigmaSys{};      ///< as given ("", the contract's)
   double beamEnergyMev = 0.0;  ///< 0: the simulation's default
 };
 

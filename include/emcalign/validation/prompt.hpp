@@ -1,5 +1,5 @@
 #pragma once
-// Prompt calibration (docs/prompt.md, SPEC §13): a loop beside the data taking. Event files
+// Prompt calibration (docs/prompt.md, docs/contract.md §13): a loop beside the data taking. Event files
 // arriving in a watched directory are taken once settled, their runs grouped per beam energy
 // to --min-events selected events, each closed group fitted and decided — update, no-update or
 // veto (validation/prompt_decision.hpp) — against the calibration in force, and stored as the
@@ -71,7 +71,7 @@ Result<PromptSummary> runPrompt(const PromptOptions& options);
 /// --prompt STATE_DIR`. Fails naming the file when one of STATE_DIR's is missing or not the loop's.
 Result<std::string> promptReportHtml(const std::string& stateDir);
 
-/// Whether a file name is a temporary that is never taken (SPEC §13: a leading '.', ".tmp",
+/// Whether a file name is a temporary that is never taken (docs/contract.md §13: a leading '.', ".tmp",
 /// ".part" at the end, ".tmp-" inside).
 bool isPromptTemporary(std::string_view name);
 

@@ -33,7 +33,7 @@ struct ParameterThreshold {
   double minChange = 0.0, significance = 0.0, maxChange = 0.0, maxError = 0.0;
 };
 
-/// A thresholds file: the parameters it lists (in SPEC §3's order), the file as canonical JSON
+/// A thresholds file: the parameters it lists (in docs/contract.md §3's order), the file as canonical JSON
 /// and its SHA-256 (what a decision names, and the conditions database keeps).
 struct Thresholds {
   std::vector<ParameterThreshold> parameters;
@@ -43,7 +43,7 @@ struct Thresholds {
 
 /// `emcalign-thresholds/1`: {"format", "parameters": {name: {"min_change", "significance",
 /// "max_change", "max_error"}}}, each a finite number > 0 with min_change < max_change; at
-/// least one parameter; names of SPEC §3's 12.
+/// least one parameter; names of docs/contract.md §3's 12.
 Result<Thresholds> parseThresholds(const io::Json& j, const std::string& source);
 Result<Thresholds> readThresholds(const std::string& path);
 
@@ -77,7 +77,7 @@ struct GroupOutcome {
   std::optional<conddb::StoredValues> inForce;
 };
 
-/// One listed parameter as decided (NaN where SPEC's decision record has null).
+/// One listed parameter as decided (NaN where the contract's decision record has null).
 struct ParameterDecision {
   Param parameter = Param::Alpha;
   double fitted = 0.0, error = 0.0, inForce = 0.0, change = 0.0, significance = 0.0;

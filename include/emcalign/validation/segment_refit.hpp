@@ -6,7 +6,7 @@
 // straddling a step: one value would average over what moves inside it.
 //
 // The precision gained, three ways (docs/campaign.md):
-//  - quoted: the fit's errors, which carry σ_sys = 0.2° per profile bin (SPEC §7). σ_sys does
+//  - quoted: the fit's errors, which carry σ_sys = 0.2° per profile bin (docs/contract.md §7). σ_sys does
 //    not shrink with events, and it dominates a bin already at ~50 000 events, so the quoted
 //    error of a period barely improves on a group's;
 //  - statistical: the part the events make, which does shrink, as 1/√N (the fits' statistical
@@ -71,7 +71,7 @@ struct SegmentRefit {
 };
 
 /// A refit comparable with a tag's calibrations uses what they were made with: `model` takes
-/// the σ_sys every IOV's payload records (payloads made before the choice: SPEC's), an error
+/// the σ_sys every IOV's payload records (payloads made before the choice: the contract's), an error
 /// when two differ; and every payload's corrections must be the model's (by SHA-256; by the
 /// path for payloads that record none), an error naming the runs and the corrections used.
 Status adoptTagSettings(conddb::TagSnapshot& tag, CampaignModel& model);

@@ -1,7 +1,7 @@
 #pragma once
 // An event file simulated with a known (truth) alignment, as `emcalign simulate` writes it
 // (HDF5 with truth and hits, or CSV): the rows of sim/simulation.hpp, and the file's record
-// of how it was made — the "truth_parameters" and "simulation" attributes (SPEC §6).
+// of how it was made — the "truth_parameters" and "simulation" attributes (docs/contract.md §6).
 
 #include <cstdint>
 #include <functional>

@@ -1,6 +1,6 @@
 #pragma once
 // The task runner (docs/cluster.md): a heavy command cut into independent tasks and a merge,
-// for a batch system's job array (SPEC §12, "Fan-out").
+// for a batch system's job array (docs/contract.md §12, "Fan-out").
 //
 //   1. The plan: the command, its arguments, where it was given, the program that made it (its
 //      version and the SHA-256 of its executable: a task is refused under another build, whose

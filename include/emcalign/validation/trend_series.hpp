@@ -3,7 +3,7 @@
 // run, with the error each IOV is weighed by.
 //
 // Which error. Two calibrations of the same detector differ by what their events make them
-// fluctuate by, not by σ_sys: σ_sys (SPEC §7's 0.2° per profile bin) is common to every IOV
+// fluctuate by, not by σ_sys: σ_sys (docs/contract.md §7's 0.2° per profile bin) is common to every IOV
 // of the same detector and model and cancels in their difference, yet makes their quoted
 // errors 2–5 times their real scatter. So each IOV is weighed by its fit's statistical error
 // (calib::FitResult::statisticalErrors, recorded in every payload since issue 43) where every

@@ -313,7 +313,7 @@ TEST_F(CorrectionsGridFiles, ABadFileOrATooSmallDirectoryIsNamed) {
 
 namespace by_run {
 
-// Back-to-back e+e- events that pass SPEC §7's selection, from vertices along the beam (so
+// Back-to-back e+e- events that pass docs/contract.md §7's selection, from vertices along the beam (so
 // that the residuals depend on the shower depth) and with EMC directions a little off.
 std::vector<ParticleRow> events(std::int32_t run, double beamEnergy, int n, std::uint64_t seed) {
   std::mt19937_64 rng(seed);

@@ -1,5 +1,5 @@
 // Model corrections (calib/corrections.hpp): the file is strict and round-trips, the mixed
-// model is the SPEC model at W₊ = 1 or 0, the nominal profile is subtracted with its σ, and
+// model is the contract model at W₊ = 1 or 0, the nominal profile is subtracted with its σ, and
 // a fit with the corrections recovers a truth that the paper's model gets wrong.
 
 #include "emcalign/calib/corrections.hpp"

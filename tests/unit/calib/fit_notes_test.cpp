@@ -17,7 +17,7 @@ namespace {
 
 double r1() { return geometry::DetectorDescription::sndDefault().r1(); }
 
-// A result at the paper-like truth, errors 0.01 (file units), χ² 300/308, SPEC's σ_sys.
+// A result at the paper-like truth, errors 0.01 (file units), χ² 300/308, the contract's σ_sys.
 FitResult resultAt(const geometry::AlignmentParameters& eta) {
   FitResult r;
   r.parameters = eta;

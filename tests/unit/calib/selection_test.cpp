@@ -1,4 +1,4 @@
-// The e+e- → e+e- selection of SPEC §7 and the residuals of SPEC §5: one hand-built event
+// The e+e- → e+e- selection of docs/contract.md §7 and the residuals of docs/contract.md §5: one hand-built event
 // that passes every cut, and the same event altered to fail exactly one cut. selectEvent
 // names the first cut an event fails (so the cuts before it passed), the same event passes
 // once that cut alone is relaxed (so no later cut fails), and the profile filler's cut flow
@@ -237,7 +237,7 @@ TEST(Selection, NoSelectedEventIsAnErrorThatGivesTheCutFlow) {
   EXPECT_THAT(s.error().message, ::testing::HasSubstr("acollinearity 0"));
 }
 
-// SPEC §5 shower depth, written out: R(E, θ) = R0 + X0·(ln(E/Ec) − 0.5 − x_pre/sinθ).
+// docs/contract.md §5 shower depth, written out: R(E, θ) = R0 + X0·(ln(E/Ec) − 0.5 − x_pre/sinθ).
 double depthOf(double energy, double theta) {
   return 32.8 + 2.56 * (std::log(energy / 13.16) - 0.5 - 0.13 / std::sin(theta));
 }

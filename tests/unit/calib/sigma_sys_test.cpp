@@ -1,4 +1,4 @@
-// σ_sys chosen three ways: SPEC's, by hand, and estimated from the profiles (χ²/ndf = 1).
+// σ_sys chosen three ways: the contract's, by hand, and estimated from the profiles (χ²/ndf = 1).
 // The profiles are filled with particles whose bin means scatter about the model by a known
 // σ_sys beyond their statistics.
 

@@ -1,4 +1,4 @@
-// Conditions you can audit (SPEC §13), on both back ends: the tag states and their transitions,
+// Conditions you can audit (docs/contract.md §13), on both back ends: the tag states and their transitions,
 // writes by state, promotion into a running tag, history, snapshots, and the upgrade of a
 // database made by schema 1 (tests/fixtures/conditions-schema1.db, made by the release before).
 
@@ -121,7 +121,7 @@ TEST_P(Audit, TransitionsAreTheTablesAndARefusalWritesNothing) {
       }
     }
   }
-  // SPEC §13's table, spelt out once more against tag_states.cpp.
+  // docs/contract.md §13's table, spelt out once more against tag_states.cpp.
   const auto allowed = [](TagState f) {
     std::string out;
     for (TagState t : transitionsFrom(f)) out += std::string(name(t)) + " ";
@@ -204,7 +204,7 @@ TEST_P(Audit, HistoryKeepsEveryChangeWithItsTimeAndWho) {
   EXPECT_EQ(db_->history("h")->size(), h->size());
 }
 
-// SPEC §13: S validated, R running, both with IOVs, S tiling the runs from N, N after the first
+// docs/contract.md §13: S validated, R running, both with IOVs, S tiling the runs from N, N after the first
 // run of R's last IOV; R's last IOV then ends at N - 1 (cut, extended or kept).
 TEST_P(Audit, PromotionAppendsFromTheFirstSafeRunOrWritesNothing) {
   makeTag("R", TagState::Running);  // 1-10 a, 11-20 b

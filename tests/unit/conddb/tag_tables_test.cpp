@@ -121,7 +121,7 @@ TEST_F(TagTables, ExportOfADatabaseWhosePathHoldsANewlineKeepsItsLines) {
   EXPECT_NE(csv->find("new\\x0aline.db"), std::string::npos) << *csv;
 }
 
-// SPEC §13: list --json gives the state of the six; a tag set invalid says when and why.
+// docs/contract.md §13: list --json gives the state of the six; a tag set invalid says when and why.
 TEST_F(TagTables, AnInvalidTagIsListedWithItsReason) {
   ASSERT_TRUE(db_->retire("b", "the wrong runs"));
   auto listed = listTags(*db_, "b");

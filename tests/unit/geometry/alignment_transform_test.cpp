@@ -21,7 +21,7 @@ AlignmentTransform make(const AlignmentParameters& eta) {
   return std::move(*t);
 }
 
-// SPEC §4 written literally with angles (Eigen's AngleAxis), as an independent check of the
+// docs/contract.md §4 written literally with angles (Eigen's AngleAxis), as an independent check of the
 // sine-vector implementation: p1 = T_zyz·(T_μ·T_βrel·p0 + ξ_rel) + ξ.
 Vec3 literalForward(const AlignmentParameters& eta, const Vec3& p0, int s, double muOverride = NAN) {
   auto phys = toPhysical(eta, kRadii.r1);
@@ -89,7 +89,7 @@ TEST(AlignmentTransform, AgreesWithTheLiteralAngleFormulas) {
 
 TEST(AlignmentTransform, GapsHaveTheirGeometricMeaning) {
   // With β_rel = 0 and no common motion, the x-separation of the two hemispheres' images of
-  // R1·(0, cos γ_k, −sin γ_k) is dp_k (SPEC §3), whatever the relative y, z shifts.
+  // R1·(0, cos γ_k, −sin γ_k) is dp_k (docs/contract.md §3), whatever the relative y, z shifts.
   std::mt19937_64 rng(4);
   std::uniform_real_distribution<double> gap(-0.5, 1.0), shift(-0.3, 0.3);
   for (int i = 0; i < 100; ++i) {
@@ -201,7 +201,7 @@ TEST(AlignmentTransform, ThirdLayerFollowsTheInnerSphereWhenNoOverlap) {
   }
   // Negative dx_rel with μ = 0 (τ = atan2(0, 0) = 0): μ3 = asin(dx_rel/R_p3) < 0. The outer
   // gap 2·dx_rel + 2·R_p3·sinμ3·cos(γ + τ) is then 0 at the bottom (γ = 180°), 4·dx_rel at
-  // the top and 2·dx_rel at the ±z points: the rule as SPEC §4 states it.
+  // the top and 2·dx_rel at the ±z points: the rule as docs/contract.md §4 states it.
   AlignmentParameters closed;
   closed[Param::Dp1] = closed[Param::Dp2] = closed[Param::Dp3] = -0.3;
   const auto c = make(closed);

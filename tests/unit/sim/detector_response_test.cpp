@@ -299,7 +299,7 @@ TEST(Calorimeter, ReconstructedAngleIsNonUniformInsideACounter) {
   EXPECT_NEAR(profile[kBins / 2], 0.0, 0.1);
 }
 
-// The SPEC §7 selection, written here in a few lines so that the simulation can be tested
+// The docs/contract.md §7 selection, written here in a few lines so that the simulation can be tested
 // before (and independently of) the calibration module.
 double meanSinDeltaPhi(const Sample& s) {
   const geometry::ShowerDepth depth = geometry::ShowerDepth::of(calorimeter().description());

@@ -45,7 +45,7 @@ int counter(int layer, int ring, int iphi) {
   return c;
 }
 
-// Angles (θ, φ) of a point as SPEC §1 defines them, written out.
+// Angles (θ, φ) of a point as docs/contract.md §1 defines them, written out.
 std::pair<double, double> anglesOf(const Vec3& p) {
   double phi = std::atan2(p.y(), p.x());
   if (phi < 0.0) phi += 2.0 * std::numbers::pi;
@@ -75,7 +75,7 @@ class ClusterFinding : public ::testing::Test {
     std::sort(out.begin(), out.end());
     return out;
   }
-  // The cluster direction of SPEC-like log weights, computed here from the counter centres:
+  // The cluster direction of the contract-like log weights, computed here from the counter centres:
   // Σ w_i·c_i with w_i = max(0, W0 + ln(E_i/E)).
   std::pair<double, double> logWeighted(const std::vector<std::pair<int, double>>& deposits) const {
     double sum = 0.0;

@@ -1,4 +1,4 @@
-// The tracking system of the simulation (sim/tracking.hpp): the line fit returns the SPEC §5
+// The tracking system of the simulation (sim/tracking.hpp): the line fit returns the docs/contract.md §5
 // parameters of the line it saw, its resolution is the one the header derives from the
 // configured hit resolutions, tracks with too few layers inside the sensitive length are
 // lost, and the beam pipe scatters by the Highland angle.
@@ -22,7 +22,7 @@ using units::deg;
 
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
-// The path of a SPEC §5 line: its closest approach to the Z axis and its direction.
+// The path of a docs/contract.md §5 line: its closest approach to the Z axis and its direction.
 ChargedPath pathOf(const TrackLine& t) { return {t.closestApproach(), t.direction()}; }
 
 double mean(const std::vector<double>& v) {

@@ -229,7 +229,7 @@ TEST_F(CampaignFiles, AStoredGroupCountsOnlyWhenItIsFromTheSameData) {
   auto db = conddb::Database::open("sqlite:" + path("c.db"), conddb::IfMissing::Create);
   ASSERT_TRUE(db) << db.error().message;
   const CampaignGroup& g = groups[1];
-  const CampaignModel model;  // no corrections, SPEC's sigma_sys
+  const CampaignModel model;  // no corrections, the contract's sigma_sys
   auto stored = groupStored(**db, "t", g, digests, model);
   ASSERT_TRUE(stored) << stored.error().message;
   EXPECT_FALSE(*stored);  // nothing there

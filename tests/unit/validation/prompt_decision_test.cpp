@@ -1,5 +1,5 @@
 // The rule of prompt calibration (validation/prompt_decision.hpp): the thresholds file read
-// strictly, and every branch of update / no-update / veto with SPEC's strict comparisons.
+// strictly, and every branch of update / no-update / veto with the contract's strict comparisons.
 
 #include "emcalign/validation/prompt_decision.hpp"
 
@@ -47,7 +47,7 @@ conddb::StoredValues inForce(double dx, double alpha) {
 TEST(PromptThresholds, ReadInSpecOrderWithAHashOfTheirContent) {
   const Thresholds t = thresholds();
   ASSERT_EQ(t.parameters.size(), 2u);
-  EXPECT_EQ(t.parameters[0].parameter, Param::Alpha) << "SPEC §3's order, not the file's";
+  EXPECT_EQ(t.parameters[0].parameter, Param::Alpha) << "docs/contract.md §3's order, not the file's";
   EXPECT_EQ(t.parameters[1].parameter, Param::Dx);
   EXPECT_EQ(t.parameters[1].maxError, 0.05);
   EXPECT_EQ(t.sha256.size(), 64u);

@@ -64,7 +64,7 @@ TEST_F(TagSettings, TheRefitTakesTheSigmaSysEveryIovShares) {
   EXPECT_EQ(m->sigmaSys.method, calib::SigmaSysMethod::Auto);
   EXPECT_TRUE(m->profile.eventPairs);  // auto needs the event pairs of each bin
 
-  // Made before the choice was recorded: SPEC's 0.2°, the same as "fixed 0.2".
+  // Made before the choice was recorded: the contract's 0.2°, the same as "fixed 0.2".
   m = adopt("old", payload(nullptr, "", ""), payload({{"method", "fixed"}, {"value_deg", 0.2}}, "", ""));
   ASSERT_TRUE(m) << m.error().message;
   EXPECT_EQ(m->sigmaSys.method, calib::SigmaSysMethod::Spec);

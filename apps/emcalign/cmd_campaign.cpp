@@ -138,9 +138,9 @@ Result<std::unique_ptr<validation::PlannedJob>> plannedJob(const io::Json& data,
         fmt::format("--detector {}: the plan {} was made with the {} detector", o.detector, source, plan->detector)};
   }
   if (!o.corrections.empty()) {
-    auto given = calib::correctionsDigest(o.corrections);
-    if (!given) return given.error();
-    if (*given != plan->correctionsSha256) {
+    auto digest = calib::correctionsDigest(o.corrections);
+    if (!digest) return digest.error();
+    if (*digest != plan->correctionsSha256) {
       return Error{fmt::format("--corrections {}: the plan {} was made {}", o.corrections, source,
                                plan->corrections.empty() ? std::string("without corrections")
                                                          : "with other ones (" + plan->corrections + ")")};

@@ -227,9 +227,10 @@ std::optional<SampleResult> readSample(const std::string& path, int sampleIndex,
     }
     if (f.contains("sigma_sys")) s.fit.sigmaSys.value = f["sigma_sys"]["value_deg"].get<double>() * units::deg;
     if (f.contains("correlation")) {
-      for (int r = 0; r < static_cast<int>(kNumParams); ++r) {
-        for (int c = 0; c < static_cast<int>(kNumParams); ++c)
-          s.fit.correlation(r, c) = f["correlation"][r][c].get<double>();
+      for (int row = 0; row < static_cast<int>(kNumParams); ++row) {
+        for (int col = 0; col < static_cast<int>(kNumParams); ++col) {
+          s.fit.correlation(row, col) = f["correlation"][row][col].get<double>();
+        }
       }
     }
     return s;

@@ -30,17 +30,17 @@ namespace prompt {
 // ---- the state kept in STATE_DIR/state.json
 
 Json State::toJson() const {
-  Json files = Json::object();
-  for (const auto& [name, f] : this->files) {
-    files[name] = {{"size", f.size},     {"mtime_ns", f.mtimeNs}, {"inode", f.inode},  {"sha256", f.sha256},
-                   {"status", f.status}, {"runs", f.runs},        {"reason", f.reason}};
+  Json filesJson = Json::object();
+  for (const auto& [name, f] : files) {
+    filesJson[name] = {{"size", f.size},     {"mtime_ns", f.mtimeNs}, {"inode", f.inode},  {"sha256", f.sha256},
+                       {"status", f.status}, {"runs", f.runs},        {"reason", f.reason}};
   }
-  Json open = Json::array();
-  for (const TakenRun& r : this->open) {
-    open.push_back({{"run", r.run},
-                    {"file", r.file},
-                    {"beam_energy_mev", energyJson(r.beamEnergy)},
-                    {"selected_events", r.selected}});
+  Json openJson = Json::array();
+  for (const TakenRun& r : open) {
+    openJson.push_back({{"run", r.run},
+                        {"file", r.file},
+                        {"beam_energy_mev", energyJson(r.beamEnergy)},
+                        {"selected_events", r.selected}});
   }
   return {{"format", kPromptStateFormat},
           {"watch_dir", watchDir},
@@ -49,8 +49,8 @@ Json State::toJson() const {
           {"decided", decided},
           {"decided_sha256", decidedSha256},
           {"model", model},
-          {"files", files},
-          {"open", open},
+          {"files", filesJson},
+          {"open", openJson},
           {"alerted", alerted},
           {"pending", pending}};
 }

@@ -277,7 +277,7 @@ TEST_P(ConditionsCli, DiffCountsWhatItShows) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Backends, ConditionsCli, ::testing::Values("sqlite", "postgres"),
-                         [](const auto& info) { return info.param; });
+                         [](const auto& instance) { return instance.param; });
 
 // A tag copied SQLite → PostgreSQL → SQLite keeps its IOVs, payloads (hashes) and state.
 TEST(ConditionsCopy, BetweenBackEnds) {

@@ -426,7 +426,7 @@ TEST_P(Audit, SnapshotsAnswerAsTheDatabaseWas) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Backends, Audit, ::testing::Values("sqlite", "postgres"),
-                         [](const auto& info) { return info.param; });
+                         [](const auto& instance) { return instance.param; });
 
 // The database of the release before (schema 1) opens and is upgraded, once, in one
 // transaction: on SQLite the fixture file itself, on PostgreSQL its rows in schema 1's tables.
@@ -535,7 +535,7 @@ TEST_P(Upgrade, ADatabaseOfSchemaOneIsUpgradedOnceAndKeepsEverything) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Backends, Upgrade, ::testing::Values("sqlite", "postgres"),
-                         [](const auto& info) { return info.param; });
+                         [](const auto& instance) { return instance.param; });
 
 }  // namespace
 }  // namespace emcalign::conddb

@@ -422,7 +422,7 @@ TEST_P(Conditions, AWholeTagIsWrittenOnceAndNeverOverAnother) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Backends, Conditions, ::testing::Values("sqlite", "postgres"),
-                         [](const auto& info) { return info.param; });
+                         [](const auto& instance) { return instance.param; });
 
 TEST(ConditionsUri, RefusesWhatIsNotADatabase) {
   const fs::path dir = fs::temp_directory_path() / fmt::format("emcalign-conddb-uri-{}", ::getpid());

@@ -1,4 +1,4 @@
-// emcalign report: one self-contained HTML page of a calibration (report/calibration_report.hpp):
+// emcalign report: one self-contained HTML page of a calibration (page/calibration_report.hpp):
 //   report [--fit RESULT.json [--events EVENTS...] [--corrections C]] [--validation DIR]
 //          [--compare DIR] [--trend DIR] [--conditions URI --tag T] [--checks DIR...] [--prompt STATE_DIR] [--title T]
 //          -o report.html
@@ -18,7 +18,7 @@
 #include "emcalign/conddb/conditions.hpp"
 #include "emcalign/core/sha256.hpp"
 #include "emcalign/core/units.hpp"
-#include "emcalign/report/calibration_report.hpp"
+#include "emcalign/page/calibration_report.hpp"
 #include "emcalign/report/fit_figures.hpp"
 #include "emcalign/validation/prompt.hpp"
 

@@ -8,7 +8,7 @@
 #include "emcalign/core/parameters.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/io/output_file.hpp"
-#include "emcalign/report/calibration_report.hpp"
+#include "emcalign/page/calibration_report.hpp"
 
 namespace emcalign::python {
 

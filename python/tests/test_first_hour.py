@@ -114,3 +114,32 @@ def test_nothing_cites_a_file_outside_the_repository():
             if outside.search(line.replace(allowed, "")):
                 cited.append(f"{name}:{n}: {line.strip()[:120]}")
     assert not cited, "\n".join(cited)
+
+
+def test_the_modules_include_only_downwards():
+    """The layer order of docs/style.md and the README: a module includes only the modules
+    before it (core → geometry → sim → io → calib → apply → conddb → report → validation → page)."""
+    import re
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    order = ["core", "geometry", "sim", "io", "calib", "apply", "conddb", "report", "validation", "page"]
+    back = []
+    for base in (root / "include" / "emcalign", root / "src"):
+        for module in order:
+            for path in (base / module).rglob("*.[ch]pp"):
+                for n, line in enumerate(path.read_text().splitlines(), 1):
+                    m = re.match(r'\s*#\s*include\s+"emcalign/(\w+)/', line)
+                    if m and (m.group(1) not in order or order.index(m.group(1)) > order.index(module)):
+                        back.append(f"{path.relative_to(root)}:{n}: {module} includes {m.group(1)}")
+    assert not back, "\n".join(back)
+    readme = (root / "README.md").read_text()
+    layout = readme[readme.index("## Layout"):]
+    places = []
+    for m in order:
+        found = re.search(rf"`{m}`\s*\(", layout)
+        places.append(found.start() if found else -1)
+    assert -1 not in places and places == sorted(places), f"the README's layout lists the modules out of order: {places}"
+    style = (root / "docs" / "style.md").read_text()
+    rows = [style.find(f"| `{m}/` |") for m in order]
+    assert -1 not in rows and rows == sorted(rows), f"docs/style.md lists the modules out of order: {rows}"

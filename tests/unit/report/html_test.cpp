@@ -1,5 +1,5 @@
 // The HTML report's building blocks and sections (report/html.hpp,
-// report/calibration_report.hpp): escaping, base64, figures inline, the heat map's colours,
+// page/calibration_report.hpp): escaping, base64, figures inline, the heat map's colours,
 // and the sections made from the JSON the other commands write.
 
 #include "emcalign/report/html.hpp"
@@ -13,7 +13,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
-#include "emcalign/report/calibration_report.hpp"
+#include "emcalign/page/calibration_report.hpp"
 
 namespace emcalign::report {
 namespace {

@@ -1,4 +1,4 @@
-#include "emcalign/report/calibration_report.hpp"
+#include "emcalign/page/calibration_report.hpp"
 #include "emcalign/core/text.hpp"
 
 #include <algorithm>

@@ -68,9 +68,9 @@ Result<State> State::parse(const Json& j, const std::string& source) {
     s.decided = o.at("decided").get<std::int64_t>();
     s.decidedSha256 = o.string("decided_sha256");
     s.model = o.at("model");
-    const auto files = o.object("files");
+    const auto filesObject = o.object("files");
     for (const auto& [name, value] : o.at("files").items()) {
-      const auto f = files.object(name);
+      const auto f = filesObject.object(name);
       f.allowOnly({"size", "mtime_ns", "inode", "sha256", "status", "runs", "reason"});
       FileEntry e;
       e.size = f.at("size").get<std::int64_t>();
@@ -83,10 +83,10 @@ Result<State> State::parse(const Json& j, const std::string& source) {
       e.reason = f.string("reason");
       s.files[name] = std::move(e);
     }
-    const Json& open = o.at("open");
-    if (!open.is_array()) o.fail("open", "expected an array");
-    for (std::size_t k = 0; k < open.size(); ++k) {
-      const auto r = o.nested(open[k], fmt::format("open[{}]", k));
+    const Json& openRuns = o.at("open");
+    if (!openRuns.is_array()) o.fail("open", "expected an array");
+    for (std::size_t k = 0; k < openRuns.size(); ++k) {
+      const auto r = o.nested(openRuns[k], fmt::format("open[{}]", k));
       r.allowOnly({"run", "file", "beam_energy_mev", "selected_events"});
       s.open.push_back({r.at("run").get<std::int32_t>(), r.string("file"), r.numberOrNull("beam_energy_mev"),
                         r.at("selected_events").get<std::int64_t>()});

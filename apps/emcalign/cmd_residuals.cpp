@@ -11,7 +11,7 @@
 #include <fmt/format.h>
 
 #include "common.hpp"
-#include "emcalign/apply/residual_summary.hpp"
+#include "emcalign/apply/residual_record.hpp"
 #include "emcalign/calib/corrections.hpp"
 #include "emcalign/core/beam_energy.hpp"
 #include "emcalign/core/units.hpp"
@@ -74,45 +74,25 @@ int run(const ResidualsOptions& o) {
   if (o.beamEnergy > 0.0) selection.beamEnergy = o.beamEnergy * units::MeV;
 
   std::vector<report::LabelledSummary> summaries;
-  io::Json json = io::Json::array();
-  std::string table =
-      "| sample | events | particles | mean sin Δφ (deg) | mean Δθ (deg) | rms Δφ (deg) | rms Δθ (deg) | "
-      "φ irregularity (deg) |\n|---|---|---|---|---|---|---|---|\n";
+  apply::ResidualRecord record;
+  record.depthOffsetCm = depth.offset / units::cm;
   for (const auto& s : samples) {
     auto summary = apply::summarizeResiduals(s.files, depth, selection);
     if (!summary) return reportError({fmt::format("--sample {}: {}", s.name, summary.error().message)});
-    const auto& r = *summary;
-    table += fmt::format("| {} | {} | {} | {:+.4f} ± {:.4f} | {:+.4f} ± {:.4f} | {:.3f} | {:.3f} | {:.4f} |\n", s.name,
-                         r.events, r.particles, r.meanSinDphiDeg, r.meanSinDphiErrorDeg, r.meanDthetaDeg,
-                         r.meanDthetaErrorDeg, r.rmsDphiDeg, r.rmsDthetaDeg, r.irregularityDeg);
-    io::Json columns = io::Json::array();
-    for (double m : r.columnMeanDeg) columns.push_back(io::numberOrNull(m));
-    json.push_back({{"name", s.name},
-                    {"files", s.files},
-                    {"events", r.events},
-                    {"particles", r.particles},
-                    {"mean_sin_dphi_deg", r.meanSinDphiDeg},
-                    {"mean_sin_dphi_error_deg", r.meanSinDphiErrorDeg},
-                    {"mean_dtheta_deg", r.meanDthetaDeg},
-                    {"mean_dtheta_error_deg", r.meanDthetaErrorDeg},
-                    {"rms_dphi_deg", r.rmsDphiDeg},
-                    {"rms_dtheta_deg", r.rmsDthetaDeg},
-                    {"phi_column_mean_sin_dphi_deg", columns},
-                    {"phi_irregularity_deg", r.irregularityDeg}});
-    summaries.push_back({s.name, r});
+    summaries.push_back({s.name, *summary});
+    record.samples.push_back({s.name, s.files, std::move(*summary)});
   }
   std::error_code ec;
   std::filesystem::create_directories(o.output, ec);
   if (ec) return reportError({fmt::format("{}: cannot create the directory: {}", o.output, ec.message())});
-  const io::Json doc = {{"software", fmt::format("emcalign {}", kVersion)},
-                        {"depth_offset_cm", depth.offset / units::cm},
-                        {"samples", json}};
   const auto dir = std::filesystem::path(o.output);
-  if (Status s = io::writeFileIn(dir.string(), "residuals.json", doc.dump(2) + "\n"); !s) return reportError(s.error());
-  const std::string md = "# Residuals of the selected e+e- → e+e- particles (θ_EMC 45°–135°)\n\n" + table +
-                         "\nsin Δφ and its means are shown as sin Δφ · 180/π; the φ irregularity is max − min of the "
-                         "mean sin Δφ of the 16 φ columns.\n";
-  if (Status s = io::writeFileIn(dir.string(), "residuals.md", md); !s) return reportError(s.error());
+  if (Status s = io::writeFileIn(dir.string(), "residuals.json", apply::residualsJson(record).dump(2) + "\n"); !s) {
+    return reportError(s.error());
+  }
+  if (Status s = io::writeFileIn(dir.string(), "residuals.md", apply::residualsMarkdown(record.samples)); !s) {
+    return reportError(s.error());
+  }
+  const std::string table = apply::residualsTable(record.samples);
   fmt::print(reportStream(), "{}", table);
   auto pngs = report::writeResidualPlots(o.output, summaries);
   if (!pngs) return reportError(pngs.error());

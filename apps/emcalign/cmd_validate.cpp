@@ -14,6 +14,7 @@
 #include "emcalign/core/text.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/core/version.hpp"
+#include "emcalign/io/paths.hpp"
 #include "emcalign/validation/campaign.hpp"
 #include "emcalign/validation/derive_corrections.hpp"
 #include "emcalign/validation/systematics.hpp"
@@ -161,16 +162,6 @@ Status writeCorrectionsWithErrors(const ValidateOptions& cli, const validation::
   return io::writeOutputFile(cli.writeCorrections, calib::correctionsJson(*corrections).dump(2) + "\n");
 }
 
-// Whether `path` is `dir` or lies inside it (both made absolute and normal, links resolved
-// where they exist).
-bool inside(const std::string& path, const std::string& dir) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  const fs::path p = fs::weakly_canonical(fs::absolute(path), ec), d = fs::weakly_canonical(fs::absolute(dir), ec);
-  const auto [end, at] = std::mismatch(d.begin(), d.end(), p.begin(), p.end());
-  return end == d.end() || (std::next(end) == d.end() && end->empty());  // "d/" ends in an empty element
-}
-
 // What --write-corrections needs, checked before the study: one corrections file, an output
 // outside the study's directory, and a study of the conditions the file was derived for
 // (its beam energy and polar range, the realistic simulation), so that the errors it will
@@ -181,7 +172,7 @@ Status checkWriteCorrections(const ValidateOptions& cli, const validation::Campa
         "--write-corrections needs --corrections FILE, not a grid: the study measures the systematic "
         "errors of one file (a grid's files are studied one by one, each at its own --beam-energy)"};
   }
-  if (cli.writeCorrections != "-" && inside(cli.writeCorrections, cli.output)) {
+  if (cli.writeCorrections != "-" && io::isWithin(cli.writeCorrections, cli.output)) {
     return Error{fmt::format("--write-corrections {} is inside the study's directory -o {}: write it elsewhere",
                              cli.writeCorrections, cli.output)};
   }

@@ -20,6 +20,7 @@
 #include "emcalign/core/utf8.hpp"
 #include "emcalign/io/csv.hpp"
 #include "emcalign/io/output_file.hpp"
+#include "emcalign/io/paths.hpp"
 #include "emcalign/validation/slurm.hpp"
 
 namespace emcalign::app {
@@ -30,20 +31,6 @@ namespace fs = std::filesystem;
 
 std::vector<std::string> gCommandLine;
 PlanContext gContext;
-
-// Whether `inner` is `outer` or lies inside it, links resolved as far as the paths exist.
-bool within(const std::string& inner, const std::string& outer) {
-  std::error_code ec;
-  const auto a = std::filesystem::weakly_canonical(std::filesystem::absolute(inner), ec);
-  const auto b = std::filesystem::weakly_canonical(std::filesystem::absolute(outer), ec);
-  if (ec) return false;
-  auto i = a.begin();
-  for (auto j = b.begin(); j != b.end(); ++j, ++i) {
-    if (j->empty() && std::next(j) == b.end()) break;  // a trailing separator
-    if (i == a.end() || *i != *j) return false;
-  }
-  return true;
-}
 
 // `arguments` without the option `name` and its value (`--name V` or `--name=V`).
 std::vector<std::string> without(const std::vector<std::string>& arguments, const std::string& name) {
@@ -321,7 +308,7 @@ int batchScript(const std::string& path, const std::string& output, bool missing
   const validation::PlanPaths named = validation::pathsOfPlan(*plan);
   for (const auto* list : {&named.files, &named.directories}) {
     for (const auto& n : *list) {
-      if (output == "-" || !within(output, n.path)) continue;
+      if (output == "-" || !io::isWithin(output, n.path)) continue;
       return reportError(
           Error{fmt::format("-o {}: {} {}, {} ({}): a script replaces nothing a plan reads or writes; put it elsewhere",
                             output, list == &named.files ? "is" : "is inside", n.path, n.option, path)});
@@ -385,13 +372,13 @@ Status planBesideOutputs(const std::string& planPath, const std::vector<std::str
   const std::string work = validation::planWorkDirectory(planPath);
   for (const auto& out : outputs) {
     if (out.empty() || out == "-") continue;
-    if (within(out, work)) {
+    if (io::isWithin(out, work)) {
       return Error{
           fmt::format("{}: inside the work directory {} of the plan {}, where the tasks keep their "
                       "records: put it elsewhere",
                       out, work, planPath)};
     }
-    if (within(planPath, out) || within(work, out)) {
+    if (io::isWithin(planPath, out) || io::isWithin(work, out)) {
       return Error{fmt::format(
           "--plan {}: the plan and its work directory {} would be inside {}, an output or input of the command, "
           "which holds what the command writes or reads and nothing else: put the plan beside it",

@@ -1,12 +1,13 @@
 // libFuzzer target: the typed readers of the files the commands write and other commands (the
-// report, trend, batch, conditions) read back — the fit result, check.json, compare.json, the
+// report, trend, batch, conditions) read back — the fit result, check.json, compare.json, residuals.json, the
 // campaign table, trend.json, a plan and a campaign's part of it, and a conditions payload with
 // each of its lenient readers. Each input is read by all of them. Where the library has the
-// writer of the record read (check, compare, table, payload), what reads is written back and
+// writer of the record read (check, compare, residuals, table, payload), what reads is written back and
 // must read again, the same when written once more (read–write–read).
 
 #include "emcalign/apply/check_record.hpp"
 #include "emcalign/apply/mc_comparison.hpp"
+#include "emcalign/apply/residual_record.hpp"
 #include "emcalign/calib/fit_record.hpp"
 #include "emcalign/conddb/conditions.hpp"
 #include "emcalign/io/json_files.hpp"
@@ -77,6 +78,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (auto c = validation::parseCampaignPlan(*j, "fuzz.json"); !c) fuzz::expectMessage(false, c.error().message);
   roundTrip(*j, apply::parseCheckRecord, [](const apply::CheckRecord& r) { return apply::checkJson(r); });
   roundTrip(*j, apply::parseComparison, [](const apply::ComparisonRecord& r) { return apply::comparisonJson(r); });
+  roundTrip(*j, apply::parseResiduals, [](const apply::ResidualRecord& r) { return apply::residualsJson(r); });
   roundTrip(*j, validation::parseTable, [](const validation::Table& t) { return validation::tableJson(t); });
   payload(*j);
   return 0;

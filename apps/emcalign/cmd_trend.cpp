@@ -141,12 +141,9 @@ int run(const TrendCliOptions& o) {
   to.boundaries = o.boundaries;
   const validation::Trend trend = validation::analyseTrend(*series, to);
 
-  Json out = validation::trendJson(trend, *series, truth ? &*truth : nullptr);
-  out["conditions"] = (*db)->uri();
-  out["tag"] = o.tag;
   auto models = validation::modelsOfTag(*snapshot);
   if (!models) return reportError(models.error());
-  out["models"] = *models;
+  validation::TrendOrigin origin{(*db)->uri(), o.tag, *models};
   std::string md = validation::trendMarkdown(
       trend, *series, {fmt::format("tag {} of {}", o.tag, (*db)->uri()), *models, truth ? &*truth : nullptr});
   if (!o.tagOut.empty()) {
@@ -155,8 +152,9 @@ int run(const TrendCliOptions& o) {
         rc != kExitOk) {
       return rc;
     }
-    out["refit"] = summary;
+    origin.refit = std::move(summary);
   }
+  const Json out = validation::trendJson(trend, *series, origin, truth ? &*truth : nullptr);
   std::error_code ec;
   fs::create_directories(o.output, ec);
   if (ec) return reportError(Error{fmt::format("{}: cannot create the directory: {}", o.output, ec.message())});

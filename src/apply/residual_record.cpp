@@ -76,8 +76,8 @@ ResidualSample readSample(const StrictObject& o) {
   r.irregularityDeg = o.numberOrNull("phi_irregularity_deg");
   const Json& columns = o.array("phi_column_mean_sin_dphi_deg");
   if (columns.size() != r.columnMeanDeg.size()) {
-    o.fail(o.pathOf("phi_column_mean_sin_dphi_deg"), fmt::format("expected {} columns, got {}", r.columnMeanDeg.size(),
-                                                       columns.size()));
+    o.fail(o.pathOf("phi_column_mean_sin_dphi_deg"),
+           fmt::format("expected {} columns, got {}", r.columnMeanDeg.size(), columns.size()));
   }
   for (std::size_t k = 0; k < columns.size(); ++k) {
     const Json& v = columns[k];

@@ -255,6 +255,16 @@ Json trendJson(const Trend& t, const std::vector<TrendSeries>& series, const Per
           {"series", list}};
 }
 
+Json trendJson(const Trend& t, const std::vector<TrendSeries>& series, const TrendOrigin& origin,
+               const PeriodTruth* truth) {
+  Json out = trendJson(t, series, truth);
+  out["conditions"] = origin.conditions;
+  out["tag"] = origin.tag;
+  out["models"] = origin.models;
+  if (origin.refit) out["refit"] = *origin.refit;
+  return out;
+}
+
 // ---------------------------------------------------------------- reading trend.json back
 
 namespace {

@@ -354,9 +354,16 @@ double trueDriftChange(const TrendDrift& d, const PeriodTruth& truth);
 /// trend.json: {"format", "method", "iovs", "resolvable", "verdict", "steps": [{"parameter",
 /// "first_run_after", "size", "error", "z", "unit", "within_iov", …, "true_size" (with a
 /// truth)}], "inconsistent", "known_boundaries", "set_aside", "edges", "drifts" (…,
-/// "true_change"), "segments", "series"}; `emcalign trend` adds "conditions", "tag", "models"
-/// (and "refit": segment_refit.hpp's refitJson). Written here, read by parseTrend.
+/// "true_change"), "segments", "series"}, and with a TrendOrigin "conditions", "tag", "models"
+/// and, after `--refit`, "refit" (segment_refit.hpp's refitJson). Written here, read by parseTrend.
+struct TrendOrigin {
+  std::string conditions, tag;         ///< the database (as shown: no password) and the tag followed
+  std::vector<std::string> models;     ///< the models its IOVs were fitted with (modelsOfTag)
+  std::optional<io::Json> refit = {};  ///< refitJson, with "tag_out"
+};
 io::Json trendJson(const Trend& t, const std::vector<TrendSeries>& series, const PeriodTruth* truth = nullptr);
+io::Json trendJson(const Trend& t, const std::vector<TrendSeries>& series, const TrendOrigin& origin,
+                   const PeriodTruth* truth = nullptr);
 /// A step as trend.json records it, with its drift alternative in words (driftAlternativeText;
 /// empty: none) and, of a simulated period, its true size (NaN: not recorded).
 struct RecordedStep {

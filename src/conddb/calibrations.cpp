@@ -150,21 +150,13 @@ Result<CopiedTag> copyTag(Database& from, const std::string& tag, Database& to, 
 
 Result<RunCalibration> calibrationAt(Database& db, const std::string& tag, std::int64_t run,
                                      const std::string& atText) {
-  std::string at;  // in the database's form: the text recorded
-  if (!atText.empty()) {
-    auto parsed = parseSnapshot(atText, "snapshot");
-    if (!parsed) return parsed.error();
-    at = std::move(*parsed);
-  }
+  auto snapshot = snapshotForm(atText);  // the text recorded
+  if (!snapshot) return snapshot.error();
+  const std::string& at = *snapshot;
   if (!at.empty()) {
     auto t = db.tag(tag, at);
     if (!t) return t.error();
-    if (!t->has_value()) {
-      auto now = db.tag(tag);
-      if (now && now->has_value()) {
-        return Error{fmt::format("{}: tag '{}' did not exist at {} (created {})", db.uri(), tag, at, (*now)->created)};
-      }
-    }
+    if (!t->has_value()) return missingTag(db, tag, at);
   }
   auto got = db.get(tag, run, at);
   if (!got) return got.error();

@@ -83,6 +83,11 @@ Result<std::string> parseSnapshot(std::string_view text, std::string_view option
   return utcMicrosText(*t);
 }
 
+Result<std::string> snapshotForm(const std::string& at) {
+  if (at.empty()) return std::string();
+  return parseSnapshot(at, "snapshot");
+}
+
 std::string Database::Promotion::lastIovFate() const {
   if (lastBefore.lastRun == firstSafeRun - 1) return "kept";
   return lastBefore.lastRun >= firstSafeRun ? "cut" : "extended";

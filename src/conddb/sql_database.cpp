@@ -35,11 +35,6 @@ void holdWriteForTests() {
 
 std::string toText(const std::optional<std::string>& s) { return s ? *s : std::string(); }
 
-Result<std::string> snapshotForm(const std::string& at) {
-  if (at.empty()) return std::string();
-  return parseSnapshot(at, "snapshot");
-}
-
 Result<std::int64_t> runOf(const std::optional<std::string>& s, const std::string& uri, const std::string& tag) {
   std::int64_t run = -1;
   const std::string text = s.value_or("");

@@ -43,8 +43,7 @@ auto inTransaction(SqlBackend& db, Access access, F&& body) -> decltype(body()) 
 void holdWriteForTests();
 
 std::string toText(const std::optional<std::string>& s);
-/// A snapshot time in the database's form (the text compared with its times): "" stays "".
-Result<std::string> snapshotForm(const std::string& at);
+
 /// A run number as stored: an integer, 0 or more; anything else (a database edited by hand)
 /// is an error naming the tag.
 Result<std::int64_t> runOf(const std::optional<std::string>& s, const std::string& uri, const std::string& tag);

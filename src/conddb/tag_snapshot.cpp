@@ -7,14 +7,20 @@
 
 namespace emcalign::conddb {
 
+Error missingTag(Database& db, const std::string& tag, const std::string& at) {
+  if (!at.empty()) {
+    if (auto now = db.tag(tag); now && now->has_value()) {
+      return Error{fmt::format("{}: tag '{}' did not exist at {} (created {})", db.uri(), tag, at, (*now)->created)};
+    }
+  }
+  return Error{fmt::format("{}: no tag '{}' (the tags: emcalign conditions list {})", db.uri(), tag, db.uri())};
+}
+
 Result<TagSnapshot> TagSnapshot::load(Database& db, const std::string& tag, bool allowInvalid,
                                       const std::string& atText) {
-  std::string at;  // in the database's form: the text recorded
-  if (!atText.empty()) {
-    auto parsed = parseSnapshot(atText, "snapshot");
-    if (!parsed) return parsed.error();
-    at = std::move(*parsed);
-  }
+  auto snapshot = snapshotForm(atText);  // the text recorded
+  if (!snapshot) return snapshot.error();
+  const std::string& at = *snapshot;
   if (!allowInvalid) {
     // Invalid now: never served, whatever the snapshot.
     auto now = db.tag(tag);
@@ -28,14 +34,7 @@ Result<TagSnapshot> TagSnapshot::load(Database& db, const std::string& tag, bool
   }
   auto t = db.tag(tag, at);
   if (!t) return t.error();
-  if (!t->has_value()) {
-    if (!at.empty()) {
-      if (auto now = db.tag(tag); now && now->has_value()) {
-        return Error{fmt::format("{}: tag '{}' did not exist at {} (created {})", db.uri(), tag, at, (*now)->created)};
-      }
-    }
-    return Error{fmt::format("{}: no tag '{}' (the tags: emcalign conditions list {})", db.uri(), tag, db.uri())};
-  }
+  if (!t->has_value()) return missingTag(db, tag, at);
   auto iovs = db.iovs(tag, at);
   if (!iovs) return iovs.error();
   TagSnapshot s;

@@ -33,10 +33,7 @@ EventFormat outputFormatOf(const std::string& output, const std::string& input) 
   std::string name = std::filesystem::path(output).filename().string();
   for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   // The temporary of a reserved output (NAME.tmp-PID, io/output_file.hpp) is named by NAME.
-  if (const auto at = name.rfind(".tmp-"); at != std::string::npos && at + 5 < name.size() &&
-                                           name.find_first_not_of("0123456789", at + 5) == std::string::npos) {
-    name.resize(at);
-  }
+  if (temporaryWriter(name) > 0 && name.find(".tmp-") != std::string::npos) name.resize(name.find(".tmp-"));
   if (output == "-" || name.ends_with(".csv")) return EventFormat::Csv;
   if (name.ends_with(".h5") || name.ends_with(".hdf5")) return EventFormat::Hdf5;
   return formatOf(input);

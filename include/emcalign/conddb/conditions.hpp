@@ -78,6 +78,12 @@ struct Change {
 /// A time for `--snapshot` in the database's form (utcMicrosText), from what a person or a
 /// record gives (core/clock.hpp's parseUtcTime); the error names `option`.
 Result<std::string> parseSnapshot(std::string_view text, std::string_view option = "--snapshot");
+/// A snapshot as the database compares and records it: parseSnapshot's form, "" (now) for "".
+Result<std::string> snapshotForm(const std::string& at);
+class Database;
+/// The error for a tag `db` does not hold at snapshot `at` ("" : now): "did not exist at AT
+/// (created …)" when it exists now, else "no tag".
+Error missingTag(Database& db, const std::string& tag, const std::string& at);
 
 struct Iov {
   std::int64_t firstRun = 0;  ///< inclusive

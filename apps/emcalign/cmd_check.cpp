@@ -47,7 +47,7 @@ int run(CheckCliOptions o) {
   inputs.push_back({"--alignment", o.alignment});
   inputs.push_back({"--corrections", o.corrections});
   inputs.push_back({"--detector", o.detector});
-  for (auto& c : conditionsInputs(o.conditions)) inputs.push_back(std::move(c));
+  for (auto& c : conddb::databaseFiles(o.conditions)) inputs.push_back(std::move(c));
   if (Status s = checkOutputs({}, {{"-o", o.output}}, inputs); !s) return reportError(s.error());
   auto calo = loadCalorimeter(o.detector);
   if (!calo) return reportError(calo.error());

@@ -69,7 +69,7 @@ int run(CompareOptions o) {
   }
   auto calo = loadCalorimeter(o.detector);
   if (!calo) return reportError(calo.error());
-  auto shower = showerDepthOf(*calo, 0.0, o.corrections);
+  auto shower = calib::showerDepthWith(calo->description(), 0.0, o.corrections);
   if (!shower) return reportError(shower.error());
   const geometry::ShowerDepth depth = *shower;
   calib::SelectionOptions selection;

@@ -94,7 +94,7 @@ int runPut(const ConditionsOptions& o) {
 }
 
 int runGet(const ConditionsOptions& o) {
-  if (Status s = checkOutputs({{"-o", o.output}}, {}, conditionsInputs(o.uri, "database")); !s) {
+  if (Status s = checkOutputs({{"-o", o.output}}, {}, conddb::databaseFiles(o.uri, "database")); !s) {
     return reportError(s.error());
   }
   auto db = conddb::Database::open(o.uri);
@@ -199,7 +199,7 @@ int runDiff(const ConditionsOptions& o) {
 
 // A tag as CSV, one row per IOV.
 int runExport(const ConditionsOptions& o) {
-  if (Status s = checkOutputs({{"-o", o.output}}, {}, conditionsInputs(o.uri, "database")); !s) {
+  if (Status s = checkOutputs({{"-o", o.output}}, {}, conddb::databaseFiles(o.uri, "database")); !s) {
     return reportError(s.error());
   }
   auto db = conddb::Database::open(o.uri);
@@ -291,7 +291,7 @@ int runCopy(const ConditionsOptions& o) {
   // The source read first: a new target is created only now, and removed again if the copy
   // fails before storing.
   if (auto t = conddb::TagSnapshot::load(**from, o.tag, false, o.snapshot); !t) return reportError(t.error());
-  DatabaseToWrite target(sameSqliteFile(o.uri, o.target) ? o.uri : o.target);
+  conddb::DatabaseToWrite target(sameSqliteFile(o.uri, o.target) ? o.uri : o.target);
   if (Status s = target.prepare(); !s) return reportError(s.error());
   auto to = target.create();
   if (!to) return reportError(to.error());

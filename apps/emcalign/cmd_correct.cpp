@@ -41,7 +41,7 @@ int run(const CorrectCliOptions& o) {
   std::vector<io::NamedPath> inputs;
   for (const auto& e : *events) inputs.push_back({"", e});
   inputs.push_back({"--alignment", o.alignment});
-  for (auto& c : conditionsInputs(o.conditions)) inputs.push_back(std::move(c));
+  for (auto& c : conddb::databaseFiles(o.conditions)) inputs.push_back(std::move(c));
   inputs.push_back({"--corrections", o.corrections});
   inputs.push_back({"--detector", o.detector});
   // -o DIR/ (or an existing directory): one corrected file per input, under its own name.

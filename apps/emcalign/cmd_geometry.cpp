@@ -2,6 +2,7 @@
 // the detector description file.
 
 #include <cmath>
+#include <iostream>
 #include <memory>
 #include <string>
 
@@ -17,6 +18,7 @@
 #include "emcalign/geometry/track.hpp"
 #include "emcalign/io/csv.hpp"
 #include "emcalign/io/json_files.hpp"
+#include "emcalign/io/points_csv.hpp"
 
 namespace emcalign::app {
 
@@ -138,7 +140,7 @@ int locatePoints(const Calorimeter& calo, const std::string& paramsPath) {
   std::string out =
       "x_cm,y_cm,z_cm,region,counter,layer,ring,iphi,hemisphere,other_counter,nominal_x_cm,nominal_y_cm,"
       "nominal_z_cm\n";
-  auto points = readPointsFromStdin();
+  auto points = io::readPointsCsv(std::cin, "stdin");
   if (!points) return reportError(points.error());
   for (const Vec3& p : *points) {
     const PointLocation loc = geometry->locate(p);

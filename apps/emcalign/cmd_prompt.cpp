@@ -72,7 +72,7 @@ int run(PromptCliOptions& cli) {
   }
   std::vector<io::NamedPath> inputs = {
       {"--thresholds", o.thresholds}, {"--corrections", o.corrections}, {"--detector", o.detector}};
-  for (auto& c : conditionsInputs(o.conditions)) inputs.push_back(std::move(c));
+  for (auto& c : conddb::databaseFiles(o.conditions)) inputs.push_back(std::move(c));
   if (Status s = checkOutputs({}, {{"-o", o.stateDir}}, inputs); !s) return reportError(s.error());
   o.say = [](const std::string& line) {
     fmt::print("{}\n", line);

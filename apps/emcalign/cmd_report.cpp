@@ -63,7 +63,7 @@ class ScratchDirectory {
 int run(const ReportCliOptions& o) {
   std::vector<io::NamedPath> inputs = {{"--fit", o.fit}, {"--corrections", o.corrections}, {"--detector", o.detector}};
   for (const auto& e : o.events) inputs.push_back({"--events", e});
-  for (auto& c : conditionsInputs(o.conditions)) inputs.push_back(std::move(c));
+  for (auto& c : conddb::databaseFiles(o.conditions)) inputs.push_back(std::move(c));
   // The files the report reads inside the directories it is given.
   auto inside = [&](const std::string& option, const std::string& dir, const char* name) {
     if (!dir.empty()) inputs.push_back({option, (fs::path(dir) / name).string()});

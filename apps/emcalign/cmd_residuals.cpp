@@ -67,7 +67,7 @@ int run(const ResidualsOptions& o) {
   if (Status s = checkOutputs({}, {{"-o", o.output}}, inputs); !s) return reportError(s.error());
   auto calo = loadCalorimeter(o.detector);
   if (!calo) return reportError(calo.error());
-  auto shower = showerDepthOf(*calo, o.depthOffset, o.corrections);
+  auto shower = calib::showerDepthWith(calo->description(), o.depthOffset * units::cm, o.corrections);
   if (!shower) return reportError(shower.error());
   const geometry::ShowerDepth depth = *shower;
   calib::SelectionOptions selection;

@@ -211,7 +211,7 @@ int runPeriod(const SimulateOptions& cli) {
 int run(const SimulateOptions& cli) {
   std::vector<io::NamedPath> inputs = {
       {"--params", cli.params}, {"--detector", cli.detector}, {"--background-events", cli.backgroundEvents}};
-  for (auto& c : conditionsInputs(cli.conditions)) inputs.push_back(std::move(c));
+  for (auto& c : conddb::databaseFiles(cli.conditions)) inputs.push_back(std::move(c));
   if (Status s = checkOutputs({{"-o", cli.output}}, {}, inputs); !s) {
     return reportError(s.error());
   }

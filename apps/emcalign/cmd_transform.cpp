@@ -7,6 +7,7 @@
 // gap or in an overlap of the hemispheres are written with empty coordinates and the word
 // "gap" or "overlap" in the hemisphere column.
 
+#include <iostream>
 #include <memory>
 #include <string>
 
@@ -16,6 +17,7 @@
 #include "emcalign/core/units.hpp"
 #include "emcalign/geometry/alignment_transform.hpp"
 #include "emcalign/io/json_files.hpp"
+#include "emcalign/io/points_csv.hpp"
 
 namespace emcalign::app {
 
@@ -47,7 +49,7 @@ int run(const TransformOptions& o) {
   if (o.hemisphere == "-1") fixed = Hemisphere::Minus;
 
   std::string out = "x_cm,y_cm,z_cm,hemisphere\n";
-  auto points = readPointsFromStdin();
+  auto points = io::readPointsCsv(std::cin, "stdin");
   if (!points) return reportError(points.error());
   long gaps = 0, overlaps = 0;
   for (const Vec3& p : *points) {

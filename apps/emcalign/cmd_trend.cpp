@@ -114,7 +114,7 @@ int refit(const TrendCliOptions& o, const validation::Trend& trend, const std::v
 int run(const TrendCliOptions& o) {
   std::vector<io::NamedPath> inputs = {
       {"--truth", o.truth}, {"--corrections", o.corrections}, {"--detector", o.detector}};
-  for (auto& c : conditionsInputs(o.conditions)) inputs.push_back(std::move(c));
+  for (auto& c : conddb::databaseFiles(o.conditions)) inputs.push_back(std::move(c));
   if (!o.refit.empty()) {
     auto files = validation::eventFilesIn(o.refit);
     if (!files) return reportError(files.error());

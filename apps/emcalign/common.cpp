@@ -47,60 +47,6 @@ void reportWarning(const std::string& message) { eprint("emcalign: warning: {}\n
 
 std::FILE* reportStream() { return gReport; }
 
-std::vector<io::NamedPath> conditionsInputs(const std::string& uri, const std::string& option) {
-  std::vector<io::NamedPath> out;
-  auto address = conddb::DatabaseAddress::parse(uri);
-  if (!address) return out;  // refused with its reason when opened
-  for (const std::string& f : address->files()) out.push_back({option, f});
-  return out;
-}
-
-DatabaseToWrite::DatabaseToWrite(std::string uri, IfLeftEmpty ifLeftEmpty)
-    : uri_(std::move(uri)), ifLeftEmpty_(ifLeftEmpty) {}
-
-Status DatabaseToWrite::prepare() {
-  const std::string file = conddb::sqliteFileOf(uri_);
-  std::error_code ec;
-  if (file.empty() || std::filesystem::exists(std::filesystem::symlink_status(file, ec))) {
-    // As it always was: a server's database, or an existing file, gets the schema if it has none.
-    auto db = conddb::Database::open(uri_, conddb::IfMissing::Create);
-    if (!db) return db.error();
-    db_ = std::move(*db);
-    return {};
-  }
-  const std::filesystem::path dir = std::filesystem::path(file).parent_path();
-  const std::string shown = dir.empty() ? std::string(".") : dir.string();
-  if (!std::filesystem::is_directory(dir.empty() ? "." : dir, ec)) {
-    return Error{fmt::format("sqlite:{}: cannot create the database: the directory {} does not exist", file, shown)};
-  }
-  if (::access(shown.c_str(), W_OK | X_OK) != 0) {
-    return Error{fmt::format("sqlite:{}: cannot create the database in {}: {}", file, shown, std::strerror(errno))};
-  }
-  return {};
-}
-
-Result<conddb::Database*> DatabaseToWrite::create() {
-  if (db_) return db_.get();
-  const std::string file = conddb::sqliteFileOf(uri_);
-  std::error_code ec;
-  const bool existed = file.empty() || std::filesystem::exists(std::filesystem::symlink_status(file, ec));
-  auto db = conddb::Database::open(uri_, conddb::IfMissing::Create);
-  if (!db) return db.error();
-  db_ = std::move(*db);
-  created_ = !existed;
-  return db_.get();
-}
-
-DatabaseToWrite::~DatabaseToWrite() {
-  if (!created_ || ifLeftEmpty_ != IfLeftEmpty::Remove || !db_) return;
-  auto tags = db_->tags();
-  if (!tags || !tags->empty()) return;
-  db_.reset();  // closed before its file goes
-  const std::string file = conddb::sqliteFileOf(uri_);
-  std::error_code ec;
-  for (const char* suffix : {"", "-wal", "-shm", "-journal"}) std::filesystem::remove(file + suffix, ec);
-}
-
 Status checkOutputs(const std::vector<io::NamedPath>& files, const std::vector<io::NamedPath>& directories,
                     const std::vector<io::NamedPath>& inputs) {
   for (const auto& i : inputs) io::protectInput(i);
@@ -174,66 +120,6 @@ calib::SigmaSysChoice sigmaSysChoice(const std::string& text) {
   if (text.empty()) return calib::SigmaSysChoice::spec();
   if (text == "auto") return calib::SigmaSysChoice::automatic();
   return calib::SigmaSysChoice::fixed(*io::parseFiniteDouble(text) * units::deg);
-}
-
-Result<std::vector<Vec3>> readPointsFromStdin() {
-  static constexpr const char* kColumns[] = {"x_cm", "y_cm", "z_cm"};
-  std::vector<Vec3> points;
-  // A line of three numbers is short: a longer one (no newline in megabytes: /dev/zero, a binary
-  // file) is refused before it fills the memory.
-  constexpr std::size_t kMaxLine = std::size_t{1} << 20;
-  constexpr std::size_t kMaxPoints = 1'000'000;
-  std::string line;
-  long lineNo = 0;
-  bool header = false;
-  auto nextLine = [&]() -> Result<bool> {
-    line.clear();
-    for (int c = std::cin.get(); c != EOF; c = std::cin.get()) {
-      if (c == '\n') return true;
-      if (line.size() == kMaxLine) {
-        return Error{
-            fmt::format("stdin, line {}: longer than {} MiB: not a CSV of points", lineNo + 1, kMaxLine >> 20)};
-      }
-      line += static_cast<char>(c);
-    }
-    return !line.empty();
-  };
-  while (true) {
-    auto more = nextLine();
-    if (!more) return more.error();
-    if (!*more) break;
-    ++lineNo;
-    if (io::isBlankOrComment(line)) continue;
-    const auto fields = io::splitCsvLine(line);
-    if (!header) {
-      if (fields.size() != 3 || fields[0] != "x_cm" || fields[1] != "y_cm" || fields[2] != "z_cm") {
-        return Error{
-            fmt::format("stdin, line {}: expected the header x_cm,y_cm,z_cm, got {}", lineNo, io::quotedText(line))};
-      }
-      header = true;
-      continue;
-    }
-    if (fields.size() != 3) {
-      return Error{fmt::format("stdin, line {}: expected 3 columns (x_cm,y_cm,z_cm), got {}", lineNo, fields.size())};
-    }
-    Vec3 p;
-    for (int i = 0; i < 3; ++i) {
-      const auto v = io::parseFiniteDouble(fields[static_cast<std::size_t>(i)]);
-      if (!v) {
-        return Error{fmt::format("stdin, line {}, column '{}': not a finite number: {}", lineNo, kColumns[i],
-                                 io::quotedText(fields[static_cast<std::size_t>(i)]))};
-      }
-      p[i] = *v * units::cm;
-    }
-    // All are read before any is printed (a bad line at the end prints nothing): a bound keeps
-    // an endless input (`yes`) from taking the memory.
-    if (points.size() == kMaxPoints) {
-      return Error{fmt::format("stdin: more than {} points: give them in pieces", kMaxPoints)};
-    }
-    points.push_back(p);
-  }
-  if (!header) return Error{"stdin: no header line x_cm,y_cm,z_cm"};
-  return points;
 }
 
 CLI::Validator tagName() {
@@ -316,18 +202,6 @@ CLI::Validator unsigned64() {
         return {};
       },
       "INTEGER in [0, 2^64 - 1]");
-}
-
-Result<geometry::ShowerDepth> showerDepthOf(const geometry::Calorimeter& calo, double offsetCm,
-                                            const std::string& corrections) {
-  auto depth = geometry::ShowerDepth::of(calo.description());
-  depth.offset = offsetCm * units::cm;
-  if (!corrections.empty()) {
-    auto c = calib::readCorrections(corrections);
-    if (!c) return c.error();
-    depth.offset = c->depthOffset;
-  }
-  return depth;
 }
 
 }  // namespace emcalign::app

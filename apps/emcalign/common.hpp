@@ -14,6 +14,7 @@
 #include "emcalign/apply/placements.hpp"
 #include "emcalign/calib/sigma_sys.hpp"
 #include "emcalign/conddb/conditions.hpp"
+#include "emcalign/conddb/database_to_write.hpp"
 #include "emcalign/core/result.hpp"
 #include "emcalign/geometry/alignment_parameters.hpp"
 #include "emcalign/geometry/detector.hpp"
@@ -61,48 +62,8 @@ std::FILE* reportStream();
 Status checkOutputs(const std::vector<io::NamedPath>& files, const std::vector<io::NamedPath>& directories,
                     const std::vector<io::NamedPath>& inputs);
 
-/// The files of a conditions database (an SQLite file and its journals; none for a server), as
-/// inputs of a command: no output may replace them.
-std::vector<io::NamedPath> conditionsInputs(const std::string& uri, const std::string& option = "--conditions");
-
-/// A conditions database a command stores into, created only when there is something to
-/// store: a command refused for its inputs leaves no new, empty database behind.
-///   DatabaseToWrite target(uri);
-///   target.prepare();   // before the work: an existing database (a server's) opened, so
-///                       // that a wrong address is refused at once; for a new SQLite file,
-///                       // its directory checked
-///   …                   // read and check the inputs, fit
-///   target.create();    // the database, its SQLite file created now when new
-/// With IfLeftEmpty::Remove, a file this command created is removed again when the command
-/// ends without a tag in it (a campaign whose every group failed). Not for jobs that may
-/// create the same file at once (campaign --group): another one may be storing into it.
-class DatabaseToWrite {
- public:
-  enum class IfLeftEmpty { Remove, Keep };
-  explicit DatabaseToWrite(std::string uri, IfLeftEmpty ifLeftEmpty = IfLeftEmpty::Remove);
-  DatabaseToWrite(const DatabaseToWrite&) = delete;
-  DatabaseToWrite& operator=(const DatabaseToWrite&) = delete;
-  ~DatabaseToWrite();
-
-  Status prepare();
-  /// The database when it exists (after prepare or create), else null: nothing stored in it yet.
-  conddb::Database* existing() { return db_.get(); }
-  Result<conddb::Database*> create();
-
- private:
-  std::string uri_;
-  IfLeftEmpty ifLeftEmpty_;
-  std::unique_ptr<conddb::Database> db_;
-  bool created_ = false;  // the SQLite file did not exist before create()
-};
-
 /// The detector of `--detector FILE`, or the embedded default when the path is empty.
 using io::loadCalorimeter;
-/// The shower depth R(E, θ) of a detector, moved by `offsetCm`, or by the depth offset of a
-/// corrections file when one is given (its error names the file).
-Result<geometry::ShowerDepth> showerDepthOf(const geometry::Calorimeter& calo, double offsetCm,
-                                            const std::string& corrections);
-
 /// An alignment from a parameter file, a fit result or a placements file (apply/placements.hpp).
 using apply::loadAlignment;
 
@@ -125,10 +86,6 @@ CLI::Validator integerIn(std::int64_t lo, std::int64_t hi);
 /// given: the contract's 0.2°).
 CLI::Option* addSigmaSysOption(CLI::App& cmd, std::string& text);
 calib::SigmaSysChoice sigmaSysChoice(const std::string& text);
-/// The points of a CSV on standard input: the header x_cm,y_cm,z_cm, then one point per row
-/// (blank and # lines skipped), in native units; the error names the line and the column.
-Result<std::vector<Vec3>> readPointsFromStdin();
-
 /// A conditions tag name (conddb::checkTagName).
 CLI::Validator tagName();
 /// A time for --snapshot (ISO 8601, UTC), rewritten in the database's form (conddb::parseSnapshot).

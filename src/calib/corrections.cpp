@@ -417,6 +417,18 @@ Json systematicErrorsJson(const SystematicErrors& s) {
   return j;
 }
 
+Result<geometry::ShowerDepth> showerDepthWith(const geometry::DetectorDescription& detector, double offset,
+                                              const std::string& correctionsFile) {
+  auto depth = geometry::ShowerDepth::of(detector);
+  depth.offset = offset;
+  if (!correctionsFile.empty()) {
+    auto c = readCorrections(correctionsFile);
+    if (!c) return c.error();
+    depth.offset = c->depthOffset;
+  }
+  return depth;
+}
+
 Result<ModelCorrections> readCorrections(const std::string& path) {
   auto text = io::readTextFile(path);
   if (!text) return text.error();

@@ -2,7 +2,7 @@
 // report, trend, batch, conditions) read back — the fit result, check.json, compare.json, residuals.json, the
 // campaign table, trend.json, a plan and a campaign's part of it, and a conditions payload with
 // each of its lenient readers. Each input is read by all of them. Where the library has the
-// writer of the record read (check, compare, residuals, table, payload), what reads is written back and
+// writer of the record read (check, compare, residuals, table, campaign plan, payload), what reads is written back and
 // must read again, the same when written once more (read–write–read).
 
 #include "emcalign/apply/check_record.hpp"
@@ -13,6 +13,7 @@
 #include "emcalign/io/json_files.hpp"
 #include "emcalign/validation/calibration_campaign.hpp"
 #include "emcalign/validation/campaign.hpp"
+#include "emcalign/validation/campaign_plan.hpp"
 #include "emcalign/validation/task_plan.hpp"
 #include "emcalign/validation/trend.hpp"
 #include "fuzz_support.hpp"
@@ -75,7 +76,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   }
   if (auto f = calib::parseFitRecord(*j, "fuzz.json"); !f) fuzz::expectMessage(false, f.error().message);
   if (auto t = validation::parseTrend(*j, "fuzz.json"); !t) fuzz::expectMessage(false, t.error().message);
-  if (auto c = validation::parseCampaignPlan(*j, "fuzz.json"); !c) fuzz::expectMessage(false, c.error().message);
+  roundTrip(*j, validation::parseCampaignPlan,
+            [](const validation::CampaignPlan& p) { return validation::campaignPlanJson(p); });
   roundTrip(*j, apply::parseCheckRecord, [](const apply::CheckRecord& r) { return apply::checkJson(r); });
   roundTrip(*j, apply::parseComparison, [](const apply::ComparisonRecord& r) { return apply::comparisonJson(r); });
   roundTrip(*j, apply::parseResiduals, [](const apply::ResidualRecord& r) { return apply::residualsJson(r); });

@@ -68,6 +68,7 @@
 #include "emcalign/core/result.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/geometry/alignment_parameters.hpp"
+#include "emcalign/geometry/shower_depth.hpp"
 #include "emcalign/io/json_files.hpp"
 
 namespace emcalign::calib {
@@ -166,6 +167,10 @@ struct ModelCorrections {
 /// naming the file and the key).
 Result<ModelCorrections> readCorrections(const std::string& path);
 Result<ModelCorrections> parseCorrections(const io::Json& j, std::string_view source);
+/// The shower depth R(E, θ) of a detector moved by the depth offset of the corrections file
+/// `correctionsFile` when one is given (its error names the file), else by `offset` (cm).
+Result<geometry::ShowerDepth> showerDepthWith(const geometry::DetectorDescription& detector, double offset,
+                                              const std::string& correctionsFile);
 /// The "systematic_errors" block (strict, as parseCorrections).
 Result<SystematicErrors> parseSystematicErrors(const io::Json& j, std::string_view source);
 io::Json systematicErrorsJson(const SystematicErrors& s);

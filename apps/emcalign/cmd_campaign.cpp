@@ -67,17 +67,6 @@ void printGroups(const std::vector<validation::CampaignGroup>& groups, std::int6
   }
 }
 
-// The model said with a campaign's result (conditions list shows it too).
-std::string modelText(const validation::CampaignModel& model) {
-  const std::string sigma = model.sigmaSys.method == calib::SigmaSysMethod::Auto
-                                ? std::string("auto")
-                                : fmt::format("{:g} deg", model.sigmaSys.value / units::deg);
-  return fmt::format("model: {}; sigma_sys {}",
-                     model.corrections.empty() ? std::string("the paper's model (no corrections)")
-                                               : "corrections " + model.corrections,
-                     sigma);
-}
-
 // campaign --plan P --group K: task K of the plan (as emcalign task P K), with the conditions
 // and tag given here when the plan was made without them.
 int runGroup(const CampaignCliOptions& o) {
@@ -98,9 +87,9 @@ int runGroup(const CampaignCliOptions& o) {
 int finishCampaign(const CampaignCliOptions& o) {
   auto finished = validation::finishPlannedCampaign(*planContext().plan, given(o));
   if (!finished) return reportError(finished.error());
-  fmt::print(reportStream(), "campaign: {} stored by the plan's tasks in tag {} -> {}\n  {}\n",
+  fmt::print(reportStream(), "campaign: {} stored by the plan's tasks in tag {} -> {}\n  model: {}\n",
              counted(finished->plan.groups.size(), "group"), finished->plan.tag, finished->database,
-             modelText(finished->model));
+             finished->model.identity().textWithSigmaSys());
   return kExitOk;
 }
 
@@ -199,9 +188,9 @@ int run(const CampaignCliOptions& o) {
   for (const auto& w : report->warnings) reportWarning(w);
   for (const auto& f : report->failures) reportWarning(f);
   fmt::print(reportStream(),
-             "campaign: {}: {} fitted and stored, {} in tag {} already, {} failed ({:.1f} s) -> {}\n  {}\n",
+             "campaign: {}: {} fitted and stored, {} in tag {} already, {} failed ({:.1f} s) -> {}\n  model: {}\n",
              counted(report->groups, "group"), report->fitted, report->resumed, o.given.tag, report->failures.size(),
-             fitting.elapsed(), (*db)->uri(), modelText(*model));
+             fitting.elapsed(), (*db)->uri(), model->identity().textWithSigmaSys());
   if (!report->failures.empty()) {
     return reportError(Error{fmt::format(
         "{} of {} {} not stored: the IOVs do not tile the runs (see the "

@@ -143,23 +143,15 @@ int runDiff(const ConditionsOptions& o) {
   fmt::print("{}: tag {} against tag {}{}, (a - b) / sqrt(error_a^2 + error_b^2) of each parameter\n", (*db)->uri(),
              d->tagA, d->tagB, o.snapshot.empty() ? std::string() : " as they were at " + o.snapshot);
   // The models the two tags were fitted with: differences that are the models', not the detector's.
-  std::set<std::string> modelsA, modelsB;
-  for (const auto& p : d->pairs) {
-    modelsA.insert(p.modelA.empty() ? "not said" : p.modelA);
-    modelsB.insert(p.modelB.empty() ? "not said" : p.modelB);
-  }
   if (!d->pairs.empty()) {
+    const conddb::ModelComparison models = conddb::compareModels(*d);
     // σ_sys sets the errors the pulls below are in units of: said beside the models.
     const std::string sigmaA = conddb::sigmaSysSummary(d->listingA), sigmaB = conddb::sigmaSysSummary(d->listingB);
-    fmt::print("models: tag {}: {}, sigma_sys {}; tag {}: {}, sigma_sys {}\n", d->tagA,
-               printable(fmt::format("{}", fmt::join(modelsA, " | "))), sigmaA, d->tagB,
-               printable(fmt::format("{}", fmt::join(modelsB, " | "))), sigmaB);
-    const auto paper = [](const std::set<std::string>& m) {
-      return std::any_of(m.begin(), m.end(), [](const std::string& x) { return x.starts_with("the paper's model"); });
-    };
-    if (modelsA != modelsB) {
+    fmt::print("models: tag {}: {}, sigma_sys {}; tag {}: {}, sigma_sys {}\n", d->tagA, printable(models.a), sigmaA,
+               d->tagB, printable(models.b), sigmaB);
+    if (!models.same) {
       fmt::print("  the models differ: {}\n",
-                 paper(modelsA) != paper(modelsB)
+                 models.paperOnOneSide
                      ? "differences common to every IOV (the gaps dp1-dp3, dx_rel, the shifts' scale) are the paper's "
                        "model's against the corrections' (docs/validation.md), not the detector's"
                      : "differences common to every IOV are the models', not the detector's");

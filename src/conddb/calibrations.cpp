@@ -185,7 +185,7 @@ IovListing iovListing(const Iov& iov, const Payload& payload) {
           .chi2Statistical = lenient::numberAt(sigma, "chi2_statistical_errors"),
           .sigmaSysDeg = lenient::numberAt(sigma, "value_deg"),
           .selectedEvents = lenient::integerAt(content, "selected_events"),
-          .model = payload.model()};
+          .model = payload.modelIdentity()};
 }
 
 std::string sigmaSysSummary(const std::vector<IovListing>& iovs) {
@@ -205,16 +205,19 @@ std::string sigmaSysSummary(const std::vector<IovListing>& iovs) {
 }
 
 std::string modelSummary(const std::vector<IovListing>& iovs, bool brief) {
-  std::set<std::string> models;
-  for (const auto& i : iovs) models.insert(i.model);
-  if (models.empty() || (models.size() == 1 && models.begin()->empty())) return "-";
-  if (models.size() > 1) {
-    return brief ? std::string("mixed") : printable(fmt::format("mixed: {}", fmt::join(models, " | ")));
+  std::vector<calib::ModelIdentity> models;
+  for (const auto& i : iovs) {
+    const auto same = [&](const calib::ModelIdentity& m) { return m.sameModel(i.model); };
+    if (std::none_of(models.begin(), models.end(), same)) models.push_back(i.model);
   }
-  const std::string& m = *models.begin();
-  if (!brief) return printable(m);
-  if (m.rfind("corrections ", 0) == 0) return printable(fs::path(m.substr(12)).filename().string());
-  return m.rfind("the paper's model", 0) == 0 ? "paper's model" : printable(m);
+  if (models.empty() || (models.size() == 1 && models.front().kind == calib::ModelIdentity::Kind::Unsaid)) return "-";
+  if (models.size() > 1) {
+    if (brief) return "mixed";
+    std::set<std::string> texts;  // one text for models that differ only by a digest one of them lacks
+    for (const auto& m : models) texts.insert(m.text());
+    return printable(fmt::format("mixed: {}", fmt::join(texts, " | ")));
+  }
+  return printable(brief ? models.front().brief() : models.front().text());
 }
 
 Result<TagListing> tagListing(Database& db, const Tag& tag, const std::string& at) {
@@ -247,7 +250,7 @@ Json tagJson(const TagListing& listing) {
     if (l.chi2Statistical) i["chi2_statistical_errors"] = io::numberOrNull(*l.chi2Statistical);
     if (l.sigmaSysDeg && std::isfinite(*l.sigmaSysDeg)) i["sigma_sys_deg"] = *l.sigmaSysDeg;
     if (l.selectedEvents) i["selected_events"] = *l.selectedEvents;
-    i["model"] = l.model;
+    i["model"] = l.model.text();
     iovs.push_back(std::move(i));
   }
   const Tag& tag = listing.tag;
@@ -316,7 +319,7 @@ Result<std::vector<std::pair<std::string, double>>> TagAlignments::fittedDepths(
     if (!p) return p.error();
     const std::optional<double> offset = (*p)->depthOffsetCm();
     if (!offset) continue;
-    std::pair<std::string, double> d{(*p)->model(), *offset};
+    std::pair<std::string, double> d{(*p)->modelIdentity().text(), *offset};
     if (std::find(out.begin(), out.end(), d) == out.end()) out.push_back(std::move(d));
   }
   return out;

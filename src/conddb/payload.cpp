@@ -43,16 +43,29 @@ Json Payload::parameterFile() const {
   return out;
 }
 
-std::string Payload::model() const {
-  if (const std::string corrections = correctionsFile(); !corrections.empty()) return "corrections " + corrections;
+calib::ModelIdentity Payload::modelIdentity() const {
+  calib::ModelIdentity m;
+  if (auto s = sigmaSysChoice()) m.sigmaSys = *s;
+  m.corrections = correctionsFile();
+  m.correctionsSha256 = correctionsSha256();
+  if (!m.corrections.empty()) {
+    m.kind = calib::ModelIdentity::Kind::Corrections;
+    return m;
+  }
+  // A fit result stored with `conditions put` names its corrections under model_corrections.
   const Json& provenance = objectAt(content, "provenance");
   const auto it = provenance.find("model_corrections");
-  if (it == provenance.end() || !it->is_object()) return {};
+  if (it == provenance.end() || !it->is_object()) return m;
   for (const char* key : {"response", "parting_plane_response", "nominal_profile"}) {
-    if (auto file = io::stringAt(*it, key)) return "corrections " + *file;
+    if (auto file = io::stringAt(*it, key)) {
+      m.kind = calib::ModelIdentity::Kind::Corrections;
+      m.corrections = *file;
+      return m;
+    }
   }
-  const double offset = depthOffsetCm().value_or(0.0);
-  return offset != 0.0 ? fmt::format("the paper's model, depth offset {:+.3g} cm", offset) : "the paper's model";
+  m.kind = calib::ModelIdentity::Kind::Paper;
+  m.depthOffsetCm = depthOffsetCm().value_or(0.0);
+  return m;
 }
 
 std::optional<double> Payload::depthOffsetCm() const {

@@ -4,8 +4,10 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <set>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -65,6 +67,33 @@ std::vector<std::pair<std::int64_t, std::int64_t>> uncovered(const std::vector<I
 
 }  // namespace
 
+ModelComparison compareModels(const TagDiff& d) {
+  std::vector<calib::ModelIdentity> a, b;
+  const auto add = [](std::vector<calib::ModelIdentity>& to, const calib::ModelIdentity& m) {
+    if (std::none_of(to.begin(), to.end(), [&](const calib::ModelIdentity& k) { return k.sameModel(m); })) {
+      to.push_back(m);
+    }
+  };
+  for (const auto& p : d.pairs) {
+    add(a, p.modelA);
+    add(b, p.modelB);
+  }
+  const auto words = [](const std::vector<calib::ModelIdentity>& models) {
+    std::set<std::string> said;
+    for (const auto& m : models) said.insert(m.kind == calib::ModelIdentity::Kind::Unsaid ? "not said" : m.text());
+    return fmt::format("{}", fmt::join(said, " | "));
+  };
+  const auto within = [](const std::vector<calib::ModelIdentity>& x, const std::vector<calib::ModelIdentity>& y) {
+    return std::all_of(x.begin(), x.end(), [&](const calib::ModelIdentity& m) {
+      return std::any_of(y.begin(), y.end(), [&](const calib::ModelIdentity& k) { return k.sameModel(m); });
+    });
+  };
+  const auto paper = [](const std::vector<calib::ModelIdentity>& x) {
+    return std::any_of(x.begin(), x.end(), [](const calib::ModelIdentity& m) { return m.isPaper(); });
+  };
+  return {words(a), words(b), within(a, b) && within(b, a), paper(a) != paper(b)};
+}
+
 Result<TagDiff> diffTags(Database& db, const std::string& a, const std::string& b, const std::string& at) {
   auto sa = TagSnapshot::load(db, a, true, at);
   if (!sa) return sa.error();
@@ -100,7 +129,7 @@ Result<TagDiff> diffTags(Database& db, const std::string& a, const std::string& 
       if (!va) return va.error();
       auto vb = storedValues(**pb, y, b);
       if (!vb) return vb.error();
-      IovPair pair{first, last, x, y, *va, *vb, {}, (*pa)->model(), (*pb)->model()};
+      IovPair pair{first, last, x, y, *va, *vb, {}, (*pa)->modelIdentity(), (*pb)->modelIdentity()};
       for (std::size_t q = 0; q < kAllQuantities.size(); ++q) {
         const double diff = kAllQuantities[q].difference(pair.valuesA[q].value, pair.valuesB[q].value);
         const double e = std::hypot(pair.valuesA[q].error, pair.valuesB[q].error);
@@ -130,8 +159,10 @@ Json pairJson(const IovPair& p) {
                                      {"z", number(p.z[k])},
                                      {"unit", q.unit()}};
   }
-  return {{"first_run", p.firstRun},         {"last_run", p.lastRun}, {"iov_a", iovJson(p.a)}, {"iov_b", iovJson(p.b)},
-          {"same_payload", p.samePayload()}, {"model_a", p.modelA},   {"model_b", p.modelB},   {"parameters", params}};
+  return {{"first_run", p.firstRun},         {"last_run", p.lastRun},
+          {"iov_a", iovJson(p.a)},           {"iov_b", iovJson(p.b)},
+          {"same_payload", p.samePayload()}, {"model_a", p.modelA.text()},
+          {"model_b", p.modelB.text()},      {"parameters", params}};
 }
 
 Json stretchesJson(const std::vector<std::pair<std::int64_t, std::int64_t>>& v) {
@@ -225,7 +256,7 @@ Result<std::string> tagCsv(Database& db, const std::string& tag, const std::stri
     csv += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{}", iov.firstRun, iov.lastRun, iov.payload, iov.inserted,
                        cell(l.status.value_or("")), number(l.chi2), number(l.ndf), number(l.chi2Statistical),
                        cell(l.sigmaSysMethod.value_or("")), number(l.sigmaSysDeg),
-                       l.selectedEvents ? std::to_string(*l.selectedEvents) : std::string(), cell(l.model));
+                       l.selectedEvents ? std::to_string(*l.selectedEvents) : std::string(), cell(l.model.text()));
     for (const auto& v : *values) csv += fmt::format(",{},{}", csvNumber(v.value), csvNumber(v.error));
     for (const auto& v : *values) {
       csv.push_back(',');

@@ -13,12 +13,27 @@
 #include "emcalign/conddb/address.hpp"
 #include "emcalign/conddb/database_to_write.hpp"
 #include "emcalign/core/text.hpp"
+#include "emcalign/core/units.hpp"
 #include "emcalign/core/version.hpp"
 
 namespace emcalign::validation {
 
 namespace fs = std::filesystem;
 using io::Json;
+
+calib::ModelIdentity CampaignModel::identity() const {
+  calib::ModelIdentity m;
+  m.sigmaSys = sigmaSys;
+  if (corrections.empty()) {
+    m.kind = calib::ModelIdentity::Kind::Paper;
+    m.depthOffsetCm = geometry.depth.offset / units::cm;
+  } else {
+    m.kind = calib::ModelIdentity::Kind::Corrections;
+    m.corrections = corrections;
+    m.correctionsSha256 = correctionsSha256;
+  }
+  return m;
+}
 
 Json campaignPlanJson(const CampaignPlan& plan) {
   Json inputs = Json::array();

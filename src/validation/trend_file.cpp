@@ -260,7 +260,9 @@ Json trendJson(const Trend& t, const std::vector<TrendSeries>& series, const Tre
   Json out = trendJson(t, series, truth);
   out["conditions"] = origin.conditions;
   out["tag"] = origin.tag;
-  out["models"] = origin.models;
+  Json models = Json::array();
+  for (const auto& m : origin.models) models.push_back(m.text());
+  out["models"] = models;
   if (origin.refit) out["refit"] = *origin.refit;
   return out;
 }

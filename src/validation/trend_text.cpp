@@ -467,24 +467,25 @@ std::string sensitivitySection(const Trend& t, const std::vector<TrendSeries>& s
 
 }  // namespace
 
-Result<std::vector<std::string>> modelsOfTag(conddb::TagSnapshot& tag) {
-  std::vector<std::string> models;
+Result<std::vector<calib::ModelIdentity>> modelsOfTag(conddb::TagSnapshot& tag) {
+  std::vector<calib::ModelIdentity> models;
   for (const conddb::Iov& iov : tag.iovs()) {
     auto p = tag.payload(iov);
     if (!p) return p.error();
-    std::string m = (*p)->model();
-    if (std::find(models.begin(), models.end(), m) == models.end()) models.push_back(std::move(m));
+    calib::ModelIdentity m = (*p)->modelIdentity();
+    const auto same = [&](const calib::ModelIdentity& k) { return k.sameModel(m); };
+    if (std::none_of(models.begin(), models.end(), same)) models.push_back(std::move(m));
   }
   return models;
 }
 
-std::string modelsText(const std::vector<std::string>& models) {
+std::string modelsText(const std::vector<calib::ModelIdentity>& models) {
   std::vector<std::string> said;
   bool paper = false;
   for (const auto& m : models) {
-    if (m.empty()) continue;
-    said.push_back(m);
-    paper = paper || m.rfind("the paper's model", 0) == 0;
+    if (m.kind == calib::ModelIdentity::Kind::Unsaid) continue;
+    said.push_back(m.text());
+    paper = paper || m.isPaper();
   }
   if (said.empty()) return {};
   std::string text = said.size() == 1 ? fmt::format("The IOVs were fitted with {}.", said.front())

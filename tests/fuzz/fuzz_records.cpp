@@ -45,7 +45,7 @@ void payload(const Json& j) {
   }
   // The lenient readers of a payload read anything makePayload wrote without failing.
   (void)p->hash();
-  (void)p->model();
+  (void)p->modelIdentity().textWithSigmaSys();
   (void)p->values();
   (void)p->selectedEvents();
   (void)p->inputDigests();

@@ -91,7 +91,7 @@ struct IovListing {
   std::optional<double> chi2Statistical = {};
   std::optional<double> sigmaSysDeg = {};
   std::optional<std::int64_t> selectedEvents = {};
-  std::string model = {};  ///< Payload::model
+  calib::ModelIdentity model = {};  ///< Payload::modelIdentity
 };
 
 /// What an IOV's payload says (`conditions list`, `conditions export`).
@@ -100,8 +100,8 @@ IovListing iovListing(const Iov& iov, const Payload& payload);
 /// The σ_sys of IOVs in a few words: "auto (0.012-0.015 deg)", "0.2 deg", "mixed (…): …", or
 /// "-" when the payloads do not say.
 std::string sigmaSysSummary(const std::vector<IovListing>& iovs);
-/// The model of IOVs (Payload::model): "paper's model", the corrections' file name, "mixed"
-/// when they differ, "-" when the payloads do not say; not `brief`: in full.
+/// The model of IOVs (Payload::modelIdentity): "paper's model", the corrections' file name,
+/// "mixed" when they differ, "-" when the payloads do not say; not `brief`: in full (text()).
 std::string modelSummary(const std::vector<IovListing>& iovs, bool brief = true);
 
 /// A tag and its IOVs as `conditions list` shows them.

@@ -38,6 +38,7 @@
 #include <utility>
 #include <vector>
 
+#include "emcalign/calib/model_identity.hpp"
 #include "emcalign/calib/sigma_sys.hpp"
 #include "emcalign/conddb/tag_states.hpp"
 #include "emcalign/core/parameters.hpp"
@@ -115,10 +116,10 @@ struct Payload {
   [[nodiscard]] std::string hash() const;
   /// The parameter file of this calibration (docs/contract.md §3: parameters, errors, covariance, …).
   [[nodiscard]] io::Json parameterFile() const;
-  /// The model of the fit behind it, in words: "the paper's model" (with "depth offset …"
-  /// when one was set), "corrections PATH"; "" when the payload does not say (a parameter
-  /// file stored without its fit).
-  [[nodiscard]] std::string model() const;
+  /// The model of the fit behind it (calib/model_identity.hpp): the corrections a campaign
+  /// named, or those under model_corrections, or the paper's model with its depth offset;
+  /// unsaid for a parameter file stored without its fit.
+  [[nodiscard]] calib::ModelIdentity modelIdentity() const;
   /// Its parameters, errors (quoted and statistical) and derived values.
   [[nodiscard]] StoredValues values() const;
   /// The selected events of its fit; none when the payload does not say.
@@ -128,7 +129,7 @@ struct Payload {
   [[nodiscard]] std::vector<std::pair<std::string, std::string>> inputDigests() const;
   /// The corrections a campaign fitted it with, as the campaign named them; "" when the
   /// payload names none (a fit result stored with `conditions put` records its model under
-  /// model_corrections instead: see model() and depthOffsetCm()).
+  /// model_corrections instead: see modelIdentity() and depthOffsetCm()).
   [[nodiscard]] std::string correctionsFile() const;
   /// The SHA-256 of the corrections a campaign fitted it with; "" when the payload names none.
   [[nodiscard]] std::string correctionsSha256() const;

@@ -28,7 +28,7 @@ struct IovPair {
   StoredValues valuesA, valuesB;
   /// (a − b)/√(σa² + σb²) of each entry (NaN without errors); ψ and τ modulo 360°.
   std::vector<double> z;
-  std::string modelA, modelB;  ///< Payload::model of each
+  calib::ModelIdentity modelA, modelB;  ///< Payload::modelIdentity of each
   [[nodiscard]] bool samePayload() const { return a.payload == b.payload; }
 };
 
@@ -40,6 +40,16 @@ struct TagDiff {
   /// What each IOV of each tag says (its σ_sys, model, …), as `conditions list` shows it.
   std::vector<IovListing> listingA, listingB;
 };
+
+/// The models of the overlapping IOVs of two tags (`conditions diff`): each side's in words
+/// ("not said" where a payload does not say; " | " between several), whether they are the same
+/// models, and whether the paper's model is on one side only.
+struct ModelComparison {
+  std::string a, b;
+  bool same = true;
+  bool paperOnOneSide = false;
+};
+ModelComparison compareModels(const TagDiff& d);
 
 /// Tag `a` against tag `b` of the same database (as they were at `at`, "" for now).
 Result<TagDiff> diffTags(Database& db, const std::string& a, const std::string& b, const std::string& at = {});

@@ -92,6 +92,8 @@ struct CampaignModel {
   Result<CampaignModel> at(double beamEnergy) const;
   /// The shower depth of the events of each beam energy (fillProfilesByRun).
   geometry::DepthAtEnergy depthAtEnergy() const;
+  /// Which model its fits use, with its σ_sys (calib/model_identity.hpp).
+  calib::ModelIdentity identity() const;
 };
 
 /// The event files of the inputs, as absolute paths (a batch job may run elsewhere): a

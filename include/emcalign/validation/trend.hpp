@@ -63,6 +63,7 @@
 #include <utility>
 #include <vector>
 
+#include "emcalign/calib/model_identity.hpp"
 #include "emcalign/conddb/conditions.hpp"
 #include "emcalign/core/result.hpp"
 #include "emcalign/io/json_files.hpp"
@@ -357,9 +358,9 @@ double trueDriftChange(const TrendDrift& d, const PeriodTruth& truth);
 /// "true_change"), "segments", "series"}, and with a TrendOrigin "conditions", "tag", "models"
 /// and, after `--refit`, "refit" (segment_refit.hpp's refitJson). Written here, read by parseTrend.
 struct TrendOrigin {
-  std::string conditions, tag;         ///< the database (as shown: no password) and the tag followed
-  std::vector<std::string> models;     ///< the models its IOVs were fitted with (modelsOfTag)
-  std::optional<io::Json> refit = {};  ///< refitJson, with "tag_out"
+  std::string conditions, tag;               ///< the database (as shown: no password) and the tag followed
+  std::vector<calib::ModelIdentity> models;  ///< the models its IOVs were fitted with (modelsOfTag), written in words
+  std::optional<io::Json> refit = {};        ///< refitJson, with "tag_out"
 };
 io::Json trendJson(const Trend& t, const std::vector<TrendSeries>& series, const PeriodTruth* truth = nullptr);
 io::Json trendJson(const Trend& t, const std::vector<TrendSeries>& series, const TrendOrigin& origin,
@@ -442,17 +443,17 @@ std::string driftMisfitText(const Trend& t, const TrendDrift& d);
 std::string trendVerdict(const Trend& t);
 /// What trend.md says beside the trend itself.
 struct TrendText {
-  std::string source;                  ///< "tag T of URI"
-  std::vector<std::string> models{};   ///< the IOVs' models (conddb::Payload::model), distinct
-  const PeriodTruth* truth = nullptr;  ///< a simulated period's: every step and edge beside its true size
+  std::string source;                          ///< "tag T of URI"
+  std::vector<calib::ModelIdentity> models{};  ///< the IOVs' models (modelsOfTag)
+  const PeriodTruth* truth = nullptr;          ///< a simulated period's: every step and edge beside its true size
 };
 /// trend.md: the same in words.
 std::string trendMarkdown(const Trend& t, const std::vector<TrendSeries>& series, const TrendText& text);
-/// The models of a tag's IOVs (conddb::Payload::model), distinct, in IOV order.
-Result<std::vector<std::string>> modelsOfTag(conddb::TagSnapshot& tag);
+/// The models of a tag's IOVs (conddb::Payload::modelIdentity), distinct, in IOV order.
+Result<std::vector<calib::ModelIdentity>> modelsOfTag(conddb::TagSnapshot& tag);
 /// What trend.md says of the models: which, and what the paper's model is known to do to
 /// the sizes it measures ("" when the payloads do not say).
-std::string modelsText(const std::vector<std::string>& models);
+std::string modelsText(const std::vector<calib::ModelIdentity>& models);
 /// The figures of a trend (report/trend_plots.hpp): every series with points, its segments'
 /// models (drifting and inconsistent ones marked), steps, known boundaries and the truth.
 std::vector<report::TrendFigure> trendFigures(const Trend& t, const std::vector<TrendSeries>& series,

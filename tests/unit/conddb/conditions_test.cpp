@@ -542,16 +542,24 @@ TEST(ConditionsPayload, ItsReadersGiveBackWhatWasStoredAndNothingElse) {
   EXPECT_EQ(p->inputDigests(), (std::vector<std::pair<std::string, std::string>>{{"b.h5", "bb"}, {"a.h5", "aa"}}));
   EXPECT_EQ(p->correctionsFile(), "grid/");
   EXPECT_EQ(p->correctionsSha256(), "cc");
-  EXPECT_EQ(p->model(), "corrections grid/");
+  const calib::ModelIdentity grid = p->modelIdentity();
+  EXPECT_EQ(grid.kind, calib::ModelIdentity::Kind::Corrections);
+  EXPECT_EQ(grid.correctionsSha256, "cc");
+  EXPECT_EQ(grid.text(), "corrections grid/");
+  ASSERT_TRUE(grid.sigmaSys);
+  EXPECT_EQ(grid.textWithSigmaSys(), "corrections grid/; sigma_sys 0.4 deg");
   EXPECT_FALSE(p->depthOffsetCm());  // its fit's model corrections not recorded
   Payload shifted = *p;
   shifted.content["provenance"].erase("corrections");
   shifted.content["provenance"]["model_corrections"] = {{"depth_offset_cm", 1.5}};
   EXPECT_EQ(shifted.depthOffsetCm(), 1.5);
-  EXPECT_EQ(shifted.model(), "the paper's model, depth offset +1.5 cm");
+  EXPECT_EQ(shifted.modelIdentity().text(), "the paper's model, depth offset +1.5 cm");
+  EXPECT_EQ(shifted.modelIdentity().brief(), "paper's model");
+  EXPECT_FALSE(shifted.modelIdentity().sameModel(grid));
   shifted.content["provenance"]["model_corrections"] = Json::object();
   EXPECT_EQ(shifted.depthOffsetCm(), 0.0);
-  EXPECT_EQ(shifted.model(), "the paper's model");
+  EXPECT_EQ(shifted.modelIdentity().text(), "the paper's model");
+  EXPECT_TRUE(shifted.modelIdentity().isPaper());
   auto sigma = p->sigmaSysChoice();
   ASSERT_TRUE(sigma) << sigma.error().message;
   EXPECT_EQ(sigma->method, calib::SigmaSysMethod::Fixed);
@@ -579,7 +587,8 @@ TEST(ConditionsPayload, ItsReadersGiveBackWhatWasStoredAndNothingElse) {
     EXPECT_EQ(junk.correctionsFile(), "");
     EXPECT_EQ(junk.correctionsSha256(), "");
     EXPECT_FALSE(junk.depthOffsetCm());
-    EXPECT_EQ(junk.model(), "");
+    EXPECT_EQ(junk.modelIdentity().kind, calib::ModelIdentity::Kind::Unsaid);
+    EXPECT_EQ(junk.modelIdentity().text(), "");
     ASSERT_TRUE(junk.sigmaSysChoice()) << content.dump();
     EXPECT_EQ(junk.sigmaSysChoice()->method, calib::SigmaSysMethod::Spec);
   }

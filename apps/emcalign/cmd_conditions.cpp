@@ -11,33 +11,25 @@
 //   conditions diff URI --tag A --tag B [--json] [--snapshot TIME]
 //   conditions export URI --tag T -o T.csv [--snapshot TIME]
 //   get and list take --snapshot TIME too; state, promote and history: cmd_conditions_audit.cpp
-#include <charconv>
-#include <cmath>
 #include <cstdio>
-#include <filesystem>
-#include <limits>
 #include <memory>
-#include <set>
 #include <string>
 #include <vector>
 
 #include <fmt/format.h>
-#include <fmt/ranges.h>
 
 #include "common.hpp"
-#include "emcalign/conddb/address.hpp"
 #include "emcalign/conddb/calibrations.hpp"
 #include "emcalign/conddb/conditions.hpp"
 #include "emcalign/conddb/tag_tables.hpp"
+#include "emcalign/conddb/tag_text.hpp"
 #include "emcalign/core/text.hpp"
-#include "emcalign/core/utf8.hpp"
 
 namespace emcalign::app {
 
 namespace {
 
 using io::Json;
-namespace fs = std::filesystem;
 
 struct ConditionsOptions {
   std::string uri, target, tag, as, runs, result, description, output, reason, snapshot;
@@ -45,23 +37,6 @@ struct ConditionsOptions {
   std::int64_t run = 0;
   bool json = false;
 };
-
-// "FIRST-LAST" or "RUN".
-Result<std::pair<std::int64_t, std::int64_t>> parseRuns(const std::string& text) {
-  auto number = [&](std::string_view s, std::int64_t& out) {
-    if (s.empty()) return false;
-    const auto [p, ec] = std::from_chars(s.data(), s.data() + s.size(), out);
-    return ec == std::errc() && p == s.data() + s.size() && out >= 0;
-  };
-  std::int64_t first = 0, last = 0;
-  const auto dash = text.find('-');
-  const bool ok = dash == std::string::npos ? number(text, first) && (last = first, true)
-                                            : number(std::string_view(text).substr(0, dash), first) &&
-                                                  number(std::string_view(text).substr(dash + 1), last);
-  if (!ok) return Error{fmt::format("--runs '{}': expected FIRST-LAST (runs are integers >= 0), e.g. 1-40", text)};
-  if (first > last) return Error{fmt::format("--runs '{}': the first run is after the last", text)};
-  return std::pair{first, last};
-}
 
 int runInit(const ConditionsOptions& o) {
   auto db = conddb::Database::open(o.uri, conddb::IfMissing::Create);
@@ -74,7 +49,7 @@ int runInit(const ConditionsOptions& o) {
 }
 
 int runPut(const ConditionsOptions& o) {
-  auto runs = parseRuns(o.runs);
+  auto runs = conddb::parseRunRange(o.runs);
   if (!runs) return reportError(runs.error());
   auto calo = loadCalorimeter("");
   if (!calo) return reportError(calo.error());
@@ -140,52 +115,7 @@ int runDiff(const ConditionsOptions& o) {
     std::fputc('\n', stdout);
     return kExitOk;
   }
-  fmt::print("{}: tag {} against tag {}{}, (a - b) / sqrt(error_a^2 + error_b^2) of each parameter\n", (*db)->uri(),
-             d->tagA, d->tagB, o.snapshot.empty() ? std::string() : " as they were at " + o.snapshot);
-  // The models the two tags were fitted with: differences that are the models', not the detector's.
-  if (!d->pairs.empty()) {
-    const conddb::ModelComparison models = conddb::compareModels(*d);
-    // σ_sys sets the errors the pulls below are in units of: said beside the models.
-    const std::string sigmaA = conddb::sigmaSysSummary(d->listingA), sigmaB = conddb::sigmaSysSummary(d->listingB);
-    fmt::print("models: tag {}: {}, sigma_sys {}; tag {}: {}, sigma_sys {}\n", d->tagA, printable(models.a), sigmaA,
-               d->tagB, printable(models.b), sigmaB);
-    if (!models.same) {
-      fmt::print("  the models differ: {}\n",
-                 models.paperOnOneSide
-                     ? "differences common to every IOV (the gaps dp1-dp3, dx_rel, the shifts' scale) are the paper's "
-                       "model's against the corrections' (docs/validation.md), not the detector's"
-                     : "differences common to every IOV are the models', not the detector's");
-    }
-    if (sigmaA != sigmaB) {
-      fmt::print("  sigma_sys differs: the errors, and the pulls in their units, are not alike in the two tags\n");
-    }
-  }
-  fmt::print("{:>17}", "runs");
-  for (Quantity q : kAllQuantities) fmt::print(" {:>8} ", q);  // the last column of a cell: its mark
-  fmt::print("\n");
-  int beyond3 = 0;
-  for (const auto& p : d->pairs) {
-    fmt::print("{:>17}", fmt::format("{}-{}", p.firstRun, p.lastRun));
-    if (p.samePayload()) {
-      fmt::print("  the same payload\n");
-      continue;
-    }
-    for (double z : p.z) {
-      // Two decimals cut toward zero, so that a cell reads 3.00 or more exactly when it is
-      // counted (rounded, -2.996 would read -3.00); the counted cells are marked too.
-      const bool counted3 = std::isfinite(z) && std::abs(z) >= 3.0;
-      fmt::print(" {:>8}{}", std::isfinite(z) ? fixed(std::trunc(z * 100.0) / 100.0, 2, true) : std::string("-"),
-                 counted3 ? "*" : " ");
-      beyond3 += counted3 ? 1 : 0;
-    }
-    fmt::print("\n");
-  }
-  for (const auto& [f, l] : d->onlyA) fmt::print("runs {}-{}: only in tag {}\n", f, l, d->tagA);
-  for (const auto& [f, l] : d->onlyB) fmt::print("runs {}-{}: only in tag {}\n", f, l, d->tagB);
-  fmt::print(
-      "{}, {} of 3 sigma or more (marked *; the errors of one fit each, not independent when the tags fitted the "
-      "same events)\n",
-      counted(d->pairs.size(), "IOV pair"), counted(beyond3, "difference"));
+  fmt::print("{}", conddb::tagDiffText(*d, (*db)->uri(), o.snapshot));
   return kExitOk;
 }
 
@@ -216,41 +146,8 @@ int runList(const ConditionsOptions& o) {
     fmt::print("{}\n", (o.tag.empty() ? out : out.front()).dump(2));
     return kExitOk;
   }
-  if (o.tag.empty()) {
-    if (!o.snapshot.empty()) fmt::print("{}: as it was at {}\n", (*db)->uri(), o.snapshot);
-    fmt::print("{:<24} {:<9} {:>6} {:>17}  {:<28} {:<22} {}\n", "tag", "state", "IOVs", "runs", "model", "sigma_sys",
-               "description");
-    for (const auto& t : listed) {
-      const auto& iovs = t.iovs;
-      const std::string runs =
-          iovs.empty() ? "-" : fmt::format("{}-{}", iovs.front().iov.firstRun, iovs.back().iov.lastRun);
-      fmt::print("{:<24} {:<9} {:>6} {:>17}  {:<28} {:<22} {}\n", t.tag.name, name(t.tag.state), iovs.size(), runs,
-                 conddb::modelSummary(iovs), conddb::sigmaSysSummary(iovs), t.tag.description);
-    }
-    return kExitOk;
-  }
-  const conddb::TagListing& t = listed.front();
-  fmt::print("tag {} ({}), created {}{}{}\n", o.tag, name(t.tag.state), t.tag.created,
-             t.tag.description.empty() ? "" : ": " + t.tag.description,
-             o.snapshot.empty() ? std::string() : ", as it was at " + o.snapshot);
-  if (!t.tag.stateChanged.empty()) {
-    fmt::print("{} since {}{}\n", name(t.tag.state), t.tag.stateChanged,
-               t.tag.reason.empty() ? std::string() : ": " + t.tag.reason);
-  }
-  fmt::print("model: {}; sigma_sys: {}\n", conddb::modelSummary(t.iovs, false), conddb::sigmaSysSummary(t.iovs));
-  fmt::print("{:>10} {:>10} {:>9} {:>12} {:>12} {:<12} {:<12} {}\n", "first_run", "last_run", "events", "chi2/ndf",
-             "stat. only", "status", "payload", "inserted");
-  for (const auto& i : t.iovs) {
-    const auto ratio = [&](const std::optional<double>& chi2) {
-      return chi2 && std::isfinite(*chi2) && i.ndf ? fmt::format("{:.1f}/{}", *chi2, *i.ndf) : std::string("-");
-    };
-    // sigma_sys auto makes chi2/ndf 1: the chi2 with the statistical errors alone beside it.
-    const std::string events = i.selectedEvents ? std::to_string(*i.selectedEvents) : "-";
-    // Text of a payload is printed escaped: a database can hold anything (core/utf8.hpp).
-    const std::string status = i.status ? printable(*i.status) : "-";
-    fmt::print("{:>10} {:>10} {:>9} {:>12} {:>12} {:<12} {:<12} {}\n", i.iov.firstRun, i.iov.lastRun, events,
-               ratio(i.chi2), ratio(i.chi2Statistical), status, i.iov.payload.substr(0, 12), i.iov.inserted);
-  }
+  fmt::print("{}", o.tag.empty() ? conddb::tagsText(listed, (*db)->uri(), o.snapshot)
+                                 : conddb::tagText(listed.front(), o.snapshot));
   return kExitOk;
 }
 
@@ -264,34 +161,11 @@ int runLock(const ConditionsOptions& o) {
   return kExitOk;
 }
 
-// Whether two addresses are one SQLite file under two names (a hard link): opened by both
-// names, SQLite would keep two write-ahead logs of one database.
-bool sameSqliteFile(const std::string& a, const std::string& b) {
-  auto x = conddb::DatabaseAddress::parse(a);
-  auto y = conddb::DatabaseAddress::parse(b);
-  if (!x || !y || x->kind != conddb::DatabaseAddress::Kind::Sqlite ||
-      y->kind != conddb::DatabaseAddress::Kind::Sqlite) {
-    return false;
-  }
-  std::error_code ec;
-  return std::filesystem::equivalent(x->file, y->file, ec) && !ec;
-}
-
 int runCopy(const ConditionsOptions& o) {
-  auto from = conddb::Database::open(o.uri);
-  if (!from) return reportError(from.error());
-  // The source read first: a new target is created only now, and removed again if the copy
-  // fails before storing.
-  if (auto t = conddb::TagSnapshot::load(**from, o.tag, false, o.snapshot); !t) return reportError(t.error());
-  conddb::DatabaseToWrite target(sameSqliteFile(o.uri, o.target) ? o.uri : o.target);
-  if (Status s = target.prepare(); !s) return reportError(s.error());
-  auto to = target.create();
-  if (!to) return reportError(to.error());
-  const std::string name = o.as.empty() ? o.tag : o.as;
-  auto copied = conddb::copyTag(**from, o.tag, **to, name, o.snapshot);
-  if (!copied) return reportError(copied.error());
-  fmt::print("{} {} -> {} {}: {} ({}, as the original{})\n", (*from)->uri(), o.tag, (*to)->uri(), name,
-             counted(copied->iovs, "IOV"), conddb::name(copied->state),
+  auto copy = conddb::copyTagBetween(o.uri, o.tag, o.target, o.as, o.snapshot);
+  if (!copy) return reportError(copy.error());
+  fmt::print("{} {} -> {} {}: {} ({}, as the original{})\n", copy->from, o.tag, copy->to, o.as.empty() ? o.tag : o.as,
+             counted(copy->copied.iovs, "IOV"), conddb::name(copy->copied.state),
              o.snapshot.empty() ? std::string() : " was at " + o.snapshot);
   return kExitOk;
 }

@@ -18,6 +18,7 @@
 #include "emcalign/core/units.hpp"
 #include "emcalign/io/json_files.hpp"
 #include "emcalign/validation/derive_corrections.hpp"
+#include "emcalign/validation/simulation_given.hpp"
 #include "planned.hpp"
 #include "progress.hpp"
 
@@ -143,7 +144,10 @@ Result<Derivation> derivationOf(const DeriveOptions& cli) {
   o.gap = cli.gap * units::cm;
   o.responseEvents = cli.responseEvents;
   o.responseSamples = cli.responseSamples;
-  if (Status s = applyRealismSwitches(o.simulation, cli.ideal, cli.off); !s) return s.error();
+  std::vector<std::string> warnings;  // none without --dead-counters
+  if (Status s = validation::applyRealism({cli.ideal, cli.off, false, std::nullopt}, o.simulation, warnings); !s) {
+    return s.error();
+  }
   o.simulation.generator.thetaMin = cli.thetaMinDeg * units::deg;
   o.simulation.generator.thetaMax = cli.thetaMaxDeg * units::deg;
   return d;

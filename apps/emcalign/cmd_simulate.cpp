@@ -10,19 +10,16 @@
 #include <fmt/format.h>
 
 #include "common.hpp"
-#include "emcalign/apply/dead_counters.hpp"
 #include "emcalign/calib/fit_notes.hpp"
 #include "emcalign/conddb/calibrations.hpp"
-#include "emcalign/core/sha256.hpp"
 #include "emcalign/core/text.hpp"
 #include "emcalign/core/units.hpp"
-#include "emcalign/io/file_kind.hpp"
 #include "emcalign/io/json_files.hpp"
-#include "emcalign/io/random_trigger_file.hpp"
 #include "emcalign/sim/generators.hpp"
 #include "emcalign/sim/simulation.hpp"
 #include "emcalign/validation/period.hpp"
 #include "emcalign/validation/simulate_file.hpp"
+#include "emcalign/validation/simulation_given.hpp"
 #include "progress.hpp"
 
 namespace emcalign::app {
@@ -54,24 +51,6 @@ struct SimulateOptions {
   bool noHits = false;
 };
 
-// --dead-counters: "none", a list, or @FILE (dead-counters -o FILE, or a list in a file).
-Result<std::vector<int>> deadCounterList(const std::string& text) {
-  if (text.starts_with("@")) {
-    const std::string path = text.substr(1);
-    auto content = io::readTextFile(path);
-    if (!content) return Error{fmt::format("--dead-counters: {}", content.error().message)};
-    auto list = apply::parseCounterList(*content, fmt::format("--dead-counters @{}", path));
-    if (const std::string kind = io::describeFileAt(path); !list && !kind.empty()) {
-      return Error{
-          fmt::format("--dead-counters @{}: this is {}, not a list of counters (emcalign dead-counters -o "
-                      "FILE writes one)",
-                      path, kind)};
-    }
-    return list;
-  }
-  return apply::parseCounterList(text, "--dead-counters");
-}
-
 // The record of the command line (its switches already applied to `o`).
 validation::SimulateRequest requestOf(const SimulateOptions& cli, const sim::SimulationOptions& o) {
   validation::SimulateRequest r;
@@ -87,55 +66,23 @@ validation::SimulateRequest requestOf(const SimulateOptions& cli, const sim::Sim
   return r;
 }
 
-// --background-events: the recorded events into `o`, their digest into `request`; a warning
-// when a run has more events than there are recorded ones (`eventsPerRun`: the most in a run).
+// --background-events: the recorded events into `o`, their digest into `request`.
 Status loadBackground(const SimulateOptions& cli, const geometry::Calorimeter& calo, std::int64_t eventsPerRun,
                       sim::SimulationOptions& o, validation::SimulateRequest* request = nullptr) {
-  if (cli.backgroundEvents.empty()) return {};
-  auto events = io::readRandomTriggerFile(cli.backgroundEvents, calo.size());
-  if (!events) return Error{fmt::format("--background-events: {}", events.error().message)};
-  const auto n = static_cast<std::int64_t>(events->size());
-  if (eventsPerRun > n) {
-    reportWarning(fmt::format(
-        "--background-events {}: {} for {} simulated: each is merged into up to {} events (reused "
-        "cyclically, in an order drawn from the seed); record more random triggers for independent background",
-        cli.backgroundEvents, counted(n, "recorded event"), counted(eventsPerRun, "event"),
-        (eventsPerRun + n - 1) / n));
-  }
-  if (!o.emc.beamBackground) {
-    reportWarning(fmt::format("--background-events {} is not merged: --off background switches the background off",
-                              cli.backgroundEvents));
-  }
-  o.recordedBackground = std::make_shared<const RandomTriggerEvents>(std::move(*events));
-  if (request != nullptr) {
-    auto digest = sha256OfFile(cli.backgroundEvents);
-    if (!digest) return digest.error();
-    request->backgroundSha256 = *digest;
-  }
-  return {};
+  std::vector<std::string> warnings;
+  Status s = validation::loadRecordedBackground(cli.backgroundEvents, calo.size(), eventsPerRun, o, request, warnings);
+  for (const auto& w : warnings) reportWarning(w);
+  return s;
 }
 
 // The realism switches and dead counters of the command line.
 Status realism(const SimulateOptions& cli, sim::SimulationOptions& o) {
-  if (Status s = applyRealismSwitches(o, cli.ideal, cli.off); !s) return s;
-  if (cli.pointShowers) o.emc.pointShowers = true;
-  if (cli.deadCountersGiven && cli.deadCounters.empty()) {
-    return Error{"--dead-counters: empty: give counter indices, @FILE, or 'none'"};
-  }
-  if (!cli.deadCounters.empty()) {
-    if (cli.deadCounters == "none") {
-      o.emc.deadCounters.clear();
-    } else {
-      auto list = deadCounterList(cli.deadCounters);
-      if (!list) return list.error();
-      if (list->empty()) {
-        reportWarning(
-            fmt::format("--dead-counters {}: lists no counter: the simulation has no dead counter", cli.deadCounters));
-      }
-      o.emc.deadCounters = *list;
-    }
-  }
-  return {};
+  validation::RealismGiven given{cli.ideal, cli.off, cli.pointShowers, std::nullopt};
+  if (cli.deadCountersGiven) given.deadCounters = cli.deadCounters;
+  std::vector<std::string> warnings;
+  Status s = validation::applyRealism(given, o, warnings);
+  for (const auto& w : warnings) reportWarning(w);
+  return s;
 }
 
 // simulate --process random-trigger: background-only events into a random-trigger file.

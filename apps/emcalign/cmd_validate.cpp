@@ -17,6 +17,7 @@
 #include "emcalign/io/paths.hpp"
 #include "emcalign/validation/campaign.hpp"
 #include "emcalign/validation/derive_corrections.hpp"
+#include "emcalign/validation/simulation_given.hpp"
 #include "emcalign/validation/systematics.hpp"
 #include "emcalign/validation/variations.hpp"
 #include "planned.hpp"
@@ -91,8 +92,11 @@ Result<validation::CampaignOptions> campaignOptionsOf(const ValidateOptions& cli
     if (!r) return r.error();
     o.ranges = *r;
   }
-  if (Status s = applyRealismSwitches(o.simulation, cli.ideal, cli.off); !s) return s.error();
-  if (cli.pointShowers) o.simulation.emc.pointShowers = true;
+  std::vector<std::string> warnings;  // none without --dead-counters
+  if (Status s = validation::applyRealism({cli.ideal, cli.off, cli.pointShowers, std::nullopt}, o.simulation, warnings);
+      !s) {
+    return s.error();
+  }
   o.corrections.depthOffset = cli.depthOffset * units::cm;
   if (cli.beamEnergy > 0.0) o.simulation.generator.beamEnergy = cli.beamEnergy * units::MeV;
   if (!cli.corrections.empty()) {

@@ -75,11 +75,6 @@ void addDetectorOption(CLI::App& cmd, std::string& path) {
 
 void addVersionFlag(CLI::App& cmd) { cmd.set_version_flag("--version", std::string(kVersion)); }
 
-Status applyRealismSwitches(sim::SimulationOptions& options, bool ideal, const std::vector<std::string>& off) {
-  if (Status s = options.applyRealism(ideal, off); !s) return Error{fmt::format("--off: {}", s.error().message)};
-  return {};
-}
-
 CLI::Validator finiteIn(double lo, double hi) {
   return CLI::Validator(
       [lo, hi](std::string& text) -> std::string {

@@ -67,10 +67,6 @@ using io::loadCalorimeter;
 /// An alignment from a parameter file, a fit result or a placements file (apply/placements.hpp).
 using apply::loadAlignment;
 
-/// `--ideal` and `--off EFFECT,...` of simulate, validate and derive-corrections, applied to
-/// the simulation options; the error names the unknown effect.
-Status applyRealismSwitches(sim::SimulationOptions& options, bool ideal, const std::vector<std::string>& off);
-
 /// Adds `--detector FILE` to a subcommand.
 void addDetectorOption(CLI::App& cmd, std::string& path);
 

@@ -3,11 +3,8 @@
 // (validation/trend.hpp), and, with --refit, one calibration per stable period written as
 // a new tag (docs/campaign.md).
 
-#include <algorithm>
-#include <cmath>
 #include <filesystem>
 #include <limits>
-#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -19,11 +16,11 @@
 #include "emcalign/calib/corrections.hpp"
 #include "emcalign/conddb/calibrations.hpp"
 #include "emcalign/core/text.hpp"
-#include "emcalign/report/trend_plots.hpp"
 #include "emcalign/validation/calibration_campaign.hpp"
 #include "emcalign/validation/period.hpp"
 #include "emcalign/validation/segment_refit.hpp"
 #include "emcalign/validation/trend.hpp"
+#include "emcalign/validation/trend_summary.hpp"
 #include "progress.hpp"
 
 namespace emcalign::app {
@@ -90,24 +87,7 @@ int refit(const TrendCliOptions& o, const validation::Trend& trend, const std::v
   summary = validation::refitJson(*r, snapshot.iovs().size());
   summary["tag_out"] = o.tagOut;
   markdown += validation::refitMarkdown(*r, snapshot.iovs().size(), o.tagOut);
-  fmt::print(reportStream(), "refit: {} instead of {} -> {} tag {} (testing)\n", counted(r->iovs.size(), "IOV"),
-             snapshot.iovs().size(), db.uri(), o.tagOut);
-  for (const auto& seg : r->segments) {
-    if (seg.kept) {
-      if (!seg.transition) {
-        fmt::print(reportStream(), "  runs {}-{}: {} kept: {}\n", seg.firstRun, seg.lastRun,
-                   counted(seg.end - seg.begin, "IOV"), validation::keptBecause(seg));
-      }
-      continue;
-    }
-    for (const auto& p : seg.precision) {
-      if (p.parameter != Param::Dx) continue;
-      fmt::print(reportStream(),
-                 "  runs {}-{}: {}; dx error quoted {:.4f} -> {:.4f} cm, statistical {:.4f} -> {:.4f} cm\n",
-                 seg.firstRun, seg.lastRun, counted(seg.selected, "event"), p.quotedBefore, p.quotedAfter, p.statBefore,
-                 p.statAfter);
-    }
-  }
+  fmt::print(reportStream(), "{}", validation::refitSummaryText(*r, snapshot.iovs().size(), db.uri(), o.tagOut));
   return kExitOk;
 }
 
@@ -154,61 +134,11 @@ int run(const TrendCliOptions& o) {
     }
     origin.refit = std::move(summary);
   }
-  const Json out = validation::trendJson(trend, *series, origin, truth ? &*truth : nullptr);
-  std::error_code ec;
-  fs::create_directories(o.output, ec);
-  if (ec) return reportError(Error{fmt::format("{}: cannot create the directory: {}", o.output, ec.message())});
-  if (Status s = io::writeFileIn(o.output, "trend.json", out.dump(1) + "\n"); !s) return reportError(s.error());
-  if (Status s = io::writeFileIn(o.output, "trend.md", md); !s) return reportError(s.error());
-  auto pngs = report::writeTrendPlots(o.output, validation::trendFigures(trend, *series, truth ? &*truth : nullptr),
-                                      fmt::format("tag {}", o.tag));
+  auto pngs = validation::writeTrendDirectory(o.output, trend, *series, origin, md, truth ? &*truth : nullptr,
+                                              fmt::format("tag {}", o.tag));
   if (!pngs) return reportError(pngs.error());
-
-  const auto count = [&](auto keep) { return std::count_if(trend.segments.begin(), trend.segments.end(), keep); };
-  const auto transitions = count([](const validation::TrendSegment& s) { return s.transition; });
-  const auto stable = count([](const validation::TrendSegment& s) { return s.stable(); });
-  fmt::print(reportStream(), "trend of tag {}: {}, {}, {} flagged, {} of {} stable{}\n", o.tag,
-             counted(trend.iovs, "IOV"), counted(trend.steps.size(), "step"), counted(trend.drifts.size(), "drift"),
-             stable, counted(trend.segments.size(), "period"),
-             transitions > 0 ? fmt::format(" ({} straddling a step)", counted(transitions, "IOV")) : std::string());
-  if (const std::string m = validation::modelsText(*models); !m.empty()) fmt::print(reportStream(), "  {}\n", m);
-  if (trend.steps.empty() || !trend.inconsistencies.empty() || !trend.edges.empty()) {
-    fmt::print(reportStream(), "  {}\n", validation::trendVerdict(trend));
-  }
-  for (const auto& s : trend.steps) {
-    fmt::print(reportStream(), "  step  {:<8} at run {:>6}: {:+.4f} ± {:.4f} {} (z {:.1f}){}{}{}\n", s.parameter,
-               s.firstRunAfter, s.size, s.error, s.parameter.unit(), s.z(),
-               s.withinIov ? fmt::format(", inside IOV {}-{}", s.withinIov->first, s.withinIov->second) : std::string(),
-               s.known ? ", a known boundary" : "",
-               s.insteadOfDrift ? fmt::format(", where other parameters step; a drift fits worse (χ² {:.1f} against "
-                                              "{:.1f})",
-                                              s.insteadOfDrift->second, s.insteadOfDrift->first)
-                                : std::string());
-    if (s.orDrift) fmt::print(reportStream(), "        {}\n", validation::driftAlternativeText(s));
-  }
-  for (const auto& e : trend.edges) {
-    fmt::print(reportStream(),
-               "  edge  {:<8} {} IOV {}-{}: departs by {:+.4g} ± {:.2g} {} (z {:.1f}), seen in one IOV only\n",
-               e.parameter, e.atEnd ? "last" : "first", e.firstRun, e.lastRun, e.departure, e.error, e.parameter.unit(),
-               e.z());
-  }
-  for (const auto& b : trend.boundaries) {
-    if (!b.measurable) {
-      reportWarning(fmt::format("--boundaries {}: no IOV on one side of it, nothing measured there", b.run));
-    } else if (b.changed.empty()) {
-      fmt::print(reportStream(), "  known boundary at run {}: nothing changed by {} σ or more (largest {}, z {:.1f})\n",
-                 b.run, trend.options.stepZ, b.largest ? b.largest->name() : "", b.largestZ);
-    }
-  }
-  for (const auto& d : trend.drifts) {
-    fmt::print(reportStream(),
-               "  drift {:<8} {} (IOVs of runs {}-{}): {:+.4g} ± {:.2g} {}, {:+.3g} ± {:.2g} {}/run (z {:.1f}){}\n",
-               d.parameter, validation::driftExtentText(d) + validation::driftMisfitText(trend, d), d.firstRun,
-               d.lastRun, d.change, d.changeError, d.parameter.unit(), d.slopePerRun, d.error, d.parameter.unit(), d.z,
-               d.orStep                                   ? " — " + validation::stepAlternativeText(trend, d)
-               : d.stepUntriedBefore || d.stepUntriedFrom ? " — a step: " + validation::noStepText(d)
-                                                          : std::string());
-  }
+  fmt::print(reportStream(), "{}", validation::trendSummaryText(trend, o.tag, *models));
+  for (const auto& w : validation::trendWarnings(trend)) reportWarning(w);
   fmt::print(reportStream(), "wrote {}/trend.json, trend.md and {} (fig7.png, trend_all.png, trend_*.png)\n", o.output,
              counted(pngs->size(), "figure"));
   return kExitOk;

@@ -86,20 +86,11 @@ CLI::Validator finiteIn(double lo, double hi) {
       fmt::format("NUMBER in [{}, {}]", lo, hi));
 }
 
-namespace {
-constexpr double kMaxSigmaSysDeg = calib::kMaxSigmaSys / units::deg;
-}
-
 CLI::Option* addSigmaSysOption(CLI::App& cmd, std::string& text) {
   const CLI::Validator autoOrDegrees(
       [](std::string& t) -> std::string {
-        if (t == "auto") return {};
-        const auto x = io::parseFiniteDouble(t);
-        if (!x || *x < 0.0 || *x > kMaxSigmaSysDeg) {
-          return fmt::format("{} is neither 'auto' nor a number of degrees in [0, {}]", io::quotedText(t),
-                             kMaxSigmaSysDeg);
-        }
-        return {};
+        auto choice = calib::sigmaSysChoiceOfText(t);
+        return choice ? std::string() : choice.error().message;
       },
       "auto|DEG");
   return cmd
@@ -112,9 +103,9 @@ CLI::Option* addSigmaSysOption(CLI::App& cmd, std::string& text) {
 }
 
 calib::SigmaSysChoice sigmaSysChoice(const std::string& text) {
-  if (text.empty()) return calib::SigmaSysChoice::spec();
-  if (text == "auto") return calib::SigmaSysChoice::automatic();
-  return calib::SigmaSysChoice::fixed(*io::parseFiniteDouble(text) * units::deg);
+  if (text.empty()) return calib::SigmaSysChoice::spec();  // not given
+  auto choice = calib::sigmaSysChoiceOfText(text);         // checked when parsed (addSigmaSysOption)
+  return choice ? *choice : calib::SigmaSysChoice::spec();
 }
 
 CLI::Validator tagName() {

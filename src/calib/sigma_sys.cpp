@@ -11,6 +11,7 @@
 #include "emcalign/core/special_functions.hpp"
 #include "emcalign/core/statistics.hpp"
 #include "emcalign/core/units.hpp"
+#include "emcalign/io/csv.hpp"
 
 namespace emcalign::calib {
 
@@ -59,6 +60,16 @@ Result<SigmaSysChoice> recordedSigmaSysChoice(std::string_view method, double va
   }
   if (Status s = c.validate(); !s) return s.error();
   return c;
+}
+
+Result<SigmaSysChoice> sigmaSysChoiceOfText(std::string_view text) {
+  if (text == "auto") return SigmaSysChoice::automatic();
+  const auto deg = io::parseFiniteDouble(text);
+  if (!deg || *deg < 0.0 || *deg > kMaxSigmaSys / units::deg) {
+    return Error{fmt::format("{} is neither 'auto' nor a number of degrees in [0, {}]", io::quotedText(text),
+                             kMaxSigmaSys / units::deg)};
+  }
+  return SigmaSysChoice::fixed(*deg * units::deg);
 }
 
 io::Json sigmaSysChoiceJson(const SigmaSysChoice& c) {

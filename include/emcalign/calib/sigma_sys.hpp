@@ -63,6 +63,9 @@ Result<SigmaSysChoice> recordedSigmaSysChoice(std::string_view method, double va
 /// The one schema of a recorded choice (a campaign's plan, a tag's payloads, the messages that
 /// compare them): {"method": "spec" | "auto" | "fixed", "value_deg" (fixed only)}.
 io::Json sigmaSysChoiceJson(const SigmaSysChoice& choice);
+/// The choice of `--sigma-sys` as typed: "auto", or degrees in [0, kMaxSigmaSys]; the error
+/// says what is expected (not given at all is the contract's: SigmaSysChoice::spec()).
+Result<SigmaSysChoice> sigmaSysChoiceOfText(std::string_view text);
 /// The choice of such a record, or of a fit result's "sigma_sys" (calib::sigmaSysJson, whose
 /// other keys say what the fit found): an error as recordedSigmaSysChoice's, the value of a
 /// "fixed" one being wrong when it is not a number.

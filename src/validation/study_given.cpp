@@ -1,0 +1,124 @@
+// A study's campaign as given, and its tables in words (validation/study_given.hpp).
+
+#include "emcalign/validation/study_given.hpp"
+
+#include <algorithm>
+#include <filesystem>
+
+#include <fmt/format.h>
+
+#include "emcalign/calib/corrections_grid.hpp"
+#include "emcalign/core/text.hpp"
+#include "emcalign/io/json_files.hpp"
+#include "emcalign/io/paths.hpp"
+#include "emcalign/validation/variations.hpp"
+
+namespace emcalign::validation {
+
+namespace {
+
+// The fits' corrections: a file, or a grid's at the samples' beam energy.
+Status takeCorrections(const StudyGiven& given, CampaignOptions& o, std::vector<std::string>& warnings) {
+  o.corrections.depthOffset = given.depthOffsetCm * units::cm;
+  if (given.corrections.empty()) return {};
+  auto grid = calib::CorrectionsGrid::read(given.corrections);
+  if (!grid) return grid.error();
+  auto c = grid->at(o.simulation.generator.beamEnergy);
+  if (!c) return c.error();
+  if (!c->warning.empty()) warnings.push_back(c->warning);
+  o.corrections = c->corrections;
+  return {};
+}
+
+}  // namespace
+
+Result<CampaignOptions> studyCampaign(const StudyGiven& given, std::vector<std::string>& warnings) {
+  if (given.thetaMinDeg >= given.thetaMaxDeg) {
+    return Error{fmt::format("--theta-min {} must be below --theta-max {}", given.thetaMinDeg, given.thetaMaxDeg)};
+  }
+  CampaignOptions o;
+  o.samples = given.samples;
+  o.events = given.events;
+  o.seed = given.seed;
+  o.threads = given.threads;
+  if (!given.ranges.empty()) {
+    auto r = readRanges(given.ranges);
+    if (!r) return r.error();
+    o.ranges = *r;
+  }
+  if (Status s = o.simulation.applyRealism(given.ideal, given.off); !s) {
+    return Error{fmt::format("--off: {}", s.error().message)};
+  }
+  if (given.pointShowers) o.simulation.emc.pointShowers = true;
+  if (given.beamEnergyMev > 0.0) o.simulation.generator.beamEnergy = given.beamEnergyMev * units::MeV;
+  if (Status s = takeCorrections(given, o, warnings); !s) return s.error();
+  o.simulation.generator.thetaMin = given.thetaMinDeg * units::deg;
+  o.simulation.generator.thetaMax = given.thetaMaxDeg * units::deg;
+  o.settings = campaignSettings(o, {.ideal = given.ideal,
+                                    .off = given.off,
+                                    .pointShowers = given.pointShowers,
+                                    .depthOffsetCm = given.depthOffsetCm,
+                                    .correctionsFile = given.corrections,
+                                    .thetaMinDeg = given.thetaMinDeg,
+                                    .thetaMaxDeg = given.thetaMaxDeg,
+                                    .detector = io::detectorName(given.detector),
+                                    .sigmaSys = given.sigmaSys,
+                                    .beamEnergyMev = given.beamEnergyMev});
+  if (!given.sigmaSys.empty()) {
+    auto sigma = calib::sigmaSysChoiceOfText(given.sigmaSys);
+    if (!sigma) return Error{fmt::format("--sigma-sys: {}", sigma.error().message)};
+    o.sigmaSys = *sigma;
+  }
+  if (given.variation.empty()) return o;
+  const Variation* variation = findVariation(given.variation);
+  if (variation == nullptr) return Error{fmt::format("--variation {}: no such variation", given.variation)};
+  return withVariation(std::move(o), *variation);
+}
+
+Status checkCorrectionsToWrite(const std::string& file, const std::string& output, const std::string& corrections,
+                               const CampaignOptions& campaign) {
+  if (std::filesystem::is_directory(corrections)) {
+    return Error{
+        "--write-corrections needs --corrections FILE, not a grid: the study measures the systematic errors of one "
+        "file (a grid's files are studied one by one, each at its own --beam-energy)"};
+  }
+  if (file != "-" && io::isWithin(file, output)) {
+    return Error{
+        fmt::format("--write-corrections {} is inside the study's directory -o {}: write it elsewhere", file, output)};
+  }
+  if (Status s = studyMatchesItsCorrections(campaign, corrections); !s) {
+    return Error{fmt::format("--write-corrections: {}", s.error().message)};
+  }
+  return {};
+}
+
+std::string validationTableText(const Table& table) {
+  std::string out = fmt::format("{:<10} {:>4} {:>11} {:>9} {:>10} {:>9} {:>15} {:>18}\n", "parameter", "unit", "bias",
+                                "±", "spread", "pull mean", "pull width", "slope");
+  for (const auto& r : table.rows) {
+    out +=
+        fmt::format("{:<10} {:>4} {:>11.4g} {:>9.2g} {:>10.4g} {:>9} {:>7.3f} ± {:.3f} {:>18}\n", r.name, r.name.unit(),
+                    r.bias, r.biasError, r.spread, fixed(r.pullMean, 3), r.pullWidth, r.pullWidthError, slopeText(r));
+  }
+  out += fmt::format("sigma_sys of the fits: median {:.4f} deg ({:.4f} to {:.4f})\n", table.sigmaSysMedian,
+                     table.sigmaSysMin, table.sigmaSysMax);
+  return out;
+}
+
+std::string systematicsTableText(const SystematicsTable& table) {
+  std::string out = fmt::format("{:<10} {:>4} {:>19} {:>9} {:>11}  largest effect\n", "parameter", "unit",
+                                "nominal bias", "spread", "systematic");
+  for (const auto& r : table.rows) {
+    const auto largest = std::max_element(r.envelope.begin(), r.envelope.end());
+    const std::string which =
+        largest == r.envelope.end()
+            ? std::string()
+            : fmt::format("{:.4f} ({})", *largest,
+                          table.quantities[static_cast<std::size_t>(largest - r.envelope.begin())]);
+    out += fmt::format("{:<10} {:>4} {:>9} ± {:<7.4f} {:>9.4f} {:>11.4f}  {}\n", r.name, r.name.unit(),
+                       fixed(r.bias, 4, true), r.biasError, r.spread, r.systematic, which);
+  }
+  return out;
+}
+
+}  // namespace emcalign::validation

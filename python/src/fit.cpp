@@ -170,11 +170,9 @@ py::object systematicErrorsOf(const Fit& f) {
   return arrayOf(v);
 }
 
-}  // namespace
-
-void bindFit(py::module_& m) {
-  py::class_<Fit>(m, "FitResult", "A fit: what emcalign fit writes, as numbers and as its files")
-      .def_property_readonly("parameters", [](const Fit& f) { return arrayOf(f.result().parameters.values); })
+// The numbers of a fit: its parameters, their errors and matrices, its χ² and status.
+void defineNumbers(py::class_<Fit>& c) {
+  c.def_property_readonly("parameters", [](const Fit& f) { return arrayOf(f.result().parameters.values); })
       .def_property_readonly("errors", [](const Fit& f) { return arrayOf(f.result().errors); })
       .def_property_readonly(
           "statistical_errors",
@@ -200,9 +198,13 @@ void bindFit(py::module_& m) {
       .def_property_readonly("ndf", [](const Fit& f) { return f.result().ndf; })
       .def_property_readonly("p_value", [](const Fit& f) { return f.result().pValue; })
       .def_property_readonly("bins_used", [](const Fit& f) { return f.result().binsUsed; })
-      .def_property_readonly("status", [](const Fit& f) { return std::string(name(f.result().status)); })
-      .def_property_readonly(
-          "warnings", [](const Fit& f) { return f.result().warnings; }, "the fit's warnings (in the result file)")
+      .def_property_readonly("status", [](const Fit& f) { return std::string(name(f.result().status)); });
+}
+
+// What travels with the numbers: warnings, notes, the truth, the input, and the fit's files.
+void defineRecord(py::class_<Fit>& c) {
+  c.def_property_readonly(
+       "warnings", [](const Fit& f) { return f.result().warnings; }, "the fit's warnings (in the result file)")
       .def_property_readonly(
           "notes", [](const Fit& f) { return f.notes; },
           "what to know beside the numbers: the model and its known biases, sigma_sys dominating the errors, "
@@ -248,6 +250,14 @@ void bindFit(py::module_& m) {
         return fmt::format("<emcalign.FitResult {}: chi2/ndf = {:.1f}/{}, {} bins>", name(f.result().status),
                            f.result().chi2, f.result().ndf, f.result().binsUsed);
       });
+}
+
+}  // namespace
+
+void bindFit(py::module_& m) {
+  py::class_<Fit> fitResult(m, "FitResult", "A fit: what emcalign fit writes, as numbers and as its files");
+  defineNumbers(fitResult);
+  defineRecord(fitResult);
   m.def("fit", &fit, py::arg("paths") = py::none(), py::arg("detector") = py::none(), py::arg("sigma_sys") = py::none(),
         py::arg("beam_energy") = py::none(), py::arg("depth_offset") = 0.0, py::arg("corrections") = py::none(),
         py::arg("profile") = py::none(),

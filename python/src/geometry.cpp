@@ -113,9 +113,8 @@ Array transformPoints(const Detector& detector, const Array& values, const Array
   return out;
 }
 
-}  // namespace
-
-void bindGeometry(py::module_& m) {
+// The names of the parameter sets and the file units.
+void defineNames(py::module_& m) {
   std::vector<std::string> params, physical, derived;
   for (Param p : kAllParams) params.emplace_back(name(p));
   for (Physical p : kAllPhysical) physical.emplace_back(name(p));
@@ -131,17 +130,10 @@ void bindGeometry(py::module_& m) {
         return out;
       },
       "native = file value × file_units()[k]: degrees for angles (and beta1, beta2), cm for lengths");
+}
 
-  py::class_<Detector>(m, "Detector", "The calorimeter: the embedded SND-like detector, or a description file")
-      .def(py::init<std::optional<Path>>(), py::arg("path") = py::none())
-      .def_property_readonly("size", [](const Detector& d) { return d.calorimeter().size(); })
-      .def_property_readonly("r1", &Detector::r1)
-      .def("counters", &counters, "the counters as numpy columns (docs/conventions.md indexing)")
-      .def("aligned_centres", &alignedCentres, py::arg("parameters"),
-           "the counter centres (N, 3) in the TS frame placed by an alignment (native units)")
-      .def("locate", &locate, py::arg("points"),
-           "the counter containing each nominal-frame point (N, 3), -1 where none");
-
+// The files of parameters, and the fit set to the physical set and back.
+void defineParameterFiles(py::module_& m) {
   m.def(
       "read_alignment",
       [](const Path& path, const Detector& detector) {
@@ -179,6 +171,10 @@ void bindGeometry(py::module_& m) {
         return arrayOf(geometry::fromPhysical(phys, radiusOf(r1)).values);
       },
       py::arg("physical"), py::arg("r1"), "physical set -> fit set (12, native units)");
+}
+
+// The alignment transform of points, both ways (docs/conventions.md).
+void defineTransforms(py::module_& m) {
   m.def(
       "forward",
       [](const Detector& d, const Array& values, const Array& points, const std::string& support,
@@ -195,6 +191,23 @@ void bindGeometry(py::module_& m) {
       py::arg("detector"), py::arg("parameters"), py::arg("points"), py::arg("hemisphere"),
       py::arg("support") = "inner",
       "TS frame -> nominal EMC frame (docs/conventions.md) for (N, 3) points of one hemisphere");
+}
+
+}  // namespace
+
+void bindGeometry(py::module_& m) {
+  defineNames(m);
+  py::class_<Detector>(m, "Detector", "The calorimeter: the embedded SND-like detector, or a description file")
+      .def(py::init<std::optional<Path>>(), py::arg("path") = py::none())
+      .def_property_readonly("size", [](const Detector& d) { return d.calorimeter().size(); })
+      .def_property_readonly("r1", &Detector::r1)
+      .def("counters", &counters, "the counters as numpy columns (docs/conventions.md indexing)")
+      .def("aligned_centres", &alignedCentres, py::arg("parameters"),
+           "the counter centres (N, 3) in the TS frame placed by an alignment (native units)")
+      .def("locate", &locate, py::arg("points"),
+           "the counter containing each nominal-frame point (N, 3), -1 where none");
+  defineParameterFiles(m);
+  defineTransforms(m);
 }
 
 }  // namespace emcalign::python

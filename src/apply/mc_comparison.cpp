@@ -219,6 +219,83 @@ Status checkSamples(const std::vector<ComparedParticle>& data, const std::vector
   return {};
 }
 
+// The layout of the comparison: the histograms' fine bins merged until both samples have
+// minEntries in each, and the profile bins both samples fill with minEntries.
+Layout layoutOf(const std::vector<ComparedParticle>& data, const std::vector<ComparedParticle>& mc,
+                const ComparisonOptions& o) {
+  const int profileBins = o.profilePhiBins * o.profileThetaBins;
+  Layout l;
+  std::vector<std::int64_t> phiD(static_cast<std::size_t>(o.histogramBins)), phiM = phiD, thetaD = phiD, thetaM = phiD;
+  std::vector<std::int64_t> binD(static_cast<std::size_t>(profileBins)), binM = binD;
+  const auto count = [&](const std::vector<ComparedParticle>& s, std::vector<std::int64_t>& phi,
+                         std::vector<std::int64_t>& theta, std::vector<std::int64_t>& bins) {
+    for (const auto& p : s) {
+      ++phi[static_cast<std::size_t>(phiBin(p, o))];
+      ++theta[static_cast<std::size_t>(thetaBin(p, o))];
+      if (p.bin >= 0) ++bins[static_cast<std::size_t>(p.bin)];
+    }
+  };
+  count(data, phiD, thetaD, binD);
+  count(mc, phiM, thetaM, binM);
+  l.phi = mergeBins(phiD, phiM, o.minEntries);
+  l.theta = mergeBins(thetaD, thetaM, o.minEntries);
+  l.slotOfBin.assign(static_cast<std::size_t>(profileBins), -1);
+  for (int b = 0; b < profileBins; ++b) {
+    if (binD[static_cast<std::size_t>(b)] >= o.minEntries && binM[static_cast<std::size_t>(b)] >= o.minEntries) {
+      l.slotOfBin[static_cast<std::size_t>(b)] = static_cast<int>(l.usedBins.size());
+      l.usedBins.push_back(b);
+    }
+  }
+  return l;
+}
+
+// Data − MC of every compared quantity, with the covariance of both samples (and σ_sys on the
+// profile means).
+struct Difference {
+  const Layout& layout;
+  const SampleStatistics &data, &mc;
+  Eigen::VectorXd d;
+  Eigen::MatrixXd c;
+};
+
+// One distribution of the comparison: quantities [begin, begin + count) of the vector, a
+// histogram of Δφ or Δθ, or the profile means of y_φ or y_θ; its χ² and its bins.
+ComparedDistribution distributionOf(const std::string& name, int begin, int count, bool histogram, bool theta,
+                                    const Difference& diff, const ComparisonOptions& o) {
+  const Layout& l = diff.layout;
+  const Eigen::VectorXd& d = diff.d;
+  const Eigen::MatrixXd& c = diff.c;
+  ComparedDistribution dist;
+  dist.name = name;
+  const auto [chi2, ndf] = chi2Of(d.segment(begin, count), c.block(begin, begin, count, count));
+  dist.chi2 = chi2;
+  dist.ndf = ndf;
+  dist.pValue = ndf > 0 ? chi2PValue(chi2, ndf) : 1.0;
+  const double width = 2.0 * o.rangeDeg / o.histogramBins;
+  const Merged& m = theta ? l.theta : l.phi;
+  const double lowest = (theta ? o.thetaCentreDeg : o.phiCentreDeg) - o.rangeDeg;
+  for (int i = 0; i < count; ++i) {
+    const int j = begin + i;
+    ComparedDistribution::Bin b;
+    if (histogram) {
+      b.low = lowest + width * m.first[static_cast<std::size_t>(i)];
+      b.high = i + 1 < m.size() ? lowest + width * m.first[static_cast<std::size_t>(i + 1)] : lowest + 2.0 * o.rangeDeg;
+      if (i == 0) b.low = -std::numeric_limits<double>::infinity();
+      if (i + 1 == m.size()) b.high = std::numeric_limits<double>::infinity();
+    } else {
+      b.low = b.high = l.usedBins[static_cast<std::size_t>(i)];
+    }
+    const double scale = histogram ? 1.0 : 1.0 / units::deg;
+    b.data = diff.data.value[j] * scale;
+    b.mc = diff.mc.value[j] * scale;
+    b.dataError = std::sqrt(std::max(0.0, diff.data.covariance(j, j))) * scale;
+    b.mcError = std::sqrt(std::max(0.0, diff.mc.covariance(j, j))) * scale;
+    b.pull = c(j, j) > 0.0 ? d[j] / std::sqrt(c(j, j)) : 0.0;
+    dist.bins.push_back(b);
+  }
+  return dist;
+}
+
 }  // namespace
 
 Result<Comparison> compareParticles(const std::vector<ComparedParticle>& data, const std::vector<ComparedParticle>& mc,
@@ -226,37 +303,11 @@ Result<Comparison> compareParticles(const std::vector<ComparedParticle>& data, c
   if (Status s = checkOptions(given); !s) return s.error();
   const ComparisonOptions o = centredOn(data, given);
   if (Status s = checkSamples(data, mc, o); !s) return s.error();
-  const int profileBins = o.profilePhiBins * o.profileThetaBins;
-  Layout l;
-  {
-    std::vector<std::int64_t> phiD(static_cast<std::size_t>(o.histogramBins)), phiM = phiD, thetaD = phiD,
-                                                                               thetaM = phiD;
-    std::vector<std::int64_t> binD(static_cast<std::size_t>(profileBins)), binM = binD;
-    const auto count = [&](const std::vector<ComparedParticle>& s, std::vector<std::int64_t>& phi,
-                           std::vector<std::int64_t>& theta, std::vector<std::int64_t>& bins) {
-      for (const auto& p : s) {
-        ++phi[static_cast<std::size_t>(phiBin(p, o))];
-        ++theta[static_cast<std::size_t>(thetaBin(p, o))];
-        if (p.bin >= 0) ++bins[static_cast<std::size_t>(p.bin)];
-      }
-    };
-    count(data, phiD, thetaD, binD);
-    count(mc, phiM, thetaM, binM);
-    l.phi = mergeBins(phiD, phiM, o.minEntries);
-    l.theta = mergeBins(thetaD, thetaM, o.minEntries);
-    l.slotOfBin.assign(static_cast<std::size_t>(profileBins), -1);
-    for (int b = 0; b < profileBins; ++b) {
-      if (binD[static_cast<std::size_t>(b)] >= o.minEntries && binM[static_cast<std::size_t>(b)] >= o.minEntries) {
-        l.slotOfBin[static_cast<std::size_t>(b)] = static_cast<int>(l.usedBins.size());
-        l.usedBins.push_back(b);
-      }
-    }
-  }
+  const Layout l = layoutOf(data, mc, o);
   const SampleStatistics sd = statisticsOf(data, l, o), sm = statisticsOf(mc, l, o);
-  const Eigen::VectorXd d = sd.value - sm.value;
-  Eigen::MatrixXd c = sd.covariance + sm.covariance;
+  Difference diff{l, sd, sm, sd.value - sm.value, sd.covariance + sm.covariance};
   const int u = static_cast<int>(l.usedBins.size()), pOff = l.profileOffset();
-  for (int j = pOff; j < l.size(); ++j) c(j, j) += o.sigmaSys * o.sigmaSys;
+  for (int j = pOff; j < l.size(); ++j) diff.c(j, j) += o.sigmaSys * o.sigmaSys;
 
   Comparison out;
   out.options = o;
@@ -264,42 +315,10 @@ Result<Comparison> compareParticles(const std::vector<ComparedParticle>& data, c
   out.mcParticles = sm.particles;
   out.dataEvents = sd.events;
   out.mcEvents = sm.events;
-  const auto distribution = [&](const std::string& name, int begin, int count, bool histogram, bool theta) {
-    ComparedDistribution dist;
-    dist.name = name;
-    const auto [chi2, ndf] = chi2Of(d.segment(begin, count), c.block(begin, begin, count, count));
-    dist.chi2 = chi2;
-    dist.ndf = ndf;
-    dist.pValue = ndf > 0 ? chi2PValue(chi2, ndf) : 1.0;
-    const double width = 2.0 * o.rangeDeg / o.histogramBins;
-    const Merged& m = theta ? l.theta : l.phi;
-    const double lowest = (theta ? o.thetaCentreDeg : o.phiCentreDeg) - o.rangeDeg;
-    for (int i = 0; i < count; ++i) {
-      const int j = begin + i;
-      ComparedDistribution::Bin b;
-      if (histogram) {
-        b.low = lowest + width * m.first[static_cast<std::size_t>(i)];
-        b.high =
-            i + 1 < m.size() ? lowest + width * m.first[static_cast<std::size_t>(i + 1)] : lowest + 2.0 * o.rangeDeg;
-        if (i == 0) b.low = -std::numeric_limits<double>::infinity();
-        if (i + 1 == m.size()) b.high = std::numeric_limits<double>::infinity();
-      } else {
-        b.low = b.high = l.usedBins[static_cast<std::size_t>(i)];
-      }
-      const double scale = histogram ? 1.0 : 1.0 / units::deg;
-      b.data = sd.value[j] * scale;
-      b.mc = sm.value[j] * scale;
-      b.dataError = std::sqrt(std::max(0.0, sd.covariance(j, j))) * scale;
-      b.mcError = std::sqrt(std::max(0.0, sm.covariance(j, j))) * scale;
-      b.pull = c(j, j) > 0.0 ? d[j] / std::sqrt(c(j, j)) : 0.0;
-      dist.bins.push_back(b);
-    }
-    out.distributions.push_back(std::move(dist));
-  };
-  distribution("dphi", 0, l.phi.size(), true, false);
-  distribution("dtheta", l.thetaOffset(), l.theta.size(), true, true);
-  distribution("profile_phi", pOff, u, false, false);
-  distribution("profile_theta", pOff + u, u, false, true);
+  out.distributions.push_back(distributionOf("dphi", 0, l.phi.size(), true, false, diff, o));
+  out.distributions.push_back(distributionOf("dtheta", l.thetaOffset(), l.theta.size(), true, true, diff, o));
+  out.distributions.push_back(distributionOf("profile_phi", pOff, u, false, false, diff, o));
+  out.distributions.push_back(distributionOf("profile_theta", pOff + u, u, false, true, diff, o));
   if (u == 0) {
     return Error{fmt::format(
         "no profile bin has the {} particles a comparison needs in both samples (the data {} particles, the MC {})",
@@ -314,7 +333,7 @@ Result<Comparison> compareParticles(const std::vector<ComparedParticle>& data, c
   out.dataParticlesInEmptySlices = inEmptySlices(data);
   out.mcParticlesInEmptySlices = inEmptySlices(mc);
 
-  const auto [chi2, ndf] = chi2Of(d, c);
+  const auto [chi2, ndf] = chi2Of(diff.d, diff.c);
   out.chi2 = chi2;
   out.ndf = ndf;
   out.pValue = ndf > 0 ? chi2PValue(chi2, ndf) : 1.0;

@@ -125,6 +125,12 @@ class SqlDatabase final : public Database {
   Status notInvalid(const std::string& tag);
   Result<Payload> verifiedPayload(const std::string& hash, const std::string& text) const;
   Result<std::vector<std::string>> promptRecordsOf(const std::string& tag);
+  // A promotion checked, both tags' rows locked (sql_states.cpp): `from` validated, `to` running,
+  // `from`'s IOVs tiling the runs from firstSafeRun on, after the first run of `to`'s last IOV.
+  Result<Promotion> checkedPromotion(const std::string& from, const std::string& to, std::int64_t firstSafeRun);
+  // A checked promotion written: `to`'s last IOV cut or extended (as it was kept), `from`'s IOVs
+  // appended, the change in `to`'s history; its time into `p`.
+  Status writePromotion(Promotion& p);
   Status upgradeFrom1();
 
   std::unique_ptr<SqlBackend> db_;

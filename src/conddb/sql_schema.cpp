@@ -113,6 +113,88 @@ struct OldChange {
   Json details;
 };
 
+// The history schema 1 kept of tag `t` (name, description, state, created): its creation, its
+// IOVs (`iovs`), its marks in emcalign_meta (running:, retired:, each a change of state), a lock
+// last (its time not kept: `now`, the upgrade's); in order. The tag's state after them into
+// `state`.
+Result<std::vector<OldChange>> oldChanges(SqlBackend& db, const Row& t, const std::vector<Row>& iovs,
+                                          const std::string& now, std::string& state) {
+  const std::string name = toText(t[0]);
+  const std::string created = microsOf(toText(t[3]));
+  std::vector<OldChange> changes{{created, 0, "created", {{"state", "open"}, {"description", toText(t[1])}}}};
+  for (const Row& i : iovs) {
+    auto first = runOf(i[0], db.uri(), name);
+    auto last = runOf(i[1], db.uri(), name);
+    if (!first || !last) return (first ? last.error() : first.error());
+    changes.push_back(
+        {microsOf(toText(i[3])), 1, "iov", {{"first_run", *first}, {"last_run", *last}, {"payload", toText(i[2])}}});
+  }
+  auto marks = db.query("SELECT key, value FROM emcalign_meta WHERE key = $1 OR key = $2",
+                        {"running:" + name, "retired:" + name});
+  if (!marks) return marks.error();
+  state = toText(t[2]);
+  for (const std::string kind : {"running:", "retired:"}) {
+    for (const Row& m : *marks) {
+      if (toText(m[0]) != kind + name) continue;
+      const Json mark = Json::parse(toText(m[1]), nullptr, false);
+      const bool retired = kind == "retired:";
+      const std::string when =
+          mark.is_object() ? mark.value(retired ? "retired" : "since", std::string()) : std::string();
+      const std::string to = retired ? "invalid" : "running";
+      if (state == "published" || state == "invalid") continue;
+      Json details = {{"from", state}, {"to", to}};
+      if (retired && mark.is_object() && !mark.value("reason", std::string()).empty()) {
+        details["reason"] = mark.value("reason", std::string());
+      }
+      changes.push_back({when.empty() ? now : microsOf(when), 2, "state", details});
+      state = to;
+    }
+  }
+  if (state == "published") {
+    changes.push_back({now,
+                       3,
+                       "state",
+                       {{"from", "open"},
+                        {"to", "published"},
+                        {"note", "locked under schema 1, which did not keep when: the time is the upgrade's"}}});
+  }
+  std::stable_sort(changes.begin(), changes.end(), [](const OldChange& a, const OldChange& b) {
+    return std::tie(a.time, a.order) < std::tie(b.time, b.order);
+  });
+  return changes;
+}
+
+// Schema-1 tag `t` in schema 2: its history written (from_schema 1), its state, and the times
+// of its creation and its IOVs to the microsecond.
+Status upgradeTag(SqlBackend& db, const Row& t, const std::string& now) {
+  const std::string name = toText(t[0]);
+  const std::string created = microsOf(toText(t[3]));
+  auto iovs = db.query(
+      "SELECT first_run, last_run, payload, inserted FROM emcalign_iovs WHERE tag = $1 ORDER BY first_run", {name});
+  if (!iovs) return iovs.error();
+  std::string state;
+  auto changes = oldChanges(db, t, *iovs, now, state);
+  if (!changes) return changes.error();
+  for (std::size_t k = 0; k < changes->size(); ++k) {
+    const OldChange& c = (*changes)[k];
+    Json details = c.details;
+    details["from_schema"] = 1;
+    auto r = db.query(
+        "INSERT INTO emcalign_history (tag, seq, time, change, os_user, host, details) VALUES ($1, $2, $3, $4, "
+        "'', '', $5)",
+        {name, static_cast<std::int64_t>(k), c.time, c.change, details.dump()});
+    if (!r) return r.error();
+  }
+  auto row = db.query("UPDATE emcalign_tags SET state = $2, created = $3 WHERE name = $1", {name, state, created});
+  if (!row) return row.error();
+  for (const Row& i : *iovs) {
+    auto r = db.query("UPDATE emcalign_iovs SET inserted = $3 WHERE tag = $1 AND first_run = $2",
+                      {name, std::stoll(toText(i[0])), microsOf(toText(i[3]))});
+    if (!r) return r.error();
+  }
+  return {};
+}
+
 }  // namespace
 
 // Schema 1 → 2: the six tag states (locked → published, the retired:/running: marks of
@@ -137,70 +219,7 @@ Status SqlDatabase::upgradeFrom1() {
     if (!tags) return tags.error();
     tagCount = tags->size();
     for (const Row& t : *tags) {
-      const std::string name = toText(t[0]);
-      const std::string created = microsOf(toText(t[3]));
-      std::vector<OldChange> changes{{created, 0, "created", {{"state", "open"}, {"description", toText(t[1])}}}};
-      auto iovs = db_->query(
-          "SELECT first_run, last_run, payload, inserted FROM emcalign_iovs WHERE tag = $1 ORDER BY first_run", {name});
-      if (!iovs) return iovs.error();
-      for (const Row& i : *iovs) {
-        auto first = runOf(i[0], db_->uri(), name);
-        auto last = runOf(i[1], db_->uri(), name);
-        if (!first || !last) return (first ? last.error() : first.error());
-        changes.push_back({microsOf(toText(i[3])),
-                           1,
-                           "iov",
-                           {{"first_run", *first}, {"last_run", *last}, {"payload", toText(i[2])}}});
-      }
-      auto marks = db_->query("SELECT key, value FROM emcalign_meta WHERE key = $1 OR key = $2",
-                              {"running:" + name, "retired:" + name});
-      if (!marks) return marks.error();
-      std::string state = toText(t[2]);
-      for (const std::string kind : {"running:", "retired:"}) {
-        for (const Row& m : *marks) {
-          if (toText(m[0]) != kind + name) continue;
-          const Json mark = Json::parse(toText(m[1]), nullptr, false);
-          const bool retired = kind == "retired:";
-          const std::string when =
-              mark.is_object() ? mark.value(retired ? "retired" : "since", std::string()) : std::string();
-          const std::string to = retired ? "invalid" : "running";
-          if (state == "published" || state == "invalid") continue;
-          Json details = {{"from", state}, {"to", to}};
-          if (retired && mark.is_object() && !mark.value("reason", std::string()).empty()) {
-            details["reason"] = mark.value("reason", std::string());
-          }
-          changes.push_back({when.empty() ? now : microsOf(when), 2, "state", details});
-          state = to;
-        }
-      }
-      if (state == "published") {
-        changes.push_back({now,
-                           3,
-                           "state",
-                           {{"from", "open"},
-                            {"to", "published"},
-                            {"note", "locked under schema 1, which did not keep when: the time is the upgrade's"}}});
-      }
-      std::stable_sort(changes.begin(), changes.end(), [](const OldChange& a, const OldChange& b) {
-        return std::tie(a.time, a.order) < std::tie(b.time, b.order);
-      });
-      for (std::size_t k = 0; k < changes.size(); ++k) {
-        Json details = changes[k].details;
-        details["from_schema"] = 1;
-        auto r = db_->query(
-            "INSERT INTO emcalign_history (tag, seq, time, change, os_user, host, details) VALUES ($1, $2, $3, $4, "
-            "'', '', $5)",
-            {name, static_cast<std::int64_t>(k), changes[k].time, changes[k].change, details.dump()});
-        if (!r) return r.error();
-      }
-      auto row =
-          db_->query("UPDATE emcalign_tags SET state = $2, created = $3 WHERE name = $1", {name, state, created});
-      if (!row) return row.error();
-      for (const Row& i : *iovs) {
-        auto r = db_->query("UPDATE emcalign_iovs SET inserted = $3 WHERE tag = $1 AND first_run = $2",
-                            {name, std::stoll(toText(i[0])), microsOf(toText(i[3]))});
-        if (!r) return r.error();
-      }
+      if (Status s = upgradeTag(*db_, t, now); !s) return s;
     }
     for (const char* prefix : {"running:", "retired:"}) {
       auto r = db_->query("DELETE FROM emcalign_meta WHERE substr(key, 1, $1) = $2",

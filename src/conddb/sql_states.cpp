@@ -137,81 +137,99 @@ std::string tilingProblem(const std::vector<Iov>& iovs, std::int64_t n) {
 
 }  // namespace
 
+namespace {
+
+Error promotionRefused(const std::string& uri, const std::string& from, const std::string& to,
+                       std::int64_t firstSafeRun, const std::string& why) {
+  return Error{fmt::format("{}: promotion of '{}' into '{}' from run {} refused: {}; nothing written", uri, from, to,
+                           firstSafeRun, why)};
+}
+
+}  // namespace
+
+Result<Database::Promotion> SqlDatabase::checkedPromotion(const std::string& from, const std::string& to,
+                                                          std::int64_t firstSafeRun) {
+  const auto refused = [&](const std::string& why) {
+    return promotionRefused(db_->uri(), from, to, firstSafeRun, why);
+  };
+  // Both rows locked, in name order (two promotions never wait for each other in a circle); a
+  // prompt loop appending to `to` waits for this one, or this one for it.
+  std::optional<TagState> stateFrom, stateTo;
+  for (const std::string& t : from < to ? std::vector{from, to} : std::vector{to, from}) {
+    auto rows = lockTagRow(t);
+    if (!rows) return rows.error();
+    if (rows->empty()) return refused(fmt::format("there is no tag '{}'", t));
+    auto s = stateOfRow(*rows, t);
+    if (!s) return s.error();
+    (t == from ? stateFrom : stateTo) = *s;
+  }
+  if (*stateFrom != TagState::Validated) {
+    return refused(fmt::format("'{}' is {}: only a validated tag is promoted", from, name(*stateFrom)));
+  }
+  if (*stateTo != TagState::Running) {
+    return refused(fmt::format("'{}' is {}: a promotion goes into a running tag", to, name(*stateTo)));
+  }
+  auto iovsFrom = iovs(from, {});
+  if (!iovsFrom) return iovsFrom.error();
+  auto iovsTo = iovs(to, {});
+  if (!iovsTo) return iovsTo.error();
+  if (iovsFrom->empty()) return refused(fmt::format("'{}' has no IOV", from));
+  if (iovsTo->empty()) return refused(fmt::format("'{}' has no IOV", to));
+  if (std::string why = tilingProblem(*iovsFrom, firstSafeRun); !why.empty()) {
+    return refused(fmt::format("'{}': {}", from, why));
+  }
+  const Iov& last = iovsTo->back();
+  if (firstSafeRun <= last.firstRun) {
+    return refused(
+        fmt::format("the last IOV of '{}' ({}-{}) starts at or after it: runs before the first safe "
+                    "run are never changed",
+                    to, last.firstRun, last.lastRun));
+  }
+  return Promotion{from, to, firstSafeRun, last, *iovsFrom, {}};
+}
+
+Status SqlDatabase::writePromotion(Promotion& p) {
+  const Iov& last = p.lastBefore;
+  auto rec = recorder(p.to);
+  if (!rec) return rec.error();
+  p.time = rec->time;
+  if (last.lastRun != p.firstSafeRun - 1) {
+    // The IOV as it was, kept for the snapshots before now.
+    auto kept = db_->query(
+        "INSERT INTO emcalign_iovs_replaced (tag, first_run, last_run, payload, inserted, replaced) SELECT tag, "
+        "first_run, last_run, payload, inserted, $3 FROM emcalign_iovs WHERE tag = $1 AND first_run = $2",
+        {p.to, last.firstRun, rec->time});
+    if (!kept) return kept.error();
+    auto cut = db_->query("UPDATE emcalign_iovs SET last_run = $3, inserted = $4 WHERE tag = $1 AND first_run = $2",
+                          {p.to, last.firstRun, p.firstSafeRun - 1, rec->time});
+    if (!cut) return cut.error();
+  }
+  for (const Iov& i : p.appended) {
+    if (Status s = insertIovRow(p.to, i.firstRun, i.lastRun, i.payload, rec->time); !s) return s.error();
+  }
+  const Json details = {
+      {"from", p.from},
+      {"first_safe_run", p.firstSafeRun},
+      {"last_iov", {{"was", {last.firstRun, last.lastRun}}, {"now", {last.firstRun, p.firstSafeRun - 1}}}},
+      {"last_iov_fate", p.lastIovFate()},
+      {"appended", p.appended.size()},
+      {"runs", {p.appended.front().firstRun, p.appended.back().lastRun}}};
+  if (Status s = record(*rec, "promotion", details); !s) return s.error();
+  holdWriteForTests();
+  return {};
+}
+
 Result<Database::Promotion> SqlDatabase::promote(const std::string& from, const std::string& to,
                                                  std::int64_t firstSafeRun, bool dryRun) {
   if (Status s = checkTagName(from); !s) return s.error();
   if (Status s = checkTagName(to); !s) return s.error();
-  const auto refused = [&](const std::string& why) {
-    return Error{fmt::format("{}: promotion of '{}' into '{}' from run {} refused: {}; nothing written", db_->uri(),
-                             from, to, firstSafeRun, why)};
-  };
-  if (from == to) return refused("a tag is not promoted into itself");
+  if (from == to) return promotionRefused(db_->uri(), from, to, firstSafeRun, "a tag is not promoted into itself");
   // A dry run reads as a write would (the same rows locked), then rolls back.
   if (Status s = db_->beginWrite(); !s) return s.error();
-  auto result = [&]() -> Result<Promotion> {
-    // Both rows locked, in name order (two promotions never wait for each other in a circle); a
-    // prompt loop appending to `to` waits for this one, or this one for it.
-    std::optional<TagState> stateFrom, stateTo;
-    for (const std::string& t : from < to ? std::vector{from, to} : std::vector{to, from}) {
-      auto rows = lockTagRow(t);
-      if (!rows) return rows.error();
-      if (rows->empty()) return refused(fmt::format("there is no tag '{}'", t));
-      auto s = stateOfRow(*rows, t);
-      if (!s) return s.error();
-      (t == from ? stateFrom : stateTo) = *s;
-    }
-    if (*stateFrom != TagState::Validated) {
-      return refused(fmt::format("'{}' is {}: only a validated tag is promoted", from, name(*stateFrom)));
-    }
-    if (*stateTo != TagState::Running) {
-      return refused(fmt::format("'{}' is {}: a promotion goes into a running tag", to, name(*stateTo)));
-    }
-    auto iovsFrom = iovs(from, {});
-    if (!iovsFrom) return iovsFrom.error();
-    auto iovsTo = iovs(to, {});
-    if (!iovsTo) return iovsTo.error();
-    if (iovsFrom->empty()) return refused(fmt::format("'{}' has no IOV", from));
-    if (iovsTo->empty()) return refused(fmt::format("'{}' has no IOV", to));
-    if (std::string why = tilingProblem(*iovsFrom, firstSafeRun); !why.empty()) {
-      return refused(fmt::format("'{}': {}", from, why));
-    }
-    const Iov& last = iovsTo->back();
-    if (firstSafeRun <= last.firstRun) {
-      return refused(
-          fmt::format("the last IOV of '{}' ({}-{}) starts at or after it: runs before the first safe "
-                      "run are never changed",
-                      to, last.firstRun, last.lastRun));
-    }
-    Promotion p{from, to, firstSafeRun, last, *iovsFrom, {}};
-    if (dryRun) return p;
-    auto rec = recorder(to);
-    if (!rec) return rec.error();
-    p.time = rec->time;
-    if (last.lastRun != firstSafeRun - 1) {
-      // The IOV as it was, kept for the snapshots before now.
-      auto kept = db_->query(
-          "INSERT INTO emcalign_iovs_replaced (tag, first_run, last_run, payload, inserted, replaced) SELECT tag, "
-          "first_run, last_run, payload, inserted, $3 FROM emcalign_iovs WHERE tag = $1 AND first_run = $2",
-          {to, last.firstRun, rec->time});
-      if (!kept) return kept.error();
-      auto cut = db_->query("UPDATE emcalign_iovs SET last_run = $3, inserted = $4 WHERE tag = $1 AND first_run = $2",
-                            {to, last.firstRun, firstSafeRun - 1, rec->time});
-      if (!cut) return cut.error();
-    }
-    for (const Iov& i : *iovsFrom) {
-      if (Status s = insertIovRow(to, i.firstRun, i.lastRun, i.payload, rec->time); !s) return s.error();
-    }
-    const Json details = {
-        {"from", from},
-        {"first_safe_run", firstSafeRun},
-        {"last_iov", {{"was", {last.firstRun, last.lastRun}}, {"now", {last.firstRun, firstSafeRun - 1}}}},
-        {"last_iov_fate", p.lastIovFate()},
-        {"appended", iovsFrom->size()},
-        {"runs", {iovsFrom->front().firstRun, iovsFrom->back().lastRun}}};
-    if (Status s = record(*rec, "promotion", details); !s) return s.error();
-    holdWriteForTests();
-    return p;
-  }();
+  auto result = checkedPromotion(from, to, firstSafeRun);
+  if (result && !dryRun) {
+    if (Status s = writePromotion(*result); !s) result = s.error();
+  }
   if (!result || dryRun) {
     db_->rollback();
     return result;

@@ -1,3 +1,6 @@
+// Outputs written through temporaries (io/output_file.hpp): the registry of temporaries a
+// signal removes, where an output goes (resolved and checked), and the file renamed into place.
+
 #include "emcalign/io/output_file.hpp"
 
 #include <fcntl.h>
@@ -12,11 +15,11 @@
 #include <charconv>
 #include <cstring>
 #include <filesystem>
-#include <mutex>
 
 #include <fmt/format.h>
 
 #include "emcalign/core/secrets.hpp"
+#include "input_protection.hpp"
 
 namespace emcalign::io {
 
@@ -103,164 +106,12 @@ bool writeAll(int fd, const char* data, std::size_t size) {
 
 std::atomic<unsigned> gStreamTemporaries{0};
 
-// ------------------------------------------------------------------- the protected inputs
-
-// An input no output may replace: its identity when it exists (device and inode, so that
-// links and hard links are seen through) and its name (a file that does not exist yet, as a
-// database's journal, must not be created by an output either). Entries of a guard (owner >
-// 0) hold while the guard lives, whether or not the protection is on; the command's (owner 0)
-// only while it is on.
-struct ProtectedInput {
-  NamedPath name;
-  std::string absolute;  // the name, absolute and normalised
-  bool exists = false;
-  dev_t dev{};
-  ino_t ino{};
-  std::uint64_t owner = 0;              // 0: the command's; else the InputGuard's id
-  bool directory = false;               // a directory whose files are read as data: nothing is created in it
-  std::vector<std::string> extensions;  // directory: the names ending so are its data
-};
-std::mutex gProtectedMutex;
-std::atomic<bool> gProtecting{false};
-std::vector<ProtectedInput> gProtected;  // guarded by gProtectedMutex
-std::atomic<std::uint64_t> gGuards{0};
-
-// The file an existing path is (following links): a regular file's device and inode.
-bool fileIdentity(const std::string& path, dev_t& dev, ino_t& ino) {
-  struct stat st {};
-  if (path.empty() || path == "-" || ::stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) return false;
-  dev = st.st_dev;
-  ino = st.st_ino;
-  return true;
-}
-
-// A path's name, absolute: links in its directories resolved (an output may reach the file
-// through another directory), not a link that is the last component (that is another name).
-std::string normalised(const std::string& p) {
-  std::error_code ec;
-  const fs::path absolute = fs::absolute(p, ec).lexically_normal();
-  const fs::path directory = fs::weakly_canonical(absolute.parent_path(), ec);
-  return ec ? absolute.string() : (directory / absolute.filename()).lexically_normal().string();
-}
-
-std::string describe(const NamedPath& input) {
-  return input.option.empty() ? input.path : input.option + " " + input.path;
-}
-
 Error overwritesInput(const std::string& output, const NamedPath& input) {
   return Error{
       fmt::format("{}: is the same file as the input {}: refusing to overwrite an input", output, describe(input))};
 }
 
-void addProtected(const NamedPath& input, std::uint64_t owner, bool directory,
-                  std::vector<std::string> extensions = {}) {
-  if (input.path.empty() || input.path == "-") return;
-  ProtectedInput p{input, normalised(input.path), false, {}, {}, owner, directory, std::move(extensions)};
-  if (!directory) p.exists = fileIdentity(input.path, p.dev, p.ino);
-  const std::lock_guard lock(gProtectedMutex);
-  for (auto& q : gProtected) {
-    const bool same = q.directory == directory && q.owner == owner &&
-                      (p.exists && q.exists ? q.dev == p.dev && q.ino == p.ino : q.absolute == p.absolute);
-    if (!same) continue;
-    if (q.name.option.empty()) q.name = input;  // the option it was given with names it best
-    return;
-  }
-  gProtected.push_back(std::move(p));
-}
-
-bool applies(const ProtectedInput& p) { return p.owner != 0 || gProtecting.load(); }
-
 }  // namespace
-
-void enableInputProtection() { gProtecting.store(true); }
-
-void disableInputProtection() {
-  gProtecting.store(false);
-  const std::lock_guard lock(gProtectedMutex);
-  std::erase_if(gProtected, [](const ProtectedInput& p) { return p.owner == 0; });
-}
-
-void protectInput(const NamedPath& input) {
-  if (gProtecting.load()) addProtected(input, 0, false);
-}
-
-void protectInputDirectory(const NamedPath& directory, const std::vector<std::string>& extensions) {
-  if (gProtecting.load()) addProtected(directory, 0, true, extensions);
-}
-
-InputGuard::InputGuard(const std::vector<NamedPath>& files) : id_(++gGuards) {
-  for (const auto& f : files) addProtected(f, id_, false);
-}
-
-InputGuard::~InputGuard() {
-  const std::lock_guard lock(gProtectedMutex);
-  std::erase_if(gProtected, [this](const ProtectedInput& p) { return p.owner == id_; });
-}
-
-std::optional<NamedPath> protectedInputAt(const std::string& path) {
-  dev_t dev{};
-  ino_t ino{};
-  const bool exists = fileIdentity(path, dev, ino);
-  const std::string absolute = normalised(path);
-  const std::string parent = fs::path(absolute).parent_path().string();
-  const std::lock_guard lock(gProtectedMutex);
-  for (const auto& p : gProtected) {
-    if (!applies(p)) continue;
-    if (p.directory) {
-      const bool data = std::any_of(p.extensions.begin(), p.extensions.end(),
-                                    [&](const std::string& e) { return absolute.ends_with(e); });
-      if (!exists && data && parent == p.absolute) return p.name;  // a new file among the data
-      continue;
-    }
-    if ((exists && p.exists && p.dev == dev && p.ino == ino) || p.absolute == absolute) return p.name;
-  }
-  return std::nullopt;
-}
-
-Status checkDirectoryHoldsNoInput(const NamedPath& directory, const std::vector<NamedPath>& inputs, int maxDepth) {
-  struct Known {
-    NamedPath name;
-    std::string absolute;  // the name it was given by, normalised
-    dev_t dev;
-    ino_t ino;
-  };
-  std::vector<Known> known;
-  for (const auto& i : inputs) {
-    dev_t dev{};
-    ino_t ino{};
-    if (fileIdentity(i.path, dev, ino)) known.push_back({i, normalised(i.path), dev, ino});
-  }
-  {
-    const std::lock_guard lock(gProtectedMutex);
-    for (const auto& p : gProtected) {
-      if (applies(p) && p.exists) known.push_back({p.name, p.absolute, p.dev, p.ino});
-    }
-  }
-  std::error_code ec;
-  if (known.empty() || !fs::is_directory(directory.path, ec)) return {};
-  constexpr std::size_t kMaxEntries = 100000;  // a campaign's directory; beyond, the write-time check remains
-  std::size_t seen = 0;
-  fs::recursive_directory_iterator it(directory.path, fs::directory_options::skip_permission_denied, ec);
-  for (; !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
-    if (++seen > kMaxEntries) break;
-    if (it.depth() >= maxDepth) it.disable_recursion_pending();
-    std::error_code kind;
-    if (it->is_directory(kind)) continue;
-    dev_t dev{};
-    ino_t ino{};
-    const std::string entry = it->path().string();
-    if (!fileIdentity(entry, dev, ino)) continue;
-    for (const auto& k : known) {
-      if (k.dev != dev || k.ino != ino || normalised(entry) == k.absolute) continue;
-      return Error{fmt::format(
-          "{} {}: {} is {} the input {}: an output written there would replace that input (remove it from the "
-          "directory, or write elsewhere)",
-          directory.option, directory.path, entry,
-          fs::is_symlink(it->symlink_status(kind)) ? "a link to" : "a hard link of", describe(k.name))};
-    }
-  }
-  return {};
-}
 
 void removeTemporaries() noexcept {
   for (auto& slot : gSlots) {
@@ -293,6 +144,54 @@ std::string temporaryPathFor(const std::string& realPath) {
   return fmt::format("{}.tmp-{}", realPath, static_cast<long>(::getpid()));
 }
 
+namespace {
+
+// An output that does not exist yet: its directory must exist and take a new file, and no input
+// may be there under its name (a new file among an input directory's data is one).
+Result<OutputTarget> newOutput(const std::string& path) {
+  const std::string dir = parentOf(path);
+  struct stat d {};
+  if (::stat(dir.c_str(), &d) != 0) {
+    return Error{fmt::format("{}: cannot write here: the directory '{}' does not exist", path, dir)};
+  }
+  if (!S_ISDIR(d.st_mode)) return Error{fmt::format("{}: cannot write here: '{}' is not a directory", path, dir)};
+  if (::access(dir.c_str(), W_OK) != 0) {
+    return Error{fmt::format("{}: cannot create a file in '{}': {}", path, dir, reason(errno))};
+  }
+  if (auto input = protectedInputAt(path)) {
+    return Error{fmt::format("{}: {} the input {}: refusing to write there", path,
+                             fs::is_directory(input->path) ? "would be read as data of" : "is a file of",
+                             describe(*input))};
+  }
+  return OutputTarget{path, path, OutputKind::File};
+}
+
+// An existing regular file replaced (`link`: lstat of the name, a link to it followed): not an
+// input, writable, its temporary made beside the file itself.
+Result<OutputTarget> replacedOutput(const std::string& path, const struct stat& link, const struct stat& st) {
+  if (auto input = protectedInputAt(path)) return overwritesInput(path, *input);
+  if ((st.st_mode & (S_IWUSR | S_IWGRP | S_IWOTH)) == 0) {
+    return Error{
+        fmt::format("{}: is read-only: refusing to replace it (chmod u+w {} to allow it, or remove it)", path, path)};
+  }
+  if (::access(path.c_str(), W_OK) != 0) {
+    return Error{fmt::format("{}: cannot replace it: {}", path, reason(errno))};
+  }
+  std::string real = path;
+  if (S_ISLNK(link.st_mode)) {
+    std::error_code ec;
+    real = fs::canonical(path, ec).string();
+    if (ec) return Error{fmt::format("{}: cannot follow the symbolic link: {}", path, ec.message())};
+  }
+  const std::string dir = parentOf(real);
+  if (::access(dir.c_str(), W_OK) != 0) {
+    return Error{fmt::format("{}: cannot create the temporary file in '{}': {}", path, dir, reason(errno))};
+  }
+  return OutputTarget{path, real, OutputKind::File};
+}
+
+}  // namespace
+
 Result<OutputTarget> resolveOutput(const std::string& path, Placement placement) {
   if (path.empty()) return Error{"an output name is empty"};
   if (path == "-") return OutputTarget{path, path, OutputKind::Stdout};
@@ -312,21 +211,7 @@ Result<OutputTarget> resolveOutput(const std::string& path, Placement placement)
   if (::lstat(path.c_str(), &link) != 0) {
     const int error = errno;
     if (error != ENOENT) return Error{fmt::format("{}: cannot use as an output: {}", path, reason(error))};
-    const std::string dir = parentOf(path);
-    struct stat d {};
-    if (::stat(dir.c_str(), &d) != 0) {
-      return Error{fmt::format("{}: cannot write here: the directory '{}' does not exist", path, dir)};
-    }
-    if (!S_ISDIR(d.st_mode)) return Error{fmt::format("{}: cannot write here: '{}' is not a directory", path, dir)};
-    if (::access(dir.c_str(), W_OK) != 0) {
-      return Error{fmt::format("{}: cannot create a file in '{}': {}", path, dir, reason(errno))};
-    }
-    if (auto input = protectedInputAt(path)) {
-      return Error{fmt::format("{}: {} the input {}: refusing to write there", path,
-                               fs::is_directory(input->path) ? "would be read as data of" : "is a file of",
-                               describe(*input))};
-    }
-    return OutputTarget{path, path, OutputKind::File};
+    return newOutput(path);
   }
   if (S_ISLNK(link.st_mode) && placement == Placement::InDirectory) {
     // A file a command names inside its output directory is the command's: a link found there
@@ -361,25 +246,7 @@ Result<OutputTarget> resolveOutput(const std::string& path, Placement placement)
   if (S_ISBLK(st.st_mode)) return Error{fmt::format("{}: is a block device: refusing to write to it", path)};
   if (!S_ISREG(st.st_mode))
     return Error{fmt::format("{}: is not a regular file, a device or a pipe: refusing to write to it", path)};
-  if (auto input = protectedInputAt(path)) return overwritesInput(path, *input);
-  if ((st.st_mode & (S_IWUSR | S_IWGRP | S_IWOTH)) == 0) {
-    return Error{
-        fmt::format("{}: is read-only: refusing to replace it (chmod u+w {} to allow it, or remove it)", path, path)};
-  }
-  if (::access(path.c_str(), W_OK) != 0) {
-    return Error{fmt::format("{}: cannot replace it: {}", path, reason(errno))};
-  }
-  std::string real = path;
-  if (S_ISLNK(link.st_mode)) {
-    std::error_code ec;
-    real = fs::canonical(path, ec).string();
-    if (ec) return Error{fmt::format("{}: cannot follow the symbolic link: {}", path, ec.message())};
-  }
-  const std::string dir = parentOf(real);
-  if (::access(dir.c_str(), W_OK) != 0) {
-    return Error{fmt::format("{}: cannot create the temporary file in '{}': {}", path, dir, reason(errno))};
-  }
-  return OutputTarget{path, real, OutputKind::File};
+  return replacedOutput(path, link, st);
 }
 
 Status checkOutputDirectory(const std::string& path) {

@@ -52,65 +52,55 @@ Status writeCsv(const std::string& path, const RandomTriggerEvents& events,
   return writeOutputFile(path, text, placement);
 }
 
-Status writeHdf5(const std::string& path, const RandomTriggerEvents& events,
-                 const std::vector<std::pair<std::string, std::string>>& attributes, Placement placement) {
-  auto out = OutputFile::reserve(path, placement);
-  if (!out) return out.error();
-  const std::string& tmp = (*out)->writtenPath();
-  detail::Hdf5Quiet quiet;
-  const auto failed = [&](std::string_view what) {
-    return Error{fmt::format("{}: {}: {}", path, what, detail::hdf5Reason())};
-  };
-  Hid fcpl = detail::creationList(H5P_FILE_CREATE);
-  if (!fcpl.valid() || H5Pset_attr_creation_order(fcpl.get(), H5P_CRT_ORDER_TRACKED | H5P_CRT_ORDER_INDEXED) < 0) {
-    return failed("cannot set up the file-creation properties");
-  }
-  Hid fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
-  if (!fapl.valid() || H5Pset_fclose_degree(fapl.get(), H5F_CLOSE_STRONG) < 0) {
-    return failed("cannot set up the file-access properties");
-  }
-  Hid file(H5Fcreate(tmp.c_str(), H5F_ACC_EXCL, fcpl.get(), fapl.get()), H5Fclose);
-  if (!file.valid()) return failed(fmt::format("cannot create the temporary file '{}'", tmp));
+// An HDF5 call on `path` that failed: what it was, and HDF5's reason.
+Error hdf5Failure(const std::string& path, std::string_view what) {
+  return Error{fmt::format("{}: {}: {}", path, what, detail::hdf5Reason())};
+}
 
+// The file's attributes, UTF-8 strings: its format first, then `attributes`.
+Status writeAttributes(hid_t file, const std::vector<std::pair<std::string, std::string>>& attributes,
+                       const std::string& path) {
   Hid stringType(H5Tcopy(H5T_C_S1), H5Tclose);
   Hid scalar(H5Screate(H5S_SCALAR), H5Sclose);
   if (!stringType.valid() || !scalar.valid() || H5Tset_size(stringType.get(), H5T_VARIABLE) < 0 ||
       H5Tset_cset(stringType.get(), H5T_CSET_UTF8) < 0) {
-    return failed("cannot set up the string type of the attributes");
+    return hdf5Failure(path, "cannot set up the string type of the attributes");
   }
   std::vector<std::pair<std::string, std::string>> all = {{"format", kRandomTriggerFormat}};
   all.insert(all.end(), attributes.begin(), attributes.end());
   for (const auto& [key, value] : all) {
-    Hid attr(H5Acreate2(file.get(), key.c_str(), stringType.get(), scalar.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
+    Hid attr(H5Acreate2(file, key.c_str(), stringType.get(), scalar.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
     const char* text = value.c_str();
     if (!attr.valid() || H5Awrite(attr.get(), stringType.get(), &text) < 0) {
-      return failed(fmt::format("cannot write the attribute '{}'", key));
+      return hdf5Failure(path, fmt::format("cannot write the attribute '{}'", key));
     }
   }
+  return {};
+}
 
-  // Shuffle + deflate: every HDF5 reader (h5py without plugins) has them.
-  Hid gcpl = detail::creationList(H5P_GROUP_CREATE);
-  Hid dcpl = detail::creationList(H5P_DATASET_CREATE);
-  const hsize_t chunk = kChunk;
-  if (!gcpl.valid() || !dcpl.valid() || H5Pset_chunk(dcpl.get(), 1, &chunk) < 0 || H5Pset_shuffle(dcpl.get()) < 0 ||
-      H5Pset_deflate(dcpl.get(), 4) < 0) {
-    return failed("cannot set up the dataset-creation properties");
-  }
-  const auto write = [&](hid_t group, std::string_view groupName, const char* name, Kind kind, std::size_t n,
-                         const void* data) -> Status {
+// A group's dataset `name` of n values, with the dataset-creation properties `dcpl`.
+struct Column {
+  hid_t group;
+  std::string_view groupName;
+  hid_t dcpl;
+  const std::string& path;
+  Status write(const char* name, Kind kind, std::size_t n, const void* data) const {
     const hsize_t dims = n;
     const hsize_t maxDims = H5S_UNLIMITED;
     Hid space(H5Screate_simple(1, &dims, &maxDims), H5Sclose);
-    Hid set(space.valid()
-                ? H5Dcreate2(group, name, detail::fileType(kind), space.get(), H5P_DEFAULT, dcpl.get(), H5P_DEFAULT)
-                : H5I_INVALID_HID,
+    Hid set(space.valid() ? H5Dcreate2(group, name, detail::fileType(kind), space.get(), H5P_DEFAULT, dcpl, H5P_DEFAULT)
+                          : H5I_INVALID_HID,
             H5Dclose);
     if (!set.valid() ||
         (n > 0 && H5Dwrite(set.get(), detail::memoryType(kind), H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0)) {
-      return failed(fmt::format("cannot write the dataset '/{}/{}'", groupName, name));
+      return hdf5Failure(path, fmt::format("cannot write the dataset '/{}/{}'", groupName, name));
     }
     return {};
-  };
+  }
+};
+
+// The events' columns: run, event, and where their hits are in the hits' columns.
+Status writeEventColumns(const Column& c, const RandomTriggerEvents& events) {
   const std::size_t n = events.size();
   std::vector<std::int32_t> runs(n), counts(n);
   std::vector<std::int64_t> numbers(n), offsets(n);
@@ -122,12 +112,14 @@ Status writeHdf5(const std::string& path, const RandomTriggerEvents& events,
     counts[i] = static_cast<std::int32_t>(events.hits(i).size());
     offset += counts[i];
   }
-  Hid group(H5Gcreate2(file.get(), kGroup, H5P_DEFAULT, gcpl.get(), H5P_DEFAULT), H5Gclose);
-  if (!group.valid()) return failed(fmt::format("cannot create the group '/{}'", kGroup));
-  if (Status s = write(group.get(), kGroup, "run", Kind::I32, n, runs.data()); !s) return s;
-  if (Status s = write(group.get(), kGroup, "event", Kind::I64, n, numbers.data()); !s) return s;
-  if (Status s = write(group.get(), kGroup, "hit_offset", Kind::I64, n, offsets.data()); !s) return s;
-  if (Status s = write(group.get(), kGroup, "hit_count", Kind::I32, n, counts.data()); !s) return s;
+  if (Status s = c.write("run", Kind::I32, n, runs.data()); !s) return s;
+  if (Status s = c.write("event", Kind::I64, n, numbers.data()); !s) return s;
+  if (Status s = c.write("hit_offset", Kind::I64, n, offsets.data()); !s) return s;
+  return c.write("hit_count", Kind::I32, n, counts.data());
+}
+
+// The hits' columns: counter and energy.
+Status writeHitColumns(const Column& c, const RandomTriggerEvents& events) {
   const auto all_hits = events.allHits();
   std::vector<std::int32_t> counters(all_hits.size());
   std::vector<double> energies(all_hits.size());
@@ -135,15 +127,45 @@ Status writeHdf5(const std::string& path, const RandomTriggerEvents& events,
     counters[k] = all_hits[k].counter;
     energies[k] = all_hits[k].energy;
   }
-  Hid hits(H5Gcreate2(file.get(), kHitsGroup, H5P_DEFAULT, gcpl.get(), H5P_DEFAULT), H5Gclose);
-  if (!hits.valid()) return failed(fmt::format("cannot create the group '/{}'", kHitsGroup));
-  if (Status s = write(hits.get(), kHitsGroup, "counter", Kind::I32, counters.size(), counters.data()); !s) return s;
-  if (Status s = write(hits.get(), kHitsGroup, "energy_mev", Kind::F64, energies.size(), energies.data()); !s) {
-    return s;
+  if (Status s = c.write("counter", Kind::I32, counters.size(), counters.data()); !s) return s;
+  return c.write("energy_mev", Kind::F64, energies.size(), energies.data());
+}
+
+Status writeHdf5(const std::string& path, const RandomTriggerEvents& events,
+                 const std::vector<std::pair<std::string, std::string>>& attributes, Placement placement) {
+  auto out = OutputFile::reserve(path, placement);
+  if (!out) return out.error();
+  const std::string& tmp = (*out)->writtenPath();
+  detail::Hdf5Quiet quiet;
+  Hid fcpl = detail::creationList(H5P_FILE_CREATE);
+  if (!fcpl.valid() || H5Pset_attr_creation_order(fcpl.get(), H5P_CRT_ORDER_TRACKED | H5P_CRT_ORDER_INDEXED) < 0) {
+    return hdf5Failure(path, "cannot set up the file-creation properties");
   }
+  Hid fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
+  if (!fapl.valid() || H5Pset_fclose_degree(fapl.get(), H5F_CLOSE_STRONG) < 0) {
+    return hdf5Failure(path, "cannot set up the file-access properties");
+  }
+  Hid file(H5Fcreate(tmp.c_str(), H5F_ACC_EXCL, fcpl.get(), fapl.get()), H5Fclose);
+  if (!file.valid()) return hdf5Failure(path, fmt::format("cannot create the temporary file '{}'", tmp));
+  if (Status s = writeAttributes(file.get(), attributes, path); !s) return s;
+
+  // Shuffle + deflate: every HDF5 reader (h5py without plugins) has them.
+  Hid gcpl = detail::creationList(H5P_GROUP_CREATE);
+  Hid dcpl = detail::creationList(H5P_DATASET_CREATE);
+  const hsize_t chunk = kChunk;
+  if (!gcpl.valid() || !dcpl.valid() || H5Pset_chunk(dcpl.get(), 1, &chunk) < 0 || H5Pset_shuffle(dcpl.get()) < 0 ||
+      H5Pset_deflate(dcpl.get(), 4) < 0) {
+    return hdf5Failure(path, "cannot set up the dataset-creation properties");
+  }
+  Hid group(H5Gcreate2(file.get(), kGroup, H5P_DEFAULT, gcpl.get(), H5P_DEFAULT), H5Gclose);
+  if (!group.valid()) return hdf5Failure(path, fmt::format("cannot create the group '/{}'", kGroup));
+  if (Status s = writeEventColumns({group.get(), kGroup, dcpl.get(), path}, events); !s) return s;
+  Hid hits(H5Gcreate2(file.get(), kHitsGroup, H5P_DEFAULT, gcpl.get(), H5P_DEFAULT), H5Gclose);
+  if (!hits.valid()) return hdf5Failure(path, fmt::format("cannot create the group '/{}'", kHitsGroup));
+  if (Status s = writeHitColumns({hits.get(), kHitsGroup, dcpl.get(), path}, events); !s) return s;
   group.reset();
   hits.reset();
-  if (!file.reset()) return failed("cannot close the HDF5 file");
+  if (!file.reset()) return hdf5Failure(path, "cannot close the HDF5 file");
   return (*out)->commit();
 }
 

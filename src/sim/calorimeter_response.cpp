@@ -231,6 +231,91 @@ double CalorimeterResponse::entry(const Vec3& p, const Vec3& d, Hemisphere& hemi
   return crossing(p, d);
 }
 
+namespace {
+
+// The share of the shower's energy the counters see: the stochastic term's smearing (its share
+// of the resolution σ/E^¼ at 1 GeV) drawn, or 1 without it.
+inline double showerGain(const EmcOptions& o, double energy, Rng& rng) {
+  double gain = 1.0;
+  if (o.energyResolution && o.resolutionAt1GeV > 0.0) {
+    const double sigma = o.smearingShare * o.resolutionAt1GeV / std::pow(energy / 1000.0, 0.25);
+    gain = std::max(0.0, 1.0 + sigma * rng.normal());
+  }
+  return gain;
+}
+
+// The shower maximum t_max in X0 from the shower start: ln(E/Ec) + 0.5 for a photon, − 0.5 for
+// an electron, shifted, its log-normal fluctuation drawn.
+inline double showerMaximum(const EmcOptions& o, double lnY, bool photon, Rng& rng) {
+  double tMax = std::max(0.3, lnY + (photon ? 0.5 : -0.5) + o.tMaxShift);
+  if (o.showerFluctuations) {
+    const double sigmaLn = o.tMaxFluctuationScale * std::clamp(1.0 / (1.26 * lnY - 1.4), 0.05, 0.5);
+    tMax = std::max(0.3, tMax * std::exp(sigmaLn * rng.normal() - 0.5 * sigmaLn * sigmaLn));
+  }
+  return tMax;
+}
+
+// Depth along the axis is counted in radiation lengths of material (τ, from the shower start in
+// the pre-material): pre-material [0, p), NaI up to support sphere 1, the support (aluminium,
+// thin in X0), NaI of layer 3, exit. Energy falling in the pre-material, the support or beyond
+// the exit is lost; the fractions come from the Gamma CDF and spot depths are drawn inside the
+// NaI only, so that the losses follow t_max smoothly instead of jumping by whole spots.
+struct AxisMaterial {
+  double preshower = 0.0;  // X0 before the EMC
+  double tauA = 0.0;       // the support begins
+  double tauB = 0.0;       // the support ends
+  double tauEnd = 0.0;     // layer 3 ends
+  double sB = 0.0;         // cm along the axis from the start to the support's end
+  double x0 = 0.0;         // cm, NaI's radiation length
+
+  // Material depth → distance from the start.
+  [[nodiscard]] double geometric(double tau) const {
+    return tau < tauA ? (tau - preshower) * x0 : sB + (tau - tauB) * x0;
+  }
+
+  // The share of the longitudinal profile Gamma(a, b) in the NaI.
+  [[nodiscard]] double insideShare(double a, double b) const {
+    const double logGammaA = std::log(std::tgamma(a));  // thread-safe, unlike std::lgamma
+    const double pPre = regularizedGammaP(a, b * preshower, logGammaA);
+    const double pA = regularizedGammaP(a, b * tauA, logGammaA);
+    const double pB = regularizedGammaP(a, b * tauB, logGammaA);
+    const double pEnd = regularizedGammaP(a, b * tauEnd, logGammaA);
+    return (pA - pPre) + (pEnd - pB);
+  }
+
+  // A spot's depth τ, drawn from the profile inside the NaI (after 64 tries, the last draw
+  // moved into it).
+  [[nodiscard]] double drawDepth(double a, double b, Rng& rng) const {
+    double tau = 0.0;
+    for (int tries = 0; tries < 64; ++tries) {
+      tau = rng.gamma(a, 1.0 / b);
+      if ((tau >= preshower && tau < tauA) || (tau >= tauB && tau < tauEnd)) break;
+      tau = tau < tauA ? std::max(tau, preshower) : std::min(std::max(tau, tauB), tauEnd);  // after 64 tries
+    }
+    return tau;
+  }
+};
+
+inline AxisMaterial axisMaterial(const geometry::DetectorDescription& d, const EmcOptions& o, const Vec3& start,
+                                 const Vec3& direction, double preshower) {
+  auto distanceTo = [&](double radius) {  // along the axis from the start, to |x| = radius
+    const double bb = start.dot(direction);
+    return -bb + std::sqrt(std::max(0.0, bb * bb - start.squaredNorm() + radius * radius));
+  };
+  const double sA = distanceTo(d.supports[0].rInner), sB = distanceTo(d.supports[0].rOuter);
+  const double sExit = distanceTo(d.supports[1].rInner);
+  AxisMaterial m;
+  m.x0 = d.material.radiationLength;
+  m.preshower = preshower;
+  m.sB = sB;
+  m.tauA = preshower + sA / m.x0;
+  m.tauB = m.tauA + (sB - sA) / o.supportRadiationLength;
+  m.tauEnd = m.tauB + std::max(0.0, sExit - sB) / m.x0;
+  return m;
+}
+
+}  // namespace
+
 void CalorimeterResponse::shower(CounterHits& hits, int source, double energy, Showering particle, const Vec3& point,
                                  const Vec3& direction, Rng& rng) const {
   const auto& o = options_;
@@ -243,12 +328,7 @@ void CalorimeterResponse::shower(CounterHits& hits, int source, double energy, S
   const double sinTheta = std::max(1e-3, std::hypot(direction.x(), direction.y()));
   const double preshower = o.preshowerMaterial.value_or(m.preshowerMaterial) / sinTheta;  // X0 before the EMC
   const double lnY = std::log(std::max(energy / m.criticalEnergy, 1.01));
-
-  double gain = 1.0;
-  if (o.energyResolution && o.resolutionAt1GeV > 0.0) {
-    const double sigma = o.smearingShare * o.resolutionAt1GeV / std::pow(energy / 1000.0, 0.25);
-    gain = std::max(0.0, 1.0 + sigma * rng.normal());
-  }
+  const double gain = showerGain(o, energy, rng);
 
   if (o.pointShowers) {
     // The fit model's idealisation: everything at t_max = ln(E/Ec) − 0.5 from the shower
@@ -258,40 +338,11 @@ void CalorimeterResponse::shower(CounterHits& hits, int source, double energy, S
     return;
   }
 
-  double tMax = std::max(0.3, lnY + (particle == Showering::Photon ? 0.5 : -0.5) + o.tMaxShift);
-  if (o.showerFluctuations) {
-    const double sigmaLn = o.tMaxFluctuationScale * std::clamp(1.0 / (1.26 * lnY - 1.4), 0.05, 0.5);
-    tMax = std::max(0.3, tMax * std::exp(sigmaLn * rng.normal() - 0.5 * sigmaLn * sigmaLn));
-  }
+  const double tMax = showerMaximum(o, lnY, particle == Showering::Photon, rng);
   const double b = o.profileB, a = 1.0 + b * tMax;
-
-  // Depth along the axis is counted in radiation lengths of material (τ, from the shower
-  // start in the pre-material): pre-material [0, p), NaI up to support sphere 1, the
-  // support (aluminium, thin in X0), NaI of layer 3, exit. Energy falling in the
-  // pre-material, the support or beyond the exit is lost; the fractions come from the Gamma
-  // CDF and spot depths are drawn inside the NaI only, so that the losses follow t_max
-  // smoothly instead of jumping by whole spots.
-  const auto& d = calo_->description();
-  auto distanceTo = [&](double radius) {  // along the axis from the start, to |x| = radius
-    const double bb = start.dot(direction);
-    return -bb + std::sqrt(std::max(0.0, bb * bb - start.squaredNorm() + radius * radius));
-  };
-  const double sA = distanceTo(d.supports[0].rInner), sB = distanceTo(d.supports[0].rOuter);
-  const double sExit = distanceTo(d.supports[1].rInner);
-  const double x0 = m.radiationLength;
-  const double tauA = preshower + sA / x0;                          // support begins
-  const double tauB = tauA + (sB - sA) / o.supportRadiationLength;  // support ends
-  const double tauEnd = tauB + std::max(0.0, sExit - sB) / x0;      // layer 3 ends
-  const double logGammaA = std::log(std::tgamma(a));                // thread-safe, unlike std::lgamma
-  const double pPre = regularizedGammaP(a, b * preshower, logGammaA);
-  const double pA = regularizedGammaP(a, b * tauA, logGammaA);
-  const double pB = regularizedGammaP(a, b * tauB, logGammaA);
-  const double pEnd = regularizedGammaP(a, b * tauEnd, logGammaA);
-  const double inside = (pA - pPre) + (pEnd - pB);
+  const AxisMaterial axis = axisMaterial(calo_->description(), o, start, direction, preshower);
+  const double inside = axis.insideShare(a, b);
   if (inside <= 0.0) return;
-  auto geometric = [&](double tau) {  // material depth → distance from the start
-    return tau < tauA ? (tau - preshower) * x0 : sB + (tau - tauB) * x0;
-  };
 
   const Vec3 e1 = (std::abs(direction.z()) < 0.9 ? Vec3::UnitZ() : Vec3::UnitX()).cross(direction).normalized();
   const ShowerFrame frame = showerFrame(h, start, direction, e1, direction.cross(e1));
@@ -301,14 +352,9 @@ void CalorimeterResponse::shower(CounterHits& hits, int source, double energy, S
   std::array<Spot, kSpotBatch> batch;
   std::size_t batched = 0;
   for (int i = 0; i < o.spotsLongitudinal; ++i) {
-    double tau = 0.0;
-    for (int tries = 0; tries < 64; ++tries) {
-      tau = rng.gamma(a, 1.0 / b);
-      if ((tau >= preshower && tau < tauA) || (tau >= tauB && tau < tauEnd)) break;
-      tau = tau < tauA ? std::max(tau, preshower) : std::min(std::max(tau, tauB), tauEnd);  // after 64 tries
-    }
+    const double tau = axis.drawDepth(a, b, rng);
     // geometric(tau), rounded as the depth t·X0 always was (the same events as before).
-    const double along = geometric(tau) / x0 * m.radiationLength;
+    const double along = axis.geometric(tau) / axis.x0 * m.radiationLength;
     // Lateral spots at azimuths spread evenly from a random start (stratified sampling:
     // one random rotation per depth, then exact turns by 2π/n).
     double c, sn;

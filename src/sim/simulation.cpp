@@ -152,6 +152,124 @@ void Simulation::cosmic(Rng& rng, GeneratedEvent& event) const {
 using Showering = CalorimeterResponse::Showering;
 using Tracking = CalorimeterResponse::Tracking;
 
+namespace {
+
+// The generated particles through the detector, particle k the hits' source k: a charged one
+// scattered and measured by the TS, then showering (e±) or leaving its track (π±, μ±) in the
+// EMC; a photon showers.
+inline void passParticles(const GeneratedEvent& ev, int sources, const TrackingSystem& tracking,
+                          const CalorimeterResponse& response, Rng& rng, EventScratch& scratch) {
+  CounterHits& hits = scratch.hits;
+  for (int k = 0; k < sources; ++k) {
+    const GeneratedParticle& particle = ev.particles[static_cast<std::size_t>(k)];
+    const double p = particle.momentum.norm();
+    if (!(p > 0.0)) continue;
+    const Vec3 d = particle.momentum / p;
+    if (particle.charge() != 0) {
+      const ChargedPath path = tracking.scatter(ev.vertex, d, p, p / particle.energy, rng);
+      if (auto t = tracking.measure(path, rng)) {
+        scratch.tracks.push_back(*t);
+        scratch.trackSource.push_back(k);
+      }
+      const int apdg = std::abs(particle.pdg);
+      if (apdg == pdg::Electron) {
+        response.shower(hits, k, particle.energy, Showering::Electron, path.point, path.direction, rng);
+      } else {
+        const Tracking kind = apdg == pdg::PiPlus ? Tracking::Pion : Tracking::Muon;
+        response.track(hits, k, particle.energy - particle.mass(), kind, path.point, path.direction, rng);
+      }
+    } else if (particle.pdg == pdg::Photon) {
+      response.shower(hits, k, particle.energy, Showering::Photon, ev.vertex, d, rng);
+    }
+  }
+}
+
+// The reconstructed event as rows: a row per track (with its matched cluster), then a row per
+// cluster no track claimed (a photon), each with its truth.
+struct EventRows {
+  const GeneratedEvent& ev;
+  const EventScratch& scratch;
+  int sources;
+  std::vector<ParticleRow>& rows;
+  std::vector<TruthRow>& truth;
+  std::vector<Hit>* hitsOut;
+
+  // The truth of a row made by `source` (−1: the beam background).
+  [[nodiscard]] TruthRow truthOf(int source) const {
+    TruthRow t;
+    t.vertex = ev.vertex;
+    t.showerCentre = scratch.hits.sourceCentre(source >= 0 ? source : CounterHits::kBackground);
+    if (source >= 0 && source < sources) {
+      const auto& gp = ev.particles[static_cast<std::size_t>(source)];
+      t.pdg = gp.pdg;
+      t.energy = gp.energy;
+      t.theta = geometry::polar(gp.momentum);
+      t.phi = geometry::azimuth(gp.momentum);
+    } else {
+      t.energy = t.theta = t.phi = kNaN;
+    }
+    return t;
+  }
+
+  // A cluster row carries the cluster's counters (when the caller keeps hits).
+  void keepHits(ParticleRow& r, const Cluster& c) const {
+    if (hitsOut == nullptr) return;
+    r.hitCount = c.counters;
+    const auto first = scratch.clusters.hits.begin() + c.firstHit;
+    hitsOut->insert(hitsOut->end(), first, first + c.counters);
+  }
+
+  // The tracks, each with the cluster matched to it (`match`, −1: none), marked `used`.
+  void charged(const ParticleRow& base, const std::vector<int>& match, std::vector<char>& used) const {
+    for (std::size_t i = 0; i < scratch.tracks.size(); ++i) {
+      ParticleRow r = base;
+      const auto& t = scratch.tracks[i];
+      r.charged = 1;
+      r.z0 = t.z0;
+      r.rho = t.rho;
+      r.phiTs = t.phi;
+      r.thetaTs = t.theta;
+      if (match[i] >= 0) {
+        const Cluster& c = scratch.clusterList[static_cast<std::size_t>(match[i])];
+        used[static_cast<std::size_t>(match[i])] = 1;
+        r.energy = c.energy;
+        r.phiEmc = c.phi;
+        r.thetaEmc = c.theta;
+        keepHits(r, c);
+      } else {
+        r.energy = r.phiEmc = r.thetaEmc = kNaN;
+      }
+      rows.push_back(r);
+      truth.push_back(truthOf(scratch.trackSource[i]));
+    }
+  }
+
+  // Photons: the clusters no track claimed, most energetic first.
+  void photons(const ParticleRow& base, const std::vector<char>& used) const {
+    std::vector<std::size_t> unclaimed;
+    for (std::size_t c = 0; c < scratch.clusterList.size(); ++c) {
+      if (!used[c]) unclaimed.push_back(c);
+    }
+    std::stable_sort(unclaimed.begin(), unclaimed.end(), [&](std::size_t a, std::size_t b) {
+      return scratch.clusterList[a].energy > scratch.clusterList[b].energy;
+    });
+    for (std::size_t c : unclaimed) {
+      const Cluster& cl = scratch.clusterList[c];
+      ParticleRow r = base;
+      r.charged = 0;
+      r.z0 = r.rho = r.phiTs = r.thetaTs = kNaN;
+      r.energy = cl.energy;
+      r.phiEmc = cl.phi;
+      r.thetaEmc = cl.theta;
+      keepHits(r, cl);
+      rows.push_back(r);
+      truth.push_back(truthOf(cl.mainSource == CounterHits::kBackground ? -1 : cl.mainSource));
+    }
+  }
+};
+
+}  // namespace
+
 void Simulation::simulateEvent(std::int64_t index, EventScratch& scratch, std::vector<ParticleRow>& rows,
                                std::vector<TruthRow>& truth, std::vector<Hit>* hitsOut) const {
   const auto& o = options_;
@@ -170,28 +288,7 @@ void Simulation::simulateEvent(std::int64_t index, EventScratch& scratch, std::v
   scratch.tracks.clear();
   scratch.trackSource.clear();
   const int sources = std::min<int>(static_cast<int>(ev.particles.size()), CounterHits::kMaxSources - 1);
-  for (int k = 0; k < sources; ++k) {
-    const GeneratedParticle& particle = ev.particles[static_cast<std::size_t>(k)];
-    const double p = particle.momentum.norm();
-    if (!(p > 0.0)) continue;
-    const Vec3 d = particle.momentum / p;
-    if (particle.charge() != 0) {
-      const ChargedPath path = tracking_.scatter(ev.vertex, d, p, p / particle.energy, rng);
-      if (auto t = tracking_.measure(path, rng)) {
-        scratch.tracks.push_back(*t);
-        scratch.trackSource.push_back(k);
-      }
-      const int apdg = std::abs(particle.pdg);
-      if (apdg == pdg::Electron) {
-        response_->shower(hits, k, particle.energy, Showering::Electron, path.point, path.direction, rng);
-      } else {
-        const Tracking kind = apdg == pdg::PiPlus ? Tracking::Pion : Tracking::Muon;
-        response_->track(hits, k, particle.energy - particle.mass(), kind, path.point, path.direction, rng);
-      }
-    } else if (particle.pdg == pdg::Photon) {
-      response_->shower(hits, k, particle.energy, Showering::Photon, ev.vertex, d, rng);
-    }
-  }
+  passParticles(ev, sources, tracking_, *response_, rng, scratch);
   if (o.recordedBackground) {
     response_->mergeRecorded(hits, o.recordedBackground->hits(static_cast<std::size_t>(recordedEventOf(index))));
   } else {
@@ -199,78 +296,18 @@ void Simulation::simulateEvent(std::int64_t index, EventScratch& scratch, std::v
   }
   hits.digitize(o.emc, response_->gains(), rng);
   findClusters(hits, *nominal_, *neighbours_, o.reconstruction, scratch.clusters, rng, scratch.clusterList);
-  // A cluster row carries the cluster's counters (when the caller keeps hits).
-  const auto keepHits = [&](ParticleRow& r, const Cluster& c) {
-    if (hitsOut == nullptr) return;
-    r.hitCount = c.counters;
-    const auto first = scratch.clusters.hits.begin() + c.firstHit;
-    hitsOut->insert(hitsOut->end(), first, first + c.counters);
-  };
   const std::vector<int> match = matchTracks(scratch.tracks, scratch.clusterList, o.reconstruction);
   const std::int8_t veto = isCosmic && rng.uniform() < o.muonVetoEfficiency ? 1 : 0;
 
-  auto truthOf = [&](int source) {  // source −1: beam background
-    TruthRow t;
-    t.vertex = ev.vertex;
-    t.showerCentre = hits.sourceCentre(source >= 0 ? source : CounterHits::kBackground);
-    if (source >= 0 && source < sources) {
-      const auto& gp = ev.particles[static_cast<std::size_t>(source)];
-      t.pdg = gp.pdg;
-      t.energy = gp.energy;
-      t.theta = geometry::polar(gp.momentum);
-      t.phi = geometry::azimuth(gp.momentum);
-    } else {
-      t.energy = t.theta = t.phi = kNaN;
-    }
-    return t;
-  };
   ParticleRow base;
   base.run = o.run;
   base.event = index;
   base.beamEnergy = o.generator.beamEnergy;
   base.muonVeto = veto;
   std::vector<char> used(scratch.clusterList.size(), 0);
-  for (std::size_t i = 0; i < scratch.tracks.size(); ++i) {
-    ParticleRow r = base;
-    const auto& t = scratch.tracks[i];
-    r.charged = 1;
-    r.z0 = t.z0;
-    r.rho = t.rho;
-    r.phiTs = t.phi;
-    r.thetaTs = t.theta;
-    if (match[i] >= 0) {
-      const Cluster& c = scratch.clusterList[static_cast<std::size_t>(match[i])];
-      used[static_cast<std::size_t>(match[i])] = 1;
-      r.energy = c.energy;
-      r.phiEmc = c.phi;
-      r.thetaEmc = c.theta;
-      keepHits(r, c);
-    } else {
-      r.energy = r.phiEmc = r.thetaEmc = kNaN;
-    }
-    rows.push_back(r);
-    truth.push_back(truthOf(scratch.trackSource[i]));
-  }
-  // Photons: the clusters no track claimed, most energetic first.
-  std::vector<std::size_t> photons;
-  for (std::size_t c = 0; c < scratch.clusterList.size(); ++c) {
-    if (!used[c]) photons.push_back(c);
-  }
-  std::stable_sort(photons.begin(), photons.end(), [&](std::size_t a, std::size_t b) {
-    return scratch.clusterList[a].energy > scratch.clusterList[b].energy;
-  });
-  for (std::size_t c : photons) {
-    const Cluster& cl = scratch.clusterList[c];
-    ParticleRow r = base;
-    r.charged = 0;
-    r.z0 = r.rho = r.phiTs = r.thetaTs = kNaN;
-    r.energy = cl.energy;
-    r.phiEmc = cl.phi;
-    r.thetaEmc = cl.theta;
-    keepHits(r, cl);
-    rows.push_back(r);
-    truth.push_back(truthOf(cl.mainSource == CounterHits::kBackground ? -1 : cl.mainSource));
-  }
+  const EventRows out{ev, scratch, sources, rows, truth, hitsOut};
+  out.charged(base, match, used);
+  out.photons(base, used);
 }
 
 Status Simulation::run(std::int64_t events, int threads, const Sink& sink, const Progress& progress) const {

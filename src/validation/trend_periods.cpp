@@ -32,27 +32,36 @@ void markWhatMoves(const Trend& t, TrendSegment& seg) {
   }
 }
 
-}  // namespace
-
-std::vector<TrendSegment> stablePeriods(const Trend& t, const std::vector<TrendSeries>& series) {
-  const TrendSeries* reference = nullptr;  // a series with every IOV (the 12 parameters have)
-  for (const auto& s : series) {
-    if (s.points.size() == t.iovs) reference = &s;
-  }
-  if (reference == nullptr || t.iovs == 0) return {};
-  auto iovOf = [&](std::int64_t firstRun) {
-    auto it = std::lower_bound(reference->points.begin(), reference->points.end(), firstRun,
+// The IOV of a run that starts one, in a series with every IOV.
+struct IovOf {
+  const TrendSeries& reference;
+  std::size_t operator()(std::int64_t firstRun) const {
+    auto it = std::lower_bound(reference.points.begin(), reference.points.end(), firstRun,
                                [](const TrendPoint& p, std::int64_t r) { return p.firstRun < r; });
-    return static_cast<std::size_t>(it - reference->points.begin());
-  };
-  struct Place {
-    std::size_t iov;  // the transition IOV, or the first IOV after the step
-    const TrendStep* step;
-    // In half IOVs: 2·iov for a step before IOV iov, 2·iov + 1 for one inside it. Two places
-    // at most 2 apart (steps at neighbouring boundaries, a step beside the IOV that straddles
-    // another) are one change; a step an IOV away from a straddling IOV is not.
-    [[nodiscard]] std::size_t position() const { return 2 * iov + (step->withinIov ? 1 : 0); }
-  };
+    return static_cast<std::size_t>(it - reference.points.begin());
+  }
+};
+
+// Where a step found falls.
+struct Place {
+  std::size_t iov;  // the transition IOV, or the first IOV after the step
+  const TrendStep* step;
+  // In half IOVs: 2·iov for a step before IOV iov, 2·iov + 1 for one inside it. Two places
+  // at most 2 apart (steps at neighbouring boundaries, a step beside the IOV that straddles
+  // another) are one change; a step an IOV away from a straddling IOV is not.
+  [[nodiscard]] std::size_t position() const { return 2 * iov + (step->withinIov ? 1 : 0); }
+};
+
+// Where a period ends: at a known boundary, a change found, a drift's end or an edge.
+struct Cut {
+  std::size_t iov;  // where the next period starts, or the transition IOV
+  bool transition;
+  std::vector<Quantity> names;
+  bool known;
+};
+
+// The steps found (not at known boundaries), in clusters of neighbouring places: each one change.
+std::vector<std::vector<Place>> changesFound(const Trend& t, const IovOf& iovOf) {
   std::vector<Place> places;
   for (const auto& st : t.steps) {
     if (!st.known) places.push_back({iovOf(st.withinIov ? st.withinIov->first : st.firstRunAfter), &st});
@@ -66,19 +75,21 @@ std::vector<TrendSegment> stablePeriods(const Trend& t, const std::vector<TrendS
       clusters.push_back({p});
     }
   }
-  struct Cut {
-    std::size_t iov;  // where the next period starts, or the transition IOV
-    bool transition;
-    std::vector<Quantity> names;
-    bool known;
-  };
+  return clusters;
+}
+
+// The cuts in IOV order: the known boundaries, one per change found (its strongest transition,
+// else its strongest step) unless next to a known boundary, the drifts' ends, the IOVs a step's
+// drift alternative would span, and the departing edges (by their IOV in `departingAt`).
+std::vector<Cut> periodCuts(const Trend& t, const IovOf& iovOf,
+                            std::map<std::size_t, std::vector<Quantity>>& departingAt) {
   std::vector<Cut> cuts;
   for (const auto& b : t.boundaries) {
     if (!b.measurable) continue;
     cuts.push_back({iovOf(b.withinIov ? b.withinIov->first : b.run), b.withinIov.has_value(), b.changed, true});
   }
   auto stronger = [](const Place& a, const Place& b) { return std::abs(a.step->z()) < std::abs(b.step->z()); };
-  for (const auto& c : clusters) {
+  for (const auto& c : changesFound(t, iovOf)) {
     std::vector<Quantity> names;
     const Place* cut = nullptr;  // the strongest transition, else the strongest step
     for (const Place& p : c) {
@@ -103,7 +114,6 @@ std::vector<TrendSegment> stablePeriods(const Trend& t, const std::vector<TrendS
     cuts.push_back({iovOf(st.orDrift->lastRun + 1), false, {}, false});
   }
   // An IOV at either end that departs from the rest (TrendEdge) is a period of its own.
-  std::map<std::size_t, std::vector<Quantity>> departingAt;  // by its IOV
   for (const auto& e : t.edges) {
     auto& names = departingAt[iovOf(e.firstRun)];
     if (std::find(names.begin(), names.end(), e.parameter) == names.end()) names.push_back(e.parameter);
@@ -111,6 +121,13 @@ std::vector<TrendSegment> stablePeriods(const Trend& t, const std::vector<TrendS
   for (const auto& [iov, names] : departingAt) cuts.push_back({iov == 0 ? 1 : iov, false, {}, false});
   // (stable: at one IOV the known boundaries' and the steps' cuts come before an edge's)
   std::stable_sort(cuts.begin(), cuts.end(), [](const Cut& a, const Cut& b) { return a.iov < b.iov; });
+  return cuts;
+}
+
+// The periods between the cuts (a transition's IOV a period of its own), each with what is
+// known of it.
+std::vector<TrendSegment> periodsBetween(const Trend& t, const TrendSeries& reference, const std::vector<Cut>& cuts,
+                                         const std::map<std::size_t, std::vector<Quantity>>& departingAt) {
   std::vector<std::size_t> bounds = {0}, transitions, known;
   std::map<std::size_t, std::vector<Quantity>> stepsAt;  // by the IOV where a period starts
   for (const Cut& c : cuts) {
@@ -131,8 +148,8 @@ std::vector<TrendSegment> stablePeriods(const Trend& t, const std::vector<TrendS
     TrendSegment seg;
     seg.begin = bounds[k];
     seg.end = bounds[k + 1];
-    seg.firstRun = reference->points[seg.begin].firstRun;
-    seg.lastRun = reference->points[seg.end - 1].lastRun;
+    seg.firstRun = reference.points[seg.begin].firstRun;
+    seg.lastRun = reference.points[seg.end - 1].lastRun;
     seg.transition = std::find(transitions.begin(), transitions.end(), seg.begin) != transitions.end();
     seg.resolvable = t.resolvable();
     seg.afterKnownBoundary = std::find(known.begin(), known.end(), seg.begin) != known.end();
@@ -144,6 +161,19 @@ std::vector<TrendSegment> stablePeriods(const Trend& t, const std::vector<TrendS
     out.push_back(std::move(seg));
   }
   return out;
+}
+
+}  // namespace
+
+std::vector<TrendSegment> stablePeriods(const Trend& t, const std::vector<TrendSeries>& series) {
+  const TrendSeries* reference = nullptr;  // a series with every IOV (the 12 parameters have)
+  for (const auto& s : series) {
+    if (s.points.size() == t.iovs) reference = &s;
+  }
+  if (reference == nullptr || t.iovs == 0) return {};
+  std::map<std::size_t, std::vector<Quantity>> departingAt;  // the edges, by their IOV
+  const std::vector<Cut> cuts = periodCuts(t, IovOf{*reference}, departingAt);
+  return periodsBetween(t, *reference, cuts, departingAt);
 }
 
 namespace {

@@ -35,31 +35,34 @@ bool isSha256(const std::string& s) {
 
 }  // namespace
 
-Json planJson(const CampaignScan& scan, const std::vector<CampaignGroup>& groups, std::int64_t minEvents,
-              const CampaignModel& model) {
+Json campaignPlanJson(const CampaignPlan& plan) {
   Json inputs = Json::array();
-  for (std::size_t k = 0; k < scan.files.size(); ++k) {
-    inputs.push_back({{"file", scan.files[k]}, {"sha256", scan.digests[k]}});
+  for (const auto& [file, sha] : plan.digests) inputs.push_back({{"file", file}, {"sha256", sha}});
+  Json groups = Json::array();
+  for (const CampaignGroup& g : plan.groups) {
+    groups.push_back({{"group", g.index},
+                      {"iov", {g.iovFirst, g.iovLast}},
+                      {"runs", g.runs},
+                      {"files", g.files},
+                      {"beam_energy_mev", std::isnan(g.beamEnergy) ? Json(nullptr) : Json(g.beamEnergy)},
+                      {"selected_events", g.selected},
+                      {"short", g.isShort}});
   }
-  Json list = Json::array();
-  for (const CampaignGroup& g : groups) {
-    list.push_back({{"group", g.index},
-                    {"iov", {g.iovFirst, g.iovLast}},
-                    {"runs", g.runs},
-                    {"files", g.files},
-                    {"beam_energy_mev", std::isnan(g.beamEnergy) ? Json(nullptr) : Json(g.beamEnergy)},
-                    {"selected_events", g.selected},
-                    {"short", g.isShort}});
+  Json out = {{"format", kCampaignPlanFormat},
+              {"software", fmt::format("emcalign {}", kVersion)},
+              {"min_events", plan.minEvents},
+              {"corrections", plan.corrections},
+              {"corrections_sha256", plan.correctionsSha256},
+              {"detector", plan.detector},
+              {"sigma_sys", calib::sigmaSysChoiceJson(plan.sigmaSys)},
+              {"inputs", inputs},
+              {"groups", groups}};
+  if (!plan.conditions.empty()) {
+    out["conditions"] = plan.conditions;
+    out["tag"] = plan.tag;
+    out["description"] = plan.description;
   }
-  return {{"format", kCampaignPlanFormat},
-          {"software", fmt::format("emcalign {}", kVersion)},
-          {"min_events", minEvents},
-          {"corrections", model.corrections},
-          {"corrections_sha256", model.correctionsSha256},
-          {"detector", model.detector},
-          {"sigma_sys", calib::sigmaSysChoiceJson(model.sigmaSys)},
-          {"inputs", inputs},
-          {"groups", list}};
+  return out;
 }
 
 namespace {

@@ -35,36 +35,6 @@ calib::ModelIdentity CampaignModel::identity() const {
   return m;
 }
 
-Json campaignPlanJson(const CampaignPlan& plan) {
-  Json inputs = Json::array();
-  for (const auto& [file, sha] : plan.digests) inputs.push_back({{"file", file}, {"sha256", sha}});
-  Json groups = Json::array();
-  for (const CampaignGroup& g : plan.groups) {
-    groups.push_back({{"group", g.index},
-                      {"iov", {g.iovFirst, g.iovLast}},
-                      {"runs", g.runs},
-                      {"files", g.files},
-                      {"beam_energy_mev", std::isnan(g.beamEnergy) ? Json(nullptr) : Json(g.beamEnergy)},
-                      {"selected_events", g.selected},
-                      {"short", g.isShort}});
-  }
-  Json out = {{"format", kCampaignPlanFormat},
-              {"software", fmt::format("emcalign {}", kVersion)},
-              {"min_events", plan.minEvents},
-              {"corrections", plan.corrections},
-              {"corrections_sha256", plan.correctionsSha256},
-              {"detector", plan.detector},
-              {"sigma_sys", calib::sigmaSysChoiceJson(plan.sigmaSys)},
-              {"inputs", inputs},
-              {"groups", groups}};
-  if (!plan.conditions.empty()) {
-    out["conditions"] = plan.conditions;
-    out["tag"] = plan.tag;
-    out["description"] = plan.description;
-  }
-  return out;
-}
-
 CampaignPlan makeCampaignPlan(const CampaignScan& scan, const std::vector<CampaignGroup>& groups,
                               const CampaignModel& model, const CampaignGiven& given) {
   CampaignPlan plan;

@@ -129,12 +129,6 @@ struct CampaignGroup {
 /// Groups the scanned runs (see the top of this file).
 std::vector<CampaignGroup> planGroups(const CampaignScan& scan, std::int64_t minEvents);
 
-/// The job list: {"format", "min_events", "sigma_sys": {"method", "value_deg"}, "inputs":
-/// [{"file", "sha256"}], "groups": [{"group",
-/// "iov": [first, last], "runs": [...], "files": [...], "beam_energy_mev", "selected_events",
-/// "short"}]}.
-io::Json planJson(const CampaignScan& scan, const std::vector<CampaignGroup>& groups, std::int64_t minEvents,
-                  const CampaignModel& model);
 struct CampaignPlan {
   std::int64_t minEvents = 0;
   std::map<std::string, std::string> digests;  ///< file → SHA-256
@@ -148,6 +142,12 @@ struct CampaignPlan {
 /// The campaign's part of a plan (Plan::data): the keys of planJson, plus "conditions", "tag"
 /// and "description" when the plan was made with them.
 Result<CampaignPlan> parseCampaignPlan(const io::Json& data, const std::string& path);
+/// The campaign's part of a plan, written whole: {"format", "software", "min_events",
+/// "corrections", "corrections_sha256", "detector", "sigma_sys": {"method", "value_deg"},
+/// "inputs": [{"file", "sha256"}], "groups": [{"group", "iov": [first, last], "runs": [...],
+/// "files": [...], "beam_energy_mev", "selected_events", "short"}]}, and "conditions", "tag"
+/// and "description" when it has them (made with campaign_plan.hpp's makeCampaignPlan).
+io::Json campaignPlanJson(const CampaignPlan& plan);
 /// The model of a plan's fits on this detector: its corrections (the same file, by SHA-256) and σ_sys.
 Result<CampaignModel> planModel(const CampaignPlan& plan, const geometry::Calorimeter& calo);
 /// One group of a plan fitted and stored into `tag` of `uri` (a batch task): nothing when the

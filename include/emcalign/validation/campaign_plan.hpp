@@ -33,10 +33,6 @@ struct CampaignGiven {
   bool minEventsGiven = false;
 };
 
-/// The campaign's part of a plan, written whole (the keys parseCampaignPlan reads, in the
-/// order docs/cluster.md lists them; "conditions", "tag" and "description" when it has them).
-io::Json campaignPlanJson(const CampaignPlan& plan);
-
 /// The plan of a scan's groups, storing into `given`'s conditions and tag when given.
 CampaignPlan makeCampaignPlan(const CampaignScan& scan, const std::vector<CampaignGroup>& groups,
                               const CampaignModel& model, const CampaignGiven& given);

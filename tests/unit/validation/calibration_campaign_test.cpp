@@ -3,6 +3,7 @@
 // list read back; a tag's IOVs matched against the plan (resume) or refused (another plan).
 
 #include "emcalign/validation/calibration_campaign.hpp"
+#include "emcalign/validation/campaign_plan.hpp"
 
 #include <unistd.h>
 
@@ -138,7 +139,8 @@ TEST_F(CampaignFiles, PlanIsReadBackAsWritten) {
   const auto groups = planGroups(scan, 1000);
   CampaignModel model;
   model.corrections = "c.json";
-  auto plan = parseCampaignPlan(planJson(scan, groups, 1000, model), "plan.json");
+  auto plan = parseCampaignPlan(
+      campaignPlanJson(makeCampaignPlan(scan, groups, model, CampaignGiven{.minEvents = 1000})), "plan.json");
   ASSERT_TRUE(plan) << plan.error().message;
   EXPECT_EQ(plan->minEvents, 1000);
   EXPECT_EQ(plan->corrections, "c.json");
@@ -153,7 +155,7 @@ TEST_F(CampaignFiles, PlanIsReadBackAsWritten) {
   EXPECT_EQ(plan->digests.size(), scan.files.size());
 
   // A plan with a gap between two IOVs is refused, naming the group.
-  auto j = planJson(scan, groups, 1000, model);
+  auto j = campaignPlanJson(makeCampaignPlan(scan, groups, model, CampaignGiven{.minEvents = 1000}));
   j["groups"][2]["iov"][0] = j["groups"][2]["iov"][0].get<int>() + 1;
   auto bad = parseCampaignPlan(j, "bad.json");
   ASSERT_FALSE(bad);
@@ -212,7 +214,7 @@ TEST_F(CampaignFiles, APlanEditedByHandIsRefusedNamingTheGroup) {
        "groups[2].beam_energy_mev", "positive"},
   };
   for (const Edit& e : edits) {
-    auto j = planJson(scan, groups, 1000, model);
+    auto j = campaignPlanJson(makeCampaignPlan(scan, groups, model, CampaignGiven{.minEvents = 1000}));
     e.change(j);
     auto plan = parseCampaignPlan(j, "edited.json");
     ASSERT_FALSE(plan) << e.what;

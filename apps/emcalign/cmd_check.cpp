@@ -6,7 +6,6 @@
 //   check gg EVENTS... (--alignment A.json | --conditions URI --tag T) -o DIR   → check.json, acollinearity.png
 //   check 3pi EVENTS... (--alignment A.json | --conditions URI --tag T) -o DIR  → check.json, chi2.png
 
-#include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
@@ -14,13 +13,8 @@
 #include <fmt/format.h>
 
 #include "common.hpp"
-#include "emcalign/apply/check_record.hpp"
-#include "emcalign/apply/correct.hpp"
-#include "emcalign/calib/corrections.hpp"
 #include "emcalign/conddb/calibrations.hpp"
-#include "emcalign/core/units.hpp"
-#include "emcalign/core/version.hpp"
-#include "emcalign/report/check_plots.hpp"
+#include "emcalign/report/check_given.hpp"
 #include "emcalign/validation/calibration_campaign.hpp"
 #include "progress.hpp"
 
@@ -28,86 +22,35 @@ namespace emcalign::app {
 
 namespace {
 
-namespace fs = std::filesystem;
-
-struct CheckCliOptions {
-  apply::CheckProcess process = apply::CheckProcess::GammaGamma;
-  std::vector<std::string> events;
-  std::string alignment, conditions, tag, corrections, detector, output;
-  std::string method = std::string(apply::name(apply::CorrectOptions{}.method));
-};
-
-int run(CheckCliOptions o) {
+int run(report::CheckGiven g) {
   // A directory gives every event file in it, as for correct and campaign.
-  auto events = validation::eventFilesIn(o.events);
+  auto events = validation::eventFilesIn(g.events);
   if (!events) return reportError(events.error());
-  o.events = std::move(*events);
-  std::vector<io::NamedPath> inputs;
-  for (const auto& e : o.events) inputs.push_back({"", e});
-  inputs.push_back({"--alignment", o.alignment});
-  inputs.push_back({"--corrections", o.corrections});
-  inputs.push_back({"--detector", o.detector});
-  for (auto& c : conddb::databaseFiles(o.conditions)) inputs.push_back(std::move(c));
-  if (Status s = checkOutputs({}, {{"-o", o.output}}, inputs); !s) return reportError(s.error());
-  auto calo = loadCalorimeter(o.detector);
+  g.events = std::move(*events);
+  if (Status s = checkOutputs({}, {{"-o", g.output}}, report::checkInputs(g)); !s) return reportError(s.error());
+  auto calo = loadCalorimeter(g.detector);
   if (!calo) return reportError(calo.error());
-  auto source = conddb::AlignmentSource::open(o.alignment, o.conditions, o.tag, *calo);
+  auto source = conddb::AlignmentSource::open(g.alignment, g.conditions, g.tag, *calo);
   if (!source) return reportError(source.error());
   for (const auto& w : source->warnings) reportWarning(w);
-  auto made = apply::correctOptionsOf(o.method, 0.0, o.corrections, *calo);
-  if (!made) return reportError(made.error());
-  apply::CorrectOptions& options = *made;
-  io::Json record = apply::correctionRecord(source->description, o.method, options, o.events, o.corrections);
-  record["purpose"] = fmt::format("emcalign check {}", name(o.process));
-  options.description = record.dump();
-  std::error_code ec;
-  fs::create_directories(o.output, ec);
-  if (ec) return reportError(Error{fmt::format("{}: cannot create the directory: {}", o.output, ec.message())});
-  // The corrected events live in a temporary of the output directory, never committed: removed
-  // however the check ends (a signal included), and by the next check there after a kill -9.
-  auto scratch = io::OutputFile::reserve((fs::path(o.output) / "corrected.h5").string(), io::Placement::InDirectory);
+  auto options = report::checkCorrectOptions(g, source->description, *calo);
+  if (!options) return reportError(options.error());
+  auto scratch = report::reserveCheckScratch(g.output);
   if (!scratch) return reportError(scratch.error());
   const std::string corrected = (*scratch)->writtenPath();
   ProgressLine progress("check: correcting", 0, "rows");
-  options.progress = [&](std::int64_t rows) { progress.update(rows); };
-  auto report = apply::correctFiles(o.events, corrected, *calo, source->alignmentOf(), options);
+  options->progress = [&](std::int64_t rows) { progress.update(rows); };
+  auto done = apply::correctFiles(g.events, corrected, *calo, source->alignmentOf(), *options);
   progress.finish();
-  if (!report) return reportError(report.error());
-
-  apply::CheckRecord found;
-  report::CheckFigure figure;
-  if (o.process == apply::CheckProcess::GammaGamma) {
-    auto check = apply::checkGammaGamma(o.events, {corrected});
-    if (!check) return reportError(check.error());
-    if (Status st = check->cutFlow.requireSelected(o.process); !st) return reportError(st.error());
-    found = apply::checkRecord(*check);
-    figure = report::checkFigure(*check, found);
-  } else {
-    // The kinematic fit's R(E, θ), of each event's beam energy with a corrections grid.
-    auto check = apply::checkThreePion(o.events, {corrected},
-                                       options.depthAt ? options.depthAt : geometry::atEveryEnergy(options.depth));
-    if (!check) return reportError(check.error());
-    if (Status st = check->cutFlow.requireSelected(o.process); !st) return reportError(st.error());
-    found = apply::checkRecord(*check);
-    figure = report::checkFigure(*check, found);
-  }
-  found.alignment = source->description;
-  found.correctionMethod = std::string(name(report->method));
-  found.inputs = o.events;
-  found.software = fmt::format("emcalign {}", kVersion);
-  // The figure first: check.json, which says the check is done, only when it is.
-  auto png = report::writeBeforeAfterPlot(o.output, figure.name, figure.title, figure.panels);
-  if (!png) return reportError(Error{fmt::format("{} (check.json not written)", png.error().message)});
-  const io::Json json = apply::checkJson(found);
-  if (Status s = io::writeFileIn(o.output, "check.json", json.dump(1) + "\n"); !s) {
-    return reportError(s.error());
-  }
-  fmt::print(reportStream(), "{}\nwrote {}/check.json and {}\n", figure.summary, o.output, *png);
+  if (!done) return reportError(done.error());
+  auto written = report::writeCheck(g, corrected, *options, *done, source->description);
+  if (!written) return reportError(written.error());
+  fmt::print(reportStream(), "{}", *written);
   return kExitOk;
 }
 
 void addProcess(CLI::App& parent, apply::CheckProcess process, const std::string& help, int& exitCode) {
-  auto o = std::make_shared<CheckCliOptions>();
+  auto o = std::make_shared<report::CheckGiven>();
   o->process = process;
   auto* cmd = parent.add_subcommand(std::string(name(process)), help);
   addVersionFlag(*cmd);

@@ -6,11 +6,9 @@
 #include <vector>
 
 #include <fmt/format.h>
-#include <fmt/ranges.h>
 
 #include "common.hpp"
 #include "emcalign/apply/dead_counters.hpp"
-#include "emcalign/core/text.hpp"
 
 namespace emcalign::app {
 
@@ -18,7 +16,7 @@ namespace {
 
 struct DeadCountersOptions {
   std::vector<std::string> files;
-  double minExpected = apply::DeadCounterOptions{}.minExpected;
+  apply::DeadCounterOptions options;
   std::string detector;
   std::string output;
 };
@@ -31,23 +29,10 @@ int run(const DeadCountersOptions& o) {
   if (!calo) return reportError(calo.error());
   auto occupancy = apply::countCounterHits(o.files, *calo);
   if (!occupancy) return reportError(occupancy.error());
-  apply::DeadCounterOptions options;
-  options.minExpected = o.minExpected;
-  const auto found = apply::findDeadCounters(*occupancy, *calo, options);
-  const std::string sources =
-      o.files.size() == 1 ? o.files.front() : fmt::format("{} and {} more", o.files.front(), o.files.size() - 1);
-  if (Status s = io::writeOutputFile(o.output, apply::deadCountersText(found, *occupancy, options, sources)); !s) {
-    return reportError(s.error());
-  }
-  fmt::print(reportStream(), "dead-counters: {} read, {}: {}{} -> {}\n", counted(occupancy->events, "event"),
-             counted(found.dead.size(), "dead counter"),
-             found.dead.empty() ? "none" : fmt::format("{}", fmt::join(found.dead, ", ")),
-             found.undecided.empty()
-                 ? std::string()
-                 : fmt::format("; {} never fired where too few hits are expected to tell (listed in the file, not as "
-                               "dead)",
-                               counted(found.undecided.size(), "counter")),
-             o.output);
+  const auto found = apply::findDeadCounters(*occupancy, *calo, o.options);
+  const std::string text = apply::deadCountersText(found, *occupancy, o.options, apply::deadCounterSources(o.files));
+  if (Status s = io::writeOutputFile(o.output, text); !s) return reportError(s.error());
+  fmt::print(reportStream(), "{}", apply::deadCountersSummary(found, *occupancy, o.output));
   return kExitOk;
 }
 
@@ -60,10 +45,10 @@ void addDeadCountersCommand(CLI::App& app, int& exitCode) {
                                  "simulation (simulate --dead-counters @FILE)");
   addVersionFlag(*cmd);
   cmd->add_option("files", o->files, "event files of the data, with hits (HDF5)")->required()->check(CLI::ExistingFile);
-  cmd->add_option("--min-expected", o->minExpected,
+  cmd->add_option("--min-expected", o->options.minExpected,
                   fmt::format("hits a counter's neighbours in its layer must average for it to be called dead when it "
                               "has none (default {:g})",
-                              o->minExpected))
+                              o->options.minExpected))
       ->check(finiteIn(1.0, 1e9));
   addDetectorOption(*cmd, o->detector);
   cmd->add_option("-o,--output", o->output, "the list of dead counters (text, comments first)")->required();

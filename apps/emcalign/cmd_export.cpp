@@ -33,14 +33,10 @@ int run(const ExportOptions& o) {
   auto transform =
       geometry::AlignmentTransform::create(alignment->parameters, geometry::AlignmentRadii::of(calo->description()));
   if (!transform) return reportError(transform.error());
-  const apply::Placements placements = apply::placementsOf(*transform);
-  const std::string text = o.format == "gdml" ? apply::placementsGdml(placements, calo->description())
-                                              : apply::placementsJson(placements).dump(2) + "\n";
+  const std::string text = apply::placementsFile(*transform, calo->description(), o.format);
   if (Status s = io::writeOutputFile(o.output, text); !s) return reportError(s.error());
   // The report goes to stderr when the file goes to stdout (checkOutputs).
-  fmt::print(reportStream(), "wrote {} ({} placements: sphere1_plus, sphere1_minus, sphere2_plus, sphere2_minus{})\n",
-             o.output == "-" ? "the placements to standard output" : o.output, o.format,
-             transform->layer3RuleActive() ? "; layer 3 with the mu3 rule" : "");
+  fmt::print(reportStream(), "{}", apply::placementsWrittenText(o.output, o.format, transform->layer3RuleActive()));
   return kExitOk;
 }
 

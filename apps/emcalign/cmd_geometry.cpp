@@ -1,23 +1,19 @@
 // emcalign geometry: the detector summary, the counter table (nominal or actual centres) and
 // the detector description file.
 
-#include <cmath>
 #include <iostream>
 #include <memory>
 #include <string>
 
 #include <fmt/format.h>
-#include <nlohmann/json.hpp>
 
 #include "common.hpp"
 #include "console.hpp"
-#include "emcalign/core/text.hpp"
-#include "emcalign/core/units.hpp"
 #include "emcalign/geometry/alignment_transform.hpp"
 #include "emcalign/geometry/counter_geometry.hpp"
-#include "emcalign/geometry/track.hpp"
-#include "emcalign/io/csv.hpp"
+#include "emcalign/io/geometry_text.hpp"
 #include "emcalign/io/json_files.hpp"
+#include "emcalign/io/point_tables.hpp"
 #include "emcalign/io/points_csv.hpp"
 
 namespace emcalign::app {
@@ -25,9 +21,6 @@ namespace emcalign::app {
 namespace {
 
 using namespace emcalign::geometry;
-using io::Json;
-using units::cm;
-using units::deg;
 
 struct GeometryOptions {
   std::string detector;
@@ -38,56 +31,6 @@ struct GeometryOptions {
   bool locate = false;
   std::string coordinates;  // empty: the historic columns
 };
-
-Json summaryJson(const Calorimeter& calo) {
-  const auto& d = calo.description();
-  Json layers = Json::array();
-  for (int l = 1; l <= 3; ++l) {
-    const auto& s = d.layers[static_cast<std::size_t>(l - 1)];
-    layers.push_back({{"layer", l},
-                      {"counters", calo.countersPerLayer()},
-                      {"r_inner_cm", s.rInner / cm},
-                      {"r_outer_cm", s.rOuter / cm}});
-  }
-  Json rings = Json::array();
-  for (int r = 0; r < d.ringCount(); ++r) {
-    const int n = d.countersPerRing[static_cast<std::size_t>(r)];
-    rings.push_back({{"ring", r},
-                     {"theta_min_deg", (d.thetaMin + r * d.ringWidth()) / deg},
-                     {"theta_max_deg", (d.thetaMin + (r + 1) * d.ringWidth()) / deg},
-                     {"counters", n},
-                     {"dphi_deg", 360.0 / n}});
-  }
-  return {{"name", d.name},
-          {"counters", calo.size()},
-          {"layers", layers},
-          {"r0_cm", d.r0() / cm},
-          {"r1_cm", d.r1() / cm},
-          {"rp3_cm", d.rp3() / cm},
-          {"theta_min_deg", d.thetaMin / deg},
-          {"theta_max_deg", d.thetaMax / deg},
-          {"rings", rings}};
-}
-
-void printSummary(const Calorimeter& calo) {
-  const auto& d = calo.description();
-  fmt::print("Detector: {}\n", d.name);
-  fmt::print("Counters: {} ({} per layer, {} of {:.4g} deg from {:.4g} to {:.4g} deg)\n", calo.size(),
-             calo.countersPerLayer(), counted(d.ringCount(), "ring"), d.ringWidth() / deg, d.thetaMin / deg,
-             d.thetaMax / deg);
-  fmt::print("  {:<22} {:>10} {:>10}\n", "shell", "r_in, cm", "r_out, cm");
-  const char* names[] = {"layer 1", "layer 2", "support sphere 1", "layer 3", "support sphere 2"};
-  const SphericalShell* shells[] = {&d.layers[0], &d.layers[1], &d.supports[0], &d.layers[2], &d.supports[1]};
-  for (int i = 0; i < 5; ++i) {
-    fmt::print("  {:<22} {:>10.2f} {:>10.2f}\n", names[i], shells[i]->rInner / cm, shells[i]->rOuter / cm);
-  }
-  fmt::print("R0 = {:.2f} cm (EMC inner radius), R1 = {:.2f} cm, R_p3 = {:.2f} cm\n", d.r0() / cm, d.r1() / cm,
-             d.rp3() / cm);
-  fmt::print("Rings (counters per ring):");
-  for (int n : d.countersPerRing) fmt::print(" {}", n);
-  fmt::print("\nShower depth: X0 = {} cm, Ec = {} MeV, x_pre = {} X0\n", d.material.radiationLength,
-             d.material.criticalEnergy, d.material.preshowerMaterial);
-}
 
 // The geometry of --params (or the nominal one).
 Result<CounterGeometry> geometryFor(const Calorimeter& calo, const std::string& paramsPath) {
@@ -100,61 +43,11 @@ Result<CounterGeometry> geometryFor(const Calorimeter& calo, const std::string& 
   return CounterGeometry::aligned(calo, *t);
 }
 
-// The three coordinate columns of a point: header and values.
-std::string coordinateHeader(const std::string& system) {
-  if (system == "cylindrical") return "rho_cm,phi_deg,z_cm";
-  if (system == "spherical") return "r_cm,theta_deg,phi_deg";
-  return "x_cm,y_cm,z_cm";
-}
-
-std::string coordinates(const Vec3& p, const std::string& system) {
-  if (system == "cylindrical") {
-    return fmt::format("{:.17g},{:.17g},{:.17g}", std::hypot(p.x(), p.y()) / cm, azimuth(p) / deg, p.z() / cm);
-  }
-  if (system == "spherical")
-    return fmt::format("{:.17g},{:.17g},{:.17g}", p.norm() / cm, polar(p) / deg, azimuth(p) / deg);
-  return fmt::format("{:.17g},{:.17g},{:.17g}", p.x() / cm, p.y() / cm, p.z() / cm);
-}
-
-int printCounters(const Calorimeter& calo, const std::string& paramsPath, const std::string& system) {
-  auto geometry = geometryFor(calo, paramsPath);
-  if (!geometry) return reportError(geometry.error());
-  // Without --coordinates: the historic columns (angles, then Cartesian).
-  const bool both = system.empty();
-  std::string out = fmt::format("index,layer,ring,iphi,hemisphere,{}\n",
-                                both ? "theta_deg,phi_deg,x_cm,y_cm,z_cm" : coordinateHeader(system));
-  for (const Counter& c : calo.counters()) {
-    const Vec3& p = geometry->centre(c.index);
-    out += fmt::format("{},{},{},{},{},", c.index, c.layer, c.ring, c.iphi, sign(c.hemisphere));
-    out += both ? fmt::format("{:.17g},{:.17g},{}\n", polar(p) / deg, azimuth(p) / deg, coordinates(p, "cartesian"))
-                : coordinates(p, system) + "\n";
-  }
-  fmt::print("{}", out);
-  return 0;
-}
-
 // --locate: x_cm,y_cm,z_cm rows on stdin (TS frame) → the counter that contains each.
-int locatePoints(const Calorimeter& calo, const std::string& paramsPath) {
-  auto geometry = geometryFor(calo, paramsPath);
-  if (!geometry) return reportError(geometry.error());
-  std::string out =
-      "x_cm,y_cm,z_cm,region,counter,layer,ring,iphi,hemisphere,other_counter,nominal_x_cm,nominal_y_cm,"
-      "nominal_z_cm\n";
+int locatePoints(const Calorimeter& calo, const CounterGeometry& geometry) {
   auto points = io::readPointsCsv(std::cin, "stdin");
   if (!points) return reportError(points.error());
-  for (const Vec3& p : *points) {
-    const PointLocation loc = geometry->locate(p);
-    out += fmt::format("{},{},", coordinates(p, "cartesian"), name(loc.region));
-    if (loc.counter >= 0) {
-      const Counter& c = calo.counter(loc.counter);
-      out += fmt::format("{},{},{},{},{},", c.index, c.layer, c.ring, c.iphi, sign(c.hemisphere));
-    } else {
-      out += loc.region == PointRegion::Gap ? ",,,,," : fmt::format(",,,,{},", sign(loc.hemisphere));
-    }
-    out += loc.otherCounter >= 0 ? fmt::format("{},", loc.otherCounter) : ",";
-    out += loc.region == PointRegion::Gap ? ",,\n" : coordinates(loc.nominal, "cartesian") + "\n";
-  }
-  fmt::print("{}", out);
+  fmt::print("{}", io::locatedPointsCsv(calo, geometry, *points));
   return 0;
 }
 
@@ -169,13 +62,14 @@ int run(const GeometryOptions& o) {
     fmt::print("{}\n", io::toJson(calo->description()).dump(2));
     return 0;
   }
-  if (o.counters) return printCounters(*calo, o.params, o.coordinates);
-  if (o.locate) return locatePoints(*calo, o.params);
-  if (o.json) {
-    fmt::print("{}\n", summaryJson(*calo).dump(2));
-  } else {
-    printSummary(*calo);
+  if (o.counters || o.locate) {
+    auto geometry = geometryFor(*calo, o.params);
+    if (!geometry) return reportError(geometry.error());
+    if (o.locate) return locatePoints(*calo, *geometry);
+    fmt::print("{}", io::countersCsv(*calo, *geometry, o.coordinates));
+    return 0;
   }
+  fmt::print("{}", o.json ? io::detectorSummaryJson(*calo).dump(2) + "\n" : io::detectorSummaryText(*calo));
   return 0;
 }
 

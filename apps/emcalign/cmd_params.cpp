@@ -6,16 +6,12 @@
 #include <fmt/format.h>
 
 #include "common.hpp"
-#include "emcalign/core/text.hpp"
-#include "emcalign/core/units.hpp"
-#include "emcalign/geometry/alignment_transform.hpp"
+#include "emcalign/io/geometry_text.hpp"
 #include "emcalign/io/json_files.hpp"
 
 namespace emcalign::app {
 
 namespace {
-
-using namespace emcalign::geometry;
 
 struct ShowOptions {
   std::string file;
@@ -23,40 +19,21 @@ struct ShowOptions {
   bool json = false;
 };
 
-const char* unitName(Dimension d) { return d == Dimension::Angle ? "deg" : "cm"; }
-
 int runShow(const ShowOptions& o) {
   auto calo = loadCalorimeter(o.detector);
   if (!calo) return reportError(calo.error());
-  const double r1 = calo->description().r1();
   auto etaFile = loadAlignment(o.file, *calo);
   if (!etaFile) return reportError(etaFile.error());
   for (const auto& w : etaFile->warnings) reportWarning(w);
-  const geometry::AlignmentParameters* eta = &etaFile->parameters;
-  auto j = io::alignmentToJsonWithPhysical(*eta, r1);
+  auto j = io::alignmentToJsonWithPhysical(etaFile->parameters, calo->description().r1());
   if (!j) return reportError(j.error());
   if (o.json) {
     fmt::print("{}\n", j->dump(2));
     return 0;
   }
-  auto phys = toPhysical(*eta, r1);
-  fmt::print("{:<10} {:>14}  {:<4}    {:<10} {:>14}  {:<4}\n", "fit set", "value", "unit", "physical", "value", "unit");
-  for (std::size_t i = 0; i < kNumParams; ++i) {
-    const auto p = kAllParams[i];
-    const auto q = static_cast<Physical>(i);
-    fmt::print("{:<10} {:>14}  {:<4}    {:<10} {:>14}  {:<4}\n", name(p),
-               fixed((*eta)[p] / AlignmentParameters::fileUnit(p), 6), unitName(dimension(p)), name(q),
-               fixed((*phys)[q] / PhysicalParameters::fileUnit(q), 6), unitName(dimension(q)));
-  }
-  fmt::print(
-      "(beta1, beta2 are sin(beta)cos(psi), sin(beta)sin(psi) written in degrees; "
-      "R1 = {} cm)\n",
-      r1 / units::cm);
-  auto t = AlignmentTransform::create(*eta, AlignmentRadii::of(calo->description()));
-  if (t && t->layer3RuleActive()) {
-    fmt::print("Layer 3: dx_rel - R_p3*sin(mu) < 0, so layer 3 uses mu3 = asin(dx_rel/R_p3) = {} deg\n",
-               fixed(std::asin((*phys)[Physical::DxRel] / calo->description().rp3()) / units::deg, 6));
-  }
+  auto table = io::alignmentTableText(etaFile->parameters, calo->description());
+  if (!table) return reportError(table.error());
+  fmt::print("{}", *table);
   return 0;
 }
 

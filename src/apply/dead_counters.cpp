@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "emcalign/core/text.hpp"
 #include "emcalign/core/version.hpp"
 #include "emcalign/io/csv.hpp"
 #include "emcalign/io/event_file.hpp"
@@ -129,6 +130,24 @@ Result<std::vector<int>> parseCounterList(const std::string& text, const std::st
   std::sort(out.begin(), out.end());  // a counter listed twice is one dead counter
   out.erase(std::unique(out.begin(), out.end()), out.end());
   return out;
+}
+
+std::string deadCounterSources(const std::vector<std::string>& files) {
+  if (files.empty()) return {};
+  return files.size() == 1 ? files.front() : fmt::format("{} and {} more", files.front(), files.size() - 1);
+}
+
+std::string deadCountersSummary(const DeadCounters& found, const CounterOccupancy& occupancy,
+                                const std::string& output) {
+  return fmt::format(
+      "dead-counters: {} read, {}: {}{} -> {}\n", counted(occupancy.events, "event"),
+      counted(found.dead.size(), "dead counter"),
+      found.dead.empty() ? "none" : fmt::format("{}", fmt::join(found.dead, ", ")),
+      found.undecided.empty()
+          ? std::string()
+          : fmt::format("; {} never fired where too few hits are expected to tell (listed in the file, not as dead)",
+                        counted(found.undecided.size(), "counter")),
+      output);
 }
 
 }  // namespace emcalign::apply

@@ -217,4 +217,16 @@ Result<io::AlignmentFile> loadAlignment(const std::string& path, const geometry:
   return io::parseAlignmentFile(*j, calo.description().r1(), path);
 }
 
+std::string placementsFile(const geometry::AlignmentTransform& transform, const geometry::DetectorDescription& d,
+                           std::string_view format) {
+  const Placements placements = placementsOf(transform);
+  return format == "gdml" ? placementsGdml(placements, d) : placementsJson(placements).dump(2) + "\n";
+}
+
+std::string placementsWrittenText(const std::string& output, std::string_view format, bool layer3Rule) {
+  return fmt::format("wrote {} ({} placements: sphere1_plus, sphere1_minus, sphere2_plus, sphere2_minus{})\n",
+                     output == "-" ? "the placements to standard output" : output, format,
+                     layer3Rule ? "; layer 3 with the mu3 rule" : "");
+}
+
 }  // namespace emcalign::apply

@@ -132,4 +132,20 @@ Result<std::vector<std::string>> redrawFitFigures(const ResultModel& m, const st
                        fitModelText(m.geometry, m.profile, m.corrections));
 }
 
+Result<std::vector<std::string>> writeFitJobFigures(const calib::FitJob& job, const calib::FitOutcome& fitted,
+                                                    const std::string& dir) {
+  const calib::FitRequest& request = job.request();
+  std::optional<FitFigureData> data;
+  if (request.profileIn.empty()) {
+    calib::SelectionOptions selection;
+    selection.beamEnergy = request.beamEnergy;
+    auto filled =
+        fitFigureData(request.events, job.geometry(), selection, job.profileOptions(), fitted.result.parameters);
+    if (!filled) return filled.error();
+    data = std::move(*filled);
+  }
+  return writeFitPlots(dir, fitted.bins, job.geometry(), fitted.result, data ? &data->residuals : nullptr,
+                       fitModelText(job.geometry(), job.profileOptions(), request.corrections));
+}
+
 }  // namespace emcalign::report

@@ -56,4 +56,11 @@ std::string deadCountersText(const DeadCounters& found, const CounterOccupancy& 
 /// hand-written list), in ascending order, each once. `source` names the input in messages.
 Result<std::vector<int>> parseCounterList(const std::string& text, const std::string& source);
 
+/// The inputs as deadCountersText names them: the one file, or "FIRST and N more".
+std::string deadCounterSources(const std::vector<std::string>& files);
+/// The line `dead-counters` prints: the events read, the dead counters (or none), those never
+/// fired where too few hits are expected to tell, and `output`, where the list went.
+std::string deadCountersSummary(const DeadCounters& found, const CounterOccupancy& occupancy,
+                                const std::string& output);
+
 }  // namespace emcalign::apply

@@ -23,6 +23,7 @@
 
 #include <array>
 #include <string>
+#include <string_view>
 
 #include "emcalign/core/result.hpp"
 #include "emcalign/geometry/alignment_parameters.hpp"
@@ -59,6 +60,13 @@ io::Json placementsJson(const Placements& p);
 /// A GDML document: a world, the four hemisphere shells (G4Sphere envelopes of the layers
 /// they carry, NIST materials G4_NaI and G4_Galactic) and their four <physvol>.
 std::string placementsGdml(const Placements& p, const geometry::DetectorDescription& d);
+/// The file `emcalign export` writes of `transform`'s placements: `format` "gdml"
+/// (placementsGdml), else "json" (placementsJson, indented, with a final newline).
+std::string placementsFile(const geometry::AlignmentTransform& transform, const geometry::DetectorDescription& d,
+                           std::string_view format);
+/// The line `emcalign export` prints: what was written (`output`, "-": standard output), in
+/// which format, and whether layer 3 follows the μ3 rule (docs/contract.md §4).
+std::string placementsWrittenText(const std::string& output, std::string_view format, bool layer3Rule);
 
 /// Reads a placements file; checks that its placements are those of its alignment on this
 /// detector (to 1e-9 cm and rad): an edited placement would not be what a fit means.

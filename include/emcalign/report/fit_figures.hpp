@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "emcalign/calib/calibration.hpp"
+#include "emcalign/calib/fit_job.hpp"
 #include "emcalign/calib/fit_record.hpp"
 #include "emcalign/core/result.hpp"
 #include "emcalign/geometry/alignment_parameters.hpp"
@@ -57,5 +58,12 @@ Status checkEventsOfResult(const calib::RecordedInput& result, std::string_view 
 /// The fit's figures (writeFitPlots) redrawn from its events into `dir`.
 Result<std::vector<std::string>> redrawFitFigures(const ResultModel& model, const std::vector<std::string>& events,
                                                   const std::string& dir);
+
+/// The figures of a fit just made (`emcalign fit --plots DIR`) written into `dir`: with event
+/// input, a second pass over the job's events corrects each selected particle's EMC direction
+/// with the fitted parameters for the after-correction distributions; a saved profile gives
+/// the profiles alone. Returns the PNG files written.
+Result<std::vector<std::string>> writeFitJobFigures(const calib::FitJob& job, const calib::FitOutcome& fitted,
+                                                    const std::string& dir);
 
 }  // namespace emcalign::report

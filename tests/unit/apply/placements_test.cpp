@@ -38,6 +38,17 @@ TEST(Placements, AreTheTransformsOfEachHemisphereAndSupport) {
   }
 }
 
+// `emcalign export`'s file and line: JSON unless GDML is asked for, standard output said as such.
+TEST(Placements, ExportWritesTheFormatAskedForAndSaysSo) {
+  const auto t = *geometry::AlignmentTransform::create(geometry::testing::paperLike(),
+                                                       geometry::AlignmentRadii::of(snd().description()));
+  EXPECT_EQ(io::Json::parse(placementsFile(t, snd().description(), "json"))["format"], kPlacementsFormat);
+  EXPECT_THAT(placementsFile(t, snd().description(), "gdml"), HasSubstr("<physvol"));
+  EXPECT_EQ(placementsWrittenText("-", "gdml", true),
+            "wrote the placements to standard output (gdml placements: sphere1_plus, sphere1_minus, sphere2_plus, "
+            "sphere2_minus; layer 3 with the mu3 rule)\n");
+}
+
 TEST(Placements, GeantAnglesRoundTrip) {
   std::mt19937_64 rng(3);
   std::uniform_real_distribution<double> a(-3.0, 3.0);

@@ -62,12 +62,10 @@ Result<FitRequest> fitRequestOf(const FitGiven& given) {
   r.depthOffset = given.depthOffsetCm * units::cm;
   r.corrections = given.corrections;
   if (given.beamEnergyMev > 0.0) r.beamEnergy = given.beamEnergyMev;
-  if (given.sigmaSys == "auto") {
-    r.sigmaSys = SigmaSysChoice::automatic();
-  } else if (!given.sigmaSys.empty()) {
-    const auto deg = io::parseFiniteDouble(given.sigmaSys);
-    if (!deg) return Error{fmt::format("--sigma-sys {}: expected auto or degrees", given.sigmaSys)};
-    r.sigmaSys = SigmaSysChoice::fixed(*deg * units::deg);
+  if (!given.sigmaSys.empty()) {
+    auto choice = sigmaSysChoiceOfText(given.sigmaSys);
+    if (!choice) return Error{fmt::format("--sigma-sys: {}", choice.error().message)};
+    r.sigmaSys = *choice;
   }
   r.sigmaSysText = given.sigmaSys;
   return r;

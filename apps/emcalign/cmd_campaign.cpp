@@ -49,22 +49,8 @@ validation::CampaignGiven given(const CampaignCliOptions& o) {
 }
 
 void printGroups(const std::vector<validation::CampaignGroup>& groups, std::int64_t minEvents) {
-  std::int64_t selected = 0;
-  int shortGroups = 0;
-  for (const auto& g : groups) {
-    selected += g.selected;
-    shortGroups += g.isShort;
-  }
-  fmt::print(reportStream(), "plan: {} of at least {} ({} selected in all){}\n", counted(groups.size(), "group"),
-             counted(minEvents, "selected event"), selected,
-             shortGroups > 0 ? fmt::format("; {} short (an energy point with fewer)", shortGroups) : "");
-  if (selected == 0) {
-    reportWarning(
-        "no event of these files passes the e+e- -> e+e- selection: are they of another process? (emcalign check "
-        "ee|gg|3pi DIR shows their cut flows; simulate --period --process gg|3pi makes photon pairs or 3π events)");
-  } else if (const std::string few = validation::tooFewIovsForTrend(groups.size(), selected); !few.empty()) {
-    reportWarning(few);
-  }
+  fmt::print(reportStream(), "{}", validation::campaignGroupsText(groups, minEvents));
+  for (const auto& w : validation::campaignGroupsWarnings(groups)) reportWarning(w);
 }
 
 // campaign --plan P --group K: task K of the plan (as emcalign task P K), with the conditions
@@ -187,16 +173,9 @@ int run(const CampaignCliOptions& o) {
   if (!report) return reportError(report.error());
   for (const auto& w : report->warnings) reportWarning(w);
   for (const auto& f : report->failures) reportWarning(f);
-  fmt::print(reportStream(),
-             "campaign: {}: {} fitted and stored, {} in tag {} already, {} failed ({:.1f} s) -> {}\n  model: {}\n",
-             counted(report->groups, "group"), report->fitted, report->resumed, o.given.tag, report->failures.size(),
-             fitting.elapsed(), (*db)->uri(), model->identity().textWithSigmaSys());
-  if (!report->failures.empty()) {
-    return reportError(Error{fmt::format(
-        "{} of {} {} not stored: the IOVs do not tile the runs (see the "
-        "warnings; a rerun fits only the missing groups)",
-        report->failures.size(), counted(report->groups, "group"), report->failures.size() == 1 ? "was" : "were")});
-  }
+  fmt::print(reportStream(), "{}",
+             validation::campaignReportText(*report, o.given.tag, fitting.elapsed(), (*db)->uri(), *model));
+  if (Status s = validation::campaignStoredEveryGroup(*report); !s) return reportError(s.error());
   return kExitOk;
 }
 

@@ -19,6 +19,7 @@
 #include "emcalign/core/text.hpp"
 #include "emcalign/validation/campaign.hpp"
 #include "emcalign/validation/prompt.hpp"
+#include "emcalign/validation/prompt_given.hpp"
 
 namespace emcalign::app {
 
@@ -42,34 +43,10 @@ void stopBetweenSteps() {
   for (int s : {SIGINT, SIGTERM}) sigaction(s, &action, nullptr);
 }
 
-// A path inside (or equal to) another, both made absolute and normal.
-bool inside(const std::string& path, const std::string& dir) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  const auto real = [&](const std::string& p) {
-    const fs::path c = fs::weakly_canonical(fs::absolute(p), ec);
-    return ec ? fs::absolute(p).lexically_normal() : c;
-  };
-  const auto rel = real(path).lexically_relative(real(dir));
-  return !rel.empty() && *rel.begin() != "..";
-}
-
 int run(PromptCliOptions& cli) {
   validation::PromptOptions& o = cli.prompt;
   o.sigmaSys = sigmaSysChoice(cli.sigmaSys);
-  if (inside(o.stateDir, o.watchDir) || inside(o.watchDir, o.stateDir)) {
-    return reportError(
-        Error{fmt::format("-o {}: the state directory and the watched directory {} are one inside the "
-                          "other: the loop would take its own files; give them apart",
-                          o.stateDir, o.watchDir)});
-  }
-  const std::string dbFile = conddb::sqliteFileOf(o.conditions);
-  if (!dbFile.empty() && inside(dbFile, o.watchDir)) {
-    return reportError(
-        Error{fmt::format("--conditions: the database {} is inside the watched directory {}: put it "
-                          "elsewhere",
-                          dbFile, o.watchDir)});
-  }
+  if (Status s = validation::checkPromptPlaces(o); !s) return reportError(s.error());
   std::vector<io::NamedPath> inputs = {
       {"--thresholds", o.thresholds}, {"--corrections", o.corrections}, {"--detector", o.detector}};
   for (auto& c : conddb::databaseFiles(o.conditions)) inputs.push_back(std::move(c));
@@ -82,9 +59,7 @@ int run(PromptCliOptions& cli) {
   if (!o.once) stopBetweenSteps();
   auto summary = validation::runPrompt(o);
   if (!summary) return reportError(summary.error());
-  const std::string done = fmt::format("prompt: {} taken, {} quarantined, {} decided, {} sent",
-                                       counted(summary->filesTaken, "file"), counted(summary->quarantined, "file"),
-                                       counted(summary->decided, "group"), counted(summary->alertsSent, "alert"));
+  const std::string done = validation::promptSummaryText(*summary);
   if (!summary->problems.empty()) {
     for (const auto& p : summary->problems) eprint("emcalign: error: {}\n", p);
     eprint("{}; the work left is done by the next run (nothing taken is lost)\n", done);
@@ -108,47 +83,14 @@ int propose(const ProposeOptions& o) {
   if (!j) return reportError(j.error());
   auto table = validation::parseTable(*j, o.table);
   if (!table) return reportError(table.error());
-  std::vector<validation::MeasuredSpread> spreads;
-  for (const auto& row : table->rows) {
-    const auto p = row.name.param();
-    if (!p) continue;
-    if (!o.parameters.empty() && std::find(o.parameters.begin(), o.parameters.end(), name(*p)) == o.parameters.end()) {
-      continue;
-    }
-    // The error a fit quotes: the spread over the pulls' width (a pull is (fit − truth)/error).
-    if (!(row.pullWidth > 0.0 && std::isfinite(row.pullWidth))) {
-      return reportError(
-          Error{fmt::format("{}: {}: the pulls' width {} is not a positive number: not a table of "
-                            "emcalign validate",
-                            o.table, name(*p), row.pullWidth)});
-    }
-    const double error = row.spread / row.pullWidth;
-    spreads.push_back({*p, row.spread, error});
-  }
-  for (const auto& wanted : o.parameters) {
-    if (std::none_of(spreads.begin(), spreads.end(), [&](const auto& s) { return name(s.parameter) == wanted; })) {
-      return reportError(Error{fmt::format("--parameters {}: not a parameter of the table {}", wanted, o.table)});
-    }
-  }
-  // A spread of a few samples is a rough one: said.
-  if (table->samples < 20) {
-    eprint(
-        "emcalign: warning: {}: {} samples: their spread is known to ±{:.0f} % only; a validation of 40 or more "
-        "samples gives thresholds to trust\n",
-        o.table, table->samples, 100.0 / std::sqrt(2.0 * std::max(table->samples - 1, 1)));
-  }
-  auto thresholds = validation::proposeThresholds(spreads, o.falseRate);
+  auto spreads = validation::measuredSpreads(*table, o.parameters, o.table);
+  if (!spreads) return reportError(spreads.error());
+  if (const std::string few = validation::fewSamplesWarning(*table, o.table); !few.empty()) reportWarning(few);
+  auto thresholds = validation::proposeThresholds(*spreads, o.falseRate);
   if (!thresholds) return reportError(Error{fmt::format("{}: {}", o.table, thresholds.error().message)});
   if (Status s = io::writeOutputFile(o.output, thresholds->json.dump(1) + "\n"); !s) return reportError(s.error());
-  fmt::print(
-      reportStream(),
-      "prompt-thresholds: {} from the spreads of {} ({} samples of {} events): min_change = "
-      "{:.3g}·√2·spread (a false update rate of {:g} over them on a stable stretch, for groups of that size), "
-      "significance 3, max_change 10·min_change (set it from the detector's history), max_error 2·the error a fit "
-      "quotes (spread/pull width) -> "
-      "{}\n",
-      counted(spreads.size(), "parameter"), o.table, table->samples, table->events,
-      validation::falseUpdateQuantile(o.falseRate, spreads.size()), o.falseRate, o.output);
+  fmt::print(reportStream(), "{}",
+             validation::thresholdsWrittenText(*table, spreads->size(), o.falseRate, o.table, o.output));
   return kExitOk;
 }
 

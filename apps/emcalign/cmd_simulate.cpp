@@ -1,6 +1,7 @@
 // emcalign simulate: reconstructed events from the detector simulation with a known
 // (truth) misalignment, written as HDF5 (with truth) or CSV.
 
+#include <algorithm>
 #include <limits>
 #include <memory>
 #include <optional>
@@ -101,9 +102,7 @@ int runRandomTrigger(const SimulateOptions& cli) {
                                                       [&](std::int64_t n) { progress.update(n); });
   progress.finish();
   if (!report) return reportError(report.error());
-  fmt::print(reportStream(), "simulate: {} ({} with hits), {}, {:.1f} s -> {}\n",
-             counted(report->events, "random-trigger event"), report->eventsWritten,
-             counted(report->rows, "counter hit"), progress.elapsed(), cli.output);
+  fmt::print(reportStream(), "{}", validation::randomTriggerText(*report, progress.elapsed(), cli.output));
   return kExitOk;
 }
 
@@ -129,29 +128,19 @@ int runPeriod(const SimulateOptions& cli) {
     reportWarning(fmt::format("{}: {}", cli.period, w));
   }
   const auto runs = validation::planPeriod(*scenario, *process);
-  std::int64_t total = 0, mostInRun = 0;
-  for (const auto& r : runs) {
-    total += r.events;
-    mostInRun = std::max(mostInRun, r.events);
-  }
   auto request = requestOf(cli, o.simulation);
-  if (Status s = loadBackground(cli, *calo, mostInRun, o.simulation, &request); !s) return reportError(s.error());
+  if (Status s = loadBackground(cli, *calo, validation::periodEvents(runs).mostInRun, o.simulation, &request); !s) {
+    return reportError(s.error());
+  }
   request.options = o.simulation;
   o.settings = validation::periodSimulationSettings(request, calo->description());
-  fmt::print(reportStream(), "simulate --period {}: runs {}-{} ({}), {} (process {}), {}, {}, {} -> {}\n", cli.period,
-             scenario->firstRun, scenario->lastRun(), counted(runs.size(), "run"), counted(total, "event"),
-             sim::name(*process), counted(scenario->beamEnergy.size(), "beam energy", "beam energies"),
-             counted(scenario->segments.size(), "segment"), counted(scenario->drifts.size(), "drift"), cli.output);
+  fmt::print(reportStream(), "{}", validation::periodPlanText(*scenario, runs, *process, cli.period, cli.output));
   ProgressLine progress("simulate", static_cast<std::int64_t>(runs.size()), "runs");
   o.progress = [&](std::int64_t done, std::int64_t, std::int64_t) { progress.update(done); };
   auto report = validation::simulatePeriod(*scenario, *calo, cli.output, o);
   progress.finish();
   if (!report) return reportError(report.error());
-  fmt::print(reportStream(),
-             "simulate: {} ({} there already), {} simulated ({} in the period), {}, "
-             "{:.1f} s -> {}/run_*.h5, {}/truth.json\n",
-             counted(report->runs, "run"), report->resumed, counted(report->simulated, "event"), report->events,
-             counted(report->rows, "particle row"), progress.elapsed(), cli.output, cli.output);
+  fmt::print(reportStream(), "{}", validation::periodSimulatedText(*report, progress.elapsed(), cli.output));
   return kExitOk;
 }
 
@@ -164,21 +153,10 @@ int run(const SimulateOptions& cli) {
   }
   auto calo = loadCalorimeter(cli.detector);
   if (!calo) return reportError(calo.error());
-  geometry::AlignmentParameters truthParameters;
-  if (!cli.conditions.empty()) {
-    auto c = conddb::TagAlignments::open(cli.conditions, cli.tag, *calo, cli.snapshot);
-    if (!c) return reportError(c.error());
-    auto eta = c->parametersOf(cli.run);
-    if (!eta) return reportError(eta.error());
-    truthParameters = *eta;
-  } else {
-    auto truthFile = loadAlignment(cli.params, *calo);
-    if (!truthFile) return reportError(truthFile.error());
-    for (const auto& w : truthFile->warnings) reportWarning(w);
-    truthParameters = truthFile->parameters;
-  }
-  const geometry::AlignmentParameters* truth = &truthParameters;
-  if (auto w = calib::truthRangeWarning(truthParameters, calo->description().r1())) reportWarning(*w);
+  std::vector<std::string> warnings;
+  auto truth = validation::simulationTruth(cli.conditions, cli.tag, cli.snapshot, cli.run, cli.params, *calo, warnings);
+  for (const auto& w : warnings) reportWarning(w);
+  if (!truth) return reportError(truth.error());
 
   sim::SimulationOptions o;
   if (Status st = realism(cli, o); !st) return reportError(st.error());
@@ -195,21 +173,48 @@ int run(const SimulateOptions& cli) {
       validation::simulateFile(*calo, *truth, request, cli.output, [&](std::int64_t n) { progress.update(n); });
   progress.finish();
   if (!report) return reportError(report.error());
-  fmt::print(reportStream(), "simulate: {}, {}, {:.1f} s -> {}\n", counted(report->events, "event"),
-             counted(report->rows, "particle row"), progress.elapsed(), cli.output);
-  const std::int64_t empty = report->events - report->eventsWritten;
-  if (empty > 0) {
-    fmt::print(reportStream(),
-               "note: {} of the {} events ({:.1f} %) have no reconstructed particle and are not in the file{}\n", empty,
-               report->events, 100.0 * static_cast<double>(empty) / static_cast<double>(report->events),
-               !cli.thetaMinDeg && !cli.thetaMaxDeg && cli.process == "ee"
-                   ? fmt::format("; theta {:g}-{:g} deg is the generator's default: the fit's profiles use 45-135 "
-                                 "deg and the shipped corrections were derived at 40-140 deg (--theta-min 40 "
-                                 "--theta-max 140)",
-                                 o.generator.thetaMin / units::deg, o.generator.thetaMax / units::deg)
-                   : std::string());
-  }
+  const bool defaultRange = !cli.thetaMinDeg && !cli.thetaMaxDeg && cli.process == "ee";
+  fmt::print(reportStream(), "{}",
+             validation::simulatedText(*report, progress.elapsed(), cli.output, o.generator, defaultRange));
   return 0;
+}
+
+// --process random-trigger: the options of a collision refused, --events required, a
+// background that is on (usage errors, exit 2).
+void checkRandomTrigger(const SimulateOptions& o, const CLI::App& cmd) {
+  for (const char* collision : {"--params", "--conditions", "--beam-energy", "--theta-min", "--theta-max",
+                                "--point-showers", "--no-hits", "--background-events", "--compression"}) {
+    if (cmd.count(collision) > 0) {
+      throw CLI::ValidationError(collision,
+                                 "does not apply to --process random-trigger (no collision is simulated: only the "
+                                 "beam background and the noise)");
+    }
+  }
+  if (cmd.count("--events") == 0) throw CLI::RequiredError("--events");
+  if (o.events < 1) throw CLI::ValidationError("--events", "a random-trigger file needs at least one event");
+  const bool noBackground = std::find(o.off.begin(), o.off.end(), "background") != o.off.end();
+  if (o.ideal || noBackground) {
+    throw CLI::ValidationError(o.ideal ? "--ideal" : "--off background",
+                               "switches the beam background off: a random trigger would record nothing");
+  }
+}
+
+// One of the three simulations, by the options given: a period, random triggers, or events.
+int dispatch(const SimulateOptions& o, const CLI::App& cmd) {
+  if (!o.period.empty()) {
+    for (const char* single :
+         {"--params", "--conditions", "--run", "--beam-energy", "--theta-min", "--theta-max", "--seed"}) {
+      if (cmd.count(single) > 0) throw CLI::ExcludesError("--period", single);
+    }
+    return runPeriod(o);
+  }
+  if (o.process == "random-trigger") {
+    checkRandomTrigger(o, cmd);
+    return runRandomTrigger(o);
+  }
+  if (o.params.empty() && o.conditions.empty()) throw CLI::RequiredError("--params FILE or --conditions URI --tag T");
+  if (cmd.count("--events") == 0) throw CLI::RequiredError("--events");
+  return run(o);
 }
 
 }  // namespace
@@ -291,40 +296,7 @@ void addSimulateCommand(CLI::App& app, int& exitCode) {
       ->required();
   cmd->callback([o, cmd, &exitCode] {
     o->deadCountersGiven = cmd->count("--dead-counters") > 0;
-    if (!o->period.empty()) {
-      for (const char* single :
-           {"--params", "--conditions", "--run", "--beam-energy", "--theta-min", "--theta-max", "--seed"}) {
-        if (cmd->count(single) > 0) {
-          throw CLI::ExcludesError("--period", single);
-        }
-      }
-      exitCode = runPeriod(*o);
-      return;
-    }
-    if (o->process == "random-trigger") {
-      for (const char* collision : {"--params", "--conditions", "--beam-energy", "--theta-min", "--theta-max",
-                                    "--point-showers", "--no-hits", "--background-events", "--compression"}) {
-        if (cmd->count(collision) > 0) {
-          throw CLI::ValidationError(collision,
-                                     "does not apply to --process random-trigger (no collision is "
-                                     "simulated: only the beam background and the noise)");
-        }
-      }
-      if (cmd->count("--events") == 0) throw CLI::RequiredError("--events");
-      if (o->events < 1) throw CLI::ValidationError("--events", "a random-trigger file needs at least one event");
-      const bool noBackground = std::find(o->off.begin(), o->off.end(), "background") != o->off.end();
-      if (o->ideal || noBackground) {
-        throw CLI::ValidationError(o->ideal ? "--ideal" : "--off background",
-                                   "switches the beam background off: a random trigger would record nothing");
-      }
-      exitCode = runRandomTrigger(*o);
-      return;
-    }
-    if (o->params.empty() && o->conditions.empty()) {
-      throw CLI::RequiredError("--params FILE or --conditions URI --tag T");
-    }
-    if (cmd->count("--events") == 0) throw CLI::RequiredError("--events");
-    exitCode = run(*o);
+    exitCode = dispatch(*o, *cmd);
   });
 }
 

@@ -89,18 +89,8 @@ int run(const ValidateOptions& cli, bool finishing) {
   auto table = validation::runCampaign(*calo, o, cli.output, [&](int done, int) { progress.update(done); });
   progress.finish();
   if (!table) return reportError(table.error());
-  fmt::print(reportStream(), "{}", validation::validationTableText(*table));
-  fmt::print(reportStream(), "{} × {} in {:.1f} s; wrote {}/table.json, table.md, plots/, samples/\n",
-             counted(table->samples, "sample"), counted(table->events, "event"), progress.elapsed(), cli.output);
+  fmt::print(reportStream(), "{}", validation::validationTableText(*table, progress.elapsed(), cli.output));
   return 0;
-}
-
-// The corrections file of the study with its systematic errors, to --write-corrections.
-Status writeCorrectionsWithErrors(const ValidateOptions& cli, const validation::CampaignOptions& campaign,
-                                  const validation::SystematicsTable& table) {
-  auto corrections = validation::correctionsWithSystematics(table, campaign, cli.writeCorrections);
-  if (!corrections) return corrections.error();
-  return io::writeOutputFile(cli.writeCorrections, calib::correctionsJson(*corrections).dump(2) + "\n");
 }
 
 // What --write-corrections needs, checked before the study (validation::checkCorrectionsToWrite).
@@ -121,14 +111,8 @@ Result<validation::SystematicsOptions> systematicsOptionsOf(const ValidateOption
   if (!cli.writeCorrections.empty()) {
     if (Status s = checkWriteCorrections(cli, *made); !s) return s.error();
   }
-  validation::SystematicsOptions o;
-  o.campaign = std::move(*made);
-  for (const auto& name : cli.variations) o.variations.push_back(validation::findVariation(name));
-  if (cli.reverse) {
-    o.reverse = cli.derivation;
-    o.reverse->threads = cli.study.threads;
-  }
-  return o;
+  return validation::systematicsStudy(std::move(*made), cli.variations,
+                                      cli.reverse ? std::optional(cli.derivation) : std::nullopt);
 }
 
 // emcalign systematics: the nominal campaign and one per variation, paired (validation/systematics.hpp);
@@ -146,22 +130,13 @@ int runSystematics(const ValidateOptions& cli, bool finishing) {
   });
   progress.finish();
   if (!table) return reportError(table.error());
-  fmt::print(reportStream(), "{}", validation::systematicsTableText(*table));
-  const std::size_t campaigns = table->variations.size() + 1;
-  fmt::print(reportStream(),
-             "{} campaigns{} × {} × {} in {:.1f} s; wrote {}/systematics.json, systematics.md, "
-             "plots/systematics.png, nominal/, one directory per variation{}\n",
-             campaigns, cli.reverse ? fmt::format(" (and {} derivations with their campaigns)", campaigns) : "",
-             counted(table->samples, "sample"), counted(table->events, "event"), progress.elapsed(), cli.output,
-             cli.reverse ? ", reverse/" : "");
+  fmt::print(reportStream(), "{}",
+             validation::systematicsTableText(*table, progress.elapsed(), cli.output, cli.reverse));
   if (!cli.writeCorrections.empty()) {
-    if (Status s = writeCorrectionsWithErrors(cli, o.campaign, *table); !s) return reportError(s.error());
-    if (cli.writeCorrections == "-") {
-      fmt::print(reportStream(), "wrote {} with the systematic errors to standard output\n", cli.study.corrections);
-    } else {
-      fmt::print(reportStream(), "wrote {}: {} with the systematic errors (use: emcalign fit --corrections {})\n",
-                 cli.writeCorrections, cli.study.corrections, cli.writeCorrections);
-    }
+    auto said =
+        validation::writeCorrectionsWithSystematics(*table, o.campaign, cli.writeCorrections, cli.study.corrections);
+    if (!said) return reportError(said.error());
+    fmt::print(reportStream(), "{}", *said);
   }
   return kExitOk;
 }

@@ -7,7 +7,6 @@
 
 #include <cerrno>
 #include <charconv>
-#include <chrono>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -209,16 +208,11 @@ int runPlannable(const std::string& command, const std::string& planPath, const 
       return kExitOk;
     }
     case PlanContext::Mode::Finish: {
-      // Merged no more until this merge ends well (a merge that fails says so in batch status).
-      if (Status s = validation::forgetMerge(*gContext.plan); !s) return reportError(s.error());
-      if (Status s = validation::checkAllTasksDone(*gContext.plan); !s) return reportError(s.error());
-      const auto t0 = std::chrono::steady_clock::now();
-      const int code = finish();
-      if (code != kExitOk) return code;
-      for (const auto& w : validation::taskWarnings(*gContext.plan)) reportWarning(w);
-      const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      if (Status s = validation::recordFinished(*gContext.plan, seconds); !s) return reportError(s.error());
-      return kExitOk;
+      std::vector<std::string> warnings;
+      auto code = validation::finishPlan(*gContext.plan, finish, warnings);
+      if (!code) return reportError(code.error());
+      for (const auto& w : warnings) reportWarning(w);
+      return *code;
     }
     case PlanContext::Mode::Inspect: {
       auto job = makeJob(gContext.plan->data);
@@ -243,12 +237,7 @@ int runPlannable(const std::string& command, const std::string& planPath, const 
   if (!arguments) return reportError(arguments.error());
   auto plan = validation::writePlan(planPath, command, *arguments, **job);
   if (!plan) return reportError(plan.error());
-  fmt::print(reportStream(),
-             "wrote the plan {} ({}: {}), nothing run; its tasks' records and logs go to {}\n"
-             "  on Slurm:  emcalign batch submit {} [--sbatch-arg=--partition=P ...] [--wait]\n"
-             "  by hand:   emcalign task {} K   (K = 0 to {}), then emcalign finish {}\n",
-             planPath, command, counted(plan->tasks.size(), "task"), plan->workDirectory(), shellArgument(planPath),
-             shellArgument(planPath), plan->tasks.size() - 1, shellArgument(planPath));
+  fmt::print(reportStream(), "{}", validation::planWrittenText(*plan, command, planPath));
   return kExitOk;
 }
 

@@ -15,6 +15,7 @@
 #include "emcalign/core/text.hpp"
 #include "emcalign/core/units.hpp"
 #include "emcalign/core/version.hpp"
+#include "emcalign/validation/trend.hpp"
 
 namespace emcalign::validation {
 
@@ -33,6 +34,45 @@ calib::ModelIdentity CampaignModel::identity() const {
     m.correctionsSha256 = correctionsSha256;
   }
   return m;
+}
+
+std::string campaignGroupsText(const std::vector<CampaignGroup>& groups, std::int64_t minEvents) {
+  std::int64_t selected = 0;
+  int shortGroups = 0;
+  for (const auto& g : groups) {
+    selected += g.selected;
+    shortGroups += g.isShort;
+  }
+  return fmt::format("plan: {} of at least {} ({} selected in all){}\n", counted(groups.size(), "group"),
+                     counted(minEvents, "selected event"), selected,
+                     shortGroups > 0 ? fmt::format("; {} short (an energy point with fewer)", shortGroups) : "");
+}
+
+std::vector<std::string> campaignGroupsWarnings(const std::vector<CampaignGroup>& groups) {
+  std::int64_t selected = 0;
+  for (const auto& g : groups) selected += g.selected;
+  if (selected == 0) {
+    return {
+        "no event of these files passes the e+e- -> e+e- selection: are they of another process? (emcalign check "
+        "ee|gg|3pi DIR shows their cut flows; simulate --period --process gg|3pi makes photon pairs or 3π events)"};
+  }
+  if (std::string few = tooFewIovsForTrend(groups.size(), selected); !few.empty()) return {few};
+  return {};
+}
+
+std::string campaignReportText(const CampaignReport& report, const std::string& tag, double seconds,
+                               const std::string& database, const CampaignModel& model) {
+  return fmt::format(
+      "campaign: {}: {} fitted and stored, {} in tag {} already, {} failed ({:.1f} s) -> {}\n  model: {}\n",
+      counted(report.groups, "group"), report.fitted, report.resumed, tag, report.failures.size(), seconds, database,
+      model.identity().textWithSigmaSys());
+}
+
+Status campaignStoredEveryGroup(const CampaignReport& report) {
+  if (report.failures.empty()) return {};
+  return Error{fmt::format(
+      "{} of {} {} not stored: the IOVs do not tile the runs (see the warnings; a rerun fits only the missing groups)",
+      report.failures.size(), counted(report.groups, "group"), report.failures.size() == 1 ? "was" : "were")};
 }
 
 CampaignPlan makeCampaignPlan(const CampaignScan& scan, const std::vector<CampaignGroup>& groups,

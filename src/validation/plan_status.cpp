@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <chrono>
 #include <filesystem>
 
 #include <fmt/format.h>
@@ -190,6 +191,28 @@ Status scriptBesideThePlan(const Plan& plan, const std::string& output) {
     }
   }
   return {};
+}
+
+Result<int> finishPlan(const Plan& plan, const std::function<int()>& merge, std::vector<std::string>& warnings) {
+  // Merged no more until this merge ends well (a merge that fails says so in batch status).
+  if (Status s = forgetMerge(plan); !s) return s.error();
+  if (Status s = checkAllTasksDone(plan); !s) return s.error();
+  const auto t0 = std::chrono::steady_clock::now();
+  const int code = merge();
+  if (code != 0) return code;
+  warnings = taskWarnings(plan);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (Status s = recordFinished(plan, seconds); !s) return s.error();
+  return 0;
+}
+
+std::string planWrittenText(const Plan& plan, const std::string& command, const std::string& planPath) {
+  return fmt::format(
+      "wrote the plan {} ({}: {}), nothing run; its tasks' records and logs go to {}\n"
+      "  on Slurm:  emcalign batch submit {} [--sbatch-arg=--partition=P ...] [--wait]\n"
+      "  by hand:   emcalign task {} K   (K = 0 to {}), then emcalign finish {}\n",
+      planPath, command, counted(plan.tasks.size(), "task"), plan.workDirectory(), shellArgument(planPath),
+      shellArgument(planPath), plan.tasks.size() - 1, shellArgument(planPath));
 }
 
 Result<Submission> submission(const Plan& plan, bool onlyMissing) {

@@ -2,13 +2,18 @@
 
 #include "emcalign/validation/simulation_given.hpp"
 
+#include <algorithm>
 #include <memory>
 
 #include <fmt/format.h>
 
 #include "emcalign/apply/dead_counters.hpp"
+#include "emcalign/apply/placements.hpp"
+#include "emcalign/calib/fit_notes.hpp"
+#include "emcalign/conddb/calibrations.hpp"
 #include "emcalign/core/sha256.hpp"
 #include "emcalign/core/text.hpp"
+#include "emcalign/core/units.hpp"
 #include "emcalign/io/file_kind.hpp"
 #include "emcalign/io/json_files.hpp"
 #include "emcalign/io/random_trigger_file.hpp"
@@ -74,6 +79,76 @@ Status loadRecordedBackground(const std::string& file, int counters, std::int64_
     request->backgroundSha256 = *digest;
   }
   return {};
+}
+
+Result<geometry::AlignmentParameters> simulationTruth(const std::string& conditions, const std::string& tag,
+                                                      const std::string& snapshot, std::int64_t run,
+                                                      const std::string& params, const geometry::Calorimeter& calo,
+                                                      std::vector<std::string>& warnings) {
+  geometry::AlignmentParameters truth;
+  if (!conditions.empty()) {
+    auto c = conddb::TagAlignments::open(conditions, tag, calo, snapshot);
+    if (!c) return c.error();
+    auto eta = c->parametersOf(run);
+    if (!eta) return eta.error();
+    truth = *eta;
+  } else {
+    auto file = apply::loadAlignment(params, calo);
+    if (!file) return file.error();
+    warnings.insert(warnings.end(), file->warnings.begin(), file->warnings.end());
+    truth = file->parameters;
+  }
+  if (auto w = calib::truthRangeWarning(truth, calo.description().r1())) warnings.push_back(*w);
+  return truth;
+}
+
+std::string simulatedText(const SimulateReport& report, double seconds, const std::string& output,
+                          const sim::GeneratorOptions& generator, bool defaultRange) {
+  std::string out = fmt::format("simulate: {}, {}, {:.1f} s -> {}\n", counted(report.events, "event"),
+                                counted(report.rows, "particle row"), seconds, output);
+  const std::int64_t empty = report.events - report.eventsWritten;
+  if (empty <= 0) return out;
+  out += fmt::format(
+      "note: {} of the {} events ({:.1f} %) have no reconstructed particle and are not in the file{}\n", empty,
+      report.events, 100.0 * static_cast<double>(empty) / static_cast<double>(report.events),
+      defaultRange ? fmt::format("; theta {:g}-{:g} deg is the generator's default: the fit's profiles use 45-135 deg "
+                                 "and the shipped corrections were derived at 40-140 deg (--theta-min 40 --theta-max "
+                                 "140)",
+                                 generator.thetaMin / units::deg, generator.thetaMax / units::deg)
+                   : std::string());
+  return out;
+}
+
+std::string randomTriggerText(const SimulateReport& report, double seconds, const std::string& output) {
+  return fmt::format("simulate: {} ({} with hits), {}, {:.1f} s -> {}\n",
+                     counted(report.events, "random-trigger event"), report.eventsWritten,
+                     counted(report.rows, "counter hit"), seconds, output);
+}
+
+PeriodEvents periodEvents(const std::vector<PeriodRun>& runs) {
+  PeriodEvents e;
+  for (const auto& r : runs) {
+    e.total += r.events;
+    e.mostInRun = std::max(e.mostInRun, r.events);
+  }
+  return e;
+}
+
+std::string periodPlanText(const PeriodScenario& scenario, const std::vector<PeriodRun>& runs, sim::Process process,
+                           const std::string& file, const std::string& output) {
+  return fmt::format("simulate --period {}: runs {}-{} ({}), {} (process {}), {}, {}, {} -> {}\n", file,
+                     scenario.firstRun, scenario.lastRun(), counted(runs.size(), "run"),
+                     counted(periodEvents(runs).total, "event"), sim::name(process),
+                     counted(scenario.beamEnergy.size(), "beam energy", "beam energies"),
+                     counted(scenario.segments.size(), "segment"), counted(scenario.drifts.size(), "drift"), output);
+}
+
+std::string periodSimulatedText(const PeriodReport& report, double seconds, const std::string& output) {
+  return fmt::format(
+      "simulate: {} ({} there already), {} simulated ({} in the period), {}, {:.1f} s -> {}/run_*.h5, "
+      "{}/truth.json\n",
+      counted(report.runs, "run"), report.resumed, counted(report.simulated, "event"), report.events,
+      counted(report.rows, "particle row"), seconds, output, output);
 }
 
 }  // namespace emcalign::validation

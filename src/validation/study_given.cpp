@@ -10,6 +10,7 @@
 #include "emcalign/calib/corrections_grid.hpp"
 #include "emcalign/core/text.hpp"
 #include "emcalign/io/json_files.hpp"
+#include "emcalign/io/output_file.hpp"
 #include "emcalign/io/paths.hpp"
 #include "emcalign/validation/variations.hpp"
 
@@ -92,7 +93,7 @@ Status checkCorrectionsToWrite(const std::string& file, const std::string& outpu
   return {};
 }
 
-std::string validationTableText(const Table& table) {
+std::string validationTableText(const Table& table, double seconds, const std::string& output) {
   std::string out = fmt::format("{:<10} {:>4} {:>11} {:>9} {:>10} {:>9} {:>15} {:>18}\n", "parameter", "unit", "bias",
                                 "±", "spread", "pull mean", "pull width", "slope");
   for (const auto& r : table.rows) {
@@ -102,10 +103,13 @@ std::string validationTableText(const Table& table) {
   }
   out += fmt::format("sigma_sys of the fits: median {:.4f} deg ({:.4f} to {:.4f})\n", table.sigmaSysMedian,
                      table.sigmaSysMin, table.sigmaSysMax);
+  out += fmt::format("{} × {} in {:.1f} s; wrote {}/table.json, table.md, plots/, samples/\n",
+                     counted(table.samples, "sample"), counted(table.events, "event"), seconds, output);
   return out;
 }
 
-std::string systematicsTableText(const SystematicsTable& table) {
+std::string systematicsTableText(const SystematicsTable& table, double seconds, const std::string& output,
+                                 bool reverse) {
   std::string out = fmt::format("{:<10} {:>4} {:>19} {:>9} {:>11}  largest effect\n", "parameter", "unit",
                                 "nominal bias", "spread", "systematic");
   for (const auto& r : table.rows) {
@@ -118,7 +122,35 @@ std::string systematicsTableText(const SystematicsTable& table) {
     out += fmt::format("{:<10} {:>4} {:>9} ± {:<7.4f} {:>9.4f} {:>11.4f}  {}\n", r.name, r.name.unit(),
                        fixed(r.bias, 4, true), r.biasError, r.spread, r.systematic, which);
   }
+  const std::size_t campaigns = table.variations.size() + 1;
+  out += fmt::format(
+      "{} campaigns{} × {} × {} in {:.1f} s; wrote {}/systematics.json, systematics.md, plots/systematics.png, "
+      "nominal/, one directory per variation{}\n",
+      campaigns, reverse ? fmt::format(" (and {} derivations with their campaigns)", campaigns) : "",
+      counted(table.samples, "sample"), counted(table.events, "event"), seconds, output, reverse ? ", reverse/" : "");
   return out;
+}
+
+SystematicsOptions systematicsStudy(CampaignOptions campaign, const std::vector<std::string>& variations,
+                                    const std::optional<DerivationOptions>& reverse) {
+  SystematicsOptions o;
+  for (const auto& name : variations) o.variations.push_back(findVariation(name));
+  if (reverse) {
+    o.reverse = *reverse;
+    o.reverse->threads = campaign.threads;
+  }
+  o.campaign = std::move(campaign);
+  return o;
+}
+
+Result<std::string> writeCorrectionsWithSystematics(const SystematicsTable& table, const CampaignOptions& campaign,
+                                                    const std::string& file, const std::string& corrections) {
+  auto withErrors = correctionsWithSystematics(table, campaign, file);
+  if (!withErrors) return withErrors.error();
+  if (Status s = io::writeOutputFile(file, calib::correctionsJson(*withErrors).dump(2) + "\n"); !s) return s.error();
+  if (file == "-") return fmt::format("wrote {} with the systematic errors to standard output\n", corrections);
+  return fmt::format("wrote {}: {} with the systematic errors (use: emcalign fit --corrections {})\n", file,
+                     corrections, file);
 }
 
 }  // namespace emcalign::validation

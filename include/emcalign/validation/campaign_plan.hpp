@@ -33,6 +33,18 @@ struct CampaignGiven {
   bool minEventsGiven = false;
 };
 
+/// The groups of a campaign in a line (how many, of at least `minEvents`, the selected events,
+/// the short ones), and what they warn of: no event selected at all (another process?), or
+/// too few IOVs for a trend.
+std::string campaignGroupsText(const std::vector<CampaignGroup>& groups, std::int64_t minEvents);
+std::vector<std::string> campaignGroupsWarnings(const std::vector<CampaignGroup>& groups);
+
+/// What a campaign did, in words (its groups fitted, resumed and failed, the database, the
+/// model), and the error when some group was not stored (the IOVs do not tile the runs).
+std::string campaignReportText(const CampaignReport& report, const std::string& tag, double seconds,
+                               const std::string& database, const CampaignModel& model);
+Status campaignStoredEveryGroup(const CampaignReport& report);
+
 /// The plan of a scan's groups, storing into `given`'s conditions and tag when given.
 CampaignPlan makeCampaignPlan(const CampaignScan& scan, const std::vector<CampaignGroup>& groups,
                               const CampaignModel& model, const CampaignGiven& given);

@@ -73,6 +73,13 @@ Status planBesideOutputs(const std::string& planPath, const std::vector<std::str
 /// anything in its directories.
 Status scriptBesideThePlan(const Plan& plan, const std::string& output);
 
+/// The merge of a plan (`emcalign finish`): merged no more until this merge ends well, every
+/// task done (else an error naming the missing ones), `merge()` run (its exit code: not 0 stops
+/// here), then recorded as finished. Returns merge()'s code; the tasks' warnings in `warnings`.
+Result<int> finishPlan(const Plan& plan, const std::function<int()>& merge, std::vector<std::string>& warnings);
+/// What `--plan` wrote and how to run its tasks (on Slurm, or by hand).
+std::string planWrittenText(const Plan& plan, const std::string& command, const std::string& planPath);
+
 /// `batch submit`: the tasks to submit (all: empty) and whether the array or only the merge
 /// goes; nothing when every task is done and merged. A campaign plan without its store is
 /// refused: its tasks would not know where to store.

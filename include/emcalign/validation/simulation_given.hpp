@@ -11,6 +11,7 @@
 #include "emcalign/core/result.hpp"
 #include "emcalign/geometry/detector.hpp"
 #include "emcalign/sim/simulation.hpp"
+#include "emcalign/validation/period.hpp"
 #include "emcalign/validation/simulate_file.hpp"
 
 namespace emcalign::validation {
@@ -38,5 +39,31 @@ Result<std::vector<int>> deadCounterList(const std::string& text);
 Status loadRecordedBackground(const std::string& file, int counters, std::int64_t eventsPerRun,
                               sim::SimulationOptions& options, SimulateRequest* request,
                               std::vector<std::string>& warnings);
+
+/// The truth of `simulate`: the IOV of `tag` in `conditions` holding `run` (as it was at
+/// `snapshot`, "" for now), or the alignment of `params` (a parameter file, a fit result or a
+/// placements file: its warnings, and a truth outside the validated ranges, said in `warnings`).
+Result<geometry::AlignmentParameters> simulationTruth(const std::string& conditions, const std::string& tag,
+                                                      const std::string& snapshot, std::int64_t run,
+                                                      const std::string& params, const geometry::Calorimeter& calo,
+                                                      std::vector<std::string>& warnings);
+
+/// What `simulate` says when it has written `output` in `seconds`; with a note on the events
+/// without a reconstructed particle (and, for e+e- over the generator's default polar range,
+/// `defaultRange`, the range the fits use).
+std::string simulatedText(const SimulateReport& report, double seconds, const std::string& output,
+                          const sim::GeneratorOptions& generator, bool defaultRange);
+/// The same of a random-trigger file.
+std::string randomTriggerText(const SimulateReport& report, double seconds, const std::string& output);
+
+/// A period's runs: their events in all and the most in one run.
+struct PeriodEvents {
+  std::int64_t total = 0, mostInRun = 0;
+};
+PeriodEvents periodEvents(const std::vector<PeriodRun>& runs);
+/// What `simulate --period FILE` is about to simulate into `output`, and what it did.
+std::string periodPlanText(const PeriodScenario& scenario, const std::vector<PeriodRun>& runs, sim::Process process,
+                           const std::string& file, const std::string& output);
+std::string periodSimulatedText(const PeriodReport& report, double seconds, const std::string& output);
 
 }  // namespace emcalign::validation

@@ -45,10 +45,21 @@ Result<CampaignOptions> studyCampaign(const StudyGiven& given, std::vector<std::
 Status checkCorrectionsToWrite(const std::string& file, const std::string& output, const std::string& corrections,
                                const CampaignOptions& campaign);
 
-/// `validate`'s table: bias, spread and pulls of each parameter, and the σ_sys of the fits.
-std::string validationTableText(const Table& table);
+/// `validate`'s table: bias, spread and pulls of each parameter, and the σ_sys of the fits;
+/// then what was written into `output` in `seconds`.
+std::string validationTableText(const Table& table, double seconds, const std::string& output);
 /// `systematics`' table: each parameter's nominal bias, spread, systematic error and its
-/// largest effect.
-std::string systematicsTableText(const SystematicsTable& table);
+/// largest effect; then what was written into `output` (with the reverse study when `reverse`).
+std::string systematicsTableText(const SystematicsTable& table, double seconds, const std::string& output,
+                                 bool reverse);
+
+/// The study of `campaign` with the variations named (none: all) and, when `reverse` is given,
+/// the reverse study with those derivations (on the campaign's threads).
+SystematicsOptions systematicsStudy(CampaignOptions campaign, const std::vector<std::string>& variations,
+                                    const std::optional<DerivationOptions>& reverse);
+/// `--write-corrections FILE`: the corrections file `corrections` with the systematic errors of
+/// the study written to `file` ("-": standard output); returns what to say.
+Result<std::string> writeCorrectionsWithSystematics(const SystematicsTable& table, const CampaignOptions& campaign,
+                                                    const std::string& file, const std::string& corrections);
 
 }  // namespace emcalign::validation

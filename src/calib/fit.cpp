@@ -21,7 +21,7 @@ namespace emcalign::calib {
 
 namespace {
 
-constexpr int kN = static_cast<int>(kNumParams);
+constexpr int kFitParams = static_cast<int>(kNumParams);
 
 struct BinPoint {
   double phi, theta, radius, yPhi, yTheta, wPhi, wTheta;  // w = 1/σ
@@ -98,13 +98,13 @@ double chi2At(const std::vector<ProfileBin>& bins, const FitGeometry& g, const g
 
 namespace {
 
-using Jacobian = Eigen::Matrix<double, Eigen::Dynamic, kN, Eigen::RowMajor>;
+using Jacobian = Eigen::Matrix<double, Eigen::Dynamic, kFitParams, Eigen::RowMajor>;
 
 // The Jacobian of the whitened residuals at η; none when the cost cannot be evaluated.
 std::optional<Jacobian> jacobianAt(const ceres::CostFunction& cost, const geometry::ParamVector& eta) {
   const auto rows = static_cast<std::size_t>(cost.num_residuals());
   std::vector<double> residuals(rows);
-  Jacobian jacobian(static_cast<Eigen::Index>(rows), kN);
+  Jacobian jacobian(static_cast<Eigen::Index>(rows), kFitParams);
   double* jac[1] = {jacobian.data()};
   const double* params[1] = {eta.data()};
   if (!cost.Evaluate(params, residuals.data(), jac)) return std::nullopt;
@@ -113,27 +113,28 @@ std::optional<Jacobian> jacobianAt(const ceres::CostFunction& cost, const geomet
 
 void setCovariance(FitResult& result, const Covariance& covariance) {
   result.covariance = covariance;
-  for (int k = 0; k < kN; ++k) result.errors[k] = std::sqrt(covariance(k, k));
-  for (int i = 0; i < kN; ++i) {
-    for (int j = 0; j < kN; ++j) result.correlation(i, j) = covariance(i, j) / (result.errors[i] * result.errors[j]);
+  for (int k = 0; k < kFitParams; ++k) result.errors[k] = std::sqrt(covariance(k, k));
+  for (int i = 0; i < kFitParams; ++i) {
+    for (int j = 0; j < kFitParams; ++j)
+      result.correlation(i, j) = covariance(i, j) / (result.errors[i] * result.errors[j]);
   }
 }
 
 // The physical parameters, errors by the Jacobian of physicalOf (automatic differentiation),
 // from the covariance and, when known, the statistical covariance.
 void setDerived(FitResult& result, double r1) {
-  using Jet = ceres::Jet<double, kN>;
+  using Jet = ceres::Jet<double, kFitParams>;
   geometry::ParamVectorT<Jet> etaJet;
-  for (int k = 0; k < kN; ++k) etaJet[k] = Jet(result.parameters.values[k], k);
+  for (int k = 0; k < kFitParams; ++k) etaJet[k] = Jet(result.parameters.values[k], k);
   const auto physical = geometry::physicalOf<Jet>(etaJet, r1);
-  const auto propagated = [](const std::optional<Covariance>& c, const Eigen::Matrix<double, kN, 1>& grad) {
+  const auto propagated = [](const std::optional<Covariance>& c, const Eigen::Matrix<double, kFitParams, 1>& grad) {
     return c && grad.allFinite() ? std::sqrt(grad.dot(*c * grad)) : std::numeric_limits<double>::quiet_NaN();
   };
   for (Physical p : kAllPhysical) {
     const Jet& x = physical[index(p)];
     DerivedValue& v = result.derived[p];
     v.value = x.a;
-    const Eigen::Matrix<double, kN, 1> grad = x.v;
+    const Eigen::Matrix<double, kFitParams, 1> grad = x.v;
     v.error = propagated(result.covariance, grad);
     v.statisticalError = propagated(result.statisticalCovariance, grad);
   }
@@ -187,7 +188,7 @@ Result<Covariance> sandwich(const Covariance& hInverse, const Covariance& middle
 
 // The whitened Jacobian at the fit's minimum.
 Result<Jacobian> jacobianAtMinimum(const FitResult& result, const std::vector<BinPoint>& points, const FitGeometry& g) {
-  ceres::AutoDiffCostFunction<ProfileResiduals, ceres::DYNAMIC, kN> cost(
+  ceres::AutoDiffCostFunction<ProfileResiduals, ceres::DYNAMIC, kFitParams> cost(
       new ProfileResiduals{&points, g.radii, g.response}, static_cast<int>(2 * points.size()));
   auto jacobian = jacobianAt(cost, result.parameters.values);
   if (!jacobian) return Error{"the fit's Jacobian could not be evaluated"};
@@ -242,14 +243,14 @@ Status setStatisticalCovariance(FitResult& result, const std::vector<ProfileBin>
   auto c = sandwich(*result.covariance, *middle);
   if (!c) return c.error();
   result.statisticalCovariance = *c;
-  for (int k = 0; k < kN; ++k) result.statisticalErrors[k] = std::sqrt((*c)(k, k));
+  for (int k = 0; k < kFitParams; ++k) result.statisticalErrors[k] = std::sqrt((*c)(k, k));
   setDerived(result, g.radii.r1);
   return {};
 }
 
 namespace {
 
-using ProfileCost = ceres::AutoDiffCostFunction<ProfileResiduals, ceres::DYNAMIC, kN>;
+using ProfileCost = ceres::AutoDiffCostFunction<ProfileResiduals, ceres::DYNAMIC, kFitParams>;
 
 // The used bins as points of the χ², each checked: the model places a bin's showers at
 // R(E, θ), and outside the calorimeter it is meaningless (an energy of 1e-300 MeV, or a
@@ -267,7 +268,7 @@ Result<std::vector<BinPoint>> fitPoints(const std::vector<ProfileBin>& bins, con
                       bins[i].iPhi, bins[i].iTheta, p.radius, bins[i].energyMean, 2.0 * g.radii.rp3)};
     }
   }
-  if (2 * static_cast<int>(points.size()) <= kN) {
+  if (2 * static_cast<int>(points.size()) <= kFitParams) {
     return Error{
         fmt::format("only {} {} at least 10 entries: the 12 parameters need at least 7 "
                     "(are there selected e+e- -> e+e- events at 45-135 deg?)",
@@ -291,7 +292,7 @@ void minimiseInStages(ceres::Problem& problem, geometry::ParamVector& eta, const
     if (constant.empty()) {
       if (problem.HasManifold(eta.data())) problem.SetManifold(eta.data(), nullptr);
     } else {
-      problem.SetManifold(eta.data(), new ceres::SubsetManifold(kN, constant));
+      problem.SetManifold(eta.data(), new ceres::SubsetManifold(kFitParams, constant));
     }
     ceres::Solver::Options so;
     so.linear_solver_type = ceres::DENSE_QR;
@@ -318,7 +319,7 @@ void minimiseInStages(ceres::Problem& problem, geometry::ParamVector& eta, const
   result.parameters.values = eta;
   result.chi2 = result.stages.back().chi2;
   if (!(result.chi2 >= 0.0)) result.chi2 = std::numeric_limits<double>::quiet_NaN();  // never evaluated
-  result.ndf = 2 * result.binsUsed - kN;
+  result.ndf = 2 * result.binsUsed - kFitParams;
   result.pValue =
       std::isfinite(result.chi2) ? chi2PValue(result.chi2, result.ndf) : std::numeric_limits<double>::quiet_NaN();
   result.status = allConverged ? FitStatus::Converged : FitStatus::NotConverged;
@@ -337,17 +338,17 @@ void minimiseInStages(ceres::Problem& problem, geometry::ParamVector& eta, const
 // they not to, a zero Jacobian reads as singular.)
 void analyseCovariance(const ProfileCost& cost, const FitOptions& options, FitResult& result) {
   const Jacobian jacobian =
-      jacobianAt(cost, result.parameters.values).value_or(Jacobian::Zero(cost.num_residuals(), kN));
+      jacobianAt(cost, result.parameters.values).value_or(Jacobian::Zero(cost.num_residuals(), kFitParams));
   const Covariance jtj = jacobian.transpose() * jacobian;
-  const Eigen::Matrix<double, kN, 1> diag = jtj.diagonal();
+  const Eigen::Matrix<double, kFitParams, 1> diag = jtj.diagonal();
   bool singular = (diag.array() <= 0.0).any();
   Covariance covariance = Covariance::Constant(std::numeric_limits<double>::quiet_NaN());
   if (!singular) {
-    const Eigen::Matrix<double, kN, 1> d = diag.array().rsqrt();
+    const Eigen::Matrix<double, kFitParams, 1> d = diag.array().rsqrt();
     const Covariance scaled = d.asDiagonal() * jtj * d.asDiagonal();
     Eigen::SelfAdjointEigenSolver<Covariance::Base> eig(scaled);
     const auto& ev = eig.eigenvalues();
-    result.eigenvalues.assign(ev.data(), ev.data() + kN);
+    result.eigenvalues.assign(ev.data(), ev.data() + kFitParams);
     result.weakDirection = eig.eigenvectors().col(0);
     std::string combo;
     for (Param p : kAllParams) {
@@ -355,16 +356,16 @@ void analyseCovariance(const ProfileCost& cost, const FitOptions& options, FitRe
       if (std::abs(w) > 0.1) combo += fmt::format("{}{:+.2f}·{}", combo.empty() ? "" : " ", w, name(p));
     }
     result.weakCombination = combo;
-    singular = ev[0] < options.singularEigenvalue * ev[kN - 1];
+    singular = ev[0] < options.singularEigenvalue * ev[kFitParams - 1];
     if (!singular) {
       const Covariance inverseScaled =
           eig.eigenvectors() * ev.cwiseInverse().asDiagonal() * eig.eigenvectors().transpose();
       covariance = d.asDiagonal() * inverseScaled * d.asDiagonal();
-      if (ev[kN - 1] / ev[0] > options.conditionWarning) {
+      if (ev[kFitParams - 1] / ev[0] > options.conditionWarning) {
         result.warnings.push_back(fmt::format(
             "the covariance is ill-conditioned (condition number {:.3g} of the correlation-scaled matrix); the weak "
             "combination is {}",
-            ev[kN - 1] / ev[0], combo));
+            ev[kFitParams - 1] / ev[0], combo));
       }
     }
   }

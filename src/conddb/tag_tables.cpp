@@ -12,6 +12,7 @@
 #include <tbb/parallel_for.h>
 
 #include "emcalign/conddb/calibrations.hpp"
+#include "emcalign/core/types.hpp"
 #include "emcalign/core/utf8.hpp"
 
 namespace emcalign::conddb {
@@ -19,8 +20,6 @@ namespace emcalign::conddb {
 namespace {
 
 using io::Json;
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 std::string csvNumber(double v) { return std::isfinite(v) ? fmt::format("{:.10g}", v) : std::string(); }
 

@@ -22,6 +22,7 @@
 
 #include "emcalign/core/event_record.hpp"
 #include "emcalign/core/result.hpp"
+#include "emcalign/core/types.hpp"
 #include "emcalign/io/event_file.hpp"
 
 namespace emcalign::io::detail {
@@ -30,7 +31,6 @@ using Attributes = std::vector<std::pair<std::string, std::string>>;
 
 constexpr double kPi = std::numbers::pi;
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // ------------------------------------------------------------------------------- columns
 

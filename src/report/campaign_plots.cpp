@@ -16,6 +16,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "emcalign/core/types.hpp"
 #include "emcalign/report/histogram.hpp"
 #include "gnuplot.hpp"
 #include "multiplot.hpp"
@@ -27,7 +28,6 @@ namespace {
 namespace fs = std::filesystem;
 using namespace detail;
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr const char* kSamplesFile = "campaign_samples.dat";
 constexpr const char* kPullsFile = "pulls.dat";
 constexpr double kPullLimit = 5.0;  // pull histograms over [−5, 5]

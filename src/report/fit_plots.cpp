@@ -12,6 +12,7 @@
 
 #include <fmt/format.h>
 
+#include "emcalign/core/types.hpp"
 #include "emcalign/core/units.hpp"
 #include "gnuplot.hpp"
 #include "multiplot.hpp"
@@ -24,7 +25,6 @@ namespace fs = std::filesystem;
 using namespace detail;
 using units::deg;
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr const char* kBinsFile = "profile_bins.dat";
 constexpr const char* kModelVsPhiFile = "profile_model_vs_phi.dat";
 constexpr const char* kModelVsThetaFile = "profile_model_vs_theta.dat";

@@ -13,10 +13,11 @@
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/task_arena.h>
 
+#include "emcalign/core/types.hpp"
+
 namespace emcalign::sim {
 
 namespace {
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // The random stream of the order of the recorded background: beyond any event index.
 constexpr std::uint64_t kBackgroundOrderStream = ~std::uint64_t{0};
 }  // namespace

@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "emcalign/core/sha256.hpp"
+#include "emcalign/core/types.hpp"
 #include "emcalign/io/strict_json.hpp"
 
 namespace emcalign::validation {
@@ -14,7 +15,6 @@ namespace emcalign::validation {
 namespace {
 
 using io::Json;
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr const char* kKeys[] = {"min_change", "significance", "max_change", "max_error"};
 
 std::string unitOf(Param p) { return std::string(fileUnitName(dimension(p))); }

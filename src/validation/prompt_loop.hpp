@@ -19,6 +19,7 @@
 
 #include "emcalign/calib/calibration.hpp"
 #include "emcalign/conddb/conditions.hpp"
+#include "emcalign/core/types.hpp"
 #include "emcalign/validation/calibration_campaign.hpp"
 #include "emcalign/validation/prompt.hpp"
 #include "prompt_internal.hpp"
@@ -26,8 +27,6 @@
 namespace emcalign::validation::prompt {
 
 using io::Json;
-
-inline constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 /// A run's fill in STATE_DIR/runs.
 inline std::string runFillName(std::int32_t run) { return fmt::format("run-{:09}.json", run); }

@@ -23,21 +23,23 @@ class ProgressLine {
   void update(std::int64_t done) {
     if (!enabled_) return;
     const double seconds = elapsed();
-    const double rate = seconds > 0.0 ? done / seconds : 0.0;
+    const double rate = seconds > 0.0 ? static_cast<double>(done) / seconds : 0.0;
     if (total_ <= 0) {  // an unknown total: what is done, and how fast
       eprint("\r{}: {} {}, {:.0f} {}/s   ", what_, done, unit_, rate, unit_);
       return;
     }
-    const double left = rate > 0.0 ? (total_ - done) / rate : 0.0;
+    const double left = rate > 0.0 ? static_cast<double>(total_ - done) / rate : 0.0;
     eprint("\r{}: {}/{} {} ({:.0f}%), {:.0f} {}/s, {:.0f} s left   ", what_, done, total_, unit_,
-           total_ > 0 ? 100.0 * done / total_ : 100.0, rate, unit_, left);
+           total_ > 0 ? 100.0 * static_cast<double>(done) / static_cast<double>(total_) : 100.0, rate, unit_, left);
   }
   /// The total, when it is known only once the work has started.
   void setTotal(std::int64_t total) { total_ = total; }
   void finish() {
     if (enabled_) eprint("\n");
   }
-  double elapsed() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count(); }
+  [[nodiscard]] double elapsed() const {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  }
 
  private:
   std::string what_, unit_;

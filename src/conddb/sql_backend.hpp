@@ -32,7 +32,7 @@ class SqlBackend {
   virtual void rollback() noexcept = 0;
   virtual Result<std::vector<Row>> query(std::string_view sql, const std::vector<Param>& params = {}) = 0;
   /// " FOR UPDATE" where the engine locks selected rows (PostgreSQL); "" otherwise.
-  virtual std::string_view forUpdate() const = 0;
+  [[nodiscard]] virtual std::string_view forUpdate() const = 0;
   /// Called first in the transaction that creates the schema: two `init`s take turns.
   virtual Status serializeSchemaChanges() = 0;
   /// Whether the schema's tables exist.
@@ -47,7 +47,7 @@ class SqlBackend {
   /// In the upgrade's transaction: schema 1's tags table (states 'open', 'locked') made to take
   /// the six states of `createTags`, and 'locked' renamed 'published'.
   virtual Status widenTagStates(std::string_view createTags) = 0;
-  virtual const std::string& uri() const = 0;
+  [[nodiscard]] virtual const std::string& uri() const = 0;
 };
 
 /// The tags table of schema 2.

@@ -64,10 +64,13 @@ struct DoubleColumn {
   void (*set)(Row&, double);
 };
 
+// `member` names a member: it cannot be parenthesised.
+// NOLINTBEGIN(bugprone-macro-parentheses)
 #define EMCALIGN_MEMBER_COLUMN(Row, name, member)                                       \
   DoubleColumn<Row> {                                                                   \
     name, [](const Row& r) { return r.member; }, [](Row& r, double v) { r.member = v; } \
   }
+// NOLINTEND(bugprone-macro-parentheses)
 
 constexpr std::array<DoubleColumn<ParticleRow>, 8> kEventDoubles = {
     EMCALIGN_MEMBER_COLUMN(ParticleRow, "beam_energy_mev", beamEnergy),
@@ -192,11 +195,11 @@ class RowSource {
   /// The next row (and its truth when hasTruth(), and its row.hitCount hits appended to
   /// `hits` when hasHits()); false at the end of the file.
   virtual Result<bool> next(ParticleRow& row, TruthRow& truth, std::vector<Hit>& hits) = 0;
-  virtual bool hasTruth() const = 0;
-  virtual bool hasHits() const { return false; }
-  virtual const Attributes& attributes() const = 0;
+  [[nodiscard]] virtual bool hasTruth() const = 0;
+  [[nodiscard]] virtual bool hasHits() const { return false; }
+  [[nodiscard]] virtual const Attributes& attributes() const = 0;
   /// Where the row last returned is, for messages: "file: line N" or "file: record N".
-  virtual std::string location() const = 0;
+  [[nodiscard]] virtual std::string location() const = 0;
 };
 
 // ------------------------------------------------------------------------------ formats

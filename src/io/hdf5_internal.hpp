@@ -84,8 +84,8 @@ class Hid {
   Hid& operator=(const Hid&) = delete;
   ~Hid() { reset(); }
 
-  hid_t get() const { return id_; }
-  bool valid() const { return id_ >= 0; }
+  [[nodiscard]] hid_t get() const { return id_; }
+  [[nodiscard]] bool valid() const { return id_ >= 0; }
   /// Closes now; false when HDF5 reports a failure (e.g. the final write of a file).
   bool reset() {
     bool ok = true;

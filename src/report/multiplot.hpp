@@ -22,7 +22,7 @@ struct Range {
     hi = std::max(hi, x);
   }
   /// Padded by 10% of the span on each side, at least `minSpan` wide.
-  Range padded(double minSpan) const;
+  [[nodiscard]] Range padded(double minSpan) const;
 };
 
 // Small multiples: panels placed by explicit screen margins (the numbers are in the script,
@@ -47,14 +47,14 @@ struct Grid {
   /// The width that gives panels of `panelWidthPx`.
   static int widthFor(int nPanels, int nCols, int panelWidthPx, const Layout& layout);
 
-  int panelWidth() const;
+  [[nodiscard]] int panelWidth() const;
   /// Margins and axis labels of panel k (row by row, from the top left).
-  std::string panel(int k, const std::string& xlabel, const std::string& ylabel) const;
+  [[nodiscard]] std::string panel(int k, const std::string& xlabel, const std::string& ylabel) const;
   /// The header strip's key: `entries` are gnuplot `keyentry` plot items.
-  std::string legend(const std::vector<std::string>& entries) const;
+  [[nodiscard]] std::string legend(const std::vector<std::string>& entries) const;
   /// A line of text in a strip under the panels (reserve kFootnotePx more in the bottom
   /// margin); "" for none. `text` is enhanced text, safe in a double-quoted string.
-  std::string footnote(const std::string& text) const;
+  [[nodiscard]] std::string footnote(const std::string& text) const;
   static constexpr int kFootnotePx = 24;
 };
 

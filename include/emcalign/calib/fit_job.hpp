@@ -89,16 +89,17 @@ class FitJob {
   [[nodiscard]] SigmaSysChoice sigmaSys() const { return request_.sigmaSys.value_or(SigmaSysChoice::spec()); }
 
   /// Selects and fills (events), or reads and checks the profile.
-  Result<FitData> load() const;
+  [[nodiscard]] Result<FitData> load() const;
   /// Fits what `load` gave.
-  Result<FitOutcome> fit(const FitData& data) const;
+  [[nodiscard]] Result<FitOutcome> fit(const FitData& data) const;
   /// What a physicist must know of the fit beside its numbers: the model and its known
   /// biases, σ_sys dominating the errors (calib/fit_notes.hpp).
   /// A sample most of whose selected particles lie outside the profiles' θ range is said.
   [[nodiscard]] std::vector<std::string> notes(const FitData& data, const FitOutcome& outcome) const;
   /// The fit against the truth its event files carry (simulated samples: every file with
   /// the same "truth_parameters"); none for data, a profile, or files of several truths.
-  Result<std::optional<std::vector<TruthRow>>> againstTruth(const FitData& data, const FitOutcome& outcome) const;
+  [[nodiscard]] Result<std::optional<std::vector<TruthRow>>> againstTruth(const FitData& data,
+                                                                          const FitOutcome& outcome) const;
 
  private:
   FitRequest request_;

@@ -20,13 +20,13 @@ struct Histogram {
   Histogram(double low, double high, int bins);
   void fill(double x, double w = 1.0);
   /// Σw in range (under- and overflow not included).
-  double entries() const;
+  [[nodiscard]] double entries() const;
   /// 0 when empty.
-  double mean() const;
+  [[nodiscard]] double mean() const;
   /// 0 when empty.
-  double rms() const;
-  double binWidth() const;
-  double binCenter(int i) const;
+  [[nodiscard]] double rms() const;
+  [[nodiscard]] double binWidth() const;
+  [[nodiscard]] double binCenter(int i) const;
 };
 
 /// The Δφ and Δθ distributions of the selected particles before and after the correction,

@@ -54,9 +54,9 @@ struct CampaignScan {
   std::vector<std::string> digests;  ///< SHA-256 of each file (empty when not taken)
   std::vector<CampaignRun> runs;     ///< by run number
   /// The files holding runs [first, last], in the order of `files`.
-  std::vector<std::string> filesOf(std::int64_t first, std::int64_t last) const;
+  [[nodiscard]] std::vector<std::string> filesOf(std::int64_t first, std::int64_t last) const;
   /// The mean beam energy of the selected events of runs [first, last] (MeV; NaN: none).
-  double meanBeamEnergy(std::int64_t first, std::int64_t last) const;
+  [[nodiscard]] double meanBeamEnergy(std::int64_t first, std::int64_t last) const;
   /// The merged fill of runs [first, last] (profiles with `options`), and those runs.
   calib::ProfileFill fillOf(std::int64_t first, std::int64_t last, const calib::ProfileOptions& options,
                             std::vector<std::int32_t>* runsFound = nullptr) const;
@@ -89,11 +89,11 @@ struct CampaignModel {
   }
   /// The model of the events of one beam energy (MeV): a grid's corrections there (an energy
   /// outside the grid, or none, NaN, is an error), else this model.
-  Result<CampaignModel> at(double beamEnergy) const;
+  [[nodiscard]] Result<CampaignModel> at(double beamEnergy) const;
   /// The shower depth of the events of each beam energy (fillProfilesByRun).
-  geometry::DepthAtEnergy depthAtEnergy() const;
+  [[nodiscard]] geometry::DepthAtEnergy depthAtEnergy() const;
   /// Which model its fits use, with its σ_sys (calib/model_identity.hpp).
-  calib::ModelIdentity identity() const;
+  [[nodiscard]] calib::ModelIdentity identity() const;
 };
 
 /// The event files of the inputs, as absolute paths (a batch job may run elsewhere): a

@@ -45,6 +45,9 @@ inline constexpr std::string_view kPeriodTruthFormat = "emcalign-period-truth/1"
 inline constexpr std::int64_t kMaxPeriodRuns = 100000;
 inline constexpr std::int64_t kMaxEventsPerRun = 100'000'000;
 
+// clang-tidy cannot prove the destructor of its io::Json member non-throwing (nlohmann::json
+// asserts its invariant there); it does not throw.
+// NOLINTNEXTLINE(bugprone-exception-escape)
 struct PeriodScenario {
   std::string name, description;
   std::int64_t firstRun = 1;
@@ -72,7 +75,7 @@ struct PeriodScenario {
   std::vector<std::pair<std::int64_t, std::int64_t>> missingRuns;  ///< inclusive ranges
   io::Json source;                                                 ///< the scenario as read
 
-  std::int64_t lastRun() const { return firstRun + runs - 1; }
+  [[nodiscard]] std::int64_t lastRun() const { return firstRun + runs - 1; }
 };
 
 /// Reads a scenario strictly; every run's truth must be plausible (geometry::checkPlausible).
@@ -136,7 +139,7 @@ io::Json periodTruthJson(const PeriodScenario& s, const std::vector<PeriodRun>& 
 struct PeriodTruth {
   std::map<Quantity, std::vector<std::pair<std::int64_t, double>>> byParameter;  ///< by run
   /// The mean over runs [first, last] that the truth lists (NaN: none, or no such parameter).
-  double mean(Quantity parameter, std::int64_t first, std::int64_t last) const;
+  [[nodiscard]] double mean(Quantity parameter, std::int64_t first, std::int64_t last) const;
 };
 /// Reads DIR/truth.json (emcalign-period-truth/1); the error names the file and the run.
 Result<PeriodTruth> readPeriodTruth(const std::string& path);

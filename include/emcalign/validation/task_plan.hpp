@@ -55,21 +55,23 @@ inline constexpr std::string_view kPlannedCommands[] = {"validate", "systematics
 class PlannedJob {
  public:
   virtual ~PlannedJob() = default;
-  virtual std::vector<PlannedTask> tasks() const = 0;
+  [[nodiscard]] virtual std::vector<PlannedTask> tasks() const = 0;
   /// Runs task k (< tasks().size()): its outputs written atomically; those already in place
   /// from the same settings kept.
   virtual Status runTask(std::size_t k, const TaskContext& context) const = 0;
   /// What the tasks need beyond the command's arguments, kept in the plan (a campaign's groups
   /// and the digests of its files); null: nothing.
-  virtual io::Json data() const { return nullptr; }
+  [[nodiscard]] virtual io::Json data() const { return nullptr; }
   /// What else a task's record must match to count as done (a campaign's group stored into a
   /// database and tag given to the task, not the plan's): empty for most jobs.
-  virtual std::string recordKey() const { return {}; }
+  [[nodiscard]] virtual std::string recordKey() const { return {}; }
   /// Whether a rerun of task k keeps `output` (one of its writes, there already without the
   /// task's record: a task stopped mid-way, or a file changed since): true when it holds the
   /// task's work with the plan's settings, false when the task would refuse it; none when the
   /// job cannot tell without running the task.
-  virtual std::optional<bool> keeps(std::size_t /*k*/, const std::string& /*output*/) const { return std::nullopt; }
+  [[nodiscard]] virtual std::optional<bool> keeps(std::size_t /*k*/, const std::string& /*output*/) const {
+    return std::nullopt;
+  }
 };
 
 /// An exclusive lock on a file (created if absent), held while the object lives: two copies of
@@ -82,8 +84,8 @@ class FileLock {
   ~FileLock();
   FileLock(const FileLock&) = delete;
   FileLock& operator=(const FileLock&) = delete;
-  const std::string& error() const { return error_; }  ///< the file could not be opened
-  bool unlocked() const { return unlocked_; }
+  [[nodiscard]] const std::string& error() const { return error_; }  ///< the file could not be opened
+  [[nodiscard]] bool unlocked() const { return unlocked_; }
 
  private:
   int fd_ = -1;
@@ -104,6 +106,9 @@ std::string realPlanPath(const std::string& planPath);
 /// shared work.
 std::string planWorkDirectory(const std::string& planPath);
 
+// clang-tidy cannot prove the destructor of its io::Json member non-throwing (nlohmann::json
+// asserts its invariant there); it does not throw.
+// NOLINTNEXTLINE(bugprone-exception-escape)
 struct Plan {
   std::string path;    ///< absolute, links resolved (realPlanPath)
   std::string sha256;  ///< of the plan's text: a task's record names the plan it belongs to
@@ -115,11 +120,11 @@ struct Plan {
   io::Json data;  ///< PlannedJob::data()
 
   /// PLAN.tasks/ beside the plan: the tasks' records and logs.
-  std::string workDirectory() const;
-  std::string recordOf(std::size_t k) const;  ///< PLAN.tasks/task-K.json
-  std::string logOf(std::size_t k) const;     ///< PLAN.tasks/task-K.log (the batch system's output)
-  std::string finishLog() const;              ///< PLAN.tasks/finish.log
-  std::string finishRecord() const;           ///< PLAN.tasks/finish.json
+  [[nodiscard]] std::string workDirectory() const;
+  [[nodiscard]] std::string recordOf(std::size_t k) const;  ///< PLAN.tasks/task-K.json
+  [[nodiscard]] std::string logOf(std::size_t k) const;     ///< PLAN.tasks/task-K.log (the batch system's output)
+  [[nodiscard]] std::string finishLog() const;              ///< PLAN.tasks/finish.log
+  [[nodiscard]] std::string finishRecord() const;           ///< PLAN.tasks/finish.json
 };
 
 /// What a plan names on disk, which no output of another command may land on or in (`batch

@@ -87,8 +87,8 @@ struct LineFit {
   double a = 0.0, b = 0.0;  ///< with b = 0 for the constant model
   double varA = 0.0, varB = 0.0, covAB = 0.0;
   double chi2 = 0.0;
-  double value(double x) const { return a + b * (x - xRef); }
-  double error(double x) const;
+  [[nodiscard]] double value(double x) const { return a + b * (x - xRef); }
+  [[nodiscard]] double error(double x) const;
 };
 
 /// A segment of the change-point partitioning (Steps, at the top).
@@ -99,11 +99,11 @@ struct SegmentTest {
   bool sloped = false;  ///< the line preferred by BIC (χ² lower by more than ln n): the model
                         ///< a step is measured on
   /// The segment's model, as steps measure it.
-  const LineFit& model() const { return sloped ? line : constant; }
+  [[nodiscard]] const LineFit& model() const { return sloped ? line : constant; }
   /// The degrees of freedom of model()'s χ²: points less its parameters.
-  int modelNdf() const { return static_cast<int>(end - begin) - (sloped ? 2 : 1); }
+  [[nodiscard]] int modelNdf() const { return static_cast<int>(end - begin) - (sloped ? 2 : 1); }
   /// Long enough for a line.
-  bool isLine() const { return end - begin >= kMinLinePoints; }
+  [[nodiscard]] bool isLine() const { return end - begin >= kMinLinePoints; }
 };
 
 /// A stretch of one series between its steps (and known boundaries, edges and transitions)
@@ -146,7 +146,7 @@ struct TrendStep {
   /// A drift over these IOVs that fits them better than the step, by less than stepZ²: the step
   /// is reported, the drift beside it, and the IOVs it spans are no stable period.
   std::optional<DriftAlternative> orDrift = {};
-  double z() const { return error > 0.0 ? size / error : 0.0; }
+  [[nodiscard]] double z() const { return error > 0.0 ? size / error : 0.0; }
 };
 
 /// A step that explains a drift's IOVs about as well as the drift (see TrendDrift::orStep).
@@ -158,9 +158,9 @@ struct StepAlternative {
   double chi2Step = 0.0, chi2Line = 0.0;  ///< of the step's two constants, of the drift's model
   /// The runs of the IOVs on either side of it: a step of another parameter there is the same change.
   std::int64_t nearFirstRun = 0, nearLastRun = 0;
-  std::size_t index = 0;                                  ///< the first point after it
-  bool transition = false;                                ///< point index − 1 set aside (it straddles the step)
-  bool preferred() const { return chi2Step < chi2Line; }  ///< the step fits better than the drift
+  std::size_t index = 0;    ///< the first point after it
+  bool transition = false;  ///< point index − 1 set aside (it straddles the step)
+  [[nodiscard]] bool preferred() const { return chi2Step < chi2Line; }  ///< the step fits better than the drift
 };
 
 struct TrendDrift {
@@ -243,7 +243,7 @@ struct TrendEdge {
   std::int64_t firstRun = 0, lastRun = 0;  ///< the IOV
   bool atEnd = true;                       ///< the last IOV of the series (else the first)
   double departure = 0.0, error = 0.0;     ///< its value − the rest's model there
-  double z() const { return error > 0.0 ? departure / error : 0.0; }
+  [[nodiscard]] double z() const { return error > 0.0 ? departure / error : 0.0; }
 };
 
 /// A parameter whose IOVs in a period scatter about their mean beyond their statistical
@@ -283,14 +283,14 @@ struct TrendSegment {
   /// Neither a transition nor an edge, nothing inside it drifting, inconsistent or scattering
   /// beyond its statistical errors, a trend long enough to have looked for steps, and two IOVs
   /// at least (one tests nothing).
-  bool stable() const {
+  [[nodiscard]] bool stable() const {
     return resolvable && end - begin >= 2 && !transition && departing.empty() && drifting.empty() &&
            inconsistent.empty() && undecided.empty() && scattering.empty();
   }
   /// What `trend --refit` replaces by one calibration of all its events: a period whose IOVs
   /// agree within their errors (its IOVs are kept as they are otherwise: one value would
   /// average over what moves inside it).
-  bool refittable() const {
+  [[nodiscard]] bool refittable() const {
     return drifting.empty() && !transition && inconsistent.empty() && undecided.empty() && scattering.empty();
   }
 };
@@ -330,7 +330,7 @@ struct Trend {
   int consistencyTests = 0;        ///< stretches whose χ² was tested
   int scatterTests = 0;            ///< periods × series whose scatter was tested
   /// A step can be located at all: at least 2 × minSegment IOVs.
-  bool resolvable() const { return iovs >= 2 * options.minSegment; }
+  [[nodiscard]] bool resolvable() const { return iovs >= 2 * options.minSegment; }
 };
 
 /// The change points of one series (optimal partitioning, see above); `scale` multiplies

@@ -2,6 +2,7 @@
 
 #include "emcalign/calib/model_identity.hpp"
 
+#include <algorithm>
 #include <filesystem>
 
 #include <fmt/format.h>
@@ -43,6 +44,11 @@ std::string ModelIdentity::textWithSigmaSys() const {
 bool ModelIdentity::sameModel(const ModelIdentity& other) const {
   if (kind != other.kind || corrections != other.corrections || depthOffsetCm != other.depthOffsetCm) return false;
   return correctionsSha256.empty() || other.correctionsSha256.empty() || correctionsSha256 == other.correctionsSha256;
+}
+
+void addDistinct(std::vector<ModelIdentity>& models, const ModelIdentity& model) {
+  const auto same = [&](const ModelIdentity& m) { return m.sameModel(model); };
+  if (std::none_of(models.begin(), models.end(), same)) models.push_back(model);
 }
 
 std::string sigmaSysText(const SigmaSysChoice& choice) {

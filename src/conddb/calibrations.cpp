@@ -206,10 +206,7 @@ std::string sigmaSysSummary(const std::vector<IovListing>& iovs) {
 
 std::string modelSummary(const std::vector<IovListing>& iovs, bool brief) {
   std::vector<calib::ModelIdentity> models;
-  for (const auto& i : iovs) {
-    const auto same = [&](const calib::ModelIdentity& m) { return m.sameModel(i.model); };
-    if (std::none_of(models.begin(), models.end(), same)) models.push_back(i.model);
-  }
+  for (const auto& i : iovs) calib::addDistinct(models, i.model);
   if (models.empty() || (models.size() == 1 && models.front().kind == calib::ModelIdentity::Kind::Unsaid)) return "-";
   if (models.size() > 1) {
     if (brief) return "mixed";

@@ -68,14 +68,9 @@ std::vector<std::pair<std::int64_t, std::int64_t>> uncovered(const std::vector<I
 
 ModelComparison compareModels(const TagDiff& d) {
   std::vector<calib::ModelIdentity> a, b;
-  const auto add = [](std::vector<calib::ModelIdentity>& to, const calib::ModelIdentity& m) {
-    if (std::none_of(to.begin(), to.end(), [&](const calib::ModelIdentity& k) { return k.sameModel(m); })) {
-      to.push_back(m);
-    }
-  };
   for (const auto& p : d.pairs) {
-    add(a, p.modelA);
-    add(b, p.modelB);
+    calib::addDistinct(a, p.modelA);
+    calib::addDistinct(b, p.modelB);
   }
   const auto words = [](const std::vector<calib::ModelIdentity>& models) {
     std::set<std::string> said;

@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "emcalign/io/json_files.hpp"
+#include "emcalign/validation/simulation_given.hpp"
 
 namespace emcalign::validation {
 
@@ -43,8 +44,9 @@ Result<Derivation> derivationOf(const DerivationGiven& given) {
   o.gap = given.gapCm * units::cm;
   o.responseEvents = given.responseEvents;
   o.responseSamples = given.responseSamples;
-  if (Status s = o.simulation.applyRealism(given.ideal, given.off); !s) {
-    return Error{fmt::format("--off: {}", s.error().message)};
+  std::vector<std::string> warnings;  // none without --dead-counters
+  if (Status s = applyRealism({given.ideal, given.off, false, std::nullopt}, o.simulation, warnings); !s) {
+    return s.error();
   }
   o.simulation.generator.thetaMin = given.thetaMinDeg * units::deg;
   o.simulation.generator.thetaMax = given.thetaMaxDeg * units::deg;

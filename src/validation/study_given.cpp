@@ -12,6 +12,7 @@
 #include "emcalign/io/json_files.hpp"
 #include "emcalign/io/output_file.hpp"
 #include "emcalign/io/paths.hpp"
+#include "emcalign/validation/simulation_given.hpp"
 #include "emcalign/validation/variations.hpp"
 
 namespace emcalign::validation {
@@ -47,10 +48,9 @@ Result<CampaignOptions> studyCampaign(const StudyGiven& given, std::vector<std::
     if (!r) return r.error();
     o.ranges = *r;
   }
-  if (Status s = o.simulation.applyRealism(given.ideal, given.off); !s) {
-    return Error{fmt::format("--off: {}", s.error().message)};
+  if (Status s = applyRealism({given.ideal, given.off, given.pointShowers, std::nullopt}, o.simulation, warnings); !s) {
+    return s.error();
   }
-  if (given.pointShowers) o.simulation.emc.pointShowers = true;
   if (given.beamEnergyMev > 0.0) o.simulation.generator.beamEnergy = given.beamEnergyMev * units::MeV;
   if (Status s = takeCorrections(given, o, warnings); !s) return s.error();
   o.simulation.generator.thetaMin = given.thetaMinDeg * units::deg;

@@ -472,9 +472,7 @@ Result<std::vector<calib::ModelIdentity>> modelsOfTag(conddb::TagSnapshot& tag) 
   for (const conddb::Iov& iov : tag.iovs()) {
     auto p = tag.payload(iov);
     if (!p) return p.error();
-    calib::ModelIdentity m = (*p)->modelIdentity();
-    const auto same = [&](const calib::ModelIdentity& k) { return k.sameModel(m); };
-    if (std::none_of(models.begin(), models.end(), same)) models.push_back(std::move(m));
+    calib::addDistinct(models, (*p)->modelIdentity());
   }
   return models;
 }

@@ -7,6 +7,7 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "emcalign/calib/sigma_sys.hpp"
 
@@ -36,6 +37,10 @@ struct ModelIdentity {
   /// (σ_sys is compared on its own: it sets the errors, not the values).
   [[nodiscard]] bool sameModel(const ModelIdentity& other) const;
 };
+
+/// `model` added to `models` unless one of them is the same model (sameModel): the distinct
+/// models of IOVs, in the order first met.
+void addDistinct(std::vector<ModelIdentity>& models, const ModelIdentity& model);
 
 /// "auto", or the value in degrees ("0.2 deg").
 std::string sigmaSysText(const SigmaSysChoice& choice);

@@ -56,26 +56,21 @@ void printGroups(const std::vector<validation::CampaignGroup>& groups, std::int6
 // campaign --plan P --group K: task K of the plan (as emcalign task P K), with the conditions
 // and tag given here when the plan was made without them.
 int runGroup(const CampaignCliOptions& o) {
-  auto plan = validation::readPlan(o.plan);
-  if (!plan) return reportError(plan.error());
+  auto plan = must(validation::readPlan(o.plan));
   const validation::CampaignGiven g = given(o);
-  auto how = validation::groupRun(*plan, g, o.group);
-  if (!how) return reportError(how.error());
-  if (*how == validation::GroupRun::AsTask) return runTaskOfPlan(o.plan, static_cast<std::size_t>(o.group));
-  auto job = validation::plannedCampaignJob(plan->data, o.plan, g);
-  if (!job) return reportError(job.error());
-  auto ran = validation::runPlannedTask(*plan, **job, static_cast<std::size_t>(o.group), reportStream());
-  if (!ran) return reportError(ran.error());
+  auto how = must(validation::groupRun(plan, g, o.group));
+  if (how == validation::GroupRun::AsTask) return runTaskOfPlan(o.plan, static_cast<std::size_t>(o.group));
+  auto job = must(validation::plannedCampaignJob(plan.data, o.plan, g));
+  must(validation::runPlannedTask(plan, *job, static_cast<std::size_t>(o.group), reportStream()));
   return kExitOk;
 }
 
 // emcalign finish of a campaign's plan: every group in the tag, from the plan's data.
 int finishCampaign(const CampaignCliOptions& o) {
-  auto finished = validation::finishPlannedCampaign(*planContext().plan, given(o));
-  if (!finished) return reportError(finished.error());
+  auto finished = must(validation::finishPlannedCampaign(*planContext().plan, given(o)));
   fmt::print(reportStream(), "campaign: {} stored by the plan's tasks in tag {} -> {}\n  model: {}\n",
-             counted(finished->plan.groups.size(), "group"), finished->plan.tag, finished->database,
-             finished->model.identity().textWithSigmaSys());
+             counted(finished.plan.groups.size(), "group"), finished.plan.tag, finished.database,
+             finished.model.identity().textWithSigmaSys());
   return kExitOk;
 }
 
@@ -87,64 +82,50 @@ struct ScannedCampaign {
   validation::CampaignScan scan;
   std::vector<validation::CampaignGroup> groups;
 };
-Result<ScannedCampaign> scanCampaign(const CampaignCliOptions& o, const std::vector<io::NamedPath>& outputs,
-                                     conddb::DatabaseToWrite* target) {
-  auto calo = loadCalorimeter(o.given.detector);
-  if (!calo) return calo.error();
-  auto files = validation::eventFilesIn(o.given.inputs);
-  if (!files) return files.error();
-  // The payloads record every file by its absolute path, in JSON: UTF-8 text.
-  for (const auto& f : *files) {
-    if (std::error_code ec; !isValidUtf8(std::filesystem::absolute(f, ec).string())) {
-      return Error{
-          fmt::format("{}: its path is not UTF-8 (the payloads record it in JSON, which must be): rename "
-                      "it, or the directories it is in",
-                      printable(std::filesystem::absolute(f).string()))};
-    }
-  }
+ScannedCampaign scanCampaign(const CampaignCliOptions& o, const std::vector<io::NamedPath>& outputs,
+                             conddb::DatabaseToWrite* target) {
+  auto calo = must(loadCalorimeter(o.given.detector));
+  auto files = must(validation::eventFilesIn(o.given.inputs));
+  must(validation::checkPathsRecordable(files));
   std::vector<io::NamedPath> inputs = {{"--corrections", o.given.corrections}, {"--detector", o.given.detector}};
-  for (const auto& f : *files) inputs.push_back({"", f});
+  for (const auto& f : files) inputs.push_back({"", f});
   for (auto& c : conddb::databaseFiles(o.given.conditions)) inputs.push_back(std::move(c));
-  if (Status s = checkOutputs(outputs, {}, inputs); !s) return s.error();
-  auto model = validation::campaignModel(o.given.corrections, o.given.detector, *calo);
-  if (!model) return model.error();
-  model->setSigmaSys(sigmaSysChoice(o.given.sigmaSysText));
+  must(checkOutputs(outputs, {}, inputs));
+  auto model = must(validation::campaignModel(o.given.corrections, o.given.detector, calo));
+  model.setSigmaSys(sigmaSysChoice(o.given.sigmaSysText));
   if (target != nullptr) {
-    if (Status s = validation::newDatabaseBesideTheData(o.given.conditions, o.given.inputs); !s) return s.error();
-    if (Status s = target->prepare(); !s) return s.error();
+    must(validation::newDatabaseBesideTheData(o.given.conditions, o.given.inputs));
+    must(target->prepare());
   }
-  ProgressLine scanning("campaign: reading", static_cast<std::int64_t>(files->size()), "files");
+  ProgressLine scanning("campaign: reading", static_cast<std::int64_t>(files.size()), "files");
   validation::ScanOptions so;
   so.threads = o.threads;
   so.progress = [&](std::size_t done, std::size_t) { scanning.update(static_cast<std::int64_t>(done)); };
-  auto scan = validation::scanRuns(*files, *model, so);
+  auto scan = must(validation::scanRuns(files, model, so));
   scanning.finish();
-  if (!scan) return scan.error();
-  auto groups = validation::planGroups(*scan, o.given.minEvents);
-  fmt::print(reportStream(), "read {}, {} ({}-{}) in {:.1f} s\n", counted(files->size(), "file"),
-             counted(scan->runs.size(), "run"), scan->runs.front().run, scan->runs.back().run, scanning.elapsed());
+  auto groups = validation::planGroups(scan, o.given.minEvents);
+  fmt::print(reportStream(), "read {}, {} ({}-{}) in {:.1f} s\n", counted(files.size(), "file"),
+             counted(scan.runs.size(), "run"), scan.runs.front().run, scan.runs.back().run, scanning.elapsed());
   printGroups(groups, o.given.minEvents);
-  return ScannedCampaign{std::move(*model), std::move(*scan), std::move(groups)};
+  return ScannedCampaign{std::move(model), std::move(scan), std::move(groups)};
 }
 
 // campaign --plan P: the scan and the groups (the job list); the plan keeps them, with the
 // conditions and tag when given (never a password).
-Result<std::unique_ptr<validation::PlannedJob>> newPlanJob(const CampaignCliOptions& o) {
+std::unique_ptr<validation::PlannedJob> newPlanJob(const CampaignCliOptions& o) {
   const validation::CampaignGiven g = given(o);
   if (!g.conditions.empty()) {
-    auto store = validation::planStore(g.conditions);
-    if (!store) return store.error();
-    for (const auto& w : store->warnings) reportWarning(w);
+    auto store = must(validation::planStore(g.conditions));
+    for (const auto& w : store.warnings) reportWarning(w);
   }
   // The database and tag checked as the one-process campaign checks them, before the plan is
   // written (a locked tag, another grouping, a file that is no database, a new database among
   // the event files): nothing is created here.
   conddb::DatabaseToWrite target(g.conditions);
   auto scanned = scanCampaign(o, {{"--plan", o.plan}}, g.conditions.empty() ? nullptr : &target);
-  if (!scanned) return scanned.error();
-  const auto& [model, scan, groups] = *scanned;
+  const auto& [model, scan, groups] = scanned;
   if (conddb::Database* db = target.existing(); db != nullptr && !g.conditions.empty()) {
-    if (auto held = validation::checkCampaignTag(scan, model, *db, g.tag, groups); !held) return held.error();
+    must(validation::checkCampaignTag(scan, model, *db, g.tag, groups));
   }
   validation::CampaignPlan plan = validation::makeCampaignPlan(scan, groups, model, g);
   io::Json data = validation::campaignPlanJson(plan);
@@ -156,26 +137,23 @@ int run(const CampaignCliOptions& o) {
   // refused for its inputs leaves none behind (nor one whose every group failed).
   conddb::DatabaseToWrite target(o.given.conditions);
   auto scanned = scanCampaign(o, {}, &target);
-  if (!scanned) return reportError(scanned.error());
-  const validation::CampaignModel* model = &scanned->model;
-  const validation::CampaignScan* scan = &scanned->scan;
-  const auto& groups = scanned->groups;
-  auto db = target.create();
-  if (!db) return reportError(db.error());
+  const validation::CampaignModel* model = &scanned.model;
+  const validation::CampaignScan* scan = &scanned.scan;
+  const auto& groups = scanned.groups;
+  auto db = must(target.create());
   ProgressLine fitting("campaign: fitting", static_cast<std::int64_t>(groups.size()), "groups");
   validation::CalibrationCampaignOptions co;
   co.minEvents = o.given.minEvents;
   co.threads = o.threads;
   co.description = o.given.description;
   co.progress = [&](int done, int, const validation::CampaignGroup&, const std::string&) { fitting.update(done); };
-  auto report = validation::runCampaign(*scan, *model, **db, o.given.tag, co);
+  auto report = must(validation::runCampaign(*scan, *model, *db, o.given.tag, co));
   fitting.finish();
-  if (!report) return reportError(report.error());
-  for (const auto& w : report->warnings) reportWarning(w);
-  for (const auto& f : report->failures) reportWarning(f);
+  for (const auto& w : report.warnings) reportWarning(w);
+  for (const auto& f : report.failures) reportWarning(f);
   fmt::print(reportStream(), "{}",
-             validation::campaignReportText(*report, o.given.tag, fitting.elapsed(), (*db)->uri(), *model));
-  if (Status s = validation::campaignStoredEveryGroup(*report); !s) return reportError(s.error());
+             validation::campaignReportText(report, o.given.tag, fitting.elapsed(), db->uri(), *model));
+  must(validation::campaignStoredEveryGroup(report));
   return kExitOk;
 }
 

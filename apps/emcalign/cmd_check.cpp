@@ -24,28 +24,21 @@ namespace {
 
 int run(report::CheckGiven g) {
   // A directory gives every event file in it, as for correct and campaign.
-  auto events = validation::eventFilesIn(g.events);
-  if (!events) return reportError(events.error());
-  g.events = std::move(*events);
-  if (Status s = checkOutputs({}, {{"-o", g.output}}, report::checkInputs(g)); !s) return reportError(s.error());
-  auto calo = loadCalorimeter(g.detector);
-  if (!calo) return reportError(calo.error());
-  auto source = conddb::AlignmentSource::open(g.alignment, g.conditions, g.tag, *calo);
-  if (!source) return reportError(source.error());
-  for (const auto& w : source->warnings) reportWarning(w);
-  auto options = report::checkCorrectOptions(g, source->description, *calo);
-  if (!options) return reportError(options.error());
-  auto scratch = report::reserveCheckScratch(g.output);
-  if (!scratch) return reportError(scratch.error());
-  const std::string corrected = (*scratch)->writtenPath();
+  auto events = must(validation::eventFilesIn(g.events));
+  g.events = std::move(events);
+  must(checkOutputs({}, {{"-o", g.output}}, report::checkInputs(g)));
+  auto calo = must(loadCalorimeter(g.detector));
+  auto source = must(conddb::AlignmentSource::open(g.alignment, g.conditions, g.tag, calo));
+  for (const auto& w : source.warnings) reportWarning(w);
+  auto options = must(report::checkCorrectOptions(g, source.description, calo));
+  auto scratch = must(report::reserveCheckScratch(g.output));
+  const std::string corrected = scratch->writtenPath();
   ProgressLine progress("check: correcting", 0, "rows");
-  options->progress = [&](std::int64_t rows) { progress.update(rows); };
-  auto done = apply::correctFiles(g.events, corrected, *calo, source->alignmentOf(), *options);
+  options.progress = [&](std::int64_t rows) { progress.update(rows); };
+  auto done = must(apply::correctFiles(g.events, corrected, calo, source.alignmentOf(), options));
   progress.finish();
-  if (!done) return reportError(done.error());
-  auto written = report::writeCheck(g, corrected, *options, *done, source->description);
-  if (!written) return reportError(written.error());
-  fmt::print(reportStream(), "{}", *written);
+  auto written = must(report::writeCheck(g, corrected, options, done, source.description));
+  fmt::print(reportStream(), "{}", written);
   return kExitOk;
 }
 

@@ -21,22 +21,18 @@ namespace {
 int run(report::CompareGiven g) {
   // A directory gives every event file in it, as for correct and campaign.
   for (auto* files : {&g.data, &g.mc}) {
-    auto listed = validation::eventFilesIn(*files);
-    if (!listed) return reportError(listed.error());
-    *files = std::move(*listed);
+    auto listed = must(validation::eventFilesIn(*files));
+    *files = std::move(listed);
   }
-  auto inputs = report::compareInputs(g);
-  if (!inputs) return reportError(inputs.error());
-  if (Status s = checkOutputs({}, {{"-o", g.output}}, *inputs); !s) return reportError(s.error());
-  if (Status s = report::checkSamplesDiffer(g); !s) return reportError(s.error());
-  auto calo = loadCalorimeter(g.detector);
-  if (!calo) return reportError(calo.error());
-  auto found = report::compareGivenSamples(g, calo->description());
-  if (!found) return reportError(found.error());
-  if (Status s = report::writeComparison(g, *found); !s) return reportError(s.error());
-  fmt::print(reportStream(), "{}", report::comparedSamplesText(found->comparison));
-  if (!found->comparison.emptyThetaSlices.empty()) reportWarning(apply::emptySlicesText(found->comparison));
-  fmt::print(reportStream(), "{}", report::comparisonText(found->comparison, g.output));
+  auto inputs = must(report::compareInputs(g));
+  must(checkOutputs({}, {{"-o", g.output}}, inputs));
+  must(report::checkSamplesDiffer(g));
+  auto calo = must(loadCalorimeter(g.detector));
+  auto found = must(report::compareGivenSamples(g, calo.description()));
+  must(report::writeComparison(g, found));
+  fmt::print(reportStream(), "{}", report::comparedSamplesText(found.comparison));
+  if (!found.comparison.emptyThetaSlices.empty()) reportWarning(apply::emptySlicesText(found.comparison));
+  fmt::print(reportStream(), "{}", report::comparisonText(found.comparison, g.output));
   return kExitOk;
 }
 

@@ -39,133 +39,110 @@ struct ConditionsOptions {
 };
 
 int runInit(const ConditionsOptions& o) {
-  auto db = conddb::Database::open(o.uri, conddb::IfMissing::Create);
-  if (!db) return reportError(db.error());
-  auto tags = (*db)->tags();
-  if (!tags) return reportError(tags.error());
-  fmt::print("{}: conditions database, schema {} ({})\n", (*db)->uri(), conddb::kSchemaVersion,
-             counted(tags->size(), "tag"));
+  auto db = must(conddb::Database::open(o.uri, conddb::IfMissing::Create));
+  auto tags = must(db->tags());
+  fmt::print("{}: conditions database, schema {} ({})\n", db->uri(), conddb::kSchemaVersion,
+             counted(tags.size(), "tag"));
   return kExitOk;
 }
 
 int runPut(const ConditionsOptions& o) {
-  auto runs = conddb::parseRunRange(o.runs);
-  if (!runs) return reportError(runs.error());
-  auto calo = loadCalorimeter("");
-  if (!calo) return reportError(calo.error());
-  auto db = conddb::Database::open(o.uri);
-  if (!db) return reportError(db.error());
-  auto put = conddb::putResultFile(**db, {.tag = o.tag,
-                                          .firstRun = runs->first,
-                                          .lastRun = runs->second,
-                                          .path = o.result,
-                                          .description = o.description,
-                                          .r1 = calo->description().r1()});
-  if (!put) return reportError(put.error());
-  for (const auto& w : put->warnings) reportWarning(w);
-  fmt::print("{}: tag {}{}: runs {}-{} <- {} (payload {})\n", (*db)->uri(), o.tag, put->newTag ? " (new)" : "",
-             runs->first, runs->second, o.result, put->payload.substr(0, 12));
+  auto runs = must(conddb::parseRunRange(o.runs));
+  auto calo = must(loadCalorimeter(""));
+  auto db = must(conddb::Database::open(o.uri));
+  auto put = must(conddb::putResultFile(*db, {.tag = o.tag,
+                                              .firstRun = runs.first,
+                                              .lastRun = runs.second,
+                                              .path = o.result,
+                                              .description = o.description,
+                                              .r1 = calo.description().r1()}));
+  for (const auto& w : put.warnings) reportWarning(w);
+  fmt::print("{}: tag {}{}: runs {}-{} <- {} (payload {})\n", db->uri(), o.tag, put.newTag ? " (new)" : "", runs.first,
+             runs.second, o.result, put.payload.substr(0, 12));
   return kExitOk;
 }
 
 int runGet(const ConditionsOptions& o) {
-  if (Status s = checkOutputs({{"-o", o.output}}, {}, conddb::databaseFiles(o.uri, "database")); !s) {
-    return reportError(s.error());
-  }
-  auto db = conddb::Database::open(o.uri);
-  if (!db) return reportError(db.error());
-  auto got = conddb::calibrationAt(**db, o.tag, o.run, o.snapshot);
-  if (!got) return reportError(got.error());
-  if (Status s = io::writeOutputFile(o.output, got->parameterFile.dump(2) + "\n"); !s) return reportError(s.error());
+  must(checkOutputs({{"-o", o.output}}, {}, conddb::databaseFiles(o.uri, "database")));
+  auto db = must(conddb::Database::open(o.uri));
+  auto got = must(conddb::calibrationAt(*db, o.tag, o.run, o.snapshot));
+  must(io::writeOutputFile(o.output, got.parameterFile.dump(2) + "\n"));
   // The report goes to stderr when the file goes to stdout (checkOutputs).
-  fmt::print(reportStream(), "{}: tag {} run {}{}: IOV {}-{} (payload {}) -> {}\n", (*db)->uri(), o.tag, o.run,
-             o.snapshot.empty() ? std::string() : " at " + o.snapshot, got->iov.firstRun, got->iov.lastRun,
-             got->iov.payload.substr(0, 12), o.output);
+  fmt::print(reportStream(), "{}: tag {} run {}{}: IOV {}-{} (payload {}) -> {}\n", db->uri(), o.tag, o.run,
+             o.snapshot.empty() ? std::string() : " at " + o.snapshot, got.iov.firstRun, got.iov.lastRun,
+             got.iov.payload.substr(0, 12), o.output);
   return kExitOk;
 }
 
 // A mistake withdrawn: the tag kept and listed, never served again (state --set invalid).
 int runRetire(const ConditionsOptions& o) {
-  auto db = conddb::Database::open(o.uri);
-  if (!db) return reportError(db.error());
-  auto changed = (*db)->setState(o.tag, conddb::TagState::Invalid, o.reason);
-  if (!changed) return reportError(changed.error());
-  if (*changed == conddb::Database::StateChange::Already) {  // a retry: nothing changed, and said so
-    fmt::print("{}: tag {} was invalid already: nothing changed\n", (*db)->uri(), o.tag);
+  auto db = must(conddb::Database::open(o.uri));
+  auto changed = must(db->setState(o.tag, conddb::TagState::Invalid, o.reason));
+  if (changed == conddb::Database::StateChange::Already) {  // a retry: nothing changed, and said so
+    fmt::print("{}: tag {} was invalid already: nothing changed\n", db->uri(), o.tag);
     return kExitOk;
   }
   fmt::print("{}: tag {} is invalid: kept and listed; get, correct, simulate, trend and campaign refuse it\n",
-             (*db)->uri(), o.tag);
+             db->uri(), o.tag);
   return kExitOk;
 }
 
 // Tag A against tag B, IOV by IOV: each parameter's difference in σ.
 int runDiff(const ConditionsOptions& o) {
-  if (o.tags.size() != 2) return reportError(Error{"conditions diff: give two tags, --tag A --tag B"});
+  if (o.tags.size() != 2) refuse("conditions diff: give two tags, --tag A --tag B");
   if (o.tags[0] == o.tags[1]) {
-    return reportError(Error{fmt::format(
-        "conditions diff: --tag {} twice: a tag compared with itself differs nowhere (give two tags)", o.tags[0])});
+    refuse(fmt::format("conditions diff: --tag {} twice: a tag compared with itself differs nowhere (give two tags)",
+                       o.tags[0]));
   }
-  auto db = conddb::Database::open(o.uri);
-  if (!db) return reportError(db.error());
-  auto d = conddb::diffTags(**db, o.tags[0], o.tags[1], o.snapshot);
-  if (!d) return reportError(d.error());
+  auto db = must(conddb::Database::open(o.uri));
+  auto d = must(conddb::diffTags(*db, o.tags[0], o.tags[1], o.snapshot));
   if (o.json) {
-    conddb::writeTagDiffJson(*d, [](std::string_view piece) { std::fwrite(piece.data(), 1, piece.size(), stdout); });
+    conddb::writeTagDiffJson(d, [](std::string_view piece) { std::fwrite(piece.data(), 1, piece.size(), stdout); });
     std::fputc('\n', stdout);
     return kExitOk;
   }
-  fmt::print("{}", conddb::tagDiffText(*d, (*db)->uri(), o.snapshot));
+  fmt::print("{}", conddb::tagDiffText(d, db->uri(), o.snapshot));
   return kExitOk;
 }
 
 // A tag as CSV, one row per IOV.
 int runExport(const ConditionsOptions& o) {
-  if (Status s = checkOutputs({{"-o", o.output}}, {}, conddb::databaseFiles(o.uri, "database")); !s) {
-    return reportError(s.error());
-  }
-  auto db = conddb::Database::open(o.uri);
-  if (!db) return reportError(db.error());
-  auto csv = conddb::tagCsv(**db, o.tag, o.snapshot);
-  if (!csv) return reportError(csv.error());
-  if (Status s = io::writeOutputFile(o.output, *csv); !s) return reportError(s.error());
-  fmt::print(reportStream(), "{}: tag {}: one row per IOV -> {}\n", (*db)->uri(), o.tag,
+  must(checkOutputs({{"-o", o.output}}, {}, conddb::databaseFiles(o.uri, "database")));
+  auto db = must(conddb::Database::open(o.uri));
+  auto csv = must(conddb::tagCsv(*db, o.tag, o.snapshot));
+  must(io::writeOutputFile(o.output, csv));
+  fmt::print(reportStream(), "{}: tag {}: one row per IOV -> {}\n", db->uri(), o.tag,
              o.output == "-" ? "standard output" : o.output);
   return kExitOk;
 }
 
 int runList(const ConditionsOptions& o) {
-  auto db = conddb::Database::open(o.uri);
-  if (!db) return reportError(db.error());
-  auto tags = conddb::listTags(**db, o.tag, o.snapshot);
-  if (!tags) return reportError(tags.error());
-  const std::vector<conddb::TagListing>& listed = *tags;
+  auto db = must(conddb::Database::open(o.uri));
+  auto tags = must(conddb::listTags(*db, o.tag, o.snapshot));
+  const std::vector<conddb::TagListing>& listed = tags;
   if (o.json) {
     Json out = Json::array();
     for (const auto& t : listed) out.push_back(conddb::tagJson(t));
     fmt::print("{}\n", (o.tag.empty() ? out : out.front()).dump(2));
     return kExitOk;
   }
-  fmt::print("{}", o.tag.empty() ? conddb::tagsText(listed, (*db)->uri(), o.snapshot)
+  fmt::print("{}", o.tag.empty() ? conddb::tagsText(listed, db->uri(), o.snapshot)
                                  : conddb::tagText(listed.front(), o.snapshot));
   return kExitOk;
 }
 
 int runLock(const ConditionsOptions& o) {
-  auto db = conddb::Database::open(o.uri);
-  if (!db) return reportError(db.error());
-  auto changed = (*db)->setState(o.tag, conddb::TagState::Published, {});
-  if (!changed) return reportError(changed.error());
-  fmt::print("{}: tag {} {}: its IOVs never change\n", (*db)->uri(), o.tag,
-             *changed == conddb::Database::StateChange::Already ? "was published already" : "published");
+  auto db = must(conddb::Database::open(o.uri));
+  auto changed = must(db->setState(o.tag, conddb::TagState::Published, {}));
+  fmt::print("{}: tag {} {}: its IOVs never change\n", db->uri(), o.tag,
+             changed == conddb::Database::StateChange::Already ? "was published already" : "published");
   return kExitOk;
 }
 
 int runCopy(const ConditionsOptions& o) {
-  auto copy = conddb::copyTagBetween(o.uri, o.tag, o.target, o.as, o.snapshot);
-  if (!copy) return reportError(copy.error());
-  fmt::print("{} {} -> {} {}: {} ({}, as the original{})\n", copy->from, o.tag, copy->to, o.as.empty() ? o.tag : o.as,
-             counted(copy->copied.iovs, "IOV"), conddb::name(copy->copied.state),
+  auto copy = must(conddb::copyTagBetween(o.uri, o.tag, o.target, o.as, o.snapshot));
+  fmt::print("{} {} -> {} {}: {} ({}, as the original{})\n", copy.from, o.tag, copy.to, o.as.empty() ? o.tag : o.as,
+             counted(copy.copied.iovs, "IOV"), conddb::name(copy.copied.state),
              o.snapshot.empty() ? std::string() : " was at " + o.snapshot);
   return kExitOk;
 }

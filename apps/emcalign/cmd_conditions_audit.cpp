@@ -28,58 +28,50 @@ struct AuditOptions {
 };
 
 int runState(const AuditOptions& o) {
-  auto db = conddb::Database::open(o.uri);
-  if (!db) return reportError(db.error());
+  auto db = must(conddb::Database::open(o.uri));
   if (o.set.empty()) {
-    auto t = (*db)->tag(o.tag);
-    if (!t) return reportError(t.error());
-    if (!t->has_value()) return reportError(Error{fmt::format("{}: no tag '{}'", (*db)->uri(), o.tag)});
-    fmt::print("{}\n", conddb::name((*t)->state));
+    auto t = must(db->tag(o.tag));
+    if (!t) refuse(fmt::format("{}: no tag '{}'", db->uri(), o.tag));
+    fmt::print("{}\n", conddb::name(t->state));
     return kExitOk;
   }
   const auto to = conddb::tagStateNamed(o.set);  // checked by the option
-  auto before = (*db)->tag(o.tag);
-  if (!before) return reportError(before.error());
-  auto changed = (*db)->setState(o.tag, *to, o.reason);
-  if (!changed) return reportError(changed.error());
-  if (*changed == conddb::Database::StateChange::Already) {
-    fmt::print("{}: tag {} is {} already: nothing changed\n", (*db)->uri(), o.tag, o.set);
+  auto before = must(db->tag(o.tag));
+  auto changed = must(db->setState(o.tag, *to, o.reason));
+  if (changed == conddb::Database::StateChange::Already) {
+    fmt::print("{}: tag {} is {} already: nothing changed\n", db->uri(), o.tag, o.set);
     return kExitOk;
   }
-  fmt::print("{}: tag {}: {} -> {}{}\n", (*db)->uri(), o.tag, conddb::name((*before)->state), o.set,
+  fmt::print("{}: tag {}: {} -> {}{}\n", db->uri(), o.tag, conddb::name(before->state), o.set,
              o.reason.empty() ? std::string() : " (" + o.reason + ")");
   return kExitOk;
 }
 
 int runPromote(const AuditOptions& o) {
-  auto db = conddb::Database::open(o.uri);
-  if (!db) return reportError(db.error());
-  auto p = (*db)->promote(o.from, o.to, o.firstSafeRun, o.dryRun);
-  if (!p) return reportError(p.error());
-  const conddb::Iov& last = p->lastBefore;
+  auto db = must(conddb::Database::open(o.uri));
+  auto p = must(db->promote(o.from, o.to, o.firstSafeRun, o.dryRun));
+  const conddb::Iov& last = p.lastBefore;
   fmt::print("{}: {}promotion of {} into {} from run {}: the last IOV of {} {}-{} {}{}; {} appended (runs {}-{})\n",
-             (*db)->uri(), o.dryRun ? "dry run, nothing written: " : "", o.from, o.to, o.firstSafeRun, o.to,
-             last.firstRun, last.lastRun, o.dryRun ? "would be " + p->lastIovFate() : p->lastIovFate(),
-             p->lastIovFate() == "kept" ? std::string() : fmt::format(" to {}-{}", last.firstRun, o.firstSafeRun - 1),
-             counted(p->appended.size(), "IOV"), p->appended.front().firstRun, p->appended.back().lastRun);
-  if (!o.dryRun) fmt::print("  at {} (conditions history {} --tag {})\n", p->time, (*db)->uri(), o.to);
+             db->uri(), o.dryRun ? "dry run, nothing written: " : "", o.from, o.to, o.firstSafeRun, o.to, last.firstRun,
+             last.lastRun, o.dryRun ? "would be " + p.lastIovFate() : p.lastIovFate(),
+             p.lastIovFate() == "kept" ? std::string() : fmt::format(" to {}-{}", last.firstRun, o.firstSafeRun - 1),
+             counted(p.appended.size(), "IOV"), p.appended.front().firstRun, p.appended.back().lastRun);
+  if (!o.dryRun) fmt::print("  at {} (conditions history {} --tag {})\n", p.time, db->uri(), o.to);
   return kExitOk;
 }
 
 int runHistory(const AuditOptions& o) {
-  auto db = conddb::Database::open(o.uri);
-  if (!db) return reportError(db.error());
-  auto changes = (*db)->history(o.tag);
-  if (!changes) return reportError(changes.error());
+  auto db = must(conddb::Database::open(o.uri));
+  auto changes = must(db->history(o.tag));
   if (o.json) {
     Json out = Json::array();
-    for (const auto& c : *changes) out.push_back(c.json());
+    for (const auto& c : changes) out.push_back(c.json());
     fmt::print("{}\n", out.dump(2));
     return kExitOk;
   }
   std::string text =
-      fmt::format("{}: tag {}: {}, oldest first (UTC)\n", (*db)->uri(), o.tag, counted(changes->size(), "change"));
-  for (const auto& c : *changes) {
+      fmt::format("{}: tag {}: {}, oldest first (UTC)\n", db->uri(), o.tag, counted(changes.size(), "change"));
+  for (const auto& c : changes) {
     const std::string who = c.user.empty() && c.host.empty() ? std::string("-") : c.user + "@" + c.host;
     // Escaped: the stored text may have been written by another client (a forged line, a
     // terminal escape), as `list` and `state` show it.

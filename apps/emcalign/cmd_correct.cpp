@@ -19,32 +19,26 @@ namespace {
 
 int run(conddb::CorrectGiven g) {
   // A directory gives every event file in it, as for campaign.
-  auto events = validation::eventFilesIn(g.events);
-  if (!events) return reportError(events.error());
-  g.events = std::move(*events);
+  auto events = must(validation::eventFilesIn(g.events));
+  g.events = std::move(events);
   // -o DIR/ (or an existing directory): one corrected file per input, under its own name.
   const bool intoDirectory = conddb::correctsIntoDirectory(g);
   const std::vector<io::NamedPath> output = {{"-o", g.output}}, inputs = conddb::correctInputs(g);
   const Status checked = intoDirectory ? checkOutputs({}, output, inputs) : checkOutputs(output, {}, inputs);
   if (!checked) return reportError(checked.error());
-  auto calo = loadCalorimeter(g.detector);
-  if (!calo) return reportError(calo.error());
+  auto calo = must(loadCalorimeter(g.detector));
   // One alignment for every event, or each run's own from a conditions tag.
-  auto source = conddb::AlignmentSource::open(g.alignment, g.conditions, g.tag, *calo, g.snapshot);
-  if (!source) return reportError(source.error());
-  for (const auto& w : source->warnings) reportWarning(w);
-  auto options = conddb::correctOptionsGiven(g, *source, *calo);
-  if (!options) return reportError(options.error());
+  auto source = must(conddb::AlignmentSource::open(g.alignment, g.conditions, g.tag, calo, g.snapshot));
+  for (const auto& w : source.warnings) reportWarning(w);
+  auto options = must(conddb::correctOptionsGiven(g, source, calo));
   ProgressLine progress("correct", 0, "rows");
-  options->progress = [&](std::int64_t rows) { progress.update(rows); };
-  auto done = intoDirectory ? apply::correctEachInto(g.events, g.output, *calo, source->alignmentOf(), *options)
-                            : apply::correctFiles(g.events, g.output, *calo, source->alignmentOf(), *options);
+  options.progress = [&](std::int64_t rows) { progress.update(rows); };
+  auto done = must(intoDirectory ? apply::correctEachInto(g.events, g.output, calo, source.alignmentOf(), options)
+                                 : apply::correctFiles(g.events, g.output, calo, source.alignmentOf(), options));
   progress.finish();
-  if (!done) return reportError(done.error());
-  auto warnings = conddb::clusterDepthWarnings(g, *source, *options, *done);
-  if (!warnings) return reportError(warnings.error());
-  for (const auto& w : *warnings) reportWarning(w);
-  fmt::print(reportStream(), "{}", conddb::correctedText(g, *source, *options, *done, progress.elapsed()));
+  auto warnings = must(conddb::clusterDepthWarnings(g, source, options, done));
+  for (const auto& w : warnings) reportWarning(w);
+  fmt::print(reportStream(), "{}", conddb::correctedText(g, source, options, done, progress.elapsed()));
   return kExitOk;
 }
 

@@ -24,15 +24,13 @@ struct DeadCountersOptions {
 int run(const DeadCountersOptions& o) {
   std::vector<io::NamedPath> inputs = {{"--detector", o.detector}};
   for (const auto& f : o.files) inputs.push_back({"FILES", f});
-  if (Status s = checkOutputs({{"-o", o.output}}, {}, inputs); !s) return reportError(s.error());
-  auto calo = loadCalorimeter(o.detector);
-  if (!calo) return reportError(calo.error());
-  auto occupancy = apply::countCounterHits(o.files, *calo);
-  if (!occupancy) return reportError(occupancy.error());
-  const auto found = apply::findDeadCounters(*occupancy, *calo, o.options);
-  const std::string text = apply::deadCountersText(found, *occupancy, o.options, apply::deadCounterSources(o.files));
-  if (Status s = io::writeOutputFile(o.output, text); !s) return reportError(s.error());
-  fmt::print(reportStream(), "{}", apply::deadCountersSummary(found, *occupancy, o.output));
+  must(checkOutputs({{"-o", o.output}}, {}, inputs));
+  auto calo = must(loadCalorimeter(o.detector));
+  auto occupancy = must(apply::countCounterHits(o.files, calo));
+  const auto found = apply::findDeadCounters(occupancy, calo, o.options);
+  const std::string text = apply::deadCountersText(found, occupancy, o.options, apply::deadCounterSources(o.files));
+  must(io::writeOutputFile(o.output, text));
+  fmt::print(reportStream(), "{}", apply::deadCountersSummary(found, occupancy, o.output));
   return kExitOk;
 }
 

@@ -44,30 +44,24 @@ struct Derivation {
   std::optional<geometry::Calorimeter> calo;
 };
 
-Result<Derivation> derivationOf(const DeriveOptions& cli) {
-  auto plan = validation::derivationOf(cli.given);
-  if (!plan) return plan.error();
+Derivation derivationOf(const DeriveOptions& cli) {
+  auto plan = must(validation::derivationOf(cli.given));
   const std::vector<io::NamedPath> output = {{"-o", cli.output}};
   const std::vector<io::NamedPath> none;
-  if (Status s = checkOutputs(plan->grid() ? none : output, plan->grid() ? output : none,
-                              {{"--detector", cli.given.detector}});
-      !s) {
-    return s.error();
-  }
-  auto calo = loadCalorimeter(cli.given.detector);
-  if (!calo) return calo.error();
-  return Derivation{std::move(*plan), std::move(*calo)};
+  must(checkOutputs(plan.grid() ? none : output, plan.grid() ? output : none, {{"--detector", cli.given.detector}}));
+  auto calo = must(loadCalorimeter(cli.given.detector));
+  return Derivation{std::move(plan), std::move(calo)};
 }
 
 // The points of the derivation: a grid's in its directory (those done with the same settings
 // marked), or the one file.
-Result<std::vector<validation::GridPoint>> pointsOf(const DeriveOptions& cli, const Derivation& d) {
+std::vector<validation::GridPoint> pointsOf(const DeriveOptions& cli, const Derivation& d) {
   if (!d.plan.grid()) {
     return std::vector<validation::GridPoint>{
         {d.plan.energies.front(), cli.output,
          validation::derivedWith(cli.output, settingsOf(cli, d.plan.energies.front()))}};
   }
-  return validation::planGrid(cli.output, d.plan.energies, [&](double e) { return settingsOf(cli, e); });
+  return must(validation::planGrid(cli.output, d.plan.energies, [&](double e) { return settingsOf(cli, e); }));
 }
 
 // Derives the points not yet derived with these settings (an interrupted grid resumes) and
@@ -75,16 +69,14 @@ Result<std::vector<validation::GridPoint>> pointsOf(const DeriveOptions& cli, co
 // tasks wrote, the same numbers.
 int run(const DeriveOptions& cli, bool fromTasks) {
   auto d = derivationOf(cli);
-  if (!d) return reportError(d.error());
-  validation::DerivationOptions& o = d->plan.options;
-  const std::vector<double>& energies = d->plan.energies;
-  const bool grid = d->plan.grid();
-  const geometry::Calorimeter* calo = &*d->calo;
+  validation::DerivationOptions& o = d.plan.options;
+  const std::vector<double>& energies = d.plan.energies;
+  const bool grid = d.plan.grid();
+  const geometry::Calorimeter* calo = &*d.calo;
 
-  auto points = pointsOf(cli, *d);
-  if (!points) return reportError(points.error());
+  auto points = pointsOf(cli, d);
   std::vector<validation::GridPoint> todo;
-  for (auto& p : *points) {
+  for (auto& p : points) {
     if (p.done && (grid || fromTasks)) {
       fmt::print(reportStream(), "kept {} (derived with the same settings)\n", p.file);
     } else {
@@ -94,7 +86,7 @@ int run(const DeriveOptions& cli, bool fromTasks) {
   if (grid) {
     std::error_code ec;
     std::filesystem::create_directories(cli.output, ec);
-    if (ec) return reportError({fmt::format("-o {}: cannot create the directory: {}", cli.output, ec.message())});
+    if (ec) refuse(fmt::format("-o {}: cannot create the directory: {}", cli.output, ec.message()));
   }
   const std::int64_t perPoint =
       fromTasks ? 0 : 3 * cli.given.events + cli.given.responseSamples * cli.given.responseEvents;
@@ -122,21 +114,11 @@ int run(const DeriveOptions& cli, bool fromTasks) {
     if (grid) fmt::print(reportStream(), "{}Beam energy {} MeV:\n", k == 0 ? "" : "\n", energy / units::MeV);
     fmt::print(reportStream(), "{}", validation::derivationReportText(*report));
     const std::string text = validation::derivationJson(*report, settingsOf(cli, energy)).dump(2) + "\n";
-    if (Status s = io::writeOutputFile(file, text, grid ? io::Placement::InDirectory : io::Placement::Named); !s) {
-      return reportError(s.error());
-    }
+    must(io::writeOutputFile(file, text, grid ? io::Placement::InDirectory : io::Placement::Named));
     fmt::print(reportStream(), "wrote {} after {:.1f} s\n", file, elapsed());
   }
   if (progress) progress->finish();
-  if (grid) {
-    fmt::print(reportStream(),
-               "grid {}: {}, {} to {} MeV, {} derived in {:.1f} s (use: emcalign fit "
-               "--corrections {})\n",
-               cli.output, counted(energies.size(), "beam energy", "beam energies"), energies.front() / units::MeV,
-               energies.back() / units::MeV, todo.size(), elapsed(), cli.output);
-  } else {
-    fmt::print(reportStream(), "use: emcalign fit --corrections {}\n", cli.output);
-  }
+  fmt::print(reportStream(), "{}", validation::derivationDoneText(cli.output, energies, grid, todo.size(), elapsed()));
   return 0;
 }
 
@@ -199,16 +181,13 @@ void addDeriveCorrectionsCommand(CLI::App& app, int& exitCode) {
             return Error{"-o -: a plan's tasks write files the merge finds: give the corrections file's name"};
           }
           auto d = derivationOf(*o);
-          if (!d) return d.error();
-          auto points = pointsOf(*o, *d);
-          if (!points) return points.error();
+          auto points = pointsOf(*o, d);
           std::vector<io::Json> settings;
-          for (const auto& p : *points) settings.push_back(settingsOf(*o, p.beamEnergy));
+          for (const auto& p : points) settings.push_back(settingsOf(*o, p.beamEnergy));
           std::vector<std::string> inputs;
           if (!o->given.detector.empty()) inputs.push_back(std::filesystem::absolute(o->given.detector).string());
-          return validation::derivationJob(std::move(*d->calo), d->plan.options, std::move(*points),
-                                           std::move(settings), std::move(inputs), planWorkDirectory(o->plan),
-                                           o->samplesPerTask);
+          return validation::derivationJob(std::move(*d.calo), d.plan.options, std::move(points), std::move(settings),
+                                           std::move(inputs), planWorkDirectory(o->plan), o->samplesPerTask);
         },
         [o] { return run(*o, false); }, [o] { return run(*o, true); });
   });

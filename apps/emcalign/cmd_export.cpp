@@ -22,21 +22,16 @@ struct ExportOptions {
 };
 
 int run(const ExportOptions& o) {
-  if (Status s = checkOutputs({{"-o", o.output}}, {}, {{"--alignment", o.alignment}, {"--detector", o.detector}}); !s) {
-    return reportError(s.error());
-  }
-  auto calo = loadCalorimeter(o.detector);
-  if (!calo) return reportError(calo.error());
-  auto alignment = loadAlignment(o.alignment, *calo);
-  if (!alignment) return reportError(alignment.error());
-  for (const auto& w : alignment->warnings) reportWarning(w);
-  auto transform =
-      geometry::AlignmentTransform::create(alignment->parameters, geometry::AlignmentRadii::of(calo->description()));
-  if (!transform) return reportError(transform.error());
-  const std::string text = apply::placementsFile(*transform, calo->description(), o.format);
-  if (Status s = io::writeOutputFile(o.output, text); !s) return reportError(s.error());
+  must(checkOutputs({{"-o", o.output}}, {}, {{"--alignment", o.alignment}, {"--detector", o.detector}}));
+  auto calo = must(loadCalorimeter(o.detector));
+  auto alignment = must(loadAlignment(o.alignment, calo));
+  for (const auto& w : alignment.warnings) reportWarning(w);
+  auto transform = must(
+      geometry::AlignmentTransform::create(alignment.parameters, geometry::AlignmentRadii::of(calo.description())));
+  const std::string text = apply::placementsFile(transform, calo.description(), o.format);
+  must(io::writeOutputFile(o.output, text));
   // The report goes to stderr when the file goes to stdout (checkOutputs).
-  fmt::print(reportStream(), "{}", apply::placementsWrittenText(o.output, o.format, transform->layer3RuleActive()));
+  fmt::print(reportStream(), "{}", apply::placementsWrittenText(o.output, o.format, transform.layer3RuleActive()));
   return kExitOk;
 }
 

@@ -25,48 +25,36 @@ struct FitCliOptions {
 
 int run(const FitCliOptions& o) {
   const calib::FitGiven& g = o.given;
-  auto request = calib::fitRequestOf(g);
-  if (!request) return reportError(request.error());
-  if (Status s = checkOutputs({{"-o", o.output}, {"--profile-out", o.profileOut}}, {{"--plots", o.plots}},
-                              calib::fitInputs(g));
-      !s) {
-    return reportError(s.error());
-  }
-  auto calo = loadCalorimeter(g.detector);
-  if (!calo) return reportError(calo.error());
-  auto job = calib::FitJob::prepare(std::move(*request), calo->description());
-  if (!job) return reportError(job.error());
-  const auto& corrections = job->corrections();
+  auto request = must(calib::fitRequestOf(g));
+  must(checkOutputs({{"-o", o.output}, {"--profile-out", o.profileOut}}, {{"--plots", o.plots}}, calib::fitInputs(g)));
+  auto calo = must(loadCalorimeter(g.detector));
+  auto job = must(calib::FitJob::prepare(std::move(request), calo.description()));
+  const auto& corrections = job.corrections();
   if (corrections) fmt::print(reportStream(), "{}", calib::correctionsText(*corrections));
-  auto data = job->load();
-  if (!data) return reportError(data.error());
-  if (data->fill) fmt::print(reportStream(), "{}", calib::cutFlowText(*data->fill));
-  for (const auto& w : data->warnings) reportWarning(w);
-  auto fitted = job->fit(*data);
-  if (!fitted) return reportError(fitted.error());
+  auto data = must(job.load());
+  if (data.fill) fmt::print(reportStream(), "{}", calib::cutFlowText(*data.fill));
+  for (const auto& w : data.warnings) reportWarning(w);
+  auto fitted = must(job.fit(data));
   const calib::SystematicErrors* systematic = corrections ? corrections->corrections.systematics.get() : nullptr;
-  fmt::print(reportStream(), "{}", calib::fitResultText(fitted->result, systematic));
-  for (const auto& w : fitted->result.warnings) reportWarning(w);
-  for (const auto& n : job->notes(*data, *fitted)) fmt::print(reportStream(), "note: {}\n", n);
-  if (auto w = calib::rangeWarning(fitted->result)) reportWarning(*w);
-  if (auto truth = job->againstTruth(*data, *fitted); !truth) {
+  fmt::print(reportStream(), "{}", calib::fitResultText(fitted.result, systematic));
+  for (const auto& w : fitted.result.warnings) reportWarning(w);
+  for (const auto& n : job.notes(data, fitted)) fmt::print(reportStream(), "note: {}\n", n);
+  if (auto w = calib::rangeWarning(fitted.result)) reportWarning(*w);
+  if (auto truth = job.againstTruth(data, fitted); !truth) {
     reportWarning(fmt::format("no comparison with the truth: {}", truth.error().message));
   } else if (*truth) {
     fmt::print(reportStream(), "{}", calib::againstTruthText(**truth, systematic != nullptr));
   }
   if (!o.profileOut.empty()) {
-    if (Status s = io::writeOutputFile(o.profileOut, calib::profileCsv(fitted->bins)); !s) {
-      return reportError(s.error());
-    }
+    must(io::writeOutputFile(o.profileOut, calib::profileCsv(fitted.bins)));
   }
-  if (Status s = io::writeOutputFile(o.output, fitted->resultJson.dump(2) + "\n"); !s) return reportError(s.error());
+  must(io::writeOutputFile(o.output, fitted.resultJson.dump(2) + "\n"));
   fmt::print(reportStream(), "wrote {}\n", o.output == "-" ? "the result to standard output" : o.output);
   if (!o.plots.empty()) {
-    auto pngs = report::writeFitJobFigures(*job, *fitted, o.plots);
-    if (!pngs) return reportError(pngs.error());
-    for (const auto& png : *pngs) fmt::print(reportStream(), "wrote {}\n", png);
+    auto pngs = must(report::writeFitJobFigures(job, fitted, o.plots));
+    for (const auto& png : pngs) fmt::print(reportStream(), "wrote {}\n", png);
   }
-  return fitted->result.status == FitStatus::Converged ? kExitOk : kExitUnusable;
+  return fitted.result.status == FitStatus::Converged ? kExitOk : kExitUnusable;
 }
 
 }  // namespace

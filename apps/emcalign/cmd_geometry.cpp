@@ -32,22 +32,10 @@ struct GeometryOptions {
   std::string coordinates;  // empty: the historic columns
 };
 
-// The geometry of --params (or the nominal one).
-Result<CounterGeometry> geometryFor(const Calorimeter& calo, const std::string& paramsPath) {
-  if (paramsPath.empty()) return CounterGeometry::nominal(calo);
-  auto file = loadAlignment(paramsPath, calo);
-  if (!file) return file.error();
-  for (const auto& w : file->warnings) reportWarning(w);
-  auto t = AlignmentTransform::create(file->parameters, AlignmentRadii::of(calo.description()));
-  if (!t) return t.error();
-  return CounterGeometry::aligned(calo, *t);
-}
-
 // --locate: x_cm,y_cm,z_cm rows on stdin (TS frame) → the counter that contains each.
 int locatePoints(const Calorimeter& calo, const CounterGeometry& geometry) {
-  auto points = io::readPointsCsv(std::cin, "stdin");
-  if (!points) return reportError(points.error());
-  fmt::print("{}", io::locatedPointsCsv(calo, geometry, *points));
+  auto points = must(io::readPointsCsv(std::cin, "stdin"));
+  fmt::print("{}", io::locatedPointsCsv(calo, geometry, points));
   return 0;
 }
 
@@ -56,20 +44,18 @@ int run(const GeometryOptions& o) {
     eprint("emcalign: usage error: --params goes with --counters or --locate\n");
     return kExitUsage;
   }
-  auto calo = loadCalorimeter(o.detector);
-  if (!calo) return reportError(calo.error());
+  auto calo = must(loadCalorimeter(o.detector));
   if (o.description) {
-    fmt::print("{}\n", io::toJson(calo->description()).dump(2));
+    fmt::print("{}\n", io::toJson(calo.description()).dump(2));
     return 0;
   }
   if (o.counters || o.locate) {
-    auto geometry = geometryFor(*calo, o.params);
-    if (!geometry) return reportError(geometry.error());
-    if (o.locate) return locatePoints(*calo, *geometry);
-    fmt::print("{}", io::countersCsv(*calo, *geometry, o.coordinates));
+    auto geometry = mustSaying([&](auto& w) { return apply::countersOf(calo, o.params, w); });
+    if (o.locate) return locatePoints(calo, geometry);
+    fmt::print("{}", io::countersCsv(calo, geometry, o.coordinates));
     return 0;
   }
-  fmt::print("{}", o.json ? io::detectorSummaryJson(*calo).dump(2) + "\n" : io::detectorSummaryText(*calo));
+  fmt::print("{}", o.json ? io::detectorSummaryJson(calo).dump(2) + "\n" : io::detectorSummaryText(calo));
   return 0;
 }
 

@@ -20,20 +20,16 @@ struct ShowOptions {
 };
 
 int runShow(const ShowOptions& o) {
-  auto calo = loadCalorimeter(o.detector);
-  if (!calo) return reportError(calo.error());
-  auto etaFile = loadAlignment(o.file, *calo);
-  if (!etaFile) return reportError(etaFile.error());
-  for (const auto& w : etaFile->warnings) reportWarning(w);
-  auto j = io::alignmentToJsonWithPhysical(etaFile->parameters, calo->description().r1());
-  if (!j) return reportError(j.error());
+  auto calo = must(loadCalorimeter(o.detector));
+  auto etaFile = must(loadAlignment(o.file, calo));
+  for (const auto& w : etaFile.warnings) reportWarning(w);
+  auto j = must(io::alignmentToJsonWithPhysical(etaFile.parameters, calo.description().r1()));
   if (o.json) {
-    fmt::print("{}\n", j->dump(2));
+    fmt::print("{}\n", j.dump(2));
     return 0;
   }
-  auto table = io::alignmentTableText(etaFile->parameters, calo->description());
-  if (!table) return reportError(table.error());
-  fmt::print("{}", *table);
+  auto table = must(io::alignmentTableText(etaFile.parameters, calo.description()));
+  fmt::print("{}", table);
   return 0;
 }
 

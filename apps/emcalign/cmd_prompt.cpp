@@ -46,22 +46,21 @@ void stopBetweenSteps() {
 int run(PromptCliOptions& cli) {
   validation::PromptOptions& o = cli.prompt;
   o.sigmaSys = sigmaSysChoice(cli.sigmaSys);
-  if (Status s = validation::checkPromptPlaces(o); !s) return reportError(s.error());
+  must(validation::checkPromptPlaces(o));
   std::vector<io::NamedPath> inputs = {
       {"--thresholds", o.thresholds}, {"--corrections", o.corrections}, {"--detector", o.detector}};
   for (auto& c : conddb::databaseFiles(o.conditions)) inputs.push_back(std::move(c));
-  if (Status s = checkOutputs({}, {{"-o", o.stateDir}}, inputs); !s) return reportError(s.error());
+  must(checkOutputs({}, {{"-o", o.stateDir}}, inputs));
   o.say = [](const std::string& line) {
     fmt::print("{}\n", line);
     std::fflush(stdout);
   };
   o.stop = &gStop;
   if (!o.once) stopBetweenSteps();
-  auto summary = validation::runPrompt(o);
-  if (!summary) return reportError(summary.error());
-  const std::string done = validation::promptSummaryText(*summary);
-  if (!summary->problems.empty()) {
-    for (const auto& p : summary->problems) eprint("emcalign: error: {}\n", p);
+  auto summary = must(validation::runPrompt(o));
+  const std::string done = validation::promptSummaryText(summary);
+  if (!summary.problems.empty()) {
+    for (const auto& p : summary.problems) eprint("emcalign: error: {}\n", p);
     eprint("{}; the work left is done by the next run (nothing taken is lost)\n", done);
     return kExitFailure;
   }
@@ -76,21 +75,17 @@ struct ProposeOptions {
 };
 
 int propose(const ProposeOptions& o) {
-  if (Status s = checkOutputs({{"-o", o.output}}, {}, {{"TABLE", o.table}}); !s) return reportError(s.error());
-  auto text = io::readTextFile(o.table);
-  if (!text) return reportError(text.error());
-  auto j = io::parseJson(*text, o.table);
-  if (!j) return reportError(j.error());
-  auto table = validation::parseTable(*j, o.table);
-  if (!table) return reportError(table.error());
-  auto spreads = validation::measuredSpreads(*table, o.parameters, o.table);
-  if (!spreads) return reportError(spreads.error());
-  if (const std::string few = validation::fewSamplesWarning(*table, o.table); !few.empty()) reportWarning(few);
-  auto thresholds = validation::proposeThresholds(*spreads, o.falseRate);
-  if (!thresholds) return reportError(Error{fmt::format("{}: {}", o.table, thresholds.error().message)});
-  if (Status s = io::writeOutputFile(o.output, thresholds->json.dump(1) + "\n"); !s) return reportError(s.error());
+  must(checkOutputs({{"-o", o.output}}, {}, {{"TABLE", o.table}}));
+  auto text = must(io::readTextFile(o.table));
+  auto j = must(io::parseJson(text, o.table));
+  auto table = must(validation::parseTable(j, o.table));
+  auto spreads = must(validation::measuredSpreads(table, o.parameters, o.table));
+  if (const std::string few = validation::fewSamplesWarning(table, o.table); !few.empty()) reportWarning(few);
+  auto thresholds = validation::proposeThresholds(spreads, o.falseRate);
+  if (!thresholds) refuse(fmt::format("{}: {}", o.table, thresholds.error().message));
+  must(io::writeOutputFile(o.output, thresholds->json.dump(1) + "\n"));
   fmt::print(reportStream(), "{}",
-             validation::thresholdsWrittenText(*table, spreads->size(), o.falseRate, o.table, o.output));
+             validation::thresholdsWrittenText(table, spreads.size(), o.falseRate, o.table, o.output));
   return kExitOk;
 }
 

@@ -16,16 +16,15 @@ namespace emcalign::app {
 namespace {
 
 int run(const report::ReportGiven& g) {
-  if (Status s = checkOutputs({{"-o", g.output}}, {}, report::reportInputs(g)); !s) return reportError(s.error());
+  must(checkOutputs({{"-o", g.output}}, {}, report::reportInputs(g)));
   auto read = report::readReportInputs(g, [](std::size_t files) {
     fmt::print(reportStream(), "drawing the fit's figures from {} event file{} ...\n", files, files == 1 ? "" : "s");
   });
   if (!read) return reportError(read.error());
-  auto page = report::calibrationReport(read->inputs);
-  if (!page) return reportError(page.error());
-  if (Status s = io::writeOutputFile(g.output, *page); !s) return reportError(s.error());
+  auto page = must(report::calibrationReport(read->inputs));
+  must(io::writeOutputFile(g.output, page));
   fmt::print(reportStream(), "wrote {} ({:.0f} kB)\n", g.output == "-" ? "the report to standard output" : g.output,
-             static_cast<double>(page->size()) / 1024.0);
+             static_cast<double>(page.size()) / 1024.0);
   return kExitOk;
 }
 

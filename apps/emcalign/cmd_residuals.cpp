@@ -18,20 +18,14 @@ namespace emcalign::app {
 namespace {
 
 int run(const report::ResidualsGiven& g) {
-  auto samples = report::namedSamplesOf(g.samples);
-  if (!samples) return reportError(samples.error());
-  if (Status s = checkOutputs({}, {{"-o", g.output}}, report::residualsInputs(g, *samples)); !s) {
-    return reportError(s.error());
-  }
-  auto calo = loadCalorimeter(g.detector);
-  if (!calo) return reportError(calo.error());
-  auto record = report::summarizeSamples(g, *samples, calo->description());
-  if (!record) return reportError(record.error());
-  if (Status s = report::writeResidualsFiles(g.output, *record); !s) return reportError(s.error());
-  fmt::print(reportStream(), "{}", apply::residualsTable(record->samples));
-  auto pngs = report::writeResidualsFigures(g.output, *record);
-  if (!pngs) return reportError(pngs.error());
-  fmt::print(reportStream(), "{}", report::residualsWrittenText(g.output, *pngs));
+  auto samples = must(report::namedSamplesOf(g.samples));
+  must(checkOutputs({}, {{"-o", g.output}}, report::residualsInputs(g, samples)));
+  auto calo = must(loadCalorimeter(g.detector));
+  auto record = must(report::summarizeSamples(g, samples, calo.description()));
+  must(report::writeResidualsFiles(g.output, record));
+  fmt::print(reportStream(), "{}", apply::residualsTable(record.samples));
+  auto pngs = must(report::writeResidualsFigures(g.output, record));
+  fmt::print(reportStream(), "{}", report::residualsWrittenText(g.output, pngs));
   return kExitOk;
 }
 

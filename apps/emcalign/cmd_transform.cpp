@@ -29,17 +29,13 @@ struct TransformOptions {
 };
 
 int run(const TransformOptions& o) {
-  auto calo = loadCalorimeter(o.detector);
-  if (!calo) return reportError(calo.error());
-  auto etaFile = loadAlignment(o.params, *calo);
-  if (!etaFile) return reportError(etaFile.error());
-  for (const auto& w : etaFile->warnings) reportWarning(w);
+  auto calo = must(loadCalorimeter(o.detector));
+  auto etaFile = must(loadAlignment(o.params, calo));
+  for (const auto& w : etaFile.warnings) reportWarning(w);
   auto transform =
-      geometry::AlignmentTransform::create(etaFile->parameters, geometry::AlignmentRadii::of(calo->description()));
-  if (!transform) return reportError(transform.error());
-  auto points = io::readPointsCsv(std::cin, "stdin");
-  if (!points) return reportError(points.error());
-  const io::TransformedPoints out = io::transformPoints(*transform, *points, o.given);
+      must(geometry::AlignmentTransform::create(etaFile.parameters, geometry::AlignmentRadii::of(calo.description())));
+  auto points = must(io::readPointsCsv(std::cin, "stdin"));
+  const io::TransformedPoints out = io::transformPoints(transform, points, o.given);
   fmt::print("{}", out.csv);
   for (const auto& w : out.warnings) reportWarning(w);
   return 0;

@@ -40,55 +40,45 @@ struct TrendCliOptions {
 
 // --refit: the campaign's model (its corrections), the events scanned, one calibration per
 // stable period (validation/segment_refit.hpp), written as the new tag in one transaction.
-int refit(const TrendCliOptions& o, const validation::Trend& trend, const std::vector<validation::TrendSeries>& series,
-          conddb::TagSnapshot& snapshot, conddb::Database& db, const geometry::Calorimeter& calo,
-          const validation::PeriodTruth* truth, Json& summary, std::string& markdown) {
-  auto files = validation::eventFilesIn(o.refit);
-  if (!files) return reportError(files.error());
+void refit(const TrendCliOptions& o, const validation::Trend& trend, const std::vector<validation::TrendSeries>& series,
+           conddb::TagSnapshot& snapshot, conddb::Database& db, const geometry::Calorimeter& calo,
+           const validation::PeriodTruth* truth, Json& summary, std::string& markdown) {
+  auto files = must(validation::eventFilesIn(o.refit));
   // Without --corrections, those the payloads name, when still there and unchanged.
   std::string corrections = o.corrections;
   if (corrections.empty()) {
-    auto recorded = validation::recordedCorrections(snapshot);
-    if (!recorded) return reportError(recorded.error());
-    if (*recorded) {
-      corrections = **recorded;
+    auto recorded = must(validation::recordedCorrections(snapshot));
+    if (recorded) {
+      corrections = *recorded;
       // (an input like any other: no output of this command may land on it)
-      if (Status s = checkOutputs({}, {{"-o", o.output}}, {{"the payloads' corrections", corrections}}); !s) {
-        return reportError(s.error());
-      }
+      must(checkOutputs({}, {{"-o", o.output}}, {{"the payloads' corrections", corrections}}));
       fmt::print(reportStream(), "refit with the corrections the payloads name, unchanged since: {}\n", corrections);
     }
   }
-  auto model = validation::campaignModel(corrections, o.detector, calo);
-  if (!model) return reportError(model.error());
-  if (Status s = validation::adoptTagSettings(snapshot, *model); !s) return reportError(s.error());
-  ProgressLine reading("trend --refit: reading", static_cast<std::int64_t>(files->size()), "files");
+  auto model = must(validation::campaignModel(corrections, o.detector, calo));
+  must(validation::adoptTagSettings(snapshot, model));
+  ProgressLine reading("trend --refit: reading", static_cast<std::int64_t>(files.size()), "files");
   validation::ScanOptions so;
   so.threads = o.threads;
   so.progress = [&](std::size_t done, std::size_t) { reading.update(static_cast<std::int64_t>(done)); };
-  auto scan = validation::scanRuns(*files, *model, so);
+  auto scan = must(validation::scanRuns(files, model, so));
   reading.finish();
-  if (!scan) return reportError(scan.error());
-  auto same = validation::checkRefitData(snapshot, *scan);
-  if (!same) return reportError(same.error());
-  for (const auto& w : *same) reportWarning(w);
+  auto same = must(validation::checkRefitData(snapshot, scan));
+  for (const auto& w : same) reportWarning(w);
 
-  auto r = validation::refitSegments(trend, series, snapshot, *scan, *model, truth);
-  if (!r) return reportError(r.error());
+  auto r = must(validation::refitSegments(trend, series, snapshot, scan, model, truth));
   // A rerun (or a batch system's retry) finds its refit stored: nothing to do. The refit is
   // under test until someone validates it (conditions state --set validated).
-  auto put = conddb::putWholeTag(db, o.tagOut, r->iovs,
-                                 fmt::format("{} refitted by stable period (emcalign trend --refit)", o.tag),
-                                 conddb::TagState::Testing);
-  if (!put) return reportError(put.error());
-  if (*put == conddb::WholeTagPut::HeldAlready) {
+  auto put = must(conddb::putWholeTag(db, o.tagOut, r.iovs,
+                                      fmt::format("{} refitted by stable period (emcalign trend --refit)", o.tag),
+                                      conddb::TagState::Testing));
+  if (put == conddb::WholeTagPut::HeldAlready) {
     fmt::print(reportStream(), "tag {} holds this refit already: nothing stored\n", o.tagOut);
   }
-  summary = validation::refitJson(*r, snapshot.iovs().size());
+  summary = validation::refitJson(r, snapshot.iovs().size());
   summary["tag_out"] = o.tagOut;
-  markdown += validation::refitMarkdown(*r, snapshot.iovs().size(), o.tagOut);
-  fmt::print(reportStream(), "{}", validation::refitSummaryText(*r, snapshot.iovs().size(), db.uri(), o.tagOut));
-  return kExitOk;
+  markdown += validation::refitMarkdown(r, snapshot.iovs().size(), o.tagOut);
+  fmt::print(reportStream(), "{}", validation::refitSummaryText(r, snapshot.iovs().size(), db.uri(), o.tagOut));
 }
 
 int run(const TrendCliOptions& o) {
@@ -96,51 +86,37 @@ int run(const TrendCliOptions& o) {
       {"--truth", o.truth}, {"--corrections", o.corrections}, {"--detector", o.detector}};
   for (auto& c : conddb::databaseFiles(o.conditions)) inputs.push_back(std::move(c));
   if (!o.refit.empty()) {
-    auto files = validation::eventFilesIn(o.refit);
-    if (!files) return reportError(files.error());
-    for (const auto& f : *files) inputs.push_back({"--refit", f});
+    auto files = must(validation::eventFilesIn(o.refit));
+    for (const auto& f : files) inputs.push_back({"--refit", f});
   }
-  if (Status s = checkOutputs({}, {{"-o", o.output}}, inputs); !s) return reportError(s.error());
-  auto calo = loadCalorimeter(o.detector);
-  if (!calo) return reportError(calo.error());
-  auto db = conddb::Database::open(o.conditions);
-  if (!db) return reportError(db.error());
-  auto snapshot = conddb::TagSnapshot::load(**db, o.tag);
-  if (!snapshot) return reportError(snapshot.error());
-  if (snapshot->iovs().empty()) return reportError(Error{fmt::format("tag {}: no IOV to follow", o.tag)});
-  auto series = validation::seriesOfTag(*snapshot);
-  if (!series) return reportError(series.error());
+  must(checkOutputs({}, {{"-o", o.output}}, inputs));
+  auto calo = must(loadCalorimeter(o.detector));
+  auto db = must(conddb::Database::open(o.conditions));
+  auto snapshot = must(conddb::TagSnapshot::load(*db, o.tag));
+  if (snapshot.iovs().empty()) refuse(fmt::format("tag {}: no IOV to follow", o.tag));
+  auto series = must(validation::seriesOfTag(snapshot));
   std::optional<validation::PeriodTruth> truth;
-  if (!o.truth.empty()) {
-    auto t = validation::readPeriodTruth(o.truth);
-    if (!t) return reportError(t.error());
-    truth = std::move(*t);
-  }
+  if (!o.truth.empty()) truth = must(validation::readPeriodTruth(o.truth));
   validation::TrendOptions to;
   to.minSegment = static_cast<std::size_t>(o.minSegment);
   to.boundaries = o.boundaries;
-  const validation::Trend trend = validation::analyseTrend(*series, to);
+  const validation::Trend trend = validation::analyseTrend(series, to);
 
-  auto models = validation::modelsOfTag(*snapshot);
-  if (!models) return reportError(models.error());
-  validation::TrendOrigin origin{(*db)->uri(), o.tag, *models};
+  auto models = must(validation::modelsOfTag(snapshot));
+  validation::TrendOrigin origin{db->uri(), o.tag, models};
   std::string md = validation::trendMarkdown(
-      trend, *series, {fmt::format("tag {} of {}", o.tag, (*db)->uri()), *models, truth ? &*truth : nullptr});
+      trend, series, {fmt::format("tag {} of {}", o.tag, db->uri()), models, truth ? &*truth : nullptr});
   if (!o.tagOut.empty()) {
     Json summary;
-    if (int rc = refit(o, trend, *series, *snapshot, **db, *calo, truth ? &*truth : nullptr, summary, md);
-        rc != kExitOk) {
-      return rc;
-    }
+    refit(o, trend, series, snapshot, *db, calo, truth ? &*truth : nullptr, summary, md);
     origin.refit = std::move(summary);
   }
-  auto pngs = validation::writeTrendDirectory(o.output, trend, *series, origin, md, truth ? &*truth : nullptr,
-                                              fmt::format("tag {}", o.tag));
-  if (!pngs) return reportError(pngs.error());
-  fmt::print(reportStream(), "{}", validation::trendSummaryText(trend, o.tag, *models));
+  auto pngs = must(validation::writeTrendDirectory(o.output, trend, series, origin, md, truth ? &*truth : nullptr,
+                                                   fmt::format("tag {}", o.tag)));
+  fmt::print(reportStream(), "{}", validation::trendSummaryText(trend, o.tag, models));
   for (const auto& w : validation::trendWarnings(trend)) reportWarning(w);
   fmt::print(reportStream(), "wrote {}/trend.json, trend.md and {} (fig7.png, trend_all.png, trend_*.png)\n", o.output,
-             counted(pngs->size(), "figure"));
+             counted(pngs.size(), "figure"));
   return kExitOk;
 }
 

@@ -30,88 +30,50 @@ namespace {
 
 struct ValidateOptions {
   validation::StudyGiven study;
-  std::vector<std::string> variations;                           ///< systematics: the variations to run (none: all)
-  bool reverse = false;                                          ///< systematics: the reverse study too
-  validation::DerivationOptions derivation = reverseDefaults();  ///< its derivations
+  std::vector<std::string> variations;  ///< systematics: the variations to run (none: all)
+  bool reverse = false;                 ///< systematics: the reverse study too
+  validation::DerivationOptions derivation = validation::reverseStudyDerivation();  ///< its derivations
   std::string writeCorrections;  ///< systematics: a copy of --corrections with the systematic errors
   std::string output;
   std::string plan;        ///< --plan: the job list, nothing run
   int samplesPerTask = 0;  ///< --samples-per-task of a plan (0: one, or more within 1000 tasks)
-
-  // The reverse study's derivations: a third of the shipped file's statistics (10⁶ events per
-  // sample, 100 response samples of 50 000), enough for shifts measured by pairing (every
-  // derivation has the same seed).
-  static validation::DerivationOptions reverseDefaults() {
-    validation::DerivationOptions d;
-    d.events = 1000000;
-    d.responseSamples = 100;
-    d.responseEvents = 50000;
-    return d;
-  }
 };
 
 // The campaign of the command line, checked: its outputs, the detector (into `calo`), then the
 // library's checks (validation::studyCampaign).
-Result<validation::CampaignOptions> campaignOptionsOf(const ValidateOptions& cli,
-                                                      std::optional<geometry::Calorimeter>& calo) {
+validation::CampaignOptions campaignOptionsOf(const ValidateOptions& cli, std::optional<geometry::Calorimeter>& calo) {
   const validation::StudyGiven& g = cli.study;
-  if (Status s = checkOutputs({}, {{"-o", cli.output}},
-                              {{"--ranges", g.ranges}, {"--corrections", g.corrections}, {"--detector", g.detector}});
-      !s) {
-    return s.error();
-  }
-  auto loaded = loadCalorimeter(g.detector);
-  if (!loaded) return loaded.error();
-  calo = std::move(*loaded);
-  std::vector<std::string> warnings;
-  auto o = validation::studyCampaign(g, warnings);
-  for (const auto& w : warnings) reportWarning(w);
-  return o;
-}
-
-// The files a study reads, for its tasks' logs.
-std::vector<std::string> inputsOf(const ValidateOptions& cli) {
-  std::vector<std::string> in;
-  for (const auto& f : {cli.study.ranges, cli.study.corrections, cli.study.detector}) {
-    if (!f.empty()) in.push_back(std::filesystem::absolute(f).lexically_normal().string());
-  }
-  return in;
+  must(checkOutputs({}, {{"-o", cli.output}},
+                    {{"--ranges", g.ranges}, {"--corrections", g.corrections}, {"--detector", g.detector}}));
+  calo = must(loadCalorimeter(g.detector));
+  return mustSaying([&](auto& w) { return validation::studyCampaign(g, w); });
 }
 
 // The campaign as given, or (finishing) merged from its plan's samples.
 int run(const ValidateOptions& cli, bool finishing) {
   std::optional<geometry::Calorimeter> calo;
-  auto made = campaignOptionsOf(cli, calo);
-  if (!made) return reportError(made.error());
-  made->onlyFinished = finishing;
-  const validation::CampaignOptions& o = *made;
+  auto o = campaignOptionsOf(cli, calo);
+  o.onlyFinished = finishing;
   ProgressLine progress("validate", cli.study.samples, "samples");
-  auto table = validation::runCampaign(*calo, o, cli.output, [&](int done, int) { progress.update(done); });
+  auto table = must(validation::runCampaign(*calo, o, cli.output, [&](int done, int) { progress.update(done); }));
   progress.finish();
-  if (!table) return reportError(table.error());
-  fmt::print(reportStream(), "{}", validation::validationTableText(*table, progress.elapsed(), cli.output));
+  fmt::print(reportStream(), "{}", validation::validationTableText(table, progress.elapsed(), cli.output));
   return 0;
 }
 
 // What --write-corrections needs, checked before the study (validation::checkCorrectionsToWrite).
-Status checkWriteCorrections(const ValidateOptions& cli, const validation::CampaignOptions& campaign) {
-  if (Status s = validation::checkCorrectionsToWrite(cli.writeCorrections, cli.output, cli.study.corrections, campaign);
-      !s) {
-    return s;
-  }
-  return checkOutputs({{"--write-corrections", cli.writeCorrections}}, {{"-o", cli.output}},
-                      {{"--corrections", cli.study.corrections}});
+void checkWriteCorrections(const ValidateOptions& cli, const validation::CampaignOptions& campaign) {
+  must(validation::checkCorrectionsToWrite(cli.writeCorrections, cli.output, cli.study.corrections, campaign));
+  must(checkOutputs({{"--write-corrections", cli.writeCorrections}}, {{"-o", cli.output}},
+                    {{"--corrections", cli.study.corrections}}));
 }
 
 // The study of the command line, checked (its outputs, --write-corrections).
-Result<validation::SystematicsOptions> systematicsOptionsOf(const ValidateOptions& cli,
-                                                            std::optional<geometry::Calorimeter>& calo) {
+validation::SystematicsOptions systematicsOptionsOf(const ValidateOptions& cli,
+                                                    std::optional<geometry::Calorimeter>& calo) {
   auto made = campaignOptionsOf(cli, calo);
-  if (!made) return made.error();
-  if (!cli.writeCorrections.empty()) {
-    if (Status s = checkWriteCorrections(cli, *made); !s) return s.error();
-  }
-  return validation::systematicsStudy(std::move(*made), cli.variations,
+  if (!cli.writeCorrections.empty()) checkWriteCorrections(cli, made);
+  return validation::systematicsStudy(std::move(made), cli.variations,
                                       cli.reverse ? std::optional(cli.derivation) : std::nullopt);
 }
 
@@ -119,24 +81,20 @@ Result<validation::SystematicsOptions> systematicsOptionsOf(const ValidateOption
 // finishing: merged from its plan's tasks.
 int runSystematics(const ValidateOptions& cli, bool finishing) {
   std::optional<geometry::Calorimeter> calo;
-  auto made = systematicsOptionsOf(cli, calo);
-  if (!made) return reportError(made.error());
-  validation::SystematicsOptions& o = *made;
+  auto o = systematicsOptionsOf(cli, calo);
   o.campaign.onlyFinished = finishing;
   ProgressLine progress("systematics", 0, "events");  // the study knows its total
-  auto table = validation::runSystematics(*calo, o, cli.output, [&](std::int64_t done, std::int64_t total) {
+  auto table = must(validation::runSystematics(*calo, o, cli.output, [&](std::int64_t done, std::int64_t total) {
     progress.setTotal(total);
     progress.update(done);
-  });
+  }));
   progress.finish();
-  if (!table) return reportError(table.error());
   fmt::print(reportStream(), "{}",
-             validation::systematicsTableText(*table, progress.elapsed(), cli.output, cli.reverse));
+             validation::systematicsTableText(table, progress.elapsed(), cli.output, cli.reverse));
   if (!cli.writeCorrections.empty()) {
-    auto said =
-        validation::writeCorrectionsWithSystematics(*table, o.campaign, cli.writeCorrections, cli.study.corrections);
-    if (!said) return reportError(said.error());
-    fmt::print(reportStream(), "{}", *said);
+    auto said = must(
+        validation::writeCorrectionsWithSystematics(table, o.campaign, cli.writeCorrections, cli.study.corrections));
+    fmt::print(reportStream(), "{}", said);
   }
   return kExitOk;
 }
@@ -207,12 +165,11 @@ void addValidateCommand(CLI::App& app, int& exitCode) {
         [o](const io::Json&) -> Result<std::unique_ptr<validation::PlannedJob>> {
           std::optional<geometry::Calorimeter> calo;
           auto made = campaignOptionsOf(*o, calo);
-          if (!made) return made.error();
           if (planContext().mode == PlanContext::Mode::Direct) {  // the plan about to be written
-            if (Status s = validation::checkPlannedCampaign(*calo, *made, o->output); !s) return s.error();
+            must(validation::checkPlannedCampaign(*calo, made, o->output));
           }
-          return validation::validationJob(std::move(*calo), std::move(*made), o->output, inputsOf(*o),
-                                           o->samplesPerTask);
+          return validation::validationJob(std::move(*calo), std::move(made), o->output,
+                                           validation::studyInputs(o->study), o->samplesPerTask);
         },
         [o] { return run(*o, false); }, [o] { return run(*o, true); });
   });
@@ -260,12 +217,11 @@ void addValidateCommand(CLI::App& app, int& exitCode) {
           }
           std::optional<geometry::Calorimeter> calo;
           auto made = systematicsOptionsOf(*s, calo);
-          if (!made) return made.error();
           if (planContext().mode == PlanContext::Mode::Direct) {  // the plan about to be written
-            if (Status st = validation::checkPlannedSystematics(*calo, *made, s->output); !st) return st.error();
+            must(validation::checkPlannedSystematics(*calo, made, s->output));
           }
-          return validation::systematicsJob(std::move(*calo), std::move(*made), s->output, inputsOf(*s),
-                                            s->samplesPerTask);
+          return validation::systematicsJob(std::move(*calo), std::move(made), s->output,
+                                            validation::studyInputs(s->study), s->samplesPerTask);
         },
         [s] { return runSystematics(*s, false); }, [s] { return runSystematics(*s, true); });
   });

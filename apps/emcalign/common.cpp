@@ -75,15 +75,20 @@ void addDetectorOption(CLI::App& cmd, std::string& path) {
 
 void addVersionFlag(CLI::App& cmd) { cmd.set_version_flag("--version", std::string(kVersion)); }
 
-CLI::Validator finiteIn(double lo, double hi) {
+// A validator of the library's refusal: "" when `refusal` is none.
+template <typename Check>
+CLI::Validator refusing(Check check, std::string description) {
   return CLI::Validator(
-      [lo, hi](std::string& text) -> std::string {
-        const auto x = io::parseFiniteDouble(text);
-        if (!x) return fmt::format("{} is not a finite number", io::quotedText(text));
-        if (*x < lo || *x > hi) return fmt::format("{} is outside [{}, {}]", io::quotedText(text), lo, hi);
-        return {};
+      [check](std::string& text) -> std::string {
+        auto parsed = check(text);
+        return parsed ? std::string() : parsed.error().message;
       },
-      fmt::format("NUMBER in [{}, {}]", lo, hi));
+      std::move(description));
+}
+
+CLI::Validator finiteIn(double lo, double hi) {
+  return refusing([lo, hi](const std::string& t) { return io::parseFiniteIn(t, lo, hi); },
+                  fmt::format("NUMBER in [{}, {}]", lo, hi));
 }
 
 CLI::Option* addSigmaSysOption(CLI::App& cmd, std::string& text) {
@@ -137,34 +142,16 @@ CLI::Option* addSnapshotOption(CLI::App& cmd, std::string& snapshot) {
 }
 
 CLI::Validator integerIn(std::int64_t lo, std::int64_t hi) {
-  return CLI::Validator(
-      [lo, hi](std::string& text) -> std::string {
-        std::string_view digits = text;
-        if (!digits.empty() && digits.front() == '+') digits.remove_prefix(1);
-        std::int64_t x = 0;
-        const auto [ptr, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), x);
-        if (digits.empty() || ec == std::errc::invalid_argument || ptr != digits.data() + digits.size()) {
-          return fmt::format("{} is not an integer", io::quotedText(text));
-        }
-        if (ec == std::errc::result_out_of_range || x < lo || x > hi) {
-          return fmt::format("{} is outside [{}, {}]", io::quotedText(text), lo, hi);
-        }
-        return {};
-      },
-      fmt::format("INTEGER in [{}, {}]", lo, hi));
+  return refusing([lo, hi](const std::string& t) { return io::parseIntegerIn(t, lo, hi); },
+                  fmt::format("INTEGER in [{}, {}]", lo, hi));
 }
 
 void decimalIntegers(CLI::App& app) {
   const CLI::Validator decimal(
       [](std::string& text) -> std::string {
-        std::string_view digits = text;
-        const bool negative = !digits.empty() && digits.front() == '-';
-        if (!digits.empty() && (digits.front() == '+' || negative)) digits.remove_prefix(1);
-        if (digits.empty() || !std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; })) {
-          return fmt::format("{} is not a decimal integer", io::quotedText(text));
-        }
-        while (digits.size() > 1 && digits.front() == '0') digits.remove_prefix(1);
-        text = (negative ? "-" : "") + std::string(digits);
+        auto digits = io::decimalInteger(text);
+        if (!digits) return digits.error().message;
+        text = *digits;
         return {};
       },
       "");
@@ -175,19 +162,6 @@ void decimalIntegers(CLI::App& app) {
   for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) decimalIntegers(*sub);
 }
 
-CLI::Validator unsigned64() {
-  return CLI::Validator(
-      [](std::string& text) -> std::string {
-        std::uint64_t x = 0;
-        const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), x);
-        if (text.empty() || ec == std::errc::invalid_argument || ptr != text.data() + text.size()) {
-          return fmt::format("{} is not an unsigned integer (0 to 2^64 - 1)", io::quotedText(text));
-        }
-        if (ec == std::errc::result_out_of_range)
-          return fmt::format("{} is larger than 2^64 - 1", io::quotedText(text));
-        return {};
-      },
-      "INTEGER in [0, 2^64 - 1]");
-}
+CLI::Validator unsigned64() { return refusing(io::parseUnsigned64, "INTEGER in [0, 2^64 - 1]"); }
 
 }  // namespace emcalign::app

@@ -52,6 +52,32 @@ int reportError(const Error& error);
 /// Prints "emcalign: warning: <message>" on stderr.
 void reportWarning(const std::string& message);
 
+/// A refused input or a failed step on its way out of a command: `must` throws it, main (and
+/// the re-reading of a plan's command line) reports it once as reportError does, exit 1.
+struct Refusal {
+  Error error;
+};
+/// The value of `result`, or its error thrown as a Refusal: a command reads as the steps it
+/// takes, each step's error reported by main.
+template <typename T>
+T must(Result<T>&& result) {
+  if (!result) throw Refusal{result.error()};
+  return std::move(result).value();
+}
+inline void must(const Status& status) {
+  if (!status) throw Refusal{status.error()};
+}
+/// `step(warnings)` run, its warnings reported (a step that fails too), its result must()'ed.
+template <typename Step>
+auto mustSaying(Step&& step) {
+  std::vector<std::string> warnings;
+  auto result = step(warnings);
+  for (const auto& w : warnings) reportWarning(w);
+  return must(std::move(result));
+}
+/// Refuses with `message` (exit 1), as a step's error would.
+[[noreturn]] inline void refuse(std::string message) { throw Refusal{Error{std::move(message)}}; }
+
 /// Where a command's report goes: stdout, or stderr once an output is "-" (stdout is then
 /// the output's).
 std::FILE* reportStream();

@@ -87,30 +87,10 @@ void openStandardDescriptors() {
 
 // Standard output without the command line's passwords (core/secrets.hpp): when it holds one,
 // stdout becomes a line-buffered stream whose lines are redacted on their way to the real one.
-ssize_t writeRedacted(void* cookie, const char* data, std::size_t size) {
-  auto* real = static_cast<std::FILE*>(cookie);
-  std::string text;
-  try {
-    text = emcalign::core::withoutPasswords(std::string(data, size));
-  } catch (...) {
-    errno = ENOMEM;
-    return -1;
-  }
-  if (std::fwrite(text.data(), 1, text.size(), real) != text.size() || std::fflush(real) != 0) return -1;
-  return static_cast<ssize_t>(size);
-}
-
 void redactStandardOutput(int argc, char** argv) {
   for (int i = 0; i < argc; ++i) emcalign::core::rememberPasswordsOf(argv[i]);
   if (!emcalign::core::passwordsRemembered()) return;
-  const cookie_io_functions_t io{nullptr, writeRedacted, nullptr, nullptr};
-  std::FILE* redacted = fopencookie(stdout, "w", io);
-  if (redacted == nullptr) return;
-  // A line at a time (a password never straddles two writes), up to 1 MiB per line. Static
-  // storage without a destructor: the stream is flushed at exit, after destructors ran.
-  static std::array<char, std::size_t{1} << 20> buffer;
-  std::setvbuf(redacted, buffer.data(), _IOLBF, buffer.size());
-  stdout = redacted;
+  if (std::FILE* redacted = emcalign::core::redactingStream(stdout); redacted != nullptr) stdout = redacted;
 }
 
 // The command line parsed and run (main catches what escapes it).
@@ -135,19 +115,8 @@ int runMain(int argc, char** argv) {
   // Paths and names go into JSON (results, attributes), which is UTF-8: say so before any work.
   // A control character (a newline) would let a name forge a line of a message or a script.
   for (int i = 1; i < argc; ++i) {
-    const std::string_view a(argv[i]);
-    if (std::any_of(a.begin(), a.end(), [](char c) { return (c >= 0 && c < 0x20 && c != '\t') || c == 0x7f; })) {
-      emcalign::app::eprint(
-          "emcalign: usage error: argument {} holds a control character (a newline?): a name would forge a line of a "
-          "message or a batch script; rename it\n",
-          i);
-      return emcalign::app::kExitUsage;
-    }
-    if (!emcalign::isValidUtf8(argv[i])) {
-      emcalign::app::eprint(
-          "emcalign: usage error: argument {} is not valid UTF-8 (file names and values are recorded in "
-          "JSON, which must be: rename the file)\n",
-          i);
+    if (const std::string refused = emcalign::argumentRefusal(argv[i], i); !refused.empty()) {
+      emcalign::app::eprint("emcalign: usage error: {}\n", refused);
       return emcalign::app::kExitUsage;
     }
   }
@@ -169,6 +138,8 @@ int runMain(int argc, char** argv) {
     std::fwrite(text.data(), 1, text.size(), stdout);
     emcalign::app::writeToStderr(err.str());
     return code == 0 ? checkStandardOutput(0) : emcalign::app::kExitUsage;
+  } catch (const emcalign::app::Refusal& r) {  // a command's input refused, or a step failed (must)
+    return checkStandardOutput(emcalign::app::reportError(r.error));
   } catch (const std::system_error& e) {
     // fmt::print throws when standard output (or error, for a report sent there) cannot be
     // written: not a bug, but the command stopped there.

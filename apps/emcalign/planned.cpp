@@ -39,8 +39,8 @@ int runFromPlan(const validation::Plan& plan, PlanContext::Mode mode, std::size_
                 std::function<void(const validation::PlannedJob&)> inspect = {}) {
   if (::chdir(plan.directory.c_str()) != 0) {
     if (mode == PlanContext::Mode::Inspect) return kExitFailure;
-    return reportError(Error{
-        fmt::format("{}: cannot enter the plan's directory {}: {}", plan.path, plan.directory, std::strerror(errno))});
+    refuse(
+        fmt::format("{}: cannot enter the plan's directory {}: {}", plan.path, plan.directory, std::strerror(errno)));
   }
   // A batch task uses the CPUs the batch system gave it (the result does not depend on them).
   std::optional<int> threads;
@@ -63,42 +63,40 @@ int runFromPlan(const validation::Plan& plan, PlanContext::Mode mode, std::size_
   } catch (const CLI::ParseError& e) {
     gContext = {};
     if (mode == PlanContext::Mode::Inspect) return kExitFailure;
-    return reportError(Error{fmt::format("{}: its command line (emcalign {} {}) is refused: {}", plan.path,
-                                         plan.command, fmt::join(plan.arguments, " "), e.what())});
+    refuse(fmt::format("{}: its command line (emcalign {} {}) is refused: {}", plan.path, plan.command,
+                       fmt::join(plan.arguments, " "), e.what()));
+  } catch (const Refusal& r) {  // the command refused (must): inspecting, nothing is said
+    gContext = {};
+    return mode == PlanContext::Mode::Inspect ? kExitFailure : reportError(r.error);
   }
   gContext = {};
   return exitCode;
 }
 
-Result<validation::Plan> planToRun(const std::string& path) {
-  auto plan = validation::readPlan(path);
-  if (!plan) return plan.error();
+validation::Plan planToRun(const std::string& path) {
+  auto plan = must(validation::readPlan(path));
   io::protectInput({"PLAN", path});
   return plan;
 }
 
-std::int64_t jobNumber(const std::string& id) { return std::stoll(id); }
-
 int batchStatus(const std::string& path, bool json) {
-  auto text = io::readTextFile(path);
-  if (!text) return reportError(text.error());
-  auto plan = validation::parsePlan(*text, path);
-  if (!plan) return reportError(plan.error());
+  auto text = must(io::readTextFile(path));
+  auto plan = must(validation::parsePlan(text, path));
   // Whether a rerun keeps an output there, as the job tells: the plan's command line made into
   // its job, nothing run.
   const auto keeps = [&](std::vector<validation::OutputThere>& there) {
     std::error_code ec;
     const fs::path cwd = fs::current_path(ec);
-    runFromPlan(*plan, PlanContext::Mode::Inspect, 0, [&](const validation::PlannedJob& job) {
+    runFromPlan(plan, PlanContext::Mode::Inspect, 0, [&](const validation::PlannedJob& job) {
       for (auto& t : there) t.kept = job.keeps(t.task, t.path);
     });
     if (!ec) fs::current_path(cwd, ec);
   };
-  const validation::PlanStatus status = validation::planStatus(*plan, keeps);
+  const validation::PlanStatus status = validation::planStatus(plan, keeps);
   if (json) {
     fmt::print("{}\n", validation::planStatusJson(status).dump(1));
   } else {
-    fmt::print(reportStream(), "{}", validation::planStatusText(status, *plan));
+    fmt::print(reportStream(), "{}", validation::planStatusText(status, plan));
   }
   return status.missing.empty() ? kExitOk : kExitFailure;
 }
@@ -113,56 +111,47 @@ int batchSubmit(const SubmitOptions& o) {
   // With --json, standard output is the JSON's; the report goes to standard error.
   std::FILE* report = o.json ? stderr : reportStream();
   auto plan = planToRun(o.plan);
-  if (!plan) return reportError(plan.error());
-  auto what = validation::submission(*plan, o.missing);
-  if (!what) return reportError(what.error());
-  if (what->nothing) {
-    fmt::print(report, "{}: every task is done and merged: nothing to submit\n", plan->path);
-    if (o.json) fmt::print("{}\n", io::Json{{"array_job", nullptr}, {"finish_job", nullptr}}.dump());
+  auto what = must(validation::submission(plan, o.missing));
+  if (what.nothing) {
+    fmt::print(report, "{}: every task is done and merged: nothing to submit\n", plan.path);
+    if (o.json) fmt::print("{}\n", validation::submittedJson(what, nullptr).dump());
     return kExitOk;
   }
-  auto submitted = validation::submitToSlurm(*plan, what->tasks, o.sbatchArguments, !what->mergeOnly);
-  if (!submitted) return reportError(submitted.error());
-  fmt::print(report, "{}", validation::submittedText(*plan, *what, *submitted));
+  auto submitted = must(validation::submitToSlurm(plan, what.tasks, o.sbatchArguments, !what.mergeOnly));
+  fmt::print(report, "{}", validation::submittedText(plan, what, submitted));
   if (o.json) {
-    const io::Json array = what->mergeOnly ? io::Json(nullptr) : io::Json(jobNumber(submitted->arrayJob));
-    fmt::print("{}\n", io::Json{{"array_job", array}, {"finish_job", jobNumber(submitted->finishJob)}}.dump());
+    fmt::print("{}\n", validation::submittedJson(what, &submitted).dump());
     std::fflush(stdout);
   }
   if (!o.wait) return kExitOk;
-  auto status =
-      validation::waitForFinish(*plan, *submitted, [](const std::string& line) { fmt::print(stderr, "{}\n", line); });
-  if (!status) return reportError(status.error());
-  if (*status != 0) {
-    reportError(Error{validation::mergeFailedText(*plan, *submitted, *status)});
-    return *status;
+  auto status = must(
+      validation::waitForFinish(plan, submitted, [](const std::string& line) { fmt::print(stderr, "{}\n", line); }));
+  if (status != 0) {
+    reportError(Error{validation::mergeFailedText(plan, submitted, status)});
+    return status;
   }
-  fmt::print(report, "the merge job {} ended well: the plan's outputs are written\n", submitted->finishJob);
+  fmt::print(report, "the merge job {} ended well: the plan's outputs are written\n", submitted.finishJob);
   return kExitOk;
 }
 
 int batchScript(const std::string& path, const std::string& output, bool missing) {
   auto plan = planToRun(path);
-  if (!plan) return reportError(plan.error());
   // Nothing the plan reads or writes, nor anything in its directories, is replaced by the script.
-  if (Status s = validation::scriptBesideThePlan(*plan, output); !s) return reportError(s.error());
-  const validation::PlanPaths named = validation::pathsOfPlan(*plan);
+  must(validation::scriptBesideThePlan(plan, output));
+  const validation::PlanPaths named = validation::pathsOfPlan(plan);
   std::vector<io::NamedPath> inputs = {{"PLAN", path}};
   for (const auto& f : named.files) inputs.push_back({"named by the plan", f.path});
-  if (Status s = checkOutputs({{"-o", output}}, {}, inputs); !s) return reportError(s.error());
+  must(checkOutputs({{"-o", output}}, {}, inputs));
   std::vector<std::size_t> tasks;
   if (missing) {
-    tasks = validation::missingTasks(*plan);
-    if (tasks.empty()) return reportError(Error{fmt::format("{}: every task is done: no job array to write", path)});
+    tasks = validation::missingTasks(plan);
+    if (tasks.empty()) refuse(fmt::format("{}: every task is done: no job array to write", path));
   }
-  auto script = validation::jobArrayScript(*plan, tasks);
-  if (!script) return reportError(script.error());
-  if (Status s = io::writeOutputFile(output, *script); !s) {
-    return reportError(s.error());
-  }
+  auto script = must(validation::jobArrayScript(plan, tasks));
+  must(io::writeOutputFile(output, script));
   if (output != "-") {
     fmt::print(reportStream(), "wrote {}: the job array of {} (submit it with sbatch {}; the merge: see its header)\n",
-               printable(output), tasks.empty() ? counted(plan->tasks.size(), "task") : validation::taskRanges(tasks),
+               printable(output), tasks.empty() ? counted(plan.tasks.size(), "task") : validation::taskRanges(tasks),
                shellArgument(output));
   }
   return kExitOk;
@@ -180,14 +169,13 @@ std::string planWorkDirectory(const std::string& planOption) {
 
 int runTaskOfPlan(const std::string& planPath, std::size_t k) {
   auto plan = planToRun(planPath);
-  if (!plan) return reportError(plan.error());
   // A retry of a task done: nothing to do, whatever has changed around it since.
-  if (validation::taskDone(*plan, k)) {
-    fmt::print(reportStream(), "task {} ({}) is done already ({}): nothing to do\n", k, printable(plan->tasks[k].what),
-               plan->recordOf(k));
+  if (validation::taskDone(plan, k)) {
+    fmt::print(reportStream(), "task {} ({}) is done already ({}): nothing to do\n", k, printable(plan.tasks[k].what),
+               plan.recordOf(k));
     return kExitOk;
   }
-  return runFromPlan(*plan, PlanContext::Mode::Task, k);
+  return runFromPlan(plan, PlanContext::Mode::Task, k);
 }
 
 CLI::Option* addPlanOption(CLI::App& cmd, std::string& path) {
@@ -201,18 +189,12 @@ int runPlannable(const std::string& command, const std::string& planPath, const 
                  const JobMaker& makeJob, const std::function<int()>& run, const std::function<int()>& finish) {
   switch (gContext.mode) {
     case PlanContext::Mode::Task: {
-      auto job = makeJob(gContext.plan->data);
-      if (!job) return reportError(job.error());
-      auto ran = validation::runPlannedTask(*gContext.plan, **job, gContext.task, reportStream());
-      if (!ran) return reportError(ran.error());
+      auto job = must(makeJob(gContext.plan->data));
+      must(validation::runPlannedTask(*gContext.plan, *job, gContext.task, reportStream()));
       return kExitOk;
     }
     case PlanContext::Mode::Finish: {
-      std::vector<std::string> warnings;
-      auto code = validation::finishPlan(*gContext.plan, finish, warnings);
-      if (!code) return reportError(code.error());
-      for (const auto& w : warnings) reportWarning(w);
-      return *code;
+      return mustSaying([&](auto& w) { return validation::finishPlan(*gContext.plan, finish, w); });
     }
     case PlanContext::Mode::Inspect: {
       auto job = makeJob(gContext.plan->data);
@@ -224,20 +206,15 @@ int runPlannable(const std::string& command, const std::string& planPath, const 
       break;
   }
   if (planPath.empty()) return run();
-  auto job = makeJob(nullptr);
-  if (!job) return reportError(job.error());
+  auto job = must(makeJob(nullptr));
   if (planPath == "-") {
-    return reportError(
-        Error{"--plan -: the plan is a file the tasks read: give its name (on a file system the "
-              "batch nodes share)"});
+    refuse("--plan -: the plan is a file the tasks read: give its name (on a file system the batch nodes share)");
   }
-  if (Status s = checkOutputs({{"--plan", planPath}}, {}, {}); !s) return reportError(s.error());
-  if (Status s = validation::planBesideOutputs(planPath, outputs); !s) return reportError(s.error());
-  auto arguments = validation::planArguments(gCommandLine);
-  if (!arguments) return reportError(arguments.error());
-  auto plan = validation::writePlan(planPath, command, *arguments, **job);
-  if (!plan) return reportError(plan.error());
-  fmt::print(reportStream(), "{}", validation::planWrittenText(*plan, command, planPath));
+  must(checkOutputs({{"--plan", planPath}}, {}, {}));
+  must(validation::planBesideOutputs(planPath, outputs));
+  auto arguments = must(validation::planArguments(gCommandLine));
+  auto plan = must(validation::writePlan(planPath, command, arguments, *job));
+  fmt::print(reportStream(), "{}", validation::planWrittenText(plan, command, planPath));
   return kExitOk;
 }
 
@@ -264,14 +241,7 @@ void addPlanCommands(CLI::App& app, int& exitCode) {
                                     "must be done: the missing ones are named)");
   addVersionFlag(*finish);
   finish->add_option("plan", *f, "the plan (emcalign-plan/1)")->required()->check(CLI::ExistingFile);
-  finish->callback([f, &exitCode] {
-    auto plan = planToRun(*f);
-    if (!plan) {
-      exitCode = reportError(plan.error());
-      return;
-    }
-    exitCode = runFromPlan(*plan, PlanContext::Mode::Finish, 0);
-  });
+  finish->callback([f, &exitCode] { exitCode = runFromPlan(planToRun(*f), PlanContext::Mode::Finish, 0); });
 
   auto* batch = app.add_subcommand("batch", "A plan's tasks on Slurm: status, submit, script (docs/cluster.md)");
   addVersionFlag(*batch);

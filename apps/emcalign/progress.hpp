@@ -34,8 +34,14 @@ class ProgressLine {
   }
   /// The total, when it is known only once the work has started.
   void setTotal(std::int64_t total) { total_ = total; }
+  ProgressLine(const ProgressLine&) = delete;
+  ProgressLine& operator=(const ProgressLine&) = delete;
+  /// A line left open (the command refused midway) is ended before the error is printed.
+  ~ProgressLine() { finish(); }
+
   void finish() {
-    if (enabled_) eprint("\n");
+    if (enabled_ && !finished_) eprint("\n");
+    finished_ = true;
   }
   [[nodiscard]] double elapsed() const {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
@@ -45,6 +51,7 @@ class ProgressLine {
   std::string what_, unit_;
   std::int64_t total_;
   bool enabled_;
+  bool finished_ = false;
   std::chrono::steady_clock::time_point start_;
 };
 

@@ -229,4 +229,15 @@ std::string placementsWrittenText(const std::string& output, std::string_view fo
                      layer3Rule ? "; layer 3 with the mu3 rule" : "");
 }
 
+Result<geometry::CounterGeometry> countersOf(const geometry::Calorimeter& calo, const std::string& path,
+                                             std::vector<std::string>& warnings) {
+  if (path.empty()) return geometry::CounterGeometry::nominal(calo);
+  auto file = loadAlignment(path, calo);
+  if (!file) return file.error();
+  warnings.insert(warnings.end(), file->warnings.begin(), file->warnings.end());
+  auto t = geometry::AlignmentTransform::create(file->parameters, geometry::AlignmentRadii::of(calo.description()));
+  if (!t) return t.error();
+  return geometry::CounterGeometry::aligned(calo, *t);
+}
+
 }  // namespace emcalign::apply

@@ -396,7 +396,7 @@ void judge(const std::vector<ProfileBin>& bins, FitResult& result) {
   if (!result.binsLeftOut.empty()) {
     std::string list;
     for (const auto& [i, j] : result.binsLeftOut) list += fmt::format("{}({},{})", list.empty() ? "" : " ", i, j);
-    result.warnings.push_back(fmt::format("{} of {} {} fewer than 10 entries and {} left out: {}",
+    result.warnings.push_back(fmt::format("{} of {} {} {} fewer than 10 entries and {} left out: {}",
                                           result.binsLeftOut.size(), bins.size(), nounFor(bins.size(), "profile bin"),
                                           result.binsLeftOut.size() == 1 ? "has" : "have",
                                           result.binsLeftOut.size() == 1 ? "is" : "are", list));

@@ -1,7 +1,10 @@
 #include "emcalign/core/secrets.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cctype>
+#include <cerrno>
+#include <cstdio>
 #include <mutex>
 
 namespace emcalign::core {
@@ -181,6 +184,31 @@ std::string withoutPasswords(std::string text) {
     }
   }
   return text;
+}
+
+namespace {
+ssize_t writeRedacted(void* cookie, const char* data, std::size_t size) {
+  auto* real = static_cast<std::FILE*>(cookie);
+  std::string text;
+  try {
+    text = withoutPasswords(std::string(data, size));
+  } catch (...) {
+    errno = ENOMEM;
+    return -1;
+  }
+  if (std::fwrite(text.data(), 1, text.size(), real) != text.size() || std::fflush(real) != 0) return -1;
+  return static_cast<ssize_t>(size);
+}
+}  // namespace
+
+std::FILE* redactingStream(std::FILE* real) {
+  const cookie_io_functions_t io{nullptr, writeRedacted, nullptr, nullptr};
+  std::FILE* redacted = fopencookie(real, "w", io);
+  if (redacted == nullptr) return nullptr;
+  // Static storage without a destructor: the stream is flushed at exit, after destructors ran.
+  static std::array<char, std::size_t{1} << 20> buffer;
+  std::setvbuf(redacted, buffer.data(), _IOLBF, buffer.size());
+  return redacted;
 }
 
 }  // namespace emcalign::core

@@ -1,5 +1,6 @@
 #include "emcalign/io/csv.hpp"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 
@@ -42,6 +43,50 @@ std::optional<double> parseFiniteDouble(std::string_view field) {
     return std::nullopt;
   }
   return value;
+}
+
+Result<double> parseFiniteIn(std::string_view text, double lo, double hi) {
+  const auto x = parseFiniteDouble(text);
+  if (!x) return Error{fmt::format("{} is not a finite number", quotedText(text))};
+  if (*x < lo || *x > hi) return Error{fmt::format("{} is outside [{}, {}]", quotedText(text), lo, hi)};
+  return *x;
+}
+
+Result<std::int64_t> parseIntegerIn(std::string_view text, std::int64_t lo, std::int64_t hi) {
+  std::string_view digits = text;
+  if (!digits.empty() && digits.front() == '+') digits.remove_prefix(1);
+  std::int64_t x = 0;
+  const auto [ptr, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), x);
+  if (digits.empty() || ec == std::errc::invalid_argument || ptr != digits.data() + digits.size()) {
+    return Error{fmt::format("{} is not an integer", quotedText(text))};
+  }
+  if (ec == std::errc::result_out_of_range || x < lo || x > hi) {
+    return Error{fmt::format("{} is outside [{}, {}]", quotedText(text), lo, hi)};
+  }
+  return x;
+}
+
+Result<std::uint64_t> parseUnsigned64(std::string_view text) {
+  std::uint64_t x = 0;
+  const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), x);
+  if (text.empty() || ec == std::errc::invalid_argument || ptr != text.data() + text.size()) {
+    return Error{fmt::format("{} is not an unsigned integer (0 to 2^64 - 1)", quotedText(text))};
+  }
+  if (ec == std::errc::result_out_of_range) return Error{fmt::format("{} is larger than 2^64 - 1", quotedText(text))};
+  return x;
+}
+
+Result<std::string> decimalInteger(std::string_view text) {
+  std::string_view digits = text;
+  const bool negative = !digits.empty() && digits.front() == '-';
+  if (!digits.empty() && (digits.front() == '+' || negative)) digits.remove_prefix(1);
+  if (digits.empty() || !std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; })) {
+    return Error{fmt::format("{} is not a decimal integer", quotedText(text))};
+  }
+  while (digits.size() > 1 && digits.front() == '0') digits.remove_prefix(1);
+  std::string number(negative ? "-" : "");
+  number.append(digits);
+  return number;
 }
 
 std::string quotedText(std::string_view given, std::size_t keep) {

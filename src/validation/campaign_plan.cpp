@@ -14,6 +14,7 @@
 #include "emcalign/conddb/database_to_write.hpp"
 #include "emcalign/core/text.hpp"
 #include "emcalign/core/units.hpp"
+#include "emcalign/core/utf8.hpp"
 #include "emcalign/core/version.hpp"
 #include "emcalign/validation/trend.hpp"
 
@@ -110,6 +111,20 @@ Result<PlanStore> planStore(const std::string& conditions) {
                     address->shown));
   }
   return store;
+}
+
+Status checkPathsRecordable(const std::vector<std::string>& files) {
+  for (const auto& f : files) {
+    std::error_code ec;
+    const std::string path = fs::absolute(f, ec).string();
+    if (ec || !isValidUtf8(path)) {
+      return Error{fmt::format(
+          "{}: its path is not UTF-8 (the payloads record it in JSON, which must be): rename it, or the directories "
+          "it is in",
+          printable(path.empty() ? f : path))};
+    }
+  }
+  return {};
 }
 
 Status newDatabaseBesideTheData(const std::string& conditions, const std::vector<std::string>& inputs) {

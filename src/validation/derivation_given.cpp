@@ -7,6 +7,8 @@
 
 #include <fmt/format.h>
 
+#include "emcalign/core/text.hpp"
+#include "emcalign/core/units.hpp"
 #include "emcalign/io/json_files.hpp"
 #include "emcalign/validation/simulation_given.hpp"
 
@@ -97,6 +99,14 @@ std::string derivationReportText(const DerivationReport& report) {
                        f.sample, f.parameter, f.truth, f.paperModel, f.paperError, f.corrected, f.correctedError);
   }
   return out;
+}
+
+std::string derivationDoneText(const std::string& output, const std::vector<double>& energies, bool grid,
+                               std::size_t derived, double seconds) {
+  if (!grid) return fmt::format("use: emcalign fit --corrections {}\n", output);
+  return fmt::format("grid {}: {}, {} to {} MeV, {} derived in {:.1f} s (use: emcalign fit --corrections {})\n", output,
+                     counted(energies.size(), "beam energy", "beam energies"), energies.front() / units::MeV,
+                     energies.back() / units::MeV, derived, seconds, output);
 }
 
 }  // namespace emcalign::validation

@@ -231,6 +231,12 @@ Result<Submission> submission(const Plan& plan, bool onlyMissing) {
   return s;
 }
 
+io::Json submittedJson(const Submission& s, const SlurmSubmission* submitted) {
+  if (submitted == nullptr) return io::Json{{"array_job", nullptr}, {"finish_job", nullptr}};
+  const io::Json array = s.mergeOnly ? io::Json(nullptr) : io::Json(std::stoll(submitted->arrayJob));
+  return io::Json{{"array_job", array}, {"finish_job", std::stoll(submitted->finishJob)}};
+}
+
 std::string submittedText(const Plan& plan, const Submission& s, const SlurmSubmission& submitted) {
   if (s.mergeOnly) {
     return fmt::format("every task is done: submitted the merge job {}; its log: {}\n", submitted.finishJob,

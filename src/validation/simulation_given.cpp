@@ -55,6 +55,60 @@ Status applyRealism(const RealismGiven& given, sim::SimulationOptions& options, 
   return {};
 }
 
+namespace {
+std::optional<OptionRefusal> randomTriggerRefusal(const SimulateGiven& g,
+                                                  const std::function<bool(std::string_view)>& isGiven) {
+  for (const char* collision : {"--params", "--conditions", "--beam-energy", "--theta-min", "--theta-max",
+                                "--point-showers", "--no-hits", "--background-events", "--compression"}) {
+    if (isGiven(collision)) {
+      return OptionRefusal{.option = collision,
+                           .message =
+                               "does not apply to --process random-trigger (no collision is simulated: only "
+                               "the beam background and the noise)"};
+    }
+  }
+  if (!isGiven("--events")) return OptionRefusal{.option = "--events", .required = true};
+  if (g.events < 1) return OptionRefusal{"--events", "a random-trigger file needs at least one event"};
+  const auto& off = g.realism.off;
+  if (g.realism.ideal || std::find(off.begin(), off.end(), "background") != off.end()) {
+    return OptionRefusal{g.realism.ideal ? "--ideal" : "--off background",
+                         "switches the beam background off: a random trigger would record nothing"};
+  }
+  return std::nullopt;
+}
+}  // namespace
+
+SimulationChoice simulationChoice(const SimulateGiven& given, const std::function<bool(std::string_view)>& isGiven) {
+  if (!given.period.empty()) {
+    for (const char* single :
+         {"--params", "--conditions", "--run", "--beam-energy", "--theta-min", "--theta-max", "--seed"}) {
+      if (isGiven(single)) return {SimulationKind::Period, OptionRefusal{.option = single, .excludedBy = "--period"}};
+    }
+    return {SimulationKind::Period};
+  }
+  if (given.process == "random-trigger") return {SimulationKind::RandomTrigger, randomTriggerRefusal(given, isGiven)};
+  if (given.params.empty() && given.conditions.empty()) {
+    return {SimulationKind::Events,
+            OptionRefusal{.option = "--params FILE or --conditions URI --tag T", .required = true}};
+  }
+  if (!isGiven("--events")) return {SimulationKind::Events, OptionRefusal{.option = "--events", .required = true}};
+  return {SimulationKind::Events};
+}
+
+SimulateRequest simulateRequest(const SimulateGiven& given, const sim::SimulationOptions& options) {
+  SimulateRequest r;
+  r.options = options;
+  r.events = given.events;
+  r.threads = given.threads;
+  r.hits = !given.noHits;
+  r.compression = given.compression;
+  r.ideal = given.realism.ideal;
+  r.off = given.realism.off;
+  r.detectorName = io::detectorName(given.detector);
+  r.backgroundName = given.backgroundEvents;
+  return r;
+}
+
 Status loadRecordedBackground(const std::string& file, int counters, std::int64_t eventsPerRun,
                               sim::SimulationOptions& options, SimulateRequest* request,
                               std::vector<std::string>& warnings) {

@@ -34,6 +34,22 @@ Status takeCorrections(const StudyGiven& given, CampaignOptions& o, std::vector<
 
 }  // namespace
 
+std::vector<std::string> studyInputs(const StudyGiven& given) {
+  std::vector<std::string> in;
+  for (const auto& f : {given.ranges, given.corrections, given.detector}) {
+    if (!f.empty()) in.push_back(std::filesystem::absolute(f).lexically_normal().string());
+  }
+  return in;
+}
+
+DerivationOptions reverseStudyDerivation() {
+  DerivationOptions d;
+  d.events = 1000000;
+  d.responseSamples = 100;
+  d.responseEvents = 50000;
+  return d;
+}
+
 Result<CampaignOptions> studyCampaign(const StudyGiven& given, std::vector<std::string>& warnings) {
   if (given.thetaMinDeg >= given.thetaMaxDeg) {
     return Error{fmt::format("--theta-min {} must be below --theta-max {}", given.thetaMinDeg, given.thetaMaxDeg)};

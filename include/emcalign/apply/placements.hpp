@@ -24,10 +24,12 @@
 #include <array>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "emcalign/core/result.hpp"
 #include "emcalign/geometry/alignment_parameters.hpp"
 #include "emcalign/geometry/alignment_transform.hpp"
+#include "emcalign/geometry/counter_geometry.hpp"
 #include "emcalign/geometry/detector.hpp"
 #include "emcalign/io/json_files.hpp"
 
@@ -78,5 +80,10 @@ bool isPlacementsJson(const io::Json& j);
 /// usable one: io/json_files.hpp), or a placements file (checked against its own alignment).
 /// The warnings are for the caller to show.
 Result<io::AlignmentFile> loadAlignment(const std::string& path, const geometry::Calorimeter& calo);
+
+/// The counters placed by the alignment of `path` (loadAlignment: its warnings into `warnings`),
+/// or nominal when `path` is empty.
+Result<geometry::CounterGeometry> countersOf(const geometry::Calorimeter& calo, const std::string& path,
+                                             std::vector<std::string>& warnings);
 
 }  // namespace emcalign::apply

@@ -5,6 +5,7 @@
 // file it writes shows "***" instead. The conditions database's own addresses are redacted by
 // conddb::DatabaseAddress as well; this catches the rest (a URI given where a file was expected).
 
+#include <cstdio>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -33,5 +34,10 @@ bool holdsPassword(std::string_view text, bool withinText = false);
 /// `text` with every remembered password as "***" (longest first; one of fewer than 4
 /// characters only where it follows a ':' or a '=', as in "user:pw@" or "password=pw").
 std::string withoutPasswords(std::string text);
+
+/// A stream writing to `real` with every remembered password as "***", a line at a time (a
+/// password never straddles two writes; up to 1 MiB a line): standard output of a process whose
+/// command line holds a password. Null when none can be made (then `real` is used as it is).
+std::FILE* redactingStream(std::FILE* real);
 
 }  // namespace emcalign::core

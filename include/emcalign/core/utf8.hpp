@@ -3,6 +3,7 @@
 // which must be UTF-8: the front ends refuse arguments that are not, rather than fail
 // deep inside a writer.
 
+#include <algorithm>
 #include <cstddef>
 #include <string>
 #include <string_view>
@@ -82,6 +83,24 @@ inline std::string printable(std::string_view s) {
     i += n;
   }
   return out;
+}
+
+/// Why the command-line argument at `position` is refused ("" when it is not): a control
+/// character (a newline would let a name forge a line of a message or a batch script), or
+/// text that is not UTF-8 (names and values are recorded in JSON, which is).
+inline std::string argumentRefusal(std::string_view argument, int position) {
+  const bool control = std::any_of(argument.begin(), argument.end(),
+                                   [](char c) { return (c >= 0 && c < 0x20 && c != '\t') || c == 0x7f; });
+  if (control) {
+    return "argument " + std::to_string(position) +
+           " holds a control character (a newline?): a name would forge a line of a message or a batch script; "
+           "rename it";
+  }
+  if (!isValidUtf8(argument)) {
+    return "argument " + std::to_string(position) +
+           " is not valid UTF-8 (file names and values are recorded in JSON, which must be: rename the file)";
+  }
+  return {};
 }
 
 }  // namespace emcalign

@@ -62,6 +62,10 @@ Result<PlanStore> planStore(const std::string& conditions);
 /// as input): it would be an input of every later campaign on that directory.
 Status newDatabaseBesideTheData(const std::string& conditions, const std::vector<std::string>& inputs);
 
+/// The campaign's event files, recorded by their absolute paths in the payloads' JSON, which is
+/// UTF-8: a file whose path is not is refused, named.
+Status checkPathsRecordable(const std::vector<std::string>& files);
+
 /// The plan's campaign, with the store its groups go to: the plan's, or (a plan made without
 /// one) `given`'s conditions and tag; given again, they must be the plan's. `source`: the plan.
 Result<CampaignPlan> plannedCampaign(const io::Json& data, const std::string& source, const CampaignGiven& given);

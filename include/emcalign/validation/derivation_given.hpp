@@ -48,4 +48,9 @@ io::Json derivationSettings(const DerivationGiven& given, double beamEnergy);
 /// per φ column, the fit's response and the statistical errors the file gives, the closure.
 std::string derivationReportText(const DerivationReport& report);
 
+/// What `derive-corrections` says at its end: a grid's energies and the points `derived` in
+/// `seconds` (`grid`), or how to use the one file `output`.
+std::string derivationDoneText(const std::string& output, const std::vector<double>& energies, bool grid,
+                               std::size_t derived, double seconds);
+
 }  // namespace emcalign::validation

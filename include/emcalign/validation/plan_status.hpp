@@ -84,13 +84,16 @@ std::string planWrittenText(const Plan& plan, const std::string& command, const 
 /// goes; nothing when every task is done and merged. A campaign plan without its store is
 /// refused: its tasks would not know where to store.
 struct Submission {
-  std::vector<std::size_t> tasks;
+  std::vector<std::size_t> tasks = {};
   bool nothing = false;    ///< every task done and merged
   bool mergeOnly = false;  ///< every task done, not merged
 };
 Result<Submission> submission(const Plan& plan, bool onlyMissing);
 /// What was submitted, in words, and how to follow it.
 std::string submittedText(const Plan& plan, const Submission& s, const SlurmSubmission& submitted);
+/// `batch submit --json`: {"array_job": ID or null (merge only), "finish_job": ID}; both null when
+/// nothing was submitted (`submitted` none).
+io::Json submittedJson(const Submission& s, const SlurmSubmission* submitted);
 /// Why the merge job did not end well (exit `status`), and what to run next.
 std::string mergeFailedText(const Plan& plan, const SlurmSubmission& submitted, int status);
 

@@ -4,8 +4,10 @@
 // simulation's options here: what is refused, and what is only said (warnings).
 
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "emcalign/core/result.hpp"
@@ -28,6 +30,51 @@ struct RealismGiven {
 /// Applied to `options`; the error names the option (an unknown effect, an empty or bad list);
 /// a list that lists no counter is said in `warnings`.
 Status applyRealism(const RealismGiven& given, sim::SimulationOptions& options, std::vector<std::string>& warnings);
+
+/// `emcalign simulate`'s options as typed (docs/simulation.md).
+struct SimulateGiven {
+  std::string process = std::string(sim::name(sim::GeneratorOptions{}.process));
+  std::int64_t events = 0;
+  std::uint64_t seed = sim::SimulationOptions{}.seed;
+  std::string params;                   ///< the truth: a parameter file, a fit result or placements
+  std::string conditions, tag;          ///< instead of params: the IOV of `run` in a conditions tag
+  std::string snapshot;                 ///< of `conditions`
+  std::string period;                   ///< a whole period (period.hpp) into the directory `output`
+  std::optional<double> beamEnergyMev;  ///< none: the process default
+  std::optional<double> thetaMinDeg;    ///< none: the generator's
+  std::optional<double> thetaMaxDeg;
+  std::string detector;
+  RealismGiven realism;
+  std::string backgroundEvents;  ///< a random-trigger file merged instead of the Poisson background
+  io::Compression compression = io::Compression::Lz4;
+  int threads = 0;
+  int run = sim::SimulationOptions{}.run;
+  std::string output;
+  bool noHits = false;
+};
+/// Which simulation the options ask for: a whole period (--period), random triggers (--process
+/// random-trigger: the beam background and the noise alone), or events of a collision.
+enum class SimulationKind { Period, RandomTrigger, Events };
+/// An option refused for what was given with it (a usage error): one `required` and missing,
+/// one `excludedBy` another, or one whose value or presence does not apply (`message`).
+struct OptionRefusal {
+  std::string option = {};
+  std::string message = {};
+  bool required = false;
+  std::string excludedBy = {};
+};
+struct SimulationChoice {
+  SimulationKind kind = SimulationKind::Events;
+  std::optional<OptionRefusal> refused = {};
+};
+/// The simulation `given` asks for, or the option refused: --period excludes the options of one
+/// run; a random trigger takes no option of a collision, needs --events of at least one and a
+/// background that is on; events need a truth (--params or --conditions) and --events.
+/// `isGiven(option)`: whether the option was on the command line.
+SimulationChoice simulationChoice(const SimulateGiven& given, const std::function<bool(std::string_view)>& isGiven);
+
+/// The record of what was given, `options` (its realism applied) the simulation's.
+SimulateRequest simulateRequest(const SimulateGiven& given, const sim::SimulationOptions& options);
 
 /// `--dead-counters` as given: a list of counter indices, or @FILE.
 Result<std::vector<int>> deadCounterList(const std::string& text);

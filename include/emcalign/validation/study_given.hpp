@@ -34,6 +34,14 @@ struct StudyGiven {
   std::string variation = {};    ///< a systematic variation of the simulation (variations.hpp)
 };
 
+/// The files a study reads (ranges, corrections, detector), absolute: for its tasks' logs.
+std::vector<std::string> studyInputs(const StudyGiven& given);
+
+/// The reverse study's derivations by default: a third of the shipped file's statistics (10⁶
+/// events per sample, 100 response samples of 50 000), enough for shifts measured by pairing
+/// (every derivation has the same seed).
+DerivationOptions reverseStudyDerivation();
+
 /// The campaign of `given`: the ranges read, the simulation's switches applied, the
 /// corrections taken at the beam energy (a single file used away from its energy is said in
 /// `warnings`), and the settings each sample records.

@@ -5,6 +5,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cstdio>
+#include <string>
+
 namespace emcalign::core {
 namespace {
 
@@ -55,6 +58,23 @@ TEST(Secrets, RememberedPasswordsAreRedactedInEveryLine) {
   EXPECT_EQ(withoutPasswords("a word Sek… cut"), "a word Sek… cut");
   EXPECT_TRUE(holdsPassword("x postgresql://a:b@c"));
   EXPECT_FALSE(holdsPassword("x postgresql://a@c"));
+}
+
+TEST(Secrets, ARedactingStreamWritesEveryLineWithoutTheRememberedPasswords) {
+  rememberPasswordsOf("postgresql://calib:Str3amPw@db/snd");
+  std::FILE* real = std::tmpfile();
+  ASSERT_NE(real, nullptr);
+  std::FILE* redacted = redactingStream(real);
+  ASSERT_NE(redacted, nullptr);
+  std::fputs("conditions ", redacted);  // a line written in pieces: redacted whole
+  std::fputs("postgresql://calib:Str3am", redacted);
+  std::fputs("Pw@db/snd: 3 tags\nsecond line, Str3amPw again\n", redacted);
+  ASSERT_EQ(std::fclose(redacted), 0);
+  std::rewind(real);
+  std::string written(256, '\0');
+  written.resize(std::fread(written.data(), 1, written.size(), real));
+  std::fclose(real);
+  EXPECT_EQ(written, "conditions postgresql://calib:***@db/snd: 3 tags\nsecond line, *** again\n");
 }
 
 }  // namespace

@@ -29,6 +29,16 @@ TEST(Utf8, RefusesWhatIsNot) {
   EXPECT_FALSE(isValidUtf8("\xF5\x80\x80\x80"));
 }
 
+TEST(Utf8, AnArgumentWithAControlCharacterOrNotUtf8IsRefusedByItsPosition) {
+  EXPECT_EQ(argumentRefusal("run_1001.h5", 3), "");
+  EXPECT_EQ(argumentRefusal("tab\tin a name", 1), "");
+  EXPECT_EQ(argumentRefusal("Räume/run.h5", 2), "");
+  for (const char* forged : {"a\nb", "a\rb", "a\x1b[2Jb", "a\x7f"}) {
+    EXPECT_EQ(argumentRefusal(forged, 4).rfind("argument 4 holds a control character", 0), 0u) << forged;
+  }
+  EXPECT_EQ(argumentRefusal("r\xe4ume", 5).rfind("argument 5 is not valid UTF-8", 0), 0u);
+}
+
 TEST(Utf8, PrintableEscapesWhatATerminalWouldObey) {
   EXPECT_EQ(printable("plain text, ünïcode, ψ"), "plain text, ünïcode, ψ");
   EXPECT_EQ(printable("\x1b]0;owned\a\x1b[2J"), "\\x1b]0;owned\\x07\\x1b[2J");

@@ -24,6 +24,26 @@ TEST(Csv, ParsesOnlyWholeFiniteNumbers) {
   }
 }
 
+TEST(Csv, OptionValuesAreReadStrictlyAndTheRefusalQuotesTheText) {
+  EXPECT_EQ(*parseFiniteIn("2.5", 0.0, 5.0), 2.5);
+  EXPECT_EQ(parseFiniteIn("7", 0.0, 5.0).error().message, "'7' is outside [0, 5]");
+  EXPECT_EQ(parseFiniteIn("nan", 0.0, 5.0).error().message, "'nan' is not a finite number");
+  EXPECT_EQ(*parseIntegerIn("+12", 0, 100), 12);
+  EXPECT_EQ(*parseIntegerIn("-3", -5, 5), -3);
+  EXPECT_EQ(parseIntegerIn("1e3", 0, 100000).error().message, "'1e3' is not an integer");
+  EXPECT_EQ(parseIntegerIn("101", 0, 100).error().message, "'101' is outside [0, 100]");
+  EXPECT_EQ(parseIntegerIn("99999999999999999999", 0, 100).error().message,
+            "'99999999999999999999' is outside [0, 100]");
+  EXPECT_EQ(*parseUnsigned64("18446744073709551615"), UINT64_MAX);
+  EXPECT_EQ(parseUnsigned64("18446744073709551616").error().message, "'18446744073709551616' is larger than 2^64 - 1");
+  for (const char* bad : {"-1", "+1", "", "0x10", "1 "}) EXPECT_FALSE(parseUnsigned64(bad)) << bad;
+  EXPECT_EQ(*decimalInteger("010"), "10");
+  EXPECT_EQ(*decimalInteger("-007"), "-7");
+  EXPECT_EQ(*decimalInteger("+0"), "0");
+  for (const char* bad : {"0x28", "1e3", "", "-", "12a"}) EXPECT_FALSE(decimalInteger(bad)) << bad;
+  EXPECT_EQ(decimalInteger("0x28").error().message, "'0x28' is not a decimal integer");
+}
+
 TEST(Csv, CommentsAndBlankLines) {
   EXPECT_TRUE(isBlankOrComment(""));
   EXPECT_TRUE(isBlankOrComment("  \r"));

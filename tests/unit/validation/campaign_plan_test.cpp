@@ -17,6 +17,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 // Runs 1..12 in one file each, 400 selected events each at 612.5 MeV.
 CampaignScan scanOfTwelveRuns() {
@@ -139,6 +140,14 @@ TEST(CampaignPlanRules, ANewDatabaseIsNeverMadeAmongTheEventFiles) {
   EXPECT_THAT(among.error().message, HasSubstr("among the campaign's event files"));
   EXPECT_TRUE(newDatabaseBesideTheData("sqlite:" + (dir.parent_path() / "beside.db").string(), {dir.string()}));
   fs::remove_all(dir);
+}
+
+TEST(CampaignPlanRules, AnEventFileWhosePathIsNotUtf8IsRefusedNamed) {
+  EXPECT_TRUE(checkPathsRecordable({"/data/run_1001.h5", "relative/räume/run_1002.h5"}));
+  auto latin1 = checkPathsRecordable({"/data/run_1001.h5", "/data/r\xe4ume/run_1002.h5"});
+  ASSERT_FALSE(latin1);
+  EXPECT_THAT(latin1.error().message, HasSubstr("run_1002.h5: its path is not UTF-8"));
+  EXPECT_THAT(latin1.error().message, Not(HasSubstr("run_1001")));
 }
 
 }  // namespace

@@ -25,6 +25,13 @@ TEST(PlanCommandLine, APlanRecordsTheArgumentsWithoutItsOwnOption) {
   EXPECT_EQ(withoutOption({"--threads", "4", "--x", "--threads=2"}, "--threads"), (Args{"--x"}));
 }
 
+TEST(PlanCommandLine, SubmitJsonGivesTheJobNumbersOrNull) {
+  const SlurmSubmission submitted{"4127", "4128"};
+  EXPECT_EQ(submittedJson(Submission{}, &submitted).dump(), R"({"array_job":4127,"finish_job":4128})");
+  EXPECT_EQ(submittedJson(Submission{.mergeOnly = true}, &submitted).dump(), R"({"array_job":null,"finish_job":4128})");
+  EXPECT_EQ(submittedJson(Submission{.nothing = true}, nullptr).dump(), R"({"array_job":null,"finish_job":null})");
+}
+
 TEST(PlanCommandLine, ABatchTaskTakesTheCpusSlurmGaveIt) {
   EXPECT_FALSE(taskThreads(nullptr, 1024).threads);
   EXPECT_EQ(taskThreads("8", 1024).threads, 8);

@@ -49,7 +49,7 @@ validation::CampaignGiven given(const CampaignCliOptions& o) {
 }
 
 void printGroups(const std::vector<validation::CampaignGroup>& groups, std::int64_t minEvents) {
-  fmt::print(reportStream(), "{}", validation::campaignGroupsText(groups, minEvents));
+  say("{}", validation::campaignGroupsText(groups, minEvents));
   for (const auto& w : validation::campaignGroupsWarnings(groups)) reportWarning(w);
 }
 
@@ -68,9 +68,9 @@ int runGroup(const CampaignCliOptions& o) {
 // emcalign finish of a campaign's plan: every group in the tag, from the plan's data.
 int finishCampaign(const CampaignCliOptions& o) {
   auto finished = must(validation::finishPlannedCampaign(*planContext().plan, given(o)));
-  fmt::print(reportStream(), "campaign: {} stored by the plan's tasks in tag {} -> {}\n  model: {}\n",
-             counted(finished.plan.groups.size(), "group"), finished.plan.tag, finished.database,
-             finished.model.identity().textWithSigmaSys());
+  say("campaign: {} stored by the plan's tasks in tag {} -> {}\n  model: {}\n",
+      counted(finished.plan.groups.size(), "group"), finished.plan.tag, finished.database,
+      finished.model.identity().textWithSigmaSys());
   return kExitOk;
 }
 
@@ -104,8 +104,8 @@ ScannedCampaign scanCampaign(const CampaignCliOptions& o, const std::vector<io::
   auto scan = must(validation::scanRuns(files, model, so));
   scanning.finish();
   auto groups = validation::planGroups(scan, o.given.minEvents);
-  fmt::print(reportStream(), "read {}, {} ({}-{}) in {:.1f} s\n", counted(files.size(), "file"),
-             counted(scan.runs.size(), "run"), scan.runs.front().run, scan.runs.back().run, scanning.elapsed());
+  say("read {}, {} ({}-{}) in {:.1f} s\n", counted(files.size(), "file"), counted(scan.runs.size(), "run"),
+      scan.runs.front().run, scan.runs.back().run, scanning.elapsed());
   printGroups(groups, o.given.minEvents);
   return ScannedCampaign{std::move(model), std::move(scan), std::move(groups)};
 }
@@ -151,8 +151,7 @@ int run(const CampaignCliOptions& o) {
   fitting.finish();
   for (const auto& w : report.warnings) reportWarning(w);
   for (const auto& f : report.failures) reportWarning(f);
-  fmt::print(reportStream(), "{}",
-             validation::campaignReportText(report, o.given.tag, fitting.elapsed(), db->uri(), *model));
+  say("{}", validation::campaignReportText(report, o.given.tag, fitting.elapsed(), db->uri(), *model));
   must(validation::campaignStoredEveryGroup(report));
   return kExitOk;
 }

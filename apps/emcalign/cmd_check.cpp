@@ -38,7 +38,7 @@ int run(report::CheckGiven g) {
   auto done = must(apply::correctFiles(g.events, corrected, calo, source.alignmentOf(), options));
   progress.finish();
   auto written = must(report::writeCheck(g, corrected, options, done, source.description));
-  fmt::print(reportStream(), "{}", written);
+  say("{}", written);
   return kExitOk;
 }
 

@@ -30,9 +30,9 @@ int run(report::CompareGiven g) {
   auto calo = must(loadCalorimeter(g.detector));
   auto found = must(report::compareGivenSamples(g, calo.description()));
   must(report::writeComparison(g, found));
-  fmt::print(reportStream(), "{}", report::comparedSamplesText(found.comparison));
+  say("{}", report::comparedSamplesText(found.comparison));
   if (!found.comparison.emptyThetaSlices.empty()) reportWarning(apply::emptySlicesText(found.comparison));
-  fmt::print(reportStream(), "{}", report::comparisonText(found.comparison, g.output));
+  say("{}", report::comparisonText(found.comparison, g.output));
   return kExitOk;
 }
 

@@ -68,9 +68,9 @@ int runGet(const ConditionsOptions& o) {
   auto got = must(conddb::calibrationAt(*db, o.tag, o.run, o.snapshot));
   must(io::writeOutputFile(o.output, got.parameterFile.dump(2) + "\n"));
   // The report goes to stderr when the file goes to stdout (checkOutputs).
-  fmt::print(reportStream(), "{}: tag {} run {}{}: IOV {}-{} (payload {}) -> {}\n", db->uri(), o.tag, o.run,
-             o.snapshot.empty() ? std::string() : " at " + o.snapshot, got.iov.firstRun, got.iov.lastRun,
-             got.iov.payload.substr(0, 12), o.output);
+  say("{}: tag {} run {}{}: IOV {}-{} (payload {}) -> {}\n", db->uri(), o.tag, o.run,
+      o.snapshot.empty() ? std::string() : " at " + o.snapshot, got.iov.firstRun, got.iov.lastRun,
+      got.iov.payload.substr(0, 12), o.output);
   return kExitOk;
 }
 
@@ -89,7 +89,6 @@ int runRetire(const ConditionsOptions& o) {
 
 // Tag A against tag B, IOV by IOV: each parameter's difference in σ.
 int runDiff(const ConditionsOptions& o) {
-  if (o.tags.size() != 2) refuse("conditions diff: give two tags, --tag A --tag B");
   if (o.tags[0] == o.tags[1]) {
     refuse(fmt::format("conditions diff: --tag {} twice: a tag compared with itself differs nowhere (give two tags)",
                        o.tags[0]));
@@ -111,8 +110,7 @@ int runExport(const ConditionsOptions& o) {
   auto db = must(conddb::Database::open(o.uri));
   auto csv = must(conddb::tagCsv(*db, o.tag, o.snapshot));
   must(io::writeOutputFile(o.output, csv));
-  fmt::print(reportStream(), "{}: tag {}: one row per IOV -> {}\n", db->uri(), o.tag,
-             o.output == "-" ? "standard output" : o.output);
+  say("{}: tag {}: one row per IOV -> {}\n", db->uri(), o.tag, o.output == "-" ? "standard output" : o.output);
   return kExitOk;
 }
 
@@ -222,7 +220,7 @@ void addConditionsCommand(CLI::App& app, int& exitCode) {
 
   auto* diff = cmd->add_subcommand("diff", "Compare two tags IOV by IOV: each parameter's difference in sigma");
   addUri(*diff, o->uri);
-  diff->add_option("--tag", o->tags, "the two tags: --tag A --tag B")->required()->check(tagName());
+  diff->add_option("--tag", o->tags, "the two tags: --tag A --tag B")->required()->expected(2)->check(tagName());
   diff->add_flag("--json", o->json, "JSON: every pair of IOVs with both values, errors, difference and z");
   addSnapshotOption(*diff, o->snapshot);
   diff->callback([o, &exitCode] { exitCode = runDiff(*o); });

@@ -38,7 +38,7 @@ int run(conddb::CorrectGiven g) {
   progress.finish();
   auto warnings = must(conddb::clusterDepthWarnings(g, source, options, done));
   for (const auto& w : warnings) reportWarning(w);
-  fmt::print(reportStream(), "{}", conddb::correctedText(g, source, options, done, progress.elapsed()));
+  say("{}", conddb::correctedText(g, source, options, done, progress.elapsed()));
   return kExitOk;
 }
 

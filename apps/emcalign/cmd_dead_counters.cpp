@@ -30,7 +30,7 @@ int run(const DeadCountersOptions& o) {
   const auto found = apply::findDeadCounters(occupancy, calo, o.options);
   const std::string text = apply::deadCountersText(found, occupancy, o.options, apply::deadCounterSources(o.files));
   must(io::writeOutputFile(o.output, text));
-  fmt::print(reportStream(), "{}", apply::deadCountersSummary(found, occupancy, o.output));
+  say("{}", apply::deadCountersSummary(found, occupancy, o.output));
   return kExitOk;
 }
 

@@ -78,7 +78,7 @@ int run(const DeriveOptions& cli, bool fromTasks) {
   std::vector<validation::GridPoint> todo;
   for (auto& p : points) {
     if (p.done && (grid || fromTasks)) {
-      fmt::print(reportStream(), "kept {} (derived with the same settings)\n", p.file);
+      say("kept {} (derived with the same settings)\n", p.file);
     } else {
       todo.push_back(std::move(p));
     }
@@ -111,14 +111,14 @@ int run(const DeriveOptions& cli, bool fromTasks) {
       return reportError(grid ? Error{fmt::format("at {} MeV: {}", energy / units::MeV, report.error().message)}
                               : report.error());
     }
-    if (grid) fmt::print(reportStream(), "{}Beam energy {} MeV:\n", k == 0 ? "" : "\n", energy / units::MeV);
-    fmt::print(reportStream(), "{}", validation::derivationReportText(*report));
+    if (grid) say("{}Beam energy {} MeV:\n", k == 0 ? "" : "\n", energy / units::MeV);
+    say("{}", validation::derivationReportText(*report));
     const std::string text = validation::derivationJson(*report, settingsOf(cli, energy)).dump(2) + "\n";
     must(io::writeOutputFile(file, text, grid ? io::Placement::InDirectory : io::Placement::Named));
-    fmt::print(reportStream(), "wrote {} after {:.1f} s\n", file, elapsed());
+    say("wrote {} after {:.1f} s\n", file, elapsed());
   }
   if (progress) progress->finish();
-  fmt::print(reportStream(), "{}", validation::derivationDoneText(cli.output, energies, grid, todo.size(), elapsed()));
+  say("{}", validation::derivationDoneText(cli.output, energies, grid, todo.size(), elapsed()));
   return 0;
 }
 

@@ -31,7 +31,7 @@ int run(const ExportOptions& o) {
   const std::string text = apply::placementsFile(transform, calo.description(), o.format);
   must(io::writeOutputFile(o.output, text));
   // The report goes to stderr when the file goes to stdout (checkOutputs).
-  fmt::print(reportStream(), "{}", apply::placementsWrittenText(o.output, o.format, transform.layer3RuleActive()));
+  say("{}", apply::placementsWrittenText(o.output, o.format, transform.layer3RuleActive()));
   return kExitOk;
 }
 

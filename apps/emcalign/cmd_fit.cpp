@@ -30,29 +30,29 @@ int run(const FitCliOptions& o) {
   auto calo = must(loadCalorimeter(g.detector));
   auto job = must(calib::FitJob::prepare(std::move(request), calo.description()));
   const auto& corrections = job.corrections();
-  if (corrections) fmt::print(reportStream(), "{}", calib::correctionsText(*corrections));
+  if (corrections) say("{}", calib::correctionsText(*corrections));
   auto data = must(job.load());
-  if (data.fill) fmt::print(reportStream(), "{}", calib::cutFlowText(*data.fill));
+  if (data.fill) say("{}", calib::cutFlowText(*data.fill));
   for (const auto& w : data.warnings) reportWarning(w);
   auto fitted = must(job.fit(data));
   const calib::SystematicErrors* systematic = corrections ? corrections->corrections.systematics.get() : nullptr;
-  fmt::print(reportStream(), "{}", calib::fitResultText(fitted.result, systematic));
+  say("{}", calib::fitResultText(fitted.result, systematic));
   for (const auto& w : fitted.result.warnings) reportWarning(w);
-  for (const auto& n : job.notes(data, fitted)) fmt::print(reportStream(), "note: {}\n", n);
+  for (const auto& n : job.notes(data, fitted)) say("note: {}\n", n);
   if (auto w = calib::rangeWarning(fitted.result)) reportWarning(*w);
   if (auto truth = job.againstTruth(data, fitted); !truth) {
     reportWarning(fmt::format("no comparison with the truth: {}", truth.error().message));
   } else if (*truth) {
-    fmt::print(reportStream(), "{}", calib::againstTruthText(**truth, systematic != nullptr));
+    say("{}", calib::againstTruthText(**truth, systematic != nullptr));
   }
   if (!o.profileOut.empty()) {
     must(io::writeOutputFile(o.profileOut, calib::profileCsv(fitted.bins)));
   }
   must(io::writeOutputFile(o.output, fitted.resultJson.dump(2) + "\n"));
-  fmt::print(reportStream(), "wrote {}\n", o.output == "-" ? "the result to standard output" : o.output);
+  say("wrote {}\n", o.output == "-" ? "the result to standard output" : o.output);
   if (!o.plots.empty()) {
     auto pngs = must(report::writeFitJobFigures(job, fitted, o.plots));
-    for (const auto& png : pngs) fmt::print(reportStream(), "wrote {}\n", png);
+    for (const auto& png : pngs) say("wrote {}\n", png);
   }
   return fitted.result.status == FitStatus::Converged ? kExitOk : kExitUnusable;
 }

@@ -32,13 +32,6 @@ struct GeometryOptions {
   std::string coordinates;  // empty: the historic columns
 };
 
-// --locate: x_cm,y_cm,z_cm rows on stdin (TS frame) → the counter that contains each.
-int locatePoints(const Calorimeter& calo, const CounterGeometry& geometry) {
-  auto points = must(io::readPointsCsv(std::cin, "stdin"));
-  fmt::print("{}", io::locatedPointsCsv(calo, geometry, points));
-  return 0;
-}
-
 int run(const GeometryOptions& o) {
   if (!o.params.empty() && !o.counters && !o.locate) {
     eprint("emcalign: usage error: --params goes with --counters or --locate\n");
@@ -51,8 +44,9 @@ int run(const GeometryOptions& o) {
   }
   if (o.counters || o.locate) {
     auto geometry = mustSaying([&](auto& w) { return apply::countersOf(calo, o.params, w); });
-    if (o.locate) return locatePoints(calo, geometry);
-    fmt::print("{}", io::countersCsv(calo, geometry, o.coordinates));
+    // --locate: x_cm,y_cm,z_cm rows on stdin (TS frame) → the counter that contains each.
+    fmt::print("{}", o.locate ? io::locatedPointsCsv(calo, geometry, must(io::readPointsCsv(std::cin, "stdin")))
+                              : io::countersCsv(calo, geometry, o.coordinates));
     return 0;
   }
   fmt::print("{}", o.json ? io::detectorSummaryJson(calo).dump(2) + "\n" : io::detectorSummaryText(calo));

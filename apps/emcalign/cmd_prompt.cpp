@@ -84,8 +84,7 @@ int propose(const ProposeOptions& o) {
   auto thresholds = validation::proposeThresholds(spreads, o.falseRate);
   if (!thresholds) refuse(fmt::format("{}: {}", o.table, thresholds.error().message));
   must(io::writeOutputFile(o.output, thresholds->json.dump(1) + "\n"));
-  fmt::print(reportStream(), "{}",
-             validation::thresholdsWrittenText(table, spreads.size(), o.falseRate, o.table, o.output));
+  say("{}", validation::thresholdsWrittenText(table, spreads.size(), o.falseRate, o.table, o.output));
   return kExitOk;
 }
 

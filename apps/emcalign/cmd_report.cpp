@@ -18,13 +18,13 @@ namespace {
 int run(const report::ReportGiven& g) {
   must(checkOutputs({{"-o", g.output}}, {}, report::reportInputs(g)));
   auto read = report::readReportInputs(g, [](std::size_t files) {
-    fmt::print(reportStream(), "drawing the fit's figures from {} event file{} ...\n", files, files == 1 ? "" : "s");
+    say("drawing the fit's figures from {} event file{} ...\n", files, files == 1 ? "" : "s");
   });
   if (!read) return reportError(read.error());
   auto page = must(report::calibrationReport(read->inputs));
   must(io::writeOutputFile(g.output, page));
-  fmt::print(reportStream(), "wrote {} ({:.0f} kB)\n", g.output == "-" ? "the report to standard output" : g.output,
-             static_cast<double>(page.size()) / 1024.0);
+  say("wrote {} ({:.0f} kB)\n", g.output == "-" ? "the report to standard output" : g.output,
+      static_cast<double>(page.size()) / 1024.0);
   return kExitOk;
 }
 

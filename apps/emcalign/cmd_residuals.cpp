@@ -23,9 +23,9 @@ int run(const report::ResidualsGiven& g) {
   auto calo = must(loadCalorimeter(g.detector));
   auto record = must(report::summarizeSamples(g, samples, calo.description()));
   must(report::writeResidualsFiles(g.output, record));
-  fmt::print(reportStream(), "{}", apply::residualsTable(record.samples));
+  say("{}", apply::residualsTable(record.samples));
   auto pngs = must(report::writeResidualsFigures(g.output, record));
-  fmt::print(reportStream(), "{}", report::residualsWrittenText(g.output, pngs));
+  say("{}", report::residualsWrittenText(g.output, pngs));
   return kExitOk;
 }
 

@@ -54,7 +54,7 @@ int runRandomTrigger(const SimulateOptions& cli) {
   auto report = must(validation::simulateRandomTriggerFile(calo, validation::simulateRequest(cli, o), cli.output,
                                                            [&](std::int64_t n) { progress.update(n); }));
   progress.finish();
-  fmt::print(reportStream(), "{}", validation::randomTriggerText(report, progress.elapsed(), cli.output));
+  say("{}", validation::randomTriggerText(report, progress.elapsed(), cli.output));
   return kExitOk;
 }
 
@@ -80,12 +80,12 @@ int runPeriod(const SimulateOptions& cli) {
   loadBackground(cli, calo, validation::periodEvents(runs).mostInRun, o.simulation, &request);
   request.options = o.simulation;
   o.settings = validation::periodSimulationSettings(request, calo.description());
-  fmt::print(reportStream(), "{}", validation::periodPlanText(scenario, runs, *process, cli.period, cli.output));
+  say("{}", validation::periodPlanText(scenario, runs, *process, cli.period, cli.output));
   ProgressLine progress("simulate", static_cast<std::int64_t>(runs.size()), "runs");
   o.progress = [&](std::int64_t done, std::int64_t, std::int64_t) { progress.update(done); };
   auto report = must(validation::simulatePeriod(scenario, calo, cli.output, o));
   progress.finish();
-  fmt::print(reportStream(), "{}", validation::periodSimulatedText(report, progress.elapsed(), cli.output));
+  say("{}", validation::periodSimulatedText(report, progress.elapsed(), cli.output));
   return kExitOk;
 }
 
@@ -113,8 +113,7 @@ int run(const SimulateOptions& cli) {
       must(validation::simulateFile(calo, truth, request, cli.output, [&](std::int64_t n) { progress.update(n); }));
   progress.finish();
   const bool defaultRange = !cli.thetaMinDeg && !cli.thetaMaxDeg && cli.process == "ee";
-  fmt::print(reportStream(), "{}",
-             validation::simulatedText(report, progress.elapsed(), cli.output, o.generator, defaultRange));
+  say("{}", validation::simulatedText(report, progress.elapsed(), cli.output, o.generator, defaultRange));
   return 0;
 }
 
@@ -198,8 +197,8 @@ void addSimulateCommand(CLI::App& app, int& exitCode) {
                   "each simulated event before clustering, instead of the Poisson model")
       ->check(CLI::ExistingFile);
   cmd->add_option("--threads", o->threads, "worker threads (0: all cores)")->check(integerIn(0, kMaxThreads));
-  cmd->add_option("--run", o->run, "run number written in every row")
-      ->check(integerIn(std::numeric_limits<std::int32_t>::min(), std::numeric_limits<std::int32_t>::max()));
+  cmd->add_option("--run", o->run, "run number written in every row (0 or more, as the conditions database's)")
+      ->check(integerIn(0, std::numeric_limits<std::int32_t>::max()));
   cmd->add_option("--off", o->realism.off,
                   "switch realism effects off, comma-separated: radiation, background, dead-counters, noise, "
                   "energy-resolution, shower-fluctuations, layer3-offset, cosmics, multiple-scattering, "

@@ -52,7 +52,7 @@ void refit(const TrendCliOptions& o, const validation::Trend& trend, const std::
       corrections = *recorded;
       // (an input like any other: no output of this command may land on it)
       must(checkOutputs({}, {{"-o", o.output}}, {{"the payloads' corrections", corrections}}));
-      fmt::print(reportStream(), "refit with the corrections the payloads name, unchanged since: {}\n", corrections);
+      say("refit with the corrections the payloads name, unchanged since: {}\n", corrections);
     }
   }
   auto model = must(validation::campaignModel(corrections, o.detector, calo));
@@ -73,12 +73,12 @@ void refit(const TrendCliOptions& o, const validation::Trend& trend, const std::
                                       fmt::format("{} refitted by stable period (emcalign trend --refit)", o.tag),
                                       conddb::TagState::Testing));
   if (put == conddb::WholeTagPut::HeldAlready) {
-    fmt::print(reportStream(), "tag {} holds this refit already: nothing stored\n", o.tagOut);
+    say("tag {} holds this refit already: nothing stored\n", o.tagOut);
   }
   summary = validation::refitJson(r, snapshot.iovs().size());
   summary["tag_out"] = o.tagOut;
   markdown += validation::refitMarkdown(r, snapshot.iovs().size(), o.tagOut);
-  fmt::print(reportStream(), "{}", validation::refitSummaryText(r, snapshot.iovs().size(), db.uri(), o.tagOut));
+  say("{}", validation::refitSummaryText(r, snapshot.iovs().size(), db.uri(), o.tagOut));
 }
 
 int run(const TrendCliOptions& o) {
@@ -113,10 +113,10 @@ int run(const TrendCliOptions& o) {
   }
   auto pngs = must(validation::writeTrendDirectory(o.output, trend, series, origin, md, truth ? &*truth : nullptr,
                                                    fmt::format("tag {}", o.tag)));
-  fmt::print(reportStream(), "{}", validation::trendSummaryText(trend, o.tag, models));
+  say("{}", validation::trendSummaryText(trend, o.tag, models));
   for (const auto& w : validation::trendWarnings(trend)) reportWarning(w);
-  fmt::print(reportStream(), "wrote {}/trend.json, trend.md and {} (fig7.png, trend_all.png, trend_*.png)\n", o.output,
-             counted(pngs.size(), "figure"));
+  say("wrote {}/trend.json, trend.md and {} (fig7.png, trend_all.png, trend_*.png)\n", o.output,
+      counted(pngs.size(), "figure"));
   return kExitOk;
 }
 

@@ -57,7 +57,7 @@ int run(const ValidateOptions& cli, bool finishing) {
   ProgressLine progress("validate", cli.study.samples, "samples");
   auto table = must(validation::runCampaign(*calo, o, cli.output, [&](int done, int) { progress.update(done); }));
   progress.finish();
-  fmt::print(reportStream(), "{}", validation::validationTableText(table, progress.elapsed(), cli.output));
+  say("{}", validation::validationTableText(table, progress.elapsed(), cli.output));
   return 0;
 }
 
@@ -89,12 +89,11 @@ int runSystematics(const ValidateOptions& cli, bool finishing) {
     progress.update(done);
   }));
   progress.finish();
-  fmt::print(reportStream(), "{}",
-             validation::systematicsTableText(table, progress.elapsed(), cli.output, cli.reverse));
+  say("{}", validation::systematicsTableText(table, progress.elapsed(), cli.output, cli.reverse));
   if (!cli.writeCorrections.empty()) {
     auto said = must(
         validation::writeCorrectionsWithSystematics(table, o.campaign, cli.writeCorrections, cli.study.corrections));
-    fmt::print(reportStream(), "{}", said);
+    say("{}", said);
   }
   return kExitOk;
 }

@@ -25,8 +25,10 @@
 namespace emcalign::app {
 
 namespace {
-std::FILE* gReport = stdout;
-}
+// Whether an output is "-" (the report then goes to stderr). Read when printing: stdout is
+// replaced by its redacting stream after static initialisation (main), never captured here.
+bool gReportToStderr = false;
+}  // namespace
 
 int reportError(const Error& error) {
   eprint("emcalign: error: {}\n", error.message);
@@ -45,7 +47,9 @@ CLI::Option* addCompressionOption(CLI::App& cmd, io::Compression& compression) {
 
 void reportWarning(const std::string& message) { eprint("emcalign: warning: {}\n", message); }
 
-std::FILE* reportStream() { return gReport; }
+std::FILE* reportStream() { return gReportToStderr ? stderr : stdout; }
+
+void sendReportToStderr() { gReportToStderr = true; }
 
 Status checkOutputs(const std::vector<io::NamedPath>& files, const std::vector<io::NamedPath>& directories,
                     const std::vector<io::NamedPath>& inputs) {
@@ -54,7 +58,7 @@ Status checkOutputs(const std::vector<io::NamedPath>& files, const std::vector<i
   for (const auto& f : files) {
     if (f.path.empty()) continue;
     if (auto t = io::resolveOutput(f.path); !t) return Error{fmt::format("{} {}", f.option, t.error().message)};
-    if (f.path == "-") gReport = stderr;
+    if (f.path == "-") gReportToStderr = true;
     given.push_back(f);
   }
   for (const auto& d : directories) {

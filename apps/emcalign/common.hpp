@@ -11,6 +11,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "console.hpp"
 #include "emcalign/apply/placements.hpp"
 #include "emcalign/calib/sigma_sys.hpp"
 #include "emcalign/conddb/conditions.hpp"
@@ -79,8 +80,19 @@ auto mustSaying(Step&& step) {
 [[noreturn]] inline void refuse(std::string message) { throw Refusal{Error{std::move(message)}}; }
 
 /// Where a command's report goes: stdout, or stderr once an output is "-" (stdout is then
-/// the output's).
+/// the output's) or the report is sent there (`batch submit --json`).
 std::FILE* reportStream();
+void sendReportToStderr();
+/// Prints the command's report: on stdout, or (sent to stderr) as eprint prints, without the
+/// command line's passwords and terminal-safe.
+template <typename... T>
+void say(fmt::format_string<T...> format, T&&... args) {
+  if (reportStream() == stderr) {
+    eprint(format, std::forward<T>(args)...);
+  } else {
+    fmt::print(format, std::forward<T>(args)...);
+  }
+}
 /// Checks a command's outputs before any work (io/output_file.hpp): every file output can
 /// be written, every directory output is a directory or absent and holds no link to an
 /// input, and no output is an input or another output. The inputs become protected inputs

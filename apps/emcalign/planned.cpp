@@ -96,7 +96,7 @@ int batchStatus(const std::string& path, bool json) {
   if (json) {
     fmt::print("{}\n", validation::planStatusJson(status).dump(1));
   } else {
-    fmt::print(reportStream(), "{}", validation::planStatusText(status, plan));
+    say("{}", validation::planStatusText(status, plan));
   }
   return status.missing.empty() ? kExitOk : kExitFailure;
 }
@@ -108,17 +108,16 @@ struct SubmitOptions {
 };
 
 int batchSubmit(const SubmitOptions& o) {
-  // With --json, standard output is the JSON's; the report goes to standard error.
-  std::FILE* report = o.json ? stderr : reportStream();
+  if (o.json) sendReportToStderr();  // standard output is the JSON's
   auto plan = planToRun(o.plan);
   auto what = must(validation::submission(plan, o.missing));
   if (what.nothing) {
-    fmt::print(report, "{}: every task is done and merged: nothing to submit\n", plan.path);
+    say("{}: every task is done and merged: nothing to submit\n", plan.path);
     if (o.json) fmt::print("{}\n", validation::submittedJson(what, nullptr).dump());
     return kExitOk;
   }
   auto submitted = must(validation::submitToSlurm(plan, what.tasks, o.sbatchArguments, !what.mergeOnly));
-  fmt::print(report, "{}", validation::submittedText(plan, what, submitted));
+  say("{}", validation::submittedText(plan, what, submitted));
   if (o.json) {
     fmt::print("{}\n", validation::submittedJson(what, &submitted).dump());
     std::fflush(stdout);
@@ -130,7 +129,7 @@ int batchSubmit(const SubmitOptions& o) {
     reportError(Error{validation::mergeFailedText(plan, submitted, status)});
     return status;
   }
-  fmt::print(report, "the merge job {} ended well: the plan's outputs are written\n", submitted.finishJob);
+  say("the merge job {} ended well: the plan's outputs are written\n", submitted.finishJob);
   return kExitOk;
 }
 
@@ -150,9 +149,8 @@ int batchScript(const std::string& path, const std::string& output, bool missing
   auto script = must(validation::jobArrayScript(plan, tasks));
   must(io::writeOutputFile(output, script));
   if (output != "-") {
-    fmt::print(reportStream(), "wrote {}: the job array of {} (submit it with sbatch {}; the merge: see its header)\n",
-               printable(output), tasks.empty() ? counted(plan.tasks.size(), "task") : validation::taskRanges(tasks),
-               shellArgument(output));
+    say("wrote {}: the job array of {} (submit it with sbatch {}; the merge: see its header)\n", printable(output),
+        tasks.empty() ? counted(plan.tasks.size(), "task") : validation::taskRanges(tasks), shellArgument(output));
   }
   return kExitOk;
 }
@@ -171,8 +169,7 @@ int runTaskOfPlan(const std::string& planPath, std::size_t k) {
   auto plan = planToRun(planPath);
   // A retry of a task done: nothing to do, whatever has changed around it since.
   if (validation::taskDone(plan, k)) {
-    fmt::print(reportStream(), "task {} ({}) is done already ({}): nothing to do\n", k, printable(plan.tasks[k].what),
-               plan.recordOf(k));
+    say("task {} ({}) is done already ({}): nothing to do\n", k, printable(plan.tasks[k].what), plan.recordOf(k));
     return kExitOk;
   }
   return runFromPlan(plan, PlanContext::Mode::Task, k);
@@ -214,7 +211,7 @@ int runPlannable(const std::string& command, const std::string& planPath, const 
   must(validation::planBesideOutputs(planPath, outputs));
   auto arguments = must(validation::planArguments(gCommandLine));
   auto plan = must(validation::writePlan(planPath, command, arguments, *job));
-  fmt::print(reportStream(), "{}", validation::planWrittenText(plan, command, planPath));
+  say("{}", validation::planWrittenText(plan, command, planPath));
   return kExitOk;
 }
 

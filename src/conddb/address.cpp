@@ -110,6 +110,17 @@ Result<DatabaseAddress> sqliteAddress(std::string path, std::string_view uri) {
         "taken: a memory database or one without locking loses what a campaign stores; give the file's path",
         uri)};
   }
+  // SQLite takes NAME-wal, NAME-shm and NAME-journal for the journals of NAME: a database so named
+  // is deleted as a stale journal the moment NAME is opened.
+  for (const std::string_view suffix : {"-wal", "-shm", "-journal"}) {
+    if (path.size() > suffix.size() && path.ends_with(suffix)) {
+      const std::string_view base = std::string_view(path).substr(0, path.size() - suffix.size());
+      return Error{fmt::format(
+          "'{}': the name of a journal SQLite keeps beside {}: it would delete this database as a stale journal "
+          "when {} is opened; give it another name",
+          uri, base, base)};
+    }
+  }
   a.file = std::move(path);
   a.shown = std::string(kSqlite) + a.file;
   return a;

@@ -380,6 +380,11 @@ Status SqlDatabase::insertIov(const std::string& tag, const NewIov& n, const std
 
 Status SqlDatabase::insertIovRow(const std::string& tag, std::int64_t first, std::int64_t last, const std::string& hash,
                                  const std::string& time) {
+  // What the readers take back (runOf): a run number is 0 or more.
+  if (first < 0) {
+    return Error{fmt::format("{}: tag '{}': runs {}-{}: a run number is 0 or more (the events' run numbers are wrong)",
+                             db_->uri(), tag, first, last)};
+  }
   auto overlap = db_->query(
       "SELECT first_run, last_run FROM emcalign_iovs WHERE tag = $1 AND first_run <= $2 AND last_run >= $3 "
       "ORDER BY first_run LIMIT 1",

@@ -273,19 +273,33 @@ Status checkOutputDirectory(const std::string& path) {
   return {};
 }
 
+namespace {
+// What a path names now: "-" is standard output (a redirection onto an input is that input).
+bool statOf(const std::string& p, struct stat& st) {
+  return p == "-" ? ::fstat(STDOUT_FILENO, &st) == 0 : ::stat(p.c_str(), &st) == 0;
+}
+// /dev/null takes any number of outputs: each is thrown away.
+bool isNullDevice(const struct stat& st) {
+  struct stat null {};
+  return S_ISCHR(st.st_mode) && ::stat("/dev/null", &null) == 0 && st.st_rdev == null.st_rdev;
+}
+std::string shownOutput(const NamedPath& o) {
+  return o.path == "-" ? fmt::format("{} - (standard output)", o.option) : fmt::format("{} {}", o.option, o.path);
+}
+}  // namespace
+
 Status checkDistinct(const std::vector<NamedPath>& outputs, const std::vector<NamedPath>& inputs) {
   struct Seen {
     const NamedPath* path;
     dev_t dev;
     ino_t ino;
   };
-  auto regularFile = [](const std::string& p, struct stat& st) {
-    return p != "-" && ::stat(p.c_str(), &st) == 0 && S_ISREG(st.st_mode);
-  };
   std::vector<Seen> in;
   for (const auto& i : inputs) {
     struct stat st {};
-    if (!i.path.empty() && regularFile(i.path, st)) in.push_back({&i, st.st_dev, st.st_ino});
+    if (!i.path.empty() && i.path != "-" && ::stat(i.path.c_str(), &st) == 0 && S_ISREG(st.st_mode)) {
+      in.push_back({&i, st.st_dev, st.st_ino});
+    }
   }
   // Outputs that do not exist yet are compared by their normalised absolute name.
   std::vector<std::pair<const NamedPath*, std::string>> absent;
@@ -296,26 +310,28 @@ Status checkDistinct(const std::vector<NamedPath>& outputs, const std::vector<Na
     const std::string name = fs::weakly_canonical(fs::absolute(o.path, ec), ec).string();
     for (const auto& [other, otherName] : absent) {
       if (otherName == name) {
-        return Error{fmt::format("{} {}: is the same file as the output {} {}: give each output its own file", o.option,
-                                 o.path, other->option, other->path)};
+        return Error{fmt::format("{}: is the same file as the output {}: give each output its own file", shownOutput(o),
+                                 shownOutput(*other))};
       }
     }
     absent.emplace_back(&o, name);
   }
+  // Outputs that exist (standard output among them): never an input, never another output's
+  // file, pipe or stream (two outputs would run into one), but for /dev/null.
   std::vector<Seen> out;
   for (const auto& o : outputs) {
     struct stat st {};
-    if (o.path.empty() || !regularFile(o.path, st)) continue;
+    if (o.path.empty() || !statOf(o.path, st)) continue;
     for (const auto& s : in) {
-      if (s.dev == st.st_dev && s.ino == st.st_ino) {
-        return Error{fmt::format("{} {}: is the same file as the input {}{}: refusing to overwrite an input", o.option,
-                                 o.path, s.path->option.empty() ? "" : s.path->option + " ", s.path->path)};
+      if (S_ISREG(st.st_mode) && s.dev == st.st_dev && s.ino == st.st_ino) {
+        return Error{fmt::format("{}: is the same file as the input {}{}: refusing to overwrite an input",
+                                 shownOutput(o), s.path->option.empty() ? "" : s.path->option + " ", s.path->path)};
       }
     }
     for (const auto& s : out) {
-      if (s.dev == st.st_dev && s.ino == st.st_ino) {
-        return Error{fmt::format("{} {}: is the same file as the output {} {}: give each output its own file", o.option,
-                                 o.path, s.path->option, s.path->path)};
+      if (s.dev == st.st_dev && s.ino == st.st_ino && !isNullDevice(st)) {
+        return Error{fmt::format("{}: is the same {} as the output {}: give each output its own file", shownOutput(o),
+                                 S_ISREG(st.st_mode) ? "file" : "stream", shownOutput(*s.path))};
       }
     }
     out.push_back({&o, st.st_dev, st.st_ino});

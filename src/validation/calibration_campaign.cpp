@@ -249,6 +249,12 @@ Status mergeRuns(const std::vector<std::string>& files, std::vector<RunFills> fi
                                    : fmt::format("no events in the {} files ({}, ...)", files.size(), files[0])};
   }
   for (auto& [run, r] : runs) {
+    if (run < 0) {  // an IOV's runs are 0 or more: none could be stored, nor read back
+      return Error{
+          fmt::format("{}: run {}: a run number is 0 or more (the conditions database stores no other): the "
+                      "files' run column is wrong",
+                      files[r.files.front()], run)};
+    }
     if (r.fill.beamEnergies.size() > 1) {
       std::vector<std::string> names;
       for (std::size_t f : r.files) names.push_back(files[f]);

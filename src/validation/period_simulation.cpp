@@ -258,6 +258,20 @@ class PeriodPipeline {
 Result<PeriodReport> simulatePeriod(const PeriodScenario& s, const geometry::Calorimeter& calo, const std::string& dir,
                                     const PeriodOptions& o) {
   const std::vector<PeriodRun> runs = planPeriod(s, o.simulation.generator.process);
+  // Every run's generator checked before the directory is claimed: a period refused for its
+  // polar range or a beam energy (of this process) leaves nothing behind.
+  for (const PeriodRun& r : runs) {
+    sim::GeneratorOptions g = o.simulation.generator;
+    g.beamEnergy = r.beamEnergy * units::MeV;
+    g.thetaMin = s.thetaMin;
+    g.thetaMax = s.thetaMax;
+    if (Status v = g.validate(); !v) {
+      const bool radians = s.thetaMax / units::deg <= 3.2;  // [0.7, 2.44]: 40°–140° in radians
+      return Error{fmt::format("the period's run {} ({} at {} MeV, theta_range_deg [{}, {}]{}): {}", r.run,
+                               sim::name(g.process), r.beamEnergy, s.thetaMin / units::deg, s.thetaMax / units::deg,
+                               radians ? ", in radians? it is in degrees" : "", v.error().message)};
+    }
+  }
   if (Status c = claimPeriodDirectory(dir, s, o); !c) return c.error();
 
   PeriodReport report;

@@ -103,6 +103,25 @@ TEST_F(CampaignCli, CalibratesResumesAndRefusesAnotherPlan) {
 
 // The batch fan-out: the plan, then every group in its own process at once against
 // PostgreSQL; the payloads are those of the campaign run in one process.
+// Run numbers below 0 are no conditions database's: refused when asked for, and a file holding
+// them is refused before any database is made (its IOV could never be read back).
+TEST_F(CampaignCli, ANegativeRunIsRefusedBeforeAnythingIsStored) {
+  const std::string truth = std::string(EMCALIGN_SOURCE_DIR) + "/data/examples/paper-like.json";
+  const auto asked = run(fmt::format("simulate --events 3000 --params {} --run -5 -o {}", truth, path("neg.csv")));
+  EXPECT_EQ(asked.exitCode, 2) << asked.err;
+  ASSERT_FALSE(fs::exists(path("neg.csv")));
+  const auto made = run(fmt::format("simulate --events 3000 --params {} --run 5 -o {}", truth, path("five.csv")));
+  ASSERT_EQ(made.exitCode, 0) << made.err;
+  std::ifstream in(path("five.csv"));
+  std::ofstream out(path("neg.csv"));
+  for (std::string line; std::getline(in, line);) out << (line.rfind("5,", 0) == 0 ? "-" + line : line) << "\n";
+  out.close();
+  const auto refused = run(fmt::format("campaign {} --conditions sqlite:{} --tag n", path("neg.csv"), path("n.db")));
+  EXPECT_EQ(refused.exitCode, 1) << refused.err;
+  EXPECT_THAT(refused.err, HasSubstr("neg.csv: run -5: a run number is 0 or more"));
+  EXPECT_FALSE(fs::exists(path("n.db"))) << "nothing is made for a campaign refused for its inputs";
+}
+
 TEST_F(CampaignCli, PlanFannedOutToParallelProcessesAgainstPostgres) {
   const std::string pg = emcalign::testing::freshPostgresDatabase();
   auto r = run(fmt::format("campaign {} --plan {} --min-events 4000", events(), path("plan.json")));

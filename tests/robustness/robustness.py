@@ -724,7 +724,7 @@ def cases():
     s_export, c_export = unchanged("camp.db")
     add(Case(D, "an export written over its database", "emcalign conditions export camp.db --tag c -o camp.db", 1,
              "camp.db", setup=s_export, check=c_export, checked="database unchanged"))
-    add(Case(D, "a diff with one tag", "emcalign conditions diff camp.db --tag c", 1, "give two tags"))
+    add(Case(D, "a diff with one tag", "emcalign conditions diff camp.db --tag c", 2, "--tag: At least 2 required but received 1"))
 
     def absent(*names):
         def check(d, r):
@@ -741,6 +741,13 @@ def cases():
                  d, "plan.json", "changed-plan.json",
                  lambda j: [i.__setitem__("sha256", f"{k:064x}") for k, i in enumerate(j["data"]["inputs"])])),
              check=absent("new2.db"), checked="no new2.db created"))
+    add(Case(D, "a copy into a database named as a journal of another",
+             "emcalign conditions copy camp.db camp.db-wal --tag c --as z", 1,
+             "the name of a journal SQLite keeps beside camp.db", check=absent("camp.db-wal"),
+             checked="no camp.db-wal created"))
+    add(Case(D, "a simulated run below 0 (no conditions database stores it)",
+             "emcalign simulate --events 10 --params p.json --run -5 -o neg.h5", 2, "--run", check=absent("neg.h5"),
+             checked="no neg.h5"))
     add(Case(D, "a copy of a tag that does not exist into a new database",
              "emcalign conditions copy camp.db --tag nope new3.db", 1, "no tag 'nope'", check=absent("new3.db"),
              checked="no new3.db created"))

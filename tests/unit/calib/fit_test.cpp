@@ -125,8 +125,9 @@ TEST(Fit, WarnsAboutOverlapAndMissingBinsAndRefusesTooFewBins) {
   for (const auto& w : r->warnings) {
     overlapWarned = overlapWarned || w.find("dp2") != std::string::npos;
     // The whole sentence, its list of bins at the end (the words in step with the numbers).
-    binsWarned = binsWarned || (w.rfind("5 of 160 profile bins have fewer than 10 entries and are left out: (", 0) == 0 &&
-                                w.back() == ')');
+    binsWarned =
+        binsWarned ||
+        (w.rfind("5 of 160 profile bins have fewer than 10 entries and are left out: (", 0) == 0 && w.back() == ')');
   }
   EXPECT_TRUE(overlapWarned);
   EXPECT_TRUE(binsWarned);

@@ -41,6 +41,13 @@ TEST(DatabaseAddress, RefusesDatabasesThatLoseWhatIsStored) {
     EXPECT_FALSE(a.error().message.empty());
   }
   EXPECT_THAT(DatabaseAddress::parse(":memory:").error().message, HasSubstr("in-memory"));
+  // A journal's name: SQLite would delete the database as a stale journal of c.db.
+  for (const char* journal : {"c.db-wal", "sqlite:c.db-shm", "sqlite:/data/c.db-journal"}) {
+    auto refused = DatabaseAddress::parse(journal);
+    ASSERT_FALSE(refused) << journal;
+    EXPECT_THAT(refused.error().message, HasSubstr("the name of a journal SQLite keeps beside"));
+  }
+  EXPECT_TRUE(DatabaseAddress::parse("sqlite:c-wal.db"));
   EXPECT_THAT(DatabaseAddress::parse("sqlite:file:x.db?mode=memory").error().message, HasSubstr("URI filenames"));
 }
 

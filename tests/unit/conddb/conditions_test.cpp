@@ -129,6 +129,11 @@ TEST_P(Conditions, RefusesOverlapsLockedTagsAndBadRanges) {
   Status backwards = db->put("t", 30, 25, a, IfMissing::Refuse);
   ASSERT_FALSE(backwards);
   EXPECT_NE(backwards.error().message.find("first run is after the last"), std::string::npos);
+  // A negative run could not be read back (the readers take runs of 0 or more): never stored.
+  Status negative = db->put("t", -5, -1, a, IfMissing::Refuse);
+  ASSERT_FALSE(negative);
+  EXPECT_NE(negative.error().message.find("runs -5--1: a run number is 0 or more"), std::string::npos)
+      << negative.error().message;
   Status noTag = db->put("u", 1, 2, a, IfMissing::Refuse);
   ASSERT_FALSE(noTag);
   EXPECT_NE(noTag.error().message.find("no tag 'u'"), std::string::npos);

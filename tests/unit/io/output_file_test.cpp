@@ -218,6 +218,44 @@ TEST_F(OutputFileTest, OutputsMustDifferFromInputsAndEachOther) {
   EXPECT_TRUE(checkDistinct({{"-o", "/dev/null"}, {"--profile-out", "/dev/null"}}, inputs).ok());
 }
 
+// Standard output redirected onto an input (`-o - >> ev.csv`) is that input; two outputs on one
+// stream or pipe would run into each other.
+TEST_F(OutputFileTest, StandardOutputOntoAnInputOrTwoOutputsOnOneStreamAreRefused) {
+  std::ofstream(path("ev.csv")) << "events";
+  const std::vector<NamedPath> inputs = {{"EVENTS", path("ev.csv")}};
+  const int saved = ::dup(STDOUT_FILENO);
+  ASSERT_GE(saved, 0);
+  const auto withStdoutOn = [&](const std::string& file, int flags, auto check) {
+    std::fflush(stdout);
+    const int fd = ::open(file.c_str(), flags, 0644);
+    ASSERT_GE(fd, 0);
+    ::dup2(fd, STDOUT_FILENO);
+    ::close(fd);
+    check();
+    std::fflush(stdout);
+    ::dup2(saved, STDOUT_FILENO);
+  };
+  withStdoutOn(path("ev.csv"), O_WRONLY | O_APPEND, [&] {
+    auto onInput = checkDistinct({{"-o", "-"}}, inputs);
+    ASSERT_FALSE(onInput);
+    EXPECT_THAT(onInput.error().message, HasSubstr("-o - (standard output): is the same file as the input EVENTS"));
+  });
+  withStdoutOn(path("out.txt"), O_WRONLY | O_CREAT | O_TRUNC, [&] {
+    EXPECT_TRUE(checkDistinct({{"-o", "-"}}, inputs));
+    EXPECT_THAT(checkDistinct({{"-o", "-"}, {"--profile-out", "-"}}, inputs).error().message,
+                HasSubstr("give each output its own file"));
+    EXPECT_THAT(checkDistinct({{"-o", path("out.txt")}, {"--profile-out", "-"}}, inputs).error().message,
+                HasSubstr("is the same file as the output -o"));
+  });
+  withStdoutOn("/dev/null", O_WRONLY, [&] {
+    EXPECT_TRUE(checkDistinct({{"-o", "-"}, {"--profile-out", "-"}}, inputs));
+  });
+  ::close(saved);
+  ASSERT_EQ(::mkfifo(path("fifo").c_str(), 0600), 0);
+  EXPECT_THAT(checkDistinct({{"-o", path("fifo")}, {"--profile-out", path("fifo")}}, inputs).error().message,
+              HasSubstr("is the same stream as the output -o"));
+}
+
 TEST_F(OutputFileTest, OutputDirectories) {
   EXPECT_TRUE(checkOutputDirectory(path("new/dir")).ok());
   fs::create_directories(path("d"));

@@ -170,6 +170,18 @@ TEST_F(PeriodSimulation, SameFilesOnAnyThreadCountAndResumes) {
   EXPECT_THAT(refused.error().message, HasSubstr("another period"));
 }
 
+// A polar range this process cannot generate (degrees written in radians) is refused before the
+// directory is claimed: the corrected period then goes where the refused one was asked to.
+TEST_F(PeriodSimulation, ARangeTheGeneratorRefusesLeavesNoDirectory) {
+  Json radians = scenario();
+  radians["theta_range_deg"] = Json::array({0.698, 2.443});
+  auto refused = simulate("p", 1, radians);
+  ASSERT_FALSE(refused);
+  EXPECT_THAT(refused.error().message, HasSubstr("theta_range_deg [0.698, 2.443], in radians? it is in degrees"));
+  EXPECT_FALSE(fs::exists(dir_ / "p"));
+  EXPECT_TRUE(simulate("p", 1));
+}
+
 TEST_F(PeriodSimulation, TruthFileIsReadStrictly) {
   const auto path = (dir_ / "truth.json").string();
   std::ofstream(path)

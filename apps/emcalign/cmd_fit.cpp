@@ -46,7 +46,7 @@ int run(const FitCliOptions& o) {
     say("{}", calib::againstTruthText(**truth, systematic != nullptr));
   }
   if (!o.profileOut.empty()) {
-    must(io::writeOutputFile(o.profileOut, calib::profileCsv(fitted.bins)));
+    must(io::writeOutputFile(o.profileOut, job.savedProfile(fitted)));
   }
   must(io::writeOutputFile(o.output, fitted.resultJson.dump(2) + "\n"));
   say("wrote {}\n", o.output == "-" ? "the result to standard output" : o.output);

@@ -24,6 +24,11 @@ struct Fit {
   std::vector<io::NamedPath> inputs;                  ///< what a file written must not replace
   [[nodiscard]] const calib::FitResult& result() const { return outcome.result; }
   [[nodiscard]] std::string json() const { return outcome.resultJson.dump(2) + "\n"; }
+  // The profile file, saying the corrections it was filled with (calib::filledWithLine).
+  [[nodiscard]] std::string profileCsv() const {
+    return corrections ? calib::profileCsv(outcome.bins, calib::filledWithLine(*corrections))
+                       : calib::profileCsv(outcome.bins);
+  }
   // Writes one of the fit's files, never over one of its inputs.
   void write(const Path& path, const std::string& text) const {
     const std::string p = pathString(path);
@@ -238,13 +243,13 @@ void defineRecord(py::class_<Fit>& c) {
           "the profile bins as the fit saw them (columns of the profile file, and 'used')")
       .def_property_readonly("json", &Fit::json, "the result file's text (emcalign fit -o)")
       .def_property_readonly(
-          "profile_csv", [](const Fit& f) { return calib::profileCsv(f.outcome.bins); },
+          "profile_csv", [](const Fit& f) { return f.profileCsv(); },
           "the profile file's text (emcalign fit --profile-out)")
       .def(
           "write", [](const Fit& f, const Path& path) { f.write(path, f.json()); }, py::arg("path"),
           "writes the result file (never over one of the fit's inputs)")
       .def(
-          "write_profile", [](const Fit& f, const Path& path) { f.write(path, calib::profileCsv(f.outcome.bins)); },
+          "write_profile", [](const Fit& f, const Path& path) { f.write(path, f.profileCsv()); },
           py::arg("path"), "writes the profile file")
       .def("__repr__", [](const Fit& f) {
         return fmt::format("<emcalign.FitResult {}: chi2/ndf = {:.1f}/{}, {} bins>", name(f.result().status),

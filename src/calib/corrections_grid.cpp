@@ -236,6 +236,7 @@ Result<CorrectionsAt> CorrectionsGrid::at(double beamEnergy) const {
   CorrectionsAt out;
   out.beamEnergy = beamEnergy;
   out.path = path_;
+  out.sha256 = sha256_;
   if (!grid_) {
     const ModelCorrections& c = points_.front().corrections;
     out.corrections = c;
@@ -264,6 +265,34 @@ Result<CorrectionsAt> CorrectionsGrid::at(double beamEnergy) const {
   out.interpolation = {{"directory", path_}, {"beam_energy_mev", beamEnergy / units::MeV}, {"points", used}};
   out.corrections.derivedFrom = {{"interpolated", out.interpolation}};
   return out;
+}
+
+namespace {
+constexpr std::string_view kFilledWith = "# filled with the corrections sha256 ";
+// "<hex>" or "<hex> at <E> MeV": which corrections, for a grid at which energy.
+std::string stampOf(const CorrectionsAt& c) {
+  return c.interpolation.is_null() ? c.sha256 : fmt::format("{} at {} MeV", c.sha256, c.beamEnergy / units::MeV);
+}
+}  // namespace
+
+std::string filledWithLine(const CorrectionsAt& c) { return fmt::format("{}{} ({})", kFilledWith, stampOf(c), c.path); }
+
+Status checkFilledWith(const std::string& profileText, const std::string& profilePath, const CorrectionsAt& c) {
+  if (!profileText.starts_with(kFilledWith)) return {};
+  const std::string line = profileText.substr(0, profileText.find('\n'));
+  const std::size_t open = line.rfind(" (");
+  const std::string said = line.substr(kFilledWith.size(), open - kFilledWith.size());
+  if (said == stampOf(c)) return {};
+  // "PATH (sha256 <12 digits>[ at E MeV])", theirs and ours.
+  const auto shown = [](std::string_view path, std::string_view stamp) {
+    return fmt::format("{} (sha256 {}{})", path, stamp.substr(0, 12),
+                       stamp.substr(std::min<std::size_t>(64, stamp.size())));
+  };
+  const std::string theirs = open == std::string::npos ? said : line.substr(open + 2, line.size() - open - 3);
+  return Error{fmt::format(
+      "{}: this profile was filled with the corrections {}, not with --corrections {}: give those it was filled with "
+      "(a grid with the same --beam-energy), or fit the events",
+      profilePath, shown(theirs, said), shown(c.path, stampOf(c)))};
 }
 
 std::string gridPointName(double beamEnergy) {

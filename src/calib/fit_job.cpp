@@ -127,12 +127,21 @@ Result<FitJob> FitJob::prepare(FitRequest request, const geometry::DetectorDescr
   return job;
 }
 
+std::string FitJob::savedProfile(const FitOutcome& outcome) const {
+  return corrections_ ? profileCsv(outcome.bins, filledWithLine(*corrections_)) : profileCsv(outcome.bins);
+}
+
 Result<FitData> FitJob::load() const {
   FitData data;
   if (!request_.profileIn.empty()) {
     auto read = readProfileCsv(request_.profileIn);
     if (!read) return read.error();
     if (Status s = checkSavedProfile(request_, *read); !s) return s.error();
+    if (corrections_) {
+      auto text = io::readTextFile(request_.profileIn);
+      if (!text) return text.error();
+      if (Status s = checkFilledWith(*text, request_.profileIn, *corrections_); !s) return s.error();
+    }
     data.bins = std::move(*read);
     markUsedBins(data.bins, ProfileOptions{}.minEntries);
     if (corrections_ && !corrections_->warning.empty()) data.warnings.push_back(corrections_->warning);

@@ -226,10 +226,11 @@ constexpr const char* kHeader =
 std::string number(double v) { return std::isfinite(v) ? fmt::format("{:.17g}", v) : std::string(); }
 }  // namespace
 
-std::string profileCsv(const std::vector<ProfileBin>& bins) {
+std::string profileCsv(const std::vector<ProfileBin>& bins, const std::string& comment) {
   const bool weights =
       std::any_of(bins.begin(), bins.end(), [](const ProfileBin& b) { return !std::isnan(b.plusWeight); });
-  std::string out = std::string(kHeader) + (weights ? ",plus_weight\n" : "\n");
+  std::string out = comment.empty() ? std::string() : comment + "\n";
+  out += std::string(kHeader) + (weights ? ",plus_weight\n" : "\n");
   for (const auto& b : bins) {
     out +=
         fmt::format("{},{},{},{},{},{},{},{},{},{}", b.iPhi, b.iTheta, b.n, number(b.phiMean), number(b.thetaMean),

@@ -49,14 +49,24 @@ struct CorrectionsPoint {
 
 /// The corrections for one beam energy, and where they came from.
 struct CorrectionsAt {
-  ModelCorrections corrections;
-  std::string path;         ///< the file or the grid's directory
+  ModelCorrections corrections = {};
+  std::string path = {};    ///< the file or the grid's directory
   double beamEnergy = 0.0;  ///< MeV, the energy they were asked for
   /// Null for a single file; for a grid {"directory", "beam_energy_mev", "points": [{"file",
   /// "beam_energy_mev", "weight"}]} (one point when E is a grid point, else the two around it).
-  io::Json interpolation;
-  std::string warning;  ///< a single file used away from its own energy (empty: none)
+  io::Json interpolation = {};
+  std::string warning = {};  ///< a single file used away from its own energy (empty: none)
+  std::string sha256 = {};   ///< of the file or the grid's listing (CorrectionsGrid::sha256)
 };
+
+/// What a profile filled with `c` says of them, in its first line ("# filled with the
+/// corrections sha256 <hex> (PATH)", a grid's " at <E> MeV" after the digest): a fit of the
+/// saved profile must take the same (checkFilledWith).
+std::string filledWithLine(const CorrectionsAt& c);
+/// A saved profile's text against the corrections `c` a fit of it is given: refused, naming
+/// both, when its first line says others (a digest or a grid's energy); a profile that says
+/// none (written before it did) is taken.
+Status checkFilledWith(const std::string& profileText, const std::string& profilePath, const CorrectionsAt& c);
 
 /// A grid's interpolation (CorrectionsAt::interpolation, a fit result's
 /// "model_corrections.interpolation") in words: "612.5 MeV (500 MeV × 0.550, 750 MeV × 0.450)";

@@ -92,6 +92,8 @@ class FitJob {
   [[nodiscard]] Result<FitData> load() const;
   /// Fits what `load` gave.
   [[nodiscard]] Result<FitOutcome> fit(const FitData& data) const;
+  /// The profile file of `outcome` (--profile-out), saying the corrections it was filled with.
+  [[nodiscard]] std::string savedProfile(const FitOutcome& outcome) const;
   /// What a physicist must know of the fit beside its numbers: the model and its known
   /// biases, σ_sys dominating the errors (calib/fit_notes.hpp).
   /// A sample most of whose selected particles lie outside the profiles' θ range is said.

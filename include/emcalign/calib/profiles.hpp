@@ -133,7 +133,8 @@ int markUsedBins(std::vector<ProfileBin>& bins, int minEntries);
 /// Profile CSV: i_phi,i_theta,n,phi_mean_rad,theta_mean_rad,e_mean_mev,y_phi,sigma_phi,y_theta,sigma_theta
 /// (σ are the totals the χ² uses; empty fields for bins with too few entries), and a last
 /// column plus_weight when the bins were filled with a parting-plane response.
-std::string profileCsv(const std::vector<ProfileBin>& bins);
+/// `comment`, when given, is its first line ("# " and the comment).
+std::string profileCsv(const std::vector<ProfileBin>& bins, const std::string& comment = {});
 /// Reads a profile CSV strictly: the header, integer bin indices within the bins of
 /// `options`, each bin exactly once (all of them), every value in its plausible range (the
 /// means inside their bin, a positive energy in MeV, |y_φ| ≤ 1, σ > 0), a newline at the end.

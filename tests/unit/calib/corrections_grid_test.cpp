@@ -171,6 +171,28 @@ TEST(CorrectionsGrid, ASingleFileAppliesAtEveryEnergyWithAWarningAwayFromItsOwn)
   EXPECT_TRUE(h->at(900.0)->warning.empty());
 }
 
+// A saved profile says the corrections it was filled with; a fit of it with others is refused.
+TEST(CorrectionsGrid, ASavedProfileTakesOnlyTheCorrectionsItWasFilledWith) {
+  CorrectionsAt file{.path = "c612.json", .beamEnergy = 612.5 * units::MeV, .sha256 = std::string(64, 'a')};
+  CorrectionsAt grid{.path = "grid", .beamEnergy = 700 * units::MeV, .sha256 = std::string(64, 'b')};
+  grid.interpolation = Json{{"directory", "grid"}, {"beam_energy_mev", 700}};
+  const std::string line = filledWithLine(grid);
+  EXPECT_EQ(line, "# filled with the corrections sha256 " + std::string(64, 'b') + " at 700 MeV (grid)");
+  const std::string profile = line + "\ni_phi,i_theta\n";
+  EXPECT_TRUE(checkFilledWith(profile, "p.csv", grid));
+  auto other = checkFilledWith(profile, "p.csv", file);
+  ASSERT_FALSE(other);
+  EXPECT_EQ(other.error().message,
+            "p.csv: this profile was filled with the corrections grid (sha256 bbbbbbbbbbbb at 700 MeV), not with "
+            "--corrections c612.json (sha256 aaaaaaaaaaaa): give those it was filled with (a grid with the same "
+            "--beam-energy), or fit the events");
+  CorrectionsAt elsewhere = grid;
+  elsewhere.beamEnergy = 612.5 * units::MeV;
+  EXPECT_FALSE(checkFilledWith(profile, "p.csv", elsewhere));
+  // A profile that says nothing (written before profiles did) is taken.
+  EXPECT_TRUE(checkFilledWith("i_phi,i_theta\n", "p.csv", file));
+}
+
 TEST(CorrectionsGrid, RefusesGridsThatWouldInterpolateBetweenUnlikeFiles) {
   ModelCorrections noEnergy = at(750.0);
   noEnergy.beamEnergy = kNaN;

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "common.hpp"
+#include "emcalign/calib/fit_notes.hpp"
 #include "emcalign/io/geometry_text.hpp"
 #include "emcalign/io/json_files.hpp"
 
@@ -23,6 +24,7 @@ int runShow(const ShowOptions& o) {
   auto calo = must(loadCalorimeter(o.detector));
   auto etaFile = must(loadAlignment(o.file, calo));
   for (const auto& w : etaFile.warnings) reportWarning(w);
+  if (auto w = calib::parametersRangeWarning(etaFile.parameters, calo.description().r1())) reportWarning(*w);
   auto j = must(io::alignmentToJsonWithPhysical(etaFile.parameters, calo.description().r1()));
   if (o.json) {
     fmt::print("{}\n", j.dump(2));

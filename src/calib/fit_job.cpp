@@ -152,6 +152,9 @@ Result<FitData> FitJob::load() const {
                               : fillProfiles(request_.events, geometry_.depth, selectionOf(request_), profile_);
   if (!filled) return filled.error();
   data.fill = std::move(*filled);
+  if (std::string tracks = trackCutWarning(data.fill->cutFlow, selectionOf(request_)); !tracks.empty()) {
+    data.warnings.push_back(std::move(tracks));
+  }
   if (corrections_) {
     // From every selected event (a single file's own energy, a grid's interpolation point).
     auto warning = checkSampleEnergies(*corrections_, data.fill->beamEnergies);

@@ -142,6 +142,17 @@ std::optional<std::string> truthRangeWarning(const geometry::AlignmentParameters
       fmt::join(outside, ", "));
 }
 
+std::optional<std::string> parametersRangeWarning(const geometry::AlignmentParameters& parameters, double r1) {
+  auto physical = geometry::toPhysical(parameters, r1);
+  if (!physical) return std::nullopt;
+  const auto outside = outsideValidated(physical->values, {});
+  if (outside.empty()) return std::nullopt;
+  return fmt::format(
+      "these parameters lie outside the ranges over which the fit and its corrections were validated: {}; check the "
+      "units (a length in mm under a cm header is 10 times too large)",
+      fmt::join(outside, ", "));
+}
+
 double TruthRow::pull() const {
   if (!(error > 0.0) || !std::isfinite(error)) return std::numeric_limits<double>::quiet_NaN();
   return difference() / error;

@@ -52,4 +52,15 @@ std::optional<ParticleResidual> residualOf(const ParticleRow& row, const geometr
   return ParticleResidual{row.phiEmc, row.thetaEmc, row.energy, y->phi, y->theta};
 }
 
+std::string trackCutWarning(const CutFlow& flow, const SelectionOptions& options) {
+  const std::int64_t twoTracks = flow.events[2];
+  const std::int64_t kept = flow.events[3];
+  if (twoTracks < 100 || static_cast<double>(twoTracks - kept) <= 0.3 * static_cast<double>(twoTracks)) return {};
+  return fmt::format(
+      "the track cuts (|z0| < {} cm, |rho| < {} cm) refused {:.0f} % of the events with two tracks, where e+e- -> "
+      "e+e- from the beam spot loses a few per mille: z0_cm and rho_cm in mm? (lengths are in cm); else the tracks' "
+      "vertex is far off the beam spot",
+      options.maxAbsZ0, options.maxAbsRho, 100.0 * static_cast<double>(twoTracks - kept) / static_cast<double>(twoTracks));
+}
+
 }  // namespace emcalign::calib

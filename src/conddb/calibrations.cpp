@@ -9,6 +9,7 @@
 #include <fmt/ranges.h>
 
 #include "emcalign/apply/placements.hpp"
+#include "emcalign/calib/fit_notes.hpp"
 #include "emcalign/core/sha256.hpp"
 #include "emcalign/core/utf8.hpp"
 #include "emcalign/core/version.hpp"
@@ -61,6 +62,12 @@ Result<PutReport> putResultFile(Database& db, const ResultFileToPut& file) {
   if (Json d = inputDigests(*j, path, report.warnings); !d.empty()) provenance["input_sha256"] = d;
   auto payload = makePayload(*j, file.r1, path, provenance);
   if (!payload) return payload.error();
+  // A parameter file's unit slip (a fit result's own warnings say its range).
+  if (!j->contains("status")) {
+    if (auto eta = io::parseAlignment(payload->parameterFile(), file.r1, path); eta) {
+      if (auto w = calib::parametersRangeWarning(*eta, file.r1)) report.warnings.push_back(*w);
+    }
+  }
   auto existed = db.tag(tag);
   if (!existed) return existed.error();
   if (Status s = db.put(tag, file.firstRun, file.lastRun, *payload, IfMissing::Create, file.description); !s)

@@ -48,6 +48,8 @@ std::vector<std::string> outsideValidatedRanges(const FitResult& result);
 /// The same for a truth about to be simulated (no errors: any value outside); none inside,
 /// or when the parameters have no physical set (refused elsewhere).
 std::optional<std::string> truthRangeWarning(const geometry::AlignmentParameters& truth, double r1);
+/// The same of parameters given as a file (params show, conditions put): a unit slip is said.
+std::optional<std::string> parametersRangeWarning(const geometry::AlignmentParameters& parameters, double r1);
 
 /// One row of the fit against a known truth (file units).
 struct TruthRow {

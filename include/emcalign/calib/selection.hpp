@@ -44,6 +44,11 @@ struct CutFlow {
   std::int64_t refusedByEnergy = 0;
 };
 
+/// A warning when the track cuts (|z0|, |rho|) refuse more than 30 % of the events with two
+/// tracks, where e+e- -> e+e- from the beam spot loses a few per mille: lengths in mm? Empty
+/// when they do not.
+std::string trackCutWarning(const CutFlow& flow, const SelectionOptions& options = {});
+
 /// Why an event was rejected: the index of the first failed cut in CutFlow (1..5), or 0.
 int selectEvent(std::span<const ParticleRow> event, const SelectionOptions& options);
 

@@ -70,6 +70,17 @@ TEST(FitNotes, ATruthOutsideTheValidatedRangesIsNamed) {
   EXPECT_NE(w->find("mm under a cm header"), std::string::npos);
 }
 
+// A parameter file in mm (params show, conditions put): the same ranges, said of the file.
+TEST(FitNotes, AParameterFileOutsideTheValidatedRangesIsNamed) {
+  EXPECT_FALSE(parametersRangeWarning(geometry::testing::paperLike(), r1()));
+  auto eta = geometry::testing::paperLike();
+  eta[Param::Dz] = 3.0;
+  const auto w = parametersRangeWarning(eta, r1());
+  ASSERT_TRUE(w);
+  EXPECT_EQ(w->rfind("these parameters lie outside the ranges", 0), 0u) << *w;
+  EXPECT_NE(w->find("dz = 3 cm"), std::string::npos) << *w;
+}
+
 TEST(FitNotes, SigmaSysDominatingTheErrorsIsSaid) {
   FitResult r = resultAt(geometry::testing::paperLike());
   r.chi2 = 23.9;

@@ -291,5 +291,18 @@ TEST(Selection, ResidualIsNoneWhenTheTrackMissesTheShowerSphere) {
   EXPECT_FALSE(residualOf(chargedRow(0.0, 90.0 * deg, 600.0, 0.0, radius + 0.5), depth));
 }
 
+// Track lengths in mm refuse most events at the track cuts: said, with the unit.
+TEST(Selection, TrackCutsRefusingMostTwoTrackEventsAreSaid) {
+  CutFlow flow;
+  flow.events = {20000, 19833, 17597, 17596, 15948, 15924};  // a simulated sample: none refused
+  EXPECT_EQ(trackCutWarning(flow), "");
+  flow.events = {20000, 19833, 17597, 5300, 4800, 4790};  // z0 written in mm
+  const std::string w = trackCutWarning(flow);
+  EXPECT_NE(w.find("refused 70 % of the events with two tracks"), std::string::npos) << w;
+  EXPECT_NE(w.find("z0_cm and rho_cm in mm?"), std::string::npos) << w;
+  flow.events = {60, 60, 50, 10, 10, 10};  // too few to say
+  EXPECT_EQ(trackCutWarning(flow), "");
+}
+
 }  // namespace
 }  // namespace emcalign::calib

@@ -158,7 +158,12 @@ int runMain(int argc, char** argv) {
 
 int main(int argc, char** argv) {
   try {
-    return runMain(argc, argv);
+    const int code = runMain(argc, argv);
+    // A command that failed leaves no empty output directory behind (its own, made for it).
+    if (code != emcalign::app::kExitOk && code != emcalign::app::kExitUnusable) {
+      emcalign::io::removeOutputDirectoriesLeftEmpty();
+    }
+    return code;
   } catch (const std::exception& e) {  // the parser's setup (allocation): nothing has run yet
     std::fprintf(stderr, "emcalign: internal error: %s (a bug: please report it with the command line)\n", e.what());
   } catch (...) {

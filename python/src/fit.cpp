@@ -249,8 +249,8 @@ void defineRecord(py::class_<Fit>& c) {
           "write", [](const Fit& f, const Path& path) { f.write(path, f.json()); }, py::arg("path"),
           "writes the result file (never over one of the fit's inputs)")
       .def(
-          "write_profile", [](const Fit& f, const Path& path) { f.write(path, f.profileCsv()); },
-          py::arg("path"), "writes the profile file")
+          "write_profile", [](const Fit& f, const Path& path) { f.write(path, f.profileCsv()); }, py::arg("path"),
+          "writes the profile file")
       .def("__repr__", [](const Fit& f) {
         return fmt::format("<emcalign.FitResult {}: chi2/ndf = {:.1f}/{}, {} bins>", name(f.result().status),
                            f.result().chi2, f.result().ndf, f.result().binsUsed);

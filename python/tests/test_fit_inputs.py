@@ -56,9 +56,13 @@ def test_fit_of_a_saved_profile_writes_the_cli_result(tmp_path, fit_sample):
     cli("fit", fit_sample, "-o", tmp_path / "rc.json", "--profile-out", weighted, "--corrections", CORRECTIONS)
     cli("fit", "--profile-in", weighted, "-o", withc, "--corrections", CORRECTIONS)
     assert emcalign.fit(profile=str(weighted), corrections=CORRECTIONS).json == withc.read_text()
-    # a grid needs the beam energy, which a profile does not say
-    cli("fit", "--profile-in", weighted, "-o", withc, "--corrections", GRID, "--beam-energy", "612.5")
-    assert emcalign.fit(profile=str(weighted), corrections=GRID, beam_energy=612.5).json == withc.read_text()
+    # a grid needs the beam energy, which a profile does not say; the profile says its corrections
+    gridded = tmp_path / "pg.csv"
+    cli("fit", fit_sample, "-o", tmp_path / "rg.json", "--profile-out", gridded, "--corrections", GRID)
+    assert gridded.read_text().startswith("# filled with the corrections sha256 ")
+    assert emcalign.fit(fit_sample, corrections=GRID).profile_csv == gridded.read_text()
+    cli("fit", "--profile-in", gridded, "-o", withc, "--corrections", GRID, "--beam-energy", "612.5")
+    assert emcalign.fit(profile=str(gridded), corrections=GRID, beam_energy=612.5).json == withc.read_text()
 
 
 def test_refused_profile_fits_give_the_cli_messages(tmp_path, fit_sample):
@@ -71,6 +75,9 @@ def test_refused_profile_fits_give_the_cli_messages(tmp_path, fit_sample):
         (dict(profile=str(profile), corrections=CORRECTIONS), ["--profile-in", profile, "--corrections", CORRECTIONS]),
         (dict(profile=str(weighted)), ["--profile-in", weighted]),
         (dict(profile=str(weighted), corrections=GRID), ["--profile-in", weighted, "--corrections", GRID]),
+        # filled with the single file: the grid's interpolation at 612.5 MeV is other corrections
+        (dict(profile=str(weighted), corrections=GRID, beam_energy=612.5),
+         ["--profile-in", weighted, "--corrections", GRID, "--beam-energy", "612.5"]),
     ]
     for kwargs, args in cases:
         with pytest.raises(emcalign.Error) as ours:

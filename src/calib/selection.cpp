@@ -60,7 +60,8 @@ std::string trackCutWarning(const CutFlow& flow, const SelectionOptions& options
       "the track cuts (|z0| < {} cm, |rho| < {} cm) refused {:.0f} % of the events with two tracks, where e+e- -> "
       "e+e- from the beam spot loses a few per mille: z0_cm and rho_cm in mm? (lengths are in cm); else the tracks' "
       "vertex is far off the beam spot",
-      options.maxAbsZ0, options.maxAbsRho, 100.0 * static_cast<double>(twoTracks - kept) / static_cast<double>(twoTracks));
+      options.maxAbsZ0, options.maxAbsRho,
+      100.0 * static_cast<double>(twoTracks - kept) / static_cast<double>(twoTracks));
 }
 
 }  // namespace emcalign::calib

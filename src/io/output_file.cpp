@@ -16,6 +16,8 @@
 #include <cstring>
 #include <filesystem>
 
+#include <mutex>
+
 #include <fmt/format.h>
 
 #include "emcalign/core/secrets.hpp"
@@ -249,6 +251,16 @@ Result<OutputTarget> resolveOutput(const std::string& path, Placement placement)
   return replacedOutput(path, link, st);
 }
 
+namespace {
+std::mutex gAbsentDirectoriesMutex;
+std::vector<std::string> gAbsentDirectories;  // checked absent: made by this command, if at all
+}  // namespace
+
+void removeOutputDirectoriesLeftEmpty() noexcept {
+  const std::lock_guard lock(gAbsentDirectoriesMutex);
+  for (auto it = gAbsentDirectories.rbegin(); it != gAbsentDirectories.rend(); ++it) ::rmdir(it->c_str());
+}
+
 Status checkOutputDirectory(const std::string& path) {
   if (path.empty()) return Error{"an output directory name is empty"};
   if (core::holdsPassword(path)) {
@@ -258,7 +270,12 @@ Status checkOutputDirectory(const std::string& path) {
   }
   struct stat link {};
   if (::lstat(path.c_str(), &link) != 0) {
-    if (errno == ENOENT) return {};
+    if (errno == ENOENT) {
+      std::error_code ec;
+      const std::lock_guard lock(gAbsentDirectoriesMutex);
+      gAbsentDirectories.push_back(fs::absolute(path, ec).string());
+      return {};
+    }
     return Error{fmt::format("{}: cannot use as an output directory: {}", path, reason(errno))};
   }
   struct stat st {};

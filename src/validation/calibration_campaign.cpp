@@ -85,6 +85,13 @@ Result<std::vector<std::string>> eventFilesIn(const std::vector<std::string>& in
   for (const auto& in : inputs) {
     std::error_code ec;
     if (fs::is_directory(in, ec)) {
+      // simulate --period writes truth.json after its last run: without it, runs are missing.
+      if (fs::exists(fs::path(in) / "period.json", ec) && !fs::exists(fs::path(in) / "truth.json", ec)) {
+        return Error{fmt::format(
+            "{}: a simulated period not finished (period.json, and no truth.json: simulate --period was stopped "
+            "before its last run): run the same simulate --period again to complete it",
+            in)};
+      }
       auto listed = io::dataFilesIn(in, {".h5", ".hdf5", ".csv"}, "an event file");
       if (!listed) return listed.error();
       if (listed->empty()) return Error{fmt::format("{}: no event files (*.h5, *.hdf5, *.csv) in this directory", in)};

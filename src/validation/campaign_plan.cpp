@@ -131,6 +131,12 @@ Status newDatabaseBesideTheData(const std::string& conditions, const std::vector
   const std::string file = conddb::sqliteFileOf(conditions);
   std::error_code ec;
   if (file.empty() || fs::exists(file, ec)) return {};
+  if (const std::string ext = fs::path(file).extension().string(); ext == ".h5" || ext == ".hdf5" || ext == ".csv") {
+    return Error{fmt::format(
+        "--conditions {}: a new database named as an event file ({}): every campaign on its directory would take it "
+        "for one; name it .db",
+        conddb::shownAddress(conditions), ext)};
+  }
   const auto parent = fs::weakly_canonical(fs::absolute(file, ec).parent_path(), ec);
   for (const auto& input : inputs) {
     if (!fs::is_directory(input, ec)) continue;

@@ -161,6 +161,11 @@ class OutputFile {
 /// Removes every registered temporary now. Async-signal-safe (only unlink(2)).
 void removeTemporaries() noexcept;
 
+/// The output directories checkOutputDirectory found absent, removed when they are (still)
+/// empty: a command that failed leaves no empty directory behind (rmdir(2): nothing in one is
+/// ever removed).
+void removeOutputDirectoriesLeftEmpty() noexcept;
+
 /// Whether a file name (without its directory) is an emcalign temporary: `NAME.tmp-PID`, or
 /// `.corrected-PID.h5`, which `check` wrote before. Never an input: a command that lists a
 /// directory skips them, and the event reader refuses one that is not its own process's (a

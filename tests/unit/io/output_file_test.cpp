@@ -256,6 +256,22 @@ TEST_F(OutputFileTest, StandardOutputOntoAnInputOrTwoOutputsOnOneStreamAreRefuse
               HasSubstr("is the same stream as the output -o"));
 }
 
+// A directory checked absent is made by the command; failed, it leaves none empty behind (one
+// that holds anything, or was there before, is kept).
+TEST_F(OutputFileTest, OutputDirectoriesLeftEmptyAreRemovedAndNothingElse) {
+  ASSERT_TRUE(checkOutputDirectory(path("made")));
+  ASSERT_TRUE(checkOutputDirectory(path("kept")));
+  fs::create_directories(path("before"));
+  ASSERT_TRUE(checkOutputDirectory(path("before")));
+  fs::create_directories(path("made"));
+  fs::create_directories(path("kept"));
+  std::ofstream(path("kept/result.json")) << "{}";
+  removeOutputDirectoriesLeftEmpty();
+  EXPECT_FALSE(fs::exists(path("made")));
+  EXPECT_TRUE(fs::exists(path("kept/result.json")));
+  EXPECT_TRUE(fs::exists(path("before")));
+}
+
 TEST_F(OutputFileTest, OutputDirectories) {
   EXPECT_TRUE(checkOutputDirectory(path("new/dir")).ok());
   fs::create_directories(path("d"));

@@ -139,6 +139,9 @@ TEST(CampaignPlanRules, ANewDatabaseIsNeverMadeAmongTheEventFiles) {
   ASSERT_FALSE(among);
   EXPECT_THAT(among.error().message, HasSubstr("among the campaign's event files"));
   EXPECT_TRUE(newDatabaseBesideTheData("sqlite:" + (dir.parent_path() / "beside.db").string(), {dir.string()}));
+  auto named = newDatabaseBesideTheData("sqlite:" + (dir.parent_path() / "run_000099.h5").string(), {});
+  ASSERT_FALSE(named);
+  EXPECT_THAT(named.error().message, HasSubstr("a new database named as an event file (.h5)"));
   fs::remove_all(dir);
 }
 

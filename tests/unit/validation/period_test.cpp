@@ -2,6 +2,7 @@
 // and with two threads: the same files, byte for byte; resumed, or refused for another period.
 
 #include "emcalign/validation/period.hpp"
+#include "emcalign/validation/calibration_campaign.hpp"
 
 #include <unistd.h>
 
@@ -180,6 +181,17 @@ TEST_F(PeriodSimulation, ARangeTheGeneratorRefusesLeavesNoDirectory) {
   EXPECT_THAT(refused.error().message, HasSubstr("theta_range_deg [0.698, 2.443], in radians? it is in degrees"));
   EXPECT_FALSE(fs::exists(dir_ / "p"));
   EXPECT_TRUE(simulate("p", 1));
+}
+
+// A period stopped before its last run (no truth.json yet) is not calibrated as if complete.
+TEST_F(PeriodSimulation, AnUnfinishedPeriodIsNotTakenAsEventFiles) {
+  ASSERT_TRUE(simulate("p", 1));
+  const std::string dir = (dir_ / "p").string();
+  EXPECT_TRUE(eventFilesIn({dir}));
+  fs::rename(dir_ / "p" / "truth.json", dir_ / "truth.json");
+  auto unfinished = eventFilesIn({dir});
+  ASSERT_FALSE(unfinished);
+  EXPECT_THAT(unfinished.error().message, HasSubstr("a simulated period not finished"));
 }
 
 TEST_F(PeriodSimulation, TruthFileIsReadStrictly) {

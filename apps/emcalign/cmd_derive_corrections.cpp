@@ -182,12 +182,10 @@ void addDeriveCorrectionsCommand(CLI::App& app, int& exitCode) {
           }
           auto d = derivationOf(*o);
           auto points = pointsOf(*o, d);
-          std::vector<io::Json> settings;
-          for (const auto& p : points) settings.push_back(settingsOf(*o, p.beamEnergy));
-          std::vector<std::string> inputs;
-          if (!o->given.detector.empty()) inputs.push_back(std::filesystem::absolute(o->given.detector).string());
+          auto settings = validation::derivationSettings(o->given, points);
           return validation::derivationJob(std::move(*d.calo), d.plan.options, std::move(points), std::move(settings),
-                                           std::move(inputs), planWorkDirectory(o->plan), o->samplesPerTask);
+                                           validation::derivationInputs(o->given), planWorkDirectory(o->plan),
+                                           o->samplesPerTask);
         },
         [o] { return run(*o, false); }, [o] { return run(*o, true); });
   });

@@ -139,12 +139,6 @@ void addCampaignOptions(CLI::App& cmd, ValidateOptions& o) {
       ->check(integerIn(1, 100000));
 }
 
-std::vector<std::string> variationNames() {
-  std::vector<std::string> names;
-  for (const auto& v : validation::variations()) names.push_back(v.name);
-  return names;
-}
-
 }  // namespace
 
 void addValidateCommand(CLI::App& app, int& exitCode) {
@@ -155,7 +149,7 @@ void addValidateCommand(CLI::App& app, int& exitCode) {
   cmd->add_option("--variation", o->study.variation,
                   "simulate with a systematic variation, one of the names above (docs/systematics.md): the fits keep "
                   "the detector's model")
-      ->check(CLI::IsMember(variationNames()));
+      ->check(CLI::IsMember(validation::variationNames()));
   cmd->add_option("-o,--output", o->output, "campaign directory (a rerun resumes it)")->required();
   addPlanOption(*cmd, o->plan);
   cmd->callback([o, &exitCode] {
@@ -182,7 +176,7 @@ void addValidateCommand(CLI::App& app, int& exitCode) {
   addCampaignOptions(*sys, *s);
   sys->add_option("--variations", s->variations, "the variations to run (default: all)")
       ->delimiter(',')
-      ->check(CLI::IsMember(variationNames()));
+      ->check(CLI::IsMember(validation::variationNames()));
   sys->add_flag("--reverse", s->reverse,
                 "also the reverse study: corrections derived with each variation (and without), each fitted to "
                 "the nominal samples (needs --corrections: it studies the corrected model)")

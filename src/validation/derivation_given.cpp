@@ -4,6 +4,7 @@
 #include "emcalign/validation/derivation_given.hpp"
 
 #include <algorithm>
+#include <filesystem>
 
 #include <fmt/format.h>
 
@@ -53,6 +54,18 @@ Result<Derivation> derivationOf(const DerivationGiven& given) {
   o.simulation.generator.thetaMin = given.thetaMinDeg * units::deg;
   o.simulation.generator.thetaMax = given.thetaMaxDeg * units::deg;
   return d;
+}
+
+std::vector<io::Json> derivationSettings(const DerivationGiven& given, const std::vector<GridPoint>& points) {
+  std::vector<io::Json> settings;
+  settings.reserve(points.size());
+  for (const auto& p : points) settings.push_back(derivationSettings(given, p.beamEnergy));
+  return settings;
+}
+
+std::vector<std::string> derivationInputs(const DerivationGiven& given) {
+  if (given.detector.empty()) return {};
+  return {std::filesystem::absolute(given.detector).string()};
 }
 
 io::Json derivationSettings(const DerivationGiven& given, double beamEnergy) {

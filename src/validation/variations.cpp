@@ -112,6 +112,13 @@ const std::vector<Variation>& variations() {
   return all;
 }
 
+std::vector<std::string> variationNames() {
+  std::vector<std::string> names;
+  names.reserve(variations().size());
+  for (const auto& v : variations()) names.push_back(v.name);
+  return names;
+}
+
 const Variation* findVariation(std::string_view name) {
   for (const auto& v : variations()) {
     if (v.name == name) return &v;

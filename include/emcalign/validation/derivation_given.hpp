@@ -43,6 +43,10 @@ Result<Derivation> derivationOf(const DerivationGiven& given);
 
 /// What a corrections file records under derived_from.settings for the point at `beamEnergy`.
 io::Json derivationSettings(const DerivationGiven& given, double beamEnergy);
+/// The settings of each point, in their order.
+std::vector<io::Json> derivationSettings(const DerivationGiven& given, const std::vector<GridPoint>& points);
+/// The files a derivation reads (the detector description), absolute: for its tasks' logs.
+std::vector<std::string> derivationInputs(const DerivationGiven& given);
 
 /// The derivation's report: the selected events, the depth offset, the parting-plane response
 /// per φ column, the fit's response and the statistical errors the file gives, the closure.

@@ -38,6 +38,8 @@ struct Variation {
 
 /// Every variation, in the order of docs/systematics.md.
 const std::vector<Variation>& variations();
+/// Their names, in that order (what --variation takes).
+std::vector<std::string> variationNames();
 /// The variation of that name, or nullptr.
 const Variation* findVariation(std::string_view name);
 

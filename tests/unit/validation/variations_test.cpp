@@ -28,6 +28,9 @@ TEST(Variations, ComeInPairsOfOneQuantityWithUniqueNames) {
   }
   EXPECT_EQ(names.size(), 20u);
   EXPECT_EQ(findVariation("gravity"), nullptr);
+  const auto listed = variationNames();  // what --variation takes, in the documented order
+  ASSERT_EQ(listed.size(), variations().size());
+  for (std::size_t k = 0; k < listed.size(); ++k) EXPECT_EQ(listed[k], variations()[k].name);
 }
 
 TEST(Variations, DeadCounterPatternsAreDrawnPerSampleAndRepeatable) {

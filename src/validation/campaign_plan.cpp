@@ -54,8 +54,9 @@ std::vector<std::string> campaignGroupsWarnings(const std::vector<CampaignGroup>
   for (const auto& g : groups) selected += g.selected;
   if (selected == 0) {
     return {
-        "no event of these files passes the e+e- -> e+e- selection: are they of another process? (emcalign check "
-        "ee|gg|3pi DIR shows their cut flows; simulate --period --process gg|3pi makes photon pairs or 3π events)"};
+        "no event of these files passes the e+e- -> e+e- selection: are they of another process, or in other units? "
+        "(emcalign fit FILE shows the cut flow, with a hint of the units; emcalign check gg|3pi the cut flows of "
+        "photon pairs and 3π events)"};
   }
   if (std::string few = tooFewIovsForTrend(groups.size(), selected); !few.empty()) return {few};
   return {};

@@ -56,6 +56,7 @@ void printGroups(const std::vector<validation::CampaignGroup>& groups, std::int6
 // campaign --plan P --group K: task K of the plan (as emcalign task P K), with the conditions
 // and tag given here when the plan was made without them.
 int runGroup(const CampaignCliOptions& o) {
+  io::keepOutputDirectories();  // a task of a plan
   auto plan = must(validation::readPlan(o.plan));
   const validation::CampaignGiven g = given(o);
   auto how = must(validation::groupRun(plan, g, o.group));

@@ -37,6 +37,7 @@ PlanContext gContext;
 // the merge (runPlannable).
 int runFromPlan(const validation::Plan& plan, PlanContext::Mode mode, std::size_t task,
                 std::function<void(const validation::PlannedJob&)> inspect = {}) {
+  io::keepOutputDirectories();  // shared with the plan's other tasks, which may run now
   if (::chdir(plan.directory.c_str()) != 0) {
     if (mode == PlanContext::Mode::Inspect) return kExitFailure;
     refuse(

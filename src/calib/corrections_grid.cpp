@@ -10,6 +10,7 @@
 
 #include "emcalign/core/sha256.hpp"
 #include "emcalign/core/units.hpp"
+#include "emcalign/io/csv.hpp"
 #include "emcalign/io/data_directory.hpp"
 #include "emcalign/io/event_file.hpp"
 
@@ -273,6 +274,19 @@ constexpr std::string_view kFilledWith = "# filled with the corrections sha256 "
 std::string stampOf(const CorrectionsAt& c) {
   return c.interpolation.is_null() ? c.sha256 : fmt::format("{} at {} MeV", c.sha256, c.beamEnergy / units::MeV);
 }
+
+// The same digest and, for a grid, the same energy (as numbers: a typed 1019.46 is the
+// 1019.4600219726562 of a float32 in an event file).
+bool sameStamp(std::string_view said, const CorrectionsAt& c) {
+  const std::size_t at = said.find(" at ");
+  if (said.substr(0, at) != c.sha256 || (at == std::string_view::npos) != c.interpolation.is_null()) return false;
+  if (at == std::string_view::npos) return true;
+  constexpr std::string_view kMeV = " MeV";
+  if (!said.ends_with(kMeV) || said.size() < at + 4 + kMeV.size()) return false;
+  const auto energy = io::parseFiniteDouble(said.substr(at + 4, said.size() - at - 4 - kMeV.size()));
+  const double ours = c.beamEnergy / units::MeV;
+  return energy && std::abs(*energy - ours) <= 1e-6 * std::abs(ours) + 1e-6;
+}
 }  // namespace
 
 std::string filledWithLine(const CorrectionsAt& c) { return fmt::format("{}{} ({})", kFilledWith, stampOf(c), c.path); }
@@ -280,9 +294,10 @@ std::string filledWithLine(const CorrectionsAt& c) { return fmt::format("{}{} ({
 Status checkFilledWith(const std::string& profileText, const std::string& profilePath, const CorrectionsAt& c) {
   if (!profileText.starts_with(kFilledWith)) return {};
   const std::string line = profileText.substr(0, profileText.find('\n'));
-  const std::size_t open = line.rfind(" (");
+  // The stamp holds no " (": the path (which may) follows the first one.
+  const std::size_t open = line.find(" (", kFilledWith.size());
   const std::string said = line.substr(kFilledWith.size(), open - kFilledWith.size());
-  if (said == stampOf(c)) return {};
+  if (sameStamp(said, c)) return {};
   // "PATH (sha256 <12 digits>[ at E MeV])", theirs and ours.
   const auto shown = [](std::string_view path, std::string_view stamp) {
     return fmt::format("{} (sha256 {}{})", path, stamp.substr(0, 12),

@@ -254,10 +254,17 @@ Result<OutputTarget> resolveOutput(const std::string& path, Placement placement)
 namespace {
 std::mutex gAbsentDirectoriesMutex;
 std::vector<std::string> gAbsentDirectories;  // checked absent: made by this command, if at all
+bool gKeepDirectories = false;
 }  // namespace
+
+void keepOutputDirectories() noexcept {
+  const std::lock_guard lock(gAbsentDirectoriesMutex);
+  gKeepDirectories = true;
+}
 
 void removeOutputDirectoriesLeftEmpty() noexcept {
   const std::lock_guard lock(gAbsentDirectoriesMutex);
+  if (gKeepDirectories) return;
   for (auto it = gAbsentDirectories.rbegin(); it != gAbsentDirectories.rend(); ++it) ::rmdir(it->c_str());
 }
 

@@ -165,6 +165,9 @@ void removeTemporaries() noexcept;
 /// empty: a command that failed leaves no empty directory behind (rmdir(2): nothing in one is
 /// ever removed).
 void removeOutputDirectoriesLeftEmpty() noexcept;
+/// From now on, removeOutputDirectoriesLeftEmpty removes nothing: the process runs a task of a
+/// plan, whose output directories its sibling tasks share (one of them may have just made one).
+void keepOutputDirectories() noexcept;
 
 /// Whether a file name (without its directory) is an emcalign temporary: `NAME.tmp-PID`, or
 /// `.corrected-PID.h5`, which `check` wrote before. Never an input: a command that lists a

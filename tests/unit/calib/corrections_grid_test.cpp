@@ -189,6 +189,13 @@ TEST(CorrectionsGrid, ASavedProfileTakesOnlyTheCorrectionsItWasFilledWith) {
   CorrectionsAt elsewhere = grid;
   elsewhere.beamEnergy = 612.5 * units::MeV;
   EXPECT_FALSE(checkFilledWith(profile, "p.csv", elsewhere));
+  // A path with " (" in it, and an energy written as a float32 is read back: the same corrections.
+  CorrectionsAt versioned = grid;
+  versioned.path = "corr (v2)";
+  versioned.beamEnergy = 1019.4600219726562 * units::MeV;
+  CorrectionsAt typed = versioned;
+  typed.beamEnergy = 1019.46 * units::MeV;
+  EXPECT_TRUE(checkFilledWith(filledWithLine(versioned) + "\n", "p.csv", typed));
   // A profile that says nothing (written before profiles did) is taken.
   EXPECT_TRUE(checkFilledWith("i_phi,i_theta\n", "p.csv", file));
 }

@@ -270,6 +270,12 @@ TEST_F(OutputFileTest, OutputDirectoriesLeftEmptyAreRemovedAndNothingElse) {
   EXPECT_FALSE(fs::exists(path("made")));
   EXPECT_TRUE(fs::exists(path("kept/result.json")));
   EXPECT_TRUE(fs::exists(path("before")));
+  // A task of a plan keeps them: a sibling task may have just made one to write into.
+  ASSERT_TRUE(checkOutputDirectory(path("shared")));
+  fs::create_directories(path("shared"));
+  keepOutputDirectories();
+  removeOutputDirectoriesLeftEmpty();
+  EXPECT_TRUE(fs::exists(path("shared")));
 }
 
 TEST_F(OutputFileTest, OutputDirectories) {

@@ -79,7 +79,7 @@ void addDetectorOption(CLI::App& cmd, std::string& path) {
 
 void addVersionFlag(CLI::App& cmd) { cmd.set_version_flag("--version", std::string(kVersion)); }
 
-// A validator of the library's refusal: "" when `refusal` is none.
+// A validator of a library check of the text: its error's message, or "" when it passes.
 template <typename Check>
 CLI::Validator refusing(Check check, std::string description) {
   return CLI::Validator(
@@ -96,19 +96,13 @@ CLI::Validator finiteIn(double lo, double hi) {
 }
 
 CLI::Option* addSigmaSysOption(CLI::App& cmd, std::string& text) {
-  const CLI::Validator autoOrDegrees(
-      [](std::string& t) -> std::string {
-        auto choice = calib::sigmaSysChoiceOfText(t);
-        return choice ? std::string() : choice.error().message;
-      },
-      "auto|DEG");
   return cmd
       .add_option("--sigma-sys", text,
                   fmt::format("systematic error added in quadrature to every profile bin: DEG, or 'auto' to "
                               "estimate it from the profiles (chi2/ndf = 1 after the fit; docs/fit.md). Default {} "
                               "(the paper's data)",
                               calib::kSpecSigmaSys / units::deg))
-      ->check(autoOrDegrees);
+      ->check(refusing(calib::sigmaSysChoiceOfText, "auto|DEG"));
 }
 
 calib::SigmaSysChoice sigmaSysChoice(const std::string& text) {
@@ -117,14 +111,7 @@ calib::SigmaSysChoice sigmaSysChoice(const std::string& text) {
   return choice ? *choice : calib::SigmaSysChoice::spec();
 }
 
-CLI::Validator tagName() {
-  return CLI::Validator(
-      [](std::string& t) -> std::string {
-        Status s = conddb::checkTagName(t);
-        return s ? std::string() : s.error().message;
-      },
-      "");
-}
+CLI::Validator tagName() { return refusing(conddb::checkTagName, ""); }
 
 CLI::Validator snapshotTime() {
   return CLI::Validator(
